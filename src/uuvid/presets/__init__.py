@@ -1,0 +1,1 @@
+"""uuvid.presets"""
