@@ -1,0 +1,301 @@
+"""Compiled numerical core of a thruster chain: block evaluation and a fixed-step RK4.
+
+A chain is flattened into arrays (``kinds``, parameter offsets ``poff`` into one ``params`` vector,
+state offsets ``soff``, the output channel of every block ``outch``) so that one numba-compiled
+function evaluates any composition of blocks, block after block, like the block diagram it
+describes.  The integrator writes into preallocated arrays; nothing is allocated per step.
+
+The input is held constant over each output interval (zero-order hold, as a digital driver
+does); inside it, ``nsub`` RK4 steps advance the state.  First-order blocks driven only through
+static blocks are advanced exactly (``x ← e^{−h/τ} x + (1 − e^{−h/τ}) u``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from uuvid.thruster.blocks import (
+    CH,
+    CHANNELS,
+    K_BESSA,
+    K_DC_MOTOR,
+    K_DEADZONE,
+    K_ESC,
+    K_FIRST_ORDER,
+    K_FIRST_ORDER_MOTOR,
+    K_LOAD_CELL,
+    K_POLYNOMIAL,
+    K_QUADRATIC,
+    K_TABLE,
+    K_TUNNEL,
+    K_YOERGER,
+    K_ZERO_ORDER,
+)
+
+N_CHANNELS = len(CHANNELS)
+_MOTOR_SPEED = CH["motor_speed"]
+_PROP_SPEED = CH["prop_speed"]
+_TORQUE = CH["torque"]
+_CURRENT = CH["current"]
+_VOLTAGE = CH["voltage"]
+STICK_SPEED = 1e-3  # rad/s: below this a shaft with Coulomb friction may stick (Karnopp model)
+
+
+@njit(cache=True)
+def _esc(p, cmd):
+    c = min(max(cmd, p[6]), p[7])
+    if c > p[5]:
+        v = p[0] * c + p[1]
+    elif c < p[4]:
+        v = p[2] * c + p[3]
+    else:
+        v = 0.0
+    return min(max(v, -p[8]), p[8])
+
+
+@njit(cache=True)
+def _motor(kind, p, x, s, nst, volts, dx, ch):
+    """DC motor + gear (+ tunnel water): writes dx, channels, returns the block output."""
+    kt, kg, r, ind, jm, jp, cm, cp, tc, n = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]
+    w = x[s]
+    if nst == 2:
+        i = x[s + 1]
+        dx[s + 1] = (volts - r * i - kg * w) / ind
+    else:
+        i = (volts - kg * w) / r
+    wp = w / n
+    j = jm + jp / (n * n)
+    cv = cm + cp / (n * n)
+    if kind == K_TUNNEL:
+        rho, area, length, ka, pe, beta, dalpha, dbeta = (p[10], p[11], p[12], p[13], p[14], p[15],
+                                                          p[16], p[17])
+        mf = rho * area * length * (1.0 + ka)
+        j += beta * mf * pe * pe / (n * n)
+        q_static = 0.5 * rho * area * dalpha * pe * pe * pe * wp * abs(wp)
+    else:
+        q_static = p[10] * wp * abs(wp)
+    drive = kt * i - cv * w - q_static / n
+    if abs(w) < STICK_SPEED and tc > 0.0:
+        if abs(drive) <= tc:
+            fr = drive
+        else:
+            fr = tc if drive > 0 else -tc
+    elif tc > 0.0:
+        fr = tc if w > 0 else -tc
+    else:
+        fr = 0.0
+    wdot = (drive - fr) / j
+    dx[s] = wdot
+    wpdot = wdot / n
+    ch[_MOTOR_SPEED] = w
+    ch[_PROP_SPEED] = wp
+    ch[_CURRENT] = i
+    if kind == K_TUNNEL:
+        rho, area, length, ka, pe, beta, dalpha, dbeta = (p[10], p[11], p[12], p[13], p[14], p[15],
+                                                          p[16], p[17])
+        mf = rho * area * length * (1.0 + ka)
+        ch[_TORQUE] = beta * mf * pe * pe * wpdot + q_static
+        return mf * pe * wpdot + rho * area * pe * pe * dbeta * wp * abs(wp)
+    ch[_TORQUE] = q_static
+    return wp
+
+
+@njit(cache=True)
+def _polyval(p, start, count, x):
+    y = 0.0
+    for k in range(count):
+        y = y * x + p[start + k]
+    return y
+
+
+@njit(cache=True)
+def _table(p, x):
+    n = int(p[0])
+    if x <= p[1]:
+        return p[1 + n]
+    if x >= p[n]:
+        return p[2 * n]
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if p[1 + mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    x0 = p[1 + lo]
+    x1 = p[1 + hi]
+    y0 = p[1 + n + lo]
+    y1 = p[1 + n + hi]
+    return y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+
+
+@njit(cache=True)
+def eval_chain(kinds, poff, params, soff, outch, in_ch, x, cmd, dx, ch, blk_in):
+    """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels)."""
+    for k in range(ch.size):
+        ch[k] = np.nan
+    ch[0] = cmd
+    if in_ch > 0:
+        ch[in_ch] = cmd
+    sig = cmd
+    for b in range(kinds.size):
+        kind = kinds[b]
+        p = params[poff[b]:poff[b + 1]]
+        s = soff[b]
+        nst = soff[b + 1] - s
+        blk_in[b] = sig
+        if kind == K_ESC:
+            sig = _esc(p, sig)
+        elif kind == K_FIRST_ORDER_MOTOR:
+            dx[s] = (p[0] * sig - x[s]) / p[1]
+            sig = x[s]
+            ch[_MOTOR_SPEED] = sig
+        elif kind == K_DC_MOTOR or kind == K_TUNNEL:
+            ch[_VOLTAGE] = sig
+            sig = _motor(kind, p, x, s, nst, sig, dx, ch)
+        elif kind == K_QUADRATIC:
+            a = sig * abs(sig)
+            if sig >= 0.0:
+                if p[2] > 0.0:
+                    ch[_TORQUE] = p[2] * a
+                sig = p[0] * a
+            else:
+                if p[3] > 0.0:
+                    ch[_TORQUE] = p[3] * a
+                sig = p[1] * a
+        elif kind == K_POLYNOMIAL:
+            nf = int(p[0])
+            nr = int(p[1])
+            if sig > 0.0:
+                sig = _polyval(p, 2, nf, sig)
+            elif sig < 0.0:
+                sig = -_polyval(p, 2 + nf, nr, -sig)
+            else:
+                sig = 0.0
+        elif kind == K_DEADZONE:
+            a = sig * abs(sig)
+            if sig <= p[2]:
+                sig = p[0] * (a - p[2])
+            elif sig >= p[3]:
+                sig = p[1] * (a - p[3])
+            else:
+                sig = 0.0
+        elif kind == K_TABLE:
+            sig = _table(p, sig)
+        elif kind == K_ZERO_ORDER:
+            pass
+        elif kind == K_FIRST_ORDER:
+            dx[s] = (sig - x[s]) / p[0]
+            sig = x[s]
+        elif kind == K_YOERGER:
+            dx[s] = p[1] * sig - p[0] * x[s] * abs(x[s])
+            sig = x[s]
+        elif kind == K_BESSA:
+            dx[s] = (sig * p[3] / p[4] - p[1] * x[s] - p[2] * x[s] * abs(x[s])) / p[0]
+            sig = x[s]
+        elif kind == K_LOAD_CELL:
+            wn = p[0]
+            dx[s] = x[s + 1]
+            dx[s + 1] = wn * wn * (sig - x[s]) - 2.0 * p[1] * wn * x[s + 1]
+            sig = x[s]
+        ch[outch[b]] = sig
+    return sig
+
+
+@njit(cache=True)
+def _exact_first_order(kinds, poff, params, soff, exact, x_old, x_new, blk_in, h):
+    for b in range(kinds.size):
+        if exact[b]:
+            s = soff[b]
+            p = params[poff[b]:poff[b + 1]]
+            if kinds[b] == K_FIRST_ORDER_MOTOR:
+                target = p[0] * blk_in[b]
+                tau = p[1]
+            else:
+                target = blk_in[b]
+                tau = p[0]
+            e = math.exp(-h / tau)
+            x_new[s] = e * x_old[s] + (1.0 - e) * target
+
+
+@njit(cache=True)
+def rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u, dt, nsub, X, C):
+    """Fixed-step RK4 over the chain; ``u[n]`` is held on ``[n dt, (n+1) dt)``.
+
+    Writes the state ``X[n]`` and channels ``C[n]`` at every sample ``t = n dt`` (preallocated).
+    """
+    nx = x0.size
+    nb = kinds.size
+    x = x0.copy()
+    xt = np.empty(nx)
+    xn = np.empty(nx)
+    k1 = np.zeros(nx)
+    k2 = np.zeros(nx)
+    k3 = np.zeros(nx)
+    k4 = np.zeros(nx)
+    ch = np.empty(C.shape[1])
+    blk_in = np.empty(max(nb, 1))
+    blk_tmp = np.empty(max(nb, 1))
+    h = dt / nsub
+    nsamp = u.size
+    for n in range(nsamp):
+        eval_chain(kinds, poff, params, soff, outch, in_ch, x, u[n], k1, ch, blk_in)
+        for i in range(nx):
+            X[n, i] = x[i]
+        for i in range(ch.size):
+            C[n, i] = ch[i]
+        if n == nsamp - 1:
+            break
+        un = u[n]
+        for _ in range(nsub):
+            eval_chain(kinds, poff, params, soff, outch, in_ch, x, un, k1, ch, blk_in)
+            for i in range(nx):
+                xt[i] = x[i] + 0.5 * h * k1[i]
+            eval_chain(kinds, poff, params, soff, outch, in_ch, xt, un, k2, ch, blk_tmp)
+            for i in range(nx):
+                xt[i] = x[i] + 0.5 * h * k2[i]
+            eval_chain(kinds, poff, params, soff, outch, in_ch, xt, un, k3, ch, blk_tmp)
+            for i in range(nx):
+                xt[i] = x[i] + h * k3[i]
+            eval_chain(kinds, poff, params, soff, outch, in_ch, xt, un, k4, ch, blk_tmp)
+            for i in range(nx):
+                xn[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            # blk_in (stage 1) holds each block's input at the step start
+            _exact_first_order(kinds, poff, params, soff, exact, x, xn, blk_in, h)
+            for i in range(nx):
+                x[i] = xn[i]
+
+
+@njit(cache=True, parallel=True)
+def rk4_chain_batch(kinds, poff, params_batch, soff, outch, in_ch, exact, x0, u, dt, nsub,
+                    out_channel, Y):
+    """Many chains with different parameters (rows of ``params_batch``) under one input.
+
+    Writes one channel (``out_channel``) of every run into ``Y[run, sample]``.
+    """
+    nrun = params_batch.shape[0]
+    nsamp = u.size
+    for r in prange(nrun):
+        X = np.empty((nsamp, x0.size))
+        C = np.empty((nsamp, N_CHANNELS))
+        rk4_chain(kinds, poff, params_batch[r], soff, outch, in_ch, exact, x0, u, dt, nsub, X, C)
+        for n in range(nsamp):
+            Y[r, n] = C[n, out_channel]
+
+
+@njit(cache=True, parallel=True)
+def sweep_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u_levels, dt, nsamp, finals):
+    """Hold each constant input of ``u_levels`` for ``nsamp`` samples from ``x0``; store the final
+    channels in ``finals[level]`` (a steady-state sweep, one parallel run per level)."""
+    nlev = u_levels.size
+    for r in prange(nlev):
+        u = np.full(nsamp, u_levels[r])
+        X = np.empty((nsamp, x0.size))
+        C = np.empty((nsamp, N_CHANNELS))
+        rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u, dt, 1, X, C)
+        for i in range(N_CHANNELS):
+            finals[r, i] = C[nsamp - 1, i]

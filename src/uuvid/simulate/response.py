@@ -1,0 +1,96 @@
+"""One result type for every simulation and every loaded log: time plus named channels."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: SI unit of each channel a thruster simulation records.
+CHANNEL_UNITS = {
+    "time": "s",
+    "command": "cmd",
+    "voltage": "V",
+    "motor_speed": "rad/s",
+    "prop_speed": "rad/s",
+    "thrust": "N",
+    "measured_thrust": "N",
+    "torque": "N·m",
+    "current": "A",
+}
+
+
+@dataclass(frozen=True)
+class TimeResponse:
+    """Samples of named channels on a common, strictly increasing time axis (SI units)."""
+
+    t: np.ndarray
+    channels: dict[str, np.ndarray]
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        t = np.asarray(self.t, dtype=float)
+        for name, v in self.channels.items():
+            if np.shape(v) != t.shape:
+                raise ValueError(f"channel {name!r} has shape {np.shape(v)}, time has {t.shape}")
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.t
+        try:
+            return self.channels[name]
+        except KeyError:
+            raise KeyError(f"no channel {name!r}; channels are {sorted(self.channels)}") from None
+
+    def __contains__(self, name: str) -> bool:
+        return name == "time" or name in self.channels
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.channels)
+
+    def recorded(self) -> "TimeResponse":
+        """Only the channels that carry data (drop all-NaN ones)."""
+        keep = {k: v for k, v in self.channels.items() if not np.all(np.isnan(v))}
+        return TimeResponse(self.t, keep, dict(self.meta))
+
+    def to_frame(self):
+        import pandas as pd
+
+        return pd.DataFrame({"time": self.t, **self.channels})
+
+    def to_csv(self, path: str | Path) -> Path:
+        from uuvid.io.atomic import atomic_path
+
+        path = Path(path)
+        with atomic_path(path) as tmp:
+            self.to_frame().to_csv(tmp, index=False)
+        return path
+
+    def metrics(self, steady_window: float = 0.1):
+        """McLean's step-response metrics (see :mod:`uuvid.simulate.metrics`)."""
+        from uuvid.simulate.metrics import step_response_metrics
+
+        measured = self.channels.get("measured_thrust")
+        if measured is not None and np.all(np.isnan(measured)):
+            measured = None
+        speed = self.channels.get("prop_speed")
+        if speed is not None and np.all(np.isnan(speed)):
+            speed = None
+        return step_response_metrics(self.t, self.channels["thrust"], thrust_measured=measured,
+                                     speed=speed, steady_window=steady_window)
+
+    def plot(self, groups=None, title=None):
+        """Stacked plots of the recorded channels; returns the matplotlib Figure."""
+        from uuvid.report.plots import plot_time_series
+
+        rec = self.recorded()
+        if groups is None:
+            groups = [g for g in (["command"], ["voltage"], ["motor_speed", "prop_speed"],
+                                  ["thrust", "measured_thrust"], ["torque"], ["current"])
+                      if any(c in rec.channels for c in g)]
+            groups = [[c for c in g if c in rec.channels] for g in groups]
+        labels = {k: f"{k} [{CHANNEL_UNITS.get(k, '')}]" for k in rec.channels}
+        return plot_time_series(rec.t, rec.channels, title=title, ylabel_by_channel=labels,
+                                axes_groups=groups)

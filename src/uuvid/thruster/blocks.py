@@ -1,0 +1,692 @@
+"""The blocks a thruster is built from, as small frozen parameter records.
+
+Each block is a pure function of (state, input, parameters); its numerical core lives in
+:mod:`uuvid.simulate.kernels` (compiled with numba) and is selected by the block's ``KIND`` code.
+A block declares which signal it takes (``command``, ``voltage``, ``speed``, ``thrust``) and
+which it produces, so :class:`uuvid.thruster.chain.ThrusterChain` can check a composition the way
+one checks the wires of a block diagram (McLean 1991, Fig. 3.1; Laidani et al., Fig. 1b).
+
+Sources:
+    ESC          Laidani et al. eq. (1)–(2): ``V = a·PWM + b`` per direction, dead zone, saturation.
+    FirstOrderMotor  Laidani et al. eq. (3): ``Ω/V = K_m/(1 + τ s)`` (A2212: 131.3016, 0.01021 s).
+    DCMotor      McLean 1991 eqs. 2.1–2.5: armature ``L di/dt = V − R i − K_G ω_m``, torque ``K_T i``,
+                 ``(J_M + J_P/N²) ω̇_m + (C_M + C_P/N²) ω_m + Q/N + T_c sgn ω_m = K_T i``.
+    TunnelThruster   McLean 1991 eqs. 2.12–2.16 (digest §A.1): DC motor + gear + tunnel water.
+    QuadraticMap ``T = K_T Ω|Ω|`` (also Caccia 2000 ``T = c_V V|V|``), per direction.
+    PolynomialMap    Laidani et al. Table 2: ``|T| = Σ K_Ti |Ω|^(n−i)`` per direction.
+    DeadZoneMap  UUV Simulator ``Bessa`` conversion: ``T = c_{L,R}(x|x| − δ_{L,R})`` outside [δ_L, δ_R].
+    TableMap     UUV Simulator ``LinearInterp``: linear interpolation, end values held.
+    ZeroOrder, FirstOrder, Yoerger, BessaDynamics   UUV Simulator dynamics (Yoerger et al. 1990;
+                 Bessa et al. 2005), integrated as ODEs.
+    LoadCell     McLean 1991 block 9: ``F_out/F = ω_n²/(s² + 2ζω_n s + ω_n²)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from typing import ClassVar
+
+import numpy as np
+
+# Signal kinds that travel along a chain.
+COMMAND, VOLTAGE, SPEED, THRUST, MEASURED = "command", "voltage", "speed", "thrust", "measured_thrust"
+
+# Channels recorded by a simulation (index = position in the channel vector of the kernel).
+CHANNELS = (
+    "command",
+    "voltage",
+    "motor_speed",
+    "prop_speed",
+    "thrust",
+    "measured_thrust",
+    "torque",
+    "current",
+)
+CH = {name: i for i, name in enumerate(CHANNELS)}
+
+# Block kind codes understood by the compiled kernel.
+K_ESC = 1
+K_FIRST_ORDER_MOTOR = 2
+K_DC_MOTOR = 3
+K_TUNNEL = 4
+K_QUADRATIC = 5
+K_POLYNOMIAL = 6
+K_DEADZONE = 7
+K_TABLE = 8
+K_ZERO_ORDER = 9
+K_FIRST_ORDER = 10
+K_YOERGER = 11
+K_BESSA = 12
+K_LOAD_CELL = 13
+
+_SIGNAL_CHANNEL = {COMMAND: "command", VOLTAGE: "voltage", SPEED: "prop_speed", THRUST: "thrust",
+                   MEASURED: "measured_thrust"}
+
+
+class ParameterError(ValueError):
+    """A block parameter is outside its physical range; the message names the parameter."""
+
+
+def _positive(block: str, **values: float) -> None:
+    for name, v in values.items():
+        if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v > 0):
+            raise ParameterError(f"{block}.{name} must be a positive finite number, got {v!r}")
+
+
+def _non_negative(block: str, **values: float) -> None:
+    for name, v in values.items():
+        if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v >= 0):
+            raise ParameterError(f"{block}.{name} must be a finite number >= 0, got {v!r}")
+
+
+def _finite(block: str, **values: float) -> None:
+    for name, v in values.items():
+        if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v)):
+            raise ParameterError(f"{block}.{name} must be a finite number, got {v!r}")
+
+
+@dataclass(frozen=True)
+class Block:
+    """Base of every block: a frozen parameter record with a kind code for the kernel."""
+
+    KIND: ClassVar[int] = 0
+    TYPE: ClassVar[str] = ""
+    INPUTS: ClassVar[tuple[str, ...]] = ()
+    N_STATES: ClassVar[int] = 0
+
+    @property
+    def n_states(self) -> int:
+        return self.N_STATES
+
+    def output_kind(self, input_kind: str) -> str:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def params_array(self) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def extra_channels(self) -> tuple[str, ...]:
+        """Channels the block writes besides its output signal."""
+        return ()
+
+    def to_dict(self) -> dict:
+        """Plain-data form used by model files (``type`` plus the parameters)."""
+        out: dict = {"type": self.TYPE}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, tuple):
+                v = [list(x) if isinstance(x, tuple) else x for x in v]
+            out[f.name] = v
+        return out
+
+    def replace(self, **changes) -> "Block":
+        """A copy with some parameters changed (validated again)."""
+        return replace(self, **changes)
+
+
+# --------------------------------------------------------------------------------------------
+# Driver
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ESC(Block):
+    """Electronic speed controller: command → motor voltage (Laidani et al. eq. 1).
+
+    ``V = a_fwd·cmd + b_fwd`` above the dead zone, ``V = a_rev·cmd + b_rev`` below it, 0 inside
+    ``[deadzone_low, deadzone_high]``; the command is first clipped to
+    ``[saturation_low, saturation_high]`` (saturation) and |V| never exceeds ``supply_voltage``.
+    The command unit (``pwm_us``, ``duty`` or ``volts``) is recorded for reports.
+    """
+
+    KIND: ClassVar[int] = K_ESC
+    TYPE: ClassVar[str] = "esc"
+    INPUTS: ClassVar[tuple[str, ...]] = (COMMAND,)
+
+    a_fwd: float = 1.0
+    b_fwd: float = 0.0
+    a_rev: float = 1.0
+    b_rev: float = 0.0
+    neutral: float = 0.0
+    deadzone_low: float = 0.0
+    deadzone_high: float = 0.0
+    saturation_low: float = -math.inf
+    saturation_high: float = math.inf
+    supply_voltage: float = 12.0
+    command_unit: str = "volts"
+
+    def __post_init__(self):
+        _finite("ESC", a_fwd=self.a_fwd, b_fwd=self.b_fwd, a_rev=self.a_rev, b_rev=self.b_rev,
+                neutral=self.neutral, deadzone_low=self.deadzone_low,
+                deadzone_high=self.deadzone_high)
+        _positive("ESC", supply_voltage=self.supply_voltage)
+        if not self.deadzone_low <= self.neutral <= self.deadzone_high:
+            raise ParameterError(
+                f"ESC dead zone [{self.deadzone_low}, {self.deadzone_high}] must contain the "
+                f"neutral command {self.neutral}")
+        if not self.saturation_low < self.deadzone_low or not self.deadzone_high < self.saturation_high:
+            if not (self.saturation_low <= self.deadzone_low and self.deadzone_high <= self.saturation_high):
+                raise ParameterError("ESC saturation limits must lie outside the dead zone")
+        if self.command_unit not in ("pwm_us", "duty", "volts"):
+            raise ParameterError(f"ESC.command_unit must be pwm_us, duty or volts, got {self.command_unit!r}")
+
+    @classmethod
+    def from_range(cls, neutral: float, deadband: float, full_low: float, full_high: float,
+                   supply_voltage: float, command_unit: str = "pwm_us") -> "ESC":
+        """Linear ESC reaching ±``supply_voltage`` at ``full_high``/``full_low`` and saturating there.
+
+        The dead zone is ``neutral ± deadband/2``; voltage rises linearly from 0 at its edge.
+        """
+        lo, hi = neutral - deadband / 2.0, neutral + deadband / 2.0
+        if not full_low < lo and hi < full_high:
+            raise ParameterError("ESC.from_range: full-command points must lie outside the dead band")
+        a_f = supply_voltage / (full_high - hi)
+        a_r = supply_voltage / (lo - full_low)
+        return cls(a_fwd=a_f, b_fwd=-a_f * hi, a_rev=a_r, b_rev=-a_r * lo, neutral=neutral,
+                   deadzone_low=lo, deadzone_high=hi, saturation_low=full_low,
+                   saturation_high=full_high, supply_voltage=supply_voltage,
+                   command_unit=command_unit)
+
+    def with_supply(self, supply_voltage: float) -> "ESC":
+        """Same duty-cycle map at another supply voltage (V = duty × supply)."""
+        k = supply_voltage / self.supply_voltage
+        return replace(self, a_fwd=self.a_fwd * k, b_fwd=self.b_fwd * k, a_rev=self.a_rev * k,
+                       b_rev=self.b_rev * k, supply_voltage=supply_voltage)
+
+    def output_kind(self, input_kind):
+        return VOLTAGE
+
+    def params_array(self):
+        return np.array([self.a_fwd, self.b_fwd, self.a_rev, self.b_rev, self.deadzone_low,
+                         self.deadzone_high, self.saturation_low, self.saturation_high,
+                         self.supply_voltage], dtype=np.float64)
+
+    def voltage(self, command):
+        """Vectorised ``V(cmd)`` (same law as the kernel)."""
+        c = np.clip(np.asarray(command, dtype=float), self.saturation_low, self.saturation_high)
+        v = np.where(c > self.deadzone_high, self.a_fwd * c + self.b_fwd,
+                     np.where(c < self.deadzone_low, self.a_rev * c + self.b_rev, 0.0))
+        return np.clip(v, -self.supply_voltage, self.supply_voltage)
+
+
+# --------------------------------------------------------------------------------------------
+# Motors
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FirstOrderMotor(Block):
+    """First-order speed model ``Ω(s)/V(s) = K_m/(1 + τ s)`` (Laidani et al. eq. 3).
+
+    Driven by a held (zero-order-hold) voltage it is advanced exactly:
+    ``Ω_{k+1} = e^{−h/τ} Ω_k + (1 − e^{−h/τ}) K_m V_k``.
+    """
+
+    KIND: ClassVar[int] = K_FIRST_ORDER_MOTOR
+    TYPE: ClassVar[str] = "first_order_motor"
+    INPUTS: ClassVar[tuple[str, ...]] = (VOLTAGE,)
+    N_STATES: ClassVar[int] = 1
+
+    gain: float = 131.3016  # K_m, rad/s per V
+    time_constant: float = 0.01021  # τ, s
+
+    def __post_init__(self):
+        _positive("FirstOrderMotor", gain=self.gain, time_constant=self.time_constant)
+
+    def output_kind(self, input_kind):
+        return SPEED
+
+    def extra_channels(self):
+        return ("motor_speed",)
+
+    def params_array(self):
+        return np.array([self.gain, self.time_constant], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class DCMotor(Block):
+    """Permanent-magnet DC motor with a gear driving a propeller of torque ``K_Q Ω_p|Ω_p|``.
+
+    McLean 1991 eqs. 2.1–2.5 (inductance optional):
+        ``L di/dt = V − R i − K_G ω_m``  (``L = 0``: ``i = (V − K_G ω_m)/R``)
+        ``(J_M + J_P/N²) ω̇_m = K_T i − (C_M + C_P/N²) ω_m − Q/N − T_c sgn(ω_m)``,  ``Ω_p = ω_m/N``.
+    Coulomb friction ``T_c`` (at the motor shaft) opposes motion and holds the shaft still while the
+    driving torque is below it (Karnopp stick–slip); McLean's "5 V offset" is ``T_c = K_T·5/R``.
+    """
+
+    KIND: ClassVar[int] = K_DC_MOTOR
+    TYPE: ClassVar[str] = "dc_motor"
+    INPUTS: ClassVar[tuple[str, ...]] = (VOLTAGE,)
+
+    torque_constant: float = 0.0292  # K_T, N·m/A
+    back_emf_constant: float = 0.0292  # K_G, V·s/rad
+    resistance: float = 4.06  # R, Ω
+    inductance: float = 0.0  # L, H (0: electrical dynamics neglected)
+    motor_inertia: float = 3.79e-6  # J_M, kg·m²
+    propeller_inertia: float = 0.0  # J_P, kg·m² (at the propeller shaft)
+    motor_viscous: float = 0.0  # C_M, N·m·s/rad
+    propeller_viscous: float = 0.0  # C_P, N·m·s/rad (at the propeller shaft)
+    coulomb_torque: float = 0.0  # T_c, N·m at the motor shaft
+    gear_ratio: float = 1.0  # N = ω_m/ω_p
+    torque_coefficient: float = 0.0  # K_Q, N·m·s²/rad², propeller torque K_Q Ω_p|Ω_p|
+
+    def __post_init__(self):
+        _positive("DCMotor", torque_constant=self.torque_constant,
+                  back_emf_constant=self.back_emf_constant, resistance=self.resistance,
+                  motor_inertia=self.motor_inertia, gear_ratio=self.gear_ratio)
+        _non_negative("DCMotor", inductance=self.inductance, propeller_inertia=self.propeller_inertia,
+                      motor_viscous=self.motor_viscous, propeller_viscous=self.propeller_viscous,
+                      coulomb_torque=self.coulomb_torque, torque_coefficient=self.torque_coefficient)
+
+    @property
+    def n_states(self) -> int:
+        return 2 if self.inductance > 0 else 1
+
+    def output_kind(self, input_kind):
+        return SPEED
+
+    def extra_channels(self):
+        return ("motor_speed", "torque", "current")
+
+    def motor_params(self) -> list[float]:
+        return [self.torque_constant, self.back_emf_constant, self.resistance, self.inductance,
+                self.motor_inertia, self.propeller_inertia, self.motor_viscous,
+                self.propeller_viscous, self.coulomb_torque, self.gear_ratio]
+
+    def params_array(self):
+        return np.array(self.motor_params() + [self.torque_coefficient], dtype=np.float64)
+
+    @property
+    def electrical_time_constant(self) -> float:
+        return self.inductance / self.resistance
+
+    @property
+    def mechanical_time_constant(self) -> float:
+        """``τ_m = J_M R/(K_T K_G)`` (McLean: 0.01808 s for the Pittman 9514)."""
+        return self.motor_inertia * self.resistance / (self.torque_constant * self.back_emf_constant)
+
+
+@dataclass(frozen=True)
+class TunnelThruster(Block):
+    """McLean's tunnel thruster: DC motor + gear + the water column in the tunnel.
+
+    Volumetric flow ``Q = η p A ω_p``; effective fluid length ``L(1 + K_a)``; ``P_e = η p``.
+    Thrust (unsteady momentum, eq. 2.12):
+        ``F = ρ A L(1+K_a) P_e ω̇_p + ρ A P_e² (β_o − β_i) ω_p|ω_p|``
+    Propeller torque (unsteady energy, eqs. 2.14–2.16):
+        ``Q_h = β ρ A L(1+K_a) P_e² ω̇_p + ½ ρ A (α_o − α_i) P_e³ ω_p|ω_p|``
+    The unsteady torque term is water inertia reflected to the motor, so the motor sees
+    ``J = J_M + (J_P + β ρ A L(1+K_a) P_e²)/N²``.  With ``P_e = 0`` the water does nothing.
+    """
+
+    KIND: ClassVar[int] = K_TUNNEL
+    TYPE: ClassVar[str] = "tunnel_thruster"
+    INPUTS: ClassVar[tuple[str, ...]] = (VOLTAGE,)
+
+    motor: DCMotor = field(default_factory=DCMotor)
+    water_density: float = 1000.0  # ρ, kg/m³
+    tunnel_area: float = 0.00477  # A, m²
+    tunnel_length: float = 0.2667  # L, m
+    added_mass_coefficient: float = 0.25  # K_a
+    propeller_efficiency: float = 0.75  # η
+    pitch: float = 0.02198  # p, m/rad
+    profile_factor: float = 1.5  # β (momentum / kinetic-energy profile factor)
+    energy_correction: float = 3.0  # α_o − α_i
+    momentum_correction: float = 0.185  # β_o − β_i
+
+    def __post_init__(self):
+        if not isinstance(self.motor, DCMotor):
+            raise ParameterError("TunnelThruster.motor must be a DCMotor")
+        if self.motor.torque_coefficient != 0.0:
+            raise ParameterError("TunnelThruster.motor.torque_coefficient must be 0: the tunnel "
+                                 "model supplies the propeller torque")
+        _positive("TunnelThruster", water_density=self.water_density,
+                  tunnel_area=self.tunnel_area, tunnel_length=self.tunnel_length)
+        _non_negative("TunnelThruster", added_mass_coefficient=self.added_mass_coefficient,
+                      propeller_efficiency=self.propeller_efficiency, pitch=self.pitch,
+                      profile_factor=self.profile_factor, energy_correction=self.energy_correction,
+                      momentum_correction=self.momentum_correction)
+        if self.propeller_efficiency > 1.0:
+            raise ParameterError(f"TunnelThruster.propeller_efficiency must be <= 1, got "
+                                 f"{self.propeller_efficiency}")
+
+    @property
+    def effective_pitch(self) -> float:
+        """``P_e = η p`` (m/rad)."""
+        return self.propeller_efficiency * self.pitch
+
+    @property
+    def fluid_mass(self) -> float:
+        """``ρ A L (1 + K_a)``, kg — the water the propeller accelerates."""
+        return (self.water_density * self.tunnel_area * self.tunnel_length
+                * (1.0 + self.added_mass_coefficient))
+
+    @property
+    def n_states(self) -> int:
+        return self.motor.n_states
+
+    def output_kind(self, input_kind):
+        return THRUST
+
+    def extra_channels(self):
+        return ("motor_speed", "prop_speed", "torque", "current")
+
+    def params_array(self):
+        return np.array(self.motor.motor_params() + [
+            self.water_density, self.tunnel_area, self.tunnel_length, self.added_mass_coefficient,
+            self.effective_pitch, self.profile_factor, self.energy_correction,
+            self.momentum_correction], dtype=np.float64)
+
+    def steady_state(self, voltage: float) -> dict:
+        """Steady speed and thrust at a constant voltage (algebraic solution of the ODE)."""
+        m = self.motor
+        pe = self.effective_pitch
+        n = m.gear_ratio
+        c_q = 0.5 * self.water_density * self.tunnel_area * self.energy_correction * pe**3
+        c_v = m.motor_viscous + m.propeller_viscous / n**2
+        # K_T (V − K_G w)/R − c_v w − c_q (w/N)² / N − T_c = 0 for w > 0 (motor speed)
+        drive = m.torque_constant * abs(voltage) / m.resistance - m.coulomb_torque
+        if drive <= 0:
+            return {"motor_speed": 0.0, "prop_speed": 0.0, "thrust": 0.0}
+        a = c_q / n**3
+        b = m.torque_constant * m.back_emf_constant / m.resistance + c_v
+        w = drive / b if a == 0 else (-b + math.sqrt(b * b + 4 * a * drive)) / (2 * a)
+        w = math.copysign(w, voltage)
+        wp = w / n
+        f = self.water_density * self.tunnel_area * pe**2 * self.momentum_correction * wp * abs(wp)
+        return {"motor_speed": w, "prop_speed": wp, "thrust": f}
+
+
+# --------------------------------------------------------------------------------------------
+# Steady maps (conversion functions)
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class QuadraticMap(Block):
+    """``T = k_pos x|x|`` for ``x ≥ 0`` and ``k_neg x|x|`` for ``x < 0``.
+
+    With speed input this is ``T = K_T Ω|Ω|`` (and ``Q = K_Q Ω|Ω|`` is recorded as torque);
+    with voltage input it is Caccia et al.'s ``T = c_V V|V|`` (ROMEO: 1.02 and 1.09 N/V²).
+    UUV Simulator's ``Basic`` conversion is ``k_pos = k_neg = rotorConstant``.
+    """
+
+    KIND: ClassVar[int] = K_QUADRATIC
+    TYPE: ClassVar[str] = "quadratic"
+    INPUTS: ClassVar[tuple[str, ...]] = (SPEED, VOLTAGE, COMMAND)
+
+    k_pos: float = 1.0
+    k_neg: float = 1.0
+    torque_pos: float = 0.0
+    torque_neg: float = 0.0
+
+    def __post_init__(self):
+        _non_negative("QuadraticMap", k_pos=self.k_pos, k_neg=self.k_neg,
+                      torque_pos=self.torque_pos, torque_neg=self.torque_neg)
+
+    @classmethod
+    def basic(cls, rotor_constant: float) -> "QuadraticMap":
+        """UUV Simulator ``Basic`` conversion: ``T = c·x|x|``."""
+        return cls(k_pos=rotor_constant, k_neg=rotor_constant)
+
+    def output_kind(self, input_kind):
+        return THRUST
+
+    def extra_channels(self):
+        return ("torque",)
+
+    def params_array(self):
+        return np.array([self.k_pos, self.k_neg, self.torque_pos, self.torque_neg], dtype=np.float64)
+
+    def thrust(self, x):
+        x = np.asarray(x, dtype=float)
+        return np.where(x >= 0, self.k_pos, self.k_neg) * x * np.abs(x)
+
+
+@dataclass(frozen=True)
+class PolynomialMap(Block):
+    """Per-direction polynomial thrust map (Laidani et al. Table 2).
+
+    ``T = +P_fwd(|x|)`` for ``x > 0``, ``T = −P_rev(|x|)`` for ``x < 0``, ``T = 0`` at ``x = 0``;
+    coefficients highest power first (``numpy.polyval`` order), ``x`` = |Ω| in rad/s.
+    """
+
+    KIND: ClassVar[int] = K_POLYNOMIAL
+    TYPE: ClassVar[str] = "polynomial"
+    INPUTS: ClassVar[tuple[str, ...]] = (SPEED, VOLTAGE, COMMAND)
+
+    forward: tuple[float, ...] = (0.0,)
+    reverse: tuple[float, ...] = (0.0,)
+
+    def __post_init__(self):
+        for name in ("forward", "reverse"):
+            c = tuple(float(v) for v in getattr(self, name))
+            if len(c) == 0 or not all(math.isfinite(v) for v in c):
+                raise ParameterError(f"PolynomialMap.{name} needs at least one finite coefficient")
+            object.__setattr__(self, name, c)
+
+    def output_kind(self, input_kind):
+        return THRUST
+
+    def params_array(self):
+        return np.array([len(self.forward), len(self.reverse), *self.forward, *self.reverse],
+                        dtype=np.float64)
+
+    def thrust(self, x):
+        x = np.asarray(x, dtype=float)
+        ax = np.abs(x)
+        return np.where(x > 0, np.polyval(self.forward, ax),
+                        np.where(x < 0, -np.polyval(self.reverse, ax), 0.0))
+
+
+@dataclass(frozen=True)
+class DeadZoneMap(Block):
+    """UUV Simulator ``Bessa`` conversion (asymmetric dead zone), Bessa et al. 2005.
+
+    ``T = c_L (x|x| − δ_L)`` for ``x ≤ δ_L``; ``T = c_R (x|x| − δ_R)`` for ``x ≥ δ_R``; else 0.
+    """
+
+    KIND: ClassVar[int] = K_DEADZONE
+    TYPE: ClassVar[str] = "deadzone"
+    INPUTS: ClassVar[tuple[str, ...]] = (SPEED, VOLTAGE, COMMAND)
+
+    rotor_constant_l: float = 1.0
+    rotor_constant_r: float = 1.0
+    delta_l: float = 0.0
+    delta_r: float = 0.0
+
+    def __post_init__(self):
+        _non_negative("DeadZoneMap", rotor_constant_l=self.rotor_constant_l,
+                      rotor_constant_r=self.rotor_constant_r)
+        _finite("DeadZoneMap", delta_l=self.delta_l, delta_r=self.delta_r)
+        if self.delta_l > self.delta_r:
+            raise ParameterError(f"DeadZoneMap.delta_l ({self.delta_l}) must be <= delta_r "
+                                 f"({self.delta_r})")
+
+    def output_kind(self, input_kind):
+        return THRUST
+
+    def params_array(self):
+        return np.array([self.rotor_constant_l, self.rotor_constant_r, self.delta_l, self.delta_r],
+                        dtype=np.float64)
+
+    def thrust(self, x):
+        x = np.asarray(x, dtype=float)
+        xx = x * np.abs(x)
+        return np.where(x <= self.delta_l, self.rotor_constant_l * (xx - self.delta_l),
+                        np.where(x >= self.delta_r, self.rotor_constant_r * (xx - self.delta_r), 0.0))
+
+
+@dataclass(frozen=True)
+class TableMap(Block):
+    """UUV Simulator ``LinearInterp``: piecewise-linear table, end values held outside it."""
+
+    KIND: ClassVar[int] = K_TABLE
+    TYPE: ClassVar[str] = "table"
+    INPUTS: ClassVar[tuple[str, ...]] = (SPEED, VOLTAGE, COMMAND)
+
+    input_values: tuple[float, ...] = (0.0, 1.0)
+    output_values: tuple[float, ...] = (0.0, 0.0)
+
+    def __post_init__(self):
+        xi = tuple(float(v) for v in self.input_values)
+        yi = tuple(float(v) for v in self.output_values)
+        if len(xi) != len(yi):
+            raise ParameterError(f"TableMap: input_values has {len(xi)} entries but output_values "
+                                 f"has {len(yi)}")
+        if len(xi) < 2:
+            raise ParameterError("TableMap needs at least two points")
+        if not all(math.isfinite(v) for v in xi + yi):
+            raise ParameterError("TableMap values must be finite")
+        for k in range(1, len(xi)):
+            if not xi[k] > xi[k - 1]:
+                raise ParameterError(f"TableMap.input_values must be strictly increasing; entry {k} "
+                                     f"({xi[k]}) is not greater than entry {k - 1} ({xi[k - 1]})")
+        object.__setattr__(self, "input_values", xi)
+        object.__setattr__(self, "output_values", yi)
+
+    def output_kind(self, input_kind):
+        return THRUST
+
+    def params_array(self):
+        return np.array([len(self.input_values), *self.input_values, *self.output_values],
+                        dtype=np.float64)
+
+    def thrust(self, x):
+        return np.interp(np.asarray(x, dtype=float), self.input_values, self.output_values)
+
+
+# --------------------------------------------------------------------------------------------
+# UUV Simulator dynamics (command → rotor state), integrated as ODEs
+# --------------------------------------------------------------------------------------------
+def _dynamic_output(input_kind: str) -> str:
+    return THRUST if input_kind in (THRUST, MEASURED) else SPEED
+
+
+@dataclass(frozen=True)
+class ZeroOrder(Block):
+    """UUV Simulator ``ZeroOrder``: the state follows the command instantly."""
+
+    KIND: ClassVar[int] = K_ZERO_ORDER
+    TYPE: ClassVar[str] = "zero_order"
+    INPUTS: ClassVar[tuple[str, ...]] = (COMMAND, VOLTAGE, SPEED, THRUST)
+
+    def output_kind(self, input_kind):
+        return _dynamic_output(input_kind)
+
+    def params_array(self):
+        return np.zeros(0, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class FirstOrder(Block):
+    """UUV Simulator ``FirstOrder(τ)``: ``ẋ = (u − x)/τ``, advanced exactly under a held input."""
+
+    KIND: ClassVar[int] = K_FIRST_ORDER
+    TYPE: ClassVar[str] = "first_order"
+    INPUTS: ClassVar[tuple[str, ...]] = (COMMAND, VOLTAGE, SPEED, THRUST)
+    N_STATES: ClassVar[int] = 1
+
+    time_constant: float = 0.01
+
+    def __post_init__(self):
+        _positive("FirstOrder", time_constant=self.time_constant)
+
+    def output_kind(self, input_kind):
+        return _dynamic_output(input_kind)
+
+    def params_array(self):
+        return np.array([self.time_constant], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Yoerger(Block):
+    """UUV Simulator ``Yoerger(α, β)`` (Yoerger et al. 1990): ``ẋ = β u − α x|x|``."""
+
+    KIND: ClassVar[int] = K_YOERGER
+    TYPE: ClassVar[str] = "yoerger"
+    INPUTS: ClassVar[tuple[str, ...]] = (COMMAND, VOLTAGE, SPEED, THRUST)
+    N_STATES: ClassVar[int] = 1
+
+    alpha: float = 1.0
+    beta: float = 1.0
+
+    def __post_init__(self):
+        _positive("Yoerger", alpha=self.alpha, beta=self.beta)
+
+    def output_kind(self, input_kind):
+        return _dynamic_output(input_kind)
+
+    def params_array(self):
+        return np.array([self.alpha, self.beta], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class BessaDynamics(Block):
+    """UUV Simulator ``Bessa(Jmsp, Kv1, Kv2, Kt, Rm)`` (Bessa et al. 2005):
+
+    ``Jmsp ẋ = u K_t/R_m − K_v1 x − K_v2 x|x|``.
+    """
+
+    KIND: ClassVar[int] = K_BESSA
+    TYPE: ClassVar[str] = "bessa"
+    INPUTS: ClassVar[tuple[str, ...]] = (COMMAND, VOLTAGE, SPEED, THRUST)
+    N_STATES: ClassVar[int] = 1
+
+    jmsp: float = 1.0
+    kv1: float = 0.0
+    kv2: float = 0.0
+    kt: float = 1.0
+    rm: float = 1.0
+
+    def __post_init__(self):
+        _positive("BessaDynamics", jmsp=self.jmsp, kt=self.kt, rm=self.rm)
+        _non_negative("BessaDynamics", kv1=self.kv1, kv2=self.kv2)
+        if self.kv1 == 0 and self.kv2 == 0:
+            raise ParameterError("BessaDynamics needs kv1 > 0 or kv2 > 0 (else the speed is unbounded)")
+
+    def output_kind(self, input_kind):
+        return _dynamic_output(input_kind)
+
+    def params_array(self):
+        return np.array([self.jmsp, self.kv1, self.kv2, self.kt, self.rm], dtype=np.float64)
+
+
+# --------------------------------------------------------------------------------------------
+# Test rig
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LoadCell(Block):
+    """Load cell + box of the test rig: ``F_out/F = ω_n²/(s² + 2ζω_n s + ω_n²)`` (McLean block 9).
+
+    McLean's rig: ``1935/(s² + 14.1 s + 1935)``, i.e. ω_n = 43.99 rad/s, ζ = 0.160.
+    """
+
+    KIND: ClassVar[int] = K_LOAD_CELL
+    TYPE: ClassVar[str] = "load_cell"
+    INPUTS: ClassVar[tuple[str, ...]] = (THRUST,)
+    N_STATES: ClassVar[int] = 2
+
+    natural_frequency: float = math.sqrt(1935.0)  # ω_n, rad/s
+    damping_ratio: float = 14.1 / (2.0 * math.sqrt(1935.0))  # ζ
+
+    def __post_init__(self):
+        _positive("LoadCell", natural_frequency=self.natural_frequency,
+                  damping_ratio=self.damping_ratio)
+
+    @classmethod
+    def from_polynomial(cls, a1: float, a0: float) -> "LoadCell":
+        """From ``a0/(s² + a1 s + a0)``."""
+        wn = math.sqrt(a0)
+        return cls(natural_frequency=wn, damping_ratio=a1 / (2 * wn))
+
+    def output_kind(self, input_kind):
+        return MEASURED
+
+    def params_array(self):
+        return np.array([self.natural_frequency, self.damping_ratio], dtype=np.float64)
+
+
+BLOCK_TYPES: dict[str, type[Block]] = {
+    cls.TYPE: cls
+    for cls in (ESC, FirstOrderMotor, DCMotor, TunnelThruster, QuadraticMap, PolynomialMap,
+                DeadZoneMap, TableMap, ZeroOrder, FirstOrder, Yoerger, BessaDynamics, LoadCell)
+}
+# Names users know from UUV Simulator, accepted in model files.
+BLOCK_ALIASES = {"Basic": "quadratic", "LinearInterp": "table", "ZeroOrder": "zero_order",
+                 "FirstOrder": "first_order", "Yoerger": "yoerger", "Bessa": "bessa",
+                 "cv": "quadratic", "mclean": "tunnel_thruster"}
