@@ -1,0 +1,295 @@
+"""Atomic file output.
+
+Every writer here builds the new content in a temporary file *in the same directory* as the
+target, flushes and ``fsync``\\ s it, then ``os.replace``\\ s it onto the target.  A reader therefore
+sees either the complete old file or the complete new file, never a partial one, and a failure
+while writing leaves the old file untouched and no temporary file behind.
+
+Parent directories are created as needed.
+
+>>> from uuvid.io.atomic import atomic_path
+>>> with atomic_path("out/fig.png") as tmp:   # doctest: +SKIP
+...     fig.savefig(tmp)
+...     # df.to_csv(tmp) works the same way
+
+The temporary name keeps the target's full file name as its ending
+(``.tmp-<random>-fig.png``), so tools that infer the format from the extension (Matplotlib
+``savefig``, pandas compression inference for ``.csv.gz``) behave as they would on the target.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime as _dt
+import enum
+import json
+import math
+import os
+import secrets
+from collections.abc import Iterator, Mapping
+from pathlib import Path, PurePath
+from typing import Any
+
+__all__ = [
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_json",
+    "atomic_write_text",
+    "to_jsonable",
+]
+
+_TMP_PREFIX = ".tmp-"
+
+
+# --------------------------------------------------------------------------------------------
+# low-level helpers
+# --------------------------------------------------------------------------------------------
+
+
+def _create_temp(target: Path) -> Path:
+    """Create (exclusively) an empty temporary file next to *target* and return its path.
+
+    ``os.open(..., 0o666)`` lets the process umask decide the permissions, so the final file
+    gets the same mode an ordinary ``open(path, "w")`` would have given it (``mkstemp`` would
+    give 0600).
+    """
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    for _ in range(100):
+        tmp = target.with_name(f"{_TMP_PREFIX}{secrets.token_hex(4)}-{target.name}")
+        try:
+            fd = os.open(tmp, flags, 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(f"could not create a temporary file next to {target}")
+
+
+def _fsync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _fsync_dir(directory: Path) -> None:
+    """Best effort: make the rename itself durable (POSIX only)."""
+    if os.name != "posix":
+        return
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _copy_mode(src: Path, dst: Path) -> None:
+    """Keep the permissions of an existing target (best effort)."""
+    try:
+        mode = os.stat(src).st_mode & 0o7777
+        os.chmod(dst, mode)
+    except OSError:
+        pass
+
+
+def _unlink_quietly(path: Path) -> None:
+    with contextlib.suppress(OSError):
+        os.unlink(path)
+
+
+# --------------------------------------------------------------------------------------------
+# public API
+# --------------------------------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path next to *path*; move it onto *path* only if the block succeeds.
+
+    The temporary file already exists (empty) when the block starts; writers such as
+    ``Figure.savefig`` or ``DataFrame.to_csv`` simply overwrite it.  On success the file is
+    fsync'ed and atomically renamed onto *path*; on any exception it is removed and the
+    exception propagates, leaving an existing *path* untouched.
+    """
+    target = Path(os.fspath(path))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _create_temp(target)
+    try:
+        yield tmp
+        if not tmp.exists():
+            raise FileNotFoundError(
+                f"temporary file {tmp} disappeared before it could replace {target}"
+            )
+        _fsync_file(tmp)
+        if target.exists():
+            _copy_mode(target, tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        _unlink_quietly(tmp)
+        raise
+    _fsync_dir(target.parent)
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Atomically write *data* to *path*; returns the path."""
+    target = Path(os.fspath(path))
+    with atomic_path(target) as tmp, open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    return target
+
+
+def atomic_write_text(
+    path: str | os.PathLike[str],
+    text: str,
+    encoding: str = "utf-8",
+    newline: str | None = None,
+) -> Path:
+    """Atomically write *text* to *path* (UTF-8 by default); returns the path.
+
+    ``newline`` has the meaning of :func:`open`: ``None`` translates ``"\\n"`` to the platform
+    line separator, ``""`` writes the text exactly as given.
+    """
+    target = Path(os.fspath(path))
+    with atomic_path(target) as tmp, open(tmp, "w", encoding=encoding, newline=newline) as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    return target
+
+
+def atomic_write_json(
+    path: str | os.PathLike[str],
+    obj: Any,
+    indent: int | None = 2,
+    sort_keys: bool = False,
+) -> Path:
+    """Atomically write *obj* as JSON (via :func:`to_jsonable`); returns the path.
+
+    Numpy scalars/arrays become Python numbers/lists and non-finite floats become ``null``, so
+    the output is strict JSON (``allow_nan=False``).  A trailing newline is added.
+    """
+    text = json.dumps(
+        to_jsonable(obj),
+        indent=indent,
+        sort_keys=sort_keys,
+        ensure_ascii=False,
+        allow_nan=False,
+        default=_json_default,
+    )
+    return atomic_write_text(path, text + "\n")
+
+
+# --------------------------------------------------------------------------------------------
+# JSON conversion
+# --------------------------------------------------------------------------------------------
+
+
+def _json_default(o: Any) -> Any:
+    converted = to_jsonable(o)
+    if converted is o:
+        raise TypeError(f"Object of type {type(o).__name__} is not JSON serializable")
+    return converted
+
+
+def _float(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Return a structure made only of ``dict``/``list``/``str``/``int``/``float``/``bool``/``None``.
+
+    * numpy arrays -> (nested) lists, numpy scalars -> Python scalars;
+    * NaN and ±inf (Python or numpy floats) -> ``None`` (JSON ``null``);
+    * mappings -> ``dict`` with ``str`` keys; tuples, lists, sets -> lists (sets sorted when
+      possible, for reproducible output);
+    * ``Path`` -> ``str``; ``datetime``/``date``/``time`` -> ISO 8601 strings;
+      ``Enum`` -> its value; dataclasses -> dicts; objects with ``model_dump()`` (pydantic v2)
+      -> their dump; pandas objects via ``to_dict``/``tolist``;
+    * complex numbers -> ``{"real": ..., "imag": ...}``.
+
+    Anything else is returned unchanged (``json.dumps`` will then reject it).
+    """
+    # Exact-type fast paths first (bool is an int subclass, keep it as bool).
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj
+    if isinstance(obj, int) and not _is_numpy(obj):
+        return int(obj)
+    if isinstance(obj, float) and not _is_numpy(obj):
+        return _float(float(obj))
+    if isinstance(obj, complex) and not _is_numpy(obj):
+        return {"real": _float(obj.real), "imag": _float(obj.imag)}
+
+    if _is_numpy(obj):
+        import numpy as np
+
+        if isinstance(obj, np.ndarray):
+            if obj.dtype.kind in "biuU":  # already plain Python values after tolist()
+                return obj.tolist()
+            return to_jsonable(obj.tolist())  # floats (NaN), complex, datetimes, objects
+        if isinstance(obj, np.generic):
+            return to_jsonable(obj.item())
+
+    if isinstance(obj, Mapping):
+        return {_key(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, (set, frozenset)):
+        items = [to_jsonable(v) for v in obj]
+        try:
+            return sorted(items)
+        except TypeError:
+            return items
+    if isinstance(obj, PurePath):
+        return str(obj)
+    if isinstance(obj, (_dt.datetime, _dt.date, _dt.time)):
+        return obj.isoformat()
+    if isinstance(obj, _dt.timedelta):
+        return obj.total_seconds()
+    if isinstance(obj, enum.Enum):
+        return to_jsonable(obj.value)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, (bytes, bytearray)):
+        return obj.decode("utf-8", errors="replace")
+
+    model_dump = getattr(obj, "model_dump", None)
+    if callable(model_dump) and not isinstance(obj, type):
+        return to_jsonable(model_dump())
+    module = type(obj).__module__ or ""
+    if module.startswith("pandas"):
+        if hasattr(obj, "isoformat"):  # Timestamp
+            return obj.isoformat()
+        to_dict = getattr(obj, "to_dict", None)
+        if callable(to_dict):
+            try:
+                return to_jsonable(to_dict(orient="list"))  # DataFrame
+            except TypeError:
+                return to_jsonable(to_dict())  # Series
+        tolist = getattr(obj, "tolist", None)
+        if callable(tolist):
+            return to_jsonable(tolist())
+    return obj
+
+
+def _is_numpy(obj: Any) -> bool:
+    return (type(obj).__module__ or "").startswith("numpy")
+
+
+def _key(k: Any) -> str:
+    if isinstance(k, str):
+        return k
+    v = to_jsonable(k)
+    if isinstance(v, str):
+        return v
+    if v is None or isinstance(v, bool):
+        return json.dumps(v)
+    return str(v)

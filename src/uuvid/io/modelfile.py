@@ -1,0 +1,279 @@
+"""Thruster model files (YAML or TOML), validated with pydantic, with exact error paths.
+
+A model file describes a chain of blocks in signal order::
+
+    name: laidani-a2212
+    input: command            # command | voltage | speed (default: what the first block takes)
+    blocks:
+      - type: esc
+        a_fwd: 0.04364
+        ...
+      - type: first_order_motor   # or UUV Simulator names: FirstOrder, Yoerger, Bessa, ...
+        gain: 131.3016
+        time_constant: 0.01021
+      - type: polynomial
+        forward: [1.3506e-15, ...]
+        reverse: [...]
+
+or names a preset: ``preset: auv2-tunnel``.  Every block parameter without a natural default must
+be given; an unknown key is an error; both name the path (``blocks[1].time_constant``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+import typing
+from pathlib import Path
+from typing import Any, Literal, Union
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
+
+from uuvid.io.atomic import atomic_write_text
+from uuvid.thruster.blocks import BLOCK_ALIASES, BLOCK_TYPES, Block, DCMotor, ParameterError
+from uuvid.thruster.chain import ThrusterChain
+
+#: Parameters that may be left out of a model file (they have a natural "absent" value).
+OPTIONAL = {
+    "esc": {"neutral", "deadzone_low", "deadzone_high", "saturation_low", "saturation_high",
+            "command_unit"},
+    "dc_motor": {"inductance", "propeller_inertia", "motor_viscous", "propeller_viscous",
+                 "coulomb_torque", "gear_ratio", "torque_coefficient"},
+    "tunnel_thruster": {"water_density", "profile_factor"},
+    "quadratic": {"torque_pos", "torque_neg", "k_neg"},
+    "load_cell": set(),
+}
+
+
+class ModelFileError(ValueError):
+    """A model file is unreadable or invalid; the message names the file and the key path."""
+
+
+def _loc(loc) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _annotation(tp):
+    if tp in (float, "float"):
+        return float
+    if tp in (str, "str"):
+        return str
+    origin = typing.get_origin(tp)
+    if tp == "tuple[float, ...]" or origin is tuple:
+        return list[float]
+    if tp in (DCMotor, "DCMotor"):
+        return _SCHEMAS["dc_motor"]
+    return Any
+
+
+_SCHEMAS: dict[str, type[BaseModel]] = {}
+
+
+def _schema_for(type_name: str, cls: type[Block]) -> type[BaseModel]:
+    fields_ = {}
+    hints = typing.get_type_hints(cls)
+    optional = OPTIONAL.get(type_name, set())
+    for f in dataclasses.fields(cls):
+        ann = _annotation(hints.get(f.name, f.type))
+        if f.name in optional:
+            if f.default is not dataclasses.MISSING:
+                default = f.default
+            else:
+                default = f.default_factory()  # type: ignore[misc]
+            fields_[f.name] = (ann, default)
+        else:
+            fields_[f.name] = (ann, ...)
+    fields_["type"] = (Literal[type_name], ...)
+    return create_model(f"{cls.__name__}Schema", __config__=ConfigDict(extra="forbid"), **fields_)
+
+
+# The nested motor is built first so the tunnel schema can refer to it.
+_SCHEMAS["dc_motor"] = _schema_for("dc_motor", BLOCK_TYPES["dc_motor"])
+for _name, _cls in BLOCK_TYPES.items():
+    if _name not in _SCHEMAS:
+        _SCHEMAS[_name] = _schema_for(_name, _cls)
+# The nested motor of a tunnel thruster carries no "type" key.
+_MOTOR_FIELDS = {k: (v.annotation, v.default if not v.is_required() else ...)
+                 for k, v in _SCHEMAS["dc_motor"].model_fields.items() if k != "type"}
+_NESTED_MOTOR = create_model("TunnelMotorSchema", __config__=ConfigDict(extra="forbid"),
+                             **_MOTOR_FIELDS)
+_tunnel_fields = {k: (v.annotation if k != "motor" else _NESTED_MOTOR,
+                      v.default if not v.is_required() else ...)
+                  for k, v in _SCHEMAS["tunnel_thruster"].model_fields.items()}
+_SCHEMAS["tunnel_thruster"] = create_model("TunnelThrusterSchema",
+                                           __config__=ConfigDict(extra="forbid"), **_tunnel_fields)
+
+BlockSchema = typing.Annotated[Union[tuple(_SCHEMAS.values())], Field(discriminator="type")]
+
+
+class ChainSchema(BaseModel):
+    """A thruster model file."""
+
+    model_config = ConfigDict(extra="forbid")
+    name: str = "thruster"
+    input: Literal["command", "voltage", "speed"] | None = None
+    description: str | None = None
+    source: str | None = None
+    blocks: list[BlockSchema]
+
+
+def _normalise(raw: Any, where: str) -> dict:
+    if not isinstance(raw, dict):
+        raise ModelFileError(f"{where}: expected a mapping at the top level, got {type(raw).__name__}")
+    raw = dict(raw)
+    blocks = raw.get("blocks")
+    if isinstance(blocks, list):
+        fixed = []
+        for i, b in enumerate(blocks):
+            if isinstance(b, dict) and "type" in b:
+                b = dict(b)
+                b["type"] = BLOCK_ALIASES.get(b["type"], b["type"])
+                if b["type"] not in BLOCK_TYPES:
+                    raise ModelFileError(
+                        f"{where}: blocks[{i}].type: unknown block type {b['type']!r}; known: "
+                        f"{sorted(BLOCK_TYPES)} (UUV Simulator names: {sorted(BLOCK_ALIASES)})")
+            fixed.append(b)
+        raw["blocks"] = fixed
+    return raw
+
+
+def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
+    """Validate a model description (as loaded from YAML/TOML) and build the chain."""
+    if isinstance(raw, dict) and "preset" in raw:
+        from uuvid.thruster.presets import preset_chain
+
+        extra = set(raw) - {"preset", "name"}
+        if extra:
+            raise ModelFileError(f"{where}: with 'preset', no other keys are allowed (got "
+                                 f"{sorted(extra)})")
+        try:
+            return preset_chain(raw["preset"])
+        except KeyError as e:
+            raise ModelFileError(f"{where}: preset: {e.args[0]}") from None
+    raw = _normalise(raw, where)
+    try:
+        spec = ChainSchema.model_validate(raw)
+    except ValidationError as e:
+        msgs = []
+        for err in e.errors():
+            loc = list(err["loc"])
+            # drop the discriminator tag pydantic inserts (blocks.1.first_order.gain)
+            if len(loc) >= 3 and loc[0] == "blocks" and isinstance(loc[1], int) and loc[2] in _SCHEMAS:
+                del loc[2]
+            kind = err["type"]
+            text = {"missing": "missing parameter", "extra_forbidden": "unknown key"}.get(kind,
+                                                                                       err["msg"])
+            msgs.append(f"{where}: {_loc(loc)}: {text}")
+        raise ModelFileError("\n".join(msgs)) from None
+    blocks = []
+    for i, b in enumerate(spec.blocks):
+        data = b.model_dump()
+        type_name = data.pop("type")
+        cls = BLOCK_TYPES[type_name]
+        try:
+            if type_name == "tunnel_thruster":
+                data["motor"] = DCMotor(**data["motor"])
+            for k, v in list(data.items()):
+                if isinstance(v, list):
+                    data[k] = tuple(v)
+            blocks.append(cls(**data))
+        except ParameterError as e:
+            raise ModelFileError(f"{where}: blocks[{i}] ({type_name}): {e}") from None
+    try:
+        return ThrusterChain(tuple(blocks), input_kind=spec.input, name=spec.name)
+    except ParameterError as e:
+        raise ModelFileError(f"{where}: {e}") from None
+
+
+def read_model_text(path: str | Path) -> dict:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise ModelFileError(f"{path}: cannot read model file ({e.strerror})") from None
+    try:
+        if path.suffix.lower() == ".toml":
+            return tomllib.loads(text)
+        return yaml.safe_load(text)
+    except (yaml.YAMLError, tomllib.TOMLDecodeError) as e:
+        raise ModelFileError(f"{path}: not valid {'TOML' if path.suffix == '.toml' else 'YAML'}: "
+                             f"{e}") from None
+
+
+def load_chain(path: str | Path) -> ThrusterChain:
+    """Load and validate a thruster model file (``.yaml``/``.yml``/``.toml``)."""
+    return chain_from_dict(read_model_text(path), where=str(path))
+
+
+def _clean(v):
+    if isinstance(v, float) and math.isinf(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items() if _clean(x) is not None or x is None}
+    if isinstance(v, (list, tuple)):
+        return [_clean(x) for x in v]
+    return v
+
+
+def chain_to_dict(chain: ThrusterChain) -> dict:
+    """Plain-data form of a chain, loadable again by :func:`chain_from_dict`."""
+    blocks = []
+    for b in chain.blocks:
+        d = b.to_dict()
+        if "motor" in d and isinstance(d["motor"], DCMotor):
+            m = d["motor"].to_dict()
+            m.pop("type")
+            d["motor"] = m
+        # infinite saturation limits are the defaults; leave them out
+        d = {k: v for k, v in d.items() if not (isinstance(v, float) and math.isinf(v))}
+        blocks.append(d)
+    return {"name": chain.name, "input": chain.input_kind, "blocks": blocks}
+
+
+def save_chain(chain: ThrusterChain, path: str | Path) -> Path:
+    """Write a chain as a YAML (or TOML by suffix) model file, atomically."""
+    path = Path(path)
+    data = chain_to_dict(chain)
+    if path.suffix.lower() == ".toml":
+        text = _to_toml(data)
+    else:
+        text = yaml.safe_dump(data, sort_keys=False)
+    atomic_write_text(path, text)
+    return path
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def _to_toml(data: dict) -> str:
+    lines = [f"name = {_toml_value(data['name'])}", f"input = {_toml_value(data['input'])}", ""]
+    for b in data["blocks"]:
+        lines.append("[[blocks]]")
+        nested = {}
+        for k, v in b.items():
+            if isinstance(v, dict):
+                nested[k] = v
+            else:
+                lines.append(f"{k} = {_toml_value(v)}")
+        for k, sub in nested.items():
+            lines.append(f"[blocks.{k}]")
+            lines.extend(f"{kk} = {_toml_value(vv)}" for kk, vv in sub.items())
+        lines.append("")
+    return "\n".join(lines)

@@ -1,0 +1,166 @@
+"""Progress bars on stderr (thin wrapper over :mod:`rich.progress`).
+
+Bars are drawn on **stderr** so stdout stays clean for data and piping.  They switch themselves
+off when stderr is not a terminal (CI, redirected logs, pytest capture) and whenever the
+environment variable ``UUVID_NO_PROGRESS`` is set to ``1`` (or ``true``/``yes``/``on``).
+
+Two forms::
+
+    for case in progress(cases, description="simulating"):
+        ...
+
+    with progress_task("fitting", total=n_iter) as task:
+        for _ in range(n_iter):
+            ...
+            task.advance()
+
+``disable``: ``None`` (default) decides automatically as above; ``True`` always disables;
+``False`` draws even when stderr is not a terminal.  ``UUVID_NO_PROGRESS=1`` wins over
+everything: it is the user's global off switch.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterable, Iterator
+from types import TracebackType
+from typing import Any, Self, TypeVar
+
+__all__ = ["ProgressTask", "progress", "progress_disabled", "progress_task"]
+
+T = TypeVar("T")
+
+_ENV_VAR = "UUVID_NO_PROGRESS"
+_TRUTHY = {"1", "true", "yes", "on"}
+
+
+def progress_disabled(disable: bool | None = None) -> bool:
+    """Resolve the *disable* argument: env var, explicit choice, then "is stderr a TTY?"."""
+    if os.environ.get(_ENV_VAR, "").strip().lower() in _TRUTHY:
+        return True
+    if disable is not None:
+        return bool(disable)
+    stream = sys.stderr
+    try:
+        return stream is None or not stream.isatty()
+    except (AttributeError, ValueError):  # no isatty / closed stream
+        return True
+
+
+def _make_progress() -> Any:
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+    )
+
+
+class ProgressTask:
+    """Handle returned by :func:`progress_task`; a no-op (that still counts) when disabled."""
+
+    def __init__(self, description: str, total: float | None, disable: bool | None) -> None:
+        self.description = description
+        self.total = total
+        self.completed: float = 0
+        self.disabled = progress_disabled(disable)
+        self._progress: Any = None
+        self._task_id: Any = None
+
+    def __enter__(self) -> Self:
+        if not self.disabled:
+            self._progress = _make_progress()
+            self._progress.start()
+            self._task_id = self._progress.add_task(self.description, total=self.total)
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._progress is not None:
+            self._progress.stop()
+            self._progress = None
+
+    def advance(self, n: float = 1) -> None:
+        """Mark *n* more units of work as done."""
+        self.completed += n
+        if self._progress is not None:
+            self._progress.advance(self._task_id, n)
+
+    def update(
+        self,
+        *,
+        description: str | None = None,
+        total: float | None = None,
+        completed: float | None = None,
+    ) -> None:
+        """Change the description, the total or the absolute completed count."""
+        if description is not None:
+            self.description = description
+        if total is not None:
+            self.total = total
+        if completed is not None:
+            self.completed = completed
+        if self._progress is not None:
+            self._progress.update(
+                self._task_id, description=description, total=total, completed=completed
+            )
+
+
+def progress_task(
+    description: str = "", total: float | None = None, disable: bool | None = None
+) -> ProgressTask:
+    """Context manager for a manually advanced bar: ``with progress_task(...) as t: t.advance()``.
+
+    ``total=None`` draws an indeterminate bar.
+    """
+    return ProgressTask(description, total, disable)
+
+
+def progress(
+    iterable: Iterable[T] | None = None,
+    total: float | None = None,
+    description: str = "",
+    disable: bool | None = None,
+) -> Any:
+    """Iterate over *iterable* with a progress bar on stderr, yielding every item unchanged.
+
+    *total* defaults to ``len(iterable)`` when available.  With ``iterable=None`` this returns
+    :func:`progress_task` ``(description, total, disable)`` for use in a ``with`` statement.
+    """
+    if iterable is None:
+        return progress_task(description, total, disable)
+    return _track(iterable, total, description, disable)
+
+
+def _track(
+    iterable: Iterable[T], total: float | None, description: str, disable: bool | None
+) -> Iterator[T]:
+    if total is None:
+        try:
+            total = len(iterable)  # type: ignore[arg-type]
+        except TypeError:
+            total = None
+    with ProgressTask(description, total, disable) as task:
+        if task.disabled:
+            yield from iterable
+            return
+        for item in iterable:
+            yield item
+            task.advance()

@@ -1,0 +1,159 @@
+"""Tests for uuvid.io.atomic."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uuvid.io.atomic import (
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_json,
+    atomic_write_text,
+    to_jsonable,
+)
+
+
+def _leftovers(directory: Path, keep: set[str]) -> list[str]:
+    return sorted(p.name for p in directory.iterdir() if p.name not in keep)
+
+
+def test_write_text_creates_parents_and_roundtrips(tmp_path: Path) -> None:
+    target = tmp_path / "a" / "b" / "note.txt"
+    out = atomic_write_text(target, "héllo\nworld\n")
+    assert out == target
+    assert target.read_text(encoding="utf-8") == "héllo\nworld\n"
+    assert _leftovers(target.parent, {"note.txt"}) == []
+
+
+def test_write_bytes_overwrites(tmp_path: Path) -> None:
+    target = tmp_path / "blob.bin"
+    atomic_write_bytes(target, b"old")
+    atomic_write_bytes(target, b"\x00new\xff")
+    assert target.read_bytes() == b"\x00new\xff"
+    assert _leftovers(tmp_path, {"blob.bin"}) == []
+
+
+def test_failed_block_keeps_old_file_and_removes_temp(tmp_path: Path) -> None:
+    target = tmp_path / "data.csv"
+    target.write_text("old content\n")
+    seen: list[Path] = []
+    with pytest.raises(RuntimeError, match="boom"), atomic_path(target) as tmp:
+        seen.append(tmp)
+        assert tmp.parent == target.parent
+        assert tmp != target
+        tmp.write_text("partial new content")
+        raise RuntimeError("boom")
+    assert target.read_text() == "old content\n"
+    assert not seen[0].exists()
+    assert _leftovers(tmp_path, {"data.csv"}) == []
+
+
+def test_failed_block_without_existing_target_leaves_nothing(tmp_path: Path) -> None:
+    target = tmp_path / "sub" / "new.txt"
+    with pytest.raises(ValueError), atomic_path(target) as tmp:
+        tmp.write_text("x")
+        raise ValueError
+    assert not target.exists()
+    assert list(target.parent.iterdir()) == []
+
+
+def test_atomic_path_keeps_extension_for_format_inference(tmp_path: Path) -> None:
+    target = tmp_path / "table.csv.gz"
+    with atomic_path(target) as tmp:
+        assert tmp.name.endswith("table.csv.gz")
+        assert tmp.suffix == ".gz"
+        tmp.write_bytes(b"payload")
+    assert target.read_bytes() == b"payload"
+
+
+def test_atomic_path_with_pandas_to_csv(tmp_path: Path) -> None:
+    pd = pytest.importorskip("pandas")
+    target = tmp_path / "frame.csv"
+    df = pd.DataFrame({"t": [0.0, 0.1], "u": [1.0, 2.0]})
+    with atomic_path(target) as tmp:
+        df.to_csv(tmp, index=False)
+    assert target.read_text().splitlines() == ["t,u", "0.0,1.0", "0.1,2.0"]
+    assert _leftovers(tmp_path, {"frame.csv"}) == []
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+def test_new_file_gets_umask_mode_not_0600(tmp_path: Path) -> None:
+    target = tmp_path / "perm.txt"
+    atomic_write_text(target, "x")
+    old = os.umask(0o022)
+    os.umask(old)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~old
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+def test_existing_file_mode_is_preserved(tmp_path: Path) -> None:
+    target = tmp_path / "script.sh"
+    target.write_text("old")
+    target.chmod(0o750)
+    atomic_write_text(target, "new")
+    assert target.stat().st_mode & 0o777 == 0o750
+
+
+def test_to_jsonable_numpy_and_nan() -> None:
+    obj = {
+        "arr": np.array([[1.0, np.nan], [np.inf, 2.5]]),
+        "ints": np.arange(3, dtype=np.int32),
+        "f32": np.float32(0.5),
+        "i64": np.int64(7),
+        "b": np.bool_(True),
+        "nan": float("nan"),
+        "tuple": (1, np.float64(-np.inf)),
+        "path": Path("x") / "y",
+        3: "int key",
+        "scalar_arr": np.array(4.0),
+    }
+    out = to_jsonable(obj)
+    assert out == {
+        "arr": [[1.0, None], [None, 2.5]],
+        "ints": [0, 1, 2],
+        "f32": 0.5,
+        "i64": 7,
+        "b": True,
+        "nan": None,
+        "tuple": [1, None],
+        "path": str(Path("x") / "y"),
+        "3": "int key",
+        "scalar_arr": 4.0,
+    }
+    assert type(out["i64"]) is int
+    assert type(out["f32"]) is float
+    assert type(out["b"]) is bool
+    json.dumps(out, allow_nan=False)  # strict JSON
+
+
+def test_atomic_write_json_numpy_nan(tmp_path: Path) -> None:
+    target = tmp_path / "out" / "result.json"
+    atomic_write_json(target, {"x": np.linspace(0, 1, 3), "bad": np.float64("nan"), "n": 2})
+    text = target.read_text()
+    assert "NaN" not in text
+    assert text.endswith("\n")
+    assert "\n  " in text  # indent=2
+    assert json.loads(text) == {"x": [0.0, 0.5, 1.0], "bad": None, "n": 2}
+
+
+def test_atomic_write_json_rejects_unknown_types_and_keeps_old(tmp_path: Path) -> None:
+    target = tmp_path / "r.json"
+    atomic_write_json(target, [1, 2])
+    with pytest.raises(TypeError):
+        atomic_write_json(target, {"obj": object()})
+    assert json.loads(target.read_text()) == [1, 2]
+    assert _leftovers(tmp_path, {"r.json"}) == []
+
+
+def test_to_jsonable_plain_values_untouched() -> None:
+    assert to_jsonable(1.5) == 1.5
+    assert to_jsonable(True) is True
+    assert to_jsonable(None) is None
+    assert to_jsonable("s") == "s"
+    assert to_jsonable([1, [2.0, math.nan]]) == [1, [2.0, None]]

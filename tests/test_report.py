@@ -1,0 +1,198 @@
+"""Tests for uuvid.report (plots, HTML report, progress)."""
+
+from __future__ import annotations
+
+import base64
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uuvid.report.html import Report
+from uuvid.report.plots import new_figure, plot_time_series, save_figure
+from uuvid.report.progress import progress, progress_disabled, progress_task
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+# ----------------------------------------------------------------------------- plots
+
+
+def _series() -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    t = np.linspace(0.0, 2.0, 201)
+    return t, {
+        "u": np.sin(t),
+        "u_ref": np.ones_like(t),
+        "tau": np.cos(t),
+        "rpm": np.column_stack([t, 2 * t]),
+    }
+
+
+def test_save_figure_writes_png(tmp_path: Path) -> None:
+    fig, ax = new_figure()
+    ax.plot([0, 1], [0, 1])
+    out = save_figure(fig, tmp_path / "figs" / "line.png", dpi=50)
+    assert out == tmp_path / "figs" / "line.png"
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+    assert [p.name for p in out.parent.iterdir()] == ["line.png"]
+
+
+def test_new_figure_axes_shape() -> None:
+    _, axes = new_figure(2, 3, sharex=True)
+    assert axes.shape == (2, 3)
+
+
+def test_plot_time_series_groups(tmp_path: Path) -> None:
+    t, ch = _series()
+    fig = plot_time_series(
+        t,
+        ch,
+        title="step <test>",
+        ylabel_by_channel={"u": "m/s", "u_ref": "m/s", "tau": "N"},
+        axes_groups=[["u", "u_ref"], ["tau"], ["rpm"]],
+    )
+    axes = fig.get_axes()
+    assert len(axes) == 3
+    assert axes[0].get_ylabel() == "m/s"
+    assert axes[1].get_ylabel() == "N"
+    assert axes[2].get_ylabel() == "rpm"
+    assert len(axes[0].get_lines()) == 2
+    assert len(axes[2].get_lines()) == 2  # 2-D channel -> one line per column
+    assert axes[0].get_shared_x_axes().joined(axes[0], axes[2])
+    out = save_figure(fig, tmp_path / "ts.png", dpi=40)
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_plot_time_series_default_one_axis_per_channel() -> None:
+    t, ch = _series()
+    fig = plot_time_series(t, {"u": ch["u"], "tau": ch["tau"]})
+    assert len(fig.get_axes()) == 2
+
+
+def test_plot_time_series_validates() -> None:
+    t, ch = _series()
+    with pytest.raises(KeyError):
+        plot_time_series(t, ch, axes_groups=[["nope"]])
+    with pytest.raises(ValueError):
+        plot_time_series(t, {"bad": np.zeros(5)})
+
+
+def test_import_is_headless_and_leaves_backend_alone() -> None:
+    code = (
+        "import os; os.environ.pop('DISPLAY', None); os.environ.pop('WAYLAND_DISPLAY', None)\n"
+        "import sys, uuvid, uuvid.report.plots as p, uuvid.report.html\n"
+        "assert 'matplotlib.pyplot' not in sys.modules\n"
+        "fig = p.plot_time_series([0, 1], {'a': [0, 1]})\n"
+        "import io; b = io.BytesIO(); fig.savefig(b, format='png'); assert b.getvalue()[:4] == b'\\x89PNG'\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+
+
+# ----------------------------------------------------------------------------- html
+
+
+def test_report_html_self_contained(tmp_path: Path) -> None:
+    fig, ax = new_figure(figsize=(2, 1.5))
+    ax.plot([0, 1], [1, 0])
+    png = save_figure(fig, tmp_path / "p.png", dpi=30)
+
+    fig2, ax2 = new_figure(figsize=(2, 1.5))
+    ax2.plot([0, 1], [0, 1])
+
+    rep = Report("Fit <T200> & co")
+    rep.add_heading("Section <1>")
+    rep.add_paragraph('Tom & "Jerry" <script>alert(1)</script>')
+    rep.add_table(
+        [
+            {"name": "K<t>", "value": 0.012345678, "n": np.int64(3)},
+            {"name": "Kq", "value": np.float64("nan"), "extra": True},
+        ],
+        caption="estimates & stats",
+    )
+    rep.add_figure(png, caption="from <file>")
+    rep.add_figure(fig2, caption="in memory")
+    rep.add_json({"a": np.array([1.0, np.nan]), "s": "<x>"}, caption="raw")
+    out = rep.write(tmp_path / "report")
+
+    assert out == tmp_path / "report" / "index.html"
+    html = out.read_text(encoding="utf-8")
+    assert html.startswith("<!DOCTYPE html>")
+
+    # text is escaped
+    assert "<script>" not in html
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    assert "Tom &amp; &quot;Jerry&quot;" in html
+    assert "Fit &lt;T200&gt; &amp; co" in html
+    assert "K&lt;t&gt;" in html
+    assert "estimates &amp; stats" in html
+    assert "&quot;&lt;x&gt;&quot;" in html
+
+    # table formatting
+    assert ">0.01235<" in html
+    assert ">NaN<" in html
+    assert ">3<" in html
+    assert "<th>extra</th>" in html
+
+    # JSON: NaN -> null
+    assert "null" in html
+
+    # images embedded as base64 PNG data URIs (the file one byte-identical)
+    uris = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
+    assert len(uris) == 2
+    assert base64.b64decode(uris[0]) == png.read_bytes()
+    assert base64.b64decode(uris[1])[:8] == PNG_SIGNATURE
+
+    # no external resources
+    assert not re.search(r"https?://", html)
+    assert "<link" not in html
+    assert "<script" not in html
+
+
+def test_report_table_columns_subset() -> None:
+    html = Report("t").add_table([{"a": 1, "b": 2}], columns=["b"]).to_html()
+    assert "<th>b</th>" in html and "<th>a</th>" not in html
+
+
+# ----------------------------------------------------------------------------- progress
+
+
+def test_progress_disabled_yields_all_items() -> None:
+    items = list(range(10))
+    assert list(progress(items, description="x", disable=True)) == items
+    assert list(progress(iter(items), disable=True)) == items  # no len()
+
+
+def test_progress_env_var_disables(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("UUVID_NO_PROGRESS", "1")
+    assert progress_disabled(None)
+    assert progress_disabled(False)  # env var is the global off switch
+    assert list(progress(range(5))) == [0, 1, 2, 3, 4]
+
+
+def test_progress_auto_disabled_when_stderr_not_tty(monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    assert progress_disabled(None)
+    assert not progress_disabled(False)
+
+
+def test_progress_enabled_still_yields_all(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    assert list(progress(range(7), description="on", disable=False)) == list(range(7))
+
+
+def test_progress_task_counts() -> None:
+    with progress_task("work", total=3, disable=True) as task:
+        for _ in range(3):
+            task.advance()
+        task.advance(2)
+    assert task.completed == 5
+    with progress(total=2, description="ctx", disable=False) as task2:
+        task2.advance()
+        task2.update(description="ctx2")
+    assert task2.completed == 1
