@@ -1,0 +1,271 @@
+"""McLean (1991), *Dynamic performance of small diameter tunnel thrusters* — reproduced.
+
+Client of the public API only: the AUV II preset (:mod:`uuvid.thruster.presets`), the chain
+simulator, McLean's step metrics and the load-matching module.
+
+* ``table1()`` — Table I, eleven simulated step responses (24 V unless named), in the thesis's
+  units next to its printed values.
+* ``load_matching()`` — App. A operating points for the Pittman 9514 and 14202 per gear ratio.
+* ``pulsing()`` — the thesis's open question (Ch. V): does square or sawtooth voltage pulsing give
+  more mean thrust than holding the same mean voltage?  Answered by simulation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from uuvid import units as U
+from uuvid.simulate.signals import Sawtooth, Square
+from uuvid.thruster import load_matching as lm
+from uuvid.thruster.presets import MCLEAN, auv2_rig_chain
+
+#: Table I as printed: peak output thrust lb, max true thrust lb, steady thrust lb, time constant s,
+#: steady propeller speed rpm.
+TABLE1_THESIS = {
+    "baseline": (5.40, 3.80, 0.50, 0.125, 925),
+    "L=20in": (5.80, 3.80, 0.50, 0.230, 925),
+    "L=5in": (4.40, 3.60, 0.50, 0.060, 925),
+    "Ka=1.0": (5.80, 3.80, 0.50, 0.195, 925),
+    "Ka=0.5": (5.60, 3.80, 0.50, 0.140, 925),
+    "Pe=0.0270": (8.00, 7.00, 0.50, 0.075, 2000),
+    "Pe=0.0721": (4.30, 2.90, 0.40, 0.145, 640),
+    "Pe=0": (0.0, 0.0, 0.0, 0.025, 3000),
+    "coulomb": (4.30, 3.00, 0.40, 0.130, 800),
+    "baseline-16V": (3.60, 2.50, 0.33, 0.150, 725),
+    "baseline-8V": (1.85, 1.25, 0.15, 0.200, 480),
+}
+TABLE1_FIELDS = ("peak_output_lbf", "max_true_lbf", "steady_lbf", "time_constant_s", "steady_rpm")
+
+#: Simulation length of the thesis's runs (1.333 s at 24 V).
+STEP_DURATION = 1.333
+
+
+@dataclass(frozen=True)
+class Case:
+    """One Table I case: thruster overrides (SI) and the step voltage."""
+
+    name: str
+    overrides: dict = field(default_factory=dict)
+    voltage: float = MCLEAN.supply_voltage
+
+
+def table1_cases() -> list[Case]:
+    """Table I's eleven cases in the thesis's order (thesis units converted here)."""
+    return [
+        Case("baseline"),
+        Case("L=20in", {"tunnel_length": U.inch(20.0)}),
+        Case("L=5in", {"tunnel_length": U.inch(5.0)}),
+        Case("Ka=1.0", {"added_mass_coefficient": 1.0}),
+        Case("Ka=0.5", {"added_mass_coefficient": 0.5}),
+        Case("Pe=0.0270", {"effective_pitch": U.ft_per_rad(0.0270)}),
+        Case("Pe=0.0721", {"effective_pitch": U.ft_per_rad(0.0721)}),
+        Case("Pe=0", {"effective_pitch": 0.0}),
+        Case("coulomb", {"coulomb": True}),
+        Case("baseline-16V", voltage=16.0),
+        Case("baseline-8V", voltage=8.0),
+    ]
+
+
+def simulate_case(case: Case, duration: float = STEP_DURATION, dt: float = 1e-3, substeps: int = 4):
+    """Voltage step on the rig chain (tunnel thruster → load cell)."""
+    chain = auv2_rig_chain(**case.overrides)
+    return chain.simulate(case.voltage, duration, dt=dt, substeps=substeps)
+
+
+def table1_row(case: Case, response) -> dict:
+    m = response.metrics()
+    row = {
+        "case": case.name,
+        "voltage_V": case.voltage,
+        "peak_output_lbf": U.to_lbf(m.peak_output_thrust),
+        "max_true_lbf": U.to_lbf(m.max_true_thrust),
+        "steady_lbf": U.to_lbf(m.steady_thrust),
+        "time_constant_s": m.time_constant_speed,
+        "steady_rpm": U.to_rpm(m.steady_speed),
+    }
+    thesis = dict(zip(TABLE1_FIELDS, TABLE1_THESIS[case.name]))
+    row["thesis"] = thesis
+    row["rel_error"] = {
+        k: (abs(row[k] - v) / abs(v) if v else abs(row[k])) for k, v in thesis.items()
+    }
+    return row
+
+
+def table1(progress=None) -> tuple[list[dict], dict]:
+    """Table I rows (thesis units) and the responses by case name."""
+    rows, responses = [], {}
+    for case in table1_cases():
+        r = simulate_case(case)
+        rows.append(table1_row(case, r))
+        responses[case.name] = r
+        if progress is not None:
+            progress()
+    return rows, responses
+
+
+def load_matching() -> list[dict]:
+    """App. A: rows ``{motor, gear_ratio, prop_rpm, thrust_lbf}`` (9514 at 2.5, 3.67, 5, 10; 14202
+    at 2.5, 3.67, 5), with the thesis's conclusions as booleans."""
+    rows = lm.load_matching_table()
+    return rows
+
+
+def load_matching_conclusions(rows: list[dict]) -> dict:
+    def thrust(motor, ratio):
+        for r in rows:
+            if str(r["motor"]).endswith(motor) and abs(r["gear_ratio"] - ratio) < 1e-9:
+                return r["thrust_lbf"]
+        raise KeyError((motor, ratio))
+
+    t95_25, t95_10 = thrust("9514", 2.5), thrust("9514", 10.0)
+    t142_25, t142_5 = thrust("14202", 2.5), thrust("14202", 5.0)
+    return {
+        "9514_at_2.5_under_1lb": t95_25 < 0.8,
+        "9514_at_10_near_0.9lb": 0.85 <= t95_10 <= 1.0,
+        "14202_at_2.5_near_1.1lb": 1.05 <= t142_25 <= 1.2,
+        "14202_5_over_2.5_gain": t142_5 / t142_25 - 1.0,
+    }
+
+
+def pulsing(frequencies_hz=(0.5, 1.0, 2.0, 5.0, 10.0), voltage: float = MCLEAN.supply_voltage,
+            duration: float = 6.0, settle: float = 2.0, dt: float = 5e-4) -> dict:
+    """Mean thrust of square (0↔V, 50 % duty) and sawtooth (0→V) voltage pulsing.
+
+    Compared with the steady thrust at the same mean voltage (V/2) and at full voltage.  The mean
+    is taken over whole periods after ``settle`` seconds.
+    """
+    chain = auv2_rig_chain()
+    ss_mean = chain.blocks[0].steady_state(voltage / 2.0)["thrust"]
+    ss_full = chain.blocks[0].steady_state(voltage)["thrust"]
+    rows = []
+    for f in frequencies_hz:
+        period = 1.0 / f
+        n_periods = max(1, int((duration - settle) / period))
+        t_end = settle + n_periods * period
+        for kind, sig in (("square", Square(low=0.0, high=voltage, period=period)),
+                          ("sawtooth", Sawtooth(low=0.0, high=voltage, period=period))):
+            r = chain.simulate(sig, t_end, dt=dt, substeps=2)
+            mask = r.t >= t_end - n_periods * period - 1e-12
+            mean_thrust = float(np.mean(r["thrust"][mask][:-1]))
+            mean_measured = float(np.mean(r["measured_thrust"][mask][:-1]))
+            rows.append({
+                "waveform": kind, "frequency_hz": f, "mean_voltage_V": voltage / 2.0,
+                "mean_thrust_lbf": U.to_lbf(mean_thrust),
+                "mean_measured_lbf": U.to_lbf(mean_measured),
+                "ratio_to_steady_same_mean": mean_thrust / ss_mean,
+                "ratio_to_steady_full": mean_thrust / ss_full,
+            })
+    best = max(rows, key=lambda r: r["ratio_to_steady_same_mean"])
+    fmin, fmax = min(frequencies_hz), max(frequencies_hz)
+
+    def gain(kind, f):
+        return next(r["ratio_to_steady_same_mean"] for r in rows
+                    if r["waveform"] == kind and r["frequency_hz"] == f) - 1.0
+
+    answer = (
+        f"Against holding the same mean voltage ({voltage / 2:g} V): square pulsing 0↔{voltage:g} V "
+        f"gives {gain('square', fmin):+.1%} mean thrust at {fmin:g} Hz and "
+        f"{gain('square', fmax):+.1%} at {fmax:g} Hz; sawtooth gives {gain('sawtooth', fmin):+.1%} "
+        f"and {gain('sawtooth', fmax):+.1%}. Steady thrust grows faster than linearly with voltage, "
+        f"so slow pulsing gains a little; faster pulsing is averaged away by the motor and the "
+        f"tunnel's water inertia. The best case ({best['waveform']}, {best['frequency_hz']:g} Hz) "
+        f"reaches {best['ratio_to_steady_full']:.0%} of the steady thrust at full voltage: pulsing "
+        f"never beats running at full voltage."
+    )
+    return {
+        "steady_at_mean_voltage_lbf": U.to_lbf(ss_mean),
+        "steady_at_full_voltage_lbf": U.to_lbf(ss_full),
+        "rows": rows,
+        "answer": answer,
+        "beats_full_voltage": any(r["ratio_to_steady_full"] > 1 for r in rows),
+    }
+
+
+def reproduce(out_dir: str | Path | None = None, progress=None) -> dict:
+    """Everything this paper prints that the models reproduce, as one JSON-able document."""
+    rows, responses = table1(progress=progress)
+    lm_rows = load_matching()
+    result = {
+        "paper": "McLean 1991, NPS thesis: dynamic performance of small diameter tunnel thrusters",
+        "units": {"thrust": "lbf", "time": "s", "speed": "rpm"},
+        "parameters": {"energy_correction_alpha_o_minus_alpha_i": auv2_rig_chain().blocks[0].energy_correction,
+                       "momentum_correction_beta_o_minus_beta_i": auv2_rig_chain().blocks[0].momentum_correction},
+        "table1": rows,
+        "load_matching": lm_rows,
+        "load_matching_conclusions": load_matching_conclusions(lm_rows),
+        "pulsing": pulsing(),
+    }
+    if out_dir is not None:
+        write_outputs(result, responses, Path(out_dir))
+    return result
+
+
+def write_outputs(result: dict, responses: dict, out: Path) -> Path:
+    """Step-response plots (one per Table I case), the tables as CSV/JSON and an index.html."""
+    import pandas as pd
+
+    from uuvid.io.atomic import atomic_path, atomic_write_json
+    from uuvid.report.html import Report
+    from uuvid.report.plots import new_figure, save_figure
+
+    out.mkdir(parents=True, exist_ok=True)
+    report = Report("McLean (1991) — tunnel thruster step responses, reproduced")
+    report.add_paragraph("Voltage step on the AUV II tunnel thruster (Pittman 9514, 2.5:1 gear, "
+                         "3-in Kaplan propeller) seen through the rig's load cell. Thesis values "
+                         "in brackets.")
+    table_rows = []
+    for row in result["table1"]:
+        tr = {"case": row["case"]}
+        for k in TABLE1_FIELDS:
+            tr[k] = f"{row[k]:.3g} [{row['thesis'][k]:g}]"
+        table_rows.append(tr)
+    report.add_table(table_rows, caption="Table I — simulation results")
+    for name, r in responses.items():
+        fig, axes = new_figure(2, 1, sharex=True, figsize=(7, 5))
+        axes[0].plot(r.t, U.to_lbf(r["thrust"]), label="true thrust")
+        axes[0].plot(r.t, U.to_lbf(r["measured_thrust"]), label="measured (load cell)")
+        axes[0].set_ylabel("thrust [lb]")
+        axes[0].legend()
+        axes[0].set_title(f"Table I case {name}")
+        axes[1].plot(r.t, U.to_rpm(r["prop_speed"]), color="C2")
+        axes[1].set_ylabel("propeller speed [rpm]")
+        axes[1].set_xlabel("t [s]")
+        path = save_figure(fig, out / f"step_{name.replace('=', '_').replace('.', 'p')}.png")
+        report.add_figure(path, caption=f"{name}: true and measured thrust, propeller speed")
+        with atomic_path(out / f"step_{name.replace('=', '_').replace('.', 'p')}.csv") as tmp:
+            r.to_frame().to_csv(tmp, index=False)
+    report.add_table(result["load_matching"], caption="App. A — load matching (continuous duty)")
+    fig, axes = new_figure(1, 2, figsize=(11, 4.5))
+    lm.plot_load_matching(lm.PITTMAN_9514, (2.5, 3.67, 5.0, 10.0), ax=axes[0])
+    lm.plot_load_matching(lm.PITTMAN_14202, (2.5, 3.67, 5.0), ax=axes[1])
+    report.add_figure(save_figure(fig, out / "load_matching.png"), caption="Load matching")
+    puls = result["pulsing"]
+    report.add_paragraph(puls["answer"])
+    report.add_table(puls["rows"], caption="Voltage pulsing vs steady voltage")
+    fig, ax = new_figure(1, 1, figsize=(7, 4))
+    for kind in ("square", "sawtooth"):
+        rr = [r for r in puls["rows"] if r["waveform"] == kind]
+        ax.plot([r["frequency_hz"] for r in rr], [r["mean_thrust_lbf"] for r in rr], "o-", label=kind)
+    ax.axhline(puls["steady_at_mean_voltage_lbf"], ls="--", color="k", label="steady, same mean V")
+    ax.axhline(puls["steady_at_full_voltage_lbf"], ls=":", color="k", label="steady, full V")
+    ax.set_xscale("log")
+    ax.set_xlabel("pulsing frequency [Hz]")
+    ax.set_ylabel("mean thrust [lb]")
+    ax.legend()
+    report.add_figure(save_figure(fig, out / "pulsing.png"), caption="Pulsing (open question, Ch. V)")
+    pd.DataFrame([{**{k: v for k, v in r.items() if k not in ("thesis", "rel_error")},
+                   **{f"thesis_{k}": v for k, v in r["thesis"].items()}} for r in result["table1"]]
+                 ).pipe(lambda df: _csv(df, out / "table1.csv"))
+    _csv(pd.DataFrame(result["load_matching"]), out / "load_matching.csv")
+    atomic_write_json(out / "mclean1991.json", result)
+    return report.write(out)
+
+
+def _csv(df, path: Path) -> None:
+    from uuvid.io.atomic import atomic_path
+
+    with atomic_path(path) as tmp:
+        df.to_csv(tmp, index=False)
