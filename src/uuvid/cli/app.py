@@ -1,0 +1,268 @@
+"""The ``uuvid`` command: demo, reproduce, thruster, bench.
+
+Data goes to stdout (``--json`` prints exactly one JSON document); progress and messages go to
+stderr.  Errors in user input exit with status 2 and a one-line message naming what is wrong.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Model, simulate and identify underwater vehicles and their thrusters.")
+reproduce_app = typer.Typer(no_args_is_help=True, help="Reproduce a paper's printed numbers.")
+thruster_app = typer.Typer(no_args_is_help=True, help="Thruster models: show, simulate, export.")
+app.add_typer(reproduce_app, name="reproduce")
+app.add_typer(thruster_app, name="thruster")
+
+out_console = Console()
+err_console = Console(stderr=True)
+
+
+def _print_json(obj) -> None:
+    from uuvid.io.atomic import to_jsonable
+
+    sys.stdout.write(json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
+    sys.stdout.flush()
+
+
+def _fail(msg: str) -> None:
+    err_console.print(f"[bold red]error:[/] {msg}", highlight=False)
+    raise typer.Exit(code=2)
+
+
+def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}") -> Table:
+    t = Table(title=title)
+    for c in columns:
+        t.add_column(c)
+    for r in rows:
+        t.add_row(*[fmt.format(r[c]) if isinstance(r[c], float) else str(r[c]) for c in columns])
+    return t
+
+
+# ------------------------------------------------------------------------------------ reproduce
+@reproduce_app.command("mclean1991")
+def reproduce_mclean(
+    json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write plots, tables and index.html here."),
+):
+    """McLean (1991): Table I, App. A load matching, voltage pulsing."""
+    from uuvid.papers import mclean1991
+    from uuvid.report.progress import progress_task
+
+    with progress_task("McLean 1991: Table I cases", total=11) as task:
+        result = mclean1991.reproduce(out_dir=out, progress=task.advance)
+    if json_out:
+        _print_json(result)
+        return
+    _show_mclean(result)
+    if out:
+        err_console.print(f"report: {out / 'index.html'}")
+
+
+def _show_mclean(result: dict) -> None:
+    from uuvid.papers.mclean1991 import TABLE1_FIELDS
+
+    t = Table(title="McLean 1991, Table I — ours [thesis]")
+    t.add_column("case")
+    for f in TABLE1_FIELDS:
+        t.add_column(f)
+    for r in result["table1"]:
+        t.add_row(r["case"], *[f"{r[f]:.3g} [{r['thesis'][f]:g}]" for f in TABLE1_FIELDS])
+    out_console.print(t)
+    out_console.print(_table("App. A — load matching", result["load_matching"],
+                             ["motor", "gear_ratio", "prop_rpm", "thrust_lbf"]))
+    out_console.print(result["pulsing"]["answer"])
+
+
+@reproduce_app.command("laidani")
+def reproduce_laidani(
+    json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write plots (Fig. 10) and index.html here."),
+):
+    """Laidani et al.: PWM → ESC → A2212 → degree-5 polynomial."""
+    from uuvid.papers import laidani
+
+    result = laidani.reproduce(out_dir=out)
+    if json_out:
+        _print_json(result)
+        return
+    _show_laidani(result)
+
+
+def _show_laidani(result: dict) -> None:
+    paper = result["paper_values"]
+    rows = [
+        {"quantity": "full forward thrust [N]", "ours": result["full_forward_N"], "paper": paper["full_forward_N"]},
+        {"quantity": "full reverse thrust [N]", "ours": result["full_reverse_N"], "paper": paper["full_reverse_N"]},
+        {"quantity": "forward peak [N]", "ours": result["peak_forward_N"], "paper": paper["peak_forward_N"]},
+        {"quantity": "dead zone width [µs]", "ours": result["dead_zone_width_us"], "paper": paper["dead_zone_width_us"]},
+        {"quantity": "saturation onset [µs]", "ours": result["saturation_us"], "paper": paper["saturation_us"]},
+    ]
+    out_console.print(_table("Laidani et al. — ours vs paper", rows, ["quantity", "ours", "paper"], "{:.4g}"))
+
+
+# ------------------------------------------------------------------------------------ thruster
+def _load_model(model: str):
+    from uuvid.io.modelfile import ModelFileError, load_chain
+    from uuvid.thruster.presets import PRESETS, preset_chain
+
+    if model in PRESETS:
+        return preset_chain(model)
+    p = Path(model)
+    if not p.exists():
+        _fail(f"{model}: no such model file, and not a preset (presets: {', '.join(sorted(PRESETS))})")
+    try:
+        return load_chain(p)
+    except ModelFileError as e:
+        _fail(str(e))
+
+
+def _parse_signal(spec: str):
+    """``kind=step,amplitude=24,t0=0`` → a signal."""
+    from uuvid.simulate.signals import signal_from_spec
+
+    d: dict = {}
+    for part in spec.split(","):
+        if not part.strip():
+            continue
+        if "=" not in part:
+            _fail(f"--signal: expected key=value, got {part!r} (e.g. kind=step,amplitude=24)")
+        k, v = part.split("=", 1)
+        k, v = k.strip(), v.strip()
+        try:
+            d[k] = float(v)
+        except ValueError:
+            d[k] = v
+    try:
+        return signal_from_spec(d)
+    except (ValueError, TypeError) as e:
+        _fail(f"--signal: {e}")
+
+
+@thruster_app.command("show")
+def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name.")):
+    """Print a thruster model's blocks and parameters."""
+    chain = _load_model(model)
+    t = Table(title=f"{chain.name}: {' → '.join(chain.signal_kinds)}")
+    t.add_column("#")
+    t.add_column("block")
+    t.add_column("parameters")
+    for i, b in enumerate(chain.blocks):
+        d = b.to_dict()
+        d.pop("type")
+        t.add_row(str(i), b.TYPE, ", ".join(f"{k}={v}" for k, v in d.items()))
+    out_console.print(t)
+
+
+@thruster_app.command("simulate")
+def thruster_simulate(
+    model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name."),
+    signal: str = typer.Option("kind=step,amplitude=24", "--signal",
+                               help="Input, e.g. kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
+                                    "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,..."),
+    t_end: float = typer.Option(2.0, "--t-end", help="Simulated time [s]."),
+    dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
+    substeps: int = typer.Option(4, "--substeps", help="RK4 steps per output sample."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write the time series (CSV), a plot and index.html."),
+    json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
+):
+    """Simulate a thruster chain under an input signal; print response metrics."""
+    chain = _load_model(model)
+    sig = _parse_signal(signal)
+    try:
+        resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
+    except ValueError as e:
+        _fail(str(e))
+    metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp else {}
+    summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt,
+               "metrics_SI": metrics}
+    if out:
+        from uuvid.io.atomic import atomic_write_json
+        from uuvid.report.html import Report
+        from uuvid.report.plots import save_figure
+
+        out.mkdir(parents=True, exist_ok=True)
+        resp.to_csv(out / "response.csv")
+        png = save_figure(resp.plot(title=chain.name), out / "response.png")
+        atomic_write_json(out / "summary.json", summary)
+        rep = Report(f"uuvid thruster simulate — {chain.name}")
+        rep.add_json(summary, caption="Summary (SI)")
+        rep.add_figure(png)
+        rep.write(out)
+        summary["out"] = str(out)
+    if json_out:
+        _print_json(summary)
+    else:
+        out_console.print(_table(f"{chain.name} response (SI)", [
+            {"metric": k, "value": v if v is not None else float("nan")} for k, v in metrics.items()],
+            ["metric", "value"], "{:.4g}"))
+
+
+@thruster_app.command("export")
+def thruster_export(
+    model: str = typer.Argument(..., help="Model file or preset name."),
+    to: str = typer.Option("yaml", "--to", help="yaml | toml"),
+    out: Optional[Path] = typer.Option(None, "--out", help="File to write (default: stdout)."),
+):
+    """Write a model in our own file format (YAML or TOML)."""
+    from uuvid.io.modelfile import _to_toml, chain_to_dict, save_chain
+    import yaml
+
+    chain = _load_model(model)
+    if to not in ("yaml", "toml"):
+        _fail(f"--to: expected yaml or toml, got {to!r}")
+    if out:
+        save_chain(chain, out.with_suffix("." + to) if out.suffix == "" else out)
+    else:
+        d = chain_to_dict(chain)
+        sys.stdout.write(_to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False))
+
+
+# ------------------------------------------------------------------------------------ demo
+@app.command("demo")
+def demo(
+    out: Path = typer.Option(Path("uuvid-demo"), "--out", help="Report folder to write."),
+    json_out: bool = typer.Option(False, "--json", help="Print all numbers as one JSON document."),
+):
+    """Everything uuvid can do, on built-in data: reproduces the papers and writes a report."""
+    from uuvid.cli.demo import run_demo
+
+    result = run_demo(out)
+    if json_out:
+        _print_json(result)
+        return
+    _show_mclean(result["mclean1991"])
+    _show_laidani(result["laidani"])
+    out_console.print(f"\nReport: [bold]{out / 'index.html'}[/]  (numbers: {out / 'demo.json'})")
+
+
+# ------------------------------------------------------------------------------------ bench
+@app.command("bench")
+def bench(json_out: bool = typer.Option(False, "--json", help="Print timings as JSON.")):
+    """Time the compiled simulators against plain reference runs in the same process."""
+    from uuvid.cli.bench import run_benchmarks
+
+    result = run_benchmarks()
+    if json_out:
+        _print_json(result)
+        return
+    for group, cases in result.items():
+        if isinstance(cases, list):
+            out_console.print(_table(f"bench: {group}", cases,
+                                     ["case", "time_s", "reference_time_s", "ratio"], "{:.4g}"))
+
+
+def main() -> None:  # console-script entry point
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,42 @@
+"""``uuvid bench``: finds the timing loops in the repository's ``benchmarks/`` folder and runs them.
+
+The loops live in ``benchmarks/`` (beside ``src/``) so they can also be run on their own; this
+module only locates and calls them.  Every case reports our time, the reference's time and the
+ratio, measured in the same process.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import platform
+from pathlib import Path
+
+
+def benchmarks_dir() -> Path:
+    env = os.environ.get("UUVID_BENCHMARKS")
+    candidates = [Path(env)] if env else []
+    candidates.append(Path(__file__).resolve().parents[3] / "benchmarks")
+    candidates.append(Path.cwd() / "benchmarks")
+    for c in candidates:
+        if (c / "bench_thruster.py").is_file():
+            return c
+    raise FileNotFoundError(
+        "cannot find the benchmarks/ folder (looked in "
+        + ", ".join(str(c) for c in candidates)
+        + "); run from a source checkout or set UUVID_BENCHMARKS")
+
+
+def _load(name: str):
+    path = benchmarks_dir() / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"uuvid_benchmarks_{name}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    return mod
+
+
+def run_benchmarks() -> dict:
+    result = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
+                          "platform": platform.platform()}}
+    result.update(_load("bench_thruster").run_all())
+    return result
