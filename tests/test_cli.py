@@ -1,0 +1,82 @@
+"""The command line: JSON on stdout, reports written, clear errors with exit status 2."""
+
+import json
+
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+
+runner = CliRunner()
+
+
+def test_reproduce_mclean1991_json():
+    res = runner.invoke(app, ["reproduce", "mclean1991", "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert [r["case"] for r in doc["table1"]][0] == "baseline"
+    assert len(doc["table1"]) == 11
+    for r in doc["table1"]:
+        assert set(r) >= {"case", "peak_output_lbf", "max_true_lbf", "steady_lbf",
+                          "time_constant_s", "steady_rpm"}
+    assert {"motor", "gear_ratio", "prop_rpm", "thrust_lbf"} <= set(doc["load_matching"][0])
+    assert doc["pulsing"]["rows"]
+
+
+def test_reproduce_laidani_json_and_out(tmp_path):
+    res = runner.invoke(app, ["reproduce", "laidani", "--json", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert set(doc) >= {"full_forward_N", "full_reverse_N", "peak_forward_N", "dead_zone_us",
+                        "saturation_us"}
+    assert (tmp_path / "index.html").exists()
+
+
+def test_demo_writes_report_folder(tmp_path):
+    out = tmp_path / "demo"
+    res = runner.invoke(app, ["demo", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    html = (out / "index.html").read_text()
+    assert "data:image/png;base64," in html
+    doc = json.loads((out / "demo.json").read_text())
+    assert doc["model_file"]["round_trip_equal"] is True
+    assert (out / "mclean1991" / "step_baseline.png").exists()
+
+
+def test_thruster_simulate_preset_json(tmp_path):
+    res = runner.invoke(app, ["thruster", "simulate", "auv2-tunnel", "--signal",
+                              "kind=step,amplitude=24", "--t-end", "1.0", "--json", "--out",
+                              str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["metrics_SI"]["max_true_thrust"] > 16
+    assert (tmp_path / "response.csv").exists()
+
+
+def test_thruster_simulate_bad_model_file_exit_2(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("blocks:\n  - type: first_order\n    time_constant: 0.1\n    tau: 3\n")
+    res = runner.invoke(app, ["thruster", "simulate", str(bad)])
+    assert res.exit_code == 2
+    assert "blocks[0].tau" in res.output and "unknown key" in res.output
+
+
+def test_thruster_simulate_bad_signal_exit_2():
+    res = runner.invoke(app, ["thruster", "simulate", "laidani-a2212", "--signal", "kind=wobble"])
+    assert res.exit_code == 2
+    assert "wobble" in res.output
+
+
+def test_missing_model_exit_2():
+    res = runner.invoke(app, ["thruster", "show", "no-such-file.yaml"])
+    assert res.exit_code == 2
+    assert "no such model file" in res.output
+
+
+def test_thruster_export_toml_round_trip(tmp_path):
+    from uuvid.io.modelfile import load_chain
+    from uuvid.thruster.presets import laidani_chain
+
+    p = tmp_path / "m.toml"
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "toml", "--out", str(p)])
+    assert res.exit_code == 0, res.output
+    assert load_chain(p) == laidani_chain()
