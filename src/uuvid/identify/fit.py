@@ -1,0 +1,348 @@
+"""One result type for every estimator: parameters with statistics, residuals, diagnostics.
+
+Statistics follow Caccia, Indiveri & Veruggio (2000), §III: for ``y = Hθ + e`` solved by ordinary
+least squares, ``σ² = |y − Hθ̂|²/(dim y − dim θ)``, ``cov θ̂ = σ² (HᵀH)⁻¹``, the *percentile error*
+``100 σ_θ/|θ|``; a parameter whose percentile error exceeds 51.02 % (``|θ|/σ_θ < 1.96``) is not
+significantly different from zero at 95 % confidence.  Nonlinear fits use the same formulas with the
+Jacobian of the residuals in place of ``H``.
+
+Functions:
+    linear_lsq     ordinary (optionally weighted) linear LS with classical, HC0/HC3 or HAC covariance
+    nonlinear_lsq  scipy ``least_squares`` wrapped to return a :class:`Fit` with Jacobian-based σ
+    diagnose       the identifiability warnings every fit carries
+"""
+
+from __future__ import annotations
+
+import math
+import warnings as _warnings
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+#: Caccia et al. 2000: percentile error above this → insignificant at 95 % (1/1.96 = 51.02 %).
+SIGNIFICANCE_PERCENT = 100.0 / 1.96
+#: Condition number of the column-scaled regressor above which parameters are called unidentifiable.
+CONDITION_LIMIT = 1e8
+#: |correlation| above which two parameters are reported as nearly inseparable.
+CORRELATION_LIMIT = 0.995
+
+
+class IdentifiabilityWarning(UserWarning):
+    """A parameter cannot be trusted from these data (rank, conditioning, significance)."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """An estimated (or fixed) parameter with its standard error."""
+
+    name: str
+    value: float
+    stderr: float = math.nan
+    unit: str = ""
+    fixed: bool = False
+
+    @property
+    def percentile_error(self) -> float:
+        """``100 σ/|θ|`` (Caccia et al. 2000); ``inf`` for a zero estimate."""
+        if self.fixed:
+            return 0.0
+        if self.value == 0:
+            return math.inf
+        return 100.0 * self.stderr / abs(self.value)
+
+    @property
+    def significant(self) -> bool:
+        """``True`` when ``|θ|/σ ≥ 1.96`` (percentile error ≤ 51.02 %)."""
+        return self.fixed or self.percentile_error <= SIGNIFICANCE_PERCENT
+
+    def interval(self, z: float = 1.96) -> tuple[float, float]:
+        return (self.value - z * self.stderr, self.value + z * self.stderr)
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "estimate": self.value, "sigma": self.stderr, "unit": self.unit,
+                "percentile_error": self.percentile_error, "significant": self.significant,
+                "fixed": self.fixed}
+
+
+@dataclass(frozen=True)
+class Fit:
+    """Parameters by name with σ, covariance, residuals and diagnostics; ``report()`` prints it."""
+
+    model: str
+    parameters: tuple[Parameter, ...]
+    covariance: np.ndarray
+    residuals: np.ndarray
+    n_samples: int
+    condition_number: float = math.nan
+    warnings: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ access
+    def __getitem__(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(f"no parameter {name!r} in fit {self.model!r}; have {self.names}")
+
+    def __contains__(self, name: str) -> bool:
+        return any(p.name == name for p in self.parameters)
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.parameters]
+
+    @property
+    def values(self) -> dict[str, float]:
+        return {p.name: p.value for p in self.parameters}
+
+    @property
+    def stderrs(self) -> dict[str, float]:
+        return {p.name: p.stderr for p in self.parameters}
+
+    @property
+    def n_free(self) -> int:
+        return sum(not p.fixed for p in self.parameters)
+
+    @property
+    def dof(self) -> int:
+        return self.n_samples - self.n_free
+
+    @property
+    def rmse(self) -> float:
+        return float(np.sqrt(np.mean(self.residuals**2))) if self.residuals.size else math.nan
+
+    @property
+    def mean_abs_error(self) -> float:
+        """ME as Laidani et al. define it: mean |e|."""
+        return float(np.mean(np.abs(self.residuals))) if self.residuals.size else math.nan
+
+    @property
+    def bias(self) -> float:
+        return float(np.mean(self.residuals)) if self.residuals.size else math.nan
+
+    @property
+    def sigma2(self) -> float:
+        """Residual variance ``|e|²/(n − p)``."""
+        return float(self.residuals @ self.residuals / max(self.dof, 1))
+
+    @property
+    def correlation(self) -> np.ndarray:
+        c = np.asarray(self.covariance, dtype=float)
+        d = np.sqrt(np.clip(np.diag(c), 0, None))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return c / np.outer(d, d)
+
+    def aic(self) -> float:
+        n = self.n_samples
+        return n * math.log(max(self.residuals @ self.residuals / n, 1e-300)) + 2 * self.n_free
+
+    def bic(self) -> float:
+        n = self.n_samples
+        return n * math.log(max(self.residuals @ self.residuals / n, 1e-300)) + self.n_free * math.log(n)
+
+    # ------------------------------------------------------------------ output
+    def as_dict(self) -> dict:
+        return {
+            "model": self.model,
+            "parameters": {p.name: p.as_dict() for p in self.parameters},
+            "covariance": np.asarray(self.covariance).tolist(),
+            "n_samples": self.n_samples,
+            "rmse": self.rmse,
+            "mean_abs_error": self.mean_abs_error,
+            "bias": self.bias,
+            "condition_number": self.condition_number,
+            "warnings": list(self.warnings),
+            **({"extra": self.extra} if self.extra else {}),
+        }
+
+    def report(self) -> str:
+        """A readable fit report (lmfit-style)."""
+        lines = [f"[[Fit]] {self.model}",
+                 f"    samples = {self.n_samples}, free parameters = {self.n_free}, "
+                 f"RMSE = {self.rmse:.6g}, ME = {self.mean_abs_error:.6g}, "
+                 f"cond = {self.condition_number:.3g}",
+                 "[[Parameters]]"]
+        w = max([len(p.name) for p in self.parameters] + [4])
+        for p in self.parameters:
+            if p.fixed:
+                lines.append(f"    {p.name:<{w}} = {p.value:.6g} (fixed) {p.unit}")
+            else:
+                flag = "" if p.significant else "  <-- not significant (>51.02 %)"
+                lines.append(f"    {p.name:<{w}} = {p.value:.6g} +/- {p.stderr:.3g} "
+                             f"({p.percentile_error:.1f} %) {p.unit}{flag}")
+        corr = self.correlation
+        free = [i for i, p in enumerate(self.parameters) if not p.fixed]
+        pairs = []
+        for a in range(len(free)):
+            for b in range(a + 1, len(free)):
+                i, j = free[a], free[b]
+                if i < corr.shape[0] and j < corr.shape[1] and abs(corr[i, j]) > 0.5:
+                    pairs.append(f"    C({self.parameters[i].name}, {self.parameters[j].name}) = "
+                                 f"{corr[i, j]:+.3f}")
+        if pairs:
+            lines.append("[[Correlations]] (|C| > 0.5)")
+            lines.extend(pairs)
+        if self.warnings:
+            lines.append("[[Warnings]]")
+            lines.extend(f"    {w}" for w in self.warnings)
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.report()
+
+
+def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.ndarray,
+             emit: bool = True) -> tuple[float, list[str]]:
+    """Condition number of the column-scaled regressor/Jacobian and identifiability warnings.
+
+    Warns (``IdentifiabilityWarning``) on rank deficiency, a condition number above
+    ``CONDITION_LIMIT``, a percentile error above 51.02 % and near-perfect correlations.
+    """
+    msgs: list[str] = []
+    J = np.asarray(jac, dtype=float)
+    if J.size == 0:
+        return math.nan, msgs
+    norms = np.linalg.norm(J, axis=0)
+    zero = norms == 0
+    for i in np.flatnonzero(zero):
+        msgs.append(f"{names[i]}: not identifiable — the data do not excite it (zero column)")
+    Js = J[:, ~zero] / norms[~zero] if np.any(~zero) else J
+    s = np.linalg.svd(Js, compute_uv=False) if Js.size else np.array([0.0])
+    cond = float(s[0] / s[-1]) if s.size and s[-1] > 0 else math.inf
+    rank = int(np.sum(s > s[0] * max(J.shape) * np.finfo(float).eps)) if s.size else 0
+    if rank < Js.shape[1]:
+        msgs.append(f"rank deficient: {rank} independent directions for {J.shape[1]} parameters "
+                    "— some parameters are not identifiable from these data")
+    elif cond > CONDITION_LIMIT:
+        msgs.append(f"condition number {cond:.3g} > {CONDITION_LIMIT:.0e}: parameters nearly "
+                    "unidentifiable (collinear regressors)")
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    for i, n in enumerate(names):
+        v = values[i]
+        if not np.isfinite(sd[i]):
+            continue
+        pe = math.inf if v == 0 else 100 * sd[i] / abs(v)
+        if pe > SIGNIFICANCE_PERCENT:
+            msgs.append(f"{n}: percentile error {pe:.1f} % > 51.02 % — not significantly "
+                        "different from zero (95 %)")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    k = len(names)
+    for i in range(k):
+        for j in range(i + 1, k):
+            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
+                msgs.append(f"{names[i]} and {names[j]} are correlated {corr[i, j]:+.4f}: only a "
+                            "combination of them is well determined")
+    if emit:
+        for m in msgs:
+            _warnings.warn(m, IdentifiabilityWarning, stacklevel=3)
+    return cond, msgs
+
+
+def _sandwich(H: np.ndarray, r: np.ndarray, bread: np.ndarray, cov_type: str, lags: int | None):
+    n, p = H.shape
+    if cov_type == "HC0":
+        meat = (H * r[:, None] ** 2).T @ H
+    elif cov_type == "HC3":
+        h = np.einsum("ij,jk,ik->i", H, bread, H)
+        meat = (H * (r / np.clip(1 - h, 1e-12, None))[:, None] ** 2).T @ H
+    elif cov_type == "HAC":  # Newey–West with Bartlett weights
+        L = int(lags if lags is not None else math.floor(4 * (n / 100.0) ** (2.0 / 9.0)))
+        u = H * r[:, None]
+        meat = u.T @ u
+        for lag in range(1, L + 1):
+            w = 1.0 - lag / (L + 1.0)
+            g = u[lag:].T @ u[:-lag]
+            meat += w * (g + g.T)
+    else:
+        raise ValueError(f"cov_type must be classical, HC0, HC3 or HAC, got {cov_type!r}")
+    return bread @ meat @ bread * n / max(n - p, 1)
+
+
+def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequence[str] | None = None,
+               weights=None, cov_type: str = "classical", hac_lags: int | None = None,
+               emit_warnings: bool = True, extra: dict | None = None) -> Fit:
+    """Solve ``y ≈ H θ`` by (weighted) least squares and return a :class:`Fit`.
+
+    ``cov_type``: ``classical`` (Caccia: ``σ²(HᵀH)⁻¹``), ``HC0``/``HC3`` (heteroscedasticity-robust)
+    or ``HAC`` (Newey–West, heteroscedasticity and autocorrelation robust).
+    """
+    H = np.asarray(H, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if H.ndim == 1:
+        H = H[:, None]
+    n, p = H.shape
+    if y.shape != (n,):
+        raise ValueError(f"y has shape {y.shape}; H has {n} rows")
+    if len(names) != p:
+        raise ValueError(f"{len(names)} names for {p} regressor columns")
+    if n < p:
+        raise ValueError(f"too few samples: {n} for {p} parameters")
+    bad = np.flatnonzero(~np.isfinite(y) | ~np.all(np.isfinite(H), axis=1))
+    if bad.size:
+        raise ValueError(f"row {bad[0]} of the regression has a non-finite value")
+    if weights is not None:
+        w = np.sqrt(np.asarray(weights, dtype=float))
+        Hw, yw = H * w[:, None], y * w
+    else:
+        Hw, yw = H, y
+    norms = np.linalg.norm(Hw, axis=0)
+    scale = np.where(norms > 0, norms, 1.0)
+    theta_s, *_ = np.linalg.lstsq(Hw / scale, yw, rcond=None)
+    theta = theta_s / scale
+    r = yw - Hw @ theta
+    dof = max(n - p, 1)
+    sigma2 = float(r @ r / dof)
+    bread = np.linalg.pinv(Hw.T @ Hw)
+    if cov_type == "classical":
+        cov = sigma2 * bread
+    else:
+        cov = _sandwich(Hw, r, bread, cov_type, hac_lags)
+    cond, msgs = diagnose(names, theta, cov, Hw, emit=emit_warnings)
+    if n == p:
+        msgs.append("as many samples as parameters: no residual degrees of freedom, σ undefined")
+    units = list(units) if units is not None else [""] * p
+    params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
+                   for i, (nm, v) in enumerate(zip(names, theta)))
+    ex = {"cov_type": cov_type, "sigma2": sigma2}
+    if extra:
+        ex.update(extra)
+    return Fit(model, params, cov, y - H @ theta, n, cond, tuple(msgs), ex)
+
+
+def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Sequence[str], *,
+                  model: str = "nonlinear", units: Sequence[str] | None = None, bounds=(-np.inf, np.inf),
+                  x_scale="jac", jac="2-point", emit_warnings: bool = True, extra: dict | None = None,
+                  **kwargs) -> Fit:
+    """Minimise ``|residual(θ)|²`` (scipy ``least_squares``, trust-region reflective) → :class:`Fit`.
+
+    Standard errors from the Jacobian at the optimum: ``cov = σ² (JᵀJ)⁻¹``.
+    """
+    from scipy.optimize import least_squares
+
+    x0 = np.asarray(x0, dtype=float)
+    sol = least_squares(residual, x0, bounds=bounds, x_scale=x_scale, jac=jac, **kwargs)
+    J = np.asarray(sol.jac, dtype=float)
+    r = np.asarray(sol.fun, dtype=float)
+    n, p = J.shape
+    dof = max(n - p, 1)
+    sigma2 = float(r @ r / dof)
+    cov = sigma2 * np.linalg.pinv(J.T @ J)
+    cond, msgs = diagnose(names, sol.x, cov, J, emit=emit_warnings)
+    if not sol.success:
+        msgs.append(f"optimiser did not converge: {sol.message}")
+    lo, hi = np.broadcast_to(bounds[0], sol.x.shape), np.broadcast_to(bounds[1], sol.x.shape)
+    for i, nm in enumerate(names):
+        if np.isfinite(lo[i]) and abs(sol.x[i] - lo[i]) <= 1e-9 * max(1.0, abs(lo[i])) or (
+                np.isfinite(hi[i]) and abs(sol.x[i] - hi[i]) <= 1e-9 * max(1.0, abs(hi[i]))):
+            msgs.append(f"{nm}: at its bound {sol.x[i]:.6g}; its σ is not meaningful")
+    units = list(units) if units is not None else [""] * p
+    params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
+                   for i, (nm, v) in enumerate(zip(names, sol.x)))
+    ex = {"nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
+          "sigma2": sigma2}
+    if extra:
+        ex.update(extra)
+    return Fit(model, params, cov, -r, n, cond, tuple(msgs), ex)
