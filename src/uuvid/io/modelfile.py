@@ -40,9 +40,10 @@ OPTIONAL = {
     "esc": {"neutral", "deadzone_low", "deadzone_high", "saturation_low", "saturation_high",
             "command_unit"},
     "dc_motor": {"inductance", "propeller_inertia", "motor_viscous", "propeller_viscous",
-                 "coulomb_torque", "gear_ratio", "torque_coefficient"},
+                 "coulomb_torque", "gear_ratio", "torque_coefficient", "torque_coefficient_rev"},
     "tunnel_thruster": {"water_density", "profile_factor"},
     "quadratic": {"torque_pos", "torque_neg", "k_neg"},
+    "deadzone": set(),
     "load_cell": set(),
 }
 
@@ -66,6 +67,8 @@ def _annotation(tp):
         return float
     if tp in (str, "str"):
         return str
+    if tp == (float | None) or tp == "float | None":
+        return float | None
     origin = typing.get_origin(tp)
     if tp == "tuple[float, ...]" or origin is tuple:
         return list[float]
@@ -178,15 +181,19 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
         data = b.model_dump()
         type_name = data.pop("type")
         cls = BLOCK_TYPES[type_name]
-        try:
-            if type_name == "tunnel_thruster":
+        if type_name == "tunnel_thruster":
+            try:
                 data["motor"] = DCMotor(**data["motor"])
-            for k, v in list(data.items()):
-                if isinstance(v, list):
-                    data[k] = tuple(v)
+            except ParameterError as e:
+                raise ModelFileError(f"{where}: blocks[{i}].motor.{e.param or ''}: {e}") from None
+        for k, v in list(data.items()):
+            if isinstance(v, list):
+                data[k] = tuple(v)
+        try:
             blocks.append(cls(**data))
         except ParameterError as e:
-            raise ModelFileError(f"{where}: blocks[{i}] ({type_name}): {e}") from None
+            key = f"blocks[{i}].{e.param}" if e.param else f"blocks[{i}] ({type_name})"
+            raise ModelFileError(f"{where}: {key}: {e}") from None
     try:
         return ThrusterChain(tuple(blocks), input_kind=spec.input, name=spec.name)
     except ParameterError as e:
@@ -232,8 +239,11 @@ def chain_to_dict(chain: ThrusterChain) -> dict:
             m = d["motor"].to_dict()
             m.pop("type")
             d["motor"] = m
-        # infinite saturation limits are the defaults; leave them out
-        d = {k: v for k, v in d.items() if not (isinstance(v, float) and math.isinf(v))}
+        # infinite saturation limits and None ("same as forward") are defaults; leave them out
+        d = {k: v for k, v in d.items()
+             if v is not None and not (isinstance(v, float) and math.isinf(v))}
+        if isinstance(d.get("motor"), dict):
+            d["motor"] = {k: v for k, v in d["motor"].items() if v is not None}
         blocks.append(d)
     return {"name": chain.name, "input": chain.input_kind, "blocks": blocks}
 

@@ -76,7 +76,7 @@ def _motor(kind, p, x, s, nst, volts, dx, ch):
         j += beta * mf * pe * pe / (n * n)
         q_static = 0.5 * rho * area * dalpha * pe * pe * pe * wp * abs(wp)
     else:
-        q_static = p[10] * wp * abs(wp)
+        q_static = (p[10] if wp >= 0.0 else p[11]) * wp * abs(wp)
     drive = kt * i - cv * w - q_static / n
     if abs(w) < STICK_SPEED and tc > 0.0:
         if abs(drive) <= tc:
@@ -178,9 +178,9 @@ def eval_chain(kinds, poff, params, soff, outch, in_ch, x, cmd, dx, ch, blk_in):
                 sig = 0.0
         elif kind == K_DEADZONE:
             a = sig * abs(sig)
-            if sig <= p[2]:
+            if a <= p[2]:
                 sig = p[0] * (a - p[2])
-            elif sig >= p[3]:
+            elif a >= p[3]:
                 sig = p[1] * (a - p[3])
             else:
                 sig = 0.0
@@ -220,6 +220,34 @@ def _exact_first_order(kinds, poff, params, soff, exact, x_old, x_new, blk_in, h
                 tau = p[0]
             e = math.exp(-h / tau)
             x_new[s] = e * x_old[s] + (1.0 - e) * target
+
+
+@njit(cache=True)
+def _stick(kinds, poff, params, soff, x_old, x_new, blk_in, h):
+    """Coulomb stick–slip at step level (Karnopp): a shaft whose speed crosses zero during a step,
+    or ends it within the speed change Coulomb friction alone makes in one step (``h T_c/J``),
+    stops there if the driving torque at rest cannot overcome the Coulomb torque."""
+    for b in range(kinds.size):
+        if kinds[b] == K_DC_MOTOR or kinds[b] == K_TUNNEL:
+            p = params[poff[b]:poff[b + 1]]
+            tc = p[8]
+            if tc <= 0.0:
+                continue
+            s = soff[b]
+            n = p[9]
+            j = p[4] + p[5] / (n * n)
+            if kinds[b] == K_TUNNEL:
+                j += p[15] * p[10] * p[11] * p[12] * (1.0 + p[13]) * p[14] * p[14] / (n * n)
+            band = h * tc / j
+            w0 = x_old[s]
+            w1 = x_new[s]
+            if w0 * w1 < 0.0 or abs(w1) < band:
+                if soff[b + 1] - s == 2:
+                    drive0 = p[0] * x_new[s + 1]
+                else:
+                    drive0 = p[0] * blk_in[b] / p[2]
+                if abs(drive0) <= tc:
+                    x_new[s] = 0.0
 
 
 @njit(cache=True)
@@ -266,6 +294,7 @@ def rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u, dt, nsub, X
                 xn[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             # blk_in (stage 1) holds each block's input at the step start
             _exact_first_order(kinds, poff, params, soff, exact, x, xn, blk_in, h)
+            _stick(kinds, poff, params, soff, x, xn, blk_in, h)
             for i in range(nx):
                 x[i] = xn[i]
 
@@ -288,14 +317,18 @@ def rk4_chain_batch(kinds, poff, params_batch, soff, outch, in_ch, exact, x0, u,
 
 
 @njit(cache=True, parallel=True)
-def sweep_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u_levels, dt, nsamp, finals):
-    """Hold each constant input of ``u_levels`` for ``nsamp`` samples from ``x0``; store the final
-    channels in ``finals[level]`` (a steady-state sweep, one parallel run per level)."""
+def sweep_chain(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt, nsamp, finals, XF):
+    """Hold each constant input of ``u_levels`` for ``nsamp`` samples from its initial state
+    ``X0[level]``; store the final channels in ``finals[level]`` and the final state in
+    ``XF[level]`` (a steady-state sweep, one parallel run per level)."""
     nlev = u_levels.size
+    nx = X0.shape[1]
     for r in prange(nlev):
         u = np.full(nsamp, u_levels[r])
-        X = np.empty((nsamp, x0.size))
+        X = np.empty((nsamp, nx))
         C = np.empty((nsamp, N_CHANNELS))
-        rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u, dt, 1, X, C)
+        rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, X0[r], u, dt, 1, X, C)
         for i in range(N_CHANNELS):
             finals[r, i] = C[nsamp - 1, i]
+        for i in range(nx):
+            XF[r, i] = X[nsamp - 1, i]

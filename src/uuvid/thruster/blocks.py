@@ -65,25 +65,31 @@ _SIGNAL_CHANNEL = {COMMAND: "command", VOLTAGE: "voltage", SPEED: "prop_speed", 
 
 
 class ParameterError(ValueError):
-    """A block parameter is outside its physical range; the message names the parameter."""
+    """A block parameter is outside its physical range; the message names the parameter.
+
+    ``param`` holds the parameter's name (for key paths in model-file errors)."""
+
+    def __init__(self, message: str, param: str | None = None):
+        super().__init__(message)
+        self.param = param
 
 
 def _positive(block: str, **values: float) -> None:
     for name, v in values.items():
         if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v > 0):
-            raise ParameterError(f"{block}.{name} must be a positive finite number, got {v!r}")
+            raise ParameterError(f"{block}.{name} must be a positive finite number, got {v!r}", name)
 
 
 def _non_negative(block: str, **values: float) -> None:
     for name, v in values.items():
         if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v >= 0):
-            raise ParameterError(f"{block}.{name} must be a finite number >= 0, got {v!r}")
+            raise ParameterError(f"{block}.{name} must be a finite number >= 0, got {v!r}", name)
 
 
 def _finite(block: str, **values: float) -> None:
     for name, v in values.items():
         if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v)):
-            raise ParameterError(f"{block}.{name} must be a finite number, got {v!r}")
+            raise ParameterError(f"{block}.{name} must be a finite number, got {v!r}", name)
 
 
 @dataclass(frozen=True)
@@ -176,7 +182,7 @@ class ESC(Block):
         The dead zone is ``neutral ± deadband/2``; voltage rises linearly from 0 at its edge.
         """
         lo, hi = neutral - deadband / 2.0, neutral + deadband / 2.0
-        if not full_low < lo and hi < full_high:
+        if not (full_low < lo and hi < full_high):
             raise ParameterError("ESC.from_range: full-command points must lie outside the dead band")
         a_f = supply_voltage / (full_high - hi)
         a_r = supply_voltage / (lo - full_low)
@@ -265,6 +271,7 @@ class DCMotor(Block):
     coulomb_torque: float = 0.0  # T_c, N·m at the motor shaft
     gear_ratio: float = 1.0  # N = ω_m/ω_p
     torque_coefficient: float = 0.0  # K_Q, N·m·s²/rad², propeller torque K_Q Ω_p|Ω_p|
+    torque_coefficient_rev: float | None = None  # K_Q for Ω_p < 0 (None: same as forward)
 
     def __post_init__(self):
         _positive("DCMotor", torque_constant=self.torque_constant,
@@ -273,6 +280,8 @@ class DCMotor(Block):
         _non_negative("DCMotor", inductance=self.inductance, propeller_inertia=self.propeller_inertia,
                       motor_viscous=self.motor_viscous, propeller_viscous=self.propeller_viscous,
                       coulomb_torque=self.coulomb_torque, torque_coefficient=self.torque_coefficient)
+        if self.torque_coefficient_rev is not None:
+            _non_negative("DCMotor", torque_coefficient_rev=self.torque_coefficient_rev)
 
     @property
     def n_states(self) -> int:
@@ -290,7 +299,8 @@ class DCMotor(Block):
                 self.propeller_viscous, self.coulomb_torque, self.gear_ratio]
 
     def params_array(self):
-        return np.array(self.motor_params() + [self.torque_coefficient], dtype=np.float64)
+        kq_rev = self.torque_coefficient if self.torque_coefficient_rev is None else self.torque_coefficient_rev
+        return np.array(self.motor_params() + [self.torque_coefficient, kq_rev], dtype=np.float64)
 
     @property
     def electrical_time_constant(self) -> float:
@@ -333,7 +343,7 @@ class TunnelThruster(Block):
     def __post_init__(self):
         if not isinstance(self.motor, DCMotor):
             raise ParameterError("TunnelThruster.motor must be a DCMotor")
-        if self.motor.torque_coefficient != 0.0:
+        if self.motor.torque_coefficient != 0.0 or self.motor.torque_coefficient_rev:
             raise ParameterError("TunnelThruster.motor.torque_coefficient must be 0: the tunnel "
                                  "model supplies the propeller torque")
         _positive("TunnelThruster", water_density=self.water_density,
@@ -344,7 +354,7 @@ class TunnelThruster(Block):
                       momentum_correction=self.momentum_correction)
         if self.propeller_efficiency > 1.0:
             raise ParameterError(f"TunnelThruster.propeller_efficiency must be <= 1, got "
-                                 f"{self.propeller_efficiency}")
+                                 f"{self.propeller_efficiency}", "propeller_efficiency")
 
     @property
     def effective_pitch(self) -> float:
@@ -410,11 +420,15 @@ class QuadraticMap(Block):
     INPUTS: ClassVar[tuple[str, ...]] = (SPEED, VOLTAGE, COMMAND)
 
     k_pos: float = 1.0
-    k_neg: float = 1.0
+    k_neg: float | None = None  # None: same as k_pos (UUV Simulator's single rotorConstant)
     torque_pos: float = 0.0
-    torque_neg: float = 0.0
+    torque_neg: float | None = None  # None: same as torque_pos
 
     def __post_init__(self):
+        if self.k_neg is None:
+            object.__setattr__(self, "k_neg", self.k_pos)
+        if self.torque_neg is None:
+            object.__setattr__(self, "torque_neg", self.torque_pos)
         _non_negative("QuadraticMap", k_pos=self.k_pos, k_neg=self.k_neg,
                       torque_pos=self.torque_pos, torque_neg=self.torque_neg)
 
@@ -456,7 +470,8 @@ class PolynomialMap(Block):
         for name in ("forward", "reverse"):
             c = tuple(float(v) for v in getattr(self, name))
             if len(c) == 0 or not all(math.isfinite(v) for v in c):
-                raise ParameterError(f"PolynomialMap.{name} needs at least one finite coefficient")
+                raise ParameterError(f"PolynomialMap.{name} needs at least one finite coefficient",
+                                     name)
             object.__setattr__(self, name, c)
 
     def output_kind(self, input_kind):
@@ -477,7 +492,8 @@ class PolynomialMap(Block):
 class DeadZoneMap(Block):
     """UUV Simulator ``Bessa`` conversion (asymmetric dead zone), Bessa et al. 2005.
 
-    ``T = c_L (x|x| − δ_L)`` for ``x ≤ δ_L``; ``T = c_R (x|x| − δ_R)`` for ``x ≥ δ_R``; else 0.
+    With ``b = x|x|``: ``T = c_L (b − δ_L)`` for ``b ≤ δ_L``; ``T = c_R (b − δ_R)`` for ``b ≥ δ_R``;
+    else 0 (continuous at the dead-zone edges, as in UUV Simulator's ThrusterConversionFcn.cc).
     """
 
     KIND: ClassVar[int] = K_DEADZONE
@@ -495,7 +511,7 @@ class DeadZoneMap(Block):
         _finite("DeadZoneMap", delta_l=self.delta_l, delta_r=self.delta_r)
         if self.delta_l > self.delta_r:
             raise ParameterError(f"DeadZoneMap.delta_l ({self.delta_l}) must be <= delta_r "
-                                 f"({self.delta_r})")
+                                 f"({self.delta_r})", "delta_l")
 
     def output_kind(self, input_kind):
         return THRUST
@@ -507,8 +523,8 @@ class DeadZoneMap(Block):
     def thrust(self, x):
         x = np.asarray(x, dtype=float)
         xx = x * np.abs(x)
-        return np.where(x <= self.delta_l, self.rotor_constant_l * (xx - self.delta_l),
-                        np.where(x >= self.delta_r, self.rotor_constant_r * (xx - self.delta_r), 0.0))
+        return np.where(xx <= self.delta_l, self.rotor_constant_l * (xx - self.delta_l),
+                        np.where(xx >= self.delta_r, self.rotor_constant_r * (xx - self.delta_r), 0.0))
 
 
 @dataclass(frozen=True)
@@ -534,8 +550,9 @@ class TableMap(Block):
             raise ParameterError("TableMap values must be finite")
         for k in range(1, len(xi)):
             if not xi[k] > xi[k - 1]:
-                raise ParameterError(f"TableMap.input_values must be strictly increasing; entry {k} "
-                                     f"({xi[k]}) is not greater than entry {k - 1} ({xi[k - 1]})")
+                    raise ParameterError(f"TableMap.input_values must be strictly increasing; entry {k} "
+                                     f"({xi[k]}) is not greater than entry {k - 1} ({xi[k - 1]})",
+                                     "input_values")
         object.__setattr__(self, "input_values", xi)
         object.__setattr__(self, "output_values", yi)
 

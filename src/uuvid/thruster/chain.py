@@ -142,8 +142,8 @@ class ThrusterChain:
         return f
 
     def steady_thrust(self, u) -> np.ndarray:
-        """Steady-state output for constant inputs ``u`` (static chains: exact; dynamic chains:
-        the equilibrium reached by simulating each input to rest)."""
+        """Steady-state chain output for constant inputs ``u`` (static chains: exact; dynamic
+        chains: the equilibrium reached by simulating each input to rest)."""
         u = np.atleast_1d(np.asarray(u, dtype=float))
         if self.n_states == 0:
             c = self.compile()
@@ -157,18 +157,53 @@ class ThrusterChain:
             return out
         return self.sweep(u).final
 
-    def sweep(self, u, settle_time: float | None = None, dt: float = 1e-3) -> "SweepResult":
+    def sweep(self, u, settle_time: float | None = None, dt: float = 1e-3,
+              max_passes: int = 8, rtol: float = 1e-9) -> "SweepResult":
         """Hold each input in ``u`` from rest until steady; returns the final channels per input.
 
-        Runs are batched through the compiled kernel in parallel.
+        Runs are batched through the compiled kernel in parallel.  Each pass lasts ``settle_time``
+        (default: :meth:`settling_time_hint`); levels whose output still moves by more than
+        ``rtol`` of the output scale run another pass from where they stopped, up to
+        ``max_passes``; levels still moving after that are reported in ``not_converged``.
         """
         u = np.atleast_1d(np.asarray(u, dtype=float))
         settle = settle_time if settle_time is not None else self.settling_time_hint()
         nsamp = int(math.ceil(settle / dt)) + 1
         c = self.compile()
+        nx = self.n_states
         finals = np.empty((u.size, len(CHANNELS)))
-        _sweep_kernel_call(c, self.n_states, u, dt, nsamp, finals)
-        return SweepResult(u, {name: finals[:, i] for i, name in enumerate(CHANNELS)})
+        X = np.zeros((u.size, nx))
+        out_ch = CH[_SIGNAL_CHANNEL[self.output_kind]]
+        todo = np.arange(u.size)
+        prev = None
+        for k in range(max_passes if nx else 1):
+            # pass lengths settle, settle, 2·settle, 4·settle, … so slow equilibria are reached
+            nsamp = int(math.ceil(settle * max(1, 2 ** (k - 1)) / dt)) + 1
+            f = np.empty((todo.size, len(CHANNELS)))
+            xf = np.empty((todo.size, nx))
+            kernels.sweep_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
+                                np.ascontiguousarray(X[todo]), np.ascontiguousarray(u[todo]),
+                                float(dt), nsamp, f, xf)
+            finals[todo] = f
+            X[todo] = xf
+            y = f[:, out_ch]
+            if prev is None:
+                prev = y
+                continue
+            scale = max(float(np.nanmax(np.abs(finals[:, out_ch]))), 1e-300)
+            moving = np.abs(y - prev) > rtol * scale
+            todo, prev = todo[moving], y[moving]
+            if todo.size == 0:
+                break
+        if nx and todo.size and prev is not None:
+            import warnings
+
+            warnings.warn(f"{self.name}: {todo.size} input level(s) still not at rest after "
+                          f"{max_passes} passes (e.g. u = {u[todo[0]]:g}); their output is the "
+                          "last value reached", RuntimeWarning, stacklevel=2)
+        return SweepResult(u, {name: finals[:, i] for i, name in enumerate(CHANNELS)},
+                           output=_SIGNAL_CHANNEL[self.output_kind],
+                           not_converged=tuple(float(v) for v in u[todo]) if prev is not None and nx else ())
 
     def settling_time_hint(self) -> float:
         """A generous time to reach steady state (10× the slowest time constant we know of)."""
@@ -242,19 +277,13 @@ class SweepResult:
 
     inputs: np.ndarray
     channels: dict[str, np.ndarray]
+    output: str = "thrust"
+    not_converged: tuple[float, ...] = ()
 
     @property
     def final(self) -> np.ndarray:
-        out = self.channels.get("measured_thrust")
-        if out is None or np.all(np.isnan(out)):
-            out = self.channels["thrust"]
-        return out
-
-
-def _sweep_kernel_call(c: Compiled, n_states: int, u: np.ndarray, dt: float, nsamp: int,
-                       finals: np.ndarray) -> None:
-    kernels.sweep_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
-                        np.zeros(n_states), u, dt, nsamp, finals)
+        """The chain's output signal at rest, for each input."""
+        return self.channels[self.output]
 
 
 def _sample_signal(signal, t: np.ndarray) -> np.ndarray:
