@@ -209,21 +209,94 @@ def thruster_simulate(
 @thruster_app.command("export")
 def thruster_export(
     model: str = typer.Argument(..., help="Model file or preset name."),
-    to: str = typer.Option("yaml", "--to", help="yaml | toml"),
+    to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
     out: Optional[Path] = typer.Option(None, "--out", help="File to write (default: stdout)."),
+    thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
+    table_points: int = typer.Option(101, "--table-points", help="uuv-simulator: points of a LinearInterp table."),
 ):
-    """Write a model in our own file format (YAML or TOML)."""
-    from uuvid.io.modelfile import _to_toml, chain_to_dict, save_chain
+    """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
     import yaml
 
+    from uuvid.io.atomic import atomic_write_text
+    from uuvid.io.export import ExportError, to_uuv_simulator
+    from uuvid.io.modelfile import _to_toml, chain_to_dict
+
     chain = _load_model(model)
-    if to not in ("yaml", "toml"):
-        _fail(f"--to: expected yaml or toml, got {to!r}")
-    if out:
-        save_chain(chain, out.with_suffix("." + to) if out.suffix == "" else out)
-    else:
+    if to == "uuv-simulator":
+        try:
+            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points)
+        except ExportError as e:
+            _fail(str(e))
+    elif to in ("yaml", "toml"):
         d = chain_to_dict(chain)
-        sys.stdout.write(_to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False))
+        text = _to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False)
+    else:
+        _fail(f"--to: expected yaml, toml or uuv-simulator, got {to!r}")
+    if out:
+        atomic_write_text(out, text)
+        err_console.print(f"wrote {out}")
+    else:
+        sys.stdout.write(text)
+
+
+def _parse_range(spec: str, name: str):
+    """``a:b:step`` (inclusive) or ``v1,v2,...`` → array."""
+    import numpy as np
+
+    try:
+        if ":" in spec:
+            parts = [float(x) for x in spec.split(":")]
+            if len(parts) != 3 or parts[2] <= 0 or parts[1] < parts[0]:
+                raise ValueError
+            n = int(round((parts[1] - parts[0]) / parts[2])) + 1
+            return parts[0] + parts[2] * np.arange(n)
+        return np.array([float(x) for x in spec.split(",") if x.strip()])
+    except ValueError:
+        _fail(f"{name}: expected start:stop:step (stop >= start, step > 0) or a comma list, got {spec!r}")
+
+
+@thruster_app.command("predict")
+def thruster_predict(
+    model: str = typer.Argument(..., help="Model file or preset name."),
+    pwm: Optional[str] = typer.Option(None, "--pwm", help="PWM commands [µs]: start:stop:step or a,b,c."),
+    voltage: Optional[str] = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
+    speed: Optional[str] = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
+    supply_voltage: Optional[float] = typer.Option(None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."),
+    json_out: bool = typer.Option(False, "--json", help="Print {input: [...], thrust_N: [...]} as JSON."),
+):
+    """Steady thrust of a model at given commands, voltages or speeds."""
+    from uuvid.thruster.blocks import ESC
+    from uuvid.thruster.chain import ThrusterChain
+
+    chain = _load_model(model)
+    given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
+    if len(given) != 1:
+        _fail("give exactly one of --pwm, --voltage, --speed")
+    key, spec = given[0]
+    x = _parse_range(spec, "--" + key.split("_")[0])
+    blocks = list(chain.blocks)
+    if supply_voltage is not None:
+        if supply_voltage <= 0:
+            _fail(f"--supply-voltage must be positive, got {supply_voltage}")
+        idx = [i for i, b in enumerate(blocks) if isinstance(b, ESC)]
+        if not idx:
+            _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
+        blocks[idx[0]] = blocks[idx[0]].with_supply(supply_voltage)
+    want = {"pwm_us": "command", "voltage_V": "voltage", "speed_rad_s": "speed"}[key]
+    kinds = chain.signal_kinds
+    if want not in kinds[:-1]:
+        _fail(f"{chain.name} is driven by {kinds[0]}; it has no {want} input (signals: {' → '.join(kinds)})")
+    start = kinds.index(want)
+    sub = ThrusterChain(tuple(blocks[start:]), input_kind=want, name=chain.name)
+    thrust = sub.steady_thrust(x)
+    doc = {key: x.tolist(), "thrust_N": thrust.tolist(), "model": chain.name}
+    if supply_voltage is not None:
+        doc["supply_voltage_V"] = supply_voltage
+    if json_out:
+        _print_json(doc)
+    else:
+        out_console.print(_table(f"{chain.name}: steady thrust", [
+            {key: float(a), "thrust_N": float(b)} for a, b in zip(x, thrust)], [key, "thrust_N"], "{:.4g}"))
 
 
 # ------------------------------------------------------------------------------------ demo

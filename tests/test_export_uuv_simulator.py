@@ -1,0 +1,84 @@
+"""Export to UUV Simulator's thruster plugin (dynamics + conversion) and back."""
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.io.export import ExportError, from_uuv_simulator, to_uuv_simulator
+from uuvid.thruster.blocks import (
+    BessaDynamics,
+    DeadZoneMap,
+    FirstOrder,
+    QuadraticMap,
+    TableMap,
+    TunnelThruster,
+    Yoerger,
+    ZeroOrder,
+)
+from uuvid.thruster.chain import ThrusterChain
+from uuvid.thruster.presets import auv2_rig_chain, laidani_chain
+
+
+@pytest.mark.parametrize("dyn", [ZeroOrder(), FirstOrder(0.05), Yoerger(0.5, 0.7),
+                                 BessaDynamics(0.05, 0.1, 0.02, 0.1, 1.0)])
+@pytest.mark.parametrize("conv", [QuadraticMap.basic(0.0049), DeadZoneMap(0.001, 0.002, -50, 25),
+                                  TableMap((-5, 0, 2, 5), (-100, -10, 20, 120))])
+def test_uuv_native_chains_round_trip_exactly(dyn, conv):
+    chain = ThrusterChain((dyn, conv), input_kind="command")
+    xml = to_uuv_simulator(chain)
+    assert "exact" in xml.splitlines()[0]
+    assert from_uuv_simulator(xml).blocks == chain.blocks
+
+
+def test_uuv_element_names():
+    xml = to_uuv_simulator(ThrusterChain((Yoerger(0.5, 0.7), DeadZoneMap(0.001, 0.002, -50, 25)),
+                                         input_kind="command"))
+    for tag in ("<type>Yoerger</type>", "<alpha>0.5</alpha>", "<beta>0.7</beta>", "<type>Bessa</type>",
+                "<rotorConstantL>", "<rotorConstantR>", "<deltaL>", "<deltaR>",
+                'filename="libuuv_thruster_ros_plugin.so"'):
+        assert tag in xml
+
+
+def test_laidani_chain_exports_with_exact_steady_map():
+    chain = laidani_chain()
+    xml = to_uuv_simulator(chain, table_points=251)
+    assert "approximate" in xml.splitlines()[0]
+    back = from_uuv_simulator(xml)
+    pwm = np.linspace(1000, 2000, 401)
+    assert np.max(np.abs(back.steady_thrust(pwm - 1500) - chain.steady_thrust(pwm))) < 0.1
+    # dynamics close: a slow sine through both
+    r1 = chain.simulate(lambda t: 1500 + 400 * np.sin(t), 4.0)
+    r2 = back.simulate(lambda t: 400 * np.sin(t), 4.0)
+    assert np.max(np.abs(r1["thrust"] - r2["thrust"])) < 0.3
+
+
+def test_chain_with_two_dynamic_blocks_is_refused():
+    with pytest.raises(ExportError, match="dynamic blocks"):
+        to_uuv_simulator(auv2_rig_chain())
+
+
+def test_tunnel_thruster_has_no_uuv_dynamics():
+    chain = ThrusterChain((auv2_rig_chain().blocks[0],), input_kind="voltage")
+    assert isinstance(chain.blocks[0], TunnelThruster)
+    with pytest.raises(ExportError, match="no UUV Simulator dynamics"):
+        to_uuv_simulator(chain)
+
+
+def test_cli_export_and_predict(tmp_path):
+    runner = CliRunner()
+    out = tmp_path / "t.xml"
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "uuv-simulator", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "<dynamics>" in out.read_text()
+    res = runner.invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1100:1900:4", "--json"])
+    assert res.exit_code == 0, res.output
+    import json
+
+    doc = json.loads(res.stdout)
+    assert len(doc["pwm_us"]) == 201 and len(doc["thrust_N"]) == 201
+    assert doc["thrust_N"][100] == 0.0  # 1500 µs: neutral
+    res = runner.invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1900:1100:4"])
+    assert res.exit_code == 2
+    res = runner.invoke(app, ["thruster", "predict", "auv2-tunnel", "--pwm", "1500"])
+    assert res.exit_code == 2 and "no command input" in res.output
