@@ -224,12 +224,6 @@ def test_slow_yoerger_steady_thrust_is_the_equilibrium():
     np.testing.assert_allclose(chain.steady_thrust([1.0, -2.0]), [1.0, -2.0], rtol=1e-8)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "ThrusterChain.sweep judges 'at rest' by the change between the ends of the last two passes: "
-    "Yoerger(0.05, 0.05) at u = 1 (time constant 10 s) is within 1.1e-12 of its equilibrium after "
-    "the 8th pass (384 s in all), but moved by ~5e-9 > rtol = 1e-9 during that 192-s pass, so "
-    "steady_thrust/sweep warn 'still not at rest after 8 passes' and list u = 1 in "
-    "not_converged although the value returned is converged."))
 def test_sweep_does_not_warn_when_the_last_pass_reached_rest():
     chain = ThrusterChain((Yoerger(0.05, 0.05), QuadraticMap.basic(1.0)), input_kind="command")
     with warnings.catch_warnings():
@@ -541,12 +535,6 @@ def test_dc_motor_with_small_inductance_converges_to_the_l0_response():
     assert ref["current"][0] == pytest.approx(24.0 / base.resistance)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "ThrusterChain.simulate silently returns NaN when the RK4 substep h = dt/substeps exceeds the "
-    "stability limit of a fast mode: DCMotor(inductance=1e-7) has tau_e = L/R = 2.5e-8 s, "
-    "h = 2.5e-4 s (h/tau_e = 1e4 >> 2.8), and every speed from the second sample on is NaN, "
-    "with no error or warning.  Expected: an error naming the inductance/step, or a stable "
-    "treatment of the electrical equation (e.g. exact update of L di/dt = V - R i - K_G w for held w)."))
 def test_dc_motor_stiff_inductance_is_not_silently_nan():
     base = DCMotor(motor_viscous=2e-6, torque_coefficient=3e-6, gear_ratio=2.5)
     try:
