@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Optional
 
 import typer
 from rich.console import Console
@@ -51,7 +50,7 @@ def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}"
 @reproduce_app.command("mclean1991")
 def reproduce_mclean(
     json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Write plots, tables and index.html here."),
+    out: Path | None = typer.Option(None, "--out", help="Write plots, tables and index.html here."),
 ):
     """McLean (1991): Table I, App. A load matching, voltage pulsing."""
     from uuvid.papers import mclean1991
@@ -85,7 +84,7 @@ def _show_mclean(result: dict) -> None:
 @reproduce_app.command("laidani")
 def reproduce_laidani(
     json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Write plots (Fig. 10) and index.html here."),
+    out: Path | None = typer.Option(None, "--out", help="Write plots (Fig. 10) and index.html here."),
 ):
     """Laidani et al.: PWM → ESC → A2212 → degree-5 polynomial."""
     from uuvid.papers import laidani
@@ -171,7 +170,7 @@ def thruster_simulate(
     t_end: float = typer.Option(2.0, "--t-end", help="Simulated time [s]."),
     dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
     substeps: int = typer.Option(4, "--substeps", help="RK4 steps per output sample."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Write the time series (CSV), a plot and index.html."),
+    out: Path | None = typer.Option(None, "--out", help="Write the time series (CSV), a plot and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
 ):
     """Simulate a thruster chain under an input signal; print response metrics."""
@@ -210,7 +209,7 @@ def thruster_simulate(
 def thruster_export(
     model: str = typer.Argument(..., help="Model file or preset name."),
     to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
-    out: Optional[Path] = typer.Option(None, "--out", help="File to write (default: stdout)."),
+    out: Path | None = typer.Option(None, "--out", help="File to write (default: stdout)."),
     thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
     table_points: int = typer.Option(101, "--table-points", help="uuv-simulator: points of a LinearInterp table."),
 ):
@@ -258,10 +257,10 @@ def _parse_range(spec: str, name: str):
 @thruster_app.command("predict")
 def thruster_predict(
     model: str = typer.Argument(..., help="Model file or preset name."),
-    pwm: Optional[str] = typer.Option(None, "--pwm", help="PWM commands [µs]: start:stop:step or a,b,c."),
-    voltage: Optional[str] = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
-    speed: Optional[str] = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
-    supply_voltage: Optional[float] = typer.Option(None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."),
+    pwm: str | None = typer.Option(None, "--pwm", help="PWM commands [µs]: start:stop:step or a,b,c."),
+    voltage: str | None = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
+    speed: str | None = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
+    supply_voltage: float | None = typer.Option(None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."),
     json_out: bool = typer.Option(False, "--json", help="Print {input: [...], thrust_N: [...]} as JSON."),
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import math
 import warnings as _warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
 
 import numpy as np
 

@@ -26,7 +26,7 @@ import math
 import tomllib
 import typing
 from pathlib import Path
-from typing import Any, Literal, Union
+from typing import Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
@@ -114,7 +114,7 @@ _tunnel_fields = {k: (v.annotation if k != "motor" else _NESTED_MOTOR,
 _SCHEMAS["tunnel_thruster"] = create_model("TunnelThrusterSchema",
                                            __config__=ConfigDict(extra="forbid"), **_tunnel_fields)
 
-BlockSchema = typing.Annotated[Union[tuple(_SCHEMAS.values())], Field(discriminator="type")]
+BlockSchema = typing.Annotated[tuple(_SCHEMAS.values()), Field(discriminator="type")]
 
 
 class ChainSchema(BaseModel):

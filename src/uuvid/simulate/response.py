@@ -50,7 +50,7 @@ class TimeResponse:
     def names(self) -> list[str]:
         return list(self.channels)
 
-    def recorded(self) -> "TimeResponse":
+    def recorded(self) -> TimeResponse:
         """Only the channels that carry data (drop all-NaN ones)."""
         keep = {k: v for k, v in self.channels.items() if not np.all(np.isnan(v))}
         return TimeResponse(self.t, keep, dict(self.meta))

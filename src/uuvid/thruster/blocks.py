@@ -125,7 +125,7 @@ class Block:
             out[f.name] = v
         return out
 
-    def replace(self, **changes) -> "Block":
+    def replace(self, **changes) -> Block:
         """A copy with some parameters changed (validated again)."""
         return replace(self, **changes)
 
@@ -176,7 +176,7 @@ class ESC(Block):
 
     @classmethod
     def from_range(cls, neutral: float, deadband: float, full_low: float, full_high: float,
-                   supply_voltage: float, command_unit: str = "pwm_us") -> "ESC":
+                   supply_voltage: float, command_unit: str = "pwm_us") -> ESC:
         """Linear ESC reaching ±``supply_voltage`` at ``full_high``/``full_low`` and saturating there.
 
         The dead zone is ``neutral ± deadband/2``; voltage rises linearly from 0 at its edge.
@@ -191,7 +191,7 @@ class ESC(Block):
                    saturation_high=full_high, supply_voltage=supply_voltage,
                    command_unit=command_unit)
 
-    def with_supply(self, supply_voltage: float) -> "ESC":
+    def with_supply(self, supply_voltage: float) -> ESC:
         """Same duty-cycle map at another supply voltage (V = duty × supply)."""
         k = supply_voltage / self.supply_voltage
         return replace(self, a_fwd=self.a_fwd * k, b_fwd=self.b_fwd * k, a_rev=self.a_rev * k,
@@ -433,7 +433,7 @@ class QuadraticMap(Block):
                       torque_pos=self.torque_pos, torque_neg=self.torque_neg)
 
     @classmethod
-    def basic(cls, rotor_constant: float) -> "QuadraticMap":
+    def basic(cls, rotor_constant: float) -> QuadraticMap:
         """UUV Simulator ``Basic`` conversion: ``T = c·x|x|``."""
         return cls(k_pos=rotor_constant, k_neg=rotor_constant)
 
@@ -686,7 +686,7 @@ class LoadCell(Block):
                   damping_ratio=self.damping_ratio)
 
     @classmethod
-    def from_polynomial(cls, a1: float, a0: float) -> "LoadCell":
+    def from_polynomial(cls, a1: float, a0: float) -> LoadCell:
         """From ``a0/(s² + a1 s + a0)``."""
         wn = math.sqrt(a0)
         return cls(natural_frequency=wn, damping_ratio=a1 / (2 * wn))

@@ -9,20 +9,20 @@ and exposes its right-hand side for a reference ``scipy.integrate.solve_ivp`` ru
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
 
 import numpy as np
 
 from uuvid.simulate import kernels
 from uuvid.simulate.response import TimeResponse
 from uuvid.thruster.blocks import (
+    _SIGNAL_CHANNEL,
     CH,
     CHANNELS,
     COMMAND,
     K_FIRST_ORDER,
     K_FIRST_ORDER_MOTOR,
-    _SIGNAL_CHANNEL,
     Block,
     ParameterError,
 )
@@ -158,7 +158,7 @@ class ThrusterChain:
         return self.sweep(u).final
 
     def sweep(self, u, settle_time: float | None = None, dt: float = 1e-3,
-              max_passes: int = 8, rtol: float = 1e-9) -> "SweepResult":
+              max_passes: int = 8, rtol: float = 1e-9) -> SweepResult:
         """Hold each input in ``u`` from rest until steady; returns the final channels per input.
 
         Runs are batched through the compiled kernel in parallel.  Each pass lasts ``settle_time``
