@@ -52,9 +52,10 @@ class McLeanThesisNumbers:
 MCLEAN = McLeanThesisNumbers()
 
 #: α_o − α_i and β_o − β_i of the AUV II thruster.  The thesis tuned them by hand to its tests and
-#: never printed them; these values are identified from Table I's steady columns (steady speed
-#: 925 rpm and thrust 0.50 lb of the 24 V baseline: see the seed digest §A.3 and
-#: ``uuvid.identify`` for the procedure).  They reproduce every Table I row.
+#: never printed them.  These are the values the seed digest (§A.3) worked out from Table I's steady
+#: columns; ``uuvid.papers.mclean1991_identification.identify_corrections`` re-identifies them by
+#: least squares over Table I's six steady operating points (2.92 ± 0.07 and 0.182 ± 0.008, so
+#: 3.0 and 0.185 lie within ~1σ).  With them every Table I row is reproduced.
 AUV2_ENERGY_CORRECTION = 3.0  # α_o − α_i
 AUV2_MOMENTUM_CORRECTION = 0.185  # β_o − β_i
 
