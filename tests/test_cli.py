@@ -20,6 +20,11 @@ def test_reproduce_mclean1991_json():
                           "time_constant_s", "steady_rpm"}
     assert {"motor", "gear_ratio", "prop_rpm", "thrust_lbf"} <= set(doc["load_matching"][0])
     assert doc["pulsing"]["rows"]
+    assert abs(doc["identified"]["delta_alpha"] - 3.0) < 0.3
+    assert abs(doc["identified"]["delta_beta"] - 0.185) < 0.02
+    ef = doc["experiment_fit"]
+    assert ef["mean_abs_rel_error"] < 0.15 < 0.30 < ef["thesis_mean_abs_rel_error"]
+    assert ef["parameters"]
 
 
 def test_reproduce_laidani_json_and_out(tmp_path):

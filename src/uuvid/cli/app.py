@@ -79,6 +79,13 @@ def _show_mclean(result: dict) -> None:
     out_console.print(_table("App. A — load matching", result["load_matching"],
                              ["motor", "gear_ratio", "prop_rpm", "thrust_lbf"]))
     out_console.print(result["pulsing"]["answer"])
+    if "identified" in result:
+        idn, ef = result["identified"], result["experiment_fit"]
+        out_console.print(
+            f"Identified from Table I: α_o−α_i = {idn['delta_alpha']:.3f} ± {idn['delta_alpha_sigma']:.3f}, "
+            f"β_o−β_i = {idn['delta_beta']:.4f} ± {idn['delta_beta_sigma']:.4f}.  Experiment fit "
+            f"(Tables II/III): {ef['mean_abs_rel_error']:.1%} mean error vs the thesis's "
+            f"{ef['thesis_mean_abs_rel_error']:.1%}.")
 
 
 @reproduce_app.command("laidani")

@@ -198,9 +198,34 @@ def reproduce(out_dir: str | Path | None = None, progress=None) -> dict:
         "load_matching_conclusions": load_matching_conclusions(lm_rows),
         "pulsing": pulsing(),
     }
+    result.update(identification())
     if out_dir is not None:
         write_outputs(result, responses, Path(out_dir))
     return result
+
+
+def identification() -> dict:
+    """Issue-3 additions: the unprinted corrections identified from Table I's steady columns, and
+    the model fitted to the thesis's experiments (Tables II/III) with a Coulomb offset."""
+    from uuvid.papers import mclean1991_identification as ident
+
+    corr = ident.identify_corrections()
+    exp = ident.fit_experiments()
+    return {
+        "identified": {
+            "delta_alpha": corr["energy_correction"].value,
+            "delta_alpha_sigma": corr["energy_correction"].stderr,
+            "delta_beta": corr["momentum_correction"].value,
+            "delta_beta_sigma": corr["momentum_correction"].stderr,
+            "digest_values": {"delta_alpha": 3.0, "delta_beta": 0.185},
+        },
+        "experiment_fit": {
+            "mean_abs_rel_error": exp["mean_abs_rel_error"],
+            "thesis_mean_abs_rel_error": exp["thesis_mean_abs_rel_error"],
+            "parameters": exp["parameters"],
+            "rows": exp["rows"],
+        },
+    }
 
 
 def write_outputs(result: dict, responses: dict, out: Path) -> Path:
@@ -237,6 +262,18 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
         report.add_figure(path, caption=f"{name}: true and measured thrust, propeller speed")
         with atomic_path(out / f"step_{name.replace('=', '_').replace('.', 'p')}.csv") as tmp:
             r.to_frame().to_csv(tmp, index=False)
+    idn = result["identified"]
+    report.add_heading("Identification")
+    report.add_paragraph(
+        f"From Table I's steady columns: α_o − α_i = {idn['delta_alpha']:.3f} ± {idn['delta_alpha_sigma']:.3f}, "
+        f"β_o − β_i = {idn['delta_beta']:.4f} ± {idn['delta_beta_sigma']:.4f} (digest: 3.0 and 0.185).")
+    ef = result["experiment_fit"]
+    report.add_paragraph(
+        f"Fitted to the thesis's experiments (Tables II/III) with a Coulomb offset: mean absolute "
+        f"relative error {ef['mean_abs_rel_error']:.1%} over the nine numbers, against "
+        f"{ef['thesis_mean_abs_rel_error']:.1%} for the thesis's own simulation.")
+    report.add_table([{"parameter": k, "estimate": v["estimate"], "sigma": v["sigma"], "unit": v["unit"]}
+                      for k, v in ef["parameters"].items()], caption="Experiment fit")
     report.add_table(result["load_matching"], caption="App. A — load matching (continuous duty)")
     fig, axes = new_figure(1, 2, figsize=(11, 4.5))
     lm.plot_load_matching(lm.PITTMAN_9514, (2.5, 3.67, 5.0, 10.0), ax=axes[0])
