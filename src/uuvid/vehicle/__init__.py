@@ -1,0 +1,81 @@
+"""Vehicle models: 6-DOF dynamics, Caccia's 1-DOF model, thruster layout, allocation, presets.
+
+Modules:
+    kinematics     unit-quaternion attitude kinematics, NED/FRD (Fossen 2011, §2.2.2)
+    rigid_body     M_RB and C_RB (Fossen 2011, §3.3)
+    hydrodynamics  added mass, damping, restoring forces (Fossen 2011, §§4.1, 6.3–6.4)
+    model          VehicleParams, compiled and NumPy right-hand sides, OneDofModel (Caccia eq. 3)
+    layout         thrusters → thrust configuration matrix B (UUV Simulator's ``tam``)
+    allocation     pseudo-inverse / minimum-energy allocation, thrust-mapping modes, saturation
+    definition     vehicle files (YAML/TOML, pydantic), presets, load_vehicle
+    envelope       maximum steady speeds per DOF and direction (Laidani et al. Table 4 kind)
+"""
+
+from uuvid.vehicle.allocation import (
+    AllocationResult,
+    Allocator,
+    ThrustMode,
+    allocate_compiled,
+    constrained_allocation_matrix,
+    delivered_compiled,
+    pseudo_inverse,
+    weighted_pseudo_inverse,
+)
+from uuvid.vehicle.definition import (
+    Vehicle,
+    VehicleFileError,
+    list_presets,
+    load_vehicle,
+    vehicle_from_dict,
+)
+from uuvid.vehicle.envelope import Envelope, speed_envelope
+from uuvid.vehicle.layout import Thruster, ThrusterLayout, thrust_configuration_matrix
+from uuvid.vehicle.model import (
+    DOF_NAMES,
+    N_PARAMS,
+    PARAM_LAYOUT,
+    OneDofModel,
+    VehicleParams,
+    make_params,
+    make_state,
+    one_dof_rhs,
+    one_dof_rhs_compiled,
+    steady_speed,
+    vehicle_rhs,
+    vehicle_rhs_into,
+    vehicle_rhs_reference,
+)
+
+__all__ = [
+    "DOF_NAMES",
+    "N_PARAMS",
+    "PARAM_LAYOUT",
+    "AllocationResult",
+    "Allocator",
+    "Envelope",
+    "OneDofModel",
+    "ThrustMode",
+    "Thruster",
+    "ThrusterLayout",
+    "Vehicle",
+    "VehicleFileError",
+    "VehicleParams",
+    "allocate_compiled",
+    "constrained_allocation_matrix",
+    "delivered_compiled",
+    "list_presets",
+    "load_vehicle",
+    "make_params",
+    "make_state",
+    "one_dof_rhs",
+    "one_dof_rhs_compiled",
+    "pseudo_inverse",
+    "speed_envelope",
+    "steady_speed",
+    "thrust_configuration_matrix",
+    "vehicle_from_dict",
+    "vehicle_rhs",
+    "vehicle_rhs_into",
+    "vehicle_rhs_reference",
+    "weighted_pseudo_inverse",
+]

@@ -1,0 +1,491 @@
+"""Vehicle definition files (YAML or TOML), validated with pydantic, with exact error paths.
+
+A vehicle file (SI units, NED/FRD body axes: x forward, y starboard, z down; positive damping
+and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
+
+    name: bluerov2
+    source:                      # required: where the numbers come from
+      citation: Wu, C.-J. (2018) ...
+      transcribed_from: ...      # optional
+    assumptions:                 # key path → why the value is assumed (not from the source)
+      thrusters: positions approximate, from the frame drawing
+    environment: {current: [0, 0, 0]}        # constant current, NED, m/s (optional)
+    rigid_body:
+      mass: 11.5
+      weight: 112.8              # optional, default m·g
+      buoyancy: 114.8            # or displaced_volume + water_density (+ gravity)
+      center_of_gravity: [0, 0, 0.02]
+      center_of_buoyancy: [0, 0, 0]
+      inertia: [0.16, 0.16, 0.16]            # 3 principal values or 9; about the CG by default
+    hydrodynamics:               # 6 (diagonal) or 36 (row-major) values each
+      added_mass: [...]
+      linear_damping: [...]
+      quadratic_damping: [...]
+    thrusters:
+      - name: T1
+        position: [0.156, 0.111, 0.085]
+        axis: [-0.7071, 0.7071, 0]           # or rpy_deg: [roll, pitch, yaw] of the thruster
+        model: t200                          # thruster preset name or model-file path
+        limits: [-39.91, 51.49]              # [min, max] thrust, N
+        installation: {surge_front: [1.0, 0.89]}   # η per mode: value or [η₊, η₋]
+    allocation: {dofs: [surge, sway, heave, yaw], weights: [...], default_modes: [...]}
+    modes:                       # thrust-mapping modes (Caccia et al. 2000, Table I)
+      surge_front:
+        constraints: [{RL: 1, RR: 1}]        # τ_RL + τ_RR = 0
+        zero_dofs: [sway]
+        open_water: forward surge
+    one_dof:                     # Caccia et al. (2000) eq. 3 models identified per DOF
+      yaw: {dof: yaw, mass: 84, linear: 20.5, quadratic: 49.5, eta_neg: 0.60}
+
+Errors name the file and the key path: ``bluerov2.yaml: thrusters[2].position: missing``.
+:func:`load_vehicle` takes a path or a preset name (:func:`list_presets`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from uuvid.io.modelfile import ModelFileError, load_chain, read_model_text
+from uuvid.thruster.blocks import ParameterError
+from uuvid.units import G0
+from uuvid.vehicle.allocation import Allocator, ThrustMode
+from uuvid.vehicle.layout import Thruster, ThrusterLayout, axis_from_rpy, dof_index
+from uuvid.vehicle.model import DOF_NAMES, OneDofModel, VehicleParams
+from uuvid.vehicle.rigid_body import skew_ref
+
+PRESET_DIR = Path(__file__).resolve().parent / "presets"
+
+
+class VehicleFileError(ModelFileError):
+    """A vehicle file is unreadable or invalid; the message names the file and the key path."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Schema
+# ---------------------------------------------------------------------------------------------
+_CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
+Vec3 = tuple[float, float, float]
+DofName = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
+
+
+def _six_or_36(v: list[float]) -> list[float]:
+    if len(v) not in (6, 36):
+        raise ValueError(f"expected 6 (diagonal) or 36 (6×6 row-major) values, got {len(v)}")
+    return v
+
+
+class SourceSchema(BaseModel):
+    model_config = _CFG
+    citation: str = Field(min_length=1)
+    transcribed_from: str | list[str] | None = None
+    notes: str | None = None
+
+
+class EnvironmentSchema(BaseModel):
+    model_config = _CFG
+    current: Vec3 = (0.0, 0.0, 0.0)
+
+
+class RigidBodySchema(BaseModel):
+    model_config = _CFG
+    mass: float = Field(gt=0)
+    weight: float | None = Field(None, ge=0)
+    buoyancy: float | None = Field(None, ge=0)
+    displaced_volume: float | None = Field(None, gt=0)
+    water_density: float | None = Field(None, gt=0)
+    gravity: float = Field(G0, gt=0)
+    center_of_gravity: Vec3
+    center_of_buoyancy: Vec3
+    inertia: list[float]
+    inertia_about: Literal["cg", "origin"] = "cg"
+
+    @field_validator("inertia")
+    @classmethod
+    def _inertia_len(cls, v):
+        if len(v) not in (3, 9):
+            raise ValueError(f"expected 3 (principal) or 9 (3×3 row-major) values, got {len(v)}")
+        return v
+
+
+class HydrodynamicsSchema(BaseModel):
+    model_config = _CFG
+    added_mass: list[float]
+    linear_damping: list[float]
+    quadratic_damping: list[float]
+
+    @field_validator("added_mass", "linear_damping", "quadratic_damping")
+    @classmethod
+    def _len(cls, v):
+        return _six_or_36(v)
+
+
+class ThrusterSchema(BaseModel):
+    model_config = _CFG
+    name: str = Field(min_length=1)
+    position: Vec3
+    axis: Vec3 | None = None
+    rpy_deg: Vec3 | None = None
+    model: str = Field(min_length=1)
+    limits: tuple[float, float]
+    installation: dict[str, float | tuple[float, float]] = {}
+    notes: str | None = None
+
+
+class ModeSchema(BaseModel):
+    model_config = _CFG
+    description: str = ""
+    constraints: list[dict[str, float]] = []
+    zero_dofs: list[DofName] = []
+    off: list[str] = []
+    open_water: str = ""
+    eta_dof: dict[str, float] = {}
+
+
+class AllocationSchema(BaseModel):
+    model_config = _CFG
+    dofs: list[DofName] = list(DOF_NAMES)
+    weights: list[float] | None = None
+    default_modes: list[str] = []
+
+
+class OneDofSchema(BaseModel):
+    model_config = _CFG
+    dof: DofName
+    mass: float = Field(gt=0)
+    linear: float = Field(ge=0)
+    quadratic: float = Field(0.0, ge=0)
+    eta_pos: float = Field(1.0, gt=0)
+    eta_neg: float = Field(1.0, gt=0)
+    disturbance: float = 0.0
+    mode: str | None = None
+    notes: str | None = None
+
+
+class VehicleSchema(BaseModel):
+    model_config = _CFG
+    name: str = Field(min_length=1)
+    description: str = ""
+    source: SourceSchema
+    assumptions: dict[str, str] = {}
+    environment: EnvironmentSchema = EnvironmentSchema()
+    quaternion_gain: float = Field(1.0, ge=0)
+    rigid_body: RigidBodySchema
+    hydrodynamics: HydrodynamicsSchema
+    thrusters: list[ThrusterSchema] = []
+    allocation: AllocationSchema = AllocationSchema()
+    modes: dict[str, ModeSchema] = {}
+    one_dof: dict[str, OneDofSchema] = {}
+
+
+# ---------------------------------------------------------------------------------------------
+# The loaded vehicle
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Vehicle:
+    """A validated vehicle: parameters, thruster layout, modes, allocation defaults, provenance."""
+
+    name: str
+    params: VehicleParams
+    layout: ThrusterLayout
+    modes: Mapping[str, ThrustMode] = field(default_factory=dict)
+    allocation_dofs: tuple[int, ...] = tuple(range(6))
+    allocation_weights: np.ndarray | None = None
+    default_modes: tuple[str, ...] = ()
+    one_dof: Mapping[str, OneDofModel] = field(default_factory=dict)
+    source: Mapping[str, Any] = field(default_factory=dict)
+    assumptions: Mapping[str, str] = field(default_factory=dict)
+    description: str = ""
+    path: Path | None = None
+
+    @property
+    def B(self) -> np.ndarray:
+        """Thrust configuration matrix (6 × n)."""
+        return self.layout.B
+
+    def mode(self, modes: str | Sequence[str] | None = None) -> ThrustMode | None:
+        """One mode, or the combination of several (constraints stacked, η multiplied).
+
+        ``None`` → the file's ``allocation.default_modes``; ``()`` or ``"none"`` → no mode.
+        """
+        if modes is None:
+            modes = self.default_modes
+        if isinstance(modes, str):
+            modes = () if modes == "none" else (modes,)
+        modes = tuple(modes)
+        if not modes:
+            return None
+        for m in modes:
+            if m not in self.modes:
+                raise KeyError(f"{self.name}: no thrust-mapping mode {m!r}; "
+                               f"have {sorted(self.modes)}")
+        if len(modes) == 1:
+            return self.modes[modes[0]]
+        ms = [self.modes[m] for m in modes]
+        eta_dof: dict[str, float] = {}
+        for m in ms:
+            eta_dof.update(m.eta_dof)
+        return ThrustMode("+".join(modes), np.vstack([m.constraints for m in ms]),
+                          tuple(sorted({d for m in ms for d in m.zero_dofs})),
+                          np.prod([m.eta_pos for m in ms], axis=0),
+                          np.prod([m.eta_neg for m in ms], axis=0),
+                          "; ".join(m.open_water for m in ms if m.open_water),
+                          "; ".join(m.description for m in ms if m.description), eta_dof)
+
+    def allocator(self, modes: str | Sequence[str] | None = None, *, dofs=None, weights=None,
+                  compensate_eta: bool = False, limits: bool = True) -> Allocator:
+        """An :class:`Allocator` for this vehicle (file defaults unless overridden)."""
+        return Allocator(self.B, self.allocation_dofs if dofs is None else dofs,
+                         self.allocation_weights if weights is None else weights,
+                         self.mode(modes), self.layout.limits if limits else None,
+                         compensate_eta)
+
+    def thruster_chain(self, thruster: int | str):
+        """The thruster model a thruster refers to (thruster preset name or model-file path,
+        relative to the vehicle file).  Raises ``KeyError`` for a placeholder name."""
+        ref = self.layout[thruster].model
+        from uuvid.thruster.presets import PRESETS, preset_chain
+
+        if ref in PRESETS:
+            return preset_chain(ref)
+        base = self.path.parent if self.path is not None else Path.cwd()
+        p = Path(ref) if Path(ref).is_absolute() else base / ref
+        if p.is_file():
+            return load_chain(p)
+        raise KeyError(f"{self.name}: thruster {self.layout[thruster].name} refers to model "
+                       f"{ref!r}, which is neither a thruster preset ({sorted(PRESETS)}) nor a "
+                       f"model file next to the vehicle file (a placeholder)")
+
+    @property
+    def citation(self) -> str:
+        return str(self.source.get("citation", ""))
+
+    def summary(self) -> str:
+        lines = [f"{self.name}: {self.description}".rstrip(": "), f"  source: {self.citation}",
+                 self.params.summary(),
+                 f"  {self.layout.n} thrusters: " + ", ".join(
+                     f"{t.name} ({t.model}, [{t.limits[0]:.4g}, {t.limits[1]:.4g}] N)"
+                     for t in self.layout)]
+        if self.modes:
+            lines.append(f"  modes: {', '.join(self.modes)}")
+        if self.assumptions:
+            lines.append(f"  assumed: {', '.join(self.assumptions)}")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------------------------
+def _loc(loc) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+_TEXT = {"missing": "missing", "extra_forbidden": "unknown key"}
+# VehicleParams field → file key path
+_PARAM_PATH = {"mass": "rigid_body.mass", "inertia": "rigid_body.inertia",
+               "weight": "rigid_body.weight", "buoyancy": "rigid_body.buoyancy",
+               "r_g": "rigid_body.center_of_gravity", "r_b": "rigid_body.center_of_buoyancy",
+               "added_mass": "hydrodynamics.added_mass",
+               "linear_damping": "hydrodynamics.linear_damping",
+               "quadratic_damping": "hydrodynamics.quadratic_damping",
+               "current": "environment.current", "quaternion_gain": "quaternion_gain"}
+
+
+def _validation_messages(e: ValidationError, where: str) -> list[str]:
+    msgs = []
+    for err in e.errors():
+        loc = list(err["loc"])
+        # drop the union-member tags pydantic inserts (installation.x.float / tuple[...])
+        loc = [p for p in loc if not (isinstance(p, str) and (p in ("float", "str", "list[str]")
+                                                              or p.startswith("tuple[")))]
+        text = _TEXT.get(err["type"], err["msg"])
+        text = text.removeprefix("Value error, ")
+        msgs.append(f"{where}: {_loc(loc)}: {text}")
+    # the same path may come out once per union member; keep the first
+    seen, out = set(), []
+    for m in msgs:
+        key = m.rsplit(": ", 1)[0]
+        if key not in seen:
+            seen.add(key)
+            out.append(m)
+    return out
+
+
+def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None = None,
+                      path: Path | None = None) -> Vehicle:
+    """Validate a vehicle description (as loaded from YAML/TOML) and build a :class:`Vehicle`."""
+    if not isinstance(raw, dict):
+        raise VehicleFileError(f"{where}: expected a mapping at the top level, got "
+                               f"{type(raw).__name__}")
+    try:
+        spec = VehicleSchema.model_validate(raw)
+    except ValidationError as e:
+        raise VehicleFileError("\n".join(_validation_messages(e, where))) from None
+    errors: list[str] = []
+
+    def err(p: str, text: str):
+        errors.append(f"{where}: {p}: {text}")
+
+    # ------------------------------------------------------------ rigid body
+    rb = spec.rigid_body
+    weight = rb.weight if rb.weight is not None else rb.mass * rb.gravity
+    buoyancy = rb.buoyancy
+    if rb.buoyancy is not None and rb.displaced_volume is not None:
+        err("rigid_body.displaced_volume", "give buoyancy or displaced_volume, not both")
+    elif rb.buoyancy is None:
+        if rb.displaced_volume is None:
+            err("rigid_body.buoyancy", "missing (or give displaced_volume and water_density)")
+        elif rb.water_density is None:
+            err("rigid_body.water_density", "missing (needed with displaced_volume)")
+        else:
+            buoyancy = rb.water_density * rb.gravity * rb.displaced_volume
+    inertia = np.asarray(rb.inertia, dtype=float)
+    inertia = np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
+    if rb.inertia_about == "origin":  # I_g = I_o + m S(r_g)²
+        S = skew_ref(rb.center_of_gravity)
+        inertia = inertia + rb.mass * S @ S
+
+    # ------------------------------------------------------------ modes and thrusters
+    names = [t.name for t in spec.thrusters]
+    for i, t in enumerate(spec.thrusters):
+        if names.index(t.name) != i:
+            err(f"thrusters[{i}].name", f"duplicate thruster name {t.name!r}")
+    mode_names = set(spec.modes)
+    thrusters: list[Thruster] = []
+    for i, t in enumerate(spec.thrusters):
+        p = f"thrusters[{i}]"
+        if t.axis is None and t.rpy_deg is None:
+            err(f"{p}.axis", "missing (give axis or rpy_deg)")
+            continue
+        if t.axis is not None and t.rpy_deg is not None:
+            err(f"{p}.rpy_deg", "give axis or rpy_deg, not both")
+            continue
+        axis = (np.asarray(t.axis, float) if t.axis is not None
+                else axis_from_rpy(*np.radians(t.rpy_deg)))
+        if np.linalg.norm(axis) < 1e-9:
+            err(f"{p}.axis", "must be a non-zero vector")
+            continue
+        lo, hi = t.limits
+        if not lo <= 0.0 <= hi:
+            err(f"{p}.limits", f"must be [min, max] with min <= 0 <= max, got [{lo}, {hi}]")
+            continue
+        bad = False
+        for m, eta in t.installation.items():
+            if m not in mode_names:
+                err(f"{p}.installation.{m}", f"unknown mode; modes: {sorted(mode_names)}")
+                bad = True
+            elif any(v <= 0 for v in np.atleast_1d(eta)):
+                err(f"{p}.installation.{m}", "installation coefficients must be > 0")
+                bad = True
+        if bad:
+            continue
+        thrusters.append(Thruster(t.name, t.position, tuple(axis), t.model, (lo, hi),
+                                  dict(t.installation)))
+    layout = None
+    if not errors:
+        layout = ThrusterLayout(tuple(thrusters))
+        modes = {}
+        for mname, ms in spec.modes.items():
+            p = f"modes.{mname}"
+            ok = True
+            for j, c in enumerate(ms.constraints):
+                for k in c:
+                    if k not in names:
+                        err(f"{p}.constraints[{j}].{k}", f"unknown thruster; have {names}")
+                        ok = False
+                if c and all(v == 0 for v in c.values()):
+                    err(f"{p}.constraints[{j}]", "all coefficients are zero")
+                    ok = False
+            for j, k in enumerate(ms.off):
+                if k not in names:
+                    err(f"{p}.off[{j}]", f"unknown thruster; have {names}")
+                    ok = False
+            for key in ms.eta_dof:
+                d = key.rstrip("+-")
+                if d not in DOF_NAMES or len(key) - len(d) > 1:
+                    err(f"{p}.eta_dof.{key}", "keys are a DOF name with an optional + or - "
+                        "(e.g. surge+, yaw)")
+                    ok = False
+            if not ok:
+                continue
+            ep, en = layout.eta(mname)
+            modes[mname] = ThrustMode.from_names(
+                mname, names, ms.constraints, ms.zero_dofs, ms.off,
+                {n_: (float(ep[i]), float(en[i])) for i, n_ in enumerate(names)},
+                open_water=ms.open_water, description=ms.description, eta_dof=ms.eta_dof)
+    al = spec.allocation
+    if al.weights is not None and len(al.weights) != len(spec.thrusters):
+        err("allocation.weights", f"expected {len(spec.thrusters)} values (one per thruster), got "
+            f"{len(al.weights)}")
+    elif al.weights is not None and any(w <= 0 for w in al.weights):
+        err("allocation.weights", "weights must be > 0")
+    for j, m in enumerate(al.default_modes):
+        if m not in mode_names:
+            err(f"allocation.default_modes[{j}]", f"unknown mode; modes: {sorted(mode_names)}")
+    one_dof = {}
+    for key, od in spec.one_dof.items():
+        if od.mode is not None and od.mode not in mode_names:
+            err(f"one_dof.{key}.mode", f"unknown mode; modes: {sorted(mode_names)}")
+            continue
+        if od.linear == 0 and od.quadratic == 0:
+            err(f"one_dof.{key}.linear", "linear or quadratic drag must be > 0")
+            continue
+        one_dof[key] = OneDofModel(od.mass, od.linear, od.quadratic, od.eta_pos, od.eta_neg,
+                                   od.disturbance, od.dof)
+    if errors:
+        raise VehicleFileError("\n".join(errors))
+
+    # ------------------------------------------------------------ physics
+    try:
+        params = VehicleParams(rb.mass, inertia, np.array(rb.center_of_gravity),
+                               np.array(rb.center_of_buoyancy), weight, buoyancy,
+                               spec.hydrodynamics.added_mass, spec.hydrodynamics.linear_damping,
+                               spec.hydrodynamics.quadratic_damping,
+                               np.array(spec.environment.current), spec.quaternion_gain, spec.name)
+    except ParameterError as e:
+        raise VehicleFileError(f"{where}: {_PARAM_PATH.get(e.param, e.param or '')}: {e}") from None
+    return Vehicle(spec.name, params, layout, modes,
+                   tuple(dof_index(d) for d in al.dofs),
+                   None if al.weights is None else np.asarray(al.weights, float),
+                   tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
+                   dict(spec.assumptions), spec.description, path)
+
+
+def list_presets() -> list[str]:
+    """Names of the vehicle presets shipped with uuvid (``load_vehicle(name)``)."""
+    return sorted(p.stem for p in PRESET_DIR.glob("*.yaml"))
+
+
+def preset_path(name: str) -> Path:
+    p = PRESET_DIR / f"{name}.yaml"
+    if not p.is_file():
+        raise KeyError(f"unknown vehicle preset {name!r}; known: {list_presets()}")
+    return p
+
+
+def load_vehicle(path_or_name: str | Path) -> Vehicle:
+    """Load a vehicle from a YAML/TOML file or by preset name (``bluerov2``, ``romeo``, …)."""
+    p = Path(path_or_name)
+    if not p.is_file():
+        if isinstance(path_or_name, str) and path_or_name in list_presets():
+            p = preset_path(path_or_name)
+        else:
+            raise VehicleFileError(f"{path_or_name}: no such vehicle file and not a preset "
+                                   f"(presets: {list_presets()})")
+    try:
+        raw = read_model_text(p)
+    except ModelFileError as e:
+        raise VehicleFileError(str(e)) from None
+    return vehicle_from_dict(raw, where=p.name if p.parent == PRESET_DIR else str(p),
+                             base_dir=p.parent, path=p.resolve())

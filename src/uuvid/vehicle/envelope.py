@@ -1,0 +1,166 @@
+"""Performance envelope: maximum steady speed per DOF and direction (Laidani et al., Table 4 kind).
+
+For a DOF ξ and a direction (±) the steady state of the uncoupled model (Caccia et al. 2000,
+eq. 3, with η φ the force the thrusters deliver) is
+
+    k_L ξ + k_Q ξ|ξ| = F_max + ν,       ν = W − B in heave (z down), 0 otherwise
+
+where ``F_max`` is the largest generalised force the thrusters can produce along ±ξ while every
+*other controlled* DOF stays at zero (uncontrolled DOFs, e.g. the pitch of a 6-thruster
+BlueROV2, are left free).  Two values of ``F_max`` are given:
+
+* ``lp`` — the true maximum, a linear programme over the delivered thrusts
+  ``d_i ∈ [η₋ᵢ min_i, η₊ᵢ max_i]`` (scipy HiGHS), with the mode's constraints applied to the
+  delivered thrusts;
+* ``allocator`` — what the vehicle's allocator gives (pseudo-inverse direction, η-compensated so
+  the delivered force points along ±ξ, uniformly scaled until the first thruster saturates): the
+  number a DP controller using it will see.
+
+The drag coefficients are the diagonal of ``D_L``, ``D_Q`` (off-diagonal coupling ignored);
+roll and pitch have restoring moments and no steady rate, so only their force is reported.
+Confirmation by 6-DOF simulation is a separate step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uuvid.vehicle.allocation import apply_eta
+from uuvid.vehicle.layout import dof_index
+from uuvid.vehicle.model import DOF_NAMES, steady_speed
+
+DIRECTIONS = {
+    0: ("forward", "backward"),
+    1: ("starboard", "port"),
+    2: ("diving", "climbing"),
+    3: ("roll +", "roll -"),
+    4: ("nose up", "nose down"),
+    5: ("yaw + (clockwise)", "yaw - (counter-clockwise)"),
+}
+UNITS = {0: ("N", "m/s"), 1: ("N", "m/s"), 2: ("N", "m/s"), 3: ("N·m", "rad/s"),
+         4: ("N·m", "rad/s"), 5: ("N·m", "rad/s")}
+
+
+def max_force_lp(B, lower, upper, dof: int, sign: float, controlled: Sequence[int],
+                 eta_pos=None, eta_neg=None, constraints=None) -> float:
+    """Largest ``sign · (B d)[dof]`` over delivered thrusts ``d`` within ``[η₋ lower, η₊ upper]``
+    with ``(B d)[j] = 0`` for the other controlled DOFs ``j`` and ``C d = 0``."""
+    from scipy.optimize import linprog
+
+    B = np.asarray(B, dtype=float)
+    n = B.shape[1]
+    ep = np.ones(n) if eta_pos is None else np.asarray(eta_pos, float)
+    en = np.ones(n) if eta_neg is None else np.asarray(eta_neg, float)
+    lo = np.asarray(lower, float) * en
+    hi = np.asarray(upper, float) * ep
+    others = [j for j in controlled if j != dof]
+    rows = [B[others]] if others else []
+    if constraints is not None and np.size(constraints):
+        rows.append(np.atleast_2d(constraints))
+    A_eq = np.vstack(rows) if rows else None
+    b_eq = np.zeros(A_eq.shape[0]) if A_eq is not None else None
+    bounds = [(None if not math.isfinite(a) else a, None if not math.isfinite(b) else b)
+              for a, b in zip(lo, hi)]
+    res = linprog(-sign * B[dof], A_eq=A_eq, b_eq=b_eq, bounds=bounds, method="highs")
+    if res.status == 3:
+        return math.inf
+    if res.status != 0:
+        return 0.0
+    return max(0.0, float(-res.fun))
+
+
+@dataclass(frozen=True)
+class EnvelopeRow:
+    dof: str
+    direction: str
+    sign: int
+    force: float  # LP maximum, N or N·m
+    speed: float  # steady speed with the LP force (signed), m/s or rad/s; nan for roll/pitch
+    force_allocator: float
+    speed_allocator: float
+    force_unit: str
+    speed_unit: str
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Maximum steady speeds per DOF and direction, with the forces behind them."""
+
+    vehicle: str
+    rows: tuple[EnvelopeRow, ...]
+    mode: str | None = None
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    def __getitem__(self, direction: str) -> EnvelopeRow:
+        for r in self.rows:
+            if r.direction == direction or f"{r.dof} {'+' if r.sign > 0 else '-'}" == direction:
+                return r
+        raise KeyError(f"no envelope row {direction!r}; have {[r.direction for r in self.rows]}")
+
+    def as_dict(self) -> dict:
+        return {"vehicle": self.vehicle, "mode": self.mode,
+                "rows": [r.__dict__.copy() for r in self.rows], "notes": list(self.notes)}
+
+    def report(self) -> str:
+        title = f"Performance envelope — {self.vehicle}" + (
+            f" (mode {self.mode})" if self.mode else "")
+        lines = [title, (f"{'DOF':<6} {'direction':<26} {'max force':>12} {'steady speed':>14}"
+                         f" {'allocator force':>16} {'allocator speed':>16}")]
+        for r in self.rows:
+            sp = "—" if math.isnan(r.speed) else f"{abs(r.speed):.3g} {r.speed_unit}"
+            spa = "—" if math.isnan(r.speed_allocator) else \
+                f"{abs(r.speed_allocator):.3g} {r.speed_unit}"
+            lines.append(f"{r.dof:<6} {r.direction:<26} {r.force:>8.4g} {r.force_unit:<3} "
+                         f"{sp:>14} {r.force_allocator:>10.4g} {r.force_unit:<5} {spa:>16}")
+        lines.extend(f"note: {n}" for n in self.notes)
+        return "\n".join(lines)
+
+
+def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None) -> Envelope:
+    """Envelope of a :class:`~uuvid.vehicle.definition.Vehicle` (default: its allocation DOFs
+    and default modes)."""
+    alloc = vehicle.allocator(modes, compensate_eta=True)
+    mode = alloc.mode
+    B = vehicle.B
+    lim = vehicle.layout.limits
+    ep, en = alloc.eta
+    controlled = alloc.controlled
+    C = mode.constraint_rows(B) if mode is not None else None
+    p = vehicle.params
+    kL = np.diag(p.linear_damping)
+    kQ = np.diag(p.quadratic_damping)
+    wanted = controlled if dofs is None else tuple(dof_index(d) for d in dofs)
+    rows = []
+    for d in wanted:
+        for sign in (1, -1):
+            F = max_force_lp(B, lim[:, 0], lim[:, 1], d, sign, controlled, ep, en, C)
+            e = np.zeros(B.shape[0])
+            e[d] = sign
+            tau = alloc.nominal(e)
+            s = alloc.max_along(e)
+            if not np.any(tau):  # the allocator does not act on this DOF
+                Fa = 0.0
+            elif math.isfinite(s):
+                Fa = max(0.0, float(sign * (B @ apply_eta(s * tau, ep, en))[d]))
+            else:
+                Fa = math.inf
+            if d in (3, 4):
+                v = va = math.nan
+            else:
+                bias = p.net_weight if d == 2 else 0.0
+                v = steady_speed(kL[d], kQ[d], sign * F + bias) if (kL[d] or kQ[d]) else math.inf
+                va = steady_speed(kL[d], kQ[d], sign * Fa + bias) if (kL[d] or kQ[d]) else \
+                    math.inf
+            rows.append(EnvelopeRow(DOF_NAMES[d], DIRECTIONS[d][0 if sign > 0 else 1], sign,
+                                    F, v, Fa, va, *UNITS[d]))
+    notes = [(f"drag: diagonal of D_L and D_Q; heave includes W - B = {p.net_weight:+.3g} N; "
+              "roll/pitch: restoring, no steady rate")]
+    unc = [DOF_NAMES[i] for i in range(6) if i not in controlled]
+    if unc:
+        notes.append(f"not controlled (left free): {', '.join(unc)}")
+    return Envelope(vehicle.name, tuple(rows), mode.name if mode is not None else None,
+                    tuple(notes))

@@ -1,0 +1,213 @@
+"""Vehicle definition files: presets, sources, exact error paths, thruster model references."""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from uuvid.units import G0
+from uuvid.vehicle import VehicleFileError, list_presets, load_vehicle, vehicle_from_dict
+
+BASE = {
+    "name": "testbot",
+    "source": {"citation": "made up for the tests"},
+    "rigid_body": {"mass": 10.0, "buoyancy": 100.0, "center_of_gravity": [0, 0, 0.02],
+                   "center_of_buoyancy": [0, 0, 0], "inertia": [0.2, 0.2, 0.3]},
+    "hydrodynamics": {"added_mass": [5, 10, 12, 0.1, 0.1, 0.1],
+                      "linear_damping": [4, 6, 5, 0.1, 0.1, 0.1],
+                      "quadratic_damping": [18, 21, 37, 1.5, 1.5, 1.5]},
+    "thrusters": [
+        {"name": "A", "position": [0.2, 0.1, 0], "axis": [1, 0, 0], "model": "t200",
+         "limits": [-40, 50]},
+        {"name": "B", "position": [0.2, -0.1, 0], "axis": [1, 0, 0], "model": "t200",
+         "limits": [-40, 50]},
+        {"name": "C", "position": [0, 0, 0], "rpy_deg": [0, -90, 0], "model": "t200",
+         "limits": [-40, 50], "installation": {"up_down": [1.0, 0.5]}},
+    ],
+    "modes": {"up_down": {"constraints": [{"A": 1, "B": -1}], "zero_dofs": ["yaw"]}},
+    "allocation": {"dofs": ["surge", "heave", "yaw"]},
+}
+
+
+def errors_of(mutate) -> str:
+    raw = copy.deepcopy(BASE)
+    mutate(raw)
+    with pytest.raises(VehicleFileError) as e:
+        vehicle_from_dict(raw, where="bot.yaml")
+    return str(e.value)
+
+
+def test_base_file_builds():
+    v = vehicle_from_dict(copy.deepcopy(BASE))
+    assert v.layout.names == ("A", "B", "C")
+    assert np.allclose(v.layout["C"].axis, [0, 0, 1])
+    assert v.params.weight == pytest.approx(10.0 * G0)
+    assert v.allocation_dofs == (0, 2, 5)
+    assert v.modes["up_down"].eta_neg.tolist() == [1.0, 1.0, 0.5]
+
+
+T = "thrusters"
+
+
+@pytest.mark.parametrize("mutate, expected", [
+    (lambda r: r[T][2].pop("position"), "bot.yaml: thrusters[2].position: missing"),
+    (lambda r: r.pop("source"), "bot.yaml: source: missing"),
+    (lambda r: r["rigid_body"].pop("mass"), "bot.yaml: rigid_body.mass: missing"),
+    (lambda r: r[T][0].update(colour="red"), "bot.yaml: thrusters[0].colour: unknown key"),
+    (lambda r: r["hydrodynamics"].update(added_mass=[1, 2, 3]),
+     "bot.yaml: hydrodynamics.added_mass: expected 6 (diagonal) or 36"),
+    (lambda r: r[T][1].update(position=[0, 0]), "bot.yaml: thrusters[1].position[2]: missing"),
+    (lambda r: r[T][1].update(limits=[10, 50]),
+     "bot.yaml: thrusters[1].limits: must be [min, max] with min <= 0 <= max"),
+    (lambda r: r[T][0].pop("axis"),
+     "bot.yaml: thrusters[0].axis: missing (give axis or rpy_deg)"),
+    (lambda r: r[T][2].update(axis=[0, 0, 1]),
+     "bot.yaml: thrusters[2].rpy_deg: give axis or rpy_deg, not both"),
+    (lambda r: r[T][1].update(axis=[0, 0, 0]),
+     "bot.yaml: thrusters[1].axis: must be a non-zero vector"),
+    (lambda r: r[T][1].update(name="A"),
+     "bot.yaml: thrusters[1].name: duplicate thruster name 'A'"),
+    (lambda r: r[T][0].update(installation={"nope": 0.5}),
+     "bot.yaml: thrusters[0].installation.nope: unknown mode"),
+    (lambda r: r["modes"]["up_down"].update(constraints=[{"A": 1, "Q": 1}]),
+     "bot.yaml: modes.up_down.constraints[0].Q: unknown thruster"),
+    (lambda r: r["modes"]["up_down"].update(zero_dofs=["sideways"]),
+     "bot.yaml: modes.up_down.zero_dofs[0]: Input should be 'surge'"),
+    (lambda r: r["rigid_body"].pop("buoyancy"),
+     "bot.yaml: rigid_body.buoyancy: missing (or give displaced_volume and water_density)"),
+    (lambda r: r["rigid_body"].update(buoyancy=None, displaced_volume=0.01),
+     "bot.yaml: rigid_body.water_density: missing (needed with displaced_volume)"),
+    (lambda r: r["hydrodynamics"].update(linear_damping=[-4, 6, 5, 0.1, 0.1, 0.1]),
+     "bot.yaml: hydrodynamics.linear_damping: VehicleParams.linear_damping[surge] = -4 < 0"),
+    (lambda r: r["hydrodynamics"].update(added_mass=[-5, 1, 1, 1, 1, 1]),
+     "bot.yaml: hydrodynamics.added_mass: VehicleParams.added_mass must be positive semi-def"),
+    (lambda r: r["rigid_body"].update(mass=float("nan")),
+     "bot.yaml: rigid_body.mass: Input should be a finite number"),
+    (lambda r: r["allocation"].update(weights=[1, 2]),
+     "bot.yaml: allocation.weights: expected 3 values"),
+    (lambda r: r["allocation"].update(dofs=["surge", "twist"]), "bot.yaml: allocation.dofs[1]"),
+    (lambda r: r.update(one_dof={"a": {"dof": "yaw", "mass": 1.0, "linear": 0.0}}),
+     "bot.yaml: one_dof.a.linear: linear or quadratic drag must be > 0"),
+])
+def test_errors_name_the_exact_path(mutate, expected):
+    assert expected in errors_of(mutate)
+
+
+def test_several_errors_are_reported_together():
+    def m(r):
+        r["thrusters"][0].pop("model")
+        r["thrusters"][2].pop("limits")
+    msg = errors_of(m)
+    assert "thrusters[0].model: missing" in msg and "thrusters[2].limits: missing" in msg
+
+
+def test_displaced_volume_and_inertia_about_origin(tmp_path):
+    raw = copy.deepcopy(BASE)
+    raw["rigid_body"].update(buoyancy=None, displaced_volume=0.0134, water_density=1000.0,
+                             inertia=[0.2, 0.2, 0.3], inertia_about="origin")
+    del raw["rigid_body"]["buoyancy"]
+    v = vehicle_from_dict(raw)
+    assert v.params.buoyancy == pytest.approx(1000 * G0 * 0.0134)
+    # about the CG: I_g = I_o − m r_g² on the x and y axes
+    assert np.allclose(np.diag(v.params.inertia), [0.2 - 10 * 0.02**2, 0.2 - 10 * 0.02**2, 0.3])
+    assert np.allclose(np.diag(v.params.M_RB)[3:], [0.2, 0.2, 0.3])
+
+
+def test_yaml_and_toml_files(tmp_path):
+    p = tmp_path / "bot.yaml"
+    p.write_text(yaml.safe_dump(BASE))
+    assert load_vehicle(p).name == "testbot"
+    t = tmp_path / "bot.toml"
+    t.write_text("""
+name = "tomlbot"
+[source]
+citation = "test"
+[rigid_body]
+mass = 10.0
+buoyancy = 100.0
+center_of_gravity = [0, 0, 0.02]
+center_of_buoyancy = [0, 0, 0]
+inertia = [0.2, 0.2, 0.3]
+[hydrodynamics]
+added_mass = [5, 10, 12, 0.1, 0.1, 0.1]
+linear_damping = [4, 6, 5, 0.1, 0.1, 0.1]
+quadratic_damping = [18, 21, 37, 1.5, 1.5, 1.5]
+[[thrusters]]
+name = "A"
+position = [0.2, 0.1, 0]
+axis = [1, 0, 0]
+model = "t200"
+""")
+    with pytest.raises(VehicleFileError, match=r"bot.toml: thrusters\[0\].limits: missing"):
+        load_vehicle(t)
+    with pytest.raises(VehicleFileError, match="not a preset"):
+        load_vehicle("no-such-vehicle")
+
+
+# --------------------------------------------------------------------------- presets
+def test_presets_load_and_state_their_source():
+    names = list_presets()
+    assert {"bluerov2", "bluerov2-heavy", "romeo", "auv2"} <= set(names)
+    expected = {"bluerov2": ("Wu", 6), "bluerov2-heavy": ("von Benzon", 8),
+                "romeo": ("Caccia", 8), "auv2": ("McLean", 4)}
+    for n in names:
+        v = load_vehicle(n)
+        assert v.citation and v.B.shape == (6, v.layout.n)
+        author, nthr = expected[n]
+        assert author in v.citation and v.layout.n == nthr
+        assert v.assumptions  # every preset lists what it assumed
+        assert all(lo <= 0 <= hi for lo, hi in v.layout.limits)
+
+
+def test_bluerov2_numbers_are_the_wu_2018_set():
+    p = load_vehicle("bluerov2").params
+    assert p.mass == 11.5 and p.weight == 112.8 and p.buoyancy == 114.8
+    assert np.allclose(np.diag(p.added_mass), [5.5, 12.7, 14.57, 0.12, 0.12, 0.12])
+    assert np.allclose(np.diag(p.linear_damping), [4.03, 6.22, 5.18, 0.07, 0.07, 0.07])
+    assert np.allclose(np.diag(p.quadratic_damping), [18.18, 21.66, 36.99, 1.55, 1.55, 1.55])
+    lim = load_vehicle("bluerov2").layout.limits
+    assert np.allclose(lim, [[-4.07 * G0, 5.25 * G0]] * 6, rtol=1e-4)  # T200 at 16 V
+
+
+def test_heavy_numbers_are_the_von_benzon_2022_set():
+    v = load_vehicle("bluerov2-heavy")
+    p = v.params
+    assert p.buoyancy == pytest.approx(1000 * G0 * 0.0134)
+    assert np.allclose(p.r_b, [0, 0, -0.01])
+    assert np.allclose(np.diag(p.quadratic_damping), [141, 217, 190, 1.192, 0.470, 1.5])
+    assert np.linalg.matrix_rank(v.B) == 6
+
+
+def test_romeo_numbers_and_thruster_model_file():
+    v = load_vehicle("romeo")
+    p = v.params
+    assert p.mass_matrix[0, 0] == pytest.approx(890.0)  # identified surge mass
+    assert p.mass_matrix[5, 5] == pytest.approx(84.0)  # identified yaw inertia
+    assert np.diag(p.linear_damping)[[0, 2, 5]].tolist() == [46.9, 44.7, 20.5]
+    assert np.diag(p.quadratic_damping)[[0, 2, 5]].tolist() == [306.2, 430.3, 49.5]
+    assert p.net_weight == pytest.approx(0.7)
+    chain = v.thruster_chain("HFL")  # c_V V|V| from the thrust tunnel
+    assert np.allclose(chain.steady_thrust([10.0, -10.0]), [102.0, -109.0])
+    yaw = v.one_dof["yaw"]
+    assert (yaw.mass, yaw.linear, yaw.quadratic, yaw.eta_neg) == (84.0, 20.5, 49.5, 0.60)
+    assert v.one_dof["heave"].eta_neg == 0.56
+
+
+def test_thruster_model_references():
+    assert load_vehicle("auv2").thruster_chain("V_bow").name  # the auv2-tunnel preset
+    with pytest.raises(KeyError, match="placeholder"):
+        load_vehicle("bluerov2").thruster_chain(0)
+
+
+def test_auv2_layout_from_mclean():
+    v = load_vehicle("auv2")
+    xs = [t.position[0] for t in v.layout]
+    assert xs[0] - xs[1] == pytest.approx(46 * 0.0254) and xs[2] - xs[3] == pytest.approx(
+        34 * 0.0254)
+    assert v.layout.limits[0, 1] == pytest.approx(0.50 * 4.4482216, rel=1e-4)
+    al = v.allocator()
+    assert al.controlled == (1, 2, 4, 5)
+    assert np.allclose(v.B[[1, 2, 4, 5]] @ al.T[:, [1, 2, 4, 5]], np.eye(4))
+    assert math.isclose(v.params.weight, v.params.buoyancy)
