@@ -329,7 +329,11 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     n, p = J.shape
     dof = max(n - p, 1)
     sigma2 = float(r @ r / dof)
-    cov = sigma2 * np.linalg.pinv(J.T @ J)
+    # scale the columns before inverting so parameters of very different size keep their σ
+    norms = np.linalg.norm(J, axis=0)
+    sc = np.where(norms > 0, norms, 1.0)
+    Js = J / sc
+    cov = sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc)
     cond, msgs = diagnose(names, sol.x, cov, J, emit=emit_warnings)
     if not sol.success:
         msgs.append(f"optimiser did not converge: {sol.message}")

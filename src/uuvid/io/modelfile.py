@@ -38,7 +38,7 @@ from uuvid.thruster.chain import ThrusterChain
 #: Parameters that may be left out of a model file (they have a natural "absent" value).
 OPTIONAL = {
     "esc": {"neutral", "deadzone_low", "deadzone_high", "saturation_low", "saturation_high",
-            "command_unit"},
+            "command_unit", "curvature_fwd", "curvature_rev"},
     "dc_motor": {"inductance", "propeller_inertia", "motor_viscous", "propeller_viscous",
                  "coulomb_torque", "gear_ratio", "torque_coefficient", "torque_coefficient_rev"},
     "tunnel_thruster": {"water_density", "profile_factor"},
@@ -114,7 +114,7 @@ _tunnel_fields = {k: (v.annotation if k != "motor" else _NESTED_MOTOR,
 _SCHEMAS["tunnel_thruster"] = create_model("TunnelThrusterSchema",
                                            __config__=ConfigDict(extra="forbid"), **_tunnel_fields)
 
-BlockSchema = typing.Annotated[tuple(_SCHEMAS.values()), Field(discriminator="type")]
+BlockSchema = typing.Annotated[typing.Union[tuple(_SCHEMAS.values())], Field(discriminator="type")]  # noqa: UP007
 
 
 class ChainSchema(BaseModel):

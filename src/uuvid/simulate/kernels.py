@@ -49,8 +49,10 @@ def _esc(p, cmd):
     c = min(max(cmd, p[6]), p[7])
     if c > p[5]:
         v = p[0] * c + p[1]
+        v = v * (1.0 + p[9] * (abs(v) / p[8] - 1.0))
     elif c < p[4]:
         v = p[2] * c + p[3]
+        v = v * (1.0 + p[10] * (abs(v) / p[8] - 1.0))
     else:
         v = 0.0
     return min(max(v, -p[8]), p[8])

@@ -140,6 +140,9 @@ class ESC(Block):
     ``V = a_fwd·cmd + b_fwd`` above the dead zone, ``V = a_rev·cmd + b_rev`` below it, 0 inside
     ``[deadzone_low, deadzone_high]``; the command is first clipped to
     ``[saturation_low, saturation_high]`` (saturation) and |V| never exceeds ``supply_voltage``.
+    An optional duty curvature β per direction bends the linear duty ``s = |V_lin|/V_supply``:
+    ``V = V_lin (1 + β (s − 1))`` (β = 0: linear; identified on T200 sheets, see
+    :mod:`uuvid.identify.physical`).
     The command unit (``pwm_us``, ``duty`` or ``volts``) is recorded for reports.
     """
 
@@ -158,12 +161,18 @@ class ESC(Block):
     saturation_high: float = math.inf
     supply_voltage: float = 12.0
     command_unit: str = "volts"
+    curvature_fwd: float = 0.0
+    curvature_rev: float = 0.0
 
     def __post_init__(self):
         _finite("ESC", a_fwd=self.a_fwd, b_fwd=self.b_fwd, a_rev=self.a_rev, b_rev=self.b_rev,
                 neutral=self.neutral, deadzone_low=self.deadzone_low,
                 deadzone_high=self.deadzone_high)
         _positive("ESC", supply_voltage=self.supply_voltage)
+        for name in ("curvature_fwd", "curvature_rev"):
+            b = getattr(self, name)
+            if not (math.isfinite(b) and -1.0 <= b <= 1.0):
+                raise ParameterError(f"ESC.{name} must lie in [-1, 1] (monotone duty), got {b!r}", name)
         if not self.deadzone_low <= self.neutral <= self.deadzone_high:
             raise ParameterError(
                 f"ESC dead zone [{self.deadzone_low}, {self.deadzone_high}] must contain the "
@@ -203,13 +212,16 @@ class ESC(Block):
     def params_array(self):
         return np.array([self.a_fwd, self.b_fwd, self.a_rev, self.b_rev, self.deadzone_low,
                          self.deadzone_high, self.saturation_low, self.saturation_high,
-                         self.supply_voltage], dtype=np.float64)
+                         self.supply_voltage, self.curvature_fwd, self.curvature_rev],
+                        dtype=np.float64)
 
     def voltage(self, command):
         """Vectorised ``V(cmd)`` (same law as the kernel)."""
         c = np.clip(np.asarray(command, dtype=float), self.saturation_low, self.saturation_high)
         v = np.where(c > self.deadzone_high, self.a_fwd * c + self.b_fwd,
                      np.where(c < self.deadzone_low, self.a_rev * c + self.b_rev, 0.0))
+        beta = np.where(c > self.deadzone_high, self.curvature_fwd, self.curvature_rev)
+        v = v * (1.0 + beta * (np.abs(v) / self.supply_voltage - 1.0))
         return np.clip(v, -self.supply_voltage, self.supply_voltage)
 
 

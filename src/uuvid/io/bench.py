@@ -1,0 +1,502 @@
+"""Bench data in: steady sweeps and time series of a thruster on a test stand, in SI units.
+
+A bench file is a table (CSV, or Parquet when ``pyarrow`` is installed) with one row per sample:
+a command column and any of thrust, propeller speed, current, supply voltage and time.
+:func:`read_bench` picks the columns by name, converts units at the edge (kgf, lbf, gram-force,
+rpm → N, rad/s) and validates every cell; :func:`read_t200` reads Blue Robotics' T200
+performance-sheet layout directly.
+
+Every problem raises :class:`BenchDataError` naming the file, the column and the row.  Rows are
+counted two ways and the message gives both: the *data row* (1-based, header excluded) and, for
+CSV, the *CSV line* (1-based line of the file, header = line 1).
+
+Sign conventions: thrust and speed are signed (forward = command above neutral).  Many RPM sensors
+report an unsigned speed; then the sign is taken from the command direction.
+
+Censoring: some loggers set readings under a detection limit to zero (the T200 sheets zero every
+reading under 300 rpm).  Such rows are not measurements of a dead zone — the true thrust and speed
+are merely *small* — so :class:`BenchData` marks them in ``censored`` and the identification
+routines treat them as unknown (or as upper bounds), never as zeros.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from uuvid import units as U
+
+COMMAND_UNITS = ("pwm_us", "duty", "volts")
+#: thrust unit → N per unit
+THRUST_UNITS = {"N": 1.0, "kgf": U.KGF, "lbf": U.LBF, "g": U.G0 / 1000.0}
+#: speed unit → rad/s per unit
+SPEED_UNITS = {"rad/s": 1.0, "rpm": U.RPM}
+#: the neutral command of each command unit
+DEFAULT_NEUTRAL = {"pwm_us": 1500.0, "duty": 0.0, "volts": 0.0}
+#: T200 performance sheets: readings below this speed were set to zero (SOURCE.md)
+T200_CENSOR_RPM = 300.0
+
+
+class BenchDataError(ValueError):
+    """Bench data are unreadable or invalid; the message names file, column and row."""
+
+
+def require_samples(n: int, p: int, what: str) -> None:
+    """Raise :class:`BenchDataError` when ``n`` samples cannot determine ``p`` parameters."""
+    if n < p:
+        raise BenchDataError(f"{what}: {n} usable sample(s) for {p} parameter(s); need at least "
+                             f"{p} (more for a standard error)")
+
+
+def _check_unit(kind: str, unit: str, table) -> str:
+    if unit in table:
+        return unit
+    for k in table:
+        if unit is not None and isinstance(unit, str) and unit.strip().lower() == k.lower():
+            return k
+    raise BenchDataError(f"unknown {kind} {unit!r}; expected one of {', '.join(table)}")
+
+
+# ------------------------------------------------------------------------------------------------
+# The data record
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class BenchData:
+    """Bench samples in SI units.
+
+    Attributes
+    ----------
+    command
+        Command per sample, in ``command_unit`` (``pwm_us`` µs, ``duty`` −1…1, ``volts`` V).
+    thrust
+        Thrust [N], signed (forward positive), or ``None``.
+    speed
+        Propeller speed [rad/s], signed, or ``None``.
+    current
+        Supply current [A], or ``None``.
+    supply_voltage
+        Supply voltage [V]: a scalar, an array per sample, or ``None``.
+    time
+        Sample times [s] (strictly increasing) for time series, ``None`` for steady sheets.
+    source
+        The file name (for messages and reports).
+    censored
+        Boolean mask of rows that are not measurements (readings below a detection limit that the
+        logger zeroed).  Identification treats them as unknown.
+    neutral
+        The neutral command (default 1500 µs for PWM, 0 otherwise).
+    censor_speed
+        The detection limit [rad/s] below which readings were zeroed, when known.
+    """
+
+    command: np.ndarray
+    command_unit: str = "pwm_us"
+    thrust: np.ndarray | None = None
+    speed: np.ndarray | None = None
+    current: np.ndarray | None = None
+    supply_voltage: float | np.ndarray | None = None
+    time: np.ndarray | None = None
+    source: str = ""
+    censored: np.ndarray | None = None
+    neutral: float | None = None
+    censor_speed: float | None = None
+
+    def __post_init__(self):
+        if self.command_unit not in COMMAND_UNITS:
+            raise BenchDataError(f"{self._where()}unknown command_unit {self.command_unit!r}; "
+                                 f"expected one of {', '.join(COMMAND_UNITS)}")
+        cmd = np.asarray(self.command, dtype=float)
+        if cmd.ndim != 1 or cmd.size == 0:
+            raise BenchDataError(f"{self._where()}command must be a non-empty 1-D array")
+        object.__setattr__(self, "command", cmd)
+        n = cmd.size
+        for name in ("thrust", "speed", "current", "time"):
+            v = getattr(self, name)
+            if v is not None:
+                a = np.asarray(v, dtype=float)
+                if a.shape != (n,):
+                    raise BenchDataError(f"{self._where()}{name} has shape {a.shape}; command has "
+                                         f"{n} samples")
+                object.__setattr__(self, name, a)
+        sv = self.supply_voltage
+        if sv is not None:
+            if np.ndim(sv) == 0:
+                sv = float(sv)
+                if not (math.isfinite(sv) and sv > 0):
+                    raise BenchDataError(f"{self._where()}supply_voltage must be a positive "
+                                         f"number, got {sv!r}")
+            else:
+                sv = np.asarray(sv, dtype=float)
+                if sv.shape != (n,):
+                    raise BenchDataError(f"{self._where()}supply_voltage has shape {sv.shape}; "
+                                         f"command has {n} samples")
+            object.__setattr__(self, "supply_voltage", sv)
+        cens = np.zeros(n, dtype=bool) if self.censored is None else np.asarray(self.censored,
+                                                                                  dtype=bool)
+        if cens.shape != (n,):
+            raise BenchDataError(f"{self._where()}censored mask has shape {cens.shape}; command "
+                                 f"has {n} samples")
+        object.__setattr__(self, "censored", cens)
+        if self.neutral is None:
+            object.__setattr__(self, "neutral", DEFAULT_NEUTRAL[self.command_unit])
+        else:
+            object.__setattr__(self, "neutral", float(self.neutral))
+
+    def _where(self) -> str:
+        return f"{self.source}: " if self.source else ""
+
+    # ---------------------------------------------------------------- views
+    def __len__(self) -> int:
+        return int(self.command.size)
+
+    @property
+    def n_samples(self) -> int:
+        return len(self)
+
+    @property
+    def measured(self) -> np.ndarray:
+        """Rows that are real measurements (``~censored``)."""
+        return ~self.censored
+
+    @property
+    def direction(self) -> np.ndarray:
+        """+1 forward (command above neutral), −1 reverse, 0 at neutral."""
+        return np.sign(self.command - self.neutral)
+
+    def supply_voltage_array(self) -> np.ndarray:
+        """The supply voltage per sample (raises if unknown)."""
+        if self.supply_voltage is None:
+            raise BenchDataError(f"{self._where()}no supply voltage: give voltage_col or "
+                                 "supply_voltage")
+        return np.broadcast_to(np.asarray(self.supply_voltage, dtype=float), (len(self),)).copy()
+
+    def nominal_voltage(self) -> float:
+        """The median supply voltage (a sheet's nominal voltage)."""
+        return float(np.median(self.supply_voltage_array()))
+
+    def subset(self, mask) -> BenchData:
+        """The rows selected by a boolean mask or index array."""
+        idx = np.asarray(mask)
+        sv = self.supply_voltage
+        if sv is not None and np.ndim(sv) == 1:
+            sv = sv[idx]
+
+        def take(a):
+            return None if a is None else a[idx]
+
+        return replace(self, command=self.command[idx], thrust=take(self.thrust),
+                       speed=take(self.speed), current=take(self.current), supply_voltage=sv,
+                       time=take(self.time), censored=self.censored[idx])
+
+    def forward(self) -> BenchData:
+        return self.subset(self.command > self.neutral)
+
+    def reverse(self) -> BenchData:
+        return self.subset(self.command < self.neutral)
+
+    def require(self, *channels: str, what: str = "this fit") -> None:
+        """Raise a clear error if a channel (thrust, speed, current, supply_voltage, time) is absent."""
+        missing = [c for c in channels if getattr(self, c) is None]
+        if missing:
+            raise BenchDataError(f"{self._where()}{what} needs {' and '.join(missing)} data, "
+                                 f"which this bench data set does not have")
+
+    def summary(self) -> dict:
+        out = {"source": self.source, "samples": len(self), "censored": int(self.censored.sum()),
+               "command_unit": self.command_unit, "neutral": self.neutral,
+               "command_range": [float(self.command.min()), float(self.command.max())]}
+        for name in ("thrust", "speed", "current"):
+            a = getattr(self, name)
+            if a is not None:
+                out[f"{name}_range"] = [float(a.min()), float(a.max())]
+        if self.supply_voltage is not None:
+            out["supply_voltage"] = self.nominal_voltage()
+        return out
+
+
+# ------------------------------------------------------------------------------------------------
+# Reading tables
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class _Table:
+    name: str
+    columns: list[str]
+    cells: dict[str, list]
+    lines: list[int] | None = None  # CSV line of every data row
+    kind: str = "CSV"
+
+    @property
+    def n_rows(self) -> int:
+        return len(next(iter(self.cells.values()))) if self.cells else 0
+
+    def where(self, col: str, i: int) -> str:
+        loc = f"data row {i + 1}"
+        if self.lines is not None:
+            loc += f" (CSV line {self.lines[i]})"
+        return f"{self.name}: column {col!r}, {loc}"
+
+
+def _norm(name: str) -> str:
+    s = name.strip().casefold().replace("µ", "u").replace("μ", "u")
+    return re.sub(r"\s+", " ", s)
+
+
+def _read_csv(path: Path) -> _Table:
+    try:
+        fh = open(path, newline="", encoding="utf-8-sig")
+    except OSError as e:
+        raise BenchDataError(f"{path.name}: cannot open bench file: {e.strerror or e}") from e
+    with fh:
+        try:
+            reader = csv.reader(fh)
+            header = None
+            rows, lines = [], []
+            for row in reader:
+                if header is None:
+                    if not row or all(not c.strip() for c in row):
+                        continue
+                    header = [c.strip() for c in row]
+                    continue
+                if not row or all(not c.strip() for c in row):
+                    continue  # blank lines are not samples
+                rows.append(row)
+                lines.append(reader.line_num)
+        except (csv.Error, UnicodeDecodeError) as e:
+            raise BenchDataError(f"{path.name}: not a readable CSV file: {e}") from e
+    if header is None:
+        raise BenchDataError(f"{path.name}: the file is empty (no header line)")
+    dup = sorted({c for c in header if header.count(c) > 1})
+    if dup:
+        raise BenchDataError(f"{path.name}: column name(s) {', '.join(map(repr, dup))} appear more "
+                             "than once in the header")
+    for r, ln in zip(rows, lines):
+        if len(r) != len(header):
+            raise BenchDataError(f"{path.name}: CSV line {ln} has {len(r)} cells but the header "
+                                 f"has {len(header)} columns")
+    cells = {c: [r[j] for r in rows] for j, c in enumerate(header)}
+    return _Table(path.name, header, cells, lines, "CSV")
+
+
+def _read_parquet(path: Path) -> _Table:
+    try:
+        import pyarrow.parquet as pq
+    except ImportError as e:
+        raise ImportError(f"{path.name}: reading Parquet bench files needs pyarrow, which is not "
+                          "installed; install it with `pip install pyarrow` (or save the data as "
+                          "CSV)") from e
+    try:
+        tbl = pq.read_table(path)
+    except Exception as e:  # pyarrow raises its own error types
+        raise BenchDataError(f"{path.name}: not a readable Parquet file: {e}") from e
+    cols = list(tbl.column_names)
+    cells = {c: tbl.column(c).to_pylist() for c in cols}
+    return _Table(path.name, cols, cells, None, "Parquet")
+
+
+def _read_table(path) -> _Table:
+    p = Path(path)
+    if not p.exists():
+        raise BenchDataError(f"{p}: no such bench file")
+    if p.suffix.lower() in (".parquet", ".pq"):
+        return _read_parquet(p)
+    return _read_csv(p)
+
+
+def _find_column(t: _Table, name: str, role: str) -> str:
+    if name in t.cells:
+        return name
+    matches = [c for c in t.columns if _norm(c) == _norm(name)]
+    if len(matches) == 1:
+        return matches[0]
+    raise BenchDataError(f"{t.name}: no column {name!r} for the {role}; available columns: "
+                         f"{', '.join(repr(c) for c in t.columns)}")
+
+
+def _numeric(t: _Table, col: str, role: str, unit: str = "") -> np.ndarray:
+    vals = t.cells[col]
+    out = np.empty(len(vals))
+    what = f"a number ({role}{', ' + unit if unit else ''})"
+    for i, v in enumerate(vals):
+        if v is None or (isinstance(v, str) and not v.strip()):
+            raise BenchDataError(f"{t.where(col, i)}: empty cell; expected {what}")
+        if isinstance(v, str):
+            try:
+                x = float(v.strip())
+            except ValueError:
+                raise BenchDataError(f"{t.where(col, i)}: {v.strip()!r} is not numeric; expected "
+                                     f"{what}") from None
+        else:
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise BenchDataError(f"{t.where(col, i)}: {v!r} is not numeric; expected "
+                                     f"{what}") from None
+        if math.isnan(x):
+            raise BenchDataError(f"{t.where(col, i)}: NaN; expected {what}")
+        if not math.isfinite(x):
+            raise BenchDataError(f"{t.where(col, i)}: {x} is not finite; expected {what}")
+        out[i] = x
+    return out
+
+
+def read_bench(path, *, command_col: str, thrust_col: str | None = None,
+               speed_col: str | None = None, current_col: str | None = None,
+               voltage_col: str | None = None, time_col: str | None = None,
+               command_unit: str = "pwm_us", thrust_unit: str = "N", speed_unit: str = "rad/s",
+               supply_voltage: float | None = None, neutral: float | None = None,
+               speed_sign: str = "auto", censor_speed_below: float | None = None) -> BenchData:
+    """Read a bench file (CSV, or Parquet with pyarrow) into :class:`BenchData` (SI units).
+
+    Parameters
+    ----------
+    command_col, thrust_col, speed_col, current_col, voltage_col, time_col
+        Column names (matched exactly, then ignoring case, spacing and µ/u).
+    command_unit
+        ``pwm_us``, ``duty`` or ``volts``.
+    thrust_unit
+        ``N``, ``kgf``, ``lbf`` or ``g`` (gram-force).
+    speed_unit
+        ``rad/s`` or ``rpm``.
+    supply_voltage
+        A constant supply voltage [V] when the file has no voltage column.
+    neutral
+        Neutral command (default 1500 µs for PWM, 0 for duty/volts).
+    speed_sign
+        ``signed`` (the column carries the sign), ``command`` (unsigned; sign from the command
+        direction) or ``auto`` (signed if any speed is negative, else from the command).
+    censor_speed_below
+        Detection limit in ``speed_unit``: rows whose |speed| is below it were zeroed by the
+        logger and are marked censored.
+    """
+    command_unit = _check_unit("command_unit", command_unit, {u: 0 for u in COMMAND_UNITS})
+    thrust_unit = _check_unit("thrust_unit", thrust_unit, THRUST_UNITS)
+    speed_unit = _check_unit("speed_unit", speed_unit, SPEED_UNITS)
+    if speed_sign not in ("auto", "signed", "command"):
+        raise BenchDataError(f"unknown speed_sign {speed_sign!r}; expected auto, signed or command")
+    if voltage_col is not None and supply_voltage is not None:
+        raise BenchDataError("give either voltage_col or supply_voltage, not both")
+    t = _read_table(path)
+    if t.n_rows == 0:
+        raise BenchDataError(f"{t.name}: no data rows under the header")
+    ccol = _find_column(t, command_col, "command")
+    cmd = _numeric(t, ccol, "command", command_unit)
+    neutral_v = DEFAULT_NEUTRAL[command_unit] if neutral is None else float(neutral)
+
+    def opt(col, role, unit=""):
+        if col is None:
+            return None, None
+        c = _find_column(t, col, role)
+        return c, _numeric(t, c, role, unit)
+
+    tcol, thrust = opt(thrust_col, "thrust", thrust_unit)
+    scol, speed_raw = opt(speed_col, "speed", speed_unit)
+    _, current = opt(current_col, "current", "A")
+    vcol, volts = opt(voltage_col, "supply voltage", "V")
+    tmcol, time = opt(time_col, "time", "s")
+
+    if thrust is not None:
+        thrust = thrust * THRUST_UNITS[thrust_unit]
+    censored = np.zeros(cmd.size, dtype=bool)
+    speed = None
+    censor_speed = None
+    if speed_raw is not None:
+        if censor_speed_below is not None:
+            censored = np.abs(speed_raw) < float(censor_speed_below)
+            censor_speed = float(censor_speed_below) * SPEED_UNITS[speed_unit]
+        unsigned = speed_sign == "command" or (speed_sign == "auto" and not np.any(speed_raw < 0))
+        if unsigned:
+            if np.any(speed_raw < 0):
+                i = int(np.flatnonzero(speed_raw < 0)[0])
+                raise BenchDataError(f"{t.where(scol, i)}: negative speed {speed_raw[i]:g} in a "
+                                     "column declared unsigned (speed_sign='command')")
+            speed = np.abs(speed_raw) * np.sign(cmd - neutral_v)
+        else:
+            speed = speed_raw.copy()
+        speed = speed * SPEED_UNITS[speed_unit]
+    elif censor_speed_below is not None:
+        raise BenchDataError("censor_speed_below needs a speed column (speed_col)")
+    if volts is not None:
+        bad = np.flatnonzero(volts <= 0)
+        if bad.size:
+            i = int(bad[0])
+            raise BenchDataError(f"{t.where(vcol, i)}: supply voltage {volts[i]:g} V; expected a "
+                                 "positive voltage")
+    sv = volts if volts is not None else supply_voltage
+    if time is not None:
+        d = np.diff(time)
+        bad = np.flatnonzero(d <= 0)
+        if bad.size:
+            i = int(bad[0]) + 1
+            kind = "duplicated" if d[i - 1] == 0 else "not increasing (unsorted)"
+            raise BenchDataError(f"{t.where(tmcol, i)}: time stamp {time[i]:g} s is {kind}: the "
+                                 f"previous row has {time[i - 1]:g} s; expected strictly "
+                                 "increasing time stamps")
+    if np.all(cmd == neutral_v):
+        raise BenchDataError(f"{t.name}: column {ccol!r}: the command never leaves neutral "
+                             f"({neutral_v:g} {command_unit}) in {cmd.size} rows — nothing to "
+                             "identify (wrong column, or wrong neutral?)")
+    return BenchData(command=cmd, command_unit=command_unit, thrust=thrust, speed=speed,
+                     current=current, supply_voltage=sv, time=time, source=t.name,
+                     censored=censored, neutral=neutral_v, censor_speed=censor_speed)
+
+
+def read_t200(path) -> BenchData:
+    """Read a Blue Robotics T200 performance sheet (one supply voltage per file).
+
+    Columns ``PWM (us)`` or ``PWM (µs)``, ``RPM`` (unsigned; the sign is taken from the command),
+    ``Current (A)`` (supply current), ``Voltage (V)``, ``Force (Kg f)`` (signed).  Readings under
+    300 rpm were set to zero by the manufacturer, so those rows are marked censored.
+    """
+    t = _read_table(path)
+    pwm = None
+    for cand in ("PWM (us)", "PWM (µs)", "PWM (μs)"):
+        if any(_norm(c) == _norm(cand) for c in t.columns):
+            pwm = cand
+            break
+    if pwm is None:
+        raise BenchDataError(f"{t.name}: no column 'PWM (us)' or 'PWM (µs)' — not a T200 "
+                             f"performance sheet? available columns: "
+                             f"{', '.join(repr(c) for c in t.columns)}")
+    return read_bench(path, command_col=pwm, thrust_col="Force (Kg f)", speed_col="RPM",
+                      current_col="Current (A)", voltage_col="Voltage (V)",
+                      command_unit="pwm_us", thrust_unit="kgf", speed_unit="rpm",
+                      neutral=1500.0, speed_sign="command", censor_speed_below=T200_CENSOR_RPM)
+
+
+def concat(sets: Sequence[BenchData]) -> BenchData:
+    """Stack several data sets (same command unit and neutral) into one; supply voltage per row."""
+    sets = list(sets)
+    if not sets:
+        raise BenchDataError("no bench data to concatenate")
+    unit, neutral = sets[0].command_unit, sets[0].neutral
+    for s in sets[1:]:
+        if s.command_unit != unit or s.neutral != neutral:
+            raise BenchDataError(f"cannot stack {s.source or 'data'} ({s.command_unit}, neutral "
+                                 f"{s.neutral:g}) with {sets[0].source or 'data'} ({unit}, "
+                                 f"neutral {neutral:g})")
+
+    def cat(name):
+        parts = [getattr(s, name) for s in sets]
+        if any(p is None for p in parts):
+            return None
+        return np.concatenate(parts)
+
+    sv = None
+    if all(s.supply_voltage is not None for s in sets):
+        sv = np.concatenate([s.supply_voltage_array() for s in sets])
+    cs = {s.censor_speed for s in sets}
+    return BenchData(command=cat("command"), command_unit=unit, thrust=cat("thrust"),
+                     speed=cat("speed"), current=cat("current"), supply_voltage=sv,
+                     time=None, source="+".join(s.source for s in sets if s.source),
+                     censored=np.concatenate([s.censored for s in sets]), neutral=neutral,
+                     censor_speed=cs.pop() if len(cs) == 1 else None)
+
+
+__all__ = ["BenchData", "BenchDataError", "read_bench", "read_t200", "require_samples", "concat",
+           "COMMAND_UNITS", "THRUST_UNITS", "SPEED_UNITS"]
