@@ -19,6 +19,7 @@ from uuvid.thruster.blocks import (
     FirstOrderMotor,
     LoadCell,
     PolynomialMap,
+    QuadraticMap,
     TunnelThruster,
 )
 from uuvid.thruster.chain import ThrusterChain
@@ -155,9 +156,48 @@ def laidani_chain(supply_voltage: float = LAIDANI_SUPPLY) -> ThrusterChain:
         input_kind="command", name="laidani-a2212")
 
 
+# ------------------------------------------------------------------------------------------------
+# Blue Robotics T200 (for vehicle simulations)
+# ------------------------------------------------------------------------------------------------
+#: Facts read off Blue Robotics' T200 performance sheet (Sept. 2019) at 16 V: full command 1100 /
+#: 1900 µs, no thrust reading between 1472 and 1528 µs (speeds under 300 rpm were recorded as 0),
+#: full-command speed ≈ 3500 rpm, thrust +5.25 / −4.07 kgf.
+T200_SUPPLY = 16.0
+T200_FULL_US = (1100.0, 1900.0)
+T200_DEADBAND_US = 56.0
+T200_FULL_SPEED = 3500.0 * 2.0 * 3.141592653589793 / 60.0  # rad/s
+T200_MAX_THRUST_N = (U.kgf(5.25), U.kgf(4.07))
+#: Spin-up time constant: not on the sheet; assumed (typical of a 100 g propeller on an outrunner).
+T200_TIME_CONSTANT = 0.1
+
+
+def t200_chain(supply_voltage: float = T200_SUPPLY) -> ThrusterChain:
+    """Approximate T200: PWM → linear ESC → first-order motor → ``K_T Ω|Ω|`` per direction.
+
+    Reaches the sheet's full-command thrust at 16 V; the speed-vs-command curve is linear (the
+    sheet's is not: fit ``uuvid thruster fit --model physical`` on the sheets for a better model).
+    """
+    gain = T200_FULL_SPEED / T200_SUPPLY
+    return ThrusterChain(
+        (ESC.from_range(1500.0, T200_DEADBAND_US, T200_FULL_US[0], T200_FULL_US[1], supply_voltage,
+                        command_unit="pwm_us"),
+         FirstOrderMotor(gain=gain, time_constant=T200_TIME_CONSTANT),
+         QuadraticMap(k_pos=T200_MAX_THRUST_N[0] / T200_FULL_SPEED**2,
+                      k_neg=T200_MAX_THRUST_N[1] / T200_FULL_SPEED**2)),
+        input_kind="command", name="t200")
+
+
+def auv2_tunnel_chain(**thruster_kwargs) -> ThrusterChain:
+    """Voltage → AUV II tunnel thruster (no test rig): the thruster as it sits in the vehicle."""
+    return ThrusterChain((auv2_tunnel_thruster(**thruster_kwargs),), input_kind="voltage",
+                         name="auv2-tunnel-thruster")
+
+
 PRESETS = {
     "auv2-tunnel": auv2_rig_chain,
+    "auv2-tunnel-thruster": auv2_tunnel_chain,
     "laidani-a2212": laidani_chain,
+    "t200": t200_chain,
 }
 
 
