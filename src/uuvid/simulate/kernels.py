@@ -44,24 +44,24 @@ _VOLTAGE = CH["voltage"]
 STICK_SPEED = 1e-3  # rad/s: below this a shaft with Coulomb friction may stick (Karnopp model)
 
 
-@njit(cache=True)
-def _esc(p, cmd):
-    c = min(max(cmd, p[6]), p[7])
-    if c > p[5]:
-        v = p[0] * c + p[1]
-        v = v * (1.0 + p[9] * (abs(v) / p[8] - 1.0))
-    elif c < p[4]:
-        v = p[2] * c + p[3]
-        v = v * (1.0 + p[10] * (abs(v) / p[8] - 1.0))
+@njit(cache=True, inline="always")
+def _esc(params, pb, cmd):
+    c = min(max(cmd, params[pb + 6]), params[pb + 7])
+    if c > params[pb + 5]:
+        v = params[pb + 0] * c + params[pb + 1]
+        v = v * (1.0 + params[pb + 9] * (abs(v) / params[pb + 8] - 1.0))
+    elif c < params[pb + 4]:
+        v = params[pb + 2] * c + params[pb + 3]
+        v = v * (1.0 + params[pb + 10] * (abs(v) / params[pb + 8] - 1.0))
     else:
         v = 0.0
-    return min(max(v, -p[8]), p[8])
+    return min(max(v, -params[pb + 8]), params[pb + 8])
 
 
-@njit(cache=True)
-def _motor(kind, p, x, s, nst, volts, dx, ch):
+@njit(cache=True, inline="always")
+def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
     """DC motor + gear (+ tunnel water): writes dx, channels, returns the block output."""
-    kt, kg, r, ind, jm, jp, cm, cp, tc, n = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]
+    kt, kg, r, ind, jm, jp, cm, cp, tc, n = params[pb + 0], params[pb + 1], params[pb + 2], params[pb + 3], params[pb + 4], params[pb + 5], params[pb + 6], params[pb + 7], params[pb + 8], params[pb + 9]
     w = x[s]
     if nst == 2:
         i = x[s + 1]
@@ -72,13 +72,13 @@ def _motor(kind, p, x, s, nst, volts, dx, ch):
     j = jm + jp / (n * n)
     cv = cm + cp / (n * n)
     if kind == K_TUNNEL:
-        rho, area, length, ka, pe, beta, dalpha, dbeta = (p[10], p[11], p[12], p[13], p[14], p[15],
-                                                          p[16], p[17])
+        rho, area, length, ka, pe, beta, dalpha, dbeta = (params[pb + 10], params[pb + 11], params[pb + 12], params[pb + 13], params[pb + 14], params[pb + 15],
+                                                          params[pb + 16], params[pb + 17])
         mf = rho * area * length * (1.0 + ka)
         j += beta * mf * pe * pe / (n * n)
         q_static = 0.5 * rho * area * dalpha * pe * pe * pe * wp * abs(wp)
     else:
-        q_static = (p[10] if wp >= 0.0 else p[11]) * wp * abs(wp)
+        q_static = (params[pb + 10] if wp >= 0.0 else params[pb + 11]) * wp * abs(wp)
     drive = kt * i - cv * w - q_static / n
     if abs(w) < STICK_SPEED and tc > 0.0:
         if abs(drive) <= tc:
@@ -96,8 +96,8 @@ def _motor(kind, p, x, s, nst, volts, dx, ch):
     ch[_PROP_SPEED] = wp
     ch[_CURRENT] = i
     if kind == K_TUNNEL:
-        rho, area, length, ka, pe, beta, dalpha, dbeta = (p[10], p[11], p[12], p[13], p[14], p[15],
-                                                          p[16], p[17])
+        rho, area, length, ka, pe, beta, dalpha, dbeta = (params[pb + 10], params[pb + 11], params[pb + 12], params[pb + 13], params[pb + 14], params[pb + 15],
+                                                          params[pb + 16], params[pb + 17])
         mf = rho * area * length * (1.0 + ka)
         ch[_TORQUE] = beta * mf * pe * pe * wpdot + q_static
         return mf * pe * wpdot + rho * area * pe * pe * dbeta * wp * abs(wp)
@@ -105,7 +105,7 @@ def _motor(kind, p, x, s, nst, volts, dx, ch):
     return wp
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _polyval(p, start, count, x):
     y = 0.0
     for k in range(count):
@@ -113,99 +113,156 @@ def _polyval(p, start, count, x):
     return y
 
 
-@njit(cache=True)
-def _table(p, x):
-    n = int(p[0])
-    if x <= p[1]:
-        return p[1 + n]
-    if x >= p[n]:
-        return p[2 * n]
+@njit(cache=True, inline="always")
+def _table(params, pb, x):
+    n = int(params[pb + 0])
+    if x <= params[pb + 1]:
+        return params[pb + 1 + n]
+    if x >= params[pb + n]:
+        return params[pb + 2 * n]
     lo = 0
     hi = n - 1
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if p[1 + mid] <= x:
+        if params[pb + 1 + mid] <= x:
             lo = mid
         else:
             hi = mid
-    x0 = p[1 + lo]
-    x1 = p[1 + hi]
-    y0 = p[1 + n + lo]
-    y1 = p[1 + n + hi]
+    x0 = params[pb + 1 + lo]
+    x1 = params[pb + 1 + hi]
+    y0 = params[pb + 1 + n + lo]
+    y1 = params[pb + 1 + n + hi]
     return y0 + (y1 - y0) * (x - x0) / (x1 - x0)
 
 
 @njit(cache=True)
-def eval_chain(kinds, poff, params, soff, outch, in_ch, x, cmd, dx, ch, blk_in):
-    """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels)."""
+def eval_chain_at(kinds, poff, params, po, soff, outch, in_ch, x, xo, cmd, dx, ch, blk_in, bo,
+                  start=0):
+    """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels).
+
+    Offsets instead of slices (``params[po:]``, ``x[xo:]``/``dx[xo:]``, ``blk_in[bo:]``) so that a
+    vehicle loop can evaluate many thrusters stored in flat arrays without creating views.  With
+    ``start > 0`` evaluation begins at block ``start`` and ``cmd`` is that block's input (a loop
+    that holds the command over a step evaluates the static blocks in front once)."""
     for k in range(ch.size):
         ch[k] = np.nan
     ch[0] = cmd
     if in_ch > 0:
         ch[in_ch] = cmd
     sig = cmd
-    for b in range(kinds.size):
+    for b in range(start, kinds.size):
         kind = kinds[b]
-        p = params[poff[b]:poff[b + 1]]
-        s = soff[b]
-        nst = soff[b + 1] - s
-        blk_in[b] = sig
+        pb = po + poff[b]
+        s = xo + soff[b]
+        nst = soff[b + 1] - soff[b]
+        blk_in[bo + b] = sig
         if kind == K_ESC:
-            sig = _esc(p, sig)
+            sig = _esc(params, pb, sig)
         elif kind == K_FIRST_ORDER_MOTOR:
-            dx[s] = (p[0] * sig - x[s]) / p[1]
+            dx[s] = (params[pb + 0] * sig - x[s]) / params[pb + 1]
             sig = x[s]
             ch[_MOTOR_SPEED] = sig
         elif kind == K_DC_MOTOR or kind == K_TUNNEL:
             ch[_VOLTAGE] = sig
-            sig = _motor(kind, p, x, s, nst, sig, dx, ch)
+            sig = _motor(kind, params, pb, x, s, nst, sig, dx, ch)
         elif kind == K_QUADRATIC:
             a = sig * abs(sig)
             if sig >= 0.0:
-                if p[2] > 0.0:
-                    ch[_TORQUE] = p[2] * a
-                sig = p[0] * a
+                if params[pb + 2] > 0.0:
+                    ch[_TORQUE] = params[pb + 2] * a
+                sig = params[pb + 0] * a
             else:
-                if p[3] > 0.0:
-                    ch[_TORQUE] = p[3] * a
-                sig = p[1] * a
+                if params[pb + 3] > 0.0:
+                    ch[_TORQUE] = params[pb + 3] * a
+                sig = params[pb + 1] * a
         elif kind == K_POLYNOMIAL:
-            nf = int(p[0])
-            nr = int(p[1])
+            nf = int(params[pb + 0])
+            nr = int(params[pb + 1])
             if sig > 0.0:
-                sig = _polyval(p, 2, nf, sig)
+                sig = _polyval(params, pb + 2, nf, sig)
             elif sig < 0.0:
-                sig = -_polyval(p, 2 + nf, nr, -sig)
+                sig = -_polyval(params, pb + 2 + nf, nr, -sig)
             else:
                 sig = 0.0
         elif kind == K_DEADZONE:
             a = sig * abs(sig)
-            if a <= p[2]:
-                sig = p[0] * (a - p[2])
-            elif a >= p[3]:
-                sig = p[1] * (a - p[3])
+            if a <= params[pb + 2]:
+                sig = params[pb + 0] * (a - params[pb + 2])
+            elif a >= params[pb + 3]:
+                sig = params[pb + 1] * (a - params[pb + 3])
             else:
                 sig = 0.0
         elif kind == K_TABLE:
-            sig = _table(p, sig)
+            sig = _table(params, pb, sig)
         elif kind == K_ZERO_ORDER:
             pass
         elif kind == K_FIRST_ORDER:
-            dx[s] = (sig - x[s]) / p[0]
+            dx[s] = (sig - x[s]) / params[pb + 0]
             sig = x[s]
         elif kind == K_YOERGER:
-            dx[s] = p[1] * sig - p[0] * x[s] * abs(x[s])
+            dx[s] = params[pb + 1] * sig - params[pb + 0] * x[s] * abs(x[s])
             sig = x[s]
         elif kind == K_BESSA:
-            dx[s] = (sig * p[3] / p[4] - p[1] * x[s] - p[2] * x[s] * abs(x[s])) / p[0]
+            dx[s] = (sig * params[pb + 3] / params[pb + 4] - params[pb + 1] * x[s] - params[pb + 2] * x[s] * abs(x[s])) / params[pb + 0]
             sig = x[s]
         elif kind == K_LOAD_CELL:
-            wn = p[0]
+            wn = params[pb + 0]
             dx[s] = x[s + 1]
-            dx[s + 1] = wn * wn * (sig - x[s]) - 2.0 * p[1] * wn * x[s + 1]
+            dx[s + 1] = wn * wn * (sig - x[s]) - 2.0 * params[pb + 1] * wn * x[s + 1]
             sig = x[s]
         ch[outch[b]] = sig
     return sig
+
+
+@njit(cache=True)
+def eval_chain_prefix(kinds, poff, params, po, cmd, blk_in, bo, stop):
+    """Output of the static blocks ``0 … stop−1`` (no states) for input ``cmd``."""
+    sig = cmd
+    for b in range(stop):
+        blk_in[bo + b] = sig
+        sig = _static_block(kinds[b], params, po + poff[b], sig)
+    return sig
+
+
+@njit(cache=True)
+def eval_static_range(kinds, poff, params, po, sig, b0, b1):
+    """Output of the static blocks ``b0 … b1−1`` for input ``sig``."""
+    for b in range(b0, b1):
+        sig = _static_block(kinds[b], params, po + poff[b], sig)
+    return sig
+
+
+@njit(cache=True, inline="always")
+def _static_block(kind, params, pb, sig):
+    if kind == K_ESC:
+        return _esc(params, pb, sig)
+    if kind == K_QUADRATIC:
+        a = sig * abs(sig)
+        return (params[pb + 0] if sig >= 0.0 else params[pb + 1]) * a
+    if kind == K_POLYNOMIAL:
+        nf = int(params[pb + 0])
+        nr = int(params[pb + 1])
+        if sig > 0.0:
+            return _polyval(params, pb + 2, nf, sig)
+        if sig < 0.0:
+            return -_polyval(params, pb + 2 + nf, nr, -sig)
+        return 0.0
+    if kind == K_DEADZONE:
+        a = sig * abs(sig)
+        if a <= params[pb + 2]:
+            return params[pb + 0] * (a - params[pb + 2])
+        if a >= params[pb + 3]:
+            return params[pb + 1] * (a - params[pb + 3])
+        return 0.0
+    if kind == K_TABLE:
+        return _table(params, pb, sig)
+    return sig
+
+
+@njit(cache=True)
+def eval_chain(kinds, poff, params, soff, outch, in_ch, x, cmd, dx, ch, blk_in):
+    """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels)."""
+    return eval_chain_at(kinds, poff, params, 0, soff, outch, in_ch, x, 0, cmd, dx, ch, blk_in, 0)
 
 
 @njit(cache=True)

@@ -1,0 +1,574 @@
+"""A vehicle flying a mission: thrusters → allocation → vehicle → controller, one compiled loop.
+
+Block diagram (Laidani et al. §5; Caccia et al. §II):
+
+    reference ─► DP controller (PID, body frame) ─► τ_des ─► allocation (uniform scaling) ─► f_des
+        ─► inverse steady map of each thruster model ─► command ─► thruster dynamics ─► f
+        ─► installation coefficients η ─► τ = B η f ─► 6-DOF vehicle ─► state ─► controller
+
+The controller and the allocation run once per step ``dt`` (zero-order hold, as a digital
+autopilot does); the vehicle and thruster states advance together by RK4 with ``substeps`` steps
+per ``dt``.  Every thruster of a vehicle shares one chain structure (its parameters may differ);
+any chain of the thruster blocks works — a first-order thrust lag, or PWM → ESC → motor → map.
+Outputs go into preallocated arrays; :func:`run_batch` flies many perturbed vehicles in parallel.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+from uuvid.simulate import kernels
+from uuvid.simulate.control import DPGains, dp_control, dp_errors, gains_from_bandwidth
+from uuvid.simulate.reference import WaypointMission
+from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
+from uuvid.thruster.chain import ThrusterChain
+from uuvid.vehicle.allocation import allocate_compiled
+from uuvid.vehicle.kinematics import normalise_state
+from uuvid.vehicle.model import vehicle_rhs_into
+
+N_CH = len(CHANNELS)
+
+
+# ---------------------------------------------------------------------------------------------
+# Thruster bank: n thrusters sharing one chain structure
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ThrusterBank:
+    """Compiled description of the vehicle's thrusters and the inverse of their steady maps."""
+
+    chains: tuple[ThrusterChain, ...]
+    kinds: np.ndarray
+    poff: np.ndarray
+    params: np.ndarray  # (n, P)
+    soff: np.ndarray
+    outch: np.ndarray
+    in_ch: int
+    exact: np.ndarray
+    inv_thrust: np.ndarray  # (n, K) steady thrust, strictly increasing
+    inv_command: np.ndarray  # (n, K) command giving it
+    neutral: np.ndarray  # (n,) command for zero thrust
+
+    @property
+    def n(self) -> int:
+        return len(self.chains)
+
+    @property
+    def n_states(self) -> int:
+        return int(self.soff[-1])
+
+    @classmethod
+    def from_chains(cls, chains, points: int = 401) -> ThrusterBank:
+        chains = tuple(chains)
+        comp = [c.compile() for c in chains]
+        k0 = comp[0]
+        for i, c in enumerate(comp[1:], 1):
+            if not (np.array_equal(c.kinds, k0.kinds) and np.array_equal(c.poff, k0.poff)
+                    and np.array_equal(c.soff, k0.soff)):
+                raise ValueError(f"thruster {i} ({chains[i].name}) has a different block structure "
+                                 f"from thruster 0 ({chains[0].name}); one vehicle needs one structure")
+        inv_t, inv_c, neutral = [], [], []
+        for ch in chains:
+            t, c, z = _inverse_table(ch, points)
+            inv_t.append(t)
+            inv_c.append(c)
+            neutral.append(z)
+        return cls(chains, k0.kinds, k0.poff, np.stack([c.params for c in comp]), k0.soff,
+                   k0.outch, k0.in_ch, k0.exact, np.stack(inv_t), np.stack(inv_c),
+                   np.array(neutral, dtype=float))
+
+
+def _command_range(chain: ThrusterChain) -> tuple[float, float, float]:
+    """(low, high, neutral) of a chain's input."""
+    from uuvid.thruster.blocks import ESC
+
+    first = chain.blocks[0]
+    if isinstance(first, ESC) and math.isfinite(first.saturation_low):
+        return first.saturation_low, first.saturation_high, first.neutral
+    if chain.input_kind == "voltage":
+        v = getattr(getattr(first, "motor", first), "resistance", None)
+        vmax = 24.0 if v is not None else 12.0
+        return -vmax, vmax, 0.0
+    return -1.0, 1.0, 0.0
+
+
+def _inverse_table(chain: ThrusterChain, points: int):
+    """Steady thrust over the command range, made strictly increasing for inversion."""
+    if chain.input_kind == "thrust" or chain.signal_kinds[0] == "thrust":
+        x = np.linspace(-1e4, 1e4, 3)
+        return x.copy(), x.copy(), 0.0
+    lo, hi, neutral = _command_range(chain)
+    c = np.linspace(lo, hi, points)
+    f = chain.steady_thrust(c)
+    order = np.argsort(f, kind="stable")
+    f, c = f[order], c[order]
+    keep = np.concatenate([[True], np.diff(f) > 1e-12 * max(1.0, float(np.max(np.abs(f))))])
+    f, c = f[keep], c[keep]
+    # zero thrust → the neutral command exactly
+    if f[0] < 0 < f[-1]:
+        k = np.searchsorted(f, 0.0)
+        f = np.insert(f, k, 0.0)
+        c = np.insert(c, k, neutral)
+        keep = np.concatenate([[True], np.diff(f) > 0])
+        f, c = f[keep], c[keep]
+    out_t = np.interp(np.linspace(0, 1, points), np.linspace(0, 1, f.size), f)
+    out_c = np.interp(out_t, f, c)
+    return out_t, out_c, neutral
+
+
+@njit(cache=True)
+def _interp(xs, ys, x):
+    n = xs.size
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[n - 1]:
+        return ys[n - 1]
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if xs[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return ys[lo] + (ys[hi] - ys[lo]) * (x - xs[lo]) / (xs[hi] - xs[lo])
+
+
+# ---------------------------------------------------------------------------------------------
+# Compiled loop
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, dz,
+         thrust, tau, ch, blk):
+    """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)].
+
+    ``tparams`` is (n, P); thruster i's states start at ``13 + i·ns``; ``blk`` is (n, nb).
+    ``sig0[i]`` is the (held) input of block ``start`` of thruster i: the static blocks in front
+    of the first dynamic one were evaluated once for the step."""
+    n = tparams.shape[0]
+    P = tparams.shape[1]
+    ns = soff[soff.size - 1]
+    nb = blk.shape[1]
+    tflat = tparams.reshape(n * P)
+    bflat = blk.reshape(n * nb)
+    for i in range(n):
+        f = kernels.eval_chain_at(kinds, poff, tflat, i * P, soff, outch, in_ch, z, 13 + i * ns,
+                                  sig0[i], dz, ch, bflat, i * nb, start)
+        thrust[i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+    for k in range(6):
+        s = 0.0
+        for i in range(n):
+            s += B[k, i] * thrust[i]
+        tau[k] = s
+    vehicle_rhs_into(z[:13], tau, vp, vc, dvc, dz[:13])
+
+
+@njit(cache=True)
+def _tau_from(th, st, B, tau):
+    n = th.shape[1]
+    for k in range(6):
+        acc = 0.0
+        for i in range(n):
+            acc += B[k, i] * th[st, i]
+        tau[k] = acc
+
+
+@njit(cache=True)
+def _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4):
+    """One RK4 step of the 13 vehicle states with the thrust known at t, t + h/2 and t + h."""
+    _tau_from(th_stage, 0, B, tau)
+    vehicle_rhs_into(z, tau, vp, vc, dvc, k1)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k1[i]
+    _tau_from(th_stage, 1, B, tau)
+    vehicle_rhs_into(zt, tau, vp, vc, dvc, k2)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k2[i]
+    vehicle_rhs_into(zt, tau, vp, vc, dvc, k3)
+    for i in range(13):
+        zt[i] = z[i] + h * k3[i]
+    _tau_from(th_stage, 2, B, tau)
+    vehicle_rhs_into(zt, tau, vp, vc, dvc, k4)
+    for i in range(13):
+        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@njit(cache=True)
+def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact,
+        inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub,
+        Z, F, FDES, TAU, SCALE):
+    """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
+    allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``."""
+    nsteps = ref_pos.shape[0]
+    n = tparams.shape[0]
+    nz = z0.size
+    nb = kinds.size
+    ns = soff[soff.size - 1]
+    z = z0.copy()
+    zt = np.empty(nz)
+    zn = np.empty(nz)
+    k1 = np.zeros(nz)
+    k2 = np.zeros(nz)
+    k3 = np.zeros(nz)
+    k4 = np.zeros(nz)
+    dvc = np.zeros(3)
+    thrust = np.zeros(n)
+    tau = np.zeros(6)
+    ch = np.empty(N_CH)
+    blk = np.empty((n, max(nb, 1)))
+    blk2 = np.empty((n, max(nb, 1)))
+    e = np.zeros(4)
+    edot = np.zeros(4)
+    integ = np.zeros(4)
+    integ_new = np.zeros(4)
+    tau_des = np.zeros(6)
+    fdes = np.zeros(n)
+    cmd = np.zeros(n)
+    h = dt / nsub
+    start = 0
+    while start < nb and soff[start + 1] == soff[start]:
+        start += 1  # static blocks in front of the first dynamic one: once per step
+    if start == nb:
+        start = 0
+    sig0 = np.zeros(n)
+    P = tparams.shape[1]
+    tflat = tparams.reshape(n * P)
+    bflat = blk.reshape(n * max(nb, 1))
+    # Fast path: one first-order block with a static front and back (e.g. ESC → first-order motor →
+    # map, or a first-order thrust lag): under the held command its state is known exactly at every
+    # instant, so the thrust at the RK4 stage times is evaluated in closed form.
+    fast = False
+    dyn = -1
+    for b in range(nb):
+        if soff[b + 1] > soff[b]:
+            if dyn >= 0:
+                dyn = -2
+            elif dyn == -1:
+                dyn = b
+    if dyn >= 0 and exact[dyn] and soff[nb] == 1:
+        fast = True
+    th_stage = np.zeros((3, n))
+    tgt = np.zeros(n)
+    tconst = np.zeros(n)
+    for k in range(nsteps):
+        # controller and allocation (held over the step)
+        dp_errors(z[0:3], z[3:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], e, edot)
+        dp_control(e, edot, integ, gains, dt, tau_des, integ_new)
+        for j in range(4):
+            integ[j] = integ_new[j]
+        s = allocate_compiled(alloc, tau_des, fdes)
+        for i in range(n):
+            cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
+            sig0[i] = cmd[i]
+            if start > 0:  # static prefix (e.g. the ESC), evaluated once for the held command
+                sig0[i] = kernels.eval_chain_prefix(kinds, poff, tflat, i * P, cmd[i], bflat,
+                                                    i * max(nb, 1), start)
+        # record the state at the start of the step
+        for i in range(nz):
+            Z[k, i] = z[i]
+        for j in range(6):
+            TAU[k, j] = tau_des[j]
+        SCALE[k] = s
+        if fast:
+            for i in range(n):
+                pb = poff[dyn]
+                if kinds[dyn] == K_FIRST_ORDER_MOTOR:
+                    tgt[i] = tparams[i, pb] * sig0[i]
+                    tconst[i] = tparams[i, pb + 1]
+                else:
+                    tgt[i] = sig0[i]
+                    tconst[i] = tparams[i, pb]
+            for sub in range(nsub):
+                for i in range(n):
+                    o = 13 + i * ns
+                    x0 = z[o]
+                    for st in range(3):
+                        xs = tgt[i] + (x0 - tgt[i]) * math.exp(-0.5 * st * h / tconst[i])
+                        f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
+                        th_stage[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+                    z[o] = x0  # thruster state advanced below, exactly
+                if sub == 0:
+                    for i in range(n):
+                        F[k, i] = th_stage[0, i]
+                        FDES[k, i] = fdes[i]
+                _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4)
+                for i in range(n):
+                    o = 13 + i * ns
+                    z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
+                normalise_state(z)
+            continue
+        for sub in range(nsub):
+            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k1,
+                 thrust, tau, ch, blk)
+            if sub == 0:
+                for i in range(n):
+                    F[k, i] = thrust[i]
+                    FDES[k, i] = fdes[i]
+            for i in range(nz):
+                zt[i] = z[i] + 0.5 * h * k1[i]
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k2,
+                 thrust, tau, ch, blk2)
+            for i in range(nz):
+                zt[i] = z[i] + 0.5 * h * k2[i]
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k3,
+                 thrust, tau, ch, blk2)
+            for i in range(nz):
+                zt[i] = z[i] + h * k3[i]
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k4,
+                 thrust, tau, ch, blk2)
+            for i in range(nz):
+                zn[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            for i in range(n):  # first-order thruster blocks under a held input: exact update
+                for b in range(nb):
+                    if exact[b]:
+                        o = 13 + i * ns + soff[b]
+                        if kinds[b] == K_FIRST_ORDER_MOTOR:
+                            target = tparams[i, poff[b]] * blk[i, b]
+                            tc = tparams[i, poff[b] + 1]
+                        else:
+                            target = blk[i, b]
+                            tc = tparams[i, poff[b]]
+                        ex = math.exp(-h / tc)
+                        zn[o] = ex * z[o] + (1.0 - ex) * target
+            for i in range(nz):
+                z[i] = zn[i]
+            normalise_state(z)
+
+
+@njit(cache=True, parallel=True)
+def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch, in_ch, exact,
+              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT):
+    """Many vehicles (rows of ``VP``, thruster params ``TP[r]``, currents ``VC[r]``) flying the same
+    mission in parallel.  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
+    final position error, min allocation scale]``."""
+    nrun = VP.shape[0]
+    nsteps = ref_pos.shape[0]
+    n = TP.shape[1]
+    for r in prange(nrun):
+        Z = np.empty((nsteps, z0.size))
+        F = np.empty((nsteps, n))
+        FD = np.empty((nsteps, n))
+        TAU = np.empty((nsteps, 6))
+        SC = np.empty(nsteps)
+        fly(z0, VP[r], B, alloc, eta_p, eta_n, dofs, kinds, poff, TP[r], soff, outch, in_ch, exact,
+            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC)
+        emax = 0.0
+        esum = 0.0
+        fmax = 0.0
+        smin = 1.0
+        for k in range(nsteps):
+            d = 0.0
+            for j in range(3):
+                d += (Z[k, j] - ref_pos[k, j]) ** 2
+            d = math.sqrt(d)
+            emax = max(emax, d)
+            esum += d * d
+            smin = min(smin, SC[k])
+            for i in range(n):
+                fmax = max(fmax, abs(F[k, i]))
+        d = 0.0
+        for j in range(3):
+            d += (Z[nsteps - 1, j] - ref_pos[nsteps - 1, j]) ** 2
+        OUT[r, 0] = emax
+        OUT[r, 1] = math.sqrt(esum / nsteps)
+        OUT[r, 2] = fmax
+        OUT[r, 3] = math.sqrt(d)
+        OUT[r, 4] = smin
+
+
+# ---------------------------------------------------------------------------------------------
+# Python API
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MissionResult:
+    """Time series of a flown mission plus its summary."""
+
+    t: np.ndarray
+    state: np.ndarray  # (N, 13 + thruster states)
+    thrust: np.ndarray  # (N, n) delivered (η-scaled) thrust
+    thrust_cmd: np.ndarray  # (N, n) allocated thrust
+    tau_cmd: np.ndarray  # (N, 6) controller output
+    scale: np.ndarray  # (N,) allocation scale (1 = achievable)
+    ref_pos: np.ndarray
+    ref_yaw: np.ndarray
+    thruster_names: tuple[str, ...]
+    thrust_limits: np.ndarray  # (n, 2)
+    summary: dict = field(default_factory=dict)
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.state[:, 0:3]
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return self.state[:, 7:13]
+
+    @property
+    def tracking_error(self) -> np.ndarray:
+        return np.linalg.norm(self.position - self.ref_pos, axis=1)
+
+    def to_frame(self):
+        import pandas as pd
+
+        from uuvid.vehicle.kinematics import quat_to_euler
+
+        eul = np.array([quat_to_euler(q) for q in self.state[:, 3:7]])
+        cols = {"time": self.t}
+        for j, nm in enumerate(("north", "east", "down")):
+            cols[nm] = self.state[:, j]
+            cols[f"ref_{nm}"] = self.ref_pos[:, j]
+        for j, nm in enumerate(("roll", "pitch", "yaw")):
+            cols[nm] = eul[:, j]
+        cols["ref_yaw"] = self.ref_yaw
+        for j, nm in enumerate(("u", "v", "w", "p", "q", "r")):
+            cols[nm] = self.state[:, 7 + j]
+        for i, nm in enumerate(self.thruster_names):
+            cols[f"thrust_{nm}"] = self.thrust[:, i]
+            cols[f"thrust_cmd_{nm}"] = self.thrust_cmd[:, i]
+        cols["tracking_error"] = self.tracking_error
+        cols["allocation_scale"] = self.scale
+        return pd.DataFrame(cols)
+
+
+@dataclass(frozen=True)
+class MissionSetup:
+    """Everything the compiled loop needs, built once from a vehicle and a mission."""
+
+    vehicle: object
+    bank: ThrusterBank
+    mission: WaypointMission
+    gains: DPGains
+    dt: float
+    substeps: int
+    alloc: np.ndarray
+    dofs: np.ndarray
+    eta_p: np.ndarray
+    eta_n: np.ndarray
+    B: np.ndarray
+    vp: np.ndarray
+    current: np.ndarray
+    t: np.ndarray
+    ref: tuple
+
+    def z0(self) -> np.ndarray:
+        z = np.zeros(13 + self.bank.n * self.bank.n_states)
+        z[0:3] = self.ref[0][0]
+        yaw = self.ref[2][0]
+        z[3] = math.cos(yaw / 2)
+        z[6] = math.sin(yaw / 2)
+        return z
+
+
+def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
+    """Bandwidth-placed PID gains from the vehicle's mass, added mass and damping."""
+    p = vehicle.params
+    M = p.mass_matrix
+    idx = [0, 1, 2, 5]
+    mass = [M[i, i] for i in idx]
+    dl = np.diag(np.asarray(p.linear_damping).reshape(6, 6) if np.size(p.linear_damping) == 36
+                 else np.diag(p.linear_damping))
+    damping = [dl[i] for i in idx]
+    al = vehicle.allocator()
+    tau_max = []
+    for i in idx:  # the largest force along each DOF the thrusters give with uniform allocation
+        if i not in al.controlled:
+            tau_max.append(0.0)
+            continue
+        phi = np.zeros(6)
+        phi[i] = 1.0
+        tau_max.append(float(al.max_along(phi)))
+    return gains_from_bandwidth(mass, damping, tau_max, omega=omega)
+
+
+def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
+                  gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
+                  current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None) -> MissionSetup:
+    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission."""
+    if not (dt > 0 and substeps >= 1):
+        raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+    n = len(vehicle.layout)
+    chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
+    bank = ThrusterBank.from_chains(chains)
+    al = vehicle.allocator(modes)
+    alloc = al.to_array()
+    dofs = np.array(al.controlled, dtype=np.int64)
+    ep, en = al.eta
+    T = t_end if t_end is not None else mission.duration
+    t = np.arange(int(round(T / dt))) * dt
+    ref = mission(t)
+    return MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt, int(substeps),
+                        alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
+                        np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
+                        np.asarray(current, dtype=float), t, ref)
+
+
+def fly_mission(setup: MissionSetup) -> MissionResult:
+    """Fly the mission once; returns the time series and the summary."""
+    s = setup
+    N = s.t.size
+    b = s.bank
+    z0 = s.z0()
+    Z = np.empty((N, z0.size))
+    F = np.empty((N, b.n))
+    FD = np.empty((N, b.n))
+    TAU = np.empty((N, 6))
+    SC = np.empty(N)
+    ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+    t0 = time.perf_counter()
+    fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params, b.soff,
+        b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
+        ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps, Z, F, FD, TAU, SC)
+    wall = time.perf_counter() - t0
+    if not np.all(np.isfinite(Z)):
+        k = int(np.flatnonzero(~np.all(np.isfinite(Z), axis=1))[0])
+        raise ValueError(f"the simulation diverged at t = {s.t[k]:.3f} s; try a smaller dt or more "
+                         "substeps")
+    lim = s.vehicle.layout.limits
+    res = MissionResult(s.t, Z, F, FD, TAU, SC, ref_pos, ref_yaw,
+                        tuple(th.name for th in s.vehicle.layout), lim)
+    err = res.tracking_error
+    over = np.maximum(F - lim[:, 1] * (1 + 1e-9), lim[:, 0] * (1 + 1e-9) - F)
+    summary = {
+        "vehicle": s.vehicle.name,
+        "mission": s.mission.name,
+        "completed": bool(err[-1] < 0.25 and np.max(err) < 1.0),
+        "max_tracking_error_m": float(np.max(err)),
+        "rms_tracking_error_m": float(np.sqrt(np.mean(err**2))),
+        "final_position_error_m": float(err[-1]),
+        "max_thrust_N": float(np.max(np.abs(F))),
+        "thrust_limit_N": float(np.max(np.abs(lim))),
+        "thrust_limits_N": [float(np.min(lim[:, 0])), float(np.max(lim[:, 1]))],
+        "thrust_over_limit": bool(np.any(over > 0)),
+        "saturated_fraction": float(np.mean(SC < 1.0)),
+        "sim_time_s": float(s.t[-1] + s.dt),
+        "wall_time_s": wall,
+        "real_time_factor": float((s.t[-1] + s.dt) / wall) if wall > 0 else math.inf,
+        "dt": s.dt,
+        "substeps": s.substeps,
+    }
+    return MissionResult(res.t, res.state, res.thrust, res.thrust_cmd, res.tau_cmd, res.scale,
+                         res.ref_pos, res.ref_yaw, res.thruster_names, lim, summary)
+
+
+def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: np.ndarray | None = None,
+              currents: np.ndarray | None = None) -> np.ndarray:
+    """Fly ``len(vehicle_params)`` vehicles in parallel; returns ``(runs, 5)`` summary rows
+    ``[max err, rms err, max |thrust|, final err, min allocation scale]``."""
+    s = setup
+    b = s.bank
+    VP = np.ascontiguousarray(vehicle_params, dtype=float)
+    nrun = VP.shape[0]
+    TP = (np.ascontiguousarray(thruster_params, dtype=float) if thruster_params is not None
+          else np.ascontiguousarray(np.broadcast_to(b.params, (nrun,) + b.params.shape)))
+    VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
+          else np.zeros((nrun, 3)) + s.current)
+    OUT = np.empty((nrun, 5))
+    ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+    fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, TP, b.soff,
+              b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
+              ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT)
+    return OUT
