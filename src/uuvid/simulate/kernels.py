@@ -61,7 +61,18 @@ def _esc(params, pb, cmd):
 @njit(cache=True, inline="always")
 def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
     """DC motor + gear (+ tunnel water): writes dx, channels, returns the block output."""
-    kt, kg, r, ind, jm, jp, cm, cp, tc, n = params[pb + 0], params[pb + 1], params[pb + 2], params[pb + 3], params[pb + 4], params[pb + 5], params[pb + 6], params[pb + 7], params[pb + 8], params[pb + 9]
+    kt, kg, r, ind, jm, jp, cm, cp, tc, n = (
+        params[pb + 0],
+        params[pb + 1],
+        params[pb + 2],
+        params[pb + 3],
+        params[pb + 4],
+        params[pb + 5],
+        params[pb + 6],
+        params[pb + 7],
+        params[pb + 8],
+        params[pb + 9],
+    )
     w = x[s]
     if nst == 2:
         i = x[s + 1]
@@ -72,8 +83,16 @@ def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
     j = jm + jp / (n * n)
     cv = cm + cp / (n * n)
     if kind == K_TUNNEL:
-        rho, area, length, ka, pe, beta, dalpha, dbeta = (params[pb + 10], params[pb + 11], params[pb + 12], params[pb + 13], params[pb + 14], params[pb + 15],
-                                                          params[pb + 16], params[pb + 17])
+        rho, area, length, ka, pe, beta, dalpha, dbeta = (
+            params[pb + 10],
+            params[pb + 11],
+            params[pb + 12],
+            params[pb + 13],
+            params[pb + 14],
+            params[pb + 15],
+            params[pb + 16],
+            params[pb + 17],
+        )
         mf = rho * area * length * (1.0 + ka)
         j += beta * mf * pe * pe / (n * n)
         q_static = 0.5 * rho * area * dalpha * pe * pe * pe * wp * abs(wp)
@@ -96,8 +115,16 @@ def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
     ch[_PROP_SPEED] = wp
     ch[_CURRENT] = i
     if kind == K_TUNNEL:
-        rho, area, length, ka, pe, beta, dalpha, dbeta = (params[pb + 10], params[pb + 11], params[pb + 12], params[pb + 13], params[pb + 14], params[pb + 15],
-                                                          params[pb + 16], params[pb + 17])
+        rho, area, length, ka, pe, beta, dalpha, dbeta = (
+            params[pb + 10],
+            params[pb + 11],
+            params[pb + 12],
+            params[pb + 13],
+            params[pb + 14],
+            params[pb + 15],
+            params[pb + 16],
+            params[pb + 17],
+        )
         mf = rho * area * length * (1.0 + ka)
         ch[_TORQUE] = beta * mf * pe * pe * wpdot + q_static
         return mf * pe * wpdot + rho * area * pe * pe * dbeta * wp * abs(wp)
@@ -136,8 +163,7 @@ def _table(params, pb, x):
 
 
 @njit(cache=True)
-def eval_chain_at(kinds, poff, params, po, soff, outch, in_ch, x, xo, cmd, dx, ch, blk_in, bo,
-                  start=0):
+def eval_chain_at(kinds, poff, params, po, soff, outch, in_ch, x, xo, cmd, dx, ch, blk_in, bo, start=0):
     """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels).
 
     Offsets instead of slices (``params[po:]``, ``x[xo:]``/``dx[xo:]``, ``blk_in[bo:]``) so that a
@@ -203,7 +229,11 @@ def eval_chain_at(kinds, poff, params, po, soff, outch, in_ch, x, xo, cmd, dx, c
             dx[s] = params[pb + 1] * sig - params[pb + 0] * x[s] * abs(x[s])
             sig = x[s]
         elif kind == K_BESSA:
-            dx[s] = (sig * params[pb + 3] / params[pb + 4] - params[pb + 1] * x[s] - params[pb + 2] * x[s] * abs(x[s])) / params[pb + 0]
+            dx[s] = (
+                sig * params[pb + 3] / params[pb + 4]
+                - params[pb + 1] * x[s]
+                - params[pb + 2] * x[s] * abs(x[s])
+            ) / params[pb + 0]
             sig = x[s]
         elif kind == K_LOAD_CELL:
             wn = params[pb + 0]
@@ -270,7 +300,7 @@ def _exact_first_order(kinds, poff, params, soff, exact, x_old, x_new, blk_in, h
     for b in range(kinds.size):
         if exact[b]:
             s = soff[b]
-            p = params[poff[b]:poff[b + 1]]
+            p = params[poff[b] : poff[b + 1]]
             if kinds[b] == K_FIRST_ORDER_MOTOR:
                 target = p[0] * blk_in[b]
                 tau = p[1]
@@ -288,7 +318,7 @@ def _stick(kinds, poff, params, soff, x_old, x_new, blk_in, h):
     stops there if the driving torque at rest cannot overcome the Coulomb torque."""
     for b in range(kinds.size):
         if kinds[b] == K_DC_MOTOR or kinds[b] == K_TUNNEL:
-            p = params[poff[b]:poff[b + 1]]
+            p = params[poff[b] : poff[b + 1]]
             tc = p[8]
             if tc <= 0.0:
                 continue
@@ -359,8 +389,7 @@ def rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u, dt, nsub, X
 
 
 @njit(cache=True, parallel=True)
-def rk4_chain_batch(kinds, poff, params_batch, soff, outch, in_ch, exact, x0, u, dt, nsub,
-                    out_channel, Y):
+def rk4_chain_batch(kinds, poff, params_batch, soff, outch, in_ch, exact, x0, u, dt, nsub, out_channel, Y):
     """Many chains with different parameters (rows of ``params_batch``) under one input.
 
     Writes one channel (``out_channel``) of every run into ``Y[run, sample]``.
