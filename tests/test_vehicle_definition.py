@@ -198,7 +198,6 @@ def test_romeo_numbers_and_thruster_model_file():
 def test_thruster_model_references():
     assert load_vehicle("auv2").thruster_chain("V_bow").name == "auv2-tunnel-thruster"
     assert load_vehicle("bluerov2").thruster_chain(0).name == "t200"
-    from uuvid.vehicle.definition import vehicle_from_dict
 
     raw = load_vehicle("bluerov2")  # a file naming an unknown model says so
     assert raw.layout[0].model == "t200"

@@ -17,9 +17,19 @@ from rich.table import Table
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Model, simulate and identify underwater vehicles and their thrusters.")
 reproduce_app = typer.Typer(no_args_is_help=True, help="Reproduce a paper's printed numbers.")
-thruster_app = typer.Typer(no_args_is_help=True, help="Thruster models: show, simulate, export.")
+thruster_app = typer.Typer(no_args_is_help=True,
+                            help="Thruster models: show, simulate, predict, export, fit.")
 app.add_typer(reproduce_app, name="reproduce")
 app.add_typer(thruster_app, name="thruster")
+
+
+def _register_subcommands() -> None:
+    from uuvid.cli.fit_cmd import register as register_fit
+    from uuvid.cli.vehicle_cmds import simulate, vehicle_app
+
+    app.command("simulate")(simulate)
+    app.add_typer(vehicle_app, name="vehicle")
+    register_fit(thruster_app)
 
 out_console = Console()
 err_console = Console(stderr=True)
@@ -33,7 +43,7 @@ def _print_json(obj) -> None:
 
 
 def _fail(msg: str) -> None:
-    err_console.print(f"[bold red]error:[/] {msg}", highlight=False)
+    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
@@ -337,6 +347,9 @@ def bench(json_out: bool = typer.Option(False, "--json", help="Print timings as 
         if isinstance(cases, list):
             out_console.print(_table(f"bench: {group}", cases,
                                      ["case", "time_s", "reference_time_s", "ratio"], "{:.4g}"))
+
+
+_register_subcommands()
 
 
 def main() -> None:  # console-script entry point

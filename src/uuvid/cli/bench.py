@@ -39,4 +39,5 @@ def run_benchmarks() -> dict:
     result = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
                           "platform": platform.platform()}}
     result.update(_load("bench_thruster").run_all())
+    result.update(_load("bench_identification").run_all())
     return result

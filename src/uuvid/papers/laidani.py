@@ -81,6 +81,9 @@ def reproduce(out_dir: str | Path | None = None) -> dict:
             "min_thrust_N": float(np.min(resp["thrust"])),
         },
     }
+    from uuvid.papers.laidani_identification import degree_selection
+
+    result["degree_selection"] = degree_selection(seed=0)
     if out_dir is not None:
         write_outputs(result, pwm, ch, resp, Path(out_dir))
     return result
@@ -121,5 +124,9 @@ def write_outputs(result, pwm, ch, resp, out: Path) -> Path:
     ax[1].set_xlabel("t [s]")
     rep.add_figure(save_figure(fig, out / "laidani_fig10_sine_response.png"))
     resp.to_csv(out / "laidani_fig10_sine_response.csv")
+    if "degree_selection" in result:
+        from uuvid.papers.laidani_identification import add_to_report
+
+        add_to_report(rep, result["degree_selection"], out)
     atomic_write_json(out / "laidani.json", result)
     return rep.write(out)

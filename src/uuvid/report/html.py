@@ -153,6 +153,13 @@ class Report:
         self._blocks.append("\n".join(out))
         return self
 
+    def add_preformatted(self, text: str, caption: str | None = None) -> Report:
+        """Add preformatted text (a fit report, a log) in a ``<pre>`` block."""
+        if caption:
+            self._blocks.append(f'<p class="caption"><em>{_esc(caption)}</em></p>')
+        self._blocks.append(f"<pre>{_esc(text)}</pre>")
+        return self
+
     # ---------------------------------------------------------------- output
 
     def to_html(self) -> str:

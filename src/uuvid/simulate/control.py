@@ -32,8 +32,15 @@ class DPGains:
     kd: tuple[float, float, float, float]
     tau_max: tuple[float, float, float, float]  # |generalized force| limit per DOF (N, N, N, N·m)
     i_limit: tuple[float, float, float, float] = (math.inf,) * 4  # |integral term| limit
+    #: roll/pitch attitude hold (PD to level) for vehicles whose thrusters control them; 0 = off
+    kp_attitude: tuple[float, float] = (0.0, 0.0)
+    kd_attitude: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self):
+        for name in ("kp_attitude", "kd_attitude"):
+            v = getattr(self, name)
+            if len(v) != 2 or any(not (x >= 0) for x in v):
+                raise ValueError(f"DPGains.{name} needs 2 values >= 0 (roll, pitch), got {v}")
         for name in ("kp", "ki", "kd", "tau_max", "i_limit"):
             v = getattr(self, name)
             if len(v) != 4:
@@ -42,8 +49,9 @@ class DPGains:
                 raise ValueError(f"DPGains.{name} values must be >= 0, got {v}")
 
     def to_array(self) -> np.ndarray:
-        """Rows kp, ki, kd, tau_max, i_limit (5 × 4) for the compiled controller."""
-        return np.array([self.kp, self.ki, self.kd, self.tau_max, self.i_limit], dtype=np.float64)
+        """Rows kp, ki, kd, tau_max, i_limit and [kp_roll, kp_pitch, kd_roll, kd_pitch] (6 × 4)."""
+        return np.array([self.kp, self.ki, self.kd, self.tau_max, self.i_limit,
+                         self.kp_attitude + self.kd_attitude], dtype=np.float64)
 
 
 def gains_from_bandwidth(mass: np.ndarray, damping: np.ndarray, tau_max, omega=(0.6, 0.6, 0.6, 0.8),
@@ -107,6 +115,19 @@ def dp_errors(pos, q, nu, ref_pos, ref_vel, ref_yaw, ref_rate, e, edot):
         edot[i] = sv - nu[i]
     e[3] = wrap_angle(ref_yaw - quat_yaw(q))
     edot[3] = ref_rate - nu[5]
+
+
+@njit(cache=True)
+def attitude_hold(q, nu, gains, tau_out):
+    """PD to level roll and pitch (only for vehicles that can produce roll/pitch moments)."""
+    if gains[5, 0] == 0.0 and gains[5, 1] == 0.0 and gains[5, 2] == 0.0 and gains[5, 3] == 0.0:
+        return
+    n, e1, e2, e3 = q[0], q[1], q[2], q[3]
+    roll = math.atan2(2 * (n * e1 + e2 * e3), 1 - 2 * (e1 * e1 + e2 * e2))
+    s = 2 * (n * e2 - e3 * e1)
+    pitch = math.asin(min(1.0, max(-1.0, s)))
+    tau_out[3] = -gains[5, 0] * roll - gains[5, 2] * nu[3]
+    tau_out[4] = -gains[5, 1] * pitch - gains[5, 3] * nu[4]
 
 
 @njit(cache=True)

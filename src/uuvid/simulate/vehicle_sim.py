@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit, prange
 
 from uuvid.simulate import kernels
-from uuvid.simulate.control import DPGains, dp_control, dp_errors, gains_from_bandwidth
+from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors, gains_from_bandwidth
 from uuvid.simulate.reference import WaypointMission
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
 from uuvid.thruster.chain import ThrusterChain
@@ -258,6 +258,7 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
         # controller and allocation (held over the step)
         dp_errors(z[0:3], z[3:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], e, edot)
         dp_control(e, edot, integ, gains, dt, tau_des, integ_new)
+        attitude_hold(z[3:7], z[7:13], gains, tau_des)
         for j in range(4):
             integ[j] = integ_new[j]
         s = allocate_compiled(alloc, tau_des, fdes)
@@ -481,7 +482,15 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
         phi = np.zeros(6)
         phi[i] = 1.0
         tau_max.append(float(al.max_along(phi)))
-    return gains_from_bandwidth(mass, damping, tau_max, omega=omega)
+    g = gains_from_bandwidth(mass, damping, tau_max, omega=omega)
+    if 3 in al.controlled and 4 in al.controlled:  # thrusters can level the vehicle: hold attitude
+        import dataclasses
+
+        w = 2.0
+        kp = tuple(float(M[i, i] * w**2) for i in (3, 4))
+        kd = tuple(float(2 * M[i, i] * w) for i in (3, 4))
+        g = dataclasses.replace(g, kp_attitude=kp, kd_attitude=kd)
+    return g
 
 
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,

@@ -1,0 +1,144 @@
+"""``uuvid simulate`` and ``uuvid vehicle``: fly missions, inspect vehicles, speed envelopes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+vehicle_app = typer.Typer(no_args_is_help=True, help="Vehicles: info, allocation, envelope.")
+
+
+def _helpers():
+    from uuvid.cli.app import _fail, _print_json, _table, err_console, out_console
+
+    return _fail, _print_json, _table, err_console, out_console
+
+
+def _load_vehicle(name: str):
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.vehicle.definition import list_presets, load_vehicle
+
+    _fail = _helpers()[0]
+    try:
+        return load_vehicle(name)
+    except (ModelFileError, FileNotFoundError, KeyError) as e:
+        _fail(f"{e} (presets: {', '.join(list_presets())})")
+
+
+def _fly(spec, base, out, json_out, label):
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.report.progress import progress_task
+    from uuvid.simulate.scenario import build
+    from uuvid.simulate.vehicle_sim import fly_mission
+
+    _fail, _print_json, _table, err_console, out_console = _helpers()
+    try:
+        vehicle, setup = build(spec, base)
+    except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
+        _fail(str(e))
+    with progress_task(f"flying {label}", total=2) as task:
+        result = fly_mission(setup)
+        task.advance()
+        if out:
+            from uuvid.report.mission import write_mission_outputs
+
+            write_mission_outputs(result, vehicle, out)
+        task.advance()
+    summary = result.summary
+    if json_out:
+        keys = ("completed", "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
+                "thrust_limit_N", "sim_time_s", "wall_time_s")
+        doc = {k: summary[k] for k in keys}
+        doc.update({k: v for k, v in summary.items() if k not in keys})
+        if out:
+            doc["out"] = str(out)
+        _print_json(doc)
+        return
+    out_console.print(_table(f"{summary['vehicle']}: {summary['mission']}",
+                             [{"quantity": k, "value": v} for k, v in summary.items()],
+                             ["quantity", "value"], "{:.4g}"))
+    if out:
+        err_console.print(f"report: {out / 'index.html'}")
+
+
+def simulate(
+    target: str = typer.Argument(..., help="A scenario file (YAML/TOML), or the word `mission`."),
+    kind: str | None = typer.Argument(None, help="With `mission`: the built-in mission (square)."),
+    vehicle: str = typer.Option("bluerov2", "--vehicle", help="mission: vehicle preset or file."),
+    speed: float = typer.Option(0.5, "--speed", help="mission: cruising speed [m/s]."),
+    depth: float = typer.Option(2.0, "--depth", help="mission: depth [m]."),
+    side: float = typer.Option(10.0, "--side", help="mission: side of the square [m]."),
+    current: str = typer.Option("0,0,0", "--current", help="mission: current north,east,down [m/s]."),
+    thruster_model: str | None = typer.Option(None, "--thruster-model",
+                                                 help="mission: override the thrusters' model."),
+    dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
+    out: Path | None = typer.Option(None, "--out", help="Write time series, figures and index.html."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+):
+    """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
+
+    Laidani et al.'s mission (square): dive 2 m, fly a 10 × 10 m square at 0.5 m/s, surface.
+    """
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.simulate.scenario import load_scenario, scenario_from_dict
+
+    _fail = _helpers()[0]
+    if target == "mission":
+        kind = kind or "square"
+        if kind != "square":
+            _fail(f"unknown mission {kind!r}; built-in: square (or write a scenario file)")
+        try:
+            cur = [float(x) for x in current.split(",")]
+        except ValueError:
+            _fail(f"--current: expected three numbers north,east,down, got {current!r}")
+        try:
+            spec = scenario_from_dict({"vehicle": vehicle, "thruster_model": thruster_model,
+                                       "current": cur, "dt": dt,
+                                       "mission": {"kind": "square", "speed": speed, "depth": depth,
+                                                   "side": side}}, where="command line")
+        except ModelFileError as e:
+            _fail(str(e))
+        _fly(spec, None, out, json_out, f"{kind} with {vehicle}")
+        return
+    if kind is not None:
+        _fail(f"unexpected argument {kind!r} after the scenario file")
+    scenario = Path(target)
+    if not scenario.exists():
+        _fail(f"{scenario}: no such scenario file (or use `uuvid simulate mission square`)")
+    try:
+        spec = load_scenario(scenario)
+    except ModelFileError as e:
+        _fail(str(e))
+    _fly(spec, scenario.parent, out, json_out, spec.name)
+
+
+@vehicle_app.command("info")
+def vehicle_info(vehicle: str = typer.Argument(..., help="Vehicle preset or file.")):
+    """Print a vehicle's parameters, thrusters, modes and sources."""
+    v = _load_vehicle(vehicle)
+    _helpers()[4].print(v.summary())
+
+
+@vehicle_app.command("envelope")
+def vehicle_envelope(
+    vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
+    confirm: bool = typer.Option(True, "--confirm/--no-confirm", help="Confirm each speed by simulation."),
+    json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
+):
+    """Maximum steady speed per DOF from drag and thruster limits (Laidani et al. Table 4 kind),
+    computed analytically and confirmed by simulating the vehicle at full allocated force."""
+    from uuvid.simulate.envelope_check import confirm_envelope
+    from uuvid.vehicle.envelope import speed_envelope
+
+    _fail, _print_json, _table, err_console, out_console = _helpers()
+    v = _load_vehicle(vehicle)
+    env = speed_envelope(v)
+    rows = confirm_envelope(v, env) if confirm else [dict(r.__dict__) for r in env.rows]
+    doc = {"vehicle": v.name, "rows": rows}
+    if json_out:
+        _print_json(doc)
+        return
+    cols = [c for c in ("direction", "force", "speed", "allocator_speed", "simulated_speed",
+                        "relative_difference") if c in rows[0]]
+    out_console.print(_table(f"{v.name}: speed envelope", rows, cols, "{:.4g}"))

@@ -1,0 +1,134 @@
+"""Simulation scenarios: a vehicle, a mission, a controller and the sea, in one validated file.
+
+::
+
+    vehicle: bluerov2                 # preset name or vehicle file
+    mission:                          # Laidani et al.'s square, or your own waypoints
+      kind: square                    # square | waypoints
+      depth: 2.0
+      side: 10.0
+      speed: 0.5
+      # waypoints: [[0, 0, 0, 0], [0, 0, 2, 0], ...]   (north, east, down [m], yaw [rad])
+    thruster_model: null              # override every thruster's model (preset or file)
+    current: [0.0, 0.0, 0.0]          # NED, m/s
+    controller: {bandwidth: [1.5, 1.5, 1.5, 2.0]}      # rad/s per surge, sway, heave, yaw
+    dt: 0.01
+    substeps: 1
+    duration: null                    # default: the mission's length
+
+Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from uuvid.io.modelfile import ModelFileError, read_model_text
+from uuvid.simulate.reference import WaypointMission, square_mission
+
+_CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class ScenarioError(ModelFileError):
+    """A scenario file is invalid; the message names the file and the key path."""
+
+
+class MissionSpec(BaseModel):
+    model_config = _CFG
+    kind: Literal["square", "waypoints"] = "square"
+    depth: float = Field(2.0, ge=0)
+    side: float = Field(10.0, gt=0)
+    speed: float = Field(0.5, gt=0)
+    vertical_speed: float = Field(0.25, gt=0)
+    yaw: Literal["path", "fixed"] = "path"
+    hold: float = Field(10.0, ge=0)
+    waypoints: list[tuple[float, float, float, float]] | None = None
+
+    def build(self) -> WaypointMission:
+        if self.kind == "square":
+            return square_mission(self.depth, self.side, self.speed, self.vertical_speed, self.yaw,
+                                  self.hold)
+        if not self.waypoints or len(self.waypoints) < 2:
+            raise ValueError("mission.waypoints: a waypoint mission needs at least two waypoints")
+        return WaypointMission(tuple(tuple(w) for w in self.waypoints), speed=self.speed,
+                               vertical_speed=self.vertical_speed, hold=self.hold, name="waypoints")
+
+
+class ControllerSpec(BaseModel):
+    model_config = _CFG
+    bandwidth: tuple[float, float, float, float] = (1.5, 1.5, 1.5, 2.0)
+    kp: tuple[float, float, float, float] | None = None
+    ki: tuple[float, float, float, float] | None = None
+    kd: tuple[float, float, float, float] | None = None
+
+
+class ScenarioSpec(BaseModel):
+    model_config = _CFG
+    name: str = "scenario"
+    vehicle: str = "bluerov2"
+    mission: MissionSpec = MissionSpec()
+    thruster_model: str | None = None
+    current: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    controller: ControllerSpec = ControllerSpec()
+    dt: float = Field(0.01, gt=0, le=0.1)
+    substeps: int = Field(1, ge=1, le=100)
+    duration: float | None = Field(None, gt=0)
+
+
+def _loc(loc) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else ("." if out else "") + str(part)
+    return out
+
+
+def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
+    try:
+        return ScenarioSpec.model_validate(raw if raw is not None else {})
+    except ValidationError as e:
+        msgs = [f"{where}: {_loc(err['loc'])}: "
+                + {"missing": "missing", "extra_forbidden": "unknown key"}.get(err["type"], err["msg"])
+                for err in e.errors()]
+        raise ScenarioError("\n".join(msgs)) from None
+
+
+def load_scenario(path: str | Path) -> ScenarioSpec:
+    return scenario_from_dict(read_model_text(path), where=str(path))
+
+
+def build(spec: ScenarioSpec, base: Path | None = None):
+    """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`)."""
+    from uuvid.io.modelfile import load_chain
+    from uuvid.simulate.control import DPGains
+    from uuvid.simulate.vehicle_sim import default_gains, setup_mission
+    from uuvid.thruster.presets import PRESETS, preset_chain
+    from uuvid.vehicle.definition import list_presets, load_vehicle
+
+    vref = spec.vehicle
+    if vref not in list_presets() and base is not None and not Path(vref).is_absolute():
+        vref = str(base / vref)
+    vehicle = load_vehicle(vref)
+    chain = None
+    if spec.thruster_model:
+        ref = spec.thruster_model
+        if ref in PRESETS:
+            chain = preset_chain(ref)
+        else:
+            p = Path(ref) if Path(ref).is_absolute() or base is None else base / ref
+            chain = load_chain(p)
+    try:
+        mission = spec.mission.build()
+    except ValueError as e:
+        raise ScenarioError(str(e)) from None
+    c = spec.controller
+    if c.kp is not None:
+        g0 = default_gains(vehicle)
+        gains = DPGains(c.kp, c.ki or (0.0,) * 4, c.kd or (0.0,) * 4, g0.tau_max, g0.i_limit)
+    else:
+        gains = default_gains(vehicle, omega=c.bandwidth)
+    setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
+                          thruster_chain=chain, current=spec.current, t_end=spec.duration)
+    return vehicle, setup

@@ -1,0 +1,319 @@
+"""``uuvid thruster fit``: every model kind on small synthetic CSVs made from known parameters
+(recovered within 3σ where the model is the truth), the written model loads back and predicts,
+the report folder is complete, bad data exit 2 naming file/column/row, and the T200 sheets."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from uuvid.cli.fit_cmd import register
+from uuvid.identify.physical import PhysicalModel
+from uuvid.io.modelfile import load_chain
+from uuvid.thruster import presets as P
+from uuvid.thruster.blocks import BessaDynamics, FirstOrderMotor, Yoerger
+from uuvid.thruster.chain import ThrusterChain
+
+runner = CliRunner()
+
+TRUTH = PhysicalModel(back_emf_constant=0.02, resistance=0.25, kq_fwd=3e-6, kq_rev=3.3e-6,
+                      kt_fwd=3.6e-4, kt_rev=2.9e-4, edge_fwd=1520, edge_rev=1478, full_fwd=1900,
+                      full_rev=1100, curvature_fwd=0.15, curvature_rev=0.1, viscous=2e-5)
+KGF = 9.80665
+RPM = 2 * math.pi / 60
+
+
+def _app() -> typer.Typer:
+    app = typer.Typer()
+    thruster = typer.Typer()
+    app.add_typer(thruster, name="thruster")
+    register(thruster)
+
+    @app.callback()
+    def _root():  # keep "thruster" a sub-command even with one command
+        pass
+
+    return app
+
+
+APP = _app()
+
+
+def _fit(*args):
+    return runner.invoke(APP, ["thruster", "fit", *map(str, args)])
+
+
+def _write_csv(path, columns: dict):
+    names = list(columns)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(names)
+        for row in zip(*columns.values()):
+            w.writerow([repr(float(v)) for v in row])
+    return path
+
+
+def _sheet(path, volts, seed, noise_kgf=0.005):
+    """A T200-like sheet (kgf, unsigned rpm, current, voltage) from TRUTH at ``volts``."""
+    rng = np.random.default_rng(seed)
+    pwm = np.arange(1100.0, 1901.0, 10.0)
+    p = TRUTH.predict(pwm, volts)
+    return _write_csv(path, {
+        "PWM": pwm,
+        "Force (kgf)": p.thrust / KGF + rng.normal(0, noise_kgf, pwm.size),
+        "RPM": np.abs(p.speed) / RPM + rng.normal(0, 1.0, pwm.size) * (p.speed != 0),
+        "Current": p.current + rng.normal(0, 0.03, pwm.size),
+        "Voltage": np.full(pwm.size, volts)})
+
+
+SHEET_COLS = ["--command-col", "PWM", "--thrust-col", "Force (kgf)", "--thrust-unit", "kgf",
+              "--speed-col", "RPM", "--speed-unit", "rpm"]
+
+
+@pytest.fixture(scope="module")
+def sheets(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sheets")
+    return _sheet(d / "s12.csv", 12.0, 1), _sheet(d / "s16.csv", 16.0, 2)
+
+
+def _json(res) -> dict:
+    assert res.exit_code == 0, (res.stdout, res.stderr)
+    return json.loads(res.stdout)
+
+
+def _sigma_ok(doc, name, truth, n=3.0):
+    p = doc["parameters"][name]
+    assert p["sigma"] is not None and p["sigma"] > 0, p
+    assert abs(p["estimate"] - truth) <= n * p["sigma"] + 1e-12 * abs(truth), (name, p, truth)
+    assert p["percentile_error"] == pytest.approx(100 * p["sigma"] / abs(p["estimate"]))
+
+
+# ------------------------------------------------------------------------------ steady models
+def test_quadratic_recovers_kt_and_writes_report(sheets, tmp_path):
+    out, rep = tmp_path / "q.yaml", tmp_path / "rep"
+    doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "quadratic", "--out", out,
+                     "--report", rep, "--json"))
+    assert doc["model"] == "quadratic" and doc["out"] == str(out)
+    # thrust = K_T Ω|Ω| exactly in the truth: K_T within 3σ (speed noise is small)
+    _sigma_ok(doc, "K_T_fwd", 3.6e-4)
+    _sigma_ok(doc, "K_T_rev", 2.9e-4)
+    assert doc["rmse"] < 0.2
+    chain = load_chain(out)
+    assert chain.input_kind == "speed"
+    assert chain.steady_thrust([300.0, -300.0]) == pytest.approx(
+        [doc["parameters"]["K_T_fwd"]["estimate"] * 9e4,
+         -doc["parameters"]["K_T_rev"]["estimate"] * 9e4])
+    for f in ("index.html", "fit.png", "parameters.csv", "fit_report.txt", "summary.json"):
+        assert (rep / f).is_file(), f
+    html = (rep / "index.html").read_text()
+    assert "data:image/png;base64," in html and "K_T_fwd" in html
+    assert "K_T_fwd" in (rep / "parameters.csv").read_text()
+
+
+def test_polynomial_selects_a_degree_with_a_reason(sheets, tmp_path):
+    out, rep = tmp_path / "p.toml", tmp_path / "rep"
+    doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "polynomial", "--out", out,
+                     "--report", rep, "--json"))
+    sel = doc["selected_degree"]
+    assert set(sel) == {"forward", "reverse"}
+    assert all(1 <= d <= 8 for d in sel.values())
+    assert "CV" in doc["reason"]["forward"]
+    assert [r["degree"] for r in doc["degree_table"]["forward"]] == list(range(1, 9))
+    assert "forward.c0" in doc["parameters"] and "reverse.c0" in doc["parameters"]
+    assert all(p["sigma"] is not None for p in doc["parameters"].values())
+    chain = load_chain(out)  # TOML by suffix
+    w = TRUTH.predict(1800.0, 12.0).speed
+    assert chain.steady_thrust(w)[0] == pytest.approx(TRUTH.kt_fwd * w * w, rel=0.02)
+    assert (rep / "degree_table.png").is_file() and (rep / "degree_table_forward.csv").is_file()
+    # a fixed degree is honoured and the rule's own choice is still reported
+    doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "polynomial", "--degree", "2",
+                     "--out", out, "--json"))
+    assert doc["selected_degree"] == {"forward": 2, "reverse": 2}
+    assert "--degree" in doc["reason"]["forward"]
+
+
+def test_deadzone_on_speed_and_on_pwm(sheets, tmp_path):
+    doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "deadzone", "--out", tmp_path / "d.yaml",
+                     "--json"))
+    assert doc["map_input"] == "speed"
+    assert {"rotor_constant_l", "rotor_constant_r", "delta_l", "delta_r"} <= set(doc["parameters"])
+    assert load_chain(tmp_path / "d.yaml").input_kind == "speed"
+    # on the command: the file takes raw PWM (a unit-gain ESC subtracts the neutral)
+    doc = _json(_fit(sheets[0], "--command-col", "PWM", "--thrust-col", "Force (kgf)",
+                     "--thrust-unit", "kgf", "--model", "deadzone", "--out",
+                     tmp_path / "dc.yaml", "--json"))
+    assert doc["map_input"] == "command"
+    chain = load_chain(tmp_path / "dc.yaml")
+    assert chain.input_kind == "command" and chain.blocks[0].TYPE == "esc"
+    t = chain.steady_thrust([1500.0, 1900.0, 1100.0])
+    assert t[0] == 0.0
+    assert t[1] == pytest.approx(TRUTH.thrust(1900.0, 12.0), rel=0.1)
+    assert t[2] == pytest.approx(TRUTH.thrust(1100.0, 12.0), rel=0.1)
+
+
+def test_table_round_trip(sheets, tmp_path):
+    doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "table", "--table-points", "25",
+                     "--out", tmp_path / "t.yaml", "--json"))
+    assert doc["knots"] == 25
+    chain = load_chain(tmp_path / "t.yaml")
+    assert chain.steady_thrust([1700.0])[0] == pytest.approx(TRUTH.thrust(1700.0, 12.0), rel=0.05)
+
+
+def test_cv_on_a_voltage_command(tmp_path):
+    rng = np.random.default_rng(3)
+    v = np.linspace(-12, 12, 49)
+    thrust = np.where(v >= 0, 1.02, 1.09) * v * np.abs(v) + rng.normal(0, 0.5, v.size)
+    f = _write_csv(tmp_path / "cv.csv", {"V": v, "T": thrust})
+    doc = _json(_fit(f, "--command-col", "V", "--command-unit", "volts", "--thrust-col", "T",
+                     "--model", "cv", "--out", tmp_path / "cv.yaml", "--json"))
+    _sigma_ok(doc, "c_V_fwd", 1.02)
+    _sigma_ok(doc, "c_V_rev", 1.09)
+    assert load_chain(tmp_path / "cv.yaml").input_kind == "voltage"
+    # a PWM command is refused with a hint
+    res = _fit(f, "--command-col", "V", "--thrust-col", "T", "--neutral", "0", "--model", "cv",
+               "--out", tmp_path / "x.yaml")
+    assert res.exit_code == 2 and "--command-unit volts" in res.stderr
+
+
+def test_physical_two_sheets_chain_at_supply_voltage(sheets, tmp_path):
+    out, rep = tmp_path / "phys.yaml", tmp_path / "rep"
+    doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
+                     "--model", "physical", "--supply-voltage", "14", "--out", out, "--report",
+                     rep, "--json"))
+    assert doc["supply_voltage_V"] == 14.0
+    assert doc["parameters"]["K_T_fwd"]["estimate"] == pytest.approx(3.6e-4, rel=0.02)
+    assert all(p["sigma"] is not None for p in doc["parameters"].values())
+    assert doc["rmse"] < 0.2
+    chain = load_chain(out)
+    pwm = np.array([1150.0, 1300.0, 1600.0, 1850.0])
+    assert chain.steady_thrust(pwm) == pytest.approx(TRUTH.thrust(pwm, 14.0), rel=0.02)
+    assert (rep / "fit.png").is_file()
+
+
+# ------------------------------------------------------------------------------ dynamic models
+def _step_csv(path, chain, level, t_end, dt, channel, noise, seed, t0=0.05):
+    rng = np.random.default_rng(seed)
+    t = np.arange(round(t_end / dt) + 1) * dt
+    u = np.where(t >= t0, level, 0.0)
+    y = chain.simulate(u, t[-1], dt=dt)[channel] + rng.normal(0, noise, t.size)
+    return _write_csv(path, {"time": t, "u": u, "y": y})
+
+
+DYN_COLS = ["--time-col", "time", "--command-col", "u", "--command-unit", "volts"]
+
+
+def test_first_order_from_a_voltage_step(tmp_path):
+    truth = ThrusterChain((FirstOrderMotor(gain=131.3016, time_constant=0.01021),),
+                          input_kind="voltage")
+    f = _step_csv(tmp_path / "fo.csv", truth, 6.0, 0.1, 1e-3, "prop_speed", 5.0, 4, t0=0.02)
+    out, rep = tmp_path / "fo.yaml", tmp_path / "rep"
+    doc = _json(_fit(f, *DYN_COLS, "--speed-col", "y", "--model", "first-order", "--out", out,
+                     "--report", rep, "--json"))
+    _sigma_ok(doc, "blocks[0].gain", 131.3016)
+    _sigma_ok(doc, "blocks[0].time_constant", 0.01021)
+    assert doc["rmse_unit"] == "rad/s" and doc["rmse"] == pytest.approx(5.0, rel=0.2)
+    chain = load_chain(out)
+    assert chain.blocks[0].TYPE == "first_order_motor"
+    assert (rep / "fit.png").is_file()
+
+
+def test_yoerger_on_pwm_steps_gets_a_neutral_shifting_esc(tmp_path):
+    truth = ThrusterChain((Yoerger(alpha=0.02, beta=5.0),), input_kind="command")
+    files = []
+    for k, lvl in enumerate((100.0, -60.0)):  # PWM offsets from 1500 µs
+        rng = np.random.default_rng(5 + k)
+        t = np.arange(601) * 5e-3
+        u = np.where(t >= 0.1, lvl, 0.0)
+        y = truth.simulate(u, t[-1], dt=5e-3)["prop_speed"] + rng.normal(0, 0.5, t.size)
+        files.append(_write_csv(tmp_path / f"y{k}.csv", {"time": t, "pwm": 1500 + u, "w": y}))
+    out = tmp_path / "y.yaml"
+    doc = _json(_fit(*files, "--time-col", "time", "--command-col", "pwm", "--speed-col", "w",
+                     "--model", "yoerger", "--out", out, "--json"))
+    _sigma_ok(doc, "blocks[0].alpha", 0.02)
+    _sigma_ok(doc, "blocks[0].beta", 5.0)
+    assert len(doc["runs"]) == 2
+    chain = load_chain(out)
+    assert [b.TYPE for b in chain.blocks] == ["esc", "yoerger"]
+    w = chain.steady_thrust([1600.0])[0]  # x² = βu/α
+    assert w == pytest.approx(math.sqrt(5.0 * 100 / 0.02), rel=0.01)
+
+
+def test_bessa_reports_the_identifiable_combinations(tmp_path):
+    truth = ThrusterChain((BessaDynamics(jmsp=0.002, kv1=0.001, kv2=1e-5, kt=1.0, rm=1.0),),
+                          input_kind="command")
+    f = _step_csv(tmp_path / "b.csv", truth, 12.0, 2.0, 5e-3, "prop_speed", 1.0, 6, t0=0.1)
+    doc = _json(_fit(f, *DYN_COLS, "--speed-col", "y", "--model", "bessa", "--out",
+                     tmp_path / "b.yaml", "--json"))
+    ident = doc["identifiable"]
+    assert ident["Kv2/Jmsp"]["estimate"] == pytest.approx(1e-5 / 0.002, rel=0.05)
+    assert all(p["sigma"] is not None for p in doc["parameters"].values())
+    load_chain(tmp_path / "b.yaml")
+
+
+def test_mclean_tunnel_thruster_from_two_rig_steps(tmp_path):
+    rig = P.auv2_rig_chain()
+    files = [_step_csv(tmp_path / f"m{v:g}.csv", rig, v, 1.0, 2e-3, "measured_thrust", 0.2,
+                       7 + k) for k, v in enumerate((24.0, 16.0))]
+    out = tmp_path / "m.yaml"
+    doc = _json(_fit(*files, *DYN_COLS, "--thrust-col", "y", "--model", "mclean", "--out", out,
+                     "--json"))
+    _sigma_ok(doc, "blocks[0].energy_correction", 3.0)
+    _sigma_ok(doc, "blocks[0].momentum_correction", 0.185)
+    _sigma_ok(doc, "blocks[0].added_mass_coefficient", 0.25)
+    chain = load_chain(out)
+    assert [b.TYPE for b in chain.blocks] == ["tunnel_thruster", "load_cell"]
+
+
+# ------------------------------------------------------------------------------ bad input
+def test_bad_cell_names_file_column_and_row(sheets, tmp_path):
+    lines = sheets[0].read_text().splitlines()
+    cells = lines[3].split(",")
+    cells[1] = "oops"
+    lines[3] = ",".join(cells)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    res = _fit(bad, *SHEET_COLS, "--model", "quadratic", "--out", tmp_path / "x.yaml")
+    assert res.exit_code == 2
+    msg = " ".join(res.stderr.split())
+    assert "bad.csv" in msg and "'Force (kgf)'" in msg and "data row 3" in msg and "'oops'" in msg
+    assert not (tmp_path / "x.yaml").exists()
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--model", "quadratic", "--command-col", "PWM", "--thrust-col", "Thrust"], "no column 'Thrust'"),
+    (["--model", "quadratic", "--command-col", "PWM"], "needs thrust and speed"),
+    (["--model", "first-order", *SHEET_COLS], "needs time"),
+    (["--model", "table", *SHEET_COLS, "--degree", "3"], "--degree applies"),
+])
+def test_missing_columns_and_channels_exit_2(sheets, tmp_path, args, needle):
+    res = _fit(sheets[0], *args, "--out", tmp_path / "x.yaml")
+    assert res.exit_code == 2, res.stdout
+    assert needle in " ".join(res.stderr.split())
+
+
+def test_missing_file_exit_2(tmp_path):
+    res = _fit(tmp_path / "nope.csv", "--model", "table", "--out", tmp_path / "x.yaml")
+    assert res.exit_code == 2 and "no such bench file" in " ".join(res.stderr.split())
+
+
+# ------------------------------------------------------------------------------ real data
+@pytest.mark.realdata
+def test_t200_physical_on_both_sheets(shared_data, tmp_path):
+    d = shared_data / "t200-bluerobotics-2019"
+    out, rep = tmp_path / "t200.yaml", tmp_path / "rep"
+    doc = _json(_fit(d / "T200_12V.csv", d / "T200_16V.csv", "--format", "t200", "--model",
+                     "physical", "--out", out, "--report", rep, "--json"))
+    assert doc["supply_voltage_V"] == 12.0
+    per = doc["per_sheet"]
+    assert all(s["thrust_rmse_pct"] < 1.5 for s in per.values())
+    chain = load_chain(out)
+    t = chain.steady_thrust([1100.0, 1900.0])
+    assert t[1] == pytest.approx(3.71 * KGF, rel=0.03)  # the sheet's 3.71 kgf forward at 12 V
+    assert t[0] == pytest.approx(-2.92 * KGF, rel=0.03)
+    assert (rep / "index.html").is_file()
