@@ -153,3 +153,15 @@ def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
         assert rows[d]["relative_difference"] < 0.05, d
     res = runner.invoke(app, ["vehicle", "envelope", "bluerov2", "--json", "--no-confirm"])
     assert res.exit_code == 0, res.output
+
+
+def test_thruster_loop_study_runs_and_answers():
+    from uuvid.papers.thruster_loop_study import run_study
+
+    r = run_study(bandwidths=(2.0,))
+    assert len(r["rows"]) == 6
+    assert set(r["max_stable_bandwidth"]["heading"]) == {"tunnel", "first-order", "yoerger"}
+    assert "conjecture" in r["answer"]
+    # the tunnel thruster's leading response: true thrust spikes far above its steady limit
+    tunnel = [x for x in r["rows"] if x["model"] == "tunnel"]
+    assert max(x["max_thrust_N"] for x in tunnel) > 2.3

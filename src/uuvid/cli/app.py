@@ -98,6 +98,34 @@ def _show_mclean(result: dict) -> None:
             f"{ef['thesis_mean_abs_rel_error']:.1%}.")
 
 
+@app.command("study")
+def study(
+    name: str = typer.Argument("thruster-loop", help="thruster-loop: lagging vs leading thrusters in "
+                                                     "heading and depth loops (McLean's conjecture)"),
+    json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write the figure, table and index.html here."),
+    bandwidths: str = typer.Option("1,2,4,6", "--bandwidths", help="Controller bandwidths [rad/s]."),
+):
+    """Reproducible studies built on the models (today: thruster dynamics in DP loops)."""
+    from uuvid.papers import thruster_loop_study as st
+    from uuvid.report.progress import progress_task
+
+    if name != "thruster-loop":
+        _fail(f"unknown study {name!r}; available: thruster-loop")
+    try:
+        bws = tuple(float(x) for x in bandwidths.split(","))
+    except ValueError:
+        _fail(f"--bandwidths: expected comma-separated numbers, got {bandwidths!r}")
+    with progress_task("thruster-loop study", total=6 * len(bws)) as task:
+        result = st.run_study(bws, progress=task.advance)
+    if out:
+        st.write_outputs(result, out)
+    if json_out:
+        _print_json(result)
+    else:
+        out_console.print(result["answer"])
+
+
 @reproduce_app.command("laidani")
 def reproduce_laidani(
     json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),

@@ -40,4 +40,5 @@ def run_benchmarks() -> dict:
                           "platform": platform.platform()}}
     result.update(_load("bench_thruster").run_all())
     result.update(_load("bench_identification").run_all())
+    result.update(_load("bench_vehicle").run_all())
     return result
