@@ -38,7 +38,7 @@ def test_reproduce_laidani_json_and_out(tmp_path):
 
 def test_demo_writes_report_folder(tmp_path):
     out = tmp_path / "demo"
-    res = runner.invoke(app, ["demo", "--out", str(out)])
+    res = runner.invoke(app, ["demo", "--quick", "--out", str(out)])
     assert res.exit_code == 0, res.output
     html = (out / "index.html").read_text()
     assert "data:image/png;base64," in html

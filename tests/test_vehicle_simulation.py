@@ -65,6 +65,7 @@ def _reference_solution(setup, t_end):
     return z
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("chain", [None, "yoerger"], ids=["t200-closed-form", "yoerger-rk4"])
 def test_compiled_rk4_agrees_with_solve_ivp_over_60s(bluerov2, chain):
     """Fixed-step RK4 (dt = 0.01 s) against solve_ivp (rtol 1e-10) on 60 s of the square mission
@@ -155,6 +156,7 @@ def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
     assert res.exit_code == 0, res.output
 
 
+@pytest.mark.slow
 def test_thruster_loop_study_runs_and_answers():
     from uuvid.papers.thruster_loop_study import run_study
 

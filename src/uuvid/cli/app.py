@@ -14,11 +14,15 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  help="Model, simulate and identify underwater vehicles and their thrusters.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="Model, simulate and identify underwater vehicles and their thrusters.",
+)
 reproduce_app = typer.Typer(no_args_is_help=True, help="Reproduce a paper's printed numbers.")
-thruster_app = typer.Typer(no_args_is_help=True,
-                            help="Thruster models: show, simulate, predict, export, fit.")
+thruster_app = typer.Typer(
+    no_args_is_help=True, help="Thruster models: show, simulate, predict, export, fit."
+)
 app.add_typer(reproduce_app, name="reproduce")
 app.add_typer(thruster_app, name="thruster")
 
@@ -30,6 +34,7 @@ def _register_subcommands() -> None:
     app.command("simulate")(simulate)
     app.add_typer(vehicle_app, name="vehicle")
     register_fit(thruster_app)
+
 
 out_console = Console()
 err_console = Console(stderr=True)
@@ -86,8 +91,13 @@ def _show_mclean(result: dict) -> None:
     for r in result["table1"]:
         t.add_row(r["case"], *[f"{r[f]:.3g} [{r['thesis'][f]:g}]" for f in TABLE1_FIELDS])
     out_console.print(t)
-    out_console.print(_table("App. A — load matching", result["load_matching"],
-                             ["motor", "gear_ratio", "prop_rpm", "thrust_lbf"]))
+    out_console.print(
+        _table(
+            "App. A — load matching",
+            result["load_matching"],
+            ["motor", "gear_ratio", "prop_rpm", "thrust_lbf"],
+        )
+    )
     out_console.print(result["pulsing"]["answer"])
     if "identified" in result:
         idn, ef = result["identified"], result["experiment_fit"]
@@ -95,15 +105,18 @@ def _show_mclean(result: dict) -> None:
             f"Identified from Table I: α_o−α_i = {idn['delta_alpha']:.3f} ± {idn['delta_alpha_sigma']:.3f}, "
             f"β_o−β_i = {idn['delta_beta']:.4f} ± {idn['delta_beta_sigma']:.4f}.  Experiment fit "
             f"(Tables II/III): {ef['mean_abs_rel_error']:.1%} mean error vs the thesis's "
-            f"{ef['thesis_mean_abs_rel_error']:.1%}.")
+            f"{ef['thesis_mean_abs_rel_error']:.1%}."
+        )
 
 
 @app.command("study")
 def study(
-    name: str = typer.Argument("thruster-loop", help="thruster-loop: lagging vs leading thrusters in "
-                                                     "heading and depth loops (McLean's conjecture)"),
+    name: str = typer.Argument(
+        "thruster-loop",
+        help="thruster-loop: lagging vs leading thrusters in heading and depth loops (McLean's conjecture)",
+    ),
     json_out: bool = typer.Option(False, "--json", help="Print the results as one JSON document."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Write the figure, table and index.html here."),
+    out: Path | None = typer.Option(None, "--out", help="Write the figure, table and index.html here."),
     bandwidths: str = typer.Option("1,2,4,6", "--bandwidths", help="Controller bandwidths [rad/s]."),
 ):
     """Reproducible studies built on the models (today: thruster dynamics in DP loops)."""
@@ -144,11 +157,27 @@ def reproduce_laidani(
 def _show_laidani(result: dict) -> None:
     paper = result["paper_values"]
     rows = [
-        {"quantity": "full forward thrust [N]", "ours": result["full_forward_N"], "paper": paper["full_forward_N"]},
-        {"quantity": "full reverse thrust [N]", "ours": result["full_reverse_N"], "paper": paper["full_reverse_N"]},
+        {
+            "quantity": "full forward thrust [N]",
+            "ours": result["full_forward_N"],
+            "paper": paper["full_forward_N"],
+        },
+        {
+            "quantity": "full reverse thrust [N]",
+            "ours": result["full_reverse_N"],
+            "paper": paper["full_reverse_N"],
+        },
         {"quantity": "forward peak [N]", "ours": result["peak_forward_N"], "paper": paper["peak_forward_N"]},
-        {"quantity": "dead zone width [µs]", "ours": result["dead_zone_width_us"], "paper": paper["dead_zone_width_us"]},
-        {"quantity": "saturation onset [µs]", "ours": result["saturation_us"], "paper": paper["saturation_us"]},
+        {
+            "quantity": "dead zone width [µs]",
+            "ours": result["dead_zone_width_us"],
+            "paper": paper["dead_zone_width_us"],
+        },
+        {
+            "quantity": "saturation onset [µs]",
+            "ours": result["saturation_us"],
+            "paper": paper["saturation_us"],
+        },
     ]
     out_console.print(_table("Laidani et al. — ours vs paper", rows, ["quantity", "ours", "paper"], "{:.4g}"))
 
@@ -209,13 +238,18 @@ def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) 
 @thruster_app.command("simulate")
 def thruster_simulate(
     model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name."),
-    signal: str = typer.Option("kind=step,amplitude=24", "--signal",
-                               help="Input, e.g. kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
-                                    "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,..."),
+    signal: str = typer.Option(
+        "kind=step,amplitude=24",
+        "--signal",
+        help="Input, e.g. kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
+        "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,...",
+    ),
     t_end: float = typer.Option(2.0, "--t-end", help="Simulated time [s]."),
     dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
     substeps: int = typer.Option(4, "--substeps", help="RK4 steps per output sample."),
-    out: Path | None = typer.Option(None, "--out", help="Write the time series (CSV), a plot and index.html."),
+    out: Path | None = typer.Option(
+        None, "--out", help="Write the time series (CSV), a plot and index.html."
+    ),
     json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
 ):
     """Simulate a thruster chain under an input signal; print response metrics."""
@@ -226,8 +260,7 @@ def thruster_simulate(
     except ValueError as e:
         _fail(str(e))
     metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp else {}
-    summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt,
-               "metrics_SI": metrics}
+    summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt, "metrics_SI": metrics}
     if out:
         from uuvid.io.atomic import atomic_write_json
         from uuvid.report.html import Report
@@ -245,9 +278,14 @@ def thruster_simulate(
     if json_out:
         _print_json(summary)
     else:
-        out_console.print(_table(f"{chain.name} response (SI)", [
-            {"metric": k, "value": v if v is not None else float("nan")} for k, v in metrics.items()],
-            ["metric", "value"], "{:.4g}"))
+        out_console.print(
+            _table(
+                f"{chain.name} response (SI)",
+                [{"metric": k, "value": v if v is not None else float("nan")} for k, v in metrics.items()],
+                ["metric", "value"],
+                "{:.4g}",
+            )
+        )
 
 
 @thruster_app.command("export")
@@ -256,7 +294,9 @@ def thruster_export(
     to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
     out: Path | None = typer.Option(None, "--out", help="File to write (default: stdout)."),
     thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
-    table_points: int = typer.Option(101, "--table-points", help="uuv-simulator: points of a LinearInterp table."),
+    table_points: int = typer.Option(
+        101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
+    ),
 ):
     """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
     import yaml
@@ -305,7 +345,9 @@ def thruster_predict(
     pwm: str | None = typer.Option(None, "--pwm", help="PWM commands [µs]: start:stop:step or a,b,c."),
     voltage: str | None = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
     speed: str | None = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
-    supply_voltage: float | None = typer.Option(None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."),
+    supply_voltage: float | None = typer.Option(
+        None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."
+    ),
     json_out: bool = typer.Option(False, "--json", help="Print {input: [...], thrust_N: [...]} as JSON."),
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""
@@ -339,8 +381,14 @@ def thruster_predict(
     if json_out:
         _print_json(doc)
     else:
-        out_console.print(_table(f"{chain.name}: steady thrust", [
-            {key: float(a), "thrust_N": float(b)} for a, b in zip(x, thrust)], [key, "thrust_N"], "{:.4g}"))
+        out_console.print(
+            _table(
+                f"{chain.name}: steady thrust",
+                [{key: float(a), "thrust_N": float(b)} for a, b in zip(x, thrust)],
+                [key, "thrust_N"],
+                "{:.4g}",
+            )
+        )
 
 
 # ------------------------------------------------------------------------------------ demo
@@ -348,11 +396,12 @@ def thruster_predict(
 def demo(
     out: Path = typer.Option(Path("uuvid-demo"), "--out", help="Report folder to write."),
     json_out: bool = typer.Option(False, "--json", help="Print all numbers as one JSON document."),
+    quick: bool = typer.Option(False, "--quick", help="Skip the slow sections (the thruster-loop study)."),
 ):
     """Everything uuvid can do, on built-in data: reproduces the papers and writes a report."""
     from uuvid.cli.demo import run_demo
 
-    result = run_demo(out)
+    result = run_demo(out, quick=quick)
     if json_out:
         _print_json(result)
         return
@@ -373,8 +422,9 @@ def bench(json_out: bool = typer.Option(False, "--json", help="Print timings as 
         return
     for group, cases in result.items():
         if isinstance(cases, list):
-            out_console.print(_table(f"bench: {group}", cases,
-                                     ["case", "time_s", "reference_time_s", "ratio"], "{:.4g}"))
+            out_console.print(
+                _table(f"bench: {group}", cases, ["case", "time_s", "reference_time_s", "ratio"], "{:.4g}")
+            )
 
 
 _register_subcommands()

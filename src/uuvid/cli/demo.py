@@ -35,8 +35,13 @@ def _dynamics_gallery(out: Path, rep: Report) -> dict:
     for name, dyn in models.items():
         r = ThrusterChain((dyn, conv), input_kind="command").simulate(sig, 4.0, dt=1e-3)
         ax.plot(r.t, r["thrust"], label=name)
-        rows.append({"model": name, "final_thrust_N": float(r["thrust"][-1]),
-                     "max_thrust_N": float(np.max(r["thrust"]))})
+        rows.append(
+            {
+                "model": name,
+                "final_thrust_N": float(r["thrust"][-1]),
+                "max_thrust_N": float(np.max(r["thrust"])),
+            }
+        )
     ax.set_xlabel("t [s]")
     ax.set_ylabel("thrust [N]")
     ax.set_title("UUV Simulator dynamics + Basic conversion (c = 0.0049), square command ±50")
@@ -47,24 +52,91 @@ def _dynamics_gallery(out: Path, rep: Report) -> dict:
     return {"dynamics": rows}
 
 
-def run_demo(out: Path) -> dict:
+def _vehicle_section(out: Path, rep: Report) -> dict:
+    """BlueROV2 flying Laidani et al.'s square; envelopes of the BlueROV2 and the Heavy."""
+    from uuvid.report.mission import write_mission_outputs
+    from uuvid.simulate.envelope_check import confirm_envelope
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.vehicle.envelope import speed_envelope
+
+    v = load_vehicle("bluerov2")
+    res = fly_mission(setup_mission(v, square_mission()))
+    write_mission_outputs(res, v, out / "mission")
+    rep.add_heading("Vehicle simulation: BlueROV2 flying Laidani et al.'s square (dive 2 m, 10 × 10 m)")
+    rep.add_paragraph(
+        "Full page: mission/index.html. 6 × T200 (ESC → first-order motor → quadratic map), "
+        "allocation with uniform saturation scaling, PID dynamic positioning, 6-DOF model "
+        "with added mass in the mass matrix."
+    )
+    rep.add_figure(out / "mission" / "path_3d.png")
+    rep.add_figure(out / "mission" / "thrusters.png")
+    rep.add_table([{k: v_ for k, v_ in res.summary.items() if not isinstance(v_, list)}])
+    envs = {}
+    for name in ("bluerov2", "bluerov2-heavy"):
+        veh = v if name == "bluerov2" else load_vehicle(name)
+        env = speed_envelope(veh)
+        rows = (
+            confirm_envelope(veh, env) if name == "bluerov2-heavy" else [dict(r.__dict__) for r in env.rows]
+        )
+        envs[name] = rows
+        rep.add_table(
+            [
+                {
+                    k: r.get(k)
+                    for k in (
+                        "direction",
+                        "force",
+                        "speed",
+                        "speed_allocator",
+                        "allocator_speed",
+                        "simulated_speed",
+                        "note",
+                    )
+                    if k in r
+                }
+                for r in rows
+            ],
+            caption=f"Speed envelope — {name} (Laidani et al. Table 4 kind)",
+        )
+    return {"mission": res.summary, "envelopes": envs}
+
+
+def _study_section(out: Path, rep: Report) -> dict:
+    from uuvid.papers import thruster_loop_study as st
+
+    result = st.run_study(bandwidths=(2.0, 6.0))
+    st.write_outputs(result, out / "study")
+    rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
+    rep.add_paragraph(result["answer"])
+    rep.add_figure(out / "study" / "limit_cycles.png")
+    return result
+
+
+def run_demo(out: Path, quick: bool = False) -> dict:
+    """All sections; ``quick`` skips the slow ones (the thruster-loop study)."""
     from uuvid.io.modelfile import load_chain, save_chain
     from uuvid.papers import laidani, mclean1991
     from uuvid.thruster.presets import laidani_chain
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=14) as task:
+    with progress_task("uuvid demo", total=16) as task:
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
         la = laidani.reproduce(out_dir=out / "laidani")
         task.advance()
-        rep = Report("uuvid demo — thrusters from the papers")
-        rep.add_paragraph("Everything below was computed just now from built-in data. Each paper "
-                          "has its own page with all plots and tables.")
+        rep = Report("uuvid demo — thrusters and vehicles from the papers")
+        rep.add_paragraph(
+            "Everything below was computed just now from built-in data. Each paper "
+            "has its own page with all plots and tables."
+        )
         rep.add_heading("McLean (1991): tunnel thruster transients")
         rep.add_paragraph("Full page: mclean1991/index.html")
-        rep.add_table([{"case": r["case"], **{k: r[k] for k in mclean1991.TABLE1_FIELDS}}
-                       for r in mc["table1"]], caption="Table I (ours; thesis values on the paper's page)")
+        rep.add_table(
+            [{"case": r["case"], **{k: r[k] for k in mclean1991.TABLE1_FIELDS}} for r in mc["table1"]],
+            caption="Table I (ours; thesis values on the paper's page)",
+        )
         rep.add_figure(out / "mclean1991" / "step_baseline.png", caption="Baseline 24 V step")
         rep.add_paragraph(mc["pulsing"]["answer"])
         rep.add_heading("Laidani et al.: PWM → ESC → A2212 → polynomial")
@@ -73,12 +145,22 @@ def run_demo(out: Path) -> dict:
         rep.add_figure(out / "laidani" / "laidani_fig10_sine_response.png")
         gallery = _dynamics_gallery(out, rep)
         task.advance()
+        vehicle = _vehicle_section(out, rep)
+        task.advance()
+        study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
+        task.advance()
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
         same = load_chain(path) == laidani_chain()
         task.advance()
-        result = {"mclean1991": mc, "laidani": la, "uuv_dynamics": gallery,
-                  "model_file": {"path": str(path), "round_trip_equal": same}}
+        result = {
+            "mclean1991": mc,
+            "laidani": la,
+            "uuv_dynamics": gallery,
+            "vehicle": vehicle,
+            "study": study,
+            "model_file": {"path": str(path), "round_trip_equal": same},
+        }
         atomic_write_json(out / "demo.json", result)
         rep.add_json({"model_file": result["model_file"]}, caption="Model file round trip")
         rep.write(out)

@@ -47,17 +47,29 @@ def _fly(spec, base, out, json_out, label):
         task.advance()
     summary = result.summary
     if json_out:
-        keys = ("completed", "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
-                "thrust_limit_N", "sim_time_s", "wall_time_s")
+        keys = (
+            "completed",
+            "max_tracking_error_m",
+            "rms_tracking_error_m",
+            "max_thrust_N",
+            "thrust_limit_N",
+            "sim_time_s",
+            "wall_time_s",
+        )
         doc = {k: summary[k] for k in keys}
         doc.update({k: v for k, v in summary.items() if k not in keys})
         if out:
             doc["out"] = str(out)
         _print_json(doc)
         return
-    out_console.print(_table(f"{summary['vehicle']}: {summary['mission']}",
-                             [{"quantity": k, "value": v} for k, v in summary.items()],
-                             ["quantity", "value"], "{:.4g}"))
+    out_console.print(
+        _table(
+            f"{summary['vehicle']}: {summary['mission']}",
+            [{"quantity": k, "value": v} for k, v in summary.items()],
+            ["quantity", "value"],
+            "{:.4g}",
+        )
+    )
     if out:
         err_console.print(f"report: {out / 'index.html'}")
 
@@ -70,8 +82,9 @@ def simulate(
     depth: float = typer.Option(2.0, "--depth", help="mission: depth [m]."),
     side: float = typer.Option(10.0, "--side", help="mission: side of the square [m]."),
     current: str = typer.Option("0,0,0", "--current", help="mission: current north,east,down [m/s]."),
-    thruster_model: str | None = typer.Option(None, "--thruster-model",
-                                                 help="mission: override the thrusters' model."),
+    thruster_model: str | None = typer.Option(
+        None, "--thruster-model", help="mission: override the thrusters' model."
+    ),
     dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
     out: Path | None = typer.Option(None, "--out", help="Write time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
@@ -93,10 +106,16 @@ def simulate(
         except ValueError:
             _fail(f"--current: expected three numbers north,east,down, got {current!r}")
         try:
-            spec = scenario_from_dict({"vehicle": vehicle, "thruster_model": thruster_model,
-                                       "current": cur, "dt": dt,
-                                       "mission": {"kind": "square", "speed": speed, "depth": depth,
-                                                   "side": side}}, where="command line")
+            spec = scenario_from_dict(
+                {
+                    "vehicle": vehicle,
+                    "thruster_model": thruster_model,
+                    "current": cur,
+                    "dt": dt,
+                    "mission": {"kind": "square", "speed": speed, "depth": depth, "side": side},
+                },
+                where="command line",
+            )
         except ModelFileError as e:
             _fail(str(e))
         _fly(spec, None, out, json_out, f"{kind} with {vehicle}")
@@ -139,6 +158,9 @@ def vehicle_envelope(
     if json_out:
         _print_json(doc)
         return
-    cols = [c for c in ("direction", "force", "speed", "allocator_speed", "simulated_speed",
-                        "relative_difference") if c in rows[0]]
+    cols = [
+        c
+        for c in ("direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference")
+        if c in rows[0]
+    ]
     out_console.print(_table(f"{v.name}: speed envelope", rows, cols, "{:.4g}"))
