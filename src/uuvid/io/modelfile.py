@@ -52,7 +52,8 @@ class ModelFileError(ValueError):
     """A model file is unreadable or invalid; the message names the file and the key path."""
 
 
-def _loc(loc) -> str:
+def format_loc(loc) -> str:
+    """pydantic error location → ``blocks[1].time_constant``."""
     out = ""
     for part in loc:
         if isinstance(part, int):
@@ -174,7 +175,7 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
             kind = err["type"]
             text = {"missing": "missing parameter", "extra_forbidden": "unknown key"}.get(kind,
                                                                                        err["msg"])
-            msgs.append(f"{where}: {_loc(loc)}: {text}")
+            msgs.append(f"{where}: {format_loc(loc)}: {text}")
         raise ModelFileError("\n".join(msgs)) from None
     blocks = []
     for i, b in enumerate(spec.blocks):

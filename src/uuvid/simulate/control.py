@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from uuvid.vehicle.kinematics import quat_to_rotmat
+
 #: Controlled DOFs and their index in the generalized-force vector [X Y Z K M N].
 DP_DOFS = (0, 1, 2, 5)
 
@@ -72,21 +74,7 @@ def gains_from_bandwidth(mass: np.ndarray, damping: np.ndarray, tau_max, omega=(
     return DPGains(f(kp), f(ki), f(kd), tau_max, tuple(0.5 * t for t in tau_max))
 
 
-@njit(cache=True)
-def quat_to_rot(q):
-    """Body → NED rotation matrix of a unit quaternion ``[η, ε1, ε2, ε3]`` (Fossen 2011, eq. 2.72)."""
-    n, e1, e2, e3 = q[0], q[1], q[2], q[3]
-    R = np.empty((3, 3))
-    R[0, 0] = 1 - 2 * (e2 * e2 + e3 * e3)
-    R[0, 1] = 2 * (e1 * e2 - e3 * n)
-    R[0, 2] = 2 * (e1 * e3 + e2 * n)
-    R[1, 0] = 2 * (e1 * e2 + e3 * n)
-    R[1, 1] = 1 - 2 * (e1 * e1 + e3 * e3)
-    R[1, 2] = 2 * (e2 * e3 - e1 * n)
-    R[2, 0] = 2 * (e1 * e3 - e2 * n)
-    R[2, 1] = 2 * (e2 * e3 + e1 * n)
-    R[2, 2] = 1 - 2 * (e1 * e1 + e2 * e2)
-    return R
+quat_to_rot = quat_to_rotmat  # body → NED (Fossen 2011, §2.2.2)
 
 
 @njit(cache=True)

@@ -82,18 +82,16 @@ def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
     wp = w / n
     j = jm + jp / (n * n)
     cv = cm + cp / (n * n)
+    mf = 0.0
+    pe = 0.0
     if kind == K_TUNNEL:
-        rho, area, length, ka, pe, beta, dalpha, dbeta = (
-            params[pb + 10],
-            params[pb + 11],
-            params[pb + 12],
-            params[pb + 13],
-            params[pb + 14],
-            params[pb + 15],
-            params[pb + 16],
-            params[pb + 17],
-        )
-        mf = rho * area * length * (1.0 + ka)
+        rho = params[pb + 10]
+        area = params[pb + 11]
+        pe = params[pb + 14]
+        beta = params[pb + 15]
+        dalpha = params[pb + 16]
+        dbeta = params[pb + 17]
+        mf = rho * area * params[pb + 12] * (1.0 + params[pb + 13])  # ρ A L (1 + K_a)
         j += beta * mf * pe * pe / (n * n)
         q_static = 0.5 * rho * area * dalpha * pe * pe * pe * wp * abs(wp)
     else:
@@ -115,17 +113,6 @@ def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
     ch[_PROP_SPEED] = wp
     ch[_CURRENT] = i
     if kind == K_TUNNEL:
-        rho, area, length, ka, pe, beta, dalpha, dbeta = (
-            params[pb + 10],
-            params[pb + 11],
-            params[pb + 12],
-            params[pb + 13],
-            params[pb + 14],
-            params[pb + 15],
-            params[pb + 16],
-            params[pb + 17],
-        )
-        mf = rho * area * length * (1.0 + ka)
         ch[_TORQUE] = beta * mf * pe * pe * wpdot + q_static
         return mf * pe * wpdot + rho * area * pe * pe * dbeta * wp * abs(wp)
     ch[_TORQUE] = q_static
@@ -242,6 +229,25 @@ def eval_chain_at(kinds, poff, params, po, soff, outch, in_ch, x, xo, cmd, dx, c
             sig = x[s]
         ch[outch[b]] = sig
     return sig
+
+
+@njit(cache=True)
+def interp_sorted(xs, ys, x):
+    """Linear interpolation in a table with strictly increasing ``xs``, end values held."""
+    n = xs.size
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[n - 1]:
+        return ys[n - 1]
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if xs[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return ys[lo] + (ys[hi] - ys[lo]) * (x - xs[lo]) / (xs[hi] - xs[lo])
 
 
 @njit(cache=True)

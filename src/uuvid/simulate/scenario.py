@@ -26,7 +26,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from uuvid.io.modelfile import ModelFileError, read_model_text
+from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.simulate.reference import WaypointMission, square_mission
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -78,18 +78,11 @@ class ScenarioSpec(BaseModel):
     duration: float | None = Field(None, gt=0)
 
 
-def _loc(loc) -> str:
-    out = ""
-    for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else ("." if out else "") + str(part)
-    return out
-
-
 def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
     try:
         return ScenarioSpec.model_validate(raw if raw is not None else {})
     except ValidationError as e:
-        msgs = [f"{where}: {_loc(err['loc'])}: "
+        msgs = [f"{where}: {format_loc(err['loc'])}: "
                 + {"missing": "missing", "extra_forbidden": "unknown key"}.get(err["type"], err["msg"])
                 for err in e.errors()]
         raise ScenarioError("\n".join(msgs)) from None

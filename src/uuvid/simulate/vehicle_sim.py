@@ -120,22 +120,7 @@ def _inverse_table(chain: ThrusterChain, points: int):
     return out_t, out_c, neutral
 
 
-@njit(cache=True)
-def _interp(xs, ys, x):
-    n = xs.size
-    if x <= xs[0]:
-        return ys[0]
-    if x >= xs[n - 1]:
-        return ys[n - 1]
-    lo = 0
-    hi = n - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if xs[mid] <= x:
-            lo = mid
-        else:
-            hi = mid
-    return ys[lo] + (ys[hi] - ys[lo]) * (x - xs[lo]) / (xs[hi] - xs[lo])
+_interp = kernels.interp_sorted
 
 
 # ---------------------------------------------------------------------------------------------

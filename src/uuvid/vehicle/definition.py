@@ -51,7 +51,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from uuvid.io.modelfile import ModelFileError, load_chain, read_model_text
+from uuvid.io.modelfile import ModelFileError, format_loc, load_chain, read_model_text
 from uuvid.thruster.blocks import ParameterError
 from uuvid.units import G0
 from uuvid.vehicle.allocation import Allocator, ThrustMode
@@ -281,14 +281,7 @@ class Vehicle:
 # ---------------------------------------------------------------------------------------------
 # Loading
 # ---------------------------------------------------------------------------------------------
-def _loc(loc) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
+_loc = format_loc
 
 
 _TEXT = {"missing": "missing", "extra_forbidden": "unknown key"}
