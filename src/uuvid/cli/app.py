@@ -34,6 +34,9 @@ def _register_subcommands() -> None:
     app.command("simulate")(simulate)
     app.add_typer(vehicle_app, name="vehicle")
     register_fit(thruster_app)
+    from uuvid.cli.identify_cmds import register as register_identify
+
+    register_identify(vehicle_app, reproduce_app)
 
 
 out_console = Console()
