@@ -37,6 +37,9 @@ def _register_subcommands() -> None:
     from uuvid.cli.identify_cmds import register as register_identify
 
     register_identify(vehicle_app, reproduce_app)
+    from uuvid.cli.uncertainty_cmds import register as register_uncertainty
+
+    register_uncertainty(app)
 
 
 out_console = Console()

@@ -15,6 +15,7 @@ Outputs go into preallocated arrays; :func:`run_batch` flies many perturbed vehi
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -96,8 +97,10 @@ def _command_range(chain: ThrusterChain) -> tuple[float, float, float]:
     return -1.0, 1.0, 0.0
 
 
+@functools.lru_cache(maxsize=64)
 def _inverse_table(chain: ThrusterChain, points: int):
-    """Steady thrust over the command range, made strictly increasing for inversion."""
+    """Steady thrust over the command range, made strictly increasing for inversion (memoised:
+    a vehicle's identical thrusters share one table)."""
     if chain.input_kind == "thrust" or chain.signal_kinds[0] == "thrust":
         x = np.linspace(-1e4, 1e4, 3)
         return x.copy(), x.copy(), 0.0
@@ -117,6 +120,8 @@ def _inverse_table(chain: ThrusterChain, points: int):
         f, c = f[keep], c[keep]
     out_t = np.interp(np.linspace(0, 1, points), np.linspace(0, 1, f.size), f)
     out_c = np.interp(out_t, f, c)
+    out_t.flags.writeable = False
+    out_c.flags.writeable = False
     return out_t, out_c, neutral
 
 

@@ -1,0 +1,240 @@
+"""``uuvid sweep`` and ``uuvid montecarlo``: design sweeps and uncertainty propagation at scale.
+
+::
+
+    uuvid sweep SWEEP.yaml --out DIR [--backend inprocess|processes|dask] [--workers N]
+                [--scheduler tcp://host:port] [--chunk-size N] [--retries N] [--json]
+    uuvid montecarlo MODEL --runs N [--seed S] [--out DIR] [--bounds reject|truncate|ignore]
+                [--requirement "max_tracking_error_m<0.5"] [--backend ...] [--json]
+
+``SWEEP`` is a sweep file (:mod:`uuvid.uncertainty.sweep`) or a built-in sweep
+(``mclean-sensitivity``); ``MODEL`` an uncertain-model file (:mod:`uuvid.uncertainty.montecarlo`),
+the ``summary.json`` of ``uuvid thruster fit --model physical``, or a built-in model
+(``bluerov2-identified``, ``t200-physical``).  The backend defaults to local processes, or to Dask
+when ``--scheduler`` (or ``UUVID_DASK_SCHEDULER``) names a scheduler.  ``--json`` prints one JSON
+summary on stdout; progress goes to stderr.  Bad input exits with status 2; Ctrl-C leaves the
+partial result in ``--out`` (``summary.json`` says ``"partial": true``) and exits with 130.
+
+:func:`demo_sweep` and :func:`demo_montecarlo` are the small (< 10 s) showcases ``uuvid demo``
+calls; :func:`register` adds the two commands to the ``uuvid`` app.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+__all__ = ["demo_montecarlo", "demo_sweep", "montecarlo_cmd", "register", "sweep_cmd"]
+
+
+def _helpers():
+    from uuvid.cli.app import _fail, _print_json, _table, err_console, out_console
+
+    return _fail, _print_json, _table, err_console, out_console
+
+
+def _user_errors() -> tuple:
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.uncertainty.montecarlo import ModelError
+    from uuvid.uncertainty.params import ParameterNameError
+    from uuvid.uncertainty.sweep import SweepError
+
+    return (SweepError, ModelError, ModelFileError, ParameterNameError, FileNotFoundError,
+            KeyError, ValueError)
+
+
+def _public(summary: dict) -> dict:
+    """The summary without the (long) spec echo and band arrays — those are in summary.json."""
+    out = {k: v for k, v in summary.items() if k not in ("spec",)}
+    if "bands" in out:
+        out["bands"] = {k: {kk: vv for kk, vv in b.items() if kk not in ("lower", "median", "upper")}
+                        | ({"at_end": {"lower": b["lower"][-1], "median": b["median"][-1],
+                                       "upper": b["upper"][-1]}} if b.get("n") else {})
+                        for k, b in out["bands"].items()}
+    return out
+
+
+def _show(summary: dict, title: str) -> None:
+    _fail, _print_json, _table, err_console, out_console = _helpers()
+    rows = [{"quantity": "runs", "value": str(summary["runs"])},
+            {"quantity": "succeeded", "value": str(summary["succeeded"])},
+            {"quantity": "status", "value": ", ".join(f"{k}: {v}" for k, v in
+                                                      summary["status_counts"].items())},
+            {"quantity": "backend", "value": f"{summary['backend']} ({summary.get('workers', 1)} "
+                                             "workers)"},
+            {"quantity": "wall time (s)", "value": f"{summary['wall_time_s']:.3g}"},
+            {"quantity": "runs/s", "value": f"{summary['runs_per_s']:.4g}"}]
+    if summary.get("failed_chunks"):
+        rows.append({"quantity": "failed chunks", "value": "; ".join(
+            f"{c['start']}–{c['stop'] - 1}: {c['error']}" for c in summary["failed_chunks"])})
+    req = summary.get("requirement")
+    if req:
+        rows.append({"quantity": f"P({req['requirement']})",
+                     "value": f"{req['probability']:.4f}  (95 % [{req['wilson95'][0]:.4f}, "
+                              f"{req['wilson95'][1]:.4f}], {req['runs_simulated']} runs)"})
+    d = summary.get("draws")
+    if d:
+        rows.append({"quantity": "draws", "value": f"{d['total']} ({d['rejected_draws']} rejected by "
+                                                   f"bounds, {d['runs_rejected']} runs without an "
+                                                   "admissible draw)"})
+    for m, v in (summary.get("metrics") or {}).items():
+        rows.append({"quantity": m, "value": f"{v['min']:.4g} … {v['max']:.4g}"})
+    for m, v in (summary.get("metric_quantiles") or {}).items():
+        qs = [k for k in v if k.startswith("q")]
+        rows.append({"quantity": m, "value": f"median {v['median']:.4g}, "
+                                             f"[{v[qs[0]]:.4g}, {v[qs[-1]]:.4g}]"})
+    out_console.print(_table(title, rows, ["quantity", "value"]))
+
+
+def _run(fn, out: Path | None, json_out: bool, title: str):
+    _fail, _print_json, _table, err_console, out_console = _helpers()
+    try:
+        res = fn()
+    except KeyboardInterrupt:
+        err_console.print(f"interrupted: partial result in {out}" if out else "interrupted")
+        raise typer.Exit(code=130) from None
+    except ImportError as e:
+        _fail(str(e))
+    except _user_errors() as e:
+        _fail(str(e))
+    summary = dict(res.summary)
+    if out is not None:
+        summary["out"] = str(out)
+    if json_out:
+        _print_json(_public(summary))
+    else:
+        _show(summary, title)
+        if out is not None:
+            err_console.print(f"report: {out / 'index.html'}  (table: {out / 'results.csv'})")
+    return res
+
+
+def sweep_cmd(
+    sweep: str = typer.Argument(..., help="Sweep file (YAML/TOML) or built-in sweep "
+                                          "(mclean-sensitivity)."),
+    out: Path = typer.Option(..., "--out", help="Folder for results.csv, summary.json, plots, "
+                                                "index.html."),
+    backend: str | None = typer.Option(None, "--backend",
+                                       help="inprocess | processes (default) | dask."),
+    workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPUs)."),
+    scheduler: str | None = typer.Option(None, "--scheduler",
+                                         help="Dask scheduler tcp://host:port (or set "
+                                              "UUVID_DASK_SCHEDULER)."),
+    chunk_size: int | None = typer.Option(None, "--chunk-size", help="Runs per task."),
+    retries: int | None = typer.Option(None, "--retries", help="Retries of a failed chunk."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document."),
+):
+    """Run a parameter sweep (grid/list/random) of thruster or vehicle simulations."""
+    _fail = _helpers()[0]
+    from uuvid.uncertainty.sweep import load_sweep, run_sweep
+
+    if workers is not None and workers < 1:
+        _fail(f"--workers must be >= 1, got {workers}")
+    if chunk_size is not None and chunk_size < 1:
+        _fail(f"--chunk-size must be >= 1, got {chunk_size}")
+    try:
+        spec = load_sweep(sweep)
+    except _user_errors() as e:
+        _fail(str(e))
+    _run(lambda: run_sweep(spec, out, backend=backend, workers=workers, scheduler=scheduler,
+                           chunk_size=chunk_size, retries=retries),
+         out, json_out, f"sweep {spec.name}: {spec.n_runs} runs")
+
+
+def _parse_requirement(text: str):
+    import re
+
+    from uuvid.uncertainty.sweep import Requirement
+
+    m = re.fullmatch(r"\s*([A-Za-z0-9_@.\[\]]+)\s*([<>])\s*([-+0-9.eE]+)\s*", text)
+    if not m:
+        raise ValueError(f"--requirement: expected METRIC<VALUE or METRIC>VALUE, got {text!r}")
+    key = "below" if m.group(2) == "<" else "above"
+    return Requirement(metric=m.group(1), **{key: float(m.group(3))})
+
+
+def montecarlo_cmd(
+    model: str = typer.Argument(..., help="Uncertain-model file, a `uuvid thruster fit` "
+                                          "summary.json, or bluerov2-identified | t200-physical."),
+    runs: int = typer.Option(1000, "--runs", help="Number of draws."),
+    seed: int = typer.Option(0, "--seed", help="Seed (run r draws from default_rng([seed, r]))."),
+    out: Path | None = typer.Option(None, "--out", help="Folder for results, bands, plots, "
+                                                        "index.html."),
+    bounds: str = typer.Option("reject", "--bounds", help="reject (redraw) | truncate (clip) | "
+                                                          "ignore."),
+    max_draws: int = typer.Option(100, "--max-draws", help="reject: draws per run before giving up."),
+    requirement: str | None = typer.Option(None, "--requirement",
+                                           help='e.g. "max_tracking_error_m<0.5" (vehicle default).'),
+    band: float = typer.Option(0.95, "--band", help="Central probability of the prediction bands."),
+    backend: str | None = typer.Option(None, "--backend",
+                                       help="inprocess | processes (default) | dask."),
+    workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPUs)."),
+    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler tcp://host:port."),
+    chunk_size: int | None = typer.Option(None, "--chunk-size", help="Runs per task."),
+    retries: int | None = typer.Option(None, "--retries", help="Retries of a failed chunk."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document."),
+):
+    """Propagate an identified model's covariance: prediction bands and requirement probability."""
+    _fail = _helpers()[0]
+    from uuvid.uncertainty.montecarlo import load_model, run_montecarlo
+
+    if runs < 1:
+        _fail(f"--runs must be >= 1, got {runs}")
+    if not 0 < band < 1:
+        _fail(f"--band must lie in (0, 1), got {band}")
+    if bounds not in ("reject", "truncate", "ignore"):
+        _fail(f"--bounds: expected reject, truncate or ignore, got {bounds!r}")
+    try:
+        m = load_model(model)
+        req = _parse_requirement(requirement) if requirement else None
+    except _user_errors() as e:
+        _fail(str(e))
+    _run(lambda: run_montecarlo(m, runs, out, seed=seed, bounds=bounds, max_draws=max_draws,
+                                requirement=req, band=band, backend=backend, workers=workers,
+                                scheduler=scheduler, chunk_size=chunk_size, retries=retries),
+         out, json_out, f"Monte Carlo {m.name}: {runs} draws")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``sweep`` and ``montecarlo`` to the ``uuvid`` app."""
+    app.command("sweep")(sweep_cmd)
+    app.command("montecarlo")(montecarlo_cmd)
+
+
+# ---------------------------------------------------------------------------------------------
+# demo pieces (called by ``uuvid demo``)
+# ---------------------------------------------------------------------------------------------
+def demo_sweep(out: str | Path) -> dict:
+    """A small McLean sweep (tunnel length × voltage, 30 step responses, in-process): heat map and
+    line plots in ``out``; returns the summary with the Table I baseline point."""
+    from uuvid.uncertainty.sweep import SweepSpec, run_sweep
+
+    spec = SweepSpec.model_validate({
+        "name": "demo-mclean-tunnel-length-voltage",
+        "description": "AUV II tunnel thruster on its rig: peak measured thrust and speed time "
+                       "constant against tunnel length and step voltage (McLean 1991, Table I "
+                       "extended).",
+        "target": {"kind": "thruster_step", "chain": "auv2-tunnel", "t_end": 1.333, "substeps": 1},
+        "parameters": [{"name": "tunnel_length", "unit": "in", "values": [5, 8, 10.5, 14, 17, 20]},
+                       {"name": "voltage", "values": [8, 12, 16, 20, 24]}],
+        "metrics": ["peak_output_thrust", "time_constant_speed", "steady_thrust"],
+    })
+    res = run_sweep(spec, Path(out), backend="inprocess", progress=False)
+    t = res.table
+    base = t[(abs(t["tunnel_length"] - 0.2667) < 1e-9) & (t["voltage"] == 24)].iloc[0]
+    return {"summary": {k: v for k, v in res.summary.items() if k != "spec"}, "out": str(out),
+            "baseline_24V": {m: float(base[m]) for m in spec.metrics}}
+
+
+def demo_montecarlo(out: str | Path, runs: int = 500) -> dict:
+    """The T200 thrust-vs-PWM 95 % band at 12, 14 and 16 V from the physical fit's covariance
+    (``t200-physical``, in-process); returns the summary (bands at full forward command)."""
+    from uuvid.uncertainty.montecarlo import run_montecarlo
+
+    res = run_montecarlo("t200-physical", runs, Path(out), seed=0, backend="inprocess",
+                         progress=False)
+    s = res.summary
+    ends = {k: {"lower": b["lower"][-1], "median": b["median"][-1], "upper": b["upper"][-1]}
+            for k, b in s.get("bands", {}).items() if b.get("n")}
+    return {"summary": _public(s), "out": str(out), "full_forward_thrust_band_N": ends}

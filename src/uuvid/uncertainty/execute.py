@@ -1,0 +1,546 @@
+"""Running a study (a sweep or a Monte Carlo) in chunks: in-process, local processes or Dask.
+
+One description, three backends that give the same table for the same seed:
+
+``inprocess``
+    Chunks run one after another in this process; each chunk is one call of the batched compiled
+    simulator, parallel over its runs (numba threads).
+``processes`` (the default)
+    Chunks go to a :class:`concurrent.futures.ProcessPoolExecutor` (``spawn`` workers, one numba
+    thread each unless told otherwise); a progress bar on stderr.
+``dask``
+    Chunks go to a Dask distributed cluster (``--scheduler tcp://host:port``, the environment
+    variable ``UUVID_DASK_SCHEDULER``, or a ``distributed.Client`` passed in); without an address
+    a ``LocalCluster`` is started for the run.  Needs the ``dist`` extra
+    (``pip install "uuvid[dist]"``, i.e. ``dask[distributed]``); workers must have ``uuvid``
+    installed.
+
+Tasks are chunks of runs (``chunk_size``), never single runs.  A chunk is described by plain data
+(the study's JSON payload and a run range), so workers rebuild the study themselves (once per
+process, cached) and every run's parameters come from the study and the run index alone — grid
+position, or the random stream ``default_rng([seed, run])`` — never from the chunking or the
+worker.  Results stream back as they complete (``as_completed``), each row carrying its ``run``
+index; the final table is sorted by run.
+
+Failures: a chunk that raises is resubmitted up to ``retries`` times; after that its runs are put
+in the table with status ``failed`` and the error, and the chunk is listed in
+``summary["failed_chunks"]`` — never dropped.  The summary counts the runs that succeeded.
+
+On disk (``out``): every completed chunk is written atomically to ``parts/`` and ``summary.json``
+is rewritten with ``"partial": true`` after each chunk; at the end ``results.csv`` (one row per run)
+and ``series.npz`` (per-run curves, if any) are written and the summary says
+``"partial": false``.  Ctrl-C (KeyboardInterrupt) stops submitting, cancels what is queued, writes
+the consolidated partial result (``results.csv`` with the runs done so far, ``"partial": true``,
+``"interrupted": true``) and re-raises.  :func:`read_result` reads either form.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import socket
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+BACKENDS = ("inprocess", "processes", "dask")
+ENV_SCHEDULER = "UUVID_DASK_SCHEDULER"
+RESULT_FORMAT = "uuvid-study-result/1"
+
+
+# ---------------------------------------------------------------------------------------------
+# the unit of work
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class ChunkResult:
+    """Rows ``start … stop-1`` of a study: the table (one row per run, with ``run``), per-run series
+    aligned with the rows, the wall time and where it ran."""
+
+    start: int
+    stop: int
+    table: pd.DataFrame
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+    wall_time: float = 0.0
+    worker: str = ""
+
+
+_STUDIES: dict[str, object] = {}
+
+
+def study_from_payload(payload: dict):
+    """Rebuild a study from its JSON payload (cached per process)."""
+    key = json.dumps(payload, sort_keys=True)
+    st = _STUDIES.get(key)
+    if st is None:
+        kind = payload.get("kind")
+        if kind == "sweep":
+            from uuvid.uncertainty.sweep import SweepStudy
+
+            st = SweepStudy.from_payload(payload)
+        elif kind == "montecarlo":
+            from uuvid.uncertainty.montecarlo import MonteCarloStudy
+
+            st = MonteCarloStudy.from_payload(payload)
+        else:
+            raise ValueError(f"unknown study kind {kind!r}")
+        if len(_STUDIES) > 8:
+            _STUDIES.clear()
+        _STUDIES[key] = st
+    return st
+
+
+def evaluate_chunk(payload: dict, start: int, stop: int, attempt: int = 0,
+                   threads: int | None = None) -> ChunkResult:
+    """Evaluate runs ``start … stop-1`` of the study described by ``payload`` (any backend)."""
+    if threads:
+        import numba
+
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    t0 = time.perf_counter()
+    study = study_from_payload(payload)
+    res = study.evaluate(int(start), int(stop))
+    res.wall_time = time.perf_counter() - t0
+    res.worker = f"{socket.gethostname()}:{os.getpid()}"
+    return res
+
+
+def _init_worker(threads: int | None) -> None:
+    os.environ["UUVID_NO_PROGRESS"] = "1"
+    if threads:
+        import numba
+
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+
+
+# ---------------------------------------------------------------------------------------------
+# result on disk
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class StudyResult:
+    """The tidy table (one row per run), per-run series, the summary and the output folder."""
+
+    table: pd.DataFrame
+    series: dict[str, np.ndarray]
+    summary: dict
+    out: Path | None = None
+    axes: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def partial(self) -> bool:
+        return bool(self.summary.get("partial"))
+
+    @property
+    def ok(self) -> pd.DataFrame:
+        return self.table[self.table["status"] == "ok"]
+
+
+class _Writer:
+    """Writes parts and the summary atomically as chunks complete; consolidates at the end."""
+
+    def __init__(self, out: Path | None, base_summary: dict):
+        self.out = Path(out) if out is not None else None
+        self.base = dict(base_summary)
+        self.parts: list[str] = []
+        if self.out is not None:
+            self.out.mkdir(parents=True, exist_ok=True)
+            (self.out / "parts").mkdir(exist_ok=True)
+            for old in (self.out / "parts").glob("chunk-*"):
+                old.unlink()
+            for name in ("results.csv", "series.npz"):
+                p = self.out / name
+                if p.exists():
+                    p.unlink()
+
+    def chunk(self, res: ChunkResult, progress: dict) -> None:
+        if self.out is None:
+            return
+        from uuvid.io.atomic import atomic_path
+
+        stem = f"chunk-{res.start:09d}"
+        with atomic_path(self.out / "parts" / f"{stem}.csv") as tmp:
+            res.table.to_csv(tmp, index=False)
+        self.parts.append(f"parts/{stem}.csv")
+        if res.series:
+            with atomic_path(self.out / "parts" / f"{stem}.npz") as tmp:
+                with open(tmp, "wb") as fh:
+                    np.savez(fh, run=res.table["run"].to_numpy(), **res.series)
+            self.parts.append(f"parts/{stem}.npz")
+        self.summary({**progress, "partial": True,
+                      "parts": sorted(p for p in self.parts if p.endswith(".csv"))})
+
+    def summary(self, extra: dict) -> None:
+        if self.out is None:
+            return
+        from uuvid.io.atomic import atomic_write_json
+
+        atomic_write_json(self.out / "summary.json", {**self.base, **extra})
+
+    def final(self, result: StudyResult) -> None:
+        if self.out is None:
+            return
+        from uuvid.io.atomic import atomic_path
+
+        with atomic_path(self.out / "results.csv") as tmp:
+            result.table.to_csv(tmp, index=False)
+        files = ["results.csv"]
+        if result.series:
+            with atomic_path(self.out / "series.npz") as tmp:
+                with open(tmp, "wb") as fh:
+                    np.savez(fh, run=result.table["run"].to_numpy(), **result.series,
+                             **{f"axis:{k}": v for k, v in result.axes.items()})
+            files.append("series.npz")
+        result.summary["files"] = files
+        self.summary(result.summary)
+        if not result.partial:
+            for p in self.parts:
+                try:
+                    (self.out / p).unlink()
+                except OSError:
+                    pass
+            try:
+                (self.out / "parts").rmdir()
+            except OSError:
+                pass
+
+
+def read_result(out: str | Path) -> StudyResult:
+    """Read a study folder: the final result, or — for an interrupted or still running study —
+    whatever parts are there (``summary["partial"]`` says which)."""
+    out = Path(out)
+    summary = json.loads((out / "summary.json").read_text())
+    series: dict[str, np.ndarray] = {}
+    axes: dict[str, np.ndarray] = {}
+    if (out / "results.csv").exists() and "files" in summary:
+        table = pd.read_csv(out / "results.csv", keep_default_na=True)
+        if (out / "series.npz").exists():
+            with np.load(out / "series.npz") as z:
+                for k in z.files:
+                    if k.startswith("axis:"):
+                        axes[k[5:]] = z[k]
+                    elif k != "run":
+                        series[k] = z[k]
+    else:
+        parts = sorted((out / "parts").glob("chunk-*.csv")) if (out / "parts").is_dir() else []
+        frames = [pd.read_csv(p) for p in parts]
+        table = (pd.concat(frames, ignore_index=True).sort_values("run").reset_index(drop=True)
+                 if frames else pd.DataFrame({"run": []}))
+        npz = sorted((out / "parts").glob("chunk-*.npz")) if (out / "parts").is_dir() else []
+        if npz:
+            runs, acc = [], {}
+            for p in npz:
+                with np.load(p) as z:
+                    runs.append(z["run"])
+                    for k in z.files:
+                        if k != "run":
+                            acc.setdefault(k, []).append(z[k])
+            order = np.argsort(np.concatenate(runs), kind="stable")
+            series = {k: np.concatenate(v)[order] for k, v in acc.items()}
+    if "message" in table:
+        table["message"] = table["message"].astype(object).fillna("")
+    return StudyResult(table, series, summary, out, axes)
+
+
+# ---------------------------------------------------------------------------------------------
+# the runner
+# ---------------------------------------------------------------------------------------------
+def chunk_ranges(n: int, size: int) -> list[tuple[int, int]]:
+    size = max(1, int(size))
+    return [(a, min(n, a + size)) for a in range(0, n, size)]
+
+
+def default_workers() -> int:
+    return max(1, os.cpu_count() or 1)
+
+
+def resolve_backend(backend: str | None, scheduler: str | None) -> tuple[str, str | None]:
+    """``(backend, scheduler address)``: a scheduler (argument or ``UUVID_DASK_SCHEDULER``) means
+    Dask unless another backend is asked for explicitly."""
+    sched = scheduler or os.environ.get(ENV_SCHEDULER) or None
+    if backend is None:
+        backend = "dask" if sched else "processes"
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    return backend, sched
+
+
+def run_study(study, out: str | Path | None = None, *, backend: str | None = None,
+              workers: int | None = None, scheduler: str | None = None, client=None,
+              chunk_size: int | None = None, retries: int | None = None,
+              threads_per_task: int | None = None, progress: bool | None = None,
+              chunk_fn: Callable | None = None, on_chunk: Callable | None = None) -> StudyResult:
+    """Run every run of ``study`` and return (and write, with ``out``) the tidy result.
+
+    ``chunk_fn`` replaces :func:`evaluate_chunk` (same signature; must be picklable for the
+    process and Dask backends) — a hook for tests and instrumentation.  ``on_chunk(result,
+    done_runs)`` is called in this process after every completed chunk.
+    """
+    if client is not None and backend is None:
+        backend = "dask"
+    backend, sched = resolve_backend(backend, scheduler)
+    n = int(study.n_runs)
+    workers = int(workers) if workers else default_workers()
+    if chunk_size is None:
+        chunk_size = study.default_chunk_size(backend, workers)
+    retries = study.retries if retries is None else int(retries)
+    if retries < 0:
+        raise ValueError("retries must be >= 0")
+    chunks = chunk_ranges(n, chunk_size)
+    payload = study.payload()
+    fn = chunk_fn or evaluate_chunk
+    base = {"format": RESULT_FORMAT, "study": study.kind, "name": study.name, "runs": n,
+            "backend": backend, "scheduler": sched, "workers": workers if backend != "inprocess" else 1,
+            "chunk_size": int(chunk_size), "chunks": len(chunks), "retries": retries,
+            "spec": payload["spec"]}
+    writer = _Writer(out, base)
+    writer.summary({"partial": True, "done_runs": 0, "started": time.time()})
+    results: dict[int, ChunkResult] = {}
+    failed: dict[int, dict] = {}
+    t0 = time.perf_counter()
+    done_runs = 0
+    interrupted = False
+
+    from uuvid.report.progress import progress_task
+
+    bar_disable = None if progress is None else (not progress)
+
+    def completed(res: ChunkResult, bar) -> None:
+        nonlocal done_runs
+        results[res.start] = res
+        done_runs += res.stop - res.start
+        bar.advance(res.stop - res.start)
+        writer.chunk(res, {"done_runs": done_runs, "failed_chunks": list(failed.values()),
+                           "elapsed_s": time.perf_counter() - t0})
+        if on_chunk is not None:
+            on_chunk(res, done_runs)
+
+    def failure(a: int, b: int, attempts: int, err: BaseException | str) -> None:
+        text = err if isinstance(err, str) else "".join(
+            traceback.format_exception_only(type(err), err)).strip()
+        failed[a] = {"start": a, "stop": b, "attempts": attempts, "error": text}
+
+    runner = {"inprocess": _run_inprocess, "processes": _run_processes, "dask": _run_dask}[backend]
+    with progress_task(f"{study.kind} {study.name}", total=n, disable=bar_disable) as bar:
+        try:
+            info = runner(fn, payload, chunks, retries, workers, threads_per_task, sched, client,
+                          lambda res: completed(res, bar), failure)
+        except KeyboardInterrupt:
+            interrupted = True
+            info = {}
+    wall = time.perf_counter() - t0
+    result = _assemble(study, results, failed, chunks, base, wall, interrupted, info)
+    writer.final(result)
+    if interrupted:
+        raise KeyboardInterrupt(f"{study.kind} {study.name} interrupted after {done_runs} of {n} "
+                                f"runs; partial result in {out}" if out else "")
+    return result
+
+
+def _assemble(study, results, failed, chunks, base, wall, interrupted, info) -> StudyResult:
+    frames = [results[a].table for a in sorted(results)]
+    for _, f in sorted(failed.items()):
+        t = study.parameter_table(f["start"], f["stop"])
+        t = t.drop(columns=[c for c in t.columns if c.startswith("_")])
+        t["status"] = "failed"
+        t["message"] = (f"chunk {f['start']}–{f['stop'] - 1} failed after {f['attempts']} "
+                        f"attempt(s): {f['error']}")
+        frames.append(t)
+    table = (pd.concat(frames, ignore_index=True) if frames else study.parameter_table(0, 0))
+    table = table.sort_values("run", kind="stable").reset_index(drop=True)
+    if "message" in table:
+        table["message"] = table["message"].fillna("")
+    # series aligned to the table (NaN rows for failed chunks)
+    series: dict[str, np.ndarray] = {}
+    axes: dict[str, np.ndarray] = {}
+    names = set()
+    for r in results.values():
+        names |= set(r.series)
+    if names:
+        axes = study.series_axes()
+        idx = {int(run): i for i, run in enumerate(table["run"].to_numpy())}
+        for nm in sorted(names):
+            width = next(r.series[nm].shape[1] for r in results.values() if nm in r.series)
+            arr = np.full((len(table), width), np.nan)
+            for r in results.values():
+                if nm in r.series:
+                    rows = [idx[int(x)] for x in r.table["run"].to_numpy()]
+                    arr[rows] = r.series[nm]
+            series[nm] = arr
+    counts = {str(k): int(v) for k, v in table["status"].value_counts().items()} if len(table) else {}
+    n_done = len(table)
+    n = base["runs"]
+    summary = dict(base)
+    summary.update({
+        "partial": bool(interrupted or n_done < n),
+        "interrupted": bool(interrupted),
+        "runs_in_table": n_done,
+        "succeeded": int(counts.get("ok", 0)),
+        "status_counts": counts,
+        "failed_chunks": [failed[a] for a in sorted(failed)],
+        "wall_time_s": wall,
+        "runs_per_s": (n_done / wall) if wall > 0 else math.inf,
+        "chunk_wall_time_s": float(sum(r.wall_time for r in results.values())),
+        "workers_used": sorted({r.worker for r in results.values()}),
+    })
+    summary.update(info or {})
+    summary.update(study.summarise(table, series))
+    return StudyResult(table, series, summary, None, axes)
+
+
+# ---------------------------------------------------------------------------------------------
+# backends
+# ---------------------------------------------------------------------------------------------
+def _run_inprocess(fn, payload, chunks, retries, workers, threads, sched, client, completed,
+                   failure) -> dict:
+    if threads:
+        import numba
+
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    for a, b in chunks:
+        for attempt in range(retries + 1):
+            try:
+                res = fn(payload, a, b, attempt, None)
+            except KeyboardInterrupt:
+                raise
+            except Exception as e:  # noqa: BLE001 — reported, retried
+                if attempt == retries:
+                    failure(a, b, attempt + 1, e)
+                continue
+            completed(res)
+            break
+    return {}
+
+
+def _run_processes(fn, payload, chunks, retries, workers, threads, sched, client, completed,
+                   failure) -> dict:
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    workers = max(1, min(workers, len(chunks) or 1))
+    per = threads or max(1, (os.cpu_count() or 1) // workers)
+    ctx = mp.get_context("spawn")
+
+    def new_pool():
+        return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                                   initargs=(per,))
+
+    pool = new_pool()
+    attempts = {a: 0 for a, _ in chunks}
+    pending: dict = {}
+    restarts = 0
+
+    def submit(a, b):
+        pending[pool.submit(fn, payload, a, b, attempts[a], per)] = (a, b)
+
+    try:
+        for a, b in chunks:
+            submit(a, b)
+        while pending:
+            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+            broken = False
+            again = []
+            for f in done:
+                a, b = pending.pop(f)
+                try:
+                    res = f.result()
+                except Exception as e:  # noqa: BLE001 — reported, retried
+                    broken = broken or isinstance(e, BrokenProcessPool)
+                    attempts[a] += 1
+                    if attempts[a] > retries:
+                        failure(a, b, attempts[a], f"worker process died: {e}"
+                                if isinstance(e, BrokenProcessPool) else e)
+                    else:
+                        again.append((a, b))
+                    continue
+                completed(res)
+            if broken:
+                # every other future of a broken pool fails too: new pool, resubmit them
+                again += list(pending.values())
+                pending.clear()
+                pool.shutdown(wait=False, cancel_futures=True)
+                pool = new_pool()
+                restarts += 1
+            for a, b in again:
+                submit(a, b)
+    except KeyboardInterrupt:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return {"threads_per_worker": per, "pool_restarts": restarts}
+
+
+def _dask_client(sched: str | None, client, workers: int):
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError("the dask backend needs the optional 'dist' extra: "
+                          'pip install "uuvid[dist]" (dask[distributed])') from e
+    if client is not None:
+        return client, None
+    if sched:
+        return Client(sched), None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def _run_dask(fn, payload, chunks, retries, workers, threads, sched, client, completed,
+              failure) -> dict:
+    from distributed import as_completed
+
+    cl, cluster = _dask_client(sched, client, workers)
+    own = client is None
+    per = threads or 1
+    futures = []
+    try:
+        pl = cl.scatter([payload], broadcast=True)[0]  # one future for the whole description
+        attempts = {a: 0 for a, _ in chunks}
+        token = f"{os.getpid()}-{time.time_ns()}"
+        meta: dict = {}
+
+        def submit(a, b):
+            f = cl.submit(fn, pl, a, b, attempts[a], per, pure=False, retries=0,
+                          key=f"uuvid-chunk-{token}-{a}-{attempts[a]}")
+            meta[f.key] = (a, b)
+            futures.append(f)
+            return f
+
+        ac = as_completed([submit(a, b) for a, b in chunks])
+        for f in ac:
+            a, b = meta[f.key]
+            if f.status == "finished":
+                completed(f.result())
+            else:
+                try:
+                    err = f.exception()
+                except Exception as e:  # noqa: BLE001 — cancelled/lost futures
+                    err = e
+                attempts[a] += 1
+                if attempts[a] > retries:
+                    failure(a, b, attempts[a], err if isinstance(err, BaseException) else str(err))
+                else:
+                    ac.add(submit(a, b))
+            f.release()
+        info = {"dask_scheduler": cl.scheduler.address if cl.scheduler else sched,
+                "dask_workers": len(cl.scheduler_info().get("workers", {})),
+                "threads_per_task": per}
+    except KeyboardInterrupt:
+        try:
+            cl.cancel(futures)
+        finally:
+            if own:
+                cl.close()
+                if cluster is not None:
+                    cluster.close()
+        raise
+    if own:
+        cl.close()
+        if cluster is not None:
+            cluster.close()
+    return info

@@ -1,0 +1,575 @@
+"""What a sweep or a Monte Carlo run simulates, and how one chunk of runs is evaluated.
+
+Three targets, each a pydantic model (the ``target:`` block of a sweep file) and a *plan* that
+evaluates a batch of parameter rows with the batched compiled simulators:
+
+``thruster_step``
+    A step (any signal) on a thruster chain: McLean's step metrics per run (peak output thrust,
+    max true thrust, steady thrust and speed, time to peak, 63.2 % speed time constant, 36.8 %
+    decay time constant, final thrust), SI.  All runs of a chunk go through one parallel compiled
+    call (:mod:`uuvid.uncertainty._kernels`, the chain's own RK4).
+``thruster_steady``
+    The steady thrust-vs-command curve of a :class:`~uuvid.identify.physical.PhysicalModel` at
+    one or more supply voltages (series per run, for prediction bands), plus full-command thrust.
+``vehicle_mission``
+    A vehicle flying a mission (a scenario, :mod:`uuvid.simulate.scenario`) through
+    ``uuvid.simulate.batch.run_batch_fast`` when it exists, else
+    :func:`uuvid.simulate.vehicle_sim.run_batch`: max/RMS/final tracking error, max thrust, min
+    allocation scale per run; optionally the 1-DOF velocity response (Caccia's eq. 3 with the run's
+    inertia and drag) as a series per run, for a velocity band.
+
+A plan never raises for a bad *value*: the run gets status ``invalid`` and a message naming the
+parameter; a non-finite simulation gets ``diverged``.  Bad *names* raise
+:class:`~uuvid.uncertainty.params.ParameterNameError` when the plan is built.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from uuvid.simulate.scenario import ScenarioSpec
+from uuvid.thruster.blocks import ParameterError
+from uuvid.uncertainty import params as PR
+
+_CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+OK, INVALID, DIVERGED, FAILED, REJECTED = "ok", "invalid", "diverged", "failed", "rejected"
+
+
+# ---------------------------------------------------------------------------------------------
+# target descriptions
+# ---------------------------------------------------------------------------------------------
+class ThrusterStepTarget(BaseModel):
+    """A thruster chain under a step (or any signal); McLean's step metrics per run."""
+
+    model_config = _CFG
+    kind: Literal["thruster_step"] = "thruster_step"
+    chain: str = "auv2-tunnel"
+    preset_kwargs: dict[str, Any] = Field(default_factory=dict)
+    signal: dict[str, Any] = Field(default_factory=lambda: {"kind": "step", "amplitude": 24.0})
+    t_end: float = Field(1.333, gt=0)
+    dt: float = Field(1e-3, gt=0)
+    substeps: int = Field(4, ge=1, le=1000)
+    steady_window: float = Field(0.1, gt=0, le=1)
+
+
+class ThrusterSteadyTarget(BaseModel):
+    """Steady thrust vs command of a physical thruster model at given supply voltages."""
+
+    model_config = _CFG
+    kind: Literal["thruster_steady"] = "thruster_steady"
+    physical_model: dict[str, Any]
+    supply_voltages: list[float] = Field(default_factory=lambda: [16.0], min_length=1)
+    commands: list[float] | None = None  # default: 81 points from full reverse to full forward
+    n_commands: int = Field(81, ge=3, le=5000)
+
+
+class VelocityResponse(BaseModel):
+    """1-DOF velocity step response (Caccia eq. 3) from each run's inertia and drag."""
+
+    model_config = _CFG
+    dof: Literal["surge", "sway", "heave", "roll", "pitch", "yaw"] = "surge"
+    force: float = 10.0
+    t_end: float = Field(5.0, gt=0)
+    dt: float = Field(0.02, gt=0)
+
+
+class VehicleMissionTarget(BaseModel):
+    """A vehicle scenario (vehicle, mission, controller, current) flown per run."""
+
+    model_config = _CFG
+    kind: Literal["vehicle_mission"] = "vehicle_mission"
+    scenario: ScenarioSpec = Field(default_factory=ScenarioSpec)
+    velocity_response: VelocityResponse | None = None
+    simulator: Literal["auto", "fast", "reference"] = "auto"
+
+
+Target = Annotated[ThrusterStepTarget | ThrusterSteadyTarget | VehicleMissionTarget,
+                   Field(discriminator="kind")]
+
+
+def resolve_paths(target, base: Path | None):
+    """Make file references in a target absolute (workers may run elsewhere)."""
+    if base is None:
+        return target
+    if isinstance(target, ThrusterStepTarget):
+        from uuvid.thruster.presets import PRESETS
+
+        if target.chain not in PRESETS and not Path(target.chain).is_absolute():
+            return target.model_copy(update={"chain": str((base / target.chain).resolve())})
+    if isinstance(target, VehicleMissionTarget):
+        from uuvid.vehicle.definition import list_presets
+
+        sc = target.scenario
+        upd = {}
+        if sc.vehicle not in list_presets() and not Path(sc.vehicle).is_absolute():
+            upd["vehicle"] = str((base / sc.vehicle).resolve())
+        if sc.thruster_model:
+            from uuvid.thruster.presets import PRESETS
+
+            if sc.thruster_model not in PRESETS and not Path(sc.thruster_model).is_absolute():
+                upd["thruster_model"] = str((base / sc.thruster_model).resolve())
+        if upd:
+            return target.model_copy(update={"scenario": sc.model_copy(update=upd)})
+    return target
+
+
+#: SI unit of every metric a target gives (for labels)
+METRIC_UNITS = {
+    "peak_output_thrust": "N", "max_true_thrust": "N", "steady_thrust": "N", "steady_speed": "rad/s",
+    "time_to_peak": "s", "time_constant_speed": "s", "time_constant_decay": "s", "final_thrust": "N",
+    "max_tracking_error_m": "m", "rms_tracking_error_m": "m", "max_thrust_N": "N",
+    "final_position_error_m": "m", "min_allocation_scale": "1",
+}
+
+
+def metric_label(name: str) -> str:
+    u = METRIC_UNITS.get(name) or ("N" if name.startswith(("max_thrust_", "min_thrust_")) else "")
+    return f"{name} [{u}]" if u else name
+
+
+# ---------------------------------------------------------------------------------------------
+# evaluation result of one batch
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class Evaluation:
+    """Metrics (name → (R,) array), status and message per run, series (name → (R, n))."""
+
+    metrics: dict[str, np.ndarray]
+    status: np.ndarray
+    message: np.ndarray
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def _values_at(values: dict[str, np.ndarray], r: int) -> dict[str, Any]:
+    return {k: (v[r].item() if hasattr(v[r], "item") else v[r]) for k, v in values.items()}
+
+
+# ---------------------------------------------------------------------------------------------
+# thruster step
+# ---------------------------------------------------------------------------------------------
+class ThrusterStepPlan:
+    """Evaluates ``thruster_step`` runs; see the module docstring."""
+
+    def __init__(self, target: ThrusterStepTarget, names: list[str]):
+        import inspect
+
+        from uuvid.io.modelfile import load_chain
+        from uuvid.simulate.signals import signal_from_spec
+        from uuvid.thruster import presets
+        from uuvid.uncertainty._kernels import STEP_METRICS
+
+        self.target = target
+        self.factory = presets.PRESETS.get(target.chain)
+        if self.factory is None:
+            path = Path(target.chain)
+            if not path.is_file():
+                raise PR.ParameterNameError(
+                    f"chain {target.chain!r} is neither a thruster preset "
+                    f"({', '.join(sorted(presets.PRESETS))}) nor a model file")
+            fixed = load_chain(path)
+            self.factory = lambda **kw: fixed
+            if target.preset_kwargs:
+                raise PR.ParameterNameError("preset_kwargs only apply to preset chains")
+        self.base = self.factory(**target.preset_kwargs)
+        self.signal_spec = dict(target.signal)
+        self.base_signal = signal_from_spec(self.signal_spec)
+        kwargs = self._factory_kwargs(inspect)
+        self.kind_of: dict[str, tuple[str, str]] = {}
+        for n in names:
+            if n.startswith("signal."):
+                self.kind_of[n] = ("signal", n[len("signal."):])
+            elif n in ("voltage", "command", "amplitude") and self.signal_spec.get("kind") == "step":
+                if n != "amplitude" and self.base.input_kind != n:
+                    raise PR.ParameterNameError(
+                        f"{n!r}: the chain {self.base.name} is driven by {self.base.input_kind}")
+                self.kind_of[n] = ("signal", "amplitude")
+            elif PR.parse_block_name(n):
+                i, path = PR.parse_block_name(n)
+                if i >= len(self.base.blocks):
+                    raise PR.ParameterNameError(f"{n}: the chain has {len(self.base.blocks)} blocks")
+                PR.set_block_field(self.base.blocks[i], path, _current(self.base.blocks[i], path))
+                self.kind_of[n] = ("block", n)
+            elif n.startswith("preset.") or n in kwargs:
+                key = n[len("preset."):] if n.startswith("preset.") else n
+                if kwargs is not None and key not in kwargs:
+                    takes = ", ".join(sorted(kwargs)) or "no keywords"
+                    raise PR.ParameterNameError(f"{n}: the preset {target.chain!r} takes {takes}")
+                self.kind_of[n] = ("preset", key)
+            else:
+                raise PR.ParameterNameError(
+                    f"unknown thruster parameter {n!r}: use blocks[i].field, preset.<keyword> "
+                    f"({', '.join(sorted(kwargs or []))}), signal.<field> or voltage/command")
+        # channels the chain records (measured thrust? propeller speed?)
+        probe = self.base.simulate(self.base_signal, 5 * target.dt, dt=target.dt, substeps=1)
+        self.use_meas = "measured_thrust" in probe.channels
+        self.use_speed = "prop_speed" in probe.channels
+        n = int(round(target.t_end / target.dt)) + 1
+        self.t = np.arange(n) * target.dt
+        start = self.t[-1] - target.steady_window * (self.t[-1] - self.t[0])
+        self.k0 = int(np.flatnonzero(self.t >= start)[0])
+        self.t_window = float(start)
+        self.metric_names = list(STEP_METRICS)
+        self._chains: dict = {}
+        self._signals: dict = {}
+
+    def _factory_kwargs(self, inspect) -> set[str] | None:
+        from uuvid.thruster import presets
+
+        f = presets.PRESETS.get(self.target.chain)
+        if f is None:
+            return set()
+        if f is presets.auv2_rig_chain or f is presets.auv2_tunnel_chain:
+            f = presets.auv2_tunnel_thruster  # **thruster_kwargs
+        return {p for p, v in inspect.signature(f).parameters.items()
+                if v.kind in (v.POSITIONAL_OR_KEYWORD, v.KEYWORD_ONLY)}
+
+    def chain_for(self, run_values: dict[str, Any]):
+        pk = dict(self.target.preset_kwargs)
+        bk = {}
+        for n, v in run_values.items():
+            kind, key = self.kind_of[n]
+            if kind == "preset":
+                pk[key] = v
+            elif kind == "block":
+                bk[key] = v
+        ck = (tuple(sorted(pk.items(), key=lambda kv: kv[0])), tuple(sorted(bk.items())))
+        got = self._chains.get(ck)
+        if got is None:
+            try:
+                chain = self.factory(**pk)
+                chain = PR.apply_block_values(chain, bk)
+                got = (chain, chain.compile(), "")
+            except (ParameterError, ValueError, TypeError) as e:
+                got = (None, None, str(e))
+            if len(self._chains) > 50000:
+                self._chains.clear()
+            self._chains[ck] = got
+        return got
+
+    def signal_for(self, run_values: dict[str, Any]):
+        from uuvid.simulate.signals import signal_from_spec
+
+        spec = dict(self.signal_spec)
+        for n, v in run_values.items():
+            kind, key = self.kind_of[n]
+            if kind == "signal":
+                spec[key] = v
+        sk = tuple(sorted(spec.items()))
+        got = self._signals.get(sk)
+        if got is None:
+            try:
+                sig = signal_from_spec(spec)
+                u = np.asarray(sig(self.t), dtype=float)
+                got = (u, "" if np.all(np.isfinite(u)) else "input signal is not finite")
+            except (ValueError, TypeError) as e:
+                got = (None, f"signal: {e}")
+            self._signals[sk] = got
+        return got
+
+    def evaluate(self, values: dict[str, np.ndarray], nrun: int) -> Evaluation:
+        from uuvid.uncertainty._kernels import N_METRICS, step_metrics_batch
+
+        status = np.full(nrun, OK, dtype=object)
+        message = np.full(nrun, "", dtype=object)
+        OUT = np.full((nrun, N_METRICS), np.nan)
+        groups: dict = {}
+        urows: dict = {}
+        U_list: list = []
+        for r in range(nrun):
+            rv = _values_at(values, r)
+            chain, comp, err = self.chain_for(rv)
+            if chain is None:
+                status[r], message[r] = INVALID, err
+                continue
+            u, serr = self.signal_for(rv)
+            if serr:
+                status[r], message[r] = INVALID, serr
+                continue
+            uk = id(u)
+            if uk not in urows:
+                urows[uk] = len(U_list)
+                U_list.append(u)
+            skey = (comp.kinds.tobytes(), comp.poff.tobytes(), comp.soff.tobytes(),
+                    comp.exact.tobytes(), comp.outch.tobytes(), comp.in_ch)
+            g = groups.setdefault(skey, {"comp": comp, "n": chain.n_states, "rows": [],
+                                         "P": [], "u": []})
+            g["rows"].append(r)
+            g["P"].append(comp.params)
+            g["u"].append(urows[uk])
+        if U_list:
+            U = np.ascontiguousarray(np.stack(U_list))
+            tg = self.target
+            for g in groups.values():
+                c = g["comp"]
+                rows = np.array(g["rows"])
+                P = np.ascontiguousarray(np.stack(g["P"]))
+                out = np.empty((rows.size, N_METRICS))
+                fin = np.empty(rows.size, dtype=np.bool_)
+                step_metrics_batch(c.kinds, c.poff, P, c.soff, c.outch, c.in_ch, c.exact,
+                                   np.zeros(g["n"]), U, np.asarray(g["u"], dtype=np.int64),
+                                   float(tg.dt), int(tg.substeps), self.t, self.k0, self.t_window,
+                                   self.use_meas, self.use_speed, out, fin)
+                OUT[rows] = out
+                bad = rows[~fin]
+                status[bad] = DIVERGED
+                message[bad] = (f"the state left the finite numbers (step dt/substeps = "
+                                f"{tg.dt / tg.substeps:.3g} s too large?)")
+        return Evaluation({n: OUT[:, j] for j, n in enumerate(self.metric_names)}, status, message)
+
+    def info(self) -> dict:
+        return {"chain": self.base.name, "signals": list(self.base.signal_kinds),
+                "parameters_of_base": self.base.compile().params.size,
+                "output_metric_of": "measured_thrust" if self.use_meas else "thrust",
+                "simulator": "uuvid.uncertainty._kernels.step_metrics_batch (chain RK4)"}
+
+
+def _current(block, path: str):
+    obj = block
+    for part in path.split("."):
+        if not hasattr(obj, part):
+            names = sorted(f for f in getattr(obj, "__dataclass_fields__", {}))
+            raise PR.ParameterNameError(f"{getattr(obj, 'TYPE', type(obj).__name__)} has no "
+                                        f"parameter {part!r}; it has {', '.join(names)}")
+        obj = getattr(obj, part)
+    return obj
+
+
+# ---------------------------------------------------------------------------------------------
+# thruster steady (physical model)
+# ---------------------------------------------------------------------------------------------
+PHYSICAL_NAMES = {"K_e": "back_emf_constant", "R": "resistance", "K_Q_fwd": "kq_fwd",
+                  "K_Q_rev": "kq_rev", "K_T_fwd": "kt_fwd", "K_T_rev": "kt_rev",
+                  "curvature_fwd": "curvature_fwd", "curvature_rev": "curvature_rev",
+                  "c_v": "viscous", "T_c": "coulomb", "full_fwd": "full_fwd", "full_rev": "full_rev",
+                  "deadband_fwd": "edge_fwd", "deadband_rev": "edge_rev"}
+
+
+class ThrusterSteadyPlan:
+    def __init__(self, target: ThrusterSteadyTarget, names: list[str]):
+        from dataclasses import fields
+
+        from uuvid.identify.physical import PhysicalModel
+
+        self.target = target
+        self.base = PhysicalModel(**target.physical_model)
+        known = set(PHYSICAL_NAMES) | {f.name for f in fields(PhysicalModel)
+                                       if f.name not in ("command_unit", "neutral")}
+        PR.check_names(names, sorted(known), "thruster_steady")
+        self.names = names
+        b = self.base
+        self.commands = (np.asarray(target.commands, float) if target.commands
+                         else np.linspace(b.full_rev, b.full_fwd, target.n_commands))
+        self.metric_names = []
+        for v in target.supply_voltages:
+            self.metric_names += [f"max_thrust_{v:g}V", f"min_thrust_{v:g}V"]
+
+    def model_for(self, rv: dict[str, Any]):
+        from uuvid.identify.physical import PhysicalModel
+
+        kw = dict(self.target.physical_model)
+        for n, v in rv.items():
+            f = PHYSICAL_NAMES.get(n, n)
+            if n == "deadband_fwd":
+                v = kw["neutral"] + float(v)
+            elif n == "deadband_rev":
+                v = kw["neutral"] - float(v)
+            kw[f] = float(v)
+        return PhysicalModel(**kw)
+
+    def evaluate(self, values: dict[str, np.ndarray], nrun: int) -> Evaluation:
+        status = np.full(nrun, OK, dtype=object)
+        message = np.full(nrun, "", dtype=object)
+        V = self.target.supply_voltages
+        series = {f"thrust@{v:g}V": np.full((nrun, self.commands.size), np.nan) for v in V}
+        metrics = {n: np.full(nrun, np.nan) for n in self.metric_names}
+        for r in range(nrun):
+            rv = _values_at(values, r)
+            try:
+                m = self.model_for(rv)
+                for v in V:
+                    th = m.thrust(self.commands, v)
+                    if not np.all(np.isfinite(th)):
+                        raise ValueError("non-finite thrust")
+                    series[f"thrust@{v:g}V"][r] = th
+                    ends = m.thrust(np.array([m.full_fwd, m.full_rev]), v)
+                    metrics[f"max_thrust_{v:g}V"][r] = ends[0]
+                    metrics[f"min_thrust_{v:g}V"][r] = ends[1]
+            except (ParameterError, ValueError) as e:
+                status[r], message[r] = INVALID, str(e)
+                for s in series.values():
+                    s[r] = np.nan
+                for mm in metrics.values():
+                    mm[r] = np.nan
+        return Evaluation(metrics, status, message, series)
+
+    def series_axes(self) -> dict[str, np.ndarray]:
+        return {f"thrust@{v:g}V": self.commands for v in self.target.supply_voltages}
+
+    def info(self) -> dict:
+        return {"model": "physical thruster model (steady)", "supply_voltages": self.target.supply_voltages,
+                "command_unit": self.base.command_unit, "simulator": "PhysicalModel.predict"}
+
+
+# ---------------------------------------------------------------------------------------------
+# vehicle mission
+# ---------------------------------------------------------------------------------------------
+MISSION_METRICS = ("max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
+                   "final_position_error_m", "min_allocation_scale")
+
+
+def vehicle_simulator(kind: str = "auto"):
+    """``(name, function)``: the fast batch runner if it exists (and ``kind`` allows it)."""
+    if kind in ("auto", "fast"):
+        try:
+            from uuvid.simulate.batch import run_batch_fast  # the batched vehicle simulator
+
+            return "uuvid.simulate.batch.run_batch_fast", run_batch_fast
+        except ImportError:
+            if kind == "fast":
+                raise
+    from uuvid.simulate.vehicle_sim import run_batch
+
+    return "uuvid.simulate.vehicle_sim.run_batch", run_batch
+
+
+class VehicleMissionPlan:
+    def __init__(self, target: VehicleMissionTarget, names: list[str]):
+        from uuvid.simulate.scenario import build
+
+        self.target = target
+        for n in names:
+            PR.parse_vehicle_name(n)
+        self.names = names
+        key = json.dumps(target.scenario.model_dump(mode="json"), sort_keys=True)
+        if key not in _SETUPS:  # the thrusters' inverse tables take seconds: once per process
+            if len(_SETUPS) > 4:
+                _SETUPS.clear()
+            _SETUPS[key] = build(target.scenario)
+        self.vehicle, self.setup = _SETUPS[key]
+        self.sim_name, self.sim = vehicle_simulator(target.simulator)
+        self.metric_names = list(MISSION_METRICS)
+        self.thruster_names = {n: n[len("thruster."):] for n in names if n.startswith("thruster.")}
+        bank = self.setup.bank
+        for n, bn in self.thruster_names.items():
+            i, path = PR.parse_block_name(bn)
+            if i >= len(bank.chains[0].blocks):
+                raise PR.ParameterNameError(f"{n}: the thruster chain has "
+                                            f"{len(bank.chains[0].blocks)} blocks")
+            _current(bank.chains[0].blocks[i], path)
+        self._tp: dict = {}
+        vr = target.velocity_response
+        if vr is not None:
+            self.vr_t = np.arange(int(round(vr.t_end / vr.dt)) + 1) * vr.dt
+
+    def _thruster_rows(self, values, nrun, msg):
+        bank = self.setup.bank
+        TP = np.ascontiguousarray(np.broadcast_to(bank.params, (nrun,) + bank.params.shape)).copy()
+        if not self.thruster_names:
+            return TP
+        for r in range(nrun):
+            if msg[r]:
+                continue
+            key = tuple(float(values[n][r]) for n in self.thruster_names)
+            got = self._tp.get(key)
+            if got is None:
+                try:
+                    rows = []
+                    for ch in bank.chains:
+                        c = PR.apply_block_values(ch, {bn: values[n][r] for n, bn in
+                                                       self.thruster_names.items()}).compile()
+                        if not (np.array_equal(c.poff, bank.poff) and np.array_equal(c.soff, bank.soff)):
+                            raise ValueError("the thruster chain's structure changed (number of "
+                                             "states/parameters); a vehicle batch needs one structure")
+                        rows.append(c.params)
+                    got = (np.stack(rows), "")
+                except (ParameterError, ValueError) as e:
+                    got = (None, str(e))
+                self._tp[key] = got
+            if got[0] is None:
+                msg[r] = got[1]
+            else:
+                TP[r] = got[0]
+        return TP
+
+    def evaluate(self, values: dict[str, np.ndarray], nrun: int) -> Evaluation:
+        s = self.setup
+        vvals = {k: v for k, v in values.items() if not k.startswith("thruster.")}
+        VP, VC, msg = PR.vehicle_rows(self.vehicle.params, vvals, nrun, current0=s.current)
+        TP = self._thruster_rows(values, nrun, msg)
+        status = np.where(msg == "", OK, INVALID).astype(object)
+        ok = np.flatnonzero(status == OK)
+        metrics = {n: np.full(nrun, np.nan) for n in self.metric_names}
+        if ok.size:
+            VC_ok = (np.ascontiguousarray(VC[ok]) if VC is not None
+                     else np.ascontiguousarray(np.zeros((ok.size, 3)) + s.current))
+            out = np.asarray(self.sim(s, np.ascontiguousarray(VP[ok]), np.ascontiguousarray(TP[ok]),
+                                      VC_ok), dtype=float)
+            for j, n in enumerate(self.metric_names):
+                metrics[n][ok] = out[:, j]
+            div = ok[~np.all(np.isfinite(out), axis=1)]
+            status[div] = DIVERGED
+            msg[div] = "the simulation diverged (non-finite summary)"
+        series = {}
+        vr = self.target.velocity_response
+        if vr is not None:
+            from uuvid.uncertainty._kernels import one_dof_step_batch
+
+            dof = PR.DOFS.index(vr.dof)
+            m, k, kq = PR.one_dof_of_rows(VP, dof)
+            Vt = np.full((nrun, self.vr_t.size), np.nan)
+            if ok.size:
+                tmp = np.empty((ok.size, self.vr_t.size))
+                one_dof_step_batch(np.ascontiguousarray(m[ok]), np.ascontiguousarray(k[ok]),
+                                   np.ascontiguousarray(kq[ok]), np.full(ok.size, vr.force),
+                                   vr.dt, 4, tmp)
+                Vt[ok] = tmp
+            series[f"velocity_{vr.dof}"] = Vt
+        return Evaluation(metrics, status, msg, series)
+
+    def series_axes(self) -> dict[str, np.ndarray]:
+        vr = self.target.velocity_response
+        return {f"velocity_{vr.dof}": self.vr_t} if vr is not None else {}
+
+    def info(self) -> dict:
+        s = self.setup
+        return {"vehicle": self.vehicle.name, "mission": s.mission.name, "steps": int(s.t.size),
+                "dt": s.dt, "simulator": self.sim_name,
+                "velocity_response": (self.target.velocity_response.model_dump()
+                                      if self.target.velocity_response else None)}
+
+
+# ---------------------------------------------------------------------------------------------
+_PLANS: dict[str, object] = {}
+_SETUPS: dict[str, tuple] = {}
+
+
+def plan_for(target, names: list[str]):
+    """The plan of ``target`` for parameter ``names``, cached per process (workers build it once)."""
+    key = json.dumps([target.model_dump(mode="json"), list(names)], sort_keys=True)
+    p = _PLANS.get(key)
+    if p is None:
+        cls = {"thruster_step": ThrusterStepPlan, "thruster_steady": ThrusterSteadyPlan,
+               "vehicle_mission": VehicleMissionPlan}[target.kind]
+        p = cls(target, list(names))
+        if len(_PLANS) > 8:
+            _PLANS.clear()
+        _PLANS[key] = p
+    return p
+
+
+def series_axes(plan) -> dict[str, np.ndarray]:
+    f = getattr(plan, "series_axes", None)
+    return f() if f else {}
+
+
+def nan_safe(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None

@@ -1,0 +1,264 @@
+"""Sweeps: the batched step-metric kernel, McLean's Table I as points of a sweep grid, sweep files,
+parameter names, invalid values, vehicle parameter rows and reports."""
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from uuvid import units as U
+from uuvid.papers import mclean1991 as mc
+from uuvid.thruster.presets import MCLEAN, auv2_rig_chain, t200_chain
+from uuvid.uncertainty import params as PR
+from uuvid.uncertainty.sweep import SweepError, SweepSpec, SweepStudy, load_sweep, run_sweep, sweep_from_dict
+from uuvid.uncertainty.targets import ThrusterStepTarget, plan_for
+
+BASE_PE_FT = 0.75 * MCLEAN.pitch_ft_per_rad  # 0.054075 ft/rad
+
+
+def table1_rows_of(table):
+    """Table I cases (except the Coulomb one) located in a McLean sweep table."""
+    base = {"tunnel_length": U.inch(10.5), "added_mass_coefficient": 0.25,
+            "effective_pitch": U.ft_per_rad(BASE_PE_FT), "voltage": 24.0}
+    out = {}
+    for case in mc.table1_cases():
+        if case.name == "coulomb":
+            continue
+        want = dict(base, voltage=case.voltage)
+        want.update(case.overrides)
+        m = np.ones(len(table), dtype=bool)
+        for k, v in want.items():
+            m &= np.isclose(table[k].to_numpy(float), v, rtol=1e-9, atol=1e-12)
+        assert m.sum() == 1, case.name
+        out[case.name] = table[m].iloc[0]
+    return out
+
+
+def check_table1(rows):
+    for name, r in rows.items():
+        ours = dict(zip(mc.TABLE1_FIELDS, (
+            U.to_lbf(r["peak_output_thrust"]), U.to_lbf(r["max_true_thrust"]),
+            U.to_lbf(r["steady_thrust"]), r["time_constant_speed"], U.to_rpm(r["steady_speed"]))))
+        for f, thesis in zip(mc.TABLE1_FIELDS, mc.TABLE1_THESIS[name]):
+            if name == "Pe=0" and f == "time_constant_s":
+                assert 0 < ours[f] < thesis
+                continue
+            if thesis == 0:
+                assert abs(ours[f]) < 1e-9
+                continue
+            tol = 0.15 if f == "steady_lbf" else 0.06
+            assert abs(ours[f] - thesis) / thesis < tol, (name, f, ours[f], thesis)
+
+
+# ------------------------------------------------------------------------------------------------
+def test_step_kernel_equals_step_response_metrics():
+    """The in-kernel metrics are those of TimeResponse.metrics() (uuvid.simulate.metrics)."""
+    plan = plan_for(ThrusterStepTarget(t_end=0.8), ["tunnel_length", "voltage", "coulomb"])
+    vals = {"tunnel_length": np.array([0.12, 0.2667, 0.5]), "voltage": np.array([-12.0, 24.0, 6.0]),
+            "coulomb": np.array([False, True, False], dtype=object)}
+    ev = plan.evaluate(vals, 3)
+    for r in range(3):
+        ch = auv2_rig_chain(tunnel_length=vals["tunnel_length"][r], coulomb=bool(vals["coulomb"][r]))
+        m = ch.simulate(float(vals["voltage"][r]), 0.8).metrics().as_dict()
+        for k, v in m.items():
+            got = ev.metrics[k][r]
+            assert (math.isnan(v) and math.isnan(got)) or got == pytest.approx(v, rel=1e-12, abs=1e-12), (r, k)
+
+
+def test_step_kernel_without_load_cell_or_speed():
+    """A chain without a load cell: the output thrust is the true thrust; T200 chain (command)."""
+    plan = plan_for(ThrusterStepTarget(chain="t200", signal={"kind": "step", "amplitude": 1800.0},
+                                       t_end=1.0, dt=2e-3, substeps=1), ["command"])
+    ev = plan.evaluate({"command": np.array([1800.0, 1300.0])}, 2)
+    for r, c in enumerate((1800.0, 1300.0)):
+        m = t200_chain().simulate(c, 1.0, dt=2e-3, substeps=1).metrics().as_dict()
+        assert ev.metrics["steady_thrust"][r] == pytest.approx(m["steady_thrust"], rel=1e-12)
+        assert ev.metrics["peak_output_thrust"][r] == pytest.approx(m["peak_output_thrust"], rel=1e-12)
+
+
+def test_one_ms_rk4_matches_the_table1_reproduction():
+    """The sweep's RK4 at 1 ms (substeps 1) gives Table I's numbers to 1e-6 of the 0.25 ms runs."""
+    ref = {r["case"]: r for r in mc.table1()[0]}
+    for case in mc.table1_cases():
+        row = mc.table1_row(case, mc.simulate_case(case, substeps=1))
+        for f in mc.TABLE1_FIELDS:
+            assert row[f] == pytest.approx(ref[case.name][f], rel=1e-6, abs=1e-9)
+
+
+def test_mclean_corners_of_a_small_grid_reproduce_table1():
+    spec = SweepSpec.model_validate({
+        "name": "mclean-corners",
+        "target": {"kind": "thruster_step", "chain": "auv2-tunnel", "t_end": 1.333, "substeps": 1},
+        "parameters": [
+            {"name": "tunnel_length", "unit": "in", "values": [5, 10.5, 20]},
+            {"name": "added_mass_coefficient", "values": [0.25, 0.5, 1.0]},
+            {"name": "effective_pitch", "unit": "ft/rad", "values": [0, 0.027, BASE_PE_FT, 0.0721]},
+            {"name": "voltage", "values": [8, 16, 24]}],
+        "metrics": ["peak_output_thrust", "max_true_thrust", "steady_thrust", "time_constant_speed",
+                    "steady_speed"]})
+    assert spec.n_runs == 108
+    res = run_sweep(spec, None, backend="inprocess", progress=False)
+    assert res.summary["succeeded"] == 108 and not res.partial
+    check_table1(table1_rows_of(res.table))
+
+
+@pytest.mark.slow
+def test_mclean_sensitivity_10000_runs_under_a_minute():
+    spec = load_sweep("mclean-sensitivity")
+    assert spec.n_runs >= 10_000
+    study = SweepStudy(spec)
+    run_sweep(SweepSpec.model_validate({**spec.model_dump(mode="json"), "parameters": [
+        {"name": a.name, "unit": a.unit, "values": a.values[:2]} for a in spec.parameters]}),
+        None, backend="inprocess", progress=False)  # load the compiled kernels
+    from uuvid.uncertainty.execute import run_study
+
+    t0 = time.perf_counter()
+    res = run_study(study, None, backend="inprocess", progress=False)
+    wall = time.perf_counter() - t0
+    assert res.summary["succeeded"] == spec.n_runs
+    assert wall < 60.0, wall
+    check_table1(table1_rows_of(res.table))
+
+
+# ------------------------------------------------------------------------------------------------
+def test_builtin_sweep_holds_table1_values():
+    spec = load_sweep("mclean-sensitivity")
+    assert spec.shape == (10, 10, 10, 10)
+    grids = {a.name: a.grid() for a in spec.parameters}
+    assert any(math.isclose(v, U.inch(10.5)) for v in grids["tunnel_length"])
+    assert any(math.isclose(v, U.ft_per_rad(BASE_PE_FT)) for v in grids["effective_pitch"])
+    assert {8.0, 16.0, 24.0} <= set(grids["voltage"])
+    rov = load_sweep("bluerov2-added-mass-current")
+    assert rov.n_runs == 25 and rov.target.kind == "vehicle_mission"
+
+
+def test_grid_order_list_and_random_modes():
+    tgt = {"kind": "thruster_step", "t_end": 0.2, "substeps": 1}
+    g = SweepStudy(SweepSpec.model_validate({"target": tgt, "parameters": [
+        {"name": "voltage", "values": [1, 2]}, {"name": "tunnel_length", "start": 0.1, "stop": 0.3, "num": 3}]}))
+    t = g.parameter_table(0, g.n_runs)
+    assert list(t["voltage"]) == [1, 1, 1, 2, 2, 2]  # last axis fastest
+    assert list(t["tunnel_length"]) == pytest.approx([0.1, 0.2, 0.3] * 2)
+    assert g.parameter_table(2, 4)["run"].tolist() == [2, 3]
+    lst = SweepStudy(SweepSpec.model_validate({"target": tgt, "mode": "list",
+                                               "runs": [{"voltage": 3}, {"voltage": 5}]}))
+    assert lst.parameter_table(0, 2)["voltage"].tolist() == [3, 5]
+    rnd = SweepSpec.model_validate({"target": tgt, "mode": "random", "samples": 50, "seed": 7,
+                                    "parameters": [{"name": "voltage", "start": 4, "stop": 24},
+                                                   {"name": "tunnel_length", "start": 0.1, "stop": 1, "log": True}]})
+    a = SweepStudy(rnd).parameter_table(0, 50)
+    b = SweepStudy(rnd).parameter_table(20, 50)  # another chunking: same values per run
+    assert np.array_equal(a.iloc[20:].to_numpy(), b.to_numpy())
+    assert a["voltage"].between(4, 24).all() and a["tunnel_length"].between(0.1, 1).all()
+    c = SweepStudy(rnd.model_copy(update={"seed": 8})).parameter_table(0, 50)
+    assert not np.array_equal(a["voltage"], c["voltage"])
+
+
+def test_sweep_file_errors_name_the_key(tmp_path):
+    with pytest.raises(SweepError, match=r"bad.yaml: parameters\[0\].vlues: unknown key"):
+        p = tmp_path / "bad.yaml"
+        p.write_text("target: {kind: thruster_step}\nparameters:\n  - {name: voltage, vlues: [1]}\n")
+        load_sweep(p)
+    with pytest.raises(SweepError, match="mode list needs runs"):
+        sweep_from_dict({"target": {"kind": "thruster_step"}, "mode": "list"})
+    with pytest.raises(SweepError, match="unknown unit"):
+        sweep_from_dict({"target": {"kind": "thruster_step"},
+                         "parameters": [{"name": "voltage", "unit": "furlong", "values": [1]}]})
+    spec = sweep_from_dict({"target": {"kind": "thruster_step"},
+                            "parameters": [{"name": "blocks[0].tunel_length", "values": [0.2]}]})
+    with pytest.raises(PR.ParameterNameError, match="tunnel_thruster has no parameter 'tunel_length'"):
+        SweepStudy(spec).check()
+    spec = sweep_from_dict({"target": {"kind": "thruster_step"}, "metrics": ["peak"],
+                            "parameters": [{"name": "voltage", "values": [1]}]})
+    with pytest.raises(PR.ParameterNameError, match="unknown metric 'peak'"):
+        SweepStudy(spec).check()
+    with pytest.raises(FileNotFoundError, match="mclean-sensitivity"):
+        load_sweep("no-such-sweep")
+
+
+def test_dotted_block_names_and_invalid_values_are_reported_per_run():
+    spec = SweepSpec.model_validate({
+        "target": {"kind": "thruster_step", "t_end": 0.3, "substeps": 1},
+        "mode": "list",
+        "runs": [{"blocks[0].tunnel_length": 0.2667, "blocks[0].motor.coulomb_torque": 0.0,
+                  "blocks[0].propeller_efficiency": 0.75},
+                 {"blocks[0].tunnel_length": -0.1, "blocks[0].motor.coulomb_torque": 0.0,
+                  "blocks[0].propeller_efficiency": 0.75},
+                 {"blocks[0].tunnel_length": 0.2667, "blocks[0].motor.coulomb_torque": 0.01,
+                  "blocks[0].propeller_efficiency": 1.2}]})
+    res = run_sweep(spec, None, backend="inprocess", progress=False)
+    t = res.table
+    assert t["status"].tolist() == ["ok", "invalid", "invalid"]
+    assert "tunnel_length" in t.loc[1, "message"]
+    assert "propeller_efficiency must be <= 1" in t.loc[2, "message"]
+    assert res.summary["succeeded"] == 1 and res.summary["status_counts"] == {"ok": 1, "invalid": 2}
+    ref = auv2_rig_chain().simulate(24.0, 0.3, substeps=1).metrics()
+    assert t.loc[0, "peak_output_thrust"] == pytest.approx(ref.peak_output_thrust, rel=1e-12)
+
+
+# ------------------------------------------------------------------------------------------------
+def test_vehicle_rows_match_vehicle_params():
+    import dataclasses
+
+    from uuvid.vehicle.definition import load_vehicle
+
+    p = load_vehicle("bluerov2").params
+    P, VC, msg = PR.vehicle_rows(p, {}, 2)
+    assert np.array_equal(P[0], p.to_array()) and VC is None and list(msg) == ["", ""]
+    MA = np.array(p.added_mass)
+    MA[0, 0], MA[5, 5] = 7.0, 0.3
+    DL = np.array(p.linear_damping) * 1.5
+    DQ = np.array(p.quadratic_damping) * 1.5
+    want = dataclasses.replace(p, mass=12.0, added_mass=MA, linear_damping=DL,
+                               quadratic_damping=DQ).to_array()
+    P, VC, msg = PR.vehicle_rows(p, {"mass": np.array([12.0, -1.0]),
+                                     "added_mass[surge]": np.array([7.0, 7.0]),
+                                     "added_mass[5]": np.array([0.3, 0.3]),
+                                     "damping_scale": np.array([1.5, 1.5]),
+                                     "current_speed": np.array([0.2, 0.2]),
+                                     "current_direction": np.array([90.0, 90.0])}, 2)
+    assert np.allclose(P[0, :189], want[:189], rtol=1e-13, atol=1e-15)
+    assert VC[0] == pytest.approx([0.0, 0.2, 0.0], abs=1e-12)
+    assert msg[0] == "" and "mass must be > 0" in msg[1]
+    P, _, msg = PR.vehicle_rows(p, {"linear_damping[sway]": np.array([-0.5])}, 1)
+    assert "linear_damping[sway] = -0.5 < 0" in msg[0]
+    with pytest.raises(PR.ParameterNameError, match="unknown vehicle parameter"):
+        PR.parse_vehicle_name("added_mas[0]")
+    with pytest.raises(PR.ParameterNameError, match="index must be"):
+        PR.parse_vehicle_name("added_mass[7]")
+
+
+def test_vehicle_sweep_added_mass_times_damping(tmp_path):
+    spec = SweepSpec.model_validate({
+        "name": "rov-am-damping",
+        "target": {"kind": "vehicle_mission", "scenario": {"vehicle": "bluerov2"}},
+        "parameters": [{"name": "added_mass_scale", "values": [0.5, 1.5]},
+                       {"name": "damping_scale", "values": [0.5, 2.0]}],
+        "requirement": {"metric": "max_tracking_error_m", "below": 0.5}})
+    res = run_sweep(spec, tmp_path / "out", backend="inprocess", progress=False)
+    t = res.table
+    assert t["status"].eq("ok").all() and len(t) == 4
+    assert (t["max_tracking_error_m"] > 0).all()
+    assert (t["max_thrust_N"] > 0).all() and (t["min_allocation_scale"] <= 1).all()
+    req = res.summary["requirement"]
+    assert req["runs_simulated"] == 4 and 0 <= req["probability"] <= 1
+    assert res.summary["target"]["vehicle"] == "bluerov2"
+    for f in ("results.csv", "summary.json", "index.html"):
+        assert (tmp_path / "out" / f).exists()
+    assert any(f.startswith("heatmap") for f in res.summary["figures"])
+
+
+@pytest.mark.slow
+def test_vehicle_sweep_added_mass_times_current():
+    """BlueROV2 added mass ± 50 % × current speed → square-mission tracking error."""
+    spec = SweepSpec.model_validate({
+        "name": "rov-am-current",
+        "target": {"kind": "vehicle_mission", "scenario": {"vehicle": "bluerov2"}},
+        "parameters": [{"name": "added_mass_scale", "values": [0.5, 1.5]},
+                       {"name": "current_speed", "values": [0.0, 0.3]}]})
+    t = run_sweep(spec, None, backend="inprocess", progress=False).table
+    assert t["status"].eq("ok").all()
+    # a current makes tracking worse
+    assert (t[t.current_speed == 0.3]["rms_tracking_error_m"].to_numpy()
+            > t[t.current_speed == 0.0]["rms_tracking_error_m"].to_numpy()).all()
