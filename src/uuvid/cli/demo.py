@@ -114,6 +114,59 @@ def _study_section(out: Path, rep: Report) -> dict:
     return result
 
 
+def _caccia_section(out: Path, rep: Report) -> dict:
+    """Caccia et al. (2000): the identification procedure on a simulated ROMEO."""
+    from uuvid.papers import caccia2000
+
+    res = caccia2000.reproduce(seed=0, fast=True)
+    caccia2000.write_outputs(res, out / "caccia2000")
+    rep.add_heading("Caccia et al. (2000): identification from on-board sensors (simulated ROMEO)")
+    rep.add_paragraph(
+        "Full page: caccia2000/index.html. Steady segments with robust velocities from a "
+        "3.33 Hz echo-sounder with outliers and dropouts, drag and installation "
+        "coefficients by least squares with the 51.02 % significance test and model "
+        "reduction, D-optimal sine experiments, integrated inertia regression."
+    )
+    rows = []
+    for table, block in res.items():
+        if isinstance(block, dict) and "parameters" in block:
+            for name, p in block["parameters"].items():
+                rows.append(
+                    {
+                        "table": table,
+                        "parameter": name,
+                        "estimate": p["estimate"],
+                        "sigma": p["sigma"],
+                        "truth": p["truth"],
+                        "paper_sigma": p.get("paper_sigma"),
+                    }
+                )
+    rep.add_table(rows, caption="Estimates against the simulated truth and the paper's σ")
+    d = res["design"]
+    rep.add_paragraph(
+        f"D-optimal frequencies {d['omega_opt_yaw']:.4f} (yaw) and {d['omega_opt_surge']:.4f} "
+        f"(surge) rad/s; predicted phase lags {d['phase_lag_yaw_deg']:.2f}° and "
+        f"{d['phase_lag_surge_deg']:.2f}°. Acceptance: {res['acceptance']['passed']}."
+    )
+    return dict(res)
+
+
+def _uncertainty_section(out: Path, rep: Report) -> dict:
+    from uuvid.cli.uncertainty_cmds import demo_montecarlo, demo_sweep
+
+    sw = demo_sweep(out / "sweep")
+    mcb = demo_montecarlo(out / "montecarlo")
+    rep.add_heading("Uncertainty: a design sweep and a Monte Carlo band")
+    rep.add_paragraph("Full pages: sweep/index.html, montecarlo/index.html")
+    figs = sw["summary"].get("figures") or []
+    if figs:
+        rep.add_figure(out / "sweep" / figs[0], caption="McLean: sweep over tunnel length × voltage")
+    band = out / "montecarlo" / "band_thrust_at_14V.png"
+    if band.exists():
+        rep.add_figure(band, caption="T200 thrust vs PWM at 14 V, 95 % band")
+    return {"sweep": sw, "montecarlo": mcb}
+
+
 def run_demo(out: Path, quick: bool = False) -> dict:
     """All sections; ``quick`` skips the slow ones (the thruster-loop study)."""
     from uuvid.io.modelfile import load_chain, save_chain
@@ -122,11 +175,11 @@ def run_demo(out: Path, quick: bool = False) -> dict:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=16) as task:
+    with progress_task("uuvid demo", total=18) as task:
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
         la = laidani.reproduce(out_dir=out / "laidani")
         task.advance()
-        rep = Report("uuvid demo — thrusters and vehicles from the papers")
+        rep = Report("uuvid demo — thrusters and vehicles: models, simulation, identification, uncertainty")
         rep.add_paragraph(
             "Everything below was computed just now from built-in data. Each paper "
             "has its own page with all plots and tables."
@@ -149,6 +202,10 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         task.advance()
         study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
         task.advance()
+        caccia = _caccia_section(out, rep)
+        task.advance()
+        uncertainty = _uncertainty_section(out, rep)
+        task.advance()
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
         same = load_chain(path) == laidani_chain()
@@ -159,6 +216,8 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "uuv_dynamics": gallery,
             "vehicle": vehicle,
             "study": study,
+            "caccia2000": caccia,
+            "uncertainty": uncertainty,
             "model_file": {"path": str(path), "round_trip_equal": same},
         }
         atomic_write_json(out / "demo.json", result)
