@@ -142,6 +142,10 @@ def _caccia_section(out: Path, rep: Report) -> dict:
                     }
                 )
     rep.add_table(rows, caption="Estimates against the simulated truth and the paper's σ")
+    for name, cap in (("caccia2000_fig5_fig6_heave.png", "Figs. 5 and 6: buoyancy with and without η"),
+                      ("caccia2000_drag_fits.png", "Velocity vs thrust per mapping mode")):
+        if (out / "caccia2000" / name).exists():
+            rep.add_figure(out / "caccia2000" / name, caption=cap)
     d = res["design"]
     rep.add_paragraph(
         f"D-optimal frequencies {d['omega_opt_yaw']:.4f} (yaw) and {d['omega_opt_surge']:.4f} "
