@@ -34,21 +34,35 @@ def mclean_step(duration: float = 10.0, dt: float = 1e-3, substeps: int = 4, rep
     t_eval = np.arange(int(round(duration / dt)) + 1) * dt
 
     def reference():
-        return solve_ivp(lambda t, x: f(t, x, 24.0), (0.0, duration), np.zeros(chain.n_states),
-                         method="LSODA", rtol=1e-8, atol=1e-10, t_eval=t_eval)
+        return solve_ivp(
+            lambda t, x: f(t, x, 24.0),
+            (0.0, duration),
+            np.zeros(chain.n_states),
+            method="LSODA",
+            rtol=1e-8,
+            atol=1e-10,
+            t_eval=t_eval,
+        )
 
     ref = _best_of(reference, 1)
     a = chain.simulate(24.0, duration, dt=dt, substeps=substeps)["thrust"]
     sol = reference()
     b = np.array([chain.evaluate(sol.y[:, k], 24.0)[1]["thrust"] for k in range(0, sol.y.shape[1], 100)])
     err = float(np.max(np.abs(a[::100] - b)) / np.max(np.abs(a)))
-    return {"case": "mclean_step_10s", "time_s": ours, "reference": "solve_ivp LSODA rtol=1e-8",
-            "reference_time_s": ref, "ratio": ref / ours, "max_rel_difference": err,
-            "samples": int(t_eval.size)}
+    return {
+        "case": "mclean_step_10s",
+        "time_s": ours,
+        "reference": "solve_ivp LSODA rtol=1e-8",
+        "reference_time_s": ref,
+        "ratio": ref / ours,
+        "max_rel_difference": err,
+        "samples": int(t_eval.size),
+    }
 
 
-def pwm_sweep(points: int = 10_000, reference_points: int = 40, settle: float = 0.25,
-              dt: float = 1e-3) -> dict:
+def pwm_sweep(
+    points: int = 10_000, reference_points: int = 40, settle: float = 0.25, dt: float = 1e-3
+) -> dict:
     """Steady thrust at 10⁴ PWM levels of the Laidani chain, each simulated to rest.
 
     Ours: every level in one parallel compiled call.  Reference: solve_ivp per level, timed on
@@ -64,8 +78,14 @@ def pwm_sweep(points: int = 10_000, reference_points: int = 40, settle: float = 
     def reference():
         out = []
         for u in sub:
-            sol = solve_ivp(lambda t, x: f(t, x, u), (0.0, settle), np.zeros(chain.n_states),
-                            method="LSODA", rtol=1e-8, atol=1e-10)
+            sol = solve_ivp(
+                lambda t, x, u=u: f(t, x, u),
+                (0.0, settle),
+                np.zeros(chain.n_states),
+                method="LSODA",
+                rtol=1e-8,
+                atol=1e-10,
+            )
             out.append(chain.evaluate(sol.y[:, -1], u)[1]["thrust"])
         return out
 
@@ -74,9 +94,16 @@ def pwm_sweep(points: int = 10_000, reference_points: int = 40, settle: float = 
     ref = (time.perf_counter() - t0) * points / sub.size
     ours_vals = chain.sweep(sub, settle_time=settle, dt=dt).final
     err = float(np.max(np.abs(np.array(ref_vals) - ours_vals)))
-    return {"case": "pwm_sweep_1e4", "time_s": ours, "reference": "solve_ivp LSODA per level",
-            "reference_time_s": ref, "reference_points_timed": int(sub.size),
-            "ratio": ref / ours, "max_abs_difference_N": err, "points": points}
+    return {
+        "case": "pwm_sweep_1e4",
+        "time_s": ours,
+        "reference": "solve_ivp LSODA per level",
+        "reference_time_s": ref,
+        "reference_points_timed": int(sub.size),
+        "ratio": ref / ours,
+        "max_abs_difference_N": err,
+        "points": points,
+    }
 
 
 def run_all() -> dict:

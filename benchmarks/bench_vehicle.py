@@ -20,7 +20,7 @@ import numpy as np
 from uuvid.simulate.reference import WaypointMission, square_mission
 from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 from uuvid.vehicle.definition import load_vehicle
-from uuvid.vehicle.model import vehicle_rhs_reference
+from uuvid.vehicle.model import rotation_reference, vehicle_rhs_reference
 
 
 def laps_mission(laps: int = 4) -> WaypointMission:
@@ -53,9 +53,7 @@ def numpy_reference(setup, steps: int) -> np.ndarray:
     for k in range(steps):
         out[k] = x
         q = x[3:7]
-        R = np.array([[1 - 2 * (q[2]**2 + q[3]**2), 2 * (q[1] * q[2] - q[3] * q[0]), 2 * (q[1] * q[3] + q[2] * q[0])],
-                      [2 * (q[1] * q[2] + q[3] * q[0]), 1 - 2 * (q[1]**2 + q[3]**2), 2 * (q[2] * q[3] - q[1] * q[0])],
-                      [2 * (q[1] * q[3] - q[2] * q[0]), 2 * (q[2] * q[3] + q[1] * q[0]), 1 - 2 * (q[1]**2 + q[2]**2)]])
+        R = rotation_reference(q)
         e = np.empty(4)
         ed = np.empty(4)
         e[:3] = R.T @ (ref_pos[k] - x[:3])

@@ -80,7 +80,7 @@ def test_app_B_friction_torque_is_no_load_current_times_KT():
 # --------------------------------------------------------------------------- Table A-I
 def test_table_A1_torque_column_is_motor_law_and_prop_torque_is_2p5_times():
     # Column 4 = K_T·i (4.13 · 3.20 = 13.2 oz·in); the FORTRAN load torques are 2.5 × column 4.
-    for thrust, current, prop_rpm, torque, motor_rpm in TABLE_A1:
+    for _thrust, current, prop_rpm, torque, motor_rpm in TABLE_A1:
         assert 4.13 * current == pytest.approx(torque, abs=0.06)
         assert motor_rpm == pytest.approx(2.5 * prop_rpm, rel=0.005)  # printed rounded
     load = LoadCurve.thesis()

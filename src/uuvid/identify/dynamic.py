@@ -146,9 +146,14 @@ def _resample(t: np.ndarray, u: np.ndarray, y: np.ndarray, dt: float):
     return tn, u[idx], np.interp(tn, t, y)
 
 
-def validate_runs(runs: Iterable[Run] | Run, n_params: int = 0, *, resample: bool = False,
-                  uniform_rtol: float = UNIFORM_RTOL, normalize: bool | None = None
-                  ) -> list[_Prepared]:
+def validate_runs(
+    runs: Iterable[Run] | Run,
+    n_params: int = 0,
+    *,
+    resample: bool = False,
+    uniform_rtol: float = UNIFORM_RTOL,
+    normalize: bool | None = None,
+) -> list[_Prepared]:
     """Check runs and turn them into arrays; raise ``ValueError`` naming the run and the index.
 
     * ``t``, ``u``, ``y`` one-dimensional, equally long, at least 3 samples, all finite;
@@ -174,8 +179,9 @@ def validate_runs(runs: Iterable[Run] | Run, n_params: int = 0, *, resample: boo
         u = _as_vector(f"{label}: u", r.u)
         y = _as_vector(f"{label}: y", r.y)
         if not (t.size == u.size == y.size):
-            raise ValueError(f"{label}: t, u and y must have the same length, got {t.size}, "
-                             f"{u.size} and {y.size}")
+            raise ValueError(
+                f"{label}: t, u and y must have the same length, got {t.size}, {u.size} and {y.size}"
+            )
         if t.size < 3:
             raise ValueError(f"{label}: needs at least 3 samples, got {t.size}")
         for nm, a in (("t", t), ("u", u), ("y", y)):
@@ -186,8 +192,9 @@ def validate_runs(runs: Iterable[Run] | Run, n_params: int = 0, *, resample: boo
         bad = np.flatnonzero(d <= 0)
         if bad.size:
             i = int(bad[0]) + 1
-            raise ValueError(f"{label}: t must be strictly increasing, but t[{i}] = {t[i]!r} <= "
-                             f"t[{i - 1}] = {t[i - 1]!r}")
+            raise ValueError(
+                f"{label}: t must be strictly increasing, but t[{i}] = {t[i]!r} <= t[{i - 1}] = {t[i - 1]!r}"
+            )
         dt = (t[-1] - t[0]) / (t.size - 1)
         dev = np.max(np.abs(d - dt))
         resampled = False
@@ -197,23 +204,40 @@ def validate_runs(runs: Iterable[Run] | Run, n_params: int = 0, *, resample: boo
                 raise ValueError(
                     f"{label}: t is not uniformly sampled (mean step {dt:.6g} s, but "
                     f"t[{i + 1}] − t[{i}] = {d[i]:.6g} s); resample it first or pass "
-                    "resample=True to interpolate onto a uniform grid")
+                    "resample=True to interpolate onto a uniform grid"
+                )
             dt = float(np.median(d))
             t, u, y = _resample(t, u, y, dt)
             resampled = True
         channel = CHANNEL_ALIASES.get(r.channel, r.channel)
         if channel not in CH:
-            raise ValueError(f"{label}: unknown channel {r.channel!r}; channels are "
-                             f"{', '.join(CHANNELS[1:])} (or speed)")
+            raise ValueError(
+                f"{label}: unknown channel {r.channel!r}; channels are {', '.join(CHANNELS[1:])} (or speed)"
+            )
         if not (math.isfinite(r.weight) and r.weight > 0):
             raise ValueError(f"{label}: weight must be positive and finite, got {r.weight!r}")
         x0 = None if r.x0 is None else np.asarray(r.x0, dtype=float)
-        prepared.append(_Prepared(t, u, y, float(dt), channel, CH[channel], float(r.weight), 1.0,
-                                  x0, r.name or f"run{k}", resampled))
+        prepared.append(
+            _Prepared(
+                t,
+                u,
+                y,
+                float(dt),
+                channel,
+                CH[channel],
+                float(r.weight),
+                1.0,
+                x0,
+                r.name or f"run{k}",
+                resampled,
+            )
+        )
     n = sum(p.t.size for p in prepared)
     if n <= n_params:
-        raise ValueError(f"too few samples: {n} in all runs for {n_params} free parameters "
-                         "(need more samples than parameters)")
+        raise ValueError(
+            f"too few samples: {n} in all runs for {n_params} free parameters "
+            "(need more samples than parameters)"
+        )
     if normalize is None:
         normalize = len({p.channel for p in prepared}) > 1
     if normalize:
@@ -246,10 +270,8 @@ class FreeParameter:
 def _get(obj, attrs: Sequence[str]):
     for a in attrs:
         if not dataclasses.is_dataclass(obj) or a not in {f.name for f in dataclasses.fields(obj)}:
-            have = ([f.name for f in dataclasses.fields(obj)] if dataclasses.is_dataclass(obj)
-                    else [])
-            raise ValueError(f"{type(obj).__name__} has no parameter {a!r}; parameters: "
-                             f"{', '.join(have)}")
+            have = [f.name for f in dataclasses.fields(obj)] if dataclasses.is_dataclass(obj) else []
+            raise ValueError(f"{type(obj).__name__} has no parameter {a!r}; parameters: {', '.join(have)}")
         obj = getattr(obj, a)
     return obj
 
@@ -307,16 +329,18 @@ def parse_free(chain: ThrusterChain, free) -> list[FreeParameter]:
                 raise ValueError(f"parameter {p!r} is listed twice")
             seen.add(p)
             targets.append((b, attrs))
-        name = paths[0] if len(paths) == 1 else paths[0] + "=" + "=".join(
-            p.split(".", 1)[1] for p in paths[1:])
+        name = (
+            paths[0] if len(paths) == 1 else paths[0] + "=" + "=".join(p.split(".", 1)[1] for p in paths[1:])
+        )
         out.append(FreeParameter(name, tuple(targets)))
     if not out:
         raise ValueError("no free parameters")
     return out
 
 
-def set_parameter(chain: ThrusterChain, changes: Mapping[str, float] | Sequence[tuple[FreeParameter, float]]
-                  ) -> ThrusterChain:
+def set_parameter(
+    chain: ThrusterChain, changes: Mapping[str, float] | Sequence[tuple[FreeParameter, float]]
+) -> ThrusterChain:
     """A copy of ``chain`` with parameters changed (blocks re-validated).
 
     ``changes``: ``{"blocks[0].time_constant": 0.2, ...}`` or ``[(FreeParameter, value), ...]``.
@@ -344,9 +368,21 @@ def _simulate_run(chain: ThrusterChain, run: _Prepared, max_step: float) -> np.n
         raise ValueError(f"{run.name}: x0 must have {chain.n_states} entries, got {x0.shape}")
     X = np.empty((run.t.size, chain.n_states))
     C = np.empty((run.t.size, len(CHANNELS)))
-    kernels.rk4_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
-                      np.ascontiguousarray(x0, dtype=float), np.ascontiguousarray(run.u),
-                      float(run.dt), nsub, X, C)
+    kernels.rk4_chain(
+        c.kinds,
+        c.poff,
+        c.params,
+        c.soff,
+        c.outch,
+        c.in_ch,
+        c.exact,
+        np.ascontiguousarray(x0, dtype=float),
+        np.ascontiguousarray(run.u),
+        float(run.dt),
+        nsub,
+        X,
+        C,
+    )
     return C
 
 
@@ -413,8 +449,11 @@ class ChainFit:
         """Every channel of the fitted chain on run ``run``'s grid, as a :class:`TimeResponse`."""
         p = self.runs[run]
         C = _simulate_run(self.chain, p, self.max_step)
-        return TimeResponse(p.t, {n: C[:, i].copy() for i, n in enumerate(CHANNELS)},
-                            {"chain": self.chain.name, "run": p.name}).recorded()
+        return TimeResponse(
+            p.t,
+            {n: C[:, i].copy() for i, n in enumerate(CHANNELS)},
+            {"chain": self.chain.name, "run": p.name},
+        ).recorded()
 
     def report(self) -> str:
         return self.fit.report()
@@ -435,12 +474,14 @@ def _check_channel(chain: ThrusterChain, runs: list[_Prepared], max_step: float)
         C = _simulate_run(chain, short, max_step)
         if np.all(np.isnan(C[:, r.ch])):
             made = [n for i, n in enumerate(CHANNELS) if not np.all(np.isnan(C[:, i]))]
-            raise ValueError(f"{r.name}: the chain does not produce channel {r.channel!r}; it "
-                             f"records {', '.join(made)}")
+            raise ValueError(
+                f"{r.name}: the chain does not produce channel {r.channel!r}; it records {', '.join(made)}"
+            )
 
 
-def _bounds(template: ThrusterChain, free: list[FreeParameter], x0: np.ndarray,
-            bounds) -> tuple[np.ndarray, np.ndarray]:
+def _bounds(
+    template: ThrusterChain, free: list[FreeParameter], x0: np.ndarray, bounds
+) -> tuple[np.ndarray, np.ndarray]:
     """Default: each parameter keeps the sign of its start; one starting at 0 is kept >= 0 when
     its block rejects negative values (friction, K_Q, …)."""
     p = len(free)
@@ -463,8 +504,9 @@ def _bounds(template: ThrusterChain, free: list[FreeParameter], x0: np.ndarray,
         for k, (a, b) in bounds.items():
             key = k if k in names else next((n for n in names if n.endswith("." + k)), None)
             if key is None:
-                raise ValueError(f"bounds given for {k!r}, which is not a free parameter "
-                                 f"({', '.join(names)})")
+                raise ValueError(
+                    f"bounds given for {k!r}, which is not a free parameter ({', '.join(names)})"
+                )
             i = names.index(key)
             lo[i] = -np.inf if a is None else float(a)
             hi[i] = np.inf if b is None else float(b)
@@ -474,8 +516,9 @@ def _bounds(template: ThrusterChain, free: list[FreeParameter], x0: np.ndarray,
         hi = np.broadcast_to(np.asarray(b, dtype=float), (p,)).copy()
     bad = np.flatnonzero(~(lo < hi))
     if bad.size:
-        raise ValueError(f"{free[bad[0]].name}: lower bound {lo[bad[0]]} is not below the upper "
-                         f"bound {hi[bad[0]]}")
+        raise ValueError(
+            f"{free[bad[0]].name}: lower bound {lo[bad[0]]} is not below the upper bound {hi[bad[0]]}"
+        )
     return lo, hi
 
 
@@ -492,11 +535,23 @@ def _fd_jacobian(fun, x, f0, steps, lo, hi):
     return J
 
 
-def fit_chain(template: ThrusterChain, free, runs: Iterable[Run] | Run, *, bounds=None, x0=None,
-              scale=None, normalize: bool | None = None, resample: bool = False,
-              max_step: float = 1e-3, diff_step: float = 1e-6, model: str | None = None,
-              units: Mapping[str, str] | None = None, emit_warnings: bool = True,
-              **lsq_kwargs) -> ChainFit:
+def fit_chain(
+    template: ThrusterChain,
+    free,
+    runs: Iterable[Run] | Run,
+    *,
+    bounds=None,
+    x0=None,
+    scale=None,
+    normalize: bool | None = None,
+    resample: bool = False,
+    max_step: float = 1e-3,
+    diff_step: float = 1e-6,
+    model: str | None = None,
+    units: Mapping[str, str] | None = None,
+    emit_warnings: bool = True,
+    **lsq_kwargs,
+) -> ChainFit:
     """Fit free parameters of ``template`` to time series by output-error least squares.
 
     Parameters
@@ -550,10 +605,12 @@ def fit_chain(template: ThrusterChain, free, runs: Iterable[Run] | Run, *, bound
     lo, hi = _bounds(template, fps, start, bounds)
     if np.any(start < lo) or np.any(start > hi):
         i = int(np.flatnonzero((start < lo) | (start > hi))[0])
-        raise ValueError(f"start value of {names[i]} ({start[i]}) is outside its bounds "
-                         f"[{lo[i]}, {hi[i]}]")
-    typ = (np.where(np.abs(start) > 0, np.abs(start), 1.0) if scale is None
-           else np.broadcast_to(np.asarray(scale, dtype=float), start.shape).copy())
+        raise ValueError(f"start value of {names[i]} ({start[i]}) is outside its bounds [{lo[i]}, {hi[i]}]")
+    typ = (
+        np.where(np.abs(start) > 0, np.abs(start), 1.0)
+        if scale is None
+        else np.broadcast_to(np.asarray(scale, dtype=float), start.shape).copy()
+    )
     _check_channel(set_parameter(template, list(zip(fps, start))), prepared, max_step)
     n_total = sum(r.t.size for r in prepared)
 
@@ -561,8 +618,9 @@ def fit_chain(template: ThrusterChain, free, runs: Iterable[Run] | Run, *, bound
         try:
             return set_parameter(template, list(zip(fps, theta)))
         except ParameterError as e:
-            raise ValueError(f"parameters {dict(zip(names, theta))} are outside the model's "
-                             f"valid range ({e}); give bounds") from None
+            raise ValueError(
+                f"parameters {dict(zip(names, theta))} are outside the model's valid range ({e}); give bounds"
+            ) from None
 
     def residual(theta):
         chain = build(theta)
@@ -571,7 +629,7 @@ def fit_chain(template: ThrusterChain, free, runs: Iterable[Run] | Run, *, bound
         for r in prepared:
             yhat = _simulate_run(chain, r, max_step)[:, r.ch]
             e = r.weight * (yhat - r.y) / r.scale
-            out[k:k + e.size] = np.where(np.isfinite(e), e, 1e10)
+            out[k : k + e.size] = np.where(np.isfinite(e), e, 1e10)
             k += e.size
         return out
 
@@ -583,20 +641,45 @@ def fit_chain(template: ThrusterChain, free, runs: Iterable[Run] | Run, *, bound
     label = model or f"{template.name}: " + "+".join(b.TYPE for b in template.blocks)
     units = dict(units or {})
     unit_list = [units.get(n, units.get(n.rsplit(".", 1)[-1].split("=")[0], "")) for n in names]
-    fit = nonlinear_lsq(residual, start, names, model=label, units=unit_list, bounds=(lo, hi),
-                        x_scale=typ, jac=jac, emit_warnings=emit_warnings, **lsq_kwargs)
+    fit = nonlinear_lsq(
+        residual,
+        start,
+        names,
+        model=label,
+        units=unit_list,
+        bounds=(lo, hi),
+        x_scale=typ,
+        jac=jac,
+        emit_warnings=emit_warnings,
+        **lsq_kwargs,
+    )
     chain = build(np.array([fit.values[n] for n in names]))
     run_info = []
     for r in prepared:
         yhat = _simulate_run(chain, r, max_step)[:, r.ch]
         e = yhat - r.y
-        run_info.append({"name": r.name, "channel": r.channel, "samples": int(r.t.size),
-                         "dt": r.dt, "resampled": r.resampled, "weight": r.weight,
-                         "scale": r.scale, "rmse": float(np.sqrt(np.mean(e**2))),
-                         "bias": float(np.mean(e))})
+        run_info.append(
+            {
+                "name": r.name,
+                "channel": r.channel,
+                "samples": int(r.t.size),
+                "dt": r.dt,
+                "resampled": r.resampled,
+                "weight": r.weight,
+                "scale": r.scale,
+                "rmse": float(np.sqrt(np.mean(e**2))),
+                "bias": float(np.mean(e)),
+            }
+        )
     extra = dict(fit.extra)
-    extra.update({"chain": _jsonable(chain.to_dict()), "runs": run_info, "max_step": max_step,
-                  "normalized": any(r.scale != 1.0 for r in prepared)})
+    extra.update(
+        {
+            "chain": _jsonable(chain.to_dict()),
+            "runs": run_info,
+            "max_step": max_step,
+            "normalized": any(r.scale != 1.0 for r in prepared),
+        }
+    )
     fit = dataclasses.replace(fit, extra=extra)
     return ChainFit(fit, chain, tuple(prepared), tuple(fps), max_step)
 
@@ -606,8 +689,8 @@ def fit_chain(template: ThrusterChain, free, runs: Iterable[Run] | Run, *, bound
 # ------------------------------------------------------------------------------------------------
 def _step_guess(r: _Prepared) -> tuple[float, float, float, float]:
     """(input level, final output, initial slope, 63 % time) of a step-like record."""
-    u_end = float(np.mean(r.u[-max(1, r.u.size // 10):]))
-    y_end = float(np.mean(r.y[-max(1, r.y.size // 10):]))
+    u_end = float(np.mean(r.u[-max(1, r.u.size // 10) :]))
+    y_end = float(np.mean(r.y[-max(1, r.y.size // 10) :]))
     moved = np.flatnonzero(np.abs(r.u - r.u[0]) > 1e-12 * max(1.0, abs(u_end)))
     k0 = int(moved[0]) if moved.size and r.u[0] != u_end else 0
     y0 = float(r.y[k0])
@@ -619,7 +702,11 @@ def _step_guess(r: _Prepared) -> tuple[float, float, float, float]:
         if hit.size:
             t63 = max(float(r.t[k0 + hit[0]] - r.t[k0]), r.dt)
     n = max(2, min(5, (r.y.size - k0) // 10))
-    slope = float(np.polyfit(r.t[k0:k0 + n] - r.t[k0], r.y[k0:k0 + n], 1)[0]) if r.y.size - k0 >= n else math.nan
+    slope = (
+        float(np.polyfit(r.t[k0 : k0 + n] - r.t[k0], r.y[k0 : k0 + n], 1)[0])
+        if r.y.size - k0 >= n
+        else math.nan
+    )
     return u_end, y_end, slope, t63
 
 
@@ -632,8 +719,9 @@ def _remap(runs, channel: str) -> list[Run]:
 # ------------------------------------------------------------------------------------------------
 # model wrappers
 # ------------------------------------------------------------------------------------------------
-def fit_first_order(runs, gain: float | None = None, time_constant: float | None = None, *,
-                    bounds=None, **kwargs) -> ChainFit:
+def fit_first_order(
+    runs, gain: float | None = None, time_constant: float | None = None, *, bounds=None, **kwargs
+) -> ChainFit:
     """Gain × first-order lag, ``y/u = K/(1 + τs)`` (:class:`FirstOrderMotor`, Laidani eq. 3).
 
     A UUV-Simulator ``FirstOrder`` block has unit gain; this fits the gain with it.  Whatever the
@@ -644,19 +732,30 @@ def fit_first_order(runs, gain: float | None = None, time_constant: float | None
     p = validate_runs(runs, 2, resample=kwargs.get("resample", False))[0]
     u_end, y_end, _, t63 = _step_guess(p)
     k0 = gain if gain is not None else (y_end / u_end if u_end else 1.0)
-    tau0 = time_constant if time_constant is not None else (t63 if math.isfinite(t63) else
-                                                             (p.t[-1] - p.t[0]) / 10)
+    tau0 = (
+        time_constant
+        if time_constant is not None
+        else (t63 if math.isfinite(t63) else (p.t[-1] - p.t[0]) / 10)
+    )
     if not k0 > 0:
         k0 = abs(k0) or 1.0
-    chain = ThrusterChain((FirstOrderMotor(gain=k0, time_constant=tau0),), input_kind="voltage",
-                          name="first-order")
-    return fit_chain(chain, {0: ["gain", "time_constant"]}, runs, bounds=bounds,
-                     model="gain x FirstOrder: K/(1 + tau s)",
-                     units={"time_constant": "s"}, **kwargs)
+    chain = ThrusterChain(
+        (FirstOrderMotor(gain=k0, time_constant=tau0),), input_kind="voltage", name="first-order"
+    )
+    return fit_chain(
+        chain,
+        {0: ["gain", "time_constant"]},
+        runs,
+        bounds=bounds,
+        model="gain x FirstOrder: K/(1 + tau s)",
+        units={"time_constant": "s"},
+        **kwargs,
+    )
 
 
-def fit_yoerger(runs, alpha: float | None = None, beta: float | None = None, *, bounds=None,
-                **kwargs) -> ChainFit:
+def fit_yoerger(
+    runs, alpha: float | None = None, beta: float | None = None, *, bounds=None, **kwargs
+) -> ChainFit:
     """Yoerger et al. (1990), ``ẋ = βu − αx|x|`` (UUV Simulator ``Yoerger``), from speed ``x``.
 
     Both α and β are identifiable from the rotor state.  Start values: β from the initial slope
@@ -665,17 +764,35 @@ def fit_yoerger(runs, alpha: float | None = None, beta: float | None = None, *, 
     runs = _remap(runs, "prop_speed")
     p = validate_runs(runs, 2, resample=kwargs.get("resample", False))[0]
     u_end, y_end, slope, _ = _step_guess(p)
-    b0 = beta if beta is not None else (abs(slope / u_end) if u_end and math.isfinite(slope)
-                                        and slope != 0 else 1.0)
+    b0 = (
+        beta
+        if beta is not None
+        else (abs(slope / u_end) if u_end and math.isfinite(slope) and slope != 0 else 1.0)
+    )
     a0 = alpha if alpha is not None else (abs(b0 * u_end) / y_end**2 if y_end else 1.0)
     chain = ThrusterChain((Yoerger(alpha=a0, beta=b0),), input_kind="command", name="yoerger")
-    return fit_chain(chain, {0: ["alpha", "beta"]}, runs, bounds=bounds,
-                     model="Yoerger: dx/dt = beta u - alpha x|x|", **kwargs)
+    return fit_chain(
+        chain,
+        {0: ["alpha", "beta"]},
+        runs,
+        bounds=bounds,
+        model="Yoerger: dx/dt = beta u - alpha x|x|",
+        **kwargs,
+    )
 
 
-def fit_bessa(runs, *, kt: float = 1.0, rm: float = 1.0, jmsp: float = 1.0, kv1: float = 0.1,
-              kv2: float = 0.01, free: Sequence[str] = ("jmsp", "kv1", "kv2"), bounds=None,
-              **kwargs) -> ChainFit:
+def fit_bessa(
+    runs,
+    *,
+    kt: float = 1.0,
+    rm: float = 1.0,
+    jmsp: float = 1.0,
+    kv1: float = 0.1,
+    kv2: float = 0.01,
+    free: Sequence[str] = ("jmsp", "kv1", "kv2"),
+    bounds=None,
+    **kwargs,
+) -> ChainFit:
     """Bessa et al. (2005), ``J_msp ẋ = u K_t/R_m − K_v1 x − K_v2 x|x|``, from speed ``x``.
 
     Only three combinations are identifiable from ``x`` (divide the ODE by ``J_msp``):
@@ -684,22 +801,30 @@ def fit_bessa(runs, *, kt: float = 1.0, rm: float = 1.0, jmsp: float = 1.0, kv1:
     with σ by the delta method, are in ``fit.extra["identifiable"]``.
     """
     runs = _remap(runs, "prop_speed")
-    chain = ThrusterChain((BessaDynamics(jmsp=jmsp, kv1=kv1, kv2=kv2, kt=kt, rm=rm),),
-                          input_kind="command", name="bessa")
+    chain = ThrusterChain(
+        (BessaDynamics(jmsp=jmsp, kv1=kv1, kv2=kv2, kt=kt, rm=rm),), input_kind="command", name="bessa"
+    )
     bad = [f for f in free if f in ("kt", "rm")]
     if bad and {"jmsp"} <= set(free):
-        raise ValueError(f"{', '.join(bad)} and jmsp are not separately identifiable from speed "
-                         "(only K_t/(R_m J_msp) is): fix one of them")
-    res = fit_chain(chain, {0: list(free)}, runs, bounds=bounds,
-                    model="Bessa: Jmsp dx/dt = u Kt/Rm - Kv1 x - Kv2 x|x|", **kwargs)
+        raise ValueError(
+            f"{', '.join(bad)} and jmsp are not separately identifiable from speed "
+            "(only K_t/(R_m J_msp) is): fix one of them"
+        )
+    res = fit_chain(
+        chain,
+        {0: list(free)},
+        runs,
+        bounds=bounds,
+        model="Bessa: Jmsp dx/dt = u Kt/Rm - Kv1 x - Kv2 x|x|",
+        **kwargs,
+    )
     b = res.chain.blocks[0]
     names = [f"blocks[0].{f}" for f in free]
     cov = res.fit.covariance
     theta = {"jmsp": b.jmsp, "kv1": b.kv1, "kv2": b.kv2, "kt": b.kt, "rm": b.rm}
 
     def combos(th):
-        return np.array([th["kt"] / (th["rm"] * th["jmsp"]), th["kv1"] / th["jmsp"],
-                         th["kv2"] / th["jmsp"]])
+        return np.array([th["kt"] / (th["rm"] * th["jmsp"]), th["kv1"] / th["jmsp"], th["kv2"] / th["jmsp"]])
 
     g0 = combos(theta)
     G = np.zeros((3, len(free)))
@@ -709,16 +834,17 @@ def fit_bessa(runs, *, kt: float = 1.0, rm: float = 1.0, jmsp: float = 1.0, kv1:
         th[f] += h
         G[:, j] = (combos(th) - g0) / h
     cg = G @ cov @ G.T
-    ident = {nm: {"estimate": float(v), "sigma": float(math.sqrt(max(cg[i, i], 0.0)))}
-             for i, (nm, v) in enumerate(zip(("Kt/(Rm Jmsp)", "Kv1/Jmsp", "Kv2/Jmsp"), g0))}
+    ident = {
+        nm: {"estimate": float(v), "sigma": float(math.sqrt(max(cg[i, i], 0.0)))}
+        for i, (nm, v) in enumerate(zip(("Kt/(Rm Jmsp)", "Kv1/Jmsp", "Kv2/Jmsp"), g0))
+    }
     extra = dict(res.fit.extra)
     extra["identifiable"] = ident
     extra["fixed"] = {k: theta[k] for k in theta if f"blocks[0].{k}" not in names}
     return dataclasses.replace(res, fit=dataclasses.replace(res.fit, extra=extra))
 
 
-def fit_dc_motor(runs, motor: DCMotor, free: Sequence | None = None, *, bounds=None,
-                 **kwargs) -> ChainFit:
+def fit_dc_motor(runs, motor: DCMotor, free: Sequence | None = None, *, bounds=None, **kwargs) -> ChainFit:
     """McLean's DC motor (:class:`DCMotor`, eqs. 2.1–2.5) from speed and optionally current.
 
     ``K_T`` and ``K_G`` are one constant in SI units and are fitted tied (``K``).  From the
@@ -741,16 +867,29 @@ def fit_dc_motor(runs, motor: DCMotor, free: Sequence | None = None, *, bounds=N
         if motor.coulomb_torque > 0:
             free.append("coulomb_torque")
     chain = ThrusterChain((motor,), input_kind="voltage", name="dc-motor")
-    units = {"torque_constant": "N·m/A", "resistance": "Ω", "motor_inertia": "kg·m²",
-             "motor_viscous": "N·m·s/rad", "torque_coefficient": "N·m·s²/rad²",
-             "coulomb_torque": "N·m"}
-    res = fit_chain(chain, {0: list(free)}, runs, bounds=bounds, model="DC motor (McLean 2.1-2.5)",
-                    units=units, **kwargs)
+    units = {
+        "torque_constant": "N·m/A",
+        "resistance": "Ω",
+        "motor_inertia": "kg·m²",
+        "motor_viscous": "N·m·s/rad",
+        "torque_coefficient": "N·m·s²/rad²",
+        "coulomb_torque": "N·m",
+    }
+    res = fit_chain(
+        chain, {0: list(free)}, runs, bounds=bounds, model="DC motor (McLean 2.1-2.5)", units=units, **kwargs
+    )
     return res
 
 
-def fit_tunnel_thruster(runs, thruster: TunnelThruster, *, load_cell: LoadCell | None = None,
-                        free: Sequence | None = None, bounds=None, **kwargs) -> ChainFit:
+def fit_tunnel_thruster(
+    runs,
+    thruster: TunnelThruster,
+    *,
+    load_cell: LoadCell | None = None,
+    free: Sequence | None = None,
+    bounds=None,
+    **kwargs,
+) -> ChainFit:
     """McLean's tunnel thruster (:class:`TunnelThruster`, eqs. 2.12–2.16), optionally seen
     through the rig's load cell (runs on ``measured_thrust``).
 

@@ -44,8 +44,9 @@ __all__ = [
 # ------------------------------------------------------------------------------------------------
 # validation
 # ------------------------------------------------------------------------------------------------
-def _record(t: Any, y: Any, name: str = "y", min_len: int = 8,
-            uniform: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
+def _record(
+    t: Any, y: Any, name: str = "y", min_len: int = 8, uniform: bool = True
+) -> tuple[np.ndarray, np.ndarray, float]:
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     if t.ndim != 1 or y.ndim != 1:
@@ -61,12 +62,13 @@ def _record(t: Any, y: Any, name: str = "y", min_len: int = 8,
     d = np.diff(t)
     if np.any(d <= 0):
         i = int(np.flatnonzero(d <= 0)[0]) + 1
-        raise ValueError(f"t must be strictly increasing, but t[{i}] = {t[i]!r} <= t[{i - 1}] = "
-                         f"{t[i - 1]!r}")
+        raise ValueError(f"t must be strictly increasing, but t[{i}] = {t[i]!r} <= t[{i - 1}] = {t[i - 1]!r}")
     dt = (t[-1] - t[0]) / (t.size - 1)
     if uniform and np.max(np.abs(d - dt)) > 1e-3 * dt:
-        raise ValueError(f"t must be uniformly sampled (mean step {dt:.6g} s, steps range "
-                         f"{d.min():.6g}–{d.max():.6g} s); resample the record first")
+        raise ValueError(
+            f"t must be uniformly sampled (mean step {dt:.6g} s, steps range "
+            f"{d.min():.6g}–{d.max():.6g} s); resample the record first"
+        )
     return t, y, float(dt)
 
 
@@ -96,10 +98,14 @@ class TapTest:
         return self.natural_frequency / (2 * math.pi)
 
     def as_dict(self) -> dict:
-        return {"natural_frequency": self.natural_frequency, "frequency_hz": self.frequency_hz,
-                "damping_ratio": self.damping_ratio, "method": self.method,
-                "estimates": self.estimates,
-                "fit": None if self.fit is None else self.fit.as_dict()}
+        return {
+            "natural_frequency": self.natural_frequency,
+            "frequency_hz": self.frequency_hz,
+            "damping_ratio": self.damping_ratio,
+            "method": self.method,
+            "estimates": self.estimates,
+            "fit": None if self.fit is None else self.fit.as_dict(),
+        }
 
 
 def _parabolic(y_m: float, y_0: float, y_p: float) -> tuple[float, float]:
@@ -116,7 +122,9 @@ def _zeta_from_bandwidth(r: float) -> float:
     """Solve ``2ζ√(1−ζ²)/(1−2ζ²) = r`` for ζ in (0, 1/√2)."""
     from scipy.optimize import brentq
 
-    g = lambda z: 2 * z * math.sqrt(1 - z * z) / (1 - 2 * z * z) - r
+    def g(z):
+        return 2 * z * math.sqrt(1 - z * z) / (1 - 2 * z * z) - r
+
     return float(brentq(g, 1e-9, 1 / math.sqrt(2) - 1e-9))
 
 
@@ -193,7 +201,7 @@ def _half_cycles(x: np.ndarray, t: np.ndarray, threshold: float):
         ae.append(abs(v))
         if k > 0:  # zero crossings between the previous extremum and this half cycle's entry
             j0 = round((te[-2] - t[0]) / dt)
-            seg = x[j0:a + 1]
+            seg = x[j0 : a + 1]
             idx = np.flatnonzero(np.sign(seg[:-1]) * np.sign(seg[1:]) < 0)
             if idx.size:
                 ii = j0 + idx
@@ -223,8 +231,14 @@ def _log_decrement(x: np.ndarray, t: np.ndarray, noise: float) -> dict:
         return {"ok": False, "reason": "the extrema do not decay"}
     delta = 2 * math.pi * decay / wd
     wn = math.hypot(decay, wd)
-    return {"ok": True, "natural_frequency": wn, "damping_ratio": decay / wn,
-            "damped_frequency": wd, "log_decrement": delta, "n_extrema": int(te.size)}
+    return {
+        "ok": True,
+        "natural_frequency": wn,
+        "damping_ratio": decay / wn,
+        "damped_frequency": wd,
+        "log_decrement": delta,
+        "n_extrema": int(te.size),
+    }
 
 
 def _ringdown_fit(x: np.ndarray, t: np.ndarray, wn0: float, z0: float) -> Fit:
@@ -240,14 +254,18 @@ def _ringdown_fit(x: np.ndarray, t: np.ndarray, wn0: float, z0: float) -> Fit:
     amp = max(abs(x[0]), 1e-300)
     lo = [0.0, 0.0, -np.inf, -np.inf, -np.inf]
     hi = [np.inf, 0.999, np.inf, np.inf, np.inf]
-    return nonlinear_lsq(lambda p: (model(p) - x) / amp, p0,
-                         ["natural_frequency", "damping_ratio", "a", "b", "offset"],
-                         model="load-cell ring-down (damped sinusoid)",
-                         units=["rad/s", "", "", "", ""], bounds=(lo, hi), emit_warnings=False)
+    return nonlinear_lsq(
+        lambda p: (model(p) - x) / amp,
+        p0,
+        ["natural_frequency", "damping_ratio", "a", "b", "offset"],
+        model="load-cell ring-down (damped sinusoid)",
+        units=["rad/s", "", "", "", ""],
+        bounds=(lo, hi),
+        emit_warnings=False,
+    )
 
 
-def load_cell_from_tap(t: Any, y: Any, *, onset: float | None = None,
-                       tail_fraction: float = 0.2) -> TapTest:
+def load_cell_from_tap(t: Any, y: Any, *, onset: float | None = None, tail_fraction: float = 0.2) -> TapTest:
     """ω_n and ζ of a load cell from its response to a tap, and the :class:`LoadCell` block.
 
     ``t`` uniformly sampled (s); ``y`` the load-cell output (any unit).  The record must end after
@@ -283,24 +301,29 @@ def load_cell_from_tap(t: Any, y: Any, *, onset: float | None = None,
     est["log_decrement"] = _log_decrement(x[peak:], t[peak:], noise)
     starts = [e for e in (est["log_decrement"], est["fft"]) if e.get("ok")]
     if not starts:
-        raise ValueError("no oscillation found in the tap record (no spectral peak and fewer than "
-                         "two decaying extrema)")
+        raise ValueError(
+            "no oscillation found in the tap record (no spectral peak and fewer than two decaying extrema)"
+        )
     wn0, z0 = starts[0]["natural_frequency"], starts[0]["damping_ratio"]
     fit = None
     try:
         fit = _ringdown_fit(x[peak:], t[peak:], wn0, z0)
         wn, z = fit["natural_frequency"], fit["damping_ratio"]
         ok = fit.extra.get("status", 0) > 0 and 0 < z.value < 0.999 and wn.value > 0
-        est["ringdown_fit"] = {"ok": bool(ok), "natural_frequency": wn.value,
-                               "natural_frequency_sigma": wn.stderr, "damping_ratio": z.value,
-                               "damping_ratio_sigma": z.stderr, "rmse": fit.rmse}
+        est["ringdown_fit"] = {
+            "ok": bool(ok),
+            "natural_frequency": wn.value,
+            "natural_frequency_sigma": wn.stderr,
+            "damping_ratio": z.value,
+            "damping_ratio_sigma": z.stderr,
+            "rmse": fit.rmse,
+        }
     except (ValueError, np.linalg.LinAlgError) as e:  # pragma: no cover - defensive
         est["ringdown_fit"] = {"ok": False, "reason": str(e)}
     for method in ("ringdown_fit", "log_decrement", "fft"):
         e = est[method]
         if e.get("ok"):
-            return TapTest(float(e["natural_frequency"]), float(e["damping_ratio"]), method, est,
-                           fit)
+            return TapTest(float(e["natural_frequency"]), float(e["damping_ratio"]), method, est, fit)
     raise ValueError("tap record: no method produced an estimate")  # pragma: no cover
 
 
@@ -316,9 +339,16 @@ def _savgol_window(dt: float, cutoff_hz: float, polyorder: int) -> int:
     return max(w, polyorder + 2 + (polyorder % 2 == 0))
 
 
-def remove_load_cell(t: Any, y_measured: Any, load_cell: LoadCell, *, method: str = "fourier",
-                     cutoff_hz: float | None = None, window: int | None = None,
-                     polyorder: int = 4) -> np.ndarray:
+def remove_load_cell(
+    t: Any,
+    y_measured: Any,
+    load_cell: LoadCell,
+    *,
+    method: str = "fourier",
+    cutoff_hz: float | None = None,
+    window: int | None = None,
+    polyorder: int = 4,
+) -> np.ndarray:
     """Estimate the true thrust behind a load-cell record by inverting its 2nd-order filter.
 
     ``F = y + (2ζ/ω_n) ẏ + ÿ/ω_n²``.  Inverting amplifies noise by ``|1 − (ω/ω_n)² + 2jζω/ω_n|``
@@ -386,8 +416,9 @@ def _crossing(t: np.ndarray, y: np.ndarray, level: float, rising: bool = True) -
     return float(t[i - 1] + (0 - v[i - 1]) / (v[i] - v[i - 1]) * (t[i] - t[i - 1]))
 
 
-def trigger_time(t: Any, y: Any, *, level: float = 0.5, absolute: float | None = None,
-                 baseline_samples: int = 3) -> float:
+def trigger_time(
+    t: Any, y: Any, *, level: float = 0.5, absolute: float | None = None, baseline_samples: int = 3
+) -> float:
     """First time ``y`` moves through a level, linearly interpolated between samples.
 
     The level is ``absolute`` if given, else ``baseline + level·(extreme − baseline)`` with the
@@ -395,7 +426,7 @@ def trigger_time(t: Any, y: Any, *, level: float = 0.5, absolute: float | None =
     farthest from it (so falling steps work too).  NaN if never crossed.
     """
     t, y, _ = _record(t, y, "y", min_len=2, uniform=False)
-    base = float(np.mean(y[:max(1, baseline_samples)]))
+    base = float(np.mean(y[: max(1, baseline_samples)]))
     ext = float(y[int(np.argmax(np.abs(y - base)))])
     rising = ext >= base
     if absolute is not None:
@@ -427,17 +458,26 @@ def _as_runs(t: np.ndarray, runs, name: str = "runs") -> np.ndarray:
     if R.ndim == 1:
         R = R[None, :]
     if R.ndim != 2 or R.shape[1] != t.size:
-        raise ValueError(f"{name} must be a list of records as long as t ({t.size} samples), "
-                         f"got shape {R.shape}")
+        raise ValueError(
+            f"{name} must be a list of records as long as t ({t.size} samples), got shape {R.shape}"
+        )
     bad = np.argwhere(~np.isfinite(R))
     if bad.size:
         raise ValueError(f"{name}[{bad[0][0]}][{bad[0][1]}] is not finite")
     return R
 
 
-def align_runs(t: Any, runs, *, trigger: str = "threshold", commands=None, level: float = 0.5,
-               absolute: float | None = None, reference: float | str = "median",
-               kind: str = "cubic") -> AlignedRuns:
+def align_runs(
+    t: Any,
+    runs,
+    *,
+    trigger: str = "threshold",
+    commands=None,
+    level: float = 0.5,
+    absolute: float | None = None,
+    reference: float | str = "median",
+    kind: str = "cubic",
+) -> AlignedRuns:
     """Shift repeated runs so that their triggers coincide, with sub-sample precision.
 
     ``t`` is the common sample time of the records (s); ``runs`` a list (or 2-D array) of records.
@@ -467,8 +507,7 @@ def align_runs(t: Any, runs, *, trigger: str = "threshold", commands=None, level
     else:
         raise ValueError(f"trigger must be 'command' or 'threshold', got {trigger!r}")
     if np.any(~np.isfinite(trig)):
-        raise ValueError(f"run {int(np.flatnonzero(~np.isfinite(trig))[0])} never crosses its "
-                         "trigger level")
+        raise ValueError(f"run {int(np.flatnonzero(~np.isfinite(trig))[0])} never crosses its trigger level")
     if reference == "median":
         ref = float(np.median(trig))
     elif reference == "first":
@@ -508,8 +547,9 @@ class RunAverage:
         return float(np.nanmax(self.mean))
 
 
-def average_runs(t: Any, runs, *, align: bool = True, min_count: int | None = None,
-                 **align_kwargs) -> RunAverage:
+def average_runs(
+    t: Any, runs, *, align: bool = True, min_count: int | None = None, **align_kwargs
+) -> RunAverage:
     """Average repeated runs, aligned first (:func:`align_runs`, keyword arguments passed on)
     unless ``align=False`` — which reproduces McLean's averaging by sample index.
 

@@ -25,7 +25,7 @@ import csv
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -230,6 +230,7 @@ class _Table:
     cells: dict[str, list]
     lines: list[int] | None = None  # CSV line of every data row
     kind: str = "CSV"
+    dtypes: dict = field(default_factory=dict)  # Parquet column types, when known
 
     @property
     def n_rows(self) -> int:

@@ -94,7 +94,9 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
                           "UUV Simulator dynamics model (use FirstOrder, Yoerger or Bessa, or fit "
                           "one with `uuvid thruster fit`)")
     k = dyn_idx[0] if dyn_idx else -1
-    before, dyn, after = blocks[:max(k, 0)], (blocks[k] if k >= 0 else None), blocks[k + 1:] if k >= 0 else blocks
+    before = blocks[:max(k, 0)]
+    dyn = blocks[k] if k >= 0 else None
+    after = blocks[k + 1:] if k >= 0 else blocks
     dyn_el, gain = _dynamics_element(dyn)
     if isinstance(dyn, FirstOrderMotor):
         notes.append(f"first-order motor gain K_m = {gain:g} moved into the conversion")

@@ -41,6 +41,8 @@ from pathlib import Path
 import numpy as np
 
 from uuvid import units as U
+from uuvid.io.bench import _norm
+from uuvid.io.bench import _Table as _BenchTable
 from uuvid.simulate.response import TimeResponse
 
 __all__ = [
@@ -304,25 +306,8 @@ def _maybe_align(out: dict[str, TimeResponse], resample, interp, span):
 # ------------------------------------------------------------------------------------------------
 # CSV / Parquet
 # ------------------------------------------------------------------------------------------------
-class _Table:
-    def __init__(self, name, columns, cells, lines, kind, dtypes=None):
-        self.name, self.columns, self.cells, self.lines, self.kind = name, columns, cells, lines, kind
-        self.dtypes = dtypes or {}
-
-    @property
-    def n_rows(self) -> int:
-        return len(next(iter(self.cells.values()))) if self.cells else 0
-
-    def where(self, col: str, i: int) -> str:
-        loc = f"data row {i + 1}"
-        if self.lines is not None:
-            loc += f" (CSV line {self.lines[i]})"
-        return f"{self.name}: column {col!r}, {loc}"
-
-
-def _norm(name: str) -> str:
-    s = name.strip().casefold().replace("µ", "u").replace("μ", "u")
-    return re.sub(r"\s+", " ", s)
+# the table reader shared with bench files: rows with file/column/row locations
+_Table = _BenchTable
 
 
 def _sniff_delimiter(line: str) -> str:

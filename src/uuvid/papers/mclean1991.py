@@ -88,9 +88,7 @@ def table1_row(case: Case, response) -> dict:
     }
     thesis = dict(zip(TABLE1_FIELDS, TABLE1_THESIS[case.name]))
     row["thesis"] = thesis
-    row["rel_error"] = {
-        k: (abs(row[k] - v) / abs(v) if v else abs(row[k])) for k, v in thesis.items()
-    }
+    row["rel_error"] = {k: (abs(row[k] - v) / abs(v) if v else abs(row[k])) for k, v in thesis.items()}
     return row
 
 
@@ -130,8 +128,13 @@ def load_matching_conclusions(rows: list[dict]) -> dict:
     }
 
 
-def pulsing(frequencies_hz=(0.5, 1.0, 2.0, 5.0, 10.0), voltage: float = MCLEAN.supply_voltage,
-            duration: float = 6.0, settle: float = 2.0, dt: float = 5e-4) -> dict:
+def pulsing(
+    frequencies_hz=(0.5, 1.0, 2.0, 5.0, 10.0),
+    voltage: float = MCLEAN.supply_voltage,
+    duration: float = 6.0,
+    settle: float = 2.0,
+    dt: float = 5e-4,
+) -> dict:
     """Mean thrust of square (0↔V, 50 % duty) and sawtooth (0→V) voltage pulsing.
 
     Compared with the steady thrust at the same mean voltage (V/2) and at full voltage.  The mean
@@ -145,25 +148,37 @@ def pulsing(frequencies_hz=(0.5, 1.0, 2.0, 5.0, 10.0), voltage: float = MCLEAN.s
         period = 1.0 / f
         n_periods = max(1, int((duration - settle) / period))
         t_end = settle + n_periods * period
-        for kind, sig in (("square", Square(low=0.0, high=voltage, period=period)),
-                          ("sawtooth", Sawtooth(low=0.0, high=voltage, period=period))):
+        for kind, sig in (
+            ("square", Square(low=0.0, high=voltage, period=period)),
+            ("sawtooth", Sawtooth(low=0.0, high=voltage, period=period)),
+        ):
             r = chain.simulate(sig, t_end, dt=dt, substeps=2)
             mask = r.t >= t_end - n_periods * period - 1e-12
             mean_thrust = float(np.mean(r["thrust"][mask][:-1]))
             mean_measured = float(np.mean(r["measured_thrust"][mask][:-1]))
-            rows.append({
-                "waveform": kind, "frequency_hz": f, "mean_voltage_V": voltage / 2.0,
-                "mean_thrust_lbf": U.to_lbf(mean_thrust),
-                "mean_measured_lbf": U.to_lbf(mean_measured),
-                "ratio_to_steady_same_mean": mean_thrust / ss_mean,
-                "ratio_to_steady_full": mean_thrust / ss_full,
-            })
+            rows.append(
+                {
+                    "waveform": kind,
+                    "frequency_hz": f,
+                    "mean_voltage_V": voltage / 2.0,
+                    "mean_thrust_lbf": U.to_lbf(mean_thrust),
+                    "mean_measured_lbf": U.to_lbf(mean_measured),
+                    "ratio_to_steady_same_mean": mean_thrust / ss_mean,
+                    "ratio_to_steady_full": mean_thrust / ss_full,
+                }
+            )
     best = max(rows, key=lambda r: r["ratio_to_steady_same_mean"])
     fmin, fmax = min(frequencies_hz), max(frequencies_hz)
 
     def gain(kind, f):
-        return next(r["ratio_to_steady_same_mean"] for r in rows
-                    if r["waveform"] == kind and r["frequency_hz"] == f) - 1.0
+        return (
+            next(
+                r["ratio_to_steady_same_mean"]
+                for r in rows
+                if r["waveform"] == kind and r["frequency_hz"] == f
+            )
+            - 1.0
+        )
 
     answer = (
         f"Against holding the same mean voltage ({voltage / 2:g} V): square pulsing 0↔{voltage:g} V "
@@ -191,8 +206,10 @@ def reproduce(out_dir: str | Path | None = None, progress=None) -> dict:
     result = {
         "paper": "McLean 1991, NPS thesis: dynamic performance of small diameter tunnel thrusters",
         "units": {"thrust": "lbf", "time": "s", "speed": "rpm"},
-        "parameters": {"energy_correction_alpha_o_minus_alpha_i": auv2_rig_chain().blocks[0].energy_correction,
-                       "momentum_correction_beta_o_minus_beta_i": auv2_rig_chain().blocks[0].momentum_correction},
+        "parameters": {
+            "energy_correction_alpha_o_minus_alpha_i": auv2_rig_chain().blocks[0].energy_correction,
+            "momentum_correction_beta_o_minus_beta_i": auv2_rig_chain().blocks[0].momentum_correction,
+        },
         "table1": rows,
         "load_matching": lm_rows,
         "load_matching_conclusions": load_matching_conclusions(lm_rows),
@@ -238,9 +255,11 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
 
     out.mkdir(parents=True, exist_ok=True)
     report = Report("McLean (1991) — tunnel thruster step responses, reproduced")
-    report.add_paragraph("Voltage step on the AUV II tunnel thruster (Pittman 9514, 2.5:1 gear, "
-                         "3-in Kaplan propeller) seen through the rig's load cell. Thesis values "
-                         "in brackets.")
+    report.add_paragraph(
+        "Voltage step on the AUV II tunnel thruster (Pittman 9514, 2.5:1 gear, "
+        "3-in Kaplan propeller) seen through the rig's load cell. Thesis values "
+        "in brackets."
+    )
     table_rows = []
     for row in result["table1"]:
         tr = {"case": row["case"]}
@@ -265,15 +284,23 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
     idn = result["identified"]
     report.add_heading("Identification")
     report.add_paragraph(
-        f"From Table I's steady columns: α_o − α_i = {idn['delta_alpha']:.3f} ± {idn['delta_alpha_sigma']:.3f}, "
-        f"β_o − β_i = {idn['delta_beta']:.4f} ± {idn['delta_beta_sigma']:.4f} (digest: 3.0 and 0.185).")
+        "From Table I's steady columns: "
+        f"α_o − α_i = {idn['delta_alpha']:.3f} ± {idn['delta_alpha_sigma']:.3f}, "
+        f"β_o − β_i = {idn['delta_beta']:.4f} ± {idn['delta_beta_sigma']:.4f} (digest: 3.0 and 0.185)."
+    )
     ef = result["experiment_fit"]
     report.add_paragraph(
         f"Fitted to the thesis's experiments (Tables II/III) with a Coulomb offset: mean absolute "
         f"relative error {ef['mean_abs_rel_error']:.1%} over the nine numbers, against "
-        f"{ef['thesis_mean_abs_rel_error']:.1%} for the thesis's own simulation.")
-    report.add_table([{"parameter": k, "estimate": v["estimate"], "sigma": v["sigma"], "unit": v["unit"]}
-                      for k, v in ef["parameters"].items()], caption="Experiment fit")
+        f"{ef['thesis_mean_abs_rel_error']:.1%} for the thesis's own simulation."
+    )
+    report.add_table(
+        [
+            {"parameter": k, "estimate": v["estimate"], "sigma": v["sigma"], "unit": v["unit"]}
+            for k, v in ef["parameters"].items()
+        ],
+        caption="Experiment fit",
+    )
     report.add_table(result["load_matching"], caption="App. A — load matching (continuous duty)")
     fig, axes = new_figure(1, 2, figsize=(11, 4.5))
     lm.plot_load_matching(lm.PITTMAN_9514, (2.5, 3.67, 5.0, 10.0), ax=axes[0])
@@ -293,9 +320,15 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
     ax.set_ylabel("mean thrust [lb]")
     ax.legend()
     report.add_figure(save_figure(fig, out / "pulsing.png"), caption="Pulsing (open question, Ch. V)")
-    pd.DataFrame([{**{k: v for k, v in r.items() if k not in ("thesis", "rel_error")},
-                   **{f"thesis_{k}": v for k, v in r["thesis"].items()}} for r in result["table1"]]
-                 ).pipe(lambda df: _csv(df, out / "table1.csv"))
+    pd.DataFrame(
+        [
+            {
+                **{k: v for k, v in r.items() if k not in ("thesis", "rel_error")},
+                **{f"thesis_{k}": v for k, v in r["thesis"].items()},
+            }
+            for r in result["table1"]
+        ]
+    ).pipe(lambda df: _csv(df, out / "table1.csv"))
     _csv(pd.DataFrame(result["load_matching"]), out / "load_matching.csv")
     atomic_write_json(out / "mclean1991.json", result)
     return report.write(out)

@@ -41,12 +41,9 @@ from uuvid.thruster.presets import auv2_tunnel_thruster, mclean_load_cell
 #: Table II (experiments, 8 runs per voltage, 75 Hz): peak output thrust lb (largest of the runs),
 #: peak of the averaged runs lb, steady thrust lb (static test, Fig. 35), decay time constant s.
 EXPERIMENTS = {
-    24.0: {"peak_output_lbf": 5.30, "peak_average_lbf": 3.50, "steady_lbf": 0.44,
-           "time_constant_s": 0.150},
-    16.0: {"peak_output_lbf": 3.40, "peak_average_lbf": 3.20, "steady_lbf": 0.25,
-           "time_constant_s": 0.150},
-    8.0: {"peak_output_lbf": 0.95, "peak_average_lbf": 0.80, "steady_lbf": 0.08,
-          "time_constant_s": 0.300},
+    24.0: {"peak_output_lbf": 5.30, "peak_average_lbf": 3.50, "steady_lbf": 0.44, "time_constant_s": 0.150},
+    16.0: {"peak_output_lbf": 3.40, "peak_average_lbf": 3.20, "steady_lbf": 0.25, "time_constant_s": 0.150},
+    8.0: {"peak_output_lbf": 0.95, "peak_average_lbf": 0.80, "steady_lbf": 0.08, "time_constant_s": 0.300},
 }
 #: Table III, the thesis's simulation beside each experiment (= Table I baseline, 16 V, 8 V rows).
 #: Its time constant is the *speed* 63 % time, compared in the thesis with the experiments'
@@ -87,8 +84,7 @@ def _steady_rows(cases: Sequence[Case]) -> list[dict]:
     for c in cases:
         th = auv2_tunnel_thruster(**c.overrides)
         if th.effective_pitch == 0:
-            raise ValueError(f"case {c.name}: P_e = 0, the water does nothing — no information "
-                             "on α or β")
+            raise ValueError(f"case {c.name}: P_e = 0, the water does nothing — no information on α or β")
         m = th.motor
         n = m.gear_ratio
         pe = th.effective_pitch
@@ -97,21 +93,32 @@ def _steady_rows(cases: Sequence[Case]) -> list[dict]:
         wp = U.rpm(rpm)
         wm = n * wp
         cv = m.motor_viscous + m.propeller_viscous / n**2
-        net = (m.torque_constant * (c.voltage - m.back_emf_constant * wm) / m.resistance
-               - cv * wm - m.coulomb_torque)
-        rows.append({
-            "case": c.name, "voltage_V": c.voltage, "steady_rpm": rpm, "steady_lbf": f_lbf,
-            "thrust_N": U.lbf(f_lbf), "h_beta": rho_a * pe**2 * wp**2,
-            "net_torque": net, "h_alpha": 0.5 * rho_a * pe**3 * wp**2 / n,
-            # ∂(net − Δα h_α)/∂ω_m without the Δα term: back-EMF and viscous slopes
-            "dnet_dw": m.torque_constant * m.back_emf_constant / m.resistance + cv,
-            "motor_speed": wm,
-        })
+        net = (
+            m.torque_constant * (c.voltage - m.back_emf_constant * wm) / m.resistance
+            - cv * wm
+            - m.coulomb_torque
+        )
+        rows.append(
+            {
+                "case": c.name,
+                "voltage_V": c.voltage,
+                "steady_rpm": rpm,
+                "steady_lbf": f_lbf,
+                "thrust_N": U.lbf(f_lbf),
+                "h_beta": rho_a * pe**2 * wp**2,
+                "net_torque": net,
+                "h_alpha": 0.5 * rho_a * pe**3 * wp**2 / n,
+                # ∂(net − Δα h_α)/∂ω_m without the Δα term: back-EMF and viscous slopes
+                "dnet_dw": m.torque_constant * m.back_emf_constant / m.resistance + cv,
+                "motor_speed": wm,
+            }
+        )
     return rows
 
 
-def identify_corrections(cases: Sequence[str] = STEADY_CASES, method: str = "equation",
-                         emit_warnings: bool = False) -> Fit:
+def identify_corrections(
+    cases: Sequence[str] = STEADY_CASES, method: str = "equation", emit_warnings: bool = False
+) -> Fit:
     """α_o − α_i (``energy_correction``) and β_o − β_i (``momentum_correction``) with σ.
 
     ``method="equation"`` (default) — two linear least-squares problems:
@@ -143,58 +150,99 @@ def identify_corrections(cases: Sequence[str] = STEADY_CASES, method: str = "equ
     ha = np.array([r["h_alpha"] for r in rows])
     names = ["energy_correction", "momentum_correction"]
     if method == "equation":
-        fb = linear_lsq((hb / F)[:, None], np.ones(k), ["momentum_correction"],
-                        model="steady thrust", emit_warnings=emit_warnings)
+        fb = linear_lsq(
+            (hb / F)[:, None],
+            np.ones(k),
+            ["momentum_correction"],
+            model="steady thrust",
+            emit_warnings=emit_warnings,
+        )
         da = 3.0
         for _ in range(3):
-            w = 1.0 / (np.array([r["motor_speed"] for r in rows])
-                       * (np.array([r["dnet_dw"] for r in rows]) + 2 * da * ha
-                          / np.array([r["motor_speed"] for r in rows])))
-            fa = linear_lsq((ha * w)[:, None], net * w, ["energy_correction"],
-                            model="steady torque balance", emit_warnings=emit_warnings)
+            w = 1.0 / (
+                np.array([r["motor_speed"] for r in rows])
+                * (
+                    np.array([r["dnet_dw"] for r in rows])
+                    + 2 * da * ha / np.array([r["motor_speed"] for r in rows])
+                )
+            )
+            fa = linear_lsq(
+                (ha * w)[:, None],
+                net * w,
+                ["energy_correction"],
+                model="steady torque balance",
+                emit_warnings=emit_warnings,
+            )
             da = fa["energy_correction"].value
         cov = np.diag([fa.covariance[0, 0], fb.covariance[0, 0]])
         params = (fa["energy_correction"], fb["momentum_correction"])
         resid = np.concatenate([fa.residuals, fb.residuals])
-        fit = Fit("McLean 1991 Table I steady columns: linear LS (equation error)", params, cov,
-                  resid, 2 * k, max(fa.condition_number, fb.condition_number),
-                  tuple(fa.warnings) + tuple(fb.warnings),
-                  {"method": "equation",
-                   "residuals_meaning": "relative speed error (torque rows), relative thrust "
-                                        "error (thrust rows)",
-                   "sigma2_torque": fa.sigma2, "sigma2_thrust": fb.sigma2})
+        fit = Fit(
+            "McLean 1991 Table I steady columns: linear LS (equation error)",
+            params,
+            cov,
+            resid,
+            2 * k,
+            max(fa.condition_number, fb.condition_number),
+            tuple(fa.warnings) + tuple(fb.warnings),
+            {
+                "method": "equation",
+                "residuals_meaning": "relative speed error (torque rows), relative thrust "
+                "error (thrust rows)",
+                "sigma2_torque": fa.sigma2,
+                "sigma2_thrust": fb.sigma2,
+            },
+        )
     elif method == "output":
+
         def residual(x):
             out = []
             for c in cs:
-                s = auv2_tunnel_thruster(energy_correction=x[0], momentum_correction=x[1],
-                                         **c.overrides).steady_state(c.voltage)
+                s = auv2_tunnel_thruster(
+                    energy_correction=x[0], momentum_correction=x[1], **c.overrides
+                ).steady_state(c.voltage)
                 _, _, f_lbf, _, rpm = TABLE1_THESIS[c.name]
                 out += [U.to_rpm(s["prop_speed"]) / rpm - 1, U.to_lbf(s["thrust"]) / f_lbf - 1]
             return np.array(out)
 
-        fit = nonlinear_lsq(residual, [3.0, 0.185], names, bounds=([0.01, 0.001], [100.0, 10.0]), emit_warnings=emit_warnings,
-                            model="McLean 1991 Table I steady columns: output error",
-                            extra={"method": "output",
-                                   "residuals_meaning": "relative speed and thrust errors"})
+        fit = nonlinear_lsq(
+            residual,
+            [3.0, 0.185],
+            names,
+            bounds=([0.01, 0.001], [100.0, 10.0]),
+            emit_warnings=emit_warnings,
+            model="McLean 1991 Table I steady columns: output error",
+            extra={"method": "output", "residuals_meaning": "relative speed and thrust errors"},
+        )
     else:
         raise ValueError(f"method must be 'equation' or 'output', got {method!r}")
     da, db = fit["energy_correction"].value, fit["momentum_correction"].value
     out_rows = []
     for c, r in zip(cs, rows):
-        s = auv2_tunnel_thruster(energy_correction=da, momentum_correction=db,
-                                 **c.overrides).steady_state(c.voltage)
-        out_rows.append({"case": c.name, "voltage_V": c.voltage, "steady_rpm": r["steady_rpm"],
-                         "steady_lbf": r["steady_lbf"],
-                         "implied_energy_correction": r["net_torque"] / r["h_alpha"],
-                         "implied_momentum_correction": r["thrust_N"] / r["h_beta"],
-                         "model_rpm": U.to_rpm(s["prop_speed"]),
-                         "model_lbf": U.to_lbf(s["thrust"])})
+        s = auv2_tunnel_thruster(energy_correction=da, momentum_correction=db, **c.overrides).steady_state(
+            c.voltage
+        )
+        out_rows.append(
+            {
+                "case": c.name,
+                "voltage_V": c.voltage,
+                "steady_rpm": r["steady_rpm"],
+                "steady_lbf": r["steady_lbf"],
+                "implied_energy_correction": r["net_torque"] / r["h_alpha"],
+                "implied_momentum_correction": r["thrust_N"] / r["h_beta"],
+                "model_rpm": U.to_rpm(s["prop_speed"]),
+                "model_lbf": U.to_lbf(s["thrust"]),
+            }
+        )
     pe0 = auv2_tunnel_thruster(effective_pitch=0.0).steady_state(24.0)
     extra = dict(fit.extra)
-    extra.update({"rows": out_rows, "cases": list(cases),
-                  "pe0_check": {"printed_rpm": TABLE1_THESIS["Pe=0"][4],
-                                "model_rpm": U.to_rpm(pe0["prop_speed"])}})
+    extra.update(
+        {
+            "rows": out_rows,
+            "cases": list(cases),
+            "pe0_check": {"printed_rpm": TABLE1_THESIS["Pe=0"][4], "model_rpm": U.to_rpm(pe0["prop_speed"])},
+        }
+    )
     return dataclasses.replace(fit, extra=extra)
 
 
@@ -210,13 +258,17 @@ EXPERIMENT_PARAMETERS = {
     "damping_ratio": (0.16, (0.05, 0.9), "", "load-cell ζ"),
     "natural_frequency": (math.sqrt(1935.0), (20.0, 90.0), "rad/s", "load-cell ω_n"),
     "profile_factor": (1.5, (0.5, 4.0), "", "β on the unsteady torque term"),
-    "viscous_factor": (1.0, (0.0, 20.0), "",
-                       "multiplier of McLean's motor and propeller viscous friction"),
+    "viscous_factor": (1.0, (0.0, 20.0), "", "multiplier of McLean's motor and propeller viscous friction"),
 }
 #: Default free set: the friction the thesis did not model, the two corrections it tuned by hand,
 #: the added-mass coefficient it guessed and the load-cell damping it settled by trial.
-DEFAULT_FREE = ("coulomb_volts", "momentum_correction", "energy_correction",
-                "added_mass_coefficient", "damping_ratio")
+DEFAULT_FREE = (
+    "coulomb_volts",
+    "momentum_correction",
+    "energy_correction",
+    "added_mass_coefficient",
+    "damping_ratio",
+)
 
 
 def experiment_chain(values: Mapping[str, float] | None = None) -> ThrusterChain:
@@ -226,23 +278,28 @@ def experiment_chain(values: Mapping[str, float] | None = None) -> ThrusterChain
     v.update(values or {})
     unknown = set(v) - set(EXPERIMENT_PARAMETERS)
     if unknown:
-        raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: "
-                         f"{sorted(EXPERIMENT_PARAMETERS)}")
-    th = auv2_tunnel_thruster(energy_correction=v["energy_correction"],
-                              momentum_correction=v["momentum_correction"],
-                              added_mass_coefficient=v["added_mass_coefficient"])
+        raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(EXPERIMENT_PARAMETERS)}")
+    th = auv2_tunnel_thruster(
+        energy_correction=v["energy_correction"],
+        momentum_correction=v["momentum_correction"],
+        added_mass_coefficient=v["added_mass_coefficient"],
+    )
     m = th.motor
-    m = m.replace(coulomb_torque=m.torque_constant * v["coulomb_volts"] / m.resistance,
-                  motor_viscous=m.motor_viscous * v["viscous_factor"],
-                  propeller_viscous=m.propeller_viscous * v["viscous_factor"])
+    m = m.replace(
+        coulomb_torque=m.torque_constant * v["coulomb_volts"] / m.resistance,
+        motor_viscous=m.motor_viscous * v["viscous_factor"],
+        propeller_viscous=m.propeller_viscous * v["viscous_factor"],
+    )
     th = th.replace(motor=m, profile_factor=v["profile_factor"])
-    lc = mclean_load_cell().replace(natural_frequency=v["natural_frequency"],
-                                    damping_ratio=v["damping_ratio"])
+    lc = mclean_load_cell().replace(
+        natural_frequency=v["natural_frequency"], damping_ratio=v["damping_ratio"]
+    )
     return ThrusterChain((th, lc), input_kind="voltage", name="auv2-rig-identified")
 
 
-def experiment_metrics(chain: ThrusterChain, voltage: float, duration: float = RECORD_LENGTH,
-                       dt: float = 1e-3) -> dict:
+def experiment_metrics(
+    chain: ThrusterChain, voltage: float, duration: float = RECORD_LENGTH, dt: float = 1e-3
+) -> dict:
     """Table II's numbers for one voltage step on a rig chain, defined as the thesis did.
 
     Peak output = largest measured (load-cell) thrust; steady = the model's steady thrust (the
@@ -256,10 +313,15 @@ def experiment_metrics(chain: ThrusterChain, voltage: float, duration: float = R
     y = r["measured_thrust"]
     tau = time_constant_decay(r.t, y, steady=ss["thrust"])
     m = r.metrics()
-    out = {"peak_output_lbf": U.to_lbf(np.max(y)), "steady_lbf": U.to_lbf(ss["thrust"]),
-           "time_constant_s": tau, "max_true_lbf": U.to_lbf(m.max_true_thrust),
-           "steady_rpm": U.to_rpm(ss["prop_speed"]), "time_to_peak_s": m.time_to_peak,
-           "time_constant_speed_s": m.time_constant_speed}
+    out = {
+        "peak_output_lbf": U.to_lbf(np.max(y)),
+        "steady_lbf": U.to_lbf(ss["thrust"]),
+        "time_constant_s": tau,
+        "max_true_lbf": U.to_lbf(m.max_true_thrust),
+        "steady_rpm": U.to_rpm(ss["prop_speed"]),
+        "time_to_peak_s": m.time_to_peak,
+        "time_constant_speed_s": m.time_constant_speed,
+    }
     return {k: float(v) for k, v in out.items()}
 
 
@@ -270,15 +332,19 @@ def _rel(a: float, b: float) -> float:
 def thesis_mean_abs_rel_error() -> float:
     """Table III: mean |relative error| of the thesis's simulation against its experiments over
     the nine numbers (≈ 31.7 %)."""
-    errs = [_rel(THESIS_SIMULATION[v][f], EXPERIMENTS[v][f]) for v in EXPERIMENTS
-            for f in EXPERIMENT_FIELDS]
+    errs = [_rel(THESIS_SIMULATION[v][f], EXPERIMENTS[v][f]) for v in EXPERIMENTS for f in EXPERIMENT_FIELDS]
     return float(np.mean(errs))
 
 
-def fit_experiments(free: Sequence[str] = DEFAULT_FREE, x0: Mapping[str, float] | None = None,
-                    bounds: Mapping[str, tuple[float, float]] | None = None,
-                    fixed: Mapping[str, float] | None = None, tachometer: bool = True,
-                    dt: float = 1e-3, emit_warnings: bool = False) -> dict:
+def fit_experiments(
+    free: Sequence[str] = DEFAULT_FREE,
+    x0: Mapping[str, float] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    fixed: Mapping[str, float] | None = None,
+    tachometer: bool = True,
+    dt: float = 1e-3,
+    emit_warnings: bool = False,
+) -> dict:
     """Fit the tunnel-thruster model, Coulomb friction included, to Tables II/III.
 
     The rig chain (tunnel thruster → load cell) is stepped to 24, 16 and 8 V for the thesis's 2 s
@@ -297,8 +363,7 @@ def fit_experiments(free: Sequence[str] = DEFAULT_FREE, x0: Mapping[str, float] 
     free = list(free)
     unknown = [f for f in free if f not in EXPERIMENT_PARAMETERS]
     if unknown or not free:
-        raise ValueError(f"free must name parameters of {sorted(EXPERIMENT_PARAMETERS)}, got "
-                         f"{free}")
+        raise ValueError(f"free must name parameters of {sorted(EXPERIMENT_PARAMETERS)}, got {free}")
     fixed = dict(fixed or {})
     start = np.array([(x0 or {}).get(f, EXPERIMENT_PARAMETERS[f][0]) for f in free], dtype=float)
     lo = np.array([(bounds or {}).get(f, EXPERIMENT_PARAMETERS[f][1])[0] for f in free])
@@ -321,36 +386,54 @@ def fit_experiments(free: Sequence[str] = DEFAULT_FREE, x0: Mapping[str, float] 
         return np.array(r)
 
     units = [EXPERIMENT_PARAMETERS[f][2] for f in free]
-    fit = nonlinear_lsq(residual, start, free, units=units, bounds=(lo, hi), diff_step=1e-2,
-                        emit_warnings=emit_warnings,
-                        model="McLean 1991 experiments (Tables II/III): tunnel thruster + "
-                              "Coulomb friction + load cell",
-                        extra={"residuals_meaning": "relative errors of the nine Table II "
-                                                    "numbers" + (" and the 900 rpm tachometer "
-                                                                 "reading" if tachometer else "")})
+    fit = nonlinear_lsq(
+        residual,
+        start,
+        free,
+        units=units,
+        bounds=(lo, hi),
+        diff_step=1e-2,
+        emit_warnings=emit_warnings,
+        model="McLean 1991 experiments (Tables II/III): tunnel thruster + Coulomb friction + load cell",
+        extra={
+            "residuals_meaning": "relative errors of the nine Table II "
+            "numbers" + (" and the 900 rpm tachometer reading" if tachometer else "")
+        },
+    )
     est = fit.values
     pred = predict(np.array([est[f] for f in free]))
     rows, errs, t_errs = [], [], []
     for v in volts:
         exp, ours, ths = EXPERIMENTS[v], pred[v], THESIS_SIMULATION[v]
-        rel = {f: _rel(ours[f], exp[f]) if math.isfinite(ours[f]) else math.inf
-               for f in EXPERIMENT_FIELDS}
+        rel = {f: _rel(ours[f], exp[f]) if math.isfinite(ours[f]) else math.inf for f in EXPERIMENT_FIELDS}
         trel = {f: _rel(ths[f], exp[f]) for f in EXPERIMENT_FIELDS}
         errs += list(rel.values())
         t_errs += list(trel.values())
-        rows.append({"voltage_V": v, "experiment": dict(exp),
-                     "ours": {k: (None if isinstance(x, float) and not math.isfinite(x) else x)
-                              for k, x in ours.items()},
-                     "thesis_simulation": dict(ths), "rel_error": rel, "thesis_rel_error": trel})
+        rows.append(
+            {
+                "voltage_V": v,
+                "experiment": dict(exp),
+                "ours": {
+                    k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in ours.items()
+                },
+                "thesis_simulation": dict(ths),
+                "rel_error": rel,
+                "thesis_rel_error": trel,
+            }
+        )
     params = {}
     for p in fit.parameters:
-        params[p.name] = {"estimate": p.value, "sigma": p.stderr, "unit": p.unit,
-                          "percentile_error": p.percentile_error,
-                          "bounds": list(EXPERIMENT_PARAMETERS[p.name][1] if not bounds or
-                                         p.name not in bounds else bounds[p.name]),
-                          "meaning": EXPERIMENT_PARAMETERS[p.name][3]}
-    fixed_all = {k: fixed.get(k, spec[0]) for k, spec in EXPERIMENT_PARAMETERS.items()
-                 if k not in free}
+        params[p.name] = {
+            "estimate": p.value,
+            "sigma": p.stderr,
+            "unit": p.unit,
+            "percentile_error": p.percentile_error,
+            "bounds": list(
+                EXPERIMENT_PARAMETERS[p.name][1] if not bounds or p.name not in bounds else bounds[p.name]
+            ),
+            "meaning": EXPERIMENT_PARAMETERS[p.name][3],
+        }
+    fixed_all = {k: fixed.get(k, spec[0]) for k, spec in EXPERIMENT_PARAMETERS.items() if k not in free}
     rpm24 = pred[24.0]["steady_rpm"]
     return {
         "mean_abs_rel_error": float(np.mean(errs)),
@@ -358,8 +441,12 @@ def fit_experiments(free: Sequence[str] = DEFAULT_FREE, x0: Mapping[str, float] 
         "parameters": params,
         "fixed": fixed_all,
         "rows": rows,
-        "tachometer": {"measured_rpm": TACHOMETER_RPM_24V, "ours_rpm": rpm24,
-                       "rel_error": _rel(rpm24, TACHOMETER_RPM_24V), "used_in_fit": tachometer},
+        "tachometer": {
+            "measured_rpm": TACHOMETER_RPM_24V,
+            "ours_rpm": rpm24,
+            "rel_error": _rel(rpm24, TACHOMETER_RPM_24V),
+            "used_in_fit": tachometer,
+        },
         "coulomb_torque_N_m": (experiment_chain({**fixed, **est}).blocks[0].motor.coulomb_torque),
         "warnings": list(fit.warnings),
         "fit": fit.as_dict(),
@@ -370,8 +457,7 @@ def reproduce() -> dict:
     """Both identifications as one JSON-able document."""
     corr = identify_corrections()
     return {
-        "paper": "McLean 1991 — identification of the unprinted corrections and of the "
-                 "experiments",
+        "paper": "McLean 1991 — identification of the unprinted corrections and of the experiments",
         "corrections": {
             "energy_correction": corr["energy_correction"].as_dict(),
             "momentum_correction": corr["momentum_correction"].as_dict(),

@@ -60,8 +60,13 @@ K_YOERGER = 11
 K_BESSA = 12
 K_LOAD_CELL = 13
 
-_SIGNAL_CHANNEL = {COMMAND: "command", VOLTAGE: "voltage", SPEED: "prop_speed", THRUST: "thrust",
-                   MEASURED: "measured_thrust"}
+_SIGNAL_CHANNEL = {
+    COMMAND: "command",
+    VOLTAGE: "voltage",
+    SPEED: "prop_speed",
+    THRUST: "thrust",
+    MEASURED: "measured_thrust",
+}
 
 
 class ParameterError(ValueError):
@@ -165,9 +170,16 @@ class ESC(Block):
     curvature_rev: float = 0.0
 
     def __post_init__(self):
-        _finite("ESC", a_fwd=self.a_fwd, b_fwd=self.b_fwd, a_rev=self.a_rev, b_rev=self.b_rev,
-                neutral=self.neutral, deadzone_low=self.deadzone_low,
-                deadzone_high=self.deadzone_high)
+        _finite(
+            "ESC",
+            a_fwd=self.a_fwd,
+            b_fwd=self.b_fwd,
+            a_rev=self.a_rev,
+            b_rev=self.b_rev,
+            neutral=self.neutral,
+            deadzone_low=self.deadzone_low,
+            deadzone_high=self.deadzone_high,
+        )
         _positive("ESC", supply_voltage=self.supply_voltage)
         for name in ("curvature_fwd", "curvature_rev"):
             b = getattr(self, name)
@@ -176,7 +188,8 @@ class ESC(Block):
         if not self.deadzone_low <= self.neutral <= self.deadzone_high:
             raise ParameterError(
                 f"ESC dead zone [{self.deadzone_low}, {self.deadzone_high}] must contain the "
-                f"neutral command {self.neutral}")
+                f"neutral command {self.neutral}"
+            )
         if not self.saturation_low < self.deadzone_low or not self.deadzone_high < self.saturation_high:
             if not (self.saturation_low <= self.deadzone_low and self.deadzone_high <= self.saturation_high):
                 raise ParameterError("ESC saturation limits must lie outside the dead zone")
@@ -184,8 +197,15 @@ class ESC(Block):
             raise ParameterError(f"ESC.command_unit must be pwm_us, duty or volts, got {self.command_unit!r}")
 
     @classmethod
-    def from_range(cls, neutral: float, deadband: float, full_low: float, full_high: float,
-                   supply_voltage: float, command_unit: str = "pwm_us") -> ESC:
+    def from_range(
+        cls,
+        neutral: float,
+        deadband: float,
+        full_low: float,
+        full_high: float,
+        supply_voltage: float,
+        command_unit: str = "pwm_us",
+    ) -> ESC:
         """Linear ESC reaching ±``supply_voltage`` at ``full_high``/``full_low`` and saturating there.
 
         The dead zone is ``neutral ± deadband/2``; voltage rises linearly from 0 at its edge.
@@ -195,31 +215,61 @@ class ESC(Block):
             raise ParameterError("ESC.from_range: full-command points must lie outside the dead band")
         a_f = supply_voltage / (full_high - hi)
         a_r = supply_voltage / (lo - full_low)
-        return cls(a_fwd=a_f, b_fwd=-a_f * hi, a_rev=a_r, b_rev=-a_r * lo, neutral=neutral,
-                   deadzone_low=lo, deadzone_high=hi, saturation_low=full_low,
-                   saturation_high=full_high, supply_voltage=supply_voltage,
-                   command_unit=command_unit)
+        return cls(
+            a_fwd=a_f,
+            b_fwd=-a_f * hi,
+            a_rev=a_r,
+            b_rev=-a_r * lo,
+            neutral=neutral,
+            deadzone_low=lo,
+            deadzone_high=hi,
+            saturation_low=full_low,
+            saturation_high=full_high,
+            supply_voltage=supply_voltage,
+            command_unit=command_unit,
+        )
 
     def with_supply(self, supply_voltage: float) -> ESC:
         """Same duty-cycle map at another supply voltage (V = duty × supply)."""
         k = supply_voltage / self.supply_voltage
-        return replace(self, a_fwd=self.a_fwd * k, b_fwd=self.b_fwd * k, a_rev=self.a_rev * k,
-                       b_rev=self.b_rev * k, supply_voltage=supply_voltage)
+        return replace(
+            self,
+            a_fwd=self.a_fwd * k,
+            b_fwd=self.b_fwd * k,
+            a_rev=self.a_rev * k,
+            b_rev=self.b_rev * k,
+            supply_voltage=supply_voltage,
+        )
 
     def output_kind(self, input_kind):
         return VOLTAGE
 
     def params_array(self):
-        return np.array([self.a_fwd, self.b_fwd, self.a_rev, self.b_rev, self.deadzone_low,
-                         self.deadzone_high, self.saturation_low, self.saturation_high,
-                         self.supply_voltage, self.curvature_fwd, self.curvature_rev],
-                        dtype=np.float64)
+        return np.array(
+            [
+                self.a_fwd,
+                self.b_fwd,
+                self.a_rev,
+                self.b_rev,
+                self.deadzone_low,
+                self.deadzone_high,
+                self.saturation_low,
+                self.saturation_high,
+                self.supply_voltage,
+                self.curvature_fwd,
+                self.curvature_rev,
+            ],
+            dtype=np.float64,
+        )
 
     def voltage(self, command):
         """Vectorised ``V(cmd)`` (same law as the kernel)."""
         c = np.clip(np.asarray(command, dtype=float), self.saturation_low, self.saturation_high)
-        v = np.where(c > self.deadzone_high, self.a_fwd * c + self.b_fwd,
-                     np.where(c < self.deadzone_low, self.a_rev * c + self.b_rev, 0.0))
+        v = np.where(
+            c > self.deadzone_high,
+            self.a_fwd * c + self.b_fwd,
+            np.where(c < self.deadzone_low, self.a_rev * c + self.b_rev, 0.0),
+        )
         beta = np.where(c > self.deadzone_high, self.curvature_fwd, self.curvature_rev)
         v = v * (1.0 + beta * (np.abs(v) / self.supply_voltage - 1.0))
         return np.clip(v, -self.supply_voltage, self.supply_voltage)
@@ -286,12 +336,23 @@ class DCMotor(Block):
     torque_coefficient_rev: float | None = None  # K_Q for Ω_p < 0 (None: same as forward)
 
     def __post_init__(self):
-        _positive("DCMotor", torque_constant=self.torque_constant,
-                  back_emf_constant=self.back_emf_constant, resistance=self.resistance,
-                  motor_inertia=self.motor_inertia, gear_ratio=self.gear_ratio)
-        _non_negative("DCMotor", inductance=self.inductance, propeller_inertia=self.propeller_inertia,
-                      motor_viscous=self.motor_viscous, propeller_viscous=self.propeller_viscous,
-                      coulomb_torque=self.coulomb_torque, torque_coefficient=self.torque_coefficient)
+        _positive(
+            "DCMotor",
+            torque_constant=self.torque_constant,
+            back_emf_constant=self.back_emf_constant,
+            resistance=self.resistance,
+            motor_inertia=self.motor_inertia,
+            gear_ratio=self.gear_ratio,
+        )
+        _non_negative(
+            "DCMotor",
+            inductance=self.inductance,
+            propeller_inertia=self.propeller_inertia,
+            motor_viscous=self.motor_viscous,
+            propeller_viscous=self.propeller_viscous,
+            coulomb_torque=self.coulomb_torque,
+            torque_coefficient=self.torque_coefficient,
+        )
         if self.torque_coefficient_rev is not None:
             _non_negative("DCMotor", torque_coefficient_rev=self.torque_coefficient_rev)
 
@@ -306,12 +367,23 @@ class DCMotor(Block):
         return ("motor_speed", "torque", "current")
 
     def motor_params(self) -> list[float]:
-        return [self.torque_constant, self.back_emf_constant, self.resistance, self.inductance,
-                self.motor_inertia, self.propeller_inertia, self.motor_viscous,
-                self.propeller_viscous, self.coulomb_torque, self.gear_ratio]
+        return [
+            self.torque_constant,
+            self.back_emf_constant,
+            self.resistance,
+            self.inductance,
+            self.motor_inertia,
+            self.propeller_inertia,
+            self.motor_viscous,
+            self.propeller_viscous,
+            self.coulomb_torque,
+            self.gear_ratio,
+        ]
 
     def params_array(self):
-        kq_rev = self.torque_coefficient if self.torque_coefficient_rev is None else self.torque_coefficient_rev
+        kq_rev = (
+            self.torque_coefficient if self.torque_coefficient_rev is None else self.torque_coefficient_rev
+        )
         return np.array(self.motor_params() + [self.torque_coefficient, kq_rev], dtype=np.float64)
 
     @property
@@ -356,17 +428,30 @@ class TunnelThruster(Block):
         if not isinstance(self.motor, DCMotor):
             raise ParameterError("TunnelThruster.motor must be a DCMotor")
         if self.motor.torque_coefficient != 0.0 or self.motor.torque_coefficient_rev:
-            raise ParameterError("TunnelThruster.motor.torque_coefficient must be 0: the tunnel "
-                                 "model supplies the propeller torque")
-        _positive("TunnelThruster", water_density=self.water_density,
-                  tunnel_area=self.tunnel_area, tunnel_length=self.tunnel_length)
-        _non_negative("TunnelThruster", added_mass_coefficient=self.added_mass_coefficient,
-                      propeller_efficiency=self.propeller_efficiency, pitch=self.pitch,
-                      profile_factor=self.profile_factor, energy_correction=self.energy_correction,
-                      momentum_correction=self.momentum_correction)
+            raise ParameterError(
+                "TunnelThruster.motor.torque_coefficient must be 0: the tunnel "
+                "model supplies the propeller torque"
+            )
+        _positive(
+            "TunnelThruster",
+            water_density=self.water_density,
+            tunnel_area=self.tunnel_area,
+            tunnel_length=self.tunnel_length,
+        )
+        _non_negative(
+            "TunnelThruster",
+            added_mass_coefficient=self.added_mass_coefficient,
+            propeller_efficiency=self.propeller_efficiency,
+            pitch=self.pitch,
+            profile_factor=self.profile_factor,
+            energy_correction=self.energy_correction,
+            momentum_correction=self.momentum_correction,
+        )
         if self.propeller_efficiency > 1.0:
-            raise ParameterError(f"TunnelThruster.propeller_efficiency must be <= 1, got "
-                                 f"{self.propeller_efficiency}", "propeller_efficiency")
+            raise ParameterError(
+                f"TunnelThruster.propeller_efficiency must be <= 1, got {self.propeller_efficiency}",
+                "propeller_efficiency",
+            )
 
     @property
     def effective_pitch(self) -> float:
@@ -376,8 +461,9 @@ class TunnelThruster(Block):
     @property
     def fluid_mass(self) -> float:
         """``ρ A L (1 + K_a)``, kg — the water the propeller accelerates."""
-        return (self.water_density * self.tunnel_area * self.tunnel_length
-                * (1.0 + self.added_mass_coefficient))
+        return (
+            self.water_density * self.tunnel_area * self.tunnel_length * (1.0 + self.added_mass_coefficient)
+        )
 
     @property
     def n_states(self) -> int:
@@ -390,10 +476,20 @@ class TunnelThruster(Block):
         return ("motor_speed", "prop_speed", "torque", "current")
 
     def params_array(self):
-        return np.array(self.motor.motor_params() + [
-            self.water_density, self.tunnel_area, self.tunnel_length, self.added_mass_coefficient,
-            self.effective_pitch, self.profile_factor, self.energy_correction,
-            self.momentum_correction], dtype=np.float64)
+        return np.array(
+            self.motor.motor_params()
+            + [
+                self.water_density,
+                self.tunnel_area,
+                self.tunnel_length,
+                self.added_mass_coefficient,
+                self.effective_pitch,
+                self.profile_factor,
+                self.energy_correction,
+                self.momentum_correction,
+            ],
+            dtype=np.float64,
+        )
 
     def steady_state(self, voltage: float) -> dict:
         """Steady speed and thrust at a constant voltage (algebraic solution of the ODE)."""
@@ -441,8 +537,13 @@ class QuadraticMap(Block):
             object.__setattr__(self, "k_neg", self.k_pos)
         if self.torque_neg is None:
             object.__setattr__(self, "torque_neg", self.torque_pos)
-        _non_negative("QuadraticMap", k_pos=self.k_pos, k_neg=self.k_neg,
-                      torque_pos=self.torque_pos, torque_neg=self.torque_neg)
+        _non_negative(
+            "QuadraticMap",
+            k_pos=self.k_pos,
+            k_neg=self.k_neg,
+            torque_pos=self.torque_pos,
+            torque_neg=self.torque_neg,
+        )
 
     @classmethod
     def basic(cls, rotor_constant: float) -> QuadraticMap:
@@ -482,22 +583,23 @@ class PolynomialMap(Block):
         for name in ("forward", "reverse"):
             c = tuple(float(v) for v in getattr(self, name))
             if len(c) == 0 or not all(math.isfinite(v) for v in c):
-                raise ParameterError(f"PolynomialMap.{name} needs at least one finite coefficient",
-                                     name)
+                raise ParameterError(f"PolynomialMap.{name} needs at least one finite coefficient", name)
             object.__setattr__(self, name, c)
 
     def output_kind(self, input_kind):
         return THRUST
 
     def params_array(self):
-        return np.array([len(self.forward), len(self.reverse), *self.forward, *self.reverse],
-                        dtype=np.float64)
+        return np.array(
+            [len(self.forward), len(self.reverse), *self.forward, *self.reverse], dtype=np.float64
+        )
 
     def thrust(self, x):
         x = np.asarray(x, dtype=float)
         ax = np.abs(x)
-        return np.where(x > 0, np.polyval(self.forward, ax),
-                        np.where(x < 0, -np.polyval(self.reverse, ax), 0.0))
+        return np.where(
+            x > 0, np.polyval(self.forward, ax), np.where(x < 0, -np.polyval(self.reverse, ax), 0.0)
+        )
 
 
 @dataclass(frozen=True)
@@ -518,25 +620,31 @@ class DeadZoneMap(Block):
     delta_r: float = 0.0
 
     def __post_init__(self):
-        _non_negative("DeadZoneMap", rotor_constant_l=self.rotor_constant_l,
-                      rotor_constant_r=self.rotor_constant_r)
+        _non_negative(
+            "DeadZoneMap", rotor_constant_l=self.rotor_constant_l, rotor_constant_r=self.rotor_constant_r
+        )
         _finite("DeadZoneMap", delta_l=self.delta_l, delta_r=self.delta_r)
         if self.delta_l > self.delta_r:
-            raise ParameterError(f"DeadZoneMap.delta_l ({self.delta_l}) must be <= delta_r "
-                                 f"({self.delta_r})", "delta_l")
+            raise ParameterError(
+                f"DeadZoneMap.delta_l ({self.delta_l}) must be <= delta_r ({self.delta_r})", "delta_l"
+            )
 
     def output_kind(self, input_kind):
         return THRUST
 
     def params_array(self):
-        return np.array([self.rotor_constant_l, self.rotor_constant_r, self.delta_l, self.delta_r],
-                        dtype=np.float64)
+        return np.array(
+            [self.rotor_constant_l, self.rotor_constant_r, self.delta_l, self.delta_r], dtype=np.float64
+        )
 
     def thrust(self, x):
         x = np.asarray(x, dtype=float)
         xx = x * np.abs(x)
-        return np.where(xx <= self.delta_l, self.rotor_constant_l * (xx - self.delta_l),
-                        np.where(xx >= self.delta_r, self.rotor_constant_r * (xx - self.delta_r), 0.0))
+        return np.where(
+            xx <= self.delta_l,
+            self.rotor_constant_l * (xx - self.delta_l),
+            np.where(xx >= self.delta_r, self.rotor_constant_r * (xx - self.delta_r), 0.0),
+        )
 
 
 @dataclass(frozen=True)
@@ -554,17 +662,20 @@ class TableMap(Block):
         xi = tuple(float(v) for v in self.input_values)
         yi = tuple(float(v) for v in self.output_values)
         if len(xi) != len(yi):
-            raise ParameterError(f"TableMap: input_values has {len(xi)} entries but output_values "
-                                 f"has {len(yi)}")
+            raise ParameterError(
+                f"TableMap: input_values has {len(xi)} entries but output_values has {len(yi)}"
+            )
         if len(xi) < 2:
             raise ParameterError("TableMap needs at least two points")
         if not all(math.isfinite(v) for v in xi + yi):
             raise ParameterError("TableMap values must be finite")
         for k in range(1, len(xi)):
             if not xi[k] > xi[k - 1]:
-                    raise ParameterError(f"TableMap.input_values must be strictly increasing; entry {k} "
-                                     f"({xi[k]}) is not greater than entry {k - 1} ({xi[k - 1]})",
-                                     "input_values")
+                raise ParameterError(
+                    f"TableMap.input_values must be strictly increasing; entry {k} "
+                    f"({xi[k]}) is not greater than entry {k - 1} ({xi[k - 1]})",
+                    "input_values",
+                )
         object.__setattr__(self, "input_values", xi)
         object.__setattr__(self, "output_values", yi)
 
@@ -572,8 +683,7 @@ class TableMap(Block):
         return THRUST
 
     def params_array(self):
-        return np.array([len(self.input_values), *self.input_values, *self.output_values],
-                        dtype=np.float64)
+        return np.array([len(self.input_values), *self.input_values, *self.output_values], dtype=np.float64)
 
     def thrust(self, x):
         return np.interp(np.asarray(x, dtype=float), self.input_values, self.output_values)
@@ -694,8 +804,7 @@ class LoadCell(Block):
     damping_ratio: float = 14.1 / (2.0 * math.sqrt(1935.0))  # ζ
 
     def __post_init__(self):
-        _positive("LoadCell", natural_frequency=self.natural_frequency,
-                  damping_ratio=self.damping_ratio)
+        _positive("LoadCell", natural_frequency=self.natural_frequency, damping_ratio=self.damping_ratio)
 
     @classmethod
     def from_polynomial(cls, a1: float, a0: float) -> LoadCell:
@@ -712,10 +821,30 @@ class LoadCell(Block):
 
 BLOCK_TYPES: dict[str, type[Block]] = {
     cls.TYPE: cls
-    for cls in (ESC, FirstOrderMotor, DCMotor, TunnelThruster, QuadraticMap, PolynomialMap,
-                DeadZoneMap, TableMap, ZeroOrder, FirstOrder, Yoerger, BessaDynamics, LoadCell)
+    for cls in (
+        ESC,
+        FirstOrderMotor,
+        DCMotor,
+        TunnelThruster,
+        QuadraticMap,
+        PolynomialMap,
+        DeadZoneMap,
+        TableMap,
+        ZeroOrder,
+        FirstOrder,
+        Yoerger,
+        BessaDynamics,
+        LoadCell,
+    )
 }
 # Names users know from UUV Simulator, accepted in model files.
-BLOCK_ALIASES = {"Basic": "quadratic", "LinearInterp": "table", "ZeroOrder": "zero_order",
-                 "FirstOrder": "first_order", "Yoerger": "yoerger", "Bessa": "bessa",
-                 "cv": "quadratic", "mclean": "tunnel_thruster"}
+BLOCK_ALIASES = {
+    "Basic": "quadratic",
+    "LinearInterp": "table",
+    "ZeroOrder": "zero_order",
+    "FirstOrder": "first_order",
+    "Yoerger": "yoerger",
+    "Bessa": "bessa",
+    "cv": "quadratic",
+    "mclean": "tunnel_thruster",
+}
