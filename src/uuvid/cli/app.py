@@ -381,7 +381,10 @@ def thruster_predict(
     start = kinds.index(want)
     sub = ThrusterChain(tuple(blocks[start:]), input_kind=want, name=chain.name)
     thrust = sub.steady_thrust(x)
-    doc = {key: x.tolist(), "thrust_N": thrust.tolist(), "model": chain.name}
+    # the output is named after what the chain produces (a speed-output model gives speeds)
+    out_key = {"thrust": "thrust_N", "measured_thrust": "measured_thrust_N", "speed": "speed_rad_s",
+               "voltage": "voltage_V"}.get(sub.output_kind, sub.output_kind)
+    doc = {key: x.tolist(), out_key: thrust.tolist(), "model": chain.name}
     if supply_voltage is not None:
         doc["supply_voltage_V"] = supply_voltage
     if json_out:
@@ -389,9 +392,9 @@ def thruster_predict(
     else:
         out_console.print(
             _table(
-                f"{chain.name}: steady thrust",
-                [{key: float(a), "thrust_N": float(b)} for a, b in zip(x, thrust)],
-                [key, "thrust_N"],
+                f"{chain.name}: steady {sub.output_kind}",
+                [{key: float(a), out_key: float(b)} for a, b in zip(x, thrust)],
+                [key, out_key],
                 "{:.4g}",
             )
         )
