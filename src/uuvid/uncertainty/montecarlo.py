@@ -71,6 +71,7 @@ from uuvid.uncertainty.targets import (
     ThrusterStepTarget,
     VehicleMissionTarget,
     VelocityResponse,
+    default_chunk_size,
     plan_for,
     resolve_paths,
 )
@@ -394,13 +395,8 @@ class MonteCarloStudy:
                                      f"gives {', '.join(plan.metric_names)}")
 
     def default_chunk_size(self, backend: str, workers: int) -> int:
-        if self.spec.chunk_size:
-            return self.spec.chunk_size
-        vehicle = self.spec.target.kind == "vehicle_mission"
-        cap = 512 if vehicle else 2500
-        if backend == "inprocess":
-            return max(1, min(cap, self.n_runs))
-        return int(min(cap, max(4 if vehicle else 16, math.ceil(self.n_runs / (4 * workers)))))
+        return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
+                                  workers)
 
     def parameter_table(self, start: int, stop: int) -> pd.DataFrame:
         runs = np.arange(start, stop)

@@ -39,7 +39,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from uuvid.uncertainty import params as PR
-from uuvid.uncertainty.targets import Target, metric_label, plan_for, resolve_paths
+from uuvid.uncertainty.targets import Target, default_chunk_size, metric_label, plan_for, resolve_paths
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 DATA = Path(__file__).resolve().parent / "data"
@@ -284,13 +284,8 @@ class SweepStudy:
                                         f"{self.spec.requirement.metric!r}")
 
     def default_chunk_size(self, backend: str, workers: int) -> int:
-        if self.spec.chunk_size:
-            return self.spec.chunk_size
-        vehicle = self.spec.target.kind == "vehicle_mission"
-        cap = 512 if vehicle else 2500
-        if backend == "inprocess":
-            return max(1, min(cap, self.n_runs))
-        return int(min(cap, max(4 if vehicle else 16, math.ceil(self.n_runs / (4 * workers)))))
+        return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
+                                  workers)
 
     # ----------------------------------------------------------------- parameters of runs
     def parameter_table(self, start: int, stop: int) -> pd.DataFrame:

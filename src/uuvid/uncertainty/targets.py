@@ -573,3 +573,16 @@ def series_axes(plan) -> dict[str, np.ndarray]:
 def nan_safe(x) -> float | None:
     x = float(x)
     return x if math.isfinite(x) else None
+
+
+def default_chunk_size(n_runs: int, chunk_size: int | None, target_kind: str, backend: str,
+                       workers: int) -> int:
+    """Runs per task: the whole study in-process (capped), else about four chunks per worker
+    (vehicle missions in smaller chunks: each run is heavier)."""
+    if chunk_size:
+        return chunk_size
+    vehicle = target_kind == "vehicle_mission"
+    cap = 512 if vehicle else 2500
+    if backend == "inprocess":
+        return max(1, min(cap, n_runs))
+    return int(min(cap, max(4 if vehicle else 16, math.ceil(n_runs / (4 * workers)))))
