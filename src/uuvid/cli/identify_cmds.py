@@ -1568,8 +1568,10 @@ def design_input(
     out: Path | None = typer.Option(None, "--out", help="Command time series to write (.csv)."),
     json_out: bool = typer.Option(False, "--json", help="Print the design as one JSON document."),
 ):
-    """Sine experiment for the inertia: τ_c range, D-optimal ω (verified from the Fisher
-    information), offset/amplitude without thrust reversal, length, and a command file."""
+    """Design the sine experiment for the inertia (D-optimal frequency, levels, length, command file).
+
+    Reports the τ_c range, the D-optimal ω verified from the Fisher information, the offset and
+    amplitude that avoid thrust reversal, and the experiment length."""
     from uuvid.identify.design import SQRT3, design_sine_experiment
     from uuvid.io.atomic import atomic_write_text
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-vehicle_app = typer.Typer(no_args_is_help=True, help="Vehicles: info, allocation, envelope.")
+vehicle_app = typer.Typer(no_args_is_help=True, help="Vehicles: info, speed envelope, identification from logs, input design.")
 
 
 def _helpers():
@@ -145,8 +145,10 @@ def vehicle_envelope(
     confirm: bool = typer.Option(True, "--confirm/--no-confirm", help="Confirm each speed by simulation."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
 ):
-    """Maximum steady speed per DOF from drag and thruster limits (Laidani et al. Table 4 kind),
-    computed analytically and confirmed by simulating the vehicle at full allocated force."""
+    """Maximum steady speed per DOF, analytic and confirmed by simulation (Laidani Table 4 kind).
+
+    The analytic speed balances drag against the largest allocated force along the DOF; the
+    simulation holds that force on the full 6-DOF model (closed loop for surge and sway)."""
     from uuvid.simulate.envelope_check import confirm_envelope
     from uuvid.vehicle.envelope import speed_envelope
 
