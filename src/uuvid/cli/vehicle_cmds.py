@@ -6,7 +6,10 @@ from pathlib import Path
 
 import typer
 
-vehicle_app = typer.Typer(no_args_is_help=True, help="Vehicles: info, speed envelope, identification from logs, input design.")
+vehicle_app = typer.Typer(
+    no_args_is_help=True,
+    help="Vehicles: info, speed envelope, identification from logs, input design.",
+)
 
 
 def _helpers():
