@@ -4,13 +4,20 @@ Everything inside is SI (N, m, s, rad, V, A, kg).  Papers that print other units
 the edge in :mod:`uuvid.units`.
 
 Domains:
-    thruster   blocks of a thruster (ESC, motors, propeller maps, dynamics, McLean tunnel, rig)
-    simulate   input signals, compiled chain integration, response metrics
-    identify   estimation with statistics (later issues)
-    io         model files (YAML/TOML), atomic writes, bench data
-    report     plots and self-contained HTML reports
-    papers     reproductions of the papers' tables, as clients of the public API
-    cli        the ``uuvid`` command
+    thruster     blocks of a thruster (ESC, motors, propeller maps, dynamics, McLean tunnel, rig),
+                 chains, presets, load matching
+    vehicle      6-DOF and 1-DOF models, thruster layouts, allocation and mapping modes, vehicle
+                 files and presets, speed envelope
+    simulate     signals, compiled chain and mission loops, batch runners, DP control, missions,
+                 response metrics
+    identify     estimation with statistics: thruster (steady, physical, dynamic, rig) and vehicle
+                 (segments, drag and installation coefficients, inertia, input design)
+    uncertainty  sweeps, Monte Carlo, bootstrap, execution in-process / processes / Dask
+    io           model files (YAML/TOML), bench data, logs (CSV/Parquet, ROS bags, ArduSub),
+                 export to UUV Simulator, atomic writes
+    report       plots and self-contained HTML reports, progress bars
+    papers       reproductions of the papers' tables and studies, as clients of the public API
+    cli          the ``uuvid`` command
 """
 
 __version__ = "0.1.0"
