@@ -686,6 +686,9 @@ def summary(outcome: FitOutcome, out: Path, report: Path | None) -> dict:
            "rmse": outcome.rmse, "rmse_unit": outcome.rmse_unit,
            "warnings": list(outcome.warnings), "chain": outcome.chain.name,
            "signals": list(outcome.chain.signal_kinds)}
+    if len(outcome.fits) == 1:  # one estimator: its covariance, in the order of "parameters"
+        (fit,) = outcome.fits.values()
+        doc["covariance"] = np.asarray(fit.covariance, dtype=float).tolist()
     for k, v in outcome.summary_extra.items():
         if v is not None:
             doc[k] = v
