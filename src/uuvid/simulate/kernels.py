@@ -426,3 +426,22 @@ def sweep_chain(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt
             finals[r, i] = C[nsamp - 1, i]
         for i in range(nx):
             XF[r, i] = X[nsamp - 1, i]
+
+
+@njit(cache=True, parallel=True)
+def relative_rates(kinds, poff, params, soff, outch, in_ch, X, u, floor, out):
+    """``max_i |ẋ_i| / (|x_i| + floor)`` at each row of ``X`` under input ``u[row]`` (how fast a
+    swept level is still moving, relative to where it is)."""
+    n = X.shape[0]
+    nx = X.shape[1]
+    for r in prange(n):
+        dx = np.zeros(nx)
+        ch = np.empty(N_CHANNELS)
+        blk = np.empty(max(kinds.size, 1))
+        eval_chain(kinds, poff, params, soff, outch, in_ch, X[r], u[r], dx, ch, blk)
+        m = 0.0
+        for i in range(nx):
+            v = abs(dx[i]) / (abs(X[r, i]) + floor)
+            if v > m:
+                m = v
+        out[r] = m

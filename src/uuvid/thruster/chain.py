@@ -189,7 +189,17 @@ class ThrusterChain:
             X[todo] = xf
             y = f[:, out_ch]
             if prev is None:
-                prev = y
+                # levels whose state no longer moves (relative rate × pass length below rtol) are
+                # at rest already; only the others need a second pass to confirm it
+                rates = np.empty(todo.size)
+                floor = 1e-12 * max(float(np.max(np.abs(xf))), 1e-300) if xf.size else 1.0
+                kernels.relative_rates(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
+                                       np.ascontiguousarray(xf), np.ascontiguousarray(u[todo]),
+                                       floor, rates)
+                moving = rates * settle > rtol
+                todo, prev = todo[moving], y[moving]
+                if todo.size == 0:
+                    break
                 continue
             scale = max(float(np.nanmax(np.abs(finals[:, out_ch]))), 1e-300)
             change = np.abs(y - prev)
