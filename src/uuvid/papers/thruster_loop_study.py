@@ -61,8 +61,19 @@ def _step_mission(kind: str) -> WaypointMission:
         wps = ((0.0, 0.0, 2.0, 0.0), (0.0, 0.0, 2.0, math.radians(20.0)))
     else:
         wps = ((0.0, 0.0, 2.0, 0.0), (0.0, 0.0, 2.5, 0.0))
-    return WaypointMission(wps, speed=0.5, vertical_speed=1.0, yaw_rate=2.0, ramp_time=0.0, hold=45.0,
+    return WaypointMission(wps, speed=0.5, vertical_speed=1.0, yaw_rate=2.0, ramp_time=0.0, hold=60.0,
                            name=f"{kind} step")
+
+
+def _sustained_oscillation(y: np.ndarray, threshold: float) -> bool:
+    """A limit cycle, not a slow tail: peak-to-peak above ``threshold``, the signal keeps crossing
+    its mean (≥ 4 times) and its swing in the second half is at least half that of the first."""
+    if np.ptp(y) <= threshold:
+        return False
+    d = y - np.mean(y)
+    crossings = int(np.sum(np.signbit(d[1:]) != np.signbit(d[:-1])))
+    half = y.size // 2
+    return crossings >= 4 and np.ptp(y[half:]) >= 0.5 * np.ptp(y[:half])
 
 
 def run_case(vehicle, chain, kind: str, bandwidth: float, dt: float = 0.01, substeps: int = 2) -> dict:
@@ -85,7 +96,7 @@ def run_case(vehicle, chain, kind: str, bandwidth: float, dt: float = 0.01, subs
     p2p = float(np.ptp(sig[tail]))
     overshoot = float(np.max(sig) - target)
     return {"kind": kind, "model": chain.name, "bandwidth": bandwidth, "residual_p2p": p2p,
-            "limit_cycle": p2p > threshold or not np.all(np.isfinite(sig)),
+            "limit_cycle": (not np.all(np.isfinite(sig))) or _sustained_oscillation(sig[tail], threshold),
             "overshoot": overshoot, "final_error": float(sig[-1] - target),
             "max_thrust_N": float(np.max(np.abs(r.thrust)))}
 
