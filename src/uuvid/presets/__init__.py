@@ -1,1 +1,0 @@
-"""uuvid.presets"""
