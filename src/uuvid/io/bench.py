@@ -272,16 +272,22 @@ def _read_csv(path: Path) -> _Table:
             raise BenchDataError(f"{path.name}: not a readable CSV file: {e}") from e
     if header is None:
         raise BenchDataError(f"{path.name}: the file is empty (no header line)")
+    return _table_from_rows(path.name, header, rows, lines, BenchDataError)
+
+
+def _table_from_rows(name: str, header: list[str], rows: list[list[str]], lines: list[int],
+                     error: type[ValueError], hint: str = "") -> _Table:
+    """Check a parsed CSV (unique column names, one cell per column on every line) → table."""
     dup = sorted({c for c in header if header.count(c) > 1})
     if dup:
-        raise BenchDataError(f"{path.name}: column name(s) {', '.join(map(repr, dup))} appear more "
-                             "than once in the header")
+        raise error(f"{name}: column name(s) {', '.join(map(repr, dup))} appear more than once in "
+                    "the header")
     for r, ln in zip(rows, lines):
         if len(r) != len(header):
-            raise BenchDataError(f"{path.name}: CSV line {ln} has {len(r)} cells but the header "
-                                 f"has {len(header)} columns")
+            raise error(f"{name}: CSV line {ln} has {len(r)} cells but the header has "
+                        f"{len(header)} columns{hint}")
     cells = {c: [r[j] for r in rows] for j, c in enumerate(header)}
-    return _Table(path.name, header, cells, lines, "CSV")
+    return _Table(name, header, cells, lines, "CSV")
 
 
 def _read_parquet(path: Path) -> _Table:

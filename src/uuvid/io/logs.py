@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid import units as U
-from uuvid.io.bench import _norm
+from uuvid.io.bench import _norm, _table_from_rows
 from uuvid.io.bench import _Table as _BenchTable
 from uuvid.simulate.response import TimeResponse
 
@@ -351,16 +351,8 @@ def _read_csv(path: Path, delimiter: str | None, comment: str | None) -> _Table:
             rowlines.append(lineno)
     except csv.Error as e:
         raise LogDataError(f"{path.name}: not a readable CSV file: {e}") from e
-    dup = sorted({c for c in header if header.count(c) > 1})
-    if dup:
-        raise LogDataError(f"{path.name}: column name(s) {', '.join(map(repr, dup))} appear more "
-                           "than once in the header")
-    for r, ln in zip(rows, rowlines):
-        if len(r) != len(header):
-            raise LogDataError(f"{path.name}: CSV line {ln} has {len(r)} cells but the header has "
-                               f"{len(header)} columns (delimiter {delim!r})")
-    cells = {c: [r[j] for r in rows] for j, c in enumerate(header)}
-    return _Table(path.name, header, cells, rowlines, "CSV")
+    return _table_from_rows(path.name, header, rows, rowlines, LogDataError,
+                            f" (delimiter {delim!r})")
 
 
 def _read_parquet(path: Path) -> _Table:
