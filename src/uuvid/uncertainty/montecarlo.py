@@ -66,13 +66,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from uuvid.uncertainty.sweep import Requirement
 from uuvid.uncertainty.targets import (
     REJECTED,
+    StudyBase,
     Target,
     ThrusterSteadyTarget,
     ThrusterStepTarget,
     VehicleMissionTarget,
     VelocityResponse,
-    default_chunk_size,
-    plan_for,
     resolve_paths,
 )
 
@@ -356,7 +355,7 @@ class MonteCarloSpec(BaseModel):
     retries: int = Field(2, ge=0, le=100)
 
 
-class MonteCarloStudy:
+class MonteCarloStudy(StudyBase):
     """A Monte Carlo as a study for :func:`uuvid.uncertainty.execute.run_study`."""
 
     kind = "montecarlo"
@@ -376,14 +375,8 @@ class MonteCarloStudy:
     def from_payload(cls, payload: dict) -> MonteCarloStudy:
         return cls(MonteCarloSpec.model_validate(payload["spec"]))
 
-    def payload(self) -> dict:
-        return {"kind": "montecarlo", "spec": self.spec.model_dump(mode="json")}
-
-    @property
-    def plan(self):
-        if self._plan is None:
-            self._plan = plan_for(self.spec.target, self.spec.model.names)
-        return self._plan
+    def parameter_names(self) -> list[str]:
+        return list(self.spec.model.names)
 
     def check(self) -> None:
         plan = self.plan
@@ -394,9 +387,6 @@ class MonteCarloStudy:
             raise ParameterNameError(f"requirement: unknown metric {req.metric!r}; the target "
                                      f"gives {', '.join(plan.metric_names)}")
 
-    def default_chunk_size(self, backend: str, workers: int) -> int:
-        return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
-                                  workers)
 
     def parameter_table(self, start: int, stop: int) -> pd.DataFrame:
         runs = np.arange(start, stop)

@@ -39,7 +39,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from uuvid.uncertainty import params as PR
-from uuvid.uncertainty.targets import Target, default_chunk_size, metric_label, plan_for, resolve_paths
+from uuvid.uncertainty.targets import StudyBase, Target, metric_label, resolve_paths
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 DATA = Path(__file__).resolve().parent / "data"
@@ -246,7 +246,7 @@ def load_sweep(path_or_name: str | Path) -> SweepSpec:
 # ---------------------------------------------------------------------------------------------
 # the study
 # ---------------------------------------------------------------------------------------------
-class SweepStudy:
+class SweepStudy(StudyBase):
     """A sweep as a study for :func:`uuvid.uncertainty.execute.run_study`."""
 
     kind = "sweep"
@@ -263,14 +263,8 @@ class SweepStudy:
     def from_payload(cls, payload: dict) -> SweepStudy:
         return cls(SweepSpec.model_validate(payload["spec"]))
 
-    def payload(self) -> dict:
-        return {"kind": "sweep", "spec": self.spec.model_dump(mode="json")}
-
-    @property
-    def plan(self):
-        if self._plan is None:
-            self._plan = plan_for(self.spec.target, self.spec.names)
-        return self._plan
+    def parameter_names(self) -> list[str]:
+        return list(self.spec.names)
 
     def check(self) -> None:
         """Build the plan once (raises on unknown parameter or metric names)."""
@@ -283,9 +277,6 @@ class SweepStudy:
             raise PR.ParameterNameError(f"requirement: unknown metric "
                                         f"{self.spec.requirement.metric!r}")
 
-    def default_chunk_size(self, backend: str, workers: int) -> int:
-        return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
-                                  workers)
 
     # ----------------------------------------------------------------- parameters of runs
     def parameter_table(self, start: int, stop: int) -> pd.DataFrame:

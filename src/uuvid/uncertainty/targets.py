@@ -575,6 +575,30 @@ def nan_safe(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+class StudyBase:
+    """What every study (sweep, Monte Carlo) shares for :func:`uuvid.uncertainty.execute.run_study`:
+    a serialisable payload, a lazily built plan over its parameter names, the chunk-size rule.
+    Subclasses set ``kind`` and ``spec`` and say which names they vary (``parameter_names``)."""
+
+    kind = ""
+
+    def payload(self) -> dict:
+        return {"kind": self.kind, "spec": self.spec.model_dump(mode="json")}
+
+    def parameter_names(self) -> list[str]:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    @property
+    def plan(self):
+        if getattr(self, "_plan", None) is None:
+            self._plan = plan_for(self.spec.target, self.parameter_names())
+        return self._plan
+
+    def default_chunk_size(self, backend: str, workers: int) -> int:
+        return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
+                                  workers)
+
+
 def default_chunk_size(n_runs: int, chunk_size: int | None, target_kind: str, backend: str,
                        workers: int) -> int:
     """Runs per task: the whole study in-process (capped), else about four chunks per worker
