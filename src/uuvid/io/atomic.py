@@ -140,10 +140,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     """Atomically write *data* to *path*; returns the path."""
     target = Path(os.fspath(path))
-    with atomic_path(target) as tmp, open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
+    with atomic_path(target) as tmp:  # fsyncs the file before the rename
+        tmp.write_bytes(data)
     return target
 
 
@@ -160,9 +158,7 @@ def atomic_write_text(
     """
     target = Path(os.fspath(path))
     with atomic_path(target) as tmp, open(tmp, "w", encoding=encoding, newline=newline) as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
+        fh.write(text)  # atomic_path fsyncs the file before the rename
     return target
 
 
