@@ -27,19 +27,41 @@ app.add_typer(reproduce_app, name="reproduce")
 app.add_typer(thruster_app, name="thruster")
 
 
-def _register_subcommands() -> None:
-    from uuvid.cli.fit_cmd import register as register_fit
-    from uuvid.cli.vehicle_cmds import simulate, vehicle_app
+def _register_subcommands(command: str | None = None) -> None:
+    """Add the commands that live in other modules: all of them, or only those the top-level
+    ``command`` needs (the console entry point names it, so ``uuvid simulate`` does not import the
+    identification code).  Idempotent."""
+    want = {"simulate": ("vehicle",), "vehicle": ("vehicle", "identify"), "thruster": ("fit",),
+            "reproduce": ("identify",), "sweep": ("uncertainty",), "montecarlo": ("uncertainty",),
+            }.get(command, ("vehicle", "identify", "fit", "uncertainty") if command is None
+                  or command not in _LOCAL_COMMANDS else ())
+    for part in want:
+        if part in _REGISTERED:
+            continue
+        _REGISTERED.add(part)
+        if part == "vehicle":
+            from uuvid.cli.vehicle_cmds import simulate, vehicle_app
 
-    app.command("simulate")(simulate)
-    app.add_typer(vehicle_app, name="vehicle")
-    register_fit(thruster_app)
-    from uuvid.cli.identify_cmds import register as register_identify
+            _app.command("simulate")(simulate)
+            _app.add_typer(vehicle_app, name="vehicle")
+        elif part == "identify":
+            from uuvid.cli.identify_cmds import register as register_identify
+            from uuvid.cli.vehicle_cmds import vehicle_app
 
-    register_identify(vehicle_app, reproduce_app)
-    from uuvid.cli.uncertainty_cmds import register as register_uncertainty
+            _register_subcommands("simulate")  # the vehicle group first
+            register_identify(vehicle_app, reproduce_app)
+        elif part == "fit":
+            from uuvid.cli.fit_cmd import register as register_fit
 
-    register_uncertainty(app)
+            register_fit(thruster_app)
+        else:
+            from uuvid.cli.uncertainty_cmds import register as register_uncertainty
+
+            register_uncertainty(_app)
+
+
+_REGISTERED: set[str] = set()
+_LOCAL_COMMANDS = ("study", "demo", "bench")  # defined in this module: nothing else to import
 
 
 out_console = Console()
@@ -190,11 +212,12 @@ def _show_laidani(result: dict) -> None:
 
 # ------------------------------------------------------------------------------------ thruster
 def _load_model(model: str):
-    from uuvid.io.modelfile import ModelFileError, load_chain
     from uuvid.thruster.presets import PRESETS, preset_chain
 
     if model in PRESETS:
         return preset_chain(model)
+    from uuvid.io.modelfile import ModelFileError, load_chain
+
     p = Path(model)
     if not p.exists():
         _fail(f"{model}: no such model file, and not a preset (presets: {', '.join(sorted(PRESETS))})")
@@ -436,11 +459,22 @@ def bench(json_out: bool = typer.Option(False, "--json", help="Print timings as 
             )
 
 
-_register_subcommands()
+_app = app
+del app  # served by __getattr__ below, complete: `from uuvid.cli.app import app` sees every command
+
+
+def __getattr__(name: str):
+    if name == "app":
+        _register_subcommands()
+        return _app
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def main() -> None:  # console-script entry point
-    app()
+    """Run the command line, importing only the command module the arguments name."""
+    command = next((a for a in sys.argv[1:] if not a.startswith("-")), None)
+    _register_subcommands(command)
+    _app()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -120,6 +120,11 @@ class Block:
         """Channels the block writes besides its output signal."""
         return ()
 
+    def steady_output(self, x: np.ndarray) -> np.ndarray | None:
+        """The block's output at rest under each constant input in ``x`` (vectorised), in closed
+        form; ``None`` when it has none (the chain then finds the equilibrium by simulation)."""
+        return None
+
     def to_dict(self) -> dict:
         """Plain-data form used by model files (``type`` plus the parameters)."""
         out: dict = {"type": self.TYPE}
@@ -262,6 +267,9 @@ class ESC(Block):
             dtype=np.float64,
         )
 
+    def steady_output(self, x):
+        return self.voltage(x)
+
     def voltage(self, command):
         """Vectorised ``V(cmd)`` (same law as the kernel)."""
         c = np.clip(np.asarray(command, dtype=float), self.saturation_low, self.saturation_high)
@@ -302,6 +310,10 @@ class FirstOrderMotor(Block):
 
     def extra_channels(self):
         return ("motor_speed",)
+
+    def steady_output(self, x):
+        """At rest ``Ω = K_m V`` (the lag has unit DC gain)."""
+        return self.gain * np.asarray(x, dtype=float)
 
     def params_array(self):
         return np.array([self.gain, self.time_constant], dtype=np.float64)
@@ -561,7 +573,10 @@ class QuadraticMap(Block):
 
     def thrust(self, x):
         x = np.asarray(x, dtype=float)
-        return np.where(x >= 0, self.k_pos, self.k_neg) * x * np.abs(x)
+        return np.where(x >= 0, self.k_pos, self.k_neg) * (x * np.abs(x))
+
+    def steady_output(self, x):
+        return self.thrust(x)
 
 
 @dataclass(frozen=True)
@@ -600,6 +615,9 @@ class PolynomialMap(Block):
         return np.where(
             x > 0, np.polyval(self.forward, ax), np.where(x < 0, -np.polyval(self.reverse, ax), 0.0)
         )
+
+    def steady_output(self, x):
+        return self.thrust(x)
 
 
 @dataclass(frozen=True)
@@ -646,6 +664,9 @@ class DeadZoneMap(Block):
             np.where(xx >= self.delta_r, self.rotor_constant_r * (xx - self.delta_r), 0.0),
         )
 
+    def steady_output(self, x):
+        return self.thrust(x)
+
 
 @dataclass(frozen=True)
 class TableMap(Block):
@@ -688,6 +709,9 @@ class TableMap(Block):
     def thrust(self, x):
         return np.interp(np.asarray(x, dtype=float), self.input_values, self.output_values)
 
+    def steady_output(self, x):
+        return self.thrust(x)
+
 
 # --------------------------------------------------------------------------------------------
 # UUV Simulator dynamics (command → rotor state), integrated as ODEs
@@ -706,6 +730,9 @@ class ZeroOrder(Block):
 
     def output_kind(self, input_kind):
         return _dynamic_output(input_kind)
+
+    def steady_output(self, x):
+        return np.asarray(x, dtype=float)
 
     def params_array(self):
         return np.zeros(0, dtype=np.float64)
@@ -728,6 +755,10 @@ class FirstOrder(Block):
     def output_kind(self, input_kind):
         return _dynamic_output(input_kind)
 
+    def steady_output(self, x):
+        """At rest ``x = u`` (unit DC gain)."""
+        return np.asarray(x, dtype=float)
+
     def params_array(self):
         return np.array([self.time_constant], dtype=np.float64)
 
@@ -749,6 +780,12 @@ class Yoerger(Block):
 
     def output_kind(self, input_kind):
         return _dynamic_output(input_kind)
+
+    def steady_output(self, x):
+        """At rest ``α x|x| = β u``: ``x = sgn(u) √(β|u|/α)`` (the only equilibrium, reached from
+        any start since the right-hand side decreases in ``x``)."""
+        u = np.asarray(x, dtype=float)
+        return np.sign(u) * np.sqrt(self.beta * np.abs(u) / self.alpha)
 
     def params_array(self):
         return np.array([self.alpha, self.beta], dtype=np.float64)
@@ -780,6 +817,16 @@ class BessaDynamics(Block):
 
     def output_kind(self, input_kind):
         return _dynamic_output(input_kind)
+
+    def steady_output(self, x):
+        """At rest ``K_v2 x|x| + K_v1 x = g = u K_t/R_m``:
+        ``x = sgn(g)·2|g|/(K_v1 + √(K_v1² + 4 K_v2 |g|))`` (the only equilibrium; the form has no
+        cancellation and holds for ``K_v2 = 0``)."""
+        g = np.asarray(x, dtype=float) * self.kt / self.rm
+        a = np.abs(g)
+        den = self.kv1 + np.sqrt(self.kv1 * self.kv1 + 4.0 * self.kv2 * a)
+        mag = np.divide(2.0 * a, den, out=np.zeros_like(a), where=a > 0)
+        return np.sign(g) * mag
 
     def params_array(self):
         return np.array([self.jmsp, self.kv1, self.kv2, self.kt, self.rm], dtype=np.float64)
@@ -814,6 +861,10 @@ class LoadCell(Block):
 
     def output_kind(self, input_kind):
         return MEASURED
+
+    def steady_output(self, x):
+        """At rest ``F_out = F`` (unit DC gain, stable for ω_n, ζ > 0)."""
+        return np.asarray(x, dtype=float)
 
     def params_array(self):
         return np.array([self.natural_frequency, self.damping_ratio], dtype=np.float64)

@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.simulate import kernels
 from uuvid.simulate.response import TimeResponse
 from uuvid.thruster.blocks import (
     _SIGNAL_CHANNEL,
@@ -28,6 +27,29 @@ from uuvid.thruster.blocks import (
 )
 
 _STATIC_STATES = 0
+_STEADY_CACHE = "steady_maps"  # sub-folder of the kernel cache for swept steady tables
+
+
+def _kernel_code_digest() -> str:
+    """Digest of the code a swept steady table comes from (blocks, kernels, this module)."""
+    global _CODE_DIGEST
+    if _CODE_DIGEST is None:
+        from uuvid.io.cache import file_digest
+        from uuvid.thruster import blocks as _blocks
+
+        _CODE_DIGEST = file_digest(_blocks.__file__, _kernels().__file__, __file__)
+    return _CODE_DIGEST
+
+
+_CODE_DIGEST: str | None = None
+
+
+def _kernels():
+    """The compiled kernels, imported on first use (numba's import is most of a process start-up;
+    closed-form steady maps and model inspection do not need it)."""
+    from uuvid.simulate import kernels
+
+    return kernels
 
 
 @dataclass(frozen=True)
@@ -122,7 +144,7 @@ class ThrusterChain:
         dx = np.zeros(self.n_states)
         ch = np.empty(len(CHANNELS))
         blk = np.empty(max(len(self.blocks), 1))
-        kernels.eval_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
+        _kernels().eval_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
                            np.asarray(x, dtype=float), float(u), dx, ch, blk)
         return dx, dict(zip(CHANNELS, ch))
 
@@ -132,30 +154,69 @@ class ThrusterChain:
         n = self.n_states
         ch = np.empty(len(CHANNELS))
         blk = np.empty(max(len(self.blocks), 1))
+        eval_chain = _kernels().eval_chain
 
         def f(t, x, u):
             dx = np.zeros(n)
-            kernels.eval_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
-                               np.asarray(x, dtype=float), float(u), dx, ch, blk)
+            eval_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
+                       np.asarray(x, dtype=float), float(u), dx, ch, blk)
             return dx
 
         return f
 
-    def steady_thrust(self, u) -> np.ndarray:
-        """Steady-state chain output for constant inputs ``u`` (static chains: exact; dynamic
-        chains: the equilibrium reached by simulating each input to rest)."""
+    @property
+    def has_closed_form_steady(self) -> bool:
+        """Every block knows its output at rest in closed form (static maps, first-order lags,
+        ZeroOrder, Yoerger, Bessa, the load cell): :meth:`steady_thrust` composes them, no
+        simulation."""
+        probe = np.zeros(1)
+        return all(b.steady_output(probe) is not None for b in self.blocks)
+
+    def steady_thrust(self, u, *, cache: bool = True) -> np.ndarray:
+        """Steady-state chain output for constant inputs ``u``.
+
+        Chains whose blocks all have a closed-form output at rest (:attr:`has_closed_form_steady`:
+        static maps and first-order lags, whose state at rest equals their input times their DC
+        gain) compose those maps — exact, no simulation.  Other chains (a DC motor with Coulomb
+        friction, McLean's tunnel thruster, a load cell behind them…) are simulated to rest
+        (:meth:`sweep`); that table is cached on disk (:mod:`uuvid.io.cache`, ``steady_maps``)
+        under a hash of the chain's parameters, the levels and the kernel code, unless
+        ``cache=False``.  Levels the sweep could not bring to rest are never cached."""
         u = np.atleast_1d(np.asarray(u, dtype=float))
-        if self.n_states == 0:
-            c = self.compile()
-            out = np.empty(u.size)
-            ch = np.empty(len(CHANNELS))
-            blk = np.empty(max(len(self.blocks), 1))
-            dx = np.zeros(0)
-            for k, uk in enumerate(u):  # static map: one compiled call per point, no ODE
-                out[k] = kernels.eval_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
-                                            dx, uk, dx, ch, blk)
-            return out
-        return self.sweep(u).final
+        y = u
+        for b in self.blocks:
+            y = b.steady_output(y)
+            if y is None:
+                break
+        else:
+            return np.asarray(y, dtype=float).reshape(u.shape)
+        if not cache:
+            return self.sweep(u).final
+        from uuvid.io import cache as disk
+
+        key = self._steady_key(u)
+        y = disk.load_array(_STEADY_CACHE, key, u.shape)
+        if y is not None:
+            return y
+        res = self.sweep(u)
+        if not res.not_converged and np.all(np.isfinite(res.final)):
+            disk.store_array(_STEADY_CACHE, key, res.final)
+        return res.final
+
+    def _steady_key(self, u: np.ndarray) -> str:
+        """Hash of everything a swept steady table depends on: the compiled chain, the output,
+        the levels, the sweep's defaults and the uuvid version and code that computes it."""
+        import inspect
+
+        from uuvid import __version__
+        from uuvid.io.cache import digest
+
+        c = self.compile()
+        defaults = inspect.signature(self.sweep).parameters
+        settings = tuple((k, defaults[k].default) for k in ("dt", "max_passes", "rtol"))
+        return digest("steady-v1", __version__, _kernel_code_digest(), c.kinds, c.poff, c.params,
+                      c.soff, c.outch, c.in_ch, c.exact, self.output_kind, self.settling_time_hint(),
+                      settings, u)
 
     def sweep(self, u, settle_time: float | None = None, dt: float = 1e-3,
               max_passes: int = 8, rtol: float = 1e-9) -> SweepResult:
@@ -182,7 +243,7 @@ class ThrusterChain:
             nsamp = int(math.ceil(settle * max(1, 2 ** (k - 1)) / dt)) + 1
             f = np.empty((todo.size, len(CHANNELS)))
             xf = np.empty((todo.size, nx))
-            kernels.sweep_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
+            _kernels().sweep_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
                                 np.ascontiguousarray(X[todo]), np.ascontiguousarray(u[todo]),
                                 float(dt), nsamp, f, xf)
             finals[todo] = f
@@ -193,7 +254,7 @@ class ThrusterChain:
                 # at rest already; only the others need a second pass to confirm it
                 rates = np.empty(todo.size)
                 floor = 1e-12 * max(float(np.max(np.abs(xf))), 1e-300) if xf.size else 1.0
-                kernels.relative_rates(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
+                _kernels().relative_rates(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch,
                                        np.ascontiguousarray(xf), np.ascontiguousarray(u[todo]),
                                        floor, rates)
                 moving = rates * settle > rtol
@@ -271,7 +332,7 @@ class ThrusterChain:
             raise ValueError(f"x0 must have {self.n_states} entries, got {x0a.shape}")
         X = np.empty((n, self.n_states))
         C = np.empty((n, len(CHANNELS)))
-        kernels.rk4_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact, x0a, u,
+        _kernels().rk4_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact, x0a, u,
                           float(dt), int(substeps), X, C)
         if self.n_states and not np.all(np.isfinite(X)):
             k = int(np.flatnonzero(~np.all(np.isfinite(X), axis=1))[0])
@@ -299,7 +360,7 @@ class ThrusterChain:
         if P.ndim != 2 or P.shape[1] != c.params.size:
             raise ValueError(f"parameter batch must have shape (runs, {c.params.size})")
         Y = np.empty((P.shape[0], n))
-        kernels.rk4_chain_batch(c.kinds, c.poff, P, c.soff, c.outch, c.in_ch, c.exact,
+        _kernels().rk4_chain_batch(c.kinds, c.poff, P, c.soff, c.outch, c.in_ch, c.exact,
                                 np.zeros(self.n_states), u, float(dt), int(substeps), CH[channel], Y)
         return Y
 

@@ -1,0 +1,106 @@
+"""On-disk cache of computed arrays (steady thruster tables), next to the compiled batch kernels.
+
+Location: ``$UUVID_KERNEL_CACHE/<sub>`` when that variable is set, else
+``$XDG_CACHE_HOME/uuvid/<sub>`` (default ``~/.cache/uuvid/<sub>``); the batch kernels live in
+``$UUVID_KERNEL_CACHE`` itself (``~/.cache/uuvid/batch_kernels``).  Entries are ``.npy`` files
+named by a hash the caller computes from everything the result depends on; they are written
+atomically (:mod:`uuvid.io.atomic`), so a reader sees a whole entry or none.  A cache that cannot
+be read or written never fails the caller: the value is recomputed and one warning says why.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+_WARNED: set[str] = set()
+
+
+class CacheWarning(RuntimeWarning):
+    """The on-disk cache could not be used; the result was computed instead."""
+
+
+def warn_once(message: str) -> None:
+    """Warn about a cache problem once per process and kind of problem."""
+    kind = message.split(":", 1)[0]
+    if kind not in _WARNED:
+        _WARNED.add(kind)
+        warnings.warn(message, CacheWarning, stacklevel=3)
+
+
+def cache_root() -> Path:
+    """The folder the batch kernels use (``$UUVID_KERNEL_CACHE`` or ``~/.cache/uuvid``)."""
+    d = os.environ.get("UUVID_KERNEL_CACHE")
+    if d:
+        return Path(d)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "uuvid"
+
+
+def cache_dir(sub: str) -> Path:
+    """``cache_root()/sub`` (not created here)."""
+    return cache_root() / sub
+
+
+def digest(*parts) -> str:
+    """SHA-256 of the parts (bytes, arrays or anything with a stable ``repr``), hex, 32 chars."""
+    h = hashlib.sha256()
+    for p in parts:
+        if isinstance(p, np.ndarray):
+            a = np.ascontiguousarray(p)
+            h.update(f"{a.dtype.str}{a.shape}".encode())
+            h.update(a.tobytes())
+        elif isinstance(p, bytes):
+            h.update(p)
+        else:
+            h.update(repr(p).encode())
+        h.update(b"\x00")
+    return h.hexdigest()[:32]
+
+
+def file_digest(*paths) -> str:
+    """Digest of source files' bytes (the code a cached result came from)."""
+    h = hashlib.sha256()
+    for p in paths:
+        with open(p, "rb") as fh:
+            h.update(fh.read())
+    return h.hexdigest()[:16]
+
+
+def load_array(sub: str, key: str, shape: tuple[int, ...] | None = None) -> np.ndarray | None:
+    """The array stored under ``key`` in ``cache_dir(sub)``, or ``None`` when there is none.  An
+    entry that cannot be read, or has the wrong shape or non-finite values, counts as none (and
+    is overwritten by the next :func:`store_array`)."""
+    path = cache_dir(sub) / f"{key}.npy"
+    if not path.is_file():
+        return None
+    try:
+        with open(path, "rb") as fh:
+            arr = np.load(fh, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as e:
+        warn_once(f"unreadable cache entry: {path} ({e}); recomputing")
+        return None
+    if (shape is not None and arr.shape != shape) or not np.all(np.isfinite(arr)):
+        warn_once(f"corrupt cache entry: {path} (shape {arr.shape} or non-finite values); "
+                  "recomputing")
+        return None
+    return arr
+
+
+def store_array(sub: str, key: str, arr: np.ndarray) -> None:
+    """Store ``arr`` under ``key`` atomically; an unwritable cache only warns (once)."""
+    path = cache_dir(sub) / f"{key}.npy"
+    try:
+        from uuvid.io.atomic import atomic_write_bytes
+
+        buf = io.BytesIO()
+        np.save(buf, np.asarray(arr), allow_pickle=False)
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError as e:
+        warn_once(f"unwritable cache: {path.parent} ({e}); results are computed each time "
+                  "(set UUVID_KERNEL_CACHE to a writable folder)")
