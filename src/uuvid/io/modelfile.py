@@ -96,7 +96,7 @@ def _schema_for(type_name: str, cls: type[Block]) -> type[BaseModel]:
         else:
             fields_[f.name] = (ann, ...)
     fields_["type"] = (Literal[type_name], ...)
-    return create_model(f"{cls.__name__}Schema", __config__=ConfigDict(extra="forbid"), **fields_)
+    return create_model(f"{cls.__name__}Schema", __config__=ConfigDict(extra="forbid", defer_build=True), **fields_)
 
 
 # The nested motor is built first so the tunnel schema can refer to it.
@@ -107,13 +107,13 @@ for _name, _cls in BLOCK_TYPES.items():
 # The nested motor of a tunnel thruster carries no "type" key.
 _MOTOR_FIELDS = {k: (v.annotation, v.default if not v.is_required() else ...)
                  for k, v in _SCHEMAS["dc_motor"].model_fields.items() if k != "type"}
-_NESTED_MOTOR = create_model("TunnelMotorSchema", __config__=ConfigDict(extra="forbid"),
+_NESTED_MOTOR = create_model("TunnelMotorSchema", __config__=ConfigDict(extra="forbid", defer_build=True),
                              **_MOTOR_FIELDS)
 _tunnel_fields = {k: (v.annotation if k != "motor" else _NESTED_MOTOR,
                       v.default if not v.is_required() else ...)
                   for k, v in _SCHEMAS["tunnel_thruster"].model_fields.items()}
 _SCHEMAS["tunnel_thruster"] = create_model("TunnelThrusterSchema",
-                                           __config__=ConfigDict(extra="forbid"), **_tunnel_fields)
+                                           __config__=ConfigDict(extra="forbid", defer_build=True), **_tunnel_fields)
 
 BlockSchema = typing.Annotated[typing.Union[tuple(_SCHEMAS.values())], Field(discriminator="type")]  # noqa: UP007
 
@@ -121,7 +121,7 @@ BlockSchema = typing.Annotated[typing.Union[tuple(_SCHEMAS.values())], Field(dis
 class ChainSchema(BaseModel):
     """A thruster model file."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
     name: str = "thruster"
     input: Literal["command", "voltage", "speed"] | None = None
     description: str | None = None

@@ -28,6 +28,7 @@ from uuvid.thruster.blocks import (
 
 _STATIC_STATES = 0
 _STEADY_CACHE = "steady_maps"  # sub-folder of the kernel cache for swept steady tables
+_SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL = 1e-3, 8, 1e-9  # sweep() defaults (part of the cache key)
 
 
 def _kernel_code_digest() -> str:
@@ -206,20 +207,17 @@ class ThrusterChain:
     def _steady_key(self, u: np.ndarray) -> str:
         """Hash of everything a swept steady table depends on: the compiled chain, the output,
         the levels, the sweep's defaults and the uuvid version and code that computes it."""
-        import inspect
-
         from uuvid import __version__
         from uuvid.io.cache import digest
 
         c = self.compile()
-        defaults = inspect.signature(self.sweep).parameters
-        settings = tuple((k, defaults[k].default) for k in ("dt", "max_passes", "rtol"))
+        settings = (_SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL)
         return digest("steady-v1", __version__, _kernel_code_digest(), c.kinds, c.poff, c.params,
                       c.soff, c.outch, c.in_ch, c.exact, self.output_kind, self.settling_time_hint(),
                       settings, u)
 
-    def sweep(self, u, settle_time: float | None = None, dt: float = 1e-3,
-              max_passes: int = 8, rtol: float = 1e-9) -> SweepResult:
+    def sweep(self, u, settle_time: float | None = None, dt: float = _SWEEP_DT,
+              max_passes: int = _SWEEP_PASSES, rtol: float = _SWEEP_RTOL) -> SweepResult:
         """Hold each input in ``u`` from rest until steady; returns the final channels per input.
 
         Runs are batched through the compiled kernel in parallel.  Each pass lasts ``settle_time``
