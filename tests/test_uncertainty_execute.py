@@ -164,7 +164,7 @@ def test_partial_parts_are_readable_before_the_end(tmp_path):
 
 def test_backend_resolution(monkeypatch):
     monkeypatch.delenv("UUVID_DASK_SCHEDULER", raising=False)
-    assert resolve_backend(None, None) == ("processes", None)
+    assert resolve_backend(None, None) == ("inprocess", None)  # auto on one machine
     assert resolve_backend(None, "tcp://h:1") == ("dask", "tcp://h:1")
     monkeypatch.setenv("UUVID_DASK_SCHEDULER", "tcp://env:2")
     assert resolve_backend(None, None) == ("dask", "tcp://env:2")
@@ -219,3 +219,43 @@ def _pickle_test_functions_by_value():
     except (ImportError, ValueError):
         pass
     yield
+
+
+class _Work:
+    """A stand-in study: only what the backend choice reads."""
+
+    def __init__(self, seconds):
+        self.seconds = seconds
+
+    def estimated_work_s(self):
+        return self.seconds
+
+
+def test_auto_backend_rule(monkeypatch):
+    from uuvid.uncertainty import execute as ex
+
+    monkeypatch.delenv("UUVID_DASK_SCHEDULER", raising=False)
+    monkeypatch.setattr(ex, "default_workers", lambda: 4)
+    # in-process batches on every core: processes could only add start-up
+    c = ex.choose_backend(None, study=_Work(1e6), threads=4)
+    assert c.backend == "inprocess" and "all 4 cores" in c.reason
+    assert ex.choose_backend("auto", study=_Work(1e6), threads=8).backend == "inprocess"
+    # in-process held to one thread: processes when each worker gets PAYOFF × its start-up
+    need = ex.PROCESS_PAYOFF * ex.PROCESS_STARTUP_S
+    big = ex.choose_backend(None, study=_Work(4 * need * 1.01), threads=1)
+    assert big.backend == "processes" and "1 of 4 cores" in big.reason
+    small = ex.choose_backend(None, study=_Work(4 * need * 0.99), threads=1)
+    assert small.backend == "inprocess" and "does not give" in small.reason
+    assert ex.choose_backend(None, study=None, threads=1).backend == "inprocess"  # unknown work
+    # a scheduler or a client means Dask; an explicit backend is obeyed
+    assert ex.choose_backend(None, "tcp://h:1").backend == "dask"
+    assert ex.choose_backend(None, client=object()).reason.startswith("auto: a Dask client")
+    assert ex.choose_backend("processes", study=_Work(0.0)).reason == "asked for"
+
+
+def test_summary_says_which_backend_ran_and_why(monkeypatch):
+    monkeypatch.delenv("UUVID_DASK_SCHEDULER", raising=False)
+    res = run_study(study(), None, chunk_size=4, progress=False)
+    assert res.summary["backend"] == "inprocess"
+    assert res.summary["backend_reason"].startswith("auto: ")
+    assert study().estimated_work_s() > 0

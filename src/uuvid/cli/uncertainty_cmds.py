@@ -2,7 +2,7 @@
 
 ::
 
-    uuvid sweep SWEEP.yaml --out DIR [--backend inprocess|processes|dask] [--workers N]
+    uuvid sweep SWEEP.yaml --out DIR [--backend auto|inprocess|processes|dask] [--workers N]
                 [--scheduler tcp://host:port] [--chunk-size N] [--retries N] [--json]
     uuvid montecarlo MODEL --runs N [--seed S] [--out DIR] [--bounds reject|truncate|ignore]
                 [--requirement "max_tracking_error_m<0.5"] [--backend ...] [--json]
@@ -10,8 +10,10 @@
 ``SWEEP`` is a sweep file (:mod:`uuvid.uncertainty.sweep`) or a built-in sweep
 (``mclean-sensitivity``); ``MODEL`` an uncertain-model file (:mod:`uuvid.uncertainty.montecarlo`),
 the ``summary.json`` of ``uuvid thruster fit --model physical``, or a built-in model
-(``bluerov2-identified``, ``t200-physical``).  The backend defaults to local processes, or to Dask
-when ``--scheduler`` (or ``UUVID_DASK_SCHEDULER``) names a scheduler.  ``--json`` prints one JSON
+(``bluerov2-identified``, ``t200-physical``).  The backend defaults to ``auto``: Dask when
+``--scheduler`` (or ``UUVID_DASK_SCHEDULER``) names a scheduler, else in-process (its compiled
+batch already uses every core; see :func:`uuvid.uncertainty.execute.choose_backend`); the summary
+says which ran and why.  ``--json`` prints one JSON
 summary on stdout; progress goes to stderr.  Bad input exits with status 2; Ctrl-C leaves the
 partial result in ``--out`` (``summary.json`` says ``"partial": true``) and exits with 130.
 
@@ -63,6 +65,7 @@ def _show(summary: dict, title: str) -> None:
                                                       summary["status_counts"].items())},
             {"quantity": "backend", "value": f"{summary['backend']} ({summary.get('workers', 1)} "
                                              "workers)"},
+            {"quantity": "backend chosen because", "value": summary.get("backend_reason", "")},
             {"quantity": "wall time (s)", "value": f"{summary['wall_time_s']:.3g}"},
             {"quantity": "runs/s", "value": f"{summary['runs_per_s']:.4g}"}]
     if summary.get("failed_chunks"):
@@ -116,7 +119,7 @@ def sweep_cmd(
     out: Path = typer.Option(..., "--out", help="Folder for results.csv, summary.json, plots, "
                                                 "index.html."),
     backend: str | None = typer.Option(None, "--backend",
-                                       help="inprocess | processes (default) | dask."),
+                                       help="auto (default) | inprocess | processes | dask."),
     workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPUs)."),
     scheduler: str | None = typer.Option(None, "--scheduler",
                                          help="Dask scheduler tcp://host:port (or set "
@@ -168,7 +171,7 @@ def montecarlo_cmd(
                                            help='e.g. "max_tracking_error_m<0.5" (vehicle default).'),
     band: float = typer.Option(0.95, "--band", help="Central probability of the prediction bands."),
     backend: str | None = typer.Option(None, "--backend",
-                                       help="inprocess | processes (default) | dask."),
+                                       help="auto (default) | inprocess | processes | dask."),
     workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPUs)."),
     scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler tcp://host:port."),
     chunk_size: int | None = typer.Option(None, "--chunk-size", help="Runs per task."),

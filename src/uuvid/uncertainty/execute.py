@@ -5,7 +5,7 @@ One description, three backends that give the same table for the same seed:
 ``inprocess``
     Chunks run one after another in this process; each chunk is one call of the batched compiled
     simulator, parallel over its runs (numba threads).
-``processes`` (the default)
+``processes``
     Chunks go to a :class:`concurrent.futures.ProcessPoolExecutor` (``spawn`` workers, one numba
     thread each unless told otherwise); a progress bar on stderr.
 ``dask``
@@ -14,6 +14,15 @@ One description, three backends that give the same table for the same seed:
     a ``LocalCluster`` is started for the run.  Needs the ``dist`` extra
     (``pip install "uuvid[dist]"``, i.e. ``dask[distributed]``); workers must have ``uuvid``
     installed.
+
+``auto`` (the default) picks one by :func:`choose_backend`'s rule: Dask when a scheduler or a
+client is given; otherwise in-process, because one machine's cores are already all busy inside
+each in-process chunk — local processes only add their start-up (spawn, import, loading the
+compiled kernels: ≈ :data:`PROCESS_STARTUP_S` each) and the pickling of results (the bench
+measured them at 0.37× and 0.07× the in-process speed).  Processes are chosen only when the
+in-process batch is held to fewer threads than there are cores *and* the study's estimated work
+gives every worker at least :data:`PROCESS_PAYOFF` times its start-up.  The choice and its reason
+are in the summary (``backend``, ``backend_reason``).
 
 Tasks are chunks of runs (``chunk_size``), never single runs.  A chunk is described by plain data
 (the study's JSON payload and a run range), so workers rebuild the study themselves (once per
@@ -50,6 +59,11 @@ import numpy as np
 import pandas as pd
 
 BACKENDS = ("inprocess", "processes", "dask")
+#: Start-up of one local worker process, s (spawn, import uuvid, load the compiled kernels; the
+#: order measured on a 2-core machine with warm caches).
+PROCESS_STARTUP_S = 2.0
+#: Processes pay when each worker gets at least this many times its start-up in work.
+PROCESS_PAYOFF = 20.0
 ENV_SCHEDULER = "UUVID_DASK_SCHEDULER"
 RESULT_FORMAT = "uuvid-study-result/1"
 
@@ -258,15 +272,68 @@ def default_workers() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-def resolve_backend(backend: str | None, scheduler: str | None) -> tuple[str, str | None]:
-    """``(backend, scheduler address)``: a scheduler (argument or ``UUVID_DASK_SCHEDULER``) means
-    Dask unless another backend is asked for explicitly."""
+@dataclass(frozen=True)
+class BackendChoice:
+    """The backend a study runs on, the Dask scheduler address (if any) and why."""
+
+    backend: str
+    scheduler: str | None
+    reason: str
+
+
+def _inprocess_threads(threads: int | None) -> int:
+    if threads:
+        return int(threads)
+    import numba
+
+    return int(numba.config.NUMBA_NUM_THREADS)
+
+
+def choose_backend(backend: str | None = None, scheduler: str | None = None, *, client=None,
+                   study=None, workers: int | None = None,
+                   threads: int | None = None) -> BackendChoice:
+    """Which backend runs a study, and why (the rule is in the module docstring).
+
+    An explicit ``backend`` other than ``auto`` is used as asked.  ``auto``/``None``: Dask when a
+    client, a ``scheduler`` or ``UUVID_DASK_SCHEDULER`` is given; else in-process when its
+    compiled batch runs on every core (numba threads ≥ CPUs, the default); else local processes
+    if ``study.estimated_work_s()`` spread over the workers is at least ``PROCESS_PAYOFF`` ×
+    ``PROCESS_STARTUP_S`` per worker, in-process otherwise."""
     sched = scheduler or os.environ.get(ENV_SCHEDULER) or None
-    if backend is None:
-        backend = "dask" if sched else "processes"
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
-    return backend, sched
+    if backend not in (None, "auto"):
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of auto, {', '.join(BACKENDS)}, got {backend!r}")
+        return BackendChoice(backend, sched, "asked for")
+    if client is not None:
+        return BackendChoice("dask", sched, "auto: a Dask client was given")
+    if sched:
+        return BackendChoice("dask", sched, f"auto: a Dask scheduler was given ({sched})")
+    cores = default_workers()
+    nthreads = _inprocess_threads(threads)
+    if nthreads >= cores:
+        return BackendChoice("inprocess", None, (
+            f"auto: one machine, and each in-process chunk already runs its runs in parallel on "
+            f"all {cores} cores (numba threads); local processes would only add ≈"
+            f"{PROCESS_STARTUP_S:g} s start-up each"))
+    workers = int(workers) if workers else cores
+    work = study.estimated_work_s() if study is not None and hasattr(study, "estimated_work_s") \
+        else None
+    need = PROCESS_PAYOFF * PROCESS_STARTUP_S
+    if work is not None and work / workers >= need:
+        return BackendChoice("processes", None, (
+            f"auto: in-process runs on {nthreads} of {cores} cores and the estimated work "
+            f"({work:.3g} s) gives each of {workers} workers ≥ {need:g} s "
+            f"({PROCESS_PAYOFF:g}× its start-up)"))
+    est = "unknown" if work is None else f"{work:.3g} s"
+    return BackendChoice("inprocess", None, (
+        f"auto: in-process runs on {nthreads} of {cores} cores, but the estimated work ({est}) "
+        f"does not give each of {workers} workers {need:g} s ({PROCESS_PAYOFF:g}× its start-up)"))
+
+
+def resolve_backend(backend: str | None, scheduler: str | None) -> tuple[str, str | None]:
+    """``(backend, scheduler address)`` by :func:`choose_backend` (without a study)."""
+    c = choose_backend(backend, scheduler)
+    return c.backend, c.scheduler
 
 
 def run_study(study, out: str | Path | None = None, *, backend: str | None = None,
@@ -276,13 +343,15 @@ def run_study(study, out: str | Path | None = None, *, backend: str | None = Non
               chunk_fn: Callable | None = None, on_chunk: Callable | None = None) -> StudyResult:
     """Run every run of ``study`` and return (and write, with ``out``) the tidy result.
 
+    ``backend``: ``auto`` (``None``), ``inprocess``, ``processes`` or ``dask``
+    (:func:`choose_backend`; the summary says which ran and why).
     ``chunk_fn`` replaces :func:`evaluate_chunk` (same signature; must be picklable for the
     process and Dask backends) — a hook for tests and instrumentation.  ``on_chunk(result,
     done_runs)`` is called in this process after every completed chunk.
     """
-    if client is not None and backend is None:
-        backend = "dask"
-    backend, sched = resolve_backend(backend, scheduler)
+    choice = choose_backend(backend, scheduler, client=client, study=study, workers=workers,
+                            threads=threads_per_task)
+    backend, sched = choice.backend, choice.scheduler
     n = int(study.n_runs)
     workers = int(workers) if workers else default_workers()
     if chunk_size is None:
@@ -294,7 +363,7 @@ def run_study(study, out: str | Path | None = None, *, backend: str | None = Non
     payload = study.payload()
     fn = chunk_fn or evaluate_chunk
     base = {"format": RESULT_FORMAT, "study": study.kind, "name": study.name, "runs": n,
-            "backend": backend, "scheduler": sched, "workers": workers if backend != "inprocess" else 1,
+            "backend": backend, "backend_reason": choice.reason, "scheduler": sched, "workers": workers if backend != "inprocess" else 1,
             "chunk_size": int(chunk_size), "chunks": len(chunks), "retries": retries,
             "spec": payload["spec"]}
     writer = _Writer(out, base)

@@ -598,6 +598,29 @@ class StudyBase:
         return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
                                   workers)
 
+    def estimated_work_s(self) -> float:
+        """Single-core seconds the whole study needs, roughly (for the backend choice)."""
+        return self.n_runs * run_cost_s(self.spec.target)
+
+
+#: Single-core cost of one integration step, s (orders measured on a 2-core machine: a thruster
+#: chain RK4 substep, a 6-DOF vehicle step with its thrusters, one steady-map point).
+STEP_COST_S = {"thruster_step": 1e-6, "vehicle_mission": 5e-6, "thruster_steady": 1e-6}
+
+
+def run_cost_s(target) -> float:
+    """Rough single-core seconds of one run of ``target``: steps × :data:`STEP_COST_S`."""
+    if target.kind == "thruster_step":
+        steps = (round(target.t_end / target.dt) + 1) * target.substeps
+    elif target.kind == "vehicle_mission":
+        sc = target.scenario
+        duration = sc.duration or sc.mission.build().duration
+        steps = duration / sc.dt * sc.substeps
+    else:
+        steps = (len(target.commands) if target.commands else target.n_commands) * \
+            len(target.supply_voltages)
+    return float(steps) * STEP_COST_S[target.kind]
+
 
 def default_chunk_size(n_runs: int, chunk_size: int | None, target_kind: str, backend: str,
                        workers: int) -> int:
