@@ -1,0 +1,153 @@
+"""Start-up: what a user waits for, as whole processes with warm caches, and ``setup_mission``.
+
+Run standalone (``python benchmarks/bench_startup.py``) or through ``uuvid bench``.
+:func:`run_all` returns ``{"startup": [cases]}``; ``ratio`` = reference time / our time.
+
+Cases:
+
+* **simulate mission square (whole process)**: ``uuvid simulate mission square --vehicle bluerov2``
+  run as a new process (the console script's own code: ``from uuvid.cli.app import main``), once to
+  warm the caches (numba's, the bytecode, the steady tables), then timed ``repeat`` times (median
+  and min).  References, run the same way: ``python -c "import numpy"`` and a process that imports
+  numba and calls one cached compiled function (the floor of any process that runs compiled code).
+  Acceptance: ≤ :data:`LIMIT_S` s (``within_limit``).  ``PYTHONDONTWRITEBYTECODE`` is dropped for
+  these processes so that, as in an installed package, the bytecode is cached.
+* **uuvid --help (whole process)**: the command line alone, against ``python -c "import numpy"``.
+* **setup_mission**: the BlueROV2 (T200 chains: ESC → first-order motor → map, closed-form steady
+  map) and the AUV II (tunnel thrusters: simulated to rest, the table read from the disk cache),
+  in-process, against what the steady tables cost before — simulating the chain to rest
+  (``ThrusterChain.sweep`` over the 401 table levels).  Acceptance for closed-form chains:
+  ≤ :data:`SETUP_LIMIT_S` s.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+LIMIT_S = 1.0
+SETUP_LIMIT_S = 0.1
+SIMULATE = ["simulate", "mission", "square", "--vehicle", "bluerov2"]
+
+_FLOOR_MODULE = '''from numba import njit
+
+
+@njit(cache=True)
+def one(x):
+    return x + 1.0
+'''
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env["UUVID_NO_PROGRESS"] = "1"
+    return env
+
+
+def _time_process(argv: list[str], repeat: int, cwd: str | None = None) -> dict:
+    """Median and min wall time of ``argv`` as a new process, after one warm-up run."""
+    env = _env()
+    subprocess.run(argv, env=env, cwd=cwd, check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        subprocess.run(argv, env=env, cwd=cwd, check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
+        times.append(time.perf_counter() - t0)
+    return {"median_s": statistics.median(times), "min_s": min(times)}
+
+
+def _uuvid(args: list[str]) -> list[str]:
+    return [sys.executable, "-c", "import sys; from uuvid.cli.app import main; sys.exit(main())",
+            *args]
+
+
+def _floor_dir() -> str:
+    from uuvid.io.cache import cache_dir
+
+    d = cache_dir("bench_startup")
+    d.mkdir(parents=True, exist_ok=True)
+    path = d / "uuvid_startup_floor.py"
+    if not path.is_file() or path.read_text() != _FLOOR_MODULE:
+        path.write_text(_FLOOR_MODULE)
+    return str(d)
+
+
+def whole_process_cases(repeat: int = 5) -> list[dict]:
+    numpy_ref = _time_process([sys.executable, "-c", "import numpy"], repeat)
+    floor = _time_process([sys.executable, "-c", "import uuvid_startup_floor as m; m.one(1.0)"],
+                          repeat, cwd=_floor_dir())
+    bare = _time_process([sys.executable, "-c", "pass"], repeat)
+    sim = _time_process(_uuvid(SIMULATE), repeat)
+    helped = _time_process(_uuvid(["--help"]), repeat)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    common = {"repeat": repeat, "load_average_1min": load, "cpus": os.cpu_count(),
+              "python_c_pass_s": bare["median_s"]}
+    return [
+        {"case": "uuvid simulate mission square --vehicle bluerov2 (whole process, warm)",
+         "time_s": sim["median_s"], "min_time_s": sim["min_s"],
+         "reference": 'python -c "import numpy"', "reference_time_s": numpy_ref["median_s"],
+         "ratio": numpy_ref["median_s"] / sim["median_s"],
+         "limit_s": LIMIT_S, "within_limit": sim["median_s"] <= LIMIT_S, **common},
+        {"case": "the same, against the compiled-code floor",
+         "time_s": sim["median_s"], "min_time_s": sim["min_s"],
+         "reference": "python: import numba + call one cached @njit function",
+         "reference_time_s": floor["median_s"], "ratio": floor["median_s"] / sim["median_s"],
+         **common},
+        {"case": "uuvid --help (whole process, warm)", "time_s": helped["median_s"],
+         "min_time_s": helped["min_s"], "reference": 'python -c "import numpy"',
+         "reference_time_s": numpy_ref["median_s"],
+         "ratio": numpy_ref["median_s"] / helped["median_s"], **common},
+    ]
+
+
+def setup_cases(repeat: int = 5) -> list[dict]:
+    import numpy as np
+
+    from uuvid.simulate import vehicle_sim
+    from uuvid.simulate.reference import square_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    out = []
+    for name in ("bluerov2", "auv2"):
+        v = load_vehicle(name)
+        mission = square_mission()
+        chain = v.thruster_chain(0)
+        vehicle_sim._inverse_table.cache_clear()
+        vehicle_sim.setup_mission(v, mission)  # warm: compiled code, disk cache of swept tables
+        times = []
+        for _ in range(repeat):
+            vehicle_sim._inverse_table.cache_clear()  # no in-process memo: what a new process pays
+            t0 = time.perf_counter()
+            vehicle_sim.setup_mission(v, mission)
+            times.append(time.perf_counter() - t0)
+        lo, hi, _ = vehicle_sim._command_range(chain)
+        t0 = time.perf_counter()
+        chain.sweep(np.linspace(lo, hi, 401))
+        ref = time.perf_counter() - t0
+        ours = statistics.median(times)
+        closed = chain.has_closed_form_steady
+        case = {"case": f"setup_mission {name} ({'closed-form steady map' if closed else 'swept steady table, disk cache'})",
+                "time_s": ours, "min_time_s": min(times),
+                "reference": "simulating the chain to rest (sweep of 401 levels)",
+                "reference_time_s": ref, "ratio": ref / ours, "repeat": repeat}
+        if closed:
+            case.update({"limit_s": SETUP_LIMIT_S, "within_limit": ours <= SETUP_LIMIT_S})
+        out.append(case)
+    vehicle_sim._inverse_table.cache_clear()
+    return out
+
+
+def run_all(repeat: int = 5) -> dict:
+    return {"startup": whole_process_cases(repeat) + setup_cases(repeat)}
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(run_all(), indent=2))
