@@ -367,6 +367,24 @@ class ThrusterChain:
                 "blocks": [b.to_dict() for b in self.blocks]}
 
 
+def steady_map_agreement(chain: ThrusterChain, u) -> dict:
+    """How :meth:`ThrusterChain.steady_thrust` (closed form when the chain has one) compares with
+    simulating the chain to rest (:meth:`ThrusterChain.sweep`) at the inputs ``u``: the largest
+    difference relative to the output scale and the time each took."""
+    import time
+
+    u = np.atleast_1d(np.asarray(u, dtype=float))
+    t0 = time.perf_counter()
+    fast = chain.steady_thrust(u, cache=False)
+    t1 = time.perf_counter()
+    swept = chain.sweep(u).final
+    t2 = time.perf_counter()
+    scale = max(float(np.max(np.abs(swept))), 1e-300)
+    return {"chain": chain.name, "closed_form": chain.has_closed_form_steady, "levels": int(u.size),
+            "max_relative_difference": float(np.max(np.abs(fast - swept)) / scale),
+            "steady_thrust_s": t1 - t0, "sweep_s": t2 - t1}
+
+
 @dataclass(frozen=True)
 class SweepResult:
     """Steady channels reached for each constant input of a sweep."""
