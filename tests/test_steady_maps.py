@@ -87,7 +87,7 @@ CHAINS = {
     "thrust-lag-and-load-cell": ThrusterChain(
         (_esc(), FirstOrderMotor(gain=20.0, time_constant=0.05), QuadraticMap(k_pos=2e-4, k_neg=1.5e-4),
          FirstOrder(time_constant=0.3), LoadCell()), name="e"),
-    "yoerger": ThrusterChain((Yoerger(alpha=0.5, beta=3.0), QuadraticMap(k_pos=0.01, k_neg=0.008)),
+    "yoerger": ThrusterChain((Yoerger(alpha=5.0, beta=30.0), QuadraticMap(k_pos=0.01, k_neg=0.008)),
                              name="f"),
     "bessa": ThrusterChain((BessaDynamics(jmsp=0.02, kv1=0.3, kv2=0.01, kt=1.5, rm=0.8),
                             QuadraticMap(k_pos=0.01)), name="g"),
