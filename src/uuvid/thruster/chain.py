@@ -35,10 +35,13 @@ def _kernel_code_digest() -> str:
     """Digest of the code a swept steady table comes from (blocks, kernels, this module)."""
     global _CODE_DIGEST
     if _CODE_DIGEST is None:
+        from importlib.util import find_spec
+
         from uuvid.io.cache import file_digest
         from uuvid.thruster import blocks as _blocks
 
-        _CODE_DIGEST = file_digest(_blocks.__file__, _kernels().__file__, __file__)
+        kernels_py = find_spec("uuvid.simulate.kernels").origin  # located, not imported (numba)
+        _CODE_DIGEST = file_digest(_blocks.__file__, kernels_py, __file__)
     return _CODE_DIGEST
 
 
