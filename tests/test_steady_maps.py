@@ -49,6 +49,26 @@ def test_every_qualifying_preset_matches_its_sweep(name):
     _assert_matches_sweep(chain, _levels(chain))
 
 
+def _vehicle_chains():
+    from uuvid.vehicle.definition import list_presets, load_vehicle
+
+    out = {}
+    for name in list_presets():
+        v = load_vehicle(name)
+        for i in range(len(v.layout)):
+            c = v.thruster_chain(i)
+            out.setdefault(c.name, c)
+    return out
+
+
+def test_every_vehicle_preset_thruster_that_qualifies_matches_its_sweep():
+    chains = _vehicle_chains()
+    qualifying = [c for c in chains.values() if c.has_closed_form_steady]
+    assert {"t200", "romeo-cv"} <= {c.name for c in qualifying}
+    for c in qualifying:
+        _assert_matches_sweep(c, _levels(c, 41))
+
+
 def test_which_presets_have_a_closed_form():
     # a DC motor / tunnel thruster (Coulomb friction, water column) has none: it is swept
     assert PRESETS["t200"]().has_closed_form_steady
