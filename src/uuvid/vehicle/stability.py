@@ -27,7 +27,6 @@ only the small-angle form, which is reported alongside) by continuation in ``U``
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,12 +38,6 @@ from uuvid.vehicle.model import DOF_NAMES
 from uuvid.vehicle.rigid_body import rigid_body_coriolis
 
 ATTITUDE = (3, 4)  # roll, pitch: the DOFs with a righting moment
-
-
-def _direction_name(dof: int, sign: int) -> str:
-    from uuvid.vehicle.envelope import DIRECTIONS
-
-    return DIRECTIONS[dof][0 if sign > 0 else 1]
 
 
 class _Balance:
