@@ -323,7 +323,8 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                          f"({ang}: {case.limit_reason}; righting BG·W "
                          f"{case.righting[ang]:.3g} N·m/rad); at {us:.2f} m/s the static trim is "
                          f"{st['tilt_deg'][ang]:+.1f}° {ang}, the simulation flies "
-                         f"{fl[f'{ang}_deg']:+.1f}°; at full command it tilts up to {tilt[0]:.0f}° roll, "
+                         f"{fl[f'{ang}_deg']:+.1f}°; at full command it "
+                         f"{'tumbles' if max(tilt) > 60 else 'tilts'}: up to {tilt[0]:.0f}° roll, "
                          f"{tilt[1]:.0f}° pitch")
         elif d["confirmed"]:
             d["note"] = f"confirmed within {rel:.1%}"
