@@ -39,17 +39,24 @@ TOLERANCE = 0.05  # relative difference accepted as confirmation
 
 
 @njit(cache=True)
+def _rk4_held(x, tau, vp, dt):
+    """One RK4 step of the 6-DOF model with ``τ`` held; the quaternion renormalised."""
+    k1 = vehicle_rhs(x, tau, vp)
+    k2 = vehicle_rhs(x + 0.5 * dt * k1, tau, vp)
+    k3 = vehicle_rhs(x + 0.5 * dt * k2, tau, vp)
+    k4 = vehicle_rhs(x + dt * k3, tau, vp)
+    x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    n = math.sqrt(x[3] ** 2 + x[4] ** 2 + x[5] ** 2 + x[6] ** 2)
+    for i in range(3, 7):
+        x[i] /= n
+    return x
+
+
+@njit(cache=True)
 def _settle(x0, tau, vp, dt, nsteps):
     x = x0.copy()
     for _ in range(nsteps):
-        k1 = vehicle_rhs(x, tau, vp)
-        k2 = vehicle_rhs(x + 0.5 * dt * k1, tau, vp)
-        k3 = vehicle_rhs(x + 0.5 * dt * k2, tau, vp)
-        k4 = vehicle_rhs(x + dt * k3, tau, vp)
-        x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        n = math.sqrt(x[3] ** 2 + x[4] ** 2 + x[5] ** 2 + x[6] ** 2)
-        for i in range(3, 7):
-            x[i] /= n
+        x = _rk4_held(x, tau, vp, dt)
     return x
 
 
@@ -132,14 +139,7 @@ def _hold_run(x0, vp, B, T, lo, hi, ctl, dof, sgn, mode, speed, gains, dt, nstep
             for i in range(n):
                 s += B[j, i] * t[i]
             tau[j] = s
-        k1 = vehicle_rhs(x, tau, vp)
-        k2 = vehicle_rhs(x + 0.5 * dt * k1, tau, vp)
-        k3 = vehicle_rhs(x + 0.5 * dt * k2, tau, vp)
-        k4 = vehicle_rhs(x + dt * k3, tau, vp)
-        x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        nq = math.sqrt(x[3] ** 2 + x[4] ** 2 + x[5] ** 2 + x[6] ** 2)
-        for i in range(3, 7):
-            x[i] /= nq
+        x = _rk4_held(x, tau, vp, dt)
         if step >= nsteps - ntail:
             out[0] += x[7 + dof] / ntail
             out[1] += ang[0] / ntail
