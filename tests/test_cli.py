@@ -1,6 +1,7 @@
 """The command line: JSON on stdout, reports written, clear errors with exit status 2."""
 
 import json
+import re
 
 from typer.testing import CliRunner
 
@@ -45,6 +46,10 @@ def test_demo_writes_report_folder(tmp_path):
     doc = json.loads((out / "demo.json").read_text())
     assert doc["model_file"]["round_trip_equal"] is True
     assert (out / "mclean1991" / "step_baseline.png").exists()
+    # issue 10: no NaN in any table; the Heavy's envelope is confirmed with its attitude held
+    assert "Speed envelope" in html and not re.search(r">\s*-?nan\s*<", html, re.I)
+    heavy = doc["vehicle"]["envelopes"]["bluerov2-heavy"]["rows"]
+    assert all(r["confirmed"] for r in heavy if r["dof"] in ("surge", "sway", "heave"))
 
 
 def test_thruster_simulate_preset_json(tmp_path):
