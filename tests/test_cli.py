@@ -45,6 +45,7 @@ def test_demo_writes_report_folder(tmp_path):
     doc = json.loads((out / "demo.json").read_text())
     assert doc["model_file"]["round_trip_equal"] is True
     assert (out / "mclean1991" / "step_baseline.png").exists()
+    assert doc["linearize"]["pid"]["rms_position_error_m"] > 0
 
 
 def test_thruster_simulate_preset_json(tmp_path):
