@@ -131,3 +131,10 @@ def test_to_control(rov):
     np.testing.assert_array_equal(sys.B, lin.B)
     assert sys.input_labels == list(rov.layout.names)
     assert lin.to_control("force").B.shape == (12, 6)
+
+
+def test_params_without_thrusters_linearise_in_generalized_force(rov):
+    lin = linearize(rov.params, OperatingPoint.hover(rov.params))
+    np.testing.assert_array_equal(lin.B, lin.B_tau)
+    assert lin.thrust0 is None and lin.input_names[0] == "tau_surge"
+    np.testing.assert_allclose(lin.A, linearize(rov).A, atol=1e-12)

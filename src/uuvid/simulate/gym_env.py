@@ -40,7 +40,7 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError("uuvid.simulate.gym_env needs gymnasium: pip install 'uuvid[gym]'") from e
 
-from uuvid.simulate.station_keeping import rk4_held
+from uuvid.simulate.station_keeping import rk4_held, thrust_to_tau
 from uuvid.vehicle.allocation import allocate_compiled
 
 N_OBS = 12
@@ -114,11 +114,7 @@ def _step_one(z, act, wps, widx, mode, alloc, dofs, fscale, lo, hi, Bthr, vp, vc
         allocate_compiled(alloc, phi, f)
         for i in range(n):
             f[i] = min(max(f[i], lo[i]), hi[i])
-    for r in range(6):
-        s = 0.0
-        for i in range(n):
-            s += Bthr[r, i] * f[i]
-        tau[r] = s
+    thrust_to_tau(Bthr, f, tau)
     rk4_held(z, tau, vp, vc, dt / nsub, nsub, dvc, k1, k2, k3, k4, zt)
     k = widx[0]
     ep, ea = _observe(z, wps[k], obs)

@@ -62,6 +62,16 @@ def rk4_held(z, tau, vp, vc, h, nsub, dvc, k1, k2, k3, k4, zt):
 
 
 @njit(cache=True)
+def thrust_to_tau(Bthr, f, tau):
+    """``τ = B_thr f`` into ``tau`` (6)."""
+    for r in range(6):
+        s = 0.0
+        for i in range(Bthr.shape[1]):
+            s += Bthr[r, i] * f[i]
+        tau[r] = s
+
+
+@njit(cache=True)
 def deviation_into(x0, z, xi):
     """12-state deviation of ``z`` from ``x0`` (compiled :func:`uuvid.vehicle.linearize.
     deviation_from_state`): ``α = 2 vec(q₀* ⊗ q)`` with ``η_e ≥ 0``."""
@@ -139,11 +149,7 @@ def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt,
             F[k, i] = f[i]
         for i in range(13):
             Z[k, i] = z[i]
-        for r in range(6):
-            s = 0.0
-            for i in range(n):
-                s += Bthr[r, i] * f[i]
-            tau[r] = s
+        thrust_to_tau(Bthr, f, tau)
         rk4_held(z, tau, vp, vc, dt / nsub, nsub, dvc, k1, k2, k3, k4, zt)
 
 
