@@ -22,7 +22,9 @@ def gym_vector(num_envs: int = 1024, steps: int = 100, reference_envs: int = 64,
     try:
         from uuvid.simulate.gym_env import StationKeepingEnv, StationKeepingVectorEnv
     except ImportError as e:
-        return {"case": "gym_vector", "skipped": str(e)}
+        nan = float("nan")
+        return {"case": "gym_vector (skipped: gymnasium not installed)", "skipped": str(e),
+                "time_s": nan, "reference_time_s": nan, "ratio": nan}
     venv = StationKeepingVectorEnv("bluerov2", num_envs=num_envs, max_steps=10**9)
     venv.reset(seed=0)
     rng = np.random.default_rng(1)
