@@ -50,6 +50,7 @@ def test_demo_writes_report_folder(tmp_path):
     assert "Speed envelope" in html and not re.search(r">\s*-?nan\s*<", html, re.I)
     heavy = doc["vehicle"]["envelopes"]["bluerov2-heavy"]["rows"]
     assert all(r["confirmed"] for r in heavy if r["dof"] in ("surge", "sway", "heave"))
+    assert doc["linearize"]["pid"]["rms_position_error_m"] > 0
 
 
 def test_thruster_simulate_preset_json(tmp_path):

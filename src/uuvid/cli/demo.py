@@ -136,6 +136,16 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     return dict(res)
 
 
+def _linearize_section(out: Path, rep: Report) -> dict:
+    from uuvid.simulate.station_keeping import compare_station_keeping
+
+    cmp = compare_station_keeping("bluerov2")
+    rep.add_heading("Linearisation and an LQR against the PID (BlueROV2, hover)")
+    rep.add_preformatted(cmp.linear_model.summary() + "\n\n" + cmp.summary())
+    rep.add_figure(save_figure(cmp.plot(), out / "station_keeping.png"))
+    return cmp.to_dict()
+
+
 def _uncertainty_section(out: Path, rep: Report) -> dict:
     from uuvid.cli.uncertainty_cmds import demo_montecarlo, demo_sweep
 
@@ -190,6 +200,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         caccia = _caccia_section(out, rep)
         task.advance()
         uncertainty = _uncertainty_section(out, rep)
+        linear = _linearize_section(out, rep)
         task.advance()
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
@@ -203,6 +214,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "study": study,
             "caccia2000": caccia,
             "uncertainty": uncertainty,
+            "linearize": linear,
             "model_file": {"path": str(path), "round_trip_equal": same},
         }
         atomic_write_json(out / "demo.json", result)
