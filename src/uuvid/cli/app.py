@@ -14,7 +14,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from uuvid.cli.helptext import TidyHelpGroup
+
 app = typer.Typer(
+    cls=TidyHelpGroup,
     add_completion=False,
     no_args_is_help=True,
     help="Model, simulate and identify underwater vehicles and their thrusters.",
@@ -437,6 +440,18 @@ def bench(json_out: bool = typer.Option(False, "--json", help="Print timings as 
 
 
 _register_subcommands()
+
+
+@app.callback(invoke_without_command=True)
+def _root(
+    version: bool = typer.Option(False, "--version", is_eager=True, help="Print the version and exit."),
+):
+    """Model, simulate and identify underwater vehicles and their thrusters."""
+    if version:
+        from uuvid import __version__
+
+        sys.stdout.write(f"uuvid {__version__}\n")
+        raise typer.Exit()
 
 
 def main() -> None:  # console-script entry point

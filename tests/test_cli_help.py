@@ -1,0 +1,61 @@
+"""`--help` of every command shows what its source says: units in brackets, flags without a type."""
+
+import inspect
+import re
+
+from typer.models import ParameterInfo
+from typer.testing import CliRunner
+
+from uuvid import __version__
+from uuvid.cli.app import app
+
+runner = CliRunner()
+BRACKETED = re.compile(r"\[[^\[\]\n]+\]")
+
+
+def _commands(typer_app, path=()):
+    """(command path, callback) of every command registered on the typer app, recursively."""
+    for ci in typer_app.registered_commands:
+        name = ci.name or ci.callback.__name__.lower().replace("_", "-")
+        yield path + (name,), ci.callback
+    for gi in typer_app.registered_groups:
+        yield from _commands(gi.typer_instance, path + (gi.name,))
+
+
+def _source_help(callback) -> list[str]:
+    texts = [inspect.getdoc(callback) or ""]
+    for p in inspect.signature(callback).parameters.values():
+        infos = [p.default] + list(getattr(p.annotation, "__metadata__", ()))
+        texts += [i.help for i in infos if isinstance(i, ParameterInfo) and i.help]
+    return texts
+
+
+def _flat(text: str) -> str:
+    return re.sub(r"[\s│]+", "", text)
+
+
+def test_every_command_help_keeps_its_bracketed_units_and_plain_flags():
+    cmds = list(_commands(app))
+    assert len(cmds) > 15  # the walk found the whole tree
+    checked = 0
+    for path, callback in cmds:
+        res = runner.invoke(app, [*path, "--help"], env={"TERMINAL_WIDTH": "100"})
+        assert res.exit_code == 0, (path, res.output)
+        shown = _flat(res.output)
+        for text in _source_help(callback):
+            for token in BRACKETED.findall(text):
+                assert _flat(token) in shown, f"`uuvid {' '.join(path)} --help` lost {token!r}"
+                checked += 1
+        assert "<bool>" not in res.output, f"`uuvid {' '.join(path)} --help` labels a flag <bool>"
+    assert checked > 10  # units such as [s], [m/s], [rad/s] were in the sources and were checked
+
+
+def test_thruster_simulate_help_shows_seconds():
+    res = runner.invoke(app, ["thruster", "simulate", "--help"])
+    assert "Simulated time [s]." in res.output
+
+
+def test_version():
+    res = runner.invoke(app, ["--version"])
+    assert res.exit_code == 0
+    assert res.stdout.strip() == f"uuvid {__version__}"
