@@ -179,8 +179,10 @@ def run_demo(out: Path, quick: bool = False) -> dict:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=18) as task:
+    with progress_task("uuvid demo", total=18, eta=False, stages=8) as task:
+        task.stage("McLean 1991: Table I step responses")
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
+        task.stage("Laidani et al.: PWM → thrust")
         la = laidani.reproduce(out_dir=out / "laidani")
         task.advance()
         rep = Report("uuvid demo — thrusters and vehicles: models, simulation, identification, uncertainty")
@@ -200,16 +202,22 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         rep.add_paragraph("Full page: laidani/index.html")
         rep.add_figure(out / "laidani" / "laidani_steady_map.png")
         rep.add_figure(out / "laidani" / "laidani_fig10_sine_response.png")
+        task.stage("UUV Simulator thruster dynamics")
         gallery = _dynamics_gallery(out, rep)
         task.advance()
+        task.stage("vehicle mission and speed envelopes")
         vehicle = _vehicle_section(out, rep)
         task.advance()
+        task.stage("thruster-loop study" + (" (skipped: --quick)" if quick else ""))
         study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
         task.advance()
+        task.stage("Caccia et al. 2000: vehicle identification")
         caccia = _caccia_section(out, rep)
         task.advance()
+        task.stage("uncertainty: sweep and Monte Carlo")
         uncertainty = _uncertainty_section(out, rep)
         task.advance()
+        task.stage("model file round trip and report")
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
         same = load_chain(path) == laidani_chain()
