@@ -59,3 +59,21 @@ def test_version():
     res = runner.invoke(app, ["--version"])
     assert res.exit_code == 0
     assert res.stdout.strip() == f"uuvid {__version__}"
+
+
+def test_console_tables_wrap_instead_of_cutting():
+    import io
+
+    from rich.table import Table
+
+    from uuvid.cli.app import _FoldingConsole
+
+    con = _FoldingConsole(width=24, file=io.StringIO())
+    t = Table()
+    t.add_column("eta_horizontal_all_the_way_round")
+    t.add_row("0.61678 ± 0.00912 (significant)")
+    con.print(t)
+    out = con.file.getvalue()
+    assert "…" not in out
+    assert "eta_horizontal_all_the_way_round" in _flat(out)
+    assert "0.61678±0.00912(significant)" in _flat(out)

@@ -7,6 +7,7 @@ stderr.  Errors in user input exit with status 2 and a one-line message naming w
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from rich.console import Console
 from rich.table import Table
 
 from uuvid.cli.helptext import TidyHelpGroup
+from uuvid.cli.options import deprecated_out, renamed
 
 app = typer.Typer(
     cls=TidyHelpGroup,
@@ -43,9 +45,35 @@ def _register_subcommands() -> None:
     from uuvid.cli.uncertainty_cmds import register as register_uncertainty
 
     register_uncertainty(app)
+    from uuvid.cli.examples_cmd import register as register_examples
+
+    register_examples(app)
 
 
-out_console = Console()
+class _FoldingConsole(Console):
+    """A console whose tables wrap long cells and headers instead of cutting them with "…" (off
+    a terminal rich assumes 80 columns; a cut header hides what a number is)."""
+
+    def print(self, *objects, **kwargs) -> None:
+        for o in objects:
+            if isinstance(o, Table):
+                for c in o.columns:
+                    c.overflow = "fold"
+                    c.no_wrap = False
+        super().print(*objects, **kwargs)
+
+
+def _pipe_width() -> int | None:
+    """Off a terminal (pipe, file, CI log) nothing limits the width: 120 columns unless COLUMNS
+    says otherwise; on a terminal rich uses the terminal's width."""
+    try:
+        tty = sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        tty = False
+    return None if tty or "COLUMNS" in os.environ else 120
+
+
+out_console = _FoldingConsole(width=_pipe_width())
 err_console = Console(stderr=True)
 
 
@@ -301,7 +329,8 @@ def thruster_simulate(
 def thruster_export(
     model: str = typer.Argument(..., help="Model file or preset name."),
     to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
-    out: Path | None = typer.Option(None, "--out", help="File to write (default: stdout)."),
+    out: Path | None = typer.Option(None, "--out-file", help="File to write (default: stdout)."),
+    old_out: Path | None = deprecated_out("--out-file"),
     thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
     table_points: int = typer.Option(
         101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
@@ -314,6 +343,7 @@ def thruster_export(
     from uuvid.io.export import ExportError, to_uuv_simulator
     from uuvid.io.modelfile import _to_toml, chain_to_dict
 
+    out = renamed(out, "--out-file", old_out)
     chain = _load_model(model)
     if to == "uuv-simulator":
         try:
