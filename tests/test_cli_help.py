@@ -31,7 +31,7 @@ def _source_help(callback) -> list[str]:
 
 
 def _flat(text: str) -> str:
-    return re.sub(r"[\s│]+", "", text)
+    return re.sub(r"[\s│┃]+", "", text)
 
 
 def test_every_command_help_keeps_its_bracketed_units_and_plain_flags():
