@@ -296,8 +296,13 @@ def thruster_simulate(
         resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
     except ValueError as e:
         _fail(str(e))
-    metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp else {}
+    from uuvid.simulate.signals import Constant, Step
+
+    is_step = isinstance(sig, (Step, Constant))  # step metrics (peak, τ) mean nothing for a square
+    metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp and is_step else {}
     summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt, "metrics_SI": metrics}
+    if not is_step:
+        summary["metrics_note"] = f"step-response metrics apply to step inputs; this input is {type(sig).__name__}"
     if out:
         from uuvid.io.atomic import atomic_write_json
         from uuvid.report.html import Report
@@ -314,6 +319,12 @@ def thruster_simulate(
         summary["out"] = str(out)
     if json_out:
         _print_json(summary)
+    elif not metrics:
+        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False)
+        out_console.print(
+            _table(f"{chain.name}: final values (SI)",
+                   [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
+                   "{:.4g}"))
     else:
         out_console.print(
             _table(
