@@ -302,7 +302,8 @@ def thruster_simulate(
     metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp and is_step else {}
     summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt, "metrics_SI": metrics}
     if not is_step:
-        summary["metrics_note"] = f"step-response metrics apply to step inputs; this input is {type(sig).__name__}"
+        summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
+                                   + type(sig).__name__)
     if out:
         from uuvid.io.atomic import atomic_write_json
         from uuvid.report.html import Report

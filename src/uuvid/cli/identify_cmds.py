@@ -1680,7 +1680,8 @@ def design_input(
     rows = [("k_L = k + 2 k_q |ξ*|", f"{des.k_L:.4g}"),
             (f"τ_c (nominal inertia {nominal:.4g}, {doc['nominal_inertia_from']})", f"{des.tau_c:.4g} s")]
     if "tau_c_range" in doc:
-        rows.append((f"τ_c range (in-air + {frac[0]:.0%} … {frac[1]:.0%} added)", f"{doc['tau_c_range'][0]:.4g} … {doc['tau_c_range'][1]:.4g} s"))
+        rows.append((f"τ_c range (in-air + {frac[0]:.0%} … {frac[1]:.0%} added)",
+                     f"{doc['tau_c_range'][0]:.4g} … {doc['tau_c_range'][1]:.4g} s"))
         rows.append(("ω_opt range", f"{doc['omega_opt_range'][0]:.4g} … "
                                     f"{doc['omega_opt_range'][1]:.4g} rad/s"))
     rows += [("ω_opt = 1/(√3 τ_c)", f"{des.omega_opt:.4g} rad/s"),
