@@ -77,3 +77,35 @@ def test_console_tables_wrap_instead_of_cutting():
     assert "…" not in out
     assert "eta_horizontal_all_the_way_round" in _flat(out)
     assert "0.61678±0.00912(significant)" in _flat(out)
+
+
+def test_out_is_a_folder_and_file_outputs_have_their_own_option(tmp_path):
+    from uuvid.io.modelfile import load_chain
+    from uuvid.thruster.presets import laidani_chain
+
+    new = tmp_path / "new.yaml"
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--out-file", str(new)])
+    assert res.exit_code == 0, res.output
+    assert load_chain(new) == laidani_chain()
+    old = tmp_path / "old.yaml"  # the old spelling still works, with a note on stderr
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--out", str(old)])
+    assert res.exit_code == 0 and old.read_text() == new.read_text()
+    assert "deprecated" in res.stderr and "--out-file" in res.stderr
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--out", str(old), "--out-file",
+                              str(new)])
+    assert res.exit_code == 2
+    # every visible --out is documented as a folder
+    import typer
+
+    root = typer.main.get_command(app)
+
+    def walk(cmd, path=()):
+        for name, sub in getattr(cmd, "commands", {}).items():
+            yield from walk(sub, path + (name,))
+        if not getattr(cmd, "commands", None):
+            yield path, cmd
+
+    for path, cmd in walk(root):
+        for p in cmd.params:
+            if "--out" in getattr(p, "opts", ()) and not getattr(p, "hidden", False):
+                assert any(w in (p.help or "").lower() for w in ("folder", "here", "dir")), (path, p.help)

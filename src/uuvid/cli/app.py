@@ -285,7 +285,7 @@ def thruster_simulate(
     dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
     substeps: int = typer.Option(4, "--substeps", help="RK4 steps per output sample."),
     out: Path | None = typer.Option(
-        None, "--out", help="Write the time series (CSV), a plot and index.html."
+        None, "--out", help="Folder for the time series (CSV), a plot and index.html."
     ),
     json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
 ):

@@ -110,6 +110,7 @@ def _study_section(out: Path, rep: Report) -> dict:
     result = st.run_study(bandwidths=(2.0, 6.0))
     st.write_outputs(result, out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
+    rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
     rep.add_figure(out / "study" / "limit_cycles.png")
     return result
