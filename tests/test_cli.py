@@ -1,6 +1,7 @@
 """The command line: JSON on stdout, reports written, clear errors with exit status 2."""
 
 import json
+import re
 
 from typer.testing import CliRunner
 
@@ -49,6 +50,10 @@ def test_demo_writes_report_folder(tmp_path):
     stages = [ln for ln in res.stderr.splitlines() if ln.startswith("uuvid demo: ")]
     assert len(stages) >= 8 and stages[-1].startswith("uuvid demo: done in ")
     assert all(ln.endswith(" s)") for ln in stages[:-1])
+    # issue 10: no NaN in any table; the Heavy's envelope is confirmed with its attitude held
+    assert "Speed envelope" in html and not re.search(r">\s*-?nan\s*<", html, re.I)
+    heavy = doc["vehicle"]["envelopes"]["bluerov2-heavy"]["rows"]
+    assert all(r["confirmed"] for r in heavy if r["dof"] in ("surge", "sway", "heave"))
 
 
 def test_thruster_simulate_preset_json(tmp_path):

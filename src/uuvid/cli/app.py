@@ -94,7 +94,8 @@ def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}"
     for c in columns:
         t.add_column(c)
     for r in rows:
-        t.add_row(*[fmt.format(r[c]) if isinstance(r[c], float) else str(r[c]) for c in columns])
+        cells = [r.get(c) for c in columns]
+        t.add_row(*["—" if x is None else fmt.format(x) if isinstance(x, float) else str(x) for x in cells])
     return t
 
 

@@ -59,7 +59,6 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     from uuvid.simulate.reference import square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
     from uuvid.vehicle.definition import load_vehicle
-    from uuvid.vehicle.envelope import speed_envelope
 
     v = load_vehicle("bluerov2")
     res = fly_mission(setup_mission(v, square_mission()))
@@ -76,31 +75,13 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     rep.add_table([{k: v_ for k, v_ in res.summary.items() if not isinstance(v_, list)}])
     envs = {}
     for name in ("bluerov2", "bluerov2-heavy"):
-        veh = v if name == "bluerov2" else load_vehicle(name)
-        env = speed_envelope(veh)
-        rows = (
-            confirm_envelope(veh, env) if name == "bluerov2-heavy" else [dict(r.__dict__) for r in env.rows]
-        )
-        envs[name] = rows
-        rep.add_table(
-            [
-                {
-                    k: r.get(k)
-                    for k in (
-                        "direction",
-                        "force",
-                        "speed",
-                        "speed_allocator",
-                        "allocator_speed",
-                        "simulated_speed",
-                        "note",
-                    )
-                    if k in r
-                }
-                for r in rows
-            ],
-            caption=f"Speed envelope — {name} (Laidani et al. Table 4 kind)",
-        )
+        check = confirm_envelope(v if name == "bluerov2" else load_vehicle(name))
+        envs[name] = check.to_dict()
+        caption = f"Speed envelope — {name} (Laidani et al. Table 4 kind; full command, attitude held)"
+        rep.add_table(check.table_rows(), caption=caption)
+        if name == "bluerov2":
+            rep.add_figure(check.stability.plot(out / "bluerov2_stability.png"),
+                           caption="BlueROV2: trim in steady flight; it cannot stay level beyond the limits")
     return {"mission": res.summary, "envelopes": envs}
 
 

@@ -45,6 +45,7 @@ from uuvid.vehicle.model import (
     vehicle_rhs_into,
     vehicle_rhs_reference,
 )
+from uuvid.vehicle.stability import StabilityResult, static_stability
 
 __all__ = [
     "DOF_NAMES",
@@ -71,6 +72,8 @@ __all__ = [
     "one_dof_rhs_compiled",
     "pseudo_inverse",
     "speed_envelope",
+    "static_stability",
+    "StabilityResult",
     "steady_speed",
     "thrust_configuration_matrix",
     "vehicle_from_dict",
