@@ -64,8 +64,9 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     res = fly_mission(setup_mission(v, square_mission()))
     write_mission_outputs(res, v, out / "mission")
     rep.add_heading("Vehicle simulation: BlueROV2 flying Laidani et al.'s square (dive 2 m, 10 × 10 m)")
+    rep.add_links("Full page:", ["mission/index.html"])
     rep.add_paragraph(
-        "Full page: mission/index.html. 6 × T200 (ESC → first-order motor → quadratic map), "
+        "6 × T200 (ESC → first-order motor → quadratic map), "
         "allocation with uniform saturation scaling, PID dynamic positioning, 6-DOF model "
         "with added mass in the mass matrix."
     )
@@ -90,6 +91,7 @@ def _study_section(out: Path, rep: Report) -> dict:
     result = st.run_study(bandwidths=(2.0, 6.0))
     st.write_outputs(result, out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
+    rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
     rep.add_figure(out / "study" / "limit_cycles.png")
     return result
@@ -102,8 +104,9 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     res = caccia2000.reproduce(seed=0, fast=True)
     caccia2000.write_outputs(res, out / "caccia2000")
     rep.add_heading("Caccia et al. (2000): identification from on-board sensors (simulated ROMEO)")
+    rep.add_links("Full page:", ["caccia2000/index.html"])
     rep.add_paragraph(
-        "Full page: caccia2000/index.html. Steady segments with robust velocities from a "
+        "Steady segments with robust velocities from a "
         "3.33 Hz echo-sounder with outliers and dropouts, drag and installation "
         "coefficients by least squares with the 51.02 % significance test and model "
         "reduction, D-optimal sine experiments, integrated inertia regression."
@@ -152,7 +155,7 @@ def _uncertainty_section(out: Path, rep: Report) -> dict:
     sw = demo_sweep(out / "sweep")
     mcb = demo_montecarlo(out / "montecarlo")
     rep.add_heading("Uncertainty: a design sweep and a Monte Carlo band")
-    rep.add_paragraph("Full pages: sweep/index.html, montecarlo/index.html")
+    rep.add_links("Full pages:", ["sweep/index.html", "montecarlo/index.html"])
     figs = sw["summary"].get("figures") or []
     if figs:
         rep.add_figure(out / "sweep" / figs[0], caption="McLean: sweep over tunnel length × voltage")
@@ -170,8 +173,10 @@ def run_demo(out: Path, quick: bool = False) -> dict:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=18) as task:
+    with progress_task("uuvid demo", total=18, eta=False, stages=8) as task:
+        task.stage("McLean 1991: Table I step responses")
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
+        task.stage("Laidani et al.: PWM → thrust")
         la = laidani.reproduce(out_dir=out / "laidani")
         task.advance()
         rep = Report("uuvid demo — thrusters and vehicles: models, simulation, identification, uncertainty")
@@ -180,7 +185,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "has its own page with all plots and tables."
         )
         rep.add_heading("McLean (1991): tunnel thruster transients")
-        rep.add_paragraph("Full page: mclean1991/index.html")
+        rep.add_links("Full page:", ["mclean1991/index.html"])
         rep.add_table(
             [{"case": r["case"], **{k: r[k] for k in mclean1991.TABLE1_FIELDS}} for r in mc["table1"]],
             caption="Table I (ours; thesis values on the paper's page)",
@@ -188,20 +193,26 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         rep.add_figure(out / "mclean1991" / "step_baseline.png", caption="Baseline 24 V step")
         rep.add_paragraph(mc["pulsing"]["answer"])
         rep.add_heading("Laidani et al.: PWM → ESC → A2212 → polynomial")
-        rep.add_paragraph("Full page: laidani/index.html")
+        rep.add_links("Full page:", ["laidani/index.html"])
         rep.add_figure(out / "laidani" / "laidani_steady_map.png")
         rep.add_figure(out / "laidani" / "laidani_fig10_sine_response.png")
+        task.stage("UUV Simulator thruster dynamics")
         gallery = _dynamics_gallery(out, rep)
         task.advance()
+        task.stage("vehicle mission and speed envelopes")
         vehicle = _vehicle_section(out, rep)
         task.advance()
+        task.stage("thruster-loop study" + (" (skipped: --quick)" if quick else ""))
         study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
         task.advance()
+        task.stage("Caccia et al. 2000: vehicle identification")
         caccia = _caccia_section(out, rep)
         task.advance()
+        task.stage("uncertainty: sweep and Monte Carlo")
         uncertainty = _uncertainty_section(out, rep)
         linear = _linearize_section(out, rep)
         task.advance()
+        task.stage("model file round trip and report")
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
         same = load_chain(path) == laidani_chain()

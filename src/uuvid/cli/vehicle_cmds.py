@@ -89,7 +89,7 @@ def simulate(
         None, "--thruster-model", help="mission: override the thrusters' model."
     ),
     dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
-    out: Path | None = typer.Option(None, "--out", help="Write time series, figures and index.html."),
+    out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ):
     """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
