@@ -40,6 +40,9 @@ def _register_subcommands() -> None:
     from uuvid.cli.uncertainty_cmds import register as register_uncertainty
 
     register_uncertainty(app)
+    from uuvid.cli.log_cmds import register as register_log
+
+    register_log(app)
 
 
 out_console = Console()
