@@ -101,6 +101,7 @@ class VehicleConfig:
     baro_primary: int
     notes: tuple[str, ...] = ()
     params_used: Mapping[str, float] = field(default_factory=dict)
+    disabled_outputs: tuple[int, ...] = ()  # outputs 1…8 with no function / only 0 µs
 
     @property
     def active(self) -> tuple[Motor, ...]:
@@ -127,7 +128,8 @@ class VehicleConfig:
         return {"frame_config": self.frame, "frame": self.frame_name,
                 "motors": [m.to_dict() for m in self.motors], "mot_pwm_min": self.pwm_min,
                 "mot_pwm_max": self.pwm_max, "baro_primary": self.baro_primary,
-                "notes": list(self.notes), "params": dict(self.params_used)}
+                "disabled_outputs": list(self.disabled_outputs), "notes": list(self.notes),
+                "params": dict(self.params_used)}
 
 
 def config_from_params(params: Mapping[str, float], *, name: str = "log",
@@ -203,8 +205,12 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
         if mot > F.shape[1]:
             notes.append(f"SERVO{outs[0]}_FUNCTION assigns motor {mot}, which frame "
                          f"{frame_name} does not mix (ignored)")
+    assigned = {m.output for m in motors if not m.disabled}
+    off = tuple(k for k in range(1, 9) if k not in assigned and (
+        params.get(f"SERVO{k}_FUNCTION", 1) == 0
+        or (outputs_seen is not None and not outputs_seen.get(k, False))))
     return VehicleConfig(frame, frame_name, tuple(motors), pmin, pmax, int(round(baro)),
-                         tuple(notes), used)
+                         tuple(notes), used, off)
 
 
 def effective_pwm(pwm: np.ndarray, direction: float) -> np.ndarray:
@@ -225,7 +231,10 @@ def check_vehicle(config: VehicleConfig, vehicle, *, name: str = "log") -> None:
                            f"{len(act)} motors: {names}"
                            + ("; ignored: " + "; ".join(f"motor {m.number}: {m.disabled}"
                                                         for m in config.motors if m.disabled)
-                              if any(m.disabled for m in config.motors) else ""))
+                              if any(m.disabled for m in config.motors) else "")
+                           + (f"; outputs {', '.join(f'SERVO{k}' for k in config.disabled_outputs)}"
+                              " drive no motor (SERVOn_FUNCTION = 0 or 0 µs): their 0 µs is no "
+                              "command, not full reverse" if config.disabled_outputs else ""))
     bad = []
     for j, m in enumerate(act):
         col = B[:, j]
