@@ -153,7 +153,7 @@ def write_bin(path: Path, sc, *, prm=None, reboot_at=None) -> Path:
 
 # ------------------------------------------------------------------------------ telemetry
 def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reboot_at=None,
-               vfr_alt=0.0) -> Path:
+               vfr_alt=0.0, with_params=True) -> Path:
     """Telemetry log of the scenario as QGroundControl saves it: receive stamps quantised to
     50 ms batches (many exact duplicates) and one message saved twice; VFR_HUD.alt = 0 (no EKF
     origin); a BlueOS companion (component 194) with its own boot clock 1130 s ahead sending a
@@ -174,9 +174,11 @@ def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reb
 
     boot_base = BOOT0
     put(gcs, UNIX0 - 1.0, gcs.heartbeat_encode(6, 8, 192, 0, 4))
-    prm = prm or params()
+    prm = (prm or params()) if with_params else {}
     for i, (k, v) in enumerate(prm.items()):
         put(ap, UNIX0 - 0.5 + 0.001 * i, ap.param_value_encode(k.encode(), float(v), 9, len(prm), i))
+    if companion:  # a companion's own parameter of the same name is not the vehicle's
+        put(blueos, UNIX0 - 0.2, blueos.param_value_encode(b"FRAME_CONFIG", 0.0, 9, 1, 0))
     t = sc["t"]
     for k in range(t.size):
         if reboot_at is not None and k == reboot_at:
@@ -228,8 +230,7 @@ def test_config_vectored_factors_directions_and_disabled_outputs(tmp_path):
     assert "-BARO[1].Alt" in s
 
 
-def test_servo_function_remaps_outputs_and_zero_outputs_are_ignored(tmp_path):
-    sc = scenario(n=80)
+def test_servo_function_remaps_outputs_and_zero_outputs_are_ignored():
     prm = params(frame=2, disabled=())
     prm["SERVO8_FUNCTION"] = 0  # motor 8 has no output
     prm["SERVO9_FUNCTION"] = 39  # motor 7 moved to output 9
@@ -254,11 +255,9 @@ def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
 
 
 def test_layout_mismatch_names_thruster_and_dof(tmp_path):
-    from uuvid.vehicle.definition import load_vehicle, vehicle_from_dict
-
     import yaml
 
-    from uuvid.vehicle.definition import preset_path
+    from uuvid.vehicle.definition import load_vehicle, preset_path, vehicle_from_dict
 
     raw = yaml.safe_load(preset_path("bluerov2").read_text())
     raw["thrusters"][4]["axis"] = [0.0, 0.0, -1.0]  # T5 pushing up: not ArduSub's motor 5
@@ -387,6 +386,19 @@ def test_tlog_reboot_splits_into_parts(tmp_path):
     first1 = t[d.table["part"].to_numpy() == 1][0]
     assert first1 == pytest.approx(sc["t"][200], abs=0.15)
     assert inspect_log(write_tlog(tmp_path / "e.tlog", sc, reboot_at=200)).parts == 2
+
+
+def test_tlog_without_parameters_needs_a_parameter_file(tmp_path):
+    sc = scenario(n=100)
+    p = write_tlog(tmp_path / "d.tlog", sc, with_params=False)
+    with pytest.raises(LogDataError, match="no FRAME_CONFIG.*give params="):
+        load_dive(p)
+    qgc = "# Onboard parameters for Vehicle 1\n" + "".join(
+        f"1\t1\t{k}\t{v}\t9\n" for k, v in params().items())
+    (tmp_path / "v.params").write_text(qgc)
+    d = load_dive(p, params=tmp_path / "v.params")
+    assert [m.direction for m in d.config.active] == DIRECTIONS
+    assert inspect_log(p, params=tmp_path / "v.params").config.frame == 1
 
 
 def test_tlog_modes_from_autopilot_heartbeat(tmp_path):

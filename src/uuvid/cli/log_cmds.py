@@ -21,13 +21,15 @@ def _fail(msg: str):
 def inspect_cmd(
     log: Path = typer.Argument(..., help="ArduSub .BIN/.log (dataflash) or .tlog (telemetry)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    params: Path | None = typer.Option(None, "--params", help="Parameter file (QGroundControl/"
+                                       "BlueOS) completing or overriding the log's parameters."),
 ):
     """Format, senders and clocks, messages, vehicle configuration, depth source, modes."""
     from uuvid.cli.app import _print_json, out_console
     from uuvid.io.ardusub import inspect_log
 
     try:
-        res = inspect_log(log)
+        res = inspect_log(log, params=params)
     except (ValueError, ImportError) as e:
         _fail(str(e))
     if json_out:
@@ -49,6 +51,8 @@ def export_cmd(
     dt: float | None = typer.Option(None, "--dt", help="Time step of the table [s] (default: "
                                     "the attitude interval)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also save the overview figure here."),
+    params: Path | None = typer.Option(None, "--params", help="Parameter file (QGroundControl/"
+                                       "BlueOS) completing or overriding the log's parameters."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document."),
 ):
     """One tidy table on one time base: depth, attitude, battery, mode, PWM, thrust, forces."""
@@ -56,7 +60,8 @@ def export_cmd(
     from uuvid.io.ardusub import load_dive
 
     try:
-        dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt)
+        dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,
+                         params=params)
         path = dive.export(out)
         if plot is not None:
             dive.plot(plot)

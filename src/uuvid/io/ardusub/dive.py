@@ -14,7 +14,7 @@ or, when a uuvid vehicle is given, the physical wrench ``τ = B T`` (Fossen 2011
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +96,20 @@ def _channel(raw: RawLog, sr: Series, fld: str, scale: float = 1.0, mask=None,
         return _Channel(np.zeros(0), np.zeros(0), np.zeros(0, int), src, how)
     return _Channel(np.concatenate(chans_t), np.concatenate(chans_v), np.concatenate(chans_p),
                     src, how)
+
+
+def merge_params(from_log: dict, given, warnings: list) -> dict:
+    """The log's parameters, overridden by ``given`` (mapping or parameter file)."""
+    if given is None:
+        return dict(from_log)
+    from uuvid.io.ardusub.frames import read_param_file
+
+    extra = dict(given) if isinstance(given, dict) else read_param_file(given)
+    diff = [k for k in extra if relevant_param(k) and k in from_log and from_log[k] != extra[k]]
+    if diff:
+        warnings.append("given parameters override the log's: " + ", ".join(
+            f"{k} {from_log[k]:g} → {extra[k]:g}" for k in diff))
+    return {**from_log, **extra}
 
 
 def _constant(ch: _Channel) -> bool:
@@ -428,7 +442,8 @@ class DiveLog:
         return plot_dive(self, path)
 
 
-def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = None) -> DiveLog:
+def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = None,
+              params=None) -> DiveLog:
     """Read an ArduSub ``.BIN``/``.tlog`` into a :class:`DiveLog` (see the module doc).
 
     Parameters
@@ -444,6 +459,10 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         A thruster model file overriding the default voltage-aware T200 model.
     dt
         Time step of the table [s]; default the median attitude interval (to 1 ms).
+    params
+        Parameters the log lacks or that should override it: ``{NAME: value}`` or a parameter
+        file (QGroundControl / Mission Planner / BlueOS format); used when a telemetry log was
+        recorded without the parameter download.
     """
     import pandas as pd
 
@@ -452,7 +471,8 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     raw = read_raw(path)
     name = raw.name
     warnings = list(raw.warnings)
-    params, changed = raw.param_values()
+    params_log, changed = raw.param_values()
+    params = merge_params(params_log, params, warnings)
     for n, h in changed.items():
         if relevant_param(n):
             warnings.append(f"parameter {n} changed during the log ({' → '.join(map(str, h))}); "
@@ -506,8 +526,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
     grid, gpart = np.concatenate(grids), np.concatenate(gparts)
     cols: dict = {"t_s": grid - grid[0]}
-    prov: dict = {"t_s": {"source": f"autopilot clock ({'TimeUS' if raw.format == 'dataflash' else 'time_boot_ms'}), "
-                                    "continued across reboots, from the first row",
+    stamp = "TimeUS" if raw.format == "dataflash" else "time_boot_ms"
+    prov: dict = {"t_s": {"source": f"autopilot clock ({stamp}), continued across reboots, "
+                                    "from the first row",
                           "unit": "s", "t0_boot_s": float(grid[0]), "dt_s": dt}}
     cols["depth_m"] = _on_grid(depth, grid, gpart)
     prov["depth_m"] = {"source": depth.source, "unit": "m", "why": dsrc["why"]}

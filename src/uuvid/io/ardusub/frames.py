@@ -151,8 +151,9 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
     frame = get("FRAME_CONFIG")
     if frame is None:
         raise LogDataError(f"{name}: the log holds no FRAME_CONFIG parameter (no PARM / "
-                           "PARAM_VALUE messages with it), so its thruster layout is unknown; "
-                           "give vehicle= (a uuvid vehicle file whose thrusters are motors 1…n)")
+                           "PARAM_VALUE messages with it), so its thruster layout and motor "
+                           "directions are unknown; give params= (the vehicle's parameter file, "
+                           "as QGroundControl or BlueOS save it)")
     frame = int(round(frame))
     frame_name = FRAME_NAMES.get(frame, f"unknown frame {frame}")
     if frame == 7:
@@ -211,6 +212,34 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
         or (outputs_seen is not None and not outputs_seen.get(k, False))))
     return VehicleConfig(frame, frame_name, tuple(motors), pmin, pmax, int(round(baro)),
                          tuple(notes), used, off)
+
+
+def read_param_file(path) -> dict[str, float]:
+    """A parameter file as QGroundControl (``sys comp NAME value type``, tab separated),
+    Mission Planner / MAVProxy (``NAME,value`` or ``NAME value``) or BlueOS save it."""
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError as e:
+        raise LogDataError(f"{p}: cannot read the parameter file: {e.strerror or e}") from None
+    out: dict[str, float] = {}
+    for i, line in enumerate(lines, 1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        f = line.replace(",", " ").split()
+        if len(f) >= 4 and f[0].isdigit() and f[1].isdigit():
+            f = f[2:]
+        try:
+            out[f[0]] = float(f[1])
+        except (IndexError, ValueError):
+            raise LogDataError(f"{p.name}: line {i}: expected 'NAME value' (or QGroundControl's "
+                               f"'sys comp NAME value type'), got {line!r}") from None
+    if not out:
+        raise LogDataError(f"{p.name}: no parameters in the file")
+    return out
 
 
 def effective_pwm(pwm: np.ndarray, direction: float) -> np.ndarray:

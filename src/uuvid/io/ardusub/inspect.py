@@ -14,6 +14,7 @@ from uuvid.io.ardusub.dive import (
     _initial_armed,
     _mode_events,
     _outputs_seen,
+    merge_params,
     relevant_param,
 )
 from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params
@@ -68,9 +69,11 @@ class LogInspection:
                 "modes": self.modes, "warnings": self.warnings}
 
 
-def inspect_log(path) -> LogInspection:
+def inspect_log(path, params=None) -> LogInspection:
     """Format, duration, senders and their clocks, message counts and rates, the vehicle
-    configuration from the parameters, the depth source and why, modes and arming, warnings."""
+    configuration from the parameters (``params``: a mapping or parameter file overriding or
+    completing the log's), the depth source and why, modes and arming, warnings."""
+    params_given = params
     raw = read_raw(path)
     warnings = list(raw.warnings)
     ap = raw.autopilot
@@ -87,8 +90,8 @@ def inspect_log(path) -> LogInspection:
     for src, s in sorted(raw.senders.items()):
         n = sum(s.counts.values())
         span = (s.last_recv - s.first_recv) if raw.format == "tlog" else duration
-        senders.append({"system": src[0], "component": src[1], "kind": s.kind or ("dataflash" if raw.format == "dataflash"
-                                                    else "(no HEARTBEAT)"),
+        kind = s.kind or ("dataflash" if raw.format == "dataflash" else "(no HEARTBEAT)")
+        senders.append({"system": src[0], "component": src[1], "kind": kind,
                         "messages": n, "autopilot": src == ap,
                         "clock_offset_s": s.clock_offset, "reboots": len(s.parts)})
         for mt, c in sorted(s.counts.items()):
@@ -102,6 +105,7 @@ def inspect_log(path) -> LogInspection:
     if raw.bad_data:
         warnings.append(f"{raw.bad_data} undecodable (BAD_DATA) messages skipped")
     params, changed = raw.param_values()
+    params = merge_params(params, params_given, warnings)
     config, err, dsrc = None, None, None
     try:
         config = config_from_params(params, name=raw.name, outputs_seen=_outputs_seen(raw))

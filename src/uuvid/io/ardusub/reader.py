@@ -67,7 +67,7 @@ class RawLog:
     format: str  # "tlog" | "dataflash"
     senders: dict
     series: dict  # (msg, src) → Series
-    params: list  # (name, value, t)
+    params: list  # (name, value, t, sender)
     autopilot: tuple[int, int] | None
     warnings: list
     parts: int = 1
@@ -83,10 +83,13 @@ class RawLog:
         return self.series.get((msg, self.autopilot))
 
     def param_values(self) -> tuple[dict, dict]:
-        """``{name: last value}`` and ``{name: [distinct values in order]}`` of the parameters."""
+        """``{name: last value}`` and ``{name: [distinct values in order]}`` of the autopilot's
+        parameters (other components' PARAM_VALUEs are not the vehicle's)."""
         last: dict = {}
         hist: dict = {}
-        for n, v, _ in self.params:
+        for n, v, _, src in self.params:
+            if src != self.autopilot:
+                continue
             last[n] = v
             h = hist.setdefault(n, [])
             if not h or h[-1] != v:
@@ -179,10 +182,10 @@ def read_raw(path) -> RawLog:
                 s.stamped_recv.append(recv)
                 s.stamped_boot.append(boot)
             if mt == "PARM":
-                params.append((str(m.Name), float(m.Value), boot))
+                params.append((str(m.Name), float(m.Value), boot, src))
                 continue
             if mt == "PARAM_VALUE":
-                params.append((str(m.param_id).rstrip("\x00"), float(m.param_value), recv))
+                params.append((str(m.param_id).rstrip("\x00"), float(m.param_value), recv, src))
                 continue
             if mt not in keep:
                 continue
@@ -335,7 +338,7 @@ def _finish_tlog(raw: RawLog) -> None:
         starts = np.asarray([pp[0] for pp in env[src]], dtype=float)
         return np.clip(np.searchsorted(starts, recv, side="right") - 1, 0, len(starts) - 1)
 
-    for (mt, src), sr in raw.series.items():
+    for (_, src), sr in raw.series.items():
         recv = np.asarray(sr.recv, dtype=float)
         boot = np.asarray(sr.boot, dtype=float)
         if src not in env:
