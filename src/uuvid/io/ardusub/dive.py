@@ -434,6 +434,18 @@ class DiveLog:
 
         return export_dive(self, out)
 
+    def report(self, folder) -> dict:
+        """``dive.csv`` (+ ``dive.csv.json``), ``dive.png`` and ``summary.txt`` in ``folder``;
+        returns the file paths."""
+        from uuvid.io.atomic import atomic_write_text
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        out = {"table": self.export(folder / "dive.csv"), "figure": folder / "dive.png",
+               "summary": atomic_write_text(folder / "summary.txt", self.summary() + "\n")}
+        self.plot(out["figure"])
+        return out
+
     def plot(self, path=None):
         """Depth, attitude, thrusts and forces against time, modes shaded (a Figure; saved
         atomically when ``path`` is given)."""

@@ -12,6 +12,22 @@ from uuvid.io.atomic import atomic_path, atomic_write_json, to_jsonable
 from uuvid.io.logs import LogDataError
 
 
+def shared_log_dir() -> Path | None:
+    """The real ArduSub logs (``shared/data/ardusub-bluerov2``): ``$UUVID_SHARED_DATA`` or
+    ``shared/data`` beside the checkout / the working directory; ``None`` when absent."""
+    import os
+
+    here = Path(__file__).resolve()
+    bases = [Path(os.environ["UUVID_SHARED_DATA"])] if os.environ.get("UUVID_SHARED_DATA") else []
+    bases += [b / "shared" / "data" for b in (here.parents[4].parent, Path.cwd().parent,
+                                              Path.cwd())]
+    for b in bases:
+        d = b / "ardusub-bluerov2"
+        if d.is_dir():
+            return d
+    return None
+
+
 def _meta(dive) -> dict:
     return {"format": "uuvid-dive/1", **dive.to_dict()}
 
