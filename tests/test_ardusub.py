@@ -153,7 +153,7 @@ def write_bin(path: Path, sc, *, prm=None, reboot_at=None) -> Path:
 
 # ------------------------------------------------------------------------------ telemetry
 def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reboot_at=None,
-               vfr_alt=0.0, with_params=True) -> Path:
+               vfr_alt=0.0, with_params=True, gpi=True) -> Path:
     """Telemetry log of the scenario as QGroundControl saves it: receive stamps quantised to
     50 ms batches (many exact duplicates) and one message saved twice; VFR_HUD.alt = 0 (no EKF
     origin); a BlueOS companion (component 194) with its own boot clock 1130 s ahead sending a
@@ -199,8 +199,13 @@ def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reb
         put(ap, tu + lat, att)
         if k == 50:
             put(ap, tu + lat, att)  # the same message saved twice
-        put(ap, tu + lat + 0.001, ap.global_position_int_encode(
-            ms, 0, 0, 0, int(round(-sc["depth"][k] * 1000)), 0, 0, 0, 0))
+        if gpi:
+            put(ap, tu + lat + 0.001, ap.global_position_int_encode(
+                ms, 0, 0, 0, int(round(-sc["depth"][k] * 1000)), 0, 0, 0, 0))
+        else:  # only the barometers: instance 0 in the enclosure, 1 in the water
+            put(ap, tu + lat + 0.001, ap.scaled_pressure_encode(ms, 980.0, 0, 3000))
+            put(ap, tu + lat + 0.001, ap.scaled_pressure2_encode(
+                ms, 1000.0 + 98.0665 * sc["depth"][k], 0, 1500))
         put(ap, tu + lat + 0.002, ap.vfr_hud_encode(0, 0, 0, 0, vfr_alt, 0))
         put(ap, tu + lat + 0.003, ap.sys_status_encode(0, 0, 0, 0, int(round(sc["volts"][k] * 1000)),
                                                        0, -1, 0, 0, 0, 0, 0, 0))
@@ -355,6 +360,16 @@ def test_tlog_depth_from_relative_alt_when_vfr_hud_alt_is_zero(tmp_path):
     assert "VFR_HUD.alt is constant" in d.depth_source["why"]
     t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"] - BOOT0
     np.testing.assert_allclose(d.table["depth_m"], np.interp(t, sc["t"], sc["depth"]), atol=1e-3)
+
+
+def test_tlog_depth_from_primary_pressure_when_no_position_message(tmp_path):
+    sc = scenario(n=300)
+    d = load_dive(write_tlog(tmp_path / "d.tlog", sc, gpi=False))
+    assert d.depth_source["message"] == "SCALED_PRESSURE2"
+    assert any("lowest pressure" in w for w in d.warnings)
+    t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"] - BOOT0
+    truth = np.interp(t, sc["t"], sc["depth"]) - sc["depth"].min()
+    np.testing.assert_allclose(d.table["depth_m"], truth, atol=2e-3)
 
 
 def test_tlog_companion_clock_is_not_the_autopilot_clock(tmp_path):

@@ -123,6 +123,18 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
         primary = config.baro_primary if config else 0
         baro = raw.get("BARO")
         tried = []
+        if baro is not None and not ({"I", "Instance"} & set(baro.values)) and primary > 0:
+            # firmware before multi-instance BARO logged the 2nd/3rd barometer as BAR2/BAR3
+            alt = raw.get(f"BAR{primary + 1}")
+            if alt is not None and "Alt" in alt.values:
+                ch = _channel(raw, alt, "Alt", -1.0, source=f"-BAR{primary + 1}.Alt")
+                if ch.v.size and not _constant(ch):
+                    return ch, {"message": f"BAR{primary + 1}", "field": "Alt",
+                                "instance": primary, "sign": -1,
+                                "why": f"BAR{primary + 1} is barometer {primary} = BARO_PRIMARY "
+                                       "(the water-pressure sensor); BARO (the enclosure) not used"}
+            tried.append(f"no usable BAR{primary + 1} for BARO_PRIMARY = {primary}")
+            baro = None
         if baro is not None:
             inst_f = "I" if "I" in baro.values else ("Instance" if "Instance" in baro.values
                                                      else None)
@@ -190,6 +202,24 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                      "why": "; ".join(tried) + "; VFR_HUD.alt varies, used instead",
                      "ekf_origin": origin, "vfr_hud_alt_constant": False}
     tried.append("VFR_HUD.alt is absent or constant" if vfr is None or vfr_const else "")
+    primary = config.baro_primary if config else 0
+    msg = "SCALED_PRESSURE" + ("" if primary == 0 else str(primary + 1))
+    sp = raw.get(msg)
+    if sp is not None and "press_abs" in sp.values:
+        sg = (config.params_used.get("BARO_SPEC_GRAV") if config else None) or 1.0
+        ch = _channel(raw, sp, "press_abs", 100.0 / (1000.0 * sg * G_WATER),
+                      source=f"{msg}.press_abs")
+        if ch.v.size and not _constant(ch):
+            surface = float(ch.v.min())
+            ch = _Channel(ch.t, ch.v - surface, ch.part, ch.source + " − surface", ch.how)
+            warnings.append(f"depth from {msg}.press_abs (the BARO_PRIMARY sensor's pressure): "
+                            f"surface taken as the lowest pressure in the log, water density "
+                            f"{1000.0 * sg:g} kg/m³ (BARO_SPEC_GRAV); check against a known depth")
+            return ch, {"message": msg, "field": "press_abs", "why": "; ".join(
+                t for t in tried if t) + f"; depth from the pressure of barometer {primary} "
+                "(BARO_PRIMARY), relative to the lowest pressure in the log",
+                "ekf_origin": origin, "vfr_hud_alt_constant": vfr_const}
+    tried.append(f"no usable {msg}")
     raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(t for t in tried if t)}")
 
 

@@ -166,6 +166,10 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
     pmin, pmax = get("MOT_PWM_MIN", 1100.0), get("MOT_PWM_MAX", 1900.0)
     if "MOT_PWM_MIN" not in params or "MOT_PWM_MAX" not in params:
         notes.append("MOT_PWM_MIN/MAX not in the log: ArduSub's defaults 1100/1900 µs assumed")
+    for k in ("BARO_SPEC_GRAV", "GND_SPEC_GRAV"):
+        if k in params:
+            used["BARO_SPEC_GRAV"] = float(params[k])
+            break
     baro = get("BARO_PRIMARY")
     if baro is None:
         notes.append("BARO_PRIMARY not in the log: barometer instance 0 assumed primary")

@@ -27,7 +27,7 @@ from uuvid.io.logs import LogDataError, _boot_from_log, _require, _tlog_boot
 TLOG_KEEP = {"HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "VFR_HUD", "SYS_STATUS",
              "BATTERY_STATUS", "SERVO_OUTPUT_RAW", "SCALED_PRESSURE", "SCALED_PRESSURE2",
              "SCALED_PRESSURE3", "GPS_GLOBAL_ORIGIN", "HOME_POSITION", "SYSTEM_TIME"}
-DF_KEEP = {"ATT", "BARO", "CTUN", "BAT", "CURR", "RCOU", "MODE", "ARM", "EV"}
+DF_KEEP = {"ATT", "BARO", "BAR2", "BAR3", "CTUN", "BAT", "CURR", "RCOU", "MODE", "ARM", "EV"}
 _NO_STAMP = object()
 
 
@@ -142,10 +142,14 @@ def read_raw(path) -> RawLog:
     keep = TLOG_KEEP if kind == "tlog" else DF_KEEP
     bad = 0
     n = 0
+    # dataflash: pymavlink indexes the file, so reading only the kept types skips the rest
+    # (IMU, EKF, ...) and the counts of every type come from its index
+    want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
     try:
         while True:
             try:
-                m = conn.recv_msg()
+                m = conn.recv_msg() if want is None else conn.recv_match(type=want,
+                                                                         blocking=False)
             except Exception as e:
                 raise LogDataError(f"{p.name}: cannot decode the log after message {n}: "
                                    f"{type(e).__name__}: {e}") from e
@@ -209,6 +213,15 @@ def read_raw(path) -> RawLog:
             conn.close()
         except Exception:
             pass
+    if kind == "dataflash":
+        counts = getattr(conn, "counts", None)
+        names = getattr(conn, "id_to_name", {})
+        s0 = senders.setdefault((0, 0), Sender((0, 0)))
+        items = enumerate(counts) if isinstance(counts, list) else (counts or {}).items()
+        for i, c in items:
+            nm = names.get(i)
+            if c and nm and nm not in ("FMT", "FMTU", "UNIT", "MULT"):
+                s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
     raw = RawLog(p, kind, senders, series, params, None, [], bad_data=bad)
