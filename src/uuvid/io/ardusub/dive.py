@@ -264,18 +264,14 @@ def _battery(raw: RawLog) -> _Channel | None:
                 if ch.v.size:
                     return ch
         return None
-    sr = raw.get("SYS_STATUS")
-    if sr is not None:
-        ch = _channel(raw, sr, "voltage_battery", 1e-3, source="SYS_STATUS.voltage_battery",
-                      invalid=lambda x: (x <= 0) | (x >= 65535))
-        if ch.v.size:
-            return ch
-    sr = raw.get("BATTERY_STATUS")
-    if sr is not None:
-        ch = _channel(raw, sr, "voltages", 1e-3, source="BATTERY_STATUS.voltages[0]",
-                      invalid=lambda x: (x <= 0) | (x >= 65535))
-        if ch.v.size:
-            return ch
+    for msg, fld, src in (("SYS_STATUS", "voltage_battery", "SYS_STATUS.voltage_battery"),
+                          ("BATTERY_STATUS", "voltages", "BATTERY_STATUS.voltages[0]")):
+        sr = raw.get(msg)
+        if sr is not None and fld in sr.values:  # mV; 0 and UINT16_MAX mean "unknown"
+            ch = _channel(raw, sr, fld, 1e-3, source=src,
+                          invalid=lambda x: (x <= 0) | (x >= 65535))
+            if ch.v.size:
+                return ch
     return None
 
 
