@@ -35,7 +35,7 @@ def inspect_cmd(
     if json_out:
         _print_json(res.to_dict())
     else:
-        out_console.print(res.summary(), highlight=False, markup=False)
+        out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
 
 
 @log_app.command("export")
@@ -70,7 +70,7 @@ def export_cmd(
     if json_out:
         _print_json({**dive.to_dict(), "out": str(path)})
         return
-    out_console.print(dive.summary(), highlight=False, markup=False)
+    out_console.print(dive.summary(), highlight=False, markup=False, soft_wrap=True)
     err_console.print(f"wrote {path}" + (f" and {path.name}.json" if path.suffix == ".csv" else ""))
 
 

@@ -398,7 +398,6 @@ class DiveLog:
     force_basis: str
     factor_forces: object  # DataFrame of Σ f·T (always), even when a vehicle gives the wrench
     vehicle: str | None = None
-    inspection: object = None
 
     @property
     def motors(self) -> list[int]:
@@ -652,9 +651,11 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         prov[c] = {"source": "Σ over motors " + ("B[dof, j]" if veh is not None else "f[dof, i]")
                              + " × thrust_i_N", "basis": basis}
     df = pd.DataFrame(cols)
-    if raw.duplicates:
+    used = {v.get("source") for v in prov.values()}
+    dups = {k: v for k, v in raw.duplicates.items() if k in used}
+    if dups:
         warnings.append("merged samples with duplicated time stamps (mean): "
-                        + ", ".join(f"{k}: {v}" for k, v in raw.duplicates.items()))
+                        + ", ".join(f"{k}: {v}" for k, v in dups.items()))
     if raw.parts > 1:
         df.insert(1, "part", gpart)
         prov["part"] = {"source": "boot (reboot) number within the log"}

@@ -351,7 +351,7 @@ def _finish_tlog(raw: RawLog) -> None:
         starts = np.asarray([pp[0] for pp in env[src]], dtype=float)
         return np.clip(np.searchsorted(starts, recv, side="right") - 1, 0, len(starts) - 1)
 
-    for (_, src), sr in raw.series.items():
+    for (mt, src), sr in raw.series.items():
         recv = np.asarray(sr.recv, dtype=float)
         boot = np.asarray(sr.boot, dtype=float)
         if src not in env:
@@ -361,10 +361,20 @@ def _finish_tlog(raw: RawLog) -> None:
         part = part_of(src, recv)
         b = boot.copy()
         miss = ~np.isfinite(b)
+        n_bad = 0
         for k, (_, rr, bb) in enumerate(env[src]):
-            sel = miss & (part == k)
+            sel = part == k
             if sel.any():
-                b[sel] = _boot_from_log(recv[sel], rr, bb)
+                mapped = _boot_from_log(recv[sel], rr, bb)
+                # a stamp far from what its receive time says (a 32-bit time_usec whose wrap
+                # was mistaken for a reboot, a corrupt field) is replaced by the mapped value
+                far = ~np.isfinite(b[sel]) | (np.abs(b[sel] - mapped) > 5.0)
+                n_bad += int(np.count_nonzero(far & ~miss[sel]))
+                b[np.flatnonzero(sel)[far]] = mapped[far]
+        if n_bad:
+            raw.warnings.append(f"{n_bad} {mt} time stamps from system {src[0]} component "
+                                f"{src[1]} disagree with that sender's clock by more than 5 s; "
+                                "their receive time (mapped onto the clock) is used instead")
         if src == ap:
             t = b + np.asarray(C)[part]
         else:  # their clock → receive clock → the autopilot's
