@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.io.ardusub.dive import (
+from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params
+from uuvid.io.ardusub.reader import read_raw
+from uuvid.io.ardusub.sources import (
     _HB_ARMED,
     _depth,
     _initial_armed,
@@ -17,8 +19,6 @@ from uuvid.io.ardusub.dive import (
     merge_params,
     relevant_param,
 )
-from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params
-from uuvid.io.ardusub.reader import read_raw
 from uuvid.io.logs import LogDataError
 
 
