@@ -257,6 +257,24 @@ def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
         load_dive(p, vehicle="bluerov2-heavy")
     d = load_dive(p, vehicle="bluerov2")  # the 6-thruster BlueROV2 matches the Vectored frame
     assert d.vehicle == "bluerov2" and "physical wrench" in d.force_basis
+    from uuvid.vehicle.definition import load_vehicle
+
+    T = d.table[[f"thrust_{i}_N" for i in range(1, 7)]].to_numpy()
+    W = T @ load_vehicle("bluerov2").B.T
+    np.testing.assert_allclose(d.table[["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]], W)
+    # the mixing-factor force stays available beside the physical wrench
+    np.testing.assert_allclose(d.factor_forces["Z_N"], T @ -np.array(VECTORED, float)[:, 3])
+
+
+def test_thruster_model_file_overrides_the_t200(tmp_path):
+    from uuvid.io.modelfile import save_chain
+    from uuvid.thruster.presets import laidani_chain
+
+    model = save_chain(laidani_chain(), tmp_path / "mine.yaml")
+    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=120)), thruster_model=model)
+    assert d.thrust_model["voltage_aware"] is False
+    pwm = 1500 + DIRECTIONS[0] * (d.table["pwm_1"].to_numpy() - 1500)
+    np.testing.assert_allclose(d.table["thrust_1_N"], laidani_chain().steady_thrust(pwm))
 
 
 def test_layout_mismatch_names_thruster_and_dof(tmp_path):
