@@ -324,7 +324,8 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     used = {v.get("source") for v in prov.values()}
     dups = {k: v for k, v in raw.duplicates.items() if k in used}
     if dups:
-        warnings.append("merged samples with duplicated time stamps (mean): "
+        warnings.append("merged samples with duplicated time stamps (mean; last for PWM and "
+                        "modes): "
                         + ", ".join(f"{k}: {v}" for k, v in dups.items()))
     if raw.parts > 1:
         df.insert(1, "part", gpart)

@@ -8,7 +8,8 @@ PWM to the output whose ``SERVOn_FUNCTION`` is that motor:
     pwm_i  = 1500 + out_i · (MOT_PWM_MAX − 1500)   if out_i > 0
            = 1500 + out_i · (1500 − MOT_PWM_MIN)   otherwise  (calc_thrust_to_pwm)
 
-so the thrust a motor gives *along its mixing direction* is the thruster's thrust at the PWM
+(the logged RCOU / SERVO_OUTPUT_RAW value is what the ESC receives), so the thrust a motor gives
+*along its mixing direction* is the thruster's thrust at the PWM
 reflected about the 1500 µs trim: ``T_i = T(1500 + d_i (pwm_i − 1500))`` (a reversed motor runs
 a reversed propeller; reflecting keeps its forward/reverse asymmetry on the right side).  The
 generalized force in ArduSub's mixing frame is then ``τ = F · T`` with ``F`` the factor table
@@ -189,6 +190,10 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
         notes.append("no SERVOn_FUNCTION in the log: ArduSub's default (output n = motor n) "
                      "assumed")
     F = factor_matrix(frame)
+    missing_dir = [k for k in range(1, F.shape[1] + 1) if f"MOT_{k}_DIRECTION" not in params]
+    if missing_dir:
+        notes.append(f"MOT_n_DIRECTION not in the log for motor(s) {missing_dir}: +1 (normal) "
+                     "assumed — a reversed motor would flip its thrust; give params=")
     motors = []
     for j in range(F.shape[1]):
         num = j + 1

@@ -102,6 +102,10 @@ def inspect_log(path, params=None) -> LogInspection:
             warnings.append(f"system {src[0]} component {src[1]} stamps its messages on its own "
                             f"boot clock ({s.clock_offset:+.1f} s from the autopilot's); they are "
                             "mapped through the receive clock, never taken as autopilot time")
+    if raw.same_recv:
+        warnings.append(f"{raw.same_recv} messages share the receive stamp of the message before "
+                        "them (the ground station stamps in batches): receive times only place "
+                        "messages without an on-board stamp, through the sender's clock")
     if raw.bad_data:
         warnings.append(f"{raw.bad_data} undecodable (BAD_DATA) messages skipped")
     params, changed = raw.param_values()

@@ -73,6 +73,7 @@ class RawLog:
     parts: int = 1
     duplicates: dict = field(default_factory=dict)
     bad_data: int = 0
+    same_recv: int = 0  # telemetry messages sharing the previous one's receive stamp
 
     @property
     def name(self) -> str:
@@ -142,6 +143,7 @@ def read_raw(path) -> RawLog:
     keep = TLOG_KEEP if kind == "tlog" else DF_KEEP
     bad = 0
     n = 0
+    same_recv, last_recv = 0, math.nan
     # dataflash: pymavlink indexes the file, so reading only the kept types skips the rest
     # (IMU, EKF, ...) and the counts of every type come from its index
     want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
@@ -163,6 +165,8 @@ def read_raw(path) -> RawLog:
             if kind == "tlog":
                 src = (m.get_srcSystem(), m.get_srcComponent())
                 recv = float(getattr(m, "_timestamp", math.nan))
+                same_recv += recv == last_recv
+                last_recv = recv
                 boot = None
                 if mt in keep or "time_boot_ms" in m.get_fieldnames():
                     boot = _tlog_boot(m, wraps)
@@ -224,7 +228,8 @@ def read_raw(path) -> RawLog:
                 s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
-    raw = RawLog(p, kind, senders, series, params, None, [], bad_data=bad)
+    raw = RawLog(p, kind, senders, series, params, None, [], bad_data=bad,
+                 same_recv=int(same_recv))
     _finish(raw)
     return raw
 

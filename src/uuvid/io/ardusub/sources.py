@@ -33,8 +33,9 @@ def relevant_param(name: str) -> bool:
             or (name.startswith("MOT_") and name.endswith("_DIRECTION")))
 
 
-def _clean(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    """Finite samples sorted by time; samples sharing a time stamp merged (mean).  Returns
+def _clean(t: np.ndarray, v: np.ndarray, last: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+    """Finite samples sorted by time; samples sharing a time stamp merged — their mean, or the
+    last one for step signals (modes, PWM: a mean would be a value never commanded).  Returns
     ``(t, v, number of merged samples)``."""
     ok = np.isfinite(t) & np.isfinite(v)
     t, v = t[ok], v[ok]
@@ -45,8 +46,11 @@ def _clean(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     start = np.concatenate(([True], np.diff(t) != 0))
     n_dup = int(t.size - np.count_nonzero(start))
     if n_dup:
-        g = np.cumsum(start) - 1
-        v = np.bincount(g, weights=v) / np.bincount(g)
+        if last:
+            v = v[np.concatenate((start[1:], [True]))]
+        else:
+            g = np.cumsum(start) - 1
+            v = np.bincount(g, weights=v) / np.bincount(g)
         t = t[start]
     return t, v, n_dup
 
@@ -71,7 +75,7 @@ def _channel(raw: RawLog, sr: Series, fld: str, scale: float = 1.0, mask=None,
     src = source or f"{sr.msg}.{fld}"
     chans_t, chans_v, chans_p = [], [], []
     for k in np.unique(part):
-        tk, vk, nd = _clean(t[part == k], v[part == k])
+        tk, vk, nd = _clean(t[part == k], v[part == k], last=how == "previous")
         if nd:
             raw.duplicates[src] = raw.duplicates.get(src, 0) + nd
         chans_t.append(tk)
