@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.io.ardusub.frames import (
-    BLUE_ROBOTICS_FRAMES,
     DOF_COLUMNS,
     MODE_NAMES,
     OPEN_LOOP_MODES,
@@ -243,6 +242,8 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         cols[c] = _on_grid(ch, grid, gpart)
         prov[c] = {"source": ch.source, "unit": "rad"}
     prov["yaw_rad"]["note"] = "unwrapped (continuous) before resampling"
+    for c in ("roll_rad", "pitch_rad", "yaw_rad"):
+        prov[c]["as_logged"] = att_src
     if bat is not None:
         cols["battery_V"] = _on_grid(bat, grid, gpart, hold_ends=True)
         prov["battery_V"] = {"source": bat.source, "unit": "V"}
@@ -250,62 +251,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         cols["battery_V"] = np.full(grid.size, np.nan)
         prov["battery_V"] = {"source": None, "unit": "V"}
         warnings.append("no battery voltage in the log (BAT/CURR or SYS_STATUS)")
-    # modes / arming
-    if mode_ch is not None:
-        mnum = _on_grid(mode_ch, grid, gpart)
-        mode = np.array([MODE_NAMES.get(int(x), f"MODE{int(x)}") if np.isfinite(x) else "UNKNOWN"
-                         for x in mnum], dtype=object)
-        prov["mode"] = {"source": mode_ch.source, "names": "ArduSub Mode::Number"}
-    else:
-        mode = np.full(grid.size, "UNKNOWN", dtype=object)
-        prov["mode"] = {"source": None}
-        warnings.append("no flight-mode messages (MODE / HEARTBEAT): mode UNKNOWN")
-    cols["mode"] = mode
-    if arm_ch is not None:
-        events = arm_ch.source != _HB_ARMED  # dataflash: events; telemetry: a state per HEARTBEAT
-        arm = _on_grid(arm_ch, grid, gpart, initial=_initial_armed(arm_ch) if events else None)
-        prov["armed"] = {"source": arm_ch.source}
-        if events:
-            prov["armed"]["note"] = "before the first event of a part: the opposite of that event"
-    else:
-        arm = np.full(grid.size, np.nan)
-        prov["armed"] = {"source": None}
-        warnings.append("no arming messages (ARM/EV or HEARTBEAT): armed unknown")
-    cols["armed"] = pd.array([None if not np.isfinite(a) else bool(a) for a in arm],
-                             dtype="boolean")
-    # ---- thrust
-    if thruster_model is not None:
-        tm = load_thrust_model(thruster_model)
-    else:
-        tm = default_t200()
-        if config.frame not in BLUE_ROBOTICS_FRAMES:
-            warnings.append("thrusters assumed to be Blue Robotics T200s (give thruster_model=)")
-    volts = cols["battery_V"]
-    if tm.voltage_aware and not np.all(np.isfinite(volts)):
-        fill = float(np.nanmedian(volts)) if np.isfinite(volts).any() else 16.0
-        warnings.append(f"battery voltage missing on {np.count_nonzero(~np.isfinite(volts))} rows: "
-                        f"thrust there computed at {fill:.2f} V "
-                        + ("(the log's median)" if np.isfinite(volts).any()
-                           else "(the T200 sheet's nominal 16 V: no voltage in the log)"))
-        volts = np.where(np.isfinite(volts), volts, fill)
-    T = np.empty((len(config.active), grid.size))
-    for j, m in enumerate(config.active):
-        pwm = _on_grid(pwms[m.number], grid, gpart)
-        cols[f"pwm_{m.number}"] = pwm
-        prov[f"pwm_{m.number}"] = {"source": pwms[m.number].source, "unit": "µs",
-                                   "output": m.output}
-        lo_bad = np.count_nonzero((pwm < config.pwm_min - 1) | (pwm > config.pwm_max + 1))
-        if lo_bad:
-            warnings.append(f"pwm_{m.number}: {lo_bad} rows outside MOT_PWM_MIN/MAX "
-                            f"({config.pwm_min:g}–{config.pwm_max:g} µs)")
-        eff = effective_pwm(pwm, m.direction)
-        T[j] = np.where(pwm > 0, tm.thrust(eff, volts), 0.0)
-    for j, m in enumerate(config.active):
-        cols[f"thrust_{m.number}_N"] = T[j]
-        prov[f"thrust_{m.number}_N"] = {
-            "source": f"{pwms[m.number].source} → {tm.name} at battery_V",
-            "unit": "N", "direction": m.direction,
-            "note": "thrust along ArduSub's mixing direction of the motor: T(1500 + d (pwm − 1500))"}
+    _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart)
+    tm = load_thrust_model(thruster_model) if thruster_model is not None else default_t200()
+    T = _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart)
     Ff = config.F @ T
     factor_df = pd.DataFrame({c: Ff[k] for k, c in enumerate(DOF_COLUMNS)})
     if veh is not None:
@@ -334,6 +282,64 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     dsrc = {**dsrc, "source": depth.source}
     return DiveLog(raw.path, raw.format, df, config, dsrc, warnings, segs, prov, tm.to_dict(),
                    basis, factor_df, None if veh is None else veh.name)
+
+
+def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
+    """``mode`` (ArduSub mode name) and ``armed`` (nullable boolean) columns."""
+    import pandas as pd
+
+    if mode_ch is not None:
+        mnum = _on_grid(mode_ch, grid, gpart)
+        names = {x: MODE_NAMES.get(int(x), f"MODE{int(x)}") for x in np.unique(mnum[np.isfinite(mnum)])}
+        mode = pd.Series(mnum).map(names).fillna("UNKNOWN").to_numpy(object)
+        prov["mode"] = {"source": mode_ch.source, "names": "ArduSub Mode::Number"}
+    else:
+        mode = np.full(grid.size, "UNKNOWN", dtype=object)
+        prov["mode"] = {"source": None}
+        warnings.append("no flight-mode messages (MODE / HEARTBEAT): mode UNKNOWN")
+    cols["mode"] = mode
+    if arm_ch is not None:
+        events = arm_ch.source != _HB_ARMED  # dataflash: events; telemetry: a state per HEARTBEAT
+        arm = _on_grid(arm_ch, grid, gpart, initial=_initial_armed(arm_ch) if events else None)
+        prov["armed"] = {"source": arm_ch.source}
+        if events:
+            prov["armed"]["note"] = "before the first event of a part: the opposite of that event"
+    else:
+        arm = np.full(grid.size, np.nan)
+        prov["armed"] = {"source": None}
+        warnings.append("no arming messages (ARM/EV or HEARTBEAT): armed unknown")
+    cols["armed"] = pd.arrays.BooleanArray(np.nan_to_num(arm) > 0.5, ~np.isfinite(arm))
+
+
+def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
+    """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows)."""
+    volts = cols["battery_V"]
+    if tm.voltage_aware and not np.all(np.isfinite(volts)):
+        fill = float(np.nanmedian(volts)) if np.isfinite(volts).any() else 16.0
+        warnings.append(f"battery voltage missing on {np.count_nonzero(~np.isfinite(volts))} rows: "
+                        f"thrust there computed at {fill:.2f} V "
+                        + ("(the log's median)" if np.isfinite(volts).any()
+                           else "(the T200 sheet's nominal 16 V: no voltage in the log)"))
+        volts = np.where(np.isfinite(volts), volts, fill)
+    T = np.empty((len(config.active), grid.size))
+    for j, m in enumerate(config.active):
+        pwm = _on_grid(pwms[m.number], grid, gpart)
+        cols[f"pwm_{m.number}"] = pwm
+        prov[f"pwm_{m.number}"] = {"source": pwms[m.number].source, "unit": "µs",
+                                   "output": m.output}
+        out = np.count_nonzero((pwm < config.pwm_min - 1) | (pwm > config.pwm_max + 1))
+        if out:
+            warnings.append(f"pwm_{m.number}: {out} rows outside MOT_PWM_MIN/MAX "
+                            f"({config.pwm_min:g}–{config.pwm_max:g} µs)")
+        # 0 µs is "no pulse" (output off), not full reverse
+        T[j] = np.where(pwm > 0, tm.thrust(effective_pwm(pwm, m.direction), volts), 0.0)
+    for j, m in enumerate(config.active):
+        cols[f"thrust_{m.number}_N"] = T[j]
+        prov[f"thrust_{m.number}_N"] = {
+            "source": f"{pwms[m.number].source} → {tm.name} at battery_V",
+            "unit": "N", "direction": m.direction,
+            "note": "thrust along ArduSub's mixing direction of the motor: T(1500 + d (pwm − 1500))"}
+    return T
 
 
 def _segments(df) -> list[dict]:

@@ -53,8 +53,6 @@ FRAME_FACTORS: dict[int, tuple[_R, ...]] = {
     5: _SIMPLE,
     6: _SIMPLE,
 }
-#: Blue Robotics frames: their thrusters are T200s unless the user says otherwise
-BLUE_ROBOTICS_FRAMES = {0, 1, 2, 3, 4, 5, 6}
 #: SERVOn_FUNCTION values of motors 1…12 (SRV_Channel::k_motor1…k_motor8 = 33…40,
 #: k_motor9…k_motor12 = 82…85)
 MOTOR_FUNCTIONS = {**{33 + k: k + 1 for k in range(8)}, **{82 + k: 9 + k for k in range(4)}}
