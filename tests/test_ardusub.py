@@ -85,7 +85,8 @@ _ST = {"Q": "Q", "c": "h", "C": "H", "f": "f", "B": "B", "H": "H", "N": "16s", "
 
 
 class _DF:
-    def __init__(self):
+    def __init__(self, omit=()):
+        self.omit = set(omit)
         self.types = {"FMT": 128}
         self.forms = {}
         self.out = [self._fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns")]
@@ -101,6 +102,8 @@ class _DF:
         self.out.append(self._fmt(tid, name, form, cols))
 
     def msg(self, name, *vals):
+        if name in self.omit:
+            return
         form = self.forms[name]
         self.out.append(bytes([0xA3, 0x95, self.types[name]]) + struct.pack(
             "<" + "".join(_ST[c] for c in form),
@@ -111,10 +114,10 @@ class _DF:
         return path
 
 
-def write_bin(path: Path, sc, *, prm=None, reboot_at=None) -> Path:
+def write_bin(path: Path, sc, *, prm=None, reboot_at=None, omit=()) -> Path:
     """Dataflash log of the scenario: PARM, ATT (centi-deg, yaw 0…360), two BAROs (instance 0 in
     the enclosure, 1 the water-pressure sensor), BAT, RCOU (outputs 7/8 at 0 µs), MODE, ARM."""
-    df = _DF()
+    df = _DF(omit)
     df.fmt(20, "PARM", "QNf", "TimeUS,Name,Value")
     df.fmt(21, "ATT", "QccC", "TimeUS,Roll,Pitch,Yaw")
     df.fmt(22, "BARO", "QBff", "TimeUS,I,Alt,Press")
@@ -368,6 +371,28 @@ def test_bin_reboot_splits_into_parts(tmp_path):
     assert set(d.table["part"]) == {0, 1}
     assert np.all(np.diff(d.table["t_s"]) > 0)
     assert any("rebooted" in w for w in d.warnings)
+
+
+def test_bin_missing_messages_and_repeated_parameters(tmp_path):
+    sc = scenario(n=120)
+    prm = params()
+    p = write_bin(tmp_path / "d.BIN", sc, prm=prm, omit=("BAT", "MODE", "ARM"))
+    d = load_dive(p)
+    assert set(d.table["mode"]) == {"UNKNOWN"} and d.table["armed"].isna().all()
+    assert any("no battery voltage" in w for w in d.warnings)
+    assert any("16 V" in w for w in d.warnings)
+    np.testing.assert_allclose(
+        d.table["thrust_3_N"], default_t200().thrust(d.table["pwm_3"], np.full(len(d.table), 16.0)))
+    # a parameter written twice with another value: the last one wins, and it is said
+    p2 = write_bin(tmp_path / "e.BIN", sc, prm={**prm, "MOT_3_DIRECTION": -1.0})
+    raw = p2.read_bytes()
+    extra = _DF()
+    extra.fmt(20, "PARM", "QNf", "TimeUS,Name,Value")
+    extra.msg("PARM", int((BOOT0 + 50) * 1e6), "MOT_3_DIRECTION", 1.0)
+    p2.write_bytes(raw + b"".join(extra.out[2:]))
+    d2 = load_dive(p2)
+    assert d2.config.motors[2].direction == 1.0
+    assert any("MOT_3_DIRECTION changed" in w for w in d2.warnings)
 
 
 # ============================================================================ telemetry traps
