@@ -367,10 +367,15 @@ def test_bin_modes_arming_and_open_loop(tmp_path):
 
 
 def test_bin_reboot_splits_into_parts(tmp_path):
-    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=300), reboot_at=150))
+    sc = scenario(n=300)
+    sc["mode"][150:] = 2  # the second boot logs its MODE before its first ATT
+    d = load_dive(write_bin(tmp_path / "d.BIN", sc, reboot_at=150))
     assert set(d.table["part"]) == {0, 1}
     assert np.all(np.diff(d.table["t_s"]) > 0)
     assert any("rebooted" in w for w in d.warnings)
+    part = d.table["part"].to_numpy()
+    assert set(d.table["mode"][part == 1]) == {"ALT_HOLD"}
+    assert set(d.table["mode"][part == 0]) == {"MANUAL"}
 
 
 def test_bin_missing_messages_and_repeated_parameters(tmp_path):

@@ -40,6 +40,7 @@ class Series:
     recv: list = field(default_factory=list)  # receive time (UNIX s, telemetry) or nan
     boot: list = field(default_factory=list)  # on-board stamp [s since boot] or nan
     values: dict = field(default_factory=dict)  # field → list
+    seq: list = field(default_factory=list)  # position in the log (message number)
     t: np.ndarray | None = None  # on the time base (filled by RawLog.finish)
     part: np.ndarray | None = None
 
@@ -212,6 +213,7 @@ def read_raw(path) -> RawLog:
                     lst.append(math.nan)
             sr.recv.append(recv)
             sr.boot.append(math.nan if boot is None else boot)
+            sr.seq.append(n)
     finally:
         try:
             conn.close()
@@ -309,9 +311,23 @@ def _finish_dataflash(raw: RawLog) -> None:
                             "log: the log is split into parts; dataflash keeps no clock across "
                             "a reboot, so each part is placed 1 s after the previous one (the "
                             "real gap is unknown)")
+    # every series is split where the reference series is, by position in the log; a message
+    # between the last reference message of one part and the first of the next belongs to the
+    # part whose clock its stamp is nearer to
+    rs = np.asarray(ref.seq)
+    first = np.asarray([rs[rp == k][0] for k in range(1, raw.parts)], dtype=float)
+    last = np.asarray([rs[rp == k - 1][-1] for k in range(1, raw.parts)], dtype=float)
+    b_first = np.asarray([rb[rp == k][0] for k in range(1, raw.parts)], dtype=float)
+    b_last = np.asarray([rb[rp == k - 1][-1] for k in range(1, raw.parts)], dtype=float)
     for sr in raw.series.values():
         b = np.asarray(sr.boot, dtype=float)
-        part = np.minimum(_part_index(b), raw.parts - 1)
+        q = np.asarray(sr.seq, dtype=float)
+        part = np.searchsorted(first, q, side="right")
+        j = np.searchsorted(last, q, side="right") - 1  # gap after the last of part j
+        gap = (j >= 0) & (part == np.maximum(j, 0))  # past part j's last, before part j+1's first
+        jj = np.clip(j, 0, max(raw.parts - 2, 0))
+        newer = gap & (np.abs(b - b_first[jj]) < np.abs(b - b_last[jj])) if first.size else gap
+        part = np.where(newer, j + 1, part)
         sr.part = part
         sr.t = b + np.asarray(offsets)[part]
 
@@ -373,12 +389,12 @@ def _finish_tlog(raw: RawLog) -> None:
                 mapped = _boot_from_log(recv[sel], rr, bb)
                 # a stamp far from what its receive time says (a 32-bit time_usec whose wrap
                 # was mistaken for a reboot, a corrupt field) is replaced by the mapped value
-                far = ~np.isfinite(b[sel]) | (np.abs(b[sel] - mapped) > 5.0)
+                far = ~np.isfinite(b[sel]) | (np.abs(b[sel] - mapped) > 60.0)
                 n_bad += int(np.count_nonzero(far & ~miss[sel]))
                 b[np.flatnonzero(sel)[far]] = mapped[far]
         if n_bad:
             raw.warnings.append(f"{n_bad} {mt} time stamps from system {src[0]} component "
-                                f"{src[1]} disagree with that sender's clock by more than 5 s; "
+                                f"{src[1]} disagree with that sender's clock by more than 60 s; "
                                 "their receive time (mapped onto the clock) is used instead")
         if src == ap:
             t = b + np.asarray(C)[part]
