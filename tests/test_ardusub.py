@@ -280,6 +280,16 @@ def test_thruster_model_file_overrides_the_t200(tmp_path):
     np.testing.assert_allclose(d.table["thrust_1_N"], laidani_chain().steady_thrust(pwm))
 
 
+def test_custom_frame_needs_the_vehicle_geometry(tmp_path):
+    prm = {**params(), "FRAME_CONFIG": 7}
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60), prm=prm)
+    with pytest.raises(LogDataError, match="Custom.*give vehicle="):
+        load_dive(p)
+    d = load_dive(p, vehicle="bluerov2")
+    assert any("Custom" in n for n in d.config.notes)
+    assert np.allclose(d.factor_forces.to_numpy(), d.table[list(d.factor_forces.columns)])
+
+
 def test_layout_mismatch_names_thruster_and_dof(tmp_path):
     import yaml
 

@@ -188,7 +188,8 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         from uuvid.vehicle.definition import load_vehicle
 
         veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
-    config = config_from_params(params, name=name, outputs_seen=_outputs_seen(raw))
+    config = config_from_params(params, name=name, outputs_seen=_outputs_seen(raw),
+                                custom_B=None if veh is None else np.asarray(veh.B, float))
     if veh is not None:
         check_vehicle(config, veh, name=name)
     for m in config.motors:

@@ -132,8 +132,12 @@ class VehicleConfig:
 
 
 def config_from_params(params: Mapping[str, float], *, name: str = "log",
-                       outputs_seen: Mapping[int, bool] | None = None) -> VehicleConfig:
+                       outputs_seen: Mapping[int, bool] | None = None,
+                       custom_B: np.ndarray | None = None) -> VehicleConfig:
     """Build the :class:`VehicleConfig` from ``{PARAM: value}`` (the last value of each).
+
+    ``custom_B``: for FRAME_CONFIG = 7 (Custom), whose factors are not in the log, the 6 × n
+    thrust configuration matrix of the user's vehicle stands in for them (motor j = column j).
 
     ``outputs_seen``: ``{output: True if it ever carried a non-zero PWM}``; outputs that only
     ever read 0 µs are disabled (ignored, with a note) even if a motor function is assigned.
@@ -155,11 +159,11 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
                            "as QGroundControl or BlueOS save it)")
     frame = int(round(frame))
     frame_name = FRAME_NAMES.get(frame, f"unknown frame {frame}")
-    if frame == 7:
+    if frame == 7 and custom_B is None:
         raise LogDataError(f"{name}: FRAME_CONFIG = 7 (Custom): the motor factors live in the "
                            "firmware build or a Lua script, not in the log; give vehicle= with "
                            "the thruster geometry (thrusters in motor order)")
-    if frame not in FRAME_FACTORS:
+    if frame not in FRAME_FACTORS and frame != 7:
         raise LogDataError(f"{name}: FRAME_CONFIG = {frame} is not an ArduSub frame this reader "
                            f"knows ({', '.join(f'{k} {v}' for k, v in FRAME_NAMES.items())})")
     pmin, pmax = get("MOT_PWM_MIN", 1100.0), get("MOT_PWM_MAX", 1900.0)
@@ -187,7 +191,12 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
     if not have_servo:
         notes.append("no SERVOn_FUNCTION in the log: ArduSub's default (output n = motor n) "
                      "assumed")
-    F = factor_matrix(frame)
+    if frame == 7:
+        F = np.asarray(custom_B, dtype=float)
+        notes.append("FRAME_CONFIG = 7 (Custom): the vehicle's thrust configuration matrix B "
+                      "stands in for ArduSub's factors (motor j = thruster j)")
+    else:
+        F = factor_matrix(frame)
     missing_dir = [k for k in range(1, F.shape[1] + 1) if f"MOT_{k}_DIRECTION" not in params]
     if missing_dir:
         notes.append(f"MOT_n_DIRECTION not in the log for motor(s) {missing_dir}: +1 (normal) "
