@@ -48,6 +48,9 @@ def _register_subcommands() -> None:
     from uuvid.cli.examples_cmd import register as register_examples
 
     register_examples(app)
+    from uuvid.cli.log_cmds import register as register_log
+
+    register_log(app)
 
 
 class _FoldingConsole(Console):
