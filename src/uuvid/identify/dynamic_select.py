@@ -29,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -56,6 +56,8 @@ __all__ = [
     "default_structures",
     "fit_dynamics",
     "nrmse",
+    "plot_predictions",
+    "predict_chain",
     "reference_two_state_thruster",
     "select_structure",
     "synthetic_experiments",
@@ -250,8 +252,11 @@ def _template(s: Structure, g: _Guess, with_thrust: bool, offset: float, limit: 
                  "blocks[1].motor_inertia", "blocks[1].torque_coefficient"]
         units.update({"torque_constant": "N·m/A", "motor_inertia": "kg·m²",
                       "torque_coefficient": "N·m·s²/rad²"})
-        combos = {"K/(R J)": lambda c: c.blocks[1].torque_constant / (c.blocks[1].resistance * c.blocks[1].motor_inertia),
-                  "K²/(R J)": lambda c: c.blocks[1].torque_constant ** 2 / (c.blocks[1].resistance * c.blocks[1].motor_inertia),
+        def rj(c):
+            return c.blocks[1].resistance * c.blocks[1].motor_inertia
+
+        combos = {"K/(R J)": lambda c: c.blocks[1].torque_constant / rj(c),
+                  "K²/(R J)": lambda c: c.blocks[1].torque_constant ** 2 / rj(c),
                   "K_Q/J": lambda c: c.blocks[1].torque_coefficient / c.blocks[1].motor_inertia}
     else:  # healey
         if not with_thrust:
@@ -474,7 +479,8 @@ def fit_dynamics(
     cf = None
     x0 = None
     n_iter = 0
-    for n_iter in range(1, iterations + 1):
+    for k in range(1, iterations + 1):
+        n_iter = k
         runs = [r for e in exps for r in e.runs(sigma) if r.channel in {_CH[c] for c in sigma}]
         cf = fit_chain(chain, free, runs, bounds=bounds, x0=x0, max_step=step, model=s.name,
                        units=units, emit_warnings=False, normalize=False, **lsq_kwargs)
@@ -547,30 +553,38 @@ class Selection:
     def plot(self, level: float | None = None):
         """Held-out prediction of the chosen structure at ``level`` (default: the highest) with
         its ±2σ band, measured data and command."""
-        from uuvid.report.plots import new_figure
-
         lv = max(self.held_out) if level is None else level
-        preds = self.held_out[lv]
-        chans = [c for c in CHANNELS if any(c in p.nrmse for p in preds)]
-        fig, ax = new_figure(len(chans), len(preds), squeeze=False, sharex="col",
-                             figsize=(5.5 * len(preds), 3.2 * len(chans)))
-        for j, p in enumerate(preds):
-            e = p.experiment
-            for i, c in enumerate(chans):
-                a = ax[i, j]
-                a.plot(e.t, getattr(e, c), ".", ms=1.5, color="0.55", label="measured")
-                a.plot(e.t, p.predicted[c], "-", lw=1.2, color="C1",
-                       label=f"predicted (NRMSE {100 * p.nrmse[c]:.1f} %)")
-                if c in p.band:
-                    a.fill_between(e.t, *p.band[c], color="C1", alpha=0.25, lw=0,
-                                   label="±2σ (parameters)")
-                a.set_ylabel("speed [rad/s]" if c == "speed" else "thrust [N]")
-                a.grid(True, alpha=0.3)
-                a.legend(fontsize="small", loc="best")
-            ax[0, j].set_title(f"{e.name} (level {e.level:g}, held out)")
-            ax[-1, j].set_xlabel("t [s]")
-        fig.suptitle(f"{self.chosen}: fitted without level {lv:g}, predicted at it")
-        return fig
+        return plot_predictions(self.held_out[lv],
+                                f"{self.chosen}: fitted without level {lv:g}, predicted at it",
+                                suffix=" (held out)")
+
+
+def plot_predictions(preds: Sequence[Prediction], title: str, suffix: str = ""):
+    """Measured vs predicted speed and thrust (rows) per record (columns), with bands."""
+    from uuvid.report.plots import new_figure
+
+    chans = [c for c in CHANNELS if any(c in p.nrmse for p in preds)]
+    fig, ax = new_figure(len(chans), len(preds), squeeze=False, sharex="col",
+                         figsize=(5.5 * len(preds), 3.2 * len(chans)))
+    for j, p in enumerate(preds):
+        e = p.experiment
+        for i, c in enumerate(chans):
+            a = ax[i, j]
+            if c not in p.nrmse:
+                continue
+            a.plot(e.t, getattr(e, c), ".", ms=1.5, color="0.55", label="measured", rasterized=True)
+            a.plot(e.t, p.predicted[c], "-", lw=1.2, color="C1",
+                   label=f"predicted (NRMSE {100 * p.nrmse[c]:.1f} %)")
+            if c in p.band:
+                a.fill_between(e.t, *p.band[c], color="C1", alpha=0.25, lw=0,
+                               label="±2σ (parameters)")
+            a.set_ylabel("speed [rad/s]" if c == "speed" else "thrust [N]")
+            a.grid(True, alpha=0.3)
+            a.legend(fontsize="small", loc="upper left")
+        ax[0, j].set_title(f"{e.name} (level {e.level:g}{suffix})")
+        ax[-1, j].set_xlabel("t [s]")
+    fig.suptitle(title)
+    return fig
 
 
 def _fmt(v) -> str:
@@ -675,7 +689,7 @@ def _parse_name(name: str) -> tuple[str, bool]:
 # ------------------------------------------------------------------------------------------------
 def reference_two_state_thruster(dead_band: tuple[float, float] = (0.4, 0.5)) -> ThrusterChain:
     """A ROV-sized two-state (Healey) thruster behind a ±5 V analog driver with a dead band:
-    about 115 rad/s and 5 N at 3 V, about 40 % thrust overshoot on steps (the truth of the synthetic tests)."""
+    about 115 rad/s and 5 N at 3 V, about 40 % thrust overshoot on steps (the synthetic truth)."""
     return ThrusterChain(
         (Driver(deadband_fwd=dead_band[0], deadband_rev=dead_band[1], limit=5.0),
          HealeyThruster(inertia=1e-4, drive_gain=0.09, viscous=5e-4, torque_coefficient=1.3e-5,
