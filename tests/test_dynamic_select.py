@@ -141,3 +141,34 @@ def test_acceptance_at_1kHz():
         for c in ("speed", "thrust"):
             assert p.nrmse[c] <= 1.5 * f.in_sample_nrmse(c)
     assert select_structure(recs).chosen == "healey+deadband"
+
+
+def _t200_staircase(sheet, hold: int = 20, dt: float = 0.01):
+    """Each direction of a T200 sheet as a slow staircase from rest (steady values held)."""
+    from uuvid.io.bench import read_t200
+
+    d = read_t200(sheet)
+    c = d.command - d.neutral
+    out = []
+    for sgn in (1.0, -1.0):
+        idx = np.flatnonzero(np.sign(c) == sgn)
+        idx = idx[np.argsort(np.abs(c[idx]))]
+        seq = lambda a: np.concatenate([np.zeros(hold)] + [np.full(hold, a[i]) for i in idx])  # noqa: E731
+        u = seq(c)
+        out.append(Experiment(np.arange(u.size) * dt, u, seq(d.speed), seq(d.thrust), f"{sgn:+g}"))
+    zero = np.abs(c[(d.speed == 0) | d.censored]).max()  # the sheet's no-output band edge
+    return out, float(zero)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("volts", [12, 16])
+def test_t200_steady_part_dead_band(shared_data, volts):
+    """On the manufacturer's sheets the dead band lands inside the sheet's no-output band (the
+    shaft starts turning there) and the steady speed is fitted better with it."""
+    recs, zero = _t200_staircase(shared_data / "t200-bluerobotics-2019" / f"T200_{volts}V.csv")
+    with_db = fit_dynamics(recs, Structure("bessa", True))
+    without = fit_dynamics(recs, Structure("bessa", False))
+    for nm in ("deadband_fwd", "deadband_rev"):
+        d = with_db.fit[f"blocks[0].{nm}"].value
+        assert 0.0 < d <= zero + 4.0  # one PWM step (4 µs) of resolution
+    assert with_db.in_sample_nrmse("speed") < without.in_sample_nrmse("speed")
