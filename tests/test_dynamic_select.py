@@ -153,9 +153,9 @@ def _t200_staircase(sheet, hold: int = 20, dt: float = 0.01):
     for sgn in (1.0, -1.0):
         idx = np.flatnonzero(np.sign(c) == sgn)
         idx = idx[np.argsort(np.abs(c[idx]))]
-        seq = lambda a: np.concatenate([np.zeros(hold)] + [np.full(hold, a[i]) for i in idx])  # noqa: E731
-        u = seq(c)
-        out.append(Experiment(np.arange(u.size) * dt, u, seq(d.speed), seq(d.thrust), f"{sgn:+g}"))
+        u, w, thr = (np.concatenate([np.zeros(hold)] + [np.full(hold, a[i]) for i in idx])
+                     for a in (c, d.speed, d.thrust))
+        out.append(Experiment(np.arange(u.size) * dt, u, w, thr, f"{sgn:+g}"))
     zero = np.abs(c[(d.speed == 0) | d.censored]).max()  # the sheet's no-output band edge
     return out, float(zero)
 

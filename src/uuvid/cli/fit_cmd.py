@@ -3,38 +3,13 @@
 ::
 
     uuvid thruster fit DATA... --model KIND --out MODEL.yaml [--report DIR] [--json]
+    uuvid thruster fit RUNS... --select [--families first-order,healey] --out MODEL.yaml
 
 Steady models (``quadratic``, ``cv``, ``polynomial``, ``deadzone``, ``table``, ``physical``) use
-every row of every file (files are stacked; ``physical`` keeps each file as one sheet with its own
-supply voltage).  Dynamic models (``first-order``, ``yoerger``, ``bessa``, ``mclean``) need a time
-column; each file is one run (e.g. steps at several voltages) and the runs share the parameters.
-
-What each model reads and writes (the model file loads with :func:`uuvid.io.modelfile.load_chain`):
-
-===========  =====================================  ===========================================
-model        data                                   chain written
-===========  =====================================  ===========================================
-quadratic    thrust, speed                          speed → ``T = K_T Ω|Ω|`` per direction
-cv           thrust, command in volts (or duty ×    voltage → ``T = c_V V|V|`` (Caccia 2000)
-             supply)
-polynomial   thrust, speed                          speed → ``|T| = P(|Ω|)`` per direction,
-                                                    degree by 5-fold CV (or ``--degree``)
-deadzone     thrust, speed (or the command)         speed (or command) → UUV Simulator Bessa
-                                                    conversion ``T = c(x|x| − δ)``
-table        thrust, command                        command → lookup table (LinearInterp)
-physical     thrust, speed, supply voltage          command → ESC → DC motor → ``K_T Ω|Ω|`` at
-             (current helps); one file per voltage  ``--supply-voltage`` (default: first file's)
-first-order  time, speed, command                   (command − neutral) → ``K/(1 + τ s)``
-yoerger      time, speed, command                   (command − neutral) → ``ẋ = βu − αx|x|``
-bessa        time, speed, command                   (command − neutral) → Bessa dynamics
-mclean       time, thrust, command in volts         voltage → McLean tunnel thruster (+ the
-                                                    ``--start`` model's load cell); motor
-                                                    constants fixed at the start model's
-===========  =====================================  ===========================================
-
-With a PWM command (neutral ≠ 0) the ``deadzone`` (command input) and dynamic models get a
-unit-gain ESC in front that only subtracts the neutral command, so ``uuvid thruster predict --pwm``
-works on the written file; its "voltage" is then ``command − neutral``.
+every row of every file; dynamic models (``first-order``, ``yoerger``, ``bessa``, ``dc-motor``,
+``healey``, ``mclean``) need a time column, one run per file.  ``--select`` picks the dynamic
+family by leave-one-level-out prediction.  What each model reads and writes is tabulated in
+:mod:`uuvid.identify.thruster_workflow`, which does the work; this module only parses options.
 
 Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
 status 2 and the :class:`~uuvid.io.bench.BenchDataError` message, which names the file, the column
