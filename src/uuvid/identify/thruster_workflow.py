@@ -737,27 +737,22 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     name = name or model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings
-        if model == "quadratic":
-            return _fit_quadratic(sets, name)
-        if model == "cv":
-            return _fit_cv(sets, name)
-        if model == "polynomial":
-            return _fit_polynomial(sets, name, degree, criterion)
-        if model == "deadzone":
-            return _fit_deadzone(sets, name, map_input)
-        if model == "table":
-            return _fit_table(sets, name, table_points)
-        if model == "physical":
-            return _fit_physical(sets, name, opts.supply_voltage, linear_duty)
         if model in STRUCTURED and (dead_band or model in ("dc-motor", "healey")
                                     or any(s.thrust is not None for s in sets)):
             return _fit_structured(sets, model, name, True)
-        if model == "first-order":
-            return _fit_first_order(sets, name, resample)
-        if model == "yoerger":
-            return _fit_yoerger(sets, name, resample)
-        if model == "bessa":
-            return _fit_bessa(sets, name, resample)
+        fitters = {
+            "quadratic": lambda: _fit_quadratic(sets, name),
+            "cv": lambda: _fit_cv(sets, name),
+            "polynomial": lambda: _fit_polynomial(sets, name, degree, criterion),
+            "deadzone": lambda: _fit_deadzone(sets, name, map_input),
+            "table": lambda: _fit_table(sets, name, table_points),
+            "physical": lambda: _fit_physical(sets, name, opts.supply_voltage, linear_duty),
+            "first-order": lambda: _fit_first_order(sets, name, resample),
+            "yoerger": lambda: _fit_yoerger(sets, name, resample),
+            "bessa": lambda: _fit_bessa(sets, name, resample),
+        }
+        if model in fitters:
+            return fitters[model]()
         if start is None:
             from uuvid.thruster.presets import auv2_rig_chain
 
