@@ -104,6 +104,17 @@ def test_a_model_without_dead_band_extrapolates_worse():
     assert err(with_db) < err(without)
 
 
+def test_driver_saturation_is_identified_when_the_records_reach_it():
+    from uuvid.thruster.blocks import FirstOrderMotor
+
+    truth = ThrusterChain((Driver(deadband_fwd=0.3, deadband_rev=0.3, limit=2.5),
+                           FirstOrderMotor(gain=40.0, time_constant=0.05)), input_kind="command")
+    recs = synthetic_experiments(truth, (2.0, 4.0), rate=200.0, noise=NOISE, seed=4)
+    f = fit_dynamics(recs, "first-order", channels=("speed",), free_limit=True)
+    p = f.fit["blocks[0].limit"]
+    assert abs(p.value - 2.5) < 4 * p.stderr
+
+
 def test_selection_picks_the_true_structure(records):
     sel = select_structure(records, ["first-order", "yoerger", "healey"])
     assert sel.chosen == "healey+deadband"

@@ -447,12 +447,16 @@ def fit_dynamics(
     start: ThrusterChain | None = None,
     iterations: int = 4,
     max_step: float | None = None,
+    free_limit: bool = False,
     **lsq_kwargs,
 ) -> DynamicsFit:
     """Fit ``structure`` (dead bands, dynamics and thrust map together) to every channel of
     ``experiments``, each channel weighted by its estimated noise (see the module docstring).
 
-    ``offset``: the driver's neutral command (fixed); ``limit``: its output limit (fixed);
+    ``offset``: the driver's neutral command (fixed: next to two dead bands it is not
+    identifiable); ``limit``: its output limit (fixed; with ``free_limit`` fitted, starting
+    at most at 90 % of the largest driver output the records imply — only records that reach
+    the limit can tell it);
     ``channels``: restrict to ``("speed",)`` or ``("thrust",)``; ``start``: a chain of the same
     structure to start from (e.g. the all-levels fit when refitting a subset).
     """
@@ -465,9 +469,15 @@ def fit_dynamics(
     if channels:
         exps = [dataclasses.replace(e, **{c: None for c in CHANNELS if c not in use})
                 for e in exps if any(getattr(e, c) is not None for c in use)]
-    chain, free, bounds, units, combos = _template(s, _guess(exps, offset), with_thrust, offset, limit)
+    g = _guess(exps, offset)
+    if free_limit:  # start inside the range the records reach, or the limit has no gradient
+        limit = min(limit, 0.9 * max(g.v.values()))
+    chain, free, bounds, units, combos = _template(s, g, with_thrust, offset, limit)
     if start is not None:
         chain = ThrusterChain(start.blocks, input_kind=start.input_kind, name=s.name)
+    if free_limit:
+        free = [*free, "blocks[0].limit"]
+        bounds = {**bounds, "blocks[0].limit": (1e-9, math.inf)}
     # a speed-only family seen through thrust alone cannot separate map and gain: drop the speed
     # family's output from the fit only when no record has speed (the map then carries the gain)
     sigma = {}
@@ -711,7 +721,8 @@ def synthetic_experiments(
 ) -> list[Experiment]:
     """Bench-shaped records of ``chain`` at each command level (and its negative): rest, a slow
     ramp to the level (the shaft starts at the dead band), a hold, a release, a step back up and
-    a release; sampled at ``rate`` Hz with white noise ``(speed σ rad/s, thrust σ N)``."""
+    a release; sampled at ``rate`` Hz with white noise ``(speed σ rad/s, thrust σ N)`` (no
+    thrust record when the chain has no thrust)."""
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate
     t = np.arange(int(round(duration * rate)) + 1) * dt
@@ -723,7 +734,8 @@ def synthetic_experiments(
             u = sgn * lv * shape
             r = chain.simulate(u, t[-1], dt=dt, substeps=1)
             sp = r["prop_speed"] + noise[0] * rng.standard_normal(t.size)
-            th = r["thrust"] + noise[1] * rng.standard_normal(t.size)
+            th = (r["thrust"] + noise[1] * rng.standard_normal(t.size)
+                  if "thrust" in r.channels else None)
             out.append(Experiment(t, u, sp, th, name=f"{'+' if sgn > 0 else '-'}{lv:g}V"))
     return out
 
