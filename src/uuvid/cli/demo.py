@@ -176,7 +176,7 @@ def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
     from uuvid.identify.dynamic_select import selection_demo
 
     res = selection_demo(out / "dynamics_fit",
-                         families=("first-order", "yoerger", "healey") if quick else None)
+                         families=("first-order", "healey") if quick else None)
     rep.add_heading("Thruster dynamics that extrapolate: dead band, Healey two-state, held-out level")
     rep.add_paragraph("Synthetic bench records (±2 V and ±3 V, speed and thrust with noise) from a "
                       "two-state thruster behind a driver with a dead band. Every structure is "
