@@ -38,13 +38,10 @@ from uuvid.identify.dynamic_select import (
 NOISE = (1.0, 0.15)
 
 
-def _best_of(fn, repeat: int):
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+def _timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
 
 
 def simulate_case(repeat: int = 5) -> dict:
@@ -52,7 +49,8 @@ def simulate_case(repeat: int = 5) -> dict:
     e = synthetic_experiments(chain, (3.0,), both_directions=False, noise=(0.0, 0.0))[0]
     dt = float(e.t[1] - e.t[0])
     chain.simulate(e.u, e.t[-1], dt=dt, substeps=1)  # compile / load the cache
-    ours_t, r = _best_of(lambda: chain.simulate(e.u, e.t[-1], dt=dt, substeps=1), repeat)
+    runs = [_timed(lambda: chain.simulate(e.u, e.t[-1], dt=dt, substeps=1)) for _ in range(repeat)]
+    ours_t, r = min(runs, key=lambda x: x[0])
     f = chain.rhs()
 
     def held(t, x):
@@ -70,7 +68,7 @@ def simulate_case(repeat: int = 5) -> dict:
 
 def fit_case() -> dict:
     recs = [e for e in synthetic_experiments(reference_two_state_thruster(), (2.0,), seed=7)]
-    ours_t, f = _best_of(lambda: fit_dynamics(recs, "healey"), 1)
+    ours_t, f = _timed(lambda: fit_dynamics(recs, "healey"))
     chain, free, bounds, _, _ = _template(Structure("healey"), _guess(recs, 0.0), True, 0.0, np.inf)
     fps = parse_free(chain, free)
     x0 = np.array([p.value_in(chain) for p in fps])
