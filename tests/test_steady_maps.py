@@ -16,6 +16,7 @@ from uuvid.thruster.blocks import (
     BessaDynamics,
     DCMotor,
     DeadZoneMap,
+    Driver,
     FirstOrder,
     FirstOrderMotor,
     LoadCell,
@@ -123,6 +124,18 @@ def test_closed_form_matches_the_sweep(key):
     lo, hi, _ = _command_range(chain)
     span = hi - lo
     u = np.linspace(lo - 0.1 * span, hi + 0.1 * span, 73)  # past the saturation at both ends
+    _assert_matches_sweep(chain, u)
+
+
+def test_dead_band_driver_matches_the_sweep():
+    """The identification's driver (ESC kernel: offset, dead band per direction, output limit)."""
+    chain = ThrusterChain(
+        (Driver(deadband_fwd=30.0, deadband_rev=20.0, offset=1500.0, gain_fwd=0.04, gain_rev=0.035,
+                limit=14.0), FirstOrderMotor(gain=20.0, time_constant=0.05),
+         QuadraticMap(k_pos=2e-4, k_neg=1.5e-4)), name="driver")
+    u = np.linspace(1000.0, 2000.0, 73)  # through both dead-band edges and the output limit
+    f = chain.steady_thrust(u)
+    assert np.any(f == 0.0) and f.max() > 0 > f.min()
     _assert_matches_sweep(chain, u)
 
 

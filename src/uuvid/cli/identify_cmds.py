@@ -8,7 +8,7 @@
           [--report DIR] [--write-vehicle VEHICLE --out-vehicle NEW.yaml]
     uuvid vehicle identify inertia LOG --dof yaw --drag STEADY.json|VEHICLE [--json] [--report DIR]
     uuvid vehicle design-input --k K [--kq KQ] --mass-air M --speed V [--vehicle V --mode M
-          --dof D] [--out cmd.csv] [--json]
+          --dof D] [--out-file cmd.csv] [--json]
 
 **Logs** (``LOG``): CSV/Parquet with a column mapping (``--time-col``, ``--command-col`` — the
 nominal generalized force of the DOF (N or N·m, e.g. the thrust-mapping layer's φ), ``--position-col``
@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 import typer
+
+from uuvid.cli.options import deprecated_out, renamed
 
 __all__ = ["register", "identify_app", "reproduce_caccia2000", "identify_steady",
            "identify_inertia", "design_input", "read_vehicle_log", "LogSpec", "LogData"]
@@ -1049,6 +1051,10 @@ def load_drag(source: str, dof: str, key: str | None = None, mode: str | None = 
     if p.suffix.lower() == ".json":
         if not p.is_file():
             raise ValueError(f"--drag {p}: no such file")
+        if p.stat().st_size == 0:  # e.g. `> steady.json` from a command that failed
+            raise ValueError(f"--drag {p}: the file is empty — the command that should have "
+                             "written it failed or wrote nothing (use its --report DIR: "
+                             "DIR/summary.json)")
         try:
             doc = json.loads(p.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
@@ -1565,7 +1571,8 @@ def design_input(
     mode: str | None = typer.Option(None, "--mode", help="Thrust-mapping mode for the allocation."),
     voltage_cv: str | None = typer.Option(None, "--voltage-cv",
                                           help="c_V₊,c_V₋ of T = c_V V|V|: also write voltages."),
-    out: Path | None = typer.Option(None, "--out", help="Command time series to write (.csv)."),
+    out: Path | None = typer.Option(None, "--out-file", help="Command time series to write (.csv)."),
+    old_out: Path | None = deprecated_out("--out-file"),
     json_out: bool = typer.Option(False, "--json", help="Print the design as one JSON document."),
 ):
     """Design the sine experiment for the inertia (D-optimal frequency, levels, length, command file).
@@ -1576,6 +1583,7 @@ def design_input(
     from uuvid.io.atomic import atomic_write_text
 
     _, _print_json, err_console, out_console = _h()
+    out = renamed(out, "--out-file", old_out)
     for name, v in (("--k", k), ("--kq", kq)):
         if not (math.isfinite(v) and v >= 0):
             _fail(f"{name} must be finite and >= 0, got {v}")
@@ -1596,7 +1604,7 @@ def design_input(
         except ValueError as e:
             _fail(f"--dof: {e}")
     if out is not None and out.suffix.lower() != ".csv":
-        _fail(f"--out {out}: the command file must end in .csv")
+        _fail(f"--out-file {out}: the command file must end in .csv")
     try:
         des = design_sine_experiment(
             k, kq, mass=nominal, speed=speed, mass_air=mass_air, added_fraction=frac,
@@ -1658,7 +1666,7 @@ def design_input(
         try:
             atomic_write_text(out, buf.getvalue())
         except OSError as e:
-            _fail(f"--out {out}: cannot write ({e.strerror or e})")
+            _fail(f"--out-file {out}: cannot write ({e.strerror or e})")
         doc["out"] = str(out)
         doc["columns"] = list(cols)
     if json_out:
@@ -1670,9 +1678,10 @@ def design_input(
     t.add_column("quantity")
     t.add_column("value")
     rows = [("k_L = k + 2 k_q |ξ*|", f"{des.k_L:.4g}"),
-            ("τ_c (nominal inertia)", f"{des.tau_c:.4g} s")]
+            (f"τ_c (nominal inertia {nominal:.4g}, {doc['nominal_inertia_from']})", f"{des.tau_c:.4g} s")]
     if "tau_c_range" in doc:
-        rows.append(("τ_c range", f"{doc['tau_c_range'][0]:.4g} … {doc['tau_c_range'][1]:.4g} s"))
+        rows.append((f"τ_c range (in-air + {frac[0]:.0%} … {frac[1]:.0%} added)",
+                     f"{doc['tau_c_range'][0]:.4g} … {doc['tau_c_range'][1]:.4g} s"))
         rows.append(("ω_opt range", f"{doc['omega_opt_range'][0]:.4g} … "
                                     f"{doc['omega_opt_range'][1]:.4g} rad/s"))
     rows += [("ω_opt = 1/(√3 τ_c)", f"{des.omega_opt:.4g} rad/s"),
