@@ -89,15 +89,32 @@ def _yaw_sine(seed: int) -> dict[str, np.ndarray | list]:
     return {"time": t, "torque": phi, "heading_deg": y}
 
 
+def _thruster_runs(seed: int) -> dict[str, dict[str, np.ndarray]]:
+    """Bench runs of a ROV thruster (analog ±5 V driver with a dead band, Healey two-state
+    thruster: the synthetic truth of :func:`uuvid.identify.dynamic_select.reference_two_state_thruster`)
+    at ±2, ±3 V and +4 V, 200 Hz, speed and thrust with noise; one file per run (columns t [s],
+    V [V], w [rad/s], T [N])."""
+    from uuvid.identify.dynamic_select import reference_two_state_thruster, synthetic_experiments
+
+    chain = reference_two_state_thruster()
+    runs = synthetic_experiments(chain, (2.0, 3.0), rate=200.0, seed=seed)
+    runs += synthetic_experiments(chain, (4.0,), rate=200.0, seed=seed + 1, both_directions=False)
+    return {f"run_{r.name}.csv": {"t": r.t, "V": r.u, "w": r.speed, "T": r.thrust} for r in runs}
+
+
 @dataclass(frozen=True)
 class Example:
-    """One example log: its name, the file it is written to, what it holds, how it is made."""
+    """One example: its name, the file(s) it is written to, what it holds, how it is made.
+
+    ``make(seed)`` returns the columns of one file, or (``multi``) a mapping file name → columns.
+    """
 
     name: str
     filename: str
     description: str
     make: Callable[[int], dict]
     seed: int = 0
+    multi: bool = False
 
 
 EXAMPLES: dict[str, Example] = {
@@ -111,6 +128,10 @@ EXAMPLES: dict[str, Example] = {
                 "ROMEO pool log, yaw: the sine inertia experiment −5 + 4 sin(2πt/24) N·m "
                 "(columns time [s], torque [N·m], heading_deg [°]) — for "
                 "`uuvid vehicle identify inertia`", _yaw_sine, 1),
+        Example("thruster-runs", "run_*.csv",
+                "thruster bench runs at ±2, ±3 and +4 V, 200 Hz (columns t [s], V [V], w [rad/s], "
+                "T [N]; one file per run) — for `uuvid thruster fit --select` and "
+                "`uuvid thruster replay`", _thruster_runs, 2, multi=True),
     )
 }
 
@@ -128,7 +149,7 @@ def _get(name: str) -> Example:
 
 def generate_example(name: str) -> dict:
     """The example's columns (name → array or list of labels), in SI except where the column
-    name says otherwise (``heading_deg``)."""
+    name says otherwise (``heading_deg``); for a multi-file example, file name → columns."""
     e = _get(name)
     return e.make(e.seed)
 
@@ -149,9 +170,12 @@ def _csv_text(cols: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_example(name: str, folder: str | Path) -> Path:
-    """Generate example *name* and write it (atomically) as CSV into *folder*; returns the path."""
+def write_example(name: str, folder: str | Path) -> list[Path]:
+    """Generate example *name* and write it (atomically) as CSV into *folder*; returns the paths
+    written (one, or one per run of a multi-file example)."""
     from uuvid.io.atomic import atomic_write_text
 
     e = _get(name)
-    return atomic_write_text(Path(folder) / e.filename, _csv_text(generate_example(name)))
+    data = generate_example(name)
+    files = data if e.multi else {e.filename: data}
+    return [atomic_write_text(Path(folder) / fn, _csv_text(cols)) for fn, cols in files.items()]

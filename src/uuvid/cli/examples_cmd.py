@@ -26,10 +26,11 @@ def examples(
         _fail(f"unknown example {unknown[0]!r}; available: {', '.join(EXAMPLES)} (uuvid examples --list)")
     for n in names or list(EXAMPLES):
         try:
-            path = write_example(n, out)
+            paths = write_example(n, out)
         except OSError as e:
             _fail(f"--out {out}: cannot write {EXAMPLES[n].filename} ({e.strerror or e})")
-        err_console.print(f"wrote {path}", highlight=False, markup=False)
+        for path in paths:
+            err_console.print(f"wrote {path}", highlight=False, markup=False)
 
 
 def register(app: typer.Typer) -> None:
