@@ -544,9 +544,16 @@ def _read_bag_log(spec: LogSpec) -> LogData:
         for j, nm in enumerate(servo_names):
             req[nm] = f"/mavros/rc/out:channels[{j}]"
     stamp = "receive" if spec.time == "log" else "header"
-    out = read_rosbag(spec.path, req, units=units, allow_missing=True, stamp=stamp,
-                      on_duplicate=_reader_duplicates(spec),
-                      msg_definitions=load_msg_definitions(spec.msg_definitions) or None)
+    from uuvid.io.logs import LogDataError
+
+    try:
+        out = read_rosbag(spec.path, req, units=units, allow_missing=True, stamp=stamp,
+                          on_duplicate=_reader_duplicates(spec),
+                          msg_definitions=load_msg_definitions(spec.msg_definitions) or None)
+    except LogDataError as e:
+        if "msg_definitions=" not in str(e):
+            raise
+        raise LogDataError(f"{e} (command line: --msg-definitions pkg/msg/Type=FILE.msg)") from None
     notes = []
     if quat is not None:
         from uuvid.simulate.response import TimeResponse
