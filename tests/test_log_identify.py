@@ -22,6 +22,7 @@ from typer.testing import CliRunner
 
 from uuvid.cli.identify_cmds import register
 from uuvid.identify.procedures import identify_inertia, identify_steady, uniform_position
+from uuvid.identify.vehicle_fit import simulate_one_dof
 from uuvid.identify.vehicle_logs import (
     LogSpec,
     load_msg_definitions,
@@ -29,7 +30,6 @@ from uuvid.identify.vehicle_logs import (
     quaternion_angles,
     read_vehicle_log,
 )
-from uuvid.identify.vehicle_fit import simulate_one_dof
 from uuvid.io.logs import read_log_csv
 from uuvid.vehicle.definition import load_vehicle
 from uuvid.vehicle.model import OneDofModel
@@ -230,44 +230,52 @@ def test_pwm_as_newtons_and_altitude_as_depth_are_named(tmp_path):
 
 # ------------------------------------------------------------------------------------ inertia
 def _jittery_sine(seed=1, duration=130.0, uniform=False):
-    """The paper's yaw sine (−5 + 4 sin(2πt/24) N·m) with a 10 Hz heading whose stamps wander
-    as an autopilot's ATT does: steps 0.1 s ± 8 ms, so the offset from any grid random-walks."""
+    """The paper's yaw sine, −5 + 4 sin(2πt/24) N·m commanded at 10 Hz (held between updates),
+    and a 10 Hz heading whose stamps wander as an autopilot's ATT does: steps 0.1 s ± 8 ms, so
+    the offset from any grid random-walks.  CSV rows: command rows and heading rows, each with
+    the other cell empty (``uniform``: also the same experiment with the heading on the
+    command's grid)."""
     rng = np.random.default_rng(seed)
-    tf = np.arange(0.0, duration, 0.01)
-    phi = -5.0 + 4.0 * np.sin(2 * np.pi * tf / 24.0)
-    r = simulate_one_dof(OneDofModel(YAW["I"], YAW["k"], YAW["k_q"]), tf, phi)
-    psi = _integrate(r, 0.01)
-    ts = np.cumsum(np.r_[0.0, 0.1 + rng.normal(0, 0.008, int(duration / 0.1) + 10)])
+    tc = np.arange(0.0, duration, DT)
+    cmd = -5.0 + 4.0 * np.sin(2 * np.pi * tc / 24.0)
+    tf = np.arange(0.0, duration - DT, 0.01)
+    held = cmd[np.floor(tf / DT + 1e-9).astype(int)]
+    psi = _integrate(simulate_one_dof(OneDofModel(YAW["I"], YAW["k"], YAW["k_q"]), tf, held),
+                     0.01)
+    ts = np.cumsum(np.r_[0.0, 0.1 + rng.normal(0, 0.008, int(duration / 0.1) + 10)]) + 0.003
     ts = ts[ts < tf[-1]]
     head = np.interp(ts, tf, psi) + rng.normal(0, 0.003, ts.size)
     wrapped = (head + np.pi) % (2 * np.pi) - np.pi
-    cmd = -5.0 + 4.0 * np.sin(2 * np.pi * ts / 24.0)
+    cmd_rows = [[f"{a:.4f}", b, ""] for a, b in zip(tc, cmd)]
+    rows = sorted(cmd_rows + [[f"{a:.4f}", "", c] for a, c in zip(ts, wrapped)],
+                  key=lambda r: float(r[0]))
     if not uniform:
-        return ts, cmd, wrapped
-    tu = np.arange(0.0, ts[-1], 0.1)  # the same experiment logged on a uniform 10 Hz grid
+        return rows, ts, wrapped
+    tu = tc[tc < tf[-1]] + 0.003
     hu = np.interp(tu, tf, psi) + rng.normal(0, 0.003, tu.size)
-    return (ts, cmd, wrapped), (tu, -5.0 + 4.0 * np.sin(2 * np.pi * tu / 24.0), hu)
+    urows = sorted(cmd_rows + [[f"{a:.4f}", "", c] for a, c in zip(tu, hu)],
+                   key=lambda r: float(r[0]))
+    return rows, urows, ts, wrapped
 
 
 def test_inertia_resamples_a_jittery_attitude_and_refuses_when_asked(tmp_path):
-    (ts, cmd, head), (tu, cu, hu) = _jittery_sine(uniform=True)
-    p = _write_csv(tmp_path / "sine.csv", ["time", "torque", "yaw"],
-                   [[f"{a:.4f}", b, c] for a, b, c in zip(ts, cmd, head)])
+    rows, urows, ts, head = _jittery_sine(uniform=True)
+    p = _write_csv(tmp_path / "sine.csv", ["time", "torque", "yaw"], rows)
     cols = ("--dof", "yaw", "--command-col", "torque", "--position-col", "yaw", "--k",
             str(YAW["k"]), "--kq", str(YAW["k_q"]))
     r = _run("vehicle", "identify", "inertia", p, *cols, "--resample", "off")
     assert r.exit_code == 2 and "uniform grid" in r.output
     doc = _json("vehicle", "identify", "inertia", p, *cols)
     assert any("drift off a uniform grid" in n and "interpolated" in n for n in doc["notes"])
+    assert _within(doc["parameters"]["m"], YAW["I"]), doc["parameters"]["m"]
     # the same experiment logged on a uniform grid: no resampling, the same inertia within σ
-    pu = _write_csv(tmp_path / "uniform.csv", ["time", "torque", "yaw"],
-                    [[f"{a:.4f}", b, c] for a, b, c in zip(tu, cu, hu)])
-    ref = _json("vehicle", "identify", "inertia", pu, *cols)
+    ref = _json("vehicle", "identify", "inertia",
+                _write_csv(tmp_path / "uniform.csv", ["time", "torque", "yaw"], urows), *cols)
     assert not any("uniform grid" in n for n in ref["notes"])
     m, m0 = doc["parameters"]["m"], ref["parameters"]["m"]
     assert abs(m["estimate"] - m0["estimate"]) <= 3 * math.hypot(m["sigma"], m0["sigma"])
-    assert abs(m["estimate"] - YAW["I"]) < 0.05 * YAW["I"]  # the ZOH-command bias of both
-    t2, _x2, note = uniform_position(tu, hu)
+    tu = np.arange(0, 10, 0.1)
+    t2, _x2, note = uniform_position(tu, np.sin(tu))
     assert note is None and t2 is tu
     # heading unwrapped before interpolation (no ±π jumps smeared into the grid)
     tg, xg, note = uniform_position(ts, head, angle=True)
@@ -424,9 +432,7 @@ def test_python_api_in_a_few_lines(tmp_path):
     assert (res.report(tmp_path / "rep")).name == "index.html"
     assert (tmp_path / "rep" / "steady_fit.png").is_file()
     assert res.plot() is not None
-    ts, cmd, head = _jittery_sine()
-    ps = _write_csv(tmp_path / "sine.csv", ["time", "torque", "yaw"],
-                    [[f"{a:.4f}", b, c] for a, b, c in zip(ts, cmd, head)])
+    ps = _write_csv(tmp_path / "sine.csv", ["time", "torque", "yaw"], _jittery_sine()[0])
     inr = identify_inertia(ps, dof="yaw", drag=res, command_col="torque", position_col="yaw")
     assert inr.document["drag"]["covariance_propagated"]
     (tmp_path / "steady.json").write_text(json.dumps(cli))

@@ -563,8 +563,10 @@ def uniform_position(t, x, *, resample="auto", angle: bool = False,
 
     ``resample="auto"``: samples already within ``jitter_tol`` of a step of the grid
     ``t₀ + k·dt`` (``dt`` the median spacing) are kept; otherwise (an autopilot's 10 Hz attitude
-    drifts off any grid) the record is interpolated linearly onto the grid, a heading unwrapped
-    first, grid points farther than 1.5 dt from any sample left missing (the cleaning fills them)
+    drifts off any grid) the record is interpolated onto the grid, a heading unwrapped
+    first, by a cubic spline through the samples (linear interpolation would flatten the
+    curvature the Savitzky–Golay derivative needs), grid points farther than 1.5 dt from any
+    sample left missing (the cleaning fills them)
     — with a note saying so.  ``"off"``: keep the samples as they are; a number: resample onto
     that step [s].  Returns (t, x, note or None)."""
     t = np.asarray(t, float)
@@ -596,11 +598,14 @@ def uniform_position(t, x, *, resample="auto", angle: bool = False,
         x = robust_unwrap(t, x, "rad")
     n = int(math.floor((t[-1] - t[0]) / step + 1e-9)) + 1
     grid = t[0] + step * np.arange(n)
-    xg = np.interp(grid, t, x)
+    from scipy.interpolate import CubicSpline
+
+    ok = np.isfinite(x)
+    xg = CubicSpline(t[ok], x[ok])(grid) if ok.sum() >= 4 else np.interp(grid, t[ok], x[ok])
     j = np.clip(np.searchsorted(t, grid), 1, t.size - 1)
     gap = np.minimum(np.abs(grid - t[j - 1]), np.abs(t[j] - grid))
     xg[gap > 1.5 * step] = np.nan
-    note = (f"{why}: linearly interpolated onto a uniform {step:.4g} s grid ({n} points"
+    note = (f"{why}: interpolated (cubic spline) onto a uniform {step:.4g} s grid ({n} points"
             + (f", {int(np.sum(gap > 1.5 * step))} in gaps left missing" if np.any(
                 gap > 1.5 * step) else "") + ")" + ("; heading unwrapped first" if angle else "")
             + "; resample='off' (--resample off) to refuse instead")
