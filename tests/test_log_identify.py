@@ -17,10 +17,8 @@ import struct
 
 import numpy as np
 import pytest
-import typer
-from typer.testing import CliRunner
+from test_cli_identify import _json, _run, _within
 
-from uuvid.cli.identify_cmds import register
 from uuvid.identify.procedures import identify_inertia, identify_steady, uniform_position
 from uuvid.identify.vehicle_fit import simulate_one_dof
 from uuvid.identify.vehicle_logs import (
@@ -35,39 +33,8 @@ from uuvid.vehicle.definition import load_vehicle
 from uuvid.vehicle.model import OneDofModel
 from uuvid.vehicle.servo_thrust import servo_generalized_force
 
-runner = CliRunner()
 YAW = {"I": 84.0, "k": 20.5, "k_q": 49.5}
 DT = 0.1
-
-
-def _app():
-    app, vehicle, reproduce = typer.Typer(), typer.Typer(), typer.Typer()
-    app.add_typer(vehicle, name="vehicle")
-    app.add_typer(reproduce, name="reproduce")
-    register(vehicle, reproduce)
-
-    @app.callback()
-    def _root():
-        pass
-
-    return app
-
-
-APP = _app()
-
-
-def _run(*args):
-    return runner.invoke(APP, [str(a) for a in args])
-
-
-def _json(*args) -> dict:
-    r = _run(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
-
-
-def _within(row, truth, n=3.0):
-    return abs(row["estimate"] - truth) <= n * row["sigma"]
 
 
 def _integrate(v, dt=DT, x0=0.0):
@@ -204,6 +171,14 @@ def test_pwm_as_newtons_and_altitude_as_depth_are_named(tmp_path):
     doc = _json("vehicle", "identify", "steady", p, "--dof", "yaw", "--command-col", "servo",
                 "--position-col", "heading", "--settle", "10", "--min-duration", "10")
     assert any("'servo'" in w and "PWM" in w for w in doc["warnings"])
+    # a constant "depth" (ArduSub's VFR_HUD.alt without an EKF origin) is named too
+    data = read_vehicle_log(LogSpec(_write_csv(tmp_path / "flat.csv", ["time", "f", "z"],
+                                               [[a, b, 0.0] for a, b in zip(t, f)]), "heave",
+                                    command_col="f", position_col="-z"))
+    assert any("'-z' is constant" in w for w in data.warnings)
+    r = _run("vehicle", "identify", "steady", p, "--dof", "yaw", "--command-col", "servo",
+             "--position-col", "heading", "--vehicle", "bluerov2")
+    assert r.exit_code == 2 and "--vehicle does not apply to CSV" in r.output
     # heave: an altitude (up positive, mostly negative under water) given as depth
     rng = np.random.default_rng(4)
     lv = (30.0, -40.0, 60.0, -70.0, 90.0, -100.0)

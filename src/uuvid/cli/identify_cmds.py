@@ -30,36 +30,8 @@ from pathlib import Path
 
 import typer
 
-from uuvid.cli.log_options import (
-    ANGLE_UNIT,
-    COMMAND_COL,
-    COMMAND_UNIT,
-    DELIMITER,
-    FIELD,
-    FMT,
-    MSG_DEFS,
-    ON_DUPLICATE,
-    POSITION_COL,
-    POSITION_UNIT,
-    T_END,
-    T_START,
-    TIME_BASE,
-    TIME_COL,
-    TIME_UNIT,
-    TOPIC,
-    VEHICLE,
-    AngleUnit,
-    CovType,
-    Dof,
-    LogFormat,
-    OnDuplicate,
-    TimeBase,
-    call,
-    fail,
-    log_spec,
-    params_table,
-    print_messages,
-)
+from uuvid.cli import log_options as lo
+from uuvid.cli.log_options import AngleUnit, CovType, Dof, LogFormat, OnDuplicate, TimeBase
 
 __all__ = ["register", "identify_app", "identify_steady"]
 
@@ -80,28 +52,28 @@ def identify_steady(
     log: Path = typer.Argument(..., help="CSV/Parquet file, ROS 1 .bag or ROS 2 bag directory, or "
                                          "ArduSub .tlog/.bin."),
     dof: Dof = typer.Option(..., "--dof", help="The degree of freedom the log excites."),
-    fmt: LogFormat = FMT,
-    time_col: str = TIME_COL,
-    command_col: str = COMMAND_COL,
-    position_col: str = POSITION_COL,
+    fmt: LogFormat = lo.FMT,
+    time_col: str = lo.TIME_COL,
+    command_col: str = lo.COMMAND_COL,
+    position_col: str = lo.POSITION_COL,
     mode_col: str | None = typer.Option(None, "--mode-col",
                                         help="CSV/Parquet: thrust-mapping mode label per row."),
     ballast_col: str | None = typer.Option(None, "--ballast-col",
                                            help="CSV/Parquet: number of added weights (heave, "
                                                 "eq. 20: W and ΔW become parameters)."),
-    time_unit: str = TIME_UNIT,
-    command_unit: str | None = COMMAND_UNIT,
-    position_unit: str | None = POSITION_UNIT,
-    angle_unit: AngleUnit | None = ANGLE_UNIT,
-    delimiter: str | None = DELIMITER,
-    topic: list[str] = TOPIC,
-    fields: list[str] = FIELD,
-    vehicle: str | None = VEHICLE,
-    on_duplicate: OnDuplicate = ON_DUPLICATE,
-    time_base: TimeBase | None = TIME_BASE,
-    msg_definitions: list[str] = MSG_DEFS,
-    t_start: float | None = T_START,
-    t_end: float | None = T_END,
+    time_unit: str = lo.TIME_UNIT,
+    command_unit: str | None = lo.COMMAND_UNIT,
+    position_unit: str | None = lo.POSITION_UNIT,
+    angle_unit: AngleUnit | None = lo.ANGLE_UNIT,
+    delimiter: str | None = lo.DELIMITER,
+    topic: list[str] = lo.TOPIC,
+    fields: list[str] = lo.FIELD,
+    vehicle: str | None = lo.VEHICLE,
+    on_duplicate: OnDuplicate = lo.ON_DUPLICATE,
+    time_base: TimeBase | None = lo.TIME_BASE,
+    msg_definitions: list[str] = lo.MSG_DEFS,
+    t_start: float | None = lo.T_START,
+    t_end: float | None = lo.T_END,
     eta_map: str | None = typer.Option(None, "--eta-map",
                                        help="MODE[+|-]=NAME,...: the installation coefficient each "
                                             "mode (and sign of φ) sees; 1/open = open water."),
@@ -145,49 +117,36 @@ def identify_steady(
                                             "heave buoyancy Figs. 5/6), tables and index.html."),
 ):
     """Drag and installation coefficients from constant-thrust segments (Caccia et al. 2000)."""
-    from uuvid.cli.app import _print_json, err_console, out_console
+    from uuvid.cli.app import _print_json, out_console
     from uuvid.identify.procedures import identify_steady as run
     from uuvid.identify.vehicle_logs import read_vehicle_log
 
-    if (write_vehicle is None) != (out_vehicle is None):
-        fail("--write-vehicle and --out-vehicle go together (the vehicle to start from and the "
-             "new file to write)")
-    spec = log_spec(log, dof.value, fmt, time_col, command_col, position_col, mode_col,
-                    ballast_col, time_unit, command_unit, position_unit, angle_unit, delimiter,
-                    topic, fields, vehicle, on_duplicate, time_base, msg_definitions, t_start,
-                    t_end)
-    data = call(read_vehicle_log, spec)
-    res = call(run, data, dof.value, settle=settle, min_duration=min_duration, tol=tol,
-               rel_tol=rel_tol, threshold=threshold, eta_map=eta_map,
-               open_water=list(open_water_mode), per_sign=eta_per_sign,
-               direction=direction.value, quadratic=not no_quadratic, cov_type=cov_type.value,
-               hac_lags=hac_lags, reduce=not no_reduce, prefix="identify steady: ")
-    doc = res.to_dict()
-    if report is not None:
-        try:
-            res.report(report)
-        except OSError as e:
-            fail(f"--report {report}: cannot write the report ({e.strerror or e})")
-        doc["report"] = str(report / "index.html")
-    if write_vehicle is not None:
-        doc["identified"] = res.identified(one_dof_key)
-        doc["vehicle_out"] = call(res.write_vehicle, write_vehicle, out_vehicle, one_dof_key)
+    lo.check_write_back(write_vehicle, out_vehicle)
+    spec = lo.log_spec(log, dof.value, fmt, time_col, command_col, position_col, mode_col,
+                       ballast_col, time_unit, command_unit, position_unit, angle_unit,
+                       delimiter, topic, fields, vehicle, on_duplicate, time_base,
+                       msg_definitions, t_start, t_end)
+    data = lo.call(read_vehicle_log, spec)
+    res = lo.call(run, data, dof.value, settle=settle, min_duration=min_duration, tol=tol,
+                  rel_tol=rel_tol, threshold=threshold, eta_map=eta_map,
+                  open_water=list(open_water_mode), per_sign=eta_per_sign,
+                  direction=direction.value, quadratic=not no_quadratic,
+                  cov_type=cov_type.value, hac_lags=hac_lags, reduce=not no_reduce,
+                  prefix="identify steady: ")
+    doc = lo.outputs(res, report=report, write_vehicle=write_vehicle, out_vehicle=out_vehicle,
+                     key=one_dof_key)
     if json_out:
         _print_json(doc)
         return
     fit = res.fit
-    out_console.print(params_table(f"{res.dof} drag from {log.name}: {len(fit.points)} steady "
-                                   "segments" + (f", reduced to {fit.reduced_to}"
-                                                 if fit.reduced_to else ""), doc["parameters"]))
+    out_console.print(lo.params_table(
+        f"{res.dof} drag from {log.name}: {len(fit.points)} steady segments"
+        + (f", reduced to {fit.reduced_to}" if fit.reduced_to else ""), doc["parameters"]))
     r = res.result["rejections"]
     out_console.print(f"samples: {r['used']}/{r['samples']} used, {r['missing']} missing, "
                       f"{r['outliers']} outliers rejected; {len(res.result['skipped'])} segments "
                       "left out", highlight=False)
-    print_messages(res.warnings, res.notes)
-    if doc.get("report"):
-        err_console.print(f"report: {doc['report']}")
-    if doc.get("vehicle_out"):
-        err_console.print(f"wrote {doc['vehicle_out']}")
+    lo.print_tail(doc, res.warnings, res.notes)
 
 
 def register(vehicle_app: typer.Typer, reproduce_app: typer.Typer) -> None:

@@ -7,36 +7,8 @@ from pathlib import Path
 
 import typer
 
-from uuvid.cli.log_options import (
-    ANGLE_UNIT,
-    COMMAND_COL,
-    COMMAND_UNIT,
-    DELIMITER,
-    FIELD,
-    FMT,
-    MSG_DEFS,
-    ON_DUPLICATE,
-    POSITION_COL,
-    POSITION_UNIT,
-    T_END,
-    T_START,
-    TIME_BASE,
-    TIME_COL,
-    TIME_UNIT,
-    TOPIC,
-    VEHICLE,
-    AngleUnit,
-    CovType,
-    Dof,
-    LogFormat,
-    OnDuplicate,
-    TimeBase,
-    call,
-    fail,
-    log_spec,
-    params_table,
-    print_messages,
-)
+from uuvid.cli import log_options as lo
+from uuvid.cli.log_options import AngleUnit, CovType, Dof, LogFormat, OnDuplicate, TimeBase
 
 __all__ = ["identify_inertia"]
 
@@ -47,9 +19,9 @@ def _resample(text: str) -> str | float:
     try:
         v = float(text)
     except ValueError:
-        fail(f"--resample: expected auto, off or a step in seconds, got {text!r}")
+        lo.fail(f"--resample: expected auto, off or a step in seconds, got {text!r}")
     if not v > 0:
-        fail(f"--resample: the step must be > 0 s, got {text!r}")
+        lo.fail(f"--resample: the step must be > 0 s, got {text!r}")
     return v
 
 
@@ -69,21 +41,21 @@ def identify_inertia(
     eta: str | None = typer.Option(None, "--eta",
                                    help="Installation coefficient: η or η₊,η₋ (default: from "
                                         "--drag/--mode, else 1 = open water)."),
-    fmt: LogFormat = FMT,
-    time_col: str = TIME_COL,
-    command_col: str = COMMAND_COL,
-    position_col: str = POSITION_COL,
-    time_unit: str = TIME_UNIT,
-    command_unit: str | None = COMMAND_UNIT,
-    position_unit: str | None = POSITION_UNIT,
-    angle_unit: AngleUnit | None = ANGLE_UNIT,
-    delimiter: str | None = DELIMITER,
-    topic: list[str] = TOPIC,
-    fields: list[str] = FIELD,
-    vehicle: str | None = VEHICLE,
-    on_duplicate: OnDuplicate = ON_DUPLICATE,
-    time_base: TimeBase | None = TIME_BASE,
-    msg_definitions: list[str] = MSG_DEFS,
+    fmt: LogFormat = lo.FMT,
+    time_col: str = lo.TIME_COL,
+    command_col: str = lo.COMMAND_COL,
+    position_col: str = lo.POSITION_COL,
+    time_unit: str = lo.TIME_UNIT,
+    command_unit: str | None = lo.COMMAND_UNIT,
+    position_unit: str | None = lo.POSITION_UNIT,
+    angle_unit: AngleUnit | None = lo.ANGLE_UNIT,
+    delimiter: str | None = lo.DELIMITER,
+    topic: list[str] = lo.TOPIC,
+    fields: list[str] = lo.FIELD,
+    vehicle: str | None = lo.VEHICLE,
+    on_duplicate: OnDuplicate = lo.ON_DUPLICATE,
+    time_base: TimeBase | None = lo.TIME_BASE,
+    msg_definitions: list[str] = lo.MSG_DEFS,
     window: int | None = typer.Option(None, "--window",
                                       help="Savitzky–Golay window (points) (default 41 yaw, 21 "
                                            "linear: the paper's)."),
@@ -95,8 +67,8 @@ def identify_inertia(
                                         help="HAC bandwidth (points) (default a quarter period)."),
     omega: float | None = typer.Option(None, "--omega",
                                        help="Sine frequency (rad/s) (default: detected)."),
-    t_start: float | None = T_START,
-    t_end: float | None = T_END,
+    t_start: float | None = lo.T_START,
+    t_end: float | None = lo.T_END,
     resample: str = typer.Option("auto", "--resample",
                                  help="Position grid: auto (a near-uniform but jittery record — "
                                       "an autopilot's 10 Hz attitude — is interpolated onto a "
@@ -124,40 +96,25 @@ def identify_inertia(
                                             "phase lag) and index.html."),
 ):
     """Inertia from a sine experiment by the integrated regression (Caccia et al. 2000, eqs. 15–19)."""
-    from uuvid.cli.app import _print_json, err_console, out_console
+    from uuvid.cli.app import _print_json, out_console
     from uuvid.identify.procedures import identify_inertia as run
 
-    if (write_vehicle is None) != (out_vehicle is None):
-        fail("--write-vehicle and --out-vehicle go together (the vehicle to start from and the "
-             "new file to write)")
-    spec = log_spec(log, dof.value, fmt, time_col, command_col, position_col, None, None,
-                    time_unit, command_unit, position_unit, angle_unit, delimiter, topic, fields,
-                    vehicle, on_duplicate, time_base, msg_definitions, t_start, t_end)
-    res = call(run, spec, drag=drag, k=k, k_q=kq, eta=eta, mode=mode, one_dof=one_dof,
-               window=window, order=order, cov_type=cov_type.value, hac_lags=hac_lags,
-               omega=omega, clean=not no_clean, eiv=eiv, max_filled=max_filled,
-               resample=_resample(resample), validation_log=validation_log)
-    doc = res.to_dict()
-    if report is not None:
-        try:
-            res.report(report)
-        except OSError as e:
-            fail(f"--report {report}: cannot write the report ({e.strerror or e})")
-        doc["report"] = str(report / "index.html")
-    if write_vehicle is not None:
-        doc["identified"] = res.identified(one_dof_key, mode)
-        doc["vehicle_out"] = call(res.write_vehicle, write_vehicle, out_vehicle, one_dof_key,
-                                  mode)
+    lo.check_write_back(write_vehicle, out_vehicle)
+    spec = lo.log_spec(log, dof.value, fmt, time_col, command_col, position_col, None, None,
+                       time_unit, command_unit, position_unit, angle_unit, delimiter, topic,
+                       fields, vehicle, on_duplicate, time_base, msg_definitions, t_start, t_end)
+    res = lo.call(run, spec, drag=drag, k=k, k_q=kq, eta=eta, mode=mode, one_dof=one_dof,
+                  window=window, order=order, cov_type=cov_type.value, hac_lags=hac_lags,
+                  omega=omega, clean=not no_clean, eiv=eiv, max_filled=max_filled,
+                  resample=_resample(resample), validation_log=validation_log)
+    doc = lo.outputs(res, report=report, write_vehicle=write_vehicle, out_vehicle=out_vehicle,
+                     key=one_dof_key, mode=mode)
     if json_out:
         _print_json(doc)
         return
-    out_console.print(params_table(f"{res.dof} inertia from {log.name} ({doc['n_rows']} rows, "
-                                   f"{doc['cov_type']} σ)", doc["parameters"]))
+    out_console.print(lo.params_table(f"{res.dof} inertia from {log.name} ({doc['n_rows']} "
+                                      f"rows, {doc['cov_type']} σ)", doc["parameters"]))
     for line in res.summary().splitlines():
         if line.startswith(("phase lag", "NRMSE")):
             out_console.print(line, highlight=False)
-    print_messages(doc.get("warnings"), doc["notes"])
-    if doc.get("report"):
-        err_console.print(f"report: {doc['report']}")
-    if doc.get("vehicle_out"):
-        err_console.print(f"wrote {doc['vehicle_out']}")
+    lo.print_tail(doc, doc.get("warnings"), doc["notes"])

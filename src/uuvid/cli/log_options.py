@@ -149,3 +149,35 @@ def params_table(title: str, params: dict):
         t.add_row(n, f"{r['estimate']:.5g}", f"{r['sigma']:.3g}", r.get("unit") or "",
                   f"{r['percentile_error']:.1f}", "yes" if r["significant"] else "no")
     return t
+
+
+def check_write_back(write_vehicle, out_vehicle) -> None:
+    if (write_vehicle is None) != (out_vehicle is None):
+        fail("--write-vehicle and --out-vehicle go together (the vehicle to start from and the "
+             "new file to write)")
+
+
+def outputs(res, *, report, write_vehicle, out_vehicle, key, mode=None) -> dict:
+    """The result's JSON document, after writing the report folder and the vehicle file asked
+    for (their paths added to the document)."""
+    doc = res.to_dict()
+    if report is not None:
+        try:
+            res.report(report)
+        except OSError as e:
+            fail(f"--report {report}: cannot write the report ({e.strerror or e})")
+        doc["report"] = str(report / "index.html")
+    if write_vehicle is not None:
+        doc["identified"] = res.identified(key, mode)
+        doc["vehicle_out"] = call(res.write_vehicle, write_vehicle, out_vehicle, key, mode)
+    return doc
+
+
+def print_tail(doc: dict, warnings, notes) -> None:
+    from uuvid.cli.app import err_console
+
+    print_messages(warnings, notes)
+    if doc.get("report"):
+        err_console.print(f"report: {doc['report']}")
+    if doc.get("vehicle_out"):
+        err_console.print(f"wrote {doc['vehicle_out']}")

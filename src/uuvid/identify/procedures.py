@@ -697,8 +697,9 @@ class SteadyIdentification:
         """``{dof: {...}}`` for :func:`write_back` (the ``one_dof`` entry of a vehicle file)."""
         return steady_identified(self.document, self.dof, self.log, key, mode)
 
-    def write_vehicle(self, vehicle: str, out, key: str | None = None) -> str:
-        return write_back(vehicle, out, self.identified(key), self.log,
+    def write_vehicle(self, vehicle: str, out, key: str | None = None,
+                      mode: str | None = None) -> str:
+        return write_back(vehicle, out, self.identified(key, mode), self.log,
                           "uuvid vehicle identify steady")
 
 

@@ -262,6 +262,10 @@ def _magnitude_warnings(data: LogData, spec: LogSpec, names: dict, servo: bool) 
                        f"{'N·m' if spec.dof in ANGULAR else 'N'}: give the force, or the PWM "
                        "outputs with a vehicle (--vehicle) to turn them into thrust")
     p = data.position[np.isfinite(data.position)]
+    if p.size and np.ptp(p) == 0:
+        out.append(f"position {names.get('position')!r} is constant ({p[0]:g}) over the log: not "
+                   "a measurement of the motion (ArduSub's VFR_HUD.alt stays 0 without an EKF "
+                   "origin: use -GLOBAL_POSITION_INT.relative_alt)")
     if spec.dof == "heave" and p.size:
         if np.mean(p < 0) >= 0.8 and np.median(p) < -0.05:
             out.append(f"depth {names.get('position')!r} is mostly negative (median "
@@ -669,6 +673,12 @@ def _read(spec: LogSpec, p: Path) -> LogData:
                              f"{fmt.upper()} files (use the --*-col options)")
         if p.is_dir():
             raise ValueError(f"{p}: a directory, not a CSV/Parquet file")
+        for given, opt, why in ((spec.time, "--time", "a table has one time column"),
+                                (spec.msg_definitions, "--msg-definitions", "ROS bags only"),
+                                (spec.vehicle, "--vehicle", "a table gives the force column; "
+                                 "the servo outputs of ArduSub logs and ROS bags need it")):
+            if given:
+                raise ValueError(f"{opt} does not apply to {fmt.upper()} files ({why})")
         return _read_table_log(spec)
     if spec.mode_col or spec.ballast_col:
         raise ValueError(f"--mode-col/--ballast-col apply to CSV/Parquet; in a {fmt} log give "
@@ -679,4 +689,6 @@ def _read(spec: LogSpec, p: Path) -> LogData:
         return _read_bag_log(spec)
     if spec.topics:
         raise ValueError("--topic applies to ROS bags; use --field for ArduSub logs")
+    if spec.msg_definitions:
+        raise ValueError("--msg-definitions applies to ROS bags, not to ArduSub logs")
     return _read_ardusub_log(spec)
