@@ -28,7 +28,7 @@ from uuvid.identify.vehicle_logs import (
     quaternion_angles,
     read_vehicle_log,
 )
-from uuvid.io.logs import read_log_csv
+from uuvid.io.logs import LogDataError, read_log_csv
 from uuvid.vehicle.definition import load_vehicle
 from uuvid.vehicle.model import OneDofModel
 from uuvid.vehicle.servo_thrust import servo_generalized_force
@@ -160,6 +160,44 @@ def test_qgc_csv_export_with_growing_columns_and_iso_times(tmp_path):
     notes = " ".join(doc["notes"])
     assert "'Timestamp'" in notes and "ISO 8601" in notes and "battery.voltage" in notes
     assert doc["segments"][0]["t0"] == pytest.approx(10.0, abs=0.11)  # t = 0 at the first row
+    assert _within(doc["parameters"]["k"], YAW["k"])
+
+
+def test_qgc_csv_whose_rows_grow_when_a_battery_is_found(tmp_path):
+    """QGroundControl writes its header once; a battery found after the first rows adds its
+    cells in the middle of every later row, shifting the rest (mavlink/qgroundcontrol#11763)."""
+    t, f, y = _yaw_steps()
+    rng = np.random.default_rng(5)
+    t0 = np.datetime64("2024-05-01T12:00:00.000")
+    header = ["Timestamp", "roll", "pitch", "flightMode", "armed", "gps.lat", "gps.lon", "torque",
+              "heading", "temperature.temperature1"]
+    p = tmp_path / "qgc_grow.csv"
+    with open(p, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for k in range(t.size):
+            row = [str(t0 + np.timedelta64(int(round(t[k] * 1000)), "ms")).replace("T", " "),
+                   f"{rng.normal(0, 0.01):.4f}", f"{rng.normal(0, 0.01):.4f}", "Manual", "true",
+                   "0.0000000", "0.0000000", f"{f[k]:.4f}", f"{y[k]:.6f}", "18.20"]
+            if k >= 7:  # battery0 discovered: its cells go after 'armed'
+                row[5:5] = [f"{15.9 - 1e-4 * k:.2f}", "1.50", "87"]
+            w.writerow(row)
+    lg = read_log_csv(p, time_col="Timestamp", columns=["heading", "torque", "gps.lat",
+                                                         "unnamed_1"], allow_missing=True)
+    np.testing.assert_allclose(lg["heading"], y, atol=1e-6)
+    np.testing.assert_allclose(lg["torque"], f, atol=1e-4)
+    np.testing.assert_allclose(lg["gps.lat"], 0.0)
+    assert np.all(np.isnan(lg["unnamed_1"][:7]))
+    np.testing.assert_allclose(lg["unnamed_1"][7:], 15.9 - 1e-4 * np.arange(7, t.size), atol=6e-3)
+    assert lg.meta["sections"][1]["inserted_after"] == "armed"
+    doc = _json("vehicle", "identify", "steady", p, "--dof", "yaw", "--command-col", "torque",
+                "--position-col", "heading", "--settle", "10", "--min-duration", "10")
+    assert any("after column 'armed'" in n for n in doc["notes"])
+    # nothing in the neighbouring rows says where the new cells went: refused, naming the line
+    amb = tmp_path / "amb.csv"
+    amb.write_text("t,a,b\n0,1,2\n1,5,6,7\n2,8,9,10\n")
+    with pytest.raises(LogDataError, match=r"amb.csv: CSV line 3 has 4 cells .* cannot be told"):
+        read_log_csv(amb, time_col="t", columns=["a"])
     assert _within(doc["parameters"]["k"], YAW["k"])
 
 

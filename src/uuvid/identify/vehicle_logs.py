@@ -338,7 +338,13 @@ def _read_table_log(spec: LogSpec) -> LogData:
     if r.meta.get("reordered"):
         notes.append(f"{r.meta['reordered']} rows out of time order sorted")
     for sec in r.meta.get("sections") or []:
-        if sec["columns_added"]:
+        if sec.get("inserted_after"):
+            notes.append(f"from data row {sec['first_row']} the rows carry "
+                         f"{len(sec['columns_added'])} more cells than the header (a telemetry "
+                         "group added mid-log, as QGroundControl does): placed after column "
+                         f"{sec['inserted_after']!r} by matching the neighbouring rows, named "
+                         f"{sec['columns_added']}")
+        elif sec["columns_added"]:
             notes.append(f"header repeated at data row {sec['first_row']}: columns "
                          f"{sec['columns_added']} added there (earlier rows have them empty)")
     cmd = np.asarray(r["command"], float) * scales["command"]

@@ -354,10 +354,78 @@ def _read_csv(path: Path, delimiter: str | None, comment: str | None) -> _Table:
     except csv.Error as e:
         raise LogDataError(f"{path.name}: not a readable CSV file: {e}") from e
     hint = f" (delimiter {delim!r})"
-    if len(sections) == 1:
-        return _table_from_rows(path.name, *sections[0], LogDataError, hint)
-    return _merge_sections(path.name, [_table_from_rows(path.name, h, r, ln, LogDataError, hint)
-                                       for h, r, ln in sections])
+    grown = []
+    for h, r, ln in sections:
+        grown += _grown_rows(path.name, h, r, ln)
+    if len(grown) == 1:
+        return _table_from_rows(path.name, *grown[0][:3], LogDataError, hint)
+    out = _merge_sections(path.name, [_table_from_rows(path.name, h, r, ln, LogDataError, hint)
+                                      for h, r, ln, _ in grown])
+    for sec, (_h, _r, _l, ins) in zip(out.sections, grown):
+        if ins is not None:
+            sec["inserted_after"] = ins
+    return out
+
+
+def _cell_sim(a: str, b: str) -> float:
+    a, b = a.strip(), b.strip()
+    if a == b:
+        return 1.0
+    try:
+        x, y = float(a), float(b)
+    except ValueError:
+        return 0.0
+    if not (math.isfinite(x) and math.isfinite(y)):
+        return 0.0
+    return 0.5 if abs(x - y) <= 0.05 * max(abs(x), abs(y), 1e-9) else 0.25
+
+
+def _grown_rows(name: str, header: list[str], rows: list, lines: list):
+    """Split a section where its rows grow: QGroundControl writes its CSV header once and adds a
+    telemetry group's cells when the group appears (a battery found after the first rows,
+    mavlink/qgroundcontrol#11763), shifting every later cell to the right.  Where the cells
+    were inserted is found by matching the last shorter row with the next longer rows cell by
+    cell (the same text, or numbers within 5 %); the new cells are named ``unnamed_<n>``.
+    Returns ``[(header, rows, lines, inserted_after or None), ...]``."""
+    out = []
+    cur, start = list(header), 0
+    inserted = None
+    i = 0
+    while i < len(rows):
+        n = len(rows[i])
+        if n <= len(cur) or i == start:
+            i += 1
+            continue
+        prev = [r for r in rows[start:i] if len(r) == len(cur)]
+        if not prev:
+            i += 1
+            continue
+        m = n - len(cur)
+        nxt = [r for r in rows[i:i + 5] if len(r) == n]
+        base = prev[-1]
+        scores = []
+        for j in range(len(cur) + 1):
+            idx = [c if c < j else c + m for c in range(len(cur))]
+            scores.append(sum(_cell_sim(base[c], r[idx[c]]) for r in nxt
+                              for c in range(len(cur))) / len(nxt))
+        best = max(scores)
+        tied = [j for j, sc in enumerate(scores) if sc == best]
+        j = tied[-1]
+        # tied insertion points are alike when the cells they would read differently agree
+        if any(r[c] != r[c + m] for t in tied for c in range(t, j) for r in nxt):
+            raise LogDataError(f"{name}: CSV line {lines[i]} has {n} cells but the header has "
+                               f"{len(cur)} columns, and where the {m} new cells were inserted "
+                               "cannot be told from the neighbouring rows; write the file with "
+                               "one header per column layout")
+        out.append((cur, rows[start:i], lines[start:i], inserted))
+        k0 = sum(c.startswith("unnamed_") for c in cur)
+        new = [f"unnamed_{k0 + q + 1}" for q in range(m)]
+        inserted = cur[j - 1] if j else "(the start)"
+        cur = cur[:j] + new + cur[j:]
+        start = i
+        i += 1
+    out.append((cur, rows[start:], lines[start:], inserted))
+    return out
 
 
 def _merge_sections(name: str, parts: list[_Table]) -> _Table:
