@@ -571,9 +571,11 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
 
     A time column of ISO 8601 text (``2024-05-01 12:00:00.250``, as QGroundControl's CSV export
     writes) is recognised with the default ``time_unit="s"`` (``meta["time_detected"]``).  A CSV
-    whose header is repeated mid-file with more columns (QGroundControl adds telemetry groups as
-    they appear) is read section by section, each row by its own header; a column a section lacks
-    is empty there (``meta["sections"]``).
+    whose header is repeated mid-file with more columns is read section by section, each row by
+    its own header; a column a section lacks is empty there (``meta["sections"]``).  Rows that
+    grow without a new header (QGroundControl adds a telemetry group's cells mid-row once the
+    group appears) are placed by matching the neighbouring rows; the new cells are named
+    ``unnamed_<n>`` (``meta["sections"][i]["inserted_after"]``).
 
     ``meta``: ``source``, ``path``, ``format`` (``csv``/``parquet``), ``units``,
     ``original_units``, ``original_names`` (source column per channel), ``time_column`` and
