@@ -1,6 +1,7 @@
 """The command line: JSON on stdout, reports written, clear errors with exit status 2."""
 
 import json
+import re
 
 from typer.testing import CliRunner
 
@@ -38,13 +39,22 @@ def test_reproduce_laidani_json_and_out(tmp_path):
 
 def test_demo_writes_report_folder(tmp_path):
     out = tmp_path / "demo"
-    res = runner.invoke(app, ["demo", "--quick", "--out", str(out)])
+    res = runner.invoke(app, ["demo", "--quick", "--out", str(out)], env={"UUVID_NO_PROGRESS": ""})
     assert res.exit_code == 0, res.output
     html = (out / "index.html").read_text()
     assert "data:image/png;base64," in html
     doc = json.loads((out / "demo.json").read_text())
     assert doc["model_file"]["round_trip_equal"] is True
     assert (out / "mclean1991" / "step_baseline.png").exists()
+    # off a terminal (CliRunner's stderr is not a TTY) every stage prints one line with its time
+    stages = [ln for ln in res.stderr.splitlines() if ln.startswith("uuvid demo: ")]
+    assert len(stages) >= 8 and stages[-1].startswith("uuvid demo: done in ")
+    assert all(ln.endswith(" s)") for ln in stages[:-1])
+    # issue 10: no NaN in any table; the Heavy's envelope is confirmed with its attitude held
+    assert "Speed envelope" in html and not re.search(r">\s*-?nan\s*<", html, re.I)
+    heavy = doc["vehicle"]["envelopes"]["bluerov2-heavy"]["rows"]
+    assert all(r["confirmed"] for r in heavy if r["dof"] in ("surge", "sway", "heave"))
+    assert doc["linearize"]["pid"]["rms_position_error_m"] > 0
 
 
 def test_thruster_simulate_preset_json(tmp_path):

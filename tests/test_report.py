@@ -196,3 +196,43 @@ def test_progress_task_counts() -> None:
         task2.advance()
         task2.update(description="ctx2")
     assert task2.completed == 1
+
+
+def test_stages_print_one_line_each_off_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    err = io.StringIO()  # not a TTY, like CI or a pipe
+    monkeypatch.setattr(sys, "stderr", err)
+    with progress_task("job", total=3, stages=3) as task:
+        for name in ("first", "second", "third"):
+            task.stage(name)
+            task.advance()
+    lines = err.getvalue().splitlines()
+    assert [ln.split(" (")[0] for ln in lines[:3]] == ["job: first", "job: second", "job: third"]
+    assert "(2/3, " in lines[1] and lines[1].endswith(" s)")
+    assert lines[3].startswith("job: done in ") and len(lines) == 4
+
+
+def test_stages_silent_when_switched_off(monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setenv("UUVID_NO_PROGRESS", "1")
+    with progress_task("job", stages=1) as task:
+        task.stage("first")
+    monkeypatch.delenv("UUVID_NO_PROGRESS")
+    with progress_task("job", stages=1, disable=True) as task:
+        task.stage("first")
+    assert err.getvalue() == ""
+
+
+def test_stage_names_the_step_in_the_bar(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    with progress_task("job", total=2, disable=False, eta=False) as task:
+        task.stage("fitting")
+        desc = task._progress.tasks[0].description
+        cols = [type(c).__name__ for c in task._progress.columns]
+    assert desc == "job — fitting"
+    assert "TimeRemainingColumn" not in cols

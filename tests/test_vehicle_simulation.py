@@ -145,15 +145,43 @@ def test_cli_simulate_scenario_file(tmp_path):
     assert res.exit_code == 2 and "mission.kind" in res.output
 
 
+@pytest.mark.parametrize("preset", ["bluerov2", "bluerov2-heavy", "romeo", "auv2"])
+def test_cli_envelope_prints_a_table_for_every_preset(preset):
+    res = CliRunner().invoke(app, ["vehicle", "envelope", preset])
+    assert res.exit_code == 0, res.output
+    assert f"{preset}: speed envelope" in res.output and "nan" not in res.output.lower()
+
+
 def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
+    """The Heavy controls roll and pitch: flown at full command with its attitude held, every
+    translational direction reaches the analytic (allocator) speed; the BlueROV2 cannot hold
+    roll/pitch, and its unconfirmed directions carry the static-stability limit, whose trim the
+    simulation flies."""
     runner = CliRunner()
     res = runner.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--json"])
     assert res.exit_code == 0, res.output
     rows = {r["direction"]: r for r in json.loads(res.stdout)["rows"]}
-    for d in ("forward", "backward", "diving", "climbing"):
-        assert rows[d]["relative_difference"] < 0.05, d
-    res = runner.invoke(app, ["vehicle", "envelope", "bluerov2", "--json", "--no-confirm"])
+    for d in ("forward", "backward", "starboard", "port", "diving", "climbing", "yaw + (clockwise)"):
+        r = rows[d]
+        assert r["confirmed"] and r["relative_difference"] < 0.05, (d, r["note"])
+        assert abs(r["final_roll_deg"]) < 1 and abs(r["final_pitch_deg"]) < 1, d  # attitude held
+    assert set(rows["nose up"]) == set(rows["forward"])  # every row carries every column
+
+    res = runner.invoke(app, ["vehicle", "envelope", "bluerov2", "--json"])
     assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    rows = {r["direction"]: r for r in doc["rows"]}
+    cases = {c["direction"]: c for c in doc["stability"]["cases"]}
+    for d in ("diving", "climbing", "yaw + (clockwise)"):
+        assert rows[d]["confirmed"] and rows[d]["relative_difference"] < 0.05, d
+    for d, ang in (("forward", "pitch"), ("backward", "pitch"), ("starboard", "roll"), ("port", "roll")):
+        r, c = rows[d], cases[d]
+        assert r["confirmed"] is False and r["limit"].startswith("stability") and ang in r["limit"]
+        assert c["limit_speed"] < abs(r["allocator_speed"]) and c["limit_dof"] == ang
+        # the simulation flown at a speed below the limit settles on the static trim
+        assert r["trim_check_speed"] < c["limit_speed"]
+        assert abs(r["trim_static_deg"]) > 1.0
+        assert r["trim_simulated_deg"] == pytest.approx(r["trim_static_deg"], rel=0.02, abs=0.05), d
 
 
 @pytest.mark.slow

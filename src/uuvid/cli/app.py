@@ -7,6 +7,7 @@ stderr.  Errors in user input exit with status 2 and a one-line message naming w
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -14,7 +15,11 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from uuvid.cli.helptext import TidyHelpGroup
+from uuvid.cli.options import deprecated_out, renamed
+
 app = typer.Typer(
+    cls=TidyHelpGroup,
     add_completion=False,
     no_args_is_help=True,
     help="Model, simulate and identify underwater vehicles and their thrusters.",
@@ -40,9 +45,38 @@ def _register_subcommands() -> None:
     from uuvid.cli.uncertainty_cmds import register as register_uncertainty
 
     register_uncertainty(app)
+    from uuvid.cli.examples_cmd import register as register_examples
+
+    register_examples(app)
+    from uuvid.cli.log_cmds import register as register_log
+
+    register_log(app)
 
 
-out_console = Console()
+class _FoldingConsole(Console):
+    """A console whose tables wrap long cells and headers instead of cutting them with "…" (off
+    a terminal rich assumes 80 columns; a cut header hides what a number is)."""
+
+    def print(self, *objects, **kwargs) -> None:
+        for o in objects:
+            if isinstance(o, Table):
+                for c in o.columns:
+                    c.overflow = "fold"
+                    c.no_wrap = False
+        super().print(*objects, **kwargs)
+
+
+def _pipe_width() -> int | None:
+    """Off a terminal (pipe, file, CI log) nothing limits the width: 120 columns unless COLUMNS
+    says otherwise; on a terminal rich uses the terminal's width."""
+    try:
+        tty = sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        tty = False
+    return None if tty or "COLUMNS" in os.environ else 120
+
+
+out_console = _FoldingConsole(width=_pipe_width())
 err_console = Console(stderr=True)
 
 
@@ -63,7 +97,8 @@ def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}"
     for c in columns:
         t.add_column(c)
     for r in rows:
-        t.add_row(*[fmt.format(r[c]) if isinstance(r[c], float) else str(r[c]) for c in columns])
+        cells = [r.get(c) for c in columns]
+        t.add_row(*["—" if x is None else fmt.format(x) if isinstance(x, float) else str(x) for x in cells])
     return t
 
 
@@ -254,7 +289,7 @@ def thruster_simulate(
     dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
     substeps: int = typer.Option(4, "--substeps", help="RK4 steps per output sample."),
     out: Path | None = typer.Option(
-        None, "--out", help="Write the time series (CSV), a plot and index.html."
+        None, "--out", help="Folder for the time series (CSV), a plot and index.html."
     ),
     json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
 ):
@@ -265,8 +300,14 @@ def thruster_simulate(
         resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
     except ValueError as e:
         _fail(str(e))
-    metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp else {}
+    from uuvid.simulate.signals import Constant, Step
+
+    is_step = isinstance(sig, (Step, Constant))  # step metrics (peak, τ) mean nothing for a square
+    metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp and is_step else {}
     summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt, "metrics_SI": metrics}
+    if not is_step:
+        summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
+                                   + type(sig).__name__)
     if out:
         from uuvid.io.atomic import atomic_write_json
         from uuvid.report.html import Report
@@ -283,6 +324,12 @@ def thruster_simulate(
         summary["out"] = str(out)
     if json_out:
         _print_json(summary)
+    elif not metrics:
+        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False)
+        out_console.print(
+            _table(f"{chain.name}: final values (SI)",
+                   [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
+                   "{:.4g}"))
     else:
         out_console.print(
             _table(
@@ -298,7 +345,8 @@ def thruster_simulate(
 def thruster_export(
     model: str = typer.Argument(..., help="Model file or preset name."),
     to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
-    out: Path | None = typer.Option(None, "--out", help="File to write (default: stdout)."),
+    out: Path | None = typer.Option(None, "--out-file", help="File to write (default: stdout)."),
+    old_out: Path | None = deprecated_out("--out-file"),
     thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
     table_points: int = typer.Option(
         101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
@@ -311,6 +359,7 @@ def thruster_export(
     from uuvid.io.export import ExportError, to_uuv_simulator
     from uuvid.io.modelfile import _to_toml, chain_to_dict
 
+    out = renamed(out, "--out-file", old_out)
     chain = _load_model(model)
     if to == "uuv-simulator":
         try:
@@ -437,6 +486,18 @@ def bench(json_out: bool = typer.Option(False, "--json", help="Print timings as 
 
 
 _register_subcommands()
+
+
+@app.callback(invoke_without_command=True)
+def _root(
+    version: bool = typer.Option(False, "--version", is_eager=True, help="Print the version and exit."),
+):
+    """Model, simulate and identify underwater vehicles and their thrusters."""
+    if version:
+        from uuvid import __version__
+
+        sys.stdout.write(f"uuvid {__version__}\n")
+        raise typer.Exit()
 
 
 def main() -> None:  # console-script entry point

@@ -59,14 +59,14 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     from uuvid.simulate.reference import square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
     from uuvid.vehicle.definition import load_vehicle
-    from uuvid.vehicle.envelope import speed_envelope
 
     v = load_vehicle("bluerov2")
     res = fly_mission(setup_mission(v, square_mission()))
     write_mission_outputs(res, v, out / "mission")
     rep.add_heading("Vehicle simulation: BlueROV2 flying Laidani et al.'s square (dive 2 m, 10 × 10 m)")
+    rep.add_links("Full page:", ["mission/index.html"])
     rep.add_paragraph(
-        "Full page: mission/index.html. 6 × T200 (ESC → first-order motor → quadratic map), "
+        "6 × T200 (ESC → first-order motor → quadratic map), "
         "allocation with uniform saturation scaling, PID dynamic positioning, 6-DOF model "
         "with added mass in the mass matrix."
     )
@@ -75,31 +75,13 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     rep.add_table([{k: v_ for k, v_ in res.summary.items() if not isinstance(v_, list)}])
     envs = {}
     for name in ("bluerov2", "bluerov2-heavy"):
-        veh = v if name == "bluerov2" else load_vehicle(name)
-        env = speed_envelope(veh)
-        rows = (
-            confirm_envelope(veh, env) if name == "bluerov2-heavy" else [dict(r.__dict__) for r in env.rows]
-        )
-        envs[name] = rows
-        rep.add_table(
-            [
-                {
-                    k: r.get(k)
-                    for k in (
-                        "direction",
-                        "force",
-                        "speed",
-                        "speed_allocator",
-                        "allocator_speed",
-                        "simulated_speed",
-                        "note",
-                    )
-                    if k in r
-                }
-                for r in rows
-            ],
-            caption=f"Speed envelope — {name} (Laidani et al. Table 4 kind)",
-        )
+        check = confirm_envelope(v if name == "bluerov2" else load_vehicle(name))
+        envs[name] = check.to_dict()
+        caption = f"Speed envelope — {name} (Laidani et al. Table 4 kind; full command, attitude held)"
+        rep.add_table(check.table_rows(), caption=caption)
+        if name == "bluerov2":
+            rep.add_figure(check.stability.plot(out / "bluerov2_stability.png"),
+                           caption="BlueROV2: trim in steady flight; it cannot stay level beyond the limits")
     return {"mission": res.summary, "envelopes": envs}
 
 
@@ -109,6 +91,7 @@ def _study_section(out: Path, rep: Report) -> dict:
     result = st.run_study(bandwidths=(2.0, 6.0))
     st.write_outputs(result, out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
+    rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
     rep.add_figure(out / "study" / "limit_cycles.png")
     return result
@@ -121,8 +104,9 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     res = caccia2000.reproduce(seed=0, fast=True)
     caccia2000.write_outputs(res, out / "caccia2000")
     rep.add_heading("Caccia et al. (2000): identification from on-board sensors (simulated ROMEO)")
+    rep.add_links("Full page:", ["caccia2000/index.html"])
     rep.add_paragraph(
-        "Full page: caccia2000/index.html. Steady segments with robust velocities from a "
+        "Steady segments with robust velocities from a "
         "3.33 Hz echo-sounder with outliers and dropouts, drag and installation "
         "coefficients by least squares with the 51.02 % significance test and model "
         "reduction, D-optimal sine experiments, integrated inertia regression."
@@ -155,13 +139,23 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     return dict(res)
 
 
+def _linearize_section(out: Path, rep: Report) -> dict:
+    from uuvid.simulate.station_keeping import compare_station_keeping
+
+    cmp = compare_station_keeping("bluerov2")
+    rep.add_heading("Linearisation and an LQR against the PID (BlueROV2, hover)")
+    rep.add_preformatted(cmp.linear_model.summary() + "\n\n" + cmp.summary())
+    rep.add_figure(save_figure(cmp.plot(), out / "station_keeping.png"))
+    return cmp.to_dict()
+
+
 def _uncertainty_section(out: Path, rep: Report) -> dict:
     from uuvid.cli.uncertainty_cmds import demo_montecarlo, demo_sweep
 
     sw = demo_sweep(out / "sweep")
     mcb = demo_montecarlo(out / "montecarlo")
     rep.add_heading("Uncertainty: a design sweep and a Monte Carlo band")
-    rep.add_paragraph("Full pages: sweep/index.html, montecarlo/index.html")
+    rep.add_links("Full pages:", ["sweep/index.html", "montecarlo/index.html"])
     figs = sw["summary"].get("figures") or []
     if figs:
         rep.add_figure(out / "sweep" / figs[0], caption="McLean: sweep over tunnel length × voltage")
@@ -228,6 +222,36 @@ def _log_identify_section(out: Path, rep: Report) -> dict:
             "notes": st.notes + ine.to_dict()["notes"]}
 
 
+def _ardusub_section(out: Path, rep: Report) -> dict:
+    """One real BlueROV2 Heavy telemetry log inspected and exported (skipped without the data)."""
+    from uuvid.io.ardusub import inspect_log, load_dive, shared_log_dir
+
+    rep.add_heading("A real ArduSub dive log, read right")
+    d = shared_log_dir()
+    if d is None or not (d / "small.tlog").is_file():
+        rep.add_paragraph("Skipped: the real logs (shared/data/ardusub-bluerov2, or "
+                          "$UUVID_SHARED_DATA) are not present.")
+        return {"skipped": "no shared/data/ardusub-bluerov2"}
+    log = d / "small.tlog"
+    ins = inspect_log(log)
+    dive = load_dive(log)
+    files = dive.report(out / "ardusub")
+    rep.add_paragraph(f"{log.name} (clydemcqueen/ardusub_log_tools, MIT): configuration from its "
+                      f"parameters, depth from {dive.depth_source['source']} "
+                      f"({dive.depth_source['why']}). Table: ardusub/dive.csv with "
+                      "provenance in ardusub/dive.csv.json.")
+    rep.add_table([{"motor": m.number, "output": f"SERVO{m.output}", "direction": m.direction,
+                    **{c: f for c, f in zip(("X", "Y", "Z", "K", "M", "N"), m.factors)}}
+                   for m in ins.config.active],
+                  caption=f"FRAME_CONFIG = {ins.config.frame} ({ins.config.frame_name}): ArduSub "
+                          "mixing factors and MOT_n_DIRECTION")
+    rep.add_figure(files["figure"], caption="Depth, attitude, thrust per motor (T200 at the "
+                   "logged voltage) and generalized forces; modes shaded")
+    mask, why = dive.open_loop()
+    rep.add_paragraph(f"Open-loop data for identification: {why}.")
+    return {"inspection": ins.to_dict(), "dive": dive.to_dict(), "open_loop": why}
+
+
 def run_demo(out: Path, quick: bool = False) -> dict:
     """All sections; ``quick`` skips the slow ones (the thruster-loop study)."""
     from uuvid.io.modelfile import load_chain, save_chain
@@ -236,8 +260,10 @@ def run_demo(out: Path, quick: bool = False) -> dict:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=18) as task:
+    with progress_task("uuvid demo", total=21, eta=False, stages=11) as task:
+        task.stage("McLean 1991: Table I step responses")
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
+        task.stage("Laidani et al.: PWM → thrust")
         la = laidani.reproduce(out_dir=out / "laidani")
         task.advance()
         rep = Report("uuvid demo — thrusters and vehicles: models, simulation, identification, uncertainty")
@@ -246,7 +272,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "has its own page with all plots and tables."
         )
         rep.add_heading("McLean (1991): tunnel thruster transients")
-        rep.add_paragraph("Full page: mclean1991/index.html")
+        rep.add_links("Full page:", ["mclean1991/index.html"])
         rep.add_table(
             [{"case": r["case"], **{k: r[k] for k in mclean1991.TABLE1_FIELDS}} for r in mc["table1"]],
             caption="Table I (ours; thesis values on the paper's page)",
@@ -254,20 +280,34 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         rep.add_figure(out / "mclean1991" / "step_baseline.png", caption="Baseline 24 V step")
         rep.add_paragraph(mc["pulsing"]["answer"])
         rep.add_heading("Laidani et al.: PWM → ESC → A2212 → polynomial")
-        rep.add_paragraph("Full page: laidani/index.html")
+        rep.add_links("Full page:", ["laidani/index.html"])
         rep.add_figure(out / "laidani" / "laidani_steady_map.png")
         rep.add_figure(out / "laidani" / "laidani_fig10_sine_response.png")
+        task.stage("UUV Simulator thruster dynamics")
         gallery = _dynamics_gallery(out, rep)
         task.advance()
+        task.stage("vehicle mission and speed envelopes")
         vehicle = _vehicle_section(out, rep)
         task.advance()
+        task.stage("thruster-loop study" + (" (skipped: --quick)" if quick else ""))
         study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
         task.advance()
+        task.stage("Caccia et al. 2000: vehicle identification")
         caccia = _caccia_section(out, rep)
         task.advance()
+        task.stage("uncertainty: sweep and Monte Carlo")
         uncertainty = _uncertainty_section(out, rep)
         task.advance()
+        task.stage("linearisation: LQR vs PID station keeping")
+        linear = _linearize_section(out, rep)
+        task.advance()
+        task.stage("identification from logs, in Python")
         log_identify = _log_identify_section(out, rep)
+        task.advance()
+        task.stage("a real ArduSub dive log: inspect and export")
+        ardusub = _ardusub_section(out, rep)
+        task.advance()
+        task.stage("model file round trip and report")
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
         same = load_chain(path) == laidani_chain()
@@ -281,6 +321,8 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "caccia2000": caccia,
             "uncertainty": uncertainty,
             "log_identify": log_identify,
+            "linearize": linear,
+            "ardusub": ardusub,
             "model_file": {"path": str(path), "round_trip_equal": same},
         }
         atomic_write_json(out / "demo.json", result)

@@ -14,6 +14,7 @@ import typer
 from rich.markup import escape
 
 from uuvid.cli.log_options import fail, msg
+from uuvid.cli.options import deprecated_out, renamed
 
 __all__ = ["design_input", "reproduce_caccia2000"]
 
@@ -73,7 +74,8 @@ def design_input(
     mode: str | None = typer.Option(None, "--mode", help="Thrust-mapping mode for the allocation."),
     voltage_cv: str | None = typer.Option(None, "--voltage-cv",
                                           help="c_V₊,c_V₋ of T = c_V V|V|: also write voltages."),
-    out: Path | None = typer.Option(None, "--out", help="Command time series to write (.csv)."),
+    out: Path | None = typer.Option(None, "--out-file", help="Command time series to write (.csv)."),
+    old_out: Path | None = deprecated_out("--out-file"),
     json_out: bool = typer.Option(False, "--json", help="Print the design as one JSON document."),
 ):
     """Design the sine experiment for the inertia (D-optimal frequency, levels, length, command file).
@@ -84,6 +86,7 @@ def design_input(
     from uuvid.identify.design import SQRT3, design_sine_experiment
     from uuvid.io.atomic import atomic_write_text
 
+    out = renamed(out, "--out-file", old_out)
     for name, v in (("--k", k), ("--kq", kq)):
         if not (math.isfinite(v) and v >= 0):
             fail(f"{name} must be finite and >= 0, got {v}")
@@ -104,7 +107,7 @@ def design_input(
         except ValueError as e:
             fail(f"--dof: {e}")
     if out is not None and out.suffix.lower() != ".csv":
-        fail(f"--out {out}: the command file must end in .csv")
+        fail(f"--out-file {out}: the command file must end in .csv")
     try:
         des = design_sine_experiment(
             k, kq, mass=nominal, speed=speed, mass_air=mass_air, added_fraction=frac,
@@ -166,7 +169,7 @@ def design_input(
         try:
             atomic_write_text(out, buf.getvalue())
         except OSError as e:
-            fail(f"--out {out}: cannot write ({e.strerror or e})")
+            fail(f"--out-file {out}: cannot write ({e.strerror or e})")
         doc["out"] = str(out)
         doc["columns"] = list(cols)
     if json_out:
@@ -178,9 +181,11 @@ def design_input(
     t.add_column("quantity")
     t.add_column("value")
     rows = [("k_L = k + 2 k_q |ξ*|", f"{des.k_L:.4g}"),
-            ("τ_c (nominal inertia)", f"{des.tau_c:.4g} s")]
+            (f"τ_c (nominal inertia {nominal:.4g}, {doc['nominal_inertia_from']})",
+             f"{des.tau_c:.4g} s")]
     if "tau_c_range" in doc:
-        rows.append(("τ_c range", f"{doc['tau_c_range'][0]:.4g} … {doc['tau_c_range'][1]:.4g} s"))
+        rows.append((f"τ_c range (in-air + {frac[0]:.0%} … {frac[1]:.0%} added)",
+                     f"{doc['tau_c_range'][0]:.4g} … {doc['tau_c_range'][1]:.4g} s"))
         rows.append(("ω_opt range", f"{doc['omega_opt_range'][0]:.4g} … "
                                     f"{doc['omega_opt_range'][1]:.4g} rad/s"))
     rows += [("ω_opt = 1/(√3 τ_c)", f"{des.omega_opt:.4g} rad/s"),

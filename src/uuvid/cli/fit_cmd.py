@@ -2,7 +2,7 @@
 
 ::
 
-    uuvid thruster fit DATA... --model KIND --out MODEL.yaml [--report DIR] [--json]
+    uuvid thruster fit DATA... --model KIND --out-model MODEL.yaml [--report DIR] [--json]
 
 Steady models (``quadratic``, ``cv``, ``polynomial``, ``deadzone``, ``table``, ``physical``) use
 every row of every file (files are stacked; ``physical`` keeps each file as one sheet with its own
@@ -53,6 +53,8 @@ from pathlib import Path
 
 import numpy as np
 import typer
+
+from uuvid.cli.options import deprecated_out, renamed
 
 __all__ = ["thruster_fit", "register", "run_fit", "FitOutcome", "MODELS"]
 
@@ -797,7 +799,8 @@ def thruster_fit(
                                   help="Dynamic models: put non-uniform time stamps on a uniform "
                                        "grid instead of refusing them."),
     name: str | None = typer.Option(None, "--name", help="Name of the written chain."),
-    out: Path = typer.Option(..., "--out", help="Model file to write (.yaml or .toml)."),
+    out: Path | None = typer.Option(None, "--out-model", help="Model file to write (.yaml or .toml)."),
+    old_out: Path | None = deprecated_out("--out-model"),
     report: Path | None = typer.Option(None, "--report",
                                        help="Folder for plots, tables, the fit report and "
                                             "index.html."),
@@ -809,8 +812,11 @@ def thruster_fit(
     from uuvid.io.modelfile import ModelFileError, save_chain
     from uuvid.thruster.blocks import ParameterError
 
+    out = renamed(out, "--out-model", old_out)
+    if out is None:
+        _fail("give --out-model FILE (.yaml or .toml): the model file to write")
     if out.suffix.lower() not in (".yaml", ".yml", ".toml"):
-        _fail(f"--out {out}: the model file must end in .yaml, .yml or .toml")
+        _fail(f"--out-model {out}: the model file must end in .yaml, .yml or .toml")
     if start is not None and model.value != "mclean":
         _fail("--start applies to --model mclean only")
     start_chain = _load_model(start) if start is not None else None
@@ -832,7 +838,7 @@ def thruster_fit(
     try:
         save_chain(outcome.chain, out)
     except OSError as e:
-        _fail(f"--out {out}: cannot write the model file ({e.strerror or e})")
+        _fail(f"--out-model {out}: cannot write the model file ({e.strerror or e})")
     doc = summary(outcome, out, report)
     if report is not None:
         try:

@@ -6,7 +6,7 @@
           [--open-water-mode MODE | --eta-map MODE=NAME,...] [--ballast-col n] [--json]
           [--report DIR] [--write-vehicle VEHICLE --out-vehicle NEW.yaml]
     uuvid vehicle identify inertia LOG --dof yaw --drag STEADY.json|VEHICLE [--resample auto]
-    uuvid vehicle design-input --k K --mass-air M --speed V [--out cmd.csv] [--json]
+    uuvid vehicle design-input --k K --mass-air M --speed V [--out-file cmd.csv] [--json]
     uuvid reproduce caccia2000 [--seed 0] [--fast] [--json] [--out DIR]
 
 **Logs** (``LOG``): CSV/Parquet with a column mapping (``--time-col``, ``--command-col`` — the

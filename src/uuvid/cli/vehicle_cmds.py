@@ -89,7 +89,7 @@ def simulate(
         None, "--thruster-model", help="mission: override the thrusters' model."
     ),
     dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
-    out: Path | None = typer.Option(None, "--out", help="Write time series, figures and index.html."),
+    out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ):
     """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
@@ -151,21 +151,51 @@ def vehicle_envelope(
     """Maximum steady speed per DOF, analytic and confirmed by simulation (Laidani Table 4 kind).
 
     The analytic speed balances drag against the largest allocated force along the DOF; the
-    simulation holds that force on the full 6-DOF model (closed loop for surge and sway)."""
+    simulation flies it at full command with the attitude held where the thrusters can hold it.
+    Where they cannot, the static stability limit (`uuvid vehicle stability`) says why not."""
     from uuvid.simulate.envelope_check import confirm_envelope
-    from uuvid.vehicle.envelope import speed_envelope
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle)
-    env = speed_envelope(v)
-    rows = confirm_envelope(v, env) if confirm else [dict(r.__dict__) for r in env.rows]
-    doc = {"vehicle": v.name, "rows": rows}
+    check = confirm_envelope(v, simulate=confirm)
     if json_out:
-        _print_json(doc)
+        _print_json(check.to_dict())
         return
-    cols = [
-        c
-        for c in ("direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference")
-        if c in rows[0]
-    ]
-    out_console.print(_table(f"{v.name}: speed envelope", rows, cols, "{:.4g}"))
+    cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
+            "limit"]
+    out_console.print(_table(f"{v.name}: speed envelope", check.table_rows(cols), cols, "{:.4g}"))
+    for r in check.rows:
+        if r["confirmed"] is False:
+            out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True)
+
+
+@vehicle_app.command("stability")
+def vehicle_stability(
+    vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
+    max_tilt: float = typer.Option(20.0, "--max-tilt", help="Largest acceptable trim tilt [deg]."),
+    json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
+    out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
+):
+    """Static stability in steady flight: trim roll/pitch against speed and the speed where the
+    vehicle can no longer stay level (righting moment BG·W against thrust moment arms and the
+    Munk moment of the added-mass difference)."""
+    from uuvid.vehicle.stability import static_stability
+
+    _fail, _print_json, _table, err_console, out_console = _helpers()
+    v = _load_vehicle(vehicle)
+    res = static_stability(v, max_tilt_deg=max_tilt)
+    if out:
+        from uuvid.io.atomic import atomic_write_json
+
+        out.mkdir(parents=True, exist_ok=True)
+        res.plot(out / "stability.png")
+        atomic_write_json(out / "stability.json", res.to_dict())
+    if json_out:
+        _print_json(res.to_dict())
+        return
+    rows = res.rows()
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    out_console.print(_table(f"{v.name}: static stability (tilt limit {max_tilt:g}°)", rows, cols, "{:.3g}"))
+    out_console.print(res.summary(), highlight=False, soft_wrap=True)
+    if out:
+        err_console.print(f"wrote {out / 'stability.png'}, {out / 'stability.json'}")

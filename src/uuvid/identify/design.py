@@ -378,6 +378,17 @@ def design_sine_experiment(k: float, k_q: float = 0.0, *, mass: float, speed: fl
         raise ValueError("choice='robust' needs mass_range or mass_air")
     omega = robust["omega"] if choice == "robust" else w_opt
     msgs = []
+    if mass_range is not None and not (mass_range[0] * (1 - 1e-12) <= mass <= mass_range[1] * (1 + 1e-12)):
+        # the paper's yaw design takes the in-air inertia, which lies below the a-priori range
+        # (in-air + 10…100 % added mass): say so instead of printing a nominal outside its range
+        msgs.append(f"the nominal inertia {mass:.4g} (τ_c = {tau:.4g} s, ω_opt = {w_opt:.4g} rad/s) "
+                    f"lies outside the a-priori inertia range {mass_range[0]:.4g} … "
+                    f"{mass_range[1]:.4g} (τ_c {mass_range[0] / kL:.4g} … {mass_range[1] / kL:.4g} s); "
+                    + ("it is the in-air value, without added mass (the paper's yaw choice); "
+                       if mass_air is not None and mass == mass_air else "")
+                    + "give --mass for another nominal or --choice robust for the ω that covers "
+                    "the range"
+                    + (f" ({robust['omega']:.4g} rad/s)" if robust else ""))
     tau_hi = (mass_range[1] / kL) if mass_range is not None else tau
     settle = settle_tau * tau_hi
     if max_distance is not None:

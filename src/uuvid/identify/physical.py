@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
@@ -534,9 +534,15 @@ def fit_physical(sheets: BenchData | Sequence[BenchData], *, duty_curvature: boo
     fit.extra["per_sheet"] = per
     notes = []
     if not use_current:
-        notes.append("no current data (or current_weight 0): K_e and R are not separately "
-                     "identifiable — only K_e and R·K_Q/K_e are; expect a rank/correlation "
-                     "warning")
+        # Structural, not numerical: without current the model depends on K_e and R only through
+        # K_e and R·K_Q/K_e, so say so whatever the Jacobian's rank test happens to conclude.
+        msg = ("no current data (or current_weight 0): K_e and R are not separately "
+               "identifiable — only K_e and R·K_Q/K_e are")
+        notes.append(msg)
+        if not any("K_e" in w and "R" in w for w in fit.warnings):
+            fit = replace(fit, warnings=fit.warnings + (msg,))
+            if emit_warnings:
+                warnings.warn(msg, IdentifiabilityWarning, stacklevel=2)
     if any(s.censored.any() for s in sets):
         notes.append("censored rows enter only as one-sided constraints (|Ω| below the detection "
                      "limit)")

@@ -321,6 +321,10 @@ def load_drag(source: str, dof: str, key: str | None = None, mode: str | None = 
     if p.suffix.lower() == ".json":
         if not p.is_file():
             raise ValueError(f"--drag {p}: no such file")
+        if p.stat().st_size == 0:  # e.g. `> steady.json` from a command that failed
+            raise ValueError(f"--drag {p}: the file is empty — the command that should have "
+                             "written it failed or wrote nothing (use its --report DIR: "
+                             "DIR/summary.json)")
         try:
             doc = json.loads(p.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:

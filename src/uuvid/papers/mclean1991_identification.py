@@ -30,7 +30,7 @@ import numpy as np
 
 from uuvid import units as U
 from uuvid.identify.fit import Fit, linear_lsq, nonlinear_lsq
-from uuvid.papers.mclean1991 import TABLE1_THESIS, Case, table1_cases
+from uuvid.papers.mclean1991_table1 import TABLE1_THESIS, Case, table1_cases
 from uuvid.simulate.metrics import time_constant_decay
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.thruster.presets import auv2_tunnel_thruster, mclean_load_cell

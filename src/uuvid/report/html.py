@@ -43,6 +43,8 @@ tr:nth-child(even) td{background:#fafafa}
 caption,figcaption{font-style:italic;color:#555;padding:.3em 0;text-align:left}
 figure{margin:1.2em 0}
 figure img{max-width:100%;height:auto;border:1px solid #eee}
+.tw{overflow-x:auto;max-width:100%}
+a{color:#0b5cad}
 pre{background:#f6f8fa;border:1px solid #e3e3e3;padding:.8em;overflow:auto;font-size:.88em}
 """
 
@@ -87,6 +89,16 @@ class Report:
                 self._blocks.append("<p>" + _esc(part).replace("\n", "<br>\n") + "</p>")
         return self
 
+    def add_links(self, text: str, links: Mapping[str, str] | Iterable[str]) -> Report:
+        """Add a paragraph *text* followed by links, e.g. ``add_links("Full page:",
+        ["mission/index.html"])``; *links* maps label → href or lists hrefs (their own labels).
+        Hrefs are kept relative to the page, so a report folder can be moved or mailed whole."""
+        items = links.items() if isinstance(links, Mapping) else ((h, h) for h in links)
+        anchors = ", ".join(f'<a href="{_esc(_relative_href(h))}">{_esc(label)}</a>'
+                            for label, h in items)
+        self._blocks.append(f"<p>{_esc(text)} {anchors}</p>")
+        return self
+
     def add_table(
         self,
         rows: Iterable[Mapping[str, Any]],
@@ -103,7 +115,7 @@ class Report:
         rows = list(rows)
         if columns is None:
             columns = list(dict.fromkeys(k for row in rows for k in row))
-        out = ["<table>"]
+        out = ['<div class="tw"><table>']  # wide tables scroll instead of being cut off
         if caption:
             out.append(f"<caption>{_esc(caption)}</caption>")
         header = "".join(f"<th>{_esc(c)}</th>" for c in columns)
@@ -116,7 +128,7 @@ class Report:
                 cls = ' class="num"' if numeric else ""
                 cells.append(f"<td{cls}>{_esc(text)}</td>")
             out.append("<tr>" + "".join(cells) + "</tr>")
-        out.append("</tbody></table>")
+        out.append("</tbody></table></div>")
         self._blocks.append("\n".join(out))
         return self
 
@@ -183,6 +195,14 @@ class Report:
 
 
 # -------------------------------------------------------------------- helpers
+
+
+def _relative_href(href: str | os.PathLike[str]) -> str:
+    """A link inside the report folder: forward slashes, no scheme, no absolute path."""
+    h = Path(os.fspath(href)).as_posix() if not isinstance(href, str) else href.replace("\\", "/")
+    if ":" in h.split("/", 1)[0] or h.startswith("/"):
+        raise ValueError(f"report links are relative to the page, got {href!r}")
+    return h
 
 
 def _format_cell(value: Any, float_fmt: str) -> tuple[str, bool]:

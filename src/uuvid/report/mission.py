@@ -58,8 +58,9 @@ def mission_figures(result, vehicle) -> dict:
         axes[j].plot(t, r[:, j], "k--", lw=1)
         axes[j].plot(t, p[:, j], "C0")
         axes[j].set_ylabel(f"{nm} [m]")
-    axes[3].plot(t, np.degrees(result.ref_yaw), "k--", lw=1, label="reference")
-    axes[3].plot(t, np.degrees(eul[:, 2]), "C0", label="vehicle")
+    # unwrapped: a heading through ±180° is a continuous turn, not a 360° jump
+    axes[3].plot(t, np.degrees(np.unwrap(result.ref_yaw)), "k--", lw=1, label="reference")
+    axes[3].plot(t, np.degrees(np.unwrap(eul[:, 2])), "C0", label="vehicle")
     axes[3].set_ylabel("yaw [°]")
     axes[3].set_xlabel("t [s]")
     axes[3].legend(loc="upper right")

@@ -12,7 +12,9 @@ objects, freed when no longer referenced.
 from __future__ import annotations
 
 import os
+import re
 import sys
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -82,6 +84,20 @@ def _close(fig: Figure) -> None:
     plt = sys.modules.get("matplotlib.pyplot")
     if plt is not None:
         plt.close(fig)
+
+
+_UNIT = re.compile(r"^(?P<name>.*?)\s*\[(?P<unit>[^\[\]]*)\]$")
+
+
+def _axis_label(labels: Sequence[str], width: int = 24) -> str:
+    """One y label for the channels of a subplot, short enough for its height: channels sharing a
+    unit give ``a, b [unit]``; the text wraps at about *width* characters."""
+    parts = [_UNIT.match(lab) for lab in labels]
+    if len(labels) > 1 and all(parts) and len({m.group("unit") for m in parts}) == 1:
+        text = ", ".join(m.group("name") for m in parts) + f" [{parts[0].group('unit')}]"
+    else:
+        text = " / ".join(labels)
+    return textwrap.fill(text, width, break_long_words=False, break_on_hyphens=False)
 
 
 def plot_time_series(
@@ -156,13 +172,14 @@ def plot_time_series(
                     ax.plot(tt, y[:, j], label=f"{name}[{j}]", linewidth=1.0)
         units = list(dict.fromkeys(labels[name] for name in group if name in labels))
         if units:
-            ax.set_ylabel(" / ".join(units))
+            ax.set_ylabel(_axis_label(units))
         elif len(group) == 1:
             ax.set_ylabel(group[0])
         # a fixed location: loc="best" is very slow on long series
         ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel(xlabel)
+    fig.align_ylabels(axes)
     if n > 1 and np.isfinite(tt[[0, -1]]).all() and tt[0] != tt[-1]:
         axes[-1].set_xlim(tt[0], tt[-1])
     if title:

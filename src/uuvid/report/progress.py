@@ -4,6 +4,11 @@ Bars are drawn on **stderr** so stdout stays clean for data and piping.  They sw
 off when stderr is not a terminal (CI, redirected logs, pytest capture) and whenever the
 environment variable ``UUVID_NO_PROGRESS`` is set to ``1`` (or ``true``/``yes``/``on``).
 
+Long work names its stages with :meth:`ProgressTask.stage`: on a terminal the bar shows the
+current step's name; off a terminal (when the bar is off only because stderr is not a TTY) each
+stage prints one line ``description: step (n/N, 12.3 s)`` on stderr, and the end prints
+``description: done in 68.2 s`` — so a pipe or a CI log is never silent for a minute.
+
 Two forms::
 
     for case in progress(cases, description="simulating"):
@@ -23,6 +28,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from collections.abc import Iterable, Iterator
 from types import TracebackType
 from typing import Any, Self, TypeVar
@@ -48,7 +54,15 @@ def progress_disabled(disable: bool | None = None) -> bool:
         return True
 
 
-def _make_progress() -> Any:
+def _stage_lines(disable: bool | None = None) -> bool:
+    """One line per stage instead of a bar: stderr is not a terminal and nobody turned progress
+    off (neither ``UUVID_NO_PROGRESS`` nor ``disable=True``)."""
+    if os.environ.get(_ENV_VAR, "").strip().lower() in _TRUTHY or disable is True:
+        return False
+    return progress_disabled(disable) and sys.stderr is not None
+
+
+def _make_progress(eta: bool = True) -> Any:
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -59,33 +73,60 @@ def _make_progress() -> Any:
         TimeRemainingColumn,
     )
 
-    return Progress(
-        TextColumn("[progress.description]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=Console(stderr=True),
-    )
+    columns = [TextColumn("[progress.description]{task.description}"), BarColumn(),
+               MofNCompleteColumn(), TimeElapsedColumn()]
+    if eta:  # an ETA from uneven steps lies ("1 s left" for 19 s): callers with uneven steps opt out
+        columns.append(TimeRemainingColumn())
+    return Progress(*columns, console=Console(stderr=True))
 
 
 class ProgressTask:
     """Handle returned by :func:`progress_task`; a no-op (that still counts) when disabled."""
 
-    def __init__(self, description: str, total: float | None, disable: bool | None) -> None:
+    def __init__(self, description: str, total: float | None, disable: bool | None,
+                 eta: bool = True, n_stages: int | None = None) -> None:
         self.description = description
         self.total = total
         self.completed: float = 0
         self.disabled = progress_disabled(disable)
+        self.lines = _stage_lines(disable)
+        self.eta = eta
+        self.n_stages = n_stages
+        self.stages: list[str] = []
+        self._t0 = time.perf_counter()
         self._progress: Any = None
         self._task_id: Any = None
 
     def __enter__(self) -> Self:
+        self._t0 = time.perf_counter()
         if not self.disabled:
-            self._progress = _make_progress()
+            self._progress = _make_progress(self.eta)
             self._progress.start()
             self._task_id = self._progress.add_task(self.description, total=self.total)
         return self
+
+    @property
+    def elapsed(self) -> float:
+        """Seconds since the task started."""
+        return time.perf_counter() - self._t0
+
+    def _line(self, text: str) -> None:
+        try:
+            sys.stderr.write(f"{self.description}: {text}\n")
+            sys.stderr.flush()
+        except (AttributeError, ValueError, OSError):  # closed or missing stderr: stay quiet
+            pass
+
+    def stage(self, name: str) -> None:
+        """Start the named step: the bar shows ``description — name``; off a terminal one line
+        ``description: name (n/N, elapsed)`` goes to stderr."""
+        self.stages.append(name)
+        n = len(self.stages)
+        if self._progress is not None:
+            self._progress.update(self._task_id, description=f"{self.description} — {name}")
+        elif self.lines:
+            of = f"{n}/{self.n_stages}" if self.n_stages else f"step {n}"
+            self._line(f"{name} ({of}, {self.elapsed:.1f} s)")
 
     def __exit__(
         self,
@@ -96,6 +137,8 @@ class ProgressTask:
         if self._progress is not None:
             self._progress.stop()
             self._progress = None
+        elif self.lines and self.stages:
+            self._line(f"{'failed after' if exc_type else 'done in'} {self.elapsed:.1f} s")
 
     def advance(self, n: float = 1) -> None:
         """Mark *n* more units of work as done."""
@@ -124,13 +167,16 @@ class ProgressTask:
 
 
 def progress_task(
-    description: str = "", total: float | None = None, disable: bool | None = None
+    description: str = "", total: float | None = None, disable: bool | None = None,
+    eta: bool = True, stages: int | None = None,
 ) -> ProgressTask:
     """Context manager for a manually advanced bar: ``with progress_task(...) as t: t.advance()``.
 
-    ``total=None`` draws an indeterminate bar.
+    ``total=None`` draws an indeterminate bar; ``eta=False`` drops the time-remaining column
+    (for steps of very different lengths); name steps with ``t.stage("...")`` (``stages``: how
+    many there will be, for the ``n/N`` of the lines printed off a terminal).
     """
-    return ProgressTask(description, total, disable)
+    return ProgressTask(description, total, disable, eta, stages)
 
 
 def progress(

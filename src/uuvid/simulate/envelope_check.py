@@ -1,41 +1,189 @@
-"""Confirm a vehicle's analytic speed envelope by simulation.
+"""Confirm a vehicle's analytic speed envelope by simulation, flown as a pilot flies it.
 
-For each direction of :func:`uuvid.vehicle.envelope.speed_envelope`, the thrusters hold the
-allocated thrust that gives the envelope's force along that DOF (open loop, installation
-coefficients applied) and the full 6-DOF model is integrated until the velocity settles; the
-steady velocity along the DOF is compared with the analytic one (``k_L v + k_Q v|v| = F``, which
-ignores coupling between DOFs).
+Translational directions (surge, sway, heave): the driven DOF gets the full command (the
+allocator's largest force along it) while a controller holds what the vehicle can hold — the
+attitude DOFs it controls (roll, pitch, yaw at zero: PID on the angles) and the other
+translational DOFs (PID on the NED position, e.g. depth in surge).  The hold has priority: its
+thrust is allocated first and the driven DOF gets the largest multiple of its thrust direction
+that still fits the limits (as ArduSub's motor mixing does).  The steady velocity of the full
+6-DOF model (instantaneous thrust; the steady state does not depend on the thrusters' dynamics) is
+compared with the analytic one, ``k_L v + k_Q v|v| = F`` (Caccia et al. 2000, eq. 3).
+
+Roll and pitch that the thrusters cannot control are left to the righting moment; where the static
+analysis (:func:`uuvid.vehicle.stability.static_stability`) says the vehicle cannot stay level
+below the analytic speed, the direction is not confirmed and the row carries that limit, plus a
+check of the analysis: the vehicle flown at 80 % of the limit speed (speed held) against the
+analysis' trim angle at that speed.
+
+Rotational directions (yaw): the allocated torque is held open loop; roll and pitch rows have a
+restoring moment and no steady rate (their maximum moment is reported).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
+from uuvid.vehicle.kinematics import quat_to_rotmat
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import vehicle_rhs
+
+ROW_KEYS = ("dof", "direction", "sign", "force", "speed", "allocator_force", "allocator_speed",
+            "force_unit", "speed_unit", "simulated_speed", "relative_difference", "final_roll_deg",
+            "final_pitch_deg", "method", "confirmed", "limit", "trim_check_speed",
+            "trim_static_deg", "trim_simulated_deg", "note")
+TOLERANCE = 0.05  # relative difference accepted as confirmation
+
+
+@njit(cache=True)
+def _rk4_held(x, tau, vp, dt):
+    """One RK4 step of the 6-DOF model with ``τ`` held; the quaternion renormalised."""
+    k1 = vehicle_rhs(x, tau, vp)
+    k2 = vehicle_rhs(x + 0.5 * dt * k1, tau, vp)
+    k3 = vehicle_rhs(x + 0.5 * dt * k2, tau, vp)
+    k4 = vehicle_rhs(x + dt * k3, tau, vp)
+    x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    n = math.sqrt(x[3] ** 2 + x[4] ** 2 + x[5] ** 2 + x[6] ** 2)
+    for i in range(3, 7):
+        x[i] /= n
+    return x
 
 
 @njit(cache=True)
 def _settle(x0, tau, vp, dt, nsteps):
     x = x0.copy()
     for _ in range(nsteps):
-        k1 = vehicle_rhs(x, tau, vp)
-        k2 = vehicle_rhs(x + 0.5 * dt * k1, tau, vp)
-        k3 = vehicle_rhs(x + 0.5 * dt * k2, tau, vp)
-        k4 = vehicle_rhs(x + dt * k3, tau, vp)
-        x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        n = math.sqrt(x[3] ** 2 + x[4] ** 2 + x[5] ** 2 + x[6] ** 2)
-        for i in range(3, 7):
-            x[i] /= n
+        x = _rk4_held(x, tau, vp, dt)
     return x
+
+
+@njit(cache=True)
+def _hold_run(x0, vp, B, T, lo, hi, ctl, dof, sgn, mode, speed, gains, dt, nsteps, ntail):
+    """Fly with the hold controller; ``mode`` 0: full command on ``dof`` (priority to the hold),
+    1: NED speed ``sgn·speed`` held along ``dof`` too.  ``lo``/``hi``: delivered-thrust limits.
+    Returns tail means ``[ν_dof, roll, pitch, command fraction]`` and tail max ``|roll|, |pitch|``
+    (angles in rad).  The hold: PID on the NED position (per axis) rotated into body axes and
+    PID on the Euler angles of the controlled attitude DOFs; ``gains`` = ``[K_p(6), K_d(6),
+    K_i(6)]``; thrust delivered instantly, ``τ = B t``."""
+    n = T.shape[0]
+    x = x0.copy()
+    integ = np.zeros(6)
+    phi = np.zeros(6)
+    tu = np.zeros(n)
+    th = np.zeros(n)
+    t = np.zeros(n)
+    tau = np.zeros(6)
+    sig_full = 1e300
+    for i in range(n):
+        tu[i] = T[i, dof] * sgn
+        if tu[i] > 0.0:
+            sig_full = min(sig_full, hi[i] / tu[i])
+        elif tu[i] < 0.0:
+            sig_full = min(sig_full, lo[i] / tu[i])
+    out = np.zeros(6)
+    for step in range(nsteps):
+        time = step * dt
+        q = x[3:7]
+        R = quat_to_rotmat(q)
+        ang = np.empty(3)
+        ang[0] = math.atan2(R[2, 1], R[2, 2])
+        ang[1] = -math.asin(max(-1.0, min(1.0, R[2, 0])))
+        ang[2] = math.atan2(R[1, 0], R[0, 0])
+        fned = np.zeros(3)
+        for i in range(3):
+            v = R[i, 0] * x[7] + R[i, 1] * x[8] + R[i, 2] * x[9]
+            if i == dof and mode == 0:
+                continue
+            ref = sgn * speed * time if i == dof else 0.0
+            vref = sgn * speed if i == dof else 0.0
+            e = ref - x[i]
+            fned[i] = gains[i] * e + gains[6 + i] * (vref - v) + gains[12 + i] * integ[i]
+            integ[i] += e * dt
+        for i in range(3):
+            phi[i] = R[0, i] * fned[0] + R[1, i] * fned[1] + R[2, i] * fned[2]
+        for k in range(3, 6):
+            phi[k] = 0.0
+            if ctl[k]:
+                e = -ang[k - 3]
+                phi[k] = gains[k] * e - gains[6 + k] * x[7 + k] + gains[12 + k] * integ[k]
+                integ[k] += e * dt
+        if mode == 0:
+            phi[dof] = 0.0
+        for i in range(n):
+            s = 0.0
+            for j in range(6):
+                s += T[i, j] * phi[j]
+            th[i] = s
+        sh = 1.0
+        for i in range(n):
+            if th[i] > hi[i]:
+                sh = min(sh, hi[i] / th[i])
+            elif th[i] < lo[i]:
+                sh = min(sh, lo[i] / th[i])
+        sig = 0.0
+        if mode == 0 and sh >= 1.0:
+            sig = sig_full
+            for i in range(n):
+                if tu[i] > 0.0:
+                    sig = min(sig, (hi[i] - th[i]) / tu[i])
+                elif tu[i] < 0.0:
+                    sig = min(sig, (lo[i] - th[i]) / tu[i])
+            sig = max(sig, 0.0)
+        for i in range(n):
+            t[i] = sh * th[i] + sig * tu[i]
+        for j in range(6):
+            s = 0.0
+            for i in range(n):
+                s += B[j, i] * t[i]
+            tau[j] = s
+        x = _rk4_held(x, tau, vp, dt)
+        if step >= nsteps - ntail:
+            out[0] += x[7 + dof] / ntail
+            out[1] += ang[0] / ntail
+            out[2] += ang[1] / ntail
+            out[3] += (sig / sig_full if mode == 0 else sh) / ntail
+            out[4] = max(out[4], abs(ang[0]))
+            out[5] = max(out[5], abs(ang[1]))
+    return out
+
+
+def _gains(vehicle, translation_bandwidth: float = 1.0, attitude_bandwidth: float = 5.0):
+    """PID gains placing a triple pole at −ω on each DOF's total inertia ``M_ii``."""
+    M = np.diag(vehicle.params.mass_matrix)
+    w = np.array([translation_bandwidth] * 3 + [attitude_bandwidth] * 3)
+    return np.concatenate([3 * M * w**2, 3 * M * w, M * w**3])
+
+
+def hold_flight(vehicle, dof, sign: int, speed: float | None = None, t_end: float = 90.0,
+                dt: float = 0.01, tail: float = 15.0) -> dict:
+    """Fly along ``dof`` (sign ±) with the hold controller: at full command (``speed`` None) or
+    holding the NED speed ``speed``; tail means of the velocity along ``dof`` and of roll/pitch."""
+    d = dof_index(dof) if isinstance(dof, str) else int(dof)
+    alloc = vehicle.allocator(compensate_eta=True)
+    ep, en = alloc.eta
+    lim = vehicle.layout.limits
+    ctl = np.zeros(6, dtype=np.int64)
+    ctl[list(alloc.controlled)] = 1
+    x0 = np.zeros(13)
+    x0[3] = 1.0
+    nsteps = int(round(t_end / dt))
+    out = _hold_run(x0, vehicle.params.to_array(), np.ascontiguousarray(vehicle.B),
+                    np.ascontiguousarray(alloc.T), lim[:, 0] * en, lim[:, 1] * ep, ctl, d,
+                    float(sign), 0 if speed is None else 1, 0.0 if speed is None else float(speed),
+                    _gains(vehicle), dt, nsteps, int(round(tail / dt)))
+    return {"speed": float(out[0]), "roll_deg": math.degrees(out[1]),
+            "pitch_deg": math.degrees(out[2]), "command_fraction": min(1.0, float(out[3])),
+            "max_abs_roll_deg": math.degrees(out[4]), "max_abs_pitch_deg": math.degrees(out[5]),
+            "method": ("closed loop: full command, attitude and other DOFs held" if speed is None
+                       else f"closed loop: speed {speed:.3g} m/s held, attitude and other DOFs held")}
 
 
 def simulated_speed(vehicle, dof: int, force: float, t_end: float = 120.0, dt: float = 0.01,
                     full: bool = False):
-    """Steady velocity along ``dof`` under the allocated generalised force ``force`` on it
+    """Open loop: steady velocity along ``dof`` under the allocated generalised force ``force``
     (with ``full``: also the final roll and pitch in degrees)."""
     alloc = vehicle.allocator(compensate_eta=True)
     phi = np.zeros(6)
@@ -53,55 +201,136 @@ def simulated_speed(vehicle, dof: int, force: float, t_end: float = 120.0, dt: f
     return float(x[7 + dof])
 
 
-def confirm_envelope(vehicle, env) -> list[dict]:
-    """Rows of the envelope with ``simulated_speed`` and the relative difference."""
+@dataclass(frozen=True)
+class EnvelopeCheck:
+    """The envelope confirmed by simulation: one row per direction, always with every column of
+    :data:`ROW_KEYS` (``None`` where a value does not apply)."""
+
+    vehicle: str
+    rows: tuple[dict, ...]
+    stability: object = None  # uuvid.vehicle.stability.StabilityResult
+
+    def __iter__(self):
+        return iter(self.rows)
+
+    def __getitem__(self, direction: str) -> dict:
+        for r in self.rows:
+            if r["direction"] == direction:
+                return r
+        raise KeyError(f"no envelope row {direction!r}; have {[r['direction'] for r in self.rows]}")
+
+    def table_rows(self, columns=("direction", "speed", "allocator_speed", "simulated_speed",
+                                  "relative_difference", "limit", "note")) -> list[dict]:
+        """Rows for display: ``None`` as "—", speeds with their sign dropped (the direction
+        says it)."""
+        out = []
+        for r in self.rows:
+            d = {}
+            for c in columns:
+                v = r.get(c)
+                if isinstance(v, float) and c.endswith("speed"):
+                    v = abs(v)
+                d[c] = "—" if v is None or (isinstance(v, float) and math.isnan(v)) else v
+            out.append(d)
+        return out
+
+    @property
+    def all_confirmed(self) -> bool:
+        return all(r["confirmed"] is not False for r in self.rows)
+
+    def summary(self) -> str:
+        lines = [f"Speed envelope confirmed by simulation — {self.vehicle}"]
+        for r in self.rows:
+            lines.append(f"  {r['direction']:<26} {r['note']}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"vehicle": self.vehicle, "rows": [dict(r) for r in self.rows],
+                "stability": self.stability.to_dict() if self.stability is not None else None}
+
+
+def _row(r) -> dict:
+    d = dict.fromkeys(ROW_KEYS)
+    d.update({"dof": r.dof, "direction": r.direction, "sign": r.sign, "force": r.force,
+              "allocator_force": r.force_allocator, "force_unit": r.force_unit,
+              "speed_unit": r.speed_unit})
+    d["speed"] = None if math.isnan(r.speed) else r.speed
+    d["allocator_speed"] = None if math.isnan(r.speed_allocator) else r.speed_allocator
+    return d
+
+
+def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLERANCE,
+                     simulate: bool = True) -> EnvelopeCheck:
+    """Simulate every direction of the envelope (see the module text) and say which are
+    confirmed within ``tolerance`` of the allocator's analytic speed, and why not
+    (``simulate=False``: the analytic rows with the stability limits only)."""
+    from uuvid.vehicle.envelope import speed_envelope
+    from uuvid.vehicle.stability import static_stability, trim_state
+
+    env = speed_envelope(vehicle) if env is None else env
+    stab = static_stability(vehicle, envelope=env) if stability is None else stability
     rows = []
     for r in env.rows:
-        d = dict(r.__dict__)
-        d["allocator_speed"] = d.pop("speed_allocator")
-        d["allocator_force"] = d.pop("force_allocator")
-        if not math.isnan(r.speed_allocator) and r.force_allocator > 0:
-            sim, roll, pitch = simulated_speed(vehicle, dof_index(r.dof), r.sign * r.force_allocator,
-                                               full=True)
-            d["simulated_speed"] = sim
-            ref = r.speed_allocator
-            d["relative_difference"] = abs(sim - ref) / abs(ref) if ref else math.nan
-            d["final_roll_deg"], d["final_pitch_deg"] = roll, pitch
-            if d["relative_difference"] > 0.05 and dof_index(r.dof) in (0, 1):
-                cl = closed_loop_speed(vehicle, dof_index(r.dof), r.sign, 1.5 * abs(ref))
-                d["open_loop_speed"] = sim
-                d["simulated_speed"] = sim = cl["speed"]
-                d["relative_difference"] = abs(sim - ref) / abs(ref)
-                roll, pitch = d["final_roll_deg"], d["final_pitch_deg"] = cl["roll_deg"], cl["pitch_deg"]
-                d["method"] = "closed loop (heading and depth held, allocator saturated)"
-            else:
-                d["method"] = "open loop (allocated thrust held)"
-            if d["relative_difference"] > 0.05:
-                d["note"] = (f"not confirmed: in the coupled 6-DOF simulation the vehicle ends at "
-                             f"roll {roll:.0f}°, pitch {pitch:.0f}° — the Munk moment of unequal added "
-                             "mass turns it against its small righting moment, and its thrusters "
-                             "cannot hold roll/pitch — so the uncoupled analytic speed is not reached")
-            else:
-                d["note"] = "confirmed"
+        d = _row(r)
+        k = dof_index(r.dof)
+        ref = r.speed_allocator
+        if k in (3, 4):
+            d["method"] = "analytic"
+            d["limit"] = f"moment {r.force_allocator:.3g} {r.force_unit}"
+            d["note"] = ("restoring moment, no steady rate: the largest moment "
+                         f"{r.force_allocator:.3g} {r.force_unit} is reported")
+            rows.append(d)
+            continue
+        if r.force_allocator <= 0 or not math.isfinite(ref):
+            d["confirmed"] = False
+            d["note"] = "the allocator gives no force along this direction"
+            rows.append(d)
+            continue
+        case = stab.get(r.direction) if k < 3 else None
+        if not simulate:
+            d["limit"] = case.limit_text() if case is not None else "—"
+            d["method"] = "analytic"
+            d["note"] = "not simulated"
+            if case is not None and case.limited and case.limit_speed < abs(ref):
+                d["confirmed"] = False
+                d["note"] = (f"cannot stay level above {case.limit_speed:.2f} m/s "
+                             f"({case.limit_dof}: {case.limit_reason})")
+            rows.append(d)
+            continue
+        if k < 3:
+            sim = hold_flight(vehicle, k, r.sign)
+            d.update(simulated_speed=sim["speed"], final_roll_deg=sim["roll_deg"],
+                     final_pitch_deg=sim["pitch_deg"], method=sim["method"])
+            tilt = (sim["max_abs_roll_deg"], sim["max_abs_pitch_deg"])
+        else:
+            v, roll, pitch = simulated_speed(vehicle, k, r.sign * r.force_allocator, full=True)
+            d.update(simulated_speed=v, final_roll_deg=roll, final_pitch_deg=pitch,
+                     method="open loop (allocated torque held)")
+        rel = abs(d["simulated_speed"] - ref) / abs(ref) if ref else math.nan
+        d["relative_difference"] = rel
+        d["confirmed"] = bool(rel <= tolerance)
+        d["limit"] = case.limit_text() if case is not None else "—"
+        if case is not None and case.limited and case.limit_speed < abs(ref):
+            d["confirmed"] = False
+            us = 0.8 * case.limit_speed
+            st = trim_state(vehicle, k, r.sign, us)
+            fl = hold_flight(vehicle, k, r.sign, speed=us)
+            ang = case.limit_dof
+            d["trim_check_speed"] = us
+            d["trim_static_deg"] = st["tilt_deg"][ang]
+            d["trim_simulated_deg"] = fl[f"{ang}_deg"]
+            d["note"] = (f"not confirmed: cannot stay level above {case.limit_speed:.2f} m/s "
+                         f"({ang}: {case.limit_reason}; righting BG·W "
+                         f"{case.righting[ang]:.3g} N·m/rad); at {us:.2f} m/s the static trim is "
+                         f"{st['tilt_deg'][ang]:+.1f}° {ang}, the simulation flies "
+                         f"{fl[f'{ang}_deg']:+.1f}°; at full command it "
+                         f"{'tumbles' if max(tilt) > 60 else 'tilts'}: up to {tilt[0]:.0f}° roll, "
+                         f"{tilt[1]:.0f}° pitch")
+        elif d["confirmed"]:
+            d["note"] = f"confirmed within {rel:.1%}"
+        else:
+            d["note"] = (f"not confirmed: {rel:.0%} off, roll {d['final_roll_deg']:.0f}°, pitch "
+                         f"{d['final_pitch_deg']:.0f}° (coupling the uncoupled analytic speed "
+                         "ignores)")
         rows.append(d)
-    return rows
-
-
-def closed_loop_speed(vehicle, dof: int, sign: int, target_speed: float, t_end: float = 60.0) -> dict:
-    """Steady speed along surge/sway with the DP controller holding heading and depth while the
-    reference runs away faster than the vehicle can follow (the allocator saturates)."""
-    from uuvid.simulate.reference import WaypointMission
-    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
-
-    far = 10_000.0 * sign
-    end = (far, 0.0, 1.0, 0.0) if dof == 0 else (0.0, far, 1.0, 0.0)
-    mission = WaypointMission(((0.0, 0.0, 1.0, 0.0), end), speed=abs(target_speed), ramp_time=2.0,
-                              hold=0.0, name=f"envelope {dof}")
-    setup = setup_mission(vehicle, mission, t_end=t_end)
-    r = fly_mission(setup)
-    tail = r.t >= t_end - 10.0
-    from uuvid.vehicle.kinematics import quat_to_euler
-
-    rpy = np.degrees(quat_to_euler(r.state[-1, 3:7]))
-    return {"speed": float(np.mean(r.velocity[tail, dof])), "roll_deg": float(rpy[0]),
-            "pitch_deg": float(rpy[1]), "saturated_fraction": float(np.mean(r.scale[tail] < 1))}
+    return EnvelopeCheck(vehicle.name, tuple(rows), stab)

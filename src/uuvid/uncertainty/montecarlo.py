@@ -644,7 +644,7 @@ def write_mc_report(res, study: MonteCarloStudy, out: Path) -> list[str]:
         ax2.axhline(0, color="C0", lw=1)
         unit = series_unit(k)
         ax.set_ylabel(f"{k} [{unit}]")
-        ax2.set_ylabel(f"− median [{unit}]")
+        ax2.set_ylabel(f"{k} − median [{unit}]")
         xl = ("command [" + str(sp.model.base.get("physical_model", {}).get("command_unit", "")) + "]"
               if k.startswith("thrust@") else "t [s]")
         ax2.set_xlabel(xl)

@@ -60,6 +60,28 @@ class ParameterNameError(ValueError):
     """A parameter name the target does not know; the message lists what it accepts."""
 
 
+_LINEAR_DOF = {"surge", "sway", "heave", "0", "1", "2"}
+#: SI unit of a vehicle parameter per DOF kind (linear, angular)
+_VEHICLE_UNITS = {"added_mass": ("kg", "kg·m²"), "linear_damping": ("N·s/m", "N·m·s/rad"),
+                  "quadratic_damping": ("N·s²/m²", "N·m·s²/rad²"), "inertia": ("kg·m²", "kg·m²"),
+                  "current": ("m/s", "m/s")}
+#: SI unit of scalar parameters and of chain-block fields, by (last) name
+_NAME_UNITS = {"mass": "kg", "weight": "N", "buoyancy": "N", "current_speed": "m/s",
+               "current_direction": "°", "voltage": "V", "supply_voltage": "V",
+               "time_constant": "s", "tunnel_length": "m", "diameter": "m", "resistance": "Ω",
+               "inductance": "H", "thrust": "N", "force": "N", "torque": "N·m"}
+
+
+def si_unit(name: str) -> str:
+    """The SI unit a parameter's values are in (``""`` when unknown or dimensionless): the
+    label of sweep axes whose file gives no ``unit``."""
+    m = _INDEXED.match(name)
+    if m and m.group("field") in _VEHICLE_UNITS:
+        lin, ang = _VEHICLE_UNITS[m.group("field")]
+        return lin if m.group("idx") in _LINEAR_DOF else ang
+    return _NAME_UNITS.get(name.rsplit(".", 1)[-1], "")
+
+
 def to_si(value, unit: str | None):
     if unit is None:
         return value

@@ -430,7 +430,8 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
         return np.asarray(v, float) / PR.UNITS[u] if u else np.asarray(v, float)
 
     def label(name):
-        return f"{name} [{units[name]}]" if name in units else name
+        u = units.get(name) or PR.si_unit(name)  # values are SI unless the file gives a unit
+        return f"{name} [{u}]" if u else name
 
     rep = Report(f"uuvid sweep — {spec.name}")
     s = res.summary
@@ -466,7 +467,9 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
             groups = sub.groupby(p.hue) if p.hue else [(None, sub)]
             for key, g in groups:
                 g = g.sort_values(p.x)
-                lab = None if key is None else f"{label(p.hue)} = {shown(p.hue, [key])[0]:.4g}"
+                hu = units.get(p.hue) or PR.si_unit(p.hue) if p.hue else ""
+                lab = None if key is None else (f"{p.hue} = {shown(p.hue, [key])[0]:.4g}"
+                                                + (f" {hu}" if hu else ""))
                 ax.plot(shown(p.x, g[p.x].to_numpy()), g[p.metric].to_numpy(), "o-", ms=3, label=lab)
             ax.set_xlabel(label(p.x))
             ax.set_ylabel(metric_label(p.metric))

@@ -9,6 +9,7 @@ Modules:
     allocation     pseudo-inverse / minimum-energy allocation, thrust-mapping modes, saturation
     definition     vehicle files (YAML/TOML, pydantic), presets, load_vehicle
     envelope       maximum steady speeds per DOF and direction (Laidani et al. Table 4 kind)
+    linearize      analytic linearisation about a trimmed operating point (A, B, python-control)
 """
 
 from uuvid.vehicle.allocation import (
@@ -30,6 +31,7 @@ from uuvid.vehicle.definition import (
 )
 from uuvid.vehicle.envelope import Envelope, speed_envelope
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, thrust_configuration_matrix
+from uuvid.vehicle.linearize import LinearModel, OperatingPoint, TrimError, linearize, trim
 from uuvid.vehicle.model import (
     DOF_NAMES,
     N_PARAMS,
@@ -45,6 +47,7 @@ from uuvid.vehicle.model import (
     vehicle_rhs_into,
     vehicle_rhs_reference,
 )
+from uuvid.vehicle.stability import StabilityResult, static_stability
 
 __all__ = [
     "DOF_NAMES",
@@ -53,10 +56,13 @@ __all__ = [
     "AllocationResult",
     "Allocator",
     "Envelope",
+    "LinearModel",
     "OneDofModel",
+    "OperatingPoint",
     "ThrustMode",
     "Thruster",
     "ThrusterLayout",
+    "TrimError",
     "Vehicle",
     "VehicleFileError",
     "VehicleParams",
@@ -64,6 +70,7 @@ __all__ = [
     "constrained_allocation_matrix",
     "delivered_compiled",
     "list_presets",
+    "linearize",
     "load_vehicle",
     "make_params",
     "make_state",
@@ -71,8 +78,11 @@ __all__ = [
     "one_dof_rhs_compiled",
     "pseudo_inverse",
     "speed_envelope",
+    "static_stability",
+    "StabilityResult",
     "steady_speed",
     "thrust_configuration_matrix",
+    "trim",
     "vehicle_from_dict",
     "vehicle_rhs",
     "vehicle_rhs_into",

@@ -1,0 +1,56 @@
+"""Help text as written: units in brackets survive, flags show no type.
+
+Typer renders help with rich markup, which swallows ``[s]``, ``[m/s]``, ``[rad/s]`` as unknown
+style tags ("Simulated time . [default: 2.0]"), and labels every flag ``<bool>``.  Instead of
+escaping each option by hand, the root group tidies every command below it once, when the click
+command tree is built: help text is markup-escaped (so the brackets print literally) and boolean
+flags get an empty type label.
+"""
+
+from __future__ import annotations
+
+from rich.markup import escape
+from typer.core import TyperGroup
+
+
+def _rich_markup(cmd) -> bool:
+    from typer.core import HAS_RICH
+
+    return HAS_RICH and getattr(cmd, "rich_markup_mode", None) == "rich"
+
+
+def tidy_command(cmd, ctx_cls=None) -> None:
+    """Escape the help of *cmd*, its parameters and (recursively) its subcommands; blank the type
+    label of flags (``--json``, ``--help``).  Idempotent."""
+    if getattr(cmd, "_uuvid_tidy", False):
+        return
+    cmd._uuvid_tidy = True
+    markup = _rich_markup(cmd)
+    if markup and cmd.help:
+        cmd.help = escape(cmd.help)
+    if markup and getattr(cmd, "short_help", None):
+        cmd.short_help = escape(cmd.short_help)
+    params = list(cmd.params)
+    try:  # the --help option is created lazily; create it now so it is tidied too
+        from typer.models import Context
+
+        helper = cmd.get_help_option(Context(cmd))
+        if helper is not None:
+            params.append(helper)
+    except Exception:  # pragma: no cover - a typer internals change must not break the CLI
+        pass
+    for p in params:
+        if markup and getattr(p, "help", None):
+            p.help = escape(p.help)
+        if getattr(p, "is_flag", False) and p.metavar is None:
+            p.metavar = ""
+    for sub in getattr(cmd, "commands", {}).values():
+        tidy_command(sub)
+
+
+class TidyHelpGroup(TyperGroup):
+    """The root ``uuvid`` group: tidies the help of every command below it (see module doc)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        tidy_command(self)

@@ -1,0 +1,78 @@
+"""``uuvid log inspect`` / ``uuvid log export``: ArduSub logs read right (thin shell over
+:mod:`uuvid.io.ardusub`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+log_app = typer.Typer(no_args_is_help=True,
+                      help="ArduSub logs (.BIN dataflash, .tlog telemetry): inspect and export.")
+
+
+def _fail(msg: str):
+    from uuvid.cli.app import _fail as fail
+
+    fail(msg)
+
+
+@log_app.command("inspect")
+def inspect_cmd(
+    log: Path = typer.Argument(..., help="ArduSub .BIN/.log (dataflash) or .tlog (telemetry)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    params: Path | None = typer.Option(None, "--params", help="Parameter file (QGroundControl/"
+                                       "BlueOS) completing or overriding the log's parameters."),
+):
+    """Format, senders and clocks, messages, vehicle configuration, depth source, modes."""
+    from uuvid.cli.app import _print_json, out_console
+    from uuvid.io.ardusub import inspect_log
+
+    try:
+        res = inspect_log(log, params=params)
+    except (ValueError, ImportError) as e:
+        _fail(str(e))
+    if json_out:
+        _print_json(res.to_dict())
+    else:
+        out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
+
+
+@log_app.command("export")
+def export_cmd(
+    log: Path = typer.Argument(..., help="ArduSub .BIN/.log (dataflash) or .tlog (telemetry)."),
+    out: Path = typer.Option(..., "--out", help="FILE.csv (with FILE.csv.json provenance) or "
+                             "FILE.parquet (provenance in its metadata)."),
+    vehicle: str | None = typer.Option(None, "--vehicle", help="uuvid vehicle preset or file: "
+                                       "checked against the log; its geometry gives the "
+                                       "physical wrench."),
+    thruster_model: Path | None = typer.Option(None, "--thruster-model", help="Thruster model "
+                                               "file overriding the voltage-aware T200 model."),
+    dt: float | None = typer.Option(None, "--dt", help="Time step of the table [s] (default: "
+                                    "the attitude interval)."),
+    plot: Path | None = typer.Option(None, "--plot", help="Also save the overview figure here."),
+    params: Path | None = typer.Option(None, "--params", help="Parameter file (QGroundControl/"
+                                       "BlueOS) completing or overriding the log's parameters."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document."),
+):
+    """One tidy table on one time base: depth, attitude, battery, mode, PWM, thrust, forces."""
+    from uuvid.cli.app import _print_json, err_console, out_console
+    from uuvid.io.ardusub import load_dive
+
+    try:
+        dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,
+                         params=params)
+        path = dive.export(out)
+        if plot is not None:
+            dive.plot(plot)
+    except (ValueError, ImportError, FileNotFoundError, KeyError) as e:
+        _fail(str(e))
+    if json_out:
+        _print_json({**dive.to_dict(), "out": str(path)})
+        return
+    out_console.print(dive.summary(), highlight=False, markup=False, soft_wrap=True)
+    err_console.print(f"wrote {path}" + (f" and {path.name}.json" if path.suffix == ".csv" else ""))
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(log_app, name="log")

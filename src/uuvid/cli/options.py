@@ -1,0 +1,30 @@
+"""Option conventions shared by the commands.
+
+``--out DIR`` is always a folder.  A command's single output file is ``--out-file FILE``; files
+named for what they hold are ``--out-model FILE`` and ``--out-vehicle FILE``; ``--report DIR`` is
+a report folder.  Commands that used ``--out`` for a file keep accepting it (hidden) with a
+deprecation note, through :func:`renamed`.
+"""
+
+from __future__ import annotations
+
+import typer
+
+
+def deprecated_out(help_new: str) -> typer.models.OptionInfo:
+    """The hidden old ``--out FILE`` spelling of a file option."""
+    return typer.Option(None, "--out", hidden=True, help=f"Deprecated spelling of {help_new}.")
+
+
+def renamed(new_value, new_name: str, old_value, old_name: str = "--out"):
+    """The value of an option given under its new or (deprecated) old name; a note on stderr for
+    the old one, an error for both."""
+    from uuvid.cli.app import _fail, err_console
+
+    if old_value is None:
+        return new_value
+    if new_value is not None:
+        _fail(f"give {new_name} only ({old_name} is its deprecated spelling)")
+    err_console.print(f"[yellow]note:[/] {old_name} FILE is deprecated here; use {new_name} FILE "
+                      f"({old_name} always names a folder)", highlight=False, soft_wrap=True)
+    return old_value

@@ -1,0 +1,363 @@
+"""A dive as an ArduSub log records it: one tidy table on one time base, read the right way.
+
+:func:`load_dive` reads a ``.BIN``/``.tlog`` once (:mod:`.reader`), derives the thruster
+configuration from the log's parameters (:mod:`.frames`), picks depth, attitude and battery
+voltage from the right messages — and says which and why — turns every motor's PWM into thrust
+at the logged voltage (:mod:`.thrust`) and sums the generalized force
+
+    τ = Σ_i f_i · T(1500 + d_i (pwm_i − 1500))          (ArduSub mixing factors f_i, direction d_i)
+
+or, when a uuvid vehicle is given, the physical wrench ``τ = B T`` (Fossen 2011, eq. 11.2).
+:func:`inspect_log` describes a log without computing thrust.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from uuvid.io.ardusub.frames import (
+    DOF_COLUMNS,
+    MODE_NAMES,
+    OPEN_LOOP_MODES,
+    VehicleConfig,
+    check_vehicle,
+    config_from_params,
+    effective_pwm,
+)
+from uuvid.io.ardusub.reader import read_raw
+from uuvid.io.ardusub.sources import (
+    _HB_ARMED,
+    _attitude,
+    _battery,
+    _constant,
+    _depth,
+    _initial_armed,
+    _mode_events,
+    _on_grid,
+    _outputs_seen,
+    _pwm,
+    _unwrap,
+    merge_params,
+    relevant_param,
+)
+from uuvid.io.logs import LogDataError
+
+BASE_COLUMNS = ("t_s", "depth_m", "roll_rad", "pitch_rad", "yaw_rad", "battery_V", "mode",
+                "armed")
+
+
+# ------------------------------------------------------------------------------------ results
+@dataclass
+class DiveLog:
+    """A dive read from an ArduSub log (see :func:`load_dive`)."""
+
+    path: Path
+    format: str
+    table: object  # pandas.DataFrame with the export columns
+    config: VehicleConfig
+    depth_source: dict
+    warnings: list
+    modes: list  # segments: {start_s, end_s, mode, armed, part}
+    provenance: dict  # column → {message, field, ...}
+    thrust_model: dict
+    force_basis: str
+    factor_forces: object  # DataFrame of Σ f·T (always), even when a vehicle gives the wrench
+    vehicle: str | None = None
+
+    @property
+    def motors(self) -> list[int]:
+        return [m.number for m in self.config.active]
+
+    def open_loop(self, min_duration: float = 0.0) -> tuple[np.ndarray, str]:
+        """Mask of the table rows in open-loop (MANUAL) *armed* stretches at least
+        ``min_duration`` s long, and a sentence saying what was left out and why."""
+        tb = self.table
+        mask = (tb["mode"].isin(OPEN_LOOP_MODES) & tb["armed"].fillna(False)).to_numpy(bool)
+        t = tb["t_s"].to_numpy(float)
+        dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        if min_duration > 0 and mask.any():
+            edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(int), [0]))))
+            for a, b in zip(edges[::2], edges[1::2]):
+                if (b - a) * dt < min_duration:
+                    mask[a:b] = False
+        left: dict = {}
+        modes = tb["mode"].astype(str).to_numpy()
+        armed = tb["armed"].fillna(False).to_numpy(bool)
+        reasons = np.where(~np.isin(modes, OPEN_LOOP_MODES), modes,
+                           np.where(armed, "short MANUAL stretch", "disarmed or arming unknown"))
+        for r in np.unique(reasons[~mask]):
+            left[str(r)] = float(np.count_nonzero(reasons[~mask] == r) * dt)
+        kept = float(np.count_nonzero(mask) * dt)
+        text = (f"kept {kept:.1f} s of open-loop (MANUAL, armed) data; left out "
+                + (", ".join(f"{v:.1f} s {k}" for k, v in sorted(left.items())) or "nothing"))
+        return mask, text
+
+    def summary(self) -> str:
+        tb = self.table
+        lines = [f"{self.path.name} ({self.format}): {len(tb)} rows on one time base, "
+                 f"{tb['t_s'].iloc[-1] - tb['t_s'].iloc[0]:.1f} s" if len(tb) else
+                 f"{self.path.name}: no rows",
+                 self.config.summary(),
+                 f"depth: {self.depth_source['source']} — {self.depth_source['why']}",
+                 f"thrust: {self.thrust_model['name']} ({self.thrust_model['source']})"
+                 + (", at the logged battery voltage" if self.thrust_model["voltage_aware"]
+                    else ""),
+                 f"forces: {self.force_basis}"]
+        if self.modes:
+            lines.append("modes: " + "; ".join(
+                f"{s['mode']}{' armed' if s['armed'] else ''} {s['start_s']:.1f}–{s['end_s']:.1f} s"
+                for s in self.modes[:12]) + (" …" if len(self.modes) > 12 else ""))
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"path": str(self.path), "format": self.format, "rows": len(self.table),
+                "columns": list(self.table.columns), "config": self.config.to_dict(),
+                "depth_source": self.depth_source, "thrust_model": self.thrust_model,
+                "force_basis": self.force_basis, "vehicle": self.vehicle, "modes": self.modes,
+                "provenance": self.provenance, "warnings": list(self.warnings)}
+
+    def export(self, out) -> Path:
+        """Write the table atomically: ``.parquet`` (provenance in the file metadata) or
+        ``.csv`` (provenance in the sidecar ``<out>.json``)."""
+        from uuvid.io.ardusub.export import export_dive
+
+        return export_dive(self, out)
+
+    def report(self, folder) -> dict:
+        """``dive.csv`` (+ ``dive.csv.json``), ``dive.png`` and ``summary.txt`` in ``folder``;
+        returns the file paths."""
+        from uuvid.io.atomic import atomic_write_text
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        out = {"table": self.export(folder / "dive.csv"), "figure": folder / "dive.png",
+               "summary": atomic_write_text(folder / "summary.txt", self.summary() + "\n")}
+        self.plot(out["figure"])
+        return out
+
+    def plot(self, path=None):
+        """Depth, attitude, thrusts and forces against time, modes shaded (a Figure; saved
+        atomically when ``path`` is given)."""
+        from uuvid.io.ardusub.export import plot_dive
+
+        return plot_dive(self, path)
+
+
+def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = None,
+              params=None) -> DiveLog:
+    """Read an ArduSub ``.BIN``/``.tlog`` into a :class:`DiveLog` (see the module doc).
+
+    Parameters
+    ----------
+    vehicle
+        A uuvid vehicle (preset name, file, or :class:`~uuvid.vehicle.definition.Vehicle`):
+        checked against the log (thruster ``j`` must be motor ``j`` of the frame, pushing the way
+        ArduSub's factors say; a mismatch raises naming what differs); its ``B`` then gives the
+        physical wrench ``X_N … N_Nm``.  Without one, those columns are ArduSub's mixing-frame
+        force ``Σ f_i T_i`` (linear: N along the mixer's axes; moments: N per unit factor —
+        proportional to, not equal to, N·m).
+    thruster_model
+        A thruster model file overriding the default voltage-aware T200 model.
+    dt
+        Time step of the table [s]; default the median attitude interval (to 1 ms).
+    params
+        Parameters the log lacks or that should override it: ``{NAME: value}`` or a parameter
+        file (QGroundControl / Mission Planner / BlueOS format); used when a telemetry log was
+        recorded without the parameter download.
+    """
+    import pandas as pd
+
+    from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
+
+    raw = read_raw(path)
+    name = raw.name
+    warnings = list(raw.warnings)
+    params_log, changed = raw.param_values()
+    params = merge_params(params_log, params, warnings)
+    for n, h in changed.items():
+        if relevant_param(n):
+            warnings.append(f"parameter {n} changed during the log ({' → '.join(map(str, h))}); "
+                            "the last value is used")
+    veh = None
+    if vehicle is not None:
+        from uuvid.vehicle.definition import load_vehicle
+
+        veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
+    config = config_from_params(params, name=name, outputs_seen=_outputs_seen(raw),
+                                custom_B=None if veh is None else np.asarray(veh.B, float))
+    if veh is not None:
+        check_vehicle(config, veh, name=name)
+    for m in config.motors:
+        if m.disabled:
+            warnings.append(f"motor {m.number} ignored: {m.disabled}")
+    depth, dsrc = _depth(raw, config, warnings)
+    att, att_src = _attitude(raw)
+    att[2] = _unwrap(att[2])
+    bat = _battery(raw)
+    mode_ch, arm_ch = _mode_events(raw, warnings)
+    pwms = {}
+    for m in config.active:
+        ch = _pwm(raw, m.output)
+        if ch is None or ch.v.size == 0:
+            raise LogDataError(f"{name}: motor {m.number} is driven by SERVO{m.output}, but the log "
+                               f"has no {'RCOU.C' if raw.format == 'dataflash' else 'SERVO_OUTPUT_RAW.servo'}"
+                               f"{m.output}{'' if raw.format == 'dataflash' else '_raw'} samples")
+        pwms[m.number] = ch
+    for ch, label in ((depth, "depth"), *((a, a.source) for a in att)):
+        if _constant(ch):
+            warnings.append(f"{label} ({ch.source}) is constant over the whole log")
+    # ---- the grid: per part, over the interval depth, attitude and PWM all cover
+    if dt is None:
+        d = np.diff(att[0].t)
+        d = d[(d > 0) & (np.diff(att[0].part) == 0)]
+        dt = max(round(float(np.median(d)), 3), 0.001) if d.size else 0.1
+    grids, gparts = [], []
+    essentials = [depth, *att, *pwms.values()]
+    for k in sorted(set(np.unique(att[0].part).tolist())):
+        lo = max((c.t[c.part == k].min() for c in essentials if np.any(c.part == k)),
+                 default=np.nan)
+        hi = min((c.t[c.part == k].max() for c in essentials if np.any(c.part == k)),
+                 default=np.nan)
+        if not all(np.any(c.part == k) for c in essentials) or not hi > lo:
+            warnings.append(f"part {k}: depth, attitude and PWM do not overlap; part left out")
+            continue
+        n = int(math.floor((hi - lo) / dt + 1e-9)) + 1
+        grids.append(lo + dt * np.arange(n))
+        gparts.append(np.full(n, k))
+    if not grids:
+        raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
+    grid, gpart = np.concatenate(grids), np.concatenate(gparts)
+    cols: dict = {"t_s": grid - grid[0]}
+    stamp = "TimeUS" if raw.format == "dataflash" else "time_boot_ms"
+    prov: dict = {"t_s": {"source": f"autopilot clock ({stamp}), continued across reboots, "
+                                    "from the first row",
+                          "unit": "s", "t0_boot_s": float(grid[0]), "dt_s": dt}}
+    cols["depth_m"] = _on_grid(depth, grid, gpart)
+    prov["depth_m"] = {"source": depth.source, "unit": "m", "why": dsrc["why"]}
+    for c, ch in zip(("roll_rad", "pitch_rad", "yaw_rad"), att):
+        cols[c] = _on_grid(ch, grid, gpart)
+        prov[c] = {"source": ch.source, "unit": "rad"}
+    prov["yaw_rad"]["note"] = "unwrapped (continuous) before resampling"
+    for c in ("roll_rad", "pitch_rad", "yaw_rad"):
+        prov[c]["as_logged"] = att_src
+    if bat is not None:
+        cols["battery_V"] = _on_grid(bat, grid, gpart, hold_ends=True)
+        prov["battery_V"] = {"source": bat.source, "unit": "V"}
+    else:
+        cols["battery_V"] = np.full(grid.size, np.nan)
+        prov["battery_V"] = {"source": None, "unit": "V"}
+        warnings.append("no battery voltage in the log (BAT/CURR or SYS_STATUS)")
+    _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart)
+    tm = load_thrust_model(thruster_model) if thruster_model is not None else default_t200()
+    T = _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart)
+    Ff = config.F @ T
+    factor_df = pd.DataFrame({c: Ff[k] for k, c in enumerate(DOF_COLUMNS)})
+    if veh is not None:
+        W = np.asarray(veh.B, float) @ T
+        basis = (f"physical wrench B·T of vehicle {veh.name!r} (thruster j = motor j); N and N·m")
+    else:
+        W = Ff
+        basis = ("ArduSub mixing factors Σ f_i·T_i (no vehicle geometry given): X/Y/Z in N along "
+                 "the mixer's axes, K/M/N in N per unit factor — proportional to the moments, not "
+                 "N·m; give vehicle= for the physical wrench")
+    for k, c in enumerate(DOF_COLUMNS):
+        cols[c] = W[k]
+        prov[c] = {"source": "Σ over motors " + ("B[dof, j]" if veh is not None else "f[dof, i]")
+                             + " × thrust_i_N", "basis": basis}
+    df = pd.DataFrame(cols)
+    used = {v.get("source") for v in prov.values()}
+    dups = {k: v for k, v in raw.duplicates.items() if k in used}
+    if dups:
+        warnings.append("merged samples with duplicated time stamps (mean; last for PWM and "
+                        "modes): "
+                        + ", ".join(f"{k}: {v}" for k, v in dups.items()))
+    if raw.parts > 1:
+        df.insert(1, "part", gpart)
+        prov["part"] = {"source": "boot (reboot) number within the log"}
+    segs = _segments(df)
+    dsrc = {**dsrc, "source": depth.source}
+    return DiveLog(raw.path, raw.format, df, config, dsrc, warnings, segs, prov, tm.to_dict(),
+                   basis, factor_df, None if veh is None else veh.name)
+
+
+def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
+    """``mode`` (ArduSub mode name) and ``armed`` (nullable boolean) columns."""
+    import pandas as pd
+
+    if mode_ch is not None:
+        mnum = _on_grid(mode_ch, grid, gpart)
+        names = {x: MODE_NAMES.get(int(x), f"MODE{int(x)}") for x in np.unique(mnum[np.isfinite(mnum)])}
+        mode = pd.Series(mnum).map(names).fillna("UNKNOWN").to_numpy(object)
+        prov["mode"] = {"source": mode_ch.source, "names": "ArduSub Mode::Number"}
+    else:
+        mode = np.full(grid.size, "UNKNOWN", dtype=object)
+        prov["mode"] = {"source": None}
+        warnings.append("no flight-mode messages (MODE / HEARTBEAT): mode UNKNOWN")
+    cols["mode"] = mode
+    if arm_ch is not None:
+        events = arm_ch.source != _HB_ARMED  # dataflash: events; telemetry: a state per HEARTBEAT
+        arm = _on_grid(arm_ch, grid, gpart, initial=_initial_armed(arm_ch) if events else None)
+        prov["armed"] = {"source": arm_ch.source}
+        if events:
+            prov["armed"]["note"] = "before the first event of a part: the opposite of that event"
+    else:
+        arm = np.full(grid.size, np.nan)
+        prov["armed"] = {"source": None}
+        warnings.append("no arming messages (ARM/EV or HEARTBEAT): armed unknown")
+    cols["armed"] = pd.arrays.BooleanArray(np.nan_to_num(arm) > 0.5, ~np.isfinite(arm))
+
+
+def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
+    """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows)."""
+    volts = cols["battery_V"]
+    if tm.voltage_aware and not np.all(np.isfinite(volts)):
+        fill = float(np.nanmedian(volts)) if np.isfinite(volts).any() else 16.0
+        warnings.append(f"battery voltage missing on {np.count_nonzero(~np.isfinite(volts))} rows: "
+                        f"thrust there computed at {fill:.2f} V "
+                        + ("(the log's median)" if np.isfinite(volts).any()
+                           else "(the T200 sheet's nominal 16 V: no voltage in the log)"))
+        volts = np.where(np.isfinite(volts), volts, fill)
+    T = np.empty((len(config.active), grid.size))
+    for j, m in enumerate(config.active):
+        pwm = _on_grid(pwms[m.number], grid, gpart)
+        cols[f"pwm_{m.number}"] = pwm
+        prov[f"pwm_{m.number}"] = {"source": pwms[m.number].source, "unit": "µs",
+                                   "output": m.output}
+        out = np.count_nonzero((pwm < config.pwm_min - 1) | (pwm > config.pwm_max + 1))
+        if out:
+            warnings.append(f"pwm_{m.number}: {out} rows outside MOT_PWM_MIN/MAX "
+                            f"({config.pwm_min:g}–{config.pwm_max:g} µs)")
+        # 0 µs is "no pulse" (output off), not full reverse
+        T[j] = np.where(pwm > 0, tm.thrust(effective_pwm(pwm, m.direction), volts), 0.0)
+    for j, m in enumerate(config.active):
+        cols[f"thrust_{m.number}_N"] = T[j]
+        prov[f"thrust_{m.number}_N"] = {
+            "source": f"{pwms[m.number].source} → {tm.name} at battery_V",
+            "unit": "N", "direction": m.direction,
+            "note": "thrust along ArduSub's mixing direction of the motor: T(1500 + d (pwm − 1500))"}
+    return T
+
+
+def _segments(df) -> list[dict]:
+    """Runs of equal (mode, armed, part) as ``{start_s, end_s, mode, armed, part}``."""
+    import pandas as pd
+
+    t = df["t_s"].to_numpy(float)
+    if t.size == 0:
+        return []
+    part = df["part"].to_numpy() if "part" in df else np.zeros(t.size, int)
+    codes = pd.factorize(pd.Series(list(zip(df["mode"].astype(str), df["armed"].astype(str),
+                                            part.tolist()))))[0]
+    starts = np.flatnonzero(np.concatenate(([True], np.diff(codes) != 0)))
+    ends = np.concatenate((starts[1:] - 1, [t.size - 1]))
+    out = []
+    for a, b in zip(starts, ends):
+        arm = df["armed"].iloc[a]
+        out.append({"start_s": float(t[a]), "end_s": float(t[b]), "mode": str(df["mode"].iloc[a]),
+                    "armed": None if arm is pd.NA else bool(arm), "part": int(part[a])})
+    return out

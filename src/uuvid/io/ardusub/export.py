@@ -1,0 +1,111 @@
+"""Writing a :class:`~uuvid.io.ardusub.dive.DiveLog`: the table (CSV + JSON sidecar, or
+Parquet with the provenance in its metadata), atomically; and its overview figure."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from uuvid.io.atomic import atomic_path, atomic_write_json, to_jsonable
+from uuvid.io.logs import LogDataError
+
+
+def shared_log_dir() -> Path | None:
+    """The real ArduSub logs (``shared/data/ardusub-bluerov2``): ``$UUVID_SHARED_DATA`` or
+    ``shared/data`` beside the checkout / the working directory; ``None`` when absent."""
+    import os
+
+    here = Path(__file__).resolve()
+    bases = [Path(os.environ["UUVID_SHARED_DATA"])] if os.environ.get("UUVID_SHARED_DATA") else []
+    bases += [b / "shared" / "data" for b in (here.parents[4].parent, Path.cwd().parent,
+                                              Path.cwd())]
+    for b in bases:
+        d = b / "ardusub-bluerov2"
+        if d.is_dir():
+            return d
+    return None
+
+
+def _meta(dive) -> dict:
+    return {"format": "uuvid-dive/1", **dive.to_dict()}
+
+
+def export_dive(dive, out) -> Path:
+    """``out`` ending in ``.csv`` (sidecar ``<out>.json``) or ``.parquet``; returns the path."""
+    out = Path(out)
+    suf = out.suffix.lower()
+    tb = dive.table
+    if suf == ".csv":
+        with atomic_path(out) as tmp:
+            tb.to_csv(tmp, index=False, float_format="%.9g")
+        atomic_write_json(out.with_name(out.name + ".json"), _meta(dive))
+        return out
+    if suf == ".parquet":
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError as e:
+            raise ImportError("writing Parquet needs pyarrow: pip install 'uuvid[logs]'") from e
+        t = pa.Table.from_pandas(tb, preserve_index=False)
+        md = dict(t.schema.metadata or {})
+        md[b"uuvid"] = json.dumps(to_jsonable(_meta(dive)), allow_nan=False).encode()
+        t = t.replace_schema_metadata(md)
+        with atomic_path(out) as tmp:
+            pq.write_table(t, tmp)
+        return out
+    raise LogDataError(f"{out.name}: unknown export type {out.suffix!r}; expected .csv or .parquet")
+
+
+_MODE_COLOURS = {"MANUAL": None, "STABILIZE": "#9ecae1", "ALT_HOLD": "#a1d99b",
+                 "POSHOLD": "#fdae6b", "SURFACE": "#bcbddc", "ACRO": "#fdd0a2"}
+
+
+def plot_dive(dive, path=None):
+    """Depth, attitude, thrusts and generalized forces against time; closed-loop modes shaded
+    (MANUAL unshaded), disarmed stretches hatched grey."""
+    from uuvid.report.plots import new_figure, save_figure
+
+    tb = dive.table
+    t = tb["t_s"].to_numpy(float)
+    fig, ax = new_figure(4, 1, sharex=True, figsize=(10, 10))
+    ax[0].plot(t, tb["depth_m"], "k")
+    ax[0].invert_yaxis()
+    ax[0].set_ylabel("depth [m]")
+    ax[0].set_title(f"{dive.path.name}: depth from {dive.depth_source['source']}")
+    for c in ("roll_rad", "pitch_rad", "yaw_rad"):
+        ax[1].plot(t, np.degrees(tb[c]), label=c.split("_")[0])
+    ax[1].set_ylabel("attitude [deg]")
+    ax[1].legend(loc="upper right", fontsize="small")
+    for m in dive.motors:
+        ax[2].plot(t, tb[f"thrust_{m}_N"], lw=0.8, label=f"motor {m}")
+    ax[2].set_ylabel("thrust [N]")
+    ax[2].legend(loc="upper right", fontsize="x-small", ncol=4)
+    for c in ("X_N", "Y_N", "Z_N"):
+        ax[3].plot(t, tb[c], label=c)
+    ax3b = ax[3].twinx()
+    for c, ls in (("K_Nm", ":"), ("M_Nm", "-."), ("N_Nm", "--")):
+        ax3b.plot(t, tb[c], ls, lw=0.8, label=c)
+    ax[3].set_ylabel("force [N]")
+    ax3b.set_ylabel("moment" + (" [N·m]" if dive.vehicle else " [N × factor]"))
+    ax[3].legend(loc="upper left", fontsize="small")
+    ax3b.legend(loc="upper right", fontsize="small")
+    ax[3].set_xlabel("t [s]")
+    seen = set()
+    for s in dive.modes:
+        col = _MODE_COLOURS.get(s["mode"], "#dddddd")
+        for a in ax:
+            if s["armed"] is False:
+                a.axvspan(s["start_s"], s["end_s"], color="#eeeeee", hatch="//", lw=0, zorder=0)
+            elif col:
+                a.axvspan(s["start_s"], s["end_s"], color=col, alpha=0.35, lw=0, zorder=0,
+                          label=None)
+        seen.add(s["mode"])
+    closed = sorted(m for m in seen if m != "MANUAL")
+    ax[0].text(0.01, 0.02, "modes: " + ", ".join(sorted(seen)) + "; shaded: "
+               + (", ".join(closed) or "none") + " (MANUAL unshaded); disarmed: grey hatched",
+               transform=ax[0].transAxes, fontsize="x-small")
+    if path is not None:
+        save_figure(fig, path)
+    return fig

@@ -1,0 +1,165 @@
+"""What an ArduSub log holds, before any number is computed from it (``uuvid log inspect``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params
+from uuvid.io.ardusub.reader import read_raw
+from uuvid.io.ardusub.sources import (
+    _HB_ARMED,
+    _depth,
+    _initial_armed,
+    _mode_events,
+    _outputs_seen,
+    merge_params,
+    relevant_param,
+)
+from uuvid.io.logs import LogDataError
+
+
+@dataclass
+class LogInspection:
+    path: Path
+    format: str
+    duration_s: float
+    senders: list  # {system, component, kind, messages, clock_offset_s, reboots, autopilot}
+    messages: list  # {type, system, component, count, rate_hz}
+    config: VehicleConfig | None
+    config_error: str | None
+    depth_source: dict | None
+    modes: list  # {start_s, end_s, mode, armed}
+    warnings: list
+    parts: int = 1
+
+    def summary(self) -> str:
+        L = [f"{self.path.name}: {self.format}, {self.duration_s:.1f} s"
+             + (f", {self.parts} parts (reboots)" if self.parts > 1 else "")]
+        L.append("senders:")
+        for s in self.senders:
+            off = ("" if s["clock_offset_s"] is None else
+                   f", boot clock {s['clock_offset_s']:+.3f} s vs the autopilot's")
+            L.append(f"  system {s['system']} component {s['component']} {s['kind']}"
+                     f"{' [autopilot]' if s['autopilot'] else ''}: {s['messages']} messages{off}")
+        L.append("messages (count, rate):")
+        for m in self.messages:
+            who = "" if self.format == "dataflash" else f" [{m['system']}/{m['component']}]"
+            L.append(f"  {m['type']}{who}: {m['count']} ({m['rate_hz']:.2f} Hz)")
+        L.append("vehicle configuration:")
+        L.append("  " + (self.config.summary().replace("\n", "\n  ") if self.config
+                         else f"unknown: {self.config_error}"))
+        if self.depth_source:
+            L.append(f"depth source: {self.depth_source['source']} — {self.depth_source['why']}")
+        L.append("modes and arming:")
+        for m in self.modes:
+            arm = {True: "armed", False: "disarmed", None: "arming unknown"}[m["armed"]]
+            L.append(f"  {m['start_s']:8.1f} – {m['end_s']:8.1f} s  {m['mode']}, {arm}")
+        L += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(L)
+
+    def to_dict(self) -> dict:
+        return {"path": str(self.path), "format": self.format, "duration_s": self.duration_s,
+                "parts": self.parts, "senders": self.senders, "messages": self.messages,
+                "config": None if self.config is None else self.config.to_dict(),
+                "config_error": self.config_error, "depth_source": self.depth_source,
+                "modes": self.modes, "warnings": self.warnings}
+
+
+def inspect_log(path, params=None) -> LogInspection:
+    """Format, duration, senders and their clocks, message counts and rates, the vehicle
+    configuration from the parameters (``params``: a mapping or parameter file overriding or
+    completing the log's), the depth source and why, modes and arming, warnings."""
+    params_given = params
+    raw = read_raw(path)
+    warnings = list(raw.warnings)
+    ap = raw.autopilot
+    ts = [sr.t for sr in raw.series.values() if sr.src == ap and sr.t is not None and sr.t.size]
+    tt = np.concatenate(ts) if ts else np.zeros(0)
+    tt = tt[np.isfinite(tt)]
+    t0 = float(tt.min()) if tt.size else 0.0
+    if raw.format == "tlog":
+        r = [s.first_recv for s in raw.senders.values()] + [s.last_recv for s in raw.senders.values()]
+        duration = float(np.nanmax(r) - np.nanmin(r))
+    else:
+        duration = float(tt.max() - t0) if tt.size else 0.0
+    senders, msgs = [], []
+    for src, s in sorted(raw.senders.items()):
+        n = sum(s.counts.values())
+        span = (s.last_recv - s.first_recv) if raw.format == "tlog" else duration
+        kind = s.kind or ("dataflash" if raw.format == "dataflash" else "(no HEARTBEAT)")
+        senders.append({"system": src[0], "component": src[1], "kind": kind,
+                        "messages": n, "autopilot": src == ap,
+                        "clock_offset_s": s.clock_offset, "reboots": len(s.parts)})
+        for mt, c in sorted(s.counts.items()):
+            rate = c / span if span and span > 0 and math.isfinite(span) else 0.0
+            msgs.append({"type": mt, "system": src[0], "component": src[1], "count": c,
+                         "rate_hz": rate})
+        if src != ap and s.clock_offset is not None and abs(s.clock_offset) > 1.0:
+            warnings.append(f"system {src[0]} component {src[1]} stamps its messages on its own "
+                            f"boot clock ({s.clock_offset:+.1f} s from the autopilot's); they are "
+                            "mapped through the receive clock, never taken as autopilot time")
+    if raw.same_recv:
+        warnings.append(f"{raw.same_recv} messages share the receive stamp of the message before "
+                        "them (the ground station stamps in batches): receive times only place "
+                        "messages without an on-board stamp, through the sender's clock")
+    if raw.bad_data:
+        warnings.append(f"{raw.bad_data} undecodable (BAD_DATA) messages skipped")
+    params, changed = raw.param_values()
+    params = merge_params(params, params_given, warnings)
+    config, err, dsrc = None, None, None
+    try:
+        config = config_from_params(params, name=raw.name, outputs_seen=_outputs_seen(raw))
+    except LogDataError as e:
+        err = str(e)
+        warnings.append(err)
+    for n, h in changed.items():
+        if relevant_param(n):
+            warnings.append(f"parameter {n} changed during the log: {' → '.join(map(str, h))}; "
+                            "the last value is used")
+    try:
+        ch, dsrc = _depth(raw, config, warnings)
+        dsrc = {**dsrc, "source": ch.source}
+        if ch.v.size > 1 and float(np.ptp(ch.v)) == 0.0:
+            warnings.append(f"depth channel {ch.source} is constant over the log")
+    except LogDataError as e:
+        warnings.append(str(e))
+    mode_ch, arm_ch = _mode_events(raw, warnings)
+    modes = _intervals(mode_ch, arm_ch, t0, (tt.max() - t0) if tt.size else 0.0)
+    if raw.duplicates:
+        warnings.append("duplicated time stamps merged: "
+                        + ", ".join(f"{k}: {v}" for k, v in raw.duplicates.items()))
+    return LogInspection(raw.path, raw.format, duration, senders, msgs, config, err, dsrc, modes,
+                         warnings, raw.parts)
+
+
+def _intervals(mode_ch, arm_ch, t0: float, t_end: float) -> list[dict]:
+    ev = []
+    if mode_ch is not None:
+        ev += [(float(t) - t0, "mode", MODE_NAMES.get(int(v), f"MODE{int(v)}"))
+               for t, v in zip(mode_ch.t, mode_ch.v)]
+    init_arm = _initial_armed(arm_ch) if arm_ch is not None and arm_ch.source != _HB_ARMED else {}
+    if arm_ch is not None:
+        ev += [(float(t) - t0, "armed", bool(v)) for t, v in zip(arm_ch.t, arm_ch.v)]
+    ev.sort(key=lambda e: e[0])
+    mode, armed = "UNKNOWN", None
+    if init_arm:
+        a0 = init_arm.get(0)
+        armed = None if a0 is None or not np.isfinite(a0) else bool(a0)
+    out: list[dict] = []
+    start = 0.0
+    for t, kind, v in ev + [(t_end, "end", None)]:
+        new_mode = v if kind == "mode" else mode
+        new_armed = v if kind == "armed" else armed
+        if kind == "end" or (new_mode, new_armed) != (mode, armed):
+            if t > start or kind == "end":
+                if out and (out[-1]["mode"], out[-1]["armed"]) == (mode, armed):
+                    out[-1]["end_s"] = t
+                else:
+                    out.append({"start_s": start, "end_s": t, "mode": mode, "armed": armed})
+            start = t
+        mode, armed = new_mode, new_armed
+    return out

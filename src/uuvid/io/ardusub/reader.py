@@ -1,0 +1,414 @@
+"""One pass over an ArduSub log (dataflash ``.BIN``/``.log`` or telemetry ``.tlog``) with
+pymavlink: every message counted per sender, the messages a dive needs kept as arrays, each on
+its own sender's clock, and those clocks mapped onto one time base.
+
+Time base ``t`` [s]: the autopilot's boot clock, continued across reboots.  Within one boot
+(a *part*) ``t = boot + C_k``; ``C_0 = 0`` and a later part is placed by the ground station's
+receive clock (telemetry: ``C_k`` = the part's lower-envelope offset ``receive − boot`` minus
+part 0's) or, for dataflash, right after the previous part (the gap is unknown; warned).
+Telemetry messages without an on-board stamp (VFR_HUD, SYS_STATUS, HEARTBEAT) get one from
+their receive time through the lower envelope of ``receive − boot`` of their sender's stamped
+messages (:func:`uuvid.io.logs._boot_from_log`); another component (a companion computer such as
+BlueOS, component 194) has its own ``time_boot_ms`` and is mapped through its own envelope.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from uuvid.io.logs import LogDataError, _boot_from_log, _require, _tlog_boot
+
+#: messages kept (all numeric fields); everything else is only counted
+TLOG_KEEP = {"HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "VFR_HUD", "SYS_STATUS",
+             "BATTERY_STATUS", "SERVO_OUTPUT_RAW", "SCALED_PRESSURE", "SCALED_PRESSURE2",
+             "SCALED_PRESSURE3", "GPS_GLOBAL_ORIGIN", "HOME_POSITION", "SYSTEM_TIME"}
+DF_KEEP = {"ATT", "BARO", "BAR2", "BAR3", "CTUN", "BAT", "CURR", "RCOU", "MODE", "ARM", "EV"}
+_NO_STAMP = object()
+
+
+@dataclass
+class Series:
+    """All messages of one type from one sender, in log order."""
+
+    msg: str
+    src: tuple[int, int]
+    recv: list = field(default_factory=list)  # receive time (UNIX s, telemetry) or nan
+    boot: list = field(default_factory=list)  # on-board stamp [s since boot] or nan
+    values: dict = field(default_factory=dict)  # field → list
+    seq: list = field(default_factory=list)  # position in the log (message number)
+    t: np.ndarray | None = None  # on the time base (filled by RawLog.finish)
+    part: np.ndarray | None = None
+
+    def array(self, name: str) -> np.ndarray:
+        return np.asarray(self.values[name], dtype=float)
+
+
+@dataclass
+class Sender:
+    src: tuple[int, int]
+    kind: str = ""  # HEARTBEAT type / autopilot, e.g. "SUBMARINE / ARDUPILOTMEGA"
+    counts: Counter = field(default_factory=Counter)
+    first_recv: float = math.nan
+    last_recv: float = math.nan
+    stamped_recv: list = field(default_factory=list)  # (receive, time_boot_ms) pairs
+    stamped_boot: list = field(default_factory=list)
+    parts: list = field(default_factory=list)  # receive times where a new boot starts
+    clock_offset: float | None = None  # median of its boot clock minus the autopilot's [s]
+    hb: tuple | None = None  # (MAV_TYPE, MAV_AUTOPILOT) of its first HEARTBEAT
+
+
+@dataclass
+class RawLog:
+    path: Path
+    format: str  # "tlog" | "dataflash"
+    senders: dict
+    series: dict  # (msg, src) → Series
+    params: list  # (name, value, t, sender)
+    autopilot: tuple[int, int] | None
+    warnings: list
+    parts: int = 1
+    duplicates: dict = field(default_factory=dict)
+    bad_data: int = 0
+    same_recv: int = 0  # telemetry messages sharing the previous one's receive stamp
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+    def get(self, msg: str) -> Series | None:
+        """The autopilot's ``msg`` series (dataflash: the only sender)."""
+        return self.series.get((msg, self.autopilot))
+
+    def param_values(self) -> tuple[dict, dict]:
+        """``{name: last value}`` and ``{name: [distinct values in order]}`` of the autopilot's
+        parameters (other components' PARAM_VALUEs are not the vehicle's)."""
+        last: dict = {}
+        hist: dict = {}
+        for n, v, _, src in self.params:
+            if src != self.autopilot:
+                continue
+            last[n] = v
+            h = hist.setdefault(n, [])
+            if not h or h[-1] != v:
+                h.append(v)
+        return last, {n: h for n, h in hist.items() if len(h) > 1}
+
+
+def _log_kind(p: Path) -> str:
+    s = p.suffix.lower()
+    if s == ".tlog":
+        return "tlog"
+    if s == ".bin":
+        return "dataflash"
+    if s == ".log":
+        from pymavlink import DFReader
+
+        if DFReader.DFReader_is_text_log(str(p)):
+            return "dataflash"
+        raise LogDataError(f"{p.name}: a .log file that is not a dataflash text log")
+    raise LogDataError(f"{p.name}: unknown log type {p.suffix!r}; expected .tlog (MAVLink "
+                       "telemetry), .bin or .log (ArduSub dataflash)")
+
+
+def _numeric_fields(m) -> dict:
+    out = {}
+    for f in m.get_fieldnames():
+        v = getattr(m, f, None)
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            out[f] = float(v)
+        elif isinstance(v, (list, tuple)) and v and isinstance(v[0], (int, float)):
+            out[f] = float(v[0])  # first element (BATTERY_STATUS.voltages[0])
+    return out
+
+
+def read_raw(path) -> RawLog:
+    """Read ``path`` once (see the module doc).  Raises :class:`LogDataError` naming the file."""
+    mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
+    p = Path(path)
+    if not p.is_file():
+        raise LogDataError(f"{p}: no such log file")
+    kind = _log_kind(p)
+    try:
+        conn = mavutil.mavlink_connection(str(p))
+    except Exception as e:
+        raise LogDataError(f"{p.name}: cannot open the log: {type(e).__name__}: {e}") from e
+    senders: dict = {}
+    series: dict = {}
+    params: list = []
+    wraps: dict = {}
+    keep = TLOG_KEEP if kind == "tlog" else DF_KEEP
+    bad = 0
+    n = 0
+    same_recv, last_recv = 0, math.nan
+    # dataflash: pymavlink indexes the file, so reading only the kept types skips the rest
+    # (IMU, EKF, ...) and the counts of every type come from its index
+    want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
+    try:
+        while True:
+            try:
+                m = conn.recv_msg() if want is None else conn.recv_match(type=want,
+                                                                         blocking=False)
+            except Exception as e:
+                raise LogDataError(f"{p.name}: cannot decode the log after message {n}: "
+                                   f"{type(e).__name__}: {e}") from e
+            if m is None:
+                break
+            n += 1
+            mt = m.get_type()
+            if mt == "BAD_DATA":
+                bad += 1
+                continue
+            if kind == "tlog":
+                src = (m.get_srcSystem(), m.get_srcComponent())
+                recv = float(getattr(m, "_timestamp", math.nan))
+                same_recv += recv == last_recv
+                last_recv = recv
+                boot = None
+                if mt in keep or "time_boot_ms" in m.get_fieldnames():
+                    boot = _tlog_boot(m, wraps)
+            else:
+                if mt in ("FMT", "FMTU", "UNIT", "MULT"):
+                    continue
+                src = (0, 0)
+                recv = math.nan
+                fn = m.get_fieldnames()
+                boot = (m.TimeUS * 1e-6 if "TimeUS" in fn else
+                        m.TimeMS * 1e-3 if "TimeMS" in fn else None)
+            s = senders.get(src)
+            if s is None:
+                s = senders[src] = Sender(src, first_recv=recv)
+            s.counts[mt] += 1
+            s.last_recv = recv
+            if mt == "HEARTBEAT" and not s.kind:
+                s.kind = f"{_enum('MAV_TYPE', m.type)} / {_enum('MAV_AUTOPILOT', m.autopilot)}"
+                s.hb = (int(m.type), int(m.autopilot))
+            if kind == "tlog" and boot is not None and "time_boot_ms" in m.get_fieldnames():
+                s.stamped_recv.append(recv)
+                s.stamped_boot.append(boot)
+            if mt == "PARM":
+                params.append((str(m.Name), float(m.Value), boot, src))
+                continue
+            if mt == "PARAM_VALUE":
+                params.append((str(m.param_id).rstrip("\x00"), float(m.param_value), recv, src))
+                continue
+            if mt not in keep:
+                continue
+            key = (mt, src)
+            sr = series.get(key)
+            if sr is None:
+                sr = series[key] = Series(mt, src)
+            vals = _numeric_fields(m)
+            for f, v in vals.items():
+                lst = sr.values.get(f)
+                if lst is None:
+                    lst = sr.values[f] = [math.nan] * len(sr.recv)
+                lst.append(v)
+            for f, lst in sr.values.items():
+                if f not in vals:
+                    lst.append(math.nan)
+            sr.recv.append(recv)
+            sr.boot.append(math.nan if boot is None else boot)
+            sr.seq.append(n)
+    finally:
+        try:
+            conn.close()
+        except Exception:
+            pass
+    if kind == "dataflash":
+        counts = getattr(conn, "counts", None)
+        names = getattr(conn, "id_to_name", {})
+        s0 = senders.setdefault((0, 0), Sender((0, 0)))
+        items = enumerate(counts) if isinstance(counts, list) else (counts or {}).items()
+        for i, c in items:
+            nm = names.get(i)
+            if c and nm and nm not in ("FMT", "FMTU", "UNIT", "MULT"):
+                s0.counts[nm] = int(c)
+    if n == 0:
+        raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
+    raw = RawLog(p, kind, senders, series, params, None, [], bad_data=bad,
+                 same_recv=int(same_recv))
+    _finish(raw)
+    return raw
+
+
+def _enum(name: str, value) -> str:
+    try:
+        from pymavlink.dialects.v20 import ardupilotmega as d
+
+        e = d.enums[name][int(value)].name
+        return e.split("_", 2)[-1] if name == "MAV_TYPE" else e.replace("MAV_AUTOPILOT_", "")
+    except Exception:
+        return str(value)
+
+
+def _pick_autopilot(raw: RawLog) -> tuple[int, int] | None:
+    if raw.format == "dataflash":
+        return (0, 0)
+    aps = [s for s in raw.senders.values() if s.hb is not None and s.hb[1] != 8]
+    if aps:
+        subs = [s for s in aps if s.hb[0] == 12] or aps
+        best = max(subs, key=lambda s: sum(s.counts.values()))
+        if len(subs) > 1:
+            raw.warnings.append("several autopilots send HEARTBEATs ("
+                                + ", ".join(f"system {s.src[0]} component {s.src[1]}"
+                                            for s in subs)
+                                + f"); reading system {best.src[0]} component {best.src[1]}, "
+                                  "which sent the most messages")
+        return best.src
+    cands = [s for s in raw.senders.values() if s.src[1] == 1 and s.counts.get("ATTITUDE")]
+    if len(cands) == 1:
+        raw.warnings.append(f"no autopilot HEARTBEAT in the log; system {cands[0].src[0]} "
+                            "component 1 (the only one sending ATTITUDE) taken as the autopilot")
+        return cands[0].src
+    raise LogDataError(f"{raw.name}: no autopilot HEARTBEAT, so the vehicle among the senders "
+                       f"({', '.join(f'{a}/{b}' for a, b in raw.senders)}) is unknown")
+
+
+def _part_index(boot: np.ndarray) -> np.ndarray:
+    """Part number of each sample: a new part starts where the clock falls more than 1 s below
+    the running maximum of the current part (a reboot; late messages do not start one)."""
+    part = np.zeros(boot.size, dtype=int)
+    k, runmax = 0, -np.inf
+    for i, v in enumerate(boot.tolist()):  # one comparison per message, as read
+        if v == v:  # not NaN
+            if v < runmax - 1.0:
+                k += 1
+                runmax = -np.inf
+            runmax = max(runmax, v)
+        part[i] = k
+    return part
+
+
+def _finish(raw: RawLog) -> None:
+    """Choose the autopilot, find reboots, put every kept series on the time base."""
+    raw.autopilot = _pick_autopilot(raw)
+    if raw.format == "dataflash":
+        _finish_dataflash(raw)
+    else:
+        _finish_tlog(raw)
+
+
+def _finish_dataflash(raw: RawLog) -> None:
+    # one clock for all messages, but log order across types is lost: the parts are found on
+    # the ATT series (or the longest one) and each series is split the same way
+    ref = raw.get("ATT") or max(raw.series.values(), key=lambda s: len(s.boot), default=None)
+    if ref is None:
+        raise LogDataError(f"{raw.name}: none of {', '.join(sorted(DF_KEEP))} is in the log")
+    rb = np.asarray(ref.boot, dtype=float)
+    rp = _part_index(rb)
+    raw.parts = int(rp.max()) + 1 if rp.size else 1
+    offsets = [0.0]
+    for k in range(1, raw.parts):
+        prev_end = float(np.nanmax(rb[rp == k - 1])) + offsets[-1]
+        offsets.append(prev_end + 1.0 - float(np.nanmin(rb[rp == k])))
+    if raw.parts > 1:
+        raw.warnings.append(f"the autopilot rebooted {raw.parts - 1} time(s) in this dataflash "
+                            "log: the log is split into parts; dataflash keeps no clock across "
+                            "a reboot, so each part is placed 1 s after the previous one (the "
+                            "real gap is unknown)")
+    # every series is split where the reference series is, by position in the log; a message
+    # between the last reference message of one part and the first of the next belongs to the
+    # part whose clock its stamp is nearer to
+    rs = np.asarray(ref.seq)
+    first = np.asarray([rs[rp == k][0] for k in range(1, raw.parts)], dtype=float)
+    last = np.asarray([rs[rp == k - 1][-1] for k in range(1, raw.parts)], dtype=float)
+    b_first = np.asarray([rb[rp == k][0] for k in range(1, raw.parts)], dtype=float)
+    b_last = np.asarray([rb[rp == k - 1][-1] for k in range(1, raw.parts)], dtype=float)
+    for sr in raw.series.values():
+        b = np.asarray(sr.boot, dtype=float)
+        q = np.asarray(sr.seq, dtype=float)
+        part = np.searchsorted(first, q, side="right")
+        j = np.searchsorted(last, q, side="right") - 1  # gap after the last of part j
+        gap = (j >= 0) & (part == np.maximum(j, 0))  # past part j's last, before part j+1's first
+        jj = np.clip(j, 0, max(raw.parts - 2, 0))
+        newer = gap & (np.abs(b - b_first[jj]) < np.abs(b - b_last[jj])) if first.size else gap
+        part = np.where(newer, j + 1, part)
+        sr.part = part
+        sr.t = b + np.asarray(offsets)[part]
+
+
+def _finish_tlog(raw: RawLog) -> None:
+    ap = raw.autopilot
+    env: dict = {}  # sender → list of (part start receive time, recv array, boot array)
+    for src, s in raw.senders.items():
+        r = np.asarray(s.stamped_recv, dtype=float)
+        b = np.asarray(s.stamped_boot, dtype=float)
+        if r.size == 0:
+            continue
+        cuts = np.flatnonzero(np.diff(_part_index(b))) + 1
+        bounds = [0, *cuts.tolist(), r.size]
+        parts = []
+        for a, z in zip(bounds[:-1], bounds[1:]):
+            parts.append((r[a], r[a:z], b[a:z]))
+        s.parts = [pp[0] for pp in parts[1:]]
+        env[src] = parts
+    if ap not in env:
+        raise LogDataError(f"{raw.name}: the autopilot (system {ap[0]} component {ap[1]}) sent no "
+                           "message with an on-board time stamp (time_boot_ms), so its messages "
+                           "cannot be put on its clock")
+    ap_parts = env[ap]
+    raw.parts = len(ap_parts)
+    off0 = [float(np.min(rr - bb)) for _, rr, bb in ap_parts]
+    C = [o - off0[0] for o in off0]
+    if raw.parts > 1:
+        raw.warnings.append(f"the autopilot rebooted {raw.parts - 1} time(s) during the log: it is "
+                            "split into parts, each on the autopilot's clock, joined by the "
+                            "ground station's receive clock")
+    # other senders: offset of their boot clock to the autopilot's
+    for src, parts in env.items():
+        if src == ap:
+            continue
+        o = float(np.median(np.concatenate([rr - bb for _, rr, bb in parts])))
+        raw.senders[src].clock_offset = float(np.median(
+            np.concatenate([rr - bb for _, rr, bb in ap_parts]))) - o
+    raw.senders[ap].clock_offset = 0.0
+
+    def part_of(src, recv):
+        starts = np.asarray([pp[0] for pp in env[src]], dtype=float)
+        return np.clip(np.searchsorted(starts, recv, side="right") - 1, 0, len(starts) - 1)
+
+    for (mt, src), sr in raw.series.items():
+        recv = np.asarray(sr.recv, dtype=float)
+        boot = np.asarray(sr.boot, dtype=float)
+        if src not in env:
+            sr.t = np.full(recv.size, np.nan)
+            sr.part = np.zeros(recv.size, dtype=int)
+            continue
+        part = part_of(src, recv)
+        b = boot.copy()
+        miss = ~np.isfinite(b)
+        n_bad = 0
+        for k, (_, rr, bb) in enumerate(env[src]):
+            sel = part == k
+            if sel.any():
+                mapped = _boot_from_log(recv[sel], rr, bb)
+                # a stamp far from what its receive time says (a 32-bit time_usec whose wrap
+                # was mistaken for a reboot, a corrupt field) is replaced by the mapped value
+                far = ~np.isfinite(b[sel]) | (np.abs(b[sel] - mapped) > 60.0)
+                n_bad += int(np.count_nonzero(far & ~miss[sel]))
+                b[np.flatnonzero(sel)[far]] = mapped[far]
+        if n_bad:
+            raw.warnings.append(f"{n_bad} {mt} time stamps from system {src[0]} component "
+                                f"{src[1]} disagree with that sender's clock by more than 60 s; "
+                                "their receive time (mapped onto the clock) is used instead")
+        if src == ap:
+            t = b + np.asarray(C)[part]
+        else:  # their clock → receive clock → the autopilot's
+            t = np.full(b.size, np.nan)
+            for k, (_, rr, bb) in enumerate(env[src]):
+                sel = part == k
+                if sel.any():
+                    recv_est = b[sel] + np.interp(b[sel], bb, rr - bb)
+                    ap_k = part_of(ap, recv_est)
+                    tt = np.empty(recv_est.size)
+                    for q, (_, ar, ab) in enumerate(ap_parts):
+                        s2 = ap_k == q
+                        if s2.any():
+                            tt[s2] = recv_est[s2] - float(np.min(ar - ab)) + C[q]
+                    t[sel] = tt
+        sr.t, sr.part = t, part

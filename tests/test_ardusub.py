@@ -1,0 +1,568 @@
+"""ArduSub logs read right (uuvid.io.ardusub): synthetic .BIN/.tlog files that reproduce each trap
+real BlueROV2 logs set, written with pymavlink's encoder (tlog) or by hand in the dataflash
+format pymavlink parses (.BIN), and the three shared real logs (realdata).
+
+The synthetic dive drives the thrusters the way ArduSub does (AP_Motors6DOF): per motor
+``mix = Σ factor × demand``, ``pwm = 1500 + 400 · d · mix`` with the per-motor reversal ``d``
+(MOT_n_DIRECTION), and the truth thrust of a motor along its mixing direction is the T200's at
+``1500 + 400 · mix`` and the logged battery voltage.  A 1-DOF heave and yaw model is driven by it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pymavlink")
+
+from uuvid.io.ardusub import inspect_log, load_dive  # noqa: E402
+from uuvid.io.ardusub.thrust import default_t200  # noqa: E402
+from uuvid.io.logs import LogDataError  # noqa: E402
+
+# ArduSub's Vectored frame (FRAME_CONFIG 1), AP_Motors6DOF::setup_motors, per motor:
+# (roll, pitch, yaw, throttle, forward, lateral)
+VECTORED = [(0, 0, 1, 0, -1, 1), (0, 0, -1, 0, -1, -1), (0, 0, -1, 0, 1, 1), (0, 0, 1, 0, 1, -1),
+            (1, 0, 0, -1, 0, 0), (-1, 0, 0, -1, 0, 0)]
+DIRECTIONS = [-1, -1, 1, -1, -1, 1]  # as on real BlueROV2s
+UNIX0 = 1.7e9
+BOOT0 = 120.0
+
+
+# =========================================================================== the synthetic dive
+def scenario(n=700, dt=0.1, seed=1):
+    """Heave and yaw demands, PWM as ArduSub writes it, and the vehicle's response."""
+    rng = np.random.default_rng(seed)
+    t = dt * np.arange(n)
+    heave = 0.45 * np.sin(2 * np.pi * t / 23.0) + 0.1 * np.sin(2 * np.pi * t / 7.0)  # + = up
+    yaw = 0.35 * np.sign(np.sin(2 * np.pi * t / 17.0)) * (t > 5)
+    volts = 16.4 - 0.003 * t + 0.02 * rng.standard_normal(n)
+    f = np.array(VECTORED, float)
+    mix = np.outer(heave, f[:, 3]) + np.outer(yaw, f[:, 2])  # n × motors
+    d = np.array(DIRECTIONS, float)
+    pwm = np.round(1500 + 400 * np.clip(d * mix, -1, 1))
+    t200 = default_t200()
+    T = np.column_stack([t200.thrust(1500 + d[i] * (pwm[:, i] - 1500), volts)
+                         for i in range(6)])  # truth thrust along each mixing direction
+    Z = T @ -f[:, 3]  # NED heave force (down +)
+    N = T @ f[:, 2]
+    w = np.zeros(n)
+    r = np.zeros(n)
+    depth = np.zeros(n)
+    psi = np.zeros(n)
+    depth[0] = 2.0
+    for k in range(1, n):  # 1-DOF models, explicit Euler at dt (test generator only)
+        w[k] = w[k - 1] + dt * (Z[k - 1] - 40 * w[k - 1] * abs(w[k - 1]) - 8 * w[k - 1]) / 35.0
+        r[k] = r[k - 1] + dt * (0.18 * N[k - 1] - 1.5 * r[k - 1] * abs(r[k - 1]) - 0.3 * r[k - 1]) / 0.6
+        depth[k] = depth[k - 1] + dt * w[k - 1]
+        psi[k] = psi[k - 1] + dt * r[k - 1]
+    psi += math.radians(170.0)
+    armed = t >= 2.0
+    mode = np.where((t >= 40) & (t < 46), 2, 19)  # ALT_HOLD stretch
+    pwm[~armed] = 1500
+    return dict(t=t, pwm=pwm, volts=volts, depth=depth, psi=psi, armed=armed, mode=mode, Z=Z, N=N,
+                T=T)
+
+
+def params(frame=1, disabled=(7, 8), directions=DIRECTIONS, baro_primary=1):
+    p = {"FRAME_CONFIG": frame, "BARO_PRIMARY": baro_primary, "MOT_PWM_MIN": 1100,
+         "MOT_PWM_MAX": 1900, "SYSID_THISMAV": 1}
+    n = 8 if frame == 2 else 6
+    for k in range(1, 17):
+        p[f"SERVO{k}_FUNCTION"] = 33 + k - 1 if k <= n and k not in disabled else 0
+    for k in range(1, 13):
+        p[f"MOT_{k}_DIRECTION"] = directions[k - 1] if k <= len(directions) else 1
+    return p
+
+
+# ------------------------------------------------------------------------------ dataflash
+_ST = {"Q": "Q", "c": "h", "C": "H", "f": "f", "B": "B", "H": "H", "N": "16s", "n": "4s",
+       "Z": "64s"}
+
+
+class _DF:
+    def __init__(self, omit=()):
+        self.omit = set(omit)
+        self.types = {"FMT": 128}
+        self.forms = {}
+        self.out = [self._fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns")]
+
+    def _fmt(self, tid, name, form, cols):
+        self.types[name] = tid
+        self.forms[name] = form
+        length = 3 + struct.calcsize("<" + "".join(_ST[c] for c in form))
+        return bytes([0xA3, 0x95, 128]) + struct.pack("<BB4s16s64s", tid, length, name.encode(),
+                                                      form.encode(), cols.encode())
+
+    def fmt(self, tid, name, form, cols):
+        self.out.append(self._fmt(tid, name, form, cols))
+
+    def msg(self, name, *vals):
+        if name in self.omit:
+            return
+        form = self.forms[name]
+        self.out.append(bytes([0xA3, 0x95, self.types[name]]) + struct.pack(
+            "<" + "".join(_ST[c] for c in form),
+            *[v.encode() if isinstance(v, str) else v for v in vals]))
+
+    def write(self, path):
+        path.write_bytes(b"".join(self.out))
+        return path
+
+
+def write_bin(path: Path, sc, *, prm=None, reboot_at=None, omit=()) -> Path:
+    """Dataflash log of the scenario: PARM, ATT (centi-deg, yaw 0…360), two BAROs (instance 0 in
+    the enclosure, 1 the water-pressure sensor), BAT, RCOU (outputs 7/8 at 0 µs), MODE, ARM."""
+    df = _DF(omit)
+    df.fmt(20, "PARM", "QNf", "TimeUS,Name,Value")
+    df.fmt(21, "ATT", "QccC", "TimeUS,Roll,Pitch,Yaw")
+    df.fmt(22, "BARO", "QBff", "TimeUS,I,Alt,Press")
+    df.fmt(23, "BAT", "QBf", "TimeUS,Instance,Volt")
+    df.fmt(24, "RCOU", "QHHHHHHHH", "TimeUS,C1,C2,C3,C4,C5,C6,C7,C8")
+    df.fmt(25, "MODE", "QBBB", "TimeUS,Mode,ModeNum,Rsn")
+    df.fmt(26, "ARM", "QB", "TimeUS,ArmState")
+    for k, v in (prm or params()).items():
+        df.msg("PARM", int(BOOT0 * 1e6) - 1000, k, float(v))
+    t, boot_shift = sc["t"], 0.0
+    last_mode, last_arm = None, None
+    for k in range(t.size):
+        if reboot_at is not None and k == reboot_at:
+            boot_shift = -t[k] + 3.0 - BOOT0  # the clock restarts 3 s after boot
+            last_mode, last_arm = None, None
+            for name, v in (prm or params()).items():
+                df.msg("PARM", int(2.5e6), name, float(v))
+        us = int(round((BOOT0 + t[k] + boot_shift) * 1e6))
+        if sc["mode"][k] != last_mode:
+            df.msg("MODE", us, int(sc["mode"][k]), int(sc["mode"][k]), 1)
+            last_mode = sc["mode"][k]
+        if sc["armed"][k] != last_arm:
+            if last_arm is not None:
+                df.msg("ARM", us, int(sc["armed"][k]))
+            elif not sc["armed"][k]:
+                pass
+            last_arm = sc["armed"][k]
+        yaw_deg = math.degrees(sc["psi"][k]) % 360.0
+        df.msg("ATT", us + 100, 0, 0, int(round(yaw_deg * 100)) % 36000)
+        df.msg("BARO", us + 200, 0, -9.2 + 0.01 * t[k], 99000.0)
+        df.msg("BARO", us + 200, 1, -sc["depth"][k], 101325.0 + 9806.65 * sc["depth"][k])
+        df.msg("BAT", us + 300, 0, float(sc["volts"][k]))
+        df.msg("RCOU", us + 400, *[int(x) for x in sc["pwm"][k]], 0, 0)
+    return df.write(path)
+
+
+# ------------------------------------------------------------------------------ telemetry
+def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reboot_at=None,
+               vfr_alt=0.0, with_params=True, gpi=True) -> Path:
+    """Telemetry log of the scenario as QGroundControl saves it: receive stamps quantised to
+    50 ms batches (many exact duplicates) and one message saved twice; VFR_HUD.alt = 0 (no EKF
+    origin); a BlueOS companion (component 194) with its own boot clock 1130 s ahead sending a
+    bogus ATTITUDE and DISTANCE_SENSOR; optionally an autopilot reboot."""
+    from pymavlink import mavutil
+    from pymavlink.dialects.v20 import ardupilotmega as mv
+
+    path.touch()
+    log = mavutil.mavlink_connection(str(path), write=True)
+    ap = mv.MAVLink(None, srcSystem=1, srcComponent=1)
+    blueos = mv.MAVLink(None, srcSystem=1, srcComponent=194)
+    gcs = mv.MAVLink(None, srcSystem=255, srcComponent=190)
+
+    def put(mav, t_unix, msg):
+        if qgc_stamps:
+            t_unix = math.floor(t_unix / 0.05) * 0.05
+        log.write(struct.pack(">Q", int(round(t_unix * 1e6))) + msg.pack(mav))
+
+    boot_base = BOOT0
+    put(gcs, UNIX0 - 1.0, gcs.heartbeat_encode(6, 8, 192, 0, 4))
+    prm = (prm or params()) if with_params else {}
+    for i, (k, v) in enumerate(prm.items()):
+        put(ap, UNIX0 - 0.5 + 0.001 * i, ap.param_value_encode(k.encode(), float(v), 9, len(prm), i))
+    if companion:  # a companion's own parameter of the same name is not the vehicle's
+        put(blueos, UNIX0 - 0.2, blueos.param_value_encode(b"FRAME_CONFIG", 0.0, 9, 1, 0))
+    t = sc["t"]
+    for k in range(t.size):
+        if reboot_at is not None and k == reboot_at:
+            boot_base = 3.0 - t[k]  # autopilot clock restarts: 3 s after boot at this sample
+        boot = boot_base + t[k]
+        tu = UNIX0 + t[k]
+        ms = int(round(boot * 1000))
+        lat = 0.012 + 0.008 * (k % 3)
+        if k % 10 == 0:
+            base = 81 | (128 if sc["armed"][k] else 0)
+            put(ap, tu + lat, ap.heartbeat_encode(12, 3, base, int(sc["mode"][k]), 4))
+            if companion:
+                put(blueos, tu + 0.02, blueos.heartbeat_encode(18, 8, 128, 0, 3))
+                put(blueos, tu + 0.021, blueos.distance_sensor_encode(
+                    int((t[k] + 1130.0) * 1000), 20, 5000, 300, 0, 1, 25, 0))
+        psi = (sc["psi"][k] + np.pi) % (2 * np.pi) - np.pi
+        att = ap.attitude_encode(ms, 0.0, 0.0, float(psi), 0, 0, 0)
+        put(ap, tu + lat, att)
+        if k == 50:
+            put(ap, tu + lat, att)  # the same message saved twice
+        if gpi:
+            put(ap, tu + lat + 0.001, ap.global_position_int_encode(
+                ms, 0, 0, 0, int(round(-sc["depth"][k] * 1000)), 0, 0, 0, 0))
+        else:  # only the barometers: instance 0 in the enclosure, 1 in the water
+            put(ap, tu + lat + 0.001, ap.scaled_pressure_encode(ms, 980.0, 0, 3000))
+            put(ap, tu + lat + 0.001, ap.scaled_pressure2_encode(
+                ms, 1000.0 + 98.0665 * sc["depth"][k], 0, 1500))
+        put(ap, tu + lat + 0.002, ap.vfr_hud_encode(0, 0, 0, 0, vfr_alt, 0))
+        put(ap, tu + lat + 0.003, ap.sys_status_encode(0, 0, 0, 0, int(round(sc["volts"][k] * 1000)),
+                                                       0, -1, 0, 0, 0, 0, 0, 0))
+        pw = [int(x) for x in sc["pwm"][k]] + [0, 0]
+        put(ap, tu + lat + 0.004, ap.servo_output_raw_encode(int(round(boot * 1e6)) % 2**32, 0,
+                                                             *pw))
+        if companion:
+            put(blueos, tu + 0.03, blueos.attitude_encode(int((t[k] + 1130.0) * 1000), 1.0, 1.0,
+                                                          3.0, 0, 0, 0))
+    log.close()
+    return path
+
+
+# ============================================================================= configuration
+def test_config_vectored_factors_directions_and_disabled_outputs(tmp_path):
+    sc = scenario(n=80)
+    ins = inspect_log(write_bin(tmp_path / "d.BIN", sc))
+    c = ins.config
+    assert c.frame == 1 and [m.number for m in c.active] == [1, 2, 3, 4, 5, 6]
+    assert [m.direction for m in c.active] == DIRECTIONS
+    assert [m.output for m in c.active] == [1, 2, 3, 4, 5, 6]
+    # ArduSub factors restated: motor 1 forward -1, lateral +1, yaw +1; motor 5 throttle -1 (Z +1)
+    assert c.motors[0].factors == (-1.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    assert c.motors[4].factors == (0.0, 0.0, 1.0, 1.0, 0.0, 0.0)
+    s = ins.summary()
+    assert "FRAME_CONFIG = 1" in s and "motor 1: SERVO1, reversed (-1)" in s
+    assert "-BARO[1].Alt" in s
+
+
+def test_servo_function_remaps_outputs_and_zero_outputs_are_ignored():
+    prm = params(frame=2, disabled=())
+    prm["SERVO8_FUNCTION"] = 0  # motor 8 has no output
+    prm["SERVO9_FUNCTION"] = 39  # motor 7 moved to output 9
+    prm["SERVO7_FUNCTION"] = 0
+    from uuvid.io.ardusub.frames import config_from_params
+
+    c = config_from_params(prm, outputs_seen={k: k <= 9 for k in range(1, 17)})
+    assert {m.number: m.output for m in c.active} == {1: 1, 2: 2, 3: 3, 4: 4, 5: 5, 6: 6, 7: 9}
+    assert "no SERVOn_FUNCTION" in c.motors[7].disabled
+    c2 = config_from_params(params(frame=2, disabled=()),
+                            outputs_seen={k: k <= 6 for k in range(1, 17)})
+    assert [m.number for m in c2.active] == [1, 2, 3, 4, 5, 6]
+    assert "0 µs" in c2.motors[6].disabled
+
+
+def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    with pytest.raises(LogDataError, match=r"8 thrusters.*drives 6 motors.*outputs SERVO7, SERVO8 drive no motor"):
+        load_dive(p, vehicle="bluerov2-heavy")
+    d = load_dive(p, vehicle="bluerov2")  # the 6-thruster BlueROV2 matches the Vectored frame
+    assert d.vehicle == "bluerov2" and "physical wrench" in d.force_basis
+    from uuvid.vehicle.definition import load_vehicle
+
+    T = d.table[[f"thrust_{i}_N" for i in range(1, 7)]].to_numpy()
+    W = T @ load_vehicle("bluerov2").B.T
+    np.testing.assert_allclose(d.table[["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]], W)
+    # the mixing-factor force stays available beside the physical wrench
+    np.testing.assert_allclose(d.factor_forces["Z_N"], T @ -np.array(VECTORED, float)[:, 3])
+
+
+def test_thruster_model_file_overrides_the_t200(tmp_path):
+    from uuvid.io.modelfile import save_chain
+    from uuvid.thruster.presets import laidani_chain
+
+    model = save_chain(laidani_chain(), tmp_path / "mine.yaml")
+    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=120)), thruster_model=model)
+    assert d.thrust_model["voltage_aware"] is False
+    pwm = 1500 + DIRECTIONS[0] * (d.table["pwm_1"].to_numpy() - 1500)
+    np.testing.assert_allclose(d.table["thrust_1_N"], laidani_chain().steady_thrust(pwm))
+
+
+def test_custom_frame_needs_the_vehicle_geometry(tmp_path):
+    prm = {**params(), "FRAME_CONFIG": 7}
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60), prm=prm)
+    with pytest.raises(LogDataError, match="Custom.*give vehicle="):
+        load_dive(p)
+    d = load_dive(p, vehicle="bluerov2")
+    assert any("Custom" in n for n in d.config.notes)
+    assert np.allclose(d.factor_forces.to_numpy(), d.table[list(d.factor_forces.columns)])
+
+
+def test_layout_mismatch_names_thruster_and_dof(tmp_path):
+    import yaml
+
+    from uuvid.vehicle.definition import load_vehicle, preset_path, vehicle_from_dict
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw["thrusters"][4]["axis"] = [0.0, 0.0, -1.0]  # T5 pushing up: not ArduSub's motor 5
+    v = vehicle_from_dict(raw, "mine.yaml", preset_path("bluerov2").parent)
+    assert load_vehicle("bluerov2").B.shape == v.B.shape
+    with pytest.raises(LogDataError, match=r"thruster 5 .* as motor 5: Z -1"):
+        load_dive(write_bin(tmp_path / "d.BIN", scenario(n=60)), vehicle=v)
+
+
+# ============================================================================ dataflash traps
+def test_bin_depth_from_baro_primary_not_the_enclosure_sensor(tmp_path):
+    sc = scenario(n=200)
+    d = load_dive(write_bin(tmp_path / "d.BIN", sc))
+    assert d.depth_source["source"] == "-BARO[1].Alt"
+    t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"] - BOOT0
+    truth = np.interp(t, sc["t"] + 200e-6, sc["depth"])
+    np.testing.assert_allclose(d.table["depth_m"], truth, atol=1e-4)
+    # instance 0 (the enclosure) would read 9 m off
+    assert abs(d.table["depth_m"].mean() - (9.2 - 0.01 * t.mean())) > 1.0
+
+
+def test_bin_yaw_unwrapped_through_360(tmp_path):
+    sc = scenario(n=500)
+    d = load_dive(write_bin(tmp_path / "d.BIN", sc))
+    yaw = d.table["yaw_rad"].to_numpy()
+    assert np.max(np.abs(np.diff(yaw))) < 1.0  # no 2π jumps
+    assert np.ptp(np.degrees(sc["psi"]) % 360) > 300  # the raw ATT.Yaw did wrap
+
+
+def test_generalized_force_is_factors_times_direction_times_thrust(tmp_path):
+    """Hand computation: Z = Σ −throttle_i · T200(1500 + d_i (pwm_i − 1500), V), N = Σ yaw_i T."""
+    sc = scenario(n=300)
+    d = load_dive(write_bin(tmp_path / "d.BIN", sc))
+    tb = d.table
+    t200 = default_t200()
+    V = tb["battery_V"].to_numpy()
+    T = np.column_stack([t200.thrust(1500 + DIRECTIONS[i] * (tb[f"pwm_{i + 1}"] - 1500), V)
+                         for i in range(6)])
+    f = np.array(VECTORED, float)
+    np.testing.assert_allclose(tb[[f"thrust_{i}_N" for i in range(1, 7)]].to_numpy(), T)
+    np.testing.assert_allclose(tb["Z_N"], T @ -f[:, 3], atol=1e-9)
+    np.testing.assert_allclose(tb["N_Nm"], T @ f[:, 2], atol=1e-9)
+    np.testing.assert_allclose(tb["X_N"], T @ f[:, 4], atol=1e-9)
+    np.testing.assert_allclose(tb["K_Nm"], T @ f[:, 0], atol=1e-9)
+    # ignoring MOT_n_DIRECTION would cancel the vertical pair: the heave force differs
+    T_wrong = np.column_stack([t200.thrust(tb[f"pwm_{i + 1}"], V) for i in range(6)])
+    assert np.max(np.abs(T_wrong @ -f[:, 3] - tb["Z_N"])) > 20.0
+
+
+def _rate(t, x):
+    from scipy.signal import savgol_filter
+
+    return savgol_filter(x, 11, 2, deriv=1, delta=float(np.median(np.diff(t))))
+
+
+@pytest.mark.parametrize("fmt", ["BIN", "tlog"])
+def test_physics_heave_force_and_depth_rate_correlate_yaw_signs_agree(tmp_path, fmt):
+    sc = scenario()
+    p = (write_bin(tmp_path / "d.BIN", sc) if fmt == "BIN" else
+         write_tlog(tmp_path / "d.tlog", sc, qgc_stamps=False))
+    tb = load_dive(p).table
+    t = tb["t_s"].to_numpy()
+    m = tb["armed"].fillna(False).to_numpy(bool)
+    wz = _rate(t, tb["depth_m"].to_numpy())
+    r = _rate(t, tb["yaw_rad"].to_numpy())
+    assert np.corrcoef(tb["Z_N"][m], wz[m])[0, 1] >= 0.85
+    driven = m & (np.abs(tb["N_Nm"].to_numpy()) > 0.5 * np.abs(tb["N_Nm"]).max())
+    # a driven turn: the rate follows the torque after the yaw transient (~1 s)
+    settled = driven & np.concatenate(([False] * 15, driven[:-15]))
+    assert np.mean(np.sign(tb["N_Nm"][settled]) == np.sign(r[settled])) > 0.95
+
+
+def test_bin_modes_arming_and_open_loop(tmp_path):
+    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=600)))
+    modes = [(s["mode"], s["armed"]) for s in d.modes]
+    assert modes == [("MANUAL", False), ("MANUAL", True), ("ALT_HOLD", True), ("MANUAL", True)]
+    mask, why = d.open_loop()
+    assert not mask[d.table["mode"] == "ALT_HOLD"].any()
+    assert mask.sum() == np.count_nonzero((d.table["mode"] == "MANUAL") & d.table["armed"])
+    assert "ALT_HOLD" in why and "disarmed" in why
+
+
+def test_bin_reboot_splits_into_parts(tmp_path):
+    sc = scenario(n=300)
+    sc["mode"][150:] = 2  # the second boot logs its MODE before its first ATT
+    d = load_dive(write_bin(tmp_path / "d.BIN", sc, reboot_at=150))
+    assert set(d.table["part"]) == {0, 1}
+    assert np.all(np.diff(d.table["t_s"]) > 0)
+    assert any("rebooted" in w for w in d.warnings)
+    part = d.table["part"].to_numpy()
+    assert set(d.table["mode"][part == 1]) == {"ALT_HOLD"}
+    assert set(d.table["mode"][part == 0]) == {"MANUAL"}
+
+
+def test_bin_missing_messages_and_repeated_parameters(tmp_path):
+    sc = scenario(n=120)
+    prm = params()
+    p = write_bin(tmp_path / "d.BIN", sc, prm=prm, omit=("BAT", "MODE", "ARM"))
+    d = load_dive(p)
+    assert set(d.table["mode"]) == {"UNKNOWN"} and d.table["armed"].isna().all()
+    assert any("no battery voltage" in w for w in d.warnings)
+    assert any("16 V" in w for w in d.warnings)
+    np.testing.assert_allclose(
+        d.table["thrust_3_N"], default_t200().thrust(d.table["pwm_3"], np.full(len(d.table), 16.0)))
+    # a parameter written twice with another value: the last one wins, and it is said
+    p2 = write_bin(tmp_path / "e.BIN", sc, prm={**prm, "MOT_3_DIRECTION": -1.0})
+    raw = p2.read_bytes()
+    extra = _DF()
+    extra.fmt(20, "PARM", "QNf", "TimeUS,Name,Value")
+    extra.msg("PARM", int((BOOT0 + 50) * 1e6), "MOT_3_DIRECTION", 1.0)
+    p2.write_bytes(raw + b"".join(extra.out[2:]))
+    d2 = load_dive(p2)
+    assert d2.config.motors[2].direction == 1.0
+    assert any("MOT_3_DIRECTION changed" in w for w in d2.warnings)
+
+
+# ============================================================================ telemetry traps
+def test_tlog_depth_from_relative_alt_when_vfr_hud_alt_is_zero(tmp_path):
+    sc = scenario(n=300)
+    d = load_dive(write_tlog(tmp_path / "d.tlog", sc))
+    assert d.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
+    assert "VFR_HUD.alt is constant" in d.depth_source["why"]
+    t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"] - BOOT0
+    np.testing.assert_allclose(d.table["depth_m"], np.interp(t, sc["t"], sc["depth"]), atol=1e-3)
+
+
+def test_tlog_depth_from_primary_pressure_when_no_position_message(tmp_path):
+    sc = scenario(n=300)
+    d = load_dive(write_tlog(tmp_path / "d.tlog", sc, gpi=False))
+    assert d.depth_source["message"] == "SCALED_PRESSURE2"
+    assert any("lowest pressure" in w for w in d.warnings)
+    t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"] - BOOT0
+    truth = np.interp(t, sc["t"], sc["depth"]) - sc["depth"].min()
+    np.testing.assert_allclose(d.table["depth_m"], truth, atol=2e-3)
+
+
+def test_tlog_companion_clock_is_not_the_autopilot_clock(tmp_path):
+    sc = scenario(n=300)
+    p = write_tlog(tmp_path / "d.tlog", sc)
+    ins = inspect_log(p)
+    blueos = next(s for s in ins.senders if s["component"] == 194)
+    assert blueos["clock_offset_s"] == pytest.approx(1130.0 - BOOT0, abs=0.1)
+    assert any("component 194" in w and "own boot clock" in w for w in ins.warnings)
+    d = load_dive(p)
+    # the companion's bogus ATTITUDE (yaw 3.0, roll 1.0) is not read as the vehicle's
+    assert np.all(np.abs(d.table["roll_rad"]) < 1e-6)
+    assert d.provenance["t_s"]["t0_boot_s"] == pytest.approx(BOOT0, abs=0.2)
+
+
+def test_tlog_qgc_duplicated_stamps_are_merged_and_reported(tmp_path):
+    d = load_dive(write_tlog(tmp_path / "d.tlog", scenario(n=300), qgc_stamps=True))
+    assert any("duplicated time stamps" in w and "ATTITUDE.yaw: 1" in w for w in d.warnings)
+    assert d.table["t_s"].is_monotonic_increasing
+
+
+def test_tlog_reboot_splits_into_parts(tmp_path):
+    sc = scenario(n=400)
+    d = load_dive(write_tlog(tmp_path / "d.tlog", sc, reboot_at=200))
+    assert set(d.table["part"]) == {0, 1}
+    t = d.table["t_s"].to_numpy()
+    assert np.all(np.diff(t) > 0)
+    # parts joined by the receive clock: the second part starts where it was received
+    first1 = t[d.table["part"].to_numpy() == 1][0]
+    assert first1 == pytest.approx(sc["t"][200], abs=0.15)
+    assert inspect_log(write_tlog(tmp_path / "e.tlog", sc, reboot_at=200)).parts == 2
+
+
+def test_tlog_without_parameters_needs_a_parameter_file(tmp_path):
+    sc = scenario(n=100)
+    p = write_tlog(tmp_path / "d.tlog", sc, with_params=False)
+    with pytest.raises(LogDataError, match="no FRAME_CONFIG.*give params="):
+        load_dive(p)
+    qgc = "# Onboard parameters for Vehicle 1\n" + "".join(
+        f"1\t1\t{k}\t{v}\t9\n" for k, v in params().items())
+    (tmp_path / "v.params").write_text(qgc)
+    d = load_dive(p, params=tmp_path / "v.params")
+    assert [m.direction for m in d.config.active] == DIRECTIONS
+    assert inspect_log(p, params=tmp_path / "v.params").config.frame == 1
+
+
+def test_tlog_modes_from_autopilot_heartbeat(tmp_path):
+    d = load_dive(write_tlog(tmp_path / "d.tlog", scenario(n=600)))
+    seen = [(s["mode"], s["armed"]) for s in d.modes]
+    assert ("ALT_HOLD", True) in seen and ("MANUAL", False) in seen
+
+
+# ============================================================================ export and CLI
+def test_export_csv_sidecar_and_parquet_metadata(tmp_path):
+    d = load_dive(write_tlog(tmp_path / "d.tlog", scenario(n=120)))
+    cols = ["t_s", "depth_m", "roll_rad", "pitch_rad", "yaw_rad", "battery_V", "mode", "armed",
+            *[f"pwm_{i}" for i in range(1, 7)], *[f"thrust_{i}_N" for i in range(1, 7)],
+            "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]
+    assert list(d.table.columns) == cols
+    out = d.export(tmp_path / "o.csv")
+    import pandas as pd
+
+    back = pd.read_csv(out)
+    assert list(back.columns) == cols
+    side = json.loads((tmp_path / "o.csv.json").read_text())
+    assert side["provenance"]["depth_m"]["source"] == "-GLOBAL_POSITION_INT.relative_alt"
+    assert side["provenance"]["pwm_3"]["source"] == "SERVO_OUTPUT_RAW.servo3_raw"
+    pq = pytest.importorskip("pyarrow.parquet")
+    d.export(tmp_path / "o.parquet")
+    md = json.loads(pq.read_schema(tmp_path / "o.parquet").metadata[b"uuvid"])
+    assert md["provenance"]["battery_V"]["source"] == "SYS_STATUS.voltage_battery"
+    with pytest.raises(LogDataError, match="expected .csv or .parquet"):
+        d.export(tmp_path / "o.xlsx")
+
+
+def test_cli_log_inspect_and_export(tmp_path):
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    p = write_bin(tmp_path / "d.BIN", scenario(n=100))
+    r = CliRunner().invoke(app, ["log", "inspect", str(p), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["config"]["frame_config"] == 1 and doc["depth_source"]["instance"] == 1
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out", str(tmp_path / "x.csv")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "x.csv").is_file() and (tmp_path / "x.csv.json").is_file()
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out", str(tmp_path / "y.csv"),
+                                 "--vehicle", "bluerov2-heavy"])
+    assert r.exit_code == 2 and "8 thrusters" in r.output
+
+
+# ================================================================================== real logs
+REAL = "ardusub-bluerov2"
+
+
+@pytest.mark.realdata
+def test_real_small_bin_depth_is_baro_primary(shared_data):
+    from pymavlink import mavutil
+
+    p = shared_data / REAL / "small.BIN"
+    c = mavutil.mavlink_connection(str(p))
+    tb_, alt = [], []
+    while (m := c.recv_match(type="BARO", blocking=False)) is not None:
+        if m.I == 1:
+            tb_.append(m.TimeUS * 1e-6)
+            alt.append(m.Alt)
+    d = load_dive(p)
+    assert d.config.baro_primary == 1
+    t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"]
+    np.testing.assert_allclose(d.table["depth_m"], -np.interp(t, tb_, alt), atol=1e-3)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name,frame,dirs", [
+    ("small.BIN", 1, [-1, -1, 1, -1, -1, 1]),
+    ("small.tlog", 2, [-1, -1, 1, 1, -1, 1, 1, -1]),
+    ("2023-04-18_11-03-34.tlog", 2, [-1, -1, 1, 1, -1, 1, 1, -1])])
+def test_real_logs_inspect_and_export_without_options(shared_data, tmp_path, name, frame, dirs):
+    p = shared_data / REAL / name
+    ins = inspect_log(p)
+    s = ins.summary()
+    assert f"FRAME_CONFIG = {frame}" in s and "depth source:" in s
+    assert [m.direction for m in ins.config.active] == dirs
+    d = load_dive(p)
+    d.export(tmp_path / "o.csv")
+    if name.endswith(".tlog"):
+        assert d.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
+    # hand computation on the real PWM: factors × direction × T200 thrust
+    from uuvid.io.ardusub.frames import factor_matrix
+
+    tb = d.table
+    t200 = default_t200()
+    T = np.column_stack([t200.thrust(1500 + dirs[i] * (tb[f"pwm_{i + 1}"] - 1500),
+                                     tb["battery_V"]) for i in range(len(dirs))])
+    np.testing.assert_allclose(tb[["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]].to_numpy(),
+                               (factor_matrix(frame) @ T.T).T, atol=1e-9)

@@ -1,0 +1,67 @@
+"""`uuvid examples`: the generated example logs are what they say, and the README's chain of
+commands on them gives clear results and clear errors."""
+
+import json
+
+import numpy as np
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.examples import EXAMPLES, generate_example, write_example
+from uuvid.vehicle.definition import load_vehicle
+
+runner = CliRunner()
+
+
+def test_every_example_is_deterministic_and_written_as_named(tmp_path):
+    for name, e in EXAMPLES.items():
+        a, b = generate_example(name), generate_example(name)
+        assert list(a) == list(b) and "time" in a
+        for k in a:
+            x, y = np.asarray(a[k]), np.asarray(b[k])
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), k
+        p = write_example(name, tmp_path)
+        assert p.name == e.filename
+        header = p.read_text().splitlines()[0].split(",")
+        assert header == list(a)
+        assert len(p.read_text().splitlines()) == len(a["time"]) + 1
+
+
+def test_cli_lists_and_writes_examples(tmp_path):
+    res = runner.invoke(app, ["examples", "--list"])
+    assert res.exit_code == 0
+    for name in EXAMPLES:
+        assert name in res.stdout
+    res = runner.invoke(app, ["examples", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(e.filename for e in EXAMPLES.values())
+    res = runner.invoke(app, ["examples", "no-such", "--out", str(tmp_path)])
+    assert res.exit_code == 2 and "no-such" in res.output and "yaw-steady" in res.output
+
+
+def test_steady_example_identifies_the_simulated_romeo_and_feeds_inertia(tmp_path):
+    write_example("yaw-steady", tmp_path)
+    write_example("yaw-sine", tmp_path)
+    cols = ["--dof", "yaw", "--command-col", "torque", "--position-col", "heading_deg",
+            "--angle-unit", "deg"]
+    rep = tmp_path / "yaw-report"
+    res = runner.invoke(app, ["vehicle", "identify", "steady", str(tmp_path / "yaw_steady.csv"), *cols,
+                              "--mode-col", "mode", "--open-water-mode", "yaw_fl_rr+",
+                              "--report", str(rep), "--json"])
+    assert res.exit_code == 0, res.output
+    p = json.loads(res.stdout)["parameters"]
+    truth = load_vehicle("romeo").one_dof["yaw"]
+    for name, value in (("k", truth.linear), ("k_q", truth.quadratic)):
+        assert abs(p[name]["estimate"] - value) <= 3 * p[name]["sigma"], (name, p[name], value)
+    # the report's summary.json is what `identify inertia --drag` takes (no shell redirect)
+    res = runner.invoke(app, ["vehicle", "identify", "inertia", str(tmp_path / "yaw_sine.csv"), *cols,
+                              "--drag", str(rep / "summary.json"), "--json"])
+    assert res.exit_code == 0, res.output
+    m = json.loads(res.stdout)["parameters"]["m"]
+    assert abs(m["estimate"] - truth.mass) <= 3 * m["sigma"]
+    # an empty JSON (what `> steady.json` leaves when the command failed) is named as such
+    empty = tmp_path / "yaw.json"
+    empty.write_text("")
+    res = runner.invoke(app, ["vehicle", "identify", "inertia", str(tmp_path / "yaw_sine.csv"), *cols,
+                              "--drag", str(empty)])
+    assert res.exit_code == 2 and "yaw.json" in res.output and "empty" in res.output
