@@ -513,10 +513,10 @@ def test_cli_log_inspect_and_export(tmp_path):
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)
     assert doc["config"]["frame_config"] == 1 and doc["depth_source"]["instance"] == 1
-    r = CliRunner().invoke(app, ["log", "export", str(p), "--out", str(tmp_path / "x.csv")])
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "x.csv")])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "x.csv").is_file() and (tmp_path / "x.csv.json").is_file()
-    r = CliRunner().invoke(app, ["log", "export", str(p), "--out", str(tmp_path / "y.csv"),
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "y.csv"),
                                  "--vehicle", "bluerov2-heavy"])
     assert r.exit_code == 2 and "8 thrusters" in r.output
 

@@ -39,6 +39,9 @@ def _register_subcommands() -> None:
     app.command("simulate")(simulate)
     app.add_typer(vehicle_app, name="vehicle")
     register_fit(thruster_app)
+    from uuvid.cli.replay_cmd import register as register_replay
+
+    register_replay(thruster_app)
     from uuvid.cli.identify_cmds import register as register_identify
 
     register_identify(vehicle_app, reproduce_app)
@@ -293,7 +296,14 @@ def thruster_simulate(
     ),
     json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
 ):
-    """Simulate a thruster chain under an input signal; print response metrics."""
+    """Simulate a thruster chain under an input signal; print response metrics.
+
+    ``--signal kind=sampled,file=RUN.csv,time_col=t,command_col=V,...`` replays a logged command
+    and compares with the logged speed/thrust (see ``uuvid thruster replay``)."""
+    if "file=" in signal:
+        from uuvid.cli.replay_cmd import replay_from_spec
+
+        return replay_from_spec(model, signal, out, json_out)
     chain = _load_model(model)
     sig = _parse_signal(signal)
     try:

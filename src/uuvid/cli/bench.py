@@ -43,4 +43,5 @@ def run_benchmarks() -> dict:
     result.update(_load("bench_vehicle").run_all())
     result.update(_load("bench_sweep").run_all())
     result.update(_load("bench_gym").run_all())
+    result.update(_load("bench_dynamics").run_all())
     return result

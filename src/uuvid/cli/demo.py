@@ -252,6 +252,21 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
     return {"inspection": ins.to_dict(), "dive": dive.to_dict(), "open_loop": why}
 
 
+def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
+    """Dead band + two-state thruster: selection by held-out level, prediction at a new level."""
+    from uuvid.identify.dynamic_select import selection_demo
+
+    res = selection_demo(out / "dynamics_fit",
+                         families=("first-order", "healey") if quick else None)
+    rep.add_heading("Thruster dynamics that extrapolate: dead band, Healey two-state, held-out level")
+    rep.add_paragraph("Synthetic bench records (±2 V and ±3 V, speed and thrust with noise) from a "
+                      "two-state thruster behind a driver with a dead band. Every structure is "
+                      "fitted leaving one command level out and predicts it. " + res["reason"])
+    rep.add_table(res["table"], caption="Leave-one-level-out NRMSE (%)")
+    rep.add_figure(Path(res["figure"]), caption="Fitted at ±2 V, predicted at ±3 V (±2σ band)")
+    return res
+
+
 def run_demo(out: Path, quick: bool = False) -> dict:
     """All sections; ``quick`` skips the slow ones (the thruster-loop study)."""
     from uuvid.io.modelfile import load_chain, save_chain
@@ -260,7 +275,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=21, eta=False, stages=11) as task:
+    with progress_task("uuvid demo", total=22, eta=False, stages=12) as task:
         task.stage("McLean 1991: Table I step responses")
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
         task.stage("Laidani et al.: PWM → thrust")
@@ -298,6 +313,9 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         task.stage("uncertainty: sweep and Monte Carlo")
         uncertainty = _uncertainty_section(out, rep)
         task.advance()
+        task.stage("thruster dynamics: dead band, Healey, selection by held-out level")
+        dynamics_fit = _dynamics_fit_section(out, rep, quick)
+        task.advance()
         task.stage("linearisation: LQR vs PID station keeping")
         linear = _linearize_section(out, rep)
         task.advance()
@@ -321,6 +339,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "caccia2000": caccia,
             "uncertainty": uncertainty,
             "log_identify": log_identify,
+            "dynamics_fit": dynamics_fit,
             "linearize": linear,
             "ardusub": ardusub,
             "model_file": {"path": str(path), "round_trip_equal": same},

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import typer
 
+from uuvid.cli.options import deprecated_out, renamed
+
 log_app = typer.Typer(no_args_is_help=True,
                       help="ArduSub logs (.BIN dataflash, .tlog telemetry): inspect and export.")
 
@@ -41,8 +43,9 @@ def inspect_cmd(
 @log_app.command("export")
 def export_cmd(
     log: Path = typer.Argument(..., help="ArduSub .BIN/.log (dataflash) or .tlog (telemetry)."),
-    out: Path = typer.Option(..., "--out", help="FILE.csv (with FILE.csv.json provenance) or "
-                             "FILE.parquet (provenance in its metadata)."),
+    out: Path | None = typer.Option(None, "--out-file", help="FILE.csv (with FILE.csv.json "
+                                    "provenance) or FILE.parquet (provenance in its metadata)."),
+    old_out: Path | None = deprecated_out("--out-file"),
     vehicle: str | None = typer.Option(None, "--vehicle", help="uuvid vehicle preset or file: "
                                        "checked against the log; its geometry gives the "
                                        "physical wrench."),
@@ -59,6 +62,9 @@ def export_cmd(
     from uuvid.cli.app import _print_json, err_console, out_console
     from uuvid.io.ardusub import load_dive
 
+    out = renamed(out, "--out-file", old_out)
+    if out is None:
+        _fail("give --out-file FILE.csv or FILE.parquet: the table to write")
     try:
         dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,
                          params=params)

@@ -101,7 +101,9 @@ class Run:
     ``measured_thrust`` (after a load cell), ``prop_speed`` (alias ``speed``), ``motor_speed``,
     ``current``, ``torque``.  ``weight`` multiplies the run's residuals; ``x0`` is the initial
     state (default: rest).  The input is held over each sample interval, as the simulator does.
-    To fit thrust and speed of one experiment together, give two runs with the same ``t, u``.
+    To fit thrust and speed of one experiment together, give two runs with the same ``t, u``
+    (the same arrays: the chain is then simulated once for both).  ``sigma`` (the channel's
+    noise, in its unit) divides the residuals instead of the ``normalize`` scale.
     """
 
     t: Any
@@ -111,6 +113,7 @@ class Run:
     weight: float = 1.0
     x0: Sequence[float] | None = None
     name: str = ""
+    sigma: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,6 +219,8 @@ def validate_runs(
             )
         if not (math.isfinite(r.weight) and r.weight > 0):
             raise ValueError(f"{label}: weight must be positive and finite, got {r.weight!r}")
+        if r.sigma is not None and not (math.isfinite(r.sigma) and r.sigma > 0):
+            raise ValueError(f"{label}: sigma must be positive and finite, got {r.sigma!r}")
         x0 = None if r.x0 is None else np.asarray(r.x0, dtype=float)
         prepared.append(
             _Prepared(
@@ -226,7 +231,7 @@ def validate_runs(
                 channel,
                 CH[channel],
                 float(r.weight),
-                1.0,
+                1.0 if r.sigma is None else float(r.sigma),
                 x0,
                 r.name or f"run{k}",
                 resampled,
@@ -242,7 +247,10 @@ def validate_runs(
         normalize = len({p.channel for p in prepared}) > 1
     if normalize:
         out = []
-        for p in prepared:
+        for p, r in zip(prepared, runs):
+            if r.sigma is not None:
+                out.append(p)
+                continue
             rms = float(np.sqrt(np.mean(p.y**2)))
             out.append(dataclasses.replace(p, scale=rms if rms > 0 else 1.0))
         prepared = out
@@ -626,8 +634,12 @@ def fit_chain(
         chain = build(theta)
         out = np.empty(n_total)
         k = 0
+        sims: dict = {}  # runs sharing t and u (speed + thrust of one record) are simulated once
         for r in prepared:
-            yhat = _simulate_run(chain, r, max_step)[:, r.ch]
+            key = (id(r.t), id(r.u), None if r.x0 is None else r.x0.tobytes())
+            if key not in sims:
+                sims[key] = _simulate_run(chain, r, max_step)
+            yhat = sims[key][:, r.ch]
             e = r.weight * (yhat - r.y) / r.scale
             out[k : k + e.size] = np.where(np.isfinite(e), e, 1e10)
             k += e.size

@@ -45,6 +45,8 @@ OPTIONAL = {
     "quadratic": {"torque_pos", "torque_neg", "k_neg"},
     "deadzone": set(),
     "load_cell": set(),
+    "driver": {"deadband_fwd", "deadband_rev", "offset", "gain_fwd", "gain_rev", "limit"},
+    "healey": {"torque_inflow", "thrust_coefficient_rev", "viscous", "torque_coefficient"},
 }
 
 

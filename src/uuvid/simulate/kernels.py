@@ -26,6 +26,7 @@ from uuvid.thruster.blocks import (
     K_ESC,
     K_FIRST_ORDER,
     K_FIRST_ORDER_MOTOR,
+    K_HEALEY,
     K_LOAD_CELL,
     K_POLYNOMIAL,
     K_QUADRATIC,
@@ -117,6 +118,24 @@ def _motor(kind, params, pb, x, s, nst, volts, dx, ch):
         return mf * pe * wpdot + rho * area * pe * pe * dbeta * wp * abs(wp)
     ch[_TORQUE] = q_static
     return wp
+
+
+@njit(cache=True, inline="always")
+def _healey(params, pb, x, s, volts, dx, ch):
+    """Healey et al. 1995 two-state thruster (see ``HealeyThruster``): writes dx, channels,
+    returns the thrust."""
+    w = x[s]
+    ua = x[s + 1]
+    aw = abs(w)
+    kt = params[pb + 5] if w >= 0.0 else params[pb + 6]
+    thrust = kt * w * aw - params[pb + 7] * aw * ua
+    torque = params[pb + 3] * w * aw - params[pb + 4] * aw * ua
+    dx[s] = (params[pb + 1] * volts - params[pb + 2] * w - torque) / params[pb + 0]
+    dx[s + 1] = (thrust - params[pb + 9] * ua * abs(ua)) / params[pb + 8]
+    ch[_MOTOR_SPEED] = w
+    ch[_PROP_SPEED] = w
+    ch[_TORQUE] = torque
+    return thrust
 
 
 @njit(cache=True, inline="always")
@@ -222,6 +241,8 @@ def eval_chain_at(kinds, poff, params, po, soff, outch, in_ch, x, xo, cmd, dx, c
                 - params[pb + 2] * x[s] * abs(x[s])
             ) / params[pb + 0]
             sig = x[s]
+        elif kind == K_HEALEY:
+            sig = _healey(params, pb, x, s, sig, dx, ch)
         elif kind == K_LOAD_CELL:
             wn = params[pb + 0]
             dx[s] = x[s + 1]

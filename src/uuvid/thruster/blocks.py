@@ -19,6 +19,9 @@ Sources:
     ZeroOrder, FirstOrder, Yoerger, BessaDynamics   UUV Simulator dynamics (Yoerger et al. 1990;
                  Bessa et al. 2005), integrated as ODEs.
     LoadCell     McLean 1991 block 9: ``F_out/F = ω_n²/(s² + 2ζω_n s + ω_n²)``.
+    Driver       dead band per direction, offset, gain and output limit of an ESC/driver (the ESC
+                 law of Laidani eq. 1 written by its identifiable thresholds; runs on the ESC kernel).
+    HealeyThruster   Healey et al. 1995 / Bachmayer et al. 2000: shaft speed + axial inflow.
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ K_FIRST_ORDER = 10
 K_YOERGER = 11
 K_BESSA = 12
 K_LOAD_CELL = 13
+K_HEALEY = 14
 
 _SIGNAL_CHANNEL = {
     COMMAND: "command",
@@ -396,6 +400,12 @@ class DCMotor(Block):
         return self.motor_inertia * self.resistance / (self.torque_constant * self.back_emf_constant)
 
 
+def water_column_mass(density: float, area: float, length: float, added_mass: float = 0.0) -> float:
+    """``ρ A L (1 + K_a)``, kg: the water a propeller accelerates (McLean 1991 eq. 2.12's fluid
+    inertia; Healey et al. 1995's control-volume mass ``ρ A L γ`` with ``γ = 1 + K_a``)."""
+    return density * area * length * (1.0 + added_mass)
+
+
 @dataclass(frozen=True)
 class TunnelThruster(Block):
     """McLean's tunnel thruster: DC motor + gear + the water column in the tunnel.
@@ -461,8 +471,8 @@ class TunnelThruster(Block):
     @property
     def fluid_mass(self) -> float:
         """``ρ A L (1 + K_a)``, kg — the water the propeller accelerates."""
-        return (
-            self.water_density * self.tunnel_area * self.tunnel_length * (1.0 + self.added_mass_coefficient)
+        return water_column_mass(
+            self.water_density, self.tunnel_area, self.tunnel_length, self.added_mass_coefficient
         )
 
     @property
@@ -819,6 +829,136 @@ class LoadCell(Block):
         return np.array([self.natural_frequency, self.damping_ratio], dtype=np.float64)
 
 
+# --------------------------------------------------------------------------------------------
+# Driver with dead band, and Healey's two-state thruster
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Driver(Block):
+    """ESC / analog driver in front of a motor model: offset, dead band per direction, gain, limit.
+
+    With ``c = cmd − offset``:
+        ``V = g_fwd (c − d_fwd)`` for ``c > d_fwd``; ``V = g_rev (c + d_rev)`` for ``c < −d_rev``;
+        ``V = 0`` inside the dead band; ``|V| ≤ limit`` (output saturation).
+    This is Laidani et al.'s ESC law (eq. 1, dead zone and saturation) written with the
+    parameters a step or ramp record can separate: the two thresholds ``offset + d_fwd`` and
+    ``offset − d_rev`` (the offset alone is not identifiable next to two dead bands — keep it
+    fixed at the neutral command) and the gains (one of which is redundant with a motor gain).
+    It runs on the ESC kernel (``KIND = K_ESC``), so chains with it compile as any other.
+    """
+
+    KIND: ClassVar[int] = K_ESC
+    TYPE: ClassVar[str] = "driver"
+    INPUTS: ClassVar[tuple[str, ...]] = (COMMAND, VOLTAGE)
+
+    deadband_fwd: float = 0.0
+    deadband_rev: float = 0.0
+    offset: float = 0.0
+    gain_fwd: float = 1.0
+    gain_rev: float = 1.0
+    limit: float = math.inf
+
+    def __post_init__(self):
+        _finite("Driver", offset=self.offset)
+        _non_negative("Driver", deadband_fwd=self.deadband_fwd, deadband_rev=self.deadband_rev)
+        _positive("Driver", gain_fwd=self.gain_fwd, gain_rev=self.gain_rev)
+        if not (self.limit > 0):
+            raise ParameterError(f"Driver.limit must be positive, got {self.limit!r}", "limit")
+
+    def output_kind(self, input_kind):
+        return VOLTAGE
+
+    def params_array(self):
+        hi = self.offset + self.deadband_fwd
+        lo = self.offset - self.deadband_rev
+        return np.array(
+            [self.gain_fwd, -self.gain_fwd * hi, self.gain_rev, -self.gain_rev * lo, lo, hi,
+             -math.inf, math.inf, self.limit, 0.0, 0.0],
+            dtype=np.float64,
+        )
+
+    def voltage(self, command):
+        """Vectorised ``V(cmd)`` (same law as the kernel)."""
+        c = np.asarray(command, dtype=float) - self.offset
+        v = np.where(c > self.deadband_fwd, self.gain_fwd * (c - self.deadband_fwd),
+                     np.where(c < -self.deadband_rev, self.gain_rev * (c + self.deadband_rev), 0.0))
+        return np.clip(v, -self.limit, self.limit)
+
+
+@dataclass(frozen=True)
+class HealeyThruster(Block):
+    """Two-state thruster: shaft speed ``Ω`` and axial inflow ``u_a`` of a control volume.
+
+    Healey, Rock, Cody, Miles & Brown (1995), "Toward an improved understanding of thruster
+    dynamics for underwater vehicles", IEEE JOE 20(4); Bachmayer, Whitcomb & Grosenbaugh (2000),
+    IEEE JOE 25(1) (same two states, four quadrants):
+        ``J Ω̇ = K_u V − K_n Ω − Q``                      (motor, driven by the voltage V)
+        ``m_f u̇_a = T − d_f u_a|u_a|``                   (axial momentum of the control volume,
+                                                           ``m_f = ρ A L γ``, ``d_f = ρ A Δβ``)
+        ``T = k_t Ω|Ω| − k_a |Ω| u_a``,  ``Q = k_q Ω|Ω| − k_qa |Ω| u_a``
+    — the blade-lift thrust and torque with the lift linear in the angle of attack (small-angle
+    form of Healey's sinusoidal lift curve).  ``k_t`` may differ per direction.  At a step the
+    flow lags the shaft, so thrust overshoots its steady value ``d_f u_a²``.  The water mass is
+    :func:`water_column_mass`, the same term as McLean's tunnel water (``TunnelThruster``).
+
+    Identifiable: dividing the motor equation by ``J`` leaves ``K_u/J, K_n/J, k_q/J, k_qa/J``;
+    scaling the unmeasured ``u_a`` by ``c`` maps ``(k_a, k_qa, m_f, d_f)`` to
+    ``(k_a/c, k_qa/c, m_f/c, d_f/c²)`` — so ``J`` and ``m_f`` are fixed (datasheet, geometry)
+    and the combinations ``k_a/m_f`` and ``d_f/m_f²`` are what the data determine.
+    """
+
+    KIND: ClassVar[int] = K_HEALEY
+    TYPE: ClassVar[str] = "healey"
+    INPUTS: ClassVar[tuple[str, ...]] = (VOLTAGE, COMMAND)
+    N_STATES: ClassVar[int] = 2
+
+    inertia: float = 1e-4  # J, kg·m²
+    drive_gain: float = 0.04  # K_u, N·m/V
+    viscous: float = 5e-4  # K_n, N·m·s/rad
+    torque_coefficient: float = 4.5e-6  # k_q, N·m·s²/rad²
+    torque_inflow: float = 0.0  # k_qa, N·m·s/(rad·m)
+    thrust_coefficient: float = 6e-4  # k_t forward, N·s²/rad²
+    thrust_coefficient_rev: float | None = None  # k_t for Ω < 0 (None: same)
+    inflow_coefficient: float = 0.02  # k_a, N·s/(rad·m)
+    fluid_mass: float = 1.0  # m_f = ρ A L γ, kg
+    flow_damping: float = 4.5  # d_f = ρ A Δβ, kg/m
+
+    def __post_init__(self):
+        _positive("HealeyThruster", inertia=self.inertia, drive_gain=self.drive_gain,
+                  fluid_mass=self.fluid_mass, flow_damping=self.flow_damping,
+                  thrust_coefficient=self.thrust_coefficient)
+        _non_negative("HealeyThruster", viscous=self.viscous,
+                      torque_coefficient=self.torque_coefficient, torque_inflow=self.torque_inflow,
+                      inflow_coefficient=self.inflow_coefficient)
+        if self.thrust_coefficient_rev is not None:
+            _positive("HealeyThruster", thrust_coefficient_rev=self.thrust_coefficient_rev)
+        if self.viscous == 0 and self.torque_coefficient == 0:
+            raise ParameterError("HealeyThruster needs viscous > 0 or torque_coefficient > 0 "
+                                 "(else the speed is unbounded)", "viscous")
+
+    @classmethod
+    def from_geometry(cls, area: float, length: float, *, density: float = 1000.0,
+                      added_mass: float = 0.0, momentum_correction: float = 1.0, **kw):
+        """Fluid mass and damping from the control volume: ``m_f = ρ A L (1 + K_a)``,
+        ``d_f = ρ A Δβ``."""
+        return cls(fluid_mass=water_column_mass(density, area, length, added_mass),
+                   flow_damping=density * area * momentum_correction, **kw)
+
+    def output_kind(self, input_kind):
+        return THRUST
+
+    def extra_channels(self):
+        return ("motor_speed", "prop_speed", "torque")
+
+    def params_array(self):
+        kr = self.thrust_coefficient if self.thrust_coefficient_rev is None else self.thrust_coefficient_rev
+        return np.array(
+            [self.inertia, self.drive_gain, self.viscous, self.torque_coefficient,
+             self.torque_inflow, self.thrust_coefficient, kr, self.inflow_coefficient,
+             self.fluid_mass, self.flow_damping],
+            dtype=np.float64,
+        )
+
+
 BLOCK_TYPES: dict[str, type[Block]] = {
     cls.TYPE: cls
     for cls in (
@@ -835,6 +975,8 @@ BLOCK_TYPES: dict[str, type[Block]] = {
         Yoerger,
         BessaDynamics,
         LoadCell,
+        Driver,
+        HealeyThruster,
     )
 }
 # Names users know from UUV Simulator, accepted in model files.
@@ -847,4 +989,5 @@ BLOCK_ALIASES = {
     "Bessa": "bessa",
     "cv": "quadratic",
     "mclean": "tunnel_thruster",
+    "Healey": "healey",
 }

@@ -244,7 +244,7 @@ class ThrusterChain:
                 hint = max(hint, 10 * tau)
             if b.TYPE == "tunnel_thruster":
                 hint = max(hint, 3.0)
-            if b.TYPE in ("dc_motor", "yoerger", "bessa", "load_cell"):
+            if b.TYPE in ("dc_motor", "yoerger", "bessa", "load_cell", "healey"):
                 hint = max(hint, 3.0)
         return hint
 

@@ -1,0 +1,898 @@
+"""The ``uuvid thruster fit`` workflow as a library: read bench files, fit a model, write a report.
+
+:func:`run_fit` returns a :class:`FitOutcome` (chain, fits, report text, figures, tables);
+:func:`summary` and :func:`write_report` turn it into the JSON summary and the report folder.
+The CLI (:mod:`uuvid.cli.fit_cmd`) only parses options and calls these.
+
+Steady models (``quadratic``, ``cv``, ``polynomial``, ``deadzone``, ``table``, ``physical``) use
+every row of every file (files are stacked; ``physical`` keeps each file as one sheet with its own
+supply voltage).  Dynamic models (``first-order``, ``yoerger``, ``bessa``, ``mclean``) need a time
+column; each file is one run (e.g. steps at several voltages) and the runs share the parameters.
+
+What each model reads and writes (the model file loads with :func:`uuvid.io.modelfile.load_chain`):
+
+===========  =====================================  ===========================================
+model        data                                   chain written
+===========  =====================================  ===========================================
+quadratic    thrust, speed                          speed → ``T = K_T Ω|Ω|`` per direction
+cv           thrust, command in volts (or duty ×    voltage → ``T = c_V V|V|`` (Caccia 2000)
+             supply)
+polynomial   thrust, speed                          speed → ``|T| = P(|Ω|)`` per direction,
+                                                    degree by 5-fold CV (or ``--degree``)
+deadzone     thrust, speed (or the command)         speed (or command) → UUV Simulator Bessa
+                                                    conversion ``T = c(x|x| − δ)``
+table        thrust, command                        command → lookup table (LinearInterp)
+physical     thrust, speed, supply voltage          command → ESC → DC motor → ``K_T Ω|Ω|`` at
+             (current helps); one file per voltage  ``--supply-voltage`` (default: first file's)
+first-order  time, speed, command                   (command − neutral) → ``K/(1 + τ s)``
+yoerger      time, speed, command                   (command − neutral) → ``ẋ = βu − αx|x|``
+bessa        time, speed, command                   (command − neutral) → Bessa dynamics
+mclean       time, thrust, command in volts         voltage → McLean tunnel thruster (+ the
+                                                    ``--start`` model's load cell); motor
+                                                    constants fixed at the start model's
+dc-motor     time, speed (and thrust), command      command → driver with dead band → DC motor
+                                                    (→ ``K_T Ω|Ω|`` with thrust)
+healey       time, speed and thrust, command        command → driver with dead band → Healey
+                                                    two-state thruster (speed + axial inflow)
+===========  =====================================  ===========================================
+
+Structured dynamic fits (:mod:`uuvid.identify.dynamic_select`): ``dc-motor`` and ``healey``
+always, and ``first-order``/``yoerger``/``bessa`` when the records hold thrust too or with
+``dead_band=True``, put a :class:`~uuvid.thruster.blocks.Driver` (dead band per direction, offset
+= the neutral command) in front and fit dead bands, dynamics and thrust map together, each
+channel weighted by its estimated noise.  ``select=True`` compares every family by
+leave-one-level-out prediction and writes the one that extrapolates best.
+
+With a PWM command (neutral ≠ 0) the ``deadzone`` (command input) and dynamic models get a
+unit-gain ESC in front that only subtracts the neutral command, so ``uuvid thruster predict --pwm``
+works on the written file; its "voltage" is then ``command − neutral``.
+
+Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
+status 2 and the :class:`~uuvid.io.bench.BenchDataError` message, which names the file, the column
+and the row.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["DYNAMIC", "MODELS", "STEADY", "FitError", "FitOutcome", "ReadOptions", "offset_esc",
+           "read_files", "run_fit", "summary", "write_report"]
+
+MODELS = ("quadratic", "cv", "polynomial", "deadzone", "table", "physical", "first-order",
+          "yoerger", "bessa", "dc-motor", "healey", "mclean")
+STEADY = ("quadratic", "cv", "polynomial", "deadzone", "table", "physical")
+DYNAMIC = ("first-order", "yoerger", "bessa", "dc-motor", "healey", "mclean")
+#: Families fitted with a dead-band driver, jointly on speed + thrust (see dynamic_select).
+STRUCTURED = ("first-order", "yoerger", "bessa", "dc-motor", "healey")
+
+
+class FitError(ValueError):
+    """A user-input problem found by the command itself (exit 2)."""
+
+
+# ------------------------------------------------------------------------------------------------
+# result
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class FitOutcome:
+    """Everything the command writes: the chain, the fits, the numbers and the figures."""
+
+    model: str
+    chain: object  # ThrusterChain
+    fits: dict  # label → Fit
+    report_text: str
+    rmse: float
+    rmse_unit: str
+    warnings: list[str]
+    summary_extra: dict = field(default_factory=dict)
+    figures: list = field(default_factory=list)  # (file stem, Figure, caption)
+    tables: list = field(default_factory=list)  # (file stem, rows, columns, caption)
+
+    def parameters(self) -> dict:
+        """``{name: {estimate, sigma, percentile_error, unit, significant}}``; names are prefixed
+        with the fit's label (``forward.c5``) where two fits share a name."""
+        counts: dict[str, int] = {}
+        for f in self.fits.values():
+            for p in f.parameters:
+                counts[p.name] = counts.get(p.name, 0) + 1
+        out = {}
+        for label, f in self.fits.items():
+            for p in f.parameters:
+                key = p.name if counts[p.name] == 1 else f"{label}.{p.name}"
+                out[key] = {"estimate": p.value, "sigma": p.stderr,
+                            "percentile_error": p.percentile_error, "unit": p.unit,
+                            "significant": p.significant}
+        return out
+
+    def parameter_rows(self) -> list[dict]:
+        rows = []
+        for label, f in self.fits.items():
+            for p in f.parameters:
+                rows.append({"fit": label, "parameter": p.name, "estimate": p.value,
+                             "sigma": p.stderr, "percentile_error_%": p.percentile_error,
+                             "significant": p.significant, "unit": p.unit})
+        return rows
+
+
+# ------------------------------------------------------------------------------------------------
+# reading
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ReadOptions:
+    fmt: str = "csv"
+    command_col: str = "command"
+    thrust_col: str | None = None
+    speed_col: str | None = None
+    current_col: str | None = None
+    voltage_col: str | None = None
+    time_col: str | None = None
+    command_unit: str = "pwm_us"
+    thrust_unit: str = "N"
+    speed_unit: str = "rad/s"
+    supply_voltage: float | None = None
+    neutral: float | None = None
+
+
+def read_files(paths, opts: ReadOptions) -> list:
+    """Read every file into :class:`~uuvid.io.bench.BenchData` (raises ``BenchDataError``)."""
+    from uuvid.io.bench import read_bench, read_t200
+
+    sets = []
+    for p in paths:
+        if opts.fmt == "t200":
+            sets.append(read_t200(p))
+        else:
+            sets.append(read_bench(
+                p, command_col=opts.command_col, thrust_col=opts.thrust_col,
+                speed_col=opts.speed_col, current_col=opts.current_col,
+                voltage_col=opts.voltage_col, time_col=opts.time_col,
+                command_unit=opts.command_unit, thrust_unit=opts.thrust_unit,
+                speed_unit=opts.speed_unit,
+                supply_voltage=opts.supply_voltage if opts.voltage_col is None else None,
+                neutral=opts.neutral))
+    return sets
+
+
+# ------------------------------------------------------------------------------------------------
+# helpers
+# ------------------------------------------------------------------------------------------------
+def _chain(blocks, input_kind, name):
+    from uuvid.thruster.chain import ThrusterChain
+
+    return ThrusterChain(tuple(blocks), input_kind=input_kind, name=name)
+
+
+def offset_esc(neutral: float, cmin: float, cmax: float, command_unit: str):
+    """A unit-gain ESC whose only job is ``command → command − neutral`` (clipped to the data's
+    command range), so a map or dynamics fitted on ``command − neutral`` takes raw commands."""
+    from uuvid.thruster.blocks import ESC
+
+    lo, hi = min(cmin, neutral - 1e-9), max(cmax, neutral + 1e-9)
+    return ESC(a_fwd=1.0, b_fwd=-neutral, a_rev=1.0, b_rev=-neutral, neutral=neutral,
+               deadzone_low=neutral, deadzone_high=neutral, saturation_low=lo,
+               saturation_high=hi, supply_voltage=max(hi - neutral, neutral - lo),
+               command_unit=command_unit)
+
+
+def _rms(e) -> float:
+    e = np.asarray(e, dtype=float)
+    return float(np.sqrt(np.mean(e**2))) if e.size else math.nan
+
+
+def _stack(sets):
+    from uuvid.io.bench import concat
+
+    return sets[0] if len(sets) == 1 else concat(sets)
+
+
+def _direction_figure(title: str, panels: list[dict], xlabel: str, ylabel: str):
+    """Top row: data and fitted curve per panel (direction); bottom row: residuals."""
+    from uuvid.report.plots import new_figure
+
+    n = len(panels)
+    fig, ax = new_figure(2, n, squeeze=False, sharex="col", height_ratios=[3, 1],
+                         figsize=(5.2 * n, 6.0))
+    for j, p in enumerate(panels):
+        a, r = ax[0, j], ax[1, j]
+        for k, s in enumerate(p["series"]):
+            color = f"C{k}"
+            a.plot(s["x"], s["y"], ".", ms=3, color=color, label=s.get("label", "data"))
+            if s.get("xg") is not None:
+                a.plot(s["xg"], s["yg"], "-", lw=1.4, color=color if len(p["series"]) > 1 else "C1",
+                       label=s.get("fit_label", "fit"))
+            r.plot(s["x"], s["y"] - s["yfit"], ".", ms=3, color=color)
+            if s.get("xc") is not None and len(s["xc"]):
+                a.plot(s["xc"], np.zeros(len(s["xc"])), "x", ms=4, color="0.6",
+                       label="censored (not fitted)" if k == 0 else None)
+        a.set_title(p["title"])
+        a.set_ylabel(ylabel)
+        a.grid(True, alpha=0.3)
+        a.legend(loc="best", fontsize="small")
+        r.axhline(0.0, color="k", lw=0.8)
+        r.set_ylabel("residual")
+        r.set_xlabel(xlabel)
+        r.grid(True, alpha=0.3)
+    fig.suptitle(title)
+    return fig
+
+
+def _split_panels(x, y, yfit, direction, grid_fn, xg_range=None, censored_x=None,
+                  censored_dir=None):
+    panels = []
+    for name, sgn in (("forward", 1), ("reverse", -1)):
+        m = direction == sgn
+        if not np.any(m):
+            continue
+        xs = x[m]
+        lo, hi = (float(xs.min()), float(xs.max())) if xg_range is None else xg_range[name]
+        xg = np.linspace(lo, hi, 300)
+        s = {"x": xs, "y": y[m], "yfit": yfit[m], "xg": xg, "yg": grid_fn(xg)}
+        if censored_x is not None:
+            s["xc"] = censored_x[censored_dir == sgn]
+        panels.append({"title": name, "series": [s]})
+    return panels
+
+
+def _degree_rows(tables: dict) -> dict:
+    return {d: [{k: r[k] for k in ("degree", "n_params", "me", "rmse", "cv_rmse", "cv_se",
+                                   "aic", "bic")} for r in t.rows] for d, t in tables.items()}
+
+
+def _degree_figure(tables: dict, chosen: dict):
+    from uuvid.report.plots import new_figure
+
+    n = len(tables)
+    fig, ax = new_figure(1, n, squeeze=False, figsize=(5.2 * n, 3.8))
+    for j, (d, t) in enumerate(tables.items()):
+        a = ax[0, j]
+        deg = t.column("degree")
+        a.plot(deg, t.column("me"), "o-", label="ME (in-sample)")
+        a.plot(deg, t.column("rmse"), "s-", label="RMSE (in-sample)")
+        a.errorbar(deg, t.column("cv_rmse"), yerr=t.column("cv_se"), fmt="^-",
+                   label=f"{t.k}-fold CV RMSE ± SE", capsize=3)
+        if d in chosen:
+            a.axvline(chosen[d], color="r", ls="--", lw=1, label=f"selected: {chosen[d]}")
+        a.set_yscale("log")
+        a.set_xlabel("polynomial degree")
+        a.set_ylabel("thrust error [N]")
+        a.set_title(d)
+        a.grid(True, which="both", alpha=0.3)
+        a.legend(fontsize="small")
+    return fig
+
+
+# ------------------------------------------------------------------------------------------------
+# steady models
+# ------------------------------------------------------------------------------------------------
+def _fit_quadratic(sets, name):
+    from uuvid.identify.steady import fit_quadratic_speed
+
+    data = _stack(sets)
+    sf = fit_quadratic_speed(data)
+    chain = _chain((sf.block,), "speed", name)
+    m = data.measured & (data.speed != 0)
+    x, y = data.speed[m], data.thrust[m]
+    yfit = sf.block.thrust(x)
+    cm = data.censored
+    fig = _direction_figure(f"{name}: T = K_T Ω|Ω|", _split_panels(
+        x, y, yfit, np.sign(x), sf.block.thrust,
+        censored_x=data.speed[cm] if cm.any() else None,
+        censored_dir=np.sign(data.command[cm] - data.neutral)), "Ω [rad/s]", "thrust [N]")
+    return FitOutcome("quadratic", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+                      list(sf.warnings), figures=[("fit", fig, "Thrust vs propeller speed, fit "
+                                                   "and residuals per direction")])
+
+
+def _voltage_of(data):
+    from uuvid.io.bench import BenchDataError
+
+    if data.command_unit == "volts":
+        return data.command - data.neutral
+    if data.command_unit == "duty":
+        return (data.command - data.neutral) * data.supply_voltage_array()
+    raise BenchDataError(f"{data.source or 'bench data'}: this model needs the motor voltage as "
+                         "the command: use --command-unit volts (or duty with the supply voltage)")
+
+
+def _fit_cv(sets, name):
+    from uuvid.identify.steady import fit_cv
+
+    data = _stack(sets)
+    data.require("thrust", what="--model cv")
+    v = _voltage_of(data)
+    m = data.measured
+    sf = fit_cv(v[m], data.thrust[m])
+    chain = _chain((sf.block,), "voltage", name)
+    x, y = v[m], data.thrust[m]
+    yfit = sf.block.thrust(x)
+    fig = _direction_figure(f"{name}: T = c_V V|V|", _split_panels(
+        x, y, yfit, np.sign(x), sf.block.thrust), "motor voltage [V]", "thrust [N]")
+    notes = []
+    if data.command_unit == "duty":
+        notes.append("the chain's input is the motor voltage (duty × supply voltage)")
+    return FitOutcome("cv", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+                      list(sf.warnings) + notes,
+                      figures=[("fit", fig, "Thrust vs motor voltage, fit and residuals")])
+
+
+def _fit_polynomial(sets, name, degree, criterion):
+    from uuvid.identify.steady import (
+        DIRECTIONS,
+        fit_polynomial,
+        polynomial_degree_table,
+        select_degree,
+    )
+
+    data = _stack(sets)
+    sf = fit_polynomial(data, degree, criterion=criterion)
+    tables, choices = dict(sf.info.get("tables", {})), dict(sf.info.get("choices", {}))
+    if degree is not None:  # still show the table and what the rule would have chosen
+        for d in DIRECTIONS:
+            if d not in sf.fits:
+                continue
+            sgn = 1.0 if d == "forward" else -1.0
+            m = data.measured & (np.sign(data.speed) == sgn)
+            try:
+                tables[d] = polynomial_degree_table(np.abs(data.speed[m]), np.abs(data.thrust[m]))
+                choices[d] = select_degree(tables[d], criterion)
+            except ValueError:
+                pass
+    chain = _chain((sf.block,), "speed", name)
+    m = data.measured & (data.speed != 0)
+    x, y = data.speed[m], data.thrust[m]
+    yfit = sf.block.thrust(x)
+    selected = {d: len(f.parameters) - 1 for d, f in sf.fits.items()}
+    if degree is None:
+        reason = {d: c.reason for d, c in choices.items()}
+    else:
+        reason = {d: f"degree {degree} given with --degree" + (
+            f" (the {criterion} rule would choose {choices[d].degree}: {choices[d].reason})"
+            if d in choices else "") for d in sf.fits}
+    cm = data.censored
+    figs = [("fit", _direction_figure(
+        f"{name}: |T| = P(|Ω|), degree " + "/".join(str(selected[d]) for d in selected),
+        _split_panels(x, y, yfit, np.sign(x), sf.block.thrust,
+                      censored_x=data.speed[cm] if cm.any() else None,
+                      censored_dir=np.sign(data.command[cm] - data.neutral)),
+        "Ω [rad/s]", "thrust [N]"), "Thrust vs propeller speed, fit and residuals per direction")]
+    tabs = []
+    if tables:
+        figs.append(("degree_table", _degree_figure(tables, selected),
+                     "ME, RMSE and k-fold CV RMSE per degree (Laidani Table 1, extended)"))
+        for d, t in tables.items():
+            tabs.append((f"degree_table_{d}", list(_degree_rows({d: t})[d]),
+                         ["degree", "n_params", "me", "rmse", "cv_rmse", "cv_se", "aic", "bic"],
+                         f"Degree table, {d} (selected {selected.get(d)}): {reason.get(d, '')}"))
+    text = sf.report()
+    if tables:
+        text += "\n" + "\n".join(f"=== degree table ({d}) ===\n{t.to_text()}\nselected: "
+                                 f"{selected.get(d)} — {reason.get(d, '')}"
+                                 for d, t in tables.items())
+    extra = {"degree_table": _degree_rows(tables) if tables else None,
+             "selected_degree": selected, "reason": reason,
+             "criterion": criterion if degree is None else "given"}
+    return FitOutcome("polynomial", chain, dict(sf.fits), text, _rms(y - yfit), "N",
+                      list(sf.warnings), extra, figs, tabs)
+
+
+def _fit_deadzone(sets, name, map_input):
+    from uuvid.identify.steady import fit_deadzone_curve
+
+    data = _stack(sets)
+    inp = map_input
+    if inp == "auto":
+        inp = "speed" if data.speed is not None else "command"
+    sf = fit_deadzone_curve(data, input=inp)
+    block = sf.block
+    notes = []
+    if inp == "speed":
+        chain = _chain((block,), "speed", name)
+        x_all = data.speed
+        xlabel = "Ω [rad/s]"
+    else:
+        x_all = data.command - data.neutral
+        xlabel = f"command − neutral [{data.command_unit}]"
+        if data.neutral != 0:
+            esc = offset_esc(data.neutral, float(data.command.min()), float(data.command.max()),
+                             data.command_unit)
+            chain = _chain((esc, block), "command", name)
+            notes.append(f"block 0 is a unit-gain ESC that subtracts the neutral command "
+                         f"{data.neutral:g} (its 'voltage' is command − neutral), so the file "
+                         "takes raw commands")
+        else:
+            chain = _chain((block,), "command", name)
+    m = data.measured
+    x, y = x_all[m], data.thrust[m]
+    yfit = block.thrust(x)
+    fig = _direction_figure(f"{name}: T = c(x|x| − δ) (UUV Simulator Bessa conversion)",
+                            _split_panels(x, y, yfit, np.sign(x), block.thrust), xlabel,
+                            "thrust [N]")
+    return FitOutcome("deadzone", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+                      list(sf.warnings) + notes, {"map_input": inp},
+                      figures=[("fit", fig, "Thrust, dead-zone conversion and residuals")])
+
+
+def _fit_table(sets, name, n_points):
+    from uuvid.identify.steady import fit_table
+
+    data = _stack(sets)
+    sf = fit_table(data, n_points)
+    chain = _chain((sf.block,), "command", name)
+    c = data.command
+    y = np.where(data.censored, 0.0, data.thrust) if data.thrust is not None else None
+    yfit = sf.block.thrust(c)
+    d = np.sign(c - data.neutral)
+    rng = {"forward": (data.neutral, float(c.max())), "reverse": (float(c.min()), data.neutral)}
+    fig = _direction_figure(f"{name}: lookup table ({len(sf.block.input_values)} knots)",
+                            _split_panels(c, y, yfit, np.where(d == 0, 1, d), sf.block.thrust,
+                                          xg_range=rng),
+                            f"command [{data.command_unit}]", "thrust [N]")
+    return FitOutcome("table", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+                      list(sf.warnings), {"knots": len(sf.block.input_values)},
+                      figures=[("fit", fig, "Thrust vs command, table and residuals")])
+
+
+def _fit_physical(sets, name, supply_voltage, linear_duty):
+    from uuvid.identify.physical import fit_physical
+
+    pf = fit_physical(sets, duty_curvature=not linear_duty, emit_warnings=False)
+    v = supply_voltage if supply_voltage is not None else sets[0].nominal_voltage()
+    chain = pf.to_chain(v, name=name)
+    model = pf.model
+    e_all = []
+    panels = []
+    for dname, sgn in (("forward", 1), ("reverse", -1)):
+        series = []
+        for s in sets:
+            m = s.measured & (s.direction == sgn)
+            if not np.any(m):
+                continue
+            vs = s.supply_voltage_array()[m]
+            yfit = model.thrust(s.command[m], vs)
+            vn = s.nominal_voltage()
+            lo, hi = ((model.neutral, float(s.command.max())) if sgn > 0 else
+                      (float(s.command.min()), model.neutral))
+            xg = np.linspace(lo, hi, 300)
+            cm = s.censored & (s.direction == sgn)
+            series.append({"x": s.command[m], "y": s.thrust[m], "yfit": yfit, "xg": xg,
+                           "yg": model.thrust(xg, vn), "label": f"{s.source} ({vn:g} V)",
+                           "fit_label": f"model at {vn:g} V", "xc": s.command[cm]})
+        if series:
+            panels.append({"title": dname, "series": series})
+    for s in sets:
+        m = s.measured
+        e_all.append(s.thrust[m] - model.thrust(s.command[m], s.supply_voltage_array()[m]))
+    fig = _direction_figure(f"{name}: physical model (ESC × supply → DC motor → K_T Ω|Ω|)",
+                            panels, "command", "thrust [N]")
+    warn = list(pf.fit.warnings) + list(pf.notes)
+    extra = {"supply_voltage_V": v, "per_sheet": pf.per_sheet, "physical_model": model.as_dict()}
+    return FitOutcome("physical", chain, {"physical": pf.fit}, pf.report(),
+                      _rms(np.concatenate(e_all)), "N", warn, extra,
+                      figures=[("fit", fig, "Thrust vs command per sheet: data, model and "
+                                            "residuals per direction")])
+
+
+# ------------------------------------------------------------------------------------------------
+# dynamic models
+# ------------------------------------------------------------------------------------------------
+def _step_start(t, u, y):
+    """(final input, final output, initial slope per unit input) of a step-like record."""
+    n = max(1, t.size // 10)
+    u_end, y_end = float(np.mean(u[-n:])), float(np.mean(y[-n:]))
+    moved = np.flatnonzero(np.abs(u - u[0]) > 1e-12 * max(1.0, abs(u_end)))
+    k0 = int(moved[0]) if moved.size and u[0] != u_end else 0
+    k1 = min(t.size, k0 + max(3, min(10, (t.size - k0) // 10)))
+    slope = float(np.polyfit(t[k0:k1] - t[k0], y[k0:k1], 1)[0]) if k1 - k0 >= 2 else math.nan
+    return u_end, y_end, slope
+
+
+def _dynamic_runs(sets, model):
+    from uuvid.identify.dynamic import Run
+
+    runs = []
+    for s in sets:
+        s.require("time", "speed", what=f"--model {model} (give --time-col and --speed-col)")
+        m = s.measured
+        if not m.all():
+            raise FitError(f"{s.source}: {int((~m).sum())} censored row(s) in a time series; "
+                           f"--model {model} needs every sample")
+        runs.append(Run(s.time, s.command - s.neutral, s.speed, "prop_speed", name=s.source))
+    return runs
+
+
+def _dyn_chain(sets, block_chain, name):
+    """Prepend the neutral-shifting ESC when the command has a non-zero neutral."""
+    s0 = sets[0]
+    blocks = list(block_chain.blocks)
+    notes = []
+    if s0.neutral != 0:
+        cmin = min(float(s.command.min()) for s in sets)
+        cmax = max(float(s.command.max()) for s in sets)
+        esc = offset_esc(s0.neutral, cmin, cmax, s0.command_unit)
+        notes.append(f"block 0 is a unit-gain ESC that subtracts the neutral command "
+                     f"{s0.neutral:g}; the dynamics were fitted on u = command − neutral")
+        return _chain([esc] + blocks, "command", name), notes
+    return _chain(blocks, block_chain.input_kind, name), notes
+
+
+def _dynamic_figure(title, cf, ylabel):
+    from uuvid.report.plots import new_figure
+
+    n = len(cf.runs)
+    fig, ax = new_figure(2, n, squeeze=False, sharex="col", height_ratios=[3, 1],
+                         figsize=(max(6.0, 4.6 * n), 5.6))
+    for j, r in enumerate(cf.runs):
+        yhat = cf.predict(j)
+        ax[0, j].plot(r.t, r.y, ".", ms=2, label="data")
+        ax[0, j].plot(r.t, yhat, "-", lw=1.3, color="C1", label="fit")
+        ax[0, j].set_title(r.name)
+        ax[0, j].set_ylabel(ylabel)
+        ax[0, j].grid(True, alpha=0.3)
+        ax[0, j].legend(fontsize="small")
+        ax[1, j].plot(r.t, r.y - yhat, ".", ms=2)
+        ax[1, j].axhline(0.0, color="k", lw=0.8)
+        ax[1, j].set_ylabel("residual")
+        ax[1, j].set_xlabel("t [s]")
+        ax[1, j].grid(True, alpha=0.3)
+    fig.suptitle(title)
+    return fig
+
+
+def _dyn_outcome(model, cf, sets, name, unit, ylabel, notes=(), prepend=True):
+    if prepend:
+        chain, more = _dyn_chain(sets, cf.chain, name)
+    else:
+        chain, more = _chain(cf.chain.blocks, cf.chain.input_kind, name), []
+    info = cf.fit.extra.get("runs", [])
+    n = sum(r["samples"] for r in info)
+    rmse = math.sqrt(sum(r["samples"] * r["rmse"] ** 2 for r in info) / n) if n else math.nan
+    fig = _dynamic_figure(f"{name}: {cf.fit.model}", cf, ylabel)
+    return FitOutcome(model, chain, {model: cf.fit}, cf.report(), rmse, unit,
+                      list(cf.warnings) + list(notes) + more,
+                      {"runs": info}, figures=[("fit", fig, "Recorded and fitted response per "
+                                                            "run, with residuals")])
+
+
+def _fit_first_order(sets, name, resample):
+    from uuvid.identify.dynamic import fit_first_order
+
+    runs = _dynamic_runs(sets, "first-order")
+    cf = fit_first_order(runs, resample=resample, emit_warnings=False)
+    return _dyn_outcome("first-order", cf, sets, name, "rad/s", "speed [rad/s]")
+
+
+def _fit_yoerger(sets, name, resample):
+    from uuvid.identify.dynamic import fit_yoerger
+
+    runs = _dynamic_runs(sets, "yoerger")
+    cf = fit_yoerger(runs, resample=resample, emit_warnings=False)
+    return _dyn_outcome("yoerger", cf, sets, name, "rad/s", "speed [rad/s]")
+
+
+def _fit_bessa(sets, name, resample):
+    from uuvid.identify.dynamic import fit_bessa
+
+    runs = _dynamic_runs(sets, "bessa")
+    u_end, y_end, slope = _step_start(np.asarray(runs[0].t), np.asarray(runs[0].u),
+                                      np.asarray(runs[0].y))
+    kw = {}
+    if u_end and y_end and math.isfinite(slope) and slope != 0:
+        jmsp = abs(u_end / slope)  # K_t = R_m = 1: ẋ(0⁺) = u/J_msp
+        kw = {"jmsp": jmsp, "kv1": 0.5 * abs(u_end / y_end), "kv2": 0.5 * abs(u_end) / y_end**2}
+    cf = fit_bessa(runs, resample=resample, emit_warnings=False, **kw)
+    notes = ["K_t and R_m are fixed at 1 (only K_t/(R_m J_msp), K_v1/J_msp and K_v2/J_msp are "
+             "identifiable from speed; see 'identifiable' in the report)"]
+    out = _dyn_outcome("bessa", cf, sets, name, "rad/s", "speed [rad/s]", notes)
+    out.summary_extra["identifiable"] = cf.fit.extra.get("identifiable")
+    return out
+
+
+def _fit_mclean(sets, name, start, resample):
+    from uuvid.identify.dynamic import Run, fit_tunnel_thruster
+    from uuvid.thruster.blocks import LoadCell, TunnelThruster
+
+    tunnel = next((b for b in start.blocks if isinstance(b, TunnelThruster)), None)
+    if tunnel is None:
+        raise FitError(f"--start {start.name}: no tunnel_thruster block to start from")
+    lc = next((b for b in start.blocks if isinstance(b, LoadCell)), None)
+    channel = "measured_thrust" if lc is not None else "thrust"
+    runs = []
+    for s in sets:
+        s.require("time", "thrust", what="--model mclean (give --time-col and --thrust-col)")
+        runs.append(Run(s.time, _voltage_of(s), s.thrust, channel, name=s.source))
+    cf = fit_tunnel_thruster(runs, tunnel, load_cell=lc, resample=resample, emit_warnings=False)
+    notes = [f"motor constants fixed at the start model's ({start.name}); fitted α_o−α_i, "
+             "β_o−β_i and K_a" + (" through its load cell (runs compared on measured_thrust)"
+                                  if lc is not None else "")]
+    return _dyn_outcome("mclean", cf, sets, name, "N", "thrust [N]", notes, prepend=False)
+
+
+# ------------------------------------------------------------------------------------------------
+# structured dynamic models: dead band, joint speed + thrust, selection by held-out level
+# ------------------------------------------------------------------------------------------------
+def experiments_from(sets, what: str) -> list:
+    """Bench records → :class:`~uuvid.identify.dynamic_select.Experiment` (command − neutral)."""
+    from uuvid.identify.dynamic_select import Experiment
+
+    out = []
+    for s in sets:
+        s.require("time", what=f"{what} (give --time-col)")
+        if s.speed is None and s.thrust is None:
+            s.require("speed", what=f"{what} (give --speed-col and/or --thrust-col)")
+        m = s.measured
+        if not m.all():
+            raise FitError(f"{s.source}: {int((~m).sum())} censored row(s) in a time series; "
+                           f"{what} needs every sample")
+        out.append(Experiment(s.time, s.command - s.neutral, s.speed, s.thrust, name=s.source))
+    return out
+
+
+def _with_offset(chain, neutral: float, name: str):
+    blocks = list(chain.blocks)
+    blocks[0] = replace(blocks[0], offset=neutral)
+    return _chain(blocks, "command", name)
+
+
+def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, text_extra=""):
+    s0 = sets[0]
+    chain = _with_offset(df.chain, s0.neutral, name)
+    main = "speed" if "speed" in df.noise else "thrust"
+    info = [r for r in df.fit.extra["runs"] if r["channel"] == ("prop_speed" if main == "speed"
+                                                                else "thrust")]
+    n = sum(r["samples"] for r in info)
+    rmse = math.sqrt(sum(r["samples"] * r["rmse"] ** 2 for r in info) / n) if n else math.nan
+    more = [f"block 0 is the driver: dead band per direction around the neutral command "
+            f"{s0.neutral:g} {s0.command_unit}, fitted with the dynamics"]
+    if "thrust" in df.noise and "speed" in df.noise:
+        more.append("speed and thrust fitted together, each weighted by its estimated noise "
+                    f"(σ speed {df.noise['speed']:.3g} rad/s, thrust {df.noise['thrust']:.3g} N)")
+    doc = {"runs": df.fit.extra["runs"], "noise": df.noise, "in_sample_nrmse": df.in_sample,
+           "identifiable": df.identifiable or None}
+    doc.update(extra or {})
+    return FitOutcome(model, chain, {df.structure.name: df.fit}, df.report() + text_extra, rmse,
+                      "rad/s" if main == "speed" else "N", list(df.fit.warnings) + list(notes) + more,
+                      doc, figures)
+
+
+def _fit_structured(sets, model, name, dead_band):
+    from uuvid.identify.dynamic_select import Structure, fit_dynamics, plot_predictions
+
+    exps = experiments_from(sets, f"--model {model}")
+    df = fit_dynamics(exps, Structure(model, dead_band))
+    fig = plot_predictions([df.predict(e) for e in exps], f"{name}: {df.structure.name} (in sample)")
+    return _structured_outcome(model, df, sets, name,
+                               [("fit", fig, "Recorded and fitted speed and thrust per record, "
+                                             "with the ±2σ band from the parameter covariance")])
+
+
+def _fit_select(sets, name, dead_band, families=None):
+    from uuvid.identify.dynamic_select import (
+        Structure,
+        default_structures,
+        plot_predictions,
+        select_structure,
+    )
+
+    exps = experiments_from(sets, "--select")
+    strs = default_structures(dead_band) if not families else [Structure(f, dead_band) for f in families]
+    sel = select_structure(exps, strs)
+    df = sel.best
+    figs = [("fit", plot_predictions([df.predict(e) for e in exps],
+                                     f"{name}: {sel.chosen} (in sample, all levels)"),
+             "Recorded and fitted speed and thrust per record (all levels)"),
+            ("held_out", sel.plot(), "Held-out level: fitted without it, predicted at it, with "
+                                     "the ±2σ band from the parameter covariance")]
+    out = _structured_outcome(df.structure.family, df, sets, name, figs,
+                              [f"selected {sel.chosen}: {sel.reason}"],
+                              {"selection": sel.to_dict()}, "\n\n" + sel.to_text())
+    out.tables.append(("selection", sel.rows, sel.columns(),
+                       "Leave-one-level-out prediction NRMSE (%) per structure"))
+    out.model = f"select → {df.structure.family}"
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# the whole job (usable without the CLI)
+# ------------------------------------------------------------------------------------------------
+def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
+            criterion: str = "cv", map_input: str = "auto", table_points: int | None = None,
+            linear_duty: bool = False, start=None, resample: bool = False,
+            name: str | None = None, dead_band: bool = False, select: bool = False,
+            families: list[str] | None = None) -> FitOutcome:
+    """Read the files and fit ``model``; raises ``BenchDataError``/``FitError``/``ValueError``.
+
+    ``select``: ignore ``model`` and pick the dynamic family by leave-one-level-out prediction;
+    ``dead_band``: a dead-band driver in front of ``first-order``/``yoerger``/``bessa`` (always
+    there for ``dc-motor``/``healey`` and for the joint speed + thrust fit); ``families``: the
+    dynamic families ``select`` compares (default: all)."""
+    from uuvid.identify.fit import IdentifiabilityWarning
+
+    if select:
+        if opts.fmt == "t200":
+            raise FitError("--select needs time series; T200 sheets are steady sweeps")
+        if not paths:
+            raise FitError("no data files given")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", IdentifiabilityWarning)
+            return _fit_select(read_files(paths, opts), name or "selected", True, families)
+    if model not in MODELS:
+        raise FitError(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
+    if not paths:
+        raise FitError("no data files given")
+    if degree is not None and model != "polynomial":
+        raise FitError("--degree applies to --model polynomial only")
+    if degree is not None and not 1 <= degree <= 12:
+        raise FitError(f"--degree must be between 1 and 12, got {degree}")
+    if model in DYNAMIC and opts.fmt == "t200":
+        raise FitError(f"--model {model} needs time series; T200 sheets are steady sweeps")
+    sets = read_files(paths, opts)
+    name = name or model
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings
+        if model in STRUCTURED and (dead_band or model in ("dc-motor", "healey")
+                                    or any(s.thrust is not None for s in sets)):
+            return _fit_structured(sets, model, name, True)
+        fitters = {
+            "quadratic": lambda: _fit_quadratic(sets, name),
+            "cv": lambda: _fit_cv(sets, name),
+            "polynomial": lambda: _fit_polynomial(sets, name, degree, criterion),
+            "deadzone": lambda: _fit_deadzone(sets, name, map_input),
+            "table": lambda: _fit_table(sets, name, table_points),
+            "physical": lambda: _fit_physical(sets, name, opts.supply_voltage, linear_duty),
+            "first-order": lambda: _fit_first_order(sets, name, resample),
+            "yoerger": lambda: _fit_yoerger(sets, name, resample),
+            "bessa": lambda: _fit_bessa(sets, name, resample),
+        }
+        if model in fitters:
+            return fitters[model]()
+        if start is None:
+            from uuvid.thruster.presets import auv2_rig_chain
+
+            start = auv2_rig_chain()
+        return _fit_mclean(sets, name, start, resample)
+
+
+def summary(outcome: FitOutcome, out: Path, report: Path | None) -> dict:
+    doc = {"model": outcome.model, "out": str(out), "parameters": outcome.parameters(),
+           "rmse": outcome.rmse, "rmse_unit": outcome.rmse_unit,
+           "warnings": list(outcome.warnings), "chain": outcome.chain.name,
+           "signals": list(outcome.chain.signal_kinds)}
+    if len(outcome.fits) == 1:  # one estimator: its covariance, in the order of "parameters"
+        (fit,) = outcome.fits.values()
+        doc["covariance"] = np.asarray(fit.covariance, dtype=float).tolist()
+    for k, v in outcome.summary_extra.items():
+        if v is not None:
+            doc[k] = v
+    if report is not None:
+        doc["report"] = str(report / "index.html")
+    return doc
+
+
+def _csv_text(rows: list[dict], columns: list[str]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: r.get(k) for k in columns})
+    return buf.getvalue()
+
+
+def _add_pre(rep, text: str) -> None:
+    """Preformatted text (the fit report keeps its column alignment)."""
+    add = getattr(rep, "add_preformatted", None)
+    if add is not None:
+        add(text)
+    else:  # Report has no public <pre> block yet
+        import html
+
+        rep._blocks.append(f"<pre>{html.escape(text)}</pre>")
+
+
+def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str]) -> Path:
+    """Plots (PNG), parameter and degree tables (CSV), the fit report text, summary.json and an
+    ``index.html`` embedding all of it."""
+    from uuvid.io.atomic import atomic_write_json, atomic_write_text
+    from uuvid.io.modelfile import chain_to_dict
+    from uuvid.report.html import Report
+    from uuvid.report.plots import save_figure
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rep = Report(f"uuvid thruster fit — {outcome.model} ({outcome.chain.name})")
+    rep.add_paragraph(f"Data: {', '.join(sources)}.  Model file: {doc['out']}.  "
+                      f"RMSE {outcome.rmse:.4g} {outcome.rmse_unit}.")
+    pcols = ["fit", "parameter", "estimate", "sigma", "percentile_error_%", "significant", "unit"]
+    prow = outcome.parameter_rows()
+    atomic_write_text(folder / "parameters.csv", _csv_text(prow, pcols))
+    rep.add_heading("Parameters")
+    rep.add_table(prow, pcols, caption="Estimates with standard errors σ and percentile errors "
+                                       "100σ/|θ| (Caccia et al. 2000: > 51.02 % is not "
+                                       "significant at 95 %)", float_fmt="{:.5g}")
+    if outcome.warnings:
+        rep.add_heading("Warnings")
+        rep.add_paragraph("\n".join(outcome.warnings))
+    rep.add_heading("Fit")
+    for stem, fig, caption in outcome.figures:
+        png = save_figure(fig, folder / f"{stem}.png")
+        rep.add_figure(png, caption=caption)
+    for stem, rows, cols, caption in outcome.tables:
+        atomic_write_text(folder / f"{stem}.csv", _csv_text(rows, cols))
+        rep.add_table(rows, cols, caption=caption)
+    atomic_write_text(folder / "fit_report.txt", outcome.report_text + "\n")
+    rep.add_heading("Fit report")
+    _add_pre(rep, outcome.report_text)
+    rep.add_heading("Model file")
+    rep.add_json(chain_to_dict(outcome.chain), caption=doc["out"])
+    atomic_write_json(folder / "summary.json", doc)
+    return rep.write(folder)
+
+
+# ------------------------------------------------------------------------------------------------
+# replay of a logged command through a model
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class Replay:
+    """A model driven by logged commands: predicted vs measured speed and thrust per record."""
+
+    chain_name: str
+    predictions: list  # dynamic_select.Prediction per record
+
+    def rows(self) -> list[dict]:
+        return [r for p in self.predictions for r in p.rows()]
+
+    def summary(self) -> dict:
+        return {"model": self.chain_name, "records": self.rows(),
+                "nrmse_definition": "RMSE / (max − min) of the measured channel"}
+
+    def to_text(self) -> str:
+        lines = [f"{self.chain_name}: replayed logged commands (NRMSE = RMSE / measured range)"]
+        lines += [f"  {r['record']:<30} {r['channel']:<7} NRMSE {r['nrmse_%']:7.2f} %"
+                  for r in self.rows()]
+        return "\n".join(lines)
+
+    def write(self, folder: Path) -> Path:
+        """``<record>.csv`` (time, command, measured, predicted), ``replay.png``,
+        ``summary.json`` and ``index.html``."""
+        from uuvid.identify.dynamic_select import plot_predictions
+        from uuvid.io.atomic import atomic_write_json, atomic_write_text
+        from uuvid.report.html import Report
+        from uuvid.report.plots import save_figure
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        rep = Report(f"uuvid thruster replay — {self.chain_name}")
+        for k, p in enumerate(self.predictions):
+            stem = Path(p.experiment.name).stem or f"record{k}"
+            atomic_write_text(folder / f"{stem}.predicted.csv", p.to_csv_text())
+        png = save_figure(plot_predictions(self.predictions, f"{self.chain_name}: logged command "
+                                           "replayed"), folder / "replay.png")
+        rep.add_table(self.rows(), ["record", "level", "channel", "nrmse_%"],
+                      caption="NRMSE per record and channel (RMSE / measured range)")
+        rep.add_figure(png, caption="Measured (dots) and predicted (line) speed and thrust")
+        atomic_write_json(folder / "summary.json", self.summary())
+        return rep.write(folder)
+
+
+def replay_files(chain, paths, opts: ReadOptions) -> Replay:
+    """Drive ``chain`` with the command logged in each file; compare with its speed/thrust.
+
+    A chain whose input is the voltage gets the command as voltage (``--command-unit volts``, or
+    duty × supply); a command chain gets the raw command (its driver holds the neutral)."""
+    from uuvid.identify.dynamic_select import predict_chain
+
+    if chain.input_kind == "speed":
+        raise FitError(f"{chain.name}: the model's input is the propeller speed; replay needs a "
+                       "model driven by the command or the voltage")
+    sets = read_files(paths, opts)
+    preds = []
+    for s, e in zip(sets, experiments_from(sets, "replay")):
+        u = _voltage_of(s) if chain.input_kind == "voltage" else s.command
+        preds.append(predict_chain(chain, replace(e, u=u)))
+    return Replay(chain.name, preds)
