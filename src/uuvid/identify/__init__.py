@@ -12,4 +12,9 @@ rig.py          test-rig helpers: load cell from a tap test, its inversion, trig
 segments.py     steady segments and robust velocities from pool logs, Savitzky–Golay velocity
 vehicle_fit.py  drag + installation coefficients, model reduction, inertia (Caccia et al. 2000)
 design.py       D-optimal sine experiments for the inertia
+vehicle_logs.py one DOF's command/position from CSV/Parquet, ROS bags, ArduSub logs (LogSpec →
+                LogData): signs/scales, duplicates, clocks, PWM → force, magnitude warnings
+procedures.py   identify_steady / identify_inertia on a log: result objects with summary(),
+                to_dict(), report(folder), plot(); η maps, drag sources, uniform position grid
+log_reports.py  their report folders (plots, tables, summary.json, index.html)
 """

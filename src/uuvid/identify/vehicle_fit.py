@@ -534,7 +534,7 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
                    cov_type=cov_type, hac_lags=hac_lags, emit_warnings=False,
                    extra={"k": k, "k_q": k_q, "rows_excluded": n_excluded})
     notes = ["classical σ assumes white residuals; the integrated regression's residuals are "
-             "autocorrelated — compare cov_type='HAC'"]
+             "autocorrelated — compare cov_type='HAC'"] if cov_type == "classical" else []
     if velocity_noise_correction:
         if velocity is not None:
             raise ValueError("velocity_noise_correction applies to the Savitzky–Golay velocity "

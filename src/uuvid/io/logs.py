@@ -334,8 +334,10 @@ def _read_csv(path: Path, delimiter: str | None, comment: str | None) -> _Table:
     if first == len(lines):
         raise LogDataError(f"{path.name}: the file is empty (no header line)")
     delim = delimiter or _sniff_delimiter(lines[first])
-    header = None
-    rows, rowlines = [], []
+    # sections: a line repeating the first header's first column name starts a new header (a
+    # QGroundControl CSV export re-declares its columns when telemetry groups appear mid-log);
+    # every row is read by its own section's header
+    sections: list[tuple[list[str], list, list]] = []
     try:
         reader = csv.reader(lines[first:], delimiter=delim)
         for row in reader:
@@ -344,15 +346,112 @@ def _read_csv(path: Path, delimiter: str | None, comment: str | None) -> _Table:
                 continue
             if comment and row[0].lstrip().startswith(comment):
                 continue
-            if header is None:
-                header = [c.strip() for c in row]
+            if not sections or _norm(row[0]) == _norm(sections[0][0][0]):
+                sections.append(([c.strip() for c in row], [], []))
                 continue
-            rows.append(row)
-            rowlines.append(lineno)
+            sections[-1][1].append(row)
+            sections[-1][2].append(lineno)
     except csv.Error as e:
         raise LogDataError(f"{path.name}: not a readable CSV file: {e}") from e
-    return _table_from_rows(path.name, header, rows, rowlines, LogDataError,
-                            f" (delimiter {delim!r})")
+    hint = f" (delimiter {delim!r})"
+    grown = []
+    for h, r, ln in sections:
+        grown += _grown_rows(path.name, h, r, ln)
+    if len(grown) == 1:
+        return _table_from_rows(path.name, *grown[0][:3], LogDataError, hint)
+    out = _merge_sections(path.name, [_table_from_rows(path.name, h, r, ln, LogDataError, hint)
+                                      for h, r, ln, _ in grown])
+    for sec, (_h, _r, _l, ins) in zip(out.sections, grown):
+        if ins is not None:
+            sec["inserted_after"] = ins
+    return out
+
+
+def _cell_sim(a: str, b: str) -> float:
+    a, b = a.strip(), b.strip()
+    if a == b:
+        return 1.0
+    try:
+        x, y = float(a), float(b)
+    except ValueError:
+        return 0.0
+    if not (math.isfinite(x) and math.isfinite(y)):
+        return 0.0
+    return 0.5 if abs(x - y) <= 0.05 * max(abs(x), abs(y), 1e-9) else 0.25
+
+
+def _grown_rows(name: str, header: list[str], rows: list, lines: list):
+    """Split a section where its rows grow: QGroundControl writes its CSV header once and adds a
+    telemetry group's cells when the group appears (a battery found after the first rows,
+    mavlink/qgroundcontrol#11763), shifting every later cell to the right.  Where the cells
+    were inserted is found by matching the last shorter row with the next longer rows cell by
+    cell (the same text, or numbers within 5 %); the new cells are named ``unnamed_<n>``.
+    Returns ``[(header, rows, lines, inserted_after or None), ...]``."""
+    out = []
+    cur, start = list(header), 0
+    inserted = None
+    i = 0
+    while i < len(rows):
+        n = len(rows[i])
+        if n <= len(cur) or i == start:
+            i += 1
+            continue
+        prev = [r for r in rows[start:i] if len(r) == len(cur)]
+        if not prev:
+            i += 1
+            continue
+        m = n - len(cur)
+        nxt = [r for r in rows[i:i + 5] if len(r) == n]
+        base = prev[-1]
+        scores = []
+        for j in range(len(cur) + 1):
+            idx = [c if c < j else c + m for c in range(len(cur))]
+            scores.append(sum(_cell_sim(base[c], r[idx[c]]) for r in nxt
+                              for c in range(len(cur))) / len(nxt))
+        best = max(scores)
+        tied = [j for j, sc in enumerate(scores) if sc == best]
+        j = tied[-1]
+        # tied insertion points are alike when the cells they would read differently agree
+        if any(r[c] != r[c + m] for t in tied for c in range(t, j) for r in nxt):
+            raise LogDataError(f"{name}: CSV line {lines[i]} has {n} cells but the header has "
+                               f"{len(cur)} columns, and where the {m} new cells were inserted "
+                               "cannot be told from the neighbouring rows; write the file with "
+                               "one header per column layout")
+        out.append((cur, rows[start:i], lines[start:i], inserted))
+        k0 = sum(c.startswith("unnamed_") for c in cur)
+        new = [f"unnamed_{k0 + q + 1}" for q in range(m)]
+        inserted = cur[j - 1] if j else "(the start)"
+        cur = cur[:j] + new + cur[j:]
+        start = i
+        i += 1
+    out.append((cur, rows[start:], lines[start:], inserted))
+    return out
+
+
+def _merge_sections(name: str, parts: list[_Table]) -> _Table:
+    """One table over the union of the sections' columns (in order of appearance); a column a
+    section lacks is empty there.  ``meta``-like ``sections``: (first data row, columns added)."""
+    cols: list[str] = []
+    for t in parts:
+        cols += [c for c in t.columns if c not in cols]
+    cells: dict[str, list] = {c: [] for c in cols}
+    lines: list[int] = []
+    for t in parts:
+        n = t.n_rows
+        for c in cols:
+            cells[c] += t.cells[c] if c in t.cells else [""] * n
+        lines += list(t.lines or [])
+    out = _Table(name, cols, cells, lines, "CSV")
+    out.sections = []  # type: ignore[attr-defined]
+    seen: set[str] = set()
+    row = 0
+    for t in parts:
+        added = [c for c in t.columns if c not in seen]
+        seen |= set(t.columns)
+        out.sections.append({"first_row": row + 1, "columns_added": added if row else [],
+                             "n_columns": len(t.columns)})
+        row += t.n_rows
+    return out
 
 
 def _read_parquet(path: Path) -> _Table:
@@ -440,7 +539,7 @@ def _datetime_seconds(t: _Table, col: str) -> np.ndarray:
 def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[str],
                  units: Mapping[str, str] | None = None, time_unit: str = "s",
                  delimiter: str | None = None, comment: str | None = "#",
-                 allow_missing: bool = False) -> TimeResponse:
+                 allow_missing: bool = False, on_duplicate: str = "error") -> TimeResponse:
     """Read a table with one row per sample (CSV, or Parquet with ``pyarrow``) into SI channels.
 
     Parameters
@@ -465,6 +564,18 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
         Lines starting with this are skipped (``None``: none).
     allow_missing
         Keep empty/NaN cells as NaN instead of raising (the time column must be complete).
+    on_duplicate
+        Rows with the same time stamp: ``"error"`` (default), ``"first"``, ``"last"`` or
+        ``"mean"`` (per channel, over the finite cells of the group); rows out of order are
+        then sorted by time (``meta["reordered"]``, ``meta["duplicates"]`` count them).
+
+    A time column of ISO 8601 text (``2024-05-01 12:00:00.250``, as QGroundControl's CSV export
+    writes) is recognised with the default ``time_unit="s"`` (``meta["time_detected"]``).  A CSV
+    whose header is repeated mid-file with more columns is read section by section, each row by
+    its own header; a column a section lacks is empty there (``meta["sections"]``).  Rows that
+    grow without a new header (QGroundControl adds a telemetry group's cells mid-row once the
+    group appears) are placed by matching the neighbouring rows; the new cells are named
+    ``unnamed_<n>`` (``meta["sections"][i]["inserted_after"]``).
 
     ``meta``: ``source``, ``path``, ``format`` (``csv``/``parquet``), ``units``,
     ``original_units``, ``original_names`` (source column per channel), ``time_column`` and
@@ -503,22 +614,26 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
         t = _read_csv(p, delimiter, comment)
     if t.n_rows == 0:
         raise LogDataError(f"{t.name}: no data rows under the header")
+    _check_duplicate_option(on_duplicate)
     tcol = _find_column(t, time_col, "the time")
+    detected = False
     if t.dtypes.get(tcol) == "timestamp":
         time = _numeric(t, tcol, "time", False) * 1e-9
         tu = "datetime"
-    elif tu == "datetime":
+    elif tu == "datetime" or (tu == "s" and _looks_iso(t.cells[tcol])):
+        detected = tu != "datetime"
         time = _datetime_seconds(t, tcol)
+        tu = "datetime"
     else:
         time = _numeric(t, tcol, f"time, {tu}", False) * TIME_UNITS[tu]
     d = np.diff(time)
     bad = np.flatnonzero(d <= 0)
-    if bad.size:
+    if bad.size and on_duplicate == "error":
         i = int(bad[0]) + 1
         kind = "duplicated" if d[i - 1] == 0 else "not increasing (unsorted)"
         raise LogDataError(f"{t.where(tcol, i)}: time stamp {time[i]:.9g} s is {kind}: the "
                            f"previous row has {time[i - 1]:.9g} s; expected strictly increasing "
-                           "time stamps")
+                           "time stamps (or on_duplicate='first'|'last'|'mean')")
     channels, si_units, orig_units, orig_names = {}, {}, {}, {}
     for name, src in columns.items():
         col = _find_column(t, src, f"channel {name!r}")
@@ -529,10 +644,57 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
         si_units[name] = si
         orig_units[name] = units.get(name)
         orig_names[name] = col
+    n_reordered = n_dup = 0
+    if bad.size:
+        time, channels, n_reordered, n_dup = _merge_rows(time, channels, on_duplicate)
     meta = {"source": t.name, "path": str(p), "format": t.kind.lower(), "units": si_units,
             "original_units": orig_units, "original_names": orig_names, "time_column": tcol,
-            "time_unit": tu}
+            "time_unit": tu, "time_detected": detected, "reordered": n_reordered,
+            "duplicates": n_dup}
+    if getattr(t, "sections", None):
+        meta["sections"] = t.sections
     return TimeResponse(time, channels, meta)
+
+
+_ISO_RE = re.compile(r"^\s*\d{4}-\d{2}-\d{2}[T ]\d{1,2}:\d{2}")
+
+
+def _looks_iso(cells: list) -> bool:
+    """The first non-empty cell of a time column is ISO 8601 date-time text."""
+    for c in cells:
+        if isinstance(c, str) and c.strip():
+            return bool(_ISO_RE.match(c))
+        if c is not None and not isinstance(c, str):
+            return False
+    return False
+
+
+def _merge_rows(time: np.ndarray, channels: dict, on_duplicate: str):
+    """Sort rows by time (stable) and merge rows with the same stamp, per channel over its
+    finite cells (``first``/``last``/``mean``).  Returns (t, channels, n_reordered, n_merged)."""
+    order = np.argsort(time, kind="stable")
+    n_reordered = int(np.count_nonzero(order != np.arange(order.size)))
+    time = time[order]
+    starts = np.concatenate(([True], np.diff(time) != 0))
+    groups = np.cumsum(starts) - 1
+    ng = int(groups[-1]) + 1
+    out = {}
+    for name, v in channels.items():
+        v = v[order]
+        ok = np.isfinite(v)
+        if on_duplicate == "mean":
+            cnt = np.bincount(groups[ok], minlength=ng)
+            s = np.bincount(groups[ok], weights=v[ok], minlength=ng)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                r = np.where(cnt > 0, s / np.maximum(cnt, 1), np.nan)
+        else:
+            r = np.full(ng, np.nan)
+            idx = np.flatnonzero(ok)
+            if on_duplicate == "first":
+                idx = idx[::-1]  # later writes win: reversed, the first finite cell wins
+            r[groups[idx]] = v[idx]
+        out[name] = r
+    return time[starts], out, n_reordered, int(time.size - ng)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -848,6 +1010,7 @@ def read_rosbag(path, topics: Mapping[str, str], *, resample: str | float | None
         def where(i, ch=ch, tp=tp):
             return f"{name}: channel {ch!r}, topic {tp!r} message {i + 1}"
 
+        n_raw = vv.size
         tt, vv, nre = _finish_series(tt, vv, on_duplicate=on_duplicate, allow_missing=allow_missing,
                                      where=where, fmt_t=lambda x: f"{(x - t0) / 1e9:.9f} s")
         vv, si = convert_units(vv, units.get(ch), what=f"{name}: channel {ch!r}")
@@ -855,7 +1018,8 @@ def read_rosbag(path, topics: Mapping[str, str], *, resample: str | float | None
                 "format": fmt, "units": {ch: si},
                 "original_units": {ch: units.get(ch)},
                 "original_names": {ch: f"{tp}:{specs[ch][1]}"}, "msgtypes": {ch: msgtypes[ch]},
-                "stamp": {ch: stamp_used[ch]}, "reordered": {ch: nre}, "t0_ns": t0}
+                "stamp": {ch: stamp_used[ch]}, "reordered": {ch: nre},
+                "duplicates": {ch: int(n_raw - vv.size)}, "t0_ns": t0}
         out[ch] = TimeResponse((tt - t0) / 1e9, {ch: vv}, meta)
     return _maybe_align(out, resample, interp, span)
 
@@ -1313,7 +1477,8 @@ def read_ardusub(path, fields: Mapping[str, str | Sequence[str]] | None = None, 
         meta = {"source": name, "path": str(p), "format": fmt, "units": {ch: si},
                 "original_units": {ch: unit}, "original_names": {ch: s.text},
                 "time_base": time, "time_mapped": {ch: inf["mapped"]},
-                "reordered": {ch: nre}, "skipped": dict(skipped)}
+                "reordered": {ch: nre}, "skipped": dict(skipped),
+                "duplicates": {ch: int(raw_vals[ch].size - vv.size)}}
         if inf["inst"] is not None:
             meta["instances"] = {ch: f"{inf['instance_field']}={inf['inst']}"}
         if kind == "tlog":
