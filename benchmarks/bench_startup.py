@@ -12,8 +12,9 @@ Cases:
   numba and calls one cached compiled function (the floor of any process that runs compiled code).
   Acceptance: ≤ :data:`LIMIT_S` s (``within_limit``; ``cpu_time_s`` is the process's user + system
   time, what the wall time is on an idle machine — ``cpu_within_limit`` — since the measurement
-  often shares the cores with other work: ``load_average_1min`` says how much).  ``PYTHONDONTWRITEBYTECODE`` is dropped for
-  these processes so that, as in an installed package, the bytecode is cached.
+  often shares the cores with other work: ``load_average_1min`` says how much).
+  ``PYTHONDONTWRITEBYTECODE`` is dropped for these processes so that, as in an installed package,
+  the bytecode is cached.
 * **uuvid --help (whole process)**: the command line alone, against ``python -c "import numpy"``.
 * **setup_mission**: the BlueROV2 (T200 chains: ESC → first-order motor → map, closed-form steady
   map) and the AUV II (tunnel thrusters: simulated to rest, the table read from the disk cache),
@@ -152,7 +153,8 @@ def setup_cases(repeat: int = 5) -> list[dict]:
         ref = time.perf_counter() - t0
         ours = statistics.median(times)
         closed = chain.has_closed_form_steady
-        case = {"case": f"setup_mission {name} ({'closed-form steady map' if closed else 'swept steady table, disk cache'})",
+        how = "closed-form steady map" if closed else "swept steady table, disk cache"
+        case = {"case": f"setup_mission {name} ({how})",
                 "time_s": ours, "min_time_s": min(times),
                 "reference": "simulating the chain to rest (sweep of 401 levels)",
                 "reference_time_s": ref, "ratio": ref / ours, "repeat": repeat}

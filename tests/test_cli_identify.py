@@ -347,20 +347,30 @@ def test_the_same_log_as_parquet_and_as_a_ros2_bag(logs, steady, tmp_path):
             steady["parameters"][name]["estimate"], rel=2e-3), name
 
 
-def _write_tlog(path):
+def _write_tlog(path, params: bool = False, reversed_motors=()):
     """A BlueROV2 turning on the spot: horizontal servos at 1500 ± δ (yaw pattern), ATTITUDE.yaw
-    (wrapped to ±π) from the 1-DOF yaw model driven by B T(PWM) through the T200 model."""
+    (wrapped to ±π) from the 1-DOF yaw model driven by B T(PWM) through the T200 model.
+
+    ``params``: also the parameter download (FRAME_CONFIG 1, SERVOn_FUNCTION, MOT_n_DIRECTION)
+    and MANUAL/armed heartbeats; ``reversed_motors``: MOT_n_DIRECTION = −1 for these motors, whose
+    outputs ArduSub then mirrors about 1500 µs (the trap of real vehicles)."""
     from pymavlink import mavutil
     from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+    from uuvid.io.ardusub import default_t200
+
     v = load_vehicle("bluerov2")
     chains = [v.thruster_chain(j) for j in range(v.layout.n)]
+    t200 = default_t200()
     s = np.sign(v.B[5, :4])
     pwm, tau = [], []
     for d in (80, 120, 180, 250, 330, 400, -80, -120, -180, -250, -330, -400):
         p = np.full(8, 1500.0)
         p[:4] = 1500 + s * d
-        T = np.array([c.steady_thrust(np.array([p[j]]))[0] for j, c in enumerate(chains)])
+        if params:  # what the log reader uses: the voltage-aware T200 at the logged 15.2 V
+            T = t200.thrust(p[:6], np.full(6, 15.2))
+        else:
+            T = np.array([c.steady_thrust(np.array([p[j]]))[0] for j, c in enumerate(chains)])
         pwm += [p] * 100
         tau += [float(v.B[5] @ T)] * 100
     tau = np.array(tau)
@@ -379,8 +389,26 @@ def _write_tlog(path):
 
     put(1.7e9, sub.heartbeat_encode(mavlink2.MAV_TYPE_SUBMARINE,
                                     mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 0))
+    if params:
+        plist = {"FRAME_CONFIG": 1.0, "BARO_PRIMARY": 0.0}
+        for j in range(1, 9):
+            plist[f"SERVO{j}_FUNCTION"] = float(32 + j if j <= 6 else 0)
+        for j in range(1, 7):
+            plist[f"MOT_{j}_DIRECTION"] = -1.0 if j in reversed_motors else 1.0
+        for i, (name, val) in enumerate(plist.items()):
+            put(1.7e9 + 0.001 * (i + 1), sub.param_value_encode(name.encode(), val, 9,
+                                                                  len(plist), i))
+    mirror = np.array([-1.0 if j + 1 in reversed_motors else 1.0 for j in range(8)])
     for k in range(t.size):
         boot = 5.0 + t[k]
+        if params and k % 10 == 0:  # 1 Hz: MANUAL (19), armed
+            put(1.7e9 + boot, sub.heartbeat_encode(
+                mavlink2.MAV_TYPE_SUBMARINE, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                mavlink2.MAV_MODE_FLAG_SAFETY_ARMED | mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                19, mavlink2.MAV_STATE_ACTIVE))
+            put(1.7e9 + boot + 0.005, sub.sys_status_encode(0, 0, 0, 500, 15200, 300, 90,
+                                                            0, 0, 0, 0, 0, 0))
+        pwm[k] = 1500 + mirror * (pwm[k] - 1500)
         put(1.7e9 + boot + 0.01, sub.attitude_encode(int(round(boot * 1000)), 0.0, 0.0,
                                                      float(yaw[k]), 0, 0, 0))
         put(1.7e9 + boot + 0.02, sub.servo_output_raw_encode(int(round(boot * 1e6)), 0,
@@ -397,8 +425,25 @@ def test_ardusub_tlog_thrust_from_the_servo_outputs(tmp_path):
     assert doc["format"] == "tlog" and "servo" in doc["log_info"]["command_from"]
     assert _within(doc["parameters"]["k"], P.linear_damping[5, 5])
     assert _within(doc["parameters"]["k_q"], P.quadratic_damping[5, 5])
+    assert any("holds no parameters" in w for w in doc["log_info"]["warnings"])
     r = _run("vehicle", "identify", "steady", tmp_path / "dive.tlog", "--dof", "yaw")
     assert r.exit_code == 2 and "--vehicle" in r.output
+
+
+def test_ardusub_tlog_read_as_its_parameters_describe_the_vehicle(tmp_path):
+    """With the parameter download the log itself says the frame (FRAME_CONFIG 1 → the BlueROV2
+    preset, said in the notes), which output drives which motor and which motors are reversed:
+    reversed motors' mirrored PWM gives the same yaw drag (ignoring MOT_n_DIRECTION would flip
+    their thrust and wreck it)."""
+    pytest.importorskip("pymavlink")
+    P = _write_tlog(tmp_path / "dive.tlog", params=True, reversed_motors=(1, 2, 4))
+    doc = _json("vehicle", "identify", "steady", tmp_path / "dive.tlog", "--dof", "yaw",
+                "--settle", "2", "--min-duration", "5")
+    assert "N_Nm" in doc["log_info"]["command_from"]
+    notes = " ".join(doc["log_info"]["notes"])
+    assert "bluerov2 preset" in notes and "FRAME_CONFIG = 1" in notes and "open-loop" in notes
+    assert _within(doc["parameters"]["k"], P.linear_damping[5, 5])
+    assert _within(doc["parameters"]["k_q"], P.quadratic_damping[5, 5])
 
 
 # ------------------------------------------------------------------------------------ design

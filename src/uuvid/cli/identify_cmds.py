@@ -74,6 +74,9 @@ def identify_steady(
     msg_definitions: list[str] = lo.MSG_DEFS,
     t_start: float | None = lo.T_START,
     t_end: float | None = lo.T_END,
+    all_modes: bool = typer.Option(False, "--all-modes",
+                                   help="ArduSub logs: also take steady segments from closed-loop "
+                                        "modes (default: MANUAL and armed only)."),
     eta_map: str | None = typer.Option(None, "--eta-map",
                                        help="MODE[+|-]=NAME,...: the installation coefficient each "
                                             "mode (and sign of φ) sees; 1/open = open water."),
@@ -126,6 +129,7 @@ def identify_steady(
                        ballast_col, time_unit, command_unit, position_unit, angle_unit,
                        delimiter, topic, fields, vehicle, on_duplicate, time_base,
                        msg_definitions, t_start, t_end)
+    spec.open_loop_only = not all_modes
     data = lo.call(read_vehicle_log, spec)
     res = lo.call(run, data, dof.value, settle=settle, min_duration=min_duration, tol=tol,
                   rel_tol=rel_tol, threshold=threshold, eta_map=eta_map,

@@ -142,7 +142,10 @@ def run_steady(data: LogData, dof: str, *, settle: float, min_duration: float, t
         labels = [f"{m}{_SEP}{b!r}" for m, b in zip(modes, data.ballast.tolist())]
     else:
         labels = list(modes)
-    segs = find_segments(data.t_cmd, data.command, min_duration=min_duration, settle=settle,
+    cmd = data.command
+    if data.closed_loop is not None:  # closed-loop stretches end constant-command intervals
+        cmd = np.where(data.closed_loop, np.nan, cmd)
+    segs = find_segments(data.t_cmd, cmd, min_duration=min_duration, settle=settle,
                          tol=tol, rel_tol=rel_tol, mode=labels)
     if not segs:
         lv = np.unique(np.round(data.command, 6))

@@ -72,6 +72,8 @@ class LogSpec:
     msg_definitions: dict | list | None = None
     t_start: float | None = None
     t_end: float | None = None
+    #: ArduSub logs: steady segments only from open-loop (MANUAL, armed) stretches.
+    open_loop_only: bool = True
 
     def __post_init__(self):
         self.path = Path(self.path)
@@ -88,6 +90,9 @@ class LogData:
     modes: list[str] | None = None
     ballast: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    #: True where the vehicle was not in open loop (e.g. ArduSub ALT_HOLD): steady segments end
+    #: there (``None``: every sample is usable).
+    closed_loop: np.ndarray | None = None
 
     @property
     def warnings(self) -> list[str]:
@@ -115,7 +120,8 @@ class LogData:
         info = {**self.info, "t_start": t_start, "t_end": t_end,
                 "command_samples": int(kc.sum()), "position_samples": int(kp.sum())}
         return LogData(self.t_cmd[kc], self.command[kc], self.t_pos[kp], self.position[kp],
-                       modes, None if self.ballast is None else self.ballast[kc], info)
+                       modes, None if self.ballast is None else self.ballast[kc], info,
+                       None if self.closed_loop is None else self.closed_loop[kc])
 
 
 # ------------------------------------------------------------------------------------------------
@@ -589,12 +595,96 @@ def _read_bag_log(spec: LogSpec) -> LogData:
 # ------------------------------------------------------------------------------------------------
 # ArduSub
 # ------------------------------------------------------------------------------------------------
-def _read_ardusub_log(spec: LogSpec) -> LogData:
-    """Command/position from an ArduSub ``.tlog``/``.bin`` (servo outputs through ``--vehicle``).
+#: Vehicle presets ArduSub's frames stand for when no vehicle is given (said out loud).
+FRAME_PRESETS = {1: "bluerov2", 2: "bluerov2-heavy"}
+_DOF_COLUMN = {"surge": "X_N", "sway": "Y_N", "heave": "Z_N", "roll": "K_Nm", "pitch": "M_Nm",
+               "yaw": "N_Nm"}
 
-    TODO(issue 9, merge): re-point to ``uuvid.io.ardusub.load_dive(path, vehicle=...)`` — its
-    ``.table`` gives depth/attitude from the right sources and ``X_N … N_Nm`` from the log's own
-    frame, MOT_n_DIRECTION and battery voltage; this function keeps today's logic until then."""
+
+def _read_ardusub_log(spec: LogSpec) -> LogData:
+    """Command/position from an ArduSub ``.tlog``/``.BIN`` as the log describes the vehicle.
+
+    Without ``--field command=…`` the DOF's generalized force comes from
+    :func:`uuvid.io.ardusub.load_dive`: the log's FRAME_CONFIG / SERVOn_FUNCTION /
+    MOT_n_DIRECTION, thrust per motor from PWM at the logged battery voltage, and the physical
+    wrench ``τ = B T`` of the vehicle (``--vehicle``, or the preset the frame stands for:
+    FRAME_CONFIG 1 → BlueROV2, 2 → BlueROV2 Heavy, said in the notes).  Depth (heave) and yaw
+    come from the sources ``load_dive`` chooses and reports.  Only open-loop (MANUAL, armed)
+    stretches end steady segments unless ``spec.open_loop_only`` is off; what was left out is
+    said in the notes."""
+    raw = _parse_pairs(spec.fields, "--field")
+    if "command" in raw or "position" in raw:
+        return _read_ardusub_fields(spec)
+    if spec.dof not in ("heave", "yaw"):
+        raise ValueError(f"{spec.path.name}: ArduSub logs carry no {spec.dof} position; give "
+                         "--field position=MESSAGE.field (e.g. a positioning system's message)")
+    from uuvid.io.ardusub import load_dive
+    from uuvid.io.ardusub.frames import MissingFrameError
+
+    try:
+        dive = load_dive(spec.path)
+    except MissingFrameError as e:
+        if not spec.vehicle:
+            raise ValueError(f"{e}; or give --vehicle to map output j to thruster j") from None
+        # no parameters: output j drives thruster j of --vehicle, unreversed — said loudly
+        data = _read_ardusub_fields(spec)
+        data.info.setdefault("warnings", []).append(
+            f"{spec.path.name} holds no parameters (FRAME_CONFIG, SERVOn_FUNCTION, "
+            f"MOT_n_DIRECTION): assumed output j drives thruster j of {spec.vehicle} with no "
+            "reversal — give the log's parameter download to read them")
+        return data
+    notes, warnings = [], list(dive.warnings)
+    vehicle = spec.vehicle
+    if vehicle is None:
+        vehicle = FRAME_PRESETS.get(dive.config.frame)
+        if vehicle is None:
+            raise ValueError(f"{spec.path.name}: FRAME_CONFIG = {dive.config.frame} "
+                             f"({dive.config.frame_name}) has no uuvid preset: give --vehicle "
+                             "(its geometry turns the thrusts into the generalized force)")
+        notes.append(f"vehicle: the {vehicle} preset, which FRAME_CONFIG = {dive.config.frame} "
+                     f"({dive.config.frame_name}) stands for (give --vehicle to use another)")
+    from uuvid.io.ardusub import check_vehicle
+
+    veh = _load_vehicle(vehicle)
+    check_vehicle(dive.config, veh, name=spec.path.name)
+    tb = dive.table
+    motors = [m.number for m in dive.config.active]
+    T = np.vstack([tb[f"thrust_{i}_N"].to_numpy(float) for i in motors])
+    B = np.asarray(veh.B, float)
+    from uuvid.vehicle.layout import dof_index
+
+    tau = B[dof_index(spec.dof)] @ T
+    t = tb["t_s"].to_numpy(float)
+    if spec.dof == "heave":
+        pos, pos_from = tb["depth_m"].to_numpy(float), dive.depth_source["source"]
+        notes.append(f"depth: {dive.depth_source['source']} — {dive.depth_source['why']}")
+    else:
+        pos, pos_from = tb["yaw_rad"].to_numpy(float), "attitude yaw (unwrapped)"
+    closed = None
+    if spec.open_loop_only:
+        mask, why = dive.open_loop()
+        closed = ~mask
+        notes.append(f"steady segments from open-loop data only (--all-modes to use every mode): "
+                     f"{why}")
+    info = {"source": spec.path.name, "format": dive.format, "time_base": "autopilot boot",
+            "command_from": (f"{_DOF_COLUMN[spec.dof]}: thrust per motor (PWM at the logged "
+                             f"battery voltage) through {veh.name}'s B ({spec.dof} row)"),
+            "position_from": pos_from, "frame": dive.config.frame,
+            "notes": notes, "warnings": warnings}
+    keep, okp = np.isfinite(tau), np.isfinite(pos)
+    if keep.sum() < 2 or okp.sum() < 5:
+        raise ValueError(f"{spec.path.name}: too few samples for {spec.dof} "
+                         f"({int(keep.sum())} command, {int(okp.sum())} position)")
+    data = LogData(t[keep], tau[keep], t[okp], pos[okp], None, None, info,
+                   None if closed is None else closed[keep])
+    names = {"command": _DOF_COLUMN[spec.dof], "position": pos_from}
+    return _finish(data, spec, names, True)
+
+
+def _read_ardusub_fields(spec: LogSpec) -> LogData:
+    """Command/position from named ArduSub message fields (``--field command=…``); the servo
+    outputs through ``--vehicle`` only when ``--field position=…`` names a position that the
+    log's own configuration cannot give."""
     from uuvid.io.logs import ARDUSUB_DATAFLASH_FIELDS, ARDUSUB_TLOG_FIELDS, read_ardusub
 
     raw = _parse_pairs(spec.fields, "--field")

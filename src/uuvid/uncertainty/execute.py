@@ -363,7 +363,8 @@ def run_study(study, out: str | Path | None = None, *, backend: str | None = Non
     payload = study.payload()
     fn = chunk_fn or evaluate_chunk
     base = {"format": RESULT_FORMAT, "study": study.kind, "name": study.name, "runs": n,
-            "backend": backend, "backend_reason": choice.reason, "scheduler": sched, "workers": workers if backend != "inprocess" else 1,
+            "backend": backend, "backend_reason": choice.reason, "scheduler": sched,
+            "workers": workers if backend != "inprocess" else 1,
             "chunk_size": int(chunk_size), "chunks": len(chunks), "retries": retries,
             "spec": payload["spec"]}
     writer = _Writer(out, base)

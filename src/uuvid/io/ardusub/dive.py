@@ -195,7 +195,11 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     for m in config.motors:
         if m.disabled:
             warnings.append(f"motor {m.number} ignored: {m.disabled}")
-    depth, dsrc = _depth(raw, config, warnings)
+    try:
+        depth, dsrc = _depth(raw, config, warnings)
+    except LogDataError as e:  # a surface or bench log: everything else is still worth reading
+        depth, dsrc = None, {"source": None, "why": str(e)}
+        warnings.append(f"depth_m is empty (NaN): {e}")
     att, att_src = _attitude(raw)
     att[2] = _unwrap(att[2])
     bat = _battery(raw)
@@ -209,7 +213,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
                                f"{m.output}{'' if raw.format == 'dataflash' else '_raw'} samples")
         pwms[m.number] = ch
     for ch, label in ((depth, "depth"), *((a, a.source) for a in att)):
-        if _constant(ch):
+        if ch is not None and _constant(ch):
             warnings.append(f"{label} ({ch.source}) is constant over the whole log")
     # ---- the grid: per part, over the interval depth, attitude and PWM all cover
     if dt is None:
@@ -217,7 +221,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         d = d[(d > 0) & (np.diff(att[0].part) == 0)]
         dt = max(round(float(np.median(d)), 3), 0.001) if d.size else 0.1
     grids, gparts = [], []
-    essentials = [depth, *att, *pwms.values()]
+    essentials = [c for c in (depth, *att, *pwms.values()) if c is not None]
     for k in sorted(set(np.unique(att[0].part).tolist())):
         lo = max((c.t[c.part == k].min() for c in essentials if np.any(c.part == k)),
                  default=np.nan)
@@ -237,8 +241,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     prov: dict = {"t_s": {"source": f"autopilot clock ({stamp}), continued across reboots, "
                                     "from the first row",
                           "unit": "s", "t0_boot_s": float(grid[0]), "dt_s": dt}}
-    cols["depth_m"] = _on_grid(depth, grid, gpart)
-    prov["depth_m"] = {"source": depth.source, "unit": "m", "why": dsrc["why"]}
+    cols["depth_m"] = _on_grid(depth, grid, gpart) if depth is not None else np.full(grid.size, np.nan)
+    prov["depth_m"] = {"source": None if depth is None else depth.source, "unit": "m",
+                       "why": dsrc["why"]}
     for c, ch in zip(("roll_rad", "pitch_rad", "yaw_rad"), att):
         cols[c] = _on_grid(ch, grid, gpart)
         prov[c] = {"source": ch.source, "unit": "rad"}
@@ -280,7 +285,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         df.insert(1, "part", gpart)
         prov["part"] = {"source": "boot (reboot) number within the log"}
     segs = _segments(df)
-    dsrc = {**dsrc, "source": depth.source}
+    dsrc = {**dsrc, "source": None if depth is None else depth.source}
     return DiveLog(raw.path, raw.format, df, config, dsrc, warnings, segs, prov, tm.to_dict(),
                    basis, factor_df, None if veh is None else veh.name)
 

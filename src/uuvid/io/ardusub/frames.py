@@ -65,6 +65,11 @@ DOF_COLUMNS = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
 TRIM_PWM = 1500.0
 
 
+class MissingFrameError(LogDataError):
+    """The log holds no FRAME_CONFIG (e.g. a telemetry log recorded without the parameter
+    download): the thruster layout and motor directions are unknown."""
+
+
 def factor_matrix(frame: int) -> np.ndarray:
     """6 × n ArduSub mixing matrix of ``frame`` in ``[X, Y, Z, K, M, N]`` rows (see module doc)."""
     if frame not in FRAME_FACTORS:
@@ -153,7 +158,7 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
 
     frame = get("FRAME_CONFIG")
     if frame is None:
-        raise LogDataError(f"{name}: the log holds no FRAME_CONFIG parameter (no PARM / "
+        raise MissingFrameError(f"{name}: the log holds no FRAME_CONFIG parameter (no PARM / "
                            "PARAM_VALUE messages with it), so its thruster layout and motor "
                            "directions are unknown; give params= (the vehicle's parameter file, "
                            "as QGroundControl or BlueOS save it)")
