@@ -66,7 +66,7 @@ def test_console_tables_wrap_instead_of_cutting():
 
     from rich.table import Table
 
-    from uuvid.cli.app import _FoldingConsole
+    from uuvid.cli.common import _FoldingConsole
 
     con = _FoldingConsole(width=24, file=io.StringIO())
     t = Table()

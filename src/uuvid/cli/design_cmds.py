@@ -82,7 +82,7 @@ def design_input(
 
     Reports the τ_c range, the D-optimal ω verified from the Fisher information, the offset and
     amplitude that avoid thrust reversal, and the experiment length."""
-    from uuvid.cli.app import _print_json, err_console, out_console
+    from uuvid.cli.common import _print_json, err_console, out_console
     from uuvid.identify.design import SQRT3, design_sine_experiment
     from uuvid.io.atomic import atomic_write_text
 
@@ -218,7 +218,7 @@ def reproduce_caccia2000(
                                                         "index.html here."),
 ):
     """Caccia, Indiveri & Veruggio (2000): ROMEO's identification, simulated and identified back."""
-    from uuvid.cli.app import _print_json, err_console
+    from uuvid.cli.common import _print_json, err_console
     from uuvid.papers import caccia2000
     from uuvid.report.progress import progress_task
 
@@ -239,7 +239,7 @@ def reproduce_caccia2000(
 def _show_caccia(result: dict) -> None:
     from rich.table import Table
 
-    from uuvid.cli.app import out_console
+    from uuvid.cli.common import out_console
     from uuvid.papers.caccia2000 import TABLE_KEYS
 
     for table in TABLE_KEYS:

@@ -13,7 +13,7 @@ def examples(
     list_: bool = typer.Option(False, "--list", help="List the examples and exit."),
 ):
     """Write small example logs generated from a simulated vehicle (for the README's commands)."""
-    from uuvid.cli.app import _fail, err_console, out_console
+    from uuvid.cli.common import _fail, err_console, out_console
     from uuvid.examples import EXAMPLES, write_example
 
     if list_:

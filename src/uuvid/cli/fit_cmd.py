@@ -135,7 +135,7 @@ def thruster_fit(
     json_out: bool = typer.Option(False, "--json", help="Print a summary as one JSON document."),
 ):
     """Identify a thruster model from bench data; write the model file and a report."""
-    from uuvid.cli.app import _fail, _load_model, _print_json, err_console, out_console
+    from uuvid.cli.common import _fail, _load_model, _print_json, err_console, out_console
     from uuvid.io.bench import BenchDataError
     from uuvid.io.modelfile import ModelFileError, save_chain
     from uuvid.thruster.blocks import ParameterError

@@ -120,7 +120,7 @@ def identify_steady(
                                             "heave buoyancy Figs. 5/6), tables and index.html."),
 ):
     """Drag and installation coefficients from constant-thrust segments (Caccia et al. 2000)."""
-    from uuvid.cli.app import _print_json, out_console
+    from uuvid.cli.common import _print_json, out_console
     from uuvid.identify.procedures import identify_steady as run
     from uuvid.identify.vehicle_logs import read_vehicle_log
 

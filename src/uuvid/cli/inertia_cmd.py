@@ -96,7 +96,7 @@ def identify_inertia(
                                             "phase lag) and index.html."),
 ):
     """Inertia from a sine experiment by the integrated regression (Caccia et al. 2000, eqs. 15–19)."""
-    from uuvid.cli.app import _print_json, out_console
+    from uuvid.cli.common import _print_json, out_console
     from uuvid.identify.procedures import identify_inertia as run
 
     lo.check_write_back(write_vehicle, out_vehicle)

@@ -14,7 +14,7 @@ log_app = typer.Typer(no_args_is_help=True,
 
 
 def _fail(msg: str):
-    from uuvid.cli.app import _fail as fail
+    from uuvid.cli.common import _fail as fail
 
     fail(msg)
 
@@ -27,7 +27,7 @@ def inspect_cmd(
                                        "BlueOS) completing or overriding the log's parameters."),
 ):
     """Format, senders and clocks, messages, vehicle configuration, depth source, modes."""
-    from uuvid.cli.app import _print_json, out_console
+    from uuvid.cli.common import _print_json, out_console
     from uuvid.io.ardusub import inspect_log
 
     try:
@@ -59,7 +59,7 @@ def export_cmd(
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document."),
 ):
     """One tidy table on one time base: depth, attitude, battery, mode, PWM, thrust, forces."""
-    from uuvid.cli.app import _print_json, err_console, out_console
+    from uuvid.cli.common import _print_json, err_console, out_console
     from uuvid.io.ardusub import load_dive
 
     out = renamed(out, "--out-file", old_out)

@@ -106,7 +106,7 @@ def log_spec(log: Path, dof: str, fmt, time_col, command_col, position_col, mode
 
 
 def fail(msg: str):
-    from uuvid.cli.app import _fail
+    from uuvid.cli.common import _fail
 
     _fail(msg)
 
@@ -130,7 +130,7 @@ def call(fn, *args, prefix: str = "", **kw):
 def print_messages(warnings, notes) -> None:
     from rich.markup import escape
 
-    from uuvid.cli.app import err_console
+    from uuvid.cli.common import err_console
 
     for w in warnings or []:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False,
@@ -174,7 +174,7 @@ def outputs(res, *, report, write_vehicle, out_vehicle, key, mode=None) -> dict:
 
 
 def print_tail(doc: dict, warnings, notes) -> None:
-    from uuvid.cli.app import err_console
+    from uuvid.cli.common import err_console
 
     print_messages(warnings, notes)
     if doc.get("report"):

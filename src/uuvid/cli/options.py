@@ -19,7 +19,7 @@ def deprecated_out(help_new: str) -> typer.models.OptionInfo:
 def renamed(new_value, new_name: str, old_value, old_name: str = "--out"):
     """The value of an option given under its new or (deprecated) old name; a note on stderr for
     the old one, an error for both."""
-    from uuvid.cli.app import _fail, err_console
+    from uuvid.cli.common import _fail, err_console
 
     if old_value is None:
         return new_value

@@ -23,7 +23,7 @@ SPEC_KEYS = {"file", "time_col", "command_col", "speed_col", "thrust_col", "comm
 
 
 def _run(model: str, files: list[Path], opts: ReadOptions, out: Path | None, json_out: bool):
-    from uuvid.cli.app import _fail, _load_model, _print_json, err_console, out_console
+    from uuvid.cli.common import _fail, _load_model, _print_json, err_console, out_console
     from uuvid.io.bench import BenchDataError
 
     chain = _load_model(model)
@@ -47,7 +47,7 @@ def _run(model: str, files: list[Path], opts: ReadOptions, out: Path | None, jso
 
 def replay_from_spec(model: str, spec: str, out: Path | None, json_out: bool) -> None:
     """``kind=sampled,file=RUN.csv,time_col=...`` (the ``thruster simulate --signal`` form)."""
-    from uuvid.cli.app import _fail
+    from uuvid.cli.common import _fail
 
     d = {}
     for part in spec.split(","):

@@ -31,7 +31,7 @@ __all__ = ["demo_montecarlo", "demo_sweep", "montecarlo_cmd", "register", "sweep
 
 
 def _helpers():
-    from uuvid.cli.app import _fail, _print_json, _table, err_console, out_console
+    from uuvid.cli.common import _fail, _print_json, _table, err_console, out_console
 
     return _fail, _print_json, _table, err_console, out_console
 

@@ -13,7 +13,7 @@ vehicle_app = typer.Typer(
 
 
 def _helpers():
-    from uuvid.cli.app import _fail, _print_json, _table, err_console, out_console
+    from uuvid.cli.common import _fail, _print_json, _table, err_console, out_console
 
     return _fail, _print_json, _table, err_console, out_console
 

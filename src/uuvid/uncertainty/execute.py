@@ -45,6 +45,7 @@ the consolidated partial result (``results.csv`` with the runs done so far, ``"p
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import os
@@ -57,6 +58,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from uuvid.uncertainty.targets import ChunkResult  # noqa: F401  (re-exported)
 
 BACKENDS = ("inprocess", "processes", "dask")
 #: Start-up of one local worker process, s (spawn, import uuvid, load the compiled kernels; the
@@ -71,18 +74,9 @@ RESULT_FORMAT = "uuvid-study-result/1"
 # ---------------------------------------------------------------------------------------------
 # the unit of work
 # ---------------------------------------------------------------------------------------------
-@dataclass
-class ChunkResult:
-    """Rows ``start … stop-1`` of a study: the table (one row per run, with ``run``), per-run series
-    aligned with the rows, the wall time and where it ran."""
-
-    start: int
-    stop: int
-    table: pd.DataFrame
-    series: dict[str, np.ndarray] = field(default_factory=dict)
-    wall_time: float = 0.0
-    worker: str = ""
-
+#: Study kinds a payload may name → the class that rebuilds it (imported by name in workers).
+STUDY_KINDS = {"sweep": "uuvid.uncertainty.sweep:SweepStudy",
+               "montecarlo": "uuvid.uncertainty.montecarlo:MonteCarloStudy"}
 
 _STUDIES: dict[str, object] = {}
 
@@ -93,16 +87,11 @@ def study_from_payload(payload: dict):
     st = _STUDIES.get(key)
     if st is None:
         kind = payload.get("kind")
-        if kind == "sweep":
-            from uuvid.uncertainty.sweep import SweepStudy
-
-            st = SweepStudy.from_payload(payload)
-        elif kind == "montecarlo":
-            from uuvid.uncertainty.montecarlo import MonteCarloStudy
-
-            st = MonteCarloStudy.from_payload(payload)
-        else:
+        if kind not in STUDY_KINDS:
             raise ValueError(f"unknown study kind {kind!r}")
+        # by name: the studies call this executor, so it must not import them (no import circle)
+        module, _, cls = STUDY_KINDS[kind].partition(":")
+        st = getattr(importlib.import_module(module), cls).from_payload(payload)
         if len(_STUDIES) > 8:
             _STUDIES.clear()
         _STUDIES[key] = st

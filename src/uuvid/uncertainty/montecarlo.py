@@ -63,7 +63,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from uuvid.uncertainty.sweep import Requirement
+from uuvid.uncertainty.sweep import Requirement, probability_summary, wilson  # noqa: F401
 from uuvid.uncertainty.targets import (
     REJECTED,
     StudyBase,
@@ -407,7 +407,7 @@ class MonteCarloStudy(StudyBase):
         return pd.DataFrame(cols)
 
     def evaluate(self, start: int, stop: int):
-        from uuvid.uncertainty.execute import ChunkResult
+        from uuvid.uncertainty.targets import ChunkResult
 
         table = self.parameter_table(start, stop)
         pre = table.pop("_status").to_numpy()
@@ -493,30 +493,6 @@ def series_unit(name: str) -> str:
     if name.startswith("velocity_"):
         return "rad/s" if name.split("_", 1)[1] in ("roll", "pitch", "yaw") else "m/s"
     return ""
-
-
-def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion ``k/n`` (95 % by default)."""
-    if n == 0:
-        return (math.nan, math.nan)
-    p = k / n
-    den = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / den
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return (0.0 if k == 0 else max(0.0, c - h), 1.0 if k == n else min(1.0, c + h))
-
-
-def probability_summary(table: pd.DataFrame, req: Requirement) -> dict:
-    ok = table["status"] == "ok"
-    met = table["requirement_met"].eq(True) & ok
-    n_ok, k = int(ok.sum()), int(met.sum())
-    n_all = len(table)
-    lo, hi = wilson(k, n_ok)
-    lo2, hi2 = wilson(k, n_all)
-    return {"requirement": req.describe(), "runs_simulated": n_ok, "runs_met": k,
-            "probability": k / n_ok if n_ok else math.nan, "wilson95": [lo, hi],
-            "probability_counting_unsimulated_as_failures": k / n_all if n_all else math.nan,
-            "wilson95_counting_unsimulated": [lo2, hi2]}
 
 
 def band_summary(Y: np.ndarray, band: float, residual_sigma: float | None = None,

@@ -302,7 +302,7 @@ class SweepStudy(StudyBase):
         return pd.DataFrame(cols)
 
     def evaluate(self, start: int, stop: int):
-        from uuvid.uncertainty.execute import ChunkResult
+        from uuvid.uncertainty.targets import ChunkResult
 
         table = self.parameter_table(start, stop)
         values = {n: table[n].to_numpy() for n in self.spec.names}
@@ -338,8 +338,6 @@ class SweepStudy(StudyBase):
                     out["metrics"][m] = {"min": float(x.min()), "max": float(x.max()),
                                          "mean": float(x.mean())}
         if self.spec.requirement and len(table):
-            from uuvid.uncertainty.montecarlo import probability_summary
-
             out["requirement"] = probability_summary(table, self.spec.requirement)
         return out
 
@@ -499,6 +497,30 @@ def _edges(c: np.ndarray) -> np.ndarray:
         return np.array([c[0] - 0.5, c[0] + 0.5])
     mid = 0.5 * (c[1:] + c[:-1])
     return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion ``k/n`` (95 % by default)."""
+    if n == 0:
+        return (math.nan, math.nan)
+    p = k / n
+    den = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / den
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (0.0 if k == 0 else max(0.0, c - h), 1.0 if k == n else min(1.0, c + h))
+
+
+def probability_summary(table: pd.DataFrame, req: Requirement) -> dict:
+    ok = table["status"] == "ok"
+    met = table["requirement_met"].eq(True) & ok
+    n_ok, k = int(ok.sum()), int(met.sum())
+    n_all = len(table)
+    lo, hi = wilson(k, n_ok)
+    lo2, hi2 = wilson(k, n_all)
+    return {"requirement": req.describe(), "runs_simulated": n_ok, "runs_met": k,
+            "probability": k / n_ok if n_ok else math.nan, "wilson95": [lo, hi],
+            "probability_counting_unsimulated_as_failures": k / n_all if n_all else math.nan,
+            "wilson95_counting_unsimulated": [lo2, hi2]}
 
 
 __all__ = ["Axis", "PlotSpec", "Requirement", "SweepError", "SweepSpec", "SweepStudy",

@@ -575,6 +575,19 @@ def nan_safe(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+@dataclass
+class ChunkResult:
+    """Rows ``start … stop-1`` of a study: the table (one row per run, with ``run``), per-run series
+    aligned with the rows, the wall time and where it ran."""
+
+    start: int
+    stop: int
+    table: pd.DataFrame  # noqa: F821 (annotation only)
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+    wall_time: float = 0.0
+    worker: str = ""
+
+
 class StudyBase:
     """What every study (sweep, Monte Carlo) shares for :func:`uuvid.uncertainty.execute.run_study`:
     a serialisable payload, a lazily built plan over its parameter names, the chunk-size rule.

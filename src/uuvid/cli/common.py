@@ -1,0 +1,79 @@
+"""What every ``uuvid`` command shares: the consoles (data on stdout, messages on stderr), one
+JSON document, a one-line error with exit status 2, tables, and models named on the command line.
+Command modules import these from here, never from :mod:`uuvid.cli.app` (no import circle)."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+
+class _FoldingConsole(Console):
+    """A console whose tables wrap long cells and headers instead of cutting them with "…" (off
+    a terminal rich assumes 80 columns; a cut header hides what a number is)."""
+
+    def print(self, *objects, **kwargs) -> None:
+        for o in objects:
+            if isinstance(o, Table):
+                for c in o.columns:
+                    c.overflow = "fold"
+                    c.no_wrap = False
+        super().print(*objects, **kwargs)
+
+
+def _pipe_width() -> int | None:
+    """Off a terminal (pipe, file, CI log) nothing limits the width: 120 columns unless COLUMNS
+    says otherwise; on a terminal rich uses the terminal's width."""
+    try:
+        tty = sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        tty = False
+    return None if tty or "COLUMNS" in os.environ else 120
+
+
+out_console = _FoldingConsole(width=_pipe_width())
+err_console = Console(stderr=True)
+
+
+def _print_json(obj) -> None:
+    from uuvid.io.atomic import to_jsonable
+
+    sys.stdout.write(json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
+    sys.stdout.flush()
+
+
+def _fail(msg: str) -> None:
+    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+    raise typer.Exit(code=2)
+
+
+def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}") -> Table:
+    t = Table(title=title)
+    for c in columns:
+        t.add_column(c)
+    for r in rows:
+        cells = [r.get(c) for c in columns]
+        t.add_row(*["—" if x is None else fmt.format(x) if isinstance(x, float) else str(x) for x in cells])
+    return t
+
+
+def _load_model(model: str):
+    from uuvid.thruster.presets import PRESETS, preset_chain
+
+    if model in PRESETS:
+        return preset_chain(model)
+    from uuvid.io.modelfile import ModelFileError, load_chain
+
+    p = Path(model)
+    if not p.exists():
+        _fail(f"{model}: no such model file, and not a preset (presets: {', '.join(sorted(PRESETS))})")
+    try:
+        return load_chain(p)
+    except ModelFileError as e:
+        _fail(str(e))

@@ -1,0 +1,235 @@
+"""``uuvid thruster show|simulate|export|predict``: inspect a thruster model, simulate it under
+any input, export it to UUV Simulator, predict its steady output (e.g. at another supply voltage).
+``fit`` and ``replay`` live in :mod:`uuvid.cli.fit_cmd` and :mod:`uuvid.cli.replay_cmd`."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_console, out_console
+from uuvid.cli.options import deprecated_out, renamed
+
+
+# ------------------------------------------------------------------------------------ thruster
+def _parse_signal(spec: str):
+    """``kind=step,amplitude=24,t0=0`` → a signal."""
+    from uuvid.simulate.signals import signal_from_spec
+
+    d: dict = {}
+    for part in spec.split(","):
+        if not part.strip():
+            continue
+        if "=" not in part:
+            _fail(f"--signal: expected key=value, got {part!r} (e.g. kind=step,amplitude=24)")
+        k, v = part.split("=", 1)
+        k, v = k.strip(), v.strip()
+        try:
+            d[k] = float(v)
+        except ValueError:
+            d[k] = v
+    try:
+        return signal_from_spec(d)
+    except (ValueError, TypeError) as e:
+        _fail(f"--signal: {e}")
+
+
+def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name.")):
+    """Print a thruster model's blocks and parameters."""
+    chain = _load_model(model)
+    t = Table(title=f"{chain.name}: {' → '.join(chain.signal_kinds)}")
+    t.add_column("#")
+    t.add_column("block")
+    t.add_column("parameters")
+    for i, b in enumerate(chain.blocks):
+        d = b.to_dict()
+        d.pop("type")
+        t.add_row(str(i), b.TYPE, ", ".join(f"{k}={v}" for k, v in d.items()))
+    out_console.print(t)
+
+
+def thruster_simulate(
+    model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name."),
+    signal: str = typer.Option(
+        "kind=step,amplitude=24",
+        "--signal",
+        help="Input, e.g. kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
+        "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,...",
+    ),
+    t_end: float = typer.Option(2.0, "--t-end", help="Simulated time [s]."),
+    dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
+    substeps: int = typer.Option(4, "--substeps", help="RK4 steps per output sample."),
+    out: Path | None = typer.Option(
+        None, "--out", help="Folder for the time series (CSV), a plot and index.html."
+    ),
+    json_out: bool = typer.Option(False, "--json", help="Print step metrics as JSON."),
+):
+    """Simulate a thruster chain under an input signal; print response metrics.
+
+    ``--signal kind=sampled,file=RUN.csv,time_col=t,command_col=V,...`` replays a logged command
+    and compares with the logged speed/thrust (see ``uuvid thruster replay``)."""
+    if "file=" in signal:
+        from uuvid.cli.replay_cmd import replay_from_spec
+
+        return replay_from_spec(model, signal, out, json_out)
+    chain = _load_model(model)
+    sig = _parse_signal(signal)
+    try:
+        resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
+    except ValueError as e:
+        _fail(str(e))
+    from uuvid.simulate.signals import Constant, Step
+
+    is_step = isinstance(sig, (Step, Constant))  # step metrics (peak, τ) mean nothing for a square
+    metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp and is_step else {}
+    summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt, "metrics_SI": metrics}
+    if not is_step:
+        summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
+                                   + type(sig).__name__)
+    if out:
+        from uuvid.io.atomic import atomic_write_json
+        from uuvid.report.html import Report
+        from uuvid.report.plots import save_figure
+
+        out.mkdir(parents=True, exist_ok=True)
+        resp.to_csv(out / "response.csv")
+        png = save_figure(resp.plot(title=chain.name), out / "response.png")
+        atomic_write_json(out / "summary.json", summary)
+        rep = Report(f"uuvid thruster simulate — {chain.name}")
+        rep.add_json(summary, caption="Summary (SI)")
+        rep.add_figure(png)
+        rep.write(out)
+        summary["out"] = str(out)
+    if json_out:
+        _print_json(summary)
+    elif not metrics:
+        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False)
+        out_console.print(
+            _table(f"{chain.name}: final values (SI)",
+                   [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
+                   "{:.4g}"))
+    else:
+        out_console.print(
+            _table(
+                f"{chain.name} response (SI)",
+                [{"metric": k, "value": v if v is not None else float("nan")} for k, v in metrics.items()],
+                ["metric", "value"],
+                "{:.4g}",
+            )
+        )
+
+
+def thruster_export(
+    model: str = typer.Argument(..., help="Model file or preset name."),
+    to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
+    out: Path | None = typer.Option(None, "--out-file", help="File to write (default: stdout)."),
+    old_out: Path | None = deprecated_out("--out-file"),
+    thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
+    table_points: int = typer.Option(
+        101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
+    ),
+):
+    """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
+    import yaml
+
+    from uuvid.io.atomic import atomic_write_text
+    from uuvid.io.export import ExportError, to_uuv_simulator
+    from uuvid.io.modelfile import _to_toml, chain_to_dict
+
+    out = renamed(out, "--out-file", old_out)
+    chain = _load_model(model)
+    if to == "uuv-simulator":
+        try:
+            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points)
+        except ExportError as e:
+            _fail(str(e))
+    elif to in ("yaml", "toml"):
+        d = chain_to_dict(chain)
+        text = _to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False)
+    else:
+        _fail(f"--to: expected yaml, toml or uuv-simulator, got {to!r}")
+    if out:
+        atomic_write_text(out, text)
+        err_console.print(f"wrote {out}")
+    else:
+        sys.stdout.write(text)
+
+
+def _parse_range(spec: str, name: str):
+    """``a:b:step`` (inclusive) or ``v1,v2,...`` → array."""
+    import numpy as np
+
+    try:
+        if ":" in spec:
+            parts = [float(x) for x in spec.split(":")]
+            if len(parts) != 3 or parts[2] <= 0 or parts[1] < parts[0]:
+                raise ValueError
+            n = int(round((parts[1] - parts[0]) / parts[2])) + 1
+            return parts[0] + parts[2] * np.arange(n)
+        return np.array([float(x) for x in spec.split(",") if x.strip()])
+    except ValueError:
+        _fail(f"{name}: expected start:stop:step (stop >= start, step > 0) or a comma list, got {spec!r}")
+
+
+def thruster_predict(
+    model: str = typer.Argument(..., help="Model file or preset name."),
+    pwm: str | None = typer.Option(None, "--pwm", help="PWM commands [µs]: start:stop:step or a,b,c."),
+    voltage: str | None = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
+    speed: str | None = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
+    supply_voltage: float | None = typer.Option(
+        None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."
+    ),
+    json_out: bool = typer.Option(False, "--json", help="Print {input: [...], thrust_N: [...]} as JSON."),
+):
+    """Steady thrust of a model at given commands, voltages or speeds."""
+    from uuvid.thruster.blocks import ESC
+    from uuvid.thruster.chain import ThrusterChain
+
+    chain = _load_model(model)
+    given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
+    if len(given) != 1:
+        _fail("give exactly one of --pwm, --voltage, --speed")
+    key, spec = given[0]
+    x = _parse_range(spec, "--" + key.split("_")[0])
+    blocks = list(chain.blocks)
+    if supply_voltage is not None:
+        if supply_voltage <= 0:
+            _fail(f"--supply-voltage must be positive, got {supply_voltage}")
+        idx = [i for i, b in enumerate(blocks) if isinstance(b, ESC)]
+        if not idx:
+            _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
+        blocks[idx[0]] = blocks[idx[0]].with_supply(supply_voltage)
+    want = {"pwm_us": "command", "voltage_V": "voltage", "speed_rad_s": "speed"}[key]
+    kinds = chain.signal_kinds
+    if want not in kinds[:-1]:
+        _fail(f"{chain.name} is driven by {kinds[0]}; it has no {want} input (signals: {' → '.join(kinds)})")
+    start = kinds.index(want)
+    sub = ThrusterChain(tuple(blocks[start:]), input_kind=want, name=chain.name)
+    thrust = sub.steady_thrust(x)
+    # the output is named after what the chain produces (a speed-output model gives speeds)
+    out_key = {"thrust": "thrust_N", "measured_thrust": "measured_thrust_N", "speed": "speed_rad_s",
+               "voltage": "voltage_V"}.get(sub.output_kind, sub.output_kind)
+    doc = {key: x.tolist(), out_key: thrust.tolist(), "model": chain.name}
+    if supply_voltage is not None:
+        doc["supply_voltage_V"] = supply_voltage
+    if json_out:
+        _print_json(doc)
+    else:
+        out_console.print(
+            _table(
+                f"{chain.name}: steady {sub.output_kind}",
+                [{key: float(a), out_key: float(b)} for a, b in zip(x, thrust)],
+                [key, out_key],
+                "{:.4g}",
+            )
+        )
+
+
+def register(thruster_app: typer.Typer) -> None:
+    thruster_app.command("show")(thruster_show)
+    thruster_app.command("simulate")(thruster_simulate)
+    thruster_app.command("export")(thruster_export)
+    thruster_app.command("predict")(thruster_predict)
