@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["EXAMPLES", "Example", "example_names", "generate_example", "write_example"]
+__all__ = ["EXAMPLES", "Example", "example_names", "generate_example", "write_example",
+           "write_trap_logs"]
 
 DT = 0.1  # s: the log's sample time (10 Hz)
 ETA_HULL_PROP = 0.62  # yaw η of the horizontal_all mode, both signs (Caccia et al. 2000, Table III)
@@ -179,3 +180,53 @@ def write_example(name: str, folder: str | Path) -> list[Path]:
     data = generate_example(name)
     files = data if e.multi else {e.filename: data}
     return [atomic_write_text(Path(folder) / fn, _csv_text(cols)) for fn, cols in files.items()]
+
+
+def write_trap_logs(folder: str | Path, seed: int = 0) -> dict[str, Path]:
+    """Two ROMEO yaw logs (Caccia et al. 2000 Table III: I = 84, k = 20.5, k_q = 49.5) with real
+    logs' traps: ``pool_qgc.csv``, a QGroundControl-style steady log (ISO ``Timestamp``s, every
+    ninth row written twice), and ``sine_jittery.csv``, the sine inertia experiment whose 10 Hz
+    heading stamps drift off any uniform grid (command and heading in separate rows).  Returns
+    ``{"steady": path, "sine": path}``."""
+    import csv
+    import io
+
+    from scipy.integrate import cumulative_trapezoid
+
+    from uuvid.identify.vehicle_fit import simulate_one_dof
+    from uuvid.io.atomic import atomic_write_text
+    from uuvid.vehicle.model import OneDofModel
+
+    d = Path(folder)
+    d.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    yaw = OneDofModel(84.0, 20.5, 49.5)  # ROMEO, Caccia et al. 2000 Table III
+    f = np.concatenate([np.full(300, x) for x in (2.0, 5.0, 9.0, 14.0, -3.0, -7.0, -12.0, -18.0)])
+    t = np.arange(f.size) * 0.1
+    h = cumulative_trapezoid(simulate_one_dof(yaw, t, f), t, initial=0.0)
+    h += rng.normal(0, 0.004, t.size)
+    t0 = np.datetime64("2024-05-01T12:00:00.000")
+    fh = io.StringIO()
+    w = csv.writer(fh, lineterminator="\n")
+    w.writerow(["Timestamp", "torque", "heading"])
+    for k in range(t.size):
+        row = [str(t0 + np.timedelta64(int(round(t[k] * 1000)), "ms")).replace("T", " "),
+               f[k], h[k]]
+        w.writerows([row, row] if k % 9 == 0 else [row])
+    atomic_write_text(d / "pool_qgc.csv", fh.getvalue())
+    tc = np.arange(0.0, 130.0, 0.1)  # the sine commanded at 10 Hz, held between updates
+    cmd = -5.0 + 4.0 * np.sin(2 * np.pi * tc / 24.0)
+    tf = np.arange(0.0, 129.9, 0.01)
+    held = cmd[np.floor(tf / 0.1 + 1e-9).astype(int)]
+    psi = cumulative_trapezoid(simulate_one_dof(yaw, tf, held), tf, initial=0.0)
+    ts = np.cumsum(np.r_[0.0, 0.1 + rng.normal(0, 0.008, 1300)]) + 0.003
+    ts = ts[ts < tf[-1]]
+    rows = [(a, f"{b:.6g}", "") for a, b in zip(tc, cmd)] + [
+        (a, "", f"{b:.6g}") for a, b in zip(ts, np.interp(ts, tf, psi) + rng.normal(0, 0.003,
+                                                                                  ts.size))]
+    fh = io.StringIO()
+    w = csv.writer(fh, lineterminator="\n")
+    w.writerow(["time", "torque", "heading"])
+    w.writerows([(f"{a:.4f}", b, c) for a, b, c in sorted(rows)])
+    atomic_write_text(d / "sine_jittery.csv", fh.getvalue())
+    return {"steady": d / "pool_qgc.csv", "sine": d / "sine_jittery.csv"}

@@ -184,47 +184,14 @@ def _log_identify_section(out: Path, rep: Report) -> dict:
     """Caccia's identification from Python on logs with real logs' traps: a QGroundControl-style
     CSV (ISO time stamps, duplicated rows) and a sine experiment whose 10 Hz heading drifts off
     any uniform grid (resampled, with a note)."""
-    import csv
-
-    from scipy.integrate import cumulative_trapezoid
-
+    from uuvid.examples import write_trap_logs
     from uuvid.identify.procedures import identify_inertia, identify_steady
-    from uuvid.identify.vehicle_fit import simulate_one_dof
-    from uuvid.vehicle.model import OneDofModel
 
-    rng = np.random.default_rng(0)
-    yaw = OneDofModel(84.0, 20.5, 49.5)  # ROMEO, Caccia et al. 2000 Table III
-    d = out / "log_identify"
-    d.mkdir(parents=True, exist_ok=True)
-    f = np.concatenate([np.full(300, x) for x in (2.0, 5.0, 9.0, 14.0, -3.0, -7.0, -12.0, -18.0)])
-    t = np.arange(f.size) * 0.1
-    h = cumulative_trapezoid(simulate_one_dof(yaw, t, f), t, initial=0.0)
-    h += rng.normal(0, 0.004, t.size)
-    t0 = np.datetime64("2024-05-01T12:00:00.000")
-    with open(d / "pool_qgc.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["Timestamp", "torque", "heading"])
-        for k in range(t.size):
-            row = [str(t0 + np.timedelta64(int(round(t[k] * 1000)), "ms")).replace("T", " "),
-                   f[k], h[k]]
-            w.writerows([row, row] if k % 9 == 0 else [row])
-    st = identify_steady(d / "pool_qgc.csv", dof="yaw", command_col="torque",
-                         position_col="heading", settle=15.0, min_duration=10.0)
-    tc = np.arange(0.0, 130.0, 0.1)  # the sine commanded at 10 Hz, held between updates
-    cmd = -5.0 + 4.0 * np.sin(2 * np.pi * tc / 24.0)
-    tf = np.arange(0.0, 129.9, 0.01)
-    held = cmd[np.floor(tf / 0.1 + 1e-9).astype(int)]
-    psi = cumulative_trapezoid(simulate_one_dof(yaw, tf, held), tf, initial=0.0)
-    ts = np.cumsum(np.r_[0.0, 0.1 + rng.normal(0, 0.008, 1300)]) + 0.003
-    ts = ts[ts < tf[-1]]
-    rows = [(a, f"{b:.6g}", "") for a, b in zip(tc, cmd)] + [
-        (a, "", f"{b:.6g}") for a, b in zip(ts, np.interp(ts, tf, psi) + rng.normal(0, 0.003,
-                                                                                  ts.size))]
-    with open(d / "sine_jittery.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["time", "torque", "heading"])
-        w.writerows([(f"{a:.4f}", b, c) for a, b, c in sorted(rows)])
-    ine = identify_inertia(d / "sine_jittery.csv", dof="yaw", drag=st, command_col="torque",
+    logs = write_trap_logs(out / "log_identify")
+    d = logs["steady"].parent
+    st = identify_steady(logs["steady"], dof="yaw", command_col="torque", position_col="heading",
+                         settle=15.0, min_duration=10.0)
+    ine = identify_inertia(logs["sine"], dof="yaw", drag=st, command_col="torque",
                            position_col="heading")
     rep.add_heading("Identification from logs, in Python (Caccia et al. 2000 on ROMEO's yaw)")
     rep.add_paragraph("identify_steady on a QGroundControl-style CSV (ISO time stamps, rows "
