@@ -487,48 +487,43 @@ DEFAULT_PRIORITY = (1.0, 1.0, 1e3, 1e3, 1e3, 1e3)
 
 @njit(cache=True)
 def _solve_psd(S, k, r, lam):
-    """Solve the k×k symmetric PSD system ``S λ = r`` by Gauss–Jordan with complete pivoting;
-    pivots below ``1e-13·max|S|`` are dropped (their λ components set to 0): a consistent
-    singular system (dependent equality rows) is solved exactly."""
+    """Solve the k×k symmetric PSD system ``S λ = r`` by symmetric Gauss–Jordan with diagonal
+    pivoting; a pivot below ``1e-11`` of its row's original diagonal is a dependent row and is
+    dropped (its λ set to 0), so a consistent singular system is solved exactly.  The test is
+    per row because S's rows can differ in scale by many orders of magnitude."""
     A = S[:k, :k].copy()
     b = r[:k].copy()
-    perm = np.arange(k)
-    smax = 0.0
+    d0 = np.empty(k)
     for i in range(k):
-        for j in range(k):
-            smax = max(smax, abs(A[i, j]))
-    tol = 1e-13 * smax
+        d0[i] = A[i, i]
+    used = np.zeros(k, np.bool_)
+    piv = np.empty(k, np.int64)
     rank = 0
     for c in range(k):
-        # complete pivot over the trailing block
-        bi, bj, bv = c, c, -1.0
-        for i in range(c, k):
-            for j in range(c, k):
-                if abs(A[i, j]) > bv:
-                    bv = abs(A[i, j])
-                    bi, bj = i, j
-        if bv <= tol:
+        bi = -1
+        bv = 0.0
+        for i in range(k):  # the largest remaining diagonal, relative to its original value
+            if not used[i] and d0[i] > 0.0:
+                v = A[i, i] / d0[i]
+                if v > bv:
+                    bv, bi = v, i
+        if bi < 0 or bv <= 1e-11:
             break
-        if bi != c:
-            for j in range(k):
-                A[c, j], A[bi, j] = A[bi, j], A[c, j]
-            b[c], b[bi] = b[bi], b[c]
-        if bj != c:
-            for i in range(k):
-                A[i, c], A[i, bj] = A[i, bj], A[i, c]
-            perm[c], perm[bj] = perm[bj], perm[c]
-        p = A[c, c]
-        for i in range(k):
-            if i != c and A[i, c] != 0.0:
-                f = A[i, c] / p
-                for j in range(c, k):
-                    A[i, j] -= f * A[c, j]
-                b[i] -= f * b[c]
+        used[bi] = True
+        piv[rank] = bi
         rank += 1
+        p = A[bi, bi]
+        for i in range(k):
+            if i != bi and A[i, bi] != 0.0:
+                f = A[i, bi] / p
+                for j in range(k):
+                    A[i, j] -= f * A[bi, j]
+                b[i] -= f * b[bi]
     for i in range(k):
         lam[i] = 0.0
     for c in range(rank):
-        lam[perm[c]] = b[c] / A[c, c]
+        i = piv[c]
+        lam[i] = b[i] / A[i, i]
 
 
 @njit(cache=True)
@@ -580,6 +575,9 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
     S = np.empty((max(nE, 1), max(nE, 1)))
     r = np.empty(max(nE, 1))
     lam = np.zeros(max(nE, 1))
+    dlam = np.zeros(max(nE, 1))
+    rr = np.empty(max(nE, 1))
+    dz = np.empty(n)
     y = np.empty(n)
     gscale = 0.0
     for i in range(n):
@@ -629,6 +627,33 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
                 for q in range(nE):
                     t += Y[a, q] * lam[q]
                 y[a] = t
+            # iterative refinement of the KKT solution (H_FF can be ill-conditioned: εW tie-break)
+            for ref in range(2):
+                for a in range(nf):  # σ = H_FF y + g̃ − E_Fᵀλ
+                    i = idx[a]
+                    t = gt[a]
+                    for b2 in range(nf):
+                        t += H[i, idx[b2]] * y[b2]
+                    for q in range(nE):
+                        t -= E[q, i] * lam[q]
+                    col[a] = t
+                _chol_solve(L, nf, col, dz)
+                for q in range(nE):  # ρ = r' − E_F y, with r' = r − E_F z0
+                    t = r[q]
+                    for a in range(nf):
+                        t -= E[q, idx[a]] * (y[a] + z0[a])
+                    for a in range(nf):
+                        t += E[q, idx[a]] * dz[a]
+                    rr[q] = t
+                if nE > 0:
+                    _solve_psd(S, nE, rr, dlam)
+                for a in range(nf):
+                    t = -dz[a]
+                    for q in range(nE):
+                        t += Y[a, q] * dlam[q]
+                    y[a] += t
+                for q in range(nE):
+                    lam[q] += dlam[q]
             # ratio test from x towards the subproblem optimum y
             alpha = 1.0
             block = -1
@@ -719,7 +744,13 @@ def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0):
     for i in range(n):
         g0[i] = 0.0
     _qp_box(W, g0, E, e, nE, lo, hi, x, fixed, 8 * n + 20)
-    return _residual(Bp, q, m, n, x, target)
+    r = _residual(Bp, q, m, n, x, target)
+    for c in range(nC):
+        t = 0.0
+        for i in range(n):
+            t += C[c, i] * x[i]
+        r = max(r, abs(t))
+    return r
 
 
 @njit(cache=True)
