@@ -486,30 +486,29 @@ DEFAULT_PRIORITY = (1.0, 1.0, 1e3, 1e3, 1e3, 1e3)
 
 
 @njit(cache=True)
-def _solve_psd(S, k, r, lam):
+def _solve_psd(S, k, r, lam, A, b, d0, used, piv):
     """Solve the k×k symmetric PSD system ``S λ = r`` by symmetric Gauss–Jordan with diagonal
     pivoting; a pivot below ``1e-11`` of its row's original diagonal is a dependent row and is
     dropped (its λ set to 0), so a consistent singular system is solved exactly.  The test is
     per row because S's rows can differ in scale by many orders of magnitude."""
-    A = S[:k, :k].copy()
-    b = r[:k].copy()
-    d0 = np.empty(k)
     for i in range(k):
+        for j in range(k):
+            A[i, j] = S[i, j]
+        b[i] = r[i]
         d0[i] = A[i, i]
-    used = np.zeros(k, np.bool_)
-    piv = np.empty(k, np.int64)
+        used[i] = 0.0
     rank = 0
     for c in range(k):
         bi = -1
         bv = 0.0
         for i in range(k):  # the largest remaining diagonal, relative to its original value
-            if not used[i] and d0[i] > 0.0:
+            if used[i] == 0.0 and d0[i] > 0.0:
                 v = A[i, i] / d0[i]
                 if v > bv:
                     bv, bi = v, i
         if bi < 0 or bv <= 1e-11:
             break
-        used[bi] = True
+        used[bi] = 1.0
         piv[rank] = bi
         rank += 1
         p = A[bi, bi]
@@ -555,7 +554,7 @@ def _chol_solve(L, nf, b, x):
 
 
 @njit(cache=True)
-def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
+def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
     """Primal active-set method for ``min ½xᵀHx + gᵀx`` s.t. ``E x = e``, ``lo ≤ x ≤ hi``
     (H positive definite; Nocedal & Wright 2006, Alg. 16.3, with bounds as the inequalities).
 
@@ -566,19 +565,26 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
     with the most negative multiplier at a subproblem optimum.  Returns the iterations used
     (``maxit`` when it did not converge)."""
     n = x.size
-    idx = np.empty(n, np.int64)
-    L = np.empty((n, n))
-    gt = np.empty(n)
-    z0 = np.empty(n)
-    Y = np.empty((n, max(nE, 1)))
-    col = np.empty(n)
-    S = np.empty((max(nE, 1), max(nE, 1)))
-    r = np.empty(max(nE, 1))
-    lam = np.zeros(max(nE, 1))
-    dlam = np.zeros(max(nE, 1))
-    rr = np.empty(max(nE, 1))
-    dz = np.empty(n)
-    y = np.empty(n)
+    K = max(nE, 1)
+    o = 0
+    L = wf[o:o + n * n].reshape(n, n)
+    o += n * n
+    Y = wf[o:o + n * K].reshape(n, K)
+    o += n * K
+    S = wf[o:o + K * K].reshape(K, K)
+    o += K * K
+    A2 = wf[o:o + K * K].reshape(K, K)
+    o += K * K
+    gt, z0, col, dz, y = wf[o:o + n], wf[o + n:o + 2 * n], wf[o + 2 * n:o + 3 * n], \
+        wf[o + 3 * n:o + 4 * n], wf[o + 4 * n:o + 5 * n]
+    o += 5 * n
+    r, lam, dlam, rr, b2, d0, used = wf[o:o + K], wf[o + K:o + 2 * K], wf[o + 2 * K:o + 3 * K], \
+        wf[o + 3 * K:o + 4 * K], wf[o + 4 * K:o + 5 * K], wf[o + 5 * K:o + 6 * K], \
+        wf[o + 6 * K:o + 7 * K]
+    for q in range(K):
+        lam[q] = 0.0
+    idx = wi[0:n]
+    piv = wi[n:n + K]
     gscale = 0.0
     for i in range(n):
         gscale = max(gscale, abs(g[i]))
@@ -621,19 +627,19 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
                         t += E[q, idx[a]] * Y[a, p]
                     S[q, p] = t
             if nE > 0:
-                _solve_psd(S, nE, r, lam)
+                _solve_psd(S, nE, r, lam, A2, b2, d0, used, piv)
             for a in range(nf):
                 t = -z0[a]
                 for q in range(nE):
                     t += Y[a, q] * lam[q]
                 y[a] = t
             # iterative refinement of the KKT solution (H_FF can be ill-conditioned: εW tie-break)
-            for ref in range(2):
+            for ref in range(2 if nE > 0 else 0):
                 for a in range(nf):  # σ = H_FF y + g̃ − E_Fᵀλ
                     i = idx[a]
                     t = gt[a]
-                    for b2 in range(nf):
-                        t += H[i, idx[b2]] * y[b2]
+                    for a2 in range(nf):
+                        t += H[i, idx[a2]] * y[a2]
                     for q in range(nE):
                         t -= E[q, i] * lam[q]
                     col[a] = t
@@ -646,7 +652,7 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
                         t += E[q, idx[a]] * dz[a]
                     rr[q] = t
                 if nE > 0:
-                    _solve_psd(S, nE, rr, dlam)
+                    _solve_psd(S, nE, rr, dlam, A2, b2, d0, used, piv)
                 for a in range(nf):
                     t = -dz[a]
                     for q in range(nE):
@@ -704,12 +710,35 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit):
 
 
 @njit(cache=True)
-def _phase1(H, g, C, nC, zero, lo, hi, x, fixed):
-    """Weighted least error: start at 0 (inside the box, ``C·0 = 0``)."""
-    for i in range(x.size):
-        x[i] = 0.0
+def _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, sc):
+    """Weighted least error, warm-started from the unconstrained least-effort thrusts
+    ``x₀ = T (sc·φ)``: clipped into the box (no equalities: every box point is feasible) or,
+    with the mode's equalities, scaled uniformly into it (``C x₀ = 0`` holds for ``T``)."""
+    n = x.size
+    m = int(a[1])
+    s = 1.0
+    for i in range(n):
+        t = 0.0
+        for j in range(m):
+            t += a[3 + i * m + j] * phi[j]
+        t *= sc
+        x[i] = t
         fixed[i] = 0
-    return _qp_box(H, g, C, zero, nC, lo, hi, x, fixed, 8 * x.size + 20)
+        if t > hi[i]:
+            s = min(s, hi[i] / t)
+        elif t < lo[i]:
+            s = min(s, lo[i] / t)
+    for i in range(n):
+        if nC == 0:
+            if x[i] >= hi[i]:
+                x[i] = hi[i]
+                fixed[i] = 1
+            elif x[i] <= lo[i]:
+                x[i] = lo[i]
+                fixed[i] = -1
+        else:
+            x[i] = min(max(x[i] * s, lo[i]), hi[i])
+    return _qp_box(H, g, C, zero, nC, lo, hi, x, fixed, 8 * x.size + 20, wf, wi)
 
 
 @njit(cache=True)
@@ -726,7 +755,7 @@ def _residual(Bp, q, m, n, x, target):
 
 
 @njit(cache=True)
-def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0):
+def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi):
     """Least weighted effort ``min ½ Σ w_i x_i²`` with ``B_c x = target``, ``C x = 0`` and the
     bounds, from a start ``x`` that (nearly) delivers ``target``; returns the residual."""
     nE = 0
@@ -743,7 +772,7 @@ def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0):
         nE += 1
     for i in range(n):
         g0[i] = 0.0
-    _qp_box(W, g0, E, e, nE, lo, hi, x, fixed, 8 * n + 20)
+    _qp_box(W, g0, E, e, nE, lo, hi, x, fixed, 8 * n + 20, wf, wi)
     r = _residual(Bp, q, m, n, x, target)
     for c in range(nC):
         t = 0.0
@@ -772,12 +801,28 @@ def _bounded(a, phi, tau, n, m, method, s0):
     hi = a[ohi:ohi + n]
     Bp = a[oB:oB + m * n].reshape(m, n)
     C = a[oC:oC + nC * n].reshape(max(nC, 0), n)
-    W = np.zeros((n, n))
+    K = m + nC
+    nfl = 2 * n * n + 5 * n + K * n + 2 * K + m + 1 + (n * n + n * K + 2 * K * K + 5 * n + 7 * K)
+    blk = np.zeros(nfl)  # one block for every work array (no allocation in the iterations)
+    W = blk[0:n * n].reshape(n, n)
+    H = blk[n * n:2 * n * n].reshape(n, n)
+    o = 2 * n * n
+    g, x, x1, g0, best = blk[o:o + n], blk[o + n:o + 2 * n], blk[o + 2 * n:o + 3 * n], \
+        blk[o + 3 * n:o + 4 * n], blk[o + 4 * n:o + 5 * n]
+    o += 5 * n
+    E = blk[o:o + K * n].reshape(K, n)
+    o += K * n
+    e = blk[o:o + K]
+    zero = blk[o + K:o + 2 * K]
+    target = blk[o + 2 * K:o + 2 * K + m]
+    o += 2 * K + m + 1
+    wf = blk[o:]
+    iblk = np.zeros(3 * n + K, np.int64)
+    fixed = iblk[0:n]
+    wi = iblk[n:]
     for i in range(n):
         W[i, i] = a[ow + i]
     # phase-1 Hessian BᵀQB + εW (ε: 1e-10 of the scale of BᵀQB: a tie-break, the error stays exact)
-    H = np.zeros((n, n))
-    g = np.zeros(n)
     trb = 0.0
     trw = 0.0
     for i in range(n):
@@ -795,14 +840,6 @@ def _bounded(a, phi, tau, n, m, method, s0):
     for k in range(m):
         if q[k] > 0.0:
             scale = max(scale, abs(phi[k]))
-    x = np.zeros(n)
-    x1 = np.empty(n)
-    fixed = np.zeros(n, np.int64)
-    zero = np.zeros(max(nC, 1))
-    E = np.empty((m + max(nC, 0), n))
-    e = np.empty(m + max(nC, 0))
-    g0 = np.empty(n)
-    target = np.empty(m)
     frac = 1.0
     if method == 3:  # weighted least error with DOF priorities
         for i in range(n):
@@ -810,12 +847,12 @@ def _bounded(a, phi, tau, n, m, method, s0):
             for k in range(m):
                 s += Bp[k, i] * q[k] * phi[k]
             g[i] = -s
-        _phase1(H, g, C, nC, zero, lo, hi, x, fixed)
+        _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, 1.0)
         for i in range(n):
             x1[i] = x[i]
         ok = False
         if _residual(Bp, q, m, n, x, phi) <= 1e-6 * scale:
-            ok = _exact(Bp, q, C, nC, m, n, W, lo, hi, phi, x, fixed, E, e, g0) <= 1e-11 * scale
+            ok = _exact(Bp, q, C, nC, m, n, W, lo, hi, phi, x, fixed, E, e, g0, wf, wi) <= 1e-11 * scale
         if not ok:  # not achievable: the phase-1 optimum (its εW term picks the least effort
             for i in range(n):  # among the thrusts giving the best wrench, to O(ε))
                 x[i] = x1[i]
@@ -823,7 +860,6 @@ def _bounded(a, phi, tau, n, m, method, s0):
     else:  # largest s ≤ 1 with s·φ achievable (bisection on exact feasibility)
         slo = max(s0, 0.0)
         shi = 1.0
-        best = np.zeros(n)
         have = False
         for it in range(40):
             s_try = shi if it == 0 else 0.5 * (slo + shi)
@@ -834,10 +870,10 @@ def _bounded(a, phi, tau, n, m, method, s0):
                 for k in range(m):
                     s += Bp[k, i] * q[k] * target[k]
                 g[i] = -s
-            _phase1(H, g, C, nC, zero, lo, hi, x, fixed)
+            _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, s_try)
             ok = False
             if _residual(Bp, q, m, n, x, target) <= 1e-6 * scale:
-                ok = _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0) \
+                ok = _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi) \
                     <= 1e-11 * scale
             if ok:
                 slo = s_try
@@ -858,8 +894,8 @@ def _bounded(a, phi, tau, n, m, method, s0):
                 for k in range(m):
                     s += Bp[k, i] * q[k] * target[k]
                 g[i] = -s
-            _phase1(H, g, C, nC, zero, lo, hi, x, fixed)
-            _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0)
+            _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, slo)
+            _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi)
             for i in range(n):
                 best[i] = x[i]
         for i in range(n):
