@@ -168,21 +168,22 @@ def _tau_from(th, st, B, tau):
 
 
 @njit(cache=True)
-def _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4):
-    """One RK4 step of the 13 vehicle states with the thrust known at t, t + h/2 and t + h."""
+def _vehicle_rk4(z, h, th_stage, B, vp, vcs, dvc, tau, zt, k1, k2, k3, k4):
+    """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
+    (``vcs``, NED) known at t, t + h/2 and t + h."""
     _tau_from(th_stage, 0, B, tau)
-    vehicle_rhs_into(z, tau, vp, vc, dvc, k1)
+    vehicle_rhs_into(z, tau, vp, vcs[0], dvc, k1)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k1[i]
     _tau_from(th_stage, 1, B, tau)
-    vehicle_rhs_into(zt, tau, vp, vc, dvc, k2)
+    vehicle_rhs_into(zt, tau, vp, vcs[1], dvc, k2)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k2[i]
-    vehicle_rhs_into(zt, tau, vp, vc, dvc, k3)
+    vehicle_rhs_into(zt, tau, vp, vcs[1], dvc, k3)
     for i in range(13):
         zt[i] = z[i] + h * k3[i]
     _tau_from(th_stage, 2, B, tau)
-    vehicle_rhs_into(zt, tau, vp, vc, dvc, k4)
+    vehicle_rhs_into(zt, tau, vp, vcs[2], dvc, k4)
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
@@ -190,9 +191,13 @@ def _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4):
 @njit(cache=True)
 def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact,
         inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub,
-        Z, F, FDES, TAU, SCALE):
+        Z, F, FDES, TAU, SCALE, VCT, DVCT):
     """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
-    allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``."""
+    allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``.
+
+    Current (NED): ``vc`` constant when ``VCT`` has no rows; otherwise piecewise linear,
+    ``v_c(t_k + s) = VCT[k] + DVCT[k]·s`` over step k (``DVCT`` is its rate, passed to the
+    vehicle model as ν̇_c, so the relative velocity ν_r = ν − ν_c is consistent)."""
     nsteps = ref_pos.shape[0]
     n = tparams.shape[0]
     nz = z0.size
@@ -206,6 +211,11 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
     k3 = np.zeros(nz)
     k4 = np.zeros(nz)
     dvc = np.zeros(3)
+    vcs = np.empty((3, 3))
+    for j in range(3):
+        for st in range(3):
+            vcs[st, j] = vc[j]
+    varying = VCT.shape[0] > 0
     thrust = np.zeros(n)
     tau = np.zeros(6)
     ch = np.empty(N_CH)
@@ -245,6 +255,9 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
     tgt = np.zeros(n)
     tconst = np.zeros(n)
     for k in range(nsteps):
+        if varying:
+            for j in range(3):
+                dvc[j] = DVCT[k, j]
         # controller and allocation (held over the step)
         dp_errors(z[0:3], z[3:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], e, edot)
         dp_control(e, edot, integ, gains, dt, tau_des, integ_new)
@@ -274,6 +287,10 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     tgt[i] = sig0[i]
                     tconst[i] = tparams[i, pb]
             for sub in range(nsub):
+                if varying:
+                    for st in range(3):
+                        for j in range(3):
+                            vcs[st, j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5 * st) * h)
                 for i in range(n):
                     o = 13 + i * ns
                     x0 = z[o]
@@ -286,14 +303,18 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     for i in range(n):
                         F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4)
+                _vehicle_rk4(z, h, th_stage, B, vp, vcs, dvc, tau, zt, k1, k2, k3, k4)
                 for i in range(n):
                     o = 13 + i * ns
                     z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
                 normalise_state(z)
             continue
         for sub in range(nsub):
-            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k1,
+            if varying:
+                for st in range(3):
+                    for j in range(3):
+                        vcs[st, j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5 * st) * h)
+            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[0], dvc, k1,
                  thrust, tau, ch, blk)
             if sub == 0:
                 for i in range(n):
@@ -301,15 +322,15 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     FDES[k, i] = fdes[i]
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k1[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k2,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[1], dvc, k2,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k2[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k3,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[1], dvc, k3,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zt[i] = z[i] + h * k3[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k4,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[2], dvc, k4,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zn[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -346,7 +367,8 @@ def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch
         TAU = np.empty((nsteps, 6))
         SC = np.empty(nsteps)
         fly(z0, VP[r], B, alloc, eta_p, eta_n, dofs, kinds, poff, TP[r], soff, outch, in_ch, exact,
-            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC)
+            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC,
+            np.zeros((0, 3)), np.zeros((0, 3)))
         emax = 0.0
         esum = 0.0
         fmax = 0.0
@@ -444,6 +466,9 @@ class MissionSetup:
     current: np.ndarray
     t: np.ndarray
     ref: tuple
+    current_model: object = None
+    current_series: tuple | None = None  # (v_c (N, 3), v̇_c (N, 3)) when the current varies
+    allocation: str = "scale"
 
     def z0(self) -> np.ndarray:
         z = np.zeros(13 + self.bank.n * self.bank.n_states)
@@ -485,24 +510,57 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
 
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
                   gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
-                  current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None) -> MissionSetup:
-    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission."""
+                  current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None,
+                  allocation: str = "priority") -> MissionSetup:
+    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
+
+    ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
+    ``allocation``: the saturation method of :meth:`uuvid.vehicle.allocation.Allocator.allocate`
+    run at every control step (default ``priority``: exact whenever achievable).
+    """
+    from uuvid.simulate.currents import as_current
+
     if not (dt > 0 and substeps >= 1):
         raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
     n = len(vehicle.layout)
     chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
     bank = ThrusterBank.from_chains(chains)
     al = vehicle.allocator(modes)
-    alloc = al.to_array()
+    alloc = al.to_array(allocation)
     dofs = np.array(al.controlled, dtype=np.int64)
     ep, en = al.eta
     T = t_end if t_end is not None else mission.duration
     t = np.arange(int(round(T / dt))) * dt
     ref = mission(t)
+    cm = as_current(current)
+    series = None
+    if cm.is_constant:
+        const = np.asarray(cm.sample(t[:1], dt)[0][0], dtype=float)
+    else:
+        vct, dvct = cm.sample(t, dt)
+        series = (np.ascontiguousarray(vct), np.ascontiguousarray(dvct))
+        const = np.asarray(vct[0], dtype=float)
     return MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt, int(substeps),
                         alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                         np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
-                        np.asarray(current, dtype=float), t, ref)
+                        const, t, ref, cm, series, allocation)
+
+
+def allocation_method(alloc: np.ndarray) -> str:
+    """The saturation method stored in an allocation array (:meth:`Allocator.to_array`)."""
+    from uuvid.vehicle.allocation import SATURATION_METHODS, _METHOD_CODE
+
+    n, m = int(alloc[0]), int(alloc[1])
+    o = 3 + n * m + 4 * n
+    code = 0.0 if alloc.size <= o else float(alloc[o])
+    return next(k for k in SATURATION_METHODS if _METHOD_CODE[k] == code)
+
+
+def require_constant_current(setup: MissionSetup) -> None:
+    if setup.current_series is not None:
+        raise ValueError("batch runs take a constant current per vehicle; this setup's current "
+                         f"varies ({getattr(setup.current_model, 'kind', '?')}): fly it with "
+                         "fly_mission")
 
 
 def fly_mission(setup: MissionSetup) -> MissionResult:
@@ -517,10 +575,11 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     TAU = np.empty((N, 6))
     SC = np.empty(N)
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+    VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
     t0 = time.perf_counter()
     fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params, b.soff,
         b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
-        ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps, Z, F, FD, TAU, SC)
+        ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps, Z, F, FD, TAU, SC, VCT, DVCT)
     wall = time.perf_counter() - t0
     if not np.all(np.isfinite(Z)):
         k = int(np.flatnonzero(~np.all(np.isfinite(Z), axis=1))[0])
@@ -548,6 +607,10 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "real_time_factor": float((s.t[-1] + s.dt) / wall) if wall > 0 else math.inf,
         "dt": s.dt,
         "substeps": s.substeps,
+        "allocation": s.allocation,
+        "current": getattr(s.current_model, "kind", "constant"),
+        "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
+        else float(np.linalg.norm(s.current)),
     }
     return MissionResult(res.t, res.state, res.thrust, res.thrust_cmd, res.tau_cmd, res.scale,
                          res.ref_pos, res.ref_yaw, res.thruster_names, lim, summary)
@@ -558,6 +621,7 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     """Fly ``len(vehicle_params)`` vehicles in parallel; returns ``(runs, 5)`` summary rows
     ``[max err, rms err, max |thrust|, final err, min allocation scale]``."""
     s = setup
+    require_constant_current(s)
     b = s.bank
     VP = np.ascontiguousarray(vehicle_params, dtype=float)
     nrun = VP.shape[0]
