@@ -40,6 +40,9 @@ def _register_subcommands() -> None:
     from uuvid.cli.uncertainty_cmds import register as register_uncertainty
 
     register_uncertainty(app)
+    from uuvid.cli.hold_cmd import register as register_hold
+
+    register_hold(vehicle_app)
 
 
 out_console = Console()

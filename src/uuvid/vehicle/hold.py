@@ -365,6 +365,7 @@ class BatteryHold:
     pitch: float
     allocation: object
     reason: str = ""
+    command: np.ndarray | None = None  # command per thruster giving its thrust at the voltage
 
 
 def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
@@ -395,8 +396,9 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
         ok, reason = False, f"loaded voltage {v:.2f} V below the minimum {bat.min_voltage:g} V"
     if bat.max_current is not None and i > bat.max_current:
         ok, reason = False, f"current {i:.1f} A above the battery's {bat.max_current:g} A"
+    cmd = st.command_for(r.thrust, v)
     return BatteryHold(bool(ok), float(soc), float(v), float(i), limits_at(vehicle, v), roll,
-                       pitch, r, reason)
+                       pitch, r, reason, cmd)
 
 
 @dataclass(frozen=True)
@@ -413,6 +415,8 @@ class EnduranceResult:
     max_forward_thrust: np.ndarray
     endurance_s: float
     reason: str
+    thrust: np.ndarray = None  # (k, n) held thrusts
+    command: np.ndarray = None  # (k, n) commands giving them at the loaded voltage
 
     def summary(self) -> str:
         e = self.endurance_s
@@ -427,7 +431,30 @@ class EnduranceResult:
                 "endurance_s": self.endurance_s, "reason": self.reason,
                 "time_s": self.time_s.tolist(), "soc": self.soc.tolist(),
                 "voltage_V": self.voltage.tolist(), "current_A": self.current.tolist(),
-                "max_forward_thrust_N": self.max_forward_thrust.tolist()}
+                "max_forward_thrust_N": self.max_forward_thrust.tolist(),
+                "thrust_N": None if self.thrust is None else self.thrust.tolist(),
+                "command": None if self.command is None else self.command.tolist()}
+
+    def plot(self, path=None):
+        """SOC, voltage, current, limit and the held commands over the discharge."""
+        from uuvid.report.plots import new_figure, save_figure
+
+        fig, ax = new_figure(2, 2, figsize=(10, 6))
+        ax = ax.ravel()
+        tm = self.time_s / 60
+        ax[0].plot(tm, self.voltage)
+        ax[0].set_ylabel("loaded supply voltage [V]")
+        ax[1].plot(tm, self.current)
+        ax[1].set_ylabel("battery current [A]")
+        ax[2].plot(tm, self.max_forward_thrust)
+        ax[2].set_ylabel("forward thrust limit [N]")
+        if self.command is not None:
+            ax[3].plot(tm, self.command)
+        ax[3].set_ylabel("held commands [µs]")
+        for a in ax:
+            a.set_xlabel("time [min]")
+        fig.suptitle(self.summary()[:110])
+        return save_figure(fig, path) if path is not None else fig
 
 
 def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float = 1.0,
@@ -449,6 +476,7 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
                                np.array([h.voltage]), np.array([h.current]),
                                np.array([h.limits[0, 1]]), 0.0, h.reason)
     rows.append((t, soc, h.voltage, h.current, h.limits[0, 1]))
+    extra = [(h.allocation.thrust, h.command)]
     while soc > 0:
         s2 = max(soc - dsoc, 0.0)
         h2 = hold_on_battery(vehicle, cur, s2, battery=bat, modes=modes, depth=depth,
@@ -466,11 +494,14 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
             if hi < soc:
                 t += 3600 * bat.capacity_ah * (soc - hi) * 0.5 * (1 / h.current + 1 / h_end.current)
                 rows.append((t, hi, h_end.voltage, h_end.current, h_end.limits[0, 1]))
+                extra.append((h_end.allocation.thrust, h_end.command))
             reason = h2.reason
             break
         t += 3600 * bat.capacity_ah * (soc - s2) * 0.5 * (1 / h.current + 1 / h2.current)
         soc, h = s2, h2
         rows.append((t, soc, h.voltage, h.current, h.limits[0, 1]))
+        extra.append((h.allocation.thrust, h.command))
     a = np.array(rows)
     return EnduranceResult(vehicle.name, speed, relative_deg, a[:, 0], a[:, 1], a[:, 2], a[:, 3],
-                           a[:, 4], float(a[-1, 0]), reason)
+                           a[:, 4], float(a[-1, 0]), reason, np.array([e[0] for e in extra]),
+                           np.array([e[1] for e in extra]))
