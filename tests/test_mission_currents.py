@@ -68,3 +68,15 @@ def test_time_series_errors_name_the_problem(tmp_path):
     p.write_text("time,north,east\n0,0.1,0\n0,0.2,0\n")
     with pytest.raises(ValueError, match="row 2"):
         TimeSeriesCurrent.from_csv(p)
+
+
+def test_square_mission_in_a_03_current_completes():
+    """The BlueROV2 flies Laidani's square in a 0.3 m/s current (constant, and Gauss–Markov around
+    0.3 m/s): completed (final error < 0.25 m, max < 1 m), never saturated."""
+    v = load_vehicle("bluerov2")
+    for c in (ned(0.3, 0.0), ned(0.3, 90.0),
+              GaussMarkovCurrent(mean=0.3, sigma=0.02, mu=0.05, direction_deg=45.0,
+                                 direction_sigma_deg=5.0, seed=1)):
+        r = fly_mission(setup_mission(v, square_mission(), current=c))
+        assert r.summary["completed"], r.summary
+        assert r.summary["current_max_speed_m_s"] > 0.25

@@ -42,4 +42,5 @@ def run_benchmarks() -> dict:
     result.update(_load("bench_identification").run_all())
     result.update(_load("bench_vehicle").run_all())
     result.update(_load("bench_sweep").run_all())
+    result.update(_load("bench_allocation").run_all())
     return result
