@@ -80,3 +80,20 @@ def test_square_mission_in_a_03_current_completes():
         r = fly_mission(setup_mission(v, square_mission(), current=c))
         assert r.summary["completed"], r.summary
         assert r.summary["current_max_speed_m_s"] > 0.25
+
+
+def test_scenario_file_currents(tmp_path):
+    from uuvid.simulate.scenario import ScenarioError, build, load_scenario
+
+    (tmp_path / "c.csv").write_text("time,north,east\n0,0,0\n10,0.2,0.1\n")
+    for cur in ("{kind: timeseries, file: c.csv}",
+                "{kind: gauss_markov, mean: 0.2, sigma: 0.01, seed: 3}",
+                "{kind: constant, speed: 0.2, direction_deg: 90}"):
+        p = tmp_path / "s.yaml"
+        p.write_text(f"vehicle: bluerov2\ncurrent: {cur}\nduration: 2.0\nallocation: maxscale\n")
+        _, setup = build(load_scenario(p), tmp_path)
+        assert setup.allocation == "maxscale"
+        fly_mission(setup)
+    p.write_text("vehicle: bluerov2\ncurrent: {kind: timeseries, file: missing.csv}\n")
+    with pytest.raises(ScenarioError, match="current"):
+        build(load_scenario(p), tmp_path)
