@@ -168,22 +168,22 @@ def _tau_from(th, st, B, tau):
 
 
 @njit(cache=True)
-def _vehicle_rk4(z, h, th_stage, B, vp, vcs, dvc, tau, zt, k1, k2, k3, k4):
+def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4):
     """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
-    (``vcs``, NED) known at t, t + h/2 and t + h."""
+    (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h."""
     _tau_from(th_stage, 0, B, tau)
-    vehicle_rhs_into(z, tau, vp, vcs[0], dvc, k1)
+    vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k1[i]
     _tau_from(th_stage, 1, B, tau)
-    vehicle_rhs_into(zt, tau, vp, vcs[1], dvc, k2)
+    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k2[i]
-    vehicle_rhs_into(zt, tau, vp, vcs[1], dvc, k3)
+    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
     for i in range(13):
         zt[i] = z[i] + h * k3[i]
     _tau_from(th_stage, 2, B, tau)
-    vehicle_rhs_into(zt, tau, vp, vcs[2], dvc, k4)
+    vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
@@ -211,10 +211,9 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
     k3 = np.zeros(nz)
     k4 = np.zeros(nz)
     dvc = np.zeros(3)
-    vcs = np.empty((3, 3))
-    for j in range(3):
-        for st in range(3):
-            vcs[st, j] = vc[j]
+    vc0 = vc.copy()  # current at the RK4 stage times t, t + h/2, t + h
+    vc1 = vc.copy()
+    vc2 = vc.copy()
     varying = VCT.shape[0] > 0
     thrust = np.zeros(n)
     tau = np.zeros(6)
@@ -288,9 +287,10 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     tconst[i] = tparams[i, pb]
             for sub in range(nsub):
                 if varying:
-                    for st in range(3):
-                        for j in range(3):
-                            vcs[st, j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5 * st) * h)
+                    for j in range(3):
+                        vc0[j] = VCT[k, j] + DVCT[k, j] * (sub * h)
+                        vc1[j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5) * h)
+                        vc2[j] = VCT[k, j] + DVCT[k, j] * ((sub + 1.0) * h)
                 for i in range(n):
                     o = 13 + i * ns
                     x0 = z[o]
@@ -303,7 +303,7 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     for i in range(n):
                         F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vcs, dvc, tau, zt, k1, k2, k3, k4)
+                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4)
                 for i in range(n):
                     o = 13 + i * ns
                     z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
@@ -311,10 +311,11 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
             continue
         for sub in range(nsub):
             if varying:
-                for st in range(3):
-                    for j in range(3):
-                        vcs[st, j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5 * st) * h)
-            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[0], dvc, k1,
+                for j in range(3):
+                    vc0[j] = VCT[k, j] + DVCT[k, j] * (sub * h)
+                    vc1[j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5) * h)
+                    vc2[j] = VCT[k, j] + DVCT[k, j] * ((sub + 1.0) * h)
+            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc0, dvc, k1,
                  thrust, tau, ch, blk)
             if sub == 0:
                 for i in range(n):
@@ -322,15 +323,15 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     FDES[k, i] = fdes[i]
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k1[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[1], dvc, k2,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc, k2,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k2[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[1], dvc, k3,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc, k3,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zt[i] = z[i] + h * k3[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vcs[2], dvc, k4,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc2, dvc, k4,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zn[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
