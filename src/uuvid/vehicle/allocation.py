@@ -554,6 +554,16 @@ def _chol_solve(L, nf, b, x):
 
 
 @njit(cache=True)
+def _y_from(Y, lam, z, nf, nE, y, accumulate):
+    """``y = Y λ − z`` on the free variables (added to ``y`` when ``accumulate``)."""
+    for a in range(nf):
+        t = -z[a]
+        for q in range(nE):
+            t += Y[a, q] * lam[q]
+        y[a] = y[a] + t if accumulate else t
+
+
+@njit(cache=True)
 def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
     """Primal active-set method for ``min ½xᵀHx + gᵀx`` s.t. ``E x = e``, ``lo ≤ x ≤ hi``
     (H positive definite; Nocedal & Wright 2006, Alg. 16.3, with bounds as the inequalities).
@@ -628,11 +638,7 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
                     S[q, p] = t
             if nE > 0:
                 _solve_psd(S, nE, r, lam, A2, b2, d0, used, piv)
-            for a in range(nf):
-                t = -z0[a]
-                for q in range(nE):
-                    t += Y[a, q] * lam[q]
-                y[a] = t
+            _y_from(Y, lam, z0, nf, nE, y, False)
             # iterative refinement of the KKT solution (H_FF can be ill-conditioned: εW tie-break)
             for ref in range(2 if nE > 0 else 0):
                 for a in range(nf):  # σ = H_FF y + g̃ − E_Fᵀλ
@@ -651,13 +657,8 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
                     for a in range(nf):
                         t += E[q, idx[a]] * dz[a]
                     rr[q] = t
-                if nE > 0:
-                    _solve_psd(S, nE, rr, dlam, A2, b2, d0, used, piv)
-                for a in range(nf):
-                    t = -dz[a]
-                    for q in range(nE):
-                        t += Y[a, q] * dlam[q]
-                    y[a] += t
+                _solve_psd(S, nE, rr, dlam, A2, b2, d0, used, piv)
+                _y_from(Y, dlam, dz, nf, nE, y, True)
                 for q in range(nE):
                     lam[q] += dlam[q]
             # ratio test from x towards the subproblem optimum y
@@ -783,6 +784,28 @@ def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi):
 
 
 @njit(cache=True)
+def _try_scaled(sc, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, fixed, zero, E,
+                e, g0, wf, wi, scale):
+    """Is ``sc·φ`` achievable?  Phase 1 (weighted least error, kept in ``x1``), then, when its
+    error is small, the least-effort exact solution (``x``); True when that one delivers
+    ``sc·φ`` (and the mode's equalities) to 1e-11 of the request's size."""
+    for k in range(m):
+        target[k] = sc * phi[k]
+    for i in range(n):
+        t = 0.0
+        for k in range(m):
+            t += Bp[k, i] * q[k] * target[k]
+        g[i] = -t
+    _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, sc)
+    for i in range(n):
+        x1[i] = x[i]
+    if _residual(Bp, q, m, n, x, target) > 1e-6 * scale:
+        return False
+    return _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi) \
+        <= 1e-11 * scale
+
+
+@njit(cache=True)
 def _bounded(a, phi, tau, n, m, method, s0):
     """Active-set allocation (methods ``priority`` and ``maxscale``); see :class:`Allocator`."""
     comp = a[2] != 0.0
@@ -822,7 +845,7 @@ def _bounded(a, phi, tau, n, m, method, s0):
     wi = iblk[n:]
     for i in range(n):
         W[i, i] = a[ow + i]
-    # phase-1 Hessian BᵀQB + εW (ε: 1e-10 of the scale of BᵀQB: a tie-break, the error stays exact)
+    # phase-1 Hessian BᵀQB + εW (ε: 1e-13 of the scale of BᵀQB): a tie-break towards least effort
     trb = 0.0
     trw = 0.0
     for i in range(n):
@@ -842,20 +865,10 @@ def _bounded(a, phi, tau, n, m, method, s0):
             scale = max(scale, abs(phi[k]))
     frac = 1.0
     if method == 3:  # weighted least error with DOF priorities
-        for i in range(n):
-            s = 0.0
-            for k in range(m):
-                s += Bp[k, i] * q[k] * phi[k]
-            g[i] = -s
-        _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, 1.0)
-        for i in range(n):
-            x1[i] = x[i]
-        ok = False
-        if _residual(Bp, q, m, n, x, phi) <= 1e-6 * scale:
-            ok = _exact(Bp, q, C, nC, m, n, W, lo, hi, phi, x, fixed, E, e, g0, wf, wi) <= 1e-11 * scale
-        if not ok:  # not achievable: the phase-1 optimum (its εW term picks the least effort
-            for i in range(n):  # among the thrusts giving the best wrench, to O(ε))
-                x[i] = x1[i]
+        if not _try_scaled(1.0, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
+                           fixed, zero, E, e, g0, wf, wi, scale):
+            for i in range(n):  # not achievable: the phase-1 optimum (its εW term picks the
+                x[i] = x1[i]  # least effort among the thrusts giving the best wrench, to O(ε))
             frac = -1.0  # computed below
     else:  # largest s ≤ 1 with s·φ achievable (bisection on exact feasibility)
         slo = max(s0, 0.0)
@@ -863,19 +876,8 @@ def _bounded(a, phi, tau, n, m, method, s0):
         have = False
         for it in range(40):
             s_try = shi if it == 0 else 0.5 * (slo + shi)
-            for k in range(m):
-                target[k] = s_try * phi[k]
-            for i in range(n):
-                s = 0.0
-                for k in range(m):
-                    s += Bp[k, i] * q[k] * target[k]
-                g[i] = -s
-            _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, s_try)
-            ok = False
-            if _residual(Bp, q, m, n, x, target) <= 1e-6 * scale:
-                ok = _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi) \
-                    <= 1e-11 * scale
-            if ok:
+            if _try_scaled(s_try, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
+                           fixed, zero, E, e, g0, wf, wi, scale):
                 slo = s_try
                 have = True
                 for i in range(n):
@@ -887,15 +889,8 @@ def _bounded(a, phi, tau, n, m, method, s0):
             if shi - slo <= 1e-10:
                 break
         if not have and slo > 0.0:  # the bracket's start s0 (uniform scaling) was never solved
-            for k in range(m):
-                target[k] = slo * phi[k]
-            for i in range(n):
-                s = 0.0
-                for k in range(m):
-                    s += Bp[k, i] * q[k] * target[k]
-                g[i] = -s
-            _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, slo)
-            _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi)
+            _try_scaled(slo, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, fixed,
+                        zero, E, e, g0, wf, wi, scale)
             for i in range(n):
                 best[i] = x[i]
         for i in range(n):
