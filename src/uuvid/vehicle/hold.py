@@ -197,6 +197,10 @@ class CapabilityResult:
         lines = [f"station-keeping capability of {self.vehicle}{v}: largest current held "
                  f"{np.min(self.max_current):.3f}–{np.max(self.max_current):.3f} m/s "
                  f"(weakest from {self.relative_deg[k]:.0f}° off the bow)"]
+        if self.limiting:
+            nt = sum(1 for x in self.limiting if x)
+            lines.append(f"  limited by thrust at {nt} of {len(self.limiting)} angles, by the "
+                         f"attitude (tilt beyond {MAX_TILT_DEG:g}° or unstable) at the others")
         for d, s, a in zip(self.simulated_deg, self.simulated, self.agreement):
             lines.append(f"  simulated at {d:.0f}°: {s:.3f} m/s (analytic {self.analytic_at(d):.3f},"
                          f" ratio {a:.3f})")
@@ -213,31 +217,21 @@ class CapabilityResult:
                 "simulated_max_current_m_s": self.simulated.tolist(),
                 "simulated_over_analytic": self.agreement.tolist(), "note": self.note}
 
-    def plot(self, path=None, ax=None):
-        import matplotlib
+    def plot(self, path=None):
+        """Polar capability plot (0° = current from ahead, clockwise to starboard)."""
+        from uuvid.report.plots import new_figure, save_figure
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        own = ax is None
-        if own:
-            fig = plt.figure(figsize=(5.5, 5.5))
-            ax = fig.add_subplot(projection="polar")
+        fig, ax = new_figure(1, 1, figsize=(5.5, 5.5), subplot_kw={"projection": "polar"})
         ax.set_theta_zero_location("N")
         ax.set_theta_direction(-1)
         th = np.radians(np.append(self.relative_deg, self.relative_deg[:1]))
         ax.plot(th, np.append(self.max_current, self.max_current[:1]), label="analytic")
         if self.simulated.size:
             ax.plot(np.radians(self.simulated_deg), self.simulated, "o", label="simulated")
-        ax.set_title(f"{self.vehicle}: largest current held (m/s)\nvs direction it comes from")
+        v = f" at {self.supply_voltage:g} V" if self.supply_voltage else ""
+        ax.set_title(f"{self.vehicle}{v}: largest current held (m/s)\nvs the direction it comes from")
         ax.legend(loc="lower right", fontsize=8)
-        if own and path is not None:
-            from uuvid.io.atomic import atomic_path
-
-            with atomic_path(path) as tmp:
-                fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
-            plt.close(fig)
-        return ax
+        return save_figure(fig, path) if path is not None else fig
 
 
 def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
