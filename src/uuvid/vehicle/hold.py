@@ -161,11 +161,17 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     if soc is not None:
         h = hold_on_battery(vehicle, current_ned(lo, relative_deg), soc, battery=battery,
                             modes=modes, depth=depth, start=ang)
-        return lo, {"limiting_thrusters": [names[i] for i in h.allocation.limiting],
+        hb = hold_on_battery(vehicle, current_ned(hi, relative_deg), soc, battery=battery,
+                             modes=modes, depth=depth, start=ang).allocation
+        return lo, {"limiting_thrusters": [names[i] for i in hb.limiting]
+                    if not hb.achievable else [],
                     "roll_deg": math.degrees(h.roll), "pitch_deg": math.degrees(h.pitch),
                     "supply_voltage_V": h.voltage, "battery_current_A": h.current}
     _, roll, pitch, r = steady_hold(vehicle, current_ned(lo, relative_deg), al, depth, ang)
-    return lo, {"limiting_thrusters": [names[i] for i in r.limiting],
+    # just beyond the boundary: thrusters at their limits if thrust is what runs out
+    rb = steady_hold(vehicle, current_ned(hi, relative_deg), al, depth, ang)[3]
+    lim = [names[i] for i in rb.limiting] if not rb.achievable else []
+    return lo, {"limiting_thrusters": lim,
                 "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
 
 
