@@ -92,3 +92,42 @@ def test_vehicle_file_battery_errors_name_the_key():
     raw["battery"]["ocv_voltage"] = raw["battery"]["ocv_voltage"][::-1]
     with pytest.raises(VehicleFileError, match="battery"):
         vehicle_from_dict(raw, "x.yaml")
+
+
+def test_battery_mission_limit_shrinks_and_command_compensates():
+    """Supply voltage as a state of the mission loop: holding station in a 0.5 m/s current on a
+    part-charged pack, the voltage sags, the thrust limit (at that voltage) shrinks, the held
+    thrust stays, and the commands grow to keep it."""
+    from uuvid.simulate.currents import TimeSeriesCurrent
+    from uuvid.simulate.reference import WaypointMission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+
+    v = load_vehicle("bluerov2-heavy")
+    c = hold.current_ned(0.5, 0.0)
+    cur = TimeSeriesCurrent(np.array([0.0, 20.0, 1e4]), np.vstack([0 * c, c, c]))
+    wp = (0.0, 0.0, 2.0, 0.0)
+    s = setup_mission(v, WaypointMission((wp, wp), hold=400.0), current=cur, battery=True,
+                      soc0=0.25, dt=0.02)
+    r = fly_mission(s)
+    V, I, soc, cmd = r.supply[:, 0], r.supply[:, 1], r.supply[:, 2], r.supply[:, 3:]
+    a, b = np.searchsorted(r.t, 100.0), -1  # after the current has built up and settled
+    assert V[b] < V[a] - 0.05 and soc[b] < soc[a]
+    lim_a, lim_b = (np.interp(x, _vgrid(s), _vhi(s))
+                    for x in (V[a], V[b]))
+    assert lim_b < lim_a
+    k = int(np.argmax(np.abs(r.thrust[a])))
+    assert abs(r.thrust[b, k] - r.thrust[a, k]) < 0.02 * abs(r.thrust[a, k])
+    assert abs(cmd[b, k] - 1500) > abs(cmd[a, k] - 1500) + 1.0
+    assert r.summary["max_tracking_error_m"] < 0.5 and np.all(I > 0)
+
+
+def _vgrid(s):
+    B = s.battery_array
+    no, nv = int(B[7]), int(B[5])
+    return B[8 + 2 * no:8 + 2 * no + nv]
+
+
+def _vhi(s):
+    B = s.battery_array
+    no, nv = int(B[7]), int(B[5])
+    return B[8 + 2 * no + 2 * nv:8 + 2 * no + 3 * nv]
