@@ -97,3 +97,14 @@ def test_scenario_file_currents(tmp_path):
     p.write_text("vehicle: bluerov2\ncurrent: {kind: timeseries, file: missing.csv}\n")
     with pytest.raises(ScenarioError, match="current"):
         build(load_scenario(p), tmp_path)
+
+
+def test_scenario_battery(tmp_path):
+    from uuvid.simulate.scenario import build, load_scenario
+
+    p = tmp_path / "s.yaml"
+    p.write_text("vehicle: bluerov2\nbattery_soc: 0.6\nduration: 2.0\n")
+    _, setup = build(load_scenario(p), tmp_path)
+    r = fly_mission(setup)
+    assert r.summary["soc"][0] == 0.6 and r.summary["soc"][1] < 0.6
+    assert r.supply.shape == (r.t.size, 3 + 6)

@@ -15,6 +15,7 @@
     #   {kind: timeseries, file: current.csv}                     (columns time, north, east[, down])
     #   {kind: gauss_markov, mean: 0.3, mu: 0.05, sigma: 0.02, direction_deg: 0, seed: 1}
     allocation: priority              # priority | maxscale | scale | clip | none
+    battery_soc: null                 # e.g. 0.8: fly on the vehicle file's battery from 80 % charge
     controller: {bandwidth: [1.5, 1.5, 1.5, 2.0]}      # rad/s per surge, sway, heave, yaw
     dt: 0.01
     substeps: 1
@@ -127,6 +128,7 @@ class ScenarioSpec(BaseModel):
     thruster_model: str | None = None
     current: tuple[float, float, float] | CurrentSpec = (0.0, 0.0, 0.0)
     allocation: Literal["priority", "maxscale", "scale", "clip", "none"] = "priority"
+    battery_soc: float | None = Field(None, ge=0, le=1)
     controller: ControllerSpec = ControllerSpec()
     dt: float = Field(0.01, gt=0, le=0.1)
     substeps: int = Field(1, ge=1, le=100)
@@ -183,7 +185,12 @@ def build(spec: ScenarioSpec, base: Path | None = None):
             cur = cur.build(base)
         except (ValueError, OSError) as e:
             raise ScenarioError(f"current: {e}") from None
-    setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
-                          thruster_chain=chain, current=cur, t_end=spec.duration,
-                          allocation=spec.allocation)
+    try:
+        setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
+                              thruster_chain=chain, current=cur, t_end=spec.duration,
+                              allocation=spec.allocation,
+                              battery=True if spec.battery_soc is not None else None,
+                              soc0=1.0 if spec.battery_soc is None else spec.battery_soc)
+    except ValueError as e:
+        raise ScenarioError(f"{spec.name}: {e}") from None
     return vehicle, setup

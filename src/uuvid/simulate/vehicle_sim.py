@@ -656,6 +656,17 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     if not (dt > 0 and substeps >= 1):
         raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
     n = len(vehicle.layout)
+    if battery is True:
+        battery = vehicle.battery
+        if battery is None:
+            raise ValueError(f"{vehicle.name} has no battery block in its vehicle file")
+    if (battery is not None and thruster_chain is None and battery.thruster_power_model ==
+            "t200-physical" and all(t.model == "t200" for t in vehicle.layout)):
+        # on a battery, Blue Robotics thrusters default to the voltage-aware T200 fit (the
+        # model the battery's currents come from) instead of the 16 V approximate preset
+        from uuvid.vehicle.power import physical_model
+
+        thruster_chain = physical_model().to_chain(max(battery.ocv_voltage))
     chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
     bank = ThrusterBank.from_chains(chains)
     al = vehicle.allocator(modes)
@@ -673,10 +684,6 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
         vct, dvct = cm.sample(t, dt)
         series = (np.ascontiguousarray(vct), np.ascontiguousarray(dvct))
         const = np.asarray(vct[0], dtype=float)
-    if battery is True:
-        battery = vehicle.battery
-        if battery is None:
-            raise ValueError(f"{vehicle.name} has no battery block in its vehicle file")
     bat = battery_tables(bank, battery, soc0) if battery is not None else None
     return MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt, int(substeps),
                         alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
