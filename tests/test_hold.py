@@ -131,3 +131,21 @@ def _vhi(s):
     B = s.battery_array
     no, nv = int(B[7]), int(B[5])
     return B[8 + 2 * no + 2 * nv:8 + 2 * no + 3 * nv]
+
+
+def test_cli_hold_json(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    res = CliRunner().invoke(app, ["vehicle", "hold", "bluerov2-heavy", "--current", "0.4,30",
+                                   "--voltage", "16", "--step", "90", "--out", str(tmp_path),
+                                   "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["at_current"]["holds"] and len(doc["capability"]["max_current_m_s"]) == 4
+    assert (tmp_path / "capability.png").is_file()
+    bad = CliRunner().invoke(app, ["vehicle", "hold", "bluerov2", "--current", "fast"])
+    assert bad.exit_code == 2 and "--current" in bad.output

@@ -57,9 +57,11 @@ def vehicle_hold(
         sim = tuple(float(x) for x in simulate.split(",") if x.strip())
     except ValueError:
         _fail(f"--simulate: expected comma-separated angles, got {simulate!r}")
+    if sim and battery is not None:
+        _fail("--simulate confirms at fixed limits: give --voltage instead of --battery")
     try:
-        cap = hold.capability(v, step_deg=step, supply_voltage=voltage,
-                              soc=battery if not sim else None, simulate_deg=sim)
+        cap = hold.capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
+                              simulate_deg=sim)
     except ValueError as e:
         _fail(str(e))
     doc = {"capability": cap.to_dict()}
