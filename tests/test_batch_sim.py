@@ -193,3 +193,18 @@ def test_full_matrices_take_the_general_path(bluerov2):
     M = VP[:, P_MRB:P_MRB + 36].reshape(R, 6, 6) + VP[:, P_MA:P_MA + 36].reshape(R, 6, 6)
     VP[:, P_MINV:P_MINV + 36] = np.linalg.inv(M).reshape(R, 36)
     _check_against_fly(setup, VP, TP, VC, trace_run=0)
+
+
+def test_saturated_runs_follow_the_bounded_allocation(bluerov2):
+    """The kernel allocates by uniform scaling; under the bounded allocation (the mission default)
+    the runs that saturate are flown again by fly(), so every row equals fly_batch's."""
+    from uuvid.simulate.reference import square_mission as sq
+
+    s = setup_mission(bluerov2, sq(speed=1.5), t_end=30.0)
+    assert s.allocation == "priority"
+    VP = np.tile(s.vp, (3, 1))
+    VC = np.array([[0.0, 0.0, 0.0], [1.5, 1.5, 0.0], [2.0, -2.0, 0.0]])
+    out = batch.run_batch_fast(s, VP, None, VC)
+    ref = run_batch(s, VP, None, VC)
+    assert np.any(np.isnan(out[:, 6]))  # some run left the limits under uniform scaling: reflown
+    np.testing.assert_allclose(out[:, :5], ref, rtol=RTOL, atol=0)

@@ -58,11 +58,13 @@ def _register_subcommands(command: str | None = None) -> None:
 
             register_replay(thruster_app)
         elif part == "identify":
+            from uuvid.cli.hold_cmd import register as register_hold
             from uuvid.cli.identify_cmds import register as register_identify
             from uuvid.cli.vehicle_cmds import vehicle_app
 
             _register_subcommands("simulate")  # the vehicle group first
             register_identify(vehicle_app, reproduce_app)
+            register_hold(vehicle_app)
         elif part == "uncertainty":
             from uuvid.cli.uncertainty_cmds import register as register_uncertainty
 

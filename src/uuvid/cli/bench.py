@@ -42,6 +42,7 @@ def run_benchmarks() -> dict:
     result.update(_load("bench_identification").run_all())
     result.update(_load("bench_vehicle").run_all())
     result.update(_load("bench_sweep").run_all())
+    result.update(_load("bench_allocation").run_all())
     result.update(_load("bench_startup").run_all())
     result.update(_load("bench_gym").run_all())
     result.update(_load("bench_dynamics").run_all())

@@ -52,6 +52,82 @@ def _dynamics_gallery(out: Path, rep: Report) -> dict:
     return {"dynamics": rows}
 
 
+def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
+    """Station keeping: capability plots (BlueROV2, Heavy), an endurance curve, the square
+    mission in a 0.3 m/s current."""
+    from uuvid.simulate.currents import ned
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.vehicle import hold
+    from uuvid.vehicle.definition import load_vehicle
+
+    d = out / "hold"
+    d.mkdir(parents=True, exist_ok=True)
+    rep.add_heading("Station keeping: capability, battery endurance, currents")
+    res: dict = {}
+    for name in ("bluerov2", "bluerov2-heavy"):
+        v = load_vehicle(name)
+        cap = hold.capability(v, step_deg=15.0 if not quick else 45.0, supply_voltage=16.0,
+                              simulate_deg=() if quick else (0.0, 90.0))
+        cap.plot(d / f"capability_{name}.png")
+        rep.add_paragraph(cap.summary())
+        rep.add_figure(d / f"capability_{name}.png", caption=f"{name}: capability plot at 16 V")
+        res[f"capability_{name}"] = cap.to_dict()
+    heavy = load_vehicle("bluerov2-heavy")
+    speeds = np.linspace(0.0, 0.7, 8 if not quick else 3)
+    step = 0.05 if not quick else 0.2
+    times = [hold.endurance(heavy, float(sp), 0.0, dsoc=step).endurance_s / 60 for sp in speeds]
+    fig, ax = new_figure(1, 1, figsize=(6, 4))
+    ax.plot(speeds, times, "o-")
+    ax.set_xlabel("head current [m/s]")
+    ax.set_ylabel("station keeping time from full charge [min]")
+    ax.set_title("BlueROV2 Heavy on a 4S 18 Ah Li-ion pack")
+    rep.add_figure(save_figure(fig, d / "endurance_heavy.png"))
+    e = hold.endurance(heavy, 0.5, 0.0, dsoc=0.02 if not quick else 0.1)
+    e.plot(d / "discharge_heavy.png")
+    rep.add_paragraph(e.summary())
+    rep.add_figure(d / "discharge_heavy.png", caption="Discharge holding station in 0.5 m/s: the "
+                   "limit shrinks as the pack sags; the held commands grow to keep the thrust")
+    res["endurance_heavy"] = {"speed_m_s": speeds.tolist(), "minutes": times,
+                              "discharge_0.5": e.to_dict()}
+    # the supply voltage as a state of the mission loop: holding station on a part-charged pack
+    from uuvid.simulate.currents import TimeSeriesCurrent
+    from uuvid.simulate.reference import WaypointMission
+
+    c = hold.current_ned(0.5, 0.0)
+    wp = (0.0, 0.0, 2.0, 0.0)
+    hold_s = 120.0 if quick else 400.0
+    sb = setup_mission(heavy, WaypointMission((wp, wp), hold=hold_s), dt=0.02, battery=True,
+                       soc0=0.25, current=TimeSeriesCurrent(np.array([0.0, 20.0, 1e4]),
+                                                            np.vstack([0 * c, c, c])))
+    rb = fly_mission(sb)
+    fig, ax = new_figure(1, 3, figsize=(13, 3.6))
+    ax[0].plot(rb.t, rb.supply[:, 0])
+    ax[0].set_ylabel("supply voltage [V]")
+    ax[1].plot(rb.t, rb.supply[:, 1])
+    ax[1].set_ylabel("battery current [A]")
+    ax[2].plot(rb.t, rb.supply[:, 3:])
+    ax[2].set_ylabel("thruster commands [µs]")
+    for a in ax:
+        a.set_xlabel("t [s]")
+    rep.add_figure(save_figure(fig, d / "battery_mission_heavy.png"),
+                   caption="BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack (voltage-aware "
+                   "T200 model in the loop): the voltage sags, the commands grow to hold the thrust")
+    res["battery_mission"] = {k: rb.summary[k] for k in ("supply_voltage_V", "soc",
+                                                         "max_battery_current_A",
+                                                         "max_tracking_error_m")}
+    r = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(),
+                                  current=ned(0.3, 0.0)))
+    sq = {k: r.summary[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
+                                    "saturated_fraction")}
+    rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current from the north: "
+                      + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                                  for k, v in sq.items()))
+    res["square_in_0.3_current"] = sq
+    atomic_write_json(d / "hold.json", res)
+    return res
+
+
 def _vehicle_section(out: Path, rep: Report) -> dict:
     """BlueROV2 flying Laidani et al.'s square; envelopes of the BlueROV2 and the Heavy."""
     from uuvid.report.mission import write_mission_outputs
@@ -257,7 +333,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with progress_task("uuvid demo", total=22, eta=False, stages=12) as task:
+    with progress_task("uuvid demo", total=23, eta=False, stages=13) as task:
         task.stage("McLean 1991: Table I step responses")
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
         task.stage("Laidani et al.: PWM → thrust")
@@ -308,6 +384,9 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         task.stage("a real ArduSub dive log: inspect and export")
         ardusub = _ardusub_section(out, rep)
         task.advance()
+        task.stage("station keeping: allocation, currents, battery")
+        hold_ = _hold_section(out, rep, quick)
+        task.advance()
         task.stage("model file round trip and report")
         # model files round-trip: what a user writes is what the simulator runs
         path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
@@ -326,6 +405,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "dynamics_fit": dynamics_fit,
             "linearize": linear,
             "ardusub": ardusub,
+            "hold": hold_,
             "model_file": {"path": str(path), "round_trip_equal": same},
         }
         atomic_write_json(out / "demo.json", result)

@@ -1062,6 +1062,7 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     instead); there column 6 is NaN and traces are not available.
     """
     s = setup
+    vehicle_sim.require_constant_current(s)
     VP, TP, VC = _inputs(s, vehicle_params, thruster_params, currents)
     R = VP.shape[0]
     trace_runs = [int(r) for r in trace_runs]
@@ -1131,6 +1132,12 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     out[:, 5] = ((out[:, 3] < 0.25) & (out[:, 0] < 1.0)).astype(float)
     out[:, 6] = Wf[:, rows["nsat"]] / nsteps
     out[:, 7] = np.all(np.isfinite(Wf[:, :13]), axis=1).astype(float)
+    if vehicle_sim.allocation_method(s.alloc) != "scale":
+        # the kernel allocates by uniform scaling, which a bounded method matches exactly while
+        # the thrusters stay inside their limits: runs that saturated are flown again by fly()
+        sat = np.flatnonzero(out[:, 6] > 0)
+        if sat.size:
+            out[sat] = _fallback(s, VP[sat], TP[sat], VC[sat])
     if not trace_runs:
         return out
     trace = np.stack([TR[TRMAP[r // CW], :, :, r % CW] for r in trace_runs])

@@ -10,7 +10,12 @@
       speed: 0.5
       # waypoints: [[0, 0, 0, 0], [0, 0, 2, 0], ...]   (north, east, down [m], yaw [rad])
     thruster_model: null              # override every thruster's model (preset or file)
-    current: [0.0, 0.0, 0.0]          # NED, m/s
+    current: [0.0, 0.0, 0.0]          # NED, m/s; or one of
+    #   {kind: constant, speed: 0.3, direction_deg: 90}          (flowing towards, 0 = north)
+    #   {kind: timeseries, file: current.csv}                     (columns time, north, east[, down])
+    #   {kind: gauss_markov, mean: 0.3, mu: 0.05, sigma: 0.02, direction_deg: 0, seed: 1}
+    allocation: priority              # priority | maxscale | scale | clip | none
+    battery_soc: null                 # e.g. 0.8: fly on the vehicle file's battery from 80 % charge
     controller: {bandwidth: [1.5, 1.5, 1.5, 2.0]}      # rad/s per surge, sway, heave, yaw
     dt: 0.01
     substeps: 1
@@ -65,13 +70,65 @@ class ControllerSpec(BaseModel):
     kd: tuple[float, float, float, float] | None = None
 
 
+class ConstantCurrentSpec(BaseModel):
+    model_config = _CFG
+    kind: Literal["constant"]
+    speed: float = Field(ge=0)
+    direction_deg: float = 0.0
+    down: float = 0.0
+
+    def build(self, base):
+        from uuvid.simulate.currents import ConstantCurrent, ned
+
+        return ConstantCurrent(tuple(float(x) for x in ned(self.speed, self.direction_deg,
+                                                           self.down)))
+
+
+class TimeSeriesCurrentSpec(BaseModel):
+    model_config = _CFG
+    kind: Literal["timeseries"]
+    file: str
+
+    def build(self, base):
+        from uuvid.simulate.currents import TimeSeriesCurrent
+
+        p = Path(self.file)
+        if not p.is_absolute() and base is not None:
+            p = base / p
+        return TimeSeriesCurrent.from_csv(p)
+
+
+class GaussMarkovCurrentSpec(BaseModel):
+    model_config = _CFG
+    kind: Literal["gauss_markov"]
+    mean: float = Field(0.3, ge=0)
+    mu: float = Field(0.05, gt=0)
+    sigma: float = Field(0.02, ge=0)
+    min: float = Field(0.0, ge=0)
+    max: float = Field(1.0, ge=0)
+    direction_deg: float = 0.0
+    direction_sigma_deg: float = Field(0.0, ge=0)
+    direction_mu: float = Field(0.05, gt=0)
+    seed: int = 0
+
+    def build(self, base):
+        from uuvid.simulate.currents import GaussMarkovCurrent
+
+        return GaussMarkovCurrent(**self.model_dump(exclude={"kind"}))
+
+
+CurrentSpec = ConstantCurrentSpec | TimeSeriesCurrentSpec | GaussMarkovCurrentSpec
+
+
 class ScenarioSpec(BaseModel):
     model_config = _CFG
     name: str = "scenario"
     vehicle: str = "bluerov2"
     mission: MissionSpec = MissionSpec()
     thruster_model: str | None = None
-    current: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    current: tuple[float, float, float] | CurrentSpec = (0.0, 0.0, 0.0)
+    allocation: Literal["priority", "maxscale", "scale", "clip", "none"] = "priority"
+    battery_soc: float | None = Field(None, ge=0, le=1)
     controller: ControllerSpec = ControllerSpec()
     dt: float = Field(0.01, gt=0, le=0.1)
     substeps: int = Field(1, ge=1, le=100)
@@ -122,6 +179,18 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         gains = DPGains(c.kp, c.ki or (0.0,) * 4, c.kd or (0.0,) * 4, g0.tau_max, g0.i_limit)
     else:
         gains = default_gains(vehicle, omega=c.bandwidth)
-    setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
-                          thruster_chain=chain, current=spec.current, t_end=spec.duration)
+    cur = spec.current
+    if hasattr(cur, "build"):
+        try:
+            cur = cur.build(base)
+        except (ValueError, OSError) as e:
+            raise ScenarioError(f"current: {e}") from None
+    try:
+        setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
+                              thruster_chain=chain, current=cur, t_end=spec.duration,
+                              allocation=spec.allocation,
+                              battery=True if spec.battery_soc is not None else None,
+                              soc0=1.0 if spec.battery_soc is None else spec.battery_soc)
+    except ValueError as e:
+        raise ScenarioError(f"{spec.name}: {e}") from None
     return vehicle, setup

@@ -106,7 +106,11 @@ def _inverse_table(chain: ThrusterChain, points: int):
         return x.copy(), x.copy(), 0.0
     lo, hi, neutral = _command_range(chain)
     c = np.linspace(lo, hi, points)
-    f = chain.steady_thrust(c)
+    return _inverse_from(c, chain.steady_thrust(c), neutral, points)
+
+
+def _inverse_from(c, f, neutral, points):
+    """Strictly increasing (thrust, command) table of ``points`` rows from a steady map."""
     order = np.argsort(f, kind="stable")
     f, c = f[order], c[order]
     keep = np.concatenate([[True], np.diff(f) > 1e-12 * max(1.0, float(np.max(np.abs(f))))])
@@ -126,6 +130,55 @@ def _inverse_table(chain: ThrusterChain, points: int):
 
 
 _interp = kernels.interp_sorted
+
+
+def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int = 401,
+                   voltages: int = 25) -> np.ndarray:
+    """Flat battery array for :func:`fly`: battery parameters, OCV table and, at a grid of supply
+    voltages, the thrust limits, the inverse steady map (command for a thrust) and the supply
+    current (the battery's thruster power model, e.g. the voltage-aware T200) of the vehicle's
+    thruster chain with its ESC at that voltage (``chain.steady_thrust`` through
+    :func:`_inverse_table`).  Needs identical chains whose first block is an ESC (the static
+    prefix in front of the dynamics)."""
+    import dataclasses
+
+    from uuvid.thruster.blocks import ESC
+    from uuvid.vehicle.power import SupplyThruster, physical_model
+
+    ch = bank.chains[0]
+    if any(c != ch for c in bank.chains[1:]):
+        raise ValueError("a battery run needs identical thruster chains")
+    esc = ch.blocks[0]
+    if not isinstance(esc, ESC) or len(ch.blocks) < 2 or not np.any(bank.soff[1:] > 0):
+        raise ValueError(f"a battery run needs an ESC-driven chain (ESC → dynamics → map); "
+                         f"{ch.name} starts with {type(esc).__name__}")
+    if not (0.0 <= soc0 <= 1.0):
+        raise ValueError(f"initial state of charge must be within 0..1, got {soc0}")
+    st = SupplyThruster(physical_model(battery.thruster_power_model))
+    vmin = max(min(battery.ocv_voltage) * 0.8, 1.0)
+    vgrid = np.linspace(vmin, max(battery.ocv_voltage), voltages)
+    # the chain of the power model itself (the default on a battery): its steady map is the
+    # model's closed form (equal to chain.steady_thrust to 1e-10 N), much faster to tabulate
+    closed = st.model.to_chain(esc.supply_voltage) == ch
+    lo, hi, tt, tc, ti = [], [], [], [], []
+    for v in vgrid:
+        k = v / esc.supply_voltage
+        e2 = dataclasses.replace(esc, a_fwd=esc.a_fwd * k, b_fwd=esc.b_fwd * k,
+                                 a_rev=esc.a_rev * k, b_rev=esc.b_rev * k, supply_voltage=float(v))
+        if closed:
+            cg = np.linspace(esc.saturation_low, esc.saturation_high, points)
+            t, c, _ = _inverse_from(cg, st.model.thrust(cg, float(v)), esc.neutral, points)
+        else:
+            t, c, _ = _inverse_table(dataclasses.replace(ch, blocks=(e2,) + ch.blocks[1:]), points)
+        lo.append(t[0])
+        hi.append(t[-1])
+        tt.append(t)
+        tc.append(c)
+        ti.append(st.current(t, float(v)))
+    so, vo = np.asarray(battery.ocv_soc, float), np.asarray(battery.ocv_voltage, float)
+    return np.concatenate([[battery.capacity_ah, battery.resistance, battery.hotel_load_w, soc0,
+                            esc.supply_voltage, voltages, points, so.size], so, vo, vgrid, lo, hi,
+                           np.ravel(tt), np.ravel(tc), np.ravel(ti)]).astype(float)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -168,31 +221,69 @@ def _tau_from(th, st, B, tau):
 
 
 @njit(cache=True)
-def _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4):
-    """One RK4 step of the 13 vehicle states with the thrust known at t, t + h/2 and t + h."""
+def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4):
+    """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
+    (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h."""
     _tau_from(th_stage, 0, B, tau)
-    vehicle_rhs_into(z, tau, vp, vc, dvc, k1)
+    vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k1[i]
     _tau_from(th_stage, 1, B, tau)
-    vehicle_rhs_into(zt, tau, vp, vc, dvc, k2)
+    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k2[i]
-    vehicle_rhs_into(zt, tau, vp, vc, dvc, k3)
+    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
     for i in range(13):
         zt[i] = z[i] + h * k3[i]
     _tau_from(th_stage, 2, B, tau)
-    vehicle_rhs_into(zt, tau, vp, vc, dvc, k4)
+    vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @njit(cache=True)
+def _ocv(BAT, soc):
+    no = int(BAT[7])
+    return kernels.interp_sorted(BAT[8:8 + no], BAT[8 + no:8 + 2 * no], soc)
+
+
+@njit(cache=True)
+def _set_limits(a, n, lo, hi):
+    """Thrust limits ``[lo, hi]`` for every thruster in an allocation array (command limits and,
+    for the bounded methods, the planned ones: η-scaled when compensating)."""
+    m = int(a[1])
+    olo = 3 + n * m
+    ohi = olo + n
+    oep = ohi + n
+    oen = oep + n
+    comp = a[2] != 0.0
+    for i in range(n):
+        a[olo + i] = lo
+        a[ohi + i] = hi
+    o = oen + n
+    if a.size > o:
+        opl = o + 3 + m + n
+        for i in range(n):
+            a[opl + i] = lo * a[oen + i] if comp else lo
+            a[opl + n + i] = hi * a[oep + i] if comp else hi
+
+
+@njit(cache=True)
 def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact,
         inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub,
-        Z, F, FDES, TAU, SCALE):
+        Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
     """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
-    allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``."""
+    allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``.
+
+    Current (NED): ``vc`` constant when ``VCT`` has no rows; otherwise piecewise linear,
+    ``v_c(t_k + s) = VCT[k] + DVCT[k]·s`` over step k (``DVCT`` is its rate, passed to the
+    vehicle model as ν̇_c, so the relative velocity ν_r = ν − ν_c is consistent).
+
+    Battery (``BAT`` from :func:`battery_tables`, empty for an ideal supply): each step the
+    supply voltage ``V = OCV(SOC) − R I`` (I of the previous step) sets the thrust limits of the
+    allocation and the inverse maps (tables at a grid of voltages, interpolated), scales the ESC
+    output (duty × supply), and the battery current ``Σ I_i(T_i, V) + P_hotel/V`` discharges
+    ``SOC``; ``VOUT[k] = [V, I, SOC, command of each thruster]``."""
     nsteps = ref_pos.shape[0]
     n = tparams.shape[0]
     nz = z0.size
@@ -206,6 +297,10 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
     k3 = np.zeros(nz)
     k4 = np.zeros(nz)
     dvc = np.zeros(3)
+    vc0 = vc.copy()  # current at the RK4 stage times t, t + h/2, t + h
+    vc1 = vc.copy()
+    vc2 = vc.copy()
+    varying = VCT.shape[0] > 0
     thrust = np.zeros(n)
     tau = np.zeros(6)
     ch = np.empty(N_CH)
@@ -244,20 +339,75 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
     th_stage = np.zeros((3, n))
     tgt = np.zeros(n)
     tconst = np.zeros(n)
+    # battery (BAT from battery_tables; empty: ideal supply, the chains' own voltage)
+    batt = BAT.size > 0
+    b_cap = BAT[0] if batt else 1.0
+    b_res = BAT[1] if batt else 0.0
+    b_hotel = BAT[2] if batt else 0.0
+    soc = BAT[3] if batt else 1.0
+    v_nom = BAT[4] if batt else 1.0
+    nv = int(BAT[5]) if batt else 2
+    K = int(BAT[6]) if batt else 1
+    no = int(BAT[7]) if batt else 0
+    ob = 8 + 2 * no
+    vgrid = BAT[ob:ob + nv] if batt else np.zeros(2)
+    vlo = BAT[ob + nv:ob + 2 * nv] if batt else np.zeros(2)
+    vhi = BAT[ob + 2 * nv:ob + 3 * nv] if batt else np.zeros(2)
+    ot = ob + 3 * nv
+    vtt = BAT[ot:ot + nv * K].reshape(nv, K) if batt else np.zeros((2, 1))
+    vtc = BAT[ot + nv * K:ot + 2 * nv * K].reshape(nv, K) if batt else np.zeros((2, 1))
+    vti = BAT[ot + 2 * nv * K:ot + 3 * nv * K].reshape(nv, K) if batt else np.zeros((2, 1))
+    alc = alloc.copy()
+    i_prev = 0.0
+    volt = 0.0
+    wv = 0.0
+    jv = 0
     for k in range(nsteps):
+        if varying:
+            for j in range(3):
+                dvc[j] = DVCT[k, j]
         # controller and allocation (held over the step)
         dp_errors(z[0:3], z[3:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], e, edot)
         dp_control(e, edot, integ, gains, dt, tau_des, integ_new)
         attitude_hold(z[3:7], z[7:13], gains, tau_des)
         for j in range(4):
             integ[j] = integ_new[j]
-        s = allocate_compiled(alloc, tau_des, fdes)
+        if batt:  # supply voltage from the battery state; limits and inverse maps follow it
+            volt = _ocv(BAT, soc) - b_res * i_prev
+            volt = min(max(volt, vgrid[0]), vgrid[nv - 1])
+            jv = 0
+            while jv < nv - 2 and vgrid[jv + 1] < volt:
+                jv += 1
+            wv = (volt - vgrid[jv]) / (vgrid[jv + 1] - vgrid[jv])
+            _set_limits(alc, n, (1 - wv) * vlo[jv] + wv * vlo[jv + 1],
+                        (1 - wv) * vhi[jv] + wv * vhi[jv + 1])
+            s = allocate_compiled(alc, tau_des, fdes)
+        else:
+            s = allocate_compiled(alloc, tau_des, fdes)
         for i in range(n):
-            cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
+            if batt:
+                cmd[i] = (1 - wv) * _interp(vtt[jv], vtc[jv], fdes[i]) + \
+                    wv * _interp(vtt[jv + 1], vtc[jv + 1], fdes[i])
+            else:
+                cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
             sig0[i] = cmd[i]
             if start > 0:  # static prefix (e.g. the ESC), evaluated once for the held command
                 sig0[i] = kernels.eval_chain_prefix(kinds, poff, tflat, i * P, cmd[i], bflat,
                                                     i * max(nb, 1), start)
+            if batt:  # the ESC gives duty × supply: its output follows the voltage
+                sig0[i] *= volt / v_nom
+        if batt:
+            amps = b_hotel / volt
+            for i in range(n):
+                amps += (1 - wv) * _interp(vtt[jv], vti[jv], fdes[i]) + \
+                    wv * _interp(vtt[jv + 1], vti[jv + 1], fdes[i])
+            VOUT[k, 0] = volt
+            VOUT[k, 1] = amps
+            VOUT[k, 2] = soc
+            for i in range(n):
+                VOUT[k, 3 + i] = cmd[i]
+            soc -= amps * dt / (3600.0 * b_cap)
+            i_prev = amps
         # record the state at the start of the step
         for i in range(nz):
             Z[k, i] = z[i]
@@ -274,6 +424,11 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     tgt[i] = sig0[i]
                     tconst[i] = tparams[i, pb]
             for sub in range(nsub):
+                if varying:
+                    for j in range(3):
+                        vc0[j] = VCT[k, j] + DVCT[k, j] * (sub * h)
+                        vc1[j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5) * h)
+                        vc2[j] = VCT[k, j] + DVCT[k, j] * ((sub + 1.0) * h)
                 for i in range(n):
                     o = 13 + i * ns
                     x0 = z[o]
@@ -286,14 +441,19 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     for i in range(n):
                         F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vc, dvc, tau, zt, k1, k2, k3, k4)
+                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4)
                 for i in range(n):
                     o = 13 + i * ns
                     z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
                 normalise_state(z)
             continue
         for sub in range(nsub):
-            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k1,
+            if varying:
+                for j in range(3):
+                    vc0[j] = VCT[k, j] + DVCT[k, j] * (sub * h)
+                    vc1[j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5) * h)
+                    vc2[j] = VCT[k, j] + DVCT[k, j] * ((sub + 1.0) * h)
+            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc0, dvc, k1,
                  thrust, tau, ch, blk)
             if sub == 0:
                 for i in range(n):
@@ -301,15 +461,15 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     FDES[k, i] = fdes[i]
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k1[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k2,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc, k2,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k2[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k3,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc, k3,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zt[i] = z[i] + h * k3[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, k4,
+            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc2, dvc, k4,
                  thrust, tau, ch, blk2)
             for i in range(nz):
                 zn[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -346,7 +506,8 @@ def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch
         TAU = np.empty((nsteps, 6))
         SC = np.empty(nsteps)
         fly(z0, VP[r], B, alloc, eta_p, eta_n, dofs, kinds, poff, TP[r], soff, outch, in_ch, exact,
-            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC)
+            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC,
+            np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
         emax = 0.0
         esum = 0.0
         fmax = 0.0
@@ -389,6 +550,7 @@ class MissionResult:
     thruster_names: tuple[str, ...]
     thrust_limits: np.ndarray  # (n, 2)
     summary: dict = field(default_factory=dict)
+    supply: np.ndarray | None = None  # (N, 3 + n) [V, battery current, SOC, commands] on a battery
 
     @property
     def position(self) -> np.ndarray:
@@ -444,6 +606,11 @@ class MissionSetup:
     current: np.ndarray
     t: np.ndarray
     ref: tuple
+    current_model: object = None
+    current_series: tuple | None = None  # (v_c (N, 3), v̇_c (N, 3)) when the current varies
+    allocation: str = "scale"
+    battery: object = None
+    battery_array: np.ndarray | None = None
 
     def z0(self) -> np.ndarray:
         z = np.zeros(13 + self.bank.n * self.bank.n_states)
@@ -485,24 +652,74 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
 
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
                   gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
-                  current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None) -> MissionSetup:
-    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission."""
+                  current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None,
+                  allocation: str = "priority", battery=None, soc0: float = 1.0) -> MissionSetup:
+    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
+
+    ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
+    ``allocation``: the saturation method of :meth:`uuvid.vehicle.allocation.Allocator.allocate`
+    run at every control step (default ``priority``: exact whenever achievable);
+    ``battery`` (:class:`uuvid.vehicle.power.Battery`, or ``True`` for the vehicle file's) makes
+    the supply voltage a state, starting at ``soc0`` (:func:`battery_tables`).
+    """
+    from uuvid.simulate.currents import as_current
+
     if not (dt > 0 and substeps >= 1):
         raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
     n = len(vehicle.layout)
+    if battery is True:
+        battery = vehicle.battery
+        if battery is None:
+            raise ValueError(f"{vehicle.name} has no battery block in its vehicle file")
+    if (battery is not None and thruster_chain is None and battery.thruster_power_model ==
+            "t200-physical" and all(t.model == "t200" for t in vehicle.layout)):
+        # on a battery, Blue Robotics thrusters default to the voltage-aware T200 fit (the
+        # model the battery's currents come from) instead of the 16 V approximate preset
+        from uuvid.vehicle.power import physical_model
+
+        thruster_chain = physical_model().to_chain(max(battery.ocv_voltage))
     chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
     bank = ThrusterBank.from_chains(chains)
     al = vehicle.allocator(modes)
-    alloc = al.to_array()
+    alloc = al.to_array(allocation)
     dofs = np.array(al.controlled, dtype=np.int64)
     ep, en = al.eta
     T = t_end if t_end is not None else mission.duration
     t = np.arange(int(round(T / dt))) * dt
     ref = mission(t)
+    cm = as_current(current)
+    series = None
+    if cm.is_constant:
+        const = np.asarray(cm.sample(t[:1], dt)[0][0], dtype=float)
+    else:
+        vct, dvct = cm.sample(t, dt)
+        series = (np.ascontiguousarray(vct), np.ascontiguousarray(dvct))
+        const = np.asarray(vct[0], dtype=float)
+    bat = battery_tables(bank, battery, soc0) if battery is not None else None
     return MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt, int(substeps),
                         alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                         np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
-                        np.asarray(current, dtype=float), t, ref)
+                        const, t, ref, cm, series, allocation, battery, bat)
+
+
+def allocation_method(alloc: np.ndarray) -> str:
+    """The saturation method stored in an allocation array (:meth:`Allocator.to_array`)."""
+    from uuvid.vehicle.allocation import _METHOD_CODE, SATURATION_METHODS
+
+    n, m = int(alloc[0]), int(alloc[1])
+    o = 3 + n * m + 4 * n
+    code = 0.0 if alloc.size <= o else float(alloc[o])
+    return next(k for k in SATURATION_METHODS if _METHOD_CODE[k] == code)
+
+
+def require_constant_current(setup: MissionSetup) -> None:
+    """Batch runs take a constant current and an ideal supply."""
+    if setup.battery_array is not None:
+        raise ValueError("batch runs take an ideal supply; fly a battery run with fly_mission")
+    if setup.current_series is not None:
+        raise ValueError("batch runs take a constant current per vehicle; this setup's current "
+                         f"varies ({getattr(setup.current_model, 'kind', '?')}): fly it with "
+                         "fly_mission")
 
 
 def fly_mission(setup: MissionSetup) -> MissionResult:
@@ -517,6 +734,9 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     TAU = np.empty((N, 6))
     SC = np.empty(N)
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+    VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
+    BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
+    VOUT = np.zeros((N if BAT.size else 0, 3 + b.n))
     compile_s = 0.0
     if not fly.signatures:  # first flight in this process: compile (or load) the kernel on one
         # step, timed apart, so the real-time factor measures flying, not compiling
@@ -525,12 +745,13 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params, b.soff,
             b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(),
             ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k], s.current, s.dt, s.substeps,
-            Z[:k], F[:k], FD[:k], TAU[:k], SC[:k])
+            Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT)
         compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params, b.soff,
         b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
-        ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps, Z, F, FD, TAU, SC)
+        ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps, Z, F, FD, TAU, SC, VCT, DVCT,
+        BAT, VOUT)
     wall = time.perf_counter() - t0
     if not np.all(np.isfinite(Z)):
         k = int(np.flatnonzero(~np.all(np.isfinite(Z), axis=1))[0])
@@ -559,9 +780,19 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "compile_time_s": compile_s,  # kernel compile/cache load, not part of wall_time_s
         "dt": s.dt,
         "substeps": s.substeps,
+        "allocation": s.allocation,
+        "current": getattr(s.current_model, "kind", "constant"),
+        "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
+        else float(np.linalg.norm(s.current)),
     }
+    if BAT.size:
+        summary.update({"battery": s.battery.name, "supply_voltage_V": [float(VOUT[0, 0]),
+                                                                          float(VOUT[-1, 0])],
+                        "soc": [float(VOUT[0, 2]), float(VOUT[-1, 2])],
+                        "max_battery_current_A": float(np.max(VOUT[:, 1]))})
     return MissionResult(res.t, res.state, res.thrust, res.thrust_cmd, res.tau_cmd, res.scale,
-                         res.ref_pos, res.ref_yaw, res.thruster_names, lim, summary)
+                         res.ref_pos, res.ref_yaw, res.thruster_names, lim, summary,
+                         VOUT if BAT.size else None)
 
 
 def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: np.ndarray | None = None,
@@ -569,6 +800,7 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     """Fly ``len(vehicle_params)`` vehicles in parallel; returns ``(runs, 5)`` summary rows
     ``[max err, rms err, max |thrust|, final err, min allocation scale]``."""
     s = setup
+    require_constant_current(s)
     b = s.bank
     VP = np.ascontiguousarray(vehicle_params, dtype=float)
     nrun = VP.shape[0]

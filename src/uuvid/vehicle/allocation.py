@@ -252,6 +252,16 @@ class AllocationResult:
     def achievable(self) -> bool:
         return self.representable and not self.saturated
 
+    @property
+    def shortfall(self) -> dict[str, float]:
+        """What each controlled DOF lost: requested − achieved (N or N·m), non-zero entries only."""
+        from uuvid.vehicle.layout import DOF_NAMES
+
+        d = self.requested - self.achieved
+        tol = 1e-9 * max(1.0, float(np.abs(self.requested).max(initial=0.0)))
+        return {DOF_NAMES[k]: float(d[k]) for k in range(min(len(d), 6))
+                if k not in self.ignored and abs(d[k]) > tol}
+
     def report(self) -> str:
         def f(a):
             return np.array2string(np.asarray(a), precision=4, suppress_small=True)
@@ -266,6 +276,8 @@ class AllocationResult:
             lines.append(f"  not controlled (ignored): rows {list(self.ignored)}")
         if self.limiting:
             lines.append(f"  limiting thrusters: {list(self.limiting)}")
+        if self.saturated and self.shortfall:
+            lines.append("  lost: " + ", ".join(f"{k} {v:+.4g}" for k, v in self.shortfall.items()))
         return "\n".join(lines)
 
 
@@ -274,7 +286,20 @@ class Allocator:
     """Precomputed allocation ``τ = T φ`` for ``B`` (m × n), DOF subset, weights, mode, limits.
 
     ``dofs``: controlled rows (names like ``"surge"`` or indices; default all); ``weights``: P
-    (n positive numbers or an SPD matrix; default I); ``limits``: (n, 2) ``[min, max]`` thrust.
+    (n positive numbers or an SPD matrix; default I); ``limits``: (n, 2) ``[min, max]`` thrust;
+    ``priority``: weights ``q`` (m) of the DOFs' errors when a request is not achievable
+    (default :data:`DEFAULT_PRIORITY`: heave, roll, pitch, yaw 1000× surge and sway).
+
+    Bounded methods (``priority`` and ``maxscale``) work on the planned forces ``x`` (delivered
+    forces with ``compensate_eta``, commanded ones otherwise) within ``[lo, hi]`` (η-scaled when
+    compensating) and the mode's equalities ``C x = 0``:
+
+    * achievable φ (some x delivers ``B_c x = φ_c``): ``min ½ Σ P_ii x_i²`` s.t. ``B_c x = φ_c``;
+    * otherwise ``priority``: ``min Σ q_k (B_k x − φ_k)²`` (the achieved wrench is unique), then
+      the least effort among the x giving it; ``maxscale``: the largest ``s ≤ 1`` with ``s φ``
+      achievable (bisection to 1e-10 on exact feasibility), then the least effort for ``s φ``.
+
+    Both are solved by a primal active-set method (:func:`_qp_box`), compiled, at every call.
     """
 
     B: np.ndarray
@@ -283,6 +308,7 @@ class Allocator:
     mode: ThrustMode | None = None
     limits: np.ndarray | None = None
     compensate_eta: bool = False
+    priority: np.ndarray | None = None
     T: np.ndarray = field(init=False)
     controlled: tuple[int, ...] = field(init=False)
 
@@ -309,6 +335,11 @@ class Allocator:
         object.__setattr__(self, "limits", lim)
         C = self.mode.constraint_rows(B) if self.mode is not None else np.zeros((0, n))
         object.__setattr__(self, "T", constrained_allocation_matrix(B, controlled, self.weights, C))
+        q = np.asarray(DEFAULT_PRIORITY if self.priority is None and m == 6 else
+                       (np.ones(m) if self.priority is None else self.priority), dtype=float)
+        if q.shape != (m,) or np.any(~np.isfinite(q)) or np.any(q <= 0):
+            raise ValueError(f"priority must be {m} positive numbers, got {q}")
+        object.__setattr__(self, "priority", q)
 
     @property
     def n(self) -> int:
@@ -329,7 +360,10 @@ class Allocator:
         return tau
 
     def allocate(self, phi, saturation: str = "scale", tol: float = 1e-9) -> AllocationResult:
-        """Allocate ``φ`` (m); ``saturation``: ``"scale"`` (uniform), ``"clip"`` or ``"none"``."""
+        """Allocate ``φ`` (m); ``saturation``: ``"scale"`` (uniform), ``"clip"``, ``"none"``,
+        ``"priority"`` (exact when achievable, else weighted least error) or ``"maxscale"``."""
+        if saturation in ("priority", "maxscale"):
+            return self._allocate_bounded(np.asarray(phi, dtype=float), saturation, tol)
         phi = np.asarray(phi, dtype=float)
         if phi.shape != (self.B.shape[0],):
             raise ValueError(f"requested force must have {self.B.shape[0]} components")
@@ -372,6 +406,36 @@ class Allocator:
                                 ignored, ang, saturation,
                                 self.mode.name if self.mode is not None else None, limiting)
 
+    def _allocate_bounded(self, phi, method: str, tol: float) -> AllocationResult:
+        if phi.shape != (self.B.shape[0],):
+            raise ValueError(f"requested force must have {self.B.shape[0]} components")
+        ep, en = self.eta
+        tau = np.empty(self.n)
+        frac = float(allocate_compiled(self.to_array(method), phi, tau))
+        tau0 = self.nominal(phi)
+        lo, hi = self.limits[:, 0], self.limits[:, 1]
+        delivered = apply_eta(tau, ep, en)
+        planned = delivered if self.compensate_eta else tau
+        achieved = self.B @ delivered
+        ctl = list(self.controlled)
+        scale_ref = max(1.0, float(np.abs(phi).max(initial=0.0)))
+        exact = frac == 1.0
+        representable = bool(np.all(np.abs(self.B[ctl] @ delivered - self.B[ctl] @ planned)
+                                    <= tol * scale_ref * 10 + 1e-12)) if exact else bool(
+            np.all(np.abs(self.B[ctl] @ apply_eta(tau0, ep, en) - phi[ctl])
+                   <= tol * scale_ref * 10 + 1e-12))
+        ignored = tuple(d for d in range(len(phi)) if d not in self.controlled
+                        and abs(phi[d]) > tol * scale_ref)
+        a, r = achieved[ctl], phi[ctl]
+        nr, na = float(np.linalg.norm(r)), float(np.linalg.norm(a))
+        ang = math.acos(max(-1.0, min(1.0, float(a @ r) / (na * nr)))) if nr > 0 and na > 0 else 0.0
+        span = np.maximum(hi - lo, 1e-300)
+        limiting = tuple(int(i) for i in np.flatnonzero(
+            (np.abs(tau - hi) <= 1e-9 * span) | (np.abs(tau - lo) <= 1e-9 * span)))
+        return AllocationResult(tau, delivered, phi, achieved, frac, not exact, representable,
+                                ignored, ang, method,
+                                self.mode.name if self.mode is not None else None, limiting)
+
     def max_along(self, phi) -> float:
         """Largest ``s`` such that ``s φ`` is allocated within the limits (uniform scaling)."""
         tau = self.nominal(phi)
@@ -380,26 +444,515 @@ class Allocator:
                          np.where(tau < 0, self.limits[:, 0] / tau, np.inf))
         return float(np.min(r)) if r.size else math.inf
 
-    def to_array(self) -> np.ndarray:
-        """Flat parameters of :func:`allocate_compiled`.
+    def to_array(self, method: str = "scale") -> np.ndarray:
+        """Flat parameters of :func:`allocate_compiled` for a saturation ``method``.
 
-        Layout: ``[n, m, compensate, T (n·m, row-major), lower (n), upper (n), η₊ (n), η₋ (n)]``.
+        Layout: ``[n, m, compensate, T (n·m, row-major), lower (n), upper (n), η₊ (n), η₋ (n),
+        method, k, exact, q (m), P_ii (n), planned lower (n), planned upper (n), B (m·n),
+        C (k·n)]`` — ``exact`` = 1 when ``T φ`` delivers every controlled request (no mode
+        rank loss); ``C`` the mode's equalities including forced-zero DOFs.
         """
+        if method not in _METHOD_CODE:
+            raise ValueError(f"saturation must be one of {', '.join(SATURATION_METHODS)}, "
+                             f"got {method!r}")
         n, m = self.T.shape
         ep, en = self.eta
+        lo, hi = self.limits[:, 0], self.limits[:, 1]
+        if self.compensate_eta:
+            lo, hi = lo * en, hi * ep
+        P = np.eye(n) if self.weights is None else self.weights
+        if method in ("priority", "maxscale") and np.any(P != np.diag(np.diag(P))):
+            raise ValueError("the bounded allocation methods take diagonal effort weights")
+        q = np.array([self.priority[k] if k in self.controlled else 0.0 for k in range(m)])
+        C = self.mode.constraint_rows(self.B) if self.mode is not None else np.zeros((0, n))
+        ctl = list(self.controlled)
+        exact = bool(np.allclose(self.B[ctl] @ self.T[:, ctl], np.eye(len(ctl)), atol=1e-10))
         return np.concatenate([[n, m, 1.0 if self.compensate_eta else 0.0], self.T.ravel(),
-                               self.limits[:, 0], self.limits[:, 1], ep, en]).astype(np.float64)
+                               self.limits[:, 0], self.limits[:, 1], ep, en,
+                               [_METHOD_CODE[method], C.shape[0], 1.0 if exact else 0.0], q,
+                               np.diag(P), lo, hi, self.B.ravel(), C.ravel()]).astype(np.float64)
+
+
+# ---------------------------------------------------------------------------------------------
+# Bounded allocation (active set): every achievable wrench exactly, the best one otherwise
+# ---------------------------------------------------------------------------------------------
+SATURATION_METHODS = ("scale", "clip", "none", "priority", "maxscale")
+_METHOD_CODE = {"scale": 0.0, "clip": 1.0, "none": 2.0, "priority": 3.0, "maxscale": 4.0}
+
+#: Default DOF priorities of the weighted least error when a wrench is not achievable: depth and
+#: heading (and attitude) before surge and sway (a station-keeping vehicle keeps its depth and
+#: heading and gives up position first).
+DEFAULT_PRIORITY = (1.0, 1.0, 1e3, 1e3, 1e3, 1e3)
+
+
+@njit(cache=True)
+def _solve_psd(S, k, r, lam, A, b, d0, used, piv):
+    """Solve the k×k symmetric PSD system ``S λ = r`` by symmetric Gauss–Jordan with diagonal
+    pivoting; a pivot below ``1e-11`` of its row's original diagonal is a dependent row and is
+    dropped (its λ set to 0), so a consistent singular system is solved exactly.  The test is
+    per row because S's rows can differ in scale by many orders of magnitude."""
+    for i in range(k):
+        for j in range(k):
+            A[i, j] = S[i, j]
+        b[i] = r[i]
+        d0[i] = A[i, i]
+        used[i] = 0.0
+    rank = 0
+    for _c in range(k):
+        bi = -1
+        bv = 0.0
+        for i in range(k):  # the largest remaining diagonal, relative to its original value
+            if used[i] == 0.0 and d0[i] > 0.0:
+                v = A[i, i] / d0[i]
+                if v > bv:
+                    bv, bi = v, i
+        if bi < 0 or bv <= 1e-11:
+            break
+        used[bi] = 1.0
+        piv[rank] = bi
+        rank += 1
+        p = A[bi, bi]
+        for i in range(k):
+            if i != bi and A[i, bi] != 0.0:
+                f = A[i, bi] / p
+                for j in range(k):
+                    A[i, j] -= f * A[bi, j]
+                b[i] -= f * b[bi]
+    for i in range(k):
+        lam[i] = 0.0
+    for c in range(rank):
+        i = piv[c]
+        lam[i] = b[i] / A[i, i]
+
+
+@njit(cache=True)
+def _chol(H, idx, nf, L):
+    """Cholesky ``H[idx, idx] = L Lᵀ`` (nf × nf, H positive definite)."""
+    for i in range(nf):
+        for j in range(i + 1):
+            s = H[idx[i], idx[j]]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                L[i, i] = math.sqrt(max(s, 1e-300))
+            else:
+                L[i, j] = s / L[j, j]
+
+
+@njit(cache=True)
+def _chol_solve(L, nf, b, x):
+    for i in range(nf):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(nf - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, nf):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+
+
+@njit(cache=True)
+def _y_from(Y, lam, z, nf, nE, y, accumulate):
+    """``y = Y λ − z`` on the free variables (added to ``y`` when ``accumulate``)."""
+    for a in range(nf):
+        t = -z[a]
+        for q in range(nE):
+            t += Y[a, q] * lam[q]
+        y[a] = y[a] + t if accumulate else t
+
+
+@njit(cache=True)
+def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
+    """Primal active-set method for ``min ½xᵀHx + gᵀx`` s.t. ``E x = e``, ``lo ≤ x ≤ hi``
+    (H positive definite; Nocedal & Wright 2006, Alg. 16.3, with bounds as the inequalities).
+
+    ``x`` must start inside the box and satisfy ``E x = e`` (up to rounding); ``fixed[i]`` is
+    −1/+1 for a variable held at its lower/upper bound, 0 when free.  Each iteration solves the
+    equality-constrained subproblem on the free variables through its KKT system (Schur
+    complement ``E_F H_FF⁻¹ E_Fᵀ``), steps towards it with a ratio test, and frees the bound
+    with the most negative multiplier at a subproblem optimum.  Returns the iterations used
+    (``maxit`` when it did not converge)."""
+    n = x.size
+    K = max(nE, 1)
+    o = 0
+    L = wf[o:o + n * n].reshape(n, n)
+    o += n * n
+    Y = wf[o:o + n * K].reshape(n, K)
+    o += n * K
+    S = wf[o:o + K * K].reshape(K, K)
+    o += K * K
+    A2 = wf[o:o + K * K].reshape(K, K)
+    o += K * K
+    gt, z0, col, dz, y = wf[o:o + n], wf[o + n:o + 2 * n], wf[o + 2 * n:o + 3 * n], \
+        wf[o + 3 * n:o + 4 * n], wf[o + 4 * n:o + 5 * n]
+    o += 5 * n
+    r, lam, dlam, rr, b2, d0, used = wf[o:o + K], wf[o + K:o + 2 * K], wf[o + 2 * K:o + 3 * K], \
+        wf[o + 3 * K:o + 4 * K], wf[o + 4 * K:o + 5 * K], wf[o + 5 * K:o + 6 * K], \
+        wf[o + 6 * K:o + 7 * K]
+    for q in range(K):
+        lam[q] = 0.0
+    idx = wi[0:n]
+    piv = wi[n:n + K]
+    gscale = 0.0
+    for i in range(n):
+        gscale = max(gscale, abs(g[i]))
+        for j in range(n):
+            gscale = max(gscale, abs(H[i, j]) * max(abs(lo[j]), abs(hi[j]), 1.0))
+    tolmu = 1e-12 * max(gscale, 1e-300)
+    for it in range(maxit):
+        nf = 0
+        for i in range(n):
+            if fixed[i] == 0:
+                idx[nf] = i
+                nf += 1
+        if nf > 0:
+            _chol(H, idx, nf, L)
+            for a in range(nf):
+                i = idx[a]
+                s = g[i]
+                for j in range(n):
+                    if fixed[j] != 0:
+                        s += H[i, j] * x[j]
+                gt[a] = s
+            _chol_solve(L, nf, gt, z0)
+            for q in range(nE):
+                for a in range(nf):
+                    col[a] = E[q, idx[a]]
+                _chol_solve(L, nf, col, y)
+                for a in range(nf):
+                    Y[a, q] = y[a]
+            for q in range(nE):
+                s = e[q]
+                for j in range(n):
+                    if fixed[j] != 0:
+                        s -= E[q, j] * x[j]
+                for a in range(nf):
+                    s += E[q, idx[a]] * z0[a]
+                r[q] = s
+                for p in range(nE):
+                    t = 0.0
+                    for a in range(nf):
+                        t += E[q, idx[a]] * Y[a, p]
+                    S[q, p] = t
+            if nE > 0:
+                _solve_psd(S, nE, r, lam, A2, b2, d0, used, piv)
+            _y_from(Y, lam, z0, nf, nE, y, False)
+            # iterative refinement of the KKT solution (H_FF can be ill-conditioned: εW tie-break)
+            for _ref in range(2 if nE > 0 else 0):
+                for a in range(nf):  # σ = H_FF y + g̃ − E_Fᵀλ
+                    i = idx[a]
+                    t = gt[a]
+                    for a2 in range(nf):
+                        t += H[i, idx[a2]] * y[a2]
+                    for q in range(nE):
+                        t -= E[q, i] * lam[q]
+                    col[a] = t
+                _chol_solve(L, nf, col, dz)
+                for q in range(nE):  # ρ = r' − E_F y, with r' = r − E_F z0
+                    t = r[q]
+                    for a in range(nf):
+                        t -= E[q, idx[a]] * (y[a] + z0[a])
+                    for a in range(nf):
+                        t += E[q, idx[a]] * dz[a]
+                    rr[q] = t
+                _solve_psd(S, nE, rr, dlam, A2, b2, d0, used, piv)
+                _y_from(Y, dlam, dz, nf, nE, y, True)
+                for q in range(nE):
+                    lam[q] += dlam[q]
+            # ratio test from x towards the subproblem optimum y
+            alpha = 1.0
+            block = -1
+            for a in range(nf):
+                i = idx[a]
+                p = y[a] - x[i]
+                if p < 0.0 and y[a] < lo[i]:
+                    t = (lo[i] - x[i]) / p
+                    if t < alpha:
+                        alpha, block = t, a
+                elif p > 0.0 and y[a] > hi[i]:
+                    t = (hi[i] - x[i]) / p
+                    if t < alpha:
+                        alpha, block = t, a
+            if block >= 0:
+                alpha = max(alpha, 0.0)
+                for a in range(nf):
+                    i = idx[a]
+                    x[i] = x[i] + alpha * (y[a] - x[i])
+                i = idx[block]
+                if y[block] < lo[i]:
+                    x[i] = lo[i]
+                    fixed[i] = -1
+                else:
+                    x[i] = hi[i]
+                    fixed[i] = 1
+                continue
+            for a in range(nf):
+                x[idx[a]] = y[a]
+        # subproblem optimum: multipliers of the held bounds, μ = Hx + g − Eᵀλ
+        worst = -1
+        wv = tolmu
+        for i in range(n):
+            if fixed[i] == 0:
+                continue
+            mu = g[i]
+            for j in range(n):
+                mu += H[i, j] * x[j]
+            for q in range(nE):
+                mu -= E[q, i] * lam[q]
+            v = -mu if fixed[i] < 0 else mu  # > 0: leaving the bound lowers the objective
+            if v > wv:
+                wv, worst = v, i
+        if worst < 0:
+            return it + 1
+        fixed[worst] = 0
+    return maxit
+
+
+@njit(cache=True)
+def _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, sc):
+    """Weighted least error, warm-started from the unconstrained least-effort thrusts
+    ``x₀ = T (sc·φ)``: clipped into the box (no equalities: every box point is feasible) or,
+    with the mode's equalities, scaled uniformly into it (``C x₀ = 0`` holds for ``T``)."""
+    n = x.size
+    m = int(a[1])
+    s = 1.0
+    for i in range(n):
+        t = 0.0
+        for j in range(m):
+            t += a[3 + i * m + j] * phi[j]
+        t *= sc
+        x[i] = t
+        fixed[i] = 0
+        if t > hi[i]:
+            s = min(s, hi[i] / t)
+        elif t < lo[i]:
+            s = min(s, lo[i] / t)
+    for i in range(n):
+        if nC == 0:
+            if x[i] >= hi[i]:
+                x[i] = hi[i]
+                fixed[i] = 1
+            elif x[i] <= lo[i]:
+                x[i] = lo[i]
+                fixed[i] = -1
+        else:
+            x[i] = min(max(x[i] * s, lo[i]), hi[i])
+    return _qp_box(H, g, C, zero, nC, lo, hi, x, fixed, 8 * x.size + 20, wf, wi)
+
+
+@njit(cache=True)
+def _residual(Bp, q, m, n, x, target):
+    """max |B_k x − target_k| over the controlled rows (q_k > 0)."""
+    r = 0.0
+    for k in range(m):
+        if q[k] > 0.0:
+            s = -target[k]
+            for i in range(n):
+                s += Bp[k, i] * x[i]
+            r = max(r, abs(s))
+    return r
+
+
+@njit(cache=True)
+def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi):
+    """Least weighted effort ``min ½ Σ w_i x_i²`` with ``B_c x = target``, ``C x = 0`` and the
+    bounds, from a start ``x`` that (nearly) delivers ``target``; returns the residual."""
+    nE = 0
+    for k in range(m):
+        if q[k] > 0.0:
+            for i in range(n):
+                E[nE, i] = Bp[k, i]
+            e[nE] = target[k]
+            nE += 1
+    for c in range(nC):
+        for i in range(n):
+            E[nE, i] = C[c, i]
+        e[nE] = 0.0
+        nE += 1
+    for i in range(n):
+        g0[i] = 0.0
+    _qp_box(W, g0, E, e, nE, lo, hi, x, fixed, 8 * n + 20, wf, wi)
+    r = _residual(Bp, q, m, n, x, target)
+    for c in range(nC):
+        t = 0.0
+        for i in range(n):
+            t += C[c, i] * x[i]
+        r = max(r, abs(t))
+    return r
+
+
+@njit(cache=True)
+def _try_scaled(sc, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, fixed, zero, E,
+                e, g0, wf, wi, scale):
+    """Is ``sc·φ`` achievable?  Phase 1 (weighted least error, kept in ``x1``), then, when its
+    error is small, the least-effort exact solution (``x``); True when that one delivers
+    ``sc·φ`` (and the mode's equalities) to 1e-11 of the request's size."""
+    for k in range(m):
+        target[k] = sc * phi[k]
+    for i in range(n):
+        t = 0.0
+        for k in range(m):
+            t += Bp[k, i] * q[k] * target[k]
+        g[i] = -t
+    _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, sc)
+    for i in range(n):
+        x1[i] = x[i]
+    if _residual(Bp, q, m, n, x, target) > 1e-6 * scale:
+        return False
+    return _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi) \
+        <= 1e-11 * scale
+
+
+@njit(cache=True)
+def _bounded(a, phi, tau, n, m, method, s0):
+    """Active-set allocation (methods ``priority`` and ``maxscale``); see :class:`Allocator`."""
+    comp = a[2] != 0.0
+    oep = 3 + n * m + 2 * n
+    oen = oep + n
+    o = oen + n
+    nC = int(a[o + 1])
+    oq = o + 3
+    ow = oq + m
+    olo = ow + n
+    ohi = olo + n
+    oB = ohi + n
+    oC = oB + m * n
+    q = a[oq:oq + m]
+    lo = a[olo:olo + n]
+    hi = a[ohi:ohi + n]
+    Bp = a[oB:oB + m * n].reshape(m, n)
+    C = a[oC:oC + nC * n].reshape(max(nC, 0), n)
+    K = m + nC
+    nfl = 2 * n * n + 5 * n + K * n + 2 * K + m + 1 + (n * n + n * K + 2 * K * K + 5 * n + 7 * K)
+    blk = np.zeros(nfl)  # one block for every work array (no allocation in the iterations)
+    W = blk[0:n * n].reshape(n, n)
+    H = blk[n * n:2 * n * n].reshape(n, n)
+    o = 2 * n * n
+    g, x, x1, g0, best = blk[o:o + n], blk[o + n:o + 2 * n], blk[o + 2 * n:o + 3 * n], \
+        blk[o + 3 * n:o + 4 * n], blk[o + 4 * n:o + 5 * n]
+    o += 5 * n
+    E = blk[o:o + K * n].reshape(K, n)
+    o += K * n
+    e = blk[o:o + K]
+    zero = blk[o + K:o + 2 * K]
+    target = blk[o + 2 * K:o + 2 * K + m]
+    o += 2 * K + m + 1
+    wf = blk[o:]
+    iblk = np.zeros(3 * n + K, np.int64)
+    fixed = iblk[0:n]
+    wi = iblk[n:]
+    for i in range(n):
+        W[i, i] = a[ow + i]
+    # phase-1 Hessian BᵀQB + εW (ε: 1e-13 of the scale of BᵀQB): a tie-break towards least effort
+    trb = 0.0
+    trw = 0.0
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for k in range(m):
+                s += Bp[k, i] * q[k] * Bp[k, j]
+            H[i, j] = s
+        trb += H[i, i]
+        trw += W[i, i]
+    eps = 1e-13 * trb / max(trw, 1e-300)
+    for i in range(n):
+        H[i, i] += eps * W[i, i]
+    scale = 1.0
+    for k in range(m):
+        if q[k] > 0.0:
+            scale = max(scale, abs(phi[k]))
+    frac = 1.0
+    if method == 3:  # weighted least error with DOF priorities
+        if not _try_scaled(1.0, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
+                           fixed, zero, E, e, g0, wf, wi, scale):
+            for i in range(n):  # not achievable: the phase-1 optimum (its εW term picks the
+                x[i] = x1[i]  # least effort among the thrusts giving the best wrench, to O(ε))
+            frac = -1.0  # computed below
+    else:  # largest s ≤ 1 with s·φ achievable (bisection on exact feasibility)
+        slo = max(s0, 0.0)
+        shi = 1.0
+        have = False
+        for it in range(40):
+            s_try = shi if it == 0 else 0.5 * (slo + shi)
+            if _try_scaled(s_try, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
+                           fixed, zero, E, e, g0, wf, wi, scale):
+                slo = s_try
+                have = True
+                for i in range(n):
+                    best[i] = x[i]
+                if it == 0:
+                    break
+            else:
+                shi = s_try
+            if shi - slo <= 1e-10:
+                break
+        if not have and slo > 0.0:  # the bracket's start s0 (uniform scaling) was never solved
+            _try_scaled(slo, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, fixed,
+                        zero, E, e, g0, wf, wi, scale)
+            for i in range(n):
+                best[i] = x[i]
+        for i in range(n):
+            x[i] = best[i]
+        frac = slo
+    for i in range(n):  # clamp rounding and convert the planned force to the command
+        t = min(max(x[i], lo[i]), hi[i])
+        if comp:
+            t = t / (a[oep + i] if t >= 0.0 else a[oen + i])
+        tau[i] = t
+    if frac < 0.0:  # achieved fraction along the request
+        num = 0.0
+        den = 0.0
+        for k in range(m):
+            if q[k] > 0.0:
+                s = 0.0
+                for i in range(n):
+                    s += Bp[k, i] * x[i]
+                num += s * phi[k]
+                den += phi[k] * phi[k]
+        frac = num / den if den > 0.0 else 1.0
+        frac = min(frac, 1.0 - 1e-16)  # < 1: not achieved
+    return frac
 
 
 # ---------------------------------------------------------------------------------------------
 # Compiled allocation for simulation loops
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def allocate_compiled(a, phi, tau):
-    """``τ = s · T φ`` (η-compensated if the flag is set) into ``tau`` (n); returns ``s`` ∈ [0, 1].
+def _fraction(a, phi, tau, n, m):
+    """Achieved fraction ``(a·r)/|r|²`` of the controlled request ``r`` for commands ``tau``."""
+    comp = a[2] != 0.0
+    oep = 3 + n * m + 2 * n
+    oen = oep + n
+    o = oen + n
+    oq = o + 3
+    oB = oq + m + 3 * n
+    num = 0.0
+    den = 0.0
+    for k in range(m):
+        if a[oq + k] > 0.0:
+            d = 0.0
+            for i in range(n):
+                t = tau[i]
+                if comp:
+                    t = t * (a[oep + i] if t >= 0.0 else a[oen + i])
+                d += a[oB + k * n + i] * t
+            num += d * phi[k]
+            den += phi[k] * phi[k]
+    return min(num / den, 1.0) if den > 0.0 else 1.0
 
-    ``a`` is :meth:`Allocator.to_array`; ``s < 1`` means the request was scaled down uniformly
-    (the direction of the generalised force is kept; ``s`` is the achieved fraction).
+
+@njit(cache=True)
+def allocate_compiled(a, phi, tau):
+    """Allocate ``φ`` into ``tau`` (n) by the method stored in ``a``; returns the achieved fraction.
+
+    ``a`` is :meth:`Allocator.to_array`.  The unsaturated thrusts ``τ₀ = T φ`` (η-compensated if
+    the flag is set) are computed first; when they are inside the limits (and deliver φ) they are
+    the answer for every method (the least-effort solution is then the unconstrained one).
+    Otherwise: ``scale`` → ``s τ₀`` with ``s`` the uniform factor (returned); ``clip`` → τ₀
+    clipped; ``none`` → τ₀; ``priority``/``maxscale`` → the active-set solution of
+    :class:`Allocator` (returned value: the achieved fraction along φ, < 1 when not achieved).
     """
     n = int(a[0])
     m = int(a[1])
@@ -421,9 +974,23 @@ def allocate_compiled(a, phi, tau):
             s = min(s, a[ohi + i] / t)
         elif t < a[olo + i]:
             s = min(s, a[olo + i] / t)
-    for i in range(n):
-        tau[i] *= s
-    return s
+    o = oen + n
+    method = 0 if a.size <= o else int(a[o])
+    if method == 0:
+        for i in range(n):
+            tau[i] *= s
+        return s
+    if method == 2:
+        return 1.0
+    if method == 1:
+        if s < 1.0:
+            for i in range(n):
+                tau[i] = min(max(tau[i], a[olo + i]), a[ohi + i])
+            return _fraction(a, phi, tau, n, m)
+        return 1.0
+    if s == 1.0 and a[o + 2] == 1.0:  # τ₀ delivers every φ exactly when inside the limits
+        return 1.0
+    return _bounded(a, phi, tau, n, m, method, s)
 
 
 @njit(cache=True)

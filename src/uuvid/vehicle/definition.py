@@ -167,6 +167,22 @@ class OneDofSchema(BaseModel):
     notes: str | None = None
 
 
+class BatterySchema(BaseModel):
+    """Battery block (see :mod:`uuvid.vehicle.power`): OCV vs SOC, internal resistance, capacity."""
+    model_config = _CFG
+    name: str = "battery"
+    capacity_ah: float = Field(gt=0)
+    ocv_soc: list[float] = Field(min_length=2)
+    ocv_voltage: list[float] = Field(min_length=2)
+    resistance: float = Field(ge=0)
+    hotel_load_w: float = Field(0.0, ge=0)
+    min_voltage: float = Field(0.0, ge=0)
+    max_current: float | None = Field(None, gt=0)
+    thruster_power_model: str = "t200-physical"
+    source: str = ""
+    assumptions: str = ""
+
+
 class VehicleSchema(BaseModel):
     model_config = _CFG
     name: str = Field(min_length=1)
@@ -181,6 +197,7 @@ class VehicleSchema(BaseModel):
     allocation: AllocationSchema = AllocationSchema()
     modes: dict[str, ModeSchema] = {}
     one_dof: dict[str, OneDofSchema] = {}
+    battery: BatterySchema | None = None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -202,6 +219,7 @@ class Vehicle:
     assumptions: Mapping[str, str] = field(default_factory=dict)
     description: str = ""
     path: Path | None = None
+    battery: Any = None  # uuvid.vehicle.power.Battery, from the file's ``battery`` block
 
     @property
     def B(self) -> np.ndarray:
@@ -452,7 +470,19 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                    tuple(dof_index(d) for d in al.dofs),
                    None if al.weights is None else np.asarray(al.weights, float),
                    tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
-                   dict(spec.assumptions), spec.description, path)
+                   dict(spec.assumptions), spec.description, path,
+                   _battery(spec.battery, where) if spec.battery is not None else None)
+
+
+def _battery(b: BatterySchema, where: str):
+    from uuvid.vehicle.power import Battery
+
+    try:
+        return Battery(b.name, b.capacity_ah, tuple(b.ocv_soc), tuple(b.ocv_voltage), b.resistance,
+                       b.hotel_load_w, b.min_voltage, b.max_current, b.thruster_power_model,
+                       b.source, b.assumptions)
+    except ValueError as e:
+        raise VehicleFileError(f"{where}: battery: {e}") from None
 
 
 def list_presets() -> list[str]:

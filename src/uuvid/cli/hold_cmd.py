@@ -1,0 +1,98 @@
+"""``uuvid vehicle hold``: can the vehicle hold station in this current, and for how long?"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+
+def register(vehicle_app: typer.Typer) -> None:
+    vehicle_app.command("hold")(vehicle_hold)
+
+
+def _parse_current(text: str | None):
+    if text is None:
+        return None
+    try:
+        parts = [float(x) for x in text.split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) not in (1, 2) or parts[0] < 0:
+        from uuvid.cli.common import _fail
+
+        _fail(f"--current: expected SPEED[,DIR] (m/s, degrees off the bow it comes from), "
+              f"got {text!r}")
+    return parts[0], (parts[1] if len(parts) == 2 else 0.0)
+
+
+def vehicle_hold(
+    vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
+    current: str = typer.Option(None, "--current", help="SPEED[,DIR]: current speed (m/s) and the "
+                                "direction it comes from, degrees off the bow (0 = head-on)."),
+    battery: float = typer.Option(None, "--battery", help="State of charge (0–1) of the vehicle "
+                                  "file's battery: limits at its loaded voltage; with --current "
+                                  "also the endurance from this charge."),
+    voltage: float = typer.Option(None, "--voltage", help="Fixed supply voltage for the limits."),
+    step: float = typer.Option(15.0, "--step", help="Angle step of the capability plot, deg."),
+    simulate: str = typer.Option("", "--simulate", help="Angles (deg, comma-separated) to confirm "
+                                 "by simulation, e.g. 0,90."),
+    out: Path = typer.Option(None, "--out", help="Folder for capability.png and hold.json."),
+    json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
+):
+    """Station-keeping capability (largest current held per direction, a polar "capability plot")
+    and, with --current and --battery, the endurance on the battery."""
+    from uuvid.cli.common import _fail, _print_json, out_console
+    from uuvid.cli.vehicle_cmds import _load_vehicle
+    from uuvid.vehicle import hold
+    from uuvid.vehicle.power import limits_at
+
+    v = _load_vehicle(vehicle)
+    cur = _parse_current(current)
+    if battery is not None and not 0 <= battery <= 1:
+        _fail(f"--battery: state of charge must be within 0..1, got {battery}")
+    if battery is not None and v.battery is None:
+        _fail(f"{v.name} has no battery block in its vehicle file; use --voltage")
+    try:
+        sim = tuple(float(x) for x in simulate.split(",") if x.strip())
+    except ValueError:
+        _fail(f"--simulate: expected comma-separated angles, got {simulate!r}")
+    if sim and battery is not None:
+        _fail("--simulate confirms at fixed limits: give --voltage instead of --battery")
+    try:
+        cap = hold.capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
+                              simulate_deg=sim)
+    except ValueError as e:
+        _fail(str(e))
+    doc = {"capability": cap.to_dict()}
+    endur = None
+    if cur is not None:
+        speed, deg = cur
+        lim = None if voltage is None else limits_at(v, voltage)
+        vmax = hold.max_current(v, deg, soc=battery, limits=lim)[0]
+        doc["at_current"] = {"speed_m_s": speed, "from_deg": deg, "max_current_m_s": vmax,
+                             "holds": bool(speed <= vmax), "margin": vmax / speed if speed else None}
+        if battery is not None:
+            endur = hold.endurance(v, speed, deg, soc0=battery)
+            doc["endurance"] = endur.to_dict()
+    if out is not None:
+        from uuvid.io.atomic import atomic_write_json
+
+        out.mkdir(parents=True, exist_ok=True)
+        cap.plot(out / "capability.png")
+        atomic_write_json(out / "hold.json", doc)
+        doc["out"] = str(out)
+    if json_out:
+        _print_json(doc)
+        return
+    out_console.print(cap.summary())
+    if cur is not None:
+        a = doc["at_current"]
+        out_console.print(f"current {a['speed_m_s']:.2f} m/s from {a['from_deg']:.0f}°: "
+                          f"{'holds' if a['holds'] else 'does NOT hold'} (largest "
+                          f"{a['max_current_m_s']:.3f} m/s)")
+        if endur is not None:
+            out_console.print(endur.summary())
+    if out is not None:
+        out_console.print(f"wrote {out}/capability.png, hold.json")
+

@@ -1,0 +1,507 @@
+"""Station keeping: can the vehicle hold station in this current, and for how long?
+
+**Capability** (the "capability plot" of dynamic positioning, e.g. IMCA M 140): for each angle
+β of the current relative to the vehicle's heading (0° = current from ahead, 90° = from
+starboard), the largest current speed V the vehicle holds station against.  Analytic: holding
+station means ν = 0, so ν_r = −ν_c and the thrusters must supply the steady wrench
+
+    τ_req(V, β) = C_A(ν_r) ν_r + D(ν_r) ν_r + g(η)      (Fossen 2011, eq. 10.1, ν̇ = 0)
+
+which is taken from the vehicle model itself (``τ_req = −M ν̇`` with τ = 0 at ν = 0, level, so
+the Munk moment and the net buoyancy are included).  V_max(β) is the largest V for which the
+bounded allocation (:class:`~uuvid.vehicle.allocation.Allocator`, method ``priority``) delivers
+τ_req exactly within the thrust limits (at the supply voltage, when a thruster model and battery
+set them), found by bisection; τ_req grows monotonically with V.
+
+Roll and pitch that the allocation does not control (a 6-thruster BlueROV2) settle where their
+moments balance (:func:`steady_hold`, followed by continuation in V from still water, as the
+current builds up); holding station also requires that balance to be stable and within
+:data:`MAX_TILT_DEG`.
+
+**Confirmation by simulation** (:func:`simulate_boundary`): the vehicle holds a point at depth
+in the mission loop while a current ramps up to V; it holds when the position error settles.
+The simulated boundary is found by bisection on V and compared with the analytic one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uuvid.vehicle.allocation import Allocator
+from uuvid.vehicle.model import vehicle_rhs_into
+
+
+def current_ned(speed: float, relative_deg: float, heading: float = 0.0) -> np.ndarray:
+    """NED current of ``speed`` coming from ``relative_deg`` off the bow of a vehicle heading
+    ``heading`` (rad): it flows towards ``heading + relative + 180°``."""
+    a = heading + math.radians(relative_deg)
+    return -speed * np.array([math.cos(a), math.sin(a), 0.0])
+
+
+def _accel(vehicle, current, depth, roll, pitch, tau) -> np.ndarray:
+    from uuvid.vehicle.kinematics import euler_to_quat
+
+    x = np.zeros(13)
+    x[2] = depth
+    x[3:7] = euler_to_quat(roll, pitch, 0.0)
+    dx = np.zeros(13)
+    vehicle_rhs_into(x, np.asarray(tau, float), vehicle.params.to_array(),
+                     np.asarray(current, float), np.zeros(3), dx)
+    return dx[7:13]
+
+
+def required_wrench(vehicle, current, depth: float = 2.0, roll: float = 0.0,
+                    pitch: float = 0.0) -> np.ndarray:
+    """Steady wrench (6) the thrusters must give to hold the vehicle at rest (heading north, at
+    the given attitude) in the NED ``current``: ``τ_req = −M ν̇(ν = 0, τ = 0)``."""
+    return -vehicle.params.mass_matrix @ _accel(vehicle, current, depth, roll, pitch, np.zeros(6))
+
+
+#: Largest roll or pitch (deg) counted as holding station: a vehicle tilted further by the current
+#: is not doing useful work (camera, tools) even if its position is held.
+MAX_TILT_DEG = 45.0
+
+
+def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0, 0.0),
+                max_tilt_deg: float = MAX_TILT_DEG):
+    """Station-keeping equilibrium: the thrusters deliver the controlled rows of τ_req; roll and
+    pitch, when the allocation does not control them, settle where their moments (hydrodynamic,
+    restoring, and the thrusters' side moments) balance — found by Newton iteration (finite
+    differences) from ``start``.  Returns ``(achievable, roll, pitch, allocation)``; not
+    achievable also when no attitude within ±``max_tilt_deg`` balances or the balance is statically unstable
+    (an eigenvalue of ∂(ṗ, q̇)/∂(φ, θ) ≥ 0)."""
+    free = [k for k in (3, 4) if k not in al.controlled]
+    ang = np.array(start, dtype=float)
+
+    def resid(a):
+        tau = required_wrench(vehicle, current, depth, a[0], a[1])
+        r = al.allocate(tau, "priority")
+        acc = _accel(vehicle, current, depth, a[0], a[1], r.achieved)
+        return np.array([acc[k] for k in free]), r
+
+    f, r = resid(ang)
+    for _ in range(40):
+        if not free or np.max(np.abs(f)) < 1e-10:
+            break
+        J = np.zeros((len(free), len(free)))
+        for j, k in enumerate(free):
+            d = np.zeros(2)
+            d[k - 3] = 1e-6
+            J[:, j] = (resid(ang + d)[0] - f) / 1e-6
+        step = np.clip(np.linalg.lstsq(J, -f, rcond=None)[0], -0.2, 0.2)
+        for j, k in enumerate(free):
+            ang[k - 3] += step[j]
+        if np.max(np.abs(ang)) > math.radians(max_tilt_deg):
+            return False, float(ang[0]), float(ang[1]), r
+        f, r = resid(ang)
+    ok = r.achievable and (not free or np.max(np.abs(f)) < 1e-6) and \
+        np.max(np.abs(ang)) <= math.radians(max_tilt_deg)
+    if ok and free:
+        J = np.zeros((len(free), len(free)))
+        for j, k in enumerate(free):
+            d = np.zeros(2)
+            d[k - 3] = 1e-6
+            J[:, j] = (resid(ang + d)[0] - f) / 1e-6
+        ok = bool(np.all(np.linalg.eigvals(J).real < 0))
+    return bool(ok), float(ang[0]), float(ang[1]), r
+
+
+def _allocator(vehicle, limits=None, modes=None) -> Allocator:
+    al = vehicle.allocator(modes)
+    if limits is None:
+        return al
+    return dataclasses.replace(al, limits=np.asarray(limits, float))
+
+
+def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth: float = 2.0,
+                v_cap: float = 10.0, tol: float = 1e-4, soc: float | None = None,
+                battery=None) -> tuple[float, dict]:
+    """Largest current speed (m/s) held from ``relative_deg``; also the allocation at it.
+
+    With ``soc`` the limits follow the battery's loaded voltage (:func:`hold_on_battery`)."""
+    al = _allocator(vehicle, limits, modes)
+
+    # continuation in speed from still water: the attitude follows its stable branch, as it
+    # does while a current builds up
+    ang = (0.0, 0.0)
+
+    def ok(v, a0):
+        if soc is not None:
+            h = hold_on_battery(vehicle, current_ned(v, relative_deg), soc, battery=battery,
+                                modes=modes, depth=depth, start=a0)
+            return h.held, (h.roll, h.pitch)
+        good, roll, pitch, _ = steady_hold(vehicle, current_ned(v, relative_deg), al, depth, a0)
+        return good, (roll, pitch)
+
+    good, ang = ok(0.0, ang)
+    if not good:
+        return 0.0, {"reason": "cannot hold station in still water"}
+    lo, hi, step = 0.0, None, 0.05
+    while hi is None:
+        v = lo + step
+        if v > v_cap:
+            return math.inf, {"reason": f"holds beyond {v_cap} m/s"}
+        good, a = ok(v, ang)
+        if good:
+            lo, ang = v, a
+        else:
+            hi = v
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        good, a = ok(mid, ang)
+        if good:
+            lo, ang = mid, a
+        else:
+            hi = mid
+    names = [t.name for t in vehicle.layout]
+    if soc is not None:
+        h = hold_on_battery(vehicle, current_ned(lo, relative_deg), soc, battery=battery,
+                            modes=modes, depth=depth, start=ang)
+        hb = hold_on_battery(vehicle, current_ned(hi, relative_deg), soc, battery=battery,
+                             modes=modes, depth=depth, start=ang).allocation
+        return lo, {"limiting_thrusters": [names[i] for i in hb.limiting]
+                    if not hb.achievable else [],
+                    "roll_deg": math.degrees(h.roll), "pitch_deg": math.degrees(h.pitch),
+                    "supply_voltage_V": h.voltage, "battery_current_A": h.current}
+    _, roll, pitch, r = steady_hold(vehicle, current_ned(lo, relative_deg), al, depth, ang)
+    # just beyond the boundary: thrusters at their limits if thrust is what runs out
+    rb = steady_hold(vehicle, current_ned(hi, relative_deg), al, depth, ang)[3]
+    lim = [names[i] for i in rb.limiting] if not rb.achievable else []
+    return lo, {"limiting_thrusters": lim,
+                "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
+
+
+@dataclass(frozen=True)
+class CapabilityResult:
+    """Station-keeping capability: the largest current (m/s) held per relative angle."""
+
+    vehicle: str
+    relative_deg: np.ndarray
+    max_current: np.ndarray
+    limiting: tuple = ()
+    supply_voltage: float | None = None
+    simulated_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    simulated: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    note: str = ""
+
+    def analytic_at(self, deg: float) -> float:
+        i = int(np.argmin(np.abs((self.relative_deg - deg + 180) % 360 - 180)))
+        return float(self.max_current[i])
+
+    @property
+    def agreement(self) -> np.ndarray:
+        """Simulated / analytic boundary at each simulated angle."""
+        return np.array([s / self.analytic_at(d) for d, s in zip(self.simulated_deg, self.simulated)])
+
+    def summary(self) -> str:
+        v = f" at {self.supply_voltage:.2f} V" if self.supply_voltage else ""
+        k = int(np.argmin(self.max_current))
+        lines = [f"station-keeping capability of {self.vehicle}{v}: largest current held "
+                 f"{np.min(self.max_current):.3f}–{np.max(self.max_current):.3f} m/s "
+                 f"(weakest from {self.relative_deg[k]:.0f}° off the bow)"]
+        if self.limiting:
+            nt = sum(1 for x in self.limiting if x)
+            lines.append(f"  limited by thrust at {nt} of {len(self.limiting)} angles, by the "
+                         f"attitude (tilt beyond {MAX_TILT_DEG:g}° or unstable) at the others")
+        for d, s, a in zip(self.simulated_deg, self.simulated, self.agreement):
+            lines.append(f"  simulated at {d:.0f}°: {s:.3f} m/s (analytic {self.analytic_at(d):.3f},"
+                         f" ratio {a:.3f})")
+        if self.note:
+            lines.append("  " + self.note)
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"vehicle": self.vehicle, "relative_deg": self.relative_deg.tolist(),
+                "max_current_m_s": self.max_current.tolist(),
+                "limiting_thrusters": [list(x) for x in self.limiting],
+                "supply_voltage_V": self.supply_voltage,
+                "simulated_deg": self.simulated_deg.tolist(),
+                "simulated_max_current_m_s": self.simulated.tolist(),
+                "simulated_over_analytic": self.agreement.tolist(), "note": self.note}
+
+    def plot(self, path=None):
+        """Polar capability plot (0° = current from ahead, clockwise to starboard)."""
+        from uuvid.report.plots import new_figure, save_figure
+
+        fig, ax = new_figure(1, 1, figsize=(5.5, 5.5), subplot_kw={"projection": "polar"})
+        ax.set_theta_zero_location("N")
+        ax.set_theta_direction(-1)
+        th = np.radians(np.append(self.relative_deg, self.relative_deg[:1]))
+        ax.plot(th, np.append(self.max_current, self.max_current[:1]), label="analytic")
+        if self.simulated.size:
+            ax.plot(np.radians(self.simulated_deg), self.simulated, "o", label="simulated")
+        v = f" at {self.supply_voltage:g} V" if self.supply_voltage else ""
+        ax.set_title(f"{self.vehicle}{v}: largest current held (m/s)\nvs the direction it comes from")
+        ax.legend(loc="lower right", fontsize=8)
+        return save_figure(fig, path) if path is not None else fig
+
+
+def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
+               supply_voltage: float | None = None, soc: float | None = None, simulate_deg=(),
+               **sim) -> CapabilityResult:
+    """Capability plot data: :func:`max_current` every ``step_deg``; the angles in
+    ``simulate_deg`` are also found by simulation (:func:`simulate_boundary`).
+
+    Thrust limits: ``limits`` (n, 2); or the thruster model's at ``supply_voltage``; or, with
+    ``soc``, at the battery's loaded voltage for each current (the vehicle file's battery);
+    default the vehicle file's limits."""
+    from uuvid.vehicle.power import limits_at
+
+    if supply_voltage is not None and limits is None:
+        limits = limits_at(vehicle, supply_voltage)
+    if soc is not None and vehicle.battery is None:
+        raise ValueError(f"{vehicle.name} has no battery block; give supply_voltage or limits")
+    degs = np.arange(0.0, 360.0, float(step_deg))
+    vals, lim = [], []
+    for d in degs:
+        v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
+        vals.append(v)
+        lim.append(tuple(info.get("limiting_thrusters", ())))
+    res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
+                           note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
+                                 "loaded voltage" if soc is not None else ""))
+    if simulate_deg and soc is not None:
+        raise ValueError("simulated confirmation runs at fixed limits (give supply_voltage)")
+    if simulate_deg:
+        sd = np.asarray(simulate_deg, float)
+        sv = np.array([simulate_boundary(vehicle, d, res.analytic_at(d), limits=limits,
+                                         modes=modes, depth=depth, **sim) for d in sd])
+        res = dataclasses.replace(res, simulated_deg=sd, simulated=sv, note=(
+            "simulation: PID DP with output/integral limits at each DOF's reach, stiff level-attitude "
+            "hold; the current ramps up over 60 s; held = position error settled below 0.5 m and "
+            f"roll, pitch within {MAX_TILT_DEG:g}°"))
+    return res
+
+
+def holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=None, modes=None,
+                        depth: float = 2.0, duration: float = 150.0, dt: float = 0.02,
+                        attitude_bandwidth: float = 6.0, ramp: float = 60.0,
+                        max_tilt_deg: float = MAX_TILT_DEG):
+    """Fly a station-keeping hold in a current ramping to ``speed``; returns (held, result)."""
+    from uuvid.simulate.currents import TimeSeriesCurrent
+    from uuvid.simulate.reference import WaypointMission
+    from uuvid.simulate.vehicle_sim import default_gains, fly_mission, setup_mission
+
+    if limits is not None:
+        vehicle = _with_limits(vehicle, limits)
+    c = current_ned(speed, relative_deg)
+    cur = TimeSeriesCurrent(np.array([0.0, ramp, duration + 1.0]), np.vstack([0 * c, c, c]))
+    wp = (0.0, 0.0, depth, 0.0)
+    mission = WaypointMission((wp, wp), hold=duration, name="station keeping")
+    g = default_gains(vehicle)
+    # the vehicle's limit, not the controller's, is tested: output and integral limits at each
+    # DOF's reach with the bounded allocation (anti-windup still acts at saturation)
+    al = vehicle.allocator(modes)
+    reach = []
+    for k in (0, 1, 2, 5):
+        u = np.zeros(6)
+        u[k] = 1e6
+        reach.append(float(al.allocate(u, "maxscale").fraction * 1e6) if k in al.controlled
+                     else 0.0)
+    gains = dataclasses.replace(g, tau_max=tuple(reach), i_limit=tuple(reach))
+    if any(g.kp_attitude):  # level attitude (the analytic assumption) held stiffly: ω = 6 rad/s
+        M = vehicle.params.mass_matrix
+        w = attitude_bandwidth
+        gains = dataclasses.replace(gains, kp_attitude=tuple(float(M[i, i] * w * w) for i in (3, 4)),
+                                    kd_attitude=tuple(float(2 * M[i, i] * w) for i in (3, 4)))
+    s = setup_mission(vehicle, mission, dt=dt, gains=gains, current=cur, modes=modes,
+                      t_end=duration)
+    r = fly_mission(s)
+    err = r.tracking_error
+    tail = err[r.t >= duration - 20.0]
+    from uuvid.vehicle.kinematics import quat_to_euler
+
+    tilt = max(float(np.max(np.abs(quat_to_euler(q)[:2]))) for q in
+               r.state[r.t >= duration - 20.0, 3:7])
+    held = bool(np.all(np.isfinite(err)) and tail.max() < 0.5 and
+                abs(tail[-1] - tail[0]) < 0.05 and tilt <= math.radians(max_tilt_deg))
+    return held, r
+
+
+def _with_limits(vehicle, limits):
+    """The vehicle with other thrust limits (e.g. at a supply voltage)."""
+    lim = np.asarray(limits, float)
+    layout = vehicle.layout
+    new = dataclasses.replace(layout, thrusters=tuple(
+        dataclasses.replace(t, limits=(float(lim[i, 0]), float(lim[i, 1])))
+        for i, t in enumerate(layout.thrusters)))
+    return dataclasses.replace(vehicle, layout=new)
+
+
+def simulate_boundary(vehicle, relative_deg: float, guess: float, *, limits=None, modes=None,
+                      depth: float = 2.0, span: float = 0.25, iterations: int = 7,
+                      duration: float = 150.0) -> float:
+    """Largest current held in simulation, by bisection in ``[(1−span), (1+span)]·guess``."""
+    lo, hi = (1 - span) * guess, (1 + span) * guess
+    kw = dict(limits=limits, modes=modes, depth=depth, duration=duration)
+    if not holds_in_simulation(vehicle, relative_deg, lo, **kw)[0]:
+        return lo  # (below the bracket: reported as its lower end)
+    if holds_in_simulation(vehicle, relative_deg, hi, **kw)[0]:
+        return hi
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        if holds_in_simulation(vehicle, relative_deg, mid, **kw)[0]:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+# ---------------------------------------------------------------------------------------------
+# Battery: holding station at a state of charge, endurance
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BatteryHold:
+    held: bool
+    soc: float
+    voltage: float
+    current: float
+    limits: np.ndarray
+    roll: float
+    pitch: float
+    allocation: object
+    reason: str = ""
+    command: np.ndarray | None = None  # command per thruster giving its thrust at the voltage
+
+
+def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
+                    depth: float = 2.0, start=(0.0, 0.0)) -> BatteryHold:
+    """Station keeping on the battery at ``soc``: the supply voltage V, the thrust limits at V
+    and the thrusts are solved together (fixed point: allocation → thruster currents →
+    ``V = OCV − R I`` → limits(V) → allocation).  Held when the allocation delivers τ_req within
+    the limits at V, V stays above the battery's minimum and I below its maximum current."""
+    from uuvid.vehicle.power import SupplyThruster, limits_at, physical_model
+
+    bat = battery if battery is not None else vehicle.battery
+    if bat is None:
+        raise ValueError(f"{vehicle.name} has no battery block")
+    st = SupplyThruster(physical_model(bat.thruster_power_model))
+    v = bat.ocv(soc)
+    ok, roll, pitch, r, i = False, 0.0, 0.0, None, 0.0
+    for _ in range(30):
+        lim = limits_at(vehicle, v)
+        ok, roll, pitch, r = steady_hold(vehicle, current, _allocator(vehicle, lim, modes), depth,
+                                         start)
+        vn, i = bat.supply(soc, r.thrust, st)
+        if abs(vn - v) < 1e-6:
+            v = vn
+            break
+        v = vn
+    reason = "" if ok else "thrust limits at the loaded voltage (or attitude)"
+    if v < bat.min_voltage:
+        ok, reason = False, f"loaded voltage {v:.2f} V below the minimum {bat.min_voltage:g} V"
+    if bat.max_current is not None and i > bat.max_current:
+        ok, reason = False, f"current {i:.1f} A above the battery's {bat.max_current:g} A"
+    cmd = st.command_for(r.thrust, v)
+    return BatteryHold(bool(ok), float(soc), float(v), float(i), limits_at(vehicle, v), roll,
+                       pitch, r, reason, cmd)
+
+
+@dataclass(frozen=True)
+class EnduranceResult:
+    """Holding station against a current from full charge until the battery cannot."""
+
+    vehicle: str
+    speed: float
+    relative_deg: float
+    time_s: np.ndarray
+    soc: np.ndarray
+    voltage: np.ndarray
+    current: np.ndarray
+    max_forward_thrust: np.ndarray
+    endurance_s: float
+    reason: str
+    thrust: np.ndarray = None  # (k, n) held thrusts
+    command: np.ndarray = None  # (k, n) commands giving them at the loaded voltage
+
+    def summary(self) -> str:
+        e = self.endurance_s
+        return (f"{self.vehicle} holding station against {self.speed:.2f} m/s from "
+                f"{self.relative_deg:.0f}°: {e / 60:.1f} min ({self.reason}); supply "
+                f"{self.voltage[0]:.2f} → {self.voltage[-1]:.2f} V, current {self.current[0]:.1f} → "
+                f"{self.current[-1]:.1f} A, forward thrust limit {self.max_forward_thrust[0]:.1f} → "
+                f"{self.max_forward_thrust[-1]:.1f} N")
+
+    def to_dict(self) -> dict:
+        return {"vehicle": self.vehicle, "speed_m_s": self.speed, "relative_deg": self.relative_deg,
+                "endurance_s": self.endurance_s, "reason": self.reason,
+                "time_s": self.time_s.tolist(), "soc": self.soc.tolist(),
+                "voltage_V": self.voltage.tolist(), "current_A": self.current.tolist(),
+                "max_forward_thrust_N": self.max_forward_thrust.tolist(),
+                "thrust_N": None if self.thrust is None else self.thrust.tolist(),
+                "command": None if self.command is None else self.command.tolist()}
+
+    def plot(self, path=None):
+        """SOC, voltage, current, limit and the held commands over the discharge."""
+        from uuvid.report.plots import new_figure, save_figure
+
+        fig, ax = new_figure(2, 2, figsize=(10, 6))
+        ax = ax.ravel()
+        tm = self.time_s / 60
+        ax[0].plot(tm, self.voltage)
+        ax[0].set_ylabel("loaded supply voltage [V]")
+        ax[1].plot(tm, self.current)
+        ax[1].set_ylabel("battery current [A]")
+        ax[2].plot(tm, self.max_forward_thrust)
+        ax[2].set_ylabel("forward thrust limit [N]")
+        if self.command is not None:
+            ax[3].plot(tm, self.command)
+        ax[3].set_ylabel("held commands [µs]")
+        for a in ax:
+            a.set_xlabel("time [min]")
+        fig.suptitle(self.summary()[:110])
+        return save_figure(fig, path) if path is not None else fig
+
+
+def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float = 1.0,
+              battery=None, modes=None, depth: float = 2.0, dsoc: float = 0.01) -> EnduranceResult:
+    """Time until the battery can no longer hold station against ``speed`` from
+    ``relative_deg``: quasi-steady discharge ``dt = 3600 Q ΔSOC / I(SOC)`` (trapezoid in 1/I),
+    stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
+    fails (interpolated between the last held and the first failed SOC by bisection)."""
+    bat = battery if battery is not None else vehicle.battery
+    if bat is None:
+        raise ValueError(f"{vehicle.name} has no battery block")
+    cur = current_ned(speed, relative_deg)
+    rows, ang = [], (0.0, 0.0)
+    soc, t = soc0, 0.0
+    reason = "battery empty"
+    h = hold_on_battery(vehicle, cur, soc, battery=bat, modes=modes, depth=depth, start=ang)
+    if not h.held:
+        return EnduranceResult(vehicle.name, speed, relative_deg, np.zeros(1), np.array([soc]),
+                               np.array([h.voltage]), np.array([h.current]),
+                               np.array([h.limits[0, 1]]), 0.0, h.reason)
+    rows.append((t, soc, h.voltage, h.current, h.limits[0, 1]))
+    extra = [(h.allocation.thrust, h.command)]
+    while soc > 0:
+        s2 = max(soc - dsoc, 0.0)
+        h2 = hold_on_battery(vehicle, cur, s2, battery=bat, modes=modes, depth=depth,
+                             start=(h.roll, h.pitch))
+        if not h2.held:
+            lo, hi = s2, soc  # hi held, lo failed
+            for _ in range(20):
+                mid = 0.5 * (lo + hi)
+                hm = hold_on_battery(vehicle, cur, mid, battery=bat, modes=modes, depth=depth,
+                                     start=(h.roll, h.pitch))
+                if hm.held:
+                    hi, h_end = mid, hm
+                else:
+                    lo = mid
+            if hi < soc:
+                t += 3600 * bat.capacity_ah * (soc - hi) * 0.5 * (1 / h.current + 1 / h_end.current)
+                rows.append((t, hi, h_end.voltage, h_end.current, h_end.limits[0, 1]))
+                extra.append((h_end.allocation.thrust, h_end.command))
+            reason = h2.reason
+            break
+        t += 3600 * bat.capacity_ah * (soc - s2) * 0.5 * (1 / h.current + 1 / h2.current)
+        soc, h = s2, h2
+        rows.append((t, soc, h.voltage, h.current, h.limits[0, 1]))
+        extra.append((h.allocation.thrust, h.command))
+    a = np.array(rows)
+    return EnduranceResult(vehicle.name, speed, relative_deg, a[:, 0], a[:, 1], a[:, 2], a[:, 3],
+                           a[:, 4], float(a[-1, 0]), reason, np.array([e[0] for e in extra]),
+                           np.array([e[1] for e in extra]))

@@ -1,0 +1,128 @@
+"""Voltage-true thrusters and a battery: limits, inverse maps and currents at the supply voltage.
+
+**Thrusters** (:class:`SupplyThruster`): the voltage-aware physical T200 model
+(:class:`uuvid.identify.physical.PhysicalModel`: ESC duty × supply → DC motor against
+``K_Q Ω|Ω|`` → ``T = K_T Ω|Ω|``, fitted to Blue Robotics' 12 V and 16 V sheets; shipped as
+``uuvid/uncertainty/data/t200-physical.yaml``, so nothing outside the package is needed).  At a
+supply voltage V it gives the thrust limits ``[T(c_rev, V), T(c_fwd, V)]``, the command giving a
+wanted thrust (inverse of the monotone steady map over a command grid), and the supply current
+``|d|·I_m``.
+
+**Battery** (:class:`Battery`): open-circuit voltage vs state of charge (table, linear), internal
+resistance R, capacity Q (Ah): ``V = OCV(SOC) − R I``, ``dSOC/dt = −I / (3600 Q)``, with
+``I = Σ I_thruster(V) + P_hotel / V`` solved as a fixed point (the thruster currents depend on V).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from importlib import resources
+
+import numpy as np
+
+T200_PHYSICAL_SOURCE = (
+    "uuvid/uncertainty/data/t200-physical.yaml: physical model fitted (uuvid.identify.physical."
+    "fit_physical) to Blue Robotics' T200 bollard sheets at 12 V and 16 V (September 2019)")
+
+
+@functools.lru_cache(maxsize=4)
+def physical_model(name: str = "t200-physical"):
+    """The shipped voltage-aware thruster model (``t200-physical``)."""
+    import yaml
+
+    from uuvid.identify.physical import PhysicalModel
+
+    if name != "t200-physical":
+        raise KeyError(f"unknown thruster power model {name!r}; have t200-physical")
+    text = resources.files("uuvid.uncertainty").joinpath("data/t200-physical.yaml").read_text()
+    return PhysicalModel(**yaml.safe_load(text)["base"]["physical_model"])
+
+
+@dataclass(frozen=True)
+class SupplyThruster:
+    """A voltage-aware thruster: limits, inverse map and current at a supply voltage."""
+
+    model: object
+    points: int = 801
+
+    def _grid(self, voltage: float):
+        m = self.model
+        c = np.linspace(m.full_rev, m.full_fwd, self.points)
+        p = m.predict(c, float(voltage))
+        return c, p.thrust, p.current
+
+    def limits(self, voltage: float) -> tuple[float, float]:
+        """(reverse, forward) thrust at full command, N."""
+        m = self.model
+        return (float(m.thrust(m.full_rev, voltage)), float(m.thrust(m.full_fwd, voltage)))
+
+    def command_for(self, thrust, voltage: float) -> np.ndarray:
+        """Command giving ``thrust`` at ``voltage`` (clipped to the limits)."""
+        c, f, _ = self._grid(voltage)
+        order = np.argsort(f, kind="stable")
+        f, c = f[order], c[order]
+        keep = np.concatenate([[True], np.diff(f) > 0])
+        return np.interp(thrust, f[keep], c[keep])
+
+    def current(self, thrust, voltage: float) -> np.ndarray:
+        """Supply current (A) drawn while giving ``thrust`` at ``voltage``."""
+        c = self.command_for(thrust, voltage)
+        return self.model.predict(c, float(voltage)).current
+
+
+@dataclass(frozen=True)
+class Battery:
+    name: str
+    capacity_ah: float
+    ocv_soc: tuple[float, ...]
+    ocv_voltage: tuple[float, ...]
+    resistance: float
+    hotel_load_w: float = 0.0
+    min_voltage: float = 0.0
+    max_current: float | None = None
+    thruster_power_model: str = "t200-physical"
+    source: str = ""
+    assumptions: str = ""
+
+    def __post_init__(self):
+        s, v = np.asarray(self.ocv_soc, float), np.asarray(self.ocv_voltage, float)
+        if s.shape != v.shape or np.any(np.diff(s) <= 0) or s[0] > 0 or s[-1] < 1:
+            raise ValueError("ocv_soc must increase strictly from <= 0 to >= 1, one voltage each")
+        if np.any(np.diff(v) < 0) or np.any(v <= 0):
+            raise ValueError("ocv_voltage must be positive and non-decreasing with SOC")
+
+    def ocv(self, soc: float) -> float:
+        return float(np.interp(soc, self.ocv_soc, self.ocv_voltage))
+
+    def terminal(self, soc: float, current: float) -> float:
+        """``V = OCV(SOC) − R I``."""
+        return self.ocv(soc) - self.resistance * current
+
+    def supply(self, soc: float, thrusts, thruster: SupplyThruster) -> tuple[float, float]:
+        """(voltage, current) while the thrusters give ``thrusts``: the fixed point of
+        ``V = OCV − R (Σ I_i(T_i, V) + P_hotel/V)`` (thrusts clipped to the limits at V)."""
+        v = self.ocv(soc)
+        thrusts = np.asarray(thrusts, float)
+        i = 0.0
+        for _ in range(50):
+            lo, hi = thruster.limits(v)
+            i = float(np.sum(thruster.current(np.clip(thrusts, lo, hi), v))) + \
+                self.hotel_load_w / v
+            vn = self.terminal(soc, i)
+            if vn <= 0:
+                return 0.0, math.inf
+            if abs(vn - v) < 1e-9:
+                v = vn
+                break
+            v = 0.5 * (v + vn)
+        return v, i
+
+
+def limits_at(vehicle, voltage: float) -> np.ndarray:
+    """(n, 2) thrust limits of the vehicle's thrusters at a supply voltage (power model of the
+    vehicle's battery block, or the T200 model)."""
+    name = vehicle.battery.thruster_power_model if vehicle.battery is not None else "t200-physical"
+    lo, hi = SupplyThruster(physical_model(name)).limits(voltage)
+    return np.tile([lo, hi], (len(vehicle.layout), 1))
