@@ -6,7 +6,8 @@ import json
 import typer
 from typer.testing import CliRunner
 
-from uuvid.cli.uncertainty_cmds import demo_montecarlo, demo_sweep, register
+from uuvid.cli.uncertainty_cmds import register
+from uuvid.uncertainty.showcase import demo_montecarlo, demo_sweep
 
 app = typer.Typer()
 register(app)

@@ -227,7 +227,7 @@ def demo(
     quick: bool = typer.Option(False, "--quick", help="Skip the slow sections (the thruster-loop study)."),
 ):
     """Everything uuvid can do, on built-in data: reproduces the papers and writes a report."""
-    from uuvid.cli.demo import run_demo
+    from uuvid.demo import run_demo
 
     result = run_demo(out, quick=quick)
     if json_out:

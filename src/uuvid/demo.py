@@ -1,7 +1,10 @@
-"""``uuvid demo``: every capability on built-in data, in one report folder.
+"""The main job, ``uuvid demo``: every capability on built-in data, in one report folder.
 
-Grows with every capability: today the thruster models of McLean (1991) and Laidani et al., their
-reproductions, the UUV Simulator dynamics and conversions, and the model-file round trip.
+``run_demo(folder)`` (also from a notebook) writes ``index.html`` (every plot embedded) and
+``demo.json``: the three papers reproduced, thruster dynamics and their identification, vehicle
+missions, envelopes and stability, Caccia's identification (simulated, and from logs with real
+logs' traps), uncertainty, linearisation and LQR, a real ArduSub log, station keeping on a
+battery in a current.  It grows with every capability.
 """
 
 from __future__ import annotations
@@ -226,7 +229,7 @@ def _linearize_section(out: Path, rep: Report) -> dict:
 
 
 def _uncertainty_section(out: Path, rep: Report) -> dict:
-    from uuvid.cli.uncertainty_cmds import demo_montecarlo, demo_sweep
+    from uuvid.uncertainty.showcase import demo_montecarlo, demo_sweep
 
     sw = demo_sweep(out / "sweep")
     mcb = demo_montecarlo(out / "montecarlo")
