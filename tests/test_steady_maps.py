@@ -246,3 +246,25 @@ def test_inverse_table_is_unchanged_by_the_closed_form(monkeypatch):
     np.testing.assert_allclose(t_closed, t_swept, rtol=0, atol=SWEEP_TOL * scale)
     np.testing.assert_allclose(c_closed, c_swept, rtol=0, atol=1e-6 * (1900 - 1100))
     assert z_closed == z_swept
+
+
+def test_a_map_used_beyond_its_range_is_named():
+    """Laidani's 5th-order polynomial of propeller speed turns down past the fastest speed of its
+    bench data; at 14 V full command reaches it, and predict says so (at 12 V it does not)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+    from uuvid.thruster.chain import monotonicity_warnings
+
+    x = np.linspace(-1.0, 1.0, 21)
+    assert monotonicity_warnings(x, x**3) == []
+    w = monotonicity_warnings(x, np.sin(2.5 * x))  # peaks at 0.63, falls after
+    assert len(w) == 2 and w[0].startswith("forward") and w[1].startswith("reverse")
+    r = CliRunner().invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1500:1900:50",
+                                 "--supply-voltage", "12", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["warnings"] == []
+    r = CliRunner().invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1500:1900:50",
+                                 "--supply-voltage", "14", "--json"])
+    assert r.exit_code == 0 and "beyond the range" in json.loads(r.stdout)["warnings"][0]

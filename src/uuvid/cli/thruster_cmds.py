@@ -186,7 +186,7 @@ def thruster_predict(
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
-    from uuvid.thruster.chain import ThrusterChain
+    from uuvid.thruster.chain import ThrusterChain, monotonicity_warnings
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -215,6 +215,10 @@ def thruster_predict(
     doc = {key: x.tolist(), out_key: thrust.tolist(), "model": chain.name}
     if supply_voltage is not None:
         doc["supply_voltage_V"] = supply_voltage
+    neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
+    doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
+    for w in doc["warnings"]:
+        err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
     if json_out:
         _print_json(doc)
     else:

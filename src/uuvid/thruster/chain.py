@@ -370,6 +370,34 @@ class ThrusterChain:
                 "blocks": [b.to_dict() for b in self.blocks]}
 
 
+def monotonicity_warnings(x, y, neutral: float = 0.0, rel_tol: float = 1e-3) -> list[str]:
+    """Where a steady map ``y(x)`` stops growing in magnitude away from ``neutral``.
+
+    A real thruster gives more thrust for more command; a map whose output *falls* with more
+    command (on either side of neutral) is being used outside the range it was identified on —
+    e.g. a polynomial of propeller speed beyond the fastest speed of its bench data, reached at a
+    higher supply voltage.  Returns one sentence per side where that happens (empty: monotone)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    out = []
+    scale = float(np.nanmax(np.abs(y))) if y.size else 0.0
+    for side, name in ((1.0, "forward"), (-1.0, "reverse")):
+        m = side * (x - neutral) > 0
+        if m.sum() < 2:
+            continue
+        order = np.argsort(side * (x[m] - neutral))
+        xs, ys = x[m][order], side * y[m][order]
+        peak = np.maximum.accumulate(ys)
+        drop = np.flatnonzero(ys < peak - rel_tol * max(scale, 1e-12))
+        if drop.size:
+            k = int(drop[0])
+            j = int(np.argmax(ys[:k + 1]))
+            out.append(f"{name}: the steady output falls from {side * ys[j]:.4g} at {xs[j]:.6g} to "
+                       f"{side * ys[k]:.4g} at {xs[k]:.6g} — the model is used beyond the range it "
+                       "was identified on (e.g. a polynomial map past the fastest speed of its "
+                       "bench data); do not trust it there")
+    return out
+
+
 def steady_map_agreement(chain: ThrusterChain, u) -> dict:
     """How :meth:`ThrusterChain.steady_thrust` (closed form when the chain has one) compares with
     simulating the chain to rest (:meth:`ThrusterChain.sweep`) at the inputs ``u``: the largest

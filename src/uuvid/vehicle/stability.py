@@ -262,23 +262,41 @@ class StabilityResult:
                 "cases": [c.to_dict() for c in self.cases], "notes": list(self.notes)}
 
     def plot(self, path=None):
-        """Trim angle against speed per direction (solid: nonlinear, dashed: small-angle)."""
+        """Trim angle against speed per direction (lines: nonlinear, dotted: small-angle)."""
+        import itertools
+
         from uuvid.report.plots import new_figure, save_figure
 
         fig, ax = new_figure(1, 1, figsize=(8, 4.5))
+        colors = itertools.cycle(f"C{i}" for i in range(10))
+        styles = {"roll": "-", "pitch": "-."}
+        limits: dict[float, list[str]] = {}
         for c in self.cases:
             for k in c.free:
-                (ln,) = ax.plot(c.speeds, c.tilt_deg[k], label=f"{c.direction}: {k}")
-                ax.plot(c.speeds, c.tilt_small_deg[k], "--", color=ln.get_color(), lw=0.8)
+                tilt = np.asarray(c.tilt_deg[k], float)
+                if not np.any(np.abs(tilt[np.isfinite(tilt)]) > 0.05):
+                    continue  # this angle stays level in this direction: nothing to show
+                col = next(colors)
+                ax.plot(c.speeds, tilt, styles.get(k, "-"), color=col, label=f"{c.direction}: {k}")
+                # the small-angle estimate up to the limit (it diverges where trim is lost)
+                upto = c.limit_speed if c.limited else np.inf
+                small = np.where(np.asarray(c.speeds) <= upto, c.tilt_small_deg[k], np.nan)
+                ax.plot(c.speeds, small, ":", color=col, lw=0.9)
                 if c.limited:
-                    ax.axvline(c.limit_speed, color=ln.get_color(), ls=":", lw=0.8)
+                    limits.setdefault(round(float(c.limit_speed), 2), []).append(c.direction)
+        for v, dirs in limits.items():
+            ax.axvline(v, color="k", ls=":", lw=0.8)
+            ax.annotate(f"{'/'.join(dirs)} limit {v:.2f} m/s", (v, -1.45 * self.max_tilt_deg),
+                        rotation=90, fontsize=7, xytext=(3, 0), textcoords="offset points",
+                        va="bottom")
         for s in (-1, 1):
             ax.axhline(s * self.max_tilt_deg, color="grey", lw=0.6)
+        ax.set_ylim(-1.5 * self.max_tilt_deg, 1.5 * self.max_tilt_deg)
         ax.set_xlabel("speed [m/s]")
         ax.set_ylabel("trim angle [deg]")
-        ax.set_title(f"{self.vehicle}: trim in steady flight (dashed: small-angle)")
+        ax.set_title(f"{self.vehicle}: trim in steady flight (dotted: small-angle; grey: tilt limit)")
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
+            ax.legend(fontsize=7, ncol=2)
         return save_figure(fig, path) if path is not None else fig
 
 
