@@ -1138,9 +1138,14 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
         sat = np.flatnonzero(out[:, 6] > 0)
         if sat.size:
             out[sat] = _fallback(s, VP[sat], TP[sat], VC[sat])
+    else:
+        sat = np.zeros(0, dtype=int)
     if not trace_runs:
         return out
     trace = np.stack([TR[TRMAP[r // CW], :, :, r % CW] for r in trace_runs])
+    for j, r in enumerate(trace_runs):
+        if r in sat:  # flown again under the bounded method: its trace from that flight too
+            trace[j] = _fly_trace(s, VP[r], TP[r], VC[r], every, trace.shape[1])
     return out, trace
 
 
@@ -1150,6 +1155,15 @@ def _threads(threads) -> int:
     import numba
 
     return int(numba.get_num_threads())
+
+
+def _fly_trace(s, vp, tp, vc, every: int, rows: int) -> np.ndarray:
+    """Vehicle states (13) of one perturbed run at every ``every``-th step, from fly()."""
+    import dataclasses
+
+    one = dataclasses.replace(s, vp=np.ascontiguousarray(vp), current=np.ascontiguousarray(vc),
+                              bank=dataclasses.replace(s.bank, params=np.ascontiguousarray(tp)))
+    return vehicle_sim.fly_mission(one).state[::every, :13][:rows]
 
 
 def _fallback(s, VP, TP, VC) -> np.ndarray:
