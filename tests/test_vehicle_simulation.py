@@ -150,6 +150,8 @@ def test_cli_envelope_prints_a_table_for_every_preset(preset):
     res = CliRunner().invoke(app, ["vehicle", "envelope", preset])
     assert res.exit_code == 0, res.output
     assert f"{preset}: speed envelope" in res.output and "nan" not in res.output.lower()
+    # forces and speeds carry their units (rows mix N / N·m and m/s / rad/s)
+    assert " m/s" in res.output and " rad/s" in res.output and " N·m" in res.output
 
 
 def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
@@ -177,6 +179,10 @@ def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
     for d, ang in (("forward", "pitch"), ("backward", "pitch"), ("starboard", "roll"), ("port", "roll")):
         r, c = rows[d], cases[d]
         assert r["confirmed"] is False and r["limit"].startswith("stability") and ang in r["limit"]
+        # no simulated speed for a vehicle that cannot stay level: the tumbling run is kept apart
+        assert r["simulated_speed"] is None and r["relative_difference"] is None
+        assert max(r["tumbling_full_command"]["max_abs_roll_deg"],
+                   r["tumbling_full_command"]["max_abs_pitch_deg"]) > doc["stability"]["max_tilt_deg"], d
         assert c["limit_speed"] < abs(r["allocator_speed"]) and c["limit_dof"] == ang
         # the simulation flown at a speed below the limit settles on the static trim
         assert r["trim_check_speed"] < c["limit_speed"]

@@ -164,6 +164,10 @@ def vehicle_envelope(
     cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
             "limit"]
     out_console.print(_table(f"{v.name}: speed envelope", check.table_rows(cols), cols, "{:.4g}"))
+    if any(r["tumbling_full_command"] for r in check.rows):
+        out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
+                          "full command it tumbles (its speed only in --json, tumbling_full_command)",
+                          highlight=False, soft_wrap=True)
     for r in check.rows:
         if r["confirmed"] is False:
             out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True)
