@@ -154,6 +154,15 @@ def test_cli_envelope_prints_a_table_for_every_preset(preset):
     assert " m/s" in res.output and " rad/s" in res.output and " N·m" in res.output
 
 
+@pytest.mark.parametrize("args", [["vehicle", "envelope", "nosuch"], ["vehicle", "info", "nosuch"],
+                                  ["simulate", "mission", "square", "--vehicle", "nosuch"]])
+def test_unknown_vehicle_names_the_presets_once(args):
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2
+    text = " ".join(res.output.split())
+    assert text.count("presets") == 1 and "bluerov2-heavy" in text and "['" not in text
+
+
 def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
     """The Heavy controls roll and pitch: flown at full command with its attitude held, every
     translational direction reaches the analytic (allocator) speed; the BlueROV2 cannot hold
