@@ -21,8 +21,8 @@ import numpy as np
 
 from uuvid.io.ardusub.frames import (
     DOF_COLUMNS,
-    MOMENT_FACTOR_UNIT,
     MODE_NAMES,
+    MOMENT_FACTOR_UNIT,
     OPEN_LOOP_MODES,
     VehicleConfig,
     check_vehicle,
