@@ -20,7 +20,7 @@ import pytest
 
 pytest.importorskip("pymavlink")
 
-from uuvid.io.ardusub import inspect_log, load_dive  # noqa: E402
+from uuvid.io.ardusub import FRAME_NAMES, inspect_log, load_dive  # noqa: E402
 from uuvid.io.ardusub.thrust import default_t200  # noqa: E402
 from uuvid.io.logs import LogDataError  # noqa: E402
 
@@ -283,7 +283,7 @@ def test_thruster_model_file_overrides_the_t200(tmp_path):
 def test_custom_frame_needs_the_vehicle_geometry(tmp_path):
     prm = {**params(), "FRAME_CONFIG": 7}
     p = write_bin(tmp_path / "d.BIN", scenario(n=60), prm=prm)
-    with pytest.raises(LogDataError, match="Custom.*give vehicle="):
+    with pytest.raises(LogDataError, match="Custom.*give --vehicle"):
         load_dive(p)
     d = load_dive(p, vehicle="bluerov2")
     assert any("Custom" in n for n in d.config.notes)
@@ -464,7 +464,7 @@ def test_tlog_reboot_splits_into_parts(tmp_path):
 def test_tlog_without_parameters_needs_a_parameter_file(tmp_path):
     sc = scenario(n=100)
     p = write_tlog(tmp_path / "d.tlog", sc, with_params=False)
-    with pytest.raises(LogDataError, match="no FRAME_CONFIG.*give params="):
+    with pytest.raises(LogDataError, match="no FRAME_CONFIG.*give --params"):
         load_dive(p)
     qgc = "# Onboard parameters for Vehicle 1\n" + "".join(
         f"1\t1\t{k}\t{v}\t9\n" for k, v in params().items())
@@ -519,6 +519,47 @@ def test_cli_log_inspect_and_export(tmp_path):
     r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "y.csv"),
                                  "--vehicle", "bluerov2-heavy"])
     assert r.exit_code == 2 and "8 thrusters" in r.output
+    # the sidecar is named by its full path
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "z.csv")])
+    assert r.exit_code == 0 and str(tmp_path / "z.csv.json") in r.output.replace("\n", "")
+    # the output type is checked before the log is read (here: a log that does not exist)
+    r = CliRunner().invoke(app, ["log", "export", str(tmp_path / "none.BIN"), "--out-file",
+                                 str(tmp_path / "x.xlsx")])
+    assert r.exit_code == 2 and "expected .csv or .parquet" in r.output
+
+
+def test_plot_shades_each_mode_and_hatches_disarmed(tmp_path):
+    """The legend names what the figure shows: one entry per mode (MANUAL unshaded), and the
+    disarmed stretches drawn hatched without fill; without a vehicle the moment axis says its
+    columns are not N·m."""
+    from matplotlib.colors import to_rgba
+
+    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=600)))
+    fig = d.plot(tmp_path / "p.png")
+    assert (tmp_path / "p.png").stat().st_size > 0
+    labels = [t.get_text() for lg in fig.legends for t in lg.get_texts()]
+    assert labels == ["ALT_HOLD", "MANUAL (unshaded)", "disarmed"]
+    ax = fig.axes[0]
+    disarmed = [s for s in d.modes if s["armed"] is False]
+    hatched = [p for p in ax.patches if p.get_hatch()]
+    assert len(hatched) == len(disarmed) > 0
+    assert all(p.get_facecolor()[3] == 0 and p.get_edgecolor()[3] > 0 for p in hatched)
+    alt = [p for p in ax.patches if not p.get_hatch()
+           and p.get_facecolor()[:3] == to_rgba("#a1d99b")[:3]]
+    assert len(alt) == sum(s["mode"] == "ALT_HOLD" for s in d.modes)
+    assert "not N·m" in fig.axes[-1].get_ylabel() and "--vehicle" in fig.axes[-1].get_ylabel()
+    assert "not N·m" in d.provenance["K_Nm"]["unit"] and d.provenance["X_N"]["unit"] == "N"
+
+
+def test_factor_tables_hold_no_negative_zero():
+    from uuvid.io.ardusub import factor_matrix
+
+    for frame in FRAME_NAMES:
+        try:
+            F = factor_matrix(frame)
+        except KeyError:
+            continue
+        assert not np.any(np.signbit(F) & (F == 0)), frame
 
 
 # ================================================================================== real logs

@@ -65,6 +65,9 @@ def test_thruster_simulate_preset_json(tmp_path):
     doc = json.loads(res.stdout)
     assert doc["metrics_SI"]["max_true_thrust"] > 16
     assert (tmp_path / "response.csv").exists()
+    res = runner.invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.2", "--out",
+                              str(tmp_path / "o")])
+    assert res.exit_code == 0 and str(tmp_path / "o" / "index.html") in " ".join(res.output.split())
 
 
 def test_thruster_simulate_bad_model_file_exit_2(tmp_path):

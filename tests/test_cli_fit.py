@@ -240,6 +240,13 @@ def test_yoerger_on_pwm_steps_gets_a_neutral_shifting_esc(tmp_path):
     assert len(doc["runs"]) == 2
     chain = load_chain(out)
     assert [b.TYPE for b in chain.blocks] == ["esc", "yoerger"]
+    # what was done is a note, not a warning
+    assert any(n.startswith("block 0 is a unit-gain ESC") for n in doc["notes"])
+    assert not any("block 0" in w for w in doc["warnings"])
+    err = " ".join(runner.invoke(APP, ["thruster", "fit", *map(str, files), "--time-col", "time",
+                                       "--command-col", "pwm", "--speed-col", "w", "--model",
+                                       "yoerger", "--out", str(out)]).stderr.split())
+    assert "note: block 0 is a unit-gain ESC" in err and "warning: block 0" not in err
     w = chain.steady_thrust([1600.0])[0]  # x² = βu/α
     assert w == pytest.approx(math.sqrt(5.0 * 100 / 0.02), rel=0.01)
 
@@ -295,6 +302,31 @@ def test_missing_columns_and_channels_exit_2(sheets, tmp_path, args, needle):
     res = _fit(sheets[0], *args, "--out", tmp_path / "x.yaml")
     assert res.exit_code == 2, res.stdout
     assert needle in " ".join(res.stderr.split())
+
+
+def test_t200_sheet_without_its_format_is_told_to_use_it(tmp_path):
+    f = _write_csv(tmp_path / "T200.csv", {"PWM (us)": [1100, 1500, 1900], "RPM": [3400, 0, 3500],
+                                           "Force (Kg f)": [-4.0, 0.0, 5.0]})
+    res = _fit(f, "--model", "quadratic", "--out", tmp_path / "x.yaml")
+    assert res.exit_code == 2 and "--format t200" in " ".join(res.stderr.split())
+    res = _fit(f, "--model", "quadratic", "--command-col", "nope", "--out", tmp_path / "x.yaml")
+    assert "--format t200" in " ".join(res.stderr.split())
+    g = _write_csv(tmp_path / "other.csv", {"u": [1, 2, 3], "RPM": [1, 2, 3]})
+    res = _fit(g, "--model", "quadratic", "--out", tmp_path / "x.yaml")
+    assert res.exit_code == 2 and "t200" not in res.stderr
+
+
+def test_warnings_are_said_once(sheets, tmp_path):
+    """Without --json the report on stdout carries the warnings; stderr does not repeat them."""
+    args = [*sheets, *SHEET_COLS, "--voltage-col", "Voltage", "--model", "physical",
+            "--out-model", tmp_path / "p.yaml"]
+    doc = _json(_fit(*args, "--json"))
+    assert doc["warnings"]  # no current column: K_e and R cannot be separated
+    res = _fit(*args)
+    assert res.exit_code == 0
+    both = " ".join((res.stdout + res.stderr).split())
+    for w in doc["warnings"]:
+        assert both.count(" ".join(w.split())) == 1, w
 
 
 def test_missing_file_exit_2(tmp_path):

@@ -109,3 +109,25 @@ def test_out_is_a_folder_and_file_outputs_have_their_own_option(tmp_path):
         for p in cmd.params:
             if "--out" in getattr(p, "opts", ()) and not getattr(p, "hidden", False):
                 assert any(w in (p.help or "").lower() for w in ("folder", "here", "dir")), (path, p.help)
+
+
+def test_group_command_lists_show_each_summary_on_one_line():
+    """A docstring's first paragraph spans source lines; the group's command list (which shows
+    ``short_help or help``, first paragraph, line breaks kept in rich mode) gets it as one line."""
+    import typer
+
+    def walk(cmd, path=()):
+        for name, sub in getattr(cmd, "commands", {}).items():
+            yield path + (name,), sub
+            yield from walk(sub, path + (name,))
+
+    root = typer.main.get_command(app)
+    checked = 0
+    for path, cmd in walk(root):
+        text = cmd.short_help or cmd.help or ""
+        first = inspect.cleandoc(text).split("\n\n")[0].strip()
+        assert "\n" not in first, f"`uuvid {' '.join(path[:-1])} --help` breaks {path[-1]}: {first!r}"
+        checked += bool(first)
+    assert checked > 15
+    res = runner.invoke(app, ["vehicle", "--help"])
+    assert "trim roll/pitch against" in res.output

@@ -312,3 +312,19 @@ def test_t200_fits_carry_sigma_and_warnings(shared_data):
     # bounds, and the fit says its σ is meaningless there
     assert any("at its bound" in w for w in z.fit.warnings)
     assert t.fit.n_samples == 201 and len(t.block.input_values) == 201
+
+
+def test_a_parameter_at_its_bound_reports_no_sigma():
+    """A parameter the optimiser leaves on a bound has no meaningful σ: the report says "at
+    bound" instead of printing one, and the fit lists it in ``at_bound``."""
+    from uuvid.identify.fit import nonlinear_lsq
+
+    x = np.linspace(0.0, 1.0, 50)
+    y = 2.0 * x + 0.01 * np.sin(17 * x)  # the best slope is 2, the bound holds it at 1.5
+    fit = nonlinear_lsq(lambda th: th[0] * x + th[1] - y, [1.0, 0.0], ["a", "b"],
+                        bounds=([-np.inf, -np.inf], [1.5, np.inf]), emit_warnings=False)
+    assert fit.at_bound == ("a",)
+    line_a = next(ln for ln in fit.report().splitlines() if ln.strip().startswith("a "))
+    line_b = next(ln for ln in fit.report().splitlines() if ln.strip().startswith("b "))
+    assert "at bound" in line_a and "+/-" not in line_a
+    assert "+/-" in line_b

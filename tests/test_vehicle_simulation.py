@@ -157,6 +157,17 @@ def test_cli_envelope_prints_a_table_for_every_preset(preset):
     res = CliRunner().invoke(app, ["vehicle", "envelope", preset])
     assert res.exit_code == 0, res.output
     assert f"{preset}: speed envelope" in res.output and "nan" not in res.output.lower()
+    # forces and speeds carry their units (rows mix N / N·m and m/s / rad/s)
+    assert " m/s" in res.output and " rad/s" in res.output and " N·m" in res.output
+
+
+@pytest.mark.parametrize("args", [["vehicle", "envelope", "nosuch"], ["vehicle", "info", "nosuch"],
+                                  ["simulate", "mission", "square", "--vehicle", "nosuch"]])
+def test_unknown_vehicle_names_the_presets_once(args):
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2
+    text = " ".join(res.output.split())
+    assert text.count("presets") == 1 and "bluerov2-heavy" in text and "['" not in text
 
 
 def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
@@ -184,6 +195,10 @@ def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
     for d, ang in (("forward", "pitch"), ("backward", "pitch"), ("starboard", "roll"), ("port", "roll")):
         r, c = rows[d], cases[d]
         assert r["confirmed"] is False and r["limit"].startswith("stability") and ang in r["limit"]
+        # no simulated speed for a vehicle that cannot stay level: the tumbling run is kept apart
+        assert r["simulated_speed"] is None and r["relative_difference"] is None
+        assert max(r["tumbling_full_command"]["max_abs_roll_deg"],
+                   r["tumbling_full_command"]["max_abs_pitch_deg"]) > doc["stability"]["max_tilt_deg"], d
         assert c["limit_speed"] < abs(r["allocator_speed"]) and c["limit_dof"] == ang
         # the simulation flown at a speed below the limit settles on the static trim
         assert r["trim_check_speed"] < c["limit_speed"]

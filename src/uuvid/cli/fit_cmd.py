@@ -184,8 +184,13 @@ def thruster_fit(
             _fail(f"--report {report}: cannot write the report ({e.strerror or e})")
     from rich.markup import escape
 
+    shown = "" if json_out else outcome.report_text  # said once: not again what stdout says
     for w in outcome.warnings:
-        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
+        if w not in shown and w.split(": ", 1)[-1] not in shown:
+            err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
+    for n in outcome.notes:
+        if n not in shown:
+            err_console.print(f"note: {escape(n)}", highlight=False, soft_wrap=True)
     if json_out:
         _print_json(doc)
         return

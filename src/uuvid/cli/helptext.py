@@ -4,10 +4,13 @@ Typer renders help with rich markup, which swallows ``[s]``, ``[m/s]``, ``[rad/s
 style tags ("Simulated time . [default: 2.0]"), and labels every flag ``<bool>``.  Instead of
 escaping each option by hand, the root group tidies every command below it once, when the click
 command tree is built: help text is markup-escaped (so the brackets print literally) and boolean
-flags get an empty type label.
+flags get an empty type label.  A command's summary in its group's list is its docstring's
+first paragraph on one line (rich keeps the docstring's line breaks there).
 """
 
 from __future__ import annotations
+
+import inspect
 
 from rich.markup import escape
 from typer.core import TyperGroup
@@ -26,6 +29,12 @@ def tidy_command(cmd, ctx_cls=None) -> None:
         return
     cmd._uuvid_tidy = True
     markup = _rich_markup(cmd)
+    if cmd.help and not getattr(cmd, "short_help", None):
+        # the group's command list shows the first paragraph as written, line breaks and all
+        # (rich mode): give it as one line
+        first = inspect.cleandoc(cmd.help).split("\n\n")[0]
+        if "\n" in first.strip() and not first.startswith("\b"):
+            cmd.short_help = " ".join(first.split())
     if markup and cmd.help:
         cmd.help = escape(cmd.help)
     if markup and getattr(cmd, "short_help", None):

@@ -60,12 +60,13 @@ def export_cmd(
 ):
     """One tidy table on one time base: depth, attitude, battery, mode, PWM, thrust, forces."""
     from uuvid.cli.common import _print_json, err_console, out_console
-    from uuvid.io.ardusub import load_dive
+    from uuvid.io.ardusub import check_export_path, load_dive, sidecar_path
 
     out = renamed(out, "--out-file", old_out)
     if out is None:
         _fail("give --out-file FILE.csv or FILE.parquet: the table to write")
     try:
+        check_export_path(out)  # before reading the log
         dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,
                          params=params)
         path = dive.export(out)
@@ -77,7 +78,10 @@ def export_cmd(
         _print_json({**dive.to_dict(), "out": str(path)})
         return
     out_console.print(dive.summary(), highlight=False, markup=False, soft_wrap=True)
-    err_console.print(f"wrote {path}" + (f" and {path.name}.json" if path.suffix == ".csv" else ""))
+    side = sidecar_path(path)
+    err_console.print(f"wrote {path}" + (f" and {side}" if side else "")
+                      + (f"; figure {plot}" if plot is not None else ""), highlight=False,
+                      soft_wrap=True)
 
 
 def register(app: typer.Typer) -> None:

@@ -120,6 +120,9 @@ def thruster_simulate(
                 "{:.4g}",
             )
         )
+    if out and not json_out:
+        err_console.print(f"wrote {out / 'response.csv'}, response.png, summary.json and "
+                          f"{out / 'index.html'}", highlight=False, soft_wrap=True)
 
 
 def thruster_export(

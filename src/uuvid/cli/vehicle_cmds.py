@@ -26,7 +26,8 @@ def _load_vehicle(name: str):
     try:
         return load_vehicle(name)
     except (ModelFileError, FileNotFoundError, KeyError) as e:
-        _fail(f"{e} (presets: {', '.join(list_presets())})")
+        msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
+        _fail(msg if "preset" in msg else f"{msg} (presets: {', '.join(list_presets())})")
 
 
 def _fly(spec, base, out, json_out, label):
@@ -164,6 +165,10 @@ def vehicle_envelope(
     cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
             "limit"]
     out_console.print(_table(f"{v.name}: speed envelope", check.table_rows(cols), cols, "{:.4g}"))
+    if any(r["tumbling_full_command"] for r in check.rows):
+        out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
+                          "full command it tumbles (its speed only in --json, tumbling_full_command)",
+                          highlight=False, soft_wrap=True)
     for r in check.rows:
         if r["confirmed"] is False:
             out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True)
@@ -176,9 +181,10 @@ def vehicle_stability(
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
     out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
 ):
-    """Static stability in steady flight: trim roll/pitch against speed and the speed where the
-    vehicle can no longer stay level (righting moment BG·W against thrust moment arms and the
-    Munk moment of the added-mass difference)."""
+    """Static stability in steady flight: trim roll/pitch against speed, and where it stops.
+
+    The limit is the speed where the vehicle can no longer stay level: the righting moment BG·W
+    against the thrust moment arms and the Munk moment of the added-mass difference."""
     from uuvid.vehicle.stability import static_stability
 
     _fail, _print_json, _table, err_console, out_console = _helpers()

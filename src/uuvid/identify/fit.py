@@ -27,6 +27,8 @@ SIGNIFICANCE_PERCENT = 100.0 / 1.96
 CONDITION_LIMIT = 1e8
 #: |correlation| above which two parameters are reported as nearly inseparable.
 CORRELATION_LIMIT = 0.995
+#: how a warning says that a parameter ended on a bound (``"<name>: at its bound <value>; …"``)
+AT_BOUND = ": at its bound "
 
 
 class IdentifiabilityWarning(UserWarning):
@@ -102,6 +104,11 @@ class Fit:
         return {p.name: p.stderr for p in self.parameters}
 
     @property
+    def at_bound(self) -> tuple[str, ...]:
+        """Parameters the optimiser left on a bound (their σ is not meaningful)."""
+        return tuple(w.split(AT_BOUND, 1)[0] for w in self.warnings if AT_BOUND in w)
+
+    @property
     def n_free(self) -> int:
         return sum(not p.fixed for p in self.parameters)
 
@@ -165,9 +172,12 @@ class Fit:
                  f"cond = {self.condition_number:.3g}",
                  "[[Parameters]]"]
         w = max([len(p.name) for p in self.parameters] + [4])
+        bound = self.at_bound
         for p in self.parameters:
             if p.fixed:
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} (fixed) {p.unit}")
+            elif p.name in bound:
+                lines.append(f"    {p.name:<{w}} = {p.value:.6g} at bound (no σ) {p.unit}")
             else:
                 flag = "" if p.significant else "  <-- not significant (>51.02 %)"
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} +/- {p.stderr:.3g} "
@@ -341,7 +351,7 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     for i, nm in enumerate(names):
         if np.isfinite(lo[i]) and abs(sol.x[i] - lo[i]) <= 1e-9 * max(1.0, abs(lo[i])) or (
                 np.isfinite(hi[i]) and abs(sol.x[i] - hi[i]) <= 1e-9 * max(1.0, abs(hi[i]))):
-            msgs.append(f"{nm}: at its bound {sol.x[i]:.6g}; its σ is not meaningful")
+            msgs.append(f"{nm}{AT_BOUND}{sol.x[i]:.6g}; its σ is not meaningful")
     units = list(units) if units is not None else [""] * p
     params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
                    for i, (nm, v) in enumerate(zip(names, sol.x)))

@@ -389,7 +389,8 @@ def load_drag(source: str, dof: str, key: str | None = None, mode: str | None = 
         ep = en = 1.0
     if mode is not None:
         if mode not in v.modes:
-            raise ValueError(f"--mode {mode!r}: {v.name} has no such mode ({sorted(v.modes)})")
+            raise ValueError(f"--mode {mode!r}: {v.name} has no such mode "
+                             f"(modes: {', '.join(sorted(v.modes))})")
         ed = v.modes[mode].eta_dof
         ep = float(ed.get(f"{dof}+", ed.get(dof, 1.0)))
         en = float(ed.get(f"{dof}-", ed.get(dof, 1.0)))

@@ -95,6 +95,8 @@ class FitOutcome:
     summary_extra: dict = field(default_factory=dict)
     figures: list = field(default_factory=list)  # (file stem, Figure, caption)
     tables: list = field(default_factory=list)  # (file stem, rows, columns, caption)
+    #: what was done and why (not a problem with the result; ``warnings`` are the problems)
+    notes: list[str] = field(default_factory=list)
 
     def parameters(self) -> dict:
         """``{name: {estimate, sigma, percentile_error, unit, significant}}``; names are prefixed
@@ -109,7 +111,7 @@ class FitOutcome:
                 key = p.name if counts[p.name] == 1 else f"{label}.{p.name}"
                 out[key] = {"estimate": p.value, "sigma": p.stderr,
                             "percentile_error": p.percentile_error, "unit": p.unit,
-                            "significant": p.significant}
+                            "significant": p.significant, "at_bound": p.name in f.at_bound}
         return out
 
     def parameter_rows(self) -> list[dict]:
@@ -118,7 +120,8 @@ class FitOutcome:
             for p in f.parameters:
                 rows.append({"fit": label, "parameter": p.name, "estimate": p.value,
                              "sigma": p.stderr, "percentile_error_%": p.percentile_error,
-                             "significant": p.significant, "unit": p.unit})
+                             "significant": p.significant, "unit": p.unit,
+                             "at_bound": p.name in f.at_bound})
         return rows
 
 
@@ -272,6 +275,16 @@ def _degree_figure(tables: dict, chosen: dict):
 # ------------------------------------------------------------------------------------------------
 # steady models
 # ------------------------------------------------------------------------------------------------
+def _steady_messages(sf) -> tuple[list[str], list[str]]:
+    """(warnings, notes) of a steady fit: the fits' identifiability warnings and a direction
+    without samples are warnings; the rest of its notes (rows left out, …) are notes."""
+    warn = [f"{k}: {w}" for k, f in sf.fits.items() for w in f.warnings]
+    notes = []
+    for n in sf.info.get("notes", ()):
+        (warn if "not identified" in n else notes).append(n)
+    return warn, notes
+
+
 def _fit_quadratic(sets, name):
     from uuvid.identify.steady import fit_quadratic_speed
 
@@ -286,9 +299,10 @@ def _fit_quadratic(sets, name):
         x, y, yfit, np.sign(x), sf.block.thrust,
         censored_x=data.speed[cm] if cm.any() else None,
         censored_dir=np.sign(data.command[cm] - data.neutral)), "Ω [rad/s]", "thrust [N]")
+    warn, notes = _steady_messages(sf)
     return FitOutcome("quadratic", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
-                      list(sf.warnings), figures=[("fit", fig, "Thrust vs propeller speed, fit "
-                                                   "and residuals per direction")])
+                      warn, figures=[("fit", fig, "Thrust vs propeller speed, fit "
+                                                  "and residuals per direction")], notes=notes)
 
 
 def _voltage_of(data):
@@ -315,12 +329,12 @@ def _fit_cv(sets, name):
     yfit = sf.block.thrust(x)
     fig = _direction_figure(f"{name}: T = c_V V|V|", _split_panels(
         x, y, yfit, np.sign(x), sf.block.thrust), "motor voltage [V]", "thrust [N]")
-    notes = []
+    warn, notes = _steady_messages(sf)
     if data.command_unit == "duty":
         notes.append("the chain's input is the motor voltage (duty × supply voltage)")
-    return FitOutcome("cv", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
-                      list(sf.warnings) + notes,
-                      figures=[("fit", fig, "Thrust vs motor voltage, fit and residuals")])
+    return FitOutcome("cv", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N", warn,
+                      figures=[("fit", fig, "Thrust vs motor voltage, fit and residuals")],
+                      notes=notes)
 
 
 def _fit_polynomial(sets, name, degree, criterion):
@@ -379,8 +393,9 @@ def _fit_polynomial(sets, name, degree, criterion):
     extra = {"degree_table": _degree_rows(tables) if tables else None,
              "selected_degree": selected, "reason": reason,
              "criterion": criterion if degree is None else "given"}
+    warn, notes = _steady_messages(sf)
     return FitOutcome("polynomial", chain, dict(sf.fits), text, _rms(y - yfit), "N",
-                      list(sf.warnings), extra, figs, tabs)
+                      warn, extra, figs, tabs, notes=notes)
 
 
 def _fit_deadzone(sets, name, map_input):
@@ -392,7 +407,7 @@ def _fit_deadzone(sets, name, map_input):
         inp = "speed" if data.speed is not None else "command"
     sf = fit_deadzone_curve(data, input=inp)
     block = sf.block
-    notes = []
+    warn, notes = _steady_messages(sf)
     if inp == "speed":
         chain = _chain((block,), "speed", name)
         x_all = data.speed
@@ -416,8 +431,9 @@ def _fit_deadzone(sets, name, map_input):
                             _split_panels(x, y, yfit, np.sign(x), block.thrust), xlabel,
                             "thrust [N]")
     return FitOutcome("deadzone", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
-                      list(sf.warnings) + notes, {"map_input": inp},
-                      figures=[("fit", fig, "Thrust, dead-zone conversion and residuals")])
+                      warn, {"map_input": inp},
+                      figures=[("fit", fig, "Thrust, dead-zone conversion and residuals")],
+                      notes=notes)
 
 
 def _fit_table(sets, name, n_points):
@@ -435,9 +451,11 @@ def _fit_table(sets, name, n_points):
                             _split_panels(c, y, yfit, np.where(d == 0, 1, d), sf.block.thrust,
                                           xg_range=rng),
                             f"command [{data.command_unit}]", "thrust [N]")
+    warn, notes = _steady_messages(sf)
     return FitOutcome("table", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
-                      list(sf.warnings), {"knots": len(sf.block.input_values)},
-                      figures=[("fit", fig, "Thrust vs command, table and residuals")])
+                      warn, {"knots": len(sf.block.input_values)},
+                      figures=[("fit", fig, "Thrust vs command, table and residuals")],
+                      notes=notes)
 
 
 def _fit_physical(sets, name, supply_voltage, linear_duty):
@@ -472,12 +490,12 @@ def _fit_physical(sets, name, supply_voltage, linear_duty):
         e_all.append(s.thrust[m] - model.thrust(s.command[m], s.supply_voltage_array()[m]))
     fig = _direction_figure(f"{name}: physical model (ESC × supply → DC motor → K_T Ω|Ω|)",
                             panels, "command", "thrust [N]")
-    warn = list(pf.fit.warnings) + list(pf.notes)
     extra = {"supply_voltage_V": v, "per_sheet": pf.per_sheet, "physical_model": model.as_dict()}
     return FitOutcome("physical", chain, {"physical": pf.fit}, pf.report(),
-                      _rms(np.concatenate(e_all)), "N", warn, extra,
+                      _rms(np.concatenate(e_all)), "N", list(pf.fit.warnings), extra,
                       figures=[("fit", fig, "Thrust vs command per sheet: data, model and "
-                                            "residuals per direction")])
+                                            "residuals per direction")],
+                      notes=[n for n in pf.notes if n not in pf.fit.warnings])
 
 
 # ------------------------------------------------------------------------------------------------
@@ -556,9 +574,9 @@ def _dyn_outcome(model, cf, sets, name, unit, ylabel, notes=(), prepend=True):
     rmse = math.sqrt(sum(r["samples"] * r["rmse"] ** 2 for r in info) / n) if n else math.nan
     fig = _dynamic_figure(f"{name}: {cf.fit.model}", cf, ylabel)
     return FitOutcome(model, chain, {model: cf.fit}, cf.report(), rmse, unit,
-                      list(cf.warnings) + list(notes) + more,
-                      {"runs": info}, figures=[("fit", fig, "Recorded and fitted response per "
-                                                            "run, with residuals")])
+                      list(cf.warnings), {"runs": info},
+                      figures=[("fit", fig, "Recorded and fitted response per run, with "
+                                            "residuals")], notes=list(notes) + more)
 
 
 def _fit_first_order(sets, name, resample):
@@ -658,8 +676,8 @@ def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, te
            "identifiable": df.identifiable or None}
     doc.update(extra or {})
     return FitOutcome(model, chain, {df.structure.name: df.fit}, df.report() + text_extra, rmse,
-                      "rad/s" if main == "speed" else "N", list(df.fit.warnings) + list(notes) + more,
-                      doc, figures)
+                      "rad/s" if main == "speed" else "N", list(df.fit.warnings), doc, figures,
+                      notes=list(notes) + more)
 
 
 def _fit_structured(sets, model, name, dead_band):
@@ -763,7 +781,8 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
 def summary(outcome: FitOutcome, out: Path, report: Path | None) -> dict:
     doc = {"model": outcome.model, "out": str(out), "parameters": outcome.parameters(),
            "rmse": outcome.rmse, "rmse_unit": outcome.rmse_unit,
-           "warnings": list(outcome.warnings), "chain": outcome.chain.name,
+           "warnings": list(outcome.warnings), "notes": list(outcome.notes),
+           "chain": outcome.chain.name,
            "signals": list(outcome.chain.signal_kinds)}
     if len(outcome.fits) == 1:  # one estimator: its covariance, in the order of "parameters"
         (fit,) = outcome.fits.values()
@@ -808,7 +827,8 @@ def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str
     rep = Report(f"uuvid thruster fit — {outcome.model} ({outcome.chain.name})")
     rep.add_paragraph(f"Data: {', '.join(sources)}.  Model file: {doc['out']}.  "
                       f"RMSE {outcome.rmse:.4g} {outcome.rmse_unit}.")
-    pcols = ["fit", "parameter", "estimate", "sigma", "percentile_error_%", "significant", "unit"]
+    pcols = ["fit", "parameter", "estimate", "sigma", "percentile_error_%", "significant", "unit",
+             "at_bound"]
     prow = outcome.parameter_rows()
     atomic_write_text(folder / "parameters.csv", _csv_text(prow, pcols))
     rep.add_heading("Parameters")
@@ -818,6 +838,9 @@ def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str
     if outcome.warnings:
         rep.add_heading("Warnings")
         rep.add_paragraph("\n".join(outcome.warnings))
+    if outcome.notes:
+        rep.add_heading("Notes")
+        rep.add_paragraph("\n".join(outcome.notes))
     rep.add_heading("Fit")
     for stem, fig, caption in outcome.figures:
         png = save_figure(fig, folder / f"{stem}.png")

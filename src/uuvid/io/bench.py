@@ -321,8 +321,20 @@ def _find_column(t: _Table, name: str, role: str) -> str:
     matches = [c for c in t.columns if _norm(c) == _norm(name)]
     if len(matches) == 1:
         return matches[0]
+    hint = ("; this looks like a Blue Robotics T200 sheet: read it with --format t200"
+            if _looks_like_t200(t) else "")
     raise BenchDataError(f"{t.name}: no column {name!r} for the {role}; available columns: "
-                         f"{', '.join(repr(c) for c in t.columns)}")
+                         f"{', '.join(repr(c) for c in t.columns)}{hint}")
+
+
+_T200_PWM = ("PWM (us)", "PWM (µs)", "PWM (μs)")
+
+
+def _looks_like_t200(t: _Table) -> bool:
+    """The Blue Robotics sheet's header: PWM (us), RPM and Force (Kg f)."""
+    have = {_norm(c) for c in t.columns}
+    return (any(_norm(c) in have for c in _T200_PWM)
+            and {_norm("RPM"), _norm("Force (Kg f)")} <= have)
 
 
 def _numeric(t: _Table, col: str, role: str, unit: str = "") -> np.ndarray:
@@ -462,7 +474,7 @@ def read_t200(path) -> BenchData:
     """
     t = _read_table(path)
     pwm = None
-    for cand in ("PWM (us)", "PWM (µs)", "PWM (μs)"):
+    for cand in _T200_PWM:
         if any(_norm(c) == _norm(cand) for c in t.columns):
             pwm = cand
             break

@@ -13,7 +13,8 @@ Roll and pitch that the thrusters cannot control are left to the righting moment
 analysis (:func:`uuvid.vehicle.stability.static_stability`) says the vehicle cannot stay level
 below the analytic speed, the direction is not confirmed and the row carries that limit, plus a
 check of the analysis: the vehicle flown at 80 % of the limit speed (speed held) against the
-analysis' trim angle at that speed.
+analysis' trim angle at that speed.  Such a row has no simulated speed: the full-command flight
+tumbles, and its (meaningless) velocity is kept only under ``tumbling_full_command``.
 
 Rotational directions (yaw): the allocated torque is held open loop; roll and pitch rows have a
 restoring moment and no steady rate (their maximum moment is reported).
@@ -34,7 +35,7 @@ from uuvid.vehicle.model import vehicle_rhs
 ROW_KEYS = ("dof", "direction", "sign", "force", "speed", "allocator_force", "allocator_speed",
             "force_unit", "speed_unit", "simulated_speed", "relative_difference", "final_roll_deg",
             "final_pitch_deg", "method", "confirmed", "limit", "trim_check_speed",
-            "trim_static_deg", "trim_simulated_deg", "note")
+            "trim_static_deg", "trim_simulated_deg", "tumbling_full_command", "note")
 TOLERANCE = 0.05  # relative difference accepted as confirmation
 
 
@@ -220,17 +221,29 @@ class EnvelopeCheck:
         raise KeyError(f"no envelope row {direction!r}; have {[r['direction'] for r in self.rows]}")
 
     def table_rows(self, columns=("direction", "speed", "allocator_speed", "simulated_speed",
-                                  "relative_difference", "limit", "note")) -> list[dict]:
+                                  "relative_difference", "limit", "note"),
+                   units: bool = True) -> list[dict]:
         """Rows for display: ``None`` as "—", speeds with their sign dropped (the direction
-        says it)."""
+        says it); with ``units`` the forces and speeds as text with the row's unit ("129.3 N",
+        "4.70 rad/s": rows mix translation and rotation) and the relative difference in %."""
         out = []
         for r in self.rows:
             d = {}
             for c in columns:
                 v = r.get(c)
+                if v is None or (isinstance(v, float) and math.isnan(v)):
+                    d[c] = "—"
+                    continue
                 if isinstance(v, float) and c.endswith("speed"):
                     v = abs(v)
-                d[c] = "—" if v is None or (isinstance(v, float) and math.isnan(v)) else v
+                if units and isinstance(v, float):
+                    if c.endswith("speed"):
+                        v = f"{v:.4g} {r['speed_unit']}"
+                    elif c.endswith("force"):
+                        v = f"{v:.4g} {r['force_unit']}"
+                    elif c == "relative_difference":
+                        v = f"{v:.1%}"
+                d[c] = v
             out.append(d)
         return out
 
@@ -257,6 +270,10 @@ def _row(r) -> dict:
     d["speed"] = None if math.isnan(r.speed) else r.speed
     d["allocator_speed"] = None if math.isnan(r.speed_allocator) else r.speed_allocator
     return d
+
+
+def _level_limit(case) -> str:
+    return f"stability: level only to {case.limit_speed:.2f} m/s ({case.limit_dof})"
 
 
 def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLERANCE,
@@ -293,6 +310,7 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
             d["note"] = "not simulated"
             if case is not None and case.limited and case.limit_speed < abs(ref):
                 d["confirmed"] = False
+                d["limit"] = _level_limit(case)
                 d["note"] = (f"cannot stay level above {case.limit_speed:.2f} m/s "
                              f"({case.limit_dof}: {case.limit_reason})")
             rows.append(d)
@@ -311,11 +329,18 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
         d["confirmed"] = bool(rel <= tolerance)
         d["limit"] = case.limit_text() if case is not None else "—"
         if case is not None and case.limited and case.limit_speed < abs(ref):
-            d["confirmed"] = False
+            # the full-command flight tumbles: its speed is no check of the analytic one
+            d["tumbling_full_command"] = {
+                "speed": d["simulated_speed"], "relative_difference": rel,
+                "final_roll_deg": d["final_roll_deg"], "final_pitch_deg": d["final_pitch_deg"],
+                "max_abs_roll_deg": tilt[0], "max_abs_pitch_deg": tilt[1]}
+            d.update(simulated_speed=None, relative_difference=None, final_roll_deg=None,
+                     final_pitch_deg=None, confirmed=False)
             us = 0.8 * case.limit_speed
             st = trim_state(vehicle, k, r.sign, us)
             fl = hold_flight(vehicle, k, r.sign, speed=us)
             ang = case.limit_dof
+            d["limit"] = _level_limit(case)
             d["trim_check_speed"] = us
             d["trim_static_deg"] = st["tilt_deg"][ang]
             d["trim_simulated_deg"] = fl[f"{ang}_deg"]
@@ -324,8 +349,8 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                          f"{case.righting[ang]:.3g} N·m/rad); at {us:.2f} m/s the static trim is "
                          f"{st['tilt_deg'][ang]:+.1f}° {ang}, the simulation flies "
                          f"{fl[f'{ang}_deg']:+.1f}°; at full command it "
-                         f"{'tumbles' if max(tilt) > 60 else 'tilts'}: up to {tilt[0]:.0f}° roll, "
-                         f"{tilt[1]:.0f}° pitch")
+                         f"{'tumbles' if max(tilt) > 60 else 'tilts'} (up to {tilt[0]:.0f}° roll, "
+                         f"{tilt[1]:.0f}° pitch), so no steady speed is simulated")
         elif d["confirmed"]:
             d["note"] = f"confirmed within {rel:.1%}"
         else:

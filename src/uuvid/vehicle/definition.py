@@ -276,7 +276,7 @@ class Vehicle:
         if p.is_file():
             return load_chain(p)
         raise KeyError(f"{self.name}: thruster {self.layout[thruster].name} refers to model "
-                       f"{ref!r}, which is neither a thruster preset ({sorted(PRESETS)}) nor a "
+                       f"{ref!r}, which is neither a thruster preset ({', '.join(sorted(PRESETS))}) nor a "
                        f"model file next to the vehicle file (a placeholder)")
 
     @property
@@ -493,7 +493,7 @@ def list_presets() -> list[str]:
 def preset_path(name: str) -> Path:
     p = PRESET_DIR / f"{name}.yaml"
     if not p.is_file():
-        raise KeyError(f"unknown vehicle preset {name!r}; known: {list_presets()}")
+        raise KeyError(f"unknown vehicle preset {name!r}; known: {', '.join(list_presets())}")
     return p
 
 
@@ -505,7 +505,7 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
             p = preset_path(path_or_name)
         else:
             raise VehicleFileError(f"{path_or_name}: no such vehicle file and not a preset "
-                                   f"(presets: {list_presets()})")
+                                   f"(presets: {', '.join(list_presets())})")
     try:
         raw = read_model_text(p)
     except ModelFileError as e:

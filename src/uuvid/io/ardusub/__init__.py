@@ -12,7 +12,7 @@ In a few lines::
 """
 
 from uuvid.io.ardusub.dive import BASE_COLUMNS, DiveLog, load_dive
-from uuvid.io.ardusub.export import shared_log_dir
+from uuvid.io.ardusub.export import check_export_path, shared_log_dir, sidecar_path
 from uuvid.io.ardusub.frames import (
     DOF_COLUMNS,
     FRAME_NAMES,
@@ -27,4 +27,5 @@ from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
 
 __all__ = ["load_dive", "DiveLog", "inspect_log", "LogInspection", "VehicleConfig",
            "config_from_params", "check_vehicle", "factor_matrix", "default_t200",
-           "load_thrust_model", "shared_log_dir", "BASE_COLUMNS", "DOF_COLUMNS", "FRAME_NAMES", "MODE_NAMES"]
+           "load_thrust_model", "shared_log_dir", "check_export_path", "sidecar_path",
+           "BASE_COLUMNS", "DOF_COLUMNS", "FRAME_NAMES", "MODE_NAMES"]

@@ -22,6 +22,7 @@ import numpy as np
 from uuvid.io.ardusub.frames import (
     DOF_COLUMNS,
     MODE_NAMES,
+    MOMENT_FACTOR_UNIT,
     OPEN_LOOP_MODES,
     VehicleConfig,
     check_vehicle,
@@ -109,7 +110,7 @@ class DiveLog:
                  f"forces: {self.force_basis}"]
         if self.modes:
             lines.append("modes: " + "; ".join(
-                f"{s['mode']}{' armed' if s['armed'] else ''} {s['start_s']:.1f}–{s['end_s']:.1f} s"
+                f"{s['mode']}{_ARMED_TEXT[s['armed']]} {s['start_s']:.1f}–{s['end_s']:.1f} s"
                 for s in self.modes[:12]) + (" …" if len(self.modes) > 12 else ""))
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
@@ -268,12 +269,12 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     else:
         W = Ff
         basis = ("ArduSub mixing factors Σ f_i·T_i (no vehicle geometry given): X/Y/Z in N along "
-                 "the mixer's axes, K/M/N in N per unit factor — proportional to the moments, not "
-                 "N·m; give vehicle= for the physical wrench")
+                 f"the mixer's axes, K/M/N in {MOMENT_FACTOR_UNIT} — proportional to the moments")
     for k, c in enumerate(DOF_COLUMNS):
         cols[c] = W[k]
+        unit = ("N" if k < 3 else "N·m" if veh is not None else MOMENT_FACTOR_UNIT)
         prov[c] = {"source": "Σ over motors " + ("B[dof, j]" if veh is not None else "f[dof, i]")
-                             + " × thrust_i_N", "basis": basis}
+                             + " × thrust_i_N", "basis": basis, "unit": unit}
     df = pd.DataFrame(cols)
     used = {v.get("source") for v in prov.values()}
     dups = {k: v for k, v in raw.duplicates.items() if k in used}
@@ -288,6 +289,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     dsrc = {**dsrc, "source": None if depth is None else depth.source}
     return DiveLog(raw.path, raw.format, df, config, dsrc, warnings, segs, prov, tm.to_dict(),
                    basis, factor_df, None if veh is None else veh.name)
+
+
+_ARMED_TEXT = {True: " armed", False: " disarmed", None: ""}
 
 
 def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:

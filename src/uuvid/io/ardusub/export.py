@@ -32,15 +32,36 @@ def _meta(dive) -> dict:
     return {"format": "uuvid-dive/1", **dive.to_dict()}
 
 
+EXPORT_TYPES = (".csv", ".parquet")
+
+
+def check_export_path(out) -> Path:
+    """The export path, after checking its type (before any log is read)."""
+    out = Path(out)
+    if out.suffix.lower() not in EXPORT_TYPES:
+        raise LogDataError(f"{out.name}: unknown export type {out.suffix!r}; expected .csv or "
+                           ".parquet")
+    return out
+
+
+def sidecar_path(out) -> Path | None:
+    """Where the provenance of an export goes: ``<out>.json`` beside a CSV; ``None`` for Parquet
+    (provenance in the file's metadata)."""
+    out = Path(out)
+    return out.with_name(out.name + ".json") if out.suffix.lower() == ".csv" else None
+
+
 def export_dive(dive, out) -> Path:
     """``out`` ending in ``.csv`` (sidecar ``<out>.json``) or ``.parquet``; returns the path."""
-    out = Path(out)
+    out = check_export_path(out)
     suf = out.suffix.lower()
-    tb = dive.table
+    tb = dive.table.copy()
+    num = tb.select_dtypes("float").columns
+    tb[num] = tb[num] + 0.0  # -0.0 written as 0
     if suf == ".csv":
         with atomic_path(out) as tmp:
             tb.to_csv(tmp, index=False, float_format="%.9g")
-        atomic_write_json(out.with_name(out.name + ".json"), _meta(dive))
+        atomic_write_json(sidecar_path(out), _meta(dive))
         return out
     if suf == ".parquet":
         try:
@@ -55,16 +76,27 @@ def export_dive(dive, out) -> Path:
         with atomic_path(out) as tmp:
             pq.write_table(t, tmp)
         return out
-    raise LogDataError(f"{out.name}: unknown export type {out.suffix!r}; expected .csv or .parquet")
 
 
 _MODE_COLOURS = {"MANUAL": None, "STABILIZE": "#9ecae1", "ALT_HOLD": "#a1d99b",
                  "POSHOLD": "#fdae6b", "SURFACE": "#bcbddc", "ACRO": "#fdd0a2"}
+_OTHER_MODE_COLOURS = ("#fbb4ae", "#ccebc5", "#decbe4", "#fed9a6", "#e5d8bd", "#b3cde3")
+
+
+def _mode_colours(modes) -> dict:
+    """A fill colour per closed-loop mode seen (MANUAL: None, unshaded)."""
+    out, extra = {}, iter(_OTHER_MODE_COLOURS * 4)
+    for m in sorted({s["mode"] for s in modes}):
+        out[m] = _MODE_COLOURS[m] if m in _MODE_COLOURS else next(extra, "#dddddd")
+    return out
 
 
 def plot_dive(dive, path=None):
-    """Depth, attitude, thrusts and generalized forces against time; closed-loop modes shaded
-    (MANUAL unshaded), disarmed stretches hatched grey."""
+    """Depth, attitude, thrusts and generalized forces against time; each mode but MANUAL
+    shaded in its colour (a legend entry per mode), disarmed stretches hatched grey."""
+    from matplotlib.patches import Patch
+
+    from uuvid.io.ardusub.frames import MOMENT_FACTOR_UNIT
     from uuvid.report.plots import new_figure, save_figure
 
     tb = dive.table
@@ -88,24 +120,29 @@ def plot_dive(dive, path=None):
     for c, ls in (("K_Nm", ":"), ("M_Nm", "-."), ("N_Nm", "--")):
         ax3b.plot(t, tb[c], ls, lw=0.8, label=c)
     ax[3].set_ylabel("force [N]")
-    ax3b.set_ylabel("moment" + (" [N·m]" if dive.vehicle else " [N × factor]"))
+    ax3b.set_ylabel("moment [N·m]" if dive.vehicle else
+                    "moment [" + MOMENT_FACTOR_UNIT.replace(" (", "]\n(", 1), fontsize="small")
     ax[3].legend(loc="upper left", fontsize="small")
     ax3b.legend(loc="upper right", fontsize="small")
     ax[3].set_xlabel("t [s]")
-    seen = set()
+    colours = _mode_colours(dive.modes)
+    hatch = {"facecolor": "none", "edgecolor": "0.65", "hatch": "//", "lw": 0, "zorder": 0.5}
     for s in dive.modes:
-        col = _MODE_COLOURS.get(s["mode"], "#dddddd")
         for a in ax:
+            if colours[s["mode"]]:
+                a.axvspan(s["start_s"], s["end_s"], color=colours[s["mode"]], alpha=0.45, lw=0,
+                          zorder=0)
             if s["armed"] is False:
-                a.axvspan(s["start_s"], s["end_s"], color="#eeeeee", hatch="//", lw=0, zorder=0)
-            elif col:
-                a.axvspan(s["start_s"], s["end_s"], color=col, alpha=0.35, lw=0, zorder=0,
-                          label=None)
-        seen.add(s["mode"])
-    closed = sorted(m for m in seen if m != "MANUAL")
-    ax[0].text(0.01, 0.02, "modes: " + ", ".join(sorted(seen)) + "; shaded: "
-               + (", ".join(closed) or "none") + " (MANUAL unshaded); disarmed: grey hatched",
-               transform=ax[0].transAxes, fontsize="x-small")
+                a.axvspan(s["start_s"], s["end_s"], **hatch)
+    handles = [Patch(facecolor=c or "white", alpha=0.45 if c else 1.0, edgecolor="0.3" if not c
+                     else "none", label=m + (" (unshaded)" if not c else ""))
+               for m, c in colours.items()]
+    if any(s["armed"] is False for s in dive.modes):
+        handles.append(Patch(label="disarmed", **{k: v for k, v in hatch.items()
+                                                  if k not in ("lw", "zorder")}))
+    if handles:
+        fig.legend(handles=handles, loc="outside upper center", ncol=len(handles),
+                   fontsize="small", frameon=False)
     if path is not None:
         save_figure(fig, path)
     return fig

@@ -62,6 +62,8 @@ MODE_NAMES = {0: "STABILIZE", 1: "ACRO", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 
 #: modes in which the autopilot does not close any loop on attitude or depth
 OPEN_LOOP_MODES = ("MANUAL",)
 DOF_COLUMNS = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
+# what K_Nm/M_Nm/N_Nm hold when no vehicle geometry is given (the names are the export schema)
+MOMENT_FACTOR_UNIT = "N per unit mixing factor (not N·m; give --vehicle)"
 TRIM_PWM = 1500.0
 
 
@@ -75,7 +77,7 @@ def factor_matrix(frame: int) -> np.ndarray:
     if frame not in FRAME_FACTORS:
         raise KeyError(frame)
     f = np.array(FRAME_FACTORS[frame], dtype=float)  # n × (roll, pitch, yaw, thr, fwd, lat)
-    return np.vstack([f[:, 4], f[:, 5], -f[:, 3], f[:, 0], f[:, 1], f[:, 2]])
+    return np.vstack([f[:, 4], f[:, 5], -f[:, 3], f[:, 0], f[:, 1], f[:, 2]]) + 0.0  # no -0
 
 
 @dataclass(frozen=True)
@@ -160,13 +162,13 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
     if frame is None:
         raise MissingFrameError(f"{name}: the log holds no FRAME_CONFIG parameter (no PARM / "
                            "PARAM_VALUE messages with it), so its thruster layout and motor "
-                           "directions are unknown; give params= (the vehicle's parameter file, "
+                           "directions are unknown; give --params (the vehicle's parameter file, "
                            "as QGroundControl or BlueOS save it)")
     frame = int(round(frame))
     frame_name = FRAME_NAMES.get(frame, f"unknown frame {frame}")
     if frame == 7 and custom_B is None:
         raise LogDataError(f"{name}: FRAME_CONFIG = 7 (Custom): the motor factors live in the "
-                           "firmware build or a Lua script, not in the log; give vehicle= with "
+                           "firmware build or a Lua script, not in the log; give --vehicle with "
                            "the thruster geometry (thrusters in motor order)")
     if frame not in FRAME_FACTORS and frame != 7:
         raise LogDataError(f"{name}: FRAME_CONFIG = {frame} is not an ArduSub frame this reader "
@@ -205,7 +207,7 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
     missing_dir = [k for k in range(1, F.shape[1] + 1) if f"MOT_{k}_DIRECTION" not in params]
     if missing_dir:
         notes.append(f"MOT_n_DIRECTION not in the log for motor(s) {missing_dir}: +1 (normal) "
-                     "assumed — a reversed motor would flip its thrust; give params=")
+                     "assumed — a reversed motor would flip its thrust; give --params")
     motors = []
     for j in range(F.shape[1]):
         num = j + 1
