@@ -24,8 +24,14 @@ import numpy as np
 from numba import njit, prange
 
 from uuvid.simulate import kernels
-from uuvid.simulate.control import (PID_STATE_SIZE, Controller, DPGains, gains_from_bandwidth, pid,
-                                    pid_controller)
+from uuvid.simulate.control import (
+    PID_STATE_SIZE,
+    Controller,
+    DPGains,
+    gains_from_bandwidth,
+    pid,
+    pid_controller,
+)
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
@@ -526,27 +532,6 @@ def _fly_loop(cparams, cstate, dparams, use_dist, z0, vp, B, alloc, eta_p, eta_n
             normalise_state(z)
 
 
-@njit(cache=True, parallel=True)
-def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch, in_ch, exact,
-              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT):
-    """Many vehicles (rows of ``VP``, thruster params ``TP[r]``, currents ``VC[r]``) flying the same
-    mission in parallel.  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
-    final position error, min allocation scale]``."""
-    nrun = VP.shape[0]
-    nsteps = ref_pos.shape[0]
-    n = TP.shape[1]
-    for r in prange(nrun):
-        Z = np.empty((nsteps, z0.size))
-        F = np.empty((nsteps, n))
-        FD = np.empty((nsteps, n))
-        TAU = np.empty((nsteps, 6))
-        SC = np.empty(nsteps)
-        fly(z0, VP[r], B, alloc, eta_p, eta_n, dofs, kinds, poff, TP[r], soff, outch, in_ch, exact,
-            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC,
-            np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
-        _summarise_run(Z, F, SC, ref_pos, OUT[r])
-
-
 @njit(cache=True)
 def _summarise_run(Z, F, SC, ref_pos, out):
     """``out = [max tracking error, rms tracking error, max |thrust|, final position error,
@@ -583,8 +568,10 @@ _LOOP = _fly_loop
 def _batch_template(cparams, cstate0, dparams, use_dist, z0, VP, B, alloc, eta_p, eta_n, dofs,
                     kinds, poff, TP, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
                     ref_yaw, ref_rate, VC, dt, nsub, OUT):
-    """:func:`fly_batch` around a user's loop (``_LOOP``, from :func:`compiled_loop`); each
-    vehicle starts from its own copy of the controller state ``cstate0``."""
+    """Vehicles (rows of ``VP``, ``TP``, ``VC``) flying the mission in parallel through ``_LOOP``
+    (:func:`_fly_loop`, or the loop :func:`compiled_loop` builds around a user's controller);
+    each vehicle starts from its own copy of the controller state ``cstate0``; ``OUT[r]`` from
+    :func:`_summarise_run`."""
     nrun = VP.shape[0]
     nsteps = ref_pos.shape[0]
     n = TP.shape[1]
@@ -599,6 +586,21 @@ def _batch_template(cparams, cstate0, dparams, use_dist, z0, VP, B, alloc, eta_p
               ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC, np.zeros((0, 3)),
               np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
         _summarise_run(Z, F, SC, ref_pos, OUT[r])
+
+
+_fly_batch_pid = njit(cache=True, parallel=True)(_batch_template)
+
+
+def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch, in_ch, exact,
+              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT):
+    """Many vehicles (rows of ``VP``, thruster params ``TP[r]``, currents ``VC[r]``) flying the same
+    mission in parallel with the built-in PID DP (:func:`fly` per vehicle; a compiled, cached
+    ``prange`` kernel).  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
+    final position error, min allocation scale]``."""
+    _fly_batch_pid(np.ascontiguousarray(gains, dtype=np.float64).ravel(), np.zeros(PID_STATE_SIZE),
+                   np.zeros(0), False, z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff,
+                   outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt,
+                   nsub, OUT)
 
 
 @functools.lru_cache(maxsize=32)
