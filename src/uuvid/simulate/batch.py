@@ -207,6 +207,9 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
     kinds = [int(k) for k in b.kinds]
     soff = np.asarray(b.soff)
     nb = len(kinds)
+    if getattr(s, "controller", None) is not None or getattr(s, "disturbance", None) is not None:
+        raise _NoFastPath("a user controller or disturbance flies the compiled loop per vehicle "
+                          "(vehicle_sim.run_batch)")
     if VP.shape[1] != N_PARAMS or np.any(VP[:, P_VERSION] != LAYOUT_VERSION):
         raise _NoFastPath("vehicle parameters do not have layout version 1")
     dynb = [i for i in range(nb) if soff[i + 1] > soff[i]]
@@ -1058,8 +1061,9 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     (default none: IEEE, identical to ``fly()`` up to rounding; ``{"contract"}`` allows FMA).
     With ``trace_runs`` (run indices) it returns ``(summary, trace)``, ``trace`` being
     (len(trace_runs), ceil(steps/trace_every), 13) vehicle states at every ``trace_every``-th step.
-    Chains the kernel does not handle go to ``vehicle_sim.fly_batch`` (``fallback=False`` raises
-    instead); there column 6 is NaN and traces are not available.
+    Chains the kernel does not handle, and setups with a user controller or disturbance (flown by
+    ``vehicle_sim.run_batch``, one compiled loop per vehicle), go to ``vehicle_sim.fly_batch``
+    (``fallback=False`` raises instead); there column 6 is NaN and traces are not available.
     """
     s = setup
     vehicle_sim.require_constant_current(s)
@@ -1170,11 +1174,14 @@ def _fallback(s, VP, TP, VC) -> np.ndarray:
     b = s.bank
     R = VP.shape[0]
     o5 = np.empty((R, 5))
-    ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
-    vehicle_sim.fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, TP,
-                          b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
-                          s.gains.to_array(), ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt,
-                          s.substeps, o5)
+    if s.controller is not None or s.disturbance is not None:
+        o5 = vehicle_sim.run_batch(s, VP, TP, VC)
+    else:
+        ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+        vehicle_sim.fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff,
+                              TP, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
+                              s.gains.to_array(), ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt,
+                              s.substeps, o5)
     out = np.full((R, N_SUMMARY), np.nan)
     out[:, :5] = o5
     out[:, 5] = ((o5[:, 3] < 0.25) & (o5[:, 0] < 1.0)).astype(float)

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, objmode
 
 from uuvid.vehicle.kinematics import quat_to_rotmat
 
@@ -136,3 +136,103 @@ def dp_control(e, edot, integ, gains, dt, tau_out, integ_out):
         u = kp * e[j] + ki * new_i + kd * edot[j]
         u = min(max(u, -tmax), tmax)
         tau_out[DP_DOFS[j]] = u
+
+
+# ---------------------------------------------------------------------------------------------
+# Controllers as blocks
+# ---------------------------------------------------------------------------------------------
+#: Length of :func:`pid_controller`'s state: the integrator (4) and scratch for e, ė, new integrator.
+PID_STATE_SIZE = 16
+
+
+@njit(cache=True)
+def pid_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    """The built-in DP controller in the :class:`Controller` interface: body-frame PID on surge,
+    sway, heave and yaw (:func:`dp_errors`, :func:`dp_control`) plus roll/pitch hold
+    (:func:`attitude_hold`).  ``params`` = ``DPGains.to_array().ravel()`` (24);
+    ``state[0:4]`` the integrator, ``state[4:16]`` scratch (:data:`PID_STATE_SIZE`)."""
+    gains = params.reshape(6, 4)
+    e = state[4:8]
+    edot = state[8:12]
+    integ_new = state[12:16]
+    dp_errors(eta[0:3], eta[3:7], nu, ref_pos, ref_vel, ref_yaw, ref_rate, e, edot)
+    dp_control(e, edot, state[0:4], gains, dt, tau_out, integ_new)
+    attitude_hold(eta[3:7], nu, gains, tau_out)
+    for j in range(4):
+        state[j] = integ_new[j]
+
+
+@dataclass(frozen=True)
+class Controller:
+    """A controller block for the mission loop (:func:`uuvid.simulate.vehicle_sim.setup_mission`).
+
+    ``fn(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out)`` is called
+    once per control step ``dt`` (its output held over the step, as a digital autopilot's):
+
+    - ``t`` time (s); ``eta`` = [north, east, down, q0, q1, q2, q3] (NED position, unit
+      quaternion body → NED); ``nu`` = [u, v, w, p, q, r] body velocities;
+    - ``ref_pos``, ``ref_vel`` (3, NED), ``ref_yaw``, ``ref_rate`` (floats): the mission reference;
+    - ``params`` (1-D float array, read only) and ``state`` (1-D float array, persistent across
+      steps, modified in place; each flight starts from a copy of ``state0``);
+    - ``tau_out`` (6): the desired generalized force [X Y Z K M N] (N, N·m), body frame; the
+      controller writes all six entries.  The loop then allocates it to the thrusters.
+
+    ``fn`` either a numba ``@njit`` function (compiled into the loop; full speed) or a plain
+    Python callable with the same signature (called from the compiled loop through
+    ``numba.objmode`` each step; slower — see ``uuvid bench``, case ``controllers``).
+    """
+
+    fn: object
+    params: np.ndarray
+    state0: np.ndarray
+    name: str = "user"
+
+    def __post_init__(self):
+        p = np.ascontiguousarray(np.ravel(np.asarray(self.params, dtype=np.float64)))
+        s = np.ascontiguousarray(np.ravel(np.asarray(self.state0, dtype=np.float64)))
+        if not callable(self.fn):
+            raise TypeError(f"Controller.fn must be callable, got {type(self.fn).__name__}")
+        p.flags.writeable = False
+        object.__setattr__(self, "params", p)
+        object.__setattr__(self, "state0", s)
+
+    @property
+    def compiled(self) -> bool:
+        """True for a numba-compiled ``fn`` (runs inside the compiled loop)."""
+        from numba.core.registry import CPUDispatcher
+
+        return isinstance(self.fn, CPUDispatcher)
+
+
+def pid(gains: DPGains) -> Controller:
+    """The built-in PID DP controller (:func:`pid_controller`) with these gains."""
+    return Controller(pid_controller, gains.to_array().ravel(), np.zeros(PID_STATE_SIZE), "PID DP")
+
+
+#: Plain Python controllers, by slot (``params[0]`` of :func:`python_controller`).
+_PY_CONTROLLERS: dict[int, object] = {}
+
+
+def _call_python(slot, t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    _PY_CONTROLLERS[int(slot)](t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt,
+                               tau_out)
+
+
+@njit
+def python_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    """Calls a plain Python controller (registered in slot ``params[0]``; its own params follow)
+    from the compiled loop through ``numba.objmode`` (the arrays are shared, not copied)."""
+    slot = params[0]
+    own = params[1:]
+    with objmode():
+        _call_python(slot, t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, own, state, dt, tau_out)
+
+
+def compiled_form(controller: Controller) -> tuple:
+    """``(numba function, params)`` that the compiled loop calls for ``controller``: its own for a
+    numba function, :func:`python_controller` with the callable registered for a Python one."""
+    if controller.compiled:
+        return controller.fn, controller.params
+    slot = next((k for k, f in _PY_CONTROLLERS.items() if f is controller.fn), len(_PY_CONTROLLERS))
+    _PY_CONTROLLERS[slot] = controller.fn
+    return python_controller, np.concatenate([[float(slot)], controller.params])

@@ -24,7 +24,15 @@ import numpy as np
 from numba import njit, prange
 
 from uuvid.simulate import kernels
-from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors, gains_from_bandwidth
+from uuvid.simulate.control import (
+    PID_STATE_SIZE,
+    Controller,
+    DPGains,
+    gains_from_bandwidth,
+    pid,
+    pid_controller,
+)
+from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
 from uuvid.thruster.chain import ThrusterChain
@@ -187,7 +195,17 @@ def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int =
 @njit(cache=True)
 def _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc, dz,
          thrust, tau, ch, blk):
-    """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)].
+    """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)] (no
+    disturbance force; :func:`_rhs_d`)."""
+    _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc,
+           dz, thrust, tau, ch, blk, np.zeros(6))
+
+
+@njit(cache=True)
+def _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc,
+           dz, thrust, tau, ch, blk, tau_d):
+    """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)] under the
+    thrust and the disturbance force ``tau_d`` (body frame).
 
     ``tparams`` is (n, P); thruster i's states start at ``13 + i·ns``; ``blk`` is (n, nb).
     ``sig0[i]`` is the (held) input of block ``start`` of thruster i: the static blocks in front
@@ -203,7 +221,7 @@ def _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch,
                                   sig0[i], dz, ch, bflat, i * nb, start)
         thrust[i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
     for k in range(6):
-        s = 0.0
+        s = tau_d[k]
         for i in range(n):
             s += B[k, i] * thrust[i]
         tau[k] = s
@@ -211,31 +229,32 @@ def _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch,
 
 
 @njit(cache=True)
-def _tau_from(th, st, B, tau):
+def _tau_from(th, st, B, tau, tau_d):
     n = th.shape[1]
     for k in range(6):
-        acc = 0.0
+        acc = tau_d[k]
         for i in range(n):
             acc += B[k, i] * th[st, i]
         tau[k] = acc
 
 
 @njit(cache=True)
-def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4):
+def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d):
     """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
-    (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h."""
-    _tau_from(th_stage, 0, B, tau)
+    (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h, plus the held disturbance
+    force ``tau_d``."""
+    _tau_from(th_stage, 0, B, tau, tau_d)
     vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k1[i]
-    _tau_from(th_stage, 1, B, tau)
+    _tau_from(th_stage, 1, B, tau, tau_d)
     vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k2[i]
     vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
     for i in range(13):
         zt[i] = z[i] + h * k3[i]
-    _tau_from(th_stage, 2, B, tau)
+    _tau_from(th_stage, 2, B, tau, tau_d)
     vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -268,12 +287,37 @@ def _set_limits(a, n, lo, hi):
             a[opl + n + i] = hi * a[oep + i] if comp else hi
 
 
+#: The controller and disturbance blocks :func:`_fly_loop` calls: module globals, so numba
+#: compiles them into the loop (direct, inlinable calls) and the default loop can be cached;
+#: :func:`compiled_loop` builds the loop anew around a user's pair.
+_CTRL = pid_controller
+_DIST = no_disturbance
+
+
 @njit(cache=True)
 def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact,
         inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub,
         Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
+    """:func:`_fly_loop` with the built-in PID DP controller (``gains`` =
+    :meth:`DPGains.to_array`) and no disturbance force (the cached default kernel)."""
+    _fly_loop(gains.ravel(), np.zeros(PID_STATE_SIZE), np.zeros(0), False, z0, vp, B, alloc,
+              eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact, inv_t, inv_c,
+              ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT,
+              BAT, VOUT)
+
+
+@njit(cache=True)
+def _fly_loop(cparams, cstate, dparams, use_dist, z0, vp, B, alloc, eta_p, eta_n, dofs, kinds,
+              poff, tparams, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw,
+              ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
     """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
     allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``.
+
+    Controller (:class:`uuvid.simulate.control.Controller`): ``_CTRL(t, eta, nu, ref_pos[k],
+    ref_vel[k], ref_yaw[k], ref_rate[k], cparams, cstate, dt, tau_des)`` once per step,
+    ``cstate`` modified in place.  Disturbance (:mod:`uuvid.simulate.disturbances`, when
+    ``use_dist``): ``_DIST(t, eta, nu, dparams, tau_d)`` at the start of every substep, added to
+    ``B η f``.
 
     Current (NED): ``vc`` constant when ``VCT`` has no rows; otherwise piecewise linear,
     ``v_c(t_k + s) = VCT[k] + DVCT[k]·s`` over step k (``DVCT`` is its rate, passed to the
@@ -306,11 +350,8 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
     ch = np.empty(N_CH)
     blk = np.empty((n, max(nb, 1)))
     blk2 = np.empty((n, max(nb, 1)))
-    e = np.zeros(4)
-    edot = np.zeros(4)
-    integ = np.zeros(4)
-    integ_new = np.zeros(4)
     tau_des = np.zeros(6)
+    tau_d = np.zeros(6)
     fdes = np.zeros(n)
     cmd = np.zeros(n)
     h = dt / nsub
@@ -367,11 +408,8 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
             for j in range(3):
                 dvc[j] = DVCT[k, j]
         # controller and allocation (held over the step)
-        dp_errors(z[0:3], z[3:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], e, edot)
-        dp_control(e, edot, integ, gains, dt, tau_des, integ_new)
-        attitude_hold(z[3:7], z[7:13], gains, tau_des)
-        for j in range(4):
-            integ[j] = integ_new[j]
+        _CTRL(k * dt, z[0:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], cparams,
+             cstate, dt, tau_des)
         if batt:  # supply voltage from the battery state; limits and inverse maps follow it
             volt = _ocv(BAT, soc) - b_res * i_prev
             volt = min(max(volt, vgrid[0]), vgrid[nv - 1])
@@ -424,6 +462,8 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     tgt[i] = sig0[i]
                     tconst[i] = tparams[i, pb]
             for sub in range(nsub):
+                if use_dist:
+                    _DIST(k * dt + sub * h, z[0:7], z[7:13], dparams, tau_d)
                 if varying:
                     for j in range(3):
                         vc0[j] = VCT[k, j] + DVCT[k, j] * (sub * h)
@@ -441,36 +481,38 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
                     for i in range(n):
                         F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4)
+                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d)
                 for i in range(n):
                     o = 13 + i * ns
                     z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
                 normalise_state(z)
             continue
         for sub in range(nsub):
+            if use_dist:
+                _DIST(k * dt + sub * h, z[0:7], z[7:13], dparams, tau_d)
             if varying:
                 for j in range(3):
                     vc0[j] = VCT[k, j] + DVCT[k, j] * (sub * h)
                     vc1[j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5) * h)
                     vc2[j] = VCT[k, j] + DVCT[k, j] * ((sub + 1.0) * h)
-            _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc0, dvc, k1,
-                 thrust, tau, ch, blk)
+            _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc0, dvc,
+                   k1, thrust, tau, ch, blk, tau_d)
             if sub == 0:
                 for i in range(n):
                     F[k, i] = thrust[i]
                     FDES[k, i] = fdes[i]
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k1[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc, k2,
-                 thrust, tau, ch, blk2)
+            _rhs_d(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc,
+                   k2, thrust, tau, ch, blk2, tau_d)
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k2[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc, k3,
-                 thrust, tau, ch, blk2)
+            _rhs_d(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc,
+                   k3, thrust, tau, ch, blk2, tau_d)
             for i in range(nz):
                 zt[i] = z[i] + h * k3[i]
-            _rhs(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc2, dvc, k4,
-                 thrust, tau, ch, blk2)
+            _rhs_d(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc2, dvc,
+                   k4, thrust, tau, ch, blk2, tau_d)
             for i in range(nz):
                 zn[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             for i in range(n):  # first-order thruster blocks under a held input: exact update
@@ -490,12 +532,46 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
             normalise_state(z)
 
 
-@njit(cache=True, parallel=True)
-def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch, in_ch, exact,
-              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT):
-    """Many vehicles (rows of ``VP``, thruster params ``TP[r]``, currents ``VC[r]``) flying the same
-    mission in parallel.  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
-    final position error, min allocation scale]``."""
+@njit(cache=True)
+def _summarise_run(Z, F, SC, ref_pos, out):
+    """``out = [max tracking error, rms tracking error, max |thrust|, final position error,
+    min allocation scale]`` of one flight."""
+    nsteps = ref_pos.shape[0]
+    n = F.shape[1]
+    emax = 0.0
+    esum = 0.0
+    fmax = 0.0
+    smin = 1.0
+    for k in range(nsteps):
+        d = 0.0
+        for j in range(3):
+            d += (Z[k, j] - ref_pos[k, j]) ** 2
+        d = math.sqrt(d)
+        emax = max(emax, d)
+        esum += d * d
+        smin = min(smin, SC[k])
+        for i in range(n):
+            fmax = max(fmax, abs(F[k, i]))
+    d = 0.0
+    for j in range(3):
+        d += (Z[nsteps - 1, j] - ref_pos[nsteps - 1, j]) ** 2
+    out[0] = emax
+    out[1] = math.sqrt(esum / nsteps)
+    out[2] = fmax
+    out[3] = math.sqrt(d)
+    out[4] = smin
+
+
+_LOOP = _fly_loop
+
+
+def _batch_template(cparams, cstate0, dparams, use_dist, z0, VP, B, alloc, eta_p, eta_n, dofs,
+                    kinds, poff, TP, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
+                    ref_yaw, ref_rate, VC, dt, nsub, OUT):
+    """Vehicles (rows of ``VP``, ``TP``, ``VC``) flying the mission in parallel through ``_LOOP``
+    (:func:`_fly_loop`, or the loop :func:`compiled_loop` builds around a user's controller);
+    each vehicle starts from its own copy of the controller state ``cstate0``; ``OUT[r]`` from
+    :func:`_summarise_run`."""
     nrun = VP.shape[0]
     nsteps = ref_pos.shape[0]
     n = TP.shape[1]
@@ -505,31 +581,47 @@ def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch
         FD = np.empty((nsteps, n))
         TAU = np.empty((nsteps, 6))
         SC = np.empty(nsteps)
-        fly(z0, VP[r], B, alloc, eta_p, eta_n, dofs, kinds, poff, TP[r], soff, outch, in_ch, exact,
-            inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC,
-            np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
-        emax = 0.0
-        esum = 0.0
-        fmax = 0.0
-        smin = 1.0
-        for k in range(nsteps):
-            d = 0.0
-            for j in range(3):
-                d += (Z[k, j] - ref_pos[k, j]) ** 2
-            d = math.sqrt(d)
-            emax = max(emax, d)
-            esum += d * d
-            smin = min(smin, SC[k])
-            for i in range(n):
-                fmax = max(fmax, abs(F[k, i]))
-        d = 0.0
-        for j in range(3):
-            d += (Z[nsteps - 1, j] - ref_pos[nsteps - 1, j]) ** 2
-        OUT[r, 0] = emax
-        OUT[r, 1] = math.sqrt(esum / nsteps)
-        OUT[r, 2] = fmax
-        OUT[r, 3] = math.sqrt(d)
-        OUT[r, 4] = smin
+        _LOOP(cparams, cstate0.copy(), dparams, use_dist, z0, VP[r], B, alloc, eta_p, eta_n, dofs,
+              kinds, poff, TP[r], soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
+              ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC, np.zeros((0, 3)),
+              np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+        _summarise_run(Z, F, SC, ref_pos, OUT[r])
+
+
+_fly_batch_pid = njit(cache=True, parallel=True)(_batch_template)
+
+
+def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch, in_ch, exact,
+              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT):
+    """Many vehicles (rows of ``VP``, thruster params ``TP[r]``, currents ``VC[r]``) flying the same
+    mission in parallel with the built-in PID DP (:func:`fly` per vehicle; a compiled, cached
+    ``prange`` kernel).  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
+    final position error, min allocation scale]``."""
+    _fly_batch_pid(np.ascontiguousarray(gains, dtype=np.float64).ravel(), np.zeros(PID_STATE_SIZE),
+                   np.zeros(0), False, z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff,
+                   outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt,
+                   nsub, OUT)
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
+    """``(loop, batch)``: :func:`_fly_loop` and a batch kernel compiled around a controller and a
+    disturbance function (numba functions, :class:`~uuvid.simulate.control.Controller`), memoised.
+
+    Numba compiles the pair into the loop as direct calls (the same code as the built-in PID's),
+    on first use, and not cached on disk: a new controller costs one compile per process.  The
+    batch kernel flies one vehicle per thread (``prange``; ``parallel=False``: one after another,
+    for controllers that call back into Python)."""
+    import types
+
+    g = dict(_fly_loop.py_func.__globals__)
+    g.update(_CTRL=ctrl_fn, _DIST=dist_fn)
+    loop = njit(types.FunctionType(_fly_loop.py_func.__code__, g, "_fly_loop"))
+    g2 = dict(g)
+    g2["_LOOP"] = loop
+    batch = njit(parallel=parallel)(types.FunctionType(_batch_template.__code__, g2,
+                                                       "_batch_template"))
+    return loop, batch
 
 
 # ---------------------------------------------------------------------------------------------
@@ -611,6 +703,21 @@ class MissionSetup:
     allocation: str = "scale"
     battery: object = None
     battery_array: np.ndarray | None = None
+    controller: Controller | None = None  # None: the built-in PID DP with ``gains``
+    disturbance: Disturbance | None = None
+
+    def blocks(self):
+        """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist)`` of a setup with a
+        user controller or a disturbance (:func:`compiled_loop`)."""
+        from uuvid.simulate.control import compiled_form, python_controller
+
+        c = self.controller or pid(self.gains)
+        cfn, cpar = compiled_form(c)
+        d = self.disturbance
+        loop, batch = compiled_loop(cfn, d.fn if d is not None else no_disturbance,
+                                    cfn is not python_controller)
+        return (loop, batch, np.ascontiguousarray(cpar), c.state0,
+                d.params if d is not None else np.zeros(0), d is not None)
 
     def z0(self) -> np.ndarray:
         z = np.zeros(13 + self.bank.n * self.bank.n_states)
@@ -653,19 +760,30 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
                   gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
                   current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None,
-                  allocation: str = "priority", battery=None, soc0: float = 1.0) -> MissionSetup:
+                  allocation: str = "priority", battery=None, soc0: float = 1.0,
+                  controller: Controller | None = None,
+                  disturbance: Disturbance | None = None) -> MissionSetup:
     """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
     ``allocation``: the saturation method of :meth:`uuvid.vehicle.allocation.Allocator.allocate`
     run at every control step (default ``priority``: exact whenever achievable);
     ``battery`` (:class:`uuvid.vehicle.power.Battery`, or ``True`` for the vehicle file's) makes
-    the supply voltage a state, starting at ``soc0`` (:func:`battery_tables`).
+    the supply voltage a state, starting at ``soc0`` (:func:`battery_tables`);
+    ``controller`` (:class:`uuvid.simulate.control.Controller`; default: the built-in PID DP with
+    ``gains``, :func:`~uuvid.simulate.control.pid`) and ``disturbance``
+    (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle).
     """
     from uuvid.simulate.currents import as_current
 
     if not (dt > 0 and substeps >= 1):
         raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+    if controller is not None and not isinstance(controller, Controller):
+        raise TypeError("controller must be a uuvid.simulate.control.Controller(fn, params, "
+                        f"state0), got {type(controller).__name__}")
+    if disturbance is not None and not isinstance(disturbance, Disturbance):
+        raise TypeError("disturbance must be a uuvid.simulate.disturbances.Disturbance(fn, params), "
+                        f"got {type(disturbance).__name__}")
     n = len(vehicle.layout)
     if battery is True:
         battery = vehicle.battery
@@ -699,7 +817,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     return MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt, int(substeps),
                         alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                         np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
-                        const, t, ref, cm, series, allocation, battery, bat)
+                        const, t, ref, cm, series, allocation, battery, bat, controller,
+                        disturbance)
 
 
 def allocation_method(alloc: np.ndarray) -> str:
@@ -737,21 +856,31 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     VOUT = np.zeros((N if BAT.size else 0, 3 + b.n))
+    if s.controller is None and s.disturbance is None:  # the cached default kernel
+        def run(k):
+            fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
+                b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(),
+                ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k], s.current, s.dt, s.substeps,
+                Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT)
+        compiled = bool(fly.signatures)
+    else:  # the loop compiled around the setup's controller and disturbance
+        loop, _, cpar, cstate0, dpar, use_d = s.blocks()
+
+        def run(k):
+            loop(cpar, cstate0.copy(), dpar, use_d, z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n,
+                 s.dofs, b.kinds, b.poff, b.params, b.soff, b.outch, b.in_ch, b.exact,
+                 b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
+                 s.current, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT,
+                 VOUT[:k] if BAT.size else VOUT)
+        compiled = bool(loop.signatures)
     compile_s = 0.0
-    if not fly.signatures:  # first flight in this process: compile (or load) the kernel on one
+    if not compiled:  # first flight in this process: compile (or load) the kernel on one
         # step, timed apart, so the real-time factor measures flying, not compiling
-        k = min(N, 1)
         t0 = time.perf_counter()
-        fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params, b.soff,
-            b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(),
-            ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k], s.current, s.dt, s.substeps,
-            Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT)
+        run(min(N, 1))
         compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params, b.soff,
-        b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
-        ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps, Z, F, FD, TAU, SC, VCT, DVCT,
-        BAT, VOUT)
+    run(N)
     wall = time.perf_counter() - t0
     if not np.all(np.isfinite(Z)):
         k = int(np.flatnonzero(~np.all(np.isfinite(Z), axis=1))[0])
@@ -782,6 +911,8 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "substeps": s.substeps,
         "allocation": s.allocation,
         "current": getattr(s.current_model, "kind", "constant"),
+        "controller": s.controller.name if s.controller is not None else "PID DP",
+        "disturbance": s.disturbance.name if s.disturbance is not None else "none",
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
     }
@@ -798,7 +929,11 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
 def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: np.ndarray | None = None,
               currents: np.ndarray | None = None) -> np.ndarray:
     """Fly ``len(vehicle_params)`` vehicles in parallel; returns ``(runs, 5)`` summary rows
-    ``[max err, rms err, max |thrust|, final err, min allocation scale]``."""
+    ``[max err, rms err, max |thrust|, final err, min allocation scale]``.
+
+    A setup with a user controller or a disturbance flies the loop compiled around them
+    (:func:`compiled_loop`: one vehicle per thread, each from its own copy of the controller
+    state; a plain Python controller flies the vehicles one after another)."""
     s = setup
     require_constant_current(s)
     b = s.bank
@@ -810,6 +945,12 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
           else np.zeros((nrun, 3)) + s.current)
     OUT = np.empty((nrun, 5))
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+    if s.controller is not None or s.disturbance is not None:
+        _, batch, cpar, cstate0, dpar, use_d = s.blocks()
+        batch(cpar, cstate0, dpar, use_d, s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs,
+              b.kinds, b.poff, TP, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
+              ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT)
+        return OUT
     fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, TP, b.soff,
               b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
               ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT)
