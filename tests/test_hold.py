@@ -31,11 +31,24 @@ def test_capability_analytic_matches_simulation_heavy(deg):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name,degs", [("bluerov2-heavy", (0, 45, 90, 135, 180)),
-                                       ("bluerov2", (0, 90, 180))])
-def test_capability_analytic_matches_simulation_all(name, degs):
-    r = hold.capability(load_vehicle(name), step_deg=45, simulate_deg=degs)
+@pytest.mark.parametrize("name", ["bluerov2-heavy", "bluerov2"])
+def test_capability_analytic_matches_simulation_all(name):
+    r = hold.capability(load_vehicle(name), step_deg=45, simulate_deg=(0, 45, 90, 135, 180))
     assert np.all(np.abs(r.agreement - 1) < 0.05), r.summary()
+
+
+def test_closed_loop_stability_bounds_the_bluerov2_head_on():
+    """The BlueROV2 (no roll/pitch control) held against a current from ahead: the steady
+    allocation and the pitch balance hold up to 0.58 m/s, but the DP loop linearised there has
+    an unstable yaw oscillation (Munk moment) from 0.38 m/s; the analytic boundary says so, and
+    the simulated hold (gust-excited) keeps its heading just below it and not just above."""
+    v = load_vehicle("bluerov2")
+    static = hold.max_current(v, 0.0, stability=False, tol=1e-3)[0]
+    vmax, info = hold.max_current(v, 0.0, tol=1e-3)
+    assert info["limit"] == "stability" and vmax < 0.8 * static
+    assert hold.holds_in_simulation(v, 0.0, 0.95 * vmax)[0]
+    held, r = hold.holds_in_simulation(v, 0.0, 1.05 * vmax)
+    assert not held and np.max(np.abs(r.tracking_error[r.t > 130])) < 0.5  # heading, not position
 
 
 def test_capability_shrinks_with_the_battery():

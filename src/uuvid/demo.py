@@ -71,7 +71,7 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     for name in ("bluerov2", "bluerov2-heavy"):
         v = load_vehicle(name)
         cap = hold.capability(v, step_deg=15.0 if not quick else 45.0, supply_voltage=16.0,
-                              simulate_deg=() if quick else (0.0, 90.0))
+                              simulate_deg=() if quick else (0.0, 45.0, 90.0))
         cap.plot(d / f"capability_{name}.png")
         rep.add_paragraph(cap.summary())
         rep.add_figure(d / f"capability_{name}.png", caption=f"{name}: capability plot at 16 V")

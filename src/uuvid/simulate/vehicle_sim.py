@@ -728,15 +728,40 @@ class MissionSetup:
         return z
 
 
-def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
-    """Bandwidth-placed PID gains from the vehicle's mass, added mass and damping."""
+#: Design speeds (m/s) of surge, sway, heave for the cruise-lag rule of :func:`default_gains`
+#: (the square mission's 0.5 m/s horizontal and 0.25 m/s vertical speeds).
+CRUISE_SPEED = (0.5, 0.5, 0.25)
+#: Largest steady position lag (m) a PID loop may have while cruising at :data:`CRUISE_SPEED`
+#: against the vehicle's drag (before the integral catches up): the lag the default bandwidth
+#: gives the BlueROV2 in surge (0.172 m), so vehicles with more drag do not track worse.
+MAX_CRUISE_LAG = 0.175
+
+
+def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0), max_lag: float = MAX_CRUISE_LAG,
+                  attitude_bandwidth: float = 4.0) -> DPGains:
+    """Bandwidth-placed PID gains from the vehicle's mass, added mass and damping.
+
+    The bandwidth of surge, sway, heave is raised where the drag at the cruise speed U would make
+    the loop lag more than ``max_lag``: cruising, the P term carries the drag,
+    ``k_p e = (d_l + d_q U) U`` with ``k_p = m ω²`` (Fossen 2011, §12.2.6), so
+    ``ω ≥ √((d_l + d_q U) U / (m e_max))``.  (The Heavy's surge/sway drag is ~6× the BlueROV2's
+    for a similar mass: at ω = 1.5 rad/s it lagged 0.6 m on the square mission.)
+    Vehicles whose thrusters control roll and pitch hold them level at ``attitude_bandwidth``
+    (rad/s); the Heavy's metacentric height is 1 cm, so the restoring moment alone lets it pitch
+    40° on the square mission at 2 rad/s."""
     p = vehicle.params
     M = p.mass_matrix
     idx = [0, 1, 2, 5]
     mass = [M[i, i] for i in idx]
     dl = np.diag(np.asarray(p.linear_damping).reshape(6, 6) if np.size(p.linear_damping) == 36
                  else np.diag(p.linear_damping))
+    dq = np.diag(np.asarray(p.quadratic_damping).reshape(6, 6)
+                 if np.size(p.quadratic_damping) == 36 else np.diag(p.quadratic_damping))
     damping = [dl[i] for i in idx]
+    omega = [float(w) for w in omega]
+    for j, (i, u) in enumerate(zip(idx[:3], CRUISE_SPEED)):
+        drag = (dl[i] + dq[i] * u) * u
+        omega[j] = max(omega[j], math.sqrt(drag / (mass[j] * max_lag)))
     al = vehicle.allocator()
     tau_max = []
     for i in idx:  # the largest force along each DOF the thrusters give with uniform allocation
@@ -746,11 +771,11 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0)) -> DPGains:
         phi = np.zeros(6)
         phi[i] = 1.0
         tau_max.append(float(al.max_along(phi)))
-    g = gains_from_bandwidth(mass, damping, tau_max, omega=omega)
+    g = gains_from_bandwidth(mass, damping, tau_max, omega=tuple(omega))
     if 3 in al.controlled and 4 in al.controlled:  # thrusters can level the vehicle: hold attitude
         import dataclasses
 
-        w = 2.0
+        w = attitude_bandwidth
         kp = tuple(float(M[i, i] * w**2) for i in (3, 4))
         kd = tuple(float(2 * M[i, i] * w) for i in (3, 4))
         g = dataclasses.replace(g, kp_attitude=kp, kd_attitude=kd)

@@ -449,7 +449,7 @@ class Allocator:
 
         Layout: ``[n, m, compensate, T (n·m, row-major), lower (n), upper (n), η₊ (n), η₋ (n),
         method, k, exact, q (m), P_ii (n), planned lower (n), planned upper (n), B (m·n),
-        C (k·n)]`` — ``exact`` = 1 when ``T φ`` delivers every controlled request (no mode
+        C (k·n), W (n·n), H (n·n)]`` — ``exact`` = 1 when ``T φ`` delivers every controlled request (no mode
         rank loss); ``C`` the mode's equalities including forced-zero DOFs.
         """
         if method not in _METHOD_CODE:
@@ -467,10 +467,15 @@ class Allocator:
         C = self.mode.constraint_rows(self.B) if self.mode is not None else np.zeros((0, n))
         ctl = list(self.controlled)
         exact = bool(np.allclose(self.B[ctl] @ self.T[:, ctl], np.eye(len(ctl)), atol=1e-10))
+        W = np.zeros((n, n))
+        H = np.zeros((n, n))
+        _hessians(np.ascontiguousarray(self.B, dtype=np.float64), q,
+                  np.ascontiguousarray(np.diag(P), dtype=np.float64), W, H)
         return np.concatenate([[n, m, 1.0 if self.compensate_eta else 0.0], self.T.ravel(),
                                self.limits[:, 0], self.limits[:, 1], ep, en,
                                [_METHOD_CODE[method], C.shape[0], 1.0 if exact else 0.0], q,
-                               np.diag(P), lo, hi, self.B.ravel(), C.ravel()]).astype(np.float64)
+                               np.diag(P), lo, hi, self.B.ravel(), C.ravel(), W.ravel(),
+                               H.ravel()]).astype(np.float64)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -710,7 +715,7 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
     return maxit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (call overhead: ~8 % of a call)
 def _phase1(H, g, C, nC, zero, lo, hi, x, fixed, wf, wi, a, phi, sc):
     """Weighted least error, warm-started from the unconstrained least-effort thrusts
     ``x₀ = T (sc·φ)``: clipped into the box (no equalities: every box point is feasible) or,
@@ -755,7 +760,7 @@ def _residual(Bp, q, m, n, x, target):
     return r
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (call overhead: ~8 % of a call)
 def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi):
     """Least weighted effort ``min ½ Σ w_i x_i²`` with ``B_c x = target``, ``C x = 0`` and the
     bounds, from a start ``x`` that (nearly) delivers ``target``; returns the residual."""
@@ -783,7 +788,7 @@ def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi):
     return r
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (call overhead: ~8 % of a call)
 def _try_scaled(sc, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, fixed, zero, E,
                 e, g0, wf, wi, scale):
     """Is ``sc·φ`` achievable?  Phase 1 (weighted least error, kept in ``x1``), then, when its
@@ -806,6 +811,30 @@ def _try_scaled(sc, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, 
 
 
 @njit(cache=True)
+def _hessians(Bp, q, w, W, H):
+    """Effort weights ``W = diag(w)`` and the phase-1 Hessian ``BᵀQB + εW`` (ε: 1e-13 of the
+    scale of BᵀQB: a tie-break towards least effort), constant for an allocator."""
+    m, n = Bp.shape
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = 0.0
+        W[i, i] = w[i]
+    trb = 0.0
+    trw = 0.0
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for k in range(m):
+                s += Bp[k, i] * q[k] * Bp[k, j]
+            H[i, j] = s
+        trb += H[i, i]
+        trw += W[i, i]
+    eps = 1e-13 * trb / max(trw, 1e-300)
+    for i in range(n):
+        H[i, i] += eps * W[i, i]
+
+
+@njit(cache=True)
 def _bounded(a, phi, tau, n, m, method, s0):
     """Active-set allocation (methods ``priority`` and ``maxscale``); see :class:`Allocator`."""
     comp = a[2] != 0.0
@@ -825,13 +854,18 @@ def _bounded(a, phi, tau, n, m, method, s0):
     Bp = a[oB:oB + m * n].reshape(m, n)
     C = a[oC:oC + nC * n].reshape(max(nC, 0), n)
     K = m + nC
-    nfl = 2 * n * n + 5 * n + K * n + 2 * K + m + 1 + (n * n + n * K + 2 * K * K + 5 * n + 7 * K)
-    blk = np.zeros(nfl)  # one block for every work array (no allocation in the iterations)
-    W = blk[0:n * n].reshape(n, n)
-    H = blk[n * n:2 * n * n].reshape(n, n)
-    o = 2 * n * n
+    oW = oC + nC * n  # W and the phase-1 Hessian, precomputed by Allocator.to_array
+    W = a[oW:oW + n * n].reshape(n, n)
+    H = a[oW + n * n:oW + 2 * n * n].reshape(n, n)
+    nfl = 5 * n + K * n + 2 * K + m + 1 + (n * n + n * K + 2 * K * K + 5 * n + 7 * K)
+    # one block for every work array (no allocation in the iterations); every entry is written
+    # before it is read, except ``zero`` and ``best`` (zeroed here)
+    blk = np.empty(nfl)
+    o = 0
     g, x, x1, g0, best = blk[o:o + n], blk[o + n:o + 2 * n], blk[o + 2 * n:o + 3 * n], \
         blk[o + 3 * n:o + 4 * n], blk[o + 4 * n:o + 5 * n]
+    for i in range(n):
+        best[i] = 0.0
     o += 5 * n
     E = blk[o:o + K * n].reshape(K, n)
     o += K * n
@@ -840,25 +874,11 @@ def _bounded(a, phi, tau, n, m, method, s0):
     target = blk[o + 2 * K:o + 2 * K + m]
     o += 2 * K + m + 1
     wf = blk[o:]
-    iblk = np.zeros(3 * n + K, np.int64)
+    for k in range(K):
+        zero[k] = 0.0
+    iblk = np.empty(3 * n + K, np.int64)
     fixed = iblk[0:n]
     wi = iblk[n:]
-    for i in range(n):
-        W[i, i] = a[ow + i]
-    # phase-1 Hessian BᵀQB + εW (ε: 1e-13 of the scale of BᵀQB): a tie-break towards least effort
-    trb = 0.0
-    trw = 0.0
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for k in range(m):
-                s += Bp[k, i] * q[k] * Bp[k, j]
-            H[i, j] = s
-        trb += H[i, i]
-        trw += W[i, i]
-    eps = 1e-13 * trb / max(trw, 1e-300)
-    for i in range(n):
-        H[i, i] += eps * W[i, i]
     scale = 1.0
     for k in range(m):
         if q[k] > 0.0:

@@ -110,6 +110,100 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     return bool(ok), float(ang[0]), float(ang[1]), r
 
 
+def hold_gains(vehicle, modes=None, attitude_bandwidth: float = 6.0):
+    """The DP controller of the station-keeping check (analytic and simulated): the default PID
+    gains with output and integral limits at each DOF's reach with the bounded allocation (the
+    vehicle's limit is tested, not the controller's), and, where the thrusters control roll and
+    pitch, a stiff level-attitude hold at ``attitude_bandwidth`` (rad/s)."""
+    from uuvid.simulate.vehicle_sim import default_gains
+
+    g = default_gains(vehicle)
+    al = vehicle.allocator(modes)
+    reach = []
+    for k in (0, 1, 2, 5):
+        u = np.zeros(6)
+        u[k] = 1e6
+        reach.append(float(al.allocate(u, "maxscale").fraction * 1e6) if k in al.controlled
+                     else 0.0)
+    gains = dataclasses.replace(g, tau_max=tuple(reach), i_limit=tuple(reach))
+    if any(g.kp_attitude):
+        M = vehicle.params.mass_matrix
+        w = attitude_bandwidth
+        gains = dataclasses.replace(gains, kp_attitude=tuple(float(M[i, i] * w * w) for i in (3, 4)),
+                                    kd_attitude=tuple(float(2 * M[i, i] * w) for i in (3, 4)))
+    return gains
+
+
+def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, roll: float,
+                       pitch: float) -> float:
+    """Largest real part (1/s) of the eigenvalues of the station-keeping loop linearised at the
+    equilibrium (rest at the origin, heading north, attitude ``roll``, ``pitch``): 16 states
+    (position, Euler angles, ν, the 4 PID integrators), the PID of
+    :func:`uuvid.simulate.control.dp_control` (+ attitude PD), the bounded allocation and the
+    full vehicle model (Munk moments, restoring, the thrusters' side moments).  ``< 0``: the hold
+    is (locally) stable.
+
+    Why it matters: a vehicle that cannot control roll and pitch, held against a *diagonal*
+    current, is statically stable in roll/pitch up to the tilt limit, but the non-conservative
+    coupling of the tilted attitude with the yaw and position loops (Munk moment
+    ``N = (Y_v̇ − X_u̇) u v`` and the tilted thrust) makes the loop oscillate earlier
+    (a Hopf bifurcation; the BlueROV2 at 45°/135°)."""
+    from uuvid.simulate.control import DP_DOFS
+    from uuvid.vehicle.kinematics import euler_to_quat
+
+    G = gains.to_array()
+    P = vehicle.params.to_array()
+    cur = np.asarray(current, float)
+    tau_req = required_wrench(vehicle, cur, depth, roll, pitch)
+    integ0 = np.array([tau_req[k] / G[1, j] if G[1, j] > 0 else 0.0
+                       for j, k in enumerate(DP_DOFS)])
+
+    def rhs(s):
+        pos, eul, nu, integ = s[0:3], s[3:6], s[6:12], s[12:16]
+        ph, th, ps = eul
+        q = euler_to_quat(ph, th, ps)
+        from uuvid.vehicle.kinematics import quat_to_rotmat
+
+        R = quat_to_rotmat(q)
+        e = np.empty(4)
+        ed = np.empty(4)
+        e[:3] = R.T @ (np.array([0.0, 0.0, depth]) - pos)
+        ed[:3] = -nu[:3]
+        e[3] = -ps
+        ed[3] = -nu[5]
+        tau = np.zeros(6)
+        for j, k in enumerate(DP_DOFS):
+            tau[k] = G[0, j] * e[j] + G[1, j] * integ[j] + G[2, j] * ed[j]
+        if G[5].any():
+            tau[3] = -G[5, 0] * ph - G[5, 2] * nu[3]
+            tau[4] = -G[5, 1] * th - G[5, 3] * nu[4]
+        got = al.allocate(tau, "priority").achieved
+        x = np.zeros(13)
+        x[0:3] = pos
+        x[3:7] = q
+        x[7:13] = nu
+        dx = np.zeros(13)
+        vehicle_rhs_into(x, got, P, cur, np.zeros(3), dx)
+        ct, st_, tt = math.cos(ph), math.sin(ph), math.tan(th)
+        Tm = np.array([[1.0, st_ * tt, ct * tt], [0.0, ct, -st_],
+                       [0.0, st_ / math.cos(th), ct / math.cos(th)]])
+        return np.concatenate([R @ nu[:3], Tm @ nu[3:], dx[7:13], e])
+
+    s0 = np.zeros(16)
+    s0[2] = depth
+    s0[3], s0[4] = roll, pitch
+    s0[12:16] = integ0
+    f0 = rhs(s0)
+    A = np.empty((16, 16))
+    for j in range(16):
+        h = 1e-6 * max(1.0, abs(s0[j]))
+        d = np.zeros(16)
+        d[j] = h
+        A[:, j] = (rhs(s0 + d) - rhs(s0 - d)) / (2 * h)
+    del f0
+    return float(np.max(np.linalg.eigvals(A).real))
+
+
 def _allocator(vehicle, limits=None, modes=None) -> Allocator:
     al = vehicle.allocator(modes)
     if limits is None:
@@ -119,23 +213,41 @@ def _allocator(vehicle, limits=None, modes=None) -> Allocator:
 
 def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth: float = 2.0,
                 v_cap: float = 10.0, tol: float = 1e-4, soc: float | None = None,
-                battery=None) -> tuple[float, dict]:
+                battery=None, stability: bool = True, gains=None) -> tuple[float, dict]:
     """Largest current speed (m/s) held from ``relative_deg``; also the allocation at it.
 
-    With ``soc`` the limits follow the battery's loaded voltage (:func:`hold_on_battery`)."""
+    Held: the steady wrench is delivered within the limits (:func:`steady_hold`: thrust,
+    attitude balance within :data:`MAX_TILT_DEG`) and, with ``stability``, the closed station-
+    keeping loop with ``gains`` (default :func:`hold_gains`) is stable there
+    (:func:`closed_loop_growth` < 0).  ``info["limit"]`` says which ran out first: ``thrust``,
+    ``attitude`` or ``stability``.  With ``soc`` the limits follow the battery's loaded voltage
+    (:func:`hold_on_battery`)."""
     al = _allocator(vehicle, limits, modes)
+    if stability and gains is None:
+        gains = hold_gains(vehicle if limits is None else _with_limits(vehicle, limits), modes)
 
     # continuation in speed from still water: the attitude follows its stable branch, as it
     # does while a current builds up
     ang = (0.0, 0.0)
+    why = {}
 
     def ok(v, a0):
+        cur = current_ned(v, relative_deg)
         if soc is not None:
-            h = hold_on_battery(vehicle, current_ned(v, relative_deg), soc, battery=battery,
-                                modes=modes, depth=depth, start=a0)
-            return h.held, (h.roll, h.pitch)
-        good, roll, pitch, _ = steady_hold(vehicle, current_ned(v, relative_deg), al, depth, a0)
-        return good, (roll, pitch)
+            h = hold_on_battery(vehicle, cur, soc, battery=battery, modes=modes, depth=depth,
+                                start=a0)
+            good, roll, pitch, r, a_ = h.held, h.roll, h.pitch, h.allocation, \
+                _allocator(vehicle, h.limits, modes)
+        else:
+            good, roll, pitch, r = steady_hold(vehicle, cur, al, depth, a0)
+            a_ = al
+        if not good:
+            why[v] = "thrust" if not r.achievable else "attitude"
+            return False, (roll, pitch)
+        if stability and closed_loop_growth(vehicle, cur, a_, gains, depth, roll, pitch) >= 0:
+            why[v] = "stability"
+            return False, (roll, pitch)
+        return True, (roll, pitch)
 
     good, ang = ok(0.0, ang)
     if not good:
@@ -163,7 +275,8 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
                             modes=modes, depth=depth, start=ang)
         hb = hold_on_battery(vehicle, current_ned(hi, relative_deg), soc, battery=battery,
                              modes=modes, depth=depth, start=ang).allocation
-        return lo, {"limiting_thrusters": [names[i] for i in hb.limiting]
+        return lo, {"limit": why.get(hi, ""),
+                    "limiting_thrusters": [names[i] for i in hb.limiting]
                     if not hb.achievable else [],
                     "roll_deg": math.degrees(h.roll), "pitch_deg": math.degrees(h.pitch),
                     "supply_voltage_V": h.voltage, "battery_current_A": h.current}
@@ -171,7 +284,7 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     # just beyond the boundary: thrusters at their limits if thrust is what runs out
     rb = steady_hold(vehicle, current_ned(hi, relative_deg), al, depth, ang)[3]
     lim = [names[i] for i in rb.limiting] if not rb.achievable else []
-    return lo, {"limiting_thrusters": lim,
+    return lo, {"limit": why.get(hi, ""), "limiting_thrusters": lim,
                 "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
 
 
@@ -184,6 +297,7 @@ class CapabilityResult:
     max_current: np.ndarray
     limiting: tuple = ()
     supply_voltage: float | None = None
+    limit: tuple = ()  # per angle: what ran out first (thrust, attitude, stability)
     simulated_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     simulated: np.ndarray = field(default_factory=lambda: np.zeros(0))
     note: str = ""
@@ -203,10 +317,13 @@ class CapabilityResult:
         lines = [f"station-keeping capability of {self.vehicle}{v}: largest current held "
                  f"{np.min(self.max_current):.3f}–{np.max(self.max_current):.3f} m/s "
                  f"(weakest from {self.relative_deg[k]:.0f}° off the bow)"]
-        if self.limiting:
-            nt = sum(1 for x in self.limiting if x)
-            lines.append(f"  limited by thrust at {nt} of {len(self.limiting)} angles, by the "
-                         f"attitude (tilt beyond {MAX_TILT_DEG:g}° or unstable) at the others")
+        if self.limit:
+            c = {k: sum(1 for x in self.limit if x == k) for k in
+                 ("thrust", "attitude", "stability")}
+            lines.append(f"  limited by thrust at {c['thrust']} of {len(self.limit)} angles, by "
+                         f"the attitude (tilt beyond {MAX_TILT_DEG:g}° or statically unstable) at "
+                         f"{c['attitude']}, by closed-loop stability (the DP loop oscillates) at "
+                         f"{c['stability']}")
         for d, s, a in zip(self.simulated_deg, self.simulated, self.agreement):
             lines.append(f"  simulated at {d:.0f}°: {s:.3f} m/s (analytic {self.analytic_at(d):.3f},"
                          f" ratio {a:.3f})")
@@ -218,6 +335,7 @@ class CapabilityResult:
         return {"vehicle": self.vehicle, "relative_deg": self.relative_deg.tolist(),
                 "max_current_m_s": self.max_current.tolist(),
                 "limiting_thrusters": [list(x) for x in self.limiting],
+                "limit": list(self.limit),
                 "supply_voltage_V": self.supply_voltage,
                 "simulated_deg": self.simulated_deg.tolist(),
                 "simulated_max_current_m_s": self.simulated.tolist(),
@@ -256,12 +374,14 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     if soc is not None and vehicle.battery is None:
         raise ValueError(f"{vehicle.name} has no battery block; give supply_voltage or limits")
     degs = np.arange(0.0, 360.0, float(step_deg))
-    vals, lim = [], []
+    vals, lim, why = [], [], []
     for d in degs:
         v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
         vals.append(v)
         lim.append(tuple(info.get("limiting_thrusters", ())))
+        why.append(info.get("limit", ""))
     res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
+                           tuple(why),
                            note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
                                  "loaded voltage" if soc is not None else ""))
     if simulate_deg and soc is not None:
@@ -272,42 +392,34 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
                                          modes=modes, depth=depth, **sim) for d in sd])
         res = dataclasses.replace(res, simulated_deg=sd, simulated=sv, note=(
             "simulation: PID DP with output/integral limits at each DOF's reach, stiff level-attitude "
-            "hold; the current ramps up over 60 s; held = position error settled below 0.5 m and "
-            f"roll, pitch within {MAX_TILT_DEG:g}°"))
+            "hold; the current ramps up over 60 s, then a 0.03 m/s gust; held = position error "
+            f"settled below 0.5 m, heading within 5° and roll, pitch within {MAX_TILT_DEG:g}°"))
     return res
 
 
 def holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=None, modes=None,
                         depth: float = 2.0, duration: float = 150.0, dt: float = 0.02,
                         attitude_bandwidth: float = 6.0, ramp: float = 60.0,
-                        max_tilt_deg: float = MAX_TILT_DEG):
+                        max_tilt_deg: float = MAX_TILT_DEG, gust: float = 0.03,
+                        max_yaw_error_deg: float = 5.0):
     """Fly a station-keeping hold in a current ramping to ``speed``; returns (held, result)."""
     from uuvid.simulate.currents import TimeSeriesCurrent
     from uuvid.simulate.reference import WaypointMission
-    from uuvid.simulate.vehicle_sim import default_gains, fly_mission, setup_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 
     if limits is not None:
         vehicle = _with_limits(vehicle, limits)
     c = current_ned(speed, relative_deg)
-    cur = TimeSeriesCurrent(np.array([0.0, ramp, duration + 1.0]), np.vstack([0 * c, c, c]))
+    # a gust (2 s up, 2 s down; ``gust`` m/s across the current and upwards) after the ramp:
+    # without it a current exactly along a symmetry axis (0°, 90°, 180°) never excites the
+    # antisymmetric modes, and an unstable hold would look held
+    side = np.array([-c[1], c[0], 0.0]) / max(speed, 1e-12) * gust + np.array([0, 0, -gust])
+    tg = ramp + 10.0
+    cur = TimeSeriesCurrent(np.array([0.0, ramp, tg, tg + 2.0, tg + 4.0, duration + 1.0]),
+                            np.vstack([0 * c, c, c, c + side, c, c]))
     wp = (0.0, 0.0, depth, 0.0)
     mission = WaypointMission((wp, wp), hold=duration, name="station keeping")
-    g = default_gains(vehicle)
-    # the vehicle's limit, not the controller's, is tested: output and integral limits at each
-    # DOF's reach with the bounded allocation (anti-windup still acts at saturation)
-    al = vehicle.allocator(modes)
-    reach = []
-    for k in (0, 1, 2, 5):
-        u = np.zeros(6)
-        u[k] = 1e6
-        reach.append(float(al.allocate(u, "maxscale").fraction * 1e6) if k in al.controlled
-                     else 0.0)
-    gains = dataclasses.replace(g, tau_max=tuple(reach), i_limit=tuple(reach))
-    if any(g.kp_attitude):  # level attitude (the analytic assumption) held stiffly: ω = 6 rad/s
-        M = vehicle.params.mass_matrix
-        w = attitude_bandwidth
-        gains = dataclasses.replace(gains, kp_attitude=tuple(float(M[i, i] * w * w) for i in (3, 4)),
-                                    kd_attitude=tuple(float(2 * M[i, i] * w) for i in (3, 4)))
+    gains = hold_gains(vehicle, modes, attitude_bandwidth)
     s = setup_mission(vehicle, mission, dt=dt, gains=gains, current=cur, modes=modes,
                       t_end=duration)
     r = fly_mission(s)
@@ -315,10 +427,14 @@ def holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=No
     tail = err[r.t >= duration - 20.0]
     from uuvid.vehicle.kinematics import quat_to_euler
 
-    tilt = max(float(np.max(np.abs(quat_to_euler(q)[:2]))) for q in
-               r.state[r.t >= duration - 20.0, 3:7])
+    eul = np.array([quat_to_euler(q) for q in r.state[r.t >= duration - 20.0, 3:7]])
+    tilt = float(np.max(np.abs(eul[:, :2])))
+    # heading is held too: a yaw limit cycle (±40° at the BlueROV2's 0° boundary, with the
+    # position still within centimetres) is not station keeping
+    yaw_err = float(np.max(np.abs((eul[:, 2] + math.pi) % (2 * math.pi) - math.pi)))
     held = bool(np.all(np.isfinite(err)) and tail.max() < 0.5 and
-                abs(tail[-1] - tail[0]) < 0.05 and tilt <= math.radians(max_tilt_deg))
+                abs(tail[-1] - tail[0]) < 0.05 and tilt <= math.radians(max_tilt_deg) and
+                yaw_err <= math.radians(max_yaw_error_deg))
     return held, r
 
 
