@@ -3,6 +3,7 @@
 import json
 import re
 
+import pytest
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
@@ -37,6 +38,7 @@ def test_reproduce_laidani_json_and_out(tmp_path):
     assert (tmp_path / "index.html").exists()
 
 
+@pytest.mark.slow  # ≈ 30 s: the whole main job (CI runs it with --run-slow)
 def test_demo_writes_report_folder(tmp_path):
     out = tmp_path / "demo"
     res = runner.invoke(app, ["demo", "--quick", "--out", str(out)], env={"UUVID_NO_PROGRESS": ""})
