@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from uuvid.simulate.control import Controller, pid
+from uuvid.simulate.control import Controller, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, sinusoidal
 from uuvid.simulate.reference import square_mission
 from uuvid.simulate.vehicle_sim import fly_mission, run_batch, setup_mission
@@ -174,3 +174,105 @@ def test_bad_blocks(bluerov2):
         setup_mission(bluerov2, square_mission(), controller=body_pd)
     with pytest.raises(ValueError, match="6 values"):
         sinusoidal((1.0, 2.0))
+
+
+# ---------------------------------------------------------------------------------------------
+# Controllers that output per-thruster thrust or raw commands
+# ---------------------------------------------------------------------------------------------
+@njit
+def pid_then_allocate(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    """The package's PID wrench (params[:24], state[:16]), allocated here by uniform scaling with
+    the vehicle's allocation matrix T (params[24:24+6n]) and limits (then lo (n), hi (n))."""
+    n = tau_out.size
+    wrench = state[16:22]
+    pid_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params[:24], state[:16], dt,
+                   wrench)
+    o = 24 + 6 * n
+    s = 1.0
+    for i in range(n):
+        f = 0.0
+        for j in range(6):
+            f += params[24 + 6 * i + j] * wrench[j]
+        tau_out[i] = f
+        if f > params[o + n + i]:
+            s = min(s, params[o + n + i] / f)
+        elif f < params[o + i]:
+            s = min(s, params[o + i] / f)
+    for i in range(n):
+        tau_out[i] *= s
+
+
+def test_thrust_output_controller_reproduces_the_built_in_run(bluerov2):
+    """A controller written here computes the PID wrench and allocates it itself (T, limits,
+    uniform scaling) with output='thrust': the loop skips its own allocation, and the flight
+    equals the built-in run with the 'scale' allocation (the same arithmetic) to rounding."""
+    from uuvid.simulate.vehicle_sim import default_gains
+
+    g = default_gains(bluerov2)
+    al = bluerov2.allocator()
+    lim = bluerov2.layout.limits
+    params = np.concatenate([g.to_array().ravel(), al.T.ravel(), lim[:, 0], lim[:, 1]])
+    ctrl = Controller(pid_then_allocate, params, np.zeros(22), "PID + own allocation", "thrust")
+    base = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale"))
+    r = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale", controller=ctrl))
+    assert r.summary["controller_output"] == "thrust"
+    assert base.summary["controller_output"] == "wrench"
+    assert np.max(np.abs(r.state - base.state)) <= 1e-9
+    assert np.max(np.abs(r.thrust_cmd - base.thrust_cmd)) <= 1e-9
+    # τ_cmd of a thrust output: B (η ∘ f) of the thrusts sent on; here (T a right inverse of B on
+    # the controlled DOFs, no saturation on the square) the PID's wrench on those DOFs
+    ep, en = al.eta
+    f = r.thrust_cmd
+    np.testing.assert_allclose(r.tau_cmd, (f * np.where(f >= 0, ep, en)) @ bluerov2.B.T,
+                               rtol=1e-12, atol=1e-9)
+    assert np.array_equal(r.scale, np.ones_like(r.scale))
+
+
+@njit
+def hold_command(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    for i in range(tau_out.size):
+        tau_out[i] = params[i]
+
+
+@njit
+def echo_params(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    for i in range(params.size):
+        tau_out[i] = params[i]
+
+
+def test_command_output_gives_the_chains_steady_thrust(bluerov2):
+    """Constant PWM commands (output='command') reach the ESCs as they are: once the thruster
+    lag has settled, the delivered thrust is the chain's steady map of the command (times η),
+    and thrust_cmd reads the same thrust back from the inverse table."""
+    n = len(bluerov2.layout)
+    chain = bluerov2.thruster_chain(0)
+    pwm = np.array([1620.0, 1380.0, 1550.0, 1500.0, 1700.0, 1300.0, 1530.0, 1470.0])[:n]
+    s = setup_mission(bluerov2, square_mission(), t_end=3.0,
+                      controller=Controller(hold_command, pwm, [], "PWM hold", "command"))
+    r = fly_mission(s)
+    steady = np.array([bluerov2.thruster_chain(i).steady_thrust(np.array([c]))[0]
+                       for i, c in enumerate(pwm)])
+    ep, en = bluerov2.allocator().eta
+    want = steady * np.where(steady >= 0, ep, en)
+    np.testing.assert_allclose(r.thrust[-1], want, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(r.thrust_cmd[-1], steady, rtol=1e-3, atol=0.02)
+    assert r.thrust[-1, 3] == 0.0  # neutral PWM: no thrust
+    assert chain.input_kind != "thrust"
+
+
+def test_per_thruster_output_errors():
+    """A wrong output kind or length is named with what was expected (the Heavy: 8 thrusters)."""
+    with pytest.raises(ValueError, match="wrench, thrust, command"):
+        Controller(hold_command, [], [], output="pwm")
+    heavy = load_vehicle("bluerov2-heavy")
+    mission = square_mission()
+    with pytest.raises(ValueError, match=r"must write 8 values.*wrote past"):  # Python: IndexError
+        setup_mission(heavy, mission, controller=Controller(echo_params.py_func, np.zeros(10), [],
+                                                            output="thrust"))
+    with pytest.raises(ValueError, match=r"must write 8 values.*left entries \[6, 7\] unwritten"):
+        setup_mission(heavy, mission, controller=Controller(body_pd_compiled, PD_GAINS, [0.0],
+                                                            output="command"))
+    with pytest.raises(ValueError, match=r"must write 6 values.*wrote 2 more.*output='thrust'"):
+        setup_mission(heavy, mission, controller=Controller(echo_params, np.zeros(8), []))
+    with pytest.raises(ValueError, match="failed on its first call.*ZeroDivisionError"):
+        setup_mission(heavy, mission, controller=Controller(lambda *a: 1 / 0, [], []))
