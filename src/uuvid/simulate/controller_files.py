@@ -16,7 +16,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from uuvid.simulate.control import Controller, DPGains, pid
+from uuvid.simulate.control import Controller, DPGains
 
 #: Built-in controllers by name.
 BUILT_IN = ("pid", "lqr")
