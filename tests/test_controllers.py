@@ -132,8 +132,8 @@ def test_user_controller_in_the_batch_loop(pd_setup, bluerov2):
                                             np.abs(r.thrust).max(), err[-1]], rtol=1e-12)
     assert np.array_equal(out[0], out[1])
     assert not np.array_equal(out[0], out[2])
-    fast = run_batch_fast(s, VP[:2])
-    np.testing.assert_array_equal(fast[:, :5], out[:2])
+    fast = run_batch_fast(s, VP[:2])  # the SIMD kernel around the user's controller
+    np.testing.assert_allclose(fast[:, :5], out[:2], rtol=1e-12)
 
 
 @pytest.mark.slow
@@ -276,3 +276,38 @@ def test_per_thruster_output_errors():
         setup_mission(heavy, mission, controller=Controller(echo_params, np.zeros(8), []))
     with pytest.raises(ValueError, match="failed on its first call.*ZeroDivisionError"):
         setup_mission(heavy, mission, controller=Controller(lambda *a: 1 / 0, [], []))
+
+
+# ---------------------------------------------------------------------------------------------
+# User controllers in the SIMD batch kernel
+# ---------------------------------------------------------------------------------------------
+def test_which_controllers_the_simd_kernel_takes(bluerov2, pd_setup):
+    """Compiled wrench controllers fly the SIMD kernel; the others say why not."""
+    from uuvid.simulate.batch import fast_path_reason
+
+    assert fast_path_reason(pd_setup) is None
+    n = len(bluerov2.layout)
+    thrust = setup_mission(bluerov2, square_mission(),
+                           controller=Controller(hold_command, np.zeros(n), [], output="thrust"))
+    assert "output='thrust'" in fast_path_reason(thrust)
+    py = setup_mission(bluerov2, square_mission(), controller=Controller(body_pd, PD_GAINS, [0.0]))
+    assert "plain Python controller" in fast_path_reason(py)
+    dist = setup_mission(bluerov2, square_mission(), disturbance=sinusoidal(period=3.0))
+    assert "disturbance" in fast_path_reason(dist)
+
+
+@pytest.mark.slow
+def test_pid_as_a_user_controller_in_the_simd_kernel(bluerov2):
+    """The PID passed as a Controller flies the SIMD kernel (called per lane) with the numbers
+    of the built-in kernel (the PID inline) to 1e-12, perturbed vehicles and a current too."""
+    from uuvid.simulate.batch import perturb_batch, run_batch_fast
+
+    base = setup_mission(bluerov2, square_mission())
+    user = setup_mission(bluerov2, square_mission(), controller=pid(base.gains))
+    VP, TP, VC = perturb_batch(base, np.random.default_rng(3), 40)
+    a = run_batch_fast(base, VP, TP, VC)
+    b, tr = run_batch_fast(user, VP, TP, VC, trace_runs=[0, 39])
+    assert np.all(np.isfinite(b[:, 6]))  # column 6 is NaN on the fallback: this is the kernel
+    np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-14)
+    _, tr0 = run_batch_fast(base, VP, TP, VC, trace_runs=[0, 39])
+    np.testing.assert_allclose(tr, tr0, rtol=0, atol=1e-12)
