@@ -448,6 +448,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
         # controller and allocation (held over the step)
         _CTRL(k * dt, z[0:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], cparams,
              cstate, dt, cout)
+        s = 1.0
         if batt:  # supply voltage from the battery state; limits and inverse maps follow it
             volt = _ocv(BAT, soc) - b_res * i_prev
             volt = min(max(volt, vgrid[0]), vgrid[nv - 1])
@@ -457,19 +458,21 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
             wv = (volt - vgrid[jv]) / (vgrid[jv + 1] - vgrid[jv])
             _set_limits(alc, n, (1 - wv) * vlo[jv] + wv * vlo[jv + 1],
                         (1 - wv) * vhi[jv] + wv * vhi[jv + 1])
-        if out_kind == 0:
-            s = allocate_compiled(alc if batt else alloc, tau_des, fdes)
-        else:
+            if out_kind == 0:
+                s = allocate_compiled(alc, tau_des, fdes)
+        elif out_kind == 0:
+            s = allocate_compiled(alloc, tau_des, fdes)
+        if out_kind != 0:
             s = _thrusts_from_output(out_kind, cout, alc, inv_t, inv_c, batt, vtt, vtc, jv, wv,
                                      B, eta_p, eta_n, fdes, tau_des)
         for i in range(n):
-            if out_kind == 2:
-                cmd[i] = cout[i]
-            elif batt:
+            if batt:
                 cmd[i] = (1 - wv) * _interp(vtt[jv], vtc[jv], fdes[i]) + \
                     wv * _interp(vtt[jv + 1], vtc[jv + 1], fdes[i])
             else:
                 cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
+            if out_kind == 2:
+                cmd[i] = cout[i]
             sig0[i] = cmd[i]
             if start > 0:  # static prefix (e.g. the ESC), evaluated once for the held command
                 sig0[i] = kernels.eval_chain_prefix(kinds, poff, tflat, i * P, cmd[i], bflat,
