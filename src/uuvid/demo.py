@@ -218,8 +218,10 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     return dict(res)
 
 
-def _blocks_section(rep: Report) -> dict:
-    """The square flown with the PID as a controller block under a wave-like disturbance force."""
+def _blocks_section(rep: Report, quick: bool = False) -> dict:
+    """The square flown with the PID as a controller block under a wave-like disturbance force;
+    without ``quick`` also by the hover LQI, a per-thruster-thrust controller chosen in a scenario
+    (``controller: {kind: lqr}``; its loop compiles in ≈ 10 s)."""
     from uuvid.simulate.disturbances import sinusoidal
     from uuvid.simulate.reference import square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
@@ -230,12 +232,24 @@ def _blocks_section(rep: Report) -> dict:
     rows = []
     for name, dist in (("none", None), ("5 N surge + 10 N / 8 N surge/heave at 5 s", wave)):
         r = fly_mission(setup_mission(v, square_mission(), disturbance=dist))
-        rows.append({"disturbance": name, **{k: r.summary[k] for k in (
-            "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N", "completed")}})
+        rows.append({"controller": r.summary["controller"], "disturbance": name,
+                     **{k: r.summary[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
+                                                  "max_thrust_N", "completed")}})
+    if not quick:
+        from uuvid.simulate.scenario import build, scenario_from_dict
+
+        _, setup = build(scenario_from_dict({"vehicle": "bluerov2", "controller": {"kind": "lqr"}}))
+        r = fly_mission(setup)
+        rows.append({"controller": f"{r.summary['controller']}, thrust output (scenario file)",
+                     "disturbance": "none", **{k: r.summary[k] for k in (
+                         "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
+                         "completed")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
     rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.Controller); "
                       "a disturbance block adds a generalized force at every integration step "
-                      "(uuvid.simulate.disturbances). BlueROV2, Laidani et al.'s square:")
+                      "(uuvid.simulate.disturbances); a controller may output the wrench, each "
+                      "thruster's thrust (the LQI designed at hover) or raw commands. BlueROV2, "
+                      "Laidani et al.'s square:")
     rep.add_table(rows)
     return {"rows": rows}
 
@@ -393,7 +407,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         task.advance()
         task.stage("vehicle mission and speed envelopes")
         vehicle = _vehicle_section(out, rep)
-        blocks = _blocks_section(rep)
+        blocks = _blocks_section(rep, quick)
         task.advance()
         task.stage("thruster-loop study" + (" (skipped: --quick)" if quick else ""))
         study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
