@@ -240,6 +240,7 @@ def echo_params(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, 
         tau_out[i] = params[i]
 
 
+@pytest.mark.slow
 def test_command_output_gives_the_chains_steady_thrust(bluerov2):
     """Constant PWM commands (output='command') reach the ESCs as they are: once the thruster
     lag has settled, the delivered thrust is the chain's steady map of the command (times η),

@@ -200,7 +200,9 @@ class Controller:
 
     ``fn`` either a numba ``@njit`` function (compiled into the loop; full speed) or a plain
     Python callable with the same signature (called from the compiled loop through
-    ``numba.objmode`` each step; slower — see ``uuvid bench``, case ``controllers``).
+    ``numba.objmode`` each step; slower — see ``uuvid bench``, case ``controllers``).  Batches
+    (:func:`uuvid.simulate.batch.run_batch_fast`) fly a compiled wrench controller inside the
+    SIMD kernel, one call per vehicle and step; the others one compiled loop per vehicle.
     :func:`~uuvid.simulate.vehicle_sim.setup_mission` calls it once at the start state (on a
     copy of ``state0``) to check it writes exactly the entries ``output`` asks for.
     """
