@@ -22,10 +22,7 @@ the same kernel, and with that controller through the per-vehicle compiled loop
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
-
-from numba import njit
 
 from uuvid.simulate.control import Controller, pid
 from uuvid.simulate.station_keeping import lqr
@@ -33,24 +30,15 @@ from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 from uuvid.vehicle.definition import load_vehicle
 
 
-def user_pd(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
-    """Body-frame PD on position (params[0:2]) and yaw (params[2:4])."""
-    q0, q1, q2, q3 = eta[3], eta[4], eta[5], eta[6]
-    R = ((1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)),
-         (2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3), 2 * (q2 * q3 - q0 * q1)),
-         (2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)))
-    for j in range(6):
-        tau_out[j] = 0.0
-    for i in range(3):
-        e = 0.0
-        v = 0.0
-        for k in range(3):
-            e += R[k][i] * (ref_pos[k] - eta[k])
-            v += R[k][i] * ref_vel[k]
-        tau_out[i] = params[0] * e + params[1] * (v - nu[i])
-    yaw = math.atan2(2 * (q0 * q3 + q1 * q2), 1 - 2 * (q2 * q2 + q3 * q3))
-    tau_out[5] = (params[2] * ((ref_yaw - yaw + math.pi) % (2 * math.pi) - math.pi)
-                  + params[3] * (ref_rate - nu[5]))
+def user_pd():
+    """A body-frame PD written outside uuvid: the example controller file
+    (:func:`uuvid.simulate.controller_files.write_example`), its ``body_pd`` (numba)."""
+    import tempfile
+
+    from uuvid.simulate.controller_files import load_factory, write_example
+
+    path = write_example(Path(tempfile.mkdtemp(prefix="uuvid-bench-")) / "bench_pd.py")
+    return load_factory(path, "body_pd")
 
 
 def _laps():
@@ -77,15 +65,16 @@ def controllers(sim_time: float = 600.0, repeats: int = 3) -> list[dict]:
     vehicle = load_vehicle("bluerov2")
     mission = _laps()
     base = setup_mission(vehicle, mission, t_end=sim_time)
-    gains = [60.0, 80.0, 10.0, 8.0]
+    gains = [60.0, 60.0, 60.0, 80.0, 80.0, 80.0, 10.0, 8.0]  # kp, kd (surge, sway, heave), yaw
+    pd = user_pd()
     setups = {
         "builtin_pid": (base, repeats),
         "pid_block": (setup_mission(vehicle, mission, t_end=sim_time, controller=pid(base.gains)),
                       repeats),
         "user_pd_numba": (setup_mission(vehicle, mission, t_end=sim_time, controller=Controller(
-            njit(user_pd), gains, [], "PD (numba)")), repeats),
+            pd, gains, [], "PD (numba)")), repeats),
         "user_pd_python": (setup_mission(vehicle, mission, t_end=sim_time, controller=Controller(
-            user_pd, gains, [], "PD (Python)")), 1),
+            pd.py_func, gains, [], "PD (Python)")), 1),
         "lqr_thrust_output": (setup_mission(vehicle, mission, t_end=sim_time,
                                             controller=lqr(vehicle)), repeats),
     }

@@ -92,6 +92,30 @@ def deviation_into(x0, z, xi):
 
 
 @njit(cache=True)
+def lqi_step(K, f0, lo, hi, xi, integ, dt, f):
+    """``f = clip(f₀ − K [ξ; ∫e], lower, upper)`` with the integrators ``integ`` (4) put in
+    ``xi[12:16]``; they then advance by ``e dt`` unless a thruster was clipped (anti-windup)."""
+    n = f.size
+    for j in range(4):
+        xi[12 + j] = integ[j]
+    clipped = False
+    for i in range(n):
+        s = f0[i]
+        for j in range(16):
+            s -= K[i, j] * xi[j]
+        if s > hi[i]:
+            s = hi[i]
+            clipped = True
+        elif s < lo[i]:
+            s = lo[i]
+            clipped = True
+        f[i] = s
+    if not clipped:
+        for j in range(4):
+            integ[j] += xi[INTEGRATED[j]] * dt
+
+
+@njit(cache=True)
 def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt, nsub, Z, F):
     """Hold ``x_ref`` (13) for ``Z.shape[0]`` steps with the PID (``kind`` 0: ``alloc``,
     ``gains``) or the LQI (``kind`` 1: ``K`` (n × 16), trim thrust ``f0``); writes the states
@@ -127,23 +151,7 @@ def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt,
             allocate_compiled(alloc, tau_des, f)
         else:
             deviation_into(x_ref, z, xi)
-            for j in range(4):
-                xi[12 + j] = integ[j]
-            clipped = False
-            for i in range(n):
-                s = f0[i]
-                for j in range(16):
-                    s -= K[i, j] * xi[j]
-                if s > hi[i]:
-                    s = hi[i]
-                    clipped = True
-                elif s < lo[i]:
-                    s = lo[i]
-                    clipped = True
-                f[i] = s
-            if not clipped:
-                for j in range(4):
-                    integ[j] += xi[INTEGRATED[j]] * dt
+            lqi_step(K, f0, lo, hi, xi, integ, dt, f)
         for i in range(n):
             f[i] = min(max(f[i], lo[i]), hi[i])
             F[k, i] = f[i]
@@ -407,23 +415,7 @@ def lqr_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, stat
     de = xi[1]
     xi[0] = cy * dn + sy * de
     xi[1] = -sy * dn + cy * de
-    for j in range(4):
-        xi[12 + j] = state[j]
-    clipped = False
-    for i in range(n):
-        s = f0[i]
-        for j in range(16):
-            s -= K[i, j] * xi[j]
-        if s > hi[i]:
-            s = hi[i]
-            clipped = True
-        elif s < lo[i]:
-            s = lo[i]
-            clipped = True
-        tau_out[i] = s
-    if not clipped:
-        for j in range(4):
-            state[j] += xi[INTEGRATED[j]] * dt
+    lqi_step(K, f0, lo, hi, xi, state[0:4], dt, tau_out)
 
 
 def lqr(vehicle, *, weights=None, **bryson):
