@@ -55,10 +55,11 @@ state into small arrays, calls the controller (a module global of the generated 
 compiles it in as a direct call) with that lane's own controller state, and stores the wrench
 in the workspace; allocation, inverse maps and RK4 stay vectorised.  Numba's disk cache cannot
 tell which function the global names, so these kernels are compiled in memory, once per process
-and controller (≈ 10-20 s).  Measured (BlueROV2 square, 64 perturbed vehicles, 2 threads): the
-built-in kernel 0.16 s, the PID as a user controller here 0.50 s, the same through the per-vehicle
-loop (:func:`~uuvid.simulate.vehicle_sim.run_batch`) 2.19 s — 4.4× (``uuvid bench``, case
-``controllers``, measures it on your machine).  Thrust/command outputs, plain Python controllers
+and controller (≈ 10-20 s).  Measured (BlueROV2 square, 64 perturbed vehicles, 2 shared
+threads, two runs): the built-in kernel 0.04-0.16 s, the PID as a user controller here 0.13-0.50 s
+(≈ 3× the built-in: the scalar call per lane), the same through the per-vehicle loop
+(:func:`~uuvid.simulate.vehicle_sim.run_batch`) 1.4-2.2 s — 4-11× slower than here (``uuvid
+bench``, case ``controllers_batch``, measures it on your machine).  Thrust/command outputs, plain Python controllers
 and disturbance blocks fly the per-vehicle loop (:func:`fast_path_reason` says which).
 
 Public API: :func:`run_batch_fast`, :func:`batch_throughput`, :func:`perturb_vehicle_params`,
