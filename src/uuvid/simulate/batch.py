@@ -59,8 +59,9 @@ and controller (≈ 10-20 s).  Measured (BlueROV2 square, 64 perturbed vehicles,
 threads, two runs): the built-in kernel 0.04-0.16 s, the PID as a user controller here 0.13-0.50 s
 (≈ 3× the built-in: the scalar call per lane), the same through the per-vehicle loop
 (:func:`~uuvid.simulate.vehicle_sim.run_batch`) 1.4-2.2 s — 4-11× slower than here (``uuvid
-bench``, case ``controllers_batch``, measures it on your machine).  Thrust/command outputs, plain Python controllers
-and disturbance blocks fly the per-vehicle loop (:func:`fast_path_reason` says which).
+bench``, case ``controllers_batch``, measures it on your machine).  Thrust/command outputs,
+plain Python controllers and disturbance blocks fly the per-vehicle loop
+(:func:`fast_path_reason` says which).
 
 Public API: :func:`run_batch_fast`, :func:`batch_throughput`, :func:`perturb_vehicle_params`,
 :func:`perturb_thruster_params`, :func:`perturb_batch`, :func:`fast_path_reason`.
