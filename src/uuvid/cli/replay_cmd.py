@@ -31,7 +31,7 @@ def _run(model: str, files: list[Path], opts: ReadOptions, out: Path | None, jso
         rep = replay_files(chain, files, opts)
     except (BenchDataError, FitError, ValueError) as e:
         _fail(str(e))
-    doc = rep.summary()
+    doc = rep.to_dict()
     if out is not None:
         try:
             doc["report"] = str(rep.write(out))
