@@ -116,12 +116,12 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     rep.add_figure(save_figure(fig, d / "battery_mission_heavy.png"),
                    caption="BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack (voltage-aware "
                    "T200 model in the loop): the voltage sags, the commands grow to hold the thrust")
-    res["battery_mission"] = {k: rb.summary[k] for k in ("supply_voltage_V", "soc",
+    res["battery_mission"] = {k: rb.metrics[k] for k in ("supply_voltage_V", "soc",
                                                          "max_battery_current_A",
                                                          "max_tracking_error_m")}
     r = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(),
                                   current=ned(0.3, 0.0)))
-    sq = {k: r.summary[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
+    sq = {k: r.metrics[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
     rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current from the north: "
                       + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
@@ -151,7 +151,7 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     )
     rep.add_figure(out / "mission" / "path_3d.png")
     rep.add_figure(out / "mission" / "thrusters.png")
-    rep.add_table([{k: v_ for k, v_ in res.summary.items() if not isinstance(v_, list)}])
+    rep.add_table([{k: v_ for k, v_ in res.metrics.items() if not isinstance(v_, list)}])
     envs = {}
     for name in ("bluerov2", "bluerov2-heavy"):
         check = confirm_envelope(v if name == "bluerov2" else load_vehicle(name))
@@ -161,7 +161,7 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
         if name == "bluerov2":
             rep.add_figure(check.stability.plot(out / "bluerov2_stability.png"),
                            caption="BlueROV2: trim in steady flight; it cannot stay level beyond the limits")
-    return {"mission": res.summary, "envelopes": envs}
+    return {"mission": res.metrics, "envelopes": envs}
 
 
 def _study_section(out: Path, rep: Report) -> dict:
@@ -230,7 +230,7 @@ def _blocks_section(rep: Report) -> dict:
     rows = []
     for name, dist in (("none", None), ("5 N surge + 10 N / 8 N surge/heave at 5 s", wave)):
         r = fly_mission(setup_mission(v, square_mission(), disturbance=dist))
-        rows.append({"disturbance": name, **{k: r.summary[k] for k in (
+        rows.append({"disturbance": name, **{k: r.metrics[k] for k in (
             "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N", "completed")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
     rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.Controller); "

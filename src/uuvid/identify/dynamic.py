@@ -418,7 +418,7 @@ class ChainFit(Result):
 
     ``fit.residuals`` are the weighted, scaled residuals the optimiser saw; per-run RMSE in the
     channel's own unit is in ``fit.extra["runs"]``.  Indexing (``result["blocks[0].alpha"]``),
-    ``values``, ``stderrs``, ``report()`` and ``as_dict()`` delegate to the fit.
+    ``values``, ``stderrs``, ``summary()`` and ``as_dict()`` delegate to the fit.
     """
 
     fit: Fit

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uuvid.identify.dynamic import ChainFit, Run, _simulate_run, fit_chain, set_parameter, validate_runs
+from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import (
     CH,
     BessaDynamics,
@@ -44,7 +45,6 @@ from uuvid.thruster.blocks import (
     QuadraticMap,
     Yoerger,
 )
-from uuvid.report.result import Result, jsonable
 from uuvid.thruster.chain import ThrusterChain
 
 __all__ = [

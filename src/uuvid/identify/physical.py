@@ -49,8 +49,8 @@ from dataclasses import asdict, dataclass, field, fields, replace
 import numpy as np
 
 from uuvid.identify.fit import Fit, IdentifiabilityWarning, Parameter, nonlinear_lsq, residual_figure
-from uuvid.report.result import Result, jsonable
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
+from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import ESC, DCMotor, ParameterError, QuadraticMap
 from uuvid.thruster.chain import ThrusterChain
 

@@ -530,7 +530,7 @@ def _validate_log(model, data: LogData, dof: str, window: int) -> dict:
     cs = clean_series(data.t_pos, data.position, angle=angle, angle_unit="rad", window=window)
     v = savgol_velocity(cs.t, cs.x, order=4, window=window)
     val = validate_one_dof(model, cs.t, data.command, v, t_phi=data.t_cmd)
-    return {"nrmse": val["nrmse"], "rmse": val["rmse"], "cleaning": cs.report(),
+    return {"nrmse": val["nrmse"], "rmse": val["rmse"], "cleaning": cs.summary(),
             "series": (cs.t, val["predicted"], v)}
 
 

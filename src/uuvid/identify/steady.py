@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.identify.fit import Fit, Parameter, linear_lsq, nonlinear_lsq, residual_figure
-from uuvid.report.result import Result, jsonable
 from uuvid.identify.regions import Regions
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
+from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import Block, DeadZoneMap, PolynomialMap, QuadraticMap, TableMap
 
 DIRECTIONS = ("forward", "reverse")

@@ -327,7 +327,7 @@ def _fit_quadratic(sets, name):
         censored_x=data.speed[cm] if cm.any() else None,
         censored_dir=np.sign(data.command[cm] - data.neutral)), "Ω [rad/s]", "thrust [N]")
     warn, notes = _steady_messages(sf)
-    return FitOutcome("quadratic", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+    return FitOutcome("quadratic", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, figures=[("fit", fig, "Thrust vs propeller speed, fit "
                                                   "and residuals per direction")], notes=notes)
 
@@ -359,7 +359,7 @@ def _fit_cv(sets, name):
     warn, notes = _steady_messages(sf)
     if data.command_unit == "duty":
         notes.append("the chain's input is the motor voltage (duty × supply voltage)")
-    return FitOutcome("cv", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N", warn,
+    return FitOutcome("cv", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N", warn,
                       figures=[("fit", fig, "Thrust vs motor voltage, fit and residuals")],
                       notes=notes)
 
@@ -412,7 +412,7 @@ def _fit_polynomial(sets, name, degree, criterion):
             tabs.append((f"degree_table_{d}", list(_degree_rows({d: t})[d]),
                          ["degree", "n_params", "me", "rmse", "cv_rmse", "cv_se", "aic", "bic"],
                          f"Degree table, {d} (selected {selected.get(d)}): {reason.get(d, '')}"))
-    text = sf.report()
+    text = sf.summary()
     if tables:
         text += "\n" + "\n".join(f"=== degree table ({d}) ===\n{t.to_text()}\nselected: "
                                  f"{selected.get(d)} — {reason.get(d, '')}"
@@ -457,7 +457,7 @@ def _fit_deadzone(sets, name, map_input):
     fig = _direction_figure(f"{name}: T = c(x|x| − δ) (UUV Simulator Bessa conversion)",
                             _split_panels(x, y, yfit, np.sign(x), block.thrust), xlabel,
                             "thrust [N]")
-    return FitOutcome("deadzone", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+    return FitOutcome("deadzone", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, {"map_input": inp},
                       figures=[("fit", fig, "Thrust, dead-zone conversion and residuals")],
                       notes=notes)
@@ -479,7 +479,7 @@ def _fit_table(sets, name, n_points):
                                           xg_range=rng),
                             f"command [{data.command_unit}]", "thrust [N]")
     warn, notes = _steady_messages(sf)
-    return FitOutcome("table", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+    return FitOutcome("table", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, {"knots": len(sf.block.input_values)},
                       figures=[("fit", fig, "Thrust vs command, table and residuals")],
                       notes=notes)
@@ -518,7 +518,7 @@ def _fit_physical(sets, name, supply_voltage, linear_duty):
     fig = _direction_figure(f"{name}: physical model (ESC × supply → DC motor → K_T Ω|Ω|)",
                             panels, "command", "thrust [N]")
     extra = {"supply_voltage_V": v, "per_sheet": pf.per_sheet, "physical_model": model.as_dict()}
-    return FitOutcome("physical", chain, {"physical": pf.fit}, pf.report(),
+    return FitOutcome("physical", chain, {"physical": pf.fit}, pf.summary(),
                       _rms(np.concatenate(e_all)), "N", list(pf.fit.warnings), extra,
                       figures=[("fit", fig, "Thrust vs command per sheet: data, model and "
                                             "residuals per direction")],
@@ -600,7 +600,7 @@ def _dyn_outcome(model, cf, sets, name, unit, ylabel, notes=(), prepend=True):
     n = sum(r["samples"] for r in info)
     rmse = math.sqrt(sum(r["samples"] * r["rmse"] ** 2 for r in info) / n) if n else math.nan
     fig = _dynamic_figure(f"{name}: {cf.fit.model}", cf, ylabel)
-    return FitOutcome(model, chain, {model: cf.fit}, cf.report(), rmse, unit,
+    return FitOutcome(model, chain, {model: cf.fit}, cf.summary(), rmse, unit,
                       list(cf.warnings), {"runs": info},
                       figures=[("fit", fig, "Recorded and fitted response per run, with "
                                             "residuals")], notes=list(notes) + more)
@@ -702,7 +702,7 @@ def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, te
     doc = {"runs": df.fit.extra["runs"], "noise": df.noise, "in_sample_nrmse": df.in_sample,
            "identifiable": df.identifiable or None}
     doc.update(extra or {})
-    return FitOutcome(model, chain, {df.structure.name: df.fit}, df.report() + text_extra, rmse,
+    return FitOutcome(model, chain, {df.structure.name: df.fit}, df.summary() + text_extra, rmse,
                       "rad/s" if main == "speed" else "N", list(df.fit.warnings), doc, figures,
                       notes=list(notes) + more)
 
@@ -806,7 +806,8 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
 
 
 def summary(outcome: FitOutcome, out: Path | None, report: Path | None) -> dict:
-    doc = {"model": outcome.model, "out": str(out) if out is not None else None, "parameters": outcome.parameters(),
+    doc = {"model": outcome.model, "out": str(out) if out is not None else None,
+           "parameters": outcome.parameters(),
            "rmse": outcome.rmse, "rmse_unit": outcome.rmse_unit,
            "warnings": list(outcome.warnings), "notes": list(outcome.notes),
            "chain": outcome.chain.name,

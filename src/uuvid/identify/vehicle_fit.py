@@ -529,7 +529,7 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
         cs = clean_series(t, x, threshold=clean_threshold, angle=angle, angle_unit=angle_unit,
                           window=max(window, 7) if window % 2 else window + 1)
         tg, xg = cs.t, cs.x
-        note = cs.report()
+        note = cs.summary()
     else:
         if not np.all(np.isfinite(x)):
             raise ValueError("x has non-finite values; use clean=True")

@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.report.result import Result
-
 from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
 

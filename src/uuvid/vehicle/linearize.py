@@ -49,7 +49,6 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.report.result import Result
-
 from uuvid.vehicle.kinematics import euler_to_quat, quat_to_euler
 from uuvid.vehicle.model import DOF_NAMES, VehicleParams, rotation_reference, vehicle_rhs
 from uuvid.vehicle.rigid_body import skew_ref

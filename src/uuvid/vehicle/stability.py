@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.report.result import Result
-
 from uuvid.vehicle.allocation import apply_eta
 from uuvid.vehicle.hydrodynamics import added_mass_coriolis, damping_force, restoring_forces
 from uuvid.vehicle.kinematics import euler_to_rotmat
