@@ -342,6 +342,31 @@ def f_caccia(tmp_path):
     return caccia2000.reproduce(seed=0, fast=True)
 
 
+def f_loop_study(tmp_path):
+    from uuvid.papers import thruster_loop_study
+
+    return thruster_loop_study.run_study(bandwidths=(2.0,))
+
+
+def _synthetic_bin(tmp_path):
+    pytest.importorskip("pymavlink")
+    from test_ardusub import scenario, write_bin
+
+    return write_bin(tmp_path / "dive.BIN", scenario(n=200))
+
+
+def f_log_inspection(tmp_path):
+    from uuvid.io.ardusub import inspect_log
+
+    return inspect_log(_synthetic_bin(tmp_path))
+
+
+def f_dive(tmp_path):
+    from uuvid.io.ardusub import load_dive
+
+    return load_dive(_synthetic_bin(tmp_path))
+
+
 #: class (module.qualname) → factory; ``slow`` ones run with --run-slow (CI)
 FACTORIES = {
     "uuvid.identify.fit.Fit": f_fit,
@@ -373,8 +398,12 @@ FACTORIES = {
     "uuvid.papers.laidani.LaidaniReproduction": f_laidani,
     "uuvid.papers.mclean1991.McLeanReproduction": f_mclean,
     "uuvid.papers.caccia2000.Reproduction": f_caccia,
+    "uuvid.papers.thruster_loop_study.LoopStudy": f_loop_study,
+    "uuvid.io.ardusub.inspect.LogInspection": f_log_inspection,
+    "uuvid.io.ardusub.dive.DiveLog": f_dive,
 }
-SLOW = {"uuvid.identify.dynamic_select.Selection",
+SLOW = {"uuvid.identify.dynamic_select.Selection", "uuvid.papers.thruster_loop_study.LoopStudy",
+        "uuvid.papers.laidani.LaidaniReproduction",
         "uuvid.papers.mclean1991.McLeanReproduction", "uuvid.papers.caccia2000.Reproduction"}
 
 

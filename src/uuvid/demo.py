@@ -168,7 +168,7 @@ def _study_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import thruster_loop_study as st
 
     result = st.run_study(bandwidths=(2.0, 6.0))
-    st.write_outputs(result, out / "study")
+    result.report(out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
     rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
@@ -181,7 +181,7 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import caccia2000
 
     res = caccia2000.reproduce(seed=0, fast=True)
-    caccia2000.write_outputs(res, out / "caccia2000")
+    res.report(out / "caccia2000")
     rep.add_heading("Caccia et al. (2000): identification from on-board sensors (simulated ROMEO)")
     rep.add_links("Full page:", ["caccia2000/index.html"])
     rep.add_paragraph(
@@ -322,7 +322,7 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
     except ImportError as e:  # pymavlink missing (an install without uuvid's dependencies)
         rep.add_paragraph(f"Skipped: {e}")
         return {"skipped": str(e)}
-    files = dive.report(out / "ardusub")
+    dive.report(out / "ardusub")
     rep.add_paragraph(f"{log.name} (clydemcqueen/ardusub_log_tools, MIT): configuration from its "
                       f"parameters, depth from {dive.depth_source['source']} "
                       f"({dive.depth_source['why']}). Table: ardusub/dive.csv with "
@@ -332,7 +332,8 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
                    for m in ins.config.active],
                   caption=f"FRAME_CONFIG = {ins.config.frame} ({ins.config.frame_name}): ArduSub "
                           "mixing factors and MOT_n_DIRECTION")
-    rep.add_figure(files["figure"], caption="Depth, attitude, thrust per motor (T200 at the "
+    rep.add_figure(out / "ardusub" / "dive.png",
+                   caption="Depth, attitude, thrust per motor (T200 at the "
                    "logged voltage) and generalized forces; modes shaded")
     mask, why = dive.open_loop()
     rep.add_paragraph(f"Open-loop data for identification: {why}.")

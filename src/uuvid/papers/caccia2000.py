@@ -682,8 +682,8 @@ class Reproduction(PaperReproduction):
         ax.legend(fontsize=8)
         return fig
 
-    def _write_outputs(self, folder: Path) -> Path:
-        return write_outputs(self, folder)
+    def _write_outputs(self, folder: Path) -> Path | None:
+        return write_outputs(self, folder) if self.artifacts else None
 
 
 def _acceptance(result: dict) -> dict:
@@ -941,7 +941,7 @@ def reproduce(seed: int = 0, fast: bool = False, out_dir: str | Path | None = No
     result["runtime_s"] = time.perf_counter() - t_start
     result.artifacts = art
     if out_dir is not None:
-        write_outputs(result, out_dir)
+        result.report(out_dir)
     return result
 
 

@@ -78,9 +78,9 @@ class LaidaniReproduction(PaperReproduction):
         ax.set_title("Steady map (cf. Fig. 5)")
         return fig
 
-    def _write_outputs(self, folder: Path) -> Path:
+    def _write_outputs(self, folder: Path) -> Path | None:
         a = self.artifacts
-        return write_outputs(self, a["pwm"], a["channels"], a["response"], folder)
+        return write_outputs(self, a["pwm"], a["channels"], a["response"], folder) if a else None
 
 
 def steady_map(pwm=None):
@@ -130,7 +130,7 @@ def reproduce(out_dir: str | Path | None = None) -> LaidaniReproduction:
     result["degree_selection"] = degree_selection(seed=0)
     result = LaidaniReproduction(result, {"pwm": pwm, "channels": ch, "response": resp})
     if out_dir is not None:
-        write_outputs(result, pwm, ch, resp, Path(out_dir))
+        result.report(out_dir)
     return result
 
 

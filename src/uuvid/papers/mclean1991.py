@@ -196,8 +196,8 @@ class McLeanReproduction(PaperReproduction):
         ax.legend(fontsize=7)
         return fig
 
-    def _write_outputs(self, folder: Path) -> Path:
-        return write_outputs(self, self.artifacts["responses"], folder)
+    def _write_outputs(self, folder: Path) -> Path | None:
+        return write_outputs(self, self.artifacts["responses"], folder) if self.artifacts else None
 
 
 def reproduce(out_dir: str | Path | None = None, progress=None) -> McLeanReproduction:
@@ -220,7 +220,7 @@ def reproduce(out_dir: str | Path | None = None, progress=None) -> McLeanReprodu
     result.update(identification())
     result = McLeanReproduction(result, {"responses": responses})
     if out_dir is not None:
-        write_outputs(result, responses, Path(out_dir))
+        result.report(out_dir)
     return result
 
 

@@ -31,14 +31,15 @@ class PaperReproduction(dict, Result):
         return dict(self)
 
     def _write_outputs(self, folder: Path) -> Path | None:
-        """The paper's own full report into ``folder`` (``None``: none, use the default)."""
+        """The paper's own full report into ``folder``; ``None`` when there is none (or the
+        artifacts it needs are missing): the default report is written instead."""
         return None
 
     def report(self, folder: str | os.PathLike[str]) -> Path:
-        """The paper's full report (plots, tables, JSON, index.html) when the artifacts are
-        there, else the default one; ``summary.txt`` and ``result.json`` in both cases."""
+        """The paper's full report (plots, tables, JSON, index.html) when it can be written, else
+        the default one; ``summary.txt`` and ``result.json`` in both cases."""
         folder = Path(os.fspath(folder))
-        index = self._write_outputs(folder) if self.artifacts else None
+        index = self._write_outputs(folder)
         if index is None:
             return super().report(folder)
         self.write_basics(folder)
