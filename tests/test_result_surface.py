@@ -9,7 +9,6 @@ _factory``, so none can skip the surface."""
 
 from __future__ import annotations
 
-import csv
 import importlib
 import json
 import pkgutil
@@ -19,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from matplotlib.figure import Figure
+from test_log_identify import _write_csv as _csv
 
 import uuvid
 from uuvid.report.result import Result, SummaryDict
@@ -64,14 +64,6 @@ def _quiet(fn, *a, **kw):
         return fn(*a, **kw)
 
 
-def _csv(path, header, rows):
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        w.writerows(rows)
-    return path
-
-
 def _bench():
     from uuvid.io.bench import BenchData
 
@@ -84,30 +76,17 @@ def _bench():
 
 
 def _yaw_log(tmp_path):
-    from uuvid.identify.vehicle_fit import simulate_one_dof
-    from uuvid.vehicle.model import OneDofModel
+    from test_log_identify import _yaw_steps
 
-    dt, rng = 0.1, np.random.default_rng(0)
-    levels = (3.0, 8.0, 14.0, -4.0, -9.0, -16.0)
-    f = np.concatenate([np.full(300, L) for L in levels])
-    t = np.arange(f.size) * dt
-    r = simulate_one_dof(OneDofModel(84.0, 20.5, 49.5), t, f)
-    y = np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * dt)]) + rng.normal(0, .004, t.size)
+    t, f, y = _yaw_steps()
     return _csv(tmp_path / "steps.csv", ["time", "torque", "heading"],
                 [[f"{a:.3f}", b, c] for a, b, c in zip(t, f, y)])
 
 
 def _sine_log(tmp_path):
-    from uuvid.identify.vehicle_fit import simulate_one_dof
-    from uuvid.vehicle.model import OneDofModel
+    from test_log_identify import _jittery_sine
 
-    rng = np.random.default_rng(1)
-    t = np.arange(0.0, 96.0, 0.1)
-    f = -5.0 + 4.0 * np.sin(2 * np.pi * t / 24.0)
-    r = simulate_one_dof(OneDofModel(84.0, 20.5, 49.5), t, f)
-    y = np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * 0.1)]) + rng.normal(0, .003, t.size)
-    return _csv(tmp_path / "sine.csv", ["time", "torque", "yaw"],
-                [[f"{a:.3f}", b, c] for a, b, c in zip(t, f, y)])
+    return _csv(tmp_path / "sine.csv", ["time", "torque", "yaw"], _jittery_sine()[0])
 
 
 def _two_state_records():

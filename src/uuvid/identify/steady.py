@@ -84,7 +84,7 @@ class SteadyFit(Result):
 
     def to_dict(self) -> dict:
         return jsonable({"model": self.model, "fits": {k: f.as_dict() for k, f in self.fits.items()},
-                         "block": repr(self.block) if self.block is not None else None,
+                         "block": self.block.to_dict() if self.block is not None else None,
                          "info": self.info, "warnings": list(self.warnings)})
 
     def plot(self):
