@@ -47,8 +47,9 @@ def result_classes() -> set[type]:
             raise
     # abstract bases (no summary of their own) are covered through their subclasses
     from uuvid.papers.reproduction import PaperReproduction
+    from uuvid.report.result import DictSummaryResult
 
-    return {c for c in _all_subclasses(Result) if c is not PaperReproduction}
+    return {c for c in _all_subclasses(Result) if c not in (PaperReproduction, DictSummaryResult)}
 
 
 def _name(cls) -> str:

@@ -39,7 +39,7 @@ from typing import Any
 
 from uuvid.io.atomic import atomic_write_json, atomic_write_text, to_jsonable
 
-__all__ = ["Result", "SummaryDict", "jsonable"]
+__all__ = ["DictSummaryResult", "Result", "SummaryDict", "jsonable"]
 
 
 def jsonable(obj: Any) -> Any:
@@ -154,3 +154,24 @@ class Result:
         import html
 
         return f"<pre>{html.escape(self.summary())}</pre>"
+
+
+class DictSummaryResult(Result):
+    """A result whose ``summary`` used to be a dict field, now named ``summary_field`` (e.g.
+    ``"metrics"``): ``res.summary["key"]`` reads and writes that dict, ``res.summary()`` is the
+    text from ``_summary_text()``.  For dataclasses (the field is converted in
+    ``__post_init__``)."""
+
+    __slots__ = ()
+    summary_field: str = "metrics"
+
+    def __post_init__(self):
+        SummaryDict.attach(self, self.summary_field)
+
+    @property
+    def summary(self) -> SummaryDict:
+        """The dict; called, the text summary."""
+        return SummaryDict.attach(self, self.summary_field)
+
+    def _summary_text(self) -> str:
+        raise NotImplementedError(f"{type(self).__name__}._summary_text()")

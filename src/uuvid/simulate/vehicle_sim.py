@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
-from uuvid.report.result import Result, SummaryDict, jsonable
+from uuvid.report.result import DictSummaryResult, jsonable
 from uuvid.simulate import kernels
 from uuvid.simulate.control import (
     PID_STATE_SIZE,
@@ -629,7 +629,7 @@ def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
 # Python API
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class MissionResult(Result):
+class MissionResult(DictSummaryResult):
     """Time series of a flown mission plus its ``metrics`` (tracking errors, thrust, timing…).
 
     ``summary()`` is the text of the common result surface; ``summary["key"]`` still reads
@@ -649,14 +649,7 @@ class MissionResult(Result):
     supply: np.ndarray | None = None  # (N, 3 + n) [V, battery current, SOC, commands] on a battery
 
     report_title = "Mission"
-
-    def __post_init__(self):
-        SummaryDict.attach(self, "metrics")
-
-    @property
-    def summary(self) -> SummaryDict:
-        """The metrics; called, the text summary."""
-        return SummaryDict.attach(self, "metrics")
+    summary_field = "metrics"
 
     def _summary_text(self) -> str:
         from uuvid.report.mission import mission_text

@@ -59,7 +59,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from uuvid.report.result import Result, SummaryDict, jsonable
+from uuvid.report.result import DictSummaryResult, jsonable
 from uuvid.uncertainty.targets import ChunkResult  # noqa: F401  (re-exported)
 
 BACKENDS = ("inprocess", "processes", "dask")
@@ -126,7 +126,7 @@ def _init_worker(threads: int | None) -> None:
 # result on disk
 # ---------------------------------------------------------------------------------------------
 @dataclass
-class StudyResult(Result):
+class StudyResult(DictSummaryResult):
     """The tidy table (one row per run), per-run series, the run ``info`` (what
     ``summary.json`` holds: counts, backend, requirement…) and the output folder.
 
@@ -140,14 +140,7 @@ class StudyResult(Result):
     axes: dict[str, np.ndarray] = field(default_factory=dict)
 
     report_title = "Study"
-
-    def __post_init__(self):
-        SummaryDict.attach(self, "info")
-
-    @property
-    def summary(self) -> SummaryDict:
-        """The run info; called, the text summary."""
-        return SummaryDict.attach(self, "info")
+    summary_field = "info"
 
     def _summary_text(self) -> str:
         i = self.info
