@@ -53,12 +53,12 @@ def _laps():
 
 def _time(setup, repeats: int) -> tuple[float, float, dict]:
     r = fly_mission(setup)  # compiles (or loads) the loop on its first call
-    compile_s = r.summary["compile_time_s"]
-    best = r.summary["wall_time_s"]
+    compile_s = r.metrics["compile_time_s"]
+    best = r.metrics["wall_time_s"]
     for _ in range(repeats - 1):
         r = fly_mission(setup)
-        best = min(best, r.summary["wall_time_s"])
-    return best, compile_s, r.summary
+        best = min(best, r.metrics["wall_time_s"])
+    return best, compile_s, r.metrics
 
 
 def controllers(sim_time: float = 600.0, repeats: int = 3) -> list[dict]:

@@ -67,7 +67,7 @@ def _pid_block_equals_built_in(bluerov2, **blocks):
         base = fly_mission(setup_mission(bluerov2, square_mission(), current=current))
         r = fly_mission(setup_mission(bluerov2, square_mission(), current=current,
                                       controller=pid(base_gains(bluerov2)), **blocks))
-        assert r.summary["controller"] == "PID DP"
+        assert r.metrics["controller"] == "PID DP"
         for a, b in ((r.state, base.state), (r.thrust, base.thrust), (r.tau_cmd, base.tau_cmd)):
             assert np.max(np.abs(a - b)) <= 1e-12
         if current == (0.0, 0.0, 0.0):
@@ -100,9 +100,9 @@ def test_user_compiled_controller_flies_the_square(pd_setup):
     tracks the square (a PD has no integrator: the tracking is good, not PID-exact)."""
     s = pd_setup
     r = fly_mission(s)
-    assert r.summary["controller"] == "PD"
-    assert r.summary["completed"]
-    assert r.summary["max_tracking_error_m"] < 0.5
+    assert r.metrics["controller"] == "PD"
+    assert r.metrics["completed"]
+    assert r.metrics["max_tracking_error_m"] < 0.5
     # τ_cmd is the PD's output at the recorded state: recompute step k in plain Python
     for k in (0, 1234, s.t.size - 1):
         z = r.state[k]
@@ -146,7 +146,7 @@ def test_python_controller_equals_the_compiled_one(pd_setup, bluerov2):
     rp = fly_mission(s)
     assert np.max(np.abs(rp.state[:, :13] - r.state[:, :13])) <= 1e-9
     out = run_batch(s, s.vp[None])
-    assert out[0, 0] == pytest.approx(rp.summary["max_tracking_error_m"], rel=1e-12)
+    assert out[0, 0] == pytest.approx(rp.metrics["max_tracking_error_m"], rel=1e-12)
 
 
 def test_disturbance_force(bluerov2):
@@ -155,14 +155,14 @@ def test_disturbance_force(bluerov2):
     (τ_cmd,X → −c) while the vehicle holds its waypoint."""
     base = fly_mission(setup_mission(bluerov2, square_mission()))
     r0 = fly_mission(setup_mission(bluerov2, square_mission(), disturbance=sinusoidal(period=3.0)))
-    assert r0.summary["disturbance"] == "sinusoidal"
+    assert r0.metrics["disturbance"] == "sinusoidal"
     assert np.array_equal(r0.state, base.state)
     c = 15.0
     r = fly_mission(setup_mission(bluerov2, square_mission(),
                                   disturbance=sinusoidal(constant=(c, 0, 0, 0, 0, 0))))
     assert r.tau_cmd[-1, 0] == pytest.approx(-c, rel=0.02)
     assert abs(base.tau_cmd[-1, 0]) < 0.02 * c
-    assert r.summary["final_position_error_m"] < 0.05
+    assert r.metrics["final_position_error_m"] < 0.05
 
 
 def test_bad_blocks(bluerov2):
@@ -215,7 +215,7 @@ def test_thrust_output_controller_reproduces_the_built_in_run(bluerov2):
     ctrl = Controller(pid_then_allocate, params, np.zeros(22), "PID + own allocation", "thrust")
     base = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale"))
     r = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale", controller=ctrl))
-    assert r.summary["controller_output"] == "thrust"
+    assert r.metrics["controller_output"] == "thrust"
     assert base.summary["controller_output"] == "wrench"
     assert np.max(np.abs(r.state - base.state)) <= 1e-9
     assert np.max(np.abs(r.thrust_cmd - base.thrust_cmd)) <= 1e-9

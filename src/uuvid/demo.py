@@ -116,12 +116,12 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     rep.add_figure(save_figure(fig, d / "battery_mission_heavy.png"),
                    caption="BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack (voltage-aware "
                    "T200 model in the loop): the voltage sags, the commands grow to hold the thrust")
-    res["battery_mission"] = {k: rb.summary[k] for k in ("supply_voltage_V", "soc",
+    res["battery_mission"] = {k: rb.metrics[k] for k in ("supply_voltage_V", "soc",
                                                          "max_battery_current_A",
                                                          "max_tracking_error_m")}
     r = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(),
                                   current=ned(0.3, 0.0)))
-    sq = {k: r.summary[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
+    sq = {k: r.metrics[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
     rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current from the north: "
                       + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
@@ -151,7 +151,7 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     )
     rep.add_figure(out / "mission" / "path_3d.png")
     rep.add_figure(out / "mission" / "thrusters.png")
-    rep.add_table([{k: v_ for k, v_ in res.summary.items() if not isinstance(v_, list)}])
+    rep.add_table([{k: v_ for k, v_ in res.metrics.items() if not isinstance(v_, list)}])
     envs = {}
     for name in ("bluerov2", "bluerov2-heavy"):
         check = confirm_envelope(v if name == "bluerov2" else load_vehicle(name))
@@ -161,14 +161,14 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
         if name == "bluerov2":
             rep.add_figure(check.stability.plot(out / "bluerov2_stability.png"),
                            caption="BlueROV2: trim in steady flight; it cannot stay level beyond the limits")
-    return {"mission": res.summary, "envelopes": envs}
+    return {"mission": res.metrics, "envelopes": envs}
 
 
 def _study_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import thruster_loop_study as st
 
     result = st.run_study(bandwidths=(2.0, 6.0))
-    st.write_outputs(result, out / "study")
+    result.report(out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
     rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
@@ -181,7 +181,7 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import caccia2000
 
     res = caccia2000.reproduce(seed=0, fast=True)
-    caccia2000.write_outputs(res, out / "caccia2000")
+    res.report(out / "caccia2000")
     rep.add_heading("Caccia et al. (2000): identification from on-board sensors (simulated ROMEO)")
     rep.add_links("Full page:", ["caccia2000/index.html"])
     rep.add_paragraph(
@@ -232,16 +232,16 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
     rows = []
     for name, dist in (("none", None), ("5 N surge + 10 N / 8 N surge/heave at 5 s", wave)):
         r = fly_mission(setup_mission(v, square_mission(), disturbance=dist))
-        rows.append({"controller": r.summary["controller"], "disturbance": name,
-                     **{k: r.summary[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
+        rows.append({"controller": r.metrics["controller"], "disturbance": name,
+                     **{k: r.metrics[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
                                                   "max_thrust_N", "completed")}})
     if not quick:
         from uuvid.simulate.scenario import build, scenario_from_dict
 
         _, setup = build(scenario_from_dict({"vehicle": "bluerov2", "controller": {"kind": "lqr"}}))
         r = fly_mission(setup)
-        rows.append({"controller": f"{r.summary['controller']}, thrust output (scenario file)",
-                     "disturbance": "none", **{k: r.summary[k] for k in (
+        rows.append({"controller": f"{r.metrics['controller']}, thrust output (scenario file)",
+                     "disturbance": "none", **{k: r.metrics[k] for k in (
                          "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
                          "completed")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
@@ -336,7 +336,7 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
     except ImportError as e:  # pymavlink missing (an install without uuvid's dependencies)
         rep.add_paragraph(f"Skipped: {e}")
         return {"skipped": str(e)}
-    files = dive.report(out / "ardusub")
+    dive.report(out / "ardusub")
     rep.add_paragraph(f"{log.name} (clydemcqueen/ardusub_log_tools, MIT): configuration from its "
                       f"parameters, depth from {dive.depth_source['source']} "
                       f"({dive.depth_source['why']}). Table: ardusub/dive.csv with "
@@ -346,7 +346,8 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
                    for m in ins.config.active],
                   caption=f"FRAME_CONFIG = {ins.config.frame} ({ins.config.frame_name}): ArduSub "
                           "mixing factors and MOT_n_DIRECTION")
-    rep.add_figure(files["figure"], caption="Depth, attitude, thrust per motor (T200 at the "
+    rep.add_figure(out / "ardusub" / "dive.png",
+                   caption="Depth, attitude, thrust per motor (T200 at the "
                    "logged voltage) and generalized forces; modes shaded")
     mask, why = dive.open_loop()
     rep.add_paragraph(f"Open-loop data for identification: {why}.")

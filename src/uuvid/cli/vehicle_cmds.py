@@ -51,7 +51,7 @@ def _fly(spec, base, out, json_out, label):
 
             write_mission_outputs(result, vehicle, out)
         task.advance()
-    summary = result.summary
+    summary = result.metrics
     if json_out:
         keys = (
             "completed",

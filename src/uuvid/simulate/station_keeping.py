@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from uuvid.report.result import Result, jsonable
 from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
@@ -231,7 +232,7 @@ class StationKeepingRun:
 
 
 @dataclass(frozen=True)
-class StationKeepingComparison:
+class StationKeepingComparison(Result):
     """PID DP against LQI on the same vehicle, disturbance and peak thrust."""
 
     vehicle: str
@@ -247,11 +248,13 @@ class StationKeepingComparison:
     def lqr_better(self) -> bool:
         return self.lqr.rms_error < self.pid.rms_error
 
+    report_title = "Station keeping: PID DP vs LQI"
+
     def to_dict(self) -> dict:
-        return {"vehicle": self.vehicle, "offset": self.offset.tolist(),
-                "current_ned_m_s": self.current.tolist(), "r_scale": self.r_scale,
-                "pid": self.pid.to_dict(), "lqr": self.lqr.to_dict(),
-                "lqr_smaller_rms_error": self.lqr_better}
+        return jsonable({"vehicle": self.vehicle, "offset": self.offset.tolist(),
+                         "current_ned_m_s": self.current.tolist(), "r_scale": self.r_scale,
+                         "pid": self.pid.to_dict(), "lqr": self.lqr.to_dict(),
+                         "lqr_smaller_rms_error": self.lqr_better})
 
     def summary(self) -> str:
         p, q = self.pid, self.lqr

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
+from uuvid.report.result import DictSummaryResult, jsonable
 from uuvid.simulate import kernels
 from uuvid.simulate.control import (
     PID_STATE_SIZE,
@@ -673,8 +674,11 @@ def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
 # Python API
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class MissionResult:
-    """Time series of a flown mission plus its summary."""
+class MissionResult(DictSummaryResult):
+    """Time series of a flown mission plus its ``metrics`` (tracking errors, thrust, timing…).
+
+    ``summary()`` is the text of the common result surface; ``summary["key"]`` still reads
+    ``metrics`` (the field was called ``summary`` before)."""
 
     t: np.ndarray
     state: np.ndarray  # (N, 13 + thruster states)
@@ -686,8 +690,27 @@ class MissionResult:
     ref_yaw: np.ndarray
     thruster_names: tuple[str, ...]
     thrust_limits: np.ndarray  # (n, 2)
-    summary: dict = field(default_factory=dict)
+    metrics: dict = field(default_factory=dict)
     supply: np.ndarray | None = None  # (N, 3 + n) [V, battery current, SOC, commands] on a battery
+
+    report_title = "Mission"
+    summary_field = "metrics"
+
+    def _summary_text(self) -> str:
+        from uuvid.report.mission import mission_text
+
+        return mission_text(self)
+
+    def to_dict(self) -> dict:
+        """The metrics and thruster names (the time series: :meth:`to_frame`)."""
+        return jsonable({"metrics": dict(self.metrics), "thruster_names": list(self.thruster_names),
+                         "n_samples": int(self.t.size)})
+
+    def plot(self):
+        """Top view, tracking error and thruster forces."""
+        from uuvid.report.mission import mission_overview
+
+        return mission_overview(self)
 
     @property
     def position(self) -> np.ndarray:
