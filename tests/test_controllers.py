@@ -216,7 +216,7 @@ def test_thrust_output_controller_reproduces_the_built_in_run(bluerov2):
     base = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale"))
     r = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale", controller=ctrl))
     assert r.metrics["controller_output"] == "thrust"
-    assert base.summary["controller_output"] == "wrench"
+    assert base.metrics["controller_output"] == "wrench"
     assert np.max(np.abs(r.state - base.state)) <= 1e-9
     assert np.max(np.abs(r.thrust_cmd - base.thrust_cmd)) <= 1e-9
     # τ_cmd of a thrust output: B (η ∘ f) of the thrusts sent on; here (T a right inverse of B on
