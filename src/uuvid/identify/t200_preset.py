@@ -40,6 +40,16 @@ SPEED_WEIGHT = 0.3
 CHECK_COMMANDS_US = (1550.0, 1580.0, 1600.0, 1650.0, 1700.0, 1800.0, 1900.0)
 NAMES = ("curvature_fwd", "curvature_rev", "K_T_fwd", "K_T_rev", "full_speed_16V", "speed_exponent")
 UNITS = ("1", "1", "N·s²/rad²", "N·s²/rad²", "rad/s", "1")
+#: A few rows read off Blue Robotics' T200 sheets (Sept. 2019; ``Force (Kg f)`` to 4 decimals), per
+#: supply voltage: (PWM µs, thrust kgf).  For checks and the demo without the sheet files.
+SHEET_POINTS_KGF = {
+    12.0: ((1100, -2.9037), (1200, -1.9459), (1300, -1.0206), (1400, -0.3175), (1420, -0.2041),
+           (1448, -0.0726), (1552, 0.0953), (1580, 0.2540), (1600, 0.3946), (1700, 1.2791),
+           (1800, 2.4630), (1900, 3.7142)),
+    16.0: ((1100, -4.0695), (1200, -2.7079), (1300, -1.4379), (1400, -0.4808), (1420, -0.3221),
+           (1448, -0.1270), (1552, 0.1542), (1580, 0.3992), (1600, 0.6033), (1700, 1.8234),
+           (1800, 3.4201), (1900, 5.2450)),
+}
 
 
 def _steady(p: np.ndarray, command: np.ndarray, volts: float) -> tuple[np.ndarray, np.ndarray]:
@@ -109,3 +119,23 @@ def sheet_errors(thrust: Callable[[np.ndarray], np.ndarray], sheet: BenchData) -
     return {"source": sheet.source, "max_abs_error_N": float(np.max(np.abs(err))),
             "max_abs_error_pct": 100.0 * float(np.max(np.abs(err))) / fmax,
             "rmse_N": float(np.sqrt(np.mean(err**2))), "max_thrust_N": fmax, "points": points}
+
+
+def preset_vs_sheet_points(steady=None) -> list[dict]:
+    """The ``t200`` preset's steady thrust at :data:`SHEET_POINTS_KGF` (rows for a table): sheet,
+    preset and error in N, error in % of that sheet's max |thrust|."""
+    from uuvid import units as U
+    from uuvid.thruster.presets import T200_STEADY, t200_chain
+
+    rows = []
+    for volts, pts in SHEET_POINTS_KGF.items():
+        chain = t200_chain(volts, steady or T200_STEADY)
+        c = np.array([p[0] for p in pts], float)
+        f = np.array([U.kgf(p[1]) for p in pts])
+        m = chain.steady_thrust(c)
+        fmax = float(np.max(np.abs(f)))
+        rows += [{"supply_V": volts, "pwm_us": float(ci), "sheet_N": round(float(fi), 3),
+                  "preset_N": round(float(mi), 3), "error_N": round(float(mi - fi), 3),
+                  "error_pct_of_max": round(100.0 * float(mi - fi) / fmax, 2)}
+                 for ci, fi, mi in zip(c, f, m)]
+    return rows
