@@ -119,3 +119,14 @@ def test_preset_follows_every_row_of_the_sheet(shared_data, volts):
     for p in e["points"]:
         assert abs(p["error_N"]) <= T200_SHEET_TOLERANCE * e["max_thrust_N"]
 
+
+
+def test_demo_section_shows_the_sheet_table(tmp_path):
+    from uuvid.demo import _t200_sheet_section
+    from uuvid.report.html import Report
+
+    rep = Report("t200")
+    d = _t200_sheet_section(rep)
+    assert len(d["rows"]) == 24 and d["max_abs_error_pct_of_max"] <= 100 * T200_SHEET_TOLERANCE
+    rep.write(tmp_path)
+    assert "sheets" in (tmp_path / "index.html").read_text()
