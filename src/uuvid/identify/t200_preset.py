@@ -14,7 +14,8 @@ At rest, per direction (forward: command above neutral)::
 ``β``, ``K_T`` per direction; these six are fitted jointly to the 12 V and 16 V sheets by
 weighted least squares (:func:`uuvid.identify.fit.nonlinear_lsq`): thrust residuals over each
 sheet's largest |thrust| (weight 1) and speed residuals over its largest speed (weight
-``SPEED_WEIGHT``: speed only separates ``K_T`` from ``Ω``); censored rows (< 300 rpm zeroed by the
+``SPEED_WEIGHT``: speed only separates ``K_T`` from ``Ω``; the full-command rows, means of 5
+repeats, weigh √5); censored rows (< 300 rpm zeroed by the
 logger) only penalise a predicted speed above the detection limit.  Two supply voltages fix the
 exponent ``γ`` exactly; between and outside them the power law is an interpolation (a motor
 against a quadratic load turns at ``Ω ∝ √V`` when resistance dominates, ``∝ V`` when back-EMF
@@ -36,6 +37,9 @@ from uuvid.identify.fit import Fit, nonlinear_lsq
 from uuvid.io.bench import BenchData
 
 SPEED_WEIGHT = 0.3
+#: The sheets' full-command rows are the mean of 5 repeats (READ ME sheet): weight √5.
+FULL_COMMAND_US = (1100.0, 1900.0)
+FULL_COMMAND_WEIGHT = 5.0**0.5
 #: Commands at which :func:`sheet_errors` reports the error (forward; reverse mirrored about 1500).
 CHECK_COMMANDS_US = (1550.0, 1580.0, 1600.0, 1650.0, 1700.0, 1800.0, 1900.0)
 NAMES = ("curvature_fwd", "curvature_rev", "K_T_fwd", "K_T_rev", "full_speed_16V", "speed_exponent")
@@ -80,7 +84,8 @@ def fit_t200_preset(sheets: Sequence[BenchData], x0=None) -> Fit:
         out = []
         for c, f, w, cen, volts, fmax, wmax, wcen in data:
             om, t = _steady(p, c, volts)
-            out.append(np.where(cen, 0.0, (t - f) / fmax))
+            wt = np.where(np.isin(c, FULL_COMMAND_US), FULL_COMMAND_WEIGHT, 1.0)
+            out.append(np.where(cen, 0.0, wt * (t - f) / fmax))
             over = np.maximum(np.abs(om) - wcen, 0.0)
             out.append(SPEED_WEIGHT * np.where(cen, over, om - w) / wmax)
         return np.concatenate(out)

@@ -190,10 +190,10 @@ class T200Steady:
 #: Fitted by :func:`uuvid.identify.t200_preset.fit_t200_preset` to the 12 V and 16 V sheets
 #: (weighted least squares on thrust and speed; refit: ``refit_t200_preset()`` in that module,
 #: tests/test_t200_preset.py checks these equal a refit within its σ).  The steady thrust is then
-#: within T200_SHEET_TOLERANCE of the sheet's max |thrust| at every row of both sheets (1.8 %).
+#: within T200_SHEET_TOLERANCE of the sheet's max |thrust| at every row of both sheets (≤ 1.9 %).
 T200_STEADY = T200Steady(
-    curvature_fwd=-0.3417, curvature_rev=-0.3657, kt_fwd=3.669e-4, kt_rev=2.857e-4,
-    full_speed=375.95, speed_exponent=0.6018)
+    curvature_fwd=-0.3456, curvature_rev=-0.3694, kt_fwd=3.668e-4, kt_rev=2.856e-4,
+    full_speed=375.57, speed_exponent=0.6010)
 T200_SHEET_TOLERANCE = 0.02
 
 
