@@ -10,6 +10,7 @@ from uuvid.identify.t200_preset import (
     fit_t200_preset,
     preset_vs_sheet_points,
     read_sheets,
+    refit_t200_preset,
     sheet_errors,
 )
 from uuvid.io.bench import BenchData
@@ -100,11 +101,11 @@ def test_fit_needs_two_supply_voltages():
 def test_shipped_constants_equal_a_refit_of_the_sheets(shared_data):
     """The constants in uuvid.thruster.presets are fit_t200_preset on the two sheets, within one σ
     of that refit (they are its values rounded to 4 digits)."""
-    fit = fit_t200_preset(read_sheets(shared_data / T200))
+    steady, fit = refit_t200_preset(shared_data / T200)
     assert not fit.at_bound
     for name, field in zip(NAMES, FIELDS):
-        p = fit[name]
-        assert abs(getattr(T200_STEADY, field) - p.value) <= p.stderr, (name, p)
+        assert getattr(steady, field) == fit[name].value
+        assert abs(getattr(T200_STEADY, field) - fit[name].value) <= fit[name].stderr, name
 
 
 @pytest.mark.realdata

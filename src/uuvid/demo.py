@@ -284,11 +284,13 @@ def _steady_map_section(rep: Report) -> dict:
 def _t200_sheet_section(rep: Report) -> dict:
     """The BlueROV2's ``t200`` preset against rows of Blue Robotics' 12 V and 16 V sheets."""
     from uuvid.identify.t200_preset import preset_vs_sheet_points
+    from uuvid.thruster.presets import T200_TIME_CONSTANT
 
     rows = preset_vs_sheet_points()
     rep.add_heading("The T200 preset against Blue Robotics' sheets")
-    rep.add_paragraph("ESC with a curved duty per direction → first-order motor (τ = 0.1 s, "
-                      "assumed) → K_T Ω|Ω|, fitted to both sheets (uuvid.identify.t200_preset); "
+    rep.add_paragraph(f"ESC with a curved duty per direction → first-order motor (τ = "
+                      f"{T200_TIME_CONSTANT:g} s, assumed) → K_T Ω|Ω|, fitted to both sheets "
+                      "(uuvid.identify.t200_preset); "
                       "the chain every fixed-supply BlueROV2 mission flies.")
     rep.add_table(rows)
     return {"rows": rows, "max_abs_error_pct_of_max": max(abs(r["error_pct_of_max"]) for r in rows)}

@@ -15,15 +15,17 @@ At rest, per direction (forward: command above neutral)::
 weighted least squares (:func:`uuvid.identify.fit.nonlinear_lsq`): thrust residuals over each
 sheet's largest |thrust| (weight 1) and speed residuals over its largest speed (weight
 ``SPEED_WEIGHT``: speed only separates ``K_T`` from ``Ω``; the full-command rows, means of 5
-repeats, weigh √5); censored rows (< 300 rpm zeroed by the
-logger) only penalise a predicted speed above the detection limit.  Two supply voltages fix the
-exponent ``γ`` exactly; between and outside them the power law is an interpolation (a motor
+repeats, weigh √5); censored rows (< 300 rpm zeroed by the logger) only penalise a predicted
+speed above the detection limit.  The two supply voltages determine ``γ``; between them the power
+law interpolates, outside it extrapolates (a motor
 against a quadratic load turns at ``Ω ∝ √V`` when resistance dominates, ``∝ V`` when back-EMF
 does, so 0.5 ≤ γ ≤ 1 is the physical range).  The dead band is none (``e`` = 1500 µs): fitted
 freely, both edges go to the neutral (their bound) — the sheets' zero rows around 1500 µs are the
 logger's 300-rpm cut, which the curved duty already respects.
 
-:func:`sheet_errors` tabulates a steady map against a sheet (the acceptance numbers).
+:func:`sheet_errors` tabulates a steady map against a sheet (the acceptance numbers);
+:func:`refit_t200_preset` (or ``python -m uuvid.identify.t200_preset [SHEETS_DIR]``) refits the
+shipped constants :data:`uuvid.thruster.presets.T200_STEADY` from the sheet CSVs.
 """
 
 from __future__ import annotations
@@ -100,6 +102,20 @@ def fit_t200_preset(sheets: Sequence[BenchData], x0=None) -> Fit:
                          extra={"sheets": [s.source for s in sheets], "speed_weight": SPEED_WEIGHT})
 
 
+def refit_t200_preset(sheets_dir: str | Path | None = None):
+    """``(T200Steady, Fit)`` refitted from ``T200_12V.csv`` / ``T200_16V.csv`` in ``sheets_dir``
+    (default: ``shared/data/t200-bluerobotics-2019`` beside the checkout)."""
+    from uuvid.thruster.presets import T200Steady
+    from uuvid.uncertainty.identified import default_t200_dir
+
+    d = sheets_dir or default_t200_dir()
+    if d is None:
+        raise FileNotFoundError("the T200 sheets (t200-bluerobotics-2019/T200_12V.csv, "
+                                "T200_16V.csv) were not found; pass their folder")
+    fit = fit_t200_preset(read_sheets(d))
+    return T200Steady(*(fit[n].value for n in NAMES)), fit
+
+
 def read_sheets(sheets_dir: str | Path) -> list[BenchData]:
     """The 12 V and 16 V T200 sheets from ``sheets_dir`` (``T200_12V.csv``, ``T200_16V.csv``)."""
     from uuvid.io.bench import read_t200
@@ -144,3 +160,11 @@ def preset_vs_sheet_points(steady=None) -> list[dict]:
                   "error_pct_of_max": round(100.0 * float(mi - fi) / fmax, 2)}
                  for ci, fi, mi in zip(c, f, m)]
     return rows
+
+
+if __name__ == "__main__":  # pragma: no cover - a maintenance script
+    import sys
+
+    steady, fit = refit_t200_preset(sys.argv[1] if len(sys.argv) > 1 else None)
+    print(fit.report())
+    print(steady)

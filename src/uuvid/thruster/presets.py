@@ -188,7 +188,7 @@ class T200Steady:
 
 
 #: Fitted by :func:`uuvid.identify.t200_preset.fit_t200_preset` to the 12 V and 16 V sheets
-#: (weighted least squares on thrust and speed; refit: ``refit_t200_preset()`` in that module,
+#: (weighted least squares on thrust and speed; refit: ``python -m uuvid.identify.t200_preset``;
 #: tests/test_t200_preset.py checks these equal a refit within its σ).  The steady thrust is then
 #: within T200_SHEET_TOLERANCE of the sheet's max |thrust| at every row of both sheets (≤ 1.9 %).
 T200_STEADY = T200Steady(
