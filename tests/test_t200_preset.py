@@ -131,3 +131,23 @@ def test_demo_section_shows_the_sheet_table(tmp_path):
     assert len(d["rows"]) == 24 and d["max_abs_error_pct_of_max"] <= 100 * T200_SHEET_TOLERANCE
     rep.write(tmp_path)
     assert "sheets" in (tmp_path / "index.html").read_text()
+
+
+def test_cli_predict_builds_the_preset_at_the_supply_voltage():
+    """``uuvid thruster predict t200 --supply-voltage 12`` is the 12 V preset (speed ∝ V^γ), not
+    the 16 V ESC rescaled (which would give (12/16)² of the 16 V thrust)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+    from uuvid.thruster.presets import preset_chain
+
+    res = CliRunner().invoke(app, ["thruster", "predict", "t200", "--pwm", "1100,1600,1900",
+                                   "--supply-voltage", "12", "--json"])
+    assert res.exit_code == 0, res.output
+    got = json.loads(res.stdout)["thrust_N"]
+    np.testing.assert_allclose(got, t200_chain(12.0).steady_thrust([1100.0, 1600.0, 1900.0]))
+    assert abs(got[2] - U.kgf(3.7142)) <= T200_SHEET_TOLERANCE * U.kgf(3.7142)
+    with pytest.raises(ValueError, match="no ESC"):
+        preset_chain("auv2-tunnel", 12.0)

@@ -244,9 +244,16 @@ PRESETS = {
 }
 
 
-def preset_chain(name: str) -> ThrusterChain:
-    """A named preset chain (``auv2-tunnel``, ``laidani-a2212``)."""
+def preset_chain(name: str, supply_voltage: float | None = None) -> ThrusterChain:
+    """A named preset chain (``auv2-tunnel``, ``laidani-a2212``, ``t200``…), at ``supply_voltage``
+    when given (the preset's own voltage law, e.g. the T200's speed ∝ V^γ; presets without an
+    ESC take no supply voltage)."""
     try:
-        return PRESETS[name]()
+        make = PRESETS[name]
     except KeyError:
         raise KeyError(f"unknown thruster preset {name!r}; known: {sorted(PRESETS)}") from None
+    if supply_voltage is None:
+        return make()
+    if name not in ("laidani-a2212", "t200"):
+        raise ValueError(f"thruster preset {name!r} has no ESC: a supply voltage does not apply")
+    return make(supply_voltage=float(supply_voltage))
