@@ -19,7 +19,7 @@ from uuvid.simulate.reference import square_mission
 from uuvid.simulate.vehicle_sim import fly_mission, run_batch, setup_mission
 from uuvid.vehicle.definition import load_vehicle
 
-REF = Path(__file__).parent / "data" / "square_mission_bluerov2_fe25ca0.npz"
+REF = Path(__file__).parent / "data" / "square_mission_bluerov2.npz"
 
 
 def body_pd(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
@@ -83,8 +83,8 @@ def base_gains(vehicle):
 def test_pid_as_a_controller_block_equals_the_built_in_loop(bluerov2):
     """The PID DP passed as a Controller (with a zero-amplitude disturbance block, which shares
     its compiled loop with test_disturbance_force) flies the loop compiled around it; states,
-    thrusts and controller output equal the built-in loop's, and the run recorded before issue 12
-    (commit fe25ca0), to 1e-12 — with a current too."""
+    thrusts and controller output equal the built-in loop's, and the recorded run
+    (tests/data/make_square_mission_reference.py), to 1e-12 — with a current too."""
     _pid_block_equals_built_in(bluerov2, disturbance=sinusoidal(period=3.0))
 
 

@@ -295,6 +295,21 @@ def _steady_map_section(rep: Report) -> dict:
     return {"rows": rows}
 
 
+def _t200_sheet_section(rep: Report) -> dict:
+    """The BlueROV2's ``t200`` preset against rows of Blue Robotics' 12 V and 16 V sheets."""
+    from uuvid.identify.t200_preset import preset_vs_sheet_points
+    from uuvid.thruster.presets import T200_TIME_CONSTANT
+
+    rows = preset_vs_sheet_points()
+    rep.add_heading("The T200 preset against Blue Robotics' sheets")
+    rep.add_paragraph(f"ESC with a curved duty per direction → first-order motor (τ = "
+                      f"{T200_TIME_CONSTANT:g} s, assumed) → K_T Ω|Ω|, fitted to both sheets "
+                      "(uuvid.identify.t200_preset); "
+                      "the chain every fixed-supply BlueROV2 mission flies.")
+    rep.add_table(rows)
+    return {"rows": rows, "max_abs_error_pct_of_max": max(abs(r["error_pct_of_max"]) for r in rows)}
+
+
 def _log_identify_section(out: Path, rep: Report) -> dict:
     """Caccia's identification from Python on logs with real logs' traps: a QGroundControl-style
     CSV (ISO time stamps, duplicated rows) and a sine experiment whose 10 Hz heading drifts off
@@ -405,6 +420,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         task.stage("UUV Simulator thruster dynamics")
         gallery = _dynamics_gallery(out, rep)
         steady_maps = _steady_map_section(rep)
+        t200_sheets = _t200_sheet_section(rep)
         task.advance()
         task.stage("vehicle mission and speed envelopes")
         vehicle = _vehicle_section(out, rep)
@@ -444,6 +460,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "laidani": la,
             "uuv_dynamics": gallery,
             "steady_maps": steady_maps,
+            "t200_sheets": t200_sheets,
             "vehicle": vehicle,
             "controller_blocks": blocks,
             "study": study,

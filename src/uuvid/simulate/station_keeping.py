@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from uuvid.report.result import Result, jsonable
-from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors
+from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors, quat_yaw
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.linearize import LinearModel, OperatingPoint, linearize
@@ -140,8 +140,7 @@ def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt,
     xi = np.zeros(16)
     zero3 = np.zeros(3)
     ref_pos = x_ref[0:3]
-    n_, e1, e2, e3 = x_ref[3], x_ref[4], x_ref[5], x_ref[6]
-    ref_yaw = math.atan2(2 * (n_ * e3 + e1 * e2), 1 - 2 * (e2 * e2 + e3 * e3))
+    ref_yaw = quat_yaw(x_ref[3:7])
     for k in range(nsteps):
         if kind == 0:
             dp_errors(z[0:3], z[3:7], z[7:13], ref_pos, zero3, ref_yaw, 0.0, e, edot)
