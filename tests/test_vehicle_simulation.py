@@ -89,15 +89,26 @@ def test_compiled_rk4_agrees_with_solve_ivp_over_60s(bluerov2, chain):
 
 
 def test_square_mission_bluerov2_completes_within_half_a_metre(bluerov2):
-    res = fly_mission(setup_mission(bluerov2, square_mission()))
+    """At the cruising speed chosen for it (below its level-flight limit) the BlueROV2 flies the
+    square level and on the path; at the nominal 0.5 m/s it follows the path but pitches past
+    the 20° level limit, so the mission is not completed and the summary says why."""
+    from uuvid.simulate.reference import cruise_speed
+
+    speed, note = cruise_speed(bluerov2)
+    assert speed < 0.5 and "level-flight limit" in note
+    res = fly_mission(setup_mission(bluerov2, square_mission(speed=speed)))
     s = res.metrics
-    assert s["completed"]
+    assert s["completed"] and s["max_tilt_deg"] <= 20.0 and not s["warnings"]
     assert s["max_tracking_error_m"] < 0.5
     assert not s["thrust_over_limit"]
     assert s["max_thrust_N"] <= s["thrust_limit_N"]
     # Laidani et al.: cruising at 0.5 m/s takes about 2 N per horizontal thruster
     cruise = (res.t > 50) & (res.t < 60)
     assert 0.5 < np.median(np.abs(res.thrust[cruise, :4])) < 5.0
+    fast = fly_mission(setup_mission(bluerov2, square_mission(speed=0.5))).metrics
+    assert fast["max_tracking_error_m"] < 1.0 and fast["final_position_error_m"] < 0.25
+    assert fast["max_pitch_deg"] > 20.0 and not fast["completed"]
+    assert any("level-flight limit" in w for w in fast["warnings"])
 
 
 def test_batch_equals_single_runs(bluerov2):

@@ -59,7 +59,7 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     """Station keeping: capability plots (BlueROV2, Heavy), an endurance curve, the square
     mission in a 0.3 m/s current."""
     from uuvid.simulate.currents import ned
-    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.reference import cruise_speed, square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
     from uuvid.vehicle import hold
     from uuvid.vehicle.definition import load_vehicle
@@ -119,11 +119,13 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     res["battery_mission"] = {k: rb.metrics[k] for k in ("supply_voltage_V", "soc",
                                                          "max_battery_current_A",
                                                          "max_tracking_error_m")}
-    r = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(),
-                                  current=ned(0.3, 0.0)))
+    rov = load_vehicle("bluerov2")
+    speed, why = cruise_speed(rov, current_speed=0.3)
+    r = fly_mission(setup_mission(rov, square_mission(speed=speed), current=ned(0.3, 0.0)))
     sq = {k: r.metrics[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
-    rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current from the north: "
+    sq["speed_m_s"] = speed
+    rep.add_paragraph(f"BlueROV2 square mission in a 0.3 m/s current ({why}): "
                       + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
                                   for k, v in sq.items()))
     res["square_in_0.3_current"] = sq
@@ -135,20 +137,22 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     """BlueROV2 flying Laidani et al.'s square; envelopes of the BlueROV2 and the Heavy."""
     from uuvid.report.mission import write_mission_outputs
     from uuvid.simulate.envelope_check import confirm_envelope
-    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.reference import cruise_speed, square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
     from uuvid.vehicle.definition import load_vehicle
 
     v = load_vehicle("bluerov2")
-    res = fly_mission(setup_mission(v, square_mission()))
+    speed, why = cruise_speed(v)
+    res = fly_mission(setup_mission(v, square_mission(speed=speed)))
     write_mission_outputs(res, v, out / "mission")
     rep.add_heading("Vehicle simulation: BlueROV2 flying Laidani et al.'s square (dive 2 m, 10 × 10 m)")
     rep.add_links("Full page:", ["mission/index.html"])
     rep.add_paragraph(
-        "6 × T200 (ESC → first-order motor → quadratic map), "
-        "allocation with uniform saturation scaling, PID dynamic positioning, 6-DOF model "
-        "with added mass in the mass matrix."
+        "6 × T200 (ESC → first-order motor → quadratic map, fitted to Blue Robotics' sheets), "
+        "bounded allocation (priority: depth and attitude before surge/sway), PID dynamic "
+        f"positioning, 6-DOF model with added mass in the mass matrix. Cruising {why}."
     )
+    rep.add_figure(out / "mission" / "attitude.png")
     rep.add_figure(out / "mission" / "path_3d.png")
     rep.add_figure(out / "mission" / "thrusters.png")
     rep.add_table([{k: v_ for k, v_ in res.metrics.items() if not isinstance(v_, list)}])
@@ -223,7 +227,7 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
     without ``quick`` also by the hover LQI, a per-thruster-thrust controller chosen in a scenario
     (``controller: {kind: lqr}``; its loop compiles in ≈ 10 s)."""
     from uuvid.simulate.disturbances import sinusoidal
-    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.reference import cruise_speed, square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
     from uuvid.vehicle.definition import load_vehicle
 
@@ -231,7 +235,8 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
     wave = sinusoidal(amplitude=(10.0, 0, 8.0, 0, 0, 0), period=5.0, constant=(5.0, 0, 0, 0, 0, 0))
     rows = []
     for name, dist in (("none", None), ("5 N surge + 10 N / 8 N surge/heave at 5 s", wave)):
-        r = fly_mission(setup_mission(v, square_mission(), disturbance=dist))
+        r = fly_mission(setup_mission(v, square_mission(speed=cruise_speed(v)[0]),
+                                      disturbance=dist))
         rows.append({"controller": r.metrics["controller"], "disturbance": name,
                      **{k: r.metrics[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
                                                   "max_thrust_N", "completed")}})

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 
 vehicle_app = typer.Typer(
     no_args_is_help=True,
@@ -71,11 +72,16 @@ def _fly(spec, base, out, json_out, label):
     out_console.print(
         _table(
             f"{summary['vehicle']}: {summary['mission']}",
-            [{"quantity": k, "value": v} for k, v in summary.items()],
+            [{"quantity": k, "value": v} for k, v in summary.items()
+             if k not in ("warnings", "mission_note")],
             ["quantity", "value"],
             "{:.4g}",
         )
     )
+    if summary.get("mission_note"):
+        err_console.print(f"note: {escape(summary['mission_note'])}")
+    for w in summary.get("warnings", ()):
+        err_console.print(f"[yellow]warning:[/] {escape(w)}")
     if out:
         err_console.print(f"report: {out / 'index.html'}")
 
@@ -84,7 +90,9 @@ def simulate(
     target: str = typer.Argument(..., help="A scenario file (YAML/TOML), or the word `mission`."),
     kind: str | None = typer.Argument(None, help="With `mission`: the built-in mission (square)."),
     vehicle: str = typer.Option("bluerov2", "--vehicle", help="mission: vehicle preset or file."),
-    speed: float = typer.Option(0.5, "--speed", help="mission: cruising speed [m/s]."),
+    speed: float | None = typer.Option(
+        None, "--speed", help="mission: cruising speed [m/s]; default 0.5, or 80 % of the vehicle's "
+        "level-flight limit when that is lower (the summary says which)."),
     depth: float = typer.Option(2.0, "--depth", help="mission: depth [m]."),
     side: float = typer.Option(10.0, "--side", help="mission: side of the square [m]."),
     current: str = typer.Option("0,0,0", "--current", help="mission: current north,east,down [m/s]."),
@@ -101,7 +109,8 @@ def simulate(
 ):
     """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
 
-    Laidani et al.'s mission (square): dive 2 m, fly a 10 × 10 m square at 0.5 m/s, surface.
+    Laidani et al.'s mission (square): dive 2 m, fly a 10 × 10 m square at 0.5 m/s (slower for a
+    vehicle that cannot stay level at 0.5 m/s), surface.
     """
     from uuvid.io.modelfile import ModelFileError
     from uuvid.simulate.controller_files import ControllerFileError, parse_controller_arg
@@ -127,7 +136,8 @@ def simulate(
                     "thruster_model": thruster_model,
                     "current": cur,
                     "dt": dt,
-                    "mission": {"kind": "square", "speed": speed, "depth": depth, "side": side},
+                    "mission": {"kind": "square", "depth": depth, "side": side,
+                                **({"speed": speed} if speed is not None else {})},
                     **({"controller": ctrl} if ctrl else {}),
                 },
                 where="command line",

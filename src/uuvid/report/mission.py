@@ -31,7 +31,10 @@ def mission_text(result) -> str:
              + ("completed" if m.get("completed") else "NOT completed")
              + f" ({m.get('controller', '?')}, disturbance {m.get('disturbance', 'none')}, "
              f"current {m.get('current', '?')})"]
-    for k in ("max_tracking_error_m", "rms_tracking_error_m", "final_position_error_m",
+    if m.get("mission_note"):
+        lines.append(f"  {m['mission_note']}")
+    for k in ("speed_m_s", "max_tracking_error_m", "rms_tracking_error_m", "final_position_error_m",
+              "max_roll_deg", "max_pitch_deg", "max_heading_error_deg",
               "max_thrust_N", "thrust_limit_N", "saturated_fraction", "sim_time_s",
               "real_time_factor", "max_battery_current_A"):
         if k in m and m[k] is not None:
@@ -40,6 +43,8 @@ def mission_text(result) -> str:
         lines.append(f"  {'soc':<24} {m['soc'][0]:.3f} → {m['soc'][1]:.3f}")
     if m.get("thrust_over_limit"):
         lines.append("  warning: a delivered thrust exceeded its limit")
+    for w in m.get("warnings", ()):
+        lines.append(f"  warning: {w}")
     return "\n".join(lines)
 
 
@@ -110,6 +115,18 @@ def mission_figures(result, vehicle) -> dict:
     axes[3].legend(loc="upper right")
     axes[0].set_title("Positions and heading")
     figs["positions"] = fig
+    fig, ax = new_figure(1, 1, figsize=(8, 3))
+    ax.plot(t, np.degrees(eul[:, 0]), label="roll")
+    ax.plot(t, np.degrees(eul[:, 1]), label="pitch")
+    from uuvid.vehicle.stability import MAX_TILT_DEG
+
+    for sgn in (1, -1):
+        ax.axhline(sgn * MAX_TILT_DEG, color="r", ls=":", lw=1)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("angle [°]")
+    ax.set_title(f"Attitude (level limit ±{MAX_TILT_DEG:g}° dotted)")
+    ax.legend(loc="upper right")
+    figs["attitude"] = fig
     fig, axes = new_figure(4, 1, sharex=True, figsize=(8, 8))
     v = result.velocity
     for j, (k, nm, unit) in enumerate(((0, "u", "m/s"), (1, "v", "m/s"), (2, "w", "m/s"),

@@ -121,7 +121,7 @@ __all__ = [
     "fast_path_reason",
 ]
 
-KERNEL_VERSION = 3  # bump when the generated source changes meaning
+KERNEL_VERSION = 4  # bump when the generated source changes meaning
 DEFAULT_CHUNK = 32
 
 #: Columns of :func:`run_batch_fast`'s output.  The first five are those of
@@ -132,9 +132,10 @@ SUMMARY_COLUMNS = (
     "max_thrust_N",  # 2  max |delivered thrust| at the start of each step
     "final_position_error_m",  # 3  |p − p_ref| at the start of the last step
     "min_allocation_scale",  # 4  smallest uniform-scaling factor (1 = never saturated)
-    "completed",  # 5  1.0 if final error < 0.25 m and max error < 1 m (as fly_mission's summary)
+    "completed",  # 5  1.0 if tracked and level (vehicle_sim.mission_completed, as fly_mission's)
     "saturated_fraction",  # 6  fraction of steps with allocation scale < 1 (NaN on the fallback)
     "finite",  # 7  1.0 if the final state is finite (the run did not diverge)
+    "max_tilt_deg",  # 8  largest tilt of the body z axis from the vertical (state at step starts)
 )
 N_SUMMARY = len(SUMMARY_COLUMNS)
 
@@ -729,7 +730,7 @@ def _rows(st: _Structure) -> dict:
              + [f"tg{i}" for i in range(n)]  # first-order target (static chain: thrust) of the step
              + [f"{nm}{i}" for i in range(n) for nm in ("cxl", "cxh", "cyl", "cyh")]  # table interval
              + [f"fd{i}" for i in range(n)] + ["miss"]  # allocated thrust, lane needs a search
-             + ["emax", "esum", "fmax", "smin", "nsat", "dfin"])  # running summaries
+             + ["emax", "esum", "fmax", "smin", "nsat", "dfin", "cmin"])  # running summaries
     return {name: k for k, name in enumerate(names)}
 
 
@@ -804,6 +805,7 @@ def _generate(st: _Structure, pv_names: list, sh_names: list) -> str:
     e(f"{Wr('emax')} = max({Wr('emax')}, dd)")
     e(f"{Wr('esum')} = {Wr('esum')} + dd * dd")
     e(f"{Wr('dfin')} = dd")
+    e(f"{Wr('cmin')} = min({Wr('cmin')}, 1.0 - 2.0 * (z4 * z4 + z5 * z5))")
     if st.user:
         for j in range(6):
             e(f"tq{j} = {Wr(f'uq{j}')}")
@@ -1132,7 +1134,8 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     ``currents`` (R, 3) NED (default: the setup's current; the current slots of
     ``vehicle_params`` are ignored, as in ``run_batch``).
 
-    Returns (R, 8) rows, columns :data:`SUMMARY_COLUMNS` (the first five are ``run_batch``'s).
+    Returns (R, 9) rows, columns :data:`SUMMARY_COLUMNS` (the first five are ``run_batch``'s; its
+    sixth, the tilt, is column 8).
     ``chunk``: lanes per chunk (multiple of 8); ``fastmath``: numba fast-math flags for the kernel
     (default none: IEEE, identical to ``fly()`` up to rounding; ``{"contract"}`` allows FMA).
     With ``trace_runs`` (run indices) it returns ``(summary, trace)``, ``trace`` being
@@ -1182,6 +1185,7 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
         for i in range(st.n):
             W[:, rows[f"x{i}"], :] = z0[13 + i]
     W[:, rows["smin"], :] = 1.0
+    W[:, rows["cmin"], :] = 1.0
     SH = np.array([prep.shared[k] for k in prep.shared_names] or [0.0])
     nsteps = prep.ref.shape[0]
     every = max(int(trace_every), 1)
@@ -1214,7 +1218,8 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     out[:, 2] = Wf[:, rows["fmax"]]
     out[:, 3] = Wf[:, rows["dfin"]]
     out[:, 4] = Wf[:, rows["smin"]]
-    out[:, 5] = ((out[:, 3] < 0.25) & (out[:, 0] < 1.0)).astype(float)
+    out[:, 8] = np.degrees(np.arccos(np.clip(Wf[:, rows["cmin"]], -1.0, 1.0)))
+    out[:, 5] = vehicle_sim.mission_completed(out[:, 0], out[:, 3], out[:, 8]).astype(float)
     out[:, 6] = Wf[:, rows["nsat"]] / nsteps
     out[:, 7] = np.all(np.isfinite(Wf[:, :13]), axis=1).astype(float)
     if vehicle_sim.allocation_method(s.alloc) != "scale":
@@ -1254,7 +1259,7 @@ def _fly_trace(s, vp, tp, vc, every: int, rows: int) -> np.ndarray:
 def _fallback(s, VP, TP, VC) -> np.ndarray:
     b = s.bank
     R = VP.shape[0]
-    o5 = np.empty((R, 5))
+    o5 = np.empty((R, len(vehicle_sim.RUN_COLUMNS)))
     if s.controller is not None or s.disturbance is not None:
         o5 = vehicle_sim.run_batch(s, VP, TP, VC)
     else:
@@ -1264,8 +1269,9 @@ def _fallback(s, VP, TP, VC) -> np.ndarray:
                               s.gains.to_array(), ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt,
                               s.substeps, o5)
     out = np.full((R, N_SUMMARY), np.nan)
-    out[:, :5] = o5
-    out[:, 5] = ((o5[:, 3] < 0.25) & (o5[:, 0] < 1.0)).astype(float)
+    out[:, :5] = o5[:, :5]
+    out[:, 8] = o5[:, 5]
+    out[:, 5] = vehicle_sim.mission_completed(o5[:, 0], o5[:, 3], o5[:, 5]).astype(float)
     out[:, 7] = np.all(np.isfinite(o5), axis=1).astype(float)
     return out
 

@@ -38,6 +38,7 @@ class WaypointMission:
     ramp_time: float = 2.0  # s, speed ramp at each leg's start and end
     hold: float = 10.0  # s, final station keeping
     name: str = "mission"
+    note: str = ""  # where a default came from (e.g. the cruising speed chosen for the vehicle)
 
     def __post_init__(self):
         if len(self.waypoints) < 2:
@@ -146,3 +147,57 @@ def square_mission(depth: float = 2.0, side: float = 10.0, speed: float = 0.5,
     wps.append((0.0, 0.0, 0.0, 0.0))
     return WaypointMission(tuple(wps), speed=speed, vertical_speed=vertical_speed, hold=hold,
                            name=f"square {side:g} m at {depth:g} m")
+
+
+#: Cruising speed of a mission that does not set one (m/s): Laidani et al.'s square.
+NOMINAL_SPEED = 0.5
+#: Fraction of the level-flight limit a default cruising speed keeps to.
+LEVEL_MARGIN = 0.8
+
+
+#: Slowest default cruising speed (m/s): below it the mission is not worth flying by default.
+MIN_SPEED = 0.1
+
+
+def cruise_speed(vehicle, facing_path: bool = True, current_speed: float = 0.0) -> tuple[float, str]:
+    """Default cruising speed for ``vehicle`` and why: :data:`NOMINAL_SPEED`, or lower when the
+    speed through the water (cruise + ``current_speed``, the worst leg) would pass
+    :data:`LEVEL_MARGIN` × the speed at which the vehicle can no longer stay level
+    (:func:`uuvid.vehicle.stability.static_stability`) in the directions the mission flies
+    (forward/backward when the vehicle faces its path, every horizontal one if not).
+    The BlueROV2 pitches past 20° above 0.48 m/s: its default is 0.38 m/s in still water."""
+    if vehicle is None:
+        return NOMINAL_SPEED, ""
+    dirs = ("forward", "backward") if facing_path else ("forward", "backward", "starboard", "port")
+    lim = level_speed_limit(vehicle, dirs)
+    cur = float(current_speed)
+    if lim is None or LEVEL_MARGIN * lim - cur >= NOMINAL_SPEED:
+        return NOMINAL_SPEED, f"speed {NOMINAL_SPEED:g} m/s (nominal; the vehicle stays level there)"
+    v = max(round(LEVEL_MARGIN * lim - cur, 2), MIN_SPEED)
+    in_cur = f" less the {cur:.2f} m/s current" if cur > 0 else ""
+    note = (f"speed {v:g} m/s: {LEVEL_MARGIN:.0%} of the {getattr(vehicle, 'name', 'vehicle')}'s "
+            f"level-flight limit {lim:.2f} m/s{in_cur} (the nominal {NOMINAL_SPEED:g} m/s would "
+            "tilt it past 20°; see `uuvid vehicle stability`); set a speed to override")
+    if LEVEL_MARGIN * lim - cur < MIN_SPEED:
+        note += " — the current alone nearly reaches the limit: expect it to tilt"
+    return v, note
+
+
+def current_speed_bound(current, horizon: float = 600.0) -> float:
+    """Largest speed (m/s) of a current (a 3-vector or a current model) over ``horizon`` s."""
+    if hasattr(current, "sample"):
+        t = np.linspace(0.0, horizon, 601)
+        v, _ = current.sample(t, float(t[1] - t[0]))
+        return float(np.max(np.linalg.norm(np.asarray(v), axis=1)))
+    return float(np.linalg.norm(np.asarray(current, dtype=float)))
+
+
+def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | None:
+    """Smallest speed (m/s) over ``directions`` at which ``vehicle`` can no longer stay level
+    (:func:`uuvid.vehicle.stability.static_stability`); None when it stays level throughout."""
+    from uuvid.vehicle.stability import static_stability
+
+    st = static_stability(vehicle)
+    lims = [c.limit_speed for c in st.cases
+            if c.direction in directions and c.limit_speed is not None and np.isfinite(c.limit_speed)]
+    return min(lims) if lims else None

@@ -7,7 +7,7 @@
       kind: square                    # square | waypoints
       depth: 2.0
       side: 10.0
-      speed: 0.5
+      speed: 0.5                      # omit: 0.5, or slower for a vehicle that tilts past 20°
       # waypoints: [[0, 0, 0, 0], [0, 0, 2, 0], ...]   (north, east, down [m], yaw [rad])
     thruster_model: null              # override every thruster's model (preset or file)
     current: [0.0, 0.0, 0.0]          # NED, m/s; or one of
@@ -30,13 +30,19 @@ Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
-from uuvid.simulate.reference import WaypointMission, square_mission
+from uuvid.simulate.reference import (
+    WaypointMission,
+    cruise_speed,
+    current_speed_bound,
+    square_mission,
+)
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -50,20 +56,27 @@ class MissionSpec(BaseModel):
     kind: Literal["square", "waypoints"] = "square"
     depth: float = Field(2.0, ge=0)
     side: float = Field(10.0, gt=0)
-    speed: float = Field(0.5, gt=0)
+    speed: float | None = Field(None, gt=0)  # None: :func:`cruise_speed` for the vehicle
     vertical_speed: float = Field(0.25, gt=0)
     yaw: Literal["path", "fixed"] = "path"
     hold: float = Field(10.0, ge=0)
     waypoints: list[tuple[float, float, float, float]] | None = None
 
-    def build(self) -> WaypointMission:
+    def build(self, vehicle=None, current_speed: float = 0.0) -> WaypointMission:
+        """The mission; without ``speed`` the cruising speed is :func:`cruise_speed` for
+        ``vehicle`` in a current of ``current_speed`` (the nominal 0.5 m/s without a vehicle),
+        and the mission's ``note`` says why."""
+        speed, note = (self.speed, "") if self.speed is not None else cruise_speed(
+            vehicle, self.kind == "square" and self.yaw == "path", current_speed)
         if self.kind == "square":
-            return square_mission(self.depth, self.side, self.speed, self.vertical_speed, self.yaw,
-                                  self.hold)
-        if not self.waypoints or len(self.waypoints) < 2:
-            raise ValueError("mission.waypoints: a waypoint mission needs at least two waypoints")
-        return WaypointMission(tuple(tuple(w) for w in self.waypoints), speed=self.speed,
-                               vertical_speed=self.vertical_speed, hold=self.hold, name="waypoints")
+            m = square_mission(self.depth, self.side, speed, self.vertical_speed, self.yaw,
+                               self.hold)
+        else:
+            if not self.waypoints or len(self.waypoints) < 2:
+                raise ValueError("mission.waypoints: a waypoint mission needs at least two waypoints")
+            m = WaypointMission(tuple(tuple(w) for w in self.waypoints), speed=speed,
+                                vertical_speed=self.vertical_speed, hold=self.hold, name="waypoints")
+        return replace(m, note=note) if note else m
 
 
 class LqrWeightsSpec(BaseModel):
@@ -206,10 +219,6 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         else:
             p = Path(ref) if Path(ref).is_absolute() or base is None else base / ref
             chain = load_chain(p)
-    try:
-        mission = spec.mission.build()
-    except ValueError as e:
-        raise ScenarioError(str(e)) from None
     c = spec.controller
     if c.kp is not None:
         g0 = default_gains(vehicle)
@@ -222,6 +231,10 @@ def build(spec: ScenarioSpec, base: Path | None = None):
             cur = cur.build(base)
         except (ValueError, OSError) as e:
             raise ScenarioError(f"current: {e}") from None
+    try:
+        mission = spec.mission.build(vehicle, current_speed_bound(cur))
+    except ValueError as e:
+        raise ScenarioError(str(e)) from None
     try:
         ctx = ControllerContext(spec.dt, gains, mission, dict(c.options))
         controller = make_controller(c.kind, vehicle, ctx, file=c.file, factory=c.factory,

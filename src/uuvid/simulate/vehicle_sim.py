@@ -34,12 +34,13 @@ from uuvid.simulate.control import (
     pid_controller,
 )
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
-from uuvid.simulate.reference import WaypointMission
+from uuvid.simulate.reference import WaypointMission, level_speed_limit
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.model import vehicle_rhs_into
+from uuvid.vehicle.stability import MAX_TILT_DEG
 
 N_CH = len(CHANNELS)
 
@@ -581,14 +582,17 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
 @njit(cache=True)
 def _summarise_run(Z, F, SC, ref_pos, out):
     """``out = [max tracking error, rms tracking error, max |thrust|, final position error,
-    min allocation scale]`` of one flight."""
+    min allocation scale, max tilt (deg)]`` of one flight (:data:`RUN_COLUMNS`); the tilt is the
+    angle of the body z axis from the vertical, ``acos(1 − 2(ε₁² + ε₂²))``."""
     nsteps = ref_pos.shape[0]
     n = F.shape[1]
     emax = 0.0
     esum = 0.0
     fmax = 0.0
     smin = 1.0
+    cmin = 1.0
     for k in range(nsteps):
+        cmin = min(cmin, 1.0 - 2.0 * (Z[k, 4] * Z[k, 4] + Z[k, 5] * Z[k, 5]))
         d = 0.0
         for j in range(3):
             d += (Z[k, j] - ref_pos[k, j]) ** 2
@@ -606,6 +610,7 @@ def _summarise_run(Z, F, SC, ref_pos, out):
     out[2] = fmax
     out[3] = math.sqrt(d)
     out[4] = smin
+    out[5] = math.degrees(math.acos(max(-1.0, min(1.0, cmin))))
 
 
 _LOOP = _fly_loop
@@ -954,6 +959,50 @@ def require_constant_current(setup: MissionSetup) -> None:
                          "fly_mission")
 
 
+#: Largest roll or pitch (deg) a mission may reach and still count as flown (``completed``): the
+#: level limit of steady flight and station keeping (:data:`uuvid.vehicle.stability.MAX_TILT_DEG`).
+MISSION_MAX_TILT_DEG = MAX_TILT_DEG
+
+
+def mission_completed(max_error, final_error, max_tilt_deg):
+    """A mission is flown when the vehicle followed the path (max tracking error < 1 m, final
+    < 0.25 m) and stayed level (tilt ≤ :data:`MISSION_MAX_TILT_DEG`); works on arrays too."""
+    return ((np.asarray(final_error) < 0.25) & (np.asarray(max_error) < 1.0)
+            & (np.asarray(max_tilt_deg) <= MISSION_MAX_TILT_DEG))
+
+
+def attitude_metrics(quats: np.ndarray, ref_yaw: np.ndarray) -> dict:
+    """Largest roll, pitch, tilt (angle of the body z axis from the vertical,
+    ``acos(1 − 2(ε₁² + ε₂²))``) and heading error (deg) over a flight (quaternions ``(N, 4)``)."""
+    q = np.asarray(quats, float)
+    n, e1, e2, e3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    roll = np.arctan2(2 * (n * e1 + e2 * e3), 1 - 2 * (e1**2 + e2**2))
+    pitch = np.arcsin(np.clip(2 * (n * e2 - e3 * e1), -1.0, 1.0))
+    yaw = np.arctan2(2 * (n * e3 + e1 * e2), 1 - 2 * (e2**2 + e3**2))
+    tilt = np.arccos(np.clip(1 - 2 * (e1**2 + e2**2), -1.0, 1.0))
+    herr = (np.asarray(ref_yaw, float) - yaw + np.pi) % (2 * np.pi) - np.pi
+    return {"max_roll_deg": float(np.degrees(np.max(np.abs(roll)))),
+            "max_pitch_deg": float(np.degrees(np.max(np.abs(pitch)))),
+            "max_tilt_deg": float(np.degrees(np.max(tilt))),
+            "max_heading_error_deg": float(np.degrees(np.max(np.abs(herr))))}
+
+
+def mission_tilt_warning(setup: MissionSetup, att: dict) -> str:
+    """Why a mission tilted past :data:`MISSION_MAX_TILT_DEG`, with the speed the vehicle can
+    fly level (:func:`uuvid.vehicle.stability.static_stability`) when that explains it."""
+    msg = (f"the vehicle tilted {att['max_tilt_deg']:.1f}° (roll {att['max_roll_deg']:.1f}°, "
+           f"pitch {att['max_pitch_deg']:.1f}°), beyond the {MISSION_MAX_TILT_DEG:g}° level limit")
+    try:
+        lim = level_speed_limit(setup.vehicle)
+    except Exception:  # noqa: BLE001 - the warning stands without the explanation
+        return msg
+    speed = getattr(setup.mission, "speed", None)
+    if lim is not None and speed is not None and speed > lim:
+        msg += (f"; the mission's {speed:g} m/s is above the {setup.vehicle.name}'s level-flight "
+                f"limit {lim:.2f} m/s (uuvid vehicle stability {setup.vehicle.name}) — fly slower")
+    return msg
+
+
 def fly_mission(setup: MissionSetup) -> MissionResult:
     """Fly the mission once; returns the time series and the summary."""
     s = setup
@@ -1004,10 +1053,18 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                         tuple(th.name for th in s.vehicle.layout), lim)
     err = res.tracking_error
     over = np.maximum(F - lim[:, 1] * (1 + 1e-9), lim[:, 0] * (1 + 1e-9) - F)
+    att = attitude_metrics(Z[:, 3:7], ref_yaw)
+    tracked = mission_completed(float(np.max(err)), float(err[-1]), 0.0)
+    level = att["max_tilt_deg"] <= MISSION_MAX_TILT_DEG
     summary = {
         "vehicle": s.vehicle.name,
         "mission": s.mission.name,
-        "completed": bool(err[-1] < 0.25 and np.max(err) < 1.0),
+        "speed_m_s": float(s.mission.speed),
+        **({"mission_note": s.mission.note} if getattr(s.mission, "note", "") else {}),
+        # tracked the path *and* stayed level: a vehicle that follows the waypoints pitched 40°
+        # (or upside down) has not flown the mission a pilot asked for
+        "completed": tracked and level,
+        **att,
         "max_tracking_error_m": float(np.max(err)),
         "rms_tracking_error_m": float(np.sqrt(np.mean(err**2))),
         "final_position_error_m": float(err[-1]),
@@ -1030,6 +1087,14 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
     }
+    warnings = []
+    if not tracked:
+        warnings.append(f"the vehicle did not follow the path (max tracking error "
+                        f"{float(np.max(err)):.2f} m, final {float(err[-1]):.2f} m; completed needs "
+                        "< 1 m and < 0.25 m at the end)")
+    if not level:
+        warnings.append(mission_tilt_warning(s, att))
+    summary["warnings"] = warnings
     if BAT.size:
         summary.update({"battery": s.battery.name, "supply_voltage_V": [float(VOUT[0, 0]),
                                                                           float(VOUT[-1, 0])],
@@ -1040,10 +1105,16 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                          VOUT if BAT.size else None)
 
 
+#: Columns of :func:`run_batch`'s rows (:func:`_summarise_run`).
+RUN_COLUMNS = ("max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
+               "final_position_error_m", "min_allocation_scale", "max_tilt_deg")
+
+
 def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: np.ndarray | None = None,
               currents: np.ndarray | None = None) -> np.ndarray:
-    """Fly ``len(vehicle_params)`` vehicles in parallel; returns ``(runs, 5)`` summary rows
-    ``[max err, rms err, max |thrust|, final err, min allocation scale]``.
+    """Fly ``len(vehicle_params)`` vehicles in parallel; returns ``(runs, 6)`` summary rows
+    ``[max err, rms err, max |thrust|, final err, min allocation scale, max tilt (deg)]``
+    (:data:`RUN_COLUMNS`).
 
     A setup with a user controller or a disturbance flies the loop compiled around them
     (:func:`compiled_loop`: one vehicle per thread, each from its own copy of the controller
@@ -1057,7 +1128,7 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
           else np.ascontiguousarray(np.broadcast_to(b.params, (nrun,) + b.params.shape)))
     VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
           else np.zeros((nrun, 3)) + s.current)
-    OUT = np.empty((nrun, 5))
+    OUT = np.empty((nrun, len(RUN_COLUMNS)))
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
     if s.controller is not None or s.disturbance is not None:
         _, batch, cpar, cstate0, dpar, use_d, okind = s.blocks()

@@ -514,7 +514,9 @@ class VehicleMissionPlan:
                                       VC_ok), dtype=float)
             for j, n in enumerate(self.metric_names):
                 metrics[n][ok] = out[:, j]
-            div = ok[~np.all(np.isfinite(out), axis=1)]
+            # only the metric columns: the fast runner's saturated_fraction is NaN (not a
+            # divergence) for runs it flew again through the scalar loop
+            div = ok[~np.all(np.isfinite(out[:, :len(self.metric_names)]), axis=1)]
             status[div] = DIVERGED
             msg[div] = "the simulation diverged (non-finite summary)"
         series = {}
