@@ -1,5 +1,7 @@
 """Linearisation: analytic Jacobians against finite differences of the independent NumPy model."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -81,11 +83,11 @@ def test_trim_is_an_equilibrium_of_the_nonlinear_model(rov):
 
 
 def test_bluerov2_forward_trim_needs_pitch_and_hover_does_not(rov):
-    # the BlueROV2's horizontal thrusters sit 2 cm below CO: surge thrust pitches, and the
+    # (pure body surge) the BlueROV2's horizontal thrusters sit 2 cm below CO: surge thrust pitches, and the
     # thrusters have no independent pitch authority — the restoring moment must balance it
     hover = OperatingPoint.hover(rov)
     assert np.allclose(hover.rpy, 0) and np.allclose(rov.B @ hover.thrust, [0, 0, 2.0, 0, 0, 0])
-    fwd = OperatingPoint.forward(rov, 0.6)
+    fwd = OperatingPoint.forward(rov, 0.6, level=False)  # body surge: no heave, no Munk moment
     X = rov.B[0] @ fwd.thrust
     W = rov.params.weight
     assert X > 0 and fwd.rpy[1] > 0
@@ -138,3 +140,22 @@ def test_params_without_thrusters_linearise_in_generalized_force(rov):
     np.testing.assert_array_equal(lin.B, lin.B_tau)
     assert lin.thrust0 is None and lin.input_names[0] == "tau_surge"
     np.testing.assert_allclose(lin.A, linearize(rov).A, atol=1e-12)
+
+
+def test_forward_trim_is_level_flight_and_agrees_with_static_stability():
+    """``OperatingPoint.forward`` trims the vehicle flying level (constant depth): its pitch is
+    the trim of :func:`static_stability` at the same speed, and the velocity over ground is
+    horizontal; ``level=False`` (pure body surge) is a different, climbing equilibrium."""
+    from uuvid.vehicle.kinematics import euler_to_rotmat
+    from uuvid.vehicle.stability import static_stability
+
+    rov = load_vehicle("bluerov2")
+    case = static_stability(rov)["forward"]
+    k = int(np.flatnonzero(np.isfinite(case.tilt_deg["pitch"]))[-3])  # a speed below the limit
+    speed = float(case.speeds[k])
+    op = OperatingPoint.forward(rov, speed)
+    assert math.degrees(op.rpy[1]) == pytest.approx(case.tilt_deg["pitch"][k], abs=1e-3)
+    v_ned = euler_to_rotmat(*op.rpy) @ np.asarray(op.nu[:3])
+    np.testing.assert_allclose(v_ned, [speed, 0.0, 0.0], atol=1e-12)
+    surge = OperatingPoint.forward(rov, speed, level=False)
+    assert surge.nu[2] == 0.0 and abs(surge.rpy[1] - op.rpy[1]) > 1e-3

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.report.result import Result
-from uuvid.vehicle.kinematics import euler_to_quat, quat_to_euler
+from uuvid.vehicle.kinematics import euler_to_quat, quat_to_euler, quat_to_rotmat
 from uuvid.vehicle.model import DOF_NAMES, VehicleParams, rotation_reference, vehicle_rhs
 from uuvid.vehicle.rigid_body import skew_ref
 
@@ -156,8 +156,16 @@ class OperatingPoint:
 
     @classmethod
     def forward(cls, vehicle, speed: float, *, depth: float = 0.0, heading: float = 0.0,
-                current=(0.0, 0.0, 0.0)) -> OperatingPoint:
-        """Steady surge ``u = speed`` (body axes), trimmed: ``trim(vehicle, speed, ...)``."""
+                current=(0.0, 0.0, 0.0), level: bool = True) -> OperatingPoint:
+        """Steady flight ahead at ``speed``, trimmed.  ``level`` (default): the vehicle moves
+        horizontally along its heading at constant depth (NED velocity ``speed·[cos ψ, sin ψ, 0]``,
+        so a pitched vehicle has a body heave ``w`` — and the Munk moment that comes with it; this
+        is the trim of :func:`uuvid.vehicle.stability.static_stability`); ``level=False``: body
+        surge ``ν = [speed, 0, 0, 0, 0, 0]``, which for a pitched vehicle is a slow climb/dive."""
+        if level:
+            v = (speed * math.cos(heading), speed * math.sin(heading), 0.0)
+            return trim(vehicle, ground_velocity=v, depth=depth, heading=heading, current=current,
+                        name=f"forward {speed:g} m/s (level)")
         return trim(vehicle, speed, depth=depth, heading=heading, current=current,
                     name=f"forward {speed:g} m/s")
 
@@ -187,10 +195,12 @@ def _tau_required(params: VehicleParams, x, current) -> np.ndarray:
     return -params.mass_matrix @ vehicle_rhs(x, np.zeros(6), p)[7:13]
 
 
-def trim(vehicle, speed: float = 0.0, *, velocity=None, depth: float = 0.0, heading: float = 0.0,
-         current=(0.0, 0.0, 0.0), free_attitude: bool = True, tol: float = 1e-9,
-         name: str | None = None) -> OperatingPoint:
-    """Equilibrium at body velocity ``ν`` (``[speed, 0, 0, 0, 0, 0]`` unless ``velocity``).
+def trim(vehicle, speed: float = 0.0, *, velocity=None, ground_velocity=None, depth: float = 0.0,
+         heading: float = 0.0, current=(0.0, 0.0, 0.0), free_attitude: bool = True,
+         tol: float = 1e-9, name: str | None = None) -> OperatingPoint:
+    """Equilibrium at body velocity ``ν`` (``[speed, 0, 0, 0, 0, 0]`` unless ``velocity``; with
+    ``ground_velocity`` (NED, m/s) the linear part follows the attitude, ``R(φ, θ, ψ)ᵀ v``, so the
+    vehicle keeps that velocity over ground whatever trim it settles at).
 
     Solves ``ν̇ = 0`` for the thrusts ``f`` (minimum norm, ``B_thr f = τ_req``) and — when the
     thrusters cannot produce the required force (e.g. a BlueROV2 has no pitch authority of its
@@ -211,8 +221,14 @@ def trim(vehicle, speed: float = 0.0, *, velocity=None, depth: float = 0.0, head
     Bp = np.linalg.pinv(Bm)
     proj = np.eye(6) - Bm @ Bp
 
+    vg = None if ground_velocity is None else np.asarray(ground_velocity, dtype=float)
+    if vg is not None and (vg.shape != (3,) or not np.all(np.isfinite(vg))):
+        raise ValueError(f"trim: ground_velocity must be 3 finite numbers (NED), got {vg}")
+
     def state(rp):
-        return np.concatenate([[0.0, 0.0, depth], euler_to_quat(rp[0], rp[1], heading), nu])
+        q = euler_to_quat(rp[0], rp[1], heading)
+        v = nu if vg is None else np.concatenate([quat_to_rotmat(q).T @ vg, np.zeros(3)])
+        return np.concatenate([[0.0, 0.0, depth], q, v])
 
     def resid(rp):
         return proj @ _tau_required(params, state(rp), current)
@@ -237,7 +253,8 @@ def trim(vehicle, speed: float = 0.0, *, velocity=None, depth: float = 0.0, head
     res = float(np.linalg.norm(r))
     if res > tol * scale:
         bad = [DOF_NAMES[i] for i in np.flatnonzero(np.abs(r) > tol * scale)]
-        raise TrimError(f"{vname}: no equilibrium at ν = {nu.tolist()} with current "
+        where = (f"ν = {nu.tolist()}" if vg is None else f"ground velocity {vg.tolist()} (NED)")
+        raise TrimError(f"{vname}: no equilibrium at {where} with current "
                         f"{current.tolist()}: the thrusters cannot produce the required "
                         f"{', '.join(bad)} force/moment (residual {res:.3g})"
                         + ("" if free_attitude else "; try free_attitude=True"))
@@ -251,7 +268,8 @@ def trim(vehicle, speed: float = 0.0, *, velocity=None, depth: float = 0.0, head
             warnings.warn(f"{vname}: trim thrust outside the limits for {', '.join(over)} "
                           f"(thrusts {np.round(f, 3).tolist()} N): not a reachable equilibrium",
                           stacklevel=2)
-    return OperatingPoint((0.0, 0.0, depth), (float(rp[0]), float(rp[1]), heading), tuple(nu),
+    return OperatingPoint((0.0, 0.0, depth), (float(rp[0]), float(rp[1]), heading),
+                          tuple(float(v) for v in x[7:13]),
                           tuple(current), tau, f, name or f"trim u = {speed:g} m/s",
                           trim_residual=res)
 
