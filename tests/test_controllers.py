@@ -319,3 +319,12 @@ def test_pid_as_a_user_controller_in_the_simd_kernel(bluerov2):
     np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-14)
     _, tr0 = run_batch_fast(base, VP, TP, VC, trace_runs=[0, 39])
     np.testing.assert_allclose(tr, tr0, rtol=0, atol=1e-12)
+
+
+def test_blocks_are_named_after_their_function_by_default():
+    """A mission summary says which controller flew: an unnamed block takes its function's name."""
+    from uuvid.simulate.disturbances import Disturbance, sinusoidal_force
+
+    assert Controller(body_pd, PD_GAINS, [0.0]).name == "body_pd"
+    assert Controller(body_pd, PD_GAINS, [0.0], name="PD").name == "PD"
+    assert Disturbance(sinusoidal_force, np.zeros(12)).name == "sinusoidal_force"

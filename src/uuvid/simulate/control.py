@@ -210,7 +210,7 @@ class Controller:
     fn: object
     params: np.ndarray
     state0: np.ndarray
-    name: str = "user"
+    name: str = ""  # default: the function's name
     output: str = "wrench"
 
     def __post_init__(self):
@@ -224,6 +224,8 @@ class Controller:
         p.flags.writeable = False
         object.__setattr__(self, "params", p)
         object.__setattr__(self, "state0", s)
+        if not self.name:
+            object.__setattr__(self, "name", getattr(self.fn, "__name__", "") or "user")
 
     @property
     def output_code(self) -> int:

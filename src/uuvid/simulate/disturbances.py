@@ -41,7 +41,7 @@ class Disturbance:
 
     fn: object
     params: np.ndarray
-    name: str = "user"
+    name: str = ""  # default: the function's name
 
     def __post_init__(self):
         from numba.core.registry import CPUDispatcher
@@ -52,6 +52,8 @@ class Disturbance:
         p = np.ascontiguousarray(np.ravel(np.asarray(self.params, dtype=np.float64)))
         p.flags.writeable = False
         object.__setattr__(self, "params", p)
+        if not self.name:
+            object.__setattr__(self, "name", getattr(self.fn, "__name__", "") or "user")
 
 
 def sinusoidal(amplitude=(0.0,) * 6, period: float = math.inf, phase: float = 0.0,

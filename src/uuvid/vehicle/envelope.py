@@ -188,5 +188,10 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None) -> Envelop
     unc = [DOF_NAMES[i] for i in range(6) if i not in controlled]
     if unc:
         notes.append(f"not controlled (left free): {', '.join(unc)}")
+    if 3 not in controlled or 4 not in controlled:
+        notes.append("these speeds balance drag and thrust only: with roll/pitch left to the "
+                     "righting moment the vehicle may tilt past 20° well below them — the level-"
+                     "flight limits: uuvid.vehicle.stability.static_stability (`uuvid vehicle "
+                     "stability`)")
     return Envelope(vehicle.name, tuple(rows), mode.name if mode is not None else None,
                     tuple(notes))
