@@ -117,6 +117,14 @@ def test_scenario_battery(tmp_path):
     r = fly_mission(setup)
     assert r.metrics["soc"][0] == 0.6 and r.metrics["soc"][1] < 0.6
     assert r.supply.shape == (r.t.size, 3 + 6)
+    # the limits reported are those at the pack's voltage, not the vehicle file's full-pack ones
+    from uuvid.simulate.vehicle_sim import battery_limits
+
+    lo, hi = battery_limits(setup.battery_array, r.supply[[0, -1], 0])
+    assert r.metrics["thrust_limits_N"] == [lo[0], hi[0]]
+    assert r.metrics["thrust_limits_end_N"] == [lo[1], hi[1]]
+    file_lo, file_hi = setup.vehicle.layout.limits[0]
+    assert hi[0] < file_hi and lo[0] > file_lo  # a 60 % pack sits below the file's 16 V
 
 
 def test_heavy_tracks_the_square_at_least_as_well_as_the_bluerov2():

@@ -142,6 +142,16 @@ def _inverse_from(c, f, neutral, points):
 _interp = kernels.interp_sorted
 
 
+def battery_limits(bat: np.ndarray, volts) -> tuple[np.ndarray, np.ndarray]:
+    """Thrust limits ``(lo, hi)`` (N) at supply voltages ``volts``, interpolated in the voltage
+    grid of a :func:`battery_tables` array."""
+    nv, nso = int(bat[5]), int(bat[7])
+    o = 8 + 2 * nso
+    vgrid, lo, hi = bat[o:o + nv], bat[o + nv:o + 2 * nv], bat[o + 2 * nv:o + 3 * nv]
+    v = np.atleast_1d(np.asarray(volts, dtype=float))
+    return np.interp(v, vgrid, lo), np.interp(v, vgrid, hi)
+
+
 def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int = 401,
                    voltages: int = 25) -> np.ndarray:
     """Flat battery array for :func:`fly`: battery parameters, OCV table and, at a grid of supply
@@ -1049,10 +1059,16 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         raise ValueError(f"the simulation diverged at t = {s.t[k]:.3f} s; try a smaller dt or more "
                          "substeps")
     lim = s.vehicle.layout.limits
+    if BAT.size:  # the limits follow the supply voltage: those at the start, per step for checks
+        lo_t, hi_t = battery_limits(BAT, VOUT[:, 0])
+        lim = np.column_stack([np.full(b.n, lo_t[0]), np.full(b.n, hi_t[0])])
     res = MissionResult(s.t, Z, F, FD, TAU, SC, ref_pos, ref_yaw,
                         tuple(th.name for th in s.vehicle.layout), lim)
     err = res.tracking_error
-    over = np.maximum(F - lim[:, 1] * (1 + 1e-9), lim[:, 0] * (1 + 1e-9) - F)
+    if BAT.size:
+        over = np.maximum(F - hi_t[:, None] * (1 + 1e-9), lo_t[:, None] * (1 + 1e-9) - F)
+    else:
+        over = np.maximum(F - lim[:, 1] * (1 + 1e-9), lim[:, 0] * (1 + 1e-9) - F)
     att = attitude_metrics(Z[:, 3:7], ref_yaw)
     tracked = mission_completed(float(np.max(err)), float(err[-1]), 0.0)
     level = att["max_tilt_deg"] <= MISSION_MAX_TILT_DEG
@@ -1099,7 +1115,8 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         summary.update({"battery": s.battery.name, "supply_voltage_V": [float(VOUT[0, 0]),
                                                                           float(VOUT[-1, 0])],
                         "soc": [float(VOUT[0, 2]), float(VOUT[-1, 2])],
-                        "max_battery_current_A": float(np.max(VOUT[:, 1]))})
+                        "max_battery_current_A": float(np.max(VOUT[:, 1])),
+                        "thrust_limits_end_N": [float(lo_t[-1]), float(hi_t[-1])]})
     return MissionResult(res.t, res.state, res.thrust, res.thrust_cmd, res.tau_cmd, res.scale,
                          res.ref_pos, res.ref_yaw, res.thruster_names, lim, summary,
                          VOUT if BAT.size else None)
