@@ -100,3 +100,25 @@ def test_thruster_export_toml_round_trip(tmp_path):
     res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "toml", "--out", str(p)])
     assert res.exit_code == 0, res.output
     assert load_chain(p) == laidani_chain()
+
+
+def test_error_keeps_bracketed_column_names(tmp_path):
+    """rich reads ``[s]`` as markup; the error must print the user's column names literally."""
+    csv = tmp_path / "bench.csv"
+    csv.write_text("time [s],pwm [us],thrust [N]\n0,1500,0\n1,1600,1\n2,1700,3\n")
+    res = runner.invoke(app, ["thruster", "fit", str(csv), "--model", "quadratic", "--out-model",
+                              str(tmp_path / "m.yaml"), "--command-col", "pwm",
+                              "--thrust-col", "thrust [N]"])
+    assert res.exit_code == 2
+    assert "'time [s]', 'pwm [us]', 'thrust [N]'" in res.output
+
+
+def test_table_cells_keep_brackets():
+    from rich.console import Console
+
+    from uuvid.cli.common import _table
+
+    con = Console(width=200, record=True)
+    con.print(_table("run [1]", [{"column [s]": "pwm [us]"}], ["column [s]"]))
+    text = con.export_text()
+    assert "run [1]" in text and "column [s]" in text and "pwm [us]" in text

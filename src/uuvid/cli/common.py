@@ -11,6 +11,7 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -49,17 +50,18 @@ def _print_json(obj) -> None:
 
 
 def _fail(msg: str) -> None:
-    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(str(msg))}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
 def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}") -> Table:
-    t = Table(title=title)
+    t = Table(title=escape(title))
     for c in columns:
-        t.add_column(c)
+        t.add_column(escape(c))
     for r in rows:
         cells = [r.get(c) for c in columns]
-        t.add_row(*["—" if x is None else fmt.format(x) if isinstance(x, float) else str(x) for x in cells])
+        t.add_row(*[escape("—" if x is None else fmt.format(x) if isinstance(x, float) else str(x))
+                    for x in cells])
     return t
 
 

@@ -195,7 +195,7 @@ def thruster_fit(
         _print_json(doc)
         return
     out_console.print(outcome.report_text, highlight=False, markup=False, soft_wrap=True)
-    err_console.print(f"wrote {out}" + (f" and {report / 'index.html'}" if report else ""))
+    err_console.print(f"wrote {out}" + (f" and {report / 'index.html'}" if report else ""), markup=False)
 
 
 def register(thruster_app: typer.Typer) -> None:

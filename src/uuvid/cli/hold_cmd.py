@@ -85,14 +85,14 @@ def vehicle_hold(
     if json_out:
         _print_json(doc)
         return
-    out_console.print(cap.summary())
+    out_console.print(cap.summary(), markup=False, highlight=False)
     if cur is not None:
         a = doc["at_current"]
         out_console.print(f"current {a['speed_m_s']:.2f} m/s from {a['from_deg']:.0f}°: "
                           f"{'holds' if a['holds'] else 'does NOT hold'} (largest "
-                          f"{a['max_current_m_s']:.3f} m/s)")
+                          f"{a['max_current_m_s']:.3f} m/s)", markup=False)
         if endur is not None:
-            out_console.print(endur.summary())
+            out_console.print(endur.summary(), markup=False, highlight=False)
     if out is not None:
-        out_console.print(f"wrote {out}/capability.png, hold.json")
+        out_console.print(f"wrote {out}/capability.png, hold.json", markup=False)
 

@@ -81,7 +81,7 @@ def export_cmd(
     side = sidecar_path(path)
     err_console.print(f"wrote {path}" + (f" and {side}" if side else "")
                       + (f"; figure {plot}" if plot is not None else ""), highlight=False,
-                      soft_wrap=True)
+                      soft_wrap=True, markup=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -140,13 +140,14 @@ def print_messages(warnings, notes) -> None:
 
 
 def params_table(title: str, params: dict):
+    from rich.markup import escape
     from rich.table import Table
 
-    t = Table(title=title)
+    t = Table(title=escape(title))
     for c in ("parameter", "estimate", "σ", "unit", "% error", "significant"):
         t.add_column(c)
     for n, r in params.items():
-        t.add_row(n, f"{r['estimate']:.5g}", f"{r['sigma']:.3g}", r.get("unit") or "",
+        t.add_row(escape(n), f"{r['estimate']:.5g}", f"{r['sigma']:.3g}", escape(r.get("unit") or ""),
                   f"{r['percentile_error']:.1f}", "yes" if r["significant"] else "no")
     return t
 
@@ -178,6 +179,6 @@ def print_tail(doc: dict, warnings, notes) -> None:
 
     print_messages(warnings, notes)
     if doc.get("report"):
-        err_console.print(f"report: {doc['report']}")
+        err_console.print(f"report: {doc['report']}", markup=False)
     if doc.get("vehicle_out"):
-        err_console.print(f"wrote {doc['vehicle_out']}")
+        err_console.print(f"wrote {doc['vehicle_out']}", markup=False)

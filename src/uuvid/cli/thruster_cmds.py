@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_console, out_console
@@ -106,7 +107,8 @@ def thruster_simulate(
     if json_out:
         _print_json(summary)
     elif not metrics:
-        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False)
+        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False,
+                          markup=False)
         out_console.print(
             _table(f"{chain.name}: final values (SI)",
                    [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
@@ -122,7 +124,7 @@ def thruster_simulate(
         )
     if out and not json_out:
         err_console.print(f"wrote {out / 'response.csv'}, response.png, summary.json and "
-                          f"{out / 'index.html'}", highlight=False, soft_wrap=True)
+                          f"{out / 'index.html'}", highlight=False, soft_wrap=True, markup=False)
 
 
 def thruster_export(
@@ -156,7 +158,7 @@ def thruster_export(
         _fail(f"--to: expected yaml, toml or uuv-simulator, got {to!r}")
     if out:
         atomic_write_text(out, text)
-        err_console.print(f"wrote {out}")
+        err_console.print(f"wrote {out}", markup=False)
     else:
         sys.stdout.write(text)
 
@@ -221,7 +223,7 @@ def thruster_predict(
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
     doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
     for w in doc["warnings"]:
-        err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+        err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:
         _print_json(doc)
     else:

@@ -75,7 +75,7 @@ def _fly(spec, base, out, json_out, label):
         )
     )
     if out:
-        err_console.print(f"report: {out / 'index.html'}")
+        err_console.print(f"report: {out / 'index.html'}", markup=False)
 
 
 def simulate(
@@ -171,7 +171,7 @@ def vehicle_envelope(
                           highlight=False, soft_wrap=True)
     for r in check.rows:
         if r["confirmed"] is False:
-            out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True)
+            out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True, markup=False)
 
 
 @vehicle_app.command("stability")
@@ -202,6 +202,6 @@ def vehicle_stability(
     rows = res.rows()
     cols = list(dict.fromkeys(k for r in rows for k in r))
     out_console.print(_table(f"{v.name}: static stability (tilt limit {max_tilt:g}°)", rows, cols, "{:.3g}"))
-    out_console.print(res.summary(), highlight=False, soft_wrap=True)
+    out_console.print(res.summary(), highlight=False, soft_wrap=True, markup=False)
     if out:
-        err_console.print(f"wrote {out / 'stability.png'}, {out / 'stability.json'}")
+        err_console.print(f"wrote {out / 'stability.png'}, {out / 'stability.json'}", markup=False)
