@@ -122,3 +122,16 @@ def test_table_cells_keep_brackets():
     con.print(_table("run [1]", [{"column [s]": "pwm [us]"}], ["column [s]"]))
     text = con.export_text()
     assert "run [1]" in text and "column [s]" in text and "pwm [us]" in text
+
+
+def test_thruster_model_names_resolve_the_same_everywhere(tmp_path):
+    """One resolver: ``t200-physical`` (the name ``log export`` prints) is a thruster model for
+    ``thruster show`` and a scenario as well, not only for ``montecarlo``."""
+    from uuvid.simulate.scenario import ScenarioError, build, scenario_from_dict
+
+    res = runner.invoke(app, ["thruster", "show", "t200-physical"])
+    assert res.exit_code == 0, res.output
+    assert "t200-physical@16V" in res.output
+    spec = scenario_from_dict({"vehicle": "bluerov2", "thruster_model": "no-such-model"})
+    with pytest.raises(ScenarioError, match="not a preset"):
+        build(spec)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-from pathlib import Path
 
 import typer
 from rich.console import Console
@@ -66,16 +65,13 @@ def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}"
 
 
 def _load_model(model: str):
-    from uuvid.thruster.presets import PRESETS, preset_chain
+    """A preset name, ``t200-physical`` or a model file (:func:`uuvid.thruster.resolve.resolve_chain`)."""
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.resolve import resolve_chain
 
-    if model in PRESETS:
-        return preset_chain(model)
-    from uuvid.io.modelfile import ModelFileError, load_chain
-
-    p = Path(model)
-    if not p.exists():
-        _fail(f"{model}: no such model file, and not a preset (presets: {', '.join(sorted(PRESETS))})")
     try:
-        return load_chain(p)
+        return resolve_chain(model)
+    except FileNotFoundError as e:
+        _fail(str(e))
     except ModelFileError as e:
         _fail(str(e))

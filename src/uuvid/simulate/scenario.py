@@ -151,10 +151,8 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
 
 def build(spec: ScenarioSpec, base: Path | None = None):
     """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`)."""
-    from uuvid.io.modelfile import load_chain
     from uuvid.simulate.control import DPGains
     from uuvid.simulate.vehicle_sim import default_gains, setup_mission
-    from uuvid.thruster.presets import PRESETS, preset_chain
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     vref = spec.vehicle
@@ -163,12 +161,12 @@ def build(spec: ScenarioSpec, base: Path | None = None):
     vehicle = load_vehicle(vref)
     chain = None
     if spec.thruster_model:
-        ref = spec.thruster_model
-        if ref in PRESETS:
-            chain = preset_chain(ref)
-        else:
-            p = Path(ref) if Path(ref).is_absolute() or base is None else base / ref
-            chain = load_chain(p)
+        from uuvid.thruster.resolve import resolve_chain
+
+        try:
+            chain = resolve_chain(spec.thruster_model, base)
+        except FileNotFoundError as e:
+            raise ScenarioError(f"thruster_model: {e}") from None
     try:
         mission = spec.mission.build()
     except ValueError as e:
