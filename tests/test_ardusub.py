@@ -657,3 +657,22 @@ def test_real_logs_inspect_and_export_without_options(shared_data, tmp_path, nam
                                      tb["battery_V"]) for i in range(len(dirs))])
     np.testing.assert_allclose(tb[["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]].to_numpy(),
                                (factor_matrix(frame) @ T.T).T, atol=1e-9)
+
+
+def test_parquet_export_without_pyarrow_names_the_extra_before_reading(tmp_path, monkeypatch):
+    """After a plain ``pip install -e .`` (no pyarrow) a .parquet export fails at once with the
+    exact install command, printed literally (rich markup would eat ``[logs]``)."""
+    import sys
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow → ImportError
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    log = tmp_path / "never-read.BIN"
+    log.write_bytes(b"not a log")
+    res = CliRunner().invoke(app, ["log", "export", str(log), "--out-file", str(tmp_path / "d.parquet")])
+    assert res.exit_code == 2
+    assert "pip install 'uuvid[logs]'" in res.output
+    assert "not a log" not in res.output and not (tmp_path / "d.parquet").exists()

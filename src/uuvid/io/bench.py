@@ -295,8 +295,7 @@ def _read_parquet(path: Path) -> _Table:
         import pyarrow.parquet as pq
     except ImportError as e:
         raise ImportError(f"{path.name}: reading Parquet bench files needs pyarrow, which is not "
-                          "installed; install it with `pip install pyarrow` (or save the data as "
-                          "CSV)") from e
+                          "installed: pip install 'uuvid[logs]' (or save the data as CSV)") from e
     try:
         tbl = pq.read_table(path)
     except Exception as e:  # pyarrow raises its own error types
