@@ -76,6 +76,10 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     (an eigenvalue of ∂(ṗ, q̇)/∂(φ, θ) ≥ 0)."""
     free = [k for k in (3, 4) if k not in al.controlled]
     ang = np.array(start, dtype=float)
+    drift = uncontrolled_push(vehicle, current, al, depth)
+    if drift:
+        r = al.allocate(required_wrench(vehicle, current, depth), "priority")
+        return False, 0.0, 0.0, r
 
     def resid(a):
         tau = required_wrench(vehicle, current, depth, a[0], a[1])
@@ -110,6 +114,17 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     return bool(ok), float(ang[0]), float(ang[1]), r
 
 
+def uncontrolled_push(vehicle, current, al: Allocator, depth: float = 2.0) -> list[str]:
+    """DOFs among surge, sway, heave, yaw that the allocation does not control but the current
+    pushes on (a steady force there means the vehicle drifts off station: no thruster opposes
+    it).  Roll and pitch are not listed: they settle at a balance (:func:`steady_hold`)."""
+    from uuvid.vehicle.layout import DOF_NAMES
+
+    tau = required_wrench(vehicle, current, depth)
+    tol = 1e-9 + 1e-6 * float(np.max(np.abs(tau)))
+    return [DOF_NAMES[k] for k in (0, 1, 2, 5) if k not in al.controlled and abs(tau[k]) > tol]
+
+
 def hold_gains(vehicle, modes=None, attitude_bandwidth: float = 6.0):
     """The DP controller of the station-keeping check (analytic and simulated): the default PID
     gains with output and integral limits at each DOF's reach with the bounded allocation (the
@@ -136,6 +151,12 @@ def hold_gains(vehicle, modes=None, attitude_bandwidth: float = 6.0):
 
 def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, roll: float,
                        pitch: float) -> float:
+    """Largest real part of the closed loop's eigenvalues (see :func:`closed_loop_modes`)."""
+    return closed_loop_modes(vehicle, current, al, gains, depth, roll, pitch)[0]
+
+
+def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll: float,
+                      pitch: float) -> tuple[float, list[str]]:
     """Largest real part (1/s) of the eigenvalues of the station-keeping loop linearised at the
     equilibrium (rest at the origin, heading north, attitude ``roll``, ``pitch``): 16 states
     (position, Euler angles, ν, the 4 PID integrators), the PID of
@@ -147,7 +168,14 @@ def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, rol
     current, is statically stable in roll/pitch up to the tilt limit, but the non-conservative
     coupling of the tilted attitude with the yaw and position loops (Munk moment
     ``N = (Y_v̇ − X_u̇) u v`` and the tilted thrust) makes the loop oscillate earlier
-    (a Hopf bifurcation; the BlueROV2 at 45°/135°)."""
+    (a Hopf bifurcation; the BlueROV2 at 45°/135°).
+
+    Uncontrolled DOFs: the position (or heading) of a DP DOF the allocation does not control
+    (AUV II has no surge thruster) and its PID integrator are pure integrators nothing else
+    depends on — eigenvalues exactly 0, neutral drift, not an oscillation.  When their columns
+    of the Jacobian vanish outside their own rows (block triangular, checked), they are taken
+    out and returned by name as the second element (``growth`` is then that of the rest); any
+    remaining eigenvalue with ``|Re λ| ≤ 1e-9 · max|λ|`` counts as 0 (marginal, not stable)."""
     from uuvid.simulate.control import DP_DOFS
     from uuvid.vehicle.kinematics import euler_to_quat
 
@@ -201,11 +229,32 @@ def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, rol
         d[j] = h
         A[:, j] = (rhs(s0 + d) - rhs(s0 - d)) / (2 * h)
     del f0
-    return float(np.max(np.linalg.eigvals(A).real))
+    from uuvid.vehicle.layout import DOF_NAMES
+
+    drop, drifting = [], []
+    for j, k in enumerate(DP_DOFS):
+        if k in al.controlled:
+            continue
+        st = [k if k < 3 else 5, 12 + j]  # position (or heading) state, integrator
+        keep = [i for i in range(16) if i not in st]
+        scale = max(1.0, float(np.max(np.abs(A))))
+        if np.all(np.abs(A[np.ix_(keep, st)]) <= 1e-9 * scale):
+            drop += st
+            drifting.append(DOF_NAMES[k])
+    keep = [i for i in range(16) if i not in drop]
+    ev = np.linalg.eigvals(A[np.ix_(keep, keep)])
+    re = ev.real.copy()
+    re[np.abs(re) <= 1e-9 * max(1.0, float(np.max(np.abs(ev))))] = 0.0
+    return float(np.max(re)), drifting
 
 
 def _allocator(vehicle, limits=None, modes=None) -> Allocator:
-    al = vehicle.allocator(modes)
+    """The allocation of the steady hold.  η compensated: in steady state the DP loop's integral
+    action raises the command until the *delivered* wrench is τ_req, so holding needs commanded
+    thrusts τ/η within the limits (the mission allocator does not compensate η; its integrator
+    does).  Without it a mode with η < 1 (ROMEO's downward heave, η = 0.56) could never deliver
+    even its net buoyancy."""
+    al = vehicle.allocator(modes, compensate_eta=True)
     if limits is None:
         return al
     return dataclasses.replace(al, limits=np.asarray(limits, float))
@@ -220,8 +269,10 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     attitude balance within :data:`MAX_TILT_DEG`) and, with ``stability``, the closed station-
     keeping loop with ``gains`` (default :func:`hold_gains`) is stable there
     (:func:`closed_loop_growth` < 0).  ``info["limit"]`` says which ran out first: ``thrust``,
-    ``attitude`` or ``stability``.  With ``soc`` the limits follow the battery's loaded voltage
-    (:func:`hold_on_battery`)."""
+    ``attitude``, ``stability`` or ``uncontrolled`` (the current pushes along a DOF no thruster
+    controls), ``info["reason"]`` in words; ``info["drifting"]`` the DOFs left to drift
+    neutrally (uncontrolled, taken out of the stability test).  With ``soc`` the limits follow
+    the battery's loaded voltage (:func:`hold_on_battery`)."""
     al = _allocator(vehicle, limits, modes)
     if stability and gains is None:
         gains = hold_gains(vehicle if limits is None else _with_limits(vehicle, limits), modes)
@@ -229,7 +280,7 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     # continuation in speed from still water: the attitude follows its stable branch, as it
     # does while a current builds up
     ang = (0.0, 0.0)
-    why = {}
+    why, detail, drifting = {}, {}, set()
 
     def ok(v, a0):
         cur = current_ned(v, relative_deg)
@@ -242,21 +293,43 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
             good, roll, pitch, r = steady_hold(vehicle, cur, al, depth, a0)
             a_ = al
         if not good:
-            why[v] = "thrust" if not r.achievable else "attitude"
+            push = uncontrolled_push(vehicle, cur, a_, depth)
+            if push:
+                why[v] = "uncontrolled"
+                detail[v] = (f"the current pushes along {', '.join(push)}, which the allocation "
+                             "does not control (no thruster opposes it: the vehicle drifts)")
+            elif not r.achievable:
+                why[v] = "thrust"
+                lost = ", ".join(f"{k} {x:+.3g}" for k, x in r.shortfall.items())
+                detail[v] = ("the thrusters cannot deliver the steady wrench within their limits"
+                             + (f" (short by {lost})" if lost else ""))
+            else:
+                why[v] = "attitude"
+                detail[v] = (f"no statically stable roll/pitch balance within {max_tilt:g}° tilt"
+                             f" (reached roll {math.degrees(roll):.1f}°, pitch "
+                             f"{math.degrees(pitch):.1f}°)")
             return False, (roll, pitch)
-        if stability and closed_loop_growth(vehicle, cur, a_, gains, depth, roll, pitch) >= 0:
-            why[v] = "stability"
-            return False, (roll, pitch)
+        if stability:
+            g, drift = closed_loop_modes(vehicle, cur, a_, gains, depth, roll, pitch)
+            drifting.update(drift)
+            if g >= 0:
+                why[v] = "stability"
+                detail[v] = (f"the station-keeping loop is not stable (largest growth rate "
+                             f"{g:.3g} 1/s)")
+                return False, (roll, pitch)
         return True, (roll, pitch)
 
+    max_tilt = MAX_TILT_DEG
     good, ang = ok(0.0, ang)
     if not good:
-        return 0.0, {"reason": "cannot hold station in still water"}
+        return 0.0, {"limit": why[0.0], "reason": "cannot hold station in still water: "
+                     + detail[0.0], "limiting_thrusters": [], "drifting": sorted(drifting)}
     lo, hi, step = 0.0, None, 0.05
     while hi is None:
         v = lo + step
         if v > v_cap:
-            return math.inf, {"reason": f"holds beyond {v_cap} m/s"}
+            return math.inf, {"limit": "", "reason": f"holds beyond {v_cap} m/s",
+                              "drifting": sorted(drifting)}
         good, a = ok(v, ang)
         if good:
             lo, ang = v, a
@@ -275,7 +348,8 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
                             modes=modes, depth=depth, start=ang)
         hb = hold_on_battery(vehicle, current_ned(hi, relative_deg), soc, battery=battery,
                              modes=modes, depth=depth, start=ang).allocation
-        return lo, {"limit": why.get(hi, ""),
+        return lo, {"limit": why.get(hi, ""), "reason": detail.get(hi, ""),
+                    "drifting": sorted(drifting),
                     "limiting_thrusters": [names[i] for i in hb.limiting]
                     if not hb.achievable else [],
                     "roll_deg": math.degrees(h.roll), "pitch_deg": math.degrees(h.pitch),
@@ -284,7 +358,8 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     # just beyond the boundary: thrusters at their limits if thrust is what runs out
     rb = steady_hold(vehicle, current_ned(hi, relative_deg), al, depth, ang)[3]
     lim = [names[i] for i in rb.limiting] if not rb.achievable else []
-    return lo, {"limit": why.get(hi, ""), "limiting_thrusters": lim,
+    return lo, {"limit": why.get(hi, ""), "reason": detail.get(hi, ""), "drifting": sorted(drifting),
+                "limiting_thrusters": lim,
                 "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
 
 
@@ -297,7 +372,9 @@ class CapabilityResult:
     max_current: np.ndarray
     limiting: tuple = ()
     supply_voltage: float | None = None
-    limit: tuple = ()  # per angle: what ran out first (thrust, attitude, stability)
+    limit: tuple = ()  # per angle: what ran out first (thrust, attitude, stability, uncontrolled)
+    reasons: tuple = ()  # per angle: the limit in words
+    drifting: tuple = ()  # DOFs not controlled, left to drift (neutral), at any angle
     simulated_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     simulated: np.ndarray = field(default_factory=lambda: np.zeros(0))
     note: str = ""
@@ -319,11 +396,20 @@ class CapabilityResult:
                  f"(weakest from {self.relative_deg[k]:.0f}° off the bow)"]
         if self.limit:
             c = {k: sum(1 for x in self.limit if x == k) for k in
-                 ("thrust", "attitude", "stability")}
+                 ("thrust", "attitude", "stability", "uncontrolled")}
             lines.append(f"  limited by thrust at {c['thrust']} of {len(self.limit)} angles, by "
                          f"the attitude (tilt beyond {MAX_TILT_DEG:g}° or statically unstable) at "
                          f"{c['attitude']}, by closed-loop stability (the DP loop oscillates) at "
-                         f"{c['stability']}")
+                         f"{c['stability']}"
+                         + (f", by an uncontrolled DOF at {c['uncontrolled']}"
+                            if c["uncontrolled"] else ""))
+        zero = sorted({r for v, r in zip(self.max_current, self.reasons) if v == 0 and r})
+        for r in zero:
+            n0 = sum(1 for v, x in zip(self.max_current, self.reasons) if v == 0 and x == r)
+            lines.append(f"  holds nothing at {n0} of {len(self.max_current)} angles: {r}")
+        if self.drifting:
+            lines.append(f"  not controlled (drifts, neutrally stable; left out of the stability "
+                         f"test): {', '.join(self.drifting)}")
         for d, s, a in zip(self.simulated_deg, self.simulated, self.agreement):
             lines.append(f"  simulated at {d:.0f}°: {s:.3f} m/s (analytic {self.analytic_at(d):.3f},"
                          f" ratio {a:.3f})")
@@ -335,7 +421,8 @@ class CapabilityResult:
         return {"vehicle": self.vehicle, "relative_deg": self.relative_deg.tolist(),
                 "max_current_m_s": self.max_current.tolist(),
                 "limiting_thrusters": [list(x) for x in self.limiting],
-                "limit": list(self.limit),
+                "limit": list(self.limit), "reasons": list(self.reasons),
+                "drifting": list(self.drifting),
                 "supply_voltage_V": self.supply_voltage,
                 "simulated_deg": self.simulated_deg.tolist(),
                 "simulated_max_current_m_s": self.simulated.tolist(),
@@ -374,14 +461,16 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     if soc is not None and vehicle.battery is None:
         raise ValueError(f"{vehicle.name} has no battery block; give supply_voltage or limits")
     degs = np.arange(0.0, 360.0, float(step_deg))
-    vals, lim, why = [], [], []
+    vals, lim, why, words, drift = [], [], [], [], set()
     for d in degs:
         v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
         vals.append(v)
         lim.append(tuple(info.get("limiting_thrusters", ())))
         why.append(info.get("limit", ""))
+        words.append(info.get("reason", ""))
+        drift.update(info.get("drifting", ()))
     res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
-                           tuple(why),
+                           tuple(why), tuple(words), tuple(sorted(drift)),
                            note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
                                  "loaded voltage" if soc is not None else ""))
     if simulate_deg and soc is not None:
