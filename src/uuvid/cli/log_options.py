@@ -111,10 +111,23 @@ def fail(msg: str):
     _fail(msg)
 
 
+#: Library parameter names in messages (written in backticks) → this command line's flags.
+PARAM_FLAGS = {"`settle=`": "--settle", "`min_duration=`": "--min-duration",
+               "`rel_tol=`": "--rel-tol", "`tol=`": "--tol", "`threshold=`": "--threshold",
+               "`open_loop_only=False`": "--all-modes"}
+
+
+def flags(text: str) -> str:
+    """A library message with its parameter names as this CLI's flags."""
+    for k, v in PARAM_FLAGS.items():
+        text = text.replace(k, v)
+    return text
+
+
 def msg(e: BaseException) -> str:
     if isinstance(e, KeyError) and e.args:
-        return str(e.args[0])
-    return str(e)
+        return flags(str(e.args[0]))
+    return flags(str(e))
 
 
 def call(fn, *args, prefix: str = "", **kw):
@@ -133,10 +146,11 @@ def print_messages(warnings, notes) -> None:
     from uuvid.cli.common import err_console
 
     for w in warnings or []:
-        err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False,
+        err_console.print(f"[yellow]warning:[/] {escape(flags(str(w)))}", highlight=False,
                           soft_wrap=True)
     for m in notes or []:
-        err_console.print(f"[yellow]note:[/] {escape(str(m))}", highlight=False, soft_wrap=True)
+        err_console.print(f"[yellow]note:[/] {escape(flags(str(m)))}", highlight=False,
+                          soft_wrap=True)
 
 
 def params_table(title: str, params: dict):
