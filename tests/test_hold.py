@@ -192,3 +192,16 @@ def test_auv2_uncontrolled_surge_drifts_and_is_named():
     text = cap.summary()
     assert "holds nothing at 2 of 4 angles" in text and "surge" in text
     assert cap.to_dict()["drifting"] == ["surge"]
+
+
+def test_hold_and_stability_share_one_tilt_limit():
+    """Station keeping against a beam current is the steady-flight balance at the same relative
+    water speed: with one tilt limit (stability.MAX_TILT_DEG, 20°; hold used 45° and said the
+    BlueROV2 holds 1.15 m/s where stability says it stops being level at 0.84) the two agree."""
+    from uuvid.vehicle.stability import MAX_TILT_DEG, static_stability
+
+    v = load_vehicle("bluerov2")
+    vmax, info = hold.max_current(v, 90.0, tol=1e-3)
+    assert info["limit"] == "attitude" and abs(abs(info["roll_deg"]) - MAX_TILT_DEG) < 0.1
+    case = next(c for c in static_stability(v).cases if c.direction == "starboard")
+    assert case.limit_dof == "roll" and abs(vmax / case.limit_speed - 1) < 0.03

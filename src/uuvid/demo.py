@@ -123,7 +123,8 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
                                   current=ned(0.3, 0.0)))
     sq = {k: r.summary[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
-    rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current from the north: "
+    rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current flowing north (from the "
+                      "south): "
                       + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
                                   for k, v in sq.items()))
     res["square_in_0.3_current"] = sq

@@ -29,7 +29,9 @@ def _parse_current(text: str | None):
 def vehicle_hold(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
     current: str = typer.Option(None, "--current", help="SPEED[,DIR]: current speed (m/s) and the "
-                                "direction it comes from, degrees off the bow (0 = head-on)."),
+                                "direction it comes FROM, degrees off the bow clockwise (0 = "
+                                "head-on, 90 = from starboard; vehicle heading north). Not "
+                                "simulate's N,E,D, which is where the water flows TO."),
     battery: float = typer.Option(None, "--battery", help="State of charge (0–1) of the vehicle "
                                   "file's battery: limits at its loaded voltage; with --current "
                                   "also the endurance from this charge."),

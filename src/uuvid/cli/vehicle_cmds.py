@@ -85,9 +85,12 @@ def simulate(
     speed: float = typer.Option(0.5, "--speed", help="mission: cruising speed [m/s]."),
     depth: float = typer.Option(2.0, "--depth", help="mission: depth [m]."),
     side: float = typer.Option(10.0, "--side", help="mission: side of the square [m]."),
-    current: str = typer.Option("0,0,0", "--current", help="mission: current north,east,down [m/s]."),
+    current: str = typer.Option("0,0,0", "--current", help="mission: water velocity N,E,D [m/s], the "
+                                 "direction the water flows TO (0.3,0,0 flows north, i.e. comes "
+                                 "from the south). Not hold's SPEED,DIR (where it comes FROM)."),
     thruster_model: str | None = typer.Option(
-        None, "--thruster-model", help="mission: override the thrusters' model."
+        None, "--thruster-model", help="mission: override the thrusters' model (file or preset: "
+        "t200, laidani-a2212, t200-physical, ...)."
     ),
     dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
     out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
@@ -177,7 +180,8 @@ def vehicle_envelope(
 @vehicle_app.command("stability")
 def vehicle_stability(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
-    max_tilt: float = typer.Option(20.0, "--max-tilt", help="Largest acceptable trim tilt [deg]."),
+    max_tilt: float = typer.Option(20.0, "--max-tilt", help="Largest acceptable trim tilt [deg] "
+                                   "(the same 20° as vehicle hold)."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
     out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
 ):

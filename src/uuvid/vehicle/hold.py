@@ -61,9 +61,10 @@ def required_wrench(vehicle, current, depth: float = 2.0, roll: float = 0.0,
     return -vehicle.params.mass_matrix @ _accel(vehicle, current, depth, roll, pitch, np.zeros(6))
 
 
-#: Largest roll or pitch (deg) counted as holding station: a vehicle tilted further by the current
-#: is not doing useful work (camera, tools) even if its position is held.
-MAX_TILT_DEG = 45.0
+#: Largest roll or pitch (deg) counted as holding station: the same level limit as steady flight
+#: (:data:`uuvid.vehicle.stability.MAX_TILT_DEG`); a vehicle tilted further by the current is not
+#: doing useful work (camera, tools) even if its position is held.
+from uuvid.vehicle.stability import MAX_TILT_DEG  # noqa: E402
 
 
 def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0, 0.0),

@@ -38,6 +38,10 @@ from uuvid.vehicle.model import DOF_NAMES
 from uuvid.vehicle.rigid_body import rigid_body_coriolis
 
 ATTITUDE = (3, 4)  # roll, pitch: the DOFs with a righting moment
+#: Largest trim tilt (deg, roll or pitch) counted as level: beyond it the vehicle no longer does
+#: useful work (camera, tools, a level DVL).  One limit for steady flight (:func:`static_stability`,
+#: the envelope check) and station keeping (:mod:`uuvid.vehicle.hold`).
+MAX_TILT_DEG = 20.0
 
 
 class _Balance:
@@ -344,7 +348,7 @@ def _scan(bal: _Balance, max_speed: float, n: int, max_tilt: float):
     return speeds, sols, lo, dof, reason
 
 
-def static_stability(vehicle, max_tilt_deg: float = 20.0, n_speeds: int = 41, modes=None,
+def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int = 41, modes=None,
                      envelope=None) -> StabilityResult:
     """Trim angle against speed and the speed where the vehicle can no longer stay level, for
     every controlled translational direction up to its envelope speed (see the module text)."""
