@@ -205,3 +205,17 @@ def test_hold_and_stability_share_one_tilt_limit():
     assert info["limit"] == "attitude" and abs(abs(info["roll_deg"]) - MAX_TILT_DEG) < 0.1
     case = next(c for c in static_stability(v).cases if c.direction == "starboard")
     assert case.limit_dof == "roll" and abs(vmax / case.limit_speed - 1) < 0.03
+
+
+def test_capability_and_endurance_report_progress_off_a_terminal(capsys, monkeypatch):
+    """Long hold runs are not silent: one stderr line per angle (and per 10 % of charge)."""
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    v = load_vehicle("auv2")
+    hold.capability(v, step_deg=90.0)
+    err = capsys.readouterr().err
+    assert "auv2 capability: current from 90° (2/4" in err and "auv2 capability: done in" in err
+    hold.capability(v, step_deg=90.0, progress=False)
+    assert capsys.readouterr().err == ""
+    hold.endurance(load_vehicle("bluerov2-heavy"), 0.3, 0.0, soc0=0.3, dsoc=0.05)
+    err = capsys.readouterr().err
+    assert "bluerov2-heavy endurance: holding 0.3 m/s at SOC" in err and "done in" in err

@@ -448,13 +448,15 @@ class CapabilityResult:
 
 def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
                supply_voltage: float | None = None, soc: float | None = None, simulate_deg=(),
-               **sim) -> CapabilityResult:
+               progress: bool | None = None, **sim) -> CapabilityResult:
     """Capability plot data: :func:`max_current` every ``step_deg``; the angles in
     ``simulate_deg`` are also found by simulation (:func:`simulate_boundary`).
 
     Thrust limits: ``limits`` (n, 2); or the thruster model's at ``supply_voltage``; or, with
     ``soc``, at the battery's loaded voltage for each current (the vehicle file's battery);
-    default the vehicle file's limits."""
+    default the vehicle file's limits.  ``progress``: a bar (one stage per angle) on stderr
+    (:mod:`uuvid.report.progress`; ``None``: automatic)."""
+    from uuvid.report.progress import progress_task
     from uuvid.vehicle.power import limits_at
 
     if supply_voltage is not None and limits is None:
@@ -462,25 +464,37 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     if soc is not None and vehicle.battery is None:
         raise ValueError(f"{vehicle.name} has no battery block; give supply_voltage or limits")
     degs = np.arange(0.0, 360.0, float(step_deg))
+    if simulate_deg and soc is not None:
+        raise ValueError("simulated confirmation runs at fixed limits (give supply_voltage)")
     vals, lim, why, words, drift = [], [], [], [], set()
-    for d in degs:
-        v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
-        vals.append(v)
-        lim.append(tuple(info.get("limiting_thrusters", ())))
-        why.append(info.get("limit", ""))
-        words.append(info.get("reason", ""))
-        drift.update(info.get("drifting", ()))
+    n = len(degs) + len(simulate_deg)
+    task = progress_task(f"{vehicle.name} capability", total=n, eta=False, stages=n,
+                         disable=None if progress is None else not progress)
+    with task:
+        for d in degs:
+            task.stage(f"current from {d:g}°" + (f" on the battery at SOC {soc:.0%}"
+                                                 if soc is not None else ""))
+            v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
+            task.advance()
+            vals.append(v)
+            lim.append(tuple(info.get("limiting_thrusters", ())))
+            why.append(info.get("limit", ""))
+            words.append(info.get("reason", ""))
+            drift.update(info.get("drifting", ()))
+        sv = []
+        for d in simulate_deg:
+            task.stage(f"simulating the boundary at {d:g}°")
+            guess = float(np.array(vals)[int(np.argmin(np.abs((degs - d + 180) % 360 - 180)))])
+            sv.append(simulate_boundary(vehicle, d, guess, limits=limits, modes=modes,
+                                        depth=depth, **sim))
+            task.advance()
     res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
                            tuple(why), tuple(words), tuple(sorted(drift)),
                            note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
                                  "loaded voltage" if soc is not None else ""))
-    if simulate_deg and soc is not None:
-        raise ValueError("simulated confirmation runs at fixed limits (give supply_voltage)")
     if simulate_deg:
         sd = np.asarray(simulate_deg, float)
-        sv = np.array([simulate_boundary(vehicle, d, res.analytic_at(d), limits=limits,
-                                         modes=modes, depth=depth, **sim) for d in sd])
-        res = dataclasses.replace(res, simulated_deg=sd, simulated=sv, note=(
+        res = dataclasses.replace(res, simulated_deg=sd, simulated=np.array(sv), note=(
             "simulation: PID DP with output/integral limits at each DOF's reach, stiff level-attitude "
             "hold; the current ramps up over 60 s, then a 0.03 m/s gust; held = position error "
             f"settled below 0.5 m, heading within 5° and roll, pitch within {MAX_TILT_DEG:g}°"))
@@ -664,11 +678,23 @@ class EnduranceResult:
 
 
 def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float = 1.0,
-              battery=None, modes=None, depth: float = 2.0, dsoc: float = 0.01) -> EnduranceResult:
+              battery=None, modes=None, depth: float = 2.0, dsoc: float = 0.01,
+              progress: bool | None = None) -> EnduranceResult:
     """Time until the battery can no longer hold station against ``speed`` from
     ``relative_deg``: quasi-steady discharge ``dt = 3600 Q ΔSOC / I(SOC)`` (trapezoid in 1/I),
     stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
-    fails (interpolated between the last held and the first failed SOC by bisection)."""
+    fails (interpolated between the last held and the first failed SOC by bisection).
+    ``progress``: a bar on stderr, one stage per 10 % of charge (``None``: automatic)."""
+    from uuvid.report.progress import progress_task
+
+    task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),
+                         eta=False, stages=max(1, math.ceil(soc0 * 10)),
+                         disable=None if progress is None else not progress)
+    with task:
+        return _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task)
+
+
+def _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task):
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
@@ -685,6 +711,9 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
     extra = [(h.allocation.thrust, h.command)]
     while soc > 0:
         s2 = max(soc - dsoc, 0.0)
+        task.advance()
+        if math.floor(soc * 10 + 1e-9) != math.floor(s2 * 10 + 1e-9) or not task.stages:
+            task.stage(f"holding {speed:g} m/s at SOC {s2:.0%}")
         h2 = hold_on_battery(vehicle, cur, s2, battery=bat, modes=modes, depth=depth,
                              start=(h.roll, h.pitch))
         if not h2.held:
