@@ -135,3 +135,16 @@ def test_thruster_model_names_resolve_the_same_everywhere(tmp_path):
     spec = scenario_from_dict({"vehicle": "bluerov2", "thruster_model": "no-such-model"})
     with pytest.raises(ScenarioError, match="not a preset"):
         build(spec)
+
+
+def test_current_of_the_wrong_length_says_what_is_expected():
+    from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+
+    with pytest.raises(ScenarioError) as e:
+        scenario_from_dict({"current": [0.1, 0]}, where="s.yaml")
+    m = str(e.value)
+    assert m.startswith("s.yaml: current: expected N,E,D (m/s)") and "Spec" not in m
+    res = runner.invoke(app, ["simulate", "mission", "--current", "0.3"])
+    assert res.exit_code == 2
+    assert "expected N,E,D (m/s)" in res.output and "0.3,0,0" in res.output
+    assert "tuple[float" not in res.output

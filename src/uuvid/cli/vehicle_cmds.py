@@ -111,7 +111,10 @@ def simulate(
         try:
             cur = [float(x) for x in current.split(",")]
         except ValueError:
-            _fail(f"--current: expected three numbers north,east,down, got {current!r}")
+            cur = []
+        if len(cur) != 3:
+            _fail(f"--current: expected N,E,D (m/s), the water velocity north, east, down (where it "
+                  f"flows to), e.g. 0.3,0,0; got {current!r}")
         try:
             spec = scenario_from_dict(
                 {

@@ -29,7 +29,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.simulate.reference import WaypointMission, square_mission
@@ -134,13 +134,28 @@ class ScenarioSpec(BaseModel):
     substeps: int = Field(1, ge=1, le=100)
     duration: float | None = Field(None, gt=0)
 
+    @field_validator("current", mode="before")
+    @classmethod
+    def _ned_triple(cls, v):
+        if isinstance(v, (list, tuple)):
+            try:
+                ok = len(v) == 3 and all(float(x) == float(x) for x in v)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise ValueError(f"expected N,E,D (m/s): three numbers, the water velocity "
+                                 f"north, east, down (where it flows to), e.g. [0.3, 0, 0]; got "
+                                 f"{list(v)}")
+        return v
+
 
 def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
     try:
         return ScenarioSpec.model_validate(raw if raw is not None else {})
     except ValidationError as e:
         msgs = [f"{where}: {format_loc(err['loc'])}: "
-                + {"missing": "missing", "extra_forbidden": "unknown key"}.get(err["type"], err["msg"])
+                + {"missing": "missing", "extra_forbidden": "unknown key"}.get(
+                    err["type"], err["msg"].removeprefix("Value error, "))
                 for err in e.errors()]
         raise ScenarioError("\n".join(msgs)) from None
 
