@@ -148,3 +148,9 @@ def test_current_flags_say_which_way_the_water_goes():
 
     assert "flows TO" in flat(["simulate", "--help"])
     assert "comes FROM" in flat(["vehicle", "hold", "--help"])
+
+
+def test_vehicle_help_summary_names_hold_and_stability():
+    from uuvid.cli.vehicle_cmds import vehicle_app
+
+    assert "hold" in vehicle_app.info.help and "stability" in vehicle_app.info.help

@@ -8,7 +8,8 @@ import typer
 
 vehicle_app = typer.Typer(
     no_args_is_help=True,
-    help="Vehicles: info, speed envelope, identification from logs, input design.",
+    help="Vehicles: info, speed envelope, static stability, station keeping (hold), "
+         "identification from logs, input design.",
 )
 
 
