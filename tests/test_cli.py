@@ -133,7 +133,7 @@ def test_thruster_model_names_resolve_the_same_everywhere(tmp_path):
     assert res.exit_code == 0, res.output
     assert "t200-physical@16V" in res.output
     spec = scenario_from_dict({"vehicle": "bluerov2", "thruster_model": "no-such-model"})
-    with pytest.raises(ScenarioError, match="not a preset"):
+    with pytest.raises(ScenarioError, match="not a thruster preset"):
         build(spec)
 
 

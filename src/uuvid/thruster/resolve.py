@@ -51,7 +51,7 @@ def resolve_chain(ref, base: Path | str | None = None, supply_voltage: float | N
         if not p.is_absolute() and base is not None:
             p = Path(base) / p
         if not p.is_file():
-            raise FileNotFoundError(f"{ref}: no such thruster model file, and not a preset "
+            raise FileNotFoundError(f"{ref}: no such model file, and not a thruster preset "
                                     f"(presets: {', '.join(preset_names())})")
         chain = load_chain(p)
     if supply_voltage is not None:
