@@ -68,10 +68,10 @@ def _cases(name: str, study, workers: int, client, steps_per_run: int | None = N
     base = {"case": name, "runs": study.n_runs}
     c = {**base, "backend": "inprocess", "time_s": t_in, "runs_per_s": study.n_runs / t_in,
          "reference": "inprocess", "reference_time_s": t_in, "ratio": 1.0,
-         "succeeded": r_in.summary["succeeded"]}
+         "succeeded": r_in.info["succeeded"]}
     if steps_per_run:
         c["vehicle_steps_per_s"] = steps_per_run * study.n_runs / t_in
-        c["simulator"] = r_in.summary.get("target", {}).get("simulator")
+        c["simulator"] = r_in.info.get("target", {}).get("simulator")
     out.append(c)
     t_p, r_p = _time(study, backend="processes", workers=workers)
     out.append({**base, "backend": "processes", "workers": workers, "time_s": t_p,
@@ -168,7 +168,7 @@ def full(workers: int | None = None) -> dict:
     wall = time.perf_counter() - t0
     rows = table1_check(res.table)
     out["mclean"] = {"runs": spec.n_runs, "wall_time_s": wall, "runs_per_s": spec.n_runs / wall,
-                     "succeeded": res.summary["succeeded"], "table1": rows,
+                     "succeeded": res.info["succeeded"], "table1": rows,
                      "all_within_tolerance": all(r["within_tolerance"] for r in rows)}
     mc = _mc(10_000)
     run_study(_mc(4), None, backend="inprocess", progress=False)
@@ -187,8 +187,8 @@ def full(workers: int | None = None) -> dict:
     out["bluerov2_mc"] = {
         "runs": mc.n_runs, "wall_time_s": wall, "runs_per_s": mc.n_runs / wall,
         "vehicle_steps_per_s": steps * mc.n_runs / wall, "steps_per_run": steps,
-        "simulator": a.summary.get("target", {}).get("simulator"),
-        "requirement": a.summary.get("requirement"), "draws": a.summary.get("draws"),
+        "simulator": a.info.get("target", {}).get("simulator"),
+        "requirement": a.info.get("requirement"), "draws": a.info.get("draws"),
         "dask_wall_time_s": wall_d, "dask_runs_per_s": mc.n_runs / wall_d,
         "dask_identical": bool(a.table.equals(b.table))}
     return out

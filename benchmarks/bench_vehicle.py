@@ -100,7 +100,7 @@ def simulate(sim_time: float = 600.0, reference_time: float = 20.0) -> dict:
     best = math.inf
     for _ in range(3):
         r = fly_mission(setup)
-        best = min(best, r.summary["wall_time_s"])
+        best = min(best, r.metrics["wall_time_s"])
     steps = setup.t.size
     ref_steps = int(reference_time / setup.dt)
     t0 = time.perf_counter()
@@ -114,7 +114,7 @@ def simulate(sim_time: float = 600.0, reference_time: float = 20.0) -> dict:
             "reference": f"plain NumPy per-step loop, timed over {reference_time:g} s and scaled",
             "reference_time_s": ref_scaled, "reference_ratio": ref_scaled / best, "ratio": ref_scaled / best,
             "reference_max_position_difference_m": agree,
-            "tracking": {k: r.summary[k] for k in ("max_tracking_error_m", "rms_tracking_error_m")}}
+            "tracking": {k: r.metrics[k] for k in ("max_tracking_error_m", "rms_tracking_error_m")}}
 
 
 def batch(runs: int = 1000) -> dict:

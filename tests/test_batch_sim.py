@@ -61,7 +61,7 @@ def _check_against_fly(setup, VP, TP, VC, trace_run=None):
         scale = np.max(np.abs(Z[:, :3]))
         assert np.max(np.abs(tr[0, :, :3] - Z[:, :3])) <= RTOL * scale
         assert np.max(np.abs(tr[0, :, 3:] - Z[:, 3:])) <= 1e-9
-        s = res.summary
+        s = res.metrics
         r = out[trace_run]
         assert r[5] == float(s["completed"])
         if np.isnan(r[6]):  # flown again by fly_batch (bounded allocation after saturating)

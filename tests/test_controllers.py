@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 from numba import njit
 
-from uuvid.simulate.control import Controller, pid
+from uuvid.simulate.control import Controller, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, sinusoidal
 from uuvid.simulate.reference import square_mission
 from uuvid.simulate.vehicle_sim import fly_mission, run_batch, setup_mission
 from uuvid.vehicle.definition import load_vehicle
 
-REF = Path(__file__).parent / "data" / "square_mission_bluerov2_fe25ca0.npz"
+REF = Path(__file__).parent / "data" / "square_mission_bluerov2.npz"
 
 
 def body_pd(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
@@ -67,7 +67,7 @@ def _pid_block_equals_built_in(bluerov2, **blocks):
         base = fly_mission(setup_mission(bluerov2, square_mission(), current=current))
         r = fly_mission(setup_mission(bluerov2, square_mission(), current=current,
                                       controller=pid(base_gains(bluerov2)), **blocks))
-        assert r.summary["controller"] == "PID DP"
+        assert r.metrics["controller"] == "PID DP"
         for a, b in ((r.state, base.state), (r.thrust, base.thrust), (r.tau_cmd, base.tau_cmd)):
             assert np.max(np.abs(a - b)) <= 1e-12
         if current == (0.0, 0.0, 0.0):
@@ -83,8 +83,8 @@ def base_gains(vehicle):
 def test_pid_as_a_controller_block_equals_the_built_in_loop(bluerov2):
     """The PID DP passed as a Controller (with a zero-amplitude disturbance block, which shares
     its compiled loop with test_disturbance_force) flies the loop compiled around it; states,
-    thrusts and controller output equal the built-in loop's, and the run recorded before issue 12
-    (commit fe25ca0), to 1e-12 — with a current too."""
+    thrusts and controller output equal the built-in loop's, and the recorded run
+    (tests/data/make_square_mission_reference.py), to 1e-12 — with a current too."""
     _pid_block_equals_built_in(bluerov2, disturbance=sinusoidal(period=3.0))
 
 
@@ -100,9 +100,9 @@ def test_user_compiled_controller_flies_the_square(pd_setup):
     tracks the square (a PD has no integrator: the tracking is good, not PID-exact)."""
     s = pd_setup
     r = fly_mission(s)
-    assert r.summary["controller"] == "PD"
-    assert r.summary["completed"]
-    assert r.summary["max_tracking_error_m"] < 0.5
+    assert r.metrics["controller"] == "PD"
+    assert r.metrics["completed"]
+    assert r.metrics["max_tracking_error_m"] < 0.5
     # τ_cmd is the PD's output at the recorded state: recompute step k in plain Python
     for k in (0, 1234, s.t.size - 1):
         z = r.state[k]
@@ -132,8 +132,8 @@ def test_user_controller_in_the_batch_loop(pd_setup, bluerov2):
                                             np.abs(r.thrust).max(), err[-1]], rtol=1e-12)
     assert np.array_equal(out[0], out[1])
     assert not np.array_equal(out[0], out[2])
-    fast = run_batch_fast(s, VP[:2])
-    np.testing.assert_array_equal(fast[:, :5], out[:2])
+    fast = run_batch_fast(s, VP[:2])  # the SIMD kernel around the user's controller
+    np.testing.assert_allclose(fast[:, :5], out[:2], rtol=1e-12)
 
 
 @pytest.mark.slow
@@ -146,7 +146,7 @@ def test_python_controller_equals_the_compiled_one(pd_setup, bluerov2):
     rp = fly_mission(s)
     assert np.max(np.abs(rp.state[:, :13] - r.state[:, :13])) <= 1e-9
     out = run_batch(s, s.vp[None])
-    assert out[0, 0] == pytest.approx(rp.summary["max_tracking_error_m"], rel=1e-12)
+    assert out[0, 0] == pytest.approx(rp.metrics["max_tracking_error_m"], rel=1e-12)
 
 
 def test_disturbance_force(bluerov2):
@@ -155,14 +155,14 @@ def test_disturbance_force(bluerov2):
     (τ_cmd,X → −c) while the vehicle holds its waypoint."""
     base = fly_mission(setup_mission(bluerov2, square_mission()))
     r0 = fly_mission(setup_mission(bluerov2, square_mission(), disturbance=sinusoidal(period=3.0)))
-    assert r0.summary["disturbance"] == "sinusoidal"
+    assert r0.metrics["disturbance"] == "sinusoidal"
     assert np.array_equal(r0.state, base.state)
     c = 15.0
     r = fly_mission(setup_mission(bluerov2, square_mission(),
                                   disturbance=sinusoidal(constant=(c, 0, 0, 0, 0, 0))))
     assert r.tau_cmd[-1, 0] == pytest.approx(-c, rel=0.02)
     assert abs(base.tau_cmd[-1, 0]) < 0.02 * c
-    assert r.summary["final_position_error_m"] < 0.05
+    assert r.metrics["final_position_error_m"] < 0.05
 
 
 def test_bad_blocks(bluerov2):
@@ -174,3 +174,141 @@ def test_bad_blocks(bluerov2):
         setup_mission(bluerov2, square_mission(), controller=body_pd)
     with pytest.raises(ValueError, match="6 values"):
         sinusoidal((1.0, 2.0))
+
+
+# ---------------------------------------------------------------------------------------------
+# Controllers that output per-thruster thrust or raw commands
+# ---------------------------------------------------------------------------------------------
+@njit
+def pid_then_allocate(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    """The package's PID wrench (params[:24], state[:16]), allocated here by uniform scaling with
+    the vehicle's allocation matrix T (params[24:24+6n]) and limits (then lo (n), hi (n))."""
+    n = tau_out.size
+    wrench = state[16:22]
+    pid_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params[:24], state[:16], dt,
+                   wrench)
+    o = 24 + 6 * n
+    s = 1.0
+    for i in range(n):
+        f = 0.0
+        for j in range(6):
+            f += params[24 + 6 * i + j] * wrench[j]
+        tau_out[i] = f
+        if f > params[o + n + i]:
+            s = min(s, params[o + n + i] / f)
+        elif f < params[o + i]:
+            s = min(s, params[o + i] / f)
+    for i in range(n):
+        tau_out[i] *= s
+
+
+def test_thrust_output_controller_reproduces_the_built_in_run(bluerov2):
+    """A controller written here computes the PID wrench and allocates it itself (T, limits,
+    uniform scaling) with output='thrust': the loop skips its own allocation, and the flight
+    equals the built-in run with the 'scale' allocation (the same arithmetic) to rounding."""
+    from uuvid.simulate.vehicle_sim import default_gains
+
+    g = default_gains(bluerov2)
+    al = bluerov2.allocator()
+    lim = bluerov2.layout.limits
+    params = np.concatenate([g.to_array().ravel(), al.T.ravel(), lim[:, 0], lim[:, 1]])
+    ctrl = Controller(pid_then_allocate, params, np.zeros(22), "PID + own allocation", "thrust")
+    base = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale"))
+    r = fly_mission(setup_mission(bluerov2, square_mission(), allocation="scale", controller=ctrl))
+    assert r.metrics["controller_output"] == "thrust"
+    assert base.metrics["controller_output"] == "wrench"
+    assert np.max(np.abs(r.state - base.state)) <= 1e-9
+    assert np.max(np.abs(r.thrust_cmd - base.thrust_cmd)) <= 1e-9
+    # τ_cmd of a thrust output: B (η ∘ f) of the thrusts sent on; here (T a right inverse of B on
+    # the controlled DOFs, no saturation on the square) the PID's wrench on those DOFs
+    ep, en = al.eta
+    f = r.thrust_cmd
+    np.testing.assert_allclose(r.tau_cmd, (f * np.where(f >= 0, ep, en)) @ bluerov2.B.T,
+                               rtol=1e-12, atol=1e-9)
+    assert np.array_equal(r.scale, np.ones_like(r.scale))
+
+
+@njit
+def hold_command(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    for i in range(tau_out.size):
+        tau_out[i] = params[i]
+
+
+@njit
+def echo_params(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    for i in range(params.size):
+        tau_out[i] = params[i]
+
+
+@pytest.mark.slow
+def test_command_output_gives_the_chains_steady_thrust(bluerov2):
+    """Constant PWM commands (output='command') reach the ESCs as they are: once the thruster
+    lag has settled, the delivered thrust is the chain's steady map of the command (times η),
+    and thrust_cmd reads the same thrust back from the inverse table."""
+    n = len(bluerov2.layout)
+    chain = bluerov2.thruster_chain(0)
+    pwm = np.array([1620.0, 1380.0, 1550.0, 1500.0, 1700.0, 1300.0, 1530.0, 1470.0])[:n]
+    s = setup_mission(bluerov2, square_mission(), t_end=3.0,
+                      controller=Controller(hold_command, pwm, [], "PWM hold", "command"))
+    r = fly_mission(s)
+    steady = np.array([bluerov2.thruster_chain(i).steady_thrust(np.array([c]))[0]
+                       for i, c in enumerate(pwm)])
+    ep, en = bluerov2.allocator().eta
+    want = steady * np.where(steady >= 0, ep, en)
+    np.testing.assert_allclose(r.thrust[-1], want, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(r.thrust_cmd[-1], steady, rtol=1e-3, atol=0.02)
+    assert r.thrust[-1, 3] == 0.0  # neutral PWM: no thrust
+    assert chain.input_kind != "thrust"
+
+
+def test_per_thruster_output_errors():
+    """A wrong output kind or length is named with what was expected (the Heavy: 8 thrusters)."""
+    with pytest.raises(ValueError, match="wrench, thrust, command"):
+        Controller(hold_command, [], [], output="pwm")
+    heavy = load_vehicle("bluerov2-heavy")
+    mission = square_mission()
+    with pytest.raises(ValueError, match=r"must write 8 values.*wrote past"):  # Python: IndexError
+        setup_mission(heavy, mission, controller=Controller(echo_params.py_func, np.zeros(10), [],
+                                                            output="thrust"))
+    with pytest.raises(ValueError, match=r"must write 8 values.*left entries \[6, 7\] unwritten"):
+        setup_mission(heavy, mission, controller=Controller(body_pd_compiled, PD_GAINS, [0.0],
+                                                            output="command"))
+    with pytest.raises(ValueError, match=r"must write 6 values.*wrote 2 more.*output='thrust'"):
+        setup_mission(heavy, mission, controller=Controller(echo_params, np.zeros(8), []))
+    with pytest.raises(ValueError, match="failed on its first call.*ZeroDivisionError"):
+        setup_mission(heavy, mission, controller=Controller(lambda *a: 1 / 0, [], []))
+
+
+# ---------------------------------------------------------------------------------------------
+# User controllers in the SIMD batch kernel
+# ---------------------------------------------------------------------------------------------
+def test_which_controllers_the_simd_kernel_takes(bluerov2, pd_setup):
+    """Compiled wrench controllers fly the SIMD kernel; the others say why not."""
+    from uuvid.simulate.batch import fast_path_reason
+
+    assert fast_path_reason(pd_setup) is None
+    n = len(bluerov2.layout)
+    thrust = setup_mission(bluerov2, square_mission(),
+                           controller=Controller(hold_command, np.zeros(n), [], output="thrust"))
+    assert "output='thrust'" in fast_path_reason(thrust)
+    py = setup_mission(bluerov2, square_mission(), controller=Controller(body_pd, PD_GAINS, [0.0]))
+    assert "plain Python controller" in fast_path_reason(py)
+    dist = setup_mission(bluerov2, square_mission(), disturbance=sinusoidal(period=3.0))
+    assert "disturbance" in fast_path_reason(dist)
+
+
+@pytest.mark.slow
+def test_pid_as_a_user_controller_in_the_simd_kernel(bluerov2):
+    """The PID passed as a Controller flies the SIMD kernel (called per lane) with the numbers
+    of the built-in kernel (the PID inline) to 1e-12, perturbed vehicles and a current too."""
+    from uuvid.simulate.batch import perturb_batch, run_batch_fast
+
+    base = setup_mission(bluerov2, square_mission())
+    user = setup_mission(bluerov2, square_mission(), controller=pid(base.gains))
+    VP, TP, VC = perturb_batch(base, np.random.default_rng(3), 40)
+    a = run_batch_fast(base, VP, TP, VC)
+    b, tr = run_batch_fast(user, VP, TP, VC, trace_runs=[0, 39])
+    assert np.all(np.isfinite(b[:, 6]))  # column 6 is NaN on the fallback: this is the kernel
+    np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-14)
+    _, tr0 = run_batch_fast(base, VP, TP, VC, trace_runs=[0, 39])
+    np.testing.assert_allclose(tr, tr0, rtol=0, atol=1e-12)

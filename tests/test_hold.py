@@ -132,7 +132,7 @@ def test_battery_mission_limit_shrinks_and_command_compensates():
     k = int(np.argmax(np.abs(r.thrust[a])))
     assert abs(r.thrust[b, k] - r.thrust[a, k]) < 0.02 * abs(r.thrust[a, k])
     assert abs(cmd[b, k] - 1500) > abs(cmd[a, k] - 1500) + 1.0
-    assert r.summary["max_tracking_error_m"] < 0.5 and np.all(amps > 0)
+    assert r.metrics["max_tracking_error_m"] < 0.5 and np.all(amps > 0)
 
 
 def _vgrid(s):

@@ -149,7 +149,7 @@ def test_synthetic_truth_recovered_within_3_sigma(synthetic_fit):
     assert f.covariance.shape == (11, 11) and np.isfinite(f.condition_number)
     for s in synthetic_fit.per_sheet.values():
         assert s["thrust_rmse"] < 0.06  # the injected noise is 0.05 N
-    assert "Per sheet" in synthetic_fit.report()
+    assert "Per sheet" in synthetic_fit.summary()
 
 
 def test_synthetic_extrapolation_in_voltage(synthetic_fit):

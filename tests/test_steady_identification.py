@@ -53,7 +53,7 @@ def test_quadratic_speed_recovers_truth_within_3_sigma():
     assert r.block.k_pos == pytest.approx(r.forward["K_T_fwd"].value)
     assert r.block.k_neg == pytest.approx(r.reverse["K_T_rev"].value)
     assert r.forward.rmse == pytest.approx(0.05, rel=0.3)
-    assert "K_T_fwd" in r.report()
+    assert "K_T_fwd" in r.summary()
 
 
 def test_quadratic_speed_ignores_censored_rows():
@@ -324,7 +324,7 @@ def test_a_parameter_at_its_bound_reports_no_sigma():
     fit = nonlinear_lsq(lambda th: th[0] * x + th[1] - y, [1.0, 0.0], ["a", "b"],
                         bounds=([-np.inf, -np.inf], [1.5, np.inf]), emit_warnings=False)
     assert fit.at_bound == ("a",)
-    line_a = next(ln for ln in fit.report().splitlines() if ln.strip().startswith("a "))
-    line_b = next(ln for ln in fit.report().splitlines() if ln.strip().startswith("b "))
+    line_a = next(ln for ln in fit.summary().splitlines() if ln.strip().startswith("a "))
+    line_b = next(ln for ln in fit.summary().splitlines() if ln.strip().startswith("b "))
     assert "at bound" in line_a and "+/-" not in line_a
     assert "+/-" in line_b

@@ -76,7 +76,7 @@ def test_drag_fit_segment_and_residual_bootstrap():
     assert seg.names == ["k", "k_q", "w"] == res.names
     assert np.all((seg.ratio > 0.6) & (seg.ratio < 1.5)), seg.ratio
     assert np.all(np.abs(res.ratio - 1) < 0.2), res.ratio
-    assert "fit_drag surge" in seg.report()
+    assert "fit_drag surge" in seg.summary()
 
 
 def test_drag_segment_bootstrap_keeps_every_coefficient_in_each_resample():

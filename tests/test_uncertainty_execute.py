@@ -83,8 +83,8 @@ def test_processes_backend_identical_and_retries(tmp_path):
     res = run_study(study(), tmp_path, backend="processes", workers=2, chunk_size=4,
                     chunk_fn=flaky_once, progress=False)
     pd.testing.assert_frame_equal(res.table, ref)
-    assert res.summary["succeeded"] == 18 and res.summary["failed_chunks"] == []
-    assert len(res.summary["workers_used"]) >= 1
+    assert res.info["succeeded"] == 18 and res.info["failed_chunks"] == []
+    assert len(res.info["workers_used"]) >= 1
 
 
 @pytest.mark.slow
@@ -93,7 +93,7 @@ def test_a_dying_worker_process_is_replaced_and_its_chunk_retried():
     res = run_study(study(), None, backend="processes", workers=2, chunk_size=4,
                     chunk_fn=dies_once, progress=False)
     pd.testing.assert_frame_equal(res.table, ref)
-    assert res.summary["pool_restarts"] >= 1 and res.summary["failed_chunks"] == []
+    assert res.info["pool_restarts"] >= 1 and res.info["failed_chunks"] == []
 
 
 def test_failed_chunk_is_retried_then_reported_never_dropped(tmp_path):
@@ -107,7 +107,7 @@ def test_failed_chunk_is_retried_then_reported_never_dropped(tmp_path):
     assert "injected permanent failure (attempt 2)" in failed["message"].iloc[0]
     assert failed["tunnel_length"].notna().all()  # the runs keep their parameters
     assert failed["peak_output_thrust"].isna().all()
-    s = res.summary
+    s = res.info
     assert s["succeeded"] == 14 and s["status_counts"] == {"ok": 14, "failed": 4}
     assert s["failed_chunks"] == [{"start": 4, "stop": 8, "attempts": 3,
                                    "error": "RuntimeError: injected permanent failure (attempt 2)"}]
@@ -117,7 +117,7 @@ def test_failed_chunk_is_retried_then_reported_never_dropped(tmp_path):
 def test_worker_flakiness_is_absorbed_by_a_retry():
     res = run_study(study(), None, backend="inprocess", chunk_size=4, chunk_fn=flaky_once,
                     progress=False)
-    assert res.summary["succeeded"] == 18 and not res.summary["failed_chunks"]
+    assert res.info["succeeded"] == 18 and not res.info["failed_chunks"]
 
 
 def test_interrupt_leaves_readable_partial_result(tmp_path):
@@ -144,7 +144,7 @@ def test_interrupt_in_the_main_process_with_workers(tmp_path):
         run_study(study(), tmp_path, backend="processes", workers=2, chunk_size=4,
                   on_chunk=stop_after_two, progress=False)
     part = read_result(tmp_path)
-    assert part.partial and part.summary["interrupted"]
+    assert part.partial and part.info["interrupted"]
     assert 8 <= len(part.table) < 18
     assert part.table["status"].eq("ok").all()
 
@@ -159,7 +159,7 @@ def test_partial_parts_are_readable_before_the_end(tmp_path):
 
     run_study(study(), tmp_path, backend="inprocess", chunk_size=4, on_chunk=peek, progress=False)
     r = seen["result"]
-    assert r.partial and r.summary["done_runs"] == 8 and r.table["run"].tolist() == list(range(8))
+    assert r.partial and r.info["done_runs"] == 8 and r.table["run"].tolist() == list(range(8))
 
 
 def test_backend_resolution(monkeypatch):
@@ -181,7 +181,7 @@ def test_bluerov2_montecarlo_identical_on_a_local_dask_cluster(tmp_path):
     spec = MonteCarloSpec(name="rov-dask", model=load_model("bluerov2-identified"), runs=200,
                           seed=11)
     a = run_study(MonteCarloStudy(spec), None, backend="inprocess", progress=False)
-    assert a.summary["succeeded"] == 200
+    assert a.info["succeeded"] == 200
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
@@ -190,13 +190,13 @@ def test_bluerov2_montecarlo_identical_on_a_local_dask_cluster(tmp_path):
         # a failing worker on the cluster: retried, reported
         c = run_study(SweepStudy(SweepSpec.model_validate(SWEEP)), None, client=client,
                       chunk_size=4, retries=1, chunk_fn=_dask_fail, progress=False)
-    assert b.summary["backend"] == "dask" and b.summary["dask_workers"] == 2
-    assert len(b.summary["workers_used"]) == 2
+    assert b.info["backend"] == "dask" and b.info["dask_workers"] == 2
+    assert len(b.info["workers_used"]) == 2
     pd.testing.assert_frame_equal(a.table, b.table)
     for k in a.series:
         assert np.array_equal(a.series[k], b.series[k], equal_nan=True)
-    assert c.summary["status_counts"] == {"ok": 14, "failed": 4}
-    assert c.summary["failed_chunks"][0]["attempts"] == 2
+    assert c.info["status_counts"] == {"ok": 14, "failed": 4}
+    assert c.info["failed_chunks"][0]["attempts"] == 2
 
 
 def _dask_fail(payload, start, stop, attempt=0, threads=None):
@@ -256,6 +256,6 @@ def test_auto_backend_rule(monkeypatch):
 def test_summary_says_which_backend_ran_and_why(monkeypatch):
     monkeypatch.delenv("UUVID_DASK_SCHEDULER", raising=False)
     res = run_study(study(), None, chunk_size=4, progress=False)
-    assert res.summary["backend"] == "inprocess"
-    assert res.summary["backend_reason"].startswith("auto: ")
+    assert res.info["backend"] == "inprocess"
+    assert res.info["backend_reason"].startswith("auto: ")
     assert study().estimated_work_s() > 0

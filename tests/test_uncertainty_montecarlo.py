@@ -55,7 +55,7 @@ def test_bound_violations_rejected_and_reported():
     t = res.table
     eta = t["blocks[0].propeller_efficiency"]
     assert (eta <= 1.0).all() and t["status"].eq("ok").all()
-    d = res.summary["draws"]
+    d = res.info["draws"]
     # P(η > 1) = P(z > 0.4) ≈ 0.34: about half as many rejected draws as accepted ones
     assert 30 < d["rejected_draws"] < 110 and d["runs_rejected"] == 0
     assert d["violations_by_parameter"] == {"blocks[0].propeller_efficiency": d["rejected_draws"]}
@@ -69,7 +69,7 @@ def test_truncation_clips_and_reports():
     eta = res.table["blocks[0].propeller_efficiency"]
     clipped = res.table["bound_violations"] != ""
     assert (eta[clipped] == 1.0).all() and (eta[~clipped] < 1.0).all()
-    assert res.summary["draws"]["runs_clipped"] == int(clipped.sum()) > 0
+    assert res.info["draws"]["runs_clipped"] == int(clipped.sum()) > 0
     assert res.table["status"].eq("ok").all()  # η = 1 is allowed by the block
 
 
@@ -81,7 +81,7 @@ def test_ignored_bounds_leave_it_to_the_model_which_marks_runs_invalid():
     assert bad.any()
     assert t.loc[bad, "status"].eq("invalid").all() and t.loc[~bad, "status"].eq("ok").all()
     assert t.loc[bad, "message"].str.contains("propeller_efficiency must be <= 1").all()
-    assert res.summary["succeeded"] == int((~bad).sum())
+    assert res.info["succeeded"] == int((~bad).sum())
 
 
 def test_a_run_without_admissible_draw_is_kept_as_rejected():
@@ -91,7 +91,7 @@ def test_a_run_without_admissible_draw_is_kept_as_rejected():
     assert len(t) == 5 and t["status"].eq("rejected").all()
     assert t["message"].str.contains("no admissible draw in 20 attempts").all()
     assert t["peak_output_thrust"].isna().all()
-    assert res.summary["draws"]["runs_rejected"] == 5 and res.summary["succeeded"] == 0
+    assert res.info["draws"]["runs_rejected"] == 5 and res.info["succeeded"] == 0
 
 
 def test_model_validation_errors():
@@ -155,7 +155,7 @@ def test_builtin_t200_physical_matches_a_fresh_fit(shared_data):
 
 def test_t200_thrust_band(tmp_path):
     res = run_montecarlo("t200-physical", 300, tmp_path, seed=2, backend="inprocess", progress=False)
-    s = res.summary
+    s = res.info
     assert s["succeeded"] == 300
     b = s["bands"]["thrust@14V"]
     lo, med, hi = (np.array(b[k]) for k in ("lower", "median", "upper"))
@@ -172,7 +172,7 @@ def test_t200_thrust_band(tmp_path):
 def test_bluerov2_square_mission_probability_and_velocity_band():
     res = run_montecarlo("bluerov2-identified", 48, None, seed=5, backend="inprocess",
                          progress=False)
-    s = res.summary
+    s = res.info
     assert s["succeeded"] == 48 and s["target"]["vehicle"] == "bluerov2"
     r = s["requirement"]
     assert r["requirement"] == "max_tracking_error_m < 0.5" and r["runs_simulated"] == 48
@@ -187,7 +187,7 @@ def test_bluerov2_square_mission_probability_and_velocity_band():
     hard = run_montecarlo("bluerov2-identified", 16, None, seed=5, backend="inprocess",
                           progress=False,
                           requirement=Requirement(metric="max_tracking_error_m", below=1e-3))
-    assert hard.summary["requirement"]["probability"] == 0.0
+    assert hard.info["requirement"]["probability"] == 0.0
 
 
 def test_wilson_interval():
@@ -223,6 +223,6 @@ def test_failed_montecarlo_chunk_is_reported_with_its_draws():
     assert "_status" not in t.columns and len(t) == 20
     assert t["status"].tolist() == ["failed"] * 10 + ["ok"] * 10
     assert t["blocks[0].propeller_efficiency"].notna().all()
-    r = res.summary["requirement"]
+    r = res.info["requirement"]
     assert r["runs_simulated"] == 10 and r["probability"] == 1.0
     assert r["probability_counting_unsimulated_as_failures"] == 0.5

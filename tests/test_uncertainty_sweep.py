@@ -99,7 +99,7 @@ def test_mclean_corners_of_a_small_grid_reproduce_table1():
                     "steady_speed"]})
     assert spec.n_runs == 108
     res = run_sweep(spec, None, backend="inprocess", progress=False)
-    assert res.summary["succeeded"] == 108 and not res.partial
+    assert res.info["succeeded"] == 108 and not res.partial
     check_table1(table1_rows_of(res.table))
 
 
@@ -116,7 +116,7 @@ def test_mclean_sensitivity_10000_runs_under_a_minute():
     t0 = time.perf_counter()
     res = run_study(study, None, backend="inprocess", progress=False)
     wall = time.perf_counter() - t0
-    assert res.summary["succeeded"] == spec.n_runs
+    assert res.info["succeeded"] == spec.n_runs
     assert wall < 60.0, wall
     check_table1(table1_rows_of(res.table))
 
@@ -192,7 +192,7 @@ def test_dotted_block_names_and_invalid_values_are_reported_per_run():
     assert t["status"].tolist() == ["ok", "invalid", "invalid"]
     assert "tunnel_length" in t.loc[1, "message"]
     assert "propeller_efficiency must be <= 1" in t.loc[2, "message"]
-    assert res.summary["succeeded"] == 1 and res.summary["status_counts"] == {"ok": 1, "invalid": 2}
+    assert res.info["succeeded"] == 1 and res.info["status_counts"] == {"ok": 1, "invalid": 2}
     ref = auv2_rig_chain().simulate(24.0, 0.3, substeps=1).metrics()
     assert t.loc[0, "peak_output_thrust"] == pytest.approx(ref.peak_output_thrust, rel=1e-12)
 
@@ -241,12 +241,12 @@ def test_vehicle_sweep_added_mass_times_damping(tmp_path):
     assert t["status"].eq("ok").all() and len(t) == 4
     assert (t["max_tracking_error_m"] > 0).all()
     assert (t["max_thrust_N"] > 0).all() and (t["min_allocation_scale"] <= 1).all()
-    req = res.summary["requirement"]
+    req = res.info["requirement"]
     assert req["runs_simulated"] == 4 and 0 <= req["probability"] <= 1
-    assert res.summary["target"]["vehicle"] == "bluerov2"
+    assert res.info["target"]["vehicle"] == "bluerov2"
     for f in ("results.csv", "summary.json", "index.html"):
         assert (tmp_path / "out" / f).exists()
-    assert any(f.startswith("heatmap") for f in res.summary["figures"])
+    assert any(f.startswith("heatmap") for f in res.info["figures"])
 
 
 @pytest.mark.slow

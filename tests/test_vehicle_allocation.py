@@ -252,7 +252,7 @@ def test_bluerov2_envelope():
     assert climb.speed == pytest.approx(steady_speed(5.18, 36.99, -2 * 39.913 - 2.0))
     for r in env.rows:
         assert r.force_allocator <= r.force + 1e-9
-    assert "forward" in env.report()
+    assert "forward" in env.summary()
 
 
 def test_lp_force_is_unbounded_without_limits_and_zero_when_impossible():

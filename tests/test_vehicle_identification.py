@@ -46,7 +46,7 @@ def test_robust_velocity_flags_injected_outliers_and_missing():
     assert abs(sv.velocity - 0.25) < 3 * sv.stderr
     assert sv.relative_error < 0.03  # Caccia: σ_v < 3 % of v
     assert sv.settled
-    rep = sv.report()
+    rep = sv.summary()
     assert "4 outliers" in rep and "#17" in rep
     assert not sv.used[5] and sv.used[6]
     s = summarise_rejections([sv, sv])
@@ -69,7 +69,7 @@ def test_unsettled_segment_is_reported():
     x = x + np.random.default_rng(0).normal(0, 0.002, t.size)
     sv = segment_velocity(t, x)
     assert not sv.settled
-    assert "NOT SETTLED" in sv.report()
+    assert "NOT SETTLED" in sv.summary()
 
 
 def test_heading_wraparound_with_gap_and_spike():
@@ -230,7 +230,7 @@ def test_fit_drag_sigma_covers_truth_with_noise():
         assert p.percentile_error < 51.02
     d = fit.as_dict()
     assert d["parameters"]["k"]["sigma"] == fit.fit["k"].stderr
-    assert "Fit" in fit.report()
+    assert "Fit" in fit.summary()
 
 
 def test_automatic_model_reduction_drops_insignificant_quadratic():

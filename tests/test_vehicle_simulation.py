@@ -90,7 +90,7 @@ def test_compiled_rk4_agrees_with_solve_ivp_over_60s(bluerov2, chain):
 
 def test_square_mission_bluerov2_completes_within_half_a_metre(bluerov2):
     res = fly_mission(setup_mission(bluerov2, square_mission()))
-    s = res.summary
+    s = res.metrics
     assert s["completed"]
     assert s["max_tracking_error_m"] < 0.5
     assert not s["thrust_over_limit"]
@@ -105,7 +105,7 @@ def test_batch_equals_single_runs(bluerov2):
     single = fly_mission(setup)
     vp = np.tile(setup.vp, (3, 1))
     out = run_batch(setup, vp)
-    assert out[0, 0] == pytest.approx(single.summary["max_tracking_error_m"], rel=1e-12)
+    assert out[0, 0] == pytest.approx(single.metrics["max_tracking_error_m"], rel=1e-12)
     assert np.allclose(out[0], out[1])
 
 

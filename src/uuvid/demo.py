@@ -117,12 +117,12 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     rep.add_figure(save_figure(fig, d / "battery_mission_heavy.png"),
                    caption="BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack (voltage-aware "
                    "T200 model in the loop): the voltage sags, the commands grow to hold the thrust")
-    res["battery_mission"] = {k: rb.summary[k] for k in ("supply_voltage_V", "soc",
+    res["battery_mission"] = {k: rb.metrics[k] for k in ("supply_voltage_V", "soc",
                                                          "max_battery_current_A",
                                                          "max_tracking_error_m")}
     r = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(),
                                   current=ned(0.3, 0.0)))
-    sq = {k: r.summary[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
+    sq = {k: r.metrics[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
     rep.add_paragraph("BlueROV2 square mission in a 0.3 m/s current flowing north (from the "
                       "south): "
@@ -153,7 +153,7 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     )
     rep.add_figure(out / "mission" / "path_3d.png")
     rep.add_figure(out / "mission" / "thrusters.png")
-    rep.add_table([{k: v_ for k, v_ in res.summary.items() if not isinstance(v_, list)}])
+    rep.add_table([{k: v_ for k, v_ in res.metrics.items() if not isinstance(v_, list)}])
     envs = {}
     for name in ("bluerov2", "bluerov2-heavy"):
         check = confirm_envelope(v if name == "bluerov2" else load_vehicle(name))
@@ -163,14 +163,14 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
         if name == "bluerov2":
             rep.add_figure(check.stability.plot(out / "bluerov2_stability.png"),
                            caption="BlueROV2: trim in steady flight; it cannot stay level beyond the limits")
-    return {"mission": res.summary, "envelopes": envs}
+    return {"mission": res.metrics, "envelopes": envs}
 
 
 def _study_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import thruster_loop_study as st
 
     result = st.run_study(bandwidths=(2.0, 6.0))
-    st.write_outputs(result, out / "study")
+    result.report(out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
     rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
@@ -183,7 +183,7 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import caccia2000
 
     res = caccia2000.reproduce(seed=0, fast=True)
-    caccia2000.write_outputs(res, out / "caccia2000")
+    res.report(out / "caccia2000")
     rep.add_heading("Caccia et al. (2000): identification from on-board sensors (simulated ROMEO)")
     rep.add_links("Full page:", ["caccia2000/index.html"])
     rep.add_paragraph(
@@ -220,8 +220,10 @@ def _caccia_section(out: Path, rep: Report) -> dict:
     return dict(res)
 
 
-def _blocks_section(rep: Report) -> dict:
-    """The square flown with the PID as a controller block under a wave-like disturbance force."""
+def _blocks_section(rep: Report, quick: bool = False) -> dict:
+    """The square flown with the PID as a controller block under a wave-like disturbance force;
+    without ``quick`` also by the hover LQI, a per-thruster-thrust controller chosen in a scenario
+    (``controller: {kind: lqr}``; its loop compiles in ≈ 10 s)."""
     from uuvid.simulate.disturbances import sinusoidal
     from uuvid.simulate.reference import square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
@@ -232,12 +234,24 @@ def _blocks_section(rep: Report) -> dict:
     rows = []
     for name, dist in (("none", None), ("5 N surge + 10 N / 8 N surge/heave at 5 s", wave)):
         r = fly_mission(setup_mission(v, square_mission(), disturbance=dist))
-        rows.append({"disturbance": name, **{k: r.summary[k] for k in (
-            "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N", "completed")}})
+        rows.append({"controller": r.metrics["controller"], "disturbance": name,
+                     **{k: r.metrics[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
+                                                  "max_thrust_N", "completed")}})
+    if not quick:
+        from uuvid.simulate.scenario import build, scenario_from_dict
+
+        _, setup = build(scenario_from_dict({"vehicle": "bluerov2", "controller": {"kind": "lqr"}}))
+        r = fly_mission(setup)
+        rows.append({"controller": f"{r.metrics['controller']}, thrust output (scenario file)",
+                     "disturbance": "none", **{k: r.metrics[k] for k in (
+                         "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
+                         "completed")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
     rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.Controller); "
                       "a disturbance block adds a generalized force at every integration step "
-                      "(uuvid.simulate.disturbances). BlueROV2, Laidani et al.'s square:")
+                      "(uuvid.simulate.disturbances); a controller may output the wrench, each "
+                      "thruster's thrust (the LQI designed at hover) or raw commands. BlueROV2, "
+                      "Laidani et al.'s square:")
     rep.add_table(rows)
     return {"rows": rows}
 
@@ -283,6 +297,21 @@ def _steady_map_section(rep: Report) -> dict:
     return {"rows": rows}
 
 
+def _t200_sheet_section(rep: Report) -> dict:
+    """The BlueROV2's ``t200`` preset against rows of Blue Robotics' 12 V and 16 V sheets."""
+    from uuvid.identify.t200_preset import preset_vs_sheet_points
+    from uuvid.thruster.presets import T200_TIME_CONSTANT
+
+    rows = preset_vs_sheet_points()
+    rep.add_heading("The T200 preset against Blue Robotics' sheets")
+    rep.add_paragraph(f"ESC with a curved duty per direction → first-order motor (τ = "
+                      f"{T200_TIME_CONSTANT:g} s, assumed) → K_T Ω|Ω|, fitted to both sheets "
+                      "(uuvid.identify.t200_preset); "
+                      "the chain every fixed-supply BlueROV2 mission flies.")
+    rep.add_table(rows)
+    return {"rows": rows, "max_abs_error_pct_of_max": max(abs(r["error_pct_of_max"]) for r in rows)}
+
+
 def _log_identify_section(out: Path, rep: Report) -> dict:
     """Caccia's identification from Python on logs with real logs' traps: a QGroundControl-style
     CSV (ISO time stamps, duplicated rows) and a sine experiment whose 10 Hz heading drifts off
@@ -324,7 +353,7 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
     except ImportError as e:  # pymavlink missing (an install without uuvid's dependencies)
         rep.add_paragraph(f"Skipped: {e}")
         return {"skipped": str(e)}
-    files = dive.report(out / "ardusub")
+    dive.report(out / "ardusub")
     rep.add_paragraph(f"{log.name} (clydemcqueen/ardusub_log_tools, MIT): configuration from its "
                       f"parameters, depth from {dive.depth_source['source']} "
                       f"({dive.depth_source['why']}). Table: ardusub/dive.csv with "
@@ -334,7 +363,8 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
                    for m in ins.config.active],
                   caption=f"FRAME_CONFIG = {ins.config.frame} ({ins.config.frame_name}): ArduSub "
                           "mixing factors and MOT_n_DIRECTION")
-    rep.add_figure(files["figure"], caption="Depth, attitude, thrust per motor (T200 at the "
+    rep.add_figure(out / "ardusub" / "dive.png",
+                   caption="Depth, attitude, thrust per motor (T200 at the "
                    "logged voltage) and generalized forces; modes shaded")
     mask, why = dive.open_loop()
     rep.add_paragraph(f"Open-loop data for identification: {why}.")
@@ -392,10 +422,11 @@ def run_demo(out: Path, quick: bool = False) -> dict:
         task.stage("UUV Simulator thruster dynamics")
         gallery = _dynamics_gallery(out, rep)
         steady_maps = _steady_map_section(rep)
+        t200_sheets = _t200_sheet_section(rep)
         task.advance()
         task.stage("vehicle mission and speed envelopes")
         vehicle = _vehicle_section(out, rep)
-        blocks = _blocks_section(rep)
+        blocks = _blocks_section(rep, quick)
         task.advance()
         task.stage("thruster-loop study" + (" (skipped: --quick)" if quick else ""))
         study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
@@ -431,6 +462,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "laidani": la,
             "uuv_dynamics": gallery,
             "steady_maps": steady_maps,
+            "t200_sheets": t200_sheets,
             "vehicle": vehicle,
             "controller_blocks": blocks,
             "study": study,

@@ -169,7 +169,7 @@ def study(
     with progress_task("thruster-loop study", total=6 * len(bws)) as task:
         result = st.run_study(bws, progress=task.advance)
     if out:
-        st.write_outputs(result, out)
+        result.report(out)
     if json_out:
         _print_json(result)
     else:

@@ -201,7 +201,7 @@ def thruster_fit(
     if json_out:
         _print_json(doc)
         return
-    out_console.print(outcome.report_text, highlight=False, markup=False, soft_wrap=True)
+    out_console.print(outcome.summary(), highlight=False, markup=False, soft_wrap=True)
     err_console.print(f"wrote {out}" + (f" and {report / 'index.html'}" if report else ""), markup=False)
 
 

@@ -31,16 +31,16 @@ def _run(model: str, files: list[Path], opts: ReadOptions, out: Path | None, jso
         rep = replay_files(chain, files, opts)
     except (BenchDataError, FitError, ValueError) as e:
         _fail(str(e))
-    doc = rep.summary()
+    doc = rep.to_dict()
     if out is not None:
         try:
-            doc["report"] = str(rep.write(out))
+            doc["report"] = str(rep.report(out))
         except OSError as e:
             _fail(f"--out {out}: cannot write ({e.strerror or e})")
     if json_out:
         _print_json(doc)
         return
-    out_console.print(rep.to_text(), highlight=False, markup=False, soft_wrap=True)
+    out_console.print(rep.summary(), highlight=False, markup=False, soft_wrap=True)
     if out is not None:
         err_console.print(f"wrote {out / 'index.html'}", markup=False)
 

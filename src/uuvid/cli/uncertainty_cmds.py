@@ -92,7 +92,7 @@ def _run(fn, out: Path | None, json_out: bool, title: str):
         _fail(str(e))
     except _user_errors() as e:
         _fail(str(e))
-    summary = dict(res.summary)
+    summary = dict(res.info)
     if out is not None:
         summary["out"] = str(out)
     if json_out:

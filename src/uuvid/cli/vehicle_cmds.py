@@ -34,6 +34,7 @@ def _load_vehicle(name: str):
 def _fly(spec, base, out, json_out, label):
     from uuvid.io.modelfile import ModelFileError
     from uuvid.report.progress import progress_task
+    from uuvid.simulate.controller_files import describe
     from uuvid.simulate.scenario import build
     from uuvid.simulate.vehicle_sim import fly_mission
 
@@ -42,6 +43,7 @@ def _fly(spec, base, out, json_out, label):
         vehicle, setup = build(spec, base)
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         _fail(str(e))
+    err_console.print(f"controller: {describe(setup.controller)}")
     with progress_task(f"flying {label}", total=2) as task:
         result = fly_mission(setup)
         task.advance()
@@ -50,7 +52,7 @@ def _fly(spec, base, out, json_out, label):
 
             write_mission_outputs(result, vehicle, out)
         task.advance()
-    summary = result.summary
+    summary = result.metrics
     if json_out:
         keys = (
             "completed",
@@ -94,6 +96,10 @@ def simulate(
         "t200, laidani-a2212, t200-physical, ...)."
     ),
     dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
+    controller: str | None = typer.Option(
+        None, "--controller", help="pid | lqr | FILE.py:FACTORY (your factory(vehicle, context) "
+        "returning a Controller); overrides a scenario's."
+    ),
     out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ):
@@ -102,9 +108,14 @@ def simulate(
     Laidani et al.'s mission (square): dive 2 m, fly a 10 × 10 m square at 0.5 m/s, surface.
     """
     from uuvid.io.modelfile import ModelFileError
+    from uuvid.simulate.controller_files import ControllerFileError, parse_controller_arg
     from uuvid.simulate.scenario import load_scenario, scenario_from_dict
 
     _fail = _helpers()[0]
+    try:
+        ctrl = parse_controller_arg(controller) if controller else None
+    except ControllerFileError as e:
+        _fail(str(e))
     if target == "mission":
         kind = kind or "square"
         if kind != "square":
@@ -124,6 +135,7 @@ def simulate(
                     "current": cur,
                     "dt": dt,
                     "mission": {"kind": "square", "speed": speed, "depth": depth, "side": side},
+                    **({"controller": ctrl} if ctrl else {}),
                 },
                 where="command line",
             )
@@ -138,6 +150,11 @@ def simulate(
         _fail(f"{scenario}: no such scenario file (or use `uuvid simulate mission square`)")
     try:
         spec = load_scenario(scenario)
+        if ctrl:  # the command line's controller (its file relative to the working folder)
+            ctrl["file"] = str(Path(ctrl["file"]).resolve()) if "file" in ctrl else None
+            spec = scenario_from_dict({**spec.model_dump(exclude={"controller"}),
+                                       "controller": {k: v for k, v in ctrl.items() if v}},
+                                      where="--controller")
     except ModelFileError as e:
         _fail(str(e))
     _fly(spec, scenario.parent, out, json_out, spec.name)

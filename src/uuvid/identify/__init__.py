@@ -6,6 +6,7 @@ regions.py      dead zone and saturation of a steady map
 steady.py       thruster steady maps per direction (K_T, c_V, polynomial + degree selection,
                 dead-zone curve, table) from bench data
 physical.py     voltage-aware physical thruster model (ESC duty × supply → DC motor → propeller)
+t200_preset.py  the vehicles' ``t200`` preset chain fitted to the T200 sheets; its errors per sheet
 dynamic.py      dynamic thruster models fitted over simulated responses (first-order, Yoerger,
                 Bessa, DC motor, McLean tunnel)
 rig.py          test-rig helpers: load cell from a tap test, its inversion, trigger alignment

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from uuvid.identify.fit import Fit, Parameter, nonlinear_lsq
+from uuvid.report.result import Result, jsonable
 from uuvid.simulate import kernels
 from uuvid.simulate.response import TimeResponse
 from uuvid.thruster.blocks import (
@@ -412,12 +413,12 @@ def _jsonable(v):
 # result
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class ChainFit:
+class ChainFit(Result):
     """A :class:`~uuvid.identify.fit.Fit` together with the fitted chain and the runs.
 
     ``fit.residuals`` are the weighted, scaled residuals the optimiser saw; per-run RMSE in the
     channel's own unit is in ``fit.extra["runs"]``.  Indexing (``result["blocks[0].alpha"]``),
-    ``values``, ``stderrs``, ``report()`` and ``as_dict()`` delegate to the fit.
+    ``values``, ``stderrs``, ``summary()`` and ``as_dict()`` delegate to the fit.
     """
 
     fit: Fit
@@ -463,14 +464,33 @@ class ChainFit:
             {"chain": self.chain.name, "run": p.name},
         ).recorded()
 
-    def report(self) -> str:
-        return self.fit.report()
+    report_title = "Dynamic thruster-chain fit"
+
+    def summary(self) -> str:
+        return self.fit.summary()
 
     def as_dict(self) -> dict:
         return self.fit.as_dict()
 
+    def to_dict(self) -> dict:
+        return jsonable({"chain": self.chain.name, **self.fit.as_dict()})
+
+    def plot(self, run: int = 0):
+        """Measured channel of run ``run`` and the fitted chain's prediction."""
+        from uuvid.report.plots import new_figure
+
+        p = self.runs[run]
+        fig, ax = new_figure(figsize=(8, 3.6))
+        ax.plot(p.t, p.y, ".", ms=2, color="0.5", label="measured")
+        ax.plot(p.t, self.predict(run), "-", color="C1", label="fitted chain")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel(p.channel)
+        ax.set_title(f"{self.chain.name}: {p.name}", fontsize=10)
+        ax.legend(fontsize=8)
+        return fig
+
     def __str__(self) -> str:
-        return self.report()
+        return self.summary()
 
 
 # ------------------------------------------------------------------------------------------------

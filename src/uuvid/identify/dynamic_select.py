@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uuvid.identify.dynamic import ChainFit, Run, _simulate_run, fit_chain, set_parameter, validate_runs
+from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import (
     CH,
     BessaDynamics,
@@ -347,7 +348,7 @@ def predict_chain(chain: ThrusterChain, exp: Experiment, max_step: float | None 
 # the joint fit
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class DynamicsFit:
+class DynamicsFit(Result):
     """A structure fitted to records: ``chain_fit`` (the :class:`ChainFit`, whose ``fit`` is the
     :class:`~uuvid.identify.fit.Fit`), the estimated noise σ per channel, the in-sample NRMSE per
     record and channel, and the identifiable combinations (with σ by the delta method)."""
@@ -400,7 +401,9 @@ class DynamicsFit:
             bands[c] = (base.predicted[c] - z * sd, base.predicted[c] + z * sd)
         return dataclasses.replace(base, band=bands)
 
-    def summary(self) -> str:
+    def brief(self) -> str:
+        """Structure, noise σ, in-sample NRMSE and identifiable combinations (no parameter
+        table; :meth:`summary` adds it)."""
         lines = [f"{self.structure.name}: {self.n_params} parameters, noise σ "
                  + ", ".join(f"{c} {v:.3g}" for c, v in self.noise.items())
                  + f" (estimated, {self.iterations} reweighting passes)"]
@@ -410,13 +413,19 @@ class DynamicsFit:
             lines.append(f"  identifiable {k} = {v['estimate']:.5g} ± {v['sigma']:.2g}")
         return "\n".join(lines)
 
-    def report(self) -> str:
-        return self.fit.report() + "\n" + self.summary()
+    report_title = "Dynamic thruster model"
+
+    def summary(self) -> str:
+        return self.fit.summary() + "\n" + self.brief()
 
     def to_dict(self) -> dict:
-        return {"structure": self.structure.name, "n_params": self.n_params,
-                "noise": self.noise, "in_sample": self.in_sample,
-                "identifiable": self.identifiable, "parameters": self.fit.as_dict()}
+        return jsonable({"structure": self.structure.name, "n_params": self.n_params,
+                         "noise": self.noise, "in_sample": self.in_sample,
+                         "identifiable": self.identifiable, "parameters": self.fit.as_dict()})
+
+    def plot(self, run: int = 0):
+        """Measured channel of record ``run`` and the fitted chain's prediction."""
+        return self.chain_fit.plot(run)
 
 
 def _delta(cf: ChainFit, combos: dict) -> dict:
@@ -518,7 +527,7 @@ def fit_dynamics(
 # selection by leave-one-level-out prediction
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class Selection:
+class Selection(Result):
     """Leave-one-level-out table, the chosen structure and why, the all-levels fits, and the
     held-out predictions of the chosen structure (``held_out``: level → predictions)."""
 
@@ -557,9 +566,14 @@ class Selection:
         out.append(f"chosen: {self.chosen} — {self.reason}")
         return "\n".join(out)
 
+    report_title = "Dynamic model structure selection"
+
+    def summary(self) -> str:
+        return self.to_text()
+
     def to_dict(self) -> dict:
-        return {"levels": list(self.levels), "table": self.rows, "chosen": self.chosen,
-                "reason": self.reason}
+        return jsonable({"levels": list(self.levels), "table": self.rows, "chosen": self.chosen,
+                         "reason": self.reason})
 
     def plot(self, level: float | None = None):
         """Held-out prediction of the chosen structure at ``level`` (default: the highest) with

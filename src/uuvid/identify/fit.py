@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.report.result import Result, jsonable
+
 #: Caccia et al. 2000: percentile error above this → insignificant at 95 % (1/1.96 = 51.02 %).
 SIGNIFICANCE_PERCENT = 100.0 / 1.96
 #: Condition number of the column-scaled regressor above which parameters are called unidentifiable.
@@ -69,8 +71,9 @@ class Parameter:
 
 
 @dataclass(frozen=True)
-class Fit:
-    """Parameters by name with σ, covariance, residuals and diagnostics; ``report()`` prints it."""
+class Fit(Result):
+    """Parameters by name with σ, covariance, residuals and diagnostics; ``summary()`` is the
+    text report, ``report(folder)`` writes it with a residual plot."""
 
     model: str
     parameters: tuple[Parameter, ...]
@@ -164,7 +167,17 @@ class Fit:
             **({"extra": self.extra} if self.extra else {}),
         }
 
-    def report(self) -> str:
+    report_title = "Fit"
+
+    def to_dict(self) -> dict:
+        """:meth:`as_dict`, JSON-safe (NaN → ``None``)."""
+        return jsonable(self.as_dict())
+
+    def plot(self):
+        """Residuals against sample index and their histogram."""
+        return residual_figure({self.model: self})
+
+    def summary(self) -> str:
         """A readable fit report (lmfit-style)."""
         lines = [f"[[Fit]] {self.model}",
                  f"    samples = {self.n_samples}, free parameters = {self.n_free}, "
@@ -202,7 +215,29 @@ class Fit:
         return "\n".join(lines)
 
     def __str__(self) -> str:
-        return self.report()
+        return self.summary()
+
+
+def residual_figure(fits: dict, title: str | None = None):
+    """One row per fit (label → :class:`Fit`): residuals against sample index and their
+    histogram (a headless Figure)."""
+    from uuvid.report.plots import new_figure
+
+    fig, ax = new_figure(max(len(fits), 1), 2, figsize=(10, 1.2 + 2.4 * max(len(fits), 1)),
+                         width_ratios=[3, 1], squeeze=False)
+    for row, (label, f) in zip(ax, fits.items()):
+        r = np.asarray(f.residuals, dtype=float).ravel()
+        r = r[np.isfinite(r)]
+        row[0].plot(r, ".", ms=3)
+        row[0].axhline(0.0, color="k", lw=0.6)
+        row[0].set_ylabel("residual")
+        row[0].set_title(f"{label}: RMSE {f.rmse:.4g}, {f.n_samples} samples", fontsize=10)
+        row[1].hist(r, bins=max(5, min(40, r.size // 4)), orientation="horizontal")
+    ax[-1, 0].set_xlabel("sample")
+    ax[-1, 1].set_xlabel("count")
+    if title:
+        fig.suptitle(title, fontsize=11)
+    return fig
 
 
 def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.ndarray,

@@ -138,8 +138,8 @@ def write_steady_report(res: dict, doc: dict, data: LogData, dof: str, folder: P
     atomic_write_text(folder / "rejected.csv", _csv_text(res["rejected"], rej_cols))
     if res["skipped"]:
         rep.add_table(res["skipped"], caption="Segments left out")
-    rep.add_preformatted(fit.report(), caption="Fit report")
-    atomic_write_text(folder / "fit_report.txt", fit.report() + "\n")
+    rep.add_preformatted(fit.summary(), caption="Fit report")
+    atomic_write_text(folder / "fit_report.txt", fit.summary() + "\n")
     atomic_write_json(folder / "summary.json", doc)
     return rep.write(folder)
 
@@ -223,8 +223,8 @@ def write_inertia_report(res: dict, doc: dict, data: LogData, dof: str, folder: 
         ax.legend(fontsize=8)
         rep.add_figure(save_figure(fig, folder / "validation.png"),
                        caption="Validation log: measured vs predicted velocity")
-    rep.add_preformatted(fit.fit.report(), caption="Fit report")
-    atomic_write_text(folder / "fit_report.txt", fit.fit.report() + "\n")
+    rep.add_preformatted(fit.fit.summary(), caption="Fit report")
+    atomic_write_text(folder / "fit_report.txt", fit.fit.summary() + "\n")
     atomic_write_json(folder / "summary.json", doc)
     return rep.write(folder)
 

@@ -48,8 +48,9 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
-from uuvid.identify.fit import Fit, IdentifiabilityWarning, Parameter, nonlinear_lsq
+from uuvid.identify.fit import Fit, IdentifiabilityWarning, Parameter, nonlinear_lsq, residual_figure
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
+from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import ESC, DCMotor, ParameterError, QuadraticMap
 from uuvid.thruster.chain import ThrusterChain
 
@@ -265,7 +266,7 @@ def esc_supports_curvature() -> bool:
 # Identification
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class PhysicalFit:
+class PhysicalFit(Result):
     """The fitted :class:`PhysicalModel`, its :class:`Fit` and per-sheet errors."""
 
     model: PhysicalModel
@@ -285,8 +286,18 @@ class PhysicalFit:
     def predict(self, command, supply_voltage) -> Prediction:
         return self.model.predict(command, supply_voltage)
 
-    def report(self) -> str:
-        lines = [self.fit.report(), "[[Per sheet]]"]
+    report_title = "Physical thruster model fit"
+
+    def to_dict(self) -> dict:
+        return jsonable({"model": asdict(self.model), "fit": self.fit.as_dict(),
+                         "per_sheet": self.per_sheet, "notes": list(self.notes)})
+
+    def plot(self):
+        """Residuals of the joint fit over all sheets."""
+        return residual_figure({"physical": self.fit}, "physical model")
+
+    def summary(self) -> str:
+        lines = [self.fit.summary(), "[[Per sheet]]"]
         for k, s in self.per_sheet.items():
             lines.append(f"    {k}: thrust RMSE {s['thrust_rmse']:.4g} N "
                          f"({s['thrust_rmse_pct']:.2f} % of max {s['max_thrust']:.4g} N), "
@@ -296,7 +307,7 @@ class PhysicalFit:
         return "\n".join(lines)
 
     def __str__(self) -> str:
-        return self.report()
+        return self.summary()
 
 
 def evaluate(model: PhysicalModel, data: BenchData, *, include_censored: bool = False) -> dict:

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.identify.vehicle_logs import ANGULAR, LogData, LogSpec, read_vehicle_log
+from uuvid.report.result import Result, jsonable
 
 __all__ = ["identify_steady", "identify_inertia", "SteadyIdentification",
            "InertiaIdentification", "run_steady", "run_inertia", "InertiaOptions", "load_drag",
@@ -586,7 +587,7 @@ def _validate_log(model, data: LogData, dof: str, window: int) -> dict:
     cs = clean_series(data.t_pos, data.position, angle=angle, angle_unit="rad", window=window)
     v = savgol_velocity(cs.t, cs.x, order=4, window=window)
     val = validate_one_dof(model, cs.t, data.command, v, t_phi=data.t_cmd)
-    return {"nrmse": val["nrmse"], "rmse": val["rmse"], "cleaning": cs.report(),
+    return {"nrmse": val["nrmse"], "rmse": val["rmse"], "cleaning": cs.summary(),
             "series": (cs.t, val["predicted"], v)}
 
 
@@ -707,7 +708,7 @@ def _params_text(title: str, params: dict) -> str:
 
 
 @dataclass
-class SteadyIdentification:
+class SteadyIdentification(Result):
     """Drag and installation coefficients of one DOF from a log (Caccia et al. 2000, §III-A).
 
     ``fit`` is the :class:`~uuvid.identify.vehicle_fit.DragFit`; ``result`` everything the
@@ -744,14 +745,19 @@ class SteadyIdentification:
         out += [f"warning: {w}" for w in self.warnings] + [f"note: {m}" for m in self.notes]
         return "\n".join(out)
 
+    report_title = "Steady drag identification"
+
     def to_dict(self) -> dict:
-        return self.document
+        return jsonable(self.document)
 
     def report(self, folder) -> Path:
-        """Plots, tables, fit report, summary.json and index.html in ``folder``."""
+        """Plots, tables, fit report, summary.json, summary.txt, result.json and index.html in
+        ``folder``; returns the index."""
         from uuvid.identify.log_reports import write_steady_report
 
-        return write_steady_report(self.result, self.document, self.data, self.dof, Path(folder))
+        index = write_steady_report(self.result, self.document, self.data, self.dof, Path(folder))
+        self.write_basics(folder)
+        return index
 
     def plot(self):
         from uuvid.identify.log_reports import steady_figure
@@ -824,7 +830,7 @@ def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
 
 
 @dataclass
-class InertiaIdentification:
+class InertiaIdentification(Result):
     """Inertia of one DOF from a sine experiment (Caccia et al. 2000, eqs. 15–19).
 
     ``fit`` is the :class:`~uuvid.identify.vehicle_fit.InertiaFit`, ``model`` the identified
@@ -869,14 +875,20 @@ class InertiaIdentification:
         out += [f"note: {m}" for m in doc["notes"]]
         return "\n".join(out)
 
+    report_title = "Inertia identification"
+
     def to_dict(self) -> dict:
-        return self.document
+        return jsonable(self.document)
 
     def report(self, folder) -> Path:
+        """Plots, tables, fit report, summary.json, summary.txt, result.json and index.html in
+        ``folder``; returns the index."""
         from uuvid.identify.log_reports import write_inertia_report
 
-        return write_inertia_report(self.result, self.document, self.data, self.dof,
-                                    Path(folder), self.validation)
+        index = write_inertia_report(self.result, self.document, self.data, self.dof,
+                                     Path(folder), self.validation)
+        self.write_basics(folder)
+        return index
 
     def plot(self):
         from uuvid.identify.log_reports import inertia_figure

@@ -26,7 +26,7 @@ it rejected**:
 
   The velocity is the LS slope of the inliers with its classical standard error
   ``σ_v = sqrt(σ²/Σ(t − t̄)²)``; every rejected sample comes back with its index, time, value,
-  residual and reason (:class:`Rejection`), and ``report()`` prints them.  A quadratic term is
+  residual and reason (:class:`Rejection`), and ``summary()`` prints them.  A quadratic term is
   also fitted to the inliers: a significant acceleration (|a|/σ_a > 3) means the segment had not
   settled (``settled = False``) — the slope is then biased and the segment should be shortened
   or its ``settle`` time lengthened.
@@ -273,7 +273,7 @@ class SegmentVelocity:
     def n_outliers(self) -> int:
         return self.count("outlier")
 
-    def report(self) -> str:
+    def summary(self) -> str:
         lines = [f"segment [{self.t0:.6g}, {self.t1:.6g}] s: v = {self.velocity:.6g} ± "
                  f"{self.stderr:.3g} ({100 * self.relative_error:.2f} %), {self.n_used}/"
                  f"{self.n_total} samples used, residual σ {self.residual_std:.3g}"]
@@ -430,7 +430,7 @@ class CleanSeries:
     def good(self) -> np.ndarray:
         return self.flags == "ok"
 
-    def report(self) -> str:
+    def summary(self) -> str:
         return (f"{self.t.size} samples at dt = {self.dt:.4g} s: {self.n_missing} missing and "
                 f"{self.n_outliers} outliers (> threshold × {self.robust_scale:.3g}) interpolated"
                 + "".join(f"; {m}" for m in self.messages))

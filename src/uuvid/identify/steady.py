@@ -27,9 +27,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.identify.fit import Fit, Parameter, linear_lsq, nonlinear_lsq
+from uuvid.identify.fit import Fit, Parameter, linear_lsq, nonlinear_lsq, residual_figure
 from uuvid.identify.regions import Regions
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
+from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import Block, DeadZoneMap, PolynomialMap, QuadraticMap, TableMap
 
 DIRECTIONS = ("forward", "reverse")
@@ -40,7 +41,7 @@ _SIGN = {"forward": 1.0, "reverse": -1.0}
 # Result type
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class SteadyFit:
+class SteadyFit(Result):
     """Result of a steady identification: one :class:`Fit` per direction (or ``"all"``) + block."""
 
     model: str
@@ -79,11 +80,22 @@ class SteadyFit:
         out.extend(self.info.get("notes", ()))
         return tuple(out)
 
-    def report(self) -> str:
+    report_title = "Steady thruster fit"
+
+    def to_dict(self) -> dict:
+        return jsonable({"model": self.model, "fits": {k: f.as_dict() for k, f in self.fits.items()},
+                         "block": self.block.to_dict() if self.block is not None else None,
+                         "info": self.info, "warnings": list(self.warnings)})
+
+    def plot(self):
+        """Residuals of each fit (forward / reverse / all)."""
+        return residual_figure(self.fits, self.model)
+
+    def summary(self) -> str:
         parts = [f"=== {self.model} ==="]
         for k, f in self.fits.items():
             parts.append(f"--- {k} ---")
-            parts.append(f.report())
+            parts.append(f.summary())
         for n in self.info.get("notes", ()):
             parts.append(f"note: {n}")
         if self.block is not None:
@@ -91,7 +103,7 @@ class SteadyFit:
         return "\n".join(parts)
 
     def __str__(self) -> str:
-        return self.report()
+        return self.summary()
 
 
 def _direction_rows(data: BenchData, direction: str, need: Sequence[str]) -> np.ndarray:
@@ -315,7 +327,7 @@ def fit_cv(voltage, thrust, *, cov_type: str = "classical") -> SteadyFit:
 # Polynomials (Laidani et al. Table 1 and 2)
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class DegreeTable:
+class DegreeTable(Result):
     """Laidani's Table 1, extended: one row per degree with in-sample and held-out errors."""
 
     rows: tuple[dict, ...]
@@ -354,6 +366,29 @@ class DegreeTable:
                          f"{r['cv_rmse']:>11.4g} {r['cv_se']:>9.2g} {r['aic']:>10.2f} "
                          f"{r['bic']:>10.2f}")
         return "\n".join(lines)
+
+    report_title = "Polynomial degree selection"
+
+    def summary(self) -> str:
+        return "\n".join([self.to_text(), *(f"note: {n}" for n in self.notes)])
+
+    def to_dict(self) -> dict:
+        return jsonable({"rows": list(self.rows), "k": self.k, "n_samples": self.n_samples,
+                         "x_scale": self.x_scale, "notes": list(self.notes)})
+
+    def plot(self):
+        """In-sample RMSE and k-fold CV RMSE (± SE) against the degree."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(figsize=(6.4, 3.6))
+        d = self.column("degree")
+        ax.plot(d, self.column("rmse"), "o-", label="RMSE (in sample)")
+        ax.errorbar(d, self.column("cv_rmse"), yerr=self.column("cv_se"), fmt="s--", capsize=3,
+                    label=f"CV{self.k} RMSE")
+        ax.set_xlabel("degree")
+        ax.set_ylabel("RMSE")
+        ax.legend(fontsize=8)
+        return fig
 
 
 def _folds(x: np.ndarray, k: int) -> np.ndarray:

@@ -63,6 +63,8 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.report.result import Result, jsonable
+
 __all__ = ["DYNAMIC", "MODELS", "STEADY", "FitError", "FitOutcome", "ReadOptions", "offset_esc",
            "read_files", "run_fit", "summary", "write_report"]
 
@@ -82,7 +84,7 @@ class FitError(ValueError):
 # result
 # ------------------------------------------------------------------------------------------------
 @dataclass
-class FitOutcome:
+class FitOutcome(Result):
     """Everything the command writes: the chain, the fits, the numbers and the figures."""
 
     model: str
@@ -113,6 +115,31 @@ class FitOutcome:
                             "percentile_error": p.percentile_error, "unit": p.unit,
                             "significant": p.significant, "at_bound": p.name in f.at_bound}
         return out
+
+    report_title = "Thruster fit"
+
+    def summary(self) -> str:
+        """The fit report text (what ``uuvid thruster fit`` prints)."""
+        return self.report_text
+
+    def to_dict(self) -> dict:
+        """The ``uuvid thruster fit --json`` document (without the output paths)."""
+        return jsonable(summary(self, None, None))
+
+    def plot(self):
+        """The first figure of the fit (the residuals when the fit made none)."""
+        if self.figures:
+            return self.figures[0][1]
+        from uuvid.identify.fit import residual_figure
+
+        return residual_figure(self.fits, self.model)
+
+    def report(self, folder, sources=()) -> Path:
+        """Plots, tables, fit report, summary.json, result.json and index.html in ``folder``."""
+        index = write_report(self, summary(self, None, Path(folder)), Path(folder),
+                             [str(s) for s in sources])
+        self.write_basics(folder)
+        return index
 
     def parameter_rows(self) -> list[dict]:
         rows = []
@@ -301,7 +328,7 @@ def _fit_quadratic(sets, name):
         censored_x=data.speed[cm] if cm.any() else None,
         censored_dir=np.sign(data.command[cm] - data.neutral)), "Ω [rad/s]", "thrust [N]")
     warn, notes = _steady_messages(sf)
-    return FitOutcome("quadratic", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+    return FitOutcome("quadratic", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, figures=[("fit", fig, "Thrust vs propeller speed, fit "
                                                   "and residuals per direction")], notes=notes)
 
@@ -333,7 +360,7 @@ def _fit_cv(sets, name):
     warn, notes = _steady_messages(sf)
     if data.command_unit == "duty":
         notes.append("the chain's input is the motor voltage (duty × supply voltage)")
-    return FitOutcome("cv", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N", warn,
+    return FitOutcome("cv", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N", warn,
                       figures=[("fit", fig, "Thrust vs motor voltage, fit and residuals")],
                       notes=notes)
 
@@ -387,7 +414,7 @@ def _fit_polynomial(sets, name, degree, criterion):
             tabs.append((f"degree_table_{d}", list(_degree_rows({d: t})[d]),
                          ["degree", "n_params", "me", "rmse", "cv_rmse", "cv_se", "aic", "bic"],
                          f"Degree table, {d} (selected {selected.get(d)}): {reason.get(d, '')}"))
-    text = sf.report()
+    text = sf.summary()
     if tables:
         text += "\n" + "\n".join(f"=== degree table ({d}) ===\n{t.to_text()}\nselected: "
                                  f"{selected.get(d)} — {reason.get(d, '')}"
@@ -432,7 +459,7 @@ def _fit_deadzone(sets, name, map_input):
     fig = _direction_figure(f"{name}: T = c(x|x| − δ) (UUV Simulator Bessa conversion)",
                             _split_panels(x, y, yfit, np.sign(x), block.thrust), xlabel,
                             "thrust [N]")
-    return FitOutcome("deadzone", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+    return FitOutcome("deadzone", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, {"map_input": inp},
                       figures=[("fit", fig, "Thrust, dead-zone conversion and residuals")],
                       notes=notes)
@@ -454,7 +481,7 @@ def _fit_table(sets, name, n_points):
                                           xg_range=rng),
                             f"command [{data.command_unit}]", "thrust [N]")
     warn, notes = _steady_messages(sf)
-    return FitOutcome("table", chain, dict(sf.fits), sf.report(), _rms(y - yfit), "N",
+    return FitOutcome("table", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, {"knots": len(sf.block.input_values)},
                       figures=[("fit", fig, "Thrust vs command, table and residuals")],
                       notes=notes)
@@ -493,7 +520,7 @@ def _fit_physical(sets, name, supply_voltage, linear_duty):
     fig = _direction_figure(f"{name}: physical model (ESC × supply → DC motor → K_T Ω|Ω|)",
                             panels, "command", "thrust [N]")
     extra = {"supply_voltage_V": v, "per_sheet": pf.per_sheet, "physical_model": model.as_dict()}
-    return FitOutcome("physical", chain, {"physical": pf.fit}, pf.report(),
+    return FitOutcome("physical", chain, {"physical": pf.fit}, pf.summary(),
                       _rms(np.concatenate(e_all)), "N", list(pf.fit.warnings), extra,
                       figures=[("fit", fig, "Thrust vs command per sheet: data, model and "
                                             "residuals per direction")],
@@ -575,7 +602,7 @@ def _dyn_outcome(model, cf, sets, name, unit, ylabel, notes=(), prepend=True):
     n = sum(r["samples"] for r in info)
     rmse = math.sqrt(sum(r["samples"] * r["rmse"] ** 2 for r in info) / n) if n else math.nan
     fig = _dynamic_figure(f"{name}: {cf.fit.model}", cf, ylabel)
-    return FitOutcome(model, chain, {model: cf.fit}, cf.report(), rmse, unit,
+    return FitOutcome(model, chain, {model: cf.fit}, cf.summary(), rmse, unit,
                       list(cf.warnings), {"runs": info},
                       figures=[("fit", fig, "Recorded and fitted response per run, with "
                                             "residuals")], notes=list(notes) + more)
@@ -677,7 +704,7 @@ def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, te
     doc = {"runs": df.fit.extra["runs"], "noise": df.noise, "in_sample_nrmse": df.in_sample,
            "identifiable": df.identifiable or None}
     doc.update(extra or {})
-    return FitOutcome(model, chain, {df.structure.name: df.fit}, df.report() + text_extra, rmse,
+    return FitOutcome(model, chain, {df.structure.name: df.fit}, df.summary() + text_extra, rmse,
                       "rad/s" if main == "speed" else "N", list(df.fit.warnings), doc, figures,
                       notes=list(notes) + more)
 
@@ -780,8 +807,9 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
         return _fit_mclean(sets, name, start, resample)
 
 
-def summary(outcome: FitOutcome, out: Path, report: Path | None) -> dict:
-    doc = {"model": outcome.model, "out": str(out), "parameters": outcome.parameters(),
+def summary(outcome: FitOutcome, out: Path | None, report: Path | None) -> dict:
+    doc = {"model": outcome.model, "out": str(out) if out is not None else None,
+           "parameters": outcome.parameters(),
            "rmse": outcome.rmse, "rmse_unit": outcome.rmse_unit,
            "warnings": list(outcome.warnings), "notes": list(outcome.notes),
            "chain": outcome.chain.name,
@@ -827,8 +855,9 @@ def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str
 
     folder.mkdir(parents=True, exist_ok=True)
     rep = Report(f"uuvid thruster fit — {outcome.model} ({outcome.chain.name})")
-    rep.add_paragraph(f"Data: {', '.join(sources)}.  Model file: {doc['out']}.  "
-                      f"RMSE {outcome.rmse:.4g} {outcome.rmse_unit}.")
+    rep.add_paragraph((f"Data: {', '.join(sources)}.  " if sources else "")
+                      + (f"Model file: {doc['out']}.  " if doc.get("out") else "")
+                      + f"RMSE {outcome.rmse:.4g} {outcome.rmse_unit}.")
     pcols = ["fit", "parameter", "estimate", "sigma", "percentile_error_%", "significant", "unit",
              "at_bound"]
     prow = outcome.parameter_rows()
@@ -854,7 +883,7 @@ def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str
     rep.add_heading("Fit report")
     _add_pre(rep, outcome.report_text)
     rep.add_heading("Model file")
-    rep.add_json(chain_to_dict(outcome.chain), caption=doc["out"])
+    rep.add_json(chain_to_dict(outcome.chain), caption=doc.get("out") or outcome.chain.name)
     atomic_write_json(folder / "summary.json", doc)
     return rep.write(folder)
 
@@ -863,7 +892,7 @@ def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str
 # replay of a logged command through a model
 # ------------------------------------------------------------------------------------------------
 @dataclass
-class Replay:
+class Replay(Result):
     """A model driven by logged commands: predicted vs measured speed and thrust per record."""
 
     chain_name: str
@@ -872,9 +901,26 @@ class Replay:
     def rows(self) -> list[dict]:
         return [r for p in self.predictions for r in p.rows()]
 
-    def summary(self) -> dict:
-        return {"model": self.chain_name, "records": self.rows(),
-                "nrmse_definition": "RMSE / (max − min) of the measured channel"}
+    report_title = "Thruster replay"
+
+    def to_dict(self) -> dict:
+        return jsonable({"model": self.chain_name, "records": self.rows(),
+                         "nrmse_definition": "RMSE / (max − min) of the measured channel"})
+
+    def summary(self) -> str:
+        return self.to_text()
+
+    def plot(self):
+        """Measured and predicted speed and thrust per record."""
+        from uuvid.identify.dynamic_select import plot_predictions
+
+        return plot_predictions(self.predictions, f"{self.chain_name}: logged command replayed")
+
+    def report(self, folder) -> Path:
+        """:meth:`write` plus ``summary.txt`` and ``result.json``; returns ``index.html``."""
+        index = self.write(folder)
+        self.write_basics(folder)
+        return index
 
     def to_text(self) -> str:
         lines = [f"{self.chain_name}: replayed logged commands (NRMSE = RMSE / measured range)"]
@@ -885,7 +931,6 @@ class Replay:
     def write(self, folder: Path) -> Path:
         """``<record>.csv`` (time, command, measured, predicted), ``replay.png``,
         ``summary.json`` and ``index.html``."""
-        from uuvid.identify.dynamic_select import plot_predictions
         from uuvid.io.atomic import atomic_write_json, atomic_write_text
         from uuvid.report.html import Report
         from uuvid.report.plots import save_figure
@@ -896,12 +941,11 @@ class Replay:
         for k, p in enumerate(self.predictions):
             stem = Path(p.experiment.name).stem or f"record{k}"
             atomic_write_text(folder / f"{stem}.predicted.csv", p.to_csv_text())
-        png = save_figure(plot_predictions(self.predictions, f"{self.chain_name}: logged command "
-                                           "replayed"), folder / "replay.png")
+        png = save_figure(self.plot(), folder / "replay.png")
         rep.add_table(self.rows(), ["record", "level", "channel", "nrmse_%"],
                       caption="NRMSE per record and channel (RMSE / measured range)")
         rep.add_figure(png, caption="Measured (dots) and predicted (line) speed and thrust")
-        atomic_write_json(folder / "summary.json", self.summary())
+        atomic_write_json(folder / "summary.json", self.to_dict())
         return rep.write(folder)
 
 

@@ -61,6 +61,7 @@ from uuvid.identify.segments import (
     savgol_velocity,
     segment_velocity,
 )
+from uuvid.report.result import Result, jsonable
 from uuvid.vehicle.model import OneDofModel
 
 __all__ = [
@@ -152,7 +153,7 @@ def steady_points_from_log(t_cmd, command, t_pos, position, *, eta_map: Mapping[
 # drag + installation coefficients
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class DragFit:
+class DragFit(Result):
     """Drag/installation-coefficient fit with its model reduction history.
 
     ``fit`` is the final :class:`~uuvid.identify.fit.Fit` (after reduction), ``full`` the fit with
@@ -245,8 +246,24 @@ class DragFit:
                 "sigma2": self.fit.sigma2, "cov_type": self.fit.extra.get("cov_type"),
                 "points": [p.as_dict() for p in self.points]}
 
-    def report(self) -> str:
-        lines = [self.fit.report()]
+    report_title = "Steady drag fit"
+
+    def to_dict(self) -> dict:
+        return jsonable(self.as_dict())
+
+    def plot(self):
+        """LS steady velocity against nominal force per mode, with the fitted curves."""
+        from uuvid.identify.log_reports import _plot_steady
+        from uuvid.identify.vehicle_logs import ANGULAR
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 1, figsize=(8, 5))
+        _plot_steady(ax, self, self.points, self.dof in ANGULAR, False,
+                     f"{self.dof or 'steady'} drag: velocity vs nominal force")
+        return fig
+
+    def summary(self) -> str:
+        lines = [self.fit.summary()]
         if self.dropped:
             lines.append("[[Model reduction]]")
             lines.extend(f"    {m}" for m in self.messages)
@@ -367,7 +384,7 @@ def fit_drag(points: Sequence[SteadyPoint], *, linear: bool = True, quadratic: b
 # inertia: the integrated regression (eqs. 15–19)
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class InertiaFit:
+class InertiaFit(Result):
     """``θ = [m, m ξ₀ + k x₀, b]`` of the integrated regression, and the rows it used:
     ``Phi`` = ∫ηφ dt, ``Iq`` = ∫ξ|ξ| dt, ``y`` = Φ − k x − k_q I; ``velocity_raw``/``t_raw`` the
     Savitzky–Golay velocity of the whole (cleaned) record."""
@@ -401,6 +418,36 @@ class InertiaFit:
                 "k": self.k, "k_q": self.k_q, "window": self.window, "order": self.order,
                 "n_samples": int(self.t.size), "cleaning": self.cleaning,
                 "cov_type": self.fit.extra.get("cov_type"), "notes": list(self.notes)}
+
+    report_title = "Inertia fit (integrated regression)"
+
+    def summary(self) -> str:
+        return "\n".join([self.fit.summary(), f"k = {self.k:.5g}, k_q = {self.k_q:.5g} (given), "
+                          f"Savitzky–Golay window {self.window}, order {self.order}"]
+                         + ([f"cleaning: {self.cleaning}"] if self.cleaning else [])
+                         + [f"note: {n}" for n in self.notes])
+
+    def to_dict(self) -> dict:
+        return jsonable(self.as_dict())
+
+    def plot(self):
+        """The regression target y = Φ − k x − k_q I and its fit, and the velocity used."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(2, 1, figsize=(10, 5.5), sharex=True)
+        ax[0].plot(self.t, self.y, ".", ms=2, color="0.5", label="y = Φ − k x − k_q I")
+        if np.size(self.fit.residuals) == self.y.size:
+            ax[0].plot(self.t, self.y - self.fit.residuals, "-", color="C1", label="fitted")
+        ax[0].legend(fontsize=8)
+        ax[0].set_title(f"m = {self.mass:.4g} ± {self.mass_stderr:.2g}", fontsize=10)
+        if self.t_raw.size:
+            ax[1].plot(self.t_raw, self.velocity_raw, "--", color="0.6", lw=0.8,
+                       label="Savitzky–Golay, whole record")
+        ax[1].plot(self.t, self.velocity, ".", ms=2, label="rows used")
+        ax[1].set_ylabel("velocity")
+        ax[1].set_xlabel("t [s]")
+        ax[1].legend(fontsize=8)
+        return fig
 
 
 def _eta_of(eta) -> tuple[float, float]:
@@ -482,7 +529,7 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
         cs = clean_series(t, x, threshold=clean_threshold, angle=angle, angle_unit=angle_unit,
                           window=max(window, 7) if window % 2 else window + 1)
         tg, xg = cs.t, cs.x
-        note = cs.report()
+        note = cs.summary()
     else:
         if not np.all(np.isfinite(x)):
             raise ValueError("x has non-finite values; use clean=True")

@@ -103,6 +103,7 @@ from uuvid.identify.vehicle_fit import (
     steady_points_from_log,
     validate_one_dof,
 )
+from uuvid.papers.reproduction import PaperReproduction
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.model import (
     OneDofModel,
@@ -640,10 +641,49 @@ def _drag_table(table: str, fit: DragFit, vels, simulation: str, use_full: bool 
     return out
 
 
-class Reproduction(dict):
-    """The JSON-able result (a plain ``dict``) plus ``artifacts`` (fits, logs) for the plots."""
+class Reproduction(PaperReproduction):
+    """The JSON-able result (a ``dict``) plus ``artifacts`` (fits, logs) for the plots, with
+    the common result surface (``summary()``, ``plot()``, ``report(folder)``…)."""
 
-    artifacts: dict
+    report_title = "Caccia, Indiveri & Veruggio (2000) — ROMEO identification, reproduced"
+
+    def summary(self) -> str:
+        acc = self.get("acceptance", {})
+        lines = [f"{self.get('paper', CITATION)}",
+                 "acceptance (truth within 3σ, σ within 3× the paper's, low-speed yaw linear): "
+                 + ("PASSED" if acc.get("passed") else "FAILED")]
+        lines += [f"  failure: {f}" for f in acc.get("failures", [])]
+        for table in TABLE_KEYS:
+            if table not in self:
+                continue
+            lines.append(f"{table}" + (f" (reduced to {self[table]['reduced_to']})"
+                                       if self[table].get("reduced_to") else ""))
+            for n, r in self[table]["parameters"].items():
+                lines.append(f"  {n:<10} {r['estimate']:>11.4g} ± {r['sigma']:<9.3g} truth "
+                             f"{r['truth']:<10.4g} |est − truth|/σ {r['z']:.2f}")
+        return "\n".join(lines)
+
+    def plot(self):
+        """|estimate − truth| / σ per identified parameter (the acceptance bound at 3)."""
+        from uuvid.report.plots import new_figure
+
+        names, z = [], []
+        for table in TABLE_KEYS:
+            for n, r in self.get(table, {}).get("parameters", {}).items():
+                names.append(f"{table}.{n}")
+                z.append(r["z"] if r["z"] is not None else np.nan)
+        fig, ax = new_figure(1, 1, figsize=(max(7, 0.28 * len(names) + 2), 4.2))
+        ax.bar(range(len(z)), z)
+        ax.axhline(3.0, color="r", ls="--", lw=1, label="3σ")
+        ax.set_xticks(range(len(names)))
+        ax.set_xticklabels(names, rotation=90, fontsize=6)
+        ax.set_ylabel("|estimate − truth| / σ")
+        ax.set_title("Identified back from simulation: distance to the truth", fontsize=10)
+        ax.legend(fontsize=8)
+        return fig
+
+    def _write_outputs(self, folder: Path) -> Path | None:
+        return write_outputs(self, folder) if self.artifacts else None
 
 
 def _acceptance(result: dict) -> dict:
@@ -901,7 +941,7 @@ def reproduce(seed: int = 0, fast: bool = False, out_dir: str | Path | None = No
     result["runtime_s"] = time.perf_counter() - t_start
     result.artifacts = art
     if out_dir is not None:
-        write_outputs(result, out_dir)
+        result.report(out_dir)
     return result
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.identify.regions import detect_regions
+from uuvid.papers.reproduction import PaperReproduction, compare_line
 from uuvid.simulate.signals import Sine
 from uuvid.thruster.presets import (
     LAIDANI_KM,
@@ -41,6 +42,47 @@ PAPER = {
 FIG10_SIGNAL = Sine(offset=1500.0, amplitude=500.0, period=4.0)
 
 
+class LaidaniReproduction(PaperReproduction):
+    """:func:`reproduce`'s document (a dict) with the steady map and Fig. 10 response as
+    ``artifacts`` (``pwm``, ``channels``, ``response``)."""
+
+    report_title = "Laidani et al. — thruster chain reproduced"
+
+    def summary(self) -> str:
+        lines = [self["paper"], "  quantity                            ours [paper]"]
+        lines += [compare_line(k, self[k], PAPER.get(k), "µs" if k.endswith("_us") else "N")
+                  for k in ("full_forward_N", "full_reverse_N", "peak_forward_N",
+                            "dead_zone_width_us", "saturation_us")]
+        f = self["fig10"]
+        lines.append(f"  Fig. 10 sine response: thrust in [{f['min_thrust_N']:.3g}, "
+                     f"{f['max_thrust_N']:.3g}] N")
+        ds = self.get("degree_selection")
+        if ds:
+            sd = ds["selected_degree"]
+            lines.append(f"  degree selection (Table 1): direct {sd['direct']}, reverse "
+                         f"{sd['reverse']} (paper: {sd['paper']})")
+        return "\n".join(lines)
+
+    def plot(self):
+        """The steady map (cf. Fig. 5) with the dead zone and the saturation onset."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 1, figsize=(7, 4))
+        if "pwm" in self.artifacts:
+            ax.plot(self.artifacts["pwm"], self.artifacts["channels"]["thrust"])
+        ax.axvspan(*self["dead_zone_us"], color="0.85", label="dead zone")
+        ax.axvline(self["saturation_us"], ls="--", color="r", label="saturation onset")
+        ax.set_xlabel("PWM [µs]")
+        ax.set_ylabel("steady thrust [N]")
+        ax.legend()
+        ax.set_title("Steady map (cf. Fig. 5)")
+        return fig
+
+    def _write_outputs(self, folder: Path) -> Path | None:
+        a = self.artifacts
+        return write_outputs(self, a["pwm"], a["channels"], a["response"], folder) if a else None
+
+
 def steady_map(pwm=None):
     """Steady thrust (N) over PWM (µs), each level simulated to rest through the chain."""
     pwm = np.arange(1000.0, 2001.0, 1.0) if pwm is None else np.asarray(pwm, dtype=float)
@@ -48,7 +90,9 @@ def steady_map(pwm=None):
     return pwm, chain.sweep(pwm, settle_time=0.25).channels
 
 
-def reproduce(out_dir: str | Path | None = None) -> dict:
+def reproduce(out_dir: str | Path | None = None) -> LaidaniReproduction:
+    """The printed numbers (full-command thrust, peak, dead zone, saturation), Fig. 10's sine
+    response and the Table 1 degree selection, as a :class:`LaidaniReproduction`."""
     omega_full = LAIDANI_KM * LAIDANI_SUPPLY
     fwd = float(np.polyval(LAIDANI_POLY_FORWARD, omega_full))
     rev = float(np.polyval(LAIDANI_POLY_REVERSE, omega_full))
@@ -84,8 +128,9 @@ def reproduce(out_dir: str | Path | None = None) -> dict:
     from uuvid.papers.laidani_identification import degree_selection
 
     result["degree_selection"] = degree_selection(seed=0)
+    result = LaidaniReproduction(result, {"pwm": pwm, "channels": ch, "response": resp})
     if out_dir is not None:
-        write_outputs(result, pwm, ch, resp, Path(out_dir))
+        result.report(out_dir)
     return result
 
 

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.papers.reproduction import PaperReproduction
 from uuvid.thruster.presets import (
     LAIDANI_KM,
     LAIDANI_NEUTRAL_US,
@@ -101,7 +102,33 @@ def synthetic_bench(seed: int = 0):
     return data, sigma
 
 
-def degree_selection(seed: int = 0) -> dict:
+class DegreeSelection(PaperReproduction):
+    """:func:`degree_selection`'s document (a dict) with the common result surface."""
+
+    report_title = "Laidani et al. Table 1 — polynomial degree selection, regenerated"
+
+    def summary(self) -> str:
+        sd, rec = self["selected_degree"], self["recovered_full_command_N"]
+        lines = [f"{'degree':>6} {'direct RMSE':>12} {'CV RMSE':>10} {'reverse RMSE':>13} "
+                 f"{'CV RMSE':>10}"]
+        lines += [f"{r['degree']:>6d} {r['direct_RMSE']:>12.4g} {r['direct_cv_RMSE']:>10.4g} "
+                  f"{r['reverse_RMSE']:>13.4g} {r['reverse_cv_RMSE']:>10.4g}" for r in self["table"]]
+        lines += [f"selected degree: direct {sd['direct']}, reverse {sd['reverse']} (paper "
+                  f"{sd['paper']}; BIC {sd['bic_choice']['direct']}/{sd['bic_choice']['reverse']})"
+                  f" — {sd['criterion']}",
+                  f"  {sd['reason']}",
+                  f"full-command thrust recovered: forward {rec['forward']:.4g} N "
+                  f"[{rec['paper_forward']:g}], reverse {rec['reverse']:.4g} N "
+                  f"[{rec['paper_reverse']:g}]"]
+        return "\n".join(lines)
+
+    def plot(self):
+        """ME, RMSE and CV RMSE against the degree, ours and the paper's (see
+        :func:`plot_degree_selection`)."""
+        return plot_degree_selection(self)
+
+
+def degree_selection(seed: int = 0) -> DegreeSelection:
     """Table 1 regenerated (degrees 1–8), the selected degree per direction with its reason, and
     the full-command thrust of the selected polynomials.  Deterministic for a given ``seed``."""
     import warnings
@@ -143,7 +170,7 @@ def degree_selection(seed: int = 0) -> dict:
     n = {k: int(np.sum(np.sign(data.speed) == _DIR[k][1])) for k in ("direct", "reverse")}
     n_sat = {k: int(np.sum(np.isclose(np.abs(data.speed), omega_full)
                            & (np.sign(data.speed) == _DIR[k][1]))) for k in ("direct", "reverse")}
-    return {
+    return DegreeSelection({
         "table": rows,
         "paper_table": paper,
         "selected_degree": {
@@ -180,7 +207,7 @@ def degree_selection(seed: int = 0) -> dict:
                  "thrust": "Table 2 degree-5 polynomials + noise"},
         "selected_coefficients": {"direct": list(block.forward), "reverse": list(block.reverse)},
         "fit_warnings": list(sf.warnings),
-    }
+    })
 
 
 def plot_degree_selection(result: dict):

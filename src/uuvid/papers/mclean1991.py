@@ -24,6 +24,7 @@ from uuvid.papers.mclean1991_table1 import (  # noqa: F401  (re-exported)
     Case,
     table1_cases,
 )
+from uuvid.papers.reproduction import PaperReproduction
 from uuvid.simulate.signals import Sawtooth, Square
 from uuvid.thruster import load_matching as lm
 from uuvid.thruster.presets import MCLEAN, auv2_rig_chain
@@ -159,8 +160,49 @@ def pulsing(
     }
 
 
-def reproduce(out_dir: str | Path | None = None, progress=None) -> dict:
-    """Everything this paper prints that the models reproduce, as one JSON-able document."""
+class McLeanReproduction(PaperReproduction):
+    """:func:`reproduce`'s document (a dict) with the Table I step responses as
+    ``artifacts["responses"]`` (case → :class:`~uuvid.simulate.response.TimeResponse`)."""
+
+    report_title = "McLean (1991) — tunnel thruster step responses, reproduced"
+
+    def summary(self) -> str:
+        lines = [self["paper"], "Table I, ours [thesis]:"]
+        for r in self["table1"]:
+            lines.append(f"  {r['case']:<12} " + ", ".join(
+                f"{k} {r[k]:.3g} [{r['thesis'][k]:g}]" for k in TABLE1_FIELDS))
+        i = self["identified"]
+        lines.append(f"identified α_o − α_i = {i['delta_alpha']:.3f} ± {i['delta_alpha_sigma']:.3f}, "
+                     f"β_o − β_i = {i['delta_beta']:.4f} ± {i['delta_beta_sigma']:.4f}")
+        ef = self["experiment_fit"]
+        lines.append(f"experiment fit: mean |rel. error| {ef['mean_abs_rel_error']:.1%} (thesis's "
+                     f"own simulation {ef['thesis_mean_abs_rel_error']:.1%})")
+        return "\n".join(lines)
+
+    def plot(self):
+        """Table I: each simulated number against the thesis's (1 = equal), per case."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 1, figsize=(8, 4))
+        for j, k in enumerate(TABLE1_FIELDS):
+            ratio = [r[k] / r["thesis"][k] if r["thesis"][k] else np.nan for r in self["table1"]]
+            ax.plot(np.arange(len(ratio)) + 0.1 * (j - 2), ratio, "o", label=k)
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set_xticks(range(len(self["table1"])))
+        ax.set_xticklabels([r["case"] for r in self["table1"]], rotation=30, ha="right",
+                           fontsize=8)
+        ax.set_ylabel("ours / thesis")
+        ax.set_title("Table I reproduced", fontsize=10)
+        ax.legend(fontsize=7)
+        return fig
+
+    def _write_outputs(self, folder: Path) -> Path | None:
+        return write_outputs(self, self.artifacts["responses"], folder) if self.artifacts else None
+
+
+def reproduce(out_dir: str | Path | None = None, progress=None) -> McLeanReproduction:
+    """Everything this paper prints that the models reproduce, as one JSON-able document (a
+    :class:`McLeanReproduction`)."""
     rows, responses = table1(progress=progress)
     lm_rows = load_matching()
     result = {
@@ -176,8 +218,9 @@ def reproduce(out_dir: str | Path | None = None, progress=None) -> dict:
         "pulsing": pulsing(),
     }
     result.update(identification())
+    result = McLeanReproduction(result, {"responses": responses})
     if out_dir is not None:
-        write_outputs(result, responses, Path(out_dir))
+        result.report(out_dir)
     return result
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.papers.reproduction import PaperReproduction
 from uuvid.simulate.reference import WaypointMission
 from uuvid.simulate.vehicle_sim import default_gains, fly_mission, setup_mission
 from uuvid.thruster.blocks import FirstOrder, QuadraticMap, TableMap, Yoerger
@@ -101,7 +102,40 @@ def run_case(vehicle, chain, kind: str, bandwidth: float, dt: float = 0.01, subs
             "max_thrust_N": float(np.max(np.abs(r.thrust)))}
 
 
-def run_study(bandwidths=BANDWIDTHS, progress=None) -> dict:
+class LoopStudy(PaperReproduction):
+    """:func:`run_study`'s document (a dict: ``rows``, ``max_stable_bandwidth``, ``answer``…)
+    with the common result surface."""
+
+    report_title = "Study: thruster dynamics in heading and depth loops (AUV II)"
+
+    def summary(self) -> str:
+        return self["answer"]
+
+    def plot(self):
+        """Residual peak-to-peak against the controller bandwidth, per loop and thruster model."""
+        from uuvid.report.plots import new_figure
+
+        fig, axes = new_figure(1, 2, figsize=(11, 4))
+        for ax, kind, unit in ((axes[0], "heading", "°"), (axes[1], "depth", "m")):
+            for name in ("tunnel", "first-order", "yoerger"):
+                rr = [r for r in self["rows"] if r["kind"] == kind and r["model"] == name]
+                ax.semilogy([r["bandwidth"] for r in rr],
+                            [max(r["residual_p2p"], 1e-9) for r in rr], "o-", label=name)
+            ax.axhline(self["thresholds"]["heading_deg" if kind == "heading" else "depth_m"],
+                       color="r", ls=":", label="limit-cycle threshold")
+            ax.set_xlabel("controller bandwidth [rad/s]")
+            ax.set_ylabel(f"residual peak-to-peak [{unit}]")
+            ax.set_title(f"{kind} step")
+            ax.legend()
+        return fig
+
+    def _write_outputs(self, folder: Path) -> Path:
+        return write_outputs(self, folder)
+
+
+def run_study(bandwidths=BANDWIDTHS, progress=None) -> LoopStudy:
+    """Heading and depth steps of AUV II with each thruster model at each controller bandwidth:
+    the largest bandwidth without a limit cycle per model (McLean's conjecture)."""
     vehicle = load_vehicle("auv2")
     models = thruster_models()
     rows = []
@@ -135,32 +169,22 @@ def run_study(bandwidths=BANDWIDTHS, progress=None) -> dict:
            "conjecture is not borne out here: " + ", ".join(f"{k}: {'holds' if v else 'fails'}"
                                                            for k, v in holds.items()) + ".")
     )
-    return {"rows": rows, "max_stable_bandwidth": stable, "conjecture_holds": holds,
-            "lagging_limit_cycles": lagging_cycles, "answer": answer,
-            "thresholds": {"heading_deg": HEADING_THRESHOLD_DEG, "depth_m": DEPTH_THRESHOLD_M}}
+    return LoopStudy({"rows": rows, "max_stable_bandwidth": stable, "conjecture_holds": holds,
+                      "lagging_limit_cycles": lagging_cycles, "answer": answer,
+                      "thresholds": {"heading_deg": HEADING_THRESHOLD_DEG,
+                                     "depth_m": DEPTH_THRESHOLD_M}})
 
 
 def write_outputs(result: dict, out: str | Path) -> Path:
     from uuvid.io.atomic import atomic_write_json
     from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.report.plots import save_figure
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rep = Report("Study: thruster dynamics in heading and depth loops (AUV II)")
     rep.add_paragraph(result["answer"])
-    fig, axes = new_figure(1, 2, figsize=(11, 4))
-    for ax, kind, unit in ((axes[0], "heading", "°"), (axes[1], "depth", "m")):
-        for name in ("tunnel", "first-order", "yoerger"):
-            rr = [r for r in result["rows"] if r["kind"] == kind and r["model"] == name]
-            ax.semilogy([r["bandwidth"] for r in rr], [max(r["residual_p2p"], 1e-9) for r in rr],
-                        "o-", label=name)
-        ax.axhline(result["thresholds"]["heading_deg" if kind == "heading" else "depth_m"],
-                   color="r", ls=":", label="limit-cycle threshold")
-        ax.set_xlabel("controller bandwidth [rad/s]")
-        ax.set_ylabel(f"residual peak-to-peak [{unit}]")
-        ax.set_title(f"{kind} step")
-        ax.legend()
+    fig = LoopStudy(result).plot()
     rep.add_figure(save_figure(fig, out / "limit_cycles.png"))
     rep.add_table(result["rows"])
     atomic_write_json(out / "study.json", result)

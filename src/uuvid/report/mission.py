@@ -24,6 +24,50 @@ def thruster_groups(vehicle) -> dict[str, list[int]]:
     return {k: v for k, v in groups.items() if v}
 
 
+def mission_text(result) -> str:
+    """A few lines on a :class:`~uuvid.simulate.vehicle_sim.MissionResult`'s metrics."""
+    m = result.metrics
+    lines = [f"{m.get('vehicle', '')}: {m.get('mission', '')} — "
+             + ("completed" if m.get("completed") else "NOT completed")
+             + f" ({m.get('controller', '?')}, disturbance {m.get('disturbance', 'none')}, "
+             f"current {m.get('current', '?')})"]
+    for k in ("max_tracking_error_m", "rms_tracking_error_m", "final_position_error_m",
+              "max_thrust_N", "thrust_limit_N", "saturated_fraction", "sim_time_s",
+              "real_time_factor", "max_battery_current_A"):
+        if k in m and m[k] is not None:
+            lines.append(f"  {k:<24} {m[k]:.4g}")
+    if "soc" in m:
+        lines.append(f"  {'soc':<24} {m['soc'][0]:.3f} → {m['soc'][1]:.3f}")
+    if m.get("thrust_over_limit"):
+        lines.append("  warning: a delivered thrust exceeded its limit")
+    return "\n".join(lines)
+
+
+def mission_overview(result):
+    """One figure: top view of path and reference, tracking error, thruster forces."""
+    fig, ax = new_figure(1, 3, figsize=(15, 4.2))
+    p, r = result.position, result.ref_pos
+    ax[0].plot(r[:, 1], r[:, 0], "k--", lw=1, label="reference")
+    ax[0].plot(p[:, 1], p[:, 0], "C0", label="vehicle")
+    ax[0].set_aspect("equal", adjustable="datalim")
+    ax[0].set_xlabel("east [m]")
+    ax[0].set_ylabel("north [m]")
+    ax[0].legend(fontsize=8)
+    ax[0].set_title(f"{result.metrics.get('vehicle', '')}: {result.metrics.get('mission', '')}",
+                    fontsize=10)
+    ax[1].plot(result.t, result.tracking_error)
+    ax[1].set_xlabel("t [s]")
+    ax[1].set_ylabel("|p − p_ref| [m]")
+    ax[1].set_title("Tracking error", fontsize=10)
+    for i, nm in enumerate(result.thruster_names):
+        ax[2].plot(result.t, result.thrust[:, i], lw=0.8, label=nm)
+    ax[2].set_xlabel("t [s]")
+    ax[2].set_ylabel("thrust [N]")
+    ax[2].set_title("Thruster forces", fontsize=10)
+    ax[2].legend(fontsize=6, ncol=2)
+    return fig
+
+
 def mission_figures(result, vehicle) -> dict:
     """Named matplotlib figures of a :class:`~uuvid.simulate.vehicle_sim.MissionResult`."""
     from uuvid.vehicle.kinematics import quat_to_euler
@@ -40,7 +84,7 @@ def mission_figures(result, vehicle) -> dict:
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.set_zlabel("height (−down) [m]")
-    ax.set_title(f"{result.summary.get('vehicle', '')}: {result.summary.get('mission', '')}")
+    ax.set_title(f"{result.metrics.get('vehicle', '')}: {result.metrics.get('mission', '')}")
     ax.legend()
     figs["path_3d"] = fig
     fig, ax = new_figure(1, 1, figsize=(6, 6))
@@ -111,7 +155,7 @@ def write_mission_outputs(result, vehicle, out: str | Path, extra: dict | None =
             df.to_parquet(tmp, index=False)
     except ImportError:
         pass
-    summary = dict(result.summary)
+    summary = dict(result.metrics)
     if extra:
         summary.update(extra)
     atomic_write_json(out / "summary.json", summary)

@@ -162,6 +162,10 @@ def pid_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, stat
         state[j] = integ_new[j]
 
 
+#: What a :class:`Controller` outputs: a generalized force, per-thruster thrusts or commands.
+OUTPUTS = ("wrench", "thrust", "command")
+
+
 @dataclass(frozen=True)
 class Controller:
     """A controller block for the mission loop (:func:`uuvid.simulate.vehicle_sim.setup_mission`).
@@ -174,27 +178,61 @@ class Controller:
     - ``ref_pos``, ``ref_vel`` (3, NED), ``ref_yaw``, ``ref_rate`` (floats): the mission reference;
     - ``params`` (1-D float array, read only) and ``state`` (1-D float array, persistent across
       steps, modified in place; each flight starts from a copy of ``state0``);
-    - ``tau_out`` (6): the desired generalized force [X Y Z K M N] (N, N·m), body frame; the
-      controller writes all six entries.  The loop then allocates it to the thrusters.
+    - ``tau_out``: the controller's output, every entry written each call; what it holds is
+      ``output``:
+
+      * ``"wrench"`` (6): the desired generalized force [X Y Z K M N] (N, N·m), body frame; the
+        loop allocates it to the thrusters (the setup's ``allocation`` method) and inverts each
+        thruster's steady map to its command;
+      * ``"thrust"`` (n thrusters, the vehicle layout's order): each thruster's thrust (N, before
+        the installation coefficients η); the loop skips the allocation, clips each to the
+        thruster's limits (at the present supply voltage on a battery) and inverts the maps;
+      * ``"command"`` (n): each thruster's raw command in its chain's input unit (e.g. PWM µs
+        for an ESC-driven T200, volts for a motor) — straight to the thruster chain, no inverse
+        map (a learned policy, an ArduSub-like mixer).
+
+      In the :class:`~uuvid.simulate.vehicle_sim.MissionResult`, ``tau_cmd`` is the controller's
+      wrench for ``"wrench"`` and otherwise ``B (η ∘ f)`` of the thrusts ``f`` sent on (the
+      wrench they give at steady state); ``thrust_cmd`` is the allocated / clipped thrust, for
+      ``"command"`` the steady thrust of the command (the inverse table read backwards, linear
+      between its knots); ``scale`` is the allocation's, for ``"thrust"`` the smallest ratio
+      clipped / requested (1: nothing clipped), for ``"command"`` 1.
 
     ``fn`` either a numba ``@njit`` function (compiled into the loop; full speed) or a plain
     Python callable with the same signature (called from the compiled loop through
-    ``numba.objmode`` each step; slower — see ``uuvid bench``, case ``controllers``).
+    ``numba.objmode`` each step; slower — see ``uuvid bench``, case ``controllers``).  Batches
+    (:func:`uuvid.simulate.batch.run_batch_fast`) fly a compiled wrench controller inside the
+    SIMD kernel, one call per vehicle and step; the others one compiled loop per vehicle.
+    :func:`~uuvid.simulate.vehicle_sim.setup_mission` calls it once at the start state (on a
+    copy of ``state0``) to check it writes exactly the entries ``output`` asks for.
     """
 
     fn: object
     params: np.ndarray
     state0: np.ndarray
     name: str = "user"
+    output: str = "wrench"
 
     def __post_init__(self):
         p = np.ascontiguousarray(np.ravel(np.asarray(self.params, dtype=np.float64)))
         s = np.ascontiguousarray(np.ravel(np.asarray(self.state0, dtype=np.float64)))
         if not callable(self.fn):
             raise TypeError(f"Controller.fn must be callable, got {type(self.fn).__name__}")
+        if self.output not in OUTPUTS:
+            raise ValueError(f"Controller.output must be one of {', '.join(OUTPUTS)}, "
+                             f"got {self.output!r}")
         p.flags.writeable = False
         object.__setattr__(self, "params", p)
         object.__setattr__(self, "state0", s)
+
+    @property
+    def output_code(self) -> int:
+        """0 wrench, 1 thrust, 2 command (the compiled loop's ``out_kind``)."""
+        return OUTPUTS.index(self.output)
+
+    def output_size(self, n_thrusters: int) -> int:
+        """Length of ``tau_out``: 6 for a wrench, else one per thruster."""
+        return 6 if self.output == "wrench" else int(n_thrusters)
 
     @property
     def compiled(self) -> bool:
@@ -236,3 +274,41 @@ def compiled_form(controller: Controller) -> tuple:
     slot = next((k for k, f in _PY_CONTROLLERS.items() if f is controller.fn), len(_PY_CONTROLLERS))
     _PY_CONTROLLERS[slot] = controller.fn
     return python_controller, np.concatenate([[float(slot)], controller.params])
+
+
+def check_output(controller: Controller, n_thrusters: int, z0, ref, dt: float) -> None:
+    """Call ``controller`` once at the start state ``z0`` and the first reference sample (on a
+    copy of its state) and check it writes exactly the :meth:`Controller.output_size` entries
+    its ``output`` asks for; raises ``ValueError`` saying what it wrote instead."""
+    m = controller.output_size(n_thrusters)
+    pad = 64
+    buf = np.full(m + pad, np.nan)
+    out = buf[:m]
+    rp, rv, ry, rr = ref
+    z = np.asarray(z0, dtype=np.float64)
+    what = (f"controller {controller.name!r} (output={controller.output!r}) must write "
+            f"{m} values" + (" [X Y Z K M N]" if m == 6 and controller.output == "wrench"
+                             else f", one per thruster ({n_thrusters})"))
+    try:
+        controller.fn(0.0, z[0:7].copy(), z[7:13].copy(), np.array(rp[0], dtype=np.float64),
+                      np.array(rv[0], dtype=np.float64), float(ry[0]), float(rr[0]),
+                      controller.params, controller.state0.copy(), float(dt), out)
+    except IndexError as e:
+        raise ValueError(f"{what}; its first call wrote past them ({e})"
+                         + _hint(controller, n_thrusters)) from None
+    except Exception as e:
+        raise ValueError(f"controller {controller.name!r} failed on its first call "
+                         f"(t = 0, start state): {type(e).__name__}: {e}") from e
+    past = int(np.count_nonzero(~np.isnan(buf[m:])))
+    if past:
+        raise ValueError(f"{what}; its first call wrote {past} more" + _hint(controller, n_thrusters))
+    missing = np.flatnonzero(np.isnan(out))
+    if missing.size:
+        raise ValueError(f"{what}; its first call left entries {missing.tolist()} unwritten "
+                         "(or wrote NaN)" + _hint(controller, n_thrusters))
+
+
+def _hint(controller: Controller, n: int) -> str:
+    if controller.output == "wrench":
+        return f" — for one value per thruster ({n}) give Controller(..., output='thrust' or 'command')"
+    return " — for a generalized force give Controller(..., output='wrench')"

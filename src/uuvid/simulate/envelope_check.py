@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from uuvid.report.result import Result, jsonable
 from uuvid.vehicle.kinematics import quat_to_rotmat
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import vehicle_rhs
@@ -203,7 +204,7 @@ def simulated_speed(vehicle, dof: int, force: float, t_end: float = 120.0, dt: f
 
 
 @dataclass(frozen=True)
-class EnvelopeCheck:
+class EnvelopeCheck(Result):
     """The envelope confirmed by simulation: one row per direction, always with every column of
     :data:`ROW_KEYS` (``None`` where a value does not apply)."""
 
@@ -257,9 +258,33 @@ class EnvelopeCheck:
             lines.append(f"  {r['direction']:<26} {r['note']}")
         return "\n".join(lines)
 
+    report_title = "Speed envelope confirmed by simulation"
+
     def to_dict(self) -> dict:
-        return {"vehicle": self.vehicle, "rows": [dict(r) for r in self.rows],
-                "stability": self.stability.to_dict() if self.stability is not None else None}
+        return jsonable({"vehicle": self.vehicle, "rows": [dict(r) for r in self.rows],
+                         "stability": self.stability.to_dict() if self.stability is not None
+                         else None})
+
+    def plot(self):
+        """Allocator (static) and simulated top speed per direction."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 1, figsize=(max(6.4, 0.9 * len(self.rows) + 2), 4))
+        x = np.arange(len(self.rows))
+
+        def col(key):
+            return np.array([abs(r[key]) if r.get(key) is not None else np.nan
+                             for r in self.rows], dtype=float)
+
+        ax.bar(x - 0.2, col("allocator_speed"), 0.4, label="allocator (static)")
+        ax.bar(x + 0.2, col("simulated_speed"), 0.4, label="simulated")
+        ax.set_xticks(x)
+        ax.set_xticklabels([r["direction"] for r in self.rows], rotation=30, ha="right",
+                           fontsize=8)
+        ax.set_ylabel("top speed (m/s or rad/s, per row)")
+        ax.set_title(f"{self.vehicle}: speed envelope", fontsize=10)
+        ax.legend(fontsize=8)
+        return fig
 
 
 def _row(r) -> dict:

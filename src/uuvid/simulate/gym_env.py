@@ -42,6 +42,7 @@ except ImportError as e:  # pragma: no cover - depends on the environment
 
 from uuvid.simulate.station_keeping import rk4_held, thrust_to_tau
 from uuvid.vehicle.allocation import allocate_compiled
+from uuvid.vehicle.kinematics import quat_to_rotmat
 
 N_OBS = 12
 
@@ -52,16 +53,10 @@ N_OBS = 12
 @njit(cache=True)
 def _observe(z, wp, obs):
     """Observation of state ``z`` for target ``wp = [n, e, d, ψ]``; returns ``(|e_p|, |e_att|)``."""
-    e, x, y, w = z[3], z[4], z[5], z[6]
-    r00 = 1.0 - 2.0 * (y * y + w * w)
-    r01 = 2.0 * (x * y - w * e)
-    r02 = 2.0 * (x * w + y * e)
-    r10 = 2.0 * (x * y + w * e)
-    r11 = 1.0 - 2.0 * (x * x + w * w)
-    r12 = 2.0 * (y * w - x * e)
-    r20 = 2.0 * (x * w - y * e)
-    r21 = 2.0 * (y * w + x * e)
-    r22 = 1.0 - 2.0 * (x * x + y * y)
+    R = quat_to_rotmat(z[3:7])
+    r00, r01, r02 = R[0, 0], R[0, 1], R[0, 2]
+    r10, r11, r12 = R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
     dn = wp[0] - z[0]
     de = wp[1] - z[1]
     dd = wp[2] - z[2]

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.report.result import Result, jsonable
+
 #: SI unit of each channel a thruster simulation records.
 CHANNEL_UNITS = {
     "time": "s",
@@ -22,7 +24,7 @@ CHANNEL_UNITS = {
 
 
 @dataclass(frozen=True)
-class TimeResponse:
+class TimeResponse(Result):
     """Samples of named channels on a common, strictly increasing time axis (SI units)."""
 
     t: np.ndarray
@@ -67,6 +69,28 @@ class TimeResponse:
         with atomic_path(path) as tmp:
             self.to_frame().to_csv(tmp, index=False)
         return path
+
+    report_title = "Time response"
+
+    def summary(self) -> str:
+        """Samples, duration and the range and final value of each channel."""
+        t = np.asarray(self.t, dtype=float)
+        span = f"{t[0]:.4g}–{t[-1]:.4g} s" if t.size else "empty"
+        lines = [f"{t.size} samples, {span}"
+                 + "".join(f", {k} {v}" for k, v in self.meta.items()
+                           if isinstance(v, (str, int, float)))]
+        for k, v in self.channels.items():
+            a = np.asarray(v, dtype=float)
+            ok = a[np.isfinite(a)]
+            unit = CHANNEL_UNITS.get(k, "")
+            lines.append(f"  {k:<16} " + (f"[{ok.min():.4g}, {ok.max():.4g}] final {a[-1]:.4g} {unit}"
+                                          if ok.size else "no data"))
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """Time, channels (lists; NaN → ``None``) and meta."""
+        return jsonable({"t": self.t, "channels": dict(self.channels), "meta": self.meta,
+                         "units": {k: CHANNEL_UNITS.get(k, "") for k in self.channels}})
 
     def metrics(self, steady_window: float = 0.1):
         """McLean's step-response metrics (see :mod:`uuvid.simulate.metrics`)."""

@@ -16,7 +16,11 @@
     #   {kind: gauss_markov, mean: 0.3, mu: 0.05, sigma: 0.02, direction_deg: 0, seed: 1}
     allocation: priority              # priority | maxscale | scale | clip | none
     battery_soc: null                 # e.g. 0.8: fly on the vehicle file's battery from 80 % charge
-    controller: {bandwidth: [1.5, 1.5, 1.5, 2.0]}      # rad/s per surge, sway, heave, yaw
+    controller: {bandwidth: [1.5, 1.5, 1.5, 2.0]}      # PID DP: rad/s per surge, sway, heave, yaw
+    #   {kind: lqr, weights: {position: 0.1, thrust: 10}}    LQI designed at hover (Bryson's rule)
+    #   {kind: python, file: my_ctrl.py, factory: make_controller, options: {...}}
+    #       (file relative to this one; make_controller(vehicle, context) returns a Controller,
+    #        see uuvid.simulate.controller_files)
     dt: 0.01
     substeps: 1
     duration: null                    # default: the mission's length
@@ -29,7 +33,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.simulate.reference import WaypointMission, square_mission
@@ -62,12 +66,40 @@ class MissionSpec(BaseModel):
                                vertical_speed=self.vertical_speed, hold=self.hold, name="waypoints")
 
 
+class LqrWeightsSpec(BaseModel):
+    """Bryson's rule of :func:`uuvid.simulate.station_keeping.default_weights`."""
+
+    model_config = _CFG
+    position: float = Field(0.1, gt=0)
+    yaw: float = Field(0.1, gt=0)
+    tilt: float = Field(0.5, gt=0)
+    speed: float = Field(0.5, gt=0)
+    rate: float = Field(1.0, gt=0)
+    integral: float = Field(0.5, gt=0)
+    thrust: float = Field(10.0, gt=0)
+
+
 class ControllerSpec(BaseModel):
     model_config = _CFG
+    kind: Literal["pid", "lqr", "python"] = "pid"
     bandwidth: tuple[float, float, float, float] = (1.5, 1.5, 1.5, 2.0)
     kp: tuple[float, float, float, float] | None = None
     ki: tuple[float, float, float, float] | None = None
     kd: tuple[float, float, float, float] | None = None
+    weights: LqrWeightsSpec | None = None  # lqr
+    file: str | None = None  # python
+    factory: str = "make_controller"  # python
+    options: dict = Field(default_factory=dict)  # python: handed to the factory
+
+    @model_validator(mode="after")
+    def _keys_of_kind(self):
+        if self.kind != "lqr" and self.weights is not None:
+            raise ValueError("weights: only for kind lqr")
+        if self.kind == "python" and not self.file:
+            raise ValueError("file: a python controller needs its file (and factory)")
+        if self.kind != "python" and (self.file is not None or self.options):
+            raise ValueError("file/options: only for kind python")
+        return self
 
 
 class ConstantCurrentSpec(BaseModel):
@@ -167,6 +199,11 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
 def build(spec: ScenarioSpec, base: Path | None = None):
     """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`)."""
     from uuvid.simulate.control import DPGains
+    from uuvid.simulate.controller_files import (
+        ControllerContext,
+        ControllerFileError,
+        make_controller,
+    )
     from uuvid.simulate.vehicle_sim import default_gains, setup_mission
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
@@ -199,11 +236,19 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         except (ValueError, OSError) as e:
             raise ScenarioError(f"current: {e}") from None
     try:
+        ctx = ControllerContext(spec.dt, gains, mission, dict(c.options))
+        controller = make_controller(c.kind, vehicle, ctx, file=c.file, factory=c.factory,
+                                     base=base, lqr_weights=c.weights.model_dump() if c.weights
+                                     else None)
+    except ControllerFileError as e:
+        raise ScenarioError(f"{spec.name}: controller: {e}") from None
+    try:
         setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
                               thruster_chain=chain, current=cur, t_end=spec.duration,
                               allocation=spec.allocation,
                               battery=True if spec.battery_soc is not None else None,
-                              soc0=1.0 if spec.battery_soc is None else spec.battery_soc)
+                              soc0=1.0 if spec.battery_soc is None else spec.battery_soc,
+                              controller=controller)
     except ValueError as e:
         raise ScenarioError(f"{spec.name}: {e}") from None
     return vehicle, setup

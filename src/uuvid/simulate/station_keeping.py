@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors
+from uuvid.report.result import Result, jsonable
+from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors, quat_yaw
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.linearize import LinearModel, OperatingPoint, linearize
@@ -92,6 +93,30 @@ def deviation_into(x0, z, xi):
 
 
 @njit(cache=True)
+def lqi_step(K, f0, lo, hi, xi, integ, dt, f):
+    """``f = clip(f₀ − K [ξ; ∫e], lower, upper)`` with the integrators ``integ`` (4) put in
+    ``xi[12:16]``; they then advance by ``e dt`` unless a thruster was clipped (anti-windup)."""
+    n = f.size
+    for j in range(4):
+        xi[12 + j] = integ[j]
+    clipped = False
+    for i in range(n):
+        s = f0[i]
+        for j in range(16):
+            s -= K[i, j] * xi[j]
+        if s > hi[i]:
+            s = hi[i]
+            clipped = True
+        elif s < lo[i]:
+            s = lo[i]
+            clipped = True
+        f[i] = s
+    if not clipped:
+        for j in range(4):
+            integ[j] += xi[INTEGRATED[j]] * dt
+
+
+@njit(cache=True)
 def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt, nsub, Z, F):
     """Hold ``x_ref`` (13) for ``Z.shape[0]`` steps with the PID (``kind`` 0: ``alloc``,
     ``gains``) or the LQI (``kind`` 1: ``K`` (n × 16), trim thrust ``f0``); writes the states
@@ -115,8 +140,7 @@ def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt,
     xi = np.zeros(16)
     zero3 = np.zeros(3)
     ref_pos = x_ref[0:3]
-    n_, e1, e2, e3 = x_ref[3], x_ref[4], x_ref[5], x_ref[6]
-    ref_yaw = math.atan2(2 * (n_ * e3 + e1 * e2), 1 - 2 * (e2 * e2 + e3 * e3))
+    ref_yaw = quat_yaw(x_ref[3:7])
     for k in range(nsteps):
         if kind == 0:
             dp_errors(z[0:3], z[3:7], z[7:13], ref_pos, zero3, ref_yaw, 0.0, e, edot)
@@ -127,23 +151,7 @@ def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt,
             allocate_compiled(alloc, tau_des, f)
         else:
             deviation_into(x_ref, z, xi)
-            for j in range(4):
-                xi[12 + j] = integ[j]
-            clipped = False
-            for i in range(n):
-                s = f0[i]
-                for j in range(16):
-                    s -= K[i, j] * xi[j]
-                if s > hi[i]:
-                    s = hi[i]
-                    clipped = True
-                elif s < lo[i]:
-                    s = lo[i]
-                    clipped = True
-                f[i] = s
-            if not clipped:
-                for j in range(4):
-                    integ[j] += xi[INTEGRATED[j]] * dt
+            lqi_step(K, f0, lo, hi, xi, integ, dt, f)
         for i in range(n):
             f[i] = min(max(f[i], lo[i]), hi[i])
             F[k, i] = f[i]
@@ -223,7 +231,7 @@ class StationKeepingRun:
 
 
 @dataclass(frozen=True)
-class StationKeepingComparison:
+class StationKeepingComparison(Result):
     """PID DP against LQI on the same vehicle, disturbance and peak thrust."""
 
     vehicle: str
@@ -239,11 +247,13 @@ class StationKeepingComparison:
     def lqr_better(self) -> bool:
         return self.lqr.rms_error < self.pid.rms_error
 
+    report_title = "Station keeping: PID DP vs LQI"
+
     def to_dict(self) -> dict:
-        return {"vehicle": self.vehicle, "offset": self.offset.tolist(),
-                "current_ned_m_s": self.current.tolist(), "r_scale": self.r_scale,
-                "pid": self.pid.to_dict(), "lqr": self.lqr.to_dict(),
-                "lqr_smaller_rms_error": self.lqr_better}
+        return jsonable({"vehicle": self.vehicle, "offset": self.offset.tolist(),
+                         "current_ned_m_s": self.current.tolist(), "r_scale": self.r_scale,
+                         "pid": self.pid.to_dict(), "lqr": self.lqr.to_dict(),
+                         "lqr_smaller_rms_error": self.lqr_better})
 
     def summary(self) -> str:
         p, q = self.pid, self.lqr
@@ -357,3 +367,73 @@ def compare_station_keeping(vehicle="bluerov2", *, offset=(1.0, -0.5, 0.3, 0.3),
             K, lqr = run(rho)
     return StationKeepingComparison(v.name, pid, lqr, K, rho, off, np.asarray(current, float),
                                     lin)
+
+
+# ---------------------------------------------------------------------------------------------
+# The LQI as a controller block of the mission loop
+# ---------------------------------------------------------------------------------------------
+#: Length of :func:`lqr_controller`'s state: the 4 integrators, then scratch (reference state 13,
+#: vehicle state 13, augmented deviation 16).
+LQR_STATE_SIZE = 4 + 13 + 13 + 16
+
+
+@njit(cache=True)
+def lqr_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    """The LQI of :func:`compare_station_keeping` tracking a mission, as a
+    :class:`~uuvid.simulate.control.Controller` with ``output="thrust"``:
+    ``f = clip(f₀ − K [ξ; ∫e])``, ``ξ`` the 12-state deviation from the reference state
+    ``x_r`` = (``ref_pos``, level at ``ref_yaw``, body velocity ``R_z(ψ_r)ᵀ v_ref``, yaw rate
+    ``ref_rate``) with the position deviation turned into the reference heading's frame (the
+    model linearised at heading 0 is the same at any heading); the integrators stop while a
+    thruster is clipped.  ``params`` = [K (n × 16), f₀ (n), lower (n), upper (n)]."""
+    n = tau_out.size
+    K = params[0:16 * n].reshape(n, 16)
+    f0 = params[16 * n:17 * n]
+    lo = params[17 * n:18 * n]
+    hi = params[18 * n:19 * n]
+    xr = state[4:17]
+    z = state[17:30]
+    xi = state[30:46]
+    cy = math.cos(ref_yaw)
+    sy = math.sin(ref_yaw)
+    for i in range(3):
+        xr[i] = ref_pos[i]
+    xr[3] = math.cos(0.5 * ref_yaw)
+    xr[4] = 0.0
+    xr[5] = 0.0
+    xr[6] = math.sin(0.5 * ref_yaw)
+    xr[7] = cy * ref_vel[0] + sy * ref_vel[1]
+    xr[8] = -sy * ref_vel[0] + cy * ref_vel[1]
+    xr[9] = ref_vel[2]
+    xr[10] = 0.0
+    xr[11] = 0.0
+    xr[12] = ref_rate
+    for i in range(7):
+        z[i] = eta[i]
+    for i in range(6):
+        z[7 + i] = nu[i]
+    deviation_into(xr, z, xi)
+    dn = xi[0]
+    de = xi[1]
+    xi[0] = cy * dn + sy * de
+    xi[1] = -sy * dn + cy * de
+    lqi_step(K, f0, lo, hi, xi, state[0:4], dt, tau_out)
+
+
+def lqr(vehicle, *, weights=None, **bryson):
+    """The LQI designed on ``vehicle`` linearised at hover (:func:`uuvid.vehicle.linearize.
+    linearize`, :func:`augment_integral`, :func:`lqr_gain`) as a mission-loop controller
+    (:func:`lqr_controller`, per-thruster thrust).  ``weights`` = ``(Q, R)`` for the 16-state
+    augmented model, else Bryson's rule :func:`default_weights` with the keywords ``bryson``
+    (``position``, ``yaw``, ``tilt``, ``speed``, ``rate``, ``integral``, ``thrust``)."""
+    from uuvid.simulate.control import Controller
+
+    v = _vehicle(vehicle)
+    lin = linearize(v, OperatingPoint.hover(v))
+    Aa, Ba = augment_integral(lin)
+    Q, R = weights if weights is not None else default_weights(lin, **bryson)
+    K = lqr_gain(Aa, Ba, Q, R)
+    lim = v.layout.limits
+    f0 = np.zeros(K.shape[0]) if lin.thrust0 is None else lin.thrust0
+    return Controller(lqr_controller, np.concatenate([K.ravel(), f0, lim[:, 0], lim[:, 1]]),
+                      np.zeros(LQR_STATE_SIZE), "LQI (hover design)", "thrust")

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
+from uuvid.report.result import DictSummaryResult, jsonable
 from uuvid.simulate import kernels
 from uuvid.simulate.control import (
     PID_STATE_SIZE,
@@ -287,6 +288,41 @@ def _set_limits(a, n, lo, hi):
             a[opl + n + i] = hi * a[oep + i] if comp else hi
 
 
+@njit(cache=True)
+def _thrusts_from_output(out_kind, cout, a, inv_t, inv_c, batt, vtt, vtc, jv, wv, B, eta_p, eta_n,
+                         fdes, tau_rec):
+    """Thrusts ``fdes`` from a per-thruster controller output, and the wrench they give at steady
+    state ``tau_rec = B (η ∘ f)``; returns the step's scale.
+
+    ``out_kind`` 1: ``cout`` are thrusts, clipped to the limits of the allocation array ``a``
+    (the battery's at the present voltage); the scale is the smallest ratio clipped/requested.
+    2: ``cout`` are commands; ``fdes`` is their steady thrust, the inverse tables (at the present
+    voltage on a battery: ``vtt``, ``vtc`` rows ``jv``, ``jv + 1`` weighted by ``wv``) read from
+    command to thrust; scale 1."""
+    n = fdes.size
+    m = int(a[1])
+    olo = 3 + n * m
+    ohi = olo + n
+    s = 1.0
+    for i in range(n):
+        u = cout[i]
+        if out_kind == 1:
+            f = min(max(u, a[olo + i]), a[ohi + i])
+            if f != u and u != 0.0:
+                s = min(s, f / u)
+        elif batt:
+            f = (1 - wv) * _interp(vtc[jv], vtt[jv], u) + wv * _interp(vtc[jv + 1], vtt[jv + 1], u)
+        else:
+            f = _interp(inv_c[i], inv_t[i], u)
+        fdes[i] = f
+    for k in range(6):
+        acc = 0.0
+        for i in range(n):
+            acc += B[k, i] * fdes[i] * (eta_p[i] if fdes[i] >= 0.0 else eta_n[i])
+        tau_rec[k] = acc
+    return s
+
+
 #: The controller and disturbance blocks :func:`_fly_loop` calls: module globals, so numba
 #: compiles them into the loop (direct, inlinable calls) and the default loop can be cached;
 #: :func:`compiled_loop` builds the loop anew around a user's pair.
@@ -300,22 +336,24 @@ def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch,
         Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
     """:func:`_fly_loop` with the built-in PID DP controller (``gains`` =
     :meth:`DPGains.to_array`) and no disturbance force (the cached default kernel)."""
-    _fly_loop(gains.ravel(), np.zeros(PID_STATE_SIZE), np.zeros(0), False, z0, vp, B, alloc,
+    _fly_loop(gains.ravel(), np.zeros(PID_STATE_SIZE), np.zeros(0), False, 0, z0, vp, B, alloc,
               eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact, inv_t, inv_c,
               ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT,
               BAT, VOUT)
 
 
 @njit(cache=True)
-def _fly_loop(cparams, cstate, dparams, use_dist, z0, vp, B, alloc, eta_p, eta_n, dofs, kinds,
+def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, eta_p, eta_n, dofs, kinds,
               poff, tparams, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw,
               ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
     """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
     allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``.
 
     Controller (:class:`uuvid.simulate.control.Controller`): ``_CTRL(t, eta, nu, ref_pos[k],
-    ref_vel[k], ref_yaw[k], ref_rate[k], cparams, cstate, dt, tau_des)`` once per step,
-    ``cstate`` modified in place.  Disturbance (:mod:`uuvid.simulate.disturbances`, when
+    ref_vel[k], ref_yaw[k], ref_rate[k], cparams, cstate, dt, cout)`` once per step,
+    ``cstate`` modified in place; ``out_kind`` (:attr:`Controller.output_code`): ``cout`` is
+    the wrench (6) to allocate (0), the thrusts (n) to clip to the limits (1), or the
+    commands (n) sent as they are (2).  Disturbance (:mod:`uuvid.simulate.disturbances`, when
     ``use_dist``): ``_DIST(t, eta, nu, dparams, tau_d)`` at the start of every substep, added to
     ``B η f``.
 
@@ -351,6 +389,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, z0, vp, B, alloc, eta_p, eta_n
     blk = np.empty((n, max(nb, 1)))
     blk2 = np.empty((n, max(nb, 1)))
     tau_des = np.zeros(6)
+    cout = tau_des if out_kind == 0 else np.zeros(n)
     tau_d = np.zeros(6)
     fdes = np.zeros(n)
     cmd = np.zeros(n)
@@ -409,7 +448,8 @@ def _fly_loop(cparams, cstate, dparams, use_dist, z0, vp, B, alloc, eta_p, eta_n
                 dvc[j] = DVCT[k, j]
         # controller and allocation (held over the step)
         _CTRL(k * dt, z[0:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], cparams,
-             cstate, dt, tau_des)
+             cstate, dt, cout)
+        s = 1.0
         if batt:  # supply voltage from the battery state; limits and inverse maps follow it
             volt = _ocv(BAT, soc) - b_res * i_prev
             volt = min(max(volt, vgrid[0]), vgrid[nv - 1])
@@ -419,15 +459,21 @@ def _fly_loop(cparams, cstate, dparams, use_dist, z0, vp, B, alloc, eta_p, eta_n
             wv = (volt - vgrid[jv]) / (vgrid[jv + 1] - vgrid[jv])
             _set_limits(alc, n, (1 - wv) * vlo[jv] + wv * vlo[jv + 1],
                         (1 - wv) * vhi[jv] + wv * vhi[jv + 1])
-            s = allocate_compiled(alc, tau_des, fdes)
-        else:
+            if out_kind == 0:
+                s = allocate_compiled(alc, tau_des, fdes)
+        elif out_kind == 0:
             s = allocate_compiled(alloc, tau_des, fdes)
+        if out_kind != 0:
+            s = _thrusts_from_output(out_kind, cout, alc, inv_t, inv_c, batt, vtt, vtc, jv, wv,
+                                     B, eta_p, eta_n, fdes, tau_des)
         for i in range(n):
             if batt:
                 cmd[i] = (1 - wv) * _interp(vtt[jv], vtc[jv], fdes[i]) + \
                     wv * _interp(vtt[jv + 1], vtc[jv + 1], fdes[i])
             else:
                 cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
+            if out_kind == 2:
+                cmd[i] = cout[i]
             sig0[i] = cmd[i]
             if start > 0:  # static prefix (e.g. the ESC), evaluated once for the held command
                 sig0[i] = kernels.eval_chain_prefix(kinds, poff, tflat, i * P, cmd[i], bflat,
@@ -565,7 +611,7 @@ def _summarise_run(Z, F, SC, ref_pos, out):
 _LOOP = _fly_loop
 
 
-def _batch_template(cparams, cstate0, dparams, use_dist, z0, VP, B, alloc, eta_p, eta_n, dofs,
+def _batch_template(cparams, cstate0, dparams, use_dist, out_kind, z0, VP, B, alloc, eta_p, eta_n, dofs,
                     kinds, poff, TP, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
                     ref_yaw, ref_rate, VC, dt, nsub, OUT):
     """Vehicles (rows of ``VP``, ``TP``, ``VC``) flying the mission in parallel through ``_LOOP``
@@ -581,7 +627,7 @@ def _batch_template(cparams, cstate0, dparams, use_dist, z0, VP, B, alloc, eta_p
         FD = np.empty((nsteps, n))
         TAU = np.empty((nsteps, 6))
         SC = np.empty(nsteps)
-        _LOOP(cparams, cstate0.copy(), dparams, use_dist, z0, VP[r], B, alloc, eta_p, eta_n, dofs,
+        _LOOP(cparams, cstate0.copy(), dparams, use_dist, out_kind, z0, VP[r], B, alloc, eta_p, eta_n, dofs,
               kinds, poff, TP[r], soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
               ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC, np.zeros((0, 3)),
               np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
@@ -598,7 +644,7 @@ def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch
     ``prange`` kernel).  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
     final position error, min allocation scale]``."""
     _fly_batch_pid(np.ascontiguousarray(gains, dtype=np.float64).ravel(), np.zeros(PID_STATE_SIZE),
-                   np.zeros(0), False, z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff,
+                   np.zeros(0), False, 0, z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff,
                    outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt,
                    nsub, OUT)
 
@@ -628,8 +674,11 @@ def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
 # Python API
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class MissionResult:
-    """Time series of a flown mission plus its summary."""
+class MissionResult(DictSummaryResult):
+    """Time series of a flown mission plus its ``metrics`` (tracking errors, thrust, timing…).
+
+    ``summary()`` is the text of the common result surface; ``summary["key"]`` still reads
+    ``metrics`` (the field was called ``summary`` before)."""
 
     t: np.ndarray
     state: np.ndarray  # (N, 13 + thruster states)
@@ -641,8 +690,27 @@ class MissionResult:
     ref_yaw: np.ndarray
     thruster_names: tuple[str, ...]
     thrust_limits: np.ndarray  # (n, 2)
-    summary: dict = field(default_factory=dict)
+    metrics: dict = field(default_factory=dict)
     supply: np.ndarray | None = None  # (N, 3 + n) [V, battery current, SOC, commands] on a battery
+
+    report_title = "Mission"
+    summary_field = "metrics"
+
+    def _summary_text(self) -> str:
+        from uuvid.report.mission import mission_text
+
+        return mission_text(self)
+
+    def to_dict(self) -> dict:
+        """The metrics and thruster names (the time series: :meth:`to_frame`)."""
+        return jsonable({"metrics": dict(self.metrics), "thruster_names": list(self.thruster_names),
+                         "n_samples": int(self.t.size)})
+
+    def plot(self):
+        """Top view, tracking error and thruster forces."""
+        from uuvid.report.mission import mission_overview
+
+        return mission_overview(self)
 
     @property
     def position(self) -> np.ndarray:
@@ -707,8 +775,8 @@ class MissionSetup:
     disturbance: Disturbance | None = None
 
     def blocks(self):
-        """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist)`` of a setup with a
-        user controller or a disturbance (:func:`compiled_loop`)."""
+        """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist, out_kind)`` of a
+        setup with a user controller or a disturbance (:func:`compiled_loop`)."""
         from uuvid.simulate.control import compiled_form, python_controller
 
         c = self.controller or pid(self.gains)
@@ -717,7 +785,7 @@ class MissionSetup:
         loop, batch = compiled_loop(cfn, d.fn if d is not None else no_disturbance,
                                     cfn is not python_controller)
         return (loop, batch, np.ascontiguousarray(cpar), c.state0,
-                d.params if d is not None else np.zeros(0), d is not None)
+                d.params if d is not None else np.zeros(0), d is not None, c.output_code)
 
     def z0(self) -> np.ndarray:
         z = np.zeros(13 + self.bank.n * self.bank.n_states)
@@ -839,11 +907,31 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
         series = (np.ascontiguousarray(vct), np.ascontiguousarray(dvct))
         const = np.asarray(vct[0], dtype=float)
     bat = battery_tables(bank, battery, soc0) if battery is not None else None
-    return MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt, int(substeps),
-                        alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
-                        np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
-                        const, t, ref, cm, series, allocation, battery, bat, controller,
-                        disturbance)
+    setup = MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt,
+                         int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
+                         np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
+                         const, t, ref, cm, series, allocation, battery, bat, controller,
+                         disturbance)
+    if controller is not None:
+        _check_controller(setup)
+    return setup
+
+
+def _check_controller(setup: MissionSetup) -> None:
+    """A user controller writes what its ``output`` says (:func:`~uuvid.simulate.control.
+    check_output`); commands can be read back as thrust (increasing inverse tables)."""
+    from uuvid.simulate.control import check_output
+
+    c = setup.controller
+    b = setup.bank
+    rising = np.all(np.diff(b.inv_command, axis=1) > 0, axis=1)
+    if c.output == "command" and setup.battery_array is None and not np.all(rising):
+        bad = int(np.flatnonzero(~rising)[0])
+        raise ValueError(f"output='command': thruster {bad} ({b.chains[bad].name}) has a "
+                         "command that does not increase with thrust; the loop cannot read "
+                         "its steady thrust back (give output='thrust')")
+    if c.fn is not pid_controller:
+        check_output(c, b.n, setup.z0(), setup.ref, setup.dt)
 
 
 def allocation_method(alloc: np.ndarray) -> str:
@@ -889,10 +977,10 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                 Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT)
         compiled = bool(fly.signatures)
     else:  # the loop compiled around the setup's controller and disturbance
-        loop, _, cpar, cstate0, dpar, use_d = s.blocks()
+        loop, _, cpar, cstate0, dpar, use_d, okind = s.blocks()
 
         def run(k):
-            loop(cpar, cstate0.copy(), dpar, use_d, z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n,
+            loop(cpar, cstate0.copy(), dpar, use_d, okind, z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n,
                  s.dofs, b.kinds, b.poff, b.params, b.soff, b.outch, b.in_ch, b.exact,
                  b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
                  s.current, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT,
@@ -937,6 +1025,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "allocation": s.allocation,
         "current": getattr(s.current_model, "kind", "constant"),
         "controller": s.controller.name if s.controller is not None else "PID DP",
+        "controller_output": s.controller.output if s.controller is not None else "wrench",
         "disturbance": s.disturbance.name if s.disturbance is not None else "none",
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
@@ -971,8 +1060,8 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     OUT = np.empty((nrun, 5))
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
     if s.controller is not None or s.disturbance is not None:
-        _, batch, cpar, cstate0, dpar, use_d = s.blocks()
-        batch(cpar, cstate0, dpar, use_d, s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs,
+        _, batch, cpar, cstate0, dpar, use_d, okind = s.blocks()
+        batch(cpar, cstate0, dpar, use_d, okind, s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs,
               b.kinds, b.poff, TP, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
               ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT)
         return OUT

@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.simulate.response import TimeResponse
+from uuvid.report.result import Result, jsonable
+from uuvid.simulate.response import CHANNEL_UNITS, TimeResponse
 from uuvid.thruster.blocks import (
     _SIGNAL_CHANNEL,
     CH,
@@ -417,7 +418,7 @@ def steady_map_agreement(chain: ThrusterChain, u) -> dict:
 
 
 @dataclass(frozen=True)
-class SweepResult:
+class SweepResult(Result):
     """Steady channels reached for each constant input of a sweep."""
 
     inputs: np.ndarray
@@ -429,6 +430,39 @@ class SweepResult:
     def final(self) -> np.ndarray:
         """The chain's output signal at rest, for each input."""
         return self.channels[self.output]
+
+    report_title = "Steady sweep"
+
+    def summary(self) -> str:
+        x = np.asarray(self.inputs, dtype=float)
+        lines = [f"steady sweep: {x.size} inputs in [{x.min():.4g}, {x.max():.4g}], output "
+                 f"{self.output}"]
+        for k, v in self.channels.items():
+            a = np.asarray(v, dtype=float)
+            ok = a[np.isfinite(a)]
+            if ok.size:
+                lines.append(f"  {k:<14} [{ok.min():.4g}, {ok.max():.4g}] "
+                             f"{CHANNEL_UNITS.get(k, '')}")
+        if self.not_converged:
+            lines.append(f"  not settled at inputs: {', '.join(f'{u:g}' for u in self.not_converged)}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return jsonable({"inputs": self.inputs, "channels": dict(self.channels),
+                         "output": self.output, "not_converged": list(self.not_converged)})
+
+    def plot(self):
+        """Each steady channel against the input."""
+        from uuvid.report.plots import new_figure
+
+        names = [k for k, v in self.channels.items() if np.any(np.isfinite(v))] or [self.output]
+        fig, ax = new_figure(len(names), 1, squeeze=False, sharex=True,
+                             figsize=(7, 1.2 + 2.2 * len(names)))
+        for a, k in zip(ax[:, 0], names):
+            a.plot(self.inputs, self.channels[k], ".-", ms=3)
+            a.set_ylabel(f"{k} [{CHANNEL_UNITS.get(k, '')}]")
+        ax[-1, 0].set_xlabel("input")
+        return fig
 
 
 def _sample_signal(signal, t: np.ndarray) -> np.ndarray:

@@ -167,23 +167,66 @@ T200_FULL_US = (1100.0, 1900.0)
 T200_DEADBAND_US = 56.0
 T200_FULL_SPEED = 3500.0 * 2.0 * 3.141592653589793 / 60.0  # rad/s
 T200_MAX_THRUST_N = (U.kgf(5.25), U.kgf(4.07))
+#: The two sheets' supply voltages (12 V and 16 V): the preset's steady constants are fitted there.
+T200_SHEET_VOLTS = (12.0, 16.0)
 #: Spin-up time constant: not on the sheet; assumed (typical of a 100 g propeller on an outrunner).
 T200_TIME_CONSTANT = 0.1
 
 
-def t200_chain(supply_voltage: float = T200_SUPPLY) -> ThrusterChain:
-    """Approximate T200: PWM → linear ESC → first-order motor → ``K_T Ω|Ω|`` per direction.
+@dataclass(frozen=True)
+class T200Steady:
+    """Steady constants of the ``t200`` preset (see :mod:`uuvid.identify.t200_preset`)."""
 
-    Reaches the sheet's full-command thrust at 16 V; the speed-vs-command curve is linear (the
-    sheet's is not: fit ``uuvid thruster fit --model physical`` on the sheets for a better model).
+    curvature_fwd: float  # ESC duty curvature β, forward
+    curvature_rev: float
+    kt_fwd: float  # N·s²/rad², T = K_T Ω|Ω|
+    kt_rev: float
+    full_speed: float  # rad/s at full command and 16 V
+    speed_exponent: float  # γ: full-command speed ∝ V^γ
+    deadband_fwd: float = 0.0  # µs, forward dead-band edge − 1500
+    deadband_rev: float = 0.0  # µs, 1500 − reverse dead-band edge
+
+
+#: Fitted by :func:`uuvid.identify.t200_preset.fit_t200_preset` to the 12 V and 16 V sheets
+#: (weighted least squares on thrust and speed; refit: ``python -m uuvid.identify.t200_preset``;
+#: tests/test_t200_preset.py checks these equal a refit within its σ).  The steady thrust is then
+#: within T200_SHEET_TOLERANCE of the sheet's max |thrust| at every row of both sheets (≤ 1.9 %).
+T200_STEADY = T200Steady(
+    curvature_fwd=-0.3456, curvature_rev=-0.3694, kt_fwd=3.668e-4, kt_rev=2.856e-4,
+    full_speed=375.57, speed_exponent=0.6010)
+T200_SHEET_TOLERANCE = 0.02
+
+
+def t200_chain(supply_voltage: float = T200_SUPPLY, steady: T200Steady = T200_STEADY, *,
+               warn: bool = True) -> ThrusterChain:
+    """Blue Robotics T200: PWM → ESC → first-order motor → ``K_T Ω|Ω|`` per direction.
+
+    The ESC has a per-direction dead-band edge ``e`` and duty curvature β,
+    ``V = V_s s (1 + β (s − 1))`` with ``s = (c − e)/(f − e)`` (f = 1900 / 1100 µs); the motor's gain
+    ``K_m = Ω_16 (V_s/16 V)^γ / V_s`` gives the full-command speed at the supply ``V_s``; its time
+    constant is :data:`T200_TIME_CONSTANT` (assumed).  Steady thrust follows Blue Robotics' 12 V and
+    16 V sheets (:data:`T200_STEADY`); away from 12–16 V the speed is the power law's extrapolation
+    (warned).  Every block is static but the first-order motor, so the SIMD batch kernel's fast
+    path takes it.
     """
-    gain = T200_FULL_SPEED / T200_SUPPLY
+    v = float(supply_voltage)
+    if warn and not (T200_SHEET_VOLTS[0] - 1e-9 <= v <= T200_SHEET_VOLTS[1] + 1e-9):
+        import warnings
+
+        warnings.warn(f"t200_chain: {v:g} V is outside the sheets' {T200_SHEET_VOLTS[0]:g}–"
+                      f"{T200_SHEET_VOLTS[1]:g} V; the full-command speed is extrapolated by "
+                      f"Ω ∝ V^{steady.speed_exponent:.2f}", stacklevel=2)
+    lo, hi = 1500.0 - steady.deadband_rev, 1500.0 + steady.deadband_fwd
+    a_f = v / (T200_FULL_US[1] - hi)
+    a_r = v / (lo - T200_FULL_US[0])
+    esc = ESC(a_fwd=a_f, b_fwd=-a_f * hi, a_rev=a_r, b_rev=-a_r * lo, neutral=1500.0,
+              deadzone_low=lo, deadzone_high=hi, saturation_low=T200_FULL_US[0],
+              saturation_high=T200_FULL_US[1], supply_voltage=v, command_unit="pwm_us",
+              curvature_fwd=steady.curvature_fwd, curvature_rev=steady.curvature_rev)
+    gain = steady.full_speed * (v / T200_SUPPLY) ** steady.speed_exponent / v
     return ThrusterChain(
-        (ESC.from_range(1500.0, T200_DEADBAND_US, T200_FULL_US[0], T200_FULL_US[1], supply_voltage,
-                        command_unit="pwm_us"),
-         FirstOrderMotor(gain=gain, time_constant=T200_TIME_CONSTANT),
-         QuadraticMap(k_pos=T200_MAX_THRUST_N[0] / T200_FULL_SPEED**2,
-                      k_neg=T200_MAX_THRUST_N[1] / T200_FULL_SPEED**2)),
+        (esc, FirstOrderMotor(gain=gain, time_constant=T200_TIME_CONSTANT),
+         QuadraticMap(k_pos=steady.kt_fwd, k_neg=steady.kt_rev)),
         input_kind="command", name="t200")
 
 
@@ -201,9 +244,16 @@ PRESETS = {
 }
 
 
-def preset_chain(name: str) -> ThrusterChain:
-    """A named preset chain (``auv2-tunnel``, ``laidani-a2212``)."""
+def preset_chain(name: str, supply_voltage: float | None = None) -> ThrusterChain:
+    """A named preset chain (``auv2-tunnel``, ``laidani-a2212``, ``t200``…), at ``supply_voltage``
+    when given (the preset's own voltage law, e.g. the T200's speed ∝ V^γ; presets without an
+    ESC take no supply voltage)."""
     try:
-        return PRESETS[name]()
+        make = PRESETS[name]
     except KeyError:
         raise KeyError(f"unknown thruster preset {name!r}; known: {sorted(PRESETS)}") from None
+    if supply_voltage is None:
+        return make()
+    if name not in ("laidani-a2212", "t200"):
+        raise ValueError(f"thruster preset {name!r} has no ESC: a supply voltage does not apply")
+    return make(supply_voltage=float(supply_voltage))

@@ -44,6 +44,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
+from uuvid.report.result import Result, jsonable
+
 KINDS = ("residual", "wild", "pairs", "segment", "block")
 
 
@@ -68,7 +70,7 @@ def _quiet(fn):
 
 
 @dataclass
-class BootstrapResult:
+class BootstrapResult(Result):
     """Estimates with LS σ and bootstrap σ; ``replicates`` holds every refit (rows)."""
 
     procedure: str
@@ -116,7 +118,12 @@ class BootstrapResult:
                 "ls_sigma_label": self.ls_label, "notes": self.notes,
                 "table": self.table().to_dict(orient="records")}
 
-    def report(self) -> str:
+    report_title = "Bootstrap σ against LS σ"
+
+    def to_dict(self) -> dict:
+        return jsonable(self.as_dict())
+
+    def summary(self) -> str:
         t = self.table()
         w = max(len(n) for n in self.names) + 2
         lines = [f"[[Bootstrap]] {self.procedure}: {self.kind}, {self.n_boot} replicates"

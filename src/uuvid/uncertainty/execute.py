@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from uuvid.report.result import DictSummaryResult, jsonable
 from uuvid.uncertainty.targets import ChunkResult  # noqa: F401  (re-exported)
 
 BACKENDS = ("inprocess", "processes", "dask")
@@ -125,18 +126,70 @@ def _init_worker(threads: int | None) -> None:
 # result on disk
 # ---------------------------------------------------------------------------------------------
 @dataclass
-class StudyResult:
-    """The tidy table (one row per run), per-run series, the summary and the output folder."""
+class StudyResult(DictSummaryResult):
+    """The tidy table (one row per run), per-run series, the run ``info`` (what
+    ``summary.json`` holds: counts, backend, requirement…) and the output folder.
+
+    ``summary()`` is the text of the common result surface; ``summary["key"]`` still reads
+    ``info`` (the field was called ``summary`` before)."""
 
     table: pd.DataFrame
     series: dict[str, np.ndarray]
-    summary: dict
+    info: dict
     out: Path | None = None
     axes: dict[str, np.ndarray] = field(default_factory=dict)
 
+    report_title = "Study"
+    summary_field = "info"
+
+    def _summary_text(self) -> str:
+        i = self.info
+        counts = i.get("status_counts") or (self.table["status"].value_counts().to_dict()
+                                            if "status" in self.table else {})
+        lines = [f"{len(self.table)} runs" + (" (partial)" if self.partial else "")
+                 + (f", backend {i['backend']}" if i.get("backend") else "")
+                 + (f", {i['wall_time_s']:.3g} s" if i.get("wall_time_s") is not None else ""),
+                 "  status: " + ", ".join(f"{k} {v}" for k, v in counts.items())]
+        num = self._numeric()
+        for c in list(num.columns)[:12]:
+            x = num[c].to_numpy(dtype=float)
+            x = x[np.isfinite(x)]
+            if x.size:
+                lines.append(f"  {c:<28} median {np.median(x):.4g}  [{x.min():.4g}, {x.max():.4g}]")
+        req = i.get("requirement")
+        if isinstance(req, dict) and "probability" in req:
+            lines.append(f"  requirement met with probability {req['probability']:.3g}")
+        if self.out is not None:
+            lines.append(f"  folder: {self.out}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """The run info and the table (one record per run; the series stay in ``series``)."""
+        return jsonable({"info": {k: v for k, v in self.info.items() if k != "spec"},
+                         "table": self.table.to_dict(orient="records"),
+                         "out": str(self.out) if self.out is not None else None})
+
+    def plot(self, columns=None):
+        """Histograms of the numeric result columns of the successful runs (up to 6)."""
+        from uuvid.report.plots import new_figure
+
+        num = self._numeric()
+        cols = list(columns or num.columns)[:6] or ["run"]
+        fig, ax = new_figure(1, len(cols), squeeze=False, figsize=(3.6 * len(cols), 3.2))
+        for a, c in zip(ax[0], cols):
+            x = num[c].to_numpy(dtype=float) if c in num else np.zeros(0)
+            a.hist(x[np.isfinite(x)], bins=20)
+            a.set_xlabel(c)
+        ax[0, 0].set_ylabel("runs")
+        return fig
+
+    def _numeric(self) -> pd.DataFrame:
+        t = self.ok if "status" in self.table else self.table
+        return t.select_dtypes("number").drop(columns=["run"], errors="ignore")
+
     @property
     def partial(self) -> bool:
-        return bool(self.summary.get("partial"))
+        return bool(self.info.get("partial"))
 
     @property
     def ok(self) -> pd.DataFrame:
@@ -198,8 +251,8 @@ class _Writer:
                     np.savez(fh, run=result.table["run"].to_numpy(), **result.series,
                              **{f"axis:{k}": v for k, v in result.axes.items()})
             files.append("series.npz")
-        result.summary["files"] = files
-        self.summary(result.summary)
+        result.info["files"] = files
+        self.summary(result.info)
         if not result.partial:
             for p in self.parts:
                 try:

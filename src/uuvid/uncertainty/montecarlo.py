@@ -539,10 +539,10 @@ def run_montecarlo(model: UncertainModel | str | Path, runs: int = 1000, out: st
     if out is not None:
         res.out = Path(out)
         if report:
-            res.summary["figures"] = write_mc_report(res, study, Path(out))
+            res.info["figures"] = write_mc_report(res, study, Path(out))
             from uuvid.io.atomic import atomic_write_json
 
-            atomic_write_json(Path(out) / "summary.json", res.summary)
+            atomic_write_json(Path(out) / "summary.json", res.info)
     return res
 
 
@@ -553,7 +553,7 @@ def write_mc_report(res, study: MonteCarloStudy, out: Path) -> list[str]:
     from uuvid.report.plots import new_figure, save_figure
 
     sp = study.spec
-    s = res.summary
+    s = res.info
     table = res.table
     ok = (table["status"] == "ok").to_numpy()
     rep = Report(f"uuvid montecarlo — {sp.model.name}")

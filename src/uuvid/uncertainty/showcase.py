@@ -35,7 +35,7 @@ def demo_sweep(out: str | Path) -> dict:
     res = run_sweep(spec, Path(out), backend="inprocess", progress=False)
     t = res.table
     base = t[(abs(t["tunnel_length"] - 0.2667) < 1e-9) & (t["voltage"] == 24)].iloc[0]
-    return {"summary": {k: v for k, v in res.summary.items() if k != "spec"}, "out": str(out),
+    return {"summary": {k: v for k, v in res.info.items() if k != "spec"}, "out": str(out),
             "baseline_24V": {m: float(base[m]) for m in spec.metrics}}
 
 
@@ -46,7 +46,7 @@ def demo_montecarlo(out: str | Path, runs: int = 500) -> dict:
 
     res = run_montecarlo("t200-physical", runs, Path(out), seed=0, backend="inprocess",
                          progress=False)
-    s = res.summary
+    s = res.info
     ends = {k: {"lower": b["lower"][-1], "median": b["median"][-1], "upper": b["upper"][-1]}
             for k, b in s.get("bands", {}).items() if b.get("n")}
     return {"summary": public_summary(s), "out": str(out), "full_forward_thrust_band_N": ends}

@@ -369,10 +369,10 @@ def run_sweep(spec: SweepSpec | str | Path, out: str | Path | None = None, *, re
     if out is not None:
         res.out = Path(out)
         if report:
-            res.summary["figures"] = write_sweep_report(res, spec, Path(out))
+            res.info["figures"] = write_sweep_report(res, spec, Path(out))
             from uuvid.io.atomic import atomic_write_json
 
-            atomic_write_json(Path(out) / "summary.json", res.summary)
+            atomic_write_json(Path(out) / "summary.json", res.info)
     return res
 
 
@@ -432,14 +432,14 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
         return f"{name} [{u}]" if u else name
 
     rep = Report(f"uuvid sweep — {spec.name}")
-    s = res.summary
+    s = res.info
     rep.add_paragraph(
         f"{s['runs']} runs ({', '.join(f'{k}: {v}' for k, v in s['status_counts'].items())}) on the "
         f"{s['backend']} backend in {s['wall_time_s']:.3g} s ({s['runs_per_s']:.4g} runs/s)."
         + (" PARTIAL RESULT." if s.get("partial") else ""))
     if spec.description:
         rep.add_paragraph(spec.description)
-    metric_cols = [c for c in (spec.metrics or res.summary.get("metrics", {}).keys())]
+    metric_cols = [c for c in (spec.metrics or res.info.get("metrics", {}).keys())]
     files = []
     for k, p in enumerate(default_plots(spec, list(metric_cols))):
         if p.metric not in ok:
@@ -486,7 +486,7 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
     if len(table) and (table["status"] != "ok").any():
         bad = table[table["status"] != "ok"].head(20)
         rep.add_table(bad.to_dict(orient="records"), caption="Runs that did not succeed (first 20)")
-    rep.add_json({k: v for k, v in res.summary.items() if k != "spec"}, caption="Summary")
+    rep.add_json({k: v for k, v in res.info.items() if k != "spec"}, caption="Summary")
     rep.write(out)
     return files
 

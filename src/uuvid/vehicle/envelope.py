@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.report.result import Result
 from uuvid.vehicle.allocation import apply_eta
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import DOF_NAMES, steady_speed
@@ -87,7 +88,7 @@ class EnvelopeRow:
 
 
 @dataclass(frozen=True)
-class Envelope:
+class Envelope(Result):
     """Maximum steady speeds per DOF and direction, with the forces behind them."""
 
     vehicle: str
@@ -105,7 +106,32 @@ class Envelope:
         return {"vehicle": self.vehicle, "mode": self.mode,
                 "rows": [r.__dict__.copy() for r in self.rows], "notes": list(self.notes)}
 
-    def report(self) -> str:
+    report_title = "Performance envelope"
+
+    def to_dict(self) -> dict:
+        return self.as_dict()
+
+    def plot(self):
+        """Largest force and steady speed per direction (LP and allocator)."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 2, figsize=(12, 4))
+        x = np.arange(len(self.rows))
+        labels = [r.direction for r in self.rows]
+        ax[0].bar(x - 0.2, [abs(r.force) for r in self.rows], 0.4, label="LP maximum")
+        ax[0].bar(x + 0.2, [abs(r.force_allocator) for r in self.rows], 0.4, label="allocator")
+        ax[0].set_ylabel("force [N] / moment [N·m]")
+        ax[1].bar(x - 0.2, [abs(r.speed) for r in self.rows], 0.4, label="LP maximum")
+        ax[1].bar(x + 0.2, [abs(r.speed_allocator) for r in self.rows], 0.4, label="allocator")
+        ax[1].set_ylabel("steady speed [m/s] / [rad/s]")
+        for a in ax:
+            a.set_xticks(x)
+            a.set_xticklabels(labels, rotation=30, ha="right", fontsize=7)
+            a.legend(fontsize=8)
+        fig.suptitle(f"{self.vehicle}: performance envelope", fontsize=11)
+        return fig
+
+    def summary(self) -> str:
         title = f"Performance envelope — {self.vehicle}" + (
             f" (mode {self.mode})" if self.mode else "")
         lines = [title, (f"{'DOF':<6} {'direction':<26} {'max force':>12} {'steady speed':>14}"

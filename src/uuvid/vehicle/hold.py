@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.report.result import Result
 from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
 
@@ -365,7 +366,7 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
 
 
 @dataclass(frozen=True)
-class CapabilityResult:
+class CapabilityResult(Result):
     """Station-keeping capability: the largest current (m/s) held per relative angle."""
 
     vehicle: str
@@ -622,7 +623,7 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
 
 
 @dataclass(frozen=True)
-class EnduranceResult:
+class EnduranceResult(Result):
     """Holding station against a current from full charge until the battery cannot."""
 
     vehicle: str

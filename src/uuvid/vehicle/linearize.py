@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.report.result import Result
 from uuvid.vehicle.kinematics import euler_to_quat, quat_to_euler
 from uuvid.vehicle.model import DOF_NAMES, VehicleParams, rotation_reference, vehicle_rhs
 from uuvid.vehicle.rigid_body import skew_ref
@@ -325,7 +326,7 @@ def reduced_rhs(params: VehicleParams, x0, xi, tau, current=(0.0, 0.0, 0.0)) -> 
 # The linear model
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class LinearModel:
+class LinearModel(Result):
     """``ξ̇ = A ξ + B δf``, ``y = C ξ + D δf`` about an :class:`OperatingPoint`.
 
     ``B`` is with respect to the (delivered) thruster forces ``f`` (``B = B_tau · B_thr``),
@@ -410,6 +411,22 @@ class LinearModel:
         return control.ss(self.A, B, self.C, D, states=list(self.state_names),
                           inputs=list(names), outputs=[f"y_{s}" for s in self.state_names],
                           name=f"{self.vehicle_name} @ {self.op.name}")
+
+    report_title = "Linearised vehicle"
+
+    def plot(self):
+        """Eigenvalues of A in the complex plane (the open-loop modes)."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 1, figsize=(6, 4.5))
+        ev = self.eigenvalues()
+        ax.plot(ev.real, ev.imag, "x", ms=8)
+        ax.axvline(0.0, color="k", lw=0.6)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel("Re λ [1/s]")
+        ax.set_ylabel("Im λ [rad/s]")
+        ax.set_title(f"{self.vehicle_name} at {self.op.name}: eigenvalues of A", fontsize=10)
+        return fig
 
     def summary(self) -> str:
         ev = self.eigenvalues()

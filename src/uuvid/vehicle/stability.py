@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.report.result import Result
 from uuvid.vehicle.allocation import apply_eta
 from uuvid.vehicle.hydrodynamics import added_mass_coriolis, damping_force, restoring_forces
 from uuvid.vehicle.kinematics import euler_to_rotmat
@@ -214,7 +215,7 @@ class StabilityCase:
 
 
 @dataclass(frozen=True)
-class StabilityResult:
+class StabilityResult(Result):
     """Static stability of a vehicle in steady flight along each translational direction."""
 
     vehicle: str

@@ -46,6 +46,7 @@ from uuvid.io.ardusub.sources import (
     relevant_param,
 )
 from uuvid.io.logs import LogDataError
+from uuvid.report.result import Result
 
 BASE_COLUMNS = ("t_s", "depth_m", "roll_rad", "pitch_rad", "yaw_rad", "battery_V", "mode",
                 "armed")
@@ -53,7 +54,7 @@ BASE_COLUMNS = ("t_s", "depth_m", "roll_rad", "pitch_rad", "yaw_rad", "battery_V
 
 # ------------------------------------------------------------------------------------ results
 @dataclass
-class DiveLog:
+class DiveLog(Result):
     """A dive read from an ArduSub log (see :func:`load_dive`)."""
 
     path: Path
@@ -129,17 +130,23 @@ class DiveLog:
 
         return export_dive(self, out)
 
-    def report(self, folder) -> dict:
-        """``dive.csv`` (+ ``dive.csv.json``), ``dive.png`` and ``summary.txt`` in ``folder``;
-        returns the file paths."""
-        from uuvid.io.atomic import atomic_write_text
+    report_title = "ArduSub dive"
 
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        out = {"table": self.export(folder / "dive.csv"), "figure": folder / "dive.png",
-               "summary": atomic_write_text(folder / "summary.txt", self.summary() + "\n")}
-        self.plot(out["figure"])
-        return out
+    def report(self, folder) -> Path:
+        """``dive.csv`` (+ ``dive.csv.json``), ``dive.png``, ``summary.txt``, ``result.json`` and
+        ``index.html`` in ``folder``; returns the index."""
+        from uuvid.report.html import Report
+
+        folder = self.write_basics(folder)
+        table = self.export(folder / "dive.csv")
+        figure = folder / "dive.png"
+        self.plot(figure)
+        rep = Report(f"{self.report_title} — {self.path.name}")
+        rep.add_preformatted(self.summary(), caption="Summary")
+        rep.add_figure(figure, caption="Depth, attitude, thrust per motor and generalized forces; "
+                                       "modes shaded")
+        rep.add_links("Files", [table.name, "summary.txt", "result.json", figure.name])
+        return rep.write(folder)
 
     def plot(self, path=None):
         """Depth, attitude, thrusts and forces against time, modes shaded (a Figure; saved

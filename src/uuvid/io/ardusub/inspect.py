@@ -20,10 +20,11 @@ from uuvid.io.ardusub.sources import (
     relevant_param,
 )
 from uuvid.io.logs import LogDataError
+from uuvid.report.result import Result
 
 
 @dataclass
-class LogInspection:
+class LogInspection(Result):
     path: Path
     format: str
     duration_s: float
@@ -60,6 +61,27 @@ class LogInspection:
             L.append(f"  {m['start_s']:8.1f} – {m['end_s']:8.1f} s  {m['mode']}, {arm}")
         L += [f"warning: {w}" for w in self.warnings]
         return "\n".join(L)
+
+    report_title = "ArduSub log inspection"
+
+    def plot(self):
+        """Message rate per type (up to 20 types) and the mode segments over time."""
+        from uuvid.report.plots import new_figure
+
+        fig, ax = new_figure(1, 2, figsize=(12, 4.5), width_ratios=[1, 2])
+        top = sorted(self.messages, key=lambda m: -m["rate_hz"])[:20]
+        ax[0].barh([m["type"] for m in top][::-1], [m["rate_hz"] for m in top][::-1])
+        ax[0].set_xlabel("rate [Hz]")
+        ax[0].tick_params(axis="y", labelsize=7)
+        names = sorted({m["mode"] for m in self.modes})
+        for m in self.modes:
+            ax[1].barh(names.index(m["mode"]), m["end_s"] - m["start_s"], left=m["start_s"],
+                       color="C0" if m["armed"] else "0.7")
+        ax[1].set_yticks(range(len(names)))
+        ax[1].set_yticklabels(names, fontsize=8)
+        ax[1].set_xlabel("t [s] (blue: armed)")
+        ax[1].set_title(f"{self.path.name}: {self.format}, {self.duration_s:.1f} s", fontsize=10)
+        return fig
 
     def to_dict(self) -> dict:
         return {"path": str(self.path), "format": self.format, "duration_s": self.duration_s,
