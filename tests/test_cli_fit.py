@@ -389,6 +389,6 @@ def test_table_without_repeats_says_sigma_unknown_not_insignificant(tmp_path):
     f = tmp_path / "b.csv"
     f.write_text("command,thrust\n1100,-30\n1300,-10\n1500,0\n1700,12\n1900,40\n1900,41\n")
     sf = fit_table(read_bench(f, command_col="command", thrust_col="thrust"))
-    text = sf.fits["all"].report()
+    text = sf.fits["all"].summary()
     assert text.count("σ unknown") == 4 and text.count("not significant") == 0
     assert any("σ unknown (no repeats) for 4 of 5" in n for n in sf.info["notes"])

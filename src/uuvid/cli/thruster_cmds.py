@@ -192,7 +192,7 @@ def thruster_predict(
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
     from uuvid.thruster.chain import ThrusterChain, monotonicity_warnings
-    from uuvid.thruster.presets import PRESETS, preset_chain
+    from uuvid.thruster.resolve import supply_law
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -204,13 +204,10 @@ def thruster_predict(
     if supply_voltage is not None:
         if supply_voltage <= 0:
             _fail(f"--supply-voltage must be positive, got {supply_voltage}")
-        idx = [i for i, b in enumerate(blocks) if isinstance(b, ESC)]
-        if not idx:
+        law = supply_law(model, chain)  # a preset's own voltage law (the T200's speed is not ∝ V)
+        if law is None:
             _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
-        if model in PRESETS:  # the preset's own voltage law (the T200's speed is not ∝ V)
-            blocks = list(preset_chain(model, supply_voltage).blocks)
-        else:
-            blocks[idx[0]] = blocks[idx[0]].with_supply(supply_voltage)
+        blocks = list(law[0](supply_voltage).blocks)
     want = {"pwm_us": "command", "voltage_V": "voltage", "speed_rad_s": "speed"}[key]
     kinds = chain.signal_kinds
     if want not in kinds[:-1]:

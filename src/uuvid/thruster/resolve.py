@@ -4,9 +4,11 @@ show|simulate|predict``): a preset name (:data:`uuvid.thruster.presets.PRESETS`)
 (the voltage-aware fit of Blue Robotics' T200 sheets shipped with the package, as a chain at a
 supply voltage) or a model file path (relative to ``base``).
 
-Supply voltage: an ESC block outputs ``V = duty × supply`` (:meth:`uuvid.thruster.blocks.ESC.
-with_supply`), so a chain with an ESC can be re-evaluated at another battery voltage
-(:func:`at_supply`); a chain without one cannot follow the voltage.
+Supply voltage (:func:`supply_law`): a preset with an ESC is rebuilt at the voltage by its own
+law (:func:`uuvid.thruster.presets.preset_chain`, e.g. the T200's speed ∝ V^γ); a model file's
+ESC block outputs ``V = duty × supply`` (:meth:`uuvid.thruster.blocks.ESC.with_supply`), so the
+chain is re-evaluated with its ESC at the voltage (:func:`at_supply`; exact for a physical
+ESC → DC motor chain); a chain without an ESC cannot follow the voltage.
 """
 
 from __future__ import annotations
@@ -45,6 +47,8 @@ def resolve_chain(ref, base: Path | str | None = None, supply_voltage: float | N
         v = DEFAULT_PHYSICAL_SUPPLY_V if supply_voltage is None else float(supply_voltage)
         return physical_model(ref).to_chain(v, name=ref)
     if ref in PRESETS:
+        if supply_voltage is not None and supply_law(ref, preset_chain(ref)) is not None:
+            return _preset_at(ref, supply_voltage)
         chain = preset_chain(ref)
     else:
         p = Path(ref)
@@ -80,3 +84,31 @@ def at_supply(chain, supply_voltage: float):
     blocks = tuple(b.with_supply(float(supply_voltage)) if isinstance(b, ESC) else b
                    for b in chain.blocks)
     return ThrusterChain(blocks, chain.input_kind, chain.name)
+
+
+def _preset_at(ref: str, supply_voltage: float, quiet: bool = False):
+    import warnings
+
+    from uuvid.thruster.presets import preset_chain
+
+    with warnings.catch_warnings():
+        if quiet:  # many voltages of one log: the caller says it once
+            warnings.simplefilter("ignore")
+        return preset_chain(ref, float(supply_voltage))
+
+
+def supply_law(ref, chain, quiet: bool = False):
+    """``(f, text)``: ``f(V)`` is the chain at supply voltage ``V`` and ``text`` says how; ``None``
+    when the chain cannot follow a supply voltage (no ESC block).  ``quiet``: no warning when a
+    preset extrapolates beyond its sheets (e.g. the T200 outside 12–16 V)."""
+    from uuvid.thruster.presets import PRESETS
+
+    v0 = supply_voltage_of(chain)
+    if v0 is None:
+        return None
+    if str(ref) in PRESETS:
+        return (lambda v: _preset_at(str(ref), v, quiet),
+                f"thruster preset {ref}'s own voltage law (preset_chain at each voltage; "
+                f"nominal {v0:g} V)")
+    return (lambda v: at_supply(chain, v),
+            f"the chain's ESC (set for {v0:g} V) at each voltage (V = duty × supply)")

@@ -80,17 +80,17 @@ def load_thrust_model(path) -> ThrustModel:
 
     Voltage: a ``thruster_physical`` file and ``t200-physical`` take the logged voltage directly;
     a chain with an ESC block (``V = duty × supply``) is re-evaluated at the logged voltage
-    (rounded to 0.05 V) through :func:`uuvid.thruster.resolve.at_supply`; a chain without one
+    (rounded to 0.05 V) through :func:`uuvid.thruster.resolve.supply_law` (a preset by its own
+    voltage law, a file's ESC at the voltage); a chain without one
     cannot follow it and keeps its own (``voltage_aware`` False: the loader warns).
     """
     from uuvid.io.modelfile import ModelFileError
     from uuvid.thruster.resolve import (
         PHYSICAL_PRESETS,
-        at_supply,
         is_preset,
         preset_names,
         resolve_chain,
-        supply_voltage_of,
+        supply_law,
     )
 
     if str(path) in PHYSICAL_PRESETS:
@@ -111,7 +111,8 @@ def load_thrust_model(path) -> ThrustModel:
         raise LogDataError(f"{p.name}: model {chain.name!r} is driven by {chain.signal_kinds[0]}, "
                            "not a PWM command, so it cannot turn servo outputs into thrust")
     source = f"thruster preset {path}" if is_preset(path) else str(p)
-    v0 = supply_voltage_of(chain)
+    law = supply_law(path, chain, quiet=True)
+    at_v = None if law is None else law[0]
     cache: dict = {}
 
     def steady(key, c, todo):
@@ -123,7 +124,7 @@ def load_thrust_model(path) -> ThrustModel:
         vb = np.broadcast_to(np.asarray(volts, float), np.shape(pwm)).ravel()
         out = np.full(flat.size, np.nan)
         ok = np.isfinite(flat)
-        if v0 is not None:
+        if at_v is not None:
             ok &= np.isfinite(vb) & (vb > 0)
             keys = np.round(vb / 0.05) * 0.05
         else:
@@ -134,14 +135,13 @@ def load_thrust_model(path) -> ThrustModel:
             u = np.unique(cmd[sel])
             todo = np.array([x for x in u.tolist() if (key, x) not in cache])
             if todo.size:
-                steady(key, chain if v0 is None else at_supply(chain, key), todo)
+                steady(key, chain if at_v is None else at_v(key), todo)
             out[sel] = [cache[(key, x)] for x in cmd[sel].tolist()]
         return out.reshape(np.shape(pwm))
 
-    if v0 is None:
+    if at_v is None:
         return ThrustModel(chain.name or p.stem, source, False, fn,
                            "none: the chain has no ESC block (its thrust does not depend on the "
                            "supply voltage in the model), so thrust ignores the logged voltage")
     return ThrustModel(chain.name or p.stem, source, True, fn,
-                       f"logged battery voltage: the chain's ESC (set for {v0:g} V) re-evaluated "
-                       "at each sample's voltage (V = duty × supply, 0.05 V steps)")
+                       f"logged battery voltage (0.05 V steps): {law[1]}")
