@@ -269,15 +269,65 @@ def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
     np.testing.assert_allclose(d.factor_forces["Z_N"], T @ -np.array(VECTORED, float)[:, 3])
 
 
-def test_thruster_model_file_overrides_the_t200(tmp_path):
+def test_thruster_model_file_with_an_esc_follows_the_logged_voltage(tmp_path):
+    # was: voltage_aware False, thrust at the file's fixed 12 V whatever the battery said
     from uuvid.io.modelfile import save_chain
     from uuvid.thruster.presets import laidani_chain
+    from uuvid.thruster.resolve import at_supply
 
     model = save_chain(laidani_chain(), tmp_path / "mine.yaml")
     d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=120)), thruster_model=model)
-    assert d.thrust_model["voltage_aware"] is False
+    assert d.thrust_model["voltage_aware"] is True
+    assert "logged battery voltage" in d.thrust_model["voltage"]
     pwm = 1500 + DIRECTIONS[0] * (d.table["pwm_1"].to_numpy() - 1500)
-    np.testing.assert_allclose(d.table["thrust_1_N"], laidani_chain().steady_thrust(pwm))
+    volts = np.round(d.table["battery_V"].to_numpy() / 0.05) * 0.05
+    want = [float(at_supply(laidani_chain(), v).steady_thrust(np.array([u]))[0])
+            for u, v in zip(np.round(pwm), volts)]
+    np.testing.assert_allclose(d.table["thrust_1_N"], want, rtol=1e-9)
+    # the battery (~16.4 V) is not the chain's 12 V: a fixed-voltage chain would differ
+    fixed = laidani_chain().steady_thrust(pwm)
+    assert np.max(np.abs(d.table["thrust_1_N"] - fixed)) > 0.1 * np.max(np.abs(fixed))
+
+
+def test_physical_chain_file_matches_the_voltage_aware_default(tmp_path):
+    """A chain of the shipped physical T200 fit written at 12 V gives, at the logged voltage,
+    the thrust of the voltage-aware default (the same model)."""
+    from uuvid.io.ardusub.thrust import load_thrust_model
+    from uuvid.io.modelfile import save_chain
+    from uuvid.vehicle.power import physical_model
+
+    f = save_chain(physical_model().to_chain(12.0), tmp_path / "t200-12V.yaml")
+    tm, ref = load_thrust_model(f), default_t200()
+    pwm, volts = np.array([1300.0, 1723.0, 1723.0]), np.array([16.2, 16.2, 12.0])
+    np.testing.assert_allclose(tm.thrust(pwm, volts), ref.thrust(pwm, volts), rtol=1e-6)
+
+
+def test_thruster_model_without_esc_cannot_follow_voltage_and_says_so(tmp_path):
+    from uuvid.io.modelfile import save_chain
+    from uuvid.thruster.blocks import TableMap
+    from uuvid.thruster.chain import ThrusterChain
+
+    chain = ThrusterChain((TableMap(input_values=(1100.0, 1500.0, 1900.0),
+                                    output_values=(-30.0, 0.0, 40.0)),), "command", "table")
+    model = save_chain(chain, tmp_path / "table.yaml")
+    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=120)), thruster_model=model)
+    assert d.thrust_model["voltage_aware"] is False
+    assert any("cannot follow the battery voltage" in w for w in d.warnings)
+
+
+@pytest.mark.parametrize("name", ["t200", "laidani-a2212", "t200-physical"])
+def test_thruster_model_accepts_preset_names(tmp_path, name):
+    from uuvid.io.ardusub.thrust import load_thrust_model
+    from uuvid.thruster.resolve import resolve_chain
+
+    tm = load_thrust_model(name)
+    assert tm.voltage_aware
+    if name != "t200-physical":
+        np.testing.assert_allclose(tm.thrust(np.array([1700.0]), np.array([16.0])),
+                                   resolve_chain(name, supply_voltage=16.0).steady_thrust(
+                                       np.array([1700.0])))
+    with pytest.raises(LogDataError, match="not a preset"):
+        load_thrust_model("no-such-thruster")
 
 
 def test_custom_frame_needs_the_vehicle_geometry(tmp_path):
@@ -607,3 +657,22 @@ def test_real_logs_inspect_and_export_without_options(shared_data, tmp_path, nam
                                      tb["battery_V"]) for i in range(len(dirs))])
     np.testing.assert_allclose(tb[["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]].to_numpy(),
                                (factor_matrix(frame) @ T.T).T, atol=1e-9)
+
+
+def test_parquet_export_without_pyarrow_names_the_extra_before_reading(tmp_path, monkeypatch):
+    """After a plain ``pip install -e .`` (no pyarrow) a .parquet export fails at once with the
+    exact install command, printed literally (rich markup would eat ``[logs]``)."""
+    import sys
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow → ImportError
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    log = tmp_path / "never-read.BIN"
+    log.write_bytes(b"not a log")
+    res = CliRunner().invoke(app, ["log", "export", str(log), "--out-file", str(tmp_path / "d.parquet")])
+    assert res.exit_code == 2
+    assert "pip install 'uuvid[logs]'" in res.output
+    assert "not a log" not in res.output and not (tmp_path / "d.parquet").exists()

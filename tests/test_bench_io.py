@@ -109,7 +109,7 @@ def test_benchdata_direct_construction_checks():
     with pytest.raises(BenchDataError, match="supply_voltage must be a positive"):
         BenchData(command=[1, 2], supply_voltage=-3)
     d = BenchData(command=[1500, 1600])
-    with pytest.raises(BenchDataError, match="needs thrust"):
+    with pytest.raises(BenchDataError, match="needs a thrust column"):
         d.require("thrust", what="a fit")
     with pytest.raises(BenchDataError, match="no supply voltage"):
         d.supply_voltage_array()

@@ -100,3 +100,51 @@ def test_thruster_export_toml_round_trip(tmp_path):
     res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "toml", "--out", str(p)])
     assert res.exit_code == 0, res.output
     assert load_chain(p) == laidani_chain()
+
+
+def test_error_keeps_bracketed_column_names(tmp_path):
+    """rich reads ``[s]`` as markup; the error must print the user's column names literally."""
+    csv = tmp_path / "bench.csv"
+    csv.write_text("time [s],pwm [us],thrust [N]\n0,1500,0\n1,1600,1\n2,1700,3\n")
+    res = runner.invoke(app, ["thruster", "fit", str(csv), "--model", "quadratic", "--out-model",
+                              str(tmp_path / "m.yaml"), "--command-col", "pwm",
+                              "--thrust-col", "thrust [N]"])
+    assert res.exit_code == 2
+    assert "'time [s]', 'pwm [us]', 'thrust [N]'" in res.output
+
+
+def test_table_cells_keep_brackets():
+    from rich.console import Console
+
+    from uuvid.cli.common import _table
+
+    con = Console(width=200, record=True)
+    con.print(_table("run [1]", [{"column [s]": "pwm [us]"}], ["column [s]"]))
+    text = con.export_text()
+    assert "run [1]" in text and "column [s]" in text and "pwm [us]" in text
+
+
+def test_thruster_model_names_resolve_the_same_everywhere(tmp_path):
+    """One resolver: ``t200-physical`` (the name ``log export`` prints) is a thruster model for
+    ``thruster show`` and a scenario as well, not only for ``montecarlo``."""
+    from uuvid.simulate.scenario import ScenarioError, build, scenario_from_dict
+
+    res = runner.invoke(app, ["thruster", "show", "t200-physical"])
+    assert res.exit_code == 0, res.output
+    assert "t200-physical@16V" in res.output
+    spec = scenario_from_dict({"vehicle": "bluerov2", "thruster_model": "no-such-model"})
+    with pytest.raises(ScenarioError, match="not a thruster preset"):
+        build(spec)
+
+
+def test_current_of_the_wrong_length_says_what_is_expected():
+    from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+
+    with pytest.raises(ScenarioError) as e:
+        scenario_from_dict({"current": [0.1, 0]}, where="s.yaml")
+    m = str(e.value)
+    assert m.startswith("s.yaml: current: expected N,E,D (m/s)") and "Spec" not in m
+    res = runner.invoke(app, ["simulate", "mission", "--current", "0.3"])
+    assert res.exit_code == 2
+    assert "expected N,E,D (m/s)" in res.output and "0.3,0,0" in res.output
+    assert "tuple[float" not in res.output

@@ -294,8 +294,9 @@ def test_bad_cell_names_file_column_and_row(sheets, tmp_path):
 
 @pytest.mark.parametrize("args, needle", [
     (["--model", "quadratic", "--command-col", "PWM", "--thrust-col", "Thrust"], "no column 'Thrust'"),
-    (["--model", "quadratic", "--command-col", "PWM"], "needs thrust and speed"),
-    (["--model", "first-order", *SHEET_COLS], "needs time"),
+    (["--model", "quadratic", "--command-col", "PWM"],
+     "needs a thrust column (--thrust-col / thrust_col=) and a propeller speed column"),
+    (["--model", "first-order", *SHEET_COLS], "needs a time column (--time-col"),
     (["--model", "table", *SHEET_COLS, "--degree", "3"], "--degree applies"),
 ])
 def test_missing_columns_and_channels_exit_2(sheets, tmp_path, args, needle):
@@ -349,3 +350,45 @@ def test_t200_physical_on_both_sheets(shared_data, tmp_path):
     assert t[1] == pytest.approx(3.71 * KGF, rel=0.03)  # the sheet's 3.71 kgf forward at 12 V
     assert t[0] == pytest.approx(-2.92 * KGF, rel=0.03)
     assert (rep / "index.html").is_file()
+
+
+def test_fit_checks_the_file_then_reports_every_missing_option(tmp_path):
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    r = CliRunner()
+    res = r.invoke(app, ["thruster", "fit", str(tmp_path / "nope.csv")])
+    assert res.exit_code == 2 and "no such bench file" in res.output
+    f = tmp_path / "b.csv"
+    f.write_text("command,thrust\n1100,-30\n1300,-10\n1500,0\n1700,12\n1900,40\n")
+    res = r.invoke(app, ["thruster", "fit", str(f)])
+    assert res.exit_code == 2 and "--out-model" in res.output and "--model" in res.output
+
+
+def test_fit_without_speed_names_the_column_and_us_is_pwm(tmp_path):
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+    from uuvid.io.bench import read_bench
+
+    f = tmp_path / "b.csv"
+    f.write_text("command,thrust\n1100,-30\n1300,-10\n1500,0\n1700,12\n1900,40\n")
+    for m in ("quadratic", "polynomial"):
+        res = CliRunner().invoke(app, ["thruster", "fit", str(f), "--thrust-col", "thrust",
+                                       "--model", m, "--out-model", str(tmp_path / "m.yaml")])
+        assert res.exit_code == 2 and "--speed-col" in res.output and "fit_" not in res.output
+    assert read_bench(f, command_col="command", thrust_col="thrust",
+                      command_unit="us").command_unit == "pwm_us"
+
+
+def test_table_without_repeats_says_sigma_unknown_not_insignificant(tmp_path):
+    from uuvid.identify.steady import fit_table
+    from uuvid.io.bench import read_bench
+
+    f = tmp_path / "b.csv"
+    f.write_text("command,thrust\n1100,-30\n1300,-10\n1500,0\n1700,12\n1900,40\n1900,41\n")
+    sf = fit_table(read_bench(f, command_col="command", thrust_col="thrust"))
+    text = sf.fits["all"].summary()
+    assert text.count("σ unknown") == 4 and text.count("not significant") == 0
+    assert any("σ unknown (no repeats) for 4 of 5" in n for n in sf.info["notes"])

@@ -131,3 +131,26 @@ def test_group_command_lists_show_each_summary_on_one_line():
     assert checked > 15
     res = runner.invoke(app, ["vehicle", "--help"])
     assert "trim roll/pitch against" in res.output
+
+
+def test_current_flags_say_which_way_the_water_goes():
+    """simulate --current is where the water flows TO (N,E,D); hold --current SPEED,DIR where it
+    comes FROM (degrees off the bow): both help texts say so explicitly."""
+    import re
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    def flat(args):
+        out = CliRunner().invoke(app, args, env={"COLUMNS": "300"}).output
+        return re.sub(r"[\s│]+", " ", out)
+
+    assert "flows TO" in flat(["simulate", "--help"])
+    assert "comes FROM" in flat(["vehicle", "hold", "--help"])
+
+
+def test_vehicle_help_summary_names_hold_and_stability():
+    from uuvid.cli.vehicle_cmds import vehicle_app
+
+    assert "hold" in vehicle_app.info.help and "stability" in vehicle_app.info.help

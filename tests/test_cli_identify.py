@@ -201,6 +201,43 @@ def test_steady_flags_compass_spikes_and_reports_them(steady, logs):
     assert steady["report"].endswith("index.html")
 
 
+def test_steady_counts_dropped_headings_as_missing(steady, logs):
+    """Empty heading cells inside the segments are samples lost, not silently absent: they count
+    in "missing" and in the total (it said "4332/4347 used, 0 missing" with dropouts)."""
+    r = steady["rejections"]
+    y, t = logs["yaw_cols"]["heading_deg"], logs["yaw_cols"]["time"]
+    in_seg = sum(np.count_nonzero(np.isnan(y) & (t >= s["t0"]) & (t <= s["t1"]))
+                 for s in steady["segments"])
+    assert in_seg > 0 and r["missing"] == in_seg
+    assert r["used"] + r["missing"] + r["outliers"] == r["samples"]
+
+
+def test_no_segment_message_says_what_was_excluded_and_the_remedy():
+    from uuvid.cli.log_options import flags
+    from uuvid.identify.procedures import identify_steady
+    from uuvid.identify.vehicle_logs import LogData
+
+    t = np.arange(0.0, 100.0, 0.1)
+    cmd = np.where(t < 50, 5.0, -5.0)
+    pos = np.cumsum(cmd) * 0.01
+    info = {"source": "dive.tlog", "closed_loop_why": "left out 100 s disarmed", "armed_s": 0.0}
+    never = LogData(t, cmd, t, pos, info=info, closed_loop=np.ones(t.size, bool))
+    with pytest.raises(ValueError) as e:
+        identify_steady(never, "yaw")
+    m = str(e.value)
+    assert f"{t.size} of {t.size} command samples" in m and "disarmed" in m
+    assert "never armed in MANUAL" in m and "`open_loop_only=False`" in m
+    assert "--all-modes" in flags(m) and "rel_tol" not in m
+    # open loop only for 8 s: too short for settle + min_duration, and it says which knobs
+    short = LogData(t, cmd, t, pos, info={"source": "x.BIN"}, closed_loop=~((t > 40) & (t < 58)))
+    with pytest.raises(ValueError) as e:
+        identify_steady(short, "yaw")
+    m = str(e.value)
+    assert "excluded as not open loop" in m and "longest stretch" in m
+    assert "`settle=`" in m and "`min_duration=`" in m
+    assert "--settle" in flags(m) and "--min-duration" in flags(m)
+
+
 def test_open_water_mode_gives_the_same_fit_with_generated_names(logs, steady):
     doc = _json("vehicle", "identify", "steady", logs["yaw"], *STEADY_COLS,
                 "--open-water-mode", "yaw_fl_rr+")

@@ -163,3 +163,59 @@ def test_cli_hold_json(tmp_path):
     assert (tmp_path / "capability.png").is_file()
     bad = CliRunner().invoke(app, ["vehicle", "hold", "bluerov2", "--current", "fast"])
     assert bad.exit_code == 2 and "--current" in bad.output
+
+
+def test_romeo_holds_with_installation_coefficients_below_one():
+    """ROMEO's vertical mode delivers η = 0.56 of a downward command: the DP integrator raises
+    the command until the delivered wrench balances the 0.7 N buoyancy, so the hold allocates
+    τ/η against the limits (it reported 0 m/s at every angle, "0.392 N delivered").  The analytic
+    boundary is confirmed by simulation on both sides."""
+    v = load_vehicle("romeo")
+    vmax, info = hold.max_current(v, 0.0, tol=1e-3)
+    assert vmax > 0 and info["limit"] == "thrust" and info["reason"]
+    assert hold.holds_in_simulation(v, 0.0, 0.95 * vmax)[0]
+    assert not hold.holds_in_simulation(v, 0.0, 1.1 * vmax)[0]
+
+
+def test_auv2_uncontrolled_surge_drifts_and_is_named():
+    """AUV II has no surge thruster: its position along surge is a neutral (λ = 0) mode, not an
+    instability; a current with a surge component cannot be held (and says why), one from the
+    beam can."""
+    v = load_vehicle("auv2")
+    al = hold._allocator(v)
+    g, drifting = hold.closed_loop_modes(v, np.zeros(3), al, hold.hold_gains(v), 2.0, 0.0, 0.0)
+    assert drifting == ["surge"] and g < 0
+    v0, info0 = hold.max_current(v, 0.0)
+    assert v0 == 0.0 and info0["limit"] == "uncontrolled" and "surge" in info0["reason"]
+    assert hold.max_current(v, 90.0)[0] > 0
+    cap = hold.capability(v, step_deg=90.0)
+    text = cap.summary()
+    assert "holds nothing at 2 of 4 angles" in text and "surge" in text
+    assert cap.to_dict()["drifting"] == ["surge"]
+
+
+def test_hold_and_stability_share_one_tilt_limit():
+    """Station keeping against a beam current is the steady-flight balance at the same relative
+    water speed: with one tilt limit (stability.MAX_TILT_DEG, 20°; hold used 45° and said the
+    BlueROV2 holds 1.15 m/s where stability says it stops being level at 0.84) the two agree."""
+    from uuvid.vehicle.stability import MAX_TILT_DEG, static_stability
+
+    v = load_vehicle("bluerov2")
+    vmax, info = hold.max_current(v, 90.0, tol=1e-3)
+    assert info["limit"] == "attitude" and abs(abs(info["roll_deg"]) - MAX_TILT_DEG) < 0.1
+    case = next(c for c in static_stability(v).cases if c.direction == "starboard")
+    assert case.limit_dof == "roll" and abs(vmax / case.limit_speed - 1) < 0.03
+
+
+def test_capability_and_endurance_report_progress_off_a_terminal(capsys, monkeypatch):
+    """Long hold runs are not silent: one stderr line per angle (and per 10 % of charge)."""
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    v = load_vehicle("auv2")
+    hold.capability(v, step_deg=90.0)
+    err = capsys.readouterr().err
+    assert "auv2 capability: current from 90° (2/4" in err and "auv2 capability: done in" in err
+    hold.capability(v, step_deg=90.0, progress=False)
+    assert capsys.readouterr().err == ""
+    hold.endurance(load_vehicle("bluerov2-heavy"), 0.3, 0.0, soc0=0.3, dsoc=0.05)
+    err = capsys.readouterr().err
+    assert "bluerov2-heavy endurance: holding 0.3 m/s at SOC" in err and "done in" in err

@@ -181,7 +181,7 @@ def test_single_sheet_without_current_warns():
 
 def test_fit_input_checks():
     s = synthetic_sheets(TRUTH, volts=(12.0,))[0]
-    with pytest.raises(BenchDataError, match="needs supply_voltage"):
+    with pytest.raises(BenchDataError, match="needs the supply voltage"):
         fit_physical(BenchData(command=s.command, thrust=s.thrust, speed=s.speed))
     with pytest.raises(BenchDataError, match="no measured reverse samples"):
         fit_physical(s.forward())

@@ -74,7 +74,7 @@ def test_quadratic_speed_one_direction_only():
 
 
 def test_quadratic_speed_needs_speed():
-    with pytest.raises(BenchDataError, match="needs speed"):
+    with pytest.raises(BenchDataError, match="needs a propeller speed column"):
         fit_quadratic_speed(BenchData(command=[1500, 1600], thrust=[0, 1]))
 
 

@@ -71,7 +71,7 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     for name in ("bluerov2", "bluerov2-heavy"):
         v = load_vehicle(name)
         cap = hold.capability(v, step_deg=15.0 if not quick else 45.0, supply_voltage=16.0,
-                              simulate_deg=() if quick else (0.0, 45.0, 90.0))
+                              simulate_deg=() if quick else (0.0, 45.0, 90.0), progress=False)
         cap.plot(d / f"capability_{name}.png")
         rep.add_paragraph(cap.summary())
         rep.add_figure(d / f"capability_{name}.png", caption=f"{name}: capability plot at 16 V")
@@ -79,14 +79,15 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     heavy = load_vehicle("bluerov2-heavy")
     speeds = np.linspace(0.0, 0.7, 8 if not quick else 3)
     step = 0.05 if not quick else 0.2
-    times = [hold.endurance(heavy, float(sp), 0.0, dsoc=step).endurance_s / 60 for sp in speeds]
+    times = [hold.endurance(heavy, float(sp), 0.0, dsoc=step, progress=False).endurance_s / 60
+             for sp in speeds]
     fig, ax = new_figure(1, 1, figsize=(6, 4))
     ax.plot(speeds, times, "o-")
     ax.set_xlabel("head current [m/s]")
     ax.set_ylabel("station keeping time from full charge [min]")
     ax.set_title("BlueROV2 Heavy on a 4S 18 Ah Li-ion pack")
     rep.add_figure(save_figure(fig, d / "endurance_heavy.png"))
-    e = hold.endurance(heavy, 0.5, 0.0, dsoc=0.02 if not quick else 0.1)
+    e = hold.endurance(heavy, 0.5, 0.0, dsoc=0.02 if not quick else 0.1, progress=False)
     e.plot(d / "discharge_heavy.png")
     rep.add_paragraph(e.summary())
     rep.add_figure(d / "discharge_heavy.png", caption="Discharge holding station in 0.5 m/s: the "
@@ -125,7 +126,8 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     sq = {k: r.metrics[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
     sq["speed_m_s"] = speed
-    rep.add_paragraph(f"BlueROV2 square mission in a 0.3 m/s current ({why}): "
+    rep.add_paragraph(f"BlueROV2 square mission in a 0.3 m/s current flowing north (from the "
+                      f"south; {why}): "
                       + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
                                   for k, v in sq.items()))
     res["square_in_0.3_current"] = sq

@@ -115,7 +115,7 @@ def reproduce_mclean(
         return
     _show_mclean(result)
     if out:
-        err_console.print(f"report: {out / 'index.html'}")
+        err_console.print(f"report: {out / 'index.html'}", markup=False)
 
 
 def _show_mclean(result: dict) -> None:
@@ -135,7 +135,7 @@ def _show_mclean(result: dict) -> None:
             ["motor", "gear_ratio", "prop_rpm", "thrust_lbf"],
         )
     )
-    out_console.print(result["pulsing"]["answer"])
+    out_console.print(result["pulsing"]["answer"], markup=False)
     if "identified" in result:
         idn, ef = result["identified"], result["experiment_fit"]
         out_console.print(
@@ -173,7 +173,7 @@ def study(
     if json_out:
         _print_json(result)
     else:
-        out_console.print(result["answer"])
+        out_console.print(result["answer"], markup=False)
 
 
 @reproduce_app.command("laidani")

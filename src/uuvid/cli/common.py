@@ -7,10 +7,10 @@ from __future__ import annotations
 import json
 import os
 import sys
-from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -49,31 +49,29 @@ def _print_json(obj) -> None:
 
 
 def _fail(msg: str) -> None:
-    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(str(msg))}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
 def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}") -> Table:
-    t = Table(title=title)
+    t = Table(title=escape(title))
     for c in columns:
-        t.add_column(c)
+        t.add_column(escape(c))
     for r in rows:
         cells = [r.get(c) for c in columns]
-        t.add_row(*["—" if x is None else fmt.format(x) if isinstance(x, float) else str(x) for x in cells])
+        t.add_row(*[escape("—" if x is None else fmt.format(x) if isinstance(x, float) else str(x))
+                    for x in cells])
     return t
 
 
 def _load_model(model: str):
-    from uuvid.thruster.presets import PRESETS, preset_chain
+    """A preset name, ``t200-physical`` or a model file (:func:`uuvid.thruster.resolve.resolve_chain`)."""
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.resolve import resolve_chain
 
-    if model in PRESETS:
-        return preset_chain(model)
-    from uuvid.io.modelfile import ModelFileError, load_chain
-
-    p = Path(model)
-    if not p.exists():
-        _fail(f"{model}: no such model file, and not a preset (presets: {', '.join(sorted(PRESETS))})")
     try:
-        return load_chain(p)
+        return resolve_chain(model)
+    except FileNotFoundError as e:
+        _fail(str(e))
     except ModelFileError as e:
         _fail(str(e))

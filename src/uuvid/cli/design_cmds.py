@@ -202,7 +202,7 @@ def design_input(
     for m in des.messages:
         err_console.print(f"[yellow]note:[/] {escape(m)}", highlight=False, soft_wrap=True)
     if out is not None:
-        err_console.print(f"wrote {out} ({doc['command_samples']} samples: {', '.join(cols)})")
+        err_console.print(f"wrote {out} ({doc['command_samples']} samples: {', '.join(cols)})", markup=False)
 
 
 # =============================================================================================
@@ -233,7 +233,7 @@ def reproduce_caccia2000(
         return
     _show_caccia(result)
     if out:
-        err_console.print(f"report: {Path(out) / 'index.html'}")
+        err_console.print(f"report: {Path(out) / 'index.html'}", markup=False)
 
 
 def _show_caccia(result: dict) -> None:
@@ -273,4 +273,4 @@ def _show_caccia(result: dict) -> None:
         out_console.print(f"validation {key}: NRMSE {v['nrmse']:.3f}", highlight=False)
     acc = result["acceptance"]
     out_console.print("acceptance: " + ("[bold green]PASSED[/]" if acc["passed"] else
-                                        "[bold red]FAILED[/]: " + "; ".join(acc["failures"])))
+                                        "[bold red]FAILED[/]: " + escape("; ".join(acc["failures"]))))

@@ -89,7 +89,7 @@ def thruster_fit(
     current_col: str | None = typer.Option(None, "--current-col", help="Supply current column [A]."),
     voltage_col: str | None = typer.Option(None, "--voltage-col", help="Supply voltage column [V]."),
     time_col: str | None = typer.Option(None, "--time-col", help="Time column, in seconds (dynamic models)."),
-    command_unit: str = typer.Option("pwm_us", "--command-unit", help="pwm_us | duty | volts."),
+    command_unit: str = typer.Option("pwm_us", "--command-unit", help="pwm_us (or us) | duty | volts."),
     neutral: float | None = typer.Option(None, "--neutral",
                                          help="Neutral command (default 1500 µs, or 0)."),
     supply_voltage: float | None = typer.Option(
@@ -141,12 +141,19 @@ def thruster_fit(
     from uuvid.thruster.blocks import ParameterError
 
     out = renamed(out, "--out-model", old_out)
+    # the input first, then every missing option at once (not one per run)
+    gone = [str(p) for p in data if not p.exists()]
+    if gone:
+        _fail(f"no such bench file: {', '.join(gone)}")
+    missing = []
     if out is None:
-        _fail("give --out-model FILE (.yaml or .toml): the model file to write")
+        missing.append("--out-model FILE (.yaml or .toml): the model file to write")
+    if model is None and not select:
+        missing.append("--model KIND (or --select to choose the dynamic model by held-out level)")
+    if missing:
+        _fail("give " + "; and ".join(missing))
     if out.suffix.lower() not in (".yaml", ".yml", ".toml"):
         _fail(f"--out-model {out}: the model file must end in .yaml, .yml or .toml")
-    if model is None and not select:
-        _fail("give --model KIND (or --select to choose the dynamic model by held-out level)")
     if select and model is not None:
         _fail("--select chooses the dynamic model itself: leave out --model")
     kind = "select" if select else model.value
@@ -195,7 +202,7 @@ def thruster_fit(
         _print_json(doc)
         return
     out_console.print(outcome.summary(), highlight=False, markup=False, soft_wrap=True)
-    err_console.print(f"wrote {out}" + (f" and {report / 'index.html'}" if report else ""))
+    err_console.print(f"wrote {out}" + (f" and {report / 'index.html'}" if report else ""), markup=False)
 
 
 def register(thruster_app: typer.Typer) -> None:

@@ -29,7 +29,9 @@ def _parse_current(text: str | None):
 def vehicle_hold(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
     current: str = typer.Option(None, "--current", help="SPEED[,DIR]: current speed (m/s) and the "
-                                "direction it comes from, degrees off the bow (0 = head-on)."),
+                                "direction it comes FROM, degrees off the bow clockwise (0 = "
+                                "head-on, 90 = from starboard; vehicle heading north). Not "
+                                "simulate's N,E,D, which is where the water flows TO."),
     battery: float = typer.Option(None, "--battery", help="State of charge (0–1) of the vehicle "
                                   "file's battery: limits at its loaded voltage; with --current "
                                   "also the endurance from this charge."),
@@ -85,14 +87,14 @@ def vehicle_hold(
     if json_out:
         _print_json(doc)
         return
-    out_console.print(cap.summary())
+    out_console.print(cap.summary(), markup=False, highlight=False)
     if cur is not None:
         a = doc["at_current"]
         out_console.print(f"current {a['speed_m_s']:.2f} m/s from {a['from_deg']:.0f}°: "
                           f"{'holds' if a['holds'] else 'does NOT hold'} (largest "
-                          f"{a['max_current_m_s']:.3f} m/s)")
+                          f"{a['max_current_m_s']:.3f} m/s)", markup=False)
         if endur is not None:
-            out_console.print(endur.summary())
+            out_console.print(endur.summary(), markup=False, highlight=False)
     if out is not None:
-        out_console.print(f"wrote {out}/capability.png, hold.json")
+        out_console.print(f"wrote {out}/capability.png, hold.json", markup=False)
 

@@ -149,7 +149,7 @@ def identify_steady(
     r = res.result["rejections"]
     out_console.print(f"samples: {r['used']}/{r['samples']} used, {r['missing']} missing, "
                       f"{r['outliers']} outliers rejected; {len(res.result['skipped'])} segments "
-                      "left out", highlight=False)
+                      "left out", highlight=False, markup=False)
     lo.print_tail(doc, res.warnings, res.notes)
 
 

@@ -116,5 +116,5 @@ def identify_inertia(
                                       f"rows, {doc['cov_type']} σ)", doc["parameters"]))
     for line in res.summary().splitlines():
         if line.startswith(("phase lag", "NRMSE")):
-            out_console.print(line, highlight=False)
+            out_console.print(line, highlight=False, markup=False)
     lo.print_tail(doc, doc.get("warnings"), doc["notes"])

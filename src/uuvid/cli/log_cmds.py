@@ -49,8 +49,10 @@ def export_cmd(
     vehicle: str | None = typer.Option(None, "--vehicle", help="uuvid vehicle preset or file: "
                                        "checked against the log; its geometry gives the "
                                        "physical wrench."),
-    thruster_model: Path | None = typer.Option(None, "--thruster-model", help="Thruster model "
-                                               "file overriding the voltage-aware T200 model."),
+    thruster_model: str | None = typer.Option(None, "--thruster-model", help="Thruster model "
+                                              "file or preset (t200, laidani-a2212, t200-physical) "
+                                              "overriding the voltage-aware T200 model; a chain "
+                                              "with an ESC follows the logged voltage."),
     dt: float | None = typer.Option(None, "--dt", help="Time step of the table [s] (default: "
                                     "the attitude interval)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also save the overview figure here."),
@@ -81,7 +83,7 @@ def export_cmd(
     side = sidecar_path(path)
     err_console.print(f"wrote {path}" + (f" and {side}" if side else "")
                       + (f"; figure {plot}" if plot is not None else ""), highlight=False,
-                      soft_wrap=True)
+                      soft_wrap=True, markup=False)
 
 
 def register(app: typer.Typer) -> None:

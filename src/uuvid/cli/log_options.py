@@ -111,10 +111,23 @@ def fail(msg: str):
     _fail(msg)
 
 
+#: Library parameter names in messages (written in backticks) → this command line's flags.
+PARAM_FLAGS = {"`settle=`": "--settle", "`min_duration=`": "--min-duration",
+               "`rel_tol=`": "--rel-tol", "`tol=`": "--tol", "`threshold=`": "--threshold",
+               "`open_loop_only=False`": "--all-modes"}
+
+
+def flags(text: str) -> str:
+    """A library message with its parameter names as this CLI's flags."""
+    for k, v in PARAM_FLAGS.items():
+        text = text.replace(k, v)
+    return text
+
+
 def msg(e: BaseException) -> str:
     if isinstance(e, KeyError) and e.args:
-        return str(e.args[0])
-    return str(e)
+        return flags(str(e.args[0]))
+    return flags(str(e))
 
 
 def call(fn, *args, prefix: str = "", **kw):
@@ -133,20 +146,22 @@ def print_messages(warnings, notes) -> None:
     from uuvid.cli.common import err_console
 
     for w in warnings or []:
-        err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False,
+        err_console.print(f"[yellow]warning:[/] {escape(flags(str(w)))}", highlight=False,
                           soft_wrap=True)
     for m in notes or []:
-        err_console.print(f"[yellow]note:[/] {escape(str(m))}", highlight=False, soft_wrap=True)
+        err_console.print(f"[yellow]note:[/] {escape(flags(str(m)))}", highlight=False,
+                          soft_wrap=True)
 
 
 def params_table(title: str, params: dict):
+    from rich.markup import escape
     from rich.table import Table
 
-    t = Table(title=title)
+    t = Table(title=escape(title))
     for c in ("parameter", "estimate", "σ", "unit", "% error", "significant"):
         t.add_column(c)
     for n, r in params.items():
-        t.add_row(n, f"{r['estimate']:.5g}", f"{r['sigma']:.3g}", r.get("unit") or "",
+        t.add_row(escape(n), f"{r['estimate']:.5g}", f"{r['sigma']:.3g}", escape(r.get("unit") or ""),
                   f"{r['percentile_error']:.1f}", "yes" if r["significant"] else "no")
     return t
 
@@ -178,6 +193,6 @@ def print_tail(doc: dict, warnings, notes) -> None:
 
     print_messages(warnings, notes)
     if doc.get("report"):
-        err_console.print(f"report: {doc['report']}")
+        err_console.print(f"report: {doc['report']}", markup=False)
     if doc.get("vehicle_out"):
-        err_console.print(f"wrote {doc['vehicle_out']}")
+        err_console.print(f"wrote {doc['vehicle_out']}", markup=False)

@@ -42,7 +42,7 @@ def _run(model: str, files: list[Path], opts: ReadOptions, out: Path | None, jso
         return
     out_console.print(rep.summary(), highlight=False, markup=False, soft_wrap=True)
     if out is not None:
-        err_console.print(f"wrote {out / 'index.html'}")
+        err_console.print(f"wrote {out / 'index.html'}", markup=False)
 
 
 def replay_from_spec(model: str, spec: str, out: Path | None, json_out: bool) -> None:

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_console, out_console
@@ -106,7 +107,8 @@ def thruster_simulate(
     if json_out:
         _print_json(summary)
     elif not metrics:
-        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False)
+        err_console.print(summary.get("metrics_note", "no thrust output: no step metrics"), highlight=False,
+                          markup=False)
         out_console.print(
             _table(f"{chain.name}: final values (SI)",
                    [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
@@ -122,7 +124,7 @@ def thruster_simulate(
         )
     if out and not json_out:
         err_console.print(f"wrote {out / 'response.csv'}, response.png, summary.json and "
-                          f"{out / 'index.html'}", highlight=False, soft_wrap=True)
+                          f"{out / 'index.html'}", highlight=False, soft_wrap=True, markup=False)
 
 
 def thruster_export(
@@ -156,7 +158,7 @@ def thruster_export(
         _fail(f"--to: expected yaml, toml or uuv-simulator, got {to!r}")
     if out:
         atomic_write_text(out, text)
-        err_console.print(f"wrote {out}")
+        err_console.print(f"wrote {out}", markup=False)
     else:
         sys.stdout.write(text)
 
@@ -190,7 +192,7 @@ def thruster_predict(
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
     from uuvid.thruster.chain import ThrusterChain, monotonicity_warnings
-    from uuvid.thruster.presets import PRESETS, preset_chain
+    from uuvid.thruster.resolve import supply_law
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -202,13 +204,10 @@ def thruster_predict(
     if supply_voltage is not None:
         if supply_voltage <= 0:
             _fail(f"--supply-voltage must be positive, got {supply_voltage}")
-        idx = [i for i, b in enumerate(blocks) if isinstance(b, ESC)]
-        if not idx:
+        law = supply_law(model, chain)  # a preset's own voltage law (the T200's speed is not ∝ V)
+        if law is None:
             _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
-        if model in PRESETS:  # the preset's own voltage law (the T200's speed is not ∝ V)
-            blocks = list(preset_chain(model, supply_voltage).blocks)
-        else:
-            blocks[idx[0]] = blocks[idx[0]].with_supply(supply_voltage)
+        blocks = list(law[0](supply_voltage).blocks)
     want = {"pwm_us": "command", "voltage_V": "voltage", "speed_rad_s": "speed"}[key]
     kinds = chain.signal_kinds
     if want not in kinds[:-1]:
@@ -225,7 +224,7 @@ def thruster_predict(
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
     doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
     for w in doc["warnings"]:
-        err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+        err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:
         _print_json(doc)
     else:

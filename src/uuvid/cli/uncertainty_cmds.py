@@ -86,7 +86,7 @@ def _run(fn, out: Path | None, json_out: bool, title: str):
     try:
         res = fn()
     except KeyboardInterrupt:
-        err_console.print(f"interrupted: partial result in {out}" if out else "interrupted")
+        err_console.print(f"interrupted: partial result in {out}" if out else "interrupted", markup=False)
         raise typer.Exit(code=130) from None
     except ImportError as e:
         _fail(str(e))
@@ -100,7 +100,7 @@ def _run(fn, out: Path | None, json_out: bool, title: str):
     else:
         _show(summary, title)
         if out is not None:
-            err_console.print(f"report: {out / 'index.html'}  (table: {out / 'results.csv'})")
+            err_console.print(f"report: {out / 'index.html'}  (table: {out / 'results.csv'})", markup=False)
     return res
 
 

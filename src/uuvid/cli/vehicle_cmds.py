@@ -9,7 +9,8 @@ from rich.markup import escape
 
 vehicle_app = typer.Typer(
     no_args_is_help=True,
-    help="Vehicles: info, speed envelope, identification from logs, input design.",
+    help="Vehicles: info, speed envelope, static stability, station keeping (hold), "
+         "identification from logs, input design.",
 )
 
 
@@ -83,7 +84,7 @@ def _fly(spec, base, out, json_out, label):
     for w in summary.get("warnings", ()):
         err_console.print(f"[yellow]warning:[/] {escape(w)}")
     if out:
-        err_console.print(f"report: {out / 'index.html'}")
+        err_console.print(f"report: {out / 'index.html'}", markup=False)
 
 
 def simulate(
@@ -95,9 +96,12 @@ def simulate(
         "level-flight limit when that is lower (the summary says which)."),
     depth: float = typer.Option(2.0, "--depth", help="mission: depth [m]."),
     side: float = typer.Option(10.0, "--side", help="mission: side of the square [m]."),
-    current: str = typer.Option("0,0,0", "--current", help="mission: current north,east,down [m/s]."),
+    current: str = typer.Option("0,0,0", "--current", help="mission: water velocity N,E,D [m/s], the "
+                                 "direction the water flows TO (0.3,0,0 flows north, i.e. comes "
+                                 "from the south). Not hold's SPEED,DIR (where it comes FROM)."),
     thruster_model: str | None = typer.Option(
-        None, "--thruster-model", help="mission: override the thrusters' model."
+        None, "--thruster-model", help="mission: override the thrusters' model (file or preset: "
+        "t200, laidani-a2212, t200-physical, ...)."
     ),
     dt: float = typer.Option(0.01, "--dt", help="mission: control and integration step [s]."),
     controller: str | None = typer.Option(
@@ -128,7 +132,10 @@ def simulate(
         try:
             cur = [float(x) for x in current.split(",")]
         except ValueError:
-            _fail(f"--current: expected three numbers north,east,down, got {current!r}")
+            cur = []
+        if len(cur) != 3:
+            _fail(f"--current: expected N,E,D (m/s), the water velocity north, east, down (where it "
+                  f"flows to), e.g. 0.3,0,0; got {current!r}")
         try:
             spec = scenario_from_dict(
                 {
@@ -198,13 +205,14 @@ def vehicle_envelope(
                           highlight=False, soft_wrap=True)
     for r in check.rows:
         if r["confirmed"] is False:
-            out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True)
+            out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True, markup=False)
 
 
 @vehicle_app.command("stability")
 def vehicle_stability(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
-    max_tilt: float = typer.Option(20.0, "--max-tilt", help="Largest acceptable trim tilt [deg]."),
+    max_tilt: float = typer.Option(20.0, "--max-tilt", help="Largest acceptable trim tilt [deg] "
+                                   "(the same 20° as vehicle hold)."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
     out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
 ):
@@ -229,6 +237,6 @@ def vehicle_stability(
     rows = res.rows()
     cols = list(dict.fromkeys(k for r in rows for k in r))
     out_console.print(_table(f"{v.name}: static stability (tilt limit {max_tilt:g}°)", rows, cols, "{:.3g}"))
-    out_console.print(res.summary(), highlight=False, soft_wrap=True)
+    out_console.print(res.summary(), highlight=False, soft_wrap=True, markup=False)
     if out:
-        err_console.print(f"wrote {out / 'stability.png'}, {out / 'stability.json'}")
+        err_console.print(f"wrote {out / 'stability.png'}, {out / 'stability.json'}", markup=False)

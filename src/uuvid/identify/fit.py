@@ -191,6 +191,8 @@ class Fit(Result):
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} (fixed) {p.unit}")
             elif p.name in bound:
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} at bound (no σ) {p.unit}")
+            elif not math.isfinite(p.stderr):  # unknown, not "not significant"
+                lines.append(f"    {p.name:<{w}} = {p.value:.6g} (σ unknown) {p.unit}")
             else:
                 flag = "" if p.significant else "  <-- not significant (>51.02 %)"
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} +/- {p.stderr:.3g} "

@@ -149,11 +149,7 @@ def run_steady(data: LogData, dof: str, *, settle: float, min_duration: float, t
     segs = find_segments(data.t_cmd, cmd, min_duration=min_duration, settle=settle,
                          tol=tol, rel_tol=rel_tol, mode=labels)
     if not segs:
-        lv = np.unique(np.round(data.command, 6))
-        raise ValueError(f"no constant-command segment of at least {min_duration:g} s after "
-                         f"{settle:g} s of settling in {data.info.get('source')} "
-                         f"({lv.size} distinct command values over {data.t_cmd[-1] - data.t_cmd[0]:.4g}"
-                         " s); lower --min-duration/--settle or raise --rel-tol")
+        raise ValueError(no_segment_message(data, cmd, settle=settle, min_duration=min_duration))
     sign_keep = {"both": 0, "positive": 1, "negative": -1}[direction]
     fitted, skipped = [], []
     for s in segs:
@@ -212,10 +208,71 @@ def run_steady(data: LogData, dof: str, *, settle: float, min_duration: float, t
     unsettled = [r["segment"] for r in seg_rows if not r["settled"]]
     if unsettled:
         notes.append(f"segments {unsettled} had not settled (significant acceleration): their "
-                     "velocities are biased; lengthen --settle")
+                     "velocities are biased; lengthen `settle=`")
+    rej = summarise_rejections(vels)
+    # samples dropped at reading (NaN position / command) inside the fitted segments
+    for key, tt in (("missing", data.t_position_missing), ("missing_command", data.t_command_missing)):
+        k = 0 if tt is None else int(sum(np.count_nonzero((tt >= s.t0) & (tt <= s.t1))
+                                         for s, _, _, _ in fitted))
+        rej[key] = rej.get(key, 0) + k
+        if key == "missing":
+            rej["samples"] += k
     return {"fit": fit, "naive": naive, "points": pts, "velocities": vels, "segments": seg_rows,
             "skipped": skipped, "rejected": rejected, "eta_map": emap, "notes": notes,
-            "rejections": summarise_rejections(vels), "seen": seen}
+            "rejections": rej, "seen": seen}
+
+
+def no_segment_message(data: LogData, cmd: np.ndarray, *, settle: float,
+                       min_duration: float) -> str:
+    """Why no constant-command segment was found, and the remedy that fits: samples excluded as
+    closed loop (not MANUAL, or disarmed) and what is left; a command that never changes; or
+    stretches shorter than ``settle + min_duration``.  Library parameter names in backticks
+    (the CLI maps them to its flags)."""
+    src = data.info.get("source")
+    n = int(cmd.size)
+    span = float(data.t_cmd[-1] - data.t_cmd[0]) if n > 1 else 0.0
+    head = (f"no constant-command segment of at least {min_duration:g} s after {settle:g} s of "
+            f"settling in {src}")
+    usable = np.isfinite(cmd)
+    excl = int(n - np.count_nonzero(usable))
+    lv = np.unique(np.round(cmd[usable], 6))
+    dt = float(np.median(np.diff(data.t_cmd))) if n > 1 else 0.0
+    # longest usable stretch
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], usable.astype(int), [0]))))
+    longest = max(((data.t_cmd[b - 1] - data.t_cmd[a]) for a, b in zip(edges[::2], edges[1::2])),
+                  default=0.0)
+    parts = []
+    if excl:
+        why = data.info.get("closed_loop_why")
+        parts.append(f"{excl} of {n} command samples ({excl * dt:.4g} s) excluded as not open "
+                     "loop (only MANUAL and armed stretches are used"
+                     + (f": {why}" if why else "") + ")")
+        if not usable.any():
+            armed = data.info.get("armed_s")
+            return (f"{head}: {parts[0]}; nothing is left — the vehicle was never armed in MANUAL "
+                    + (f"(armed {armed:.4g} s of {span:.4g} s in any mode) " if armed is not None
+                       else "")
+                    + "so the thrusters were never driven open loop; steady identification needs "
+                    "constant-command driving in MANUAL, armed (or `open_loop_only=False` if the "
+                    "command was open loop in another mode)")
+        parts.append(f"left: {int(usable.sum())} samples, longest stretch {longest:.4g} s, "
+                     f"{lv.size} distinct command values")
+    else:
+        parts.append(f"{lv.size} distinct command values over {span:.4g} s")
+    if lv.size <= 1:
+        armed = data.info.get("armed_s")
+        val = f" ({lv[0]:.4g})" if lv.size else ""
+        remedy = (f"the command never changes{' in what is left' if excl else ''}{val}: the "
+                  "thrusters were idle or at neutral"
+                  + (f" (armed {armed:.4g} s of {span:.4g} s)" if armed is not None else "")
+                  + "; nothing in this log excites the DOF — use a log where it was driven")
+    elif longest < settle + min_duration:
+        remedy = (f"the longest usable stretch ({longest:.4g} s) is shorter than `settle=` + "
+                  f"`min_duration=` ({settle + min_duration:g} s): lower them")
+    else:
+        remedy = ("the command is not constant long enough within `rel_tol=`: lower "
+                  "`min_duration=`/`settle=` or raise `rel_tol=`")
+    return f"{head} ({'; '.join(parts)}); {remedy}"
 
 
 def _mode_etas(fit, emap: dict, seen: dict[str, set[str]]) -> dict[str, dict]:

@@ -719,6 +719,10 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     n_cens = int(data.censored.sum())
     if n_cens and censored == "zero":
         notes.append(f"{n_cens} censored row(s) kept at zero thrust (below the detection limit)")
+    once = int(np.sum(counts[idx] < 2))
+    if once:
+        notes.append(f"σ unknown (no repeats) for {once} of {idx.size} table entries: an entry's σ "
+                     "comes from repeated measurements at its command")
     f = Fit(f"lookup table command → thrust ({xi.size} knots)", params, cov, resid, int(c.size),
             math.nan, (), {"command_unit": data.command_unit, "counts": counts[idx].tolist()})
     return SteadyFit("lookup table (UUV Simulator LinearInterp)", {"all": f}, block,

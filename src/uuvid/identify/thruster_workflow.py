@@ -316,6 +316,7 @@ def _fit_quadratic(sets, name):
     from uuvid.identify.steady import fit_quadratic_speed
 
     data = _stack(sets)
+    data.require("thrust", "speed", what="--model quadratic (thrust = k·Ω|Ω| against speed)")
     sf = fit_quadratic_speed(data)
     chain = _chain((sf.block,), "speed", name)
     m = data.measured & (data.speed != 0)
@@ -373,6 +374,7 @@ def _fit_polynomial(sets, name, degree, criterion):
     )
 
     data = _stack(sets)
+    data.require("thrust", "speed", what="--model polynomial (thrust against speed)")
     sf = fit_polynomial(data, degree, criterion=criterion)
     tables, choices = dict(sf.info.get("tables", {})), dict(sf.info.get("choices", {}))
     if degree is not None:  # still show the table and what the rule would have chosen

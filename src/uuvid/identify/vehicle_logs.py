@@ -93,6 +93,10 @@ class LogData:
     #: True where the vehicle was not in open loop (e.g. ArduSub ALT_HOLD): steady segments end
     #: there (``None``: every sample is usable).
     closed_loop: np.ndarray | None = None
+    #: Times of samples dropped because the position (resp. command) was missing (NaN/empty):
+    #: the fits count them as missing samples of the segments they fall in.
+    t_position_missing: np.ndarray | None = None
+    t_command_missing: np.ndarray | None = None
 
     @property
     def warnings(self) -> list[str]:
@@ -119,9 +123,13 @@ class LogData:
         modes = None if self.modes is None else [m for m, k in zip(self.modes, kc) if k]
         info = {**self.info, "t_start": t_start, "t_end": t_end,
                 "command_samples": int(kc.sum()), "position_samples": int(kp.sum())}
+        def win(tt):
+            return None if tt is None else tt[(tt >= lo) & (tt <= hi)]
+
         return LogData(self.t_cmd[kc], self.command[kc], self.t_pos[kp], self.position[kp],
                        modes, None if self.ballast is None else self.ballast[kc], info,
-                       None if self.closed_loop is None else self.closed_loop[kc])
+                       None if self.closed_loop is None else self.closed_loop[kc],
+                       win(self.t_position_missing), win(self.t_command_missing))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -400,7 +408,9 @@ def _read_table_log(spec: LogSpec) -> LogData:
             "duplicates": int(r.meta.get("duplicates") or 0), "notes": notes}
     if spec.mode_col:
         info["columns"] = {**info["columns"], "mode": spec.mode_col}
-    data = LogData(t[rows], cmd[rows], t[prow], pos[prow], modes, ballast, info)
+    data = LogData(t[rows], cmd[rows], t[prow], pos[prow], modes, ballast, info,
+                   t_position_missing=t[~np.isfinite(pos) & np.isfinite(t)],
+                   t_command_missing=t[~np.isfinite(cmd) & np.isfinite(t)])
     return _finish(data, spec, names)
 
 
@@ -441,10 +451,12 @@ def _from_channels(out: dict, spec: LogSpec, info: dict, command=None) -> LogDat
     else:
         t_cmd, cmd = command
     ok = np.isfinite(cmd)
+    t_cmd_missing = t_cmd[~ok]
     t_cmd, cmd = t_cmd[ok], cmd[ok]
     p = out["position"]
     t_pos, pos = np.asarray(p.t, float), np.asarray(p["position"], float)
     okp = np.isfinite(pos)
+    t_pos_missing = t_pos[~okp]
     t_pos, pos = t_pos[okp], pos[okp]
     if t_cmd.size < 2:
         raise LogDataError(f"{spec.path.name}: the command channel has {t_cmd.size} samples")
@@ -485,7 +497,8 @@ def _from_channels(out: dict, spec: LogSpec, info: dict, command=None) -> LogDat
                      f"{spec.on_duplicate}): " + ", ".join(f"{k} {v}" for k, v in dup.items()))
     info = {**info, "command_samples": int(t_cmd.size), "position_samples": int(t_pos.size),
             "duplicates": dup, "notes": notes}
-    return LogData(t_cmd, cmd, t_pos, pos, modes, ballast, info)
+    return LogData(t_cmd, cmd, t_pos, pos, modes, ballast, info,
+                   t_position_missing=t_pos_missing, t_command_missing=t_cmd_missing)
 
 
 def _servo_command(spec: LogSpec, out: dict, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -666,17 +679,21 @@ def _read_ardusub_log(spec: LogSpec) -> LogData:
         closed = ~mask
         notes.append(f"steady segments from open-loop data only (--all-modes to use every mode): "
                      f"{why}")
+    armed = dive.table["armed"].fillna(False).to_numpy(bool)
     info = {"source": spec.path.name, "format": dive.format, "time_base": "autopilot boot",
             "command_from": (f"{_DOF_COLUMN[spec.dof]}: thrust per motor (PWM at the logged "
                              f"battery voltage) through {veh.name}'s B ({spec.dof} row)"),
             "position_from": pos_from, "frame": dive.config.frame,
-            "notes": notes, "warnings": warnings}
+            "notes": notes, "warnings": warnings,
+            "closed_loop_why": why if spec.open_loop_only else None,
+            "armed_s": float(np.count_nonzero(armed) * np.median(np.diff(t))) if t.size > 1
+            else 0.0}
     keep, okp = np.isfinite(tau), np.isfinite(pos)
     if keep.sum() < 2 or okp.sum() < 5:
         raise ValueError(f"{spec.path.name}: too few samples for {spec.dof} "
                          f"({int(keep.sum())} command, {int(okp.sum())} position)")
     data = LogData(t[keep], tau[keep], t[okp], pos[okp], None, None, info,
-                   None if closed is None else closed[keep])
+                   None if closed is None else closed[keep], t[~okp], t[~keep])
     names = {"command": _DOF_COLUMN[spec.dof], "position": pos_from}
     return _finish(data, spec, names, True)
 

@@ -33,6 +33,18 @@ import numpy as np
 from uuvid import units as U
 
 COMMAND_UNITS = ("pwm_us", "duty", "volts")
+#: what a missing channel means in the input: the column (CLI flag / read_bench argument)
+CHANNEL_COLUMNS = {
+    "thrust": "a thrust column (--thrust-col / thrust_col=)",
+    "speed": "a propeller speed column (--speed-col / speed_col=)",
+    "current": "a supply current column (--current-col / current_col=)",
+    "supply_voltage": "the supply voltage (--voltage-col or --supply-voltage / voltage_col=, "
+                      "supply_voltage=)",
+    "time": "a time column (--time-col / time_col=)",
+}
+#: other spellings of a command unit (``us`` as the time unit accepts it)
+COMMAND_UNIT_ALIASES = {"us": "pwm_us", "µs": "pwm_us", "pwm": "pwm_us", "v": "volts",
+                        "volt": "volts"}
 #: thrust unit → N per unit
 THRUST_UNITS = {"N": 1.0, "kgf": U.KGF, "lbf": U.LBF, "g": U.G0 / 1000.0}
 #: speed unit → rad/s per unit
@@ -204,8 +216,9 @@ class BenchData:
         """Raise a clear error if a channel (thrust, speed, current, supply_voltage, time) is absent."""
         missing = [c for c in channels if getattr(self, c) is None]
         if missing:
-            raise BenchDataError(f"{self._where()}{what} needs {' and '.join(missing)} data, "
-                                 f"which this bench data set does not have")
+            cols = [CHANNEL_COLUMNS.get(c, c) for c in missing]
+            raise BenchDataError(f"{self._where()}{what} needs {' and '.join(cols)}, which this "
+                                 f"bench data set does not have")
 
     def summary(self) -> dict:
         out = {"source": self.source, "samples": len(self), "censored": int(self.censored.sum()),
@@ -295,8 +308,7 @@ def _read_parquet(path: Path) -> _Table:
         import pyarrow.parquet as pq
     except ImportError as e:
         raise ImportError(f"{path.name}: reading Parquet bench files needs pyarrow, which is not "
-                          "installed; install it with `pip install pyarrow` (or save the data as "
-                          "CSV)") from e
+                          "installed: pip install 'uuvid[logs]' (or save the data as CSV)") from e
     try:
         tbl = pq.read_table(path)
     except Exception as e:  # pyarrow raises its own error types
@@ -393,6 +405,8 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         Detection limit in ``speed_unit``: rows whose |speed| is below it were zeroed by the
         logger and are marked censored.
     """
+    if isinstance(command_unit, str):
+        command_unit = COMMAND_UNIT_ALIASES.get(command_unit.strip().lower(), command_unit)
     command_unit = _check_unit("command_unit", command_unit, {u: 0 for u in COMMAND_UNITS})
     thrust_unit = _check_unit("thrust_unit", thrust_unit, THRUST_UNITS)
     speed_unit = _check_unit("speed_unit", speed_unit, SPEED_UNITS)

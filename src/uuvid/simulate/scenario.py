@@ -34,7 +34,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.simulate.reference import (
@@ -179,13 +179,28 @@ class ScenarioSpec(BaseModel):
     substeps: int = Field(1, ge=1, le=100)
     duration: float | None = Field(None, gt=0)
 
+    @field_validator("current", mode="before")
+    @classmethod
+    def _ned_triple(cls, v):
+        if isinstance(v, (list, tuple)):
+            try:
+                ok = len(v) == 3 and all(float(x) == float(x) for x in v)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise ValueError(f"expected N,E,D (m/s): three numbers, the water velocity "
+                                 f"north, east, down (where it flows to), e.g. [0.3, 0, 0]; got "
+                                 f"{list(v)}")
+        return v
+
 
 def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
     try:
         return ScenarioSpec.model_validate(raw if raw is not None else {})
     except ValidationError as e:
         msgs = [f"{where}: {format_loc(err['loc'])}: "
-                + {"missing": "missing", "extra_forbidden": "unknown key"}.get(err["type"], err["msg"])
+                + {"missing": "missing", "extra_forbidden": "unknown key"}.get(
+                    err["type"], err["msg"].removeprefix("Value error, "))
                 for err in e.errors()]
         raise ScenarioError("\n".join(msgs)) from None
 
@@ -196,7 +211,6 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
 
 def build(spec: ScenarioSpec, base: Path | None = None):
     """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`)."""
-    from uuvid.io.modelfile import load_chain
     from uuvid.simulate.control import DPGains
     from uuvid.simulate.controller_files import (
         ControllerContext,
@@ -204,7 +218,6 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         make_controller,
     )
     from uuvid.simulate.vehicle_sim import default_gains, setup_mission
-    from uuvid.thruster.presets import PRESETS, preset_chain
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     vref = spec.vehicle
@@ -213,12 +226,12 @@ def build(spec: ScenarioSpec, base: Path | None = None):
     vehicle = load_vehicle(vref)
     chain = None
     if spec.thruster_model:
-        ref = spec.thruster_model
-        if ref in PRESETS:
-            chain = preset_chain(ref)
-        else:
-            p = Path(ref) if Path(ref).is_absolute() or base is None else base / ref
-            chain = load_chain(p)
+        from uuvid.thruster.resolve import resolve_chain
+
+        try:
+            chain = resolve_chain(spec.thruster_model, base)
+        except FileNotFoundError as e:
+            raise ScenarioError(f"thruster_model: {e}") from None
     c = spec.controller
     if c.kp is not None:
         g0 = default_gains(vehicle)

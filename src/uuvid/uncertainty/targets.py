@@ -112,9 +112,9 @@ def resolve_paths(target, base: Path | None):
         if sc.vehicle not in list_presets() and not Path(sc.vehicle).is_absolute():
             upd["vehicle"] = str((base / sc.vehicle).resolve())
         if sc.thruster_model:
-            from uuvid.thruster.presets import PRESETS
+            from uuvid.thruster.resolve import is_preset
 
-            if sc.thruster_model not in PRESETS and not Path(sc.thruster_model).is_absolute():
+            if not is_preset(sc.thruster_model) and not Path(sc.thruster_model).is_absolute():
                 upd["thruster_model"] = str((base / sc.thruster_model).resolve())
         if upd:
             return target.model_copy(update={"scenario": sc.model_copy(update=upd)})

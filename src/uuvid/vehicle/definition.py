@@ -51,7 +51,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from uuvid.io.modelfile import ModelFileError, format_loc, load_chain, read_model_text
+from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.thruster.blocks import ParameterError
 from uuvid.units import G0
 from uuvid.vehicle.allocation import Allocator, ThrustMode
@@ -267,17 +267,14 @@ class Vehicle:
         """The thruster model a thruster refers to (thruster preset name or model-file path,
         relative to the vehicle file).  Raises ``KeyError`` for a placeholder name."""
         ref = self.layout[thruster].model
-        from uuvid.thruster.presets import PRESETS, preset_chain
+        from uuvid.thruster.resolve import preset_names, resolve_chain
 
-        if ref in PRESETS:
-            return preset_chain(ref)
-        base = self.path.parent if self.path is not None else Path.cwd()
-        p = Path(ref) if Path(ref).is_absolute() else base / ref
-        if p.is_file():
-            return load_chain(p)
-        raise KeyError(f"{self.name}: thruster {self.layout[thruster].name} refers to model "
-                       f"{ref!r}, which is neither a thruster preset ({', '.join(sorted(PRESETS))}) nor a "
-                       f"model file next to the vehicle file (a placeholder)")
+        try:
+            return resolve_chain(ref, self.path.parent if self.path is not None else Path.cwd())
+        except FileNotFoundError:
+            raise KeyError(f"{self.name}: thruster {self.layout[thruster].name} refers to model "
+                           f"{ref!r}, which is neither a thruster preset ({', '.join(preset_names())}) "
+                           "nor a model file next to the vehicle file (a placeholder)") from None
 
     @property
     def citation(self) -> str:

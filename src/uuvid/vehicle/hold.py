@@ -62,9 +62,10 @@ def required_wrench(vehicle, current, depth: float = 2.0, roll: float = 0.0,
     return -vehicle.params.mass_matrix @ _accel(vehicle, current, depth, roll, pitch, np.zeros(6))
 
 
-#: Largest roll or pitch (deg) counted as holding station: a vehicle tilted further by the current
-#: is not doing useful work (camera, tools) even if its position is held.
-MAX_TILT_DEG = 45.0
+#: Largest roll or pitch (deg) counted as holding station: the same level limit as steady flight
+#: (:data:`uuvid.vehicle.stability.MAX_TILT_DEG`); a vehicle tilted further by the current is not
+#: doing useful work (camera, tools) even if its position is held.
+from uuvid.vehicle.stability import MAX_TILT_DEG  # noqa: E402
 
 
 def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0, 0.0),
@@ -77,6 +78,10 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     (an eigenvalue of ∂(ṗ, q̇)/∂(φ, θ) ≥ 0)."""
     free = [k for k in (3, 4) if k not in al.controlled]
     ang = np.array(start, dtype=float)
+    drift = uncontrolled_push(vehicle, current, al, depth)
+    if drift:
+        r = al.allocate(required_wrench(vehicle, current, depth), "priority")
+        return False, 0.0, 0.0, r
 
     def resid(a):
         tau = required_wrench(vehicle, current, depth, a[0], a[1])
@@ -111,6 +116,17 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     return bool(ok), float(ang[0]), float(ang[1]), r
 
 
+def uncontrolled_push(vehicle, current, al: Allocator, depth: float = 2.0) -> list[str]:
+    """DOFs among surge, sway, heave, yaw that the allocation does not control but the current
+    pushes on (a steady force there means the vehicle drifts off station: no thruster opposes
+    it).  Roll and pitch are not listed: they settle at a balance (:func:`steady_hold`)."""
+    from uuvid.vehicle.layout import DOF_NAMES
+
+    tau = required_wrench(vehicle, current, depth)
+    tol = 1e-9 + 1e-6 * float(np.max(np.abs(tau)))
+    return [DOF_NAMES[k] for k in (0, 1, 2, 5) if k not in al.controlled and abs(tau[k]) > tol]
+
+
 def hold_gains(vehicle, modes=None, attitude_bandwidth: float = 6.0):
     """The DP controller of the station-keeping check (analytic and simulated): the default PID
     gains with output and integral limits at each DOF's reach with the bounded allocation (the
@@ -137,6 +153,12 @@ def hold_gains(vehicle, modes=None, attitude_bandwidth: float = 6.0):
 
 def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, roll: float,
                        pitch: float) -> float:
+    """Largest real part of the closed loop's eigenvalues (see :func:`closed_loop_modes`)."""
+    return closed_loop_modes(vehicle, current, al, gains, depth, roll, pitch)[0]
+
+
+def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll: float,
+                      pitch: float) -> tuple[float, list[str]]:
     """Largest real part (1/s) of the eigenvalues of the station-keeping loop linearised at the
     equilibrium (rest at the origin, heading north, attitude ``roll``, ``pitch``): 16 states
     (position, Euler angles, ν, the 4 PID integrators), the PID of
@@ -148,7 +170,14 @@ def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, rol
     current, is statically stable in roll/pitch up to the tilt limit, but the non-conservative
     coupling of the tilted attitude with the yaw and position loops (Munk moment
     ``N = (Y_v̇ − X_u̇) u v`` and the tilted thrust) makes the loop oscillate earlier
-    (a Hopf bifurcation; the BlueROV2 at 45°/135°)."""
+    (a Hopf bifurcation; the BlueROV2 at 45°/135°).
+
+    Uncontrolled DOFs: the position (or heading) of a DP DOF the allocation does not control
+    (AUV II has no surge thruster) and its PID integrator are pure integrators nothing else
+    depends on — eigenvalues exactly 0, neutral drift, not an oscillation.  When their columns
+    of the Jacobian vanish outside their own rows (block triangular, checked), they are taken
+    out and returned by name as the second element (``growth`` is then that of the rest); any
+    remaining eigenvalue with ``|Re λ| ≤ 1e-9 · max|λ|`` counts as 0 (marginal, not stable)."""
     from uuvid.simulate.control import DP_DOFS
     from uuvid.vehicle.kinematics import euler_to_quat
 
@@ -202,11 +231,32 @@ def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, rol
         d[j] = h
         A[:, j] = (rhs(s0 + d) - rhs(s0 - d)) / (2 * h)
     del f0
-    return float(np.max(np.linalg.eigvals(A).real))
+    from uuvid.vehicle.layout import DOF_NAMES
+
+    drop, drifting = [], []
+    for j, k in enumerate(DP_DOFS):
+        if k in al.controlled:
+            continue
+        st = [k if k < 3 else 5, 12 + j]  # position (or heading) state, integrator
+        keep = [i for i in range(16) if i not in st]
+        scale = max(1.0, float(np.max(np.abs(A))))
+        if np.all(np.abs(A[np.ix_(keep, st)]) <= 1e-9 * scale):
+            drop += st
+            drifting.append(DOF_NAMES[k])
+    keep = [i for i in range(16) if i not in drop]
+    ev = np.linalg.eigvals(A[np.ix_(keep, keep)])
+    re = ev.real.copy()
+    re[np.abs(re) <= 1e-9 * max(1.0, float(np.max(np.abs(ev))))] = 0.0
+    return float(np.max(re)), drifting
 
 
 def _allocator(vehicle, limits=None, modes=None) -> Allocator:
-    al = vehicle.allocator(modes)
+    """The allocation of the steady hold.  η compensated: in steady state the DP loop's integral
+    action raises the command until the *delivered* wrench is τ_req, so holding needs commanded
+    thrusts τ/η within the limits (the mission allocator does not compensate η; its integrator
+    does).  Without it a mode with η < 1 (ROMEO's downward heave, η = 0.56) could never deliver
+    even its net buoyancy."""
+    al = vehicle.allocator(modes, compensate_eta=True)
     if limits is None:
         return al
     return dataclasses.replace(al, limits=np.asarray(limits, float))
@@ -221,8 +271,10 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     attitude balance within :data:`MAX_TILT_DEG`) and, with ``stability``, the closed station-
     keeping loop with ``gains`` (default :func:`hold_gains`) is stable there
     (:func:`closed_loop_growth` < 0).  ``info["limit"]`` says which ran out first: ``thrust``,
-    ``attitude`` or ``stability``.  With ``soc`` the limits follow the battery's loaded voltage
-    (:func:`hold_on_battery`)."""
+    ``attitude``, ``stability`` or ``uncontrolled`` (the current pushes along a DOF no thruster
+    controls), ``info["reason"]`` in words; ``info["drifting"]`` the DOFs left to drift
+    neutrally (uncontrolled, taken out of the stability test).  With ``soc`` the limits follow
+    the battery's loaded voltage (:func:`hold_on_battery`)."""
     al = _allocator(vehicle, limits, modes)
     if stability and gains is None:
         gains = hold_gains(vehicle if limits is None else _with_limits(vehicle, limits), modes)
@@ -230,7 +282,7 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     # continuation in speed from still water: the attitude follows its stable branch, as it
     # does while a current builds up
     ang = (0.0, 0.0)
-    why = {}
+    why, detail, drifting = {}, {}, set()
 
     def ok(v, a0):
         cur = current_ned(v, relative_deg)
@@ -243,21 +295,43 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
             good, roll, pitch, r = steady_hold(vehicle, cur, al, depth, a0)
             a_ = al
         if not good:
-            why[v] = "thrust" if not r.achievable else "attitude"
+            push = uncontrolled_push(vehicle, cur, a_, depth)
+            if push:
+                why[v] = "uncontrolled"
+                detail[v] = (f"the current pushes along {', '.join(push)}, which the allocation "
+                             "does not control (no thruster opposes it: the vehicle drifts)")
+            elif not r.achievable:
+                why[v] = "thrust"
+                lost = ", ".join(f"{k} {x:+.3g}" for k, x in r.shortfall.items())
+                detail[v] = ("the thrusters cannot deliver the steady wrench within their limits"
+                             + (f" (short by {lost})" if lost else ""))
+            else:
+                why[v] = "attitude"
+                detail[v] = (f"no statically stable roll/pitch balance within {max_tilt:g}° tilt"
+                             f" (reached roll {math.degrees(roll):.1f}°, pitch "
+                             f"{math.degrees(pitch):.1f}°)")
             return False, (roll, pitch)
-        if stability and closed_loop_growth(vehicle, cur, a_, gains, depth, roll, pitch) >= 0:
-            why[v] = "stability"
-            return False, (roll, pitch)
+        if stability:
+            g, drift = closed_loop_modes(vehicle, cur, a_, gains, depth, roll, pitch)
+            drifting.update(drift)
+            if g >= 0:
+                why[v] = "stability"
+                detail[v] = (f"the station-keeping loop is not stable (largest growth rate "
+                             f"{g:.3g} 1/s)")
+                return False, (roll, pitch)
         return True, (roll, pitch)
 
+    max_tilt = MAX_TILT_DEG
     good, ang = ok(0.0, ang)
     if not good:
-        return 0.0, {"reason": "cannot hold station in still water"}
+        return 0.0, {"limit": why[0.0], "reason": "cannot hold station in still water: "
+                     + detail[0.0], "limiting_thrusters": [], "drifting": sorted(drifting)}
     lo, hi, step = 0.0, None, 0.05
     while hi is None:
         v = lo + step
         if v > v_cap:
-            return math.inf, {"reason": f"holds beyond {v_cap} m/s"}
+            return math.inf, {"limit": "", "reason": f"holds beyond {v_cap} m/s",
+                              "drifting": sorted(drifting)}
         good, a = ok(v, ang)
         if good:
             lo, ang = v, a
@@ -276,7 +350,8 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
                             modes=modes, depth=depth, start=ang)
         hb = hold_on_battery(vehicle, current_ned(hi, relative_deg), soc, battery=battery,
                              modes=modes, depth=depth, start=ang).allocation
-        return lo, {"limit": why.get(hi, ""),
+        return lo, {"limit": why.get(hi, ""), "reason": detail.get(hi, ""),
+                    "drifting": sorted(drifting),
                     "limiting_thrusters": [names[i] for i in hb.limiting]
                     if not hb.achievable else [],
                     "roll_deg": math.degrees(h.roll), "pitch_deg": math.degrees(h.pitch),
@@ -285,7 +360,8 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     # just beyond the boundary: thrusters at their limits if thrust is what runs out
     rb = steady_hold(vehicle, current_ned(hi, relative_deg), al, depth, ang)[3]
     lim = [names[i] for i in rb.limiting] if not rb.achievable else []
-    return lo, {"limit": why.get(hi, ""), "limiting_thrusters": lim,
+    return lo, {"limit": why.get(hi, ""), "reason": detail.get(hi, ""), "drifting": sorted(drifting),
+                "limiting_thrusters": lim,
                 "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
 
 
@@ -298,7 +374,9 @@ class CapabilityResult(Result):
     max_current: np.ndarray
     limiting: tuple = ()
     supply_voltage: float | None = None
-    limit: tuple = ()  # per angle: what ran out first (thrust, attitude, stability)
+    limit: tuple = ()  # per angle: what ran out first (thrust, attitude, stability, uncontrolled)
+    reasons: tuple = ()  # per angle: the limit in words
+    drifting: tuple = ()  # DOFs not controlled, left to drift (neutral), at any angle
     simulated_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     simulated: np.ndarray = field(default_factory=lambda: np.zeros(0))
     note: str = ""
@@ -320,11 +398,20 @@ class CapabilityResult(Result):
                  f"(weakest from {self.relative_deg[k]:.0f}° off the bow)"]
         if self.limit:
             c = {k: sum(1 for x in self.limit if x == k) for k in
-                 ("thrust", "attitude", "stability")}
+                 ("thrust", "attitude", "stability", "uncontrolled")}
             lines.append(f"  limited by thrust at {c['thrust']} of {len(self.limit)} angles, by "
                          f"the attitude (tilt beyond {MAX_TILT_DEG:g}° or statically unstable) at "
                          f"{c['attitude']}, by closed-loop stability (the DP loop oscillates) at "
-                         f"{c['stability']}")
+                         f"{c['stability']}"
+                         + (f", by an uncontrolled DOF at {c['uncontrolled']}"
+                            if c["uncontrolled"] else ""))
+        zero = sorted({r for v, r in zip(self.max_current, self.reasons) if v == 0 and r})
+        for r in zero:
+            n0 = sum(1 for v, x in zip(self.max_current, self.reasons) if v == 0 and x == r)
+            lines.append(f"  holds nothing at {n0} of {len(self.max_current)} angles: {r}")
+        if self.drifting:
+            lines.append(f"  not controlled (drifts, neutrally stable; left out of the stability "
+                         f"test): {', '.join(self.drifting)}")
         for d, s, a in zip(self.simulated_deg, self.simulated, self.agreement):
             lines.append(f"  simulated at {d:.0f}°: {s:.3f} m/s (analytic {self.analytic_at(d):.3f},"
                          f" ratio {a:.3f})")
@@ -336,7 +423,8 @@ class CapabilityResult(Result):
         return {"vehicle": self.vehicle, "relative_deg": self.relative_deg.tolist(),
                 "max_current_m_s": self.max_current.tolist(),
                 "limiting_thrusters": [list(x) for x in self.limiting],
-                "limit": list(self.limit),
+                "limit": list(self.limit), "reasons": list(self.reasons),
+                "drifting": list(self.drifting),
                 "supply_voltage_V": self.supply_voltage,
                 "simulated_deg": self.simulated_deg.tolist(),
                 "simulated_max_current_m_s": self.simulated.tolist(),
@@ -361,13 +449,15 @@ class CapabilityResult(Result):
 
 def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
                supply_voltage: float | None = None, soc: float | None = None, simulate_deg=(),
-               **sim) -> CapabilityResult:
+               progress: bool | None = None, **sim) -> CapabilityResult:
     """Capability plot data: :func:`max_current` every ``step_deg``; the angles in
     ``simulate_deg`` are also found by simulation (:func:`simulate_boundary`).
 
     Thrust limits: ``limits`` (n, 2); or the thruster model's at ``supply_voltage``; or, with
     ``soc``, at the battery's loaded voltage for each current (the vehicle file's battery);
-    default the vehicle file's limits."""
+    default the vehicle file's limits.  ``progress``: a bar (one stage per angle) on stderr
+    (:mod:`uuvid.report.progress`; ``None``: automatic)."""
+    from uuvid.report.progress import progress_task
     from uuvid.vehicle.power import limits_at
 
     if supply_voltage is not None and limits is None:
@@ -375,23 +465,37 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     if soc is not None and vehicle.battery is None:
         raise ValueError(f"{vehicle.name} has no battery block; give supply_voltage or limits")
     degs = np.arange(0.0, 360.0, float(step_deg))
-    vals, lim, why = [], [], []
-    for d in degs:
-        v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
-        vals.append(v)
-        lim.append(tuple(info.get("limiting_thrusters", ())))
-        why.append(info.get("limit", ""))
-    res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
-                           tuple(why),
-                           note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
-                                 "loaded voltage" if soc is not None else ""))
     if simulate_deg and soc is not None:
         raise ValueError("simulated confirmation runs at fixed limits (give supply_voltage)")
+    vals, lim, why, words, drift = [], [], [], [], set()
+    n = len(degs) + len(simulate_deg)
+    task = progress_task(f"{vehicle.name} capability", total=n, eta=False, stages=n,
+                         disable=None if progress is None else not progress)
+    with task:
+        for d in degs:
+            task.stage(f"current from {d:g}°" + (f" on the battery at SOC {soc:.0%}"
+                                                 if soc is not None else ""))
+            v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
+            task.advance()
+            vals.append(v)
+            lim.append(tuple(info.get("limiting_thrusters", ())))
+            why.append(info.get("limit", ""))
+            words.append(info.get("reason", ""))
+            drift.update(info.get("drifting", ()))
+        sv = []
+        for d in simulate_deg:
+            task.stage(f"simulating the boundary at {d:g}°")
+            guess = float(np.array(vals)[int(np.argmin(np.abs((degs - d + 180) % 360 - 180)))])
+            sv.append(simulate_boundary(vehicle, d, guess, limits=limits, modes=modes,
+                                        depth=depth, **sim))
+            task.advance()
+    res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
+                           tuple(why), tuple(words), tuple(sorted(drift)),
+                           note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
+                                 "loaded voltage" if soc is not None else ""))
     if simulate_deg:
         sd = np.asarray(simulate_deg, float)
-        sv = np.array([simulate_boundary(vehicle, d, res.analytic_at(d), limits=limits,
-                                         modes=modes, depth=depth, **sim) for d in sd])
-        res = dataclasses.replace(res, simulated_deg=sd, simulated=sv, note=(
+        res = dataclasses.replace(res, simulated_deg=sd, simulated=np.array(sv), note=(
             "simulation: PID DP with output/integral limits at each DOF's reach, stiff level-attitude "
             "hold; the current ramps up over 60 s, then a 0.03 m/s gust; held = position error "
             f"settled below 0.5 m, heading within 5° and roll, pitch within {MAX_TILT_DEG:g}°"))
@@ -575,11 +679,23 @@ class EnduranceResult(Result):
 
 
 def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float = 1.0,
-              battery=None, modes=None, depth: float = 2.0, dsoc: float = 0.01) -> EnduranceResult:
+              battery=None, modes=None, depth: float = 2.0, dsoc: float = 0.01,
+              progress: bool | None = None) -> EnduranceResult:
     """Time until the battery can no longer hold station against ``speed`` from
     ``relative_deg``: quasi-steady discharge ``dt = 3600 Q ΔSOC / I(SOC)`` (trapezoid in 1/I),
     stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
-    fails (interpolated between the last held and the first failed SOC by bisection)."""
+    fails (interpolated between the last held and the first failed SOC by bisection).
+    ``progress``: a bar on stderr, one stage per 10 % of charge (``None``: automatic)."""
+    from uuvid.report.progress import progress_task
+
+    task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),
+                         eta=False, stages=max(1, math.ceil(soc0 * 10)),
+                         disable=None if progress is None else not progress)
+    with task:
+        return _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task)
+
+
+def _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task):
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
@@ -596,6 +712,9 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
     extra = [(h.allocation.thrust, h.command)]
     while soc > 0:
         s2 = max(soc - dsoc, 0.0)
+        task.advance()
+        if math.floor(soc * 10 + 1e-9) != math.floor(s2 * 10 + 1e-9) or not task.stages:
+            task.stage(f"holding {speed:g} m/s at SOC {s2:.0%}")
         h2 = hold_on_battery(vehicle, cur, s2, battery=bat, modes=modes, depth=depth,
                              start=(h.roll, h.pitch))
         if not h2.held:

@@ -105,9 +105,9 @@ class DiveLog(Result):
                  f"{self.path.name}: no rows",
                  self.config.summary(),
                  f"depth: {self.depth_source['source']} — {self.depth_source['why']}",
-                 f"thrust: {self.thrust_model['name']} ({self.thrust_model['source']})"
-                 + (", at the logged battery voltage" if self.thrust_model["voltage_aware"]
-                    else ""),
+                 f"thrust: {self.thrust_model['name']} ({self.thrust_model['source']}); voltage: "
+                 + self.thrust_model.get("voltage", "logged battery voltage"
+                                         if self.thrust_model["voltage_aware"] else "fixed"),
                  f"forces: {self.force_basis}"]
         if self.modes:
             lines.append("modes: " + "; ".join(
@@ -170,7 +170,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         force ``Σ f_i T_i`` (linear: N along the mixer's axes; moments: N per unit factor —
         proportional to, not equal to, N·m).
     thruster_model
-        A thruster model file overriding the default voltage-aware T200 model.
+        A thruster model file or preset name overriding the default voltage-aware T200 model
+        (:func:`uuvid.io.ardusub.thrust.load_thrust_model`: a chain with an ESC block follows the
+        logged voltage; one without cannot, and a warning says so).
     dt
         Time step of the table [s]; default the median attitude interval (to 1 ms).
     params
@@ -331,6 +333,11 @@ def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
 def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
     """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows)."""
     volts = cols["battery_V"]
+    if not tm.voltage_aware:
+        span = (f" (the log's battery spans {np.nanmin(volts):.2f}–{np.nanmax(volts):.2f} V)"
+                if np.isfinite(volts).any() else "")
+        warnings.append(f"thruster model {tm.name!r} cannot follow the battery voltage{span}: "
+                        f"{tm.voltage}")
     if tm.voltage_aware and not np.all(np.isfinite(volts)):
         fill = float(np.nanmedian(volts)) if np.isfinite(volts).any() else 16.0
         warnings.append(f"battery voltage missing on {np.count_nonzero(~np.isfinite(volts))} rows: "

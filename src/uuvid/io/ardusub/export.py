@@ -41,7 +41,20 @@ def check_export_path(out) -> Path:
     if out.suffix.lower() not in EXPORT_TYPES:
         raise LogDataError(f"{out.name}: unknown export type {out.suffix!r}; expected .csv or "
                            ".parquet")
+    if out.suffix.lower() == ".parquet":
+        _pyarrow(out)
     return out
+
+
+def _pyarrow(out: Path):
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError as e:
+        raise ImportError(f"{out.name}: writing Parquet needs pyarrow, which is not installed: "
+                          "pip install 'uuvid[logs]' (or write .csv: the same table, with its "
+                          "provenance in <file>.csv.json)") from e
+    return pa, pq
 
 
 def sidecar_path(out) -> Path | None:
@@ -64,11 +77,7 @@ def export_dive(dive, out) -> Path:
         atomic_write_json(sidecar_path(out), _meta(dive))
         return out
     if suf == ".parquet":
-        try:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-        except ImportError as e:
-            raise ImportError("writing Parquet needs pyarrow: pip install 'uuvid[logs]'") from e
+        pa, pq = _pyarrow(out)
         t = pa.Table.from_pandas(tb, preserve_index=False)
         md = dict(t.schema.metadata or {})
         md[b"uuvid"] = json.dumps(to_jsonable(_meta(dive)), allow_nan=False).encode()

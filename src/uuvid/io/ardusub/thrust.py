@@ -4,9 +4,10 @@ Default: the voltage-aware Blue Robotics T200 model ``t200-physical`` (ESC duty 
 → DC motor → ``K_T Ω|Ω|``; :class:`uuvid.identify.physical.PhysicalModel`), fitted to Blue
 Robotics' T200 sheets at 12 V and 16 V by :func:`uuvid.uncertainty.identified.make_t200_physical`
 and shipped as package data (``uuvid/uncertainty/data/t200-physical.yaml``), so it needs no
-sheets at run time.  Override: a fitted thruster model file — a ``thruster_physical`` model
-(voltage-aware) or any command-driven model file :func:`uuvid.io.modelfile.load_chain` reads
-(its steady thrust, at the voltage it was fitted for).
+sheets at run time.  Override: a preset name or a fitted thruster model file — a
+``thruster_physical`` model (voltage-aware) or any command-driven model
+:func:`uuvid.thruster.resolve.resolve_chain` reads (its steady thrust; with an ESC block at the
+logged voltage, else at the voltage it was fitted for, with a warning).
 """
 
 from __future__ import annotations
@@ -30,12 +31,14 @@ class ThrustModel:
     source: str
     voltage_aware: bool
     _fn: object
+    voltage: str = "logged battery voltage (the model takes the supply voltage directly)"
 
     def thrust(self, pwm, volts) -> np.ndarray:
         return np.asarray(self._fn(np.asarray(pwm, float), np.asarray(volts, float)), float)
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "source": self.source, "voltage_aware": self.voltage_aware}
+        return {"name": self.name, "source": self.source, "voltage_aware": self.voltage_aware,
+                "voltage": self.voltage}
 
 
 def _physical_from_yaml(path: Path):
@@ -72,34 +75,73 @@ def default_t200() -> ThrustModel:
 
 
 def load_thrust_model(path) -> ThrustModel:
-    """A thruster model file as a :class:`ThrustModel` (see the module doc)."""
-    from uuvid.io.modelfile import ModelFileError, load_chain
+    """A thruster model (file or preset name, :func:`uuvid.thruster.resolve.resolve_chain`) as a
+    :class:`ThrustModel` (see the module doc).
 
+    Voltage: a ``thruster_physical`` file and ``t200-physical`` take the logged voltage directly;
+    a chain with an ESC block (``V = duty × supply``) is re-evaluated at the logged voltage
+    (rounded to 0.05 V) through :func:`uuvid.thruster.resolve.supply_law` (a preset by its own
+    voltage law, a file's ESC at the voltage); a chain without one
+    cannot follow it and keeps its own (``voltage_aware`` False: the loader warns).
+    """
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.resolve import (
+        PHYSICAL_PRESETS,
+        is_preset,
+        preset_names,
+        resolve_chain,
+        supply_law,
+    )
+
+    if str(path) in PHYSICAL_PRESETS:
+        return default_t200()
     p = Path(path)
-    if not p.is_file():
-        raise LogDataError(f"{p}: no such thruster model file")
-    if p.suffix.lower() in (".yaml", ".yml"):
+    if not is_preset(path) and not p.is_file():
+        raise LogDataError(f"{p}: no such thruster model file, and not a preset "
+                           f"({', '.join(preset_names())})")
+    if p.is_file() and p.suffix.lower() in (".yaml", ".yml"):
         pm = _physical_from_yaml(p)
         if pm is not None:
             return _physical(pm, p.stem, str(p))
     try:
-        chain = load_chain(p)
+        chain = resolve_chain(path)
     except (ModelFileError, ValueError) as e:
         raise LogDataError(f"{p.name}: not a thruster model file: {e}") from None
     if chain.signal_kinds[0] != "command":
         raise LogDataError(f"{p.name}: model {chain.name!r} is driven by {chain.signal_kinds[0]}, "
                            "not a PWM command, so it cannot turn servo outputs into thrust")
+    source = f"thruster preset {path}" if is_preset(path) else str(p)
+    law = supply_law(path, chain, quiet=True)
+    at_v = None if law is None else law[0]
     cache: dict = {}
+
+    def steady(key, c, todo):
+        cache.update(zip(((key, x) for x in todo.tolist()),
+                         np.atleast_1d(c.steady_thrust(todo)).tolist()))
 
     def fn(pwm, volts):
         flat = np.asarray(pwm, float).ravel()
+        vb = np.broadcast_to(np.asarray(volts, float), np.shape(pwm)).ravel()
         out = np.full(flat.size, np.nan)
         ok = np.isfinite(flat)
-        u, inv = np.unique(np.round(flat[ok]), return_inverse=True)  # whole µs
-        todo = np.array([x for x in u.tolist() if x not in cache])
-        if todo.size:
-            cache.update(zip(todo.tolist(), np.atleast_1d(chain.steady_thrust(todo)).tolist()))
-        out[ok] = np.array([cache[x] for x in u.tolist()])[inv]
+        if at_v is not None:
+            ok &= np.isfinite(vb) & (vb > 0)
+            keys = np.round(vb / 0.05) * 0.05
+        else:
+            keys = np.zeros(flat.size)
+        cmd = np.round(flat)  # whole µs
+        for key in np.unique(keys[ok]).tolist():
+            sel = ok & (keys == key)
+            u = np.unique(cmd[sel])
+            todo = np.array([x for x in u.tolist() if (key, x) not in cache])
+            if todo.size:
+                steady(key, chain if at_v is None else at_v(key), todo)
+            out[sel] = [cache[(key, x)] for x in cmd[sel].tolist()]
         return out.reshape(np.shape(pwm))
 
-    return ThrustModel(chain.name or p.stem, str(p), False, fn)
+    if at_v is None:
+        return ThrustModel(chain.name or p.stem, source, False, fn,
+                           "none: the chain has no ESC block (its thrust does not depend on the "
+                           "supply voltage in the model), so thrust ignores the logged voltage")
+    return ThrustModel(chain.name or p.stem, source, True, fn,
+                       f"logged battery voltage (0.05 V steps): {law[1]}")

@@ -1,0 +1,114 @@
+"""One resolver for a thruster model named anywhere (``log export --thruster-model``, ``simulate
+--thruster-model``, a scenario's ``thruster_model``, a vehicle file's thruster ``model``, ``thruster
+show|simulate|predict``): a preset name (:data:`uuvid.thruster.presets.PRESETS`), ``t200-physical``
+(the voltage-aware fit of Blue Robotics' T200 sheets shipped with the package, as a chain at a
+supply voltage) or a model file path (relative to ``base``).
+
+Supply voltage (:func:`supply_law`): a preset with an ESC is rebuilt at the voltage by its own
+law (:func:`uuvid.thruster.presets.preset_chain`, e.g. the T200's speed ∝ V^γ); a model file's
+ESC block outputs ``V = duty × supply`` (:meth:`uuvid.thruster.blocks.ESC.with_supply`), so the
+chain is re-evaluated with its ESC at the voltage (:func:`at_supply`; exact for a physical
+ESC → DC motor chain); a chain without an ESC cannot follow the voltage.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: Voltage-aware built-in models (not chains until given a supply voltage).
+PHYSICAL_PRESETS = ("t200-physical",)
+#: Supply voltage of ``t200-physical`` as a chain when none is given: the T200 sheet's 16 V.
+DEFAULT_PHYSICAL_SUPPLY_V = 16.0
+
+
+def preset_names() -> list[str]:
+    """Every name :func:`resolve_chain` accepts besides a file."""
+    from uuvid.thruster.presets import PRESETS
+
+    return sorted(PRESETS) + list(PHYSICAL_PRESETS)
+
+
+def is_preset(ref) -> bool:
+    return str(ref) in preset_names()
+
+
+def resolve_chain(ref, base: Path | str | None = None, supply_voltage: float | None = None):
+    """The :class:`~uuvid.thruster.chain.ThrusterChain` ``ref`` names (preset, ``t200-physical``
+    or model file).  ``supply_voltage`` re-evaluates the chain's ESC at that voltage (required
+    meaning for ``t200-physical``: default :data:`DEFAULT_PHYSICAL_SUPPLY_V`).  Raises
+    ``FileNotFoundError`` naming the presets when ``ref`` is neither."""
+    from uuvid.io.modelfile import load_chain
+    from uuvid.thruster.presets import PRESETS, preset_chain
+
+    ref = str(ref)
+    if ref in PHYSICAL_PRESETS:
+        from uuvid.vehicle.power import physical_model
+
+        v = DEFAULT_PHYSICAL_SUPPLY_V if supply_voltage is None else float(supply_voltage)
+        return physical_model(ref).to_chain(v, name=ref)
+    if ref in PRESETS:
+        if supply_voltage is not None and supply_law(ref, preset_chain(ref)) is not None:
+            return _preset_at(ref, supply_voltage)
+        chain = preset_chain(ref)
+    else:
+        p = Path(ref)
+        if not p.is_absolute() and base is not None:
+            p = Path(base) / p
+        if not p.is_file():
+            raise FileNotFoundError(f"{ref}: no such model file, and not a thruster preset "
+                                    f"(presets: {', '.join(preset_names())})")
+        chain = load_chain(p)
+    if supply_voltage is not None:
+        chain = at_supply(chain, supply_voltage) or chain
+    return chain
+
+
+def supply_voltage_of(chain) -> float | None:
+    """The supply voltage of the chain's first ESC block, or ``None`` (it cannot follow one)."""
+    from uuvid.thruster.blocks import ESC
+
+    for b in chain.blocks:
+        if isinstance(b, ESC):
+            return float(b.supply_voltage)
+    return None
+
+
+def at_supply(chain, supply_voltage: float):
+    """``chain`` with every ESC at ``supply_voltage`` (``V = duty × supply``), or ``None`` when
+    it has no ESC (nothing in it depends on the supply)."""
+    from uuvid.thruster.blocks import ESC
+    from uuvid.thruster.chain import ThrusterChain
+
+    if supply_voltage_of(chain) is None:
+        return None
+    blocks = tuple(b.with_supply(float(supply_voltage)) if isinstance(b, ESC) else b
+                   for b in chain.blocks)
+    return ThrusterChain(blocks, chain.input_kind, chain.name)
+
+
+def _preset_at(ref: str, supply_voltage: float, quiet: bool = False):
+    import warnings
+
+    from uuvid.thruster.presets import preset_chain
+
+    with warnings.catch_warnings():
+        if quiet:  # many voltages of one log: the caller says it once
+            warnings.simplefilter("ignore")
+        return preset_chain(ref, float(supply_voltage))
+
+
+def supply_law(ref, chain, quiet: bool = False):
+    """``(f, text)``: ``f(V)`` is the chain at supply voltage ``V`` and ``text`` says how; ``None``
+    when the chain cannot follow a supply voltage (no ESC block).  ``quiet``: no warning when a
+    preset extrapolates beyond its sheets (e.g. the T200 outside 12–16 V)."""
+    from uuvid.thruster.presets import PRESETS
+
+    v0 = supply_voltage_of(chain)
+    if v0 is None:
+        return None
+    if str(ref) in PRESETS:
+        return (lambda v: _preset_at(str(ref), v, quiet),
+                f"thruster preset {ref}'s own voltage law (preset_chain at each voltage; "
+                f"nominal {v0:g} V)")
+    return (lambda v: at_supply(chain, v),
+            f"the chain's ESC (set for {v0:g} V) at each voltage (V = duty × supply)")
