@@ -39,6 +39,7 @@ def _json(res):
     return json.loads(res.stdout[res.stdout.index("{"):])
 
 
+@pytest.mark.slow  # fits every family (≈ 3 s); the library selection runs in the default suite
 def test_select_prints_the_table_and_writes_the_chosen_chain(files, tmp_path):
     out = tmp_path / "sel.yaml"
     res = runner.invoke(app, ["thruster", "fit", *map(str, files.values()), *COLS, "--select",

@@ -101,6 +101,8 @@ def test_pid_as_the_only_block_equals_the_built_in_loop(bluerov2):
     _pid_block_equals_built_in(bluerov2)
 
 
+@pytest.mark.slow  # compiles the loop around the test's PD (≈ 7 s); the default suite flies
+# a user block through test_pid_as_a_controller_block_equals_the_built_in_loop
 def test_user_compiled_controller_flies_the_square(pd_setup):
     """A PD written in this test file, compiled by numba, flies the square mission: it is called
     once per step (its persistent state counts the calls), its output is the loop's τ_cmd, and it
@@ -209,6 +211,7 @@ def pid_then_allocate(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, s
         tau_out[i] *= s
 
 
+@pytest.mark.slow  # its own loop compile (≈ 7 s)
 def test_thrust_output_controller_reproduces_the_built_in_run(bluerov2):
     """A controller written here computes the PID wrench and allocates it itself (T, limits,
     uniform scaling) with output='thrust': the loop skips its own allocation, and the flight

@@ -174,6 +174,7 @@ def test_backend_resolution(monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow  # starts a local dask cluster (≈ 5 s)
 def test_bluerov2_montecarlo_identical_on_a_local_dask_cluster(tmp_path):
     """The BlueROV2 square mission with the identified covariance: in-process batch and a local
     Dask cluster (2 worker processes) give identical tables for the same seed."""
