@@ -394,7 +394,8 @@ def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
 
 
 def run_demo(out: Path, quick: bool = False) -> dict:
-    """All sections; ``quick`` skips the slow ones (the thruster-loop study)."""
+    """All sections; ``quick``: a shorter run (no thruster-loop study or LQI flight; coarser hold
+    polar, endurance and dynamics selection)."""
     from uuvid.io.modelfile import load_chain, save_chain
     from uuvid.papers import laidani, mclean1991
     from uuvid.thruster.presets import laidani_chain

@@ -224,7 +224,8 @@ def _show_laidani(result: dict) -> None:
 def demo(
     out: Path = typer.Option(Path("uuvid-demo"), "--out", help="Report folder to write."),
     json_out: bool = typer.Option(False, "--json", help="Print all numbers as one JSON document."),
-    quick: bool = typer.Option(False, "--quick", help="Skip the slow sections (the thruster-loop study)."),
+    quick: bool = typer.Option(False, "--quick", help="A shorter run: no thruster-loop study or LQI "
+                               "flight; coarser hold polar, endurance and dynamics selection."),
 ):
     """Everything uuvid can do, on built-in data: reproduces the papers and writes a report."""
     from uuvid.demo import run_demo
