@@ -1,5 +1,7 @@
 """Export to UUV Simulator's thruster plugin (dynamics + conversion) and back."""
 
+import json
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -82,3 +84,14 @@ def test_cli_export_and_predict(tmp_path):
     assert res.exit_code == 2
     res = runner.invoke(app, ["thruster", "predict", "auv2-tunnel", "--pwm", "1500"])
     assert res.exit_code == 2 and "no command input" in res.output
+
+
+def test_predict_warns_about_implausible_pwm():
+    """A pulse width no servo output carries (a wrong unit) is warned, the ESC's saturation is not."""
+    runner = CliRunner()
+    res = runner.invoke(app, ["thruster", "predict", "t200", "--pwm", "1500,2500", "--json"])
+    assert res.exit_code == 0, res.output
+    assert any("check the unit" in w for w in json.loads(res.stdout)["warnings"])
+    res = runner.invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1100:1900:100",
+                              "--json"])
+    assert not any("check the unit" in w for w in json.loads(res.stdout)["warnings"])

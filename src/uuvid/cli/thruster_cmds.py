@@ -191,7 +191,7 @@ def thruster_predict(
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
-    from uuvid.thruster.chain import ThrusterChain, monotonicity_warnings
+    from uuvid.thruster.chain import ThrusterChain, command_range_warnings, monotonicity_warnings
     from uuvid.thruster.resolve import supply_law
 
     chain = _load_model(model)
@@ -223,6 +223,8 @@ def thruster_predict(
         doc["supply_voltage_V"] = supply_voltage
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
     doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
+    if isinstance(blocks[start], ESC):
+        doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
     for w in doc["warnings"]:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:

@@ -371,6 +371,26 @@ class ThrusterChain:
                 "blocks": [b.to_dict() for b in self.blocks]}
 
 
+#: Pulse widths a servo/ESC output can carry (µs): ArduPilot's SERVOn_MIN/MAX bounds.
+PWM_PLAUSIBLE_US = (800.0, 2200.0)
+
+
+def command_range_warnings(x, esc, unit: str = "") -> list[str]:
+    """Commands ``x`` an ESC cannot be given: PWM outside :data:`PWM_PLAUSIBLE_US` (a wrong unit
+    or a typo, not a wish for more thrust; the ESC clips it to the end of its full-command range
+    ``[saturation_low, saturation_high]``).  Empty when every command is plausible."""
+    x = np.asarray(x, float)
+    if unit != "µs":
+        return []
+    lo, hi = PWM_PLAUSIBLE_US
+    bad = x[(x < lo) | (x > hi)]
+    if not bad.size:
+        return []
+    return [f"{bad.size} command(s) outside {lo:g}–{hi:g} µs, the pulse widths a servo output "
+            f"carries (e.g. {bad[0]:g} µs) — check the unit; the ESC would clip them to "
+            f"{esc.saturation_low:g}/{esc.saturation_high:g} µs"]
+
+
 def monotonicity_warnings(x, y, neutral: float = 0.0, rel_tol: float = 1e-3) -> list[str]:
     """Where a steady map ``y(x)`` stops growing in magnitude away from ``neutral``.
 
