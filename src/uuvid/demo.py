@@ -50,6 +50,12 @@ def _dynamics_gallery(out: Path, rep: Report) -> dict:
     ax.set_title("UUV Simulator dynamics + Basic conversion (c = 0.0049), square command ±50")
     ax.legend()
     rep.add_heading("UUV Simulator thruster dynamics, integrated as ODEs")
+    rep.add_paragraph(
+        "The same command means different things to these models, as in UUV Simulator: zero- and "
+        "first-order take it as the rotor speed (steady thrust c·50² = 12.25 N); Yoerger's "
+        "Ω̇ = βu − αΩ|Ω| takes it as a torque-like input, steady Ω = √(βu/α) = 7.07 rad/s, "
+        "thrust c·Ω² = 0.245 N; Bessa's as a motor voltage. Compare shapes, not levels — or "
+        "identify each from bench transients (uuvid thruster fit --select).")
     rep.add_figure(save_figure(fig, out / "uuv_dynamics.png"))
     rep.add_table(rows)
     return {"dynamics": rows}
