@@ -226,3 +226,22 @@ def test_failed_montecarlo_chunk_is_reported_with_its_draws():
     r = res.info["requirement"]
     assert r["runs_simulated"] == 10 and r["probability"] == 1.0
     assert r["probability_counting_unsimulated_as_failures"] == 0.5
+
+
+def test_saturating_runs_flown_again_are_not_counted_as_diverged():
+    """The fast batch runner flies a run that saturates under the bounded allocation again
+    through the scalar loop and leaves its saturated fraction NaN; that is not a divergence:
+    the run keeps its metrics and status OK (it used to be reported as diverged)."""
+    from uuvid.simulate.scenario import scenario_from_dict
+    from uuvid.uncertainty.targets import OK, VehicleMissionPlan, VehicleMissionTarget
+
+    sc = scenario_from_dict({"vehicle": "bluerov2", "mission": {"speed": 1.5}, "duration": 30.0,
+                             "current": [2.0, -2.0, 0.0]})
+    plan = VehicleMissionPlan(VehicleMissionTarget(scenario=sc, simulator="fast"), [])
+    ev = plan.evaluate({}, 2)
+    assert list(ev.status) == [OK, OK], ev.message
+    assert all(np.all(np.isfinite(v)) for v in ev.metrics.values())
+    from uuvid.simulate.batch import run_batch_fast
+
+    out = run_batch_fast(plan.setup, np.tile(plan.setup.vp, (2, 1)))
+    assert np.all(np.isnan(out[:, 6]))  # the case in point: flown again, saturation unknown
