@@ -146,7 +146,8 @@ def test_cli_simulate_mission_square_json(tmp_path):
         assert k in doc
     assert doc["completed"] and doc["max_tracking_error_m"] < 0.5
     assert doc["max_thrust_N"] <= doc["thrust_limit_N"]
-    for f in ("timeseries.csv", "path_3d.png", "path_top.png", "positions.png", "velocities.png",
+    for f in ("timeseries.csv", "path_3d.png", "path_top.png", "positions.png", "attitude.png",
+              "velocities.png",
               "thrusters.png", "index.html"):
         assert (tmp_path / f).exists(), f
 

@@ -247,7 +247,7 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
                                       disturbance=dist))
         rows.append({"controller": r.metrics["controller"], "disturbance": name,
                      **{k: r.metrics[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
-                                                  "max_thrust_N", "completed")}})
+                                                  "max_thrust_N", "max_tilt_deg", "completed")}})
     if not quick:
         from uuvid.simulate.scenario import build, scenario_from_dict
 
@@ -256,13 +256,14 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
         rows.append({"controller": f"{r.metrics['controller']}, thrust output (scenario file)",
                      "disturbance": "none", **{k: r.metrics[k] for k in (
                          "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
-                         "completed")}})
+                         "max_tilt_deg", "completed")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
     rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.Controller); "
                       "a disturbance block adds a generalized force at every integration step "
                       "(uuvid.simulate.disturbances); a controller may output the wrench, each "
                       "thruster's thrust (the LQI designed at hover) or raw commands. BlueROV2, "
-                      "Laidani et al.'s square:")
+                      "Laidani et al.'s square at its cruise speed; completed = on the path and "
+                      "level (tilt ≤ 20°: the disturbance's surge force pitches it past that):")
     rep.add_table(rows)
     return {"rows": rows}
 
