@@ -229,3 +229,23 @@ def test_thruster_loop_study_runs_and_answers():
     # the tunnel thruster's leading response: true thrust spikes far above its steady limit
     tunnel = [x for x in r["rows"] if x["model"] == "tunnel"]
     assert max(x["max_thrust_N"] for x in tunnel) > 2.3
+
+
+def test_level_speed_limit_is_cached_per_vehicle(tmp_path, monkeypatch, bluerov2):
+    """The stability scan behind the default cruise speed runs once per vehicle and code version
+    (≈ 0.5 s; a scenario build would pay it each time); a changed vehicle is scanned again."""
+    import dataclasses
+
+    from uuvid.simulate.reference import level_speed_limit
+    from uuvid.vehicle import stability
+
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path))
+    first = level_speed_limit(bluerov2)
+    calls = []
+    real = stability.static_stability
+    monkeypatch.setattr(stability, "static_stability", lambda v, **k: calls.append(v) or real(v, **k))
+    assert level_speed_limit(bluerov2) == first and not calls
+    heavier = dataclasses.replace(bluerov2, params=dataclasses.replace(
+        bluerov2.params, mass=bluerov2.params.mass * 1.1))
+    level_speed_limit(heavier)
+    assert len(calls) == 1

@@ -194,10 +194,35 @@ def current_speed_bound(current, horizon: float = 600.0) -> float:
 
 def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | None:
     """Smallest speed (m/s) over ``directions`` at which ``vehicle`` can no longer stay level
-    (:func:`uuvid.vehicle.stability.static_stability`); None when it stays level throughout."""
-    from uuvid.vehicle.stability import static_stability
+    (:func:`uuvid.vehicle.stability.static_stability`); None when it stays level throughout.
 
-    st = static_stability(vehicle)
-    lims = [c.limit_speed for c in st.cases
-            if c.direction in directions and c.limit_speed is not None and np.isfinite(c.limit_speed)]
+    The scan takes ≈ 0.5 s, so its result (all six directions) is cached on disk
+    (:mod:`uuvid.io.cache`) under a digest of everything it depends on: the vehicle's parameters,
+    thruster layout and limits, modes, allocation defaults and the stability code itself."""
+    from uuvid.io import cache as disk
+    from uuvid.vehicle import stability
+
+    names = ("forward", "backward", "starboard", "port", "diving", "climbing")
+    key = None
+    if hasattr(vehicle, "layout"):
+        key = disk.digest("level-speed-limit-v1", disk.file_digest(stability.__file__),
+                          vehicle.params.to_array(), np.asarray(vehicle.B, float),
+                          np.asarray(vehicle.layout.limits, float), repr(sorted(vehicle.modes)),
+                          repr([(m.name, m.constraints.tolist(), m.eta_pos.tolist(),
+                                 m.eta_neg.tolist()) for m in vehicle.modes.values()]),
+                          vehicle.allocation_dofs, vehicle.default_modes,
+                          None if vehicle.allocation_weights is None
+                          else np.asarray(vehicle.allocation_weights, float))
+        got = disk.load_array("stability", key, (len(names),))
+    else:
+        got = None
+    if got is None:  # −1: no limit in that direction (the cache stores finite values only)
+        st = stability.static_stability(vehicle)
+        got = np.full(len(names), -1.0)
+        for c in st.cases:
+            if c.direction in names and c.limit_speed is not None and np.isfinite(c.limit_speed):
+                got[names.index(c.direction)] = float(c.limit_speed)
+        if key is not None:
+            disk.store_array("stability", key, got)
+    lims = [float(got[names.index(d)]) for d in directions if got[names.index(d)] >= 0]
     return min(lims) if lims else None
