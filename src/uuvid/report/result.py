@@ -35,16 +35,14 @@ import functools
 import json
 import os
 from pathlib import Path
-from typing import Any
 
 from uuvid.io.atomic import atomic_write_json, atomic_write_text, to_jsonable
 
 __all__ = ["DictSummaryResult", "Result", "SummaryDict", "jsonable"]
 
 
-def jsonable(obj: Any) -> Any:
-    """``obj`` made JSON-safe: numpy → lists/Python scalars, NaN/±inf → ``None``."""
-    return to_jsonable(obj)
+#: ``obj`` made JSON-safe: numpy → lists/Python scalars, NaN/±inf → ``None``.
+jsonable = to_jsonable
 
 
 class SummaryDict(dict):

@@ -1070,8 +1070,8 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     else:
         over = np.maximum(F - lim[:, 1] * (1 + 1e-9), lim[:, 0] * (1 + 1e-9) - F)
     att = attitude_metrics(Z[:, 3:7], ref_yaw)
-    tracked = mission_completed(float(np.max(err)), float(err[-1]), 0.0)
-    level = att["max_tilt_deg"] <= MISSION_MAX_TILT_DEG
+    tracked = bool(mission_completed(float(np.max(err)), float(err[-1]), 0.0))
+    level = bool(att["max_tilt_deg"] <= MISSION_MAX_TILT_DEG)
     summary = {
         "vehicle": s.vehicle.name,
         "mission": s.mission.name,

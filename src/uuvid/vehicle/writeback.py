@@ -321,12 +321,12 @@ def identified_yaml(vehicle_file_or_preset, identified: Mapping[str, Mapping[str
                            else "") + sentence
     raw["source"] = source
     # ---------------------------------------------------------------- thruster model paths
-    from uuvid.thruster.presets import PRESETS
+    from uuvid.thruster.resolve import is_preset
 
     target_dir = Path(out_dir).resolve() if out_dir is not None else Path.cwd()
     for t in raw.get("thrusters") or []:
         ref = t.get("model")
-        if not isinstance(ref, str) or ref in PRESETS or Path(ref).is_absolute():
+        if not isinstance(ref, str) or is_preset(ref) or Path(ref).is_absolute():
             continue
         p = (src.parent / ref).resolve()
         if p.is_file():
