@@ -24,18 +24,19 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from uuvid.simulate.control import Controller, pid
-from uuvid.simulate.station_keeping import lqr
+from uuvid.simulate.control.blocks import Controller
+from uuvid.simulate.control.lqr import lqr
+from uuvid.simulate.control.pid import pid
 from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 from uuvid.vehicle.definition import load_vehicle
 
 
 def user_pd():
     """A body-frame PD written outside uuvid: the example controller file
-    (:func:`uuvid.simulate.controller_files.write_example`), its ``body_pd`` (numba)."""
+    (:func:`uuvid.simulate.control.files.write_example`), its ``body_pd`` (numba)."""
     import tempfile
 
-    from uuvid.simulate.controller_files import load_factory, write_example
+    from uuvid.simulate.control.files import load_factory, write_example
 
     path = write_example(Path(tempfile.mkdtemp(prefix="uuvid-bench-")) / "bench_pd.py")
     return load_factory(path, "body_pd")

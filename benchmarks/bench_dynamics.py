@@ -10,7 +10,7 @@ Cases
         step 1 ms) on the chain's public right-hand side with the command held per sample.
     healey_joint_fit_2runs
         Dead bands, dynamics and thrust map from the ±2 V records (speed and thrust, 1 kHz).
-        Ours: :func:`uuvid.identify.dynamic_select.fit_dynamics` (noise estimated and reweighted,
+        Ours: :func:`uuvid.identify.thruster.dynamic_select.fit_dynamics` (noise estimated and reweighted,
         each record simulated once for both channels).  Reference: ``least_squares`` with its
         defaults on a residual that calls :meth:`ThrusterChain.simulate` per record and channel,
         weighted by the *true* noise (which a user would not know), same start values.
@@ -25,8 +25,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
-from uuvid.identify.dynamic import parse_free, set_parameter
-from uuvid.identify.dynamic_select import (
+from uuvid.identify.thruster.dynamic import parse_free, set_parameter
+from uuvid.identify.thruster.dynamic_select import (
     Structure,
     _guess,
     _template,

@@ -8,14 +8,14 @@ our time) and how far the two answers are apart.
 Cases
     polynomial_fit_1e5
         Laidani's degree-5 per-direction polynomial with σ on 10⁵ bench samples.  Ours:
-        :func:`uuvid.identify.steady.fit_polynomial` (scaled Vandermonde, linear LS, Caccia σ).
+        :func:`uuvid.identify.thruster.steady.fit_polynomial` (scaled Vandermonde, linear LS, Caccia σ).
         Reference: ``least_squares`` with its default 2-point finite-difference Jacobian on a
         per-sample-loop residual (Horner in a Python loop), in the same scaled variable Ω/max Ω
         (without that scaling the plain fit does not converge at all), σ from ``(JᵀJ)⁻¹``.
     mclean_fit_3steps
         McLean's tunnel thruster seen through the rig's load cell: α_o−α_i, β_o−β_i and K_a from
         three 1.5 s voltage steps (24, 16, 8 V) sampled at 1 kHz, synthetic from the thesis's
-        parameters plus 0.2 N noise.  Ours: :func:`uuvid.identify.dynamic.fit_tunnel_thruster`.
+        parameters plus 0.2 N noise.  Ours: :func:`uuvid.identify.thruster.dynamic.fit_tunnel_thruster`.
         Reference 1 (``mclean_fit_3steps``): ``least_squares`` with defaults (2-point Jacobian,
         unit ``x_scale``) calling the public :meth:`ThrusterChain.simulate` per run and evaluation.
     mclean_fit_3steps_solve_ivp
@@ -36,9 +36,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
-from uuvid.identify.dynamic import Run, fit_tunnel_thruster
 from uuvid.identify.fit import IdentifiabilityWarning
-from uuvid.identify.steady import fit_polynomial
+from uuvid.identify.thruster.dynamic import Run, fit_tunnel_thruster
+from uuvid.identify.thruster.steady import fit_polynomial
 from uuvid.io.bench import BenchData
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.thruster.presets import (

@@ -85,7 +85,7 @@ def _uuvid(args: list[str]) -> list[str]:
 
 
 def _floor_dir() -> str:
-    from uuvid.io.cache import cache_dir
+    from uuvid.core.cache import cache_dir
 
     d = cache_dir("bench_startup")
     d.mkdir(parents=True, exist_ok=True)

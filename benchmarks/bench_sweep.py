@@ -30,7 +30,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.uncertainty.execute import run_study
 from uuvid.uncertainty.montecarlo import MonteCarloSpec, MonteCarloStudy, load_model
 from uuvid.uncertainty.sweep import SweepSpec, SweepStudy, load_sweep

@@ -271,7 +271,7 @@ def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
 
 def test_thruster_model_file_with_an_esc_follows_the_logged_voltage(tmp_path):
     # was: voltage_aware False, thrust at the file's fixed 12 V whatever the battery said
-    from uuvid.io.modelfile import save_chain
+    from uuvid.thruster.modelfile import save_chain
     from uuvid.thruster.presets import laidani_chain
     from uuvid.thruster.resolve import at_supply
 
@@ -293,8 +293,8 @@ def test_physical_chain_file_matches_the_voltage_aware_default(tmp_path):
     """A chain of the shipped physical T200 fit written at 12 V gives, at the logged voltage,
     the thrust of the voltage-aware default (the same model)."""
     from uuvid.io.ardusub.thrust import load_thrust_model
-    from uuvid.io.modelfile import save_chain
-    from uuvid.vehicle.power import physical_model
+    from uuvid.thruster.modelfile import save_chain
+    from uuvid.thruster.physical import physical_model
 
     f = save_chain(physical_model().to_chain(12.0), tmp_path / "t200-12V.yaml")
     tm, ref = load_thrust_model(f), default_t200()
@@ -303,9 +303,9 @@ def test_physical_chain_file_matches_the_voltage_aware_default(tmp_path):
 
 
 def test_thruster_model_without_esc_cannot_follow_voltage_and_says_so(tmp_path):
-    from uuvid.io.modelfile import save_chain
     from uuvid.thruster.blocks import TableMap
     from uuvid.thruster.chain import ThrusterChain
+    from uuvid.thruster.modelfile import save_chain
 
     chain = ThrusterChain((TableMap(input_values=(1100.0, 1500.0, 1900.0),
                                     output_values=(-30.0, 0.0, 40.0)),), "command", "table")

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.io.bench import (
     BenchData,
     BenchDataError,

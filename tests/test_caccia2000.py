@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from uuvid.io.atomic import to_jsonable
+from uuvid.core.atomic import to_jsonable
 from uuvid.papers import caccia2000
 
 TABLES = ("heave", "yaw_linear_quadratic", "yaw_low_speed", "yaw_linear",

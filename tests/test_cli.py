@@ -93,7 +93,7 @@ def test_missing_model_exit_2():
 
 
 def test_thruster_export_toml_round_trip(tmp_path):
-    from uuvid.io.modelfile import load_chain
+    from uuvid.thruster.modelfile import load_chain
     from uuvid.thruster.presets import laidani_chain
 
     p = tmp_path / "m.toml"

@@ -10,8 +10,8 @@ import pytest
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
-from uuvid.identify.dynamic_select import reference_two_state_thruster, synthetic_experiments
-from uuvid.io.modelfile import load_chain
+from uuvid.identify.thruster.dynamic_select import reference_two_state_thruster, synthetic_experiments
+from uuvid.thruster.modelfile import load_chain
 
 runner = CliRunner()
 COLS = ["--time-col", "t", "--command-col", "V", "--command-unit", "volts", "--speed-col", "w",

@@ -14,11 +14,11 @@ import typer
 from typer.testing import CliRunner
 
 from uuvid.cli.fit_cmd import register
-from uuvid.identify.physical import PhysicalModel
-from uuvid.io.modelfile import load_chain
 from uuvid.thruster import presets as P
 from uuvid.thruster.blocks import BessaDynamics, FirstOrderMotor, Yoerger
 from uuvid.thruster.chain import ThrusterChain
+from uuvid.thruster.modelfile import load_chain
+from uuvid.thruster.physical import PhysicalModel
 
 runner = CliRunner()
 
@@ -383,7 +383,7 @@ def test_fit_without_speed_names_the_column_and_us_is_pwm(tmp_path):
 
 
 def test_table_without_repeats_says_sigma_unknown_not_insignificant(tmp_path):
-    from uuvid.identify.steady import fit_table
+    from uuvid.identify.thruster.steady import fit_table
     from uuvid.io.bench import read_bench
 
     f = tmp_path / "b.csv"

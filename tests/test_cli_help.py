@@ -80,7 +80,7 @@ def test_console_tables_wrap_instead_of_cutting():
 
 
 def test_out_is_a_folder_and_file_outputs_have_their_own_option(tmp_path):
-    from uuvid.io.modelfile import load_chain
+    from uuvid.thruster.modelfile import load_chain
     from uuvid.thruster.presets import laidani_chain
 
     new = tmp_path / "new.yaml"

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from uuvid.cli.identify_cmds import register
 from uuvid.cli.vehicle_cmds import simulate
-from uuvid.identify.vehicle_fit import simulate_one_dof
+from uuvid.identify.vehicle.fit import simulate_one_dof
 from uuvid.vehicle.definition import load_vehicle
 from uuvid.vehicle.model import OneDofModel
 from uuvid.vehicle.writeback import WritebackError, write_identified
@@ -214,8 +214,8 @@ def test_steady_counts_dropped_headings_as_missing(steady, logs):
 
 def test_no_segment_message_says_what_was_excluded_and_the_remedy():
     from uuvid.cli.log_options import flags
-    from uuvid.identify.procedures import identify_steady
-    from uuvid.identify.vehicle_logs import LogData
+    from uuvid.identify.vehicle.logs import LogData
+    from uuvid.identify.vehicle.procedures import identify_steady
 
     t = np.arange(0.0, 100.0, 0.1)
     cmd = np.where(t < 50, 5.0, -5.0)

@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
-from uuvid.simulate.control import Controller
-from uuvid.simulate.controller_files import (
+from uuvid.simulate.control.blocks import Controller
+from uuvid.simulate.control.files import (
     ControllerFileError,
     parse_controller_arg,
     write_example,
@@ -72,7 +72,7 @@ def test_scenario_controller_errors(tmp_path):
                                             r"helper, make_controller\)"):
         build(_spec({"kind": "python", "file": "bad.py", "factory": "build_it"}), base=tmp_path)
     with pytest.raises(ScenarioError, match=r"make_controller\(vehicle, context\) returned str, "
-                                            "not a uuvid.simulate.control.Controller"):
+                                            "not a uuvid.simulate.control.blocks.Controller"):
         build(_spec({"kind": "python", "file": "bad.py"}), base=tmp_path)
     (tmp_path / "broken.py").write_text("import nosuchmodule_xyz\n")
     with pytest.raises(ScenarioError, match="importing it failed: ModuleNotFoundError"):

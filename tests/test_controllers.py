@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from numba import njit
 
-from uuvid.simulate.control import Controller, pid, pid_controller
+from uuvid.simulate.control.blocks import Controller
+from uuvid.simulate.control.pid import pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, sinusoidal
 from uuvid.simulate.reference import square_mission
 from uuvid.simulate.vehicle_sim import fly_mission, run_batch, setup_mission

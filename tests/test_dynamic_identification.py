@@ -1,4 +1,4 @@
-"""Dynamic identification (uuvid.identify.dynamic): synthetic records from known parameters, white
+"""Dynamic identification (uuvid.identify.thruster.dynamic): synthetic records from known parameters, white
 noise added, parameters recovered within 3σ with small σ; several runs at once; bad input."""
 
 import json
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from uuvid.identify import dynamic as D
 from uuvid.identify.fit import IdentifiabilityWarning
+from uuvid.identify.thruster import dynamic as D
 from uuvid.thruster import presets as P
 from uuvid.thruster.blocks import BessaDynamics, FirstOrder, FirstOrderMotor, QuadraticMap, Yoerger
 from uuvid.thruster.chain import ThrusterChain

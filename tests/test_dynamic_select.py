@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from uuvid.identify.dynamic_select import (
+from uuvid.identify.thruster.dynamic_select import (
     Experiment,
     Structure,
     fit_dynamics,
@@ -14,9 +14,9 @@ from uuvid.identify.dynamic_select import (
     select_structure,
     synthetic_experiments,
 )
-from uuvid.io.modelfile import chain_from_dict, chain_to_dict
 from uuvid.thruster.blocks import Driver, HealeyThruster
 from uuvid.thruster.chain import ThrusterChain
+from uuvid.thruster.modelfile import chain_from_dict, chain_to_dict
 
 TRUTH = reference_two_state_thruster()
 NOISE = (1.0, 0.15)

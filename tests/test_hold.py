@@ -1,4 +1,4 @@
-"""Station keeping (uuvid.vehicle.hold), voltage-true thrusters and the battery (issue 11)."""
+"""Station keeping (uuvid.analysis.hold), voltage-true thrusters and the battery (issue 11)."""
 
 from __future__ import annotations
 
@@ -6,9 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from uuvid.vehicle import hold
+from uuvid.analysis import hold
+from uuvid.thruster.physical import physical_model
 from uuvid.vehicle.definition import load_vehicle
-from uuvid.vehicle.power import SupplyThruster, limits_at, physical_model
+from uuvid.vehicle.power import SupplyThruster, limits_at
 
 
 def test_required_wrench_balances_the_model():

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from uuvid.identify.design import (
+from uuvid.identify.vehicle.design import (
     d_efficiency,
     d_optimal_frequency,
     design_sine_experiment,

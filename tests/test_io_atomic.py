@@ -1,4 +1,4 @@
-"""Tests for uuvid.io.atomic."""
+"""Tests for uuvid.core.atomic."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uuvid.io.atomic import (
+from uuvid.core.atomic import (
     atomic_path,
     atomic_write_bytes,
     atomic_write_json,

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from uuvid.io.atomic import to_jsonable
+from uuvid.core.atomic import to_jsonable
 from uuvid.papers import laidani_identification as LI
 
 
@@ -67,7 +67,7 @@ def test_deterministic_and_seeded():
 
 
 def test_plot_and_report_section(result, tmp_path):
-    from uuvid.report.html import Report
+    from uuvid.core.html import Report
 
     rep = Report("t")
     png = LI.add_to_report(rep, result, tmp_path)

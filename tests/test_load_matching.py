@@ -13,7 +13,7 @@ import pytest
 
 matplotlib.use("Agg")
 
-from uuvid import units
+from uuvid.core import units
 from uuvid.thruster.load_matching import (
     PITTMAN_9514,
     PITTMAN_14202,

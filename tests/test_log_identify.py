@@ -19,15 +19,15 @@ import numpy as np
 import pytest
 from test_cli_identify import _json, _run, _within
 
-from uuvid.identify.procedures import identify_inertia, identify_steady, uniform_position
-from uuvid.identify.vehicle_fit import simulate_one_dof
-from uuvid.identify.vehicle_logs import (
+from uuvid.identify.vehicle.fit import simulate_one_dof
+from uuvid.identify.vehicle.logs import (
     LogSpec,
     load_msg_definitions,
     parse_scaled,
     quaternion_angles,
     read_vehicle_log,
 )
+from uuvid.identify.vehicle.procedures import identify_inertia, identify_steady, uniform_position
 from uuvid.io.logs import LogDataError, read_log_csv
 from uuvid.vehicle.definition import load_vehicle
 from uuvid.vehicle.model import OneDofModel

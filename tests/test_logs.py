@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uuvid import units as U
+from uuvid.core import units as U
+from uuvid.core.response import TimeResponse
 from uuvid.io.logs import LogDataError, align, convert_units, read_ardusub, read_log_csv, read_rosbag
-from uuvid.simulate.response import TimeResponse
 
 
 def write(tmp_path: Path, text: str, name: str = "log.csv") -> Path:

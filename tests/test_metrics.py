@@ -1,4 +1,4 @@
-"""Tests for uuvid.simulate.metrics."""
+"""Tests for uuvid.core.metrics."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uuvid.simulate.metrics import (
+from uuvid.core.metrics import (
     DECAY_FRACTION,
     RISE_FRACTION,
     StepMetrics,

@@ -7,13 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from uuvid.io.modelfile import (
-    ModelFileError,
-    chain_from_dict,
-    chain_to_dict,
-    load_chain,
-    save_chain,
-)
 from uuvid.simulate.signals import Sine, Step
 from uuvid.thruster import presets
 from uuvid.thruster.blocks import (
@@ -31,6 +24,13 @@ from uuvid.thruster.blocks import (
     ZeroOrder,
 )
 from uuvid.thruster.chain import ThrusterChain
+from uuvid.thruster.modelfile import (
+    ModelFileError,
+    chain_from_dict,
+    chain_to_dict,
+    load_chain,
+    save_chain,
+)
 
 PRESET_RUNS = {
     "auv2-tunnel": (presets.auv2_rig_chain, Step(24.0), 0.5),

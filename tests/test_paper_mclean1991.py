@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.papers import mclean1991 as mc
 from uuvid.thruster import presets
 

@@ -1,4 +1,4 @@
-"""Voltage-aware physical thruster model (uuvid.identify.physical).
+"""Voltage-aware physical thruster model (uuvid.identify.thruster.physical).
 
 Synthetic data with known truth (recovery within 3σ), the closed-form steady state against the
 simulated chain, and the issue's cross-voltage checks on the Blue Robotics T200 sheets.
@@ -12,14 +12,10 @@ import numpy as np
 import pytest
 
 from uuvid.identify.fit import IdentifiabilityWarning
-from uuvid.identify.physical import (
-    PhysicalModel,
-    esc_supports_curvature,
-    evaluate,
-    fit_physical,
-)
+from uuvid.identify.thruster.physical import evaluate, fit_physical
 from uuvid.io.bench import BenchData, BenchDataError, read_t200
 from uuvid.thruster.blocks import ESC, DCMotor, ParameterError, QuadraticMap
+from uuvid.thruster.physical import PhysicalModel, esc_supports_curvature
 
 T200 = "t200-bluerobotics-2019"
 

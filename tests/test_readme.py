@@ -98,7 +98,7 @@ def test_readme_block_runs(lang, text, tmp_path):
         doc = yaml.safe_load(text)
         assert doc is not None
         if isinstance(doc, dict) and "blocks" in doc:
-            from uuvid.io.modelfile import load_chain
+            from uuvid.thruster.modelfile import load_chain
 
             p = work / "model.yaml"
             p.write_text(text, encoding="utf-8")

@@ -1,4 +1,4 @@
-"""Tests for uuvid.report (plots, HTML report, progress)."""
+"""Tests for the report helpers in uuvid.core (plots, HTML report, progress)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uuvid.report.html import Report
-from uuvid.report.plots import new_figure, plot_time_series, save_figure
-from uuvid.report.progress import progress, progress_disabled, progress_task
+from uuvid.core.html import Report
+from uuvid.core.plots import new_figure, plot_time_series, save_figure
+from uuvid.core.progress import progress, progress_disabled, progress_task
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -83,7 +83,7 @@ def test_plot_time_series_validates() -> None:
 def test_import_is_headless_and_leaves_backend_alone() -> None:
     code = (
         "import os; os.environ.pop('DISPLAY', None); os.environ.pop('WAYLAND_DISPLAY', None)\n"
-        "import sys, uuvid, uuvid.report.plots as p, uuvid.report.html\n"
+        "import sys, uuvid, uuvid.core.plots as p, uuvid.core.html\n"
         "assert 'matplotlib.pyplot' not in sys.modules\n"
         "fig = p.plot_time_series([0, 1], {'a': [0, 1]})\n"
         "import io; b = io.BytesIO(); fig.savefig(b, format='png'); assert b.getvalue()[:4] == b'\\x89PNG'\n"

@@ -8,9 +8,9 @@ import pytest
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
-from uuvid.identify.design import design_sine_experiment
-from uuvid.report.html import Report
-from uuvid.report.plots import _axis_label, plot_time_series
+from uuvid.core.html import Report
+from uuvid.core.plots import _axis_label, plot_time_series
+from uuvid.identify.vehicle.design import design_sine_experiment
 from uuvid.uncertainty.params import si_unit
 
 runner = CliRunner()

@@ -3,7 +3,7 @@
 ``index.html`` and ``result.json``.
 
 The classes are found, not listed: every module of the package is imported and every subclass
-of :class:`uuvid.report.result.Result` must have a factory below that builds a real instance
+of :class:`uuvid.core.result.Result` must have a factory below that builds a real instance
 from small synthetic data — a new result class without one fails ``test_every_result_class_has_a
 _factory``, so none can skip the surface."""
 
@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from test_log_identify import _write_csv as _csv
 
 import uuvid
-from uuvid.report.result import Result, SummaryDict
+from uuvid.core.result import Result, SummaryDict
 
 # modules that need optional extras (their import may fail without them)
 _OPTIONAL = {"uuvid.simulate.gym_env"}
@@ -46,8 +46,8 @@ def result_classes() -> set[type]:
                 continue
             raise
     # abstract bases (no summary of their own) are covered through their subclasses
+    from uuvid.core.result import DictSummaryResult
     from uuvid.papers.reproduction import PaperReproduction
-    from uuvid.report.result import DictSummaryResult
 
     return {c for c in _all_subclasses(Result) if c not in (PaperReproduction, DictSummaryResult)}
 
@@ -91,7 +91,7 @@ def _sine_log(tmp_path):
 
 
 def _two_state_records():
-    from uuvid.identify.dynamic_select import reference_two_state_thruster, synthetic_experiments
+    from uuvid.identify.thruster.dynamic_select import reference_two_state_thruster, synthetic_experiments
 
     return synthetic_experiments(reference_two_state_thruster(), (2.0, 3.0), rate=100.0,
                                  duration=3.0, seed=5)
@@ -119,7 +119,7 @@ def f_fit(tmp_path):
 
 
 def f_steady_fit(tmp_path):
-    from uuvid.identify.steady import fit_polynomial
+    from uuvid.identify.thruster.steady import fit_polynomial
 
     return _quiet(fit_polynomial, _bench(), None, degrees=range(1, 4), k=3)
 
@@ -129,7 +129,7 @@ def f_degree_table(tmp_path):
 
 
 def f_chain_fit(tmp_path):
-    from uuvid.identify.dynamic import Run, fit_chain
+    from uuvid.identify.thruster.dynamic import Run, fit_chain
     from uuvid.thruster.blocks import FirstOrderMotor
     from uuvid.thruster.chain import ThrusterChain
 
@@ -141,13 +141,13 @@ def f_chain_fit(tmp_path):
 
 
 def f_dynamics_fit(tmp_path):
-    from uuvid.identify.dynamic_select import fit_dynamics
+    from uuvid.identify.thruster.dynamic_select import fit_dynamics
 
     return _quiet(fit_dynamics, [e for e in _two_state_records() if e.level == 2.0], "healey")
 
 
 def f_selection(tmp_path):
-    from uuvid.identify.dynamic_select import select_structure
+    from uuvid.identify.thruster.dynamic_select import select_structure
 
     return _quiet(select_structure, _two_state_records(), ["first-order", "healey"])
 
@@ -155,13 +155,13 @@ def f_selection(tmp_path):
 def f_physical_fit(tmp_path):
     from test_physical_model import TRUTH, synthetic_sheets
 
-    from uuvid.identify.physical import fit_physical
+    from uuvid.identify.thruster.physical import fit_physical
 
     return _quiet(fit_physical, synthetic_sheets(TRUTH))
 
 
 def f_fit_outcome(tmp_path):
-    from uuvid.identify.thruster_workflow import ReadOptions, run_fit
+    from uuvid.identify.thruster.workflow import ReadOptions, run_fit
 
     b = _bench()
     p = _csv(tmp_path / "bench.csv", ["command", "speed", "thrust"],
@@ -171,22 +171,22 @@ def f_fit_outcome(tmp_path):
 
 
 def f_replay(tmp_path):
-    from uuvid.identify.dynamic_select import reference_two_state_thruster
-    from uuvid.identify.thruster_workflow import ReadOptions, replay_files
+    from uuvid.identify.thruster.dynamic_select import reference_two_state_thruster
+    from uuvid.identify.thruster.workflow import ReadOptions, replay_files
 
     return replay_files(reference_two_state_thruster(), _two_state_files(tmp_path)[:1],
                         ReadOptions(**_DYN_COLS))
 
 
 def f_steady_identification(tmp_path):
-    from uuvid.identify.procedures import identify_steady
+    from uuvid.identify.vehicle.procedures import identify_steady
 
     return _quiet(identify_steady, _yaw_log(tmp_path), dof="yaw", command_col="torque",
                   position_col="heading", settle=10, min_duration=10)
 
 
 def f_inertia_identification(tmp_path):
-    from uuvid.identify.procedures import identify_inertia
+    from uuvid.identify.vehicle.procedures import identify_inertia
 
     return _quiet(identify_inertia, _sine_log(tmp_path), dof="yaw", k=20.5, k_q=49.5,
                   command_col="torque", position_col="yaw")
@@ -273,7 +273,7 @@ def f_envelope(tmp_path):
 
 
 def f_envelope_check(tmp_path):
-    from uuvid.simulate.envelope_check import confirm_envelope
+    from uuvid.analysis.envelope_check import confirm_envelope
 
     return confirm_envelope(_bluerov2(), simulate=False)
 
@@ -283,7 +283,7 @@ def f_stability(tmp_path):
 
 
 def f_capability(tmp_path):
-    from uuvid.vehicle.hold import CapabilityResult
+    from uuvid.analysis.hold import CapabilityResult
 
     deg = np.arange(0.0, 360.0, 45.0)
     return CapabilityResult("bluerov2", deg, 0.5 + 0.1 * np.cos(np.radians(deg)),
@@ -291,7 +291,7 @@ def f_capability(tmp_path):
 
 
 def f_endurance(tmp_path):
-    from uuvid.vehicle.hold import EnduranceResult
+    from uuvid.analysis.hold import EnduranceResult
 
     k = np.arange(5.0)
     return EnduranceResult("bluerov2", 0.3, 0.0, 600 * k, 1 - 0.2 * k, 16 - 0.5 * k, 10 + k,
@@ -314,6 +314,12 @@ def f_mclean(tmp_path):
     from uuvid.papers import mclean1991
 
     return mclean1991.reproduce()
+
+
+def f_mclean_identification(tmp_path):
+    from uuvid.papers import mclean1991_identification
+
+    return mclean1991_identification.reproduce()
 
 
 def f_caccia(tmp_path):
@@ -350,41 +356,43 @@ def f_dive(tmp_path):
 #: class (module.qualname) → factory; ``slow`` ones run with --run-slow (CI)
 FACTORIES = {
     "uuvid.identify.fit.Fit": f_fit,
-    "uuvid.identify.steady.SteadyFit": f_steady_fit,
-    "uuvid.identify.steady.DegreeTable": f_degree_table,
-    "uuvid.identify.dynamic.ChainFit": f_chain_fit,
-    "uuvid.identify.dynamic_select.DynamicsFit": f_dynamics_fit,
-    "uuvid.identify.dynamic_select.Selection": f_selection,
-    "uuvid.identify.physical.PhysicalFit": f_physical_fit,
-    "uuvid.identify.thruster_workflow.FitOutcome": f_fit_outcome,
-    "uuvid.identify.thruster_workflow.Replay": f_replay,
-    "uuvid.identify.procedures.SteadyIdentification": f_steady_identification,
-    "uuvid.identify.procedures.InertiaIdentification": f_inertia_identification,
-    "uuvid.identify.vehicle_fit.DragFit": f_drag_fit,
-    "uuvid.identify.vehicle_fit.InertiaFit": f_inertia_fit,
+    "uuvid.identify.thruster.steady.SteadyFit": f_steady_fit,
+    "uuvid.identify.thruster.steady.DegreeTable": f_degree_table,
+    "uuvid.identify.thruster.dynamic.ChainFit": f_chain_fit,
+    "uuvid.identify.thruster.dynamic_select.DynamicsFit": f_dynamics_fit,
+    "uuvid.identify.thruster.dynamic_select.Selection": f_selection,
+    "uuvid.identify.thruster.physical.PhysicalFit": f_physical_fit,
+    "uuvid.identify.thruster.workflow.FitOutcome": f_fit_outcome,
+    "uuvid.identify.thruster.workflow.Replay": f_replay,
+    "uuvid.identify.vehicle.procedures.SteadyIdentification": f_steady_identification,
+    "uuvid.identify.vehicle.procedures.InertiaIdentification": f_inertia_identification,
+    "uuvid.identify.vehicle.fit.DragFit": f_drag_fit,
+    "uuvid.identify.vehicle.fit.InertiaFit": f_inertia_fit,
     "uuvid.uncertainty.bootstrap.BootstrapResult": f_bootstrap,
     "uuvid.uncertainty.execute.StudyResult": f_study,
     "uuvid.simulate.vehicle_sim.MissionResult": f_mission,
-    "uuvid.simulate.response.TimeResponse": f_time_response,
+    "uuvid.core.response.TimeResponse": f_time_response,
     "uuvid.thruster.chain.SweepResult": f_sweep,
     "uuvid.simulate.station_keeping.StationKeepingComparison": f_station_keeping,
-    "uuvid.simulate.envelope_check.EnvelopeCheck": f_envelope_check,
+    "uuvid.analysis.envelope_check.EnvelopeCheck": f_envelope_check,
     "uuvid.vehicle.envelope.Envelope": f_envelope,
     "uuvid.vehicle.stability.StabilityResult": f_stability,
-    "uuvid.vehicle.hold.CapabilityResult": f_capability,
-    "uuvid.vehicle.hold.EnduranceResult": f_endurance,
+    "uuvid.analysis.hold.CapabilityResult": f_capability,
+    "uuvid.analysis.hold.EnduranceResult": f_endurance,
     "uuvid.vehicle.linearize.LinearModel": f_linear_model,
     "uuvid.papers.laidani_identification.DegreeSelection": f_degree_selection,
     "uuvid.papers.laidani.LaidaniReproduction": f_laidani,
     "uuvid.papers.mclean1991.McLeanReproduction": f_mclean,
+    "uuvid.papers.mclean1991_identification.McLeanIdentification": f_mclean_identification,
     "uuvid.papers.caccia2000.Reproduction": f_caccia,
     "uuvid.papers.thruster_loop_study.LoopStudy": f_loop_study,
     "uuvid.io.ardusub.inspect.LogInspection": f_log_inspection,
     "uuvid.io.ardusub.dive.DiveLog": f_dive,
 }
-SLOW = {"uuvid.identify.dynamic_select.Selection", "uuvid.papers.thruster_loop_study.LoopStudy",
+SLOW = {"uuvid.identify.thruster.dynamic_select.Selection", "uuvid.papers.thruster_loop_study.LoopStudy",
         "uuvid.papers.laidani.LaidaniReproduction",
-        "uuvid.papers.mclean1991.McLeanReproduction", "uuvid.papers.caccia2000.Reproduction"}
+        "uuvid.papers.mclean1991.McLeanReproduction", "uuvid.papers.caccia2000.Reproduction",
+        "uuvid.papers.mclean1991_identification.McLeanIdentification"}
 
 
 def test_every_result_class_has_a_factory():

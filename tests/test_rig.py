@@ -1,4 +1,4 @@
-"""Test-rig helpers (uuvid.identify.rig) against McLean 1991, Ch. III–IV: the tap test of the load
+"""Test-rig helpers (uuvid.identify.thruster.rig) against McLean 1991, Ch. III–IV: the tap test of the load
 cell, undoing the load cell, and the lesson of averaging eight runs without aligning them."""
 
 import json
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from uuvid import units as U
-from uuvid.identify import rig
+from uuvid.core import units as U
+from uuvid.identify.thruster import rig
 from uuvid.thruster.blocks import LoadCell
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.thruster.presets import auv2_rig_chain, mclean_load_cell

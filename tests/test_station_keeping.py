@@ -5,13 +5,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from uuvid.simulate.station_keeping import (
-    augment_integral,
-    compare_station_keeping,
-    default_weights,
-    fly_station,
-    lqr_gain,
-)
+from uuvid.simulate.control.lqr import augment_integral, default_weights, lqr_gain
+from uuvid.simulate.station_keeping import compare_station_keeping, fly_station
 from uuvid.vehicle.definition import load_vehicle
 from uuvid.vehicle.linearize import linearize
 from uuvid.vehicle.model import vehicle_rhs_reference

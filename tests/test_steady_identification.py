@@ -1,4 +1,4 @@
-"""Steady identification (uuvid.identify.steady) on synthetic data with known truth + T200 sheets."""
+"""Steady identification (uuvid.identify.thruster.steady) on synthetic data with known truth + T200 sheets."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from uuvid.identify.fit import IdentifiabilityWarning
-from uuvid.identify.steady import (
+from uuvid.identify.thruster.steady import (
     detect_regions_bench,
     fit_cv,
     fit_deadzone_curve,

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from uuvid.io import cache as disk
+from uuvid.core import cache as disk
 from uuvid.simulate.vehicle_sim import _command_range
 from uuvid.thruster.blocks import (
     ESC,

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from uuvid import units as U
-from uuvid.identify.t200_preset import (
+from uuvid.core import units as U
+from uuvid.identify.thruster.t200_preset import (
     NAMES,
     SHEET_POINTS_KGF,
     fit_t200_preset,
@@ -123,8 +123,8 @@ def test_preset_follows_every_row_of_the_sheet(shared_data, volts):
 
 
 def test_demo_section_shows_the_sheet_table(tmp_path):
+    from uuvid.core.html import Report
     from uuvid.demo import _t200_sheet_section
-    from uuvid.report.html import Report
 
     rep = Report("t200")
     d = _t200_sheet_section(rep)

@@ -16,7 +16,7 @@ import warnings
 import numpy as np
 import pytest
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.simulate.signals import Step
 from uuvid.thruster import presets
 from uuvid.thruster.blocks import (

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from uuvid.identify.fit import linear_lsq
-from uuvid.identify.vehicle_fit import SteadyPoint, fit_inertia, simulate_one_dof
+from uuvid.identify.vehicle.fit import SteadyPoint, fit_inertia, simulate_one_dof
 from uuvid.uncertainty import bootstrap as B
 from uuvid.vehicle.model import OneDofModel, steady_speed
 

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.papers import mclean1991 as mc
 from uuvid.thruster.presets import MCLEAN, auv2_rig_chain, t200_chain
 from uuvid.uncertainty import params as PR
@@ -53,7 +53,7 @@ def check_table1(rows):
 
 # ------------------------------------------------------------------------------------------------
 def test_step_kernel_equals_step_response_metrics():
-    """The in-kernel metrics are those of TimeResponse.metrics() (uuvid.simulate.metrics)."""
+    """The in-kernel metrics are those of TimeResponse.metrics() (uuvid.core.metrics)."""
     plan = plan_for(ThrusterStepTarget(t_end=0.8), ["tunnel_length", "voltage", "coulomb"])
     vals = {"tunnel_length": np.array([0.12, 0.2667, 0.5]), "voltage": np.array([-12.0, 24.0, 6.0]),
             "coulomb": np.array([False, True, False], dtype=object)}

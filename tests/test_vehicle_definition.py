@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from uuvid.units import G0
+from uuvid.core.units import G0
 from uuvid.vehicle import VehicleFileError, list_presets, load_vehicle, vehicle_from_dict
 
 BASE = {

@@ -6,15 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from uuvid.identify.segments import (
-    clean_series,
-    find_segments,
-    robust_unwrap,
-    savgol_velocity,
-    segment_velocity,
-    summarise_rejections,
-)
-from uuvid.identify.vehicle_fit import (
+from uuvid.identify.vehicle.fit import (
     EIV_NOTE,
     SteadyPoint,
     eta_label,
@@ -25,6 +17,14 @@ from uuvid.identify.vehicle_fit import (
     simulate_one_dof,
     steady_points_from_log,
     validate_one_dof,
+)
+from uuvid.identify.vehicle.segments import (
+    clean_series,
+    find_segments,
+    robust_unwrap,
+    savgol_velocity,
+    segment_velocity,
+    summarise_rejections,
 )
 from uuvid.vehicle.model import OneDofModel, steady_speed
 

@@ -8,11 +8,11 @@ from scipy.integrate import solve_ivp
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
-from uuvid.simulate import kernels
-from uuvid.simulate.control import attitude_hold, dp_control, dp_errors
+from uuvid.simulate.control.pid import attitude_hold, dp_control, dp_errors
 from uuvid.simulate.reference import square_mission
 from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
 from uuvid.simulate.vehicle_sim import _interp, _rhs, fly_mission, run_batch, setup_mission
+from uuvid.thruster import kernels
 from uuvid.thruster.blocks import FirstOrder, QuadraticMap, Yoerger
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled

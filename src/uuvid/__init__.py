@@ -1,21 +1,24 @@
 """uuvid — model, simulate and identify underwater vehicles and their thrusters.
 
 Everything inside is SI (N, m, s, rad, V, A, kg).  Papers that print other units are converted at
-the edge in :mod:`uuvid.units`.
+the edge in :mod:`uuvid.core.units`.
 
-Domains:
+Rooms, bottom layer first (every import runs down; see docs/architecture.md):
+    core         units, TimeResponse and metrics, the Result surface, figures, HTML pages,
+                 progress, atomic writes, the disk cache
     thruster     blocks of a thruster (ESC, motors, propeller maps, dynamics, McLean tunnel, rig),
-                 chains, presets, load matching
+                 chains and their compiled kernels, the physical model, presets, model files,
+                 load matching
     vehicle      6-DOF and 1-DOF models, thruster layouts, allocation and mapping modes, vehicle
-                 files and presets, speed envelope
-    simulate     signals, compiled chain and mission loops, batch runners, DP control, missions,
-                 response metrics
-    identify     estimation with statistics: thruster (steady, physical, dynamic, rig) and vehicle
-                 (segments, drag and installation coefficients, inertia, input design)
+                 files and presets, battery, stability, speed envelope, linearisation
+    io           bench data, logs (CSV/Parquet, ROS bags, ArduSub), export to UUV Simulator
+    simulate     signals, the compiled mission loop and batch runners, controllers
+                 (``simulate.control``), missions, scenarios, station keeping, Gymnasium env
+    identify     estimation with statistics: ``identify.thruster`` (steady, physical, dynamic, rig)
+                 and ``identify.vehicle`` (segments, drag and installation coefficients, inertia,
+                 input design), sharing ``identify.fit``
+    analysis     analyses that fly the vehicle: holding a current, endurance, envelope check
     uncertainty  sweeps, Monte Carlo, bootstrap, execution in-process / processes / Dask
-    io           model files (YAML/TOML), bench data, logs (CSV/Parquet, ROS bags, ArduSub),
-                 export to UUV Simulator, atomic writes
-    report       plots and self-contained HTML reports, progress bars
     papers       reproductions of the papers' tables and studies, as clients of the public API
     cli          the ``uuvid`` command
 """

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.io.atomic import atomic_write_json
-from uuvid.report.html import Report
-from uuvid.report.plots import new_figure, save_figure
-from uuvid.report.progress import progress_task
+from uuvid.core.atomic import atomic_write_json
+from uuvid.core.html import Report
+from uuvid.core.plots import new_figure, save_figure
+from uuvid.core.progress import progress_task
 
 
 def _dynamics_gallery(out: Path, rep: Report) -> dict:
@@ -64,10 +64,10 @@ def _dynamics_gallery(out: Path, rep: Report) -> dict:
 def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     """Station keeping: capability plots (BlueROV2, Heavy), an endurance curve, the square
     mission in a 0.3 m/s current."""
+    from uuvid.analysis import hold
     from uuvid.simulate.currents import ned
     from uuvid.simulate.reference import cruise_speed, square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
-    from uuvid.vehicle import hold
     from uuvid.vehicle.definition import load_vehicle
 
     d = out / "hold"
@@ -143,8 +143,8 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
 
 def _vehicle_section(out: Path, rep: Report) -> dict:
     """BlueROV2 flying Laidani et al.'s square; envelopes of the BlueROV2 and the Heavy."""
-    from uuvid.report.mission import write_mission_outputs
-    from uuvid.simulate.envelope_check import confirm_envelope
+    from uuvid.analysis.envelope_check import confirm_envelope
+    from uuvid.simulate.mission_report import write_mission_outputs
     from uuvid.simulate.reference import cruise_speed, square_mission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
     from uuvid.vehicle.definition import load_vehicle
@@ -258,7 +258,7 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
                          "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
                          "max_tilt_deg", "completed")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
-    rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.Controller); "
+    rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.blocks.Controller); "
                       "a disturbance block adds a generalized force at every integration step "
                       "(uuvid.simulate.disturbances); a controller may output the wrench, each "
                       "thruster's thrust (the LQI designed at hover) or raw commands. BlueROV2, "
@@ -311,14 +311,14 @@ def _steady_map_section(rep: Report) -> dict:
 
 def _t200_sheet_section(rep: Report) -> dict:
     """The BlueROV2's ``t200`` preset against rows of Blue Robotics' 12 V and 16 V sheets."""
-    from uuvid.identify.t200_preset import preset_vs_sheet_points
+    from uuvid.identify.thruster.t200_preset import preset_vs_sheet_points
     from uuvid.thruster.presets import T200_TIME_CONSTANT
 
     rows = preset_vs_sheet_points()
     rep.add_heading("The T200 preset against Blue Robotics' sheets")
     rep.add_paragraph(f"ESC with a curved duty per direction → first-order motor (τ = "
                       f"{T200_TIME_CONSTANT:g} s, assumed) → K_T Ω|Ω|, fitted to both sheets "
-                      "(uuvid.identify.t200_preset); "
+                      "(uuvid.identify.thruster.t200_preset); "
                       "the chain every fixed-supply BlueROV2 mission flies.")
     rep.add_table(rows)
     return {"rows": rows, "max_abs_error_pct_of_max": max(abs(r["error_pct_of_max"]) for r in rows)}
@@ -329,7 +329,7 @@ def _log_identify_section(out: Path, rep: Report) -> dict:
     CSV (ISO time stamps, duplicated rows) and a sine experiment whose 10 Hz heading drifts off
     any uniform grid (resampled, with a note)."""
     from uuvid.examples import write_trap_logs
-    from uuvid.identify.procedures import identify_inertia, identify_steady
+    from uuvid.identify.vehicle.procedures import identify_inertia, identify_steady
 
     logs = write_trap_logs(out / "log_identify")
     d = logs["steady"].parent
@@ -385,7 +385,7 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
 
 def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
     """Dead band + two-state thruster: selection by held-out level, prediction at a new level."""
-    from uuvid.identify.dynamic_select import selection_demo
+    from uuvid.identify.thruster.dynamic_select import selection_demo
 
     res = selection_demo(out / "dynamics_fit",
                          families=("first-order", "healey") if quick else None)
@@ -403,8 +403,8 @@ def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
 def run_demo(out: Path, quick: bool = False) -> dict:
     """All sections; ``quick``: a shorter run (no thruster-loop study or LQI flight; coarser hold
     polar, endurance and dynamics selection)."""
-    from uuvid.io.modelfile import load_chain, save_chain
     from uuvid.papers import laidani, mclean1991
+    from uuvid.thruster.modelfile import load_chain, save_chain
     from uuvid.thruster.presets import laidani_chain
 
     out = Path(out)

@@ -41,7 +41,7 @@ def _yaw_steady(seed: int) -> dict[str, np.ndarray | list]:
     positive torque, η_hull for a negative one; horizontal_all: η_hull-prop), with per-segment
     thrust errors (1.5 %) and disturbances; compass wrapped to [0, 360)° with 0.3° noise, ~0.3 %
     spikes of 5–20° and ~0.5 % dropouts (empty cells)."""
-    from uuvid.identify.vehicle_fit import simulate_one_dof
+    from uuvid.identify.vehicle.fit import simulate_one_dof
     from uuvid.vehicle.model import OneDofModel
 
     yaw = _romeo_yaw()
@@ -75,7 +75,7 @@ def _yaw_sine(seed: int) -> dict[str, np.ndarray | list]:
     a small coloured (AR(1)) disturbance, 10 Hz compass in degrees with 0.3° noise."""
     from scipy.signal import lfilter
 
-    from uuvid.identify.vehicle_fit import simulate_one_dof
+    from uuvid.identify.vehicle.fit import simulate_one_dof
     from uuvid.vehicle.model import OneDofModel
 
     yaw = _romeo_yaw()
@@ -92,10 +92,11 @@ def _yaw_sine(seed: int) -> dict[str, np.ndarray | list]:
 
 def _thruster_runs(seed: int) -> dict[str, dict[str, np.ndarray]]:
     """Bench runs of a ROV thruster (analog ±5 V driver with a dead band, Healey two-state
-    thruster: the synthetic truth of :func:`uuvid.identify.dynamic_select.reference_two_state_thruster`)
+    thruster: the synthetic truth of
+    :func:`uuvid.identify.thruster.dynamic_select.reference_two_state_thruster`)
     at ±2, ±3 V and +4 V, 200 Hz, speed and thrust with noise; one file per run (columns t [s],
     V [V], w [rad/s], T [N])."""
-    from uuvid.identify.dynamic_select import reference_two_state_thruster, synthetic_experiments
+    from uuvid.identify.thruster.dynamic_select import reference_two_state_thruster, synthetic_experiments
 
     chain = reference_two_state_thruster()
     runs = synthetic_experiments(chain, (2.0, 3.0), rate=200.0, seed=seed)
@@ -174,7 +175,7 @@ def _csv_text(cols: dict) -> str:
 def write_example(name: str, folder: str | Path) -> list[Path]:
     """Generate example *name* and write it (atomically) as CSV into *folder*; returns the paths
     written (one, or one per run of a multi-file example)."""
-    from uuvid.io.atomic import atomic_write_text
+    from uuvid.core.atomic import atomic_write_text
 
     e = _get(name)
     data = generate_example(name)
@@ -193,8 +194,8 @@ def write_trap_logs(folder: str | Path, seed: int = 0) -> dict[str, Path]:
 
     from scipy.integrate import cumulative_trapezoid
 
-    from uuvid.identify.vehicle_fit import simulate_one_dof
-    from uuvid.io.atomic import atomic_write_text
+    from uuvid.core.atomic import atomic_write_text
+    from uuvid.identify.vehicle.fit import simulate_one_dof
     from uuvid.vehicle.model import OneDofModel
 
     d = Path(folder)

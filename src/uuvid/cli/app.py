@@ -105,8 +105,8 @@ def reproduce_mclean(
     out: Path | None = typer.Option(None, "--out", help="Write plots, tables and index.html here."),
 ):
     """McLean (1991): Table I, App. A load matching, voltage pulsing."""
+    from uuvid.core.progress import progress_task
     from uuvid.papers import mclean1991
-    from uuvid.report.progress import progress_task
 
     with progress_task("McLean 1991: Table I cases", total=11) as task:
         result = mclean1991.reproduce(out_dir=out, progress=task.advance)
@@ -157,8 +157,8 @@ def study(
     bandwidths: str = typer.Option("1,2,4,6", "--bandwidths", help="Controller bandwidths [rad/s]."),
 ):
     """Reproducible studies built on the models (today: thruster dynamics in DP loops)."""
+    from uuvid.core.progress import progress_task
     from uuvid.papers import thruster_loop_study as st
-    from uuvid.report.progress import progress_task
 
     if name != "thruster-loop":
         _fail(f"unknown study {name!r}; available: thruster-loop")

@@ -42,7 +42,7 @@ err_console = Console(stderr=True)
 
 
 def _print_json(obj) -> None:
-    from uuvid.io.atomic import to_jsonable
+    from uuvid.core.atomic import to_jsonable
 
     sys.stdout.write(json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
     sys.stdout.flush()
@@ -66,7 +66,7 @@ def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}"
 
 def _load_model(model: str):
     """A preset name, ``t200-physical`` or a model file (:func:`uuvid.thruster.resolve.resolve_chain`)."""
-    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.modelfile import ModelFileError
     from uuvid.thruster.resolve import resolve_chain
 
     try:

@@ -83,8 +83,8 @@ def design_input(
     Reports the τ_c range, the D-optimal ω verified from the Fisher information, the offset and
     amplitude that avoid thrust reversal, and the experiment length."""
     from uuvid.cli.common import _print_json, err_console, out_console
-    from uuvid.identify.design import SQRT3, design_sine_experiment
-    from uuvid.io.atomic import atomic_write_text
+    from uuvid.core.atomic import atomic_write_text
+    from uuvid.identify.vehicle.design import SQRT3, design_sine_experiment
 
     out = renamed(out, "--out-file", old_out)
     for name, v in (("--k", k), ("--kq", kq)):
@@ -219,8 +219,8 @@ def reproduce_caccia2000(
 ):
     """Caccia, Indiveri & Veruggio (2000): ROMEO's identification, simulated and identified back."""
     from uuvid.cli.common import _print_json, err_console
+    from uuvid.core.progress import progress_task
     from uuvid.papers import caccia2000
-    from uuvid.report.progress import progress_task
 
     try:
         with progress_task("Caccia 2000: simulate ROMEO and identify", total=1) as task:

@@ -9,7 +9,7 @@ Steady models (``quadratic``, ``cv``, ``polynomial``, ``deadzone``, ``table``, `
 every row of every file; dynamic models (``first-order``, ``yoerger``, ``bessa``, ``dc-motor``,
 ``healey``, ``mclean``) need a time column, one run per file.  ``--select`` picks the dynamic
 family by leave-one-level-out prediction.  What each model reads and writes is tabulated in
-:mod:`uuvid.identify.thruster_workflow`, which does the work; this module only parses options.
+:mod:`uuvid.identify.thruster.workflow`, which does the work; this module only parses options.
 
 Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
 status 2 and the :class:`~uuvid.io.bench.BenchDataError` message, which names the file, the column
@@ -25,7 +25,7 @@ from pathlib import Path
 import typer
 
 from uuvid.cli.options import deprecated_out, renamed
-from uuvid.identify.thruster_workflow import (  # noqa: F401 - re-exported for callers of the CLI module
+from uuvid.identify.thruster.workflow import (  # noqa: F401 - re-exported for callers of the CLI module
     DYNAMIC,
     MODELS,
     STEADY,
@@ -137,8 +137,8 @@ def thruster_fit(
     """Identify a thruster model from bench data; write the model file and a report."""
     from uuvid.cli.common import _fail, _load_model, _print_json, err_console, out_console
     from uuvid.io.bench import BenchDataError
-    from uuvid.io.modelfile import ModelFileError, save_chain
     from uuvid.thruster.blocks import ParameterError
+    from uuvid.thruster.modelfile import ModelFileError, save_chain
 
     out = renamed(out, "--out-model", old_out)
     # the input first, then every missing option at once (not one per run)

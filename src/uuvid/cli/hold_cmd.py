@@ -44,9 +44,9 @@ def vehicle_hold(
 ):
     """Station-keeping capability (largest current held per direction, a polar "capability plot")
     and, with --current and --battery, the endurance on the battery."""
+    from uuvid.analysis import hold
     from uuvid.cli.common import _fail, _print_json, out_console
     from uuvid.cli.vehicle_cmds import _load_vehicle
-    from uuvid.vehicle import hold
     from uuvid.vehicle.power import limits_at
 
     v = _load_vehicle(vehicle)
@@ -78,7 +78,7 @@ def vehicle_hold(
             endur = hold.endurance(v, speed, deg, soc0=battery)
             doc["endurance"] = endur.to_dict()
     if out is not None:
-        from uuvid.io.atomic import atomic_write_json
+        from uuvid.core.atomic import atomic_write_json
 
         out.mkdir(parents=True, exist_ok=True)
         cap.plot(out / "capability.png")

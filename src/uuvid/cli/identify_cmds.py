@@ -16,8 +16,8 @@ nominal generalized force of the DOF, ``--position-col`` — position (m), depth
 from the servo outputs through ``--vehicle``).  Any mapped column, topic or field takes a sign and
 a scale (``-altitude``, ``0.01*depth_cm``, ``-GLOBAL_POSITION_INT.relative_alt``).  Reading:
 ``--on-duplicate`` (merge by default, reported), ``--time boot|log``, ``--msg-definitions``,
-``--t-start/--t-end``.  The work is done by :mod:`uuvid.identify.vehicle_logs` and
-:mod:`uuvid.identify.procedures`; this module parses options and prints.
+``--t-start/--t-end``.  The work is done by :mod:`uuvid.identify.vehicle.logs` and
+:mod:`uuvid.identify.vehicle.procedures`; this module parses options and prints.
 
 Errors in the input (file, column, row, option) exit with status 2 and one message naming what is
 wrong; ``--json`` prints exactly one JSON document on stdout, messages go to stderr.
@@ -121,8 +121,8 @@ def identify_steady(
 ):
     """Drag and installation coefficients from constant-thrust segments (Caccia et al. 2000)."""
     from uuvid.cli.common import _print_json, out_console
-    from uuvid.identify.procedures import identify_steady as run
-    from uuvid.identify.vehicle_logs import read_vehicle_log
+    from uuvid.identify.vehicle.logs import read_vehicle_log
+    from uuvid.identify.vehicle.procedures import identify_steady as run
 
     lo.check_write_back(write_vehicle, out_vehicle)
     spec = lo.log_spec(log, dof.value, fmt, time_col, command_col, position_col, mode_col,

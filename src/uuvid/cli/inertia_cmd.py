@@ -1,5 +1,5 @@
 """``uuvid vehicle identify inertia``: inertia from a sine experiment (Caccia et al. 2000,
-eqs. 15–19) — options in, :func:`uuvid.identify.procedures.identify_inertia`, results out."""
+eqs. 15–19) — options in, :func:`uuvid.identify.vehicle.procedures.identify_inertia`, results out."""
 
 from __future__ import annotations
 
@@ -97,7 +97,7 @@ def identify_inertia(
 ):
     """Inertia from a sine experiment by the integrated regression (Caccia et al. 2000, eqs. 15–19)."""
     from uuvid.cli.common import _print_json, out_console
-    from uuvid.identify.procedures import identify_inertia as run
+    from uuvid.identify.vehicle.procedures import identify_inertia as run
 
     lo.check_write_back(write_vehicle, out_vehicle)
     spec = lo.log_spec(log, dof.value, fmt, time_col, command_col, position_col, None, None,

@@ -1,5 +1,5 @@
 """Options shared by ``uuvid vehicle identify steady|inertia``: where the log's channels are and
-how to read it (the fields of :class:`uuvid.identify.vehicle_logs.LogSpec`), plus the helpers that
+how to read it (the fields of :class:`uuvid.identify.vehicle.logs.LogSpec`), plus the helpers that
 turn library errors and messages into CLI output."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import typer
 
-from uuvid.identify.vehicle_logs import LogSpec
+from uuvid.identify.vehicle.logs import LogSpec
 
 
 class Dof(StrEnum):

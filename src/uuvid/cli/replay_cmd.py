@@ -16,7 +16,7 @@ from pathlib import Path
 
 import typer
 
-from uuvid.identify.thruster_workflow import FitError, ReadOptions, replay_files
+from uuvid.identify.thruster.workflow import FitError, ReadOptions, replay_files
 
 SPEC_KEYS = {"file", "time_col", "command_col", "speed_col", "thrust_col", "command_unit",
              "speed_unit", "thrust_unit", "neutral", "kind"}

@@ -91,9 +91,9 @@ def thruster_simulate(
         summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
                                    + type(sig).__name__)
     if out:
-        from uuvid.io.atomic import atomic_write_json
-        from uuvid.report.html import Report
-        from uuvid.report.plots import save_figure
+        from uuvid.core.atomic import atomic_write_json
+        from uuvid.core.html import Report
+        from uuvid.core.plots import save_figure
 
         out.mkdir(parents=True, exist_ok=True)
         resp.to_csv(out / "response.csv")
@@ -140,9 +140,9 @@ def thruster_export(
     """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
     import yaml
 
-    from uuvid.io.atomic import atomic_write_text
+    from uuvid.core.atomic import atomic_write_text
     from uuvid.io.export import ExportError, to_uuv_simulator
-    from uuvid.io.modelfile import _to_toml, chain_to_dict
+    from uuvid.thruster.modelfile import _to_toml, chain_to_dict
 
     out = renamed(out, "--out-file", old_out)
     chain = _load_model(model)

@@ -39,7 +39,7 @@ def _helpers():
 
 
 def _user_errors() -> tuple:
-    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.modelfile import ModelFileError
     from uuvid.uncertainty.montecarlo import ModelError
     from uuvid.uncertainty.params import ParameterNameError
     from uuvid.uncertainty.sweep import SweepError

@@ -21,7 +21,7 @@ def _helpers():
 
 
 def _load_vehicle(name: str):
-    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.modelfile import ModelFileError
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     _fail = _helpers()[0]
@@ -33,11 +33,11 @@ def _load_vehicle(name: str):
 
 
 def _fly(spec, base, out, json_out, label):
-    from uuvid.io.modelfile import ModelFileError
-    from uuvid.report.progress import progress_task
-    from uuvid.simulate.controller_files import describe
+    from uuvid.core.progress import progress_task
+    from uuvid.simulate.control.files import describe
     from uuvid.simulate.scenario import build
     from uuvid.simulate.vehicle_sim import fly_mission
+    from uuvid.thruster.modelfile import ModelFileError
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
@@ -49,7 +49,7 @@ def _fly(spec, base, out, json_out, label):
         result = fly_mission(setup)
         task.advance()
         if out:
-            from uuvid.report.mission import write_mission_outputs
+            from uuvid.simulate.mission_report import write_mission_outputs
 
             write_mission_outputs(result, vehicle, out)
         task.advance()
@@ -116,9 +116,9 @@ def simulate(
     Laidani et al.'s mission (square): dive 2 m, fly a 10 × 10 m square at 0.5 m/s (slower for a
     vehicle that cannot stay level at 0.5 m/s), surface.
     """
-    from uuvid.io.modelfile import ModelFileError
-    from uuvid.simulate.controller_files import ControllerFileError, parse_controller_arg
+    from uuvid.simulate.control.files import ControllerFileError, parse_controller_arg
     from uuvid.simulate.scenario import load_scenario, scenario_from_dict
+    from uuvid.thruster.modelfile import ModelFileError
 
     _fail = _helpers()[0]
     try:
@@ -188,7 +188,7 @@ def vehicle_envelope(
     The analytic speed balances drag against the largest allocated force along the DOF; the
     simulation flies it at full command with the attitude held where the thrusters can hold it.
     Where they cannot, the static stability limit (`uuvid vehicle stability`) says why not."""
-    from uuvid.simulate.envelope_check import confirm_envelope
+    from uuvid.analysis.envelope_check import confirm_envelope
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle)
@@ -226,7 +226,7 @@ def vehicle_stability(
     v = _load_vehicle(vehicle)
     res = static_stability(v, max_tilt_deg=max_tilt)
     if out:
-        from uuvid.io.atomic import atomic_write_json
+        from uuvid.core.atomic import atomic_write_json
 
         out.mkdir(parents=True, exist_ok=True)
         res.plot(out / "stability.png")

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
 
 #: Caccia et al. 2000: percentile error above this → insignificant at 95 % (1/1.96 = 51.02 %).
 SIGNIFICANCE_PERCENT = 100.0 / 1.96
@@ -221,7 +221,7 @@ class Fit(Result):
 def residual_figure(fits: dict, title: str | None = None):
     """One row per fit (label → :class:`Fit`): residuals against sample index and their
     histogram (a headless Figure)."""
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     fig, ax = new_figure(max(len(fits), 1), 2, figsize=(10, 1.2 + 2.4 * max(len(fits), 1)),
                          width_ratios=[3, 1], squeeze=False)

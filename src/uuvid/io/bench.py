@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid import units as U
+from uuvid.core import units as U
 
 COMMAND_UNITS = ("pwm_us", "duty", "volts")
 #: what a missing channel means in the input: the column (CLI flag / read_bench argument)
@@ -533,3 +533,13 @@ def concat(sets: Sequence[BenchData]) -> BenchData:
 
 __all__ = ["BenchData", "BenchDataError", "read_bench", "read_t200", "require_samples", "concat",
            "COMMAND_UNITS", "THRUST_UNITS", "SPEED_UNITS"]
+
+
+def default_t200_dir() -> Path | None:
+    """Blue Robotics' T200 sheets (``shared/data/t200-bluerobotics-2019`` beside the checkout), or None."""
+    here = Path(__file__).resolve()
+    for base in (here.parents[3].parent, Path.cwd().parent, Path.cwd()):
+        d = base / "shared" / "data" / "t200-bluerobotics-2019"
+        if d.is_dir():
+            return d
+    return None

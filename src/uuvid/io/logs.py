@@ -1,6 +1,6 @@
 """Logs as users have them: CSV/Parquet tables, ROS 1 / ROS 2 bags, ArduSub telemetry and dataflash.
 
-Every reader returns :class:`~uuvid.simulate.response.TimeResponse` — time [s] plus named channels
+Every reader returns :class:`~uuvid.core.response.TimeResponse` — time [s] plus named channels
 in SI units — so a recorded dive goes wherever a simulated one goes.
 
 * :func:`read_log_csv` — one row per sample (CSV, or Parquet with ``pyarrow``), channels picked by
@@ -40,10 +40,10 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid import units as U
+from uuvid.core import units as U
+from uuvid.core.response import TimeResponse
 from uuvid.io.bench import _norm, _table_from_rows
 from uuvid.io.bench import _Table as _BenchTable
-from uuvid.simulate.response import TimeResponse
 
 __all__ = [
     "LogDataError",

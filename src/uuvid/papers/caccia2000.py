@@ -5,17 +5,18 @@ sensors only.  Here ROMEO's **published estimates are the truth of a simulated v
 vehicle is flown through the paper's experiments with the paper's sensors, and the whole procedure
 is run on the simulated logs:
 
-1. constant-thrust segments are found in the command log (:func:`~uuvid.identify.segments.find_segments`);
+1. constant-thrust segments are found in the command log
+   (:func:`~uuvid.identify.vehicle.segments.find_segments`);
 2. each segment's velocity is a robust LS line fit to the position/heading/depth, with sonar
-   multipath outliers and missing samples flagged (:func:`~uuvid.identify.segments.segment_velocity`);
+   multipath outliers and missing samples flagged (:func:`~uuvid.identify.vehicle.segments.segment_velocity`);
 3. ``0 = −kξ − k_qξ|ξ| + η_μφ + w`` is stacked over segments and mapping modes (one mode with
    η = 1) and solved by LS with σ, percentile errors, the 51.02 % test and automatic model
-   reduction (:func:`~uuvid.identify.vehicle_fit.fit_drag`); heave with ballast as in eq. 20;
+   reduction (:func:`~uuvid.identify.vehicle.fit.fit_drag`); heave with ballast as in eq. 20;
 4. the inertia comes from the sine experiments by the integrated regression (eqs. 15–19,
-   :func:`~uuvid.identify.vehicle_fit.fit_inertia`), with the 4th-order Savitzky–Golay velocity;
+   :func:`~uuvid.identify.vehicle.fit.fit_inertia`), with the 4th-order Savitzky–Golay velocity;
 5. the identified 1-DOF models are validated on other logs (NRMSE) and the phase lags of the sine
    experiments are measured and compared with ``atan(ω m/k_L)``;
-6. the input design of §III-B (:mod:`uuvid.identify.design`) is recomputed: D-optimal frequency
+6. the input design of §III-B (:mod:`uuvid.identify.vehicle.design`) is recomputed: D-optimal frequency
    verified numerically from the Fisher information, and full experiment designs.
 
 **Simulation** (what is 6-DOF and what is not): every experiment is simulated with the full
@@ -86,14 +87,13 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from uuvid.identify.design import (
+from uuvid.identify.vehicle.design import (
     d_optimal_frequency,
     design_sine_experiment,
     fisher_information,
     linearised_drag,
 )
-from uuvid.identify.segments import clean_series, savgol_velocity, summarise_rejections
-from uuvid.identify.vehicle_fit import (
+from uuvid.identify.vehicle.fit import (
     DragFit,
     SteadyPoint,
     fit_drag,
@@ -103,6 +103,7 @@ from uuvid.identify.vehicle_fit import (
     steady_points_from_log,
     validate_one_dof,
 )
+from uuvid.identify.vehicle.segments import clean_series, savgol_velocity, summarise_rejections
 from uuvid.papers.reproduction import PaperReproduction
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.model import (
@@ -665,7 +666,7 @@ class Reproduction(PaperReproduction):
 
     def plot(self):
         """|estimate − truth| / σ per identified parameter (the acceptance bound at 3)."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         names, z = [], []
         for table in TABLE_KEYS:
@@ -999,9 +1000,9 @@ def _buoyancy(fit: DragFit, n: int):
 def write_outputs(result: Reproduction, out_dir: str | Path) -> Path:
     """Plots (Figs. 5, 6 and the other tables' velocity-vs-thrust fits, inertia experiments,
     measured vs predicted velocity), ``caccia2000.json`` and ``index.html``."""
-    from uuvid.io.atomic import atomic_write_json
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.atomic import atomic_write_json
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     art = getattr(result, "artifacts", None)
     if not art:

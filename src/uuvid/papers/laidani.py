@@ -2,7 +2,7 @@
 approach* — the PWM → ESC → A2212 → degree-5 polynomial chain, reproduced.
 
 Client of the public API: the preset chain (:func:`uuvid.thruster.presets.laidani_chain`), the
-chain's steady sweep and simulation, and :func:`uuvid.identify.regions.detect_regions`.
+chain's steady sweep and simulation, and :func:`uuvid.identify.thruster.regions.detect_regions`.
 
 Printed numbers checked: full-command thrust (Ω = K_m·12 V = 1575.6 rad/s) 12.0 N forward and
 10.79 N reverse (paper measured 12.7 N and 10.8 N); forward polynomial peak ≈ 12.4 N near
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.identify.regions import detect_regions
+from uuvid.identify.thruster.regions import detect_regions
 from uuvid.papers.reproduction import PaperReproduction, compare_line
 from uuvid.simulate.signals import Sine
 from uuvid.thruster.presets import (
@@ -65,7 +65,7 @@ class LaidaniReproduction(PaperReproduction):
 
     def plot(self):
         """The steady map (cf. Fig. 5) with the dead zone and the saturation onset."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(1, 1, figsize=(7, 4))
         if "pwm" in self.artifacts:
@@ -135,9 +135,9 @@ def reproduce(out_dir: str | Path | None = None) -> LaidaniReproduction:
 
 
 def write_outputs(result, pwm, ch, resp, out: Path) -> Path:
-    from uuvid.io.atomic import atomic_write_json
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.atomic import atomic_write_json
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     out.mkdir(parents=True, exist_ok=True)
     rep = Report("Laidani et al. — PWM → ESC → A2212 → polynomial thruster, reproduced")

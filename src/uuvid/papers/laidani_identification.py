@@ -13,7 +13,7 @@ this module makes a bench sweep from what the paper does publish and runs our id
   (0.1305 N direct, 0.0806 N reverse; the noise only enters through the residual, which is
   linear in the noise scale, so one draw fixes the scale).
 
-Then :func:`uuvid.identify.steady.fit_polynomial` — the same code ``uuvid thruster fit --model
+Then :func:`uuvid.identify.thruster.steady.fit_polynomial` — the same code ``uuvid thruster fit --model
 polynomial`` runs — builds the degree table (in-sample ME, RMSE; 5-fold CV RMSE ± SE; BIC) and
 selects the degree by the one-standard-error rule on the CV RMSE.
 
@@ -134,7 +134,7 @@ def degree_selection(seed: int = 0) -> DegreeSelection:
     import warnings
 
     from uuvid.identify.fit import IdentifiabilityWarning
-    from uuvid.identify.steady import fit_polynomial, select_degree
+    from uuvid.identify.thruster.steady import fit_polynomial, select_degree
 
     data, sigma = synthetic_bench(seed)
     with warnings.catch_warnings():
@@ -177,7 +177,7 @@ def degree_selection(seed: int = 0) -> DegreeSelection:
             **sel,
             "reason": f"direct: {choice['forward'].reason}. reverse: {choice['reverse'].reason}.",
             "criterion": f"{FOLDS}-fold cross-validated RMSE, one-standard-error rule "
-                         "(uuvid.identify.steady.select_degree)",
+                         "(uuvid.identify.thruster.steady.select_degree)",
             "bic_choice": bic,
             "in_sample_minimum": in_sample,
             "paper": PAPER_DEGREE,
@@ -212,7 +212,7 @@ def degree_selection(seed: int = 0) -> DegreeSelection:
 
 def plot_degree_selection(result: dict):
     """ME and RMSE vs degree per direction (ours: filled, paper's Table 1: open), CV RMSE ± SE."""
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     fig, ax = new_figure(1, 2, figsize=(11.5, 4.2))
     rows, paper = result["table"], result["paper_table"]
@@ -243,8 +243,8 @@ def plot_degree_selection(result: dict):
 
 def add_to_report(rep, result: dict, out_dir: str | Path) -> Path:
     """Save the plot as ``laidani_degree_selection.png`` in ``out_dir`` and add a section (table,
-    figure, selection) to a :class:`~uuvid.report.html.Report`; returns the PNG path."""
-    from uuvid.report.plots import save_figure
+    figure, selection) to a :class:`~uuvid.core.html.Report`; returns the PNG path."""
+    from uuvid.core.plots import save_figure
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.papers.mclean1991_table1 import (  # noqa: F401  (re-exported)
     STEP_DURATION,
     TABLE1_FIELDS,
@@ -162,7 +162,7 @@ def pulsing(
 
 class McLeanReproduction(PaperReproduction):
     """:func:`reproduce`'s document (a dict) with the Table I step responses as
-    ``artifacts["responses"]`` (case → :class:`~uuvid.simulate.response.TimeResponse`)."""
+    ``artifacts["responses"]`` (case → :class:`~uuvid.core.response.TimeResponse`)."""
 
     report_title = "McLean (1991) — tunnel thruster step responses, reproduced"
 
@@ -181,7 +181,7 @@ class McLeanReproduction(PaperReproduction):
 
     def plot(self):
         """Table I: each simulated number against the thesis's (1 = equal), per case."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(1, 1, figsize=(8, 4))
         for j, k in enumerate(TABLE1_FIELDS):
@@ -252,9 +252,9 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
     """Step-response plots (one per Table I case), the tables as CSV/JSON and an index.html."""
     import pandas as pd
 
-    from uuvid.io.atomic import atomic_path, atomic_write_json
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.atomic import atomic_path, atomic_write_json
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     out.mkdir(parents=True, exist_ok=True)
     report = Report("McLean (1991) — tunnel thruster step responses, reproduced")
@@ -338,7 +338,7 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
 
 
 def _csv(df, path: Path) -> None:
-    from uuvid.io.atomic import atomic_path
+    from uuvid.core.atomic import atomic_path
 
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False)

@@ -28,10 +28,11 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from uuvid import units as U
+from uuvid.core import units as U
+from uuvid.core.metrics import time_constant_decay
 from uuvid.identify.fit import Fit, linear_lsq, nonlinear_lsq
 from uuvid.papers.mclean1991_table1 import TABLE1_THESIS, Case, table1_cases
-from uuvid.simulate.metrics import time_constant_decay
+from uuvid.papers.reproduction import PaperReproduction
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.thruster.presets import auv2_tunnel_thruster, mclean_load_cell
 
@@ -305,7 +306,7 @@ def experiment_metrics(
     Peak output = largest measured (load-cell) thrust; steady = the model's steady thrust (the
     thesis's came from a separate static test); time constant = from the measured peak until the
     transient has decayed to 37 % of the peak's height above the steady level
-    (:func:`uuvid.simulate.metrics.time_constant_decay`).
+    (:func:`uuvid.core.metrics.time_constant_decay`).
     """
     r = chain.simulate(voltage, duration, dt=dt, substeps=2)
     th = chain.blocks[0]
@@ -453,10 +454,52 @@ def fit_experiments(
     }
 
 
-def reproduce() -> dict:
-    """Both identifications as one JSON-able document."""
+class McLeanIdentification(PaperReproduction):
+    """:func:`reproduce`'s document (a ``dict``, indexed as before) with the result surface: the
+    identified correction factors with σ, the experiments' parameters and their relative errors
+    against Table II beside the thesis's own simulation."""
+
+    def summary(self) -> str:
+        c = self["corrections"]
+        lines = [self["paper"], "corrections (equation error; output error as a cross-check):"]
+        oe = c.get("output_error_check") or {}
+        for key in ("energy_correction", "momentum_correction"):
+            p = c[key]
+            cross = f", output error {oe[key]:.4g}" if key in oe else ""
+            lines.append(f"  {key:<22} {p['estimate']:.4g} ± {p['sigma']:.2g} [1]{cross}")
+        e = self["experiments"]
+        lines.append(f"experiments (Table II): mean |relative error| {e['mean_abs_rel_error']:.1%} "
+                     f"(thesis simulation {e['thesis_mean_abs_rel_error']:.1%})")
+        for name, p in e["parameters"].items():
+            sig = "σ unknown" if p["sigma"] is None else f"± {p['sigma']:.2g}"
+            lines.append(f"  {name:<22} {p['estimate']:.4g} {sig} [{p['unit']}]")
+        return "\n".join(lines)
+
+    def plot(self):
+        """Relative error of each Table II number per supply voltage, ours against the thesis's."""
+        from uuvid.core.plots import new_figure
+
+        rows = self["experiments"]["rows"]
+        fields = list(rows[0]["rel_error"]) if rows else []
+        fig, ax = new_figure(figsize=(7.5, 3.6))
+        x = np.arange(len(fields))
+        width = 0.8 / max(1, 2 * len(rows))
+        for j, r in enumerate(rows):
+            ours = [abs(r["rel_error"][f]) * 100 for f in fields]
+            ths = [abs(r["thesis_rel_error"][f]) * 100 for f in fields]
+            ax.bar(x + (2 * j) * width, ours, width, label=f"uuvid, {r['voltage_V']:g} V")
+            ax.bar(x + (2 * j + 1) * width, ths, width, alpha=0.5, label=f"thesis, {r['voltage_V']:g} V")
+        ax.set_xticks(x + width * (len(rows) - 0.5), fields, rotation=20, fontsize=7)
+        ax.set_ylabel("|relative error| vs Table II [%]")
+        ax.set_title("McLean 1991 experiments: identified model vs the thesis simulation")
+        ax.legend(fontsize=7)
+        return fig
+
+
+def reproduce() -> McLeanIdentification:
+    """Both identifications as one JSON-able document (a :class:`McLeanIdentification`)."""
     corr = identify_corrections()
-    return {
+    return McLeanIdentification({
         "paper": "McLean 1991 — identification of the unprinted corrections and of the experiments",
         "corrections": {
             "energy_correction": corr["energy_correction"].as_dict(),
@@ -465,7 +508,7 @@ def reproduce() -> dict:
             "output_error_check": identify_corrections(method="output").values,
         },
         "experiments": fit_experiments(),
-    }
+    })
 
 
 __all__ = [
@@ -473,6 +516,7 @@ __all__ = [
     "EXPERIMENTS",
     "EXPERIMENT_FIELDS",
     "EXPERIMENT_PARAMETERS",
+    "McLeanIdentification",
     "STEADY_CASES",
     "TACHOMETER_RPM_24V",
     "THESIS_SIMULATION",

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.thruster.presets import MCLEAN
 
 #: Table I as printed: peak output thrust lb, max true thrust lb, steady thrust lb, time constant s,

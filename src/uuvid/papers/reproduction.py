@@ -1,7 +1,7 @@
 """The result object of a paper reproduction: the JSON-able document *is* the object (a ``dict``:
 ``res["table1"]`` reads as before; ``res.data`` is a plain copy) plus the common result surface
 (``summary()``, ``to_dict()``/``to_json()``, ``plot()``, ``report(folder)``, see
-:mod:`uuvid.report.result`).  ``artifacts`` holds what the plots need and JSON cannot (fits, time
+:mod:`uuvid.core.result`).  ``artifacts`` holds what the plots need and JSON cannot (fits, time
 responses); it is empty for a document read back from JSON."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from uuvid.report.result import Result
+from uuvid.core.result import Result
 
 
 class PaperReproduction(dict, Result):

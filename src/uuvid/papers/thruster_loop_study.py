@@ -113,7 +113,7 @@ class LoopStudy(PaperReproduction):
 
     def plot(self):
         """Residual peak-to-peak against the controller bandwidth, per loop and thruster model."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, axes = new_figure(1, 2, figsize=(11, 4))
         for ax, kind, unit in ((axes[0], "heading", "°"), (axes[1], "depth", "m")):
@@ -176,9 +176,9 @@ def run_study(bandwidths=BANDWIDTHS, progress=None) -> LoopStudy:
 
 
 def write_outputs(result: dict, out: str | Path) -> Path:
-    from uuvid.io.atomic import atomic_write_json
-    from uuvid.report.html import Report
-    from uuvid.report.plots import save_figure
+    from uuvid.core.atomic import atomic_write_json
+    from uuvid.core.html import Report
+    from uuvid.core.plots import save_figure
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

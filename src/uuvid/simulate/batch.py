@@ -49,7 +49,7 @@ quadratic map — and purely static chains (thrust = map(command), e.g. ROMEO's 
 Static blocks: ESC, quadratic, polynomial, dead zone, zero-order.  Anything else (DC motors,
 tunnel thrusters, load cells, tables) falls back to :func:`~uuvid.simulate.vehicle_sim.fly_batch`.
 
-**User controllers.**  A numba-compiled :class:`~uuvid.simulate.control.Controller` with
+**User controllers.**  A numba-compiled :class:`~uuvid.simulate.control.blocks.Controller` with
 ``output="wrench"`` takes the place of the inline PID: each step a scalar loop gathers a lane's
 state into small arrays, calls the controller (a module global of the generated kernel, so numba
 compiles it in as a direct call) with that lane's own controller state, and stores the wrench
@@ -84,7 +84,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uuvid.simulate import vehicle_sim
-from uuvid.simulate.control import DP_DOFS
+from uuvid.simulate.control.pid import DP_DOFS
 from uuvid.thruster.blocks import (
     K_DEADZONE,
     K_ESC,

@@ -197,9 +197,9 @@ def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | No
     (:func:`uuvid.vehicle.stability.static_stability`); None when it stays level throughout.
 
     The scan takes ≈ 0.5 s, so its result (all six directions) is cached on disk
-    (:mod:`uuvid.io.cache`) under a digest of everything it depends on: the vehicle's parameters,
+    (:mod:`uuvid.core.cache`) under a digest of everything it depends on: the vehicle's parameters,
     thruster layout and limits, modes, allocation defaults and the stability code itself."""
-    from uuvid.io import cache as disk
+    from uuvid.core import cache as disk
     from uuvid.vehicle import stability
 
     names = ("forward", "backward", "starboard", "port", "diving", "climbing")

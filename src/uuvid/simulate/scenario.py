@@ -20,7 +20,7 @@
     #   {kind: lqr, weights: {position: 0.1, thrust: 10}}    LQI designed at hover (Bryson's rule)
     #   {kind: python, file: my_ctrl.py, factory: make_controller, options: {...}}
     #       (file relative to this one; make_controller(vehicle, context) returns a Controller,
-    #        see uuvid.simulate.controller_files)
+    #        see uuvid.simulate.control.files)
     dt: 0.01
     substeps: 1
     duration: null                    # default: the mission's length
@@ -36,13 +36,13 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.simulate.reference import (
     WaypointMission,
     cruise_speed,
     current_speed_bound,
     square_mission,
 )
+from uuvid.thruster.modelfile import ModelFileError, format_loc, read_model_text
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -80,7 +80,7 @@ class MissionSpec(BaseModel):
 
 
 class LqrWeightsSpec(BaseModel):
-    """Bryson's rule of :func:`uuvid.simulate.station_keeping.default_weights`."""
+    """Bryson's rule of :func:`uuvid.simulate.control.lqr.default_weights`."""
 
     model_config = _CFG
     position: float = Field(0.1, gt=0)
@@ -211,12 +211,12 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
 
 def build(spec: ScenarioSpec, base: Path | None = None):
     """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`)."""
-    from uuvid.simulate.control import DPGains
-    from uuvid.simulate.controller_files import (
+    from uuvid.simulate.control.files import (
         ControllerContext,
         ControllerFileError,
         make_controller,
     )
+    from uuvid.simulate.control.pid import DPGains
     from uuvid.simulate.vehicle_sim import default_gains, setup_mission
     from uuvid.vehicle.definition import list_presets, load_vehicle
 

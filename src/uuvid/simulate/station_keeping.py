@@ -7,7 +7,7 @@ with ``substeps`` per step and a constant NED current the controllers do not kno
 
 Controllers (both at the control rate ``1/dt``):
 
-* **PID DP** — :mod:`uuvid.simulate.control` exactly as the mission loop uses it (body-frame
+* **PID DP** — :mod:`uuvid.simulate.control.blocks` exactly as the mission loop uses it (body-frame
   errors, conditional-integration anti-windup, attitude hold when available) followed by the
   vehicle's allocation (:func:`uuvid.vehicle.allocation.allocate_compiled`, uniform scaling).
 * **LQR with integral action (LQI)** — ``f = f₀ − K [ξ; ∫e]`` on the 12-state deviation ``ξ`` of
@@ -28,15 +28,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from uuvid.report.result import Result, jsonable
-from uuvid.simulate.control import DPGains, attitude_hold, dp_control, dp_errors, quat_yaw
+from uuvid.core.result import Result, jsonable
+from uuvid.simulate.control.lqr import (
+    augment_integral,
+    default_weights,
+    deviation_into,
+    lqi_step,
+    lqr_gain,
+)
+from uuvid.simulate.control.pid import DPGains, attitude_hold, dp_control, dp_errors, quat_yaw
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.linearize import LinearModel, OperatingPoint, linearize
 from uuvid.vehicle.model import vehicle_rhs_into
 
-#: Deviations integrated by the LQI: indices into the 12-state ξ (δn, δe, δd, α_z).
-INTEGRATED = (0, 1, 2, 5)
 PID, LQR = 0, 1
 
 
@@ -70,50 +75,6 @@ def thrust_to_tau(Bthr, f, tau):
         for i in range(Bthr.shape[1]):
             s += Bthr[r, i] * f[i]
         tau[r] = s
-
-
-@njit(cache=True)
-def deviation_into(x0, z, xi):
-    """12-state deviation of ``z`` from ``x0`` (compiled :func:`uuvid.vehicle.linearize.
-    deviation_from_state`): ``α = 2 vec(q₀* ⊗ q)`` with ``η_e ≥ 0``."""
-    a0, a1, a2, a3 = x0[3], -x0[4], -x0[5], -x0[6]
-    b0, b1, b2, b3 = z[3], z[4], z[5], z[6]
-    e0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
-    e1 = a0 * b1 + b0 * a1 + a2 * b3 - a3 * b2
-    e2 = a0 * b2 + b0 * a2 + a3 * b1 - a1 * b3
-    e3 = a0 * b3 + b0 * a3 + a1 * b2 - a2 * b1
-    s = 2.0 if e0 >= 0.0 else -2.0
-    for i in range(3):
-        xi[i] = z[i] - x0[i]
-    xi[3] = s * e1
-    xi[4] = s * e2
-    xi[5] = s * e3
-    for i in range(6):
-        xi[6 + i] = z[7 + i] - x0[7 + i]
-
-
-@njit(cache=True)
-def lqi_step(K, f0, lo, hi, xi, integ, dt, f):
-    """``f = clip(f₀ − K [ξ; ∫e], lower, upper)`` with the integrators ``integ`` (4) put in
-    ``xi[12:16]``; they then advance by ``e dt`` unless a thruster was clipped (anti-windup)."""
-    n = f.size
-    for j in range(4):
-        xi[12 + j] = integ[j]
-    clipped = False
-    for i in range(n):
-        s = f0[i]
-        for j in range(16):
-            s -= K[i, j] * xi[j]
-        if s > hi[i]:
-            s = hi[i]
-            clipped = True
-        elif s < lo[i]:
-            s = lo[i]
-            clipped = True
-        f[i] = s
-    if not clipped:
-        for j in range(4):
-            integ[j] += xi[INTEGRATED[j]] * dt
 
 
 @njit(cache=True)
@@ -159,40 +120,6 @@ def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt,
             Z[k, i] = z[i]
         thrust_to_tau(Bthr, f, tau)
         rk4_held(z, tau, vp, vc, dt / nsub, nsub, dvc, k1, k2, k3, k4, zt)
-
-
-# ---------------------------------------------------------------------------------------------
-# LQR design
-# ---------------------------------------------------------------------------------------------
-def augment_integral(lin: LinearModel) -> tuple[np.ndarray, np.ndarray]:
-    """``(A_aug, B_aug)`` with the integrals of ``[δn, δe, δd, α_z]`` appended (16 states)."""
-    A = np.zeros((16, 16))
-    A[:12, :12] = lin.A
-    for j, i in enumerate(INTEGRATED):
-        A[12 + j, i] = 1.0
-    B = np.zeros((16, lin.B.shape[1]))
-    B[:12] = lin.B
-    return A, B
-
-
-def default_weights(lin: LinearModel, *, position: float = 0.1, yaw: float = 0.1,
-                    tilt: float = 0.5, speed: float = 0.5, rate: float = 1.0,
-                    integral: float = 0.5, thrust: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
-    """Bryson's rule ``Q = diag(1/x_max²)``, ``R = diag(1/f_max²)`` for the augmented model
-    (``x_max``: acceptable position error m, yaw/tilt rad, speed m/s, rate rad/s, integral m·s;
-    ``f_max = thrust`` N per thruster)."""
-    xmax = np.array([position] * 3 + [tilt, tilt, yaw] + [speed] * 3 + [rate] * 3
-                    + [integral] * 4, dtype=float)
-    return np.diag(1.0 / xmax**2), np.eye(lin.B.shape[1]) / thrust**2
-
-
-def lqr_gain(A, B, Q, R) -> np.ndarray:
-    """``K = R⁻¹ Bᵀ S`` with ``S`` from the continuous algebraic Riccati equation
-    ``AᵀS + SA − SBR⁻¹BᵀS + Q = 0`` (scipy; equals ``control.lqr(A, B, Q, R)[0]``)."""
-    from scipy.linalg import solve_continuous_are
-
-    S = solve_continuous_are(A, B, Q, R)
-    return np.linalg.solve(R, B.T @ S)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -268,7 +195,7 @@ class StationKeepingComparison(Result):
                 f"  → {verdict}")
 
     def plot(self):
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(2, 1, sharex=True)
         for run in (self.pid, self.lqr):
@@ -367,73 +294,3 @@ def compare_station_keeping(vehicle="bluerov2", *, offset=(1.0, -0.5, 0.3, 0.3),
             K, lqr = run(rho)
     return StationKeepingComparison(v.name, pid, lqr, K, rho, off, np.asarray(current, float),
                                     lin)
-
-
-# ---------------------------------------------------------------------------------------------
-# The LQI as a controller block of the mission loop
-# ---------------------------------------------------------------------------------------------
-#: Length of :func:`lqr_controller`'s state: the 4 integrators, then scratch (reference state 13,
-#: vehicle state 13, augmented deviation 16).
-LQR_STATE_SIZE = 4 + 13 + 13 + 16
-
-
-@njit(cache=True)
-def lqr_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
-    """The LQI of :func:`compare_station_keeping` tracking a mission, as a
-    :class:`~uuvid.simulate.control.Controller` with ``output="thrust"``:
-    ``f = clip(f₀ − K [ξ; ∫e])``, ``ξ`` the 12-state deviation from the reference state
-    ``x_r`` = (``ref_pos``, level at ``ref_yaw``, body velocity ``R_z(ψ_r)ᵀ v_ref``, yaw rate
-    ``ref_rate``) with the position deviation turned into the reference heading's frame (the
-    model linearised at heading 0 is the same at any heading); the integrators stop while a
-    thruster is clipped.  ``params`` = [K (n × 16), f₀ (n), lower (n), upper (n)]."""
-    n = tau_out.size
-    K = params[0:16 * n].reshape(n, 16)
-    f0 = params[16 * n:17 * n]
-    lo = params[17 * n:18 * n]
-    hi = params[18 * n:19 * n]
-    xr = state[4:17]
-    z = state[17:30]
-    xi = state[30:46]
-    cy = math.cos(ref_yaw)
-    sy = math.sin(ref_yaw)
-    for i in range(3):
-        xr[i] = ref_pos[i]
-    xr[3] = math.cos(0.5 * ref_yaw)
-    xr[4] = 0.0
-    xr[5] = 0.0
-    xr[6] = math.sin(0.5 * ref_yaw)
-    xr[7] = cy * ref_vel[0] + sy * ref_vel[1]
-    xr[8] = -sy * ref_vel[0] + cy * ref_vel[1]
-    xr[9] = ref_vel[2]
-    xr[10] = 0.0
-    xr[11] = 0.0
-    xr[12] = ref_rate
-    for i in range(7):
-        z[i] = eta[i]
-    for i in range(6):
-        z[7 + i] = nu[i]
-    deviation_into(xr, z, xi)
-    dn = xi[0]
-    de = xi[1]
-    xi[0] = cy * dn + sy * de
-    xi[1] = -sy * dn + cy * de
-    lqi_step(K, f0, lo, hi, xi, state[0:4], dt, tau_out)
-
-
-def lqr(vehicle, *, weights=None, **bryson):
-    """The LQI designed on ``vehicle`` linearised at hover (:func:`uuvid.vehicle.linearize.
-    linearize`, :func:`augment_integral`, :func:`lqr_gain`) as a mission-loop controller
-    (:func:`lqr_controller`, per-thruster thrust).  ``weights`` = ``(Q, R)`` for the 16-state
-    augmented model, else Bryson's rule :func:`default_weights` with the keywords ``bryson``
-    (``position``, ``yaw``, ``tilt``, ``speed``, ``rate``, ``integral``, ``thrust``)."""
-    from uuvid.simulate.control import Controller
-
-    v = _vehicle(vehicle)
-    lin = linearize(v, OperatingPoint.hover(v))
-    Aa, Ba = augment_integral(lin)
-    Q, R = weights if weights is not None else default_weights(lin, **bryson)
-    K = lqr_gain(Aa, Ba, Q, R)
-    lim = v.layout.limits
-    f0 = np.zeros(K.shape[0]) if lin.thrust0 is None else lin.thrust0
-    return Controller(lqr_controller, np.concatenate([K.ravel(), f0, lim[:, 0], lim[:, 1]]),
-                      np.zeros(LQR_STATE_SIZE), "LQI (hover design)", "thrust")

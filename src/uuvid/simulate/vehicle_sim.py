@@ -23,18 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
-from uuvid.report.result import DictSummaryResult, jsonable
-from uuvid.simulate import kernels
-from uuvid.simulate.control import (
-    PID_STATE_SIZE,
-    Controller,
-    DPGains,
-    gains_from_bandwidth,
-    pid,
-    pid_controller,
-)
+from uuvid.core.result import DictSummaryResult, jsonable
+from uuvid.simulate.control.blocks import Controller
+from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandwidth, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
+from uuvid.thruster import kernels
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
@@ -163,7 +157,8 @@ def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int =
     import dataclasses
 
     from uuvid.thruster.blocks import ESC
-    from uuvid.vehicle.power import SupplyThruster, physical_model
+    from uuvid.thruster.physical import physical_model
+    from uuvid.vehicle.power import SupplyThruster
 
     ch = bank.chains[0]
     if any(c != ch for c in bank.chains[1:]):
@@ -360,7 +355,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
     """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
     allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``.
 
-    Controller (:class:`uuvid.simulate.control.Controller`): ``_CTRL(t, eta, nu, ref_pos[k],
+    Controller (:class:`uuvid.simulate.control.blocks.Controller`): ``_CTRL(t, eta, nu, ref_pos[k],
     ref_vel[k], ref_yaw[k], ref_rate[k], cparams, cstate, dt, cout)`` once per step,
     ``cstate`` modified in place; ``out_kind`` (:attr:`Controller.output_code`): ``cout`` is
     the wrench (6) to allocate (0), the thrusts (n) to clip to the limits (1), or the
@@ -667,7 +662,7 @@ def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch
 @functools.lru_cache(maxsize=32)
 def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
     """``(loop, batch)``: :func:`_fly_loop` and a batch kernel compiled around a controller and a
-    disturbance function (numba functions, :class:`~uuvid.simulate.control.Controller`), memoised.
+    disturbance function (numba functions, :class:`~uuvid.simulate.control.blocks.Controller`), memoised.
 
     Numba compiles the pair into the loop as direct calls (the same code as the built-in PID's),
     on first use, and not cached on disk: a new controller costs one compile per process.  The
@@ -712,7 +707,7 @@ class MissionResult(DictSummaryResult):
     summary_field = "metrics"
 
     def _summary_text(self) -> str:
-        from uuvid.report.mission import mission_text
+        from uuvid.simulate.mission_report import mission_text
 
         return mission_text(self)
 
@@ -723,7 +718,7 @@ class MissionResult(DictSummaryResult):
 
     def plot(self):
         """Top view, tracking error and thruster forces."""
-        from uuvid.report.mission import mission_overview
+        from uuvid.simulate.mission_report import mission_overview
 
         return mission_overview(self)
 
@@ -792,7 +787,7 @@ class MissionSetup:
     def blocks(self):
         """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist, out_kind)`` of a
         setup with a user controller or a disturbance (:func:`compiled_loop`)."""
-        from uuvid.simulate.control import compiled_form, python_controller
+        from uuvid.simulate.control.blocks import compiled_form, python_controller
 
         c = self.controller or pid(self.gains)
         cfn, cpar = compiled_form(c)
@@ -878,8 +873,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     run at every control step (default ``priority``: exact whenever achievable);
     ``battery`` (:class:`uuvid.vehicle.power.Battery`, or ``True`` for the vehicle file's) makes
     the supply voltage a state, starting at ``soc0`` (:func:`battery_tables`);
-    ``controller`` (:class:`uuvid.simulate.control.Controller`; default: the built-in PID DP with
-    ``gains``, :func:`~uuvid.simulate.control.pid`) and ``disturbance``
+    ``controller`` (:class:`uuvid.simulate.control.blocks.Controller`; default: the built-in PID DP with
+    ``gains``, :func:`~uuvid.simulate.control.pid.pid`) and ``disturbance``
     (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle).
     """
     from uuvid.simulate.currents import as_current
@@ -887,7 +882,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     if not (dt > 0 and substeps >= 1):
         raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
     if controller is not None and not isinstance(controller, Controller):
-        raise TypeError("controller must be a uuvid.simulate.control.Controller(fn, params, "
+        raise TypeError("controller must be a uuvid.simulate.control.blocks.Controller(fn, params, "
                         f"state0), got {type(controller).__name__}")
     if disturbance is not None and not isinstance(disturbance, Disturbance):
         raise TypeError("disturbance must be a uuvid.simulate.disturbances.Disturbance(fn, params), "
@@ -901,7 +896,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
             "t200-physical" and all(t.model == "t200" for t in vehicle.layout)):
         # on a battery, Blue Robotics thrusters default to the voltage-aware T200 fit (the
         # model the battery's currents come from) instead of the 16 V approximate preset
-        from uuvid.vehicle.power import physical_model
+        from uuvid.thruster.physical import physical_model
 
         thruster_chain = physical_model().to_chain(max(battery.ocv_voltage))
     chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
@@ -933,9 +928,9 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
 
 
 def _check_controller(setup: MissionSetup) -> None:
-    """A user controller writes what its ``output`` says (:func:`~uuvid.simulate.control.
+    """A user controller writes what its ``output`` says (:func:`~uuvid.simulate.control.blocks.
     check_output`); commands can be read back as thrust (increasing inverse tables)."""
-    from uuvid.simulate.control import check_output
+    from uuvid.simulate.control.blocks import check_output
 
     c = setup.controller
     b = setup.bank

@@ -1,7 +1,7 @@
 """The blocks a thruster is built from, as small frozen parameter records.
 
 Each block is a pure function of (state, input, parameters); its numerical core lives in
-:mod:`uuvid.simulate.kernels` (compiled with numba) and is selected by the block's ``KIND`` code.
+:mod:`uuvid.thruster.kernels` (compiled with numba) and is selected by the block's ``KIND`` code.
 A block declares which signal it takes (``command``, ``voltage``, ``speed``, ``thrust``) and
 which it produces, so :class:`uuvid.thruster.chain.ThrusterChain` can check a composition the way
 one checks the wires of a block diagram (McLean 1991, Fig. 3.1; Laidani et al., Fig. 1b).
@@ -156,7 +156,7 @@ class ESC(Block):
     ``[saturation_low, saturation_high]`` (saturation) and |V| never exceeds ``supply_voltage``.
     An optional duty curvature β per direction bends the linear duty ``s = |V_lin|/V_supply``:
     ``V = V_lin (1 + β (s − 1))`` (β = 0: linear; identified on T200 sheets, see
-    :mod:`uuvid.identify.physical`).
+    :mod:`uuvid.identify.thruster.physical`).
     The command unit (``pwm_us``, ``duty`` or ``volts``) is recorded for reports.
     """
 

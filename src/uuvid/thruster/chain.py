@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.report.result import Result, jsonable
-from uuvid.simulate.response import CHANNEL_UNITS, TimeResponse
+from uuvid.core.response import CHANNEL_UNITS, TimeResponse
+from uuvid.core.result import Result, jsonable
 from uuvid.thruster.blocks import (
     _SIGNAL_CHANNEL,
     CH,
@@ -38,10 +38,10 @@ def _kernel_code_digest() -> str:
     if _CODE_DIGEST is None:
         from importlib.util import find_spec
 
-        from uuvid.io.cache import file_digest
+        from uuvid.core.cache import file_digest
         from uuvid.thruster import blocks as _blocks
 
-        kernels_py = find_spec("uuvid.simulate.kernels").origin  # located, not imported (numba)
+        kernels_py = find_spec("uuvid.thruster.kernels").origin  # located, not imported (numba)
         _CODE_DIGEST = file_digest(_blocks.__file__, kernels_py, __file__)
     return _CODE_DIGEST
 
@@ -52,7 +52,7 @@ _CODE_DIGEST: str | None = None
 def _kernels():
     """The compiled kernels, imported on first use (numba's import is most of a process start-up;
     closed-form steady maps and model inspection do not need it)."""
-    from uuvid.simulate import kernels
+    from uuvid.thruster import kernels
 
     return kernels
 
@@ -184,7 +184,7 @@ class ThrusterChain:
         static maps and first-order lags, whose state at rest equals their input times their DC
         gain) compose those maps — exact, no simulation.  Other chains (a DC motor with Coulomb
         friction, McLean's tunnel thruster, a load cell behind them…) are simulated to rest
-        (:meth:`sweep`); that table is cached on disk (:mod:`uuvid.io.cache`, ``steady_maps``)
+        (:meth:`sweep`); that table is cached on disk (:mod:`uuvid.core.cache`, ``steady_maps``)
         under a hash of the chain's parameters, the levels and the kernel code, unless
         ``cache=False``.  Levels the sweep could not bring to rest are never cached."""
         u = np.atleast_1d(np.asarray(u, dtype=float))
@@ -197,7 +197,7 @@ class ThrusterChain:
             return np.asarray(y, dtype=float).reshape(u.shape)
         if not cache:
             return self.sweep(u).final
-        from uuvid.io import cache as disk
+        from uuvid.core import cache as disk
 
         key = self._steady_key(u)
         y = disk.load_array(_STEADY_CACHE, key, u.shape)
@@ -212,7 +212,7 @@ class ThrusterChain:
         """Hash of everything a swept steady table depends on: the compiled chain, the output,
         the levels, the sweep's defaults and the uuvid version and code that computes it."""
         from uuvid import __version__
-        from uuvid.io.cache import digest
+        from uuvid.core.cache import digest
 
         c = self.compile()
         settings = (_SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL)
@@ -473,7 +473,7 @@ class SweepResult(Result):
 
     def plot(self):
         """Each steady channel against the input."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         names = [k for k, v in self.channels.items() if np.any(np.isfinite(v))] or [self.output]
         fig, ax = new_figure(len(names), 1, squeeze=False, sharex=True,

@@ -37,7 +37,7 @@ from typing import Literal
 import numpy as np
 from scipy.optimize import brentq
 
-from uuvid import units
+from uuvid.core import units
 
 __all__ = [
     "PITTMAN_9514",

@@ -1,7 +1,7 @@
 """Thrusters from the papers, built from the numbers the papers print.
 
 The thesis numbers (ft, lb, slug, oz·in) stay visible here as the papers print them and pass through
-:mod:`uuvid.units` once; everything returned is SI.
+:mod:`uuvid.core.units` once; everything returned is SI.
 
 * AUV II tunnel thruster — McLean (1991), Ch. II–III and App. B (Pittman 9514, 2.5:1 gear,
   3-in Kaplan propeller in a 0.2557-ft tunnel) with the test rig's load cell.
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.thruster.blocks import (
     ESC,
     DCMotor,
@@ -175,7 +175,7 @@ T200_TIME_CONSTANT = 0.1
 
 @dataclass(frozen=True)
 class T200Steady:
-    """Steady constants of the ``t200`` preset (see :mod:`uuvid.identify.t200_preset`)."""
+    """Steady constants of the ``t200`` preset (see :mod:`uuvid.identify.thruster.t200_preset`)."""
 
     curvature_fwd: float  # ESC duty curvature β, forward
     curvature_rev: float
@@ -187,8 +187,8 @@ class T200Steady:
     deadband_rev: float = 0.0  # µs, 1500 − reverse dead-band edge
 
 
-#: Fitted by :func:`uuvid.identify.t200_preset.fit_t200_preset` to the 12 V and 16 V sheets
-#: (weighted least squares on thrust and speed; refit: ``python -m uuvid.identify.t200_preset``;
+#: Fitted by :func:`uuvid.identify.thruster.t200_preset.fit_t200_preset` to the 12 V and 16 V sheets
+#: (weighted least squares on thrust and speed; refit: ``python -m uuvid.identify.thruster.t200_preset``;
 #: tests/test_t200_preset.py checks these equal a refit within its σ).  The steady thrust is then
 #: within T200_SHEET_TOLERANCE of the sheet's max |thrust| at every row of both sheets (≤ 1.9 %).
 T200_STEADY = T200Steady(

@@ -37,12 +37,12 @@ def resolve_chain(ref, base: Path | str | None = None, supply_voltage: float | N
     or model file).  ``supply_voltage`` re-evaluates the chain's ESC at that voltage (required
     meaning for ``t200-physical``: default :data:`DEFAULT_PHYSICAL_SUPPLY_V`).  Raises
     ``FileNotFoundError`` naming the presets when ``ref`` is neither."""
-    from uuvid.io.modelfile import load_chain
+    from uuvid.thruster.modelfile import load_chain
     from uuvid.thruster.presets import PRESETS, preset_chain
 
     ref = str(ref)
     if ref in PHYSICAL_PRESETS:
-        from uuvid.vehicle.power import physical_model
+        from uuvid.thruster.physical import physical_model
 
         v = DEFAULT_PHYSICAL_SUPPLY_V if supply_voltage is None else float(supply_voltage)
         return physical_model(ref).to_chain(v, name=ref)

@@ -2,11 +2,11 @@
 
 :meth:`uuvid.thruster.chain.ThrusterChain.simulate_batch` returns one channel per call; a step
 metric row needs three (true thrust, measured thrust, propeller speed).  This kernel integrates
-each run once with the chain's own RK4 (:func:`uuvid.simulate.kernels.rk4_chain`, so the numbers
+each run once with the chain's own RK4 (:func:`uuvid.thruster.kernels.rk4_chain`, so the numbers
 are those of :meth:`ThrusterChain.simulate`) and reduces the channels to the metrics of
-:func:`uuvid.simulate.metrics.step_response_metrics` inside the parallel loop, so a 10,000-run
+:func:`uuvid.core.metrics.step_response_metrics` inside the parallel loop, so a 10,000-run
 sweep never holds 10,000 time series.  The reductions repeat the definitions of
-:mod:`uuvid.simulate.metrics` line for line (steady window mean, signed peak, 63.2 % rise with
+:mod:`uuvid.core.metrics` line for line (steady window mean, signed peak, 63.2 % rise with
 linear interpolation, 36.8 % decay from the peak); a test checks them against that module.
 """
 
@@ -17,8 +17,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from uuvid.simulate import kernels
-from uuvid.simulate.metrics import DECAY_FRACTION, RISE_FRACTION
+from uuvid.core.metrics import DECAY_FRACTION, RISE_FRACTION
+from uuvid.thruster import kernels
 from uuvid.thruster.blocks import CH, CHANNELS
 
 N_CH = len(CHANNELS)

@@ -24,11 +24,11 @@ Replicate ``b`` uses ``numpy.random.default_rng([seed, b])``; replicates whose r
 resample without an open-water point, a degenerate design) are counted in ``n_failed``, not hidden.
 
 Procedures covered: :func:`bootstrap_linear` (any ``y = Hθ``, :func:`uuvid.identify.fit.linear_lsq`),
-:func:`bootstrap_drag` (:func:`uuvid.identify.vehicle_fit.fit_drag`, segment or residual),
-:func:`bootstrap_inertia` (:func:`~uuvid.identify.vehicle_fit.fit_inertia`, block bootstrap of the
+:func:`bootstrap_drag` (:func:`uuvid.identify.vehicle.fit.fit_drag`, segment or residual),
+:func:`bootstrap_inertia` (:func:`~uuvid.identify.vehicle.fit.fit_inertia`, block bootstrap of the
 integrated regression), :func:`bootstrap_steady` (the bench-sheet fits of
-:mod:`uuvid.identify.steady`: ``fit_quadratic_speed``, ``fit_polynomial`` with a fixed degree),
-:func:`bootstrap_physical` (:func:`uuvid.identify.physical.fit_physical`, residual bootstrap of all
+:mod:`uuvid.identify.thruster.steady`: ``fit_quadratic_speed``, ``fit_polynomial`` with a fixed degree),
+:func:`bootstrap_physical` (:func:`uuvid.identify.thruster.physical.fit_physical`, residual bootstrap of all
 sheets' channels — slow: each replicate is a full nonlinear fit), and the generic
 :func:`bootstrap` for any ``fit(data) → Fit`` with a resampler.
 """
@@ -44,7 +44,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
 
 KINDS = ("residual", "wild", "pairs", "segment", "block")
 
@@ -137,7 +137,7 @@ class BootstrapResult(Result):
 
     def plot(self, ax=None):
         """Bootstrap σ / LS σ per parameter (1 = the LS σ is right)."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig = None
         if ax is None:
@@ -171,7 +171,7 @@ def bootstrap(fit_fn: Callable, data, resample: Callable, *, n_boot: int = 200, 
               kind: str = "custom", procedure: str = "fit", names: Sequence[str] | None = None,
               progress: bool | None = None) -> BootstrapResult:
     """Generic bootstrap: ``fit_fn(data) → Fit``; ``resample(data, rng) → data*`` per replicate."""
-    from uuvid.report.progress import progress_task
+    from uuvid.core.progress import progress_task
 
     t0 = time.perf_counter()
     full = fit_fn(data)
@@ -270,18 +270,18 @@ def bootstrap_linear(H, y, names: Sequence[str], *, n_boot: int = 1000, seed: in
 
 
 # ---------------------------------------------------------------------------------------------
-# vehicle identification (identify.vehicle_fit)
+# vehicle identification (identify.vehicle.fit)
 # ---------------------------------------------------------------------------------------------
 def bootstrap_drag(points, *, n_boot: int = 500, seed: int = 0, kind: str = "segment",
                    **fit_kwargs) -> BootstrapResult:
-    """Bootstrap :func:`~uuvid.identify.vehicle_fit.fit_drag` (no model reduction inside the
+    """Bootstrap :func:`~uuvid.identify.vehicle.fit.fit_drag` (no model reduction inside the
     replicates, so every replicate estimates the same parameters).
 
     ``segment``: steady segments resampled with replacement (a resample without an open-water
     segment, or without a segment for some installation coefficient, is redrawn up to 100 times,
     then counted as failed).  ``residual``: open-water points only — the force residuals of the
     fit resampled onto the fitted forces."""
-    from uuvid.identify.vehicle_fit import fit_drag
+    from uuvid.identify.vehicle.fit import fit_drag
 
     pts = list(points)
     kw = {**fit_kwargs, "reduce": False}
@@ -322,7 +322,7 @@ def bootstrap_drag(points, *, n_boot: int = 500, seed: int = 0, kind: str = "seg
 def bootstrap_inertia(inertia_fit, *, n_boot: int = 500, seed: int = 0, block: int | None = None,
                       kind: str = "block") -> BootstrapResult:
     """Bootstrap the integrated inertia regression of an
-    :class:`~uuvid.identify.vehicle_fit.InertiaFit` (``H = [ξ, −1, −t]``, fixed drag).
+    :class:`~uuvid.identify.vehicle.fit.InertiaFit` (``H = [ξ, −1, −t]``, fixed drag).
 
     The regression's residuals are strongly autocorrelated (integrals of noise), so the moving-
     block bootstrap (default block: 1/10 of the record) is the fair check of its classical σ and
@@ -342,10 +342,10 @@ def bootstrap_inertia(inertia_fit, *, n_boot: int = 500, seed: int = 0, block: i
 
 
 # ---------------------------------------------------------------------------------------------
-# thruster identification (identify.steady, identify.physical)
+# thruster identification (identify.thruster.steady, identify.thruster.physical)
 # ---------------------------------------------------------------------------------------------
 def _steady_fit_fn(model: str, degree: int | None):
-    from uuvid.identify.steady import fit_polynomial, fit_quadratic_speed
+    from uuvid.identify.thruster.steady import fit_polynomial, fit_quadratic_speed
 
     if model == "quadratic":
         fn = fit_quadratic_speed
@@ -376,7 +376,7 @@ def bootstrap_steady(data, *, model: str = "quadratic", degree: int | None = Non
     """Bootstrap a per-direction steady bench fit (``quadratic``: ``T = K_T Ω|Ω|``;
     ``polynomial`` of a fixed ``degree``): ``residual`` (thrust residuals resampled within each
     direction) or ``pairs`` (measured rows resampled within each direction)."""
-    from uuvid.identify.steady import fit_polynomial, fit_quadratic_speed
+    from uuvid.identify.thruster.steady import fit_polynomial, fit_quadratic_speed
 
     flat = _steady_fit_fn(model, degree)
     t0 = time.perf_counter()
@@ -430,11 +430,11 @@ def bootstrap_steady(data, *, model: str = "quadratic", degree: int | None = Non
 
 def bootstrap_physical(sheets, *, n_boot: int = 30, seed: int = 0, progress: bool | None = None,
                        **fit_kwargs) -> BootstrapResult:
-    """Residual bootstrap of :func:`~uuvid.identify.physical.fit_physical` over bench sheets:
+    """Residual bootstrap of :func:`~uuvid.identify.thruster.physical.fit_physical` over bench sheets:
     thrust, speed and current residuals (per sheet and channel, measured rows) resampled onto the
     fitted model's predictions, every replicate refitted from scratch.  Slow (a full multi-start
     nonlinear fit per replicate, ~1–3 s)."""
-    from uuvid.identify.physical import fit_physical
+    from uuvid.identify.thruster.physical import fit_physical
 
     sets = list(sheets)
     kw = {**fit_kwargs, "emit_warnings": False}

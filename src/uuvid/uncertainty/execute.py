@@ -59,7 +59,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from uuvid.report.result import DictSummaryResult, jsonable
+from uuvid.core.result import DictSummaryResult, jsonable
 from uuvid.uncertainty.targets import ChunkResult  # noqa: F401  (re-exported)
 
 BACKENDS = ("inprocess", "processes", "dask")
@@ -171,7 +171,7 @@ class StudyResult(DictSummaryResult):
 
     def plot(self, columns=None):
         """Histograms of the numeric result columns of the successful runs (up to 6)."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         num = self._numeric()
         cols = list(columns or num.columns)[:6] or ["run"]
@@ -216,7 +216,7 @@ class _Writer:
     def chunk(self, res: ChunkResult, progress: dict) -> None:
         if self.out is None:
             return
-        from uuvid.io.atomic import atomic_path
+        from uuvid.core.atomic import atomic_path
 
         stem = f"chunk-{res.start:09d}"
         with atomic_path(self.out / "parts" / f"{stem}.csv") as tmp:
@@ -233,14 +233,14 @@ class _Writer:
     def summary(self, extra: dict) -> None:
         if self.out is None:
             return
-        from uuvid.io.atomic import atomic_write_json
+        from uuvid.core.atomic import atomic_write_json
 
         atomic_write_json(self.out / "summary.json", {**self.base, **extra})
 
     def final(self, result: StudyResult) -> None:
         if self.out is None:
             return
-        from uuvid.io.atomic import atomic_path
+        from uuvid.core.atomic import atomic_path
 
         with atomic_path(self.out / "results.csv") as tmp:
             result.table.to_csv(tmp, index=False)
@@ -417,7 +417,7 @@ def run_study(study, out: str | Path | None = None, *, backend: str | None = Non
     done_runs = 0
     interrupted = False
 
-    from uuvid.report.progress import progress_task
+    from uuvid.core.progress import progress_task
 
     bar_disable = None if progress is None else (not progress)
 

@@ -2,7 +2,7 @@
 
 ``bluerov2-identified`` — a *simulated* BlueROV2 (the preset's Wu 2018 parameters are the truth)
 is taken to the pool, and its drag and added mass are identified with the LS tools of
-:mod:`uuvid.identify.vehicle_fit` (Caccia et al. 2000's procedure), per DOF (surge, sway, heave,
+:mod:`uuvid.identify.vehicle.fit` (Caccia et al. 2000's procedure), per DOF (surge, sway, heave,
 yaw):
 
 1. **Steady experiments**: ``n_levels`` constant nominal forces per direction (10 … 80 % of the
@@ -10,14 +10,14 @@ yaw):
    scatters around the nominal one (relative σ ``thrust_rel_sigma``, the T200 map's uncertainty)
    plus a per-segment disturbance (tether, pool circulation; σ ``disturbance_sigma``); the steady
    velocity is measured with σ ``velocity_sigma`` (a DVL/position-fit estimate).  Heave carries
-   the vehicle's net buoyancy as the mean disturbance.  :func:`~uuvid.identify.vehicle_fit.fit_drag`
+   the vehicle's net buoyancy as the mean disturbance.  :func:`~uuvid.identify.vehicle.fit.fit_drag`
    (linear + quadratic + mean disturbance, no model reduction) → ``k``, ``k_q`` and their 2×2
    covariance.
 2. **Sine experiment**: ``φ(t) = φ₀ + A sin ωt`` around a steady speed (ω = linearised
    ``k_L/m``, the D-optimal frequency of a first-order system, but a period of at least 8 s so
    the 2 s Savitzky–Golay window stays within a quarter period), 6 periods and at least 60 s,
    the 1-DOF model simulated at 100 Hz, position (heading for yaw) sampled at 10 Hz with σ
-   ``position_sigma``; :func:`~uuvid.identify.vehicle_fit.fit_inertia` (integrated regression,
+   ``position_sigma``; :func:`~uuvid.identify.vehicle.fit.fit_inertia` (integrated regression,
    Newey–West covariance, the errors-in-variables correction for the known position noise, the
    drag covariance propagated) → total inertia ``m`` with σ and its exact
    sensitivity to ``(k, k_q)``, hence the cross-covariance ``cov(m, k) = ∂m/∂(k,k_q) · cov(k,k_q)``.
@@ -27,7 +27,7 @@ The result: 12 parameters (added mass, linear and quadratic damping of four DOFs
 block-diagonal covariance (one 3×3 block per DOF: experiments of different DOFs are
 independent).  Bounds: every magnitude ≥ 0.
 
-``t200-physical`` — :func:`uuvid.identify.physical.fit_physical` on Blue Robotics' T200 sheets at
+``t200-physical`` — :func:`uuvid.identify.thruster.physical.fit_physical` on Blue Robotics' T200 sheets at
 12 V and 16 V (``../shared/data/t200-bluerobotics-2019``), its parameter covariance as the fit
 reports it (note: ``K_e`` sits on its lower bound and ``K_e``/``K_Q`` are correlated 0.9999, so
 only combinations are determined — the Monte Carlo band shows exactly the spread the data allow),
@@ -71,7 +71,7 @@ def _force_capacity(vehicle, dof: int) -> tuple[float, float]:
 
 def identify_dof(vehicle, dof_name: str, rng: np.random.Generator, noise: dict = POOL_NOISE) -> dict:
     """Drag and total inertia of one DOF from synthetic pool experiments (see the module doc)."""
-    from uuvid.identify.vehicle_fit import SteadyPoint, fit_drag, fit_inertia, simulate_one_dof
+    from uuvid.identify.vehicle.fit import SteadyPoint, fit_drag, fit_inertia, simulate_one_dof
     from uuvid.uncertainty.params import DOFS
     from uuvid.vehicle.model import OneDofModel, steady_speed
 
@@ -177,8 +177,8 @@ def make_bluerov2_identified(seed: int = 2024, dofs=("surge", "sway", "heave", "
 
 def make_t200_physical(sheets_dir: str | Path | None = None):
     """The ``t200-physical`` model from the T200 sheets (12 V and 16 V)."""
-    from uuvid.identify.physical import fit_physical
-    from uuvid.io.bench import read_t200
+    from uuvid.identify.thruster.physical import fit_physical
+    from uuvid.io.bench import default_t200_dir, read_t200
     from uuvid.uncertainty.montecarlo import UncertainModel, UncertainParameter, _physical_bounds
 
     d = Path(sheets_dir) if sheets_dir else default_t200_dir()
@@ -208,23 +208,16 @@ def make_t200_physical(sheets_dir: str | Path | None = None):
                             "the covariance the fit reports"})
 
 
-def default_t200_dir() -> Path | None:
-    here = Path(__file__).resolve()
-    for base in (here.parents[3].parent, Path.cwd().parent, Path.cwd()):
-        d = base / "shared" / "data" / "t200-bluerobotics-2019"
-        if d.is_dir():
-            return d
-    return None
-
-
 def write_builtins(out_dir: str | Path | None = None) -> list[Path]:
-    """Regenerate the stored built-in model files (``uncertainty/data``)."""
-    from uuvid.uncertainty.montecarlo import DATA, save_model
+    """Regenerate the stored built-in model files (``uncertainty/data``, ``thruster/data``)."""
+    from uuvid.uncertainty.montecarlo import BUILTIN_FILES, save_model
 
-    out = Path(out_dir) if out_dir else DATA
-    paths = [save_model(make_bluerov2_identified(), out / "bluerov2-identified.yaml")]
+    def where(name: str) -> Path:
+        return Path(out_dir) / f"{name}.yaml" if out_dir else BUILTIN_FILES[name]
+
+    paths = [save_model(make_bluerov2_identified(), where("bluerov2-identified"))]
     try:
-        paths.append(save_model(make_t200_physical(), out / "t200-physical.yaml"))
+        paths.append(save_model(make_t200_physical(), where("t200-physical")))
     except FileNotFoundError:
         pass
     return paths

@@ -78,6 +78,10 @@ from uuvid.uncertainty.targets import (
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 MODEL_FORMAT = "uuvid-uncertain-model/1"
 DATA = Path(__file__).resolve().parent / "data"
+#: Where each built-in model file lives: the thruster model with the thruster models.
+BUILTIN_FILES = {"bluerov2-identified": DATA / "bluerov2-identified.yaml",
+                 "t200-physical": Path(__file__).resolve().parents[1] / "thruster" / "data"
+                 / "t200-physical.yaml"}
 BUILTIN_MODELS = ("bluerov2-identified", "t200-physical")
 
 
@@ -280,11 +284,11 @@ def _physical_bounds(name: str) -> dict:
 
 def load_model(path_or_name: str | Path) -> UncertainModel:
     """A model file (YAML/TOML/JSON) or a built-in name (:data:`BUILTIN_MODELS`)."""
-    from uuvid.io.modelfile import read_model_text
+    from uuvid.thruster.modelfile import read_model_text
 
     p = Path(path_or_name)
     if not p.exists():
-        cand = DATA / f"{path_or_name}.yaml"
+        cand = BUILTIN_FILES.get(str(path_or_name), DATA / f"{path_or_name}.yaml")
         if not cand.exists():
             raise FileNotFoundError(f"{path_or_name}: no such model file, and not a built-in "
                                     f"model ({', '.join(BUILTIN_MODELS)})")
@@ -296,7 +300,7 @@ def load_model(path_or_name: str | Path) -> UncertainModel:
 def save_model(model: UncertainModel, path: str | Path) -> Path:
     import yaml
 
-    from uuvid.io.atomic import atomic_write_text
+    from uuvid.core.atomic import atomic_write_text
 
     d = model.model_dump(mode="json", exclude_none=True)
     return atomic_write_text(path, yaml.safe_dump(d, sort_keys=False, width=100, allow_unicode=True))
@@ -540,7 +544,7 @@ def run_montecarlo(model: UncertainModel | str | Path, runs: int = 1000, out: st
         res.out = Path(out)
         if report:
             res.info["figures"] = write_mc_report(res, study, Path(out))
-            from uuvid.io.atomic import atomic_write_json
+            from uuvid.core.atomic import atomic_write_json
 
             atomic_write_json(Path(out) / "summary.json", res.info)
     return res
@@ -548,9 +552,9 @@ def run_montecarlo(model: UncertainModel | str | Path, runs: int = 1000, out: st
 
 def write_mc_report(res, study: MonteCarloStudy, out: Path) -> list[str]:
     """Band plots, the requirement histogram, parameter table, ``bands.csv``, ``index.html``."""
-    from uuvid.io.atomic import atomic_path
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.atomic import atomic_path
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     sp = study.spec
     s = res.info

@@ -35,7 +35,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from uuvid import units as U
+from uuvid.core import units as U
 from uuvid.thruster.blocks import Block, ParameterError
 
 #: unit name → factor to SI (value_SI = value × factor)

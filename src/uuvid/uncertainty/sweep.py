@@ -230,7 +230,7 @@ def builtin_sweeps() -> list[str]:
 
 def load_sweep(path_or_name: str | Path) -> SweepSpec:
     """A sweep file (YAML/TOML) or a built-in sweep name (:func:`builtin_sweeps`)."""
-    from uuvid.io.modelfile import read_model_text
+    from uuvid.thruster.modelfile import read_model_text
 
     p = Path(path_or_name)
     if not p.exists():
@@ -370,7 +370,7 @@ def run_sweep(spec: SweepSpec | str | Path, out: str | Path | None = None, *, re
         res.out = Path(out)
         if report:
             res.info["figures"] = write_sweep_report(res, spec, Path(out))
-            from uuvid.io.atomic import atomic_write_json
+            from uuvid.core.atomic import atomic_write_json
 
             atomic_write_json(Path(out) / "summary.json", res.info)
     return res
@@ -415,8 +415,8 @@ def default_plots(spec: SweepSpec, metric_names: list[str]) -> list[PlotSpec]:
 
 def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
     """Heat maps and line plots (PNG), ``index.html``; returns the figure file names."""
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     out.mkdir(parents=True, exist_ok=True)
     table = res.table

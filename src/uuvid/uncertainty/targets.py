@@ -9,7 +9,7 @@ evaluates a batch of parameter rows with the batched compiled simulators:
     decay time constant, final thrust), SI.  All runs of a chunk go through one parallel compiled
     call (:mod:`uuvid.uncertainty._kernels`, the chain's own RK4).
 ``thruster_steady``
-    The steady thrust-vs-command curve of a :class:`~uuvid.identify.physical.PhysicalModel` at
+    The steady thrust-vs-command curve of a :class:`~uuvid.thruster.physical.PhysicalModel` at
     one or more supply voltages (series per run, for prediction bands), plus full-command thrust.
 ``vehicle_mission``
     A vehicle flying a mission (a scenario, :mod:`uuvid.simulate.scenario`) through
@@ -161,9 +161,9 @@ class ThrusterStepPlan:
     def __init__(self, target: ThrusterStepTarget, names: list[str]):
         import inspect
 
-        from uuvid.io.modelfile import load_chain
         from uuvid.simulate.signals import signal_from_spec
         from uuvid.thruster import presets
+        from uuvid.thruster.modelfile import load_chain
         from uuvid.uncertainty._kernels import STEP_METRICS
 
         self.target = target
@@ -356,7 +356,7 @@ class ThrusterSteadyPlan:
     def __init__(self, target: ThrusterSteadyTarget, names: list[str]):
         from dataclasses import fields
 
-        from uuvid.identify.physical import PhysicalModel
+        from uuvid.thruster.physical import PhysicalModel
 
         self.target = target
         self.base = PhysicalModel(**target.physical_model)
@@ -372,7 +372,7 @@ class ThrusterSteadyPlan:
             self.metric_names += [f"max_thrust_{v:g}V", f"min_thrust_{v:g}V"]
 
     def model_for(self, rv: dict[str, Any]):
-        from uuvid.identify.physical import PhysicalModel
+        from uuvid.thruster.physical import PhysicalModel
 
         kw = dict(self.target.physical_model)
         for n, v in rv.items():

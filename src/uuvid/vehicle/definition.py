@@ -51,9 +51,9 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from uuvid.io.modelfile import ModelFileError, format_loc, read_model_text
+from uuvid.core.units import G0
 from uuvid.thruster.blocks import ParameterError
-from uuvid.units import G0
+from uuvid.thruster.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.vehicle.allocation import Allocator, ThrustMode
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, axis_from_rpy, dof_index
 from uuvid.vehicle.model import DOF_NAMES, OneDofModel, VehicleParams

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.report.result import Result
+from uuvid.core.result import Result
 from uuvid.vehicle.allocation import apply_eta
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import DOF_NAMES, steady_speed
@@ -113,7 +113,7 @@ class Envelope(Result):
 
     def plot(self):
         """Largest force and steady speed per direction (LP and allocator)."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(1, 2, figsize=(12, 4))
         x = np.arange(len(self.rows))

@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.report.result import Result
+from uuvid.core.result import Result
 from uuvid.vehicle.kinematics import euler_to_quat, quat_to_euler, quat_to_rotmat
 from uuvid.vehicle.model import DOF_NAMES, VehicleParams, rotation_reference, vehicle_rhs
 from uuvid.vehicle.rigid_body import skew_ref
@@ -434,7 +434,7 @@ class LinearModel(Result):
 
     def plot(self):
         """Eigenvalues of A in the complex plane (the open-loop modes)."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(1, 1, figsize=(6, 4.5))
         ev = self.eigenvalues()

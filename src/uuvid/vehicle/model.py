@@ -31,8 +31,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numba import njit
 
+from uuvid.core.units import G0
 from uuvid.thruster.blocks import ParameterError
-from uuvid.units import G0
 from uuvid.vehicle.hydrodynamics import (
     added_mass_coriolis,
     damping_force,

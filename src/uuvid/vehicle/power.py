@@ -1,9 +1,9 @@
 """Voltage-true thrusters and a battery: limits, inverse maps and currents at the supply voltage.
 
 **Thrusters** (:class:`SupplyThruster`): the voltage-aware physical T200 model
-(:class:`uuvid.identify.physical.PhysicalModel`: ESC duty × supply → DC motor against
+(:class:`uuvid.thruster.physical.PhysicalModel`: ESC duty × supply → DC motor against
 ``K_Q Ω|Ω|`` → ``T = K_T Ω|Ω|``, fitted to Blue Robotics' 12 V and 16 V sheets; shipped as
-``uuvid/uncertainty/data/t200-physical.yaml``, so nothing outside the package is needed).  At a
+``uuvid/thruster/data/t200-physical.yaml``, so nothing outside the package is needed).  At a
 supply voltage V it gives the thrust limits ``[T(c_rev, V), T(c_fwd, V)]``, the command giving a
 wanted thrust (inverse of the monotone steady map over a command grid), and the supply current
 ``|d|·I_m``.
@@ -15,29 +15,12 @@ resistance R, capacity Q (Ah): ``V = OCV(SOC) − R I``, ``dSOC/dt = −I / (360
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
-from importlib import resources
 
 import numpy as np
 
-T200_PHYSICAL_SOURCE = (
-    "uuvid/uncertainty/data/t200-physical.yaml: physical model fitted (uuvid.identify.physical."
-    "fit_physical) to Blue Robotics' T200 bollard sheets at 12 V and 16 V (September 2019)")
-
-
-@functools.lru_cache(maxsize=4)
-def physical_model(name: str = "t200-physical"):
-    """The shipped voltage-aware thruster model (``t200-physical``)."""
-    import yaml
-
-    from uuvid.identify.physical import PhysicalModel
-
-    if name != "t200-physical":
-        raise KeyError(f"unknown thruster power model {name!r}; have t200-physical")
-    text = resources.files("uuvid.uncertainty").joinpath("data/t200-physical.yaml").read_text()
-    return PhysicalModel(**yaml.safe_load(text)["base"]["physical_model"])
+from uuvid.thruster.physical import physical_model
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.report.result import Result
+from uuvid.core.result import Result
 from uuvid.vehicle.allocation import apply_eta
 from uuvid.vehicle.hydrodynamics import added_mass_coriolis, damping_force, restoring_forces
 from uuvid.vehicle.kinematics import euler_to_rotmat
@@ -41,7 +41,7 @@ from uuvid.vehicle.rigid_body import rigid_body_coriolis
 ATTITUDE = (3, 4)  # roll, pitch: the DOFs with a righting moment
 #: Largest trim tilt (deg, roll or pitch) counted as level: beyond it the vehicle no longer does
 #: useful work (camera, tools, a level DVL).  One limit for steady flight (:func:`static_stability`,
-#: the envelope check) and station keeping (:mod:`uuvid.vehicle.hold`).
+#: the envelope check) and station keeping (:mod:`uuvid.analysis.hold`).
 MAX_TILT_DEG = 20.0
 
 
@@ -270,7 +270,7 @@ class StabilityResult(Result):
         """Trim angle against speed per direction (lines: nonlinear, dotted: small-angle)."""
         import itertools
 
-        from uuvid.report.plots import new_figure, save_figure
+        from uuvid.core.plots import new_figure, save_figure
 
         fig, ax = new_figure(1, 1, figsize=(8, 4.5))
         colors = itertools.cycle(f"C{i}" for i in range(10))

@@ -39,8 +39,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from uuvid.io.atomic import atomic_write_text
-from uuvid.io.modelfile import ModelFileError, read_model_text
+from uuvid.core.atomic import atomic_write_text
+from uuvid.thruster.modelfile import ModelFileError, read_model_text
 from uuvid.vehicle.definition import (
     PRESET_DIR,
     SourceSchema,

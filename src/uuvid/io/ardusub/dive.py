@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.core.result import Result
 from uuvid.io.ardusub.frames import (
     DOF_COLUMNS,
     MODE_NAMES,
@@ -46,7 +47,6 @@ from uuvid.io.ardusub.sources import (
     relevant_param,
 )
 from uuvid.io.logs import LogDataError
-from uuvid.report.result import Result
 
 BASE_COLUMNS = ("t_s", "depth_m", "roll_rad", "pitch_rad", "yaw_rad", "battery_V", "mode",
                 "armed")
@@ -135,7 +135,7 @@ class DiveLog(Result):
     def report(self, folder) -> Path:
         """``dive.csv`` (+ ``dive.csv.json``), ``dive.png``, ``summary.txt``, ``result.json`` and
         ``index.html`` in ``folder``; returns the index."""
-        from uuvid.report.html import Report
+        from uuvid.core.html import Report
 
         folder = self.write_basics(folder)
         table = self.export(folder / "dive.csv")

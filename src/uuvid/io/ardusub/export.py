@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.io.atomic import atomic_path, atomic_write_json, to_jsonable
+from uuvid.core.atomic import atomic_path, atomic_write_json, to_jsonable
 from uuvid.io.logs import LogDataError
 
 
@@ -105,8 +105,8 @@ def plot_dive(dive, path=None):
     shaded in its colour (a legend entry per mode), disarmed stretches hatched grey."""
     from matplotlib.patches import Patch
 
+    from uuvid.core.plots import new_figure, save_figure
     from uuvid.io.ardusub.frames import MOMENT_FACTOR_UNIT
-    from uuvid.report.plots import new_figure, save_figure
 
     tb = dive.table
     t = tb["t_s"].to_numpy(float)

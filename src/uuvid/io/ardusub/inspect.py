@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.core.result import Result
 from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params
 from uuvid.io.ardusub.reader import read_raw
 from uuvid.io.ardusub.sources import (
@@ -20,7 +21,6 @@ from uuvid.io.ardusub.sources import (
     relevant_param,
 )
 from uuvid.io.logs import LogDataError
-from uuvid.report.result import Result
 
 
 @dataclass
@@ -66,7 +66,7 @@ class LogInspection(Result):
 
     def plot(self):
         """Message rate per type (up to 20 types) and the mode segments over time."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(1, 2, figsize=(12, 4.5), width_ratios=[1, 2])
         top = sorted(self.messages, key=lambda m: -m["rate_hz"])[:20]

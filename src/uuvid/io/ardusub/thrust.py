@@ -1,9 +1,9 @@
 """PWM → thrust per sample, at the battery voltage the log recorded.
 
 Default: the voltage-aware Blue Robotics T200 model ``t200-physical`` (ESC duty × supply voltage
-→ DC motor → ``K_T Ω|Ω|``; :class:`uuvid.identify.physical.PhysicalModel`), fitted to Blue
+→ DC motor → ``K_T Ω|Ω|``; :class:`uuvid.thruster.physical.PhysicalModel`), fitted to Blue
 Robotics' T200 sheets at 12 V and 16 V by :func:`uuvid.uncertainty.identified.make_t200_physical`
-and shipped as package data (``uuvid/uncertainty/data/t200-physical.yaml``), so it needs no
+and shipped as package data (``uuvid/thruster/data/t200-physical.yaml``), so it needs no
 sheets at run time.  Override: a preset name or a fitted thruster model file — a
 ``thruster_physical`` model (voltage-aware) or any command-driven model
 :func:`uuvid.thruster.resolve.resolve_chain` reads (its steady thrust; with an ESC block at the
@@ -19,7 +19,7 @@ import numpy as np
 
 from uuvid.io.logs import LogDataError
 
-T200_MODEL_FILE = (Path(__file__).resolve().parents[2] / "uncertainty" / "data"
+T200_MODEL_FILE = (Path(__file__).resolve().parents[2] / "thruster" / "data"
                    / "t200-physical.yaml")
 
 
@@ -44,7 +44,7 @@ class ThrustModel:
 def _physical_from_yaml(path: Path):
     import yaml
 
-    from uuvid.identify.physical import PhysicalModel
+    from uuvid.thruster.physical import PhysicalModel
 
     doc = yaml.safe_load(path.read_text(encoding="utf-8"))
     if not isinstance(doc, dict) or doc.get("kind") != "thruster_physical":
@@ -70,7 +70,7 @@ def default_t200() -> ThrustModel:
     """The shipped voltage-aware T200 model."""
     m = _physical_from_yaml(T200_MODEL_FILE)
     return _physical(m, "t200-physical", "Blue Robotics T200 sheets (12 V, 16 V, 2019), fitted by "
-                     "uuvid.uncertainty.identified.make_t200_physical; uuvid/uncertainty/data/"
+                     "uuvid.uncertainty.identified.make_t200_physical; uuvid/thruster/data/"
                      "t200-physical.yaml")
 
 
@@ -84,7 +84,7 @@ def load_thrust_model(path) -> ThrustModel:
     voltage law, a file's ESC at the voltage); a chain without one
     cannot follow it and keeps its own (``voltage_aware`` False: the loader warns).
     """
-    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.modelfile import ModelFileError
     from uuvid.thruster.resolve import (
         PHYSICAL_PRESETS,
         is_preset,

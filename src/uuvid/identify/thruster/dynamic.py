@@ -1,7 +1,7 @@
 """Dynamic identification of thruster chains from time series (step or arbitrary input).
 
 Output-error identification: the chain is rebuilt from the parameter vector, simulated under each
-run's recorded input with the compiled kernel (:func:`uuvid.simulate.kernels.rk4_chain`, the same
+run's recorded input with the compiled kernel (:func:`uuvid.thruster.kernels.rk4_chain`, the same
 integrator as :meth:`ThrusterChain.simulate`) and compared with the recorded output; the
 parameters minimise ``Σ_runs Σ_k (w_r (ŷ_k − y_k)/s_r)²`` (:func:`uuvid.identify.fit.nonlinear_lsq`,
 trust-region reflective with bounds).  Standard errors come from the Jacobian of the residuals at
@@ -51,10 +51,10 @@ from typing import Any
 
 import numpy as np
 
+from uuvid.core.response import TimeResponse
+from uuvid.core.result import Result, jsonable
 from uuvid.identify.fit import Fit, Parameter, nonlinear_lsq
-from uuvid.report.result import Result, jsonable
-from uuvid.simulate import kernels
-from uuvid.simulate.response import TimeResponse
+from uuvid.thruster import kernels
 from uuvid.thruster.blocks import (
     CH,
     CHANNELS,
@@ -477,7 +477,7 @@ class ChainFit(Result):
 
     def plot(self, run: int = 0):
         """Measured channel of run ``run`` and the fitted chain's prediction."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         p = self.runs[run]
         fig, ax = new_figure(figsize=(8, 3.6))

@@ -4,7 +4,7 @@ Location: ``$UUVID_KERNEL_CACHE/<sub>`` when that variable is set, else
 ``$XDG_CACHE_HOME/uuvid/<sub>`` (default ``~/.cache/uuvid/<sub>``); the batch kernels live in
 ``$UUVID_KERNEL_CACHE`` itself (``~/.cache/uuvid/batch_kernels``).  Entries are ``.npy`` files
 named by a hash the caller computes from everything the result depends on; they are written
-atomically (:mod:`uuvid.io.atomic`), so a reader sees a whole entry or none.  A cache that cannot
+atomically (:mod:`uuvid.core.atomic`), so a reader sees a whole entry or none.  A cache that cannot
 be read or written never fails the caller: the value is recomputed and one warning says why.
 """
 
@@ -96,7 +96,7 @@ def store_array(sub: str, key: str, arr: np.ndarray) -> None:
     """Store ``arr`` under ``key`` atomically; an unwritable cache only warns (once)."""
     path = cache_dir(sub) / f"{key}.npy"
     try:
-        from uuvid.io.atomic import atomic_write_bytes
+        from uuvid.core.atomic import atomic_write_bytes
 
         buf = io.BytesIO()
         np.save(buf, np.asarray(arr), allow_pickle=False)

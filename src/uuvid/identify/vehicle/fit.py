@@ -53,15 +53,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from uuvid.core.result import Result, jsonable
 from uuvid.identify.fit import SIGNIFICANCE_PERCENT, Fit, Parameter, linear_lsq
-from uuvid.identify.segments import (
+from uuvid.identify.vehicle.segments import (
     SegmentVelocity,
     clean_series,
     find_segments,
     savgol_velocity,
     segment_velocity,
 )
-from uuvid.report.result import Result, jsonable
 from uuvid.vehicle.model import OneDofModel
 
 __all__ = [
@@ -253,9 +253,9 @@ class DragFit(Result):
 
     def plot(self):
         """LS steady velocity against nominal force per mode, with the fitted curves."""
-        from uuvid.identify.log_reports import _plot_steady
-        from uuvid.identify.vehicle_logs import ANGULAR
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
+        from uuvid.identify.vehicle.logs import ANGULAR
+        from uuvid.identify.vehicle.reports import _plot_steady
 
         fig, ax = new_figure(1, 1, figsize=(8, 5))
         _plot_steady(ax, self, self.points, self.dof in ANGULAR, False,
@@ -432,7 +432,7 @@ class InertiaFit(Result):
 
     def plot(self):
         """The regression target y = Φ − k x − k_q I and its fit, and the velocity used."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(2, 1, figsize=(10, 5.5), sharex=True)
         ax[0].plot(self.t, self.y, ".", ms=2, color="0.5", label="y = Φ − k x − k_q I")
@@ -484,7 +484,7 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
     """Inertia from a (sine) experiment by the integrated regression of eqs. 15–19.
 
     ``t``, ``x``: position (or heading) samples — may hold NaN (missing) and outliers when
-    ``clean`` (then :func:`~uuvid.identify.segments.clean_series` puts them on a uniform grid and
+    ``clean`` (then :func:`~uuvid.identify.vehicle.segments.clean_series` puts them on a uniform grid and
     fills them, reporting what it rejected); ``phi``: the nominal force, on ``t`` or on its own
     time base ``t_phi`` (``hold``: ``"zoh"`` for a sampled command, ``"linear"``); ``eta``: the
     mode's installation coefficient (number or ``(η₊, η₋)``; the paper uses an open-water mode,
@@ -535,7 +535,7 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
             raise ValueError("x has non-finite values; use clean=True")
         tg, xg = t, x.copy()
         if angle:
-            from uuvid.identify.segments import robust_unwrap
+            from uuvid.identify.vehicle.segments import robust_unwrap
 
             xg = robust_unwrap(tg, xg, angle_unit)
     if velocity is None:
@@ -704,8 +704,8 @@ def simulate_one_dof(model: OneDofModel, t, phi, xi0: float = 0.0, *, t_phi=None
 def validate_one_dof(model: OneDofModel, t, phi, measured, *, t_phi=None, hold: str = "zoh",
                      xi0: float | None = None, by: str = "range") -> dict:
     """Predicted vs measured velocity on a validation log: NRMSE (``by`` as
-    :func:`uuvid.simulate.metrics.nrmse`), RMSE and the predicted series."""
-    from uuvid.simulate.metrics import nrmse
+    :func:`uuvid.core.metrics.nrmse`), RMSE and the predicted series."""
+    from uuvid.core.metrics import nrmse
 
     t = np.asarray(t, dtype=float)
     meas = np.asarray(measured, dtype=float)

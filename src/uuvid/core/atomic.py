@@ -7,7 +7,7 @@ while writing leaves the old file untouched and no temporary file behind.
 
 Parent directories are created as needed.
 
->>> from uuvid.io.atomic import atomic_path
+>>> from uuvid.core.atomic import atomic_path
 >>> with atomic_path("out/fig.png") as tmp:   # doctest: +SKIP
 ...     fig.savefig(tmp)
 ...     # df.to_csv(tmp) works the same way

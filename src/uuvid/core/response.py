@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
 
 #: SI unit of each channel a thruster simulation records.
 CHANNEL_UNITS = {
@@ -63,7 +63,7 @@ class TimeResponse(Result):
         return pd.DataFrame({"time": self.t, **self.channels})
 
     def to_csv(self, path: str | Path) -> Path:
-        from uuvid.io.atomic import atomic_path
+        from uuvid.core.atomic import atomic_path
 
         path = Path(path)
         with atomic_path(path) as tmp:
@@ -93,8 +93,8 @@ class TimeResponse(Result):
                          "units": {k: CHANNEL_UNITS.get(k, "") for k in self.channels}})
 
     def metrics(self, steady_window: float = 0.1):
-        """McLean's step-response metrics (see :mod:`uuvid.simulate.metrics`)."""
-        from uuvid.simulate.metrics import step_response_metrics
+        """McLean's step-response metrics (see :mod:`uuvid.core.metrics`)."""
+        from uuvid.core.metrics import step_response_metrics
 
         measured = self.channels.get("measured_thrust")
         if measured is not None and np.all(np.isnan(measured)):
@@ -107,7 +107,7 @@ class TimeResponse(Result):
 
     def plot(self, groups=None, title=None):
         """Stacked plots of the recorded channels; returns the matplotlib Figure."""
-        from uuvid.report.plots import plot_time_series
+        from uuvid.core.plots import plot_time_series
 
         rec = self.recorded()
         if groups is None:

@@ -24,7 +24,7 @@ freely, both edges go to the neutral (their bound) — the sheets' zero rows aro
 logger's 300-rpm cut, which the curved duty already respects.
 
 :func:`sheet_errors` tabulates a steady map against a sheet (the acceptance numbers);
-:func:`refit_t200_preset` (or ``python -m uuvid.identify.t200_preset [SHEETS_DIR]``) refits the
+:func:`refit_t200_preset` (or ``python -m uuvid.identify.thruster.t200_preset [SHEETS_DIR]``) refits the
 shipped constants :data:`uuvid.thruster.presets.T200_STEADY` from the sheet CSVs.
 """
 
@@ -105,8 +105,8 @@ def fit_t200_preset(sheets: Sequence[BenchData], x0=None) -> Fit:
 def refit_t200_preset(sheets_dir: str | Path | None = None):
     """``(T200Steady, Fit)`` refitted from ``T200_12V.csv`` / ``T200_16V.csv`` in ``sheets_dir``
     (default: ``shared/data/t200-bluerobotics-2019`` beside the checkout)."""
+    from uuvid.io.bench import default_t200_dir
     from uuvid.thruster.presets import T200Steady
-    from uuvid.uncertainty.identified import default_t200_dir
 
     d = sheets_dir or default_t200_dir()
     if d is None:
@@ -145,7 +145,7 @@ def sheet_errors(thrust: Callable[[np.ndarray], np.ndarray], sheet: BenchData) -
 def preset_vs_sheet_points(steady=None) -> list[dict]:
     """The ``t200`` preset's steady thrust at :data:`SHEET_POINTS_KGF` (rows for a table): sheet,
     preset and error in N, error in % of that sheet's max |thrust|."""
-    from uuvid import units as U
+    from uuvid.core import units as U
     from uuvid.thruster.presets import T200_STEADY, t200_chain
 
     rows = []

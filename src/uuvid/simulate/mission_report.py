@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.io.atomic import atomic_path, atomic_write_json
-from uuvid.report.html import Report
-from uuvid.report.plots import new_figure, save_figure
+from uuvid.core.atomic import atomic_path, atomic_write_json
+from uuvid.core.html import Report
+from uuvid.core.plots import new_figure, save_figure
 
 
 def thruster_groups(vehicle) -> dict[str, list[int]]:

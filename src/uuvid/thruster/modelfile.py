@@ -32,7 +32,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
-from uuvid.io.atomic import atomic_write_text
+from uuvid.core.atomic import atomic_write_text
 from uuvid.thruster.blocks import BLOCK_ALIASES, BLOCK_TYPES, Block, DCMotor, ParameterError
 from uuvid.thruster.chain import ThrusterChain
 

@@ -8,7 +8,7 @@ thrust — a thrust map behind it::
     command → Driver(d_fwd, d_rev) → Healey two-state (speed + axial inflow → thrust)
 
 :func:`fit_dynamics` identifies the dead bands together with the dynamics and the map by output
-error (:func:`uuvid.identify.dynamic.fit_chain`) from every channel of every record at once.
+error (:func:`uuvid.identify.thruster.dynamic.fit_chain`) from every channel of every record at once.
 Each channel's residuals are divided by its noise σ, *estimated* and not assumed: first from the
 data (the scatter of second differences, which a smooth response does not have), then
 iteratively from the residual variance of that channel (iteratively reweighted least squares,
@@ -33,8 +33,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uuvid.identify.dynamic import ChainFit, Run, _simulate_run, fit_chain, set_parameter, validate_runs
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
+from uuvid.identify.thruster.dynamic import (
+    ChainFit,
+    Run,
+    _simulate_run,
+    fit_chain,
+    set_parameter,
+    validate_runs,
+)
 from uuvid.thruster.blocks import (
     CH,
     BessaDynamics,
@@ -586,7 +593,7 @@ class Selection(Result):
 
 def plot_predictions(preds: Sequence[Prediction], title: str, suffix: str = ""):
     """Measured vs predicted speed and thrust (rows) per record (columns), with bands."""
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     chans = [c for c in CHANNELS if any(c in p.nrmse for p in preds)]
     fig, ax = new_figure(len(chans), len(preds), squeeze=False, sharex="col",
@@ -640,7 +647,7 @@ def select_structure(
     prediction over ``experiments`` and pick the lowest mean held-out NRMSE over levels and
     channels; ties within :data:`TIE` go to fewer parameters.  Refits start from the all-levels
     estimate.  Needs records at two command levels at least."""
-    from uuvid.report.progress import progress_task
+    from uuvid.core.progress import progress_task
 
     exps = list(experiments)
     groups = _by_level(exps)
@@ -762,8 +769,8 @@ def selection_demo(folder, *, rate: float = 200.0, families: Sequence[str] | Non
     ``folder``; returns the summary (table, chosen, reason, paths)."""
     from pathlib import Path
 
-    from uuvid.io.atomic import atomic_write_json, atomic_write_text
-    from uuvid.report.plots import save_figure
+    from uuvid.core.atomic import atomic_write_json, atomic_write_text
+    from uuvid.core.plots import save_figure
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

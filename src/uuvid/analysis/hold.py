@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.report.result import Result
+from uuvid.core.result import Result
 from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
 
@@ -162,7 +162,7 @@ def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll
     """Largest real part (1/s) of the eigenvalues of the station-keeping loop linearised at the
     equilibrium (rest at the origin, heading north, attitude ``roll``, ``pitch``): 16 states
     (position, Euler angles, ν, the 4 PID integrators), the PID of
-    :func:`uuvid.simulate.control.dp_control` (+ attitude PD), the bounded allocation and the
+    :func:`uuvid.simulate.control.pid.dp_control` (+ attitude PD), the bounded allocation and the
     full vehicle model (Munk moments, restoring, the thrusters' side moments).  ``< 0``: the hold
     is (locally) stable.
 
@@ -178,7 +178,7 @@ def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll
     of the Jacobian vanish outside their own rows (block triangular, checked), they are taken
     out and returned by name as the second element (``growth`` is then that of the rest); any
     remaining eigenvalue with ``|Re λ| ≤ 1e-9 · max|λ|`` counts as 0 (marginal, not stable)."""
-    from uuvid.simulate.control import DP_DOFS
+    from uuvid.simulate.control.pid import DP_DOFS
     from uuvid.vehicle.kinematics import euler_to_quat
 
     G = gains.to_array()
@@ -432,7 +432,7 @@ class CapabilityResult(Result):
 
     def plot(self, path=None):
         """Polar capability plot (0° = current from ahead, clockwise to starboard)."""
-        from uuvid.report.plots import new_figure, save_figure
+        from uuvid.core.plots import new_figure, save_figure
 
         fig, ax = new_figure(1, 1, figsize=(5.5, 5.5), subplot_kw={"projection": "polar"})
         ax.set_theta_zero_location("N")
@@ -456,8 +456,8 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     Thrust limits: ``limits`` (n, 2); or the thruster model's at ``supply_voltage``; or, with
     ``soc``, at the battery's loaded voltage for each current (the vehicle file's battery);
     default the vehicle file's limits.  ``progress``: a bar (one stage per angle) on stderr
-    (:mod:`uuvid.report.progress`; ``None``: automatic)."""
-    from uuvid.report.progress import progress_task
+    (:mod:`uuvid.core.progress`; ``None``: automatic)."""
+    from uuvid.core.progress import progress_task
     from uuvid.vehicle.power import limits_at
 
     if supply_voltage is not None and limits is None:
@@ -595,7 +595,8 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
     and the thrusts are solved together (fixed point: allocation → thruster currents →
     ``V = OCV − R I`` → limits(V) → allocation).  Held when the allocation delivers τ_req within
     the limits at V, V stays above the battery's minimum and I below its maximum current."""
-    from uuvid.vehicle.power import SupplyThruster, limits_at, physical_model
+    from uuvid.thruster.physical import physical_model
+    from uuvid.vehicle.power import SupplyThruster, limits_at
 
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
@@ -658,7 +659,7 @@ class EnduranceResult(Result):
 
     def plot(self, path=None):
         """SOC, voltage, current, limit and the held commands over the discharge."""
-        from uuvid.report.plots import new_figure, save_figure
+        from uuvid.core.plots import new_figure, save_figure
 
         fig, ax = new_figure(2, 2, figsize=(10, 6))
         ax = ax.ravel()
@@ -686,7 +687,7 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
     stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
     fails (interpolated between the last held and the first failed SOC by bisection).
     ``progress``: a bar on stderr, one stage per 10 % of charge (``None``: automatic)."""
-    from uuvid.report.progress import progress_task
+    from uuvid.core.progress import progress_task
 
     task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),
                          eta=False, stages=max(1, math.ceil(soc0 * 10)),

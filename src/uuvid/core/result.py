@@ -36,7 +36,7 @@ import json
 import os
 from pathlib import Path
 
-from uuvid.io.atomic import atomic_write_json, atomic_write_text, to_jsonable
+from uuvid.core.atomic import atomic_write_json, atomic_write_text, to_jsonable
 
 __all__ = ["DictSummaryResult", "Result", "SummaryDict", "jsonable"]
 
@@ -132,8 +132,8 @@ class Result:
     def report(self, folder: str | os.PathLike[str]) -> Path:
         """Write ``summary.txt``, ``result.json``, ``plot.png`` and a self-contained
         ``index.html`` into ``folder``; returns the path of ``index.html``."""
-        from uuvid.report.html import Report
-        from uuvid.report.plots import save_figure
+        from uuvid.core.html import Report
+        from uuvid.core.plots import save_figure
 
         folder = self.write_basics(folder)
         rep = Report(self._title())

@@ -26,7 +26,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from uuvid.io.atomic import atomic_write_text, to_jsonable
+from uuvid.core.atomic import atomic_write_text, to_jsonable
 
 __all__ = ["Report"]
 

@@ -4,7 +4,7 @@
 are) and returns :class:`LogData` (SI series on one clock, plus ``info``: source, columns,
 units, notes and warnings)::
 
-    from uuvid.identify.vehicle_logs import LogSpec, read_vehicle_log
+    from uuvid.identify.vehicle.logs import LogSpec, read_vehicle_log
     data = read_vehicle_log(LogSpec("dive.csv", "heave", command_col="thrust",
                                     position_col="-altitude"))
 
@@ -423,7 +423,7 @@ def _zoh(t_src, t):
 
 
 def _scaled(out: dict, scales: dict) -> dict:
-    from uuvid.simulate.response import TimeResponse
+    from uuvid.core.response import TimeResponse
 
     res = dict(out)
     for ch, f in scales.items():
@@ -585,7 +585,7 @@ def _read_bag_log(spec: LogSpec) -> LogData:
         raise LogDataError(f"{e} (command line: --msg-definitions pkg/msg/Type=FILE.msg)") from None
     notes = []
     if quat is not None:
-        from uuvid.simulate.response import TimeResponse
+        from uuvid.core.response import TimeResponse
 
         q = [out.pop(f"_q{c}") for c in "xyzw"]
         ang = quaternion_angles(*(r[f"_q{c}"] for r, c in zip(q, "xyzw")))[quat[1]]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.identify.vehicle_logs import ANGULAR, LogData
+from uuvid.identify.vehicle.logs import ANGULAR, LogData
 
 __all__ = ["write_steady_report", "write_inertia_report", "steady_figure", "inertia_figure"]
 
@@ -54,7 +54,7 @@ def _plot_steady(ax, fit, pts, angular: bool, by_ballast: bool, title: str):
 def steady_figure(res: dict, doc: dict, data: LogData, dof: str):
     """The steady fit: LS velocity vs nominal force per mode with the fitted curves (heave: and
     the buoyancy per ballast, identified vs unitary η).  Returns (figure, caption)."""
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     fit = res["fit"]
     angular = dof in ANGULAR
@@ -90,9 +90,9 @@ def steady_figure(res: dict, doc: dict, data: LogData, dof: str):
 
 
 def write_steady_report(res: dict, doc: dict, data: LogData, dof: str, folder: Path) -> Path:
-    from uuvid.io.atomic import atomic_write_json, atomic_write_text
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.atomic import atomic_write_json, atomic_write_text
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     folder.mkdir(parents=True, exist_ok=True)
     fit = res["fit"]
@@ -156,7 +156,7 @@ def _csv_text(rows: list[dict], cols: list[str]) -> str:
 
 def inertia_figure(res: dict, doc: dict, data: LogData, dof: str):
     """Input, Savitzky–Golay velocity and measured vs predicted velocity against time."""
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     fit = res["fit"]
     angular = dof in ANGULAR
@@ -184,9 +184,9 @@ def inertia_figure(res: dict, doc: dict, data: LogData, dof: str):
 
 def write_inertia_report(res: dict, doc: dict, data: LogData, dof: str, folder: Path,
                          validation: dict | None) -> Path:
-    from uuvid.io.atomic import atomic_write_json, atomic_write_text
-    from uuvid.report.html import Report
-    from uuvid.report.plots import new_figure, save_figure
+    from uuvid.core.atomic import atomic_write_json, atomic_write_text
+    from uuvid.core.html import Report
+    from uuvid.core.plots import new_figure, save_figure
 
     folder.mkdir(parents=True, exist_ok=True)
     fit = res["fit"]

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
 from uuvid.vehicle.kinematics import quat_to_rotmat
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import vehicle_rhs
@@ -267,7 +267,7 @@ class EnvelopeCheck(Result):
 
     def plot(self):
         """Allocator (static) and simulated top speed per direction."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(1, 1, figsize=(max(6.4, 0.9 * len(self.rows) + 2), 4))
         x = np.arange(len(self.rows))

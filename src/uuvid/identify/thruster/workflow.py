@@ -9,7 +9,7 @@ every row of every file (files are stacked; ``physical`` keeps each file as one 
 supply voltage).  Dynamic models (``first-order``, ``yoerger``, ``bessa``, ``mclean``) need a time
 column; each file is one run (e.g. steps at several voltages) and the runs share the parameters.
 
-What each model reads and writes (the model file loads with :func:`uuvid.io.modelfile.load_chain`):
+What each model reads and writes (the model file loads with :func:`uuvid.thruster.modelfile.load_chain`):
 
 ===========  =====================================  ===========================================
 model        data                                   chain written
@@ -36,7 +36,7 @@ healey       time, speed and thrust, command        command → driver with dead
                                                     two-state thruster (speed + axial inflow)
 ===========  =====================================  ===========================================
 
-Structured dynamic fits (:mod:`uuvid.identify.dynamic_select`): ``dc-motor`` and ``healey``
+Structured dynamic fits (:mod:`uuvid.identify.thruster.dynamic_select`): ``dc-motor`` and ``healey``
 always, and ``first-order``/``yoerger``/``bessa`` when the records hold thrust too or with
 ``dead_band=True``, put a :class:`~uuvid.thruster.blocks.Driver` (dead band per direction, offset
 = the neutral command) in front and fit dead bands, dynamics and thrust map together, each
@@ -63,7 +63,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
 
 __all__ = ["DYNAMIC", "MODELS", "STEADY", "FitError", "FitOutcome", "ReadOptions", "offset_esc",
            "read_files", "run_fit", "summary", "write_report"]
@@ -225,7 +225,7 @@ def _stack(sets):
 
 def _direction_figure(title: str, panels: list[dict], xlabel: str, ylabel: str):
     """Top row: data and fitted curve per panel (direction); bottom row: residuals."""
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     n = len(panels)
     fig, ax = new_figure(2, n, squeeze=False, sharex="col", height_ratios=[3, 1],
@@ -277,7 +277,7 @@ def _degree_rows(tables: dict) -> dict:
 
 
 def _degree_figure(tables: dict, chosen: dict):
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     n = len(tables)
     fig, ax = new_figure(1, n, squeeze=False, figsize=(5.2 * n, 3.8))
@@ -313,7 +313,7 @@ def _steady_messages(sf) -> tuple[list[str], list[str]]:
 
 
 def _fit_quadratic(sets, name):
-    from uuvid.identify.steady import fit_quadratic_speed
+    from uuvid.identify.thruster.steady import fit_quadratic_speed
 
     data = _stack(sets)
     data.require("thrust", "speed", what="--model quadratic (thrust = k·Ω|Ω| against speed)")
@@ -345,7 +345,7 @@ def _voltage_of(data):
 
 
 def _fit_cv(sets, name):
-    from uuvid.identify.steady import fit_cv
+    from uuvid.identify.thruster.steady import fit_cv
 
     data = _stack(sets)
     data.require("thrust", what="--model cv")
@@ -366,7 +366,7 @@ def _fit_cv(sets, name):
 
 
 def _fit_polynomial(sets, name, degree, criterion):
-    from uuvid.identify.steady import (
+    from uuvid.identify.thruster.steady import (
         DIRECTIONS,
         fit_polynomial,
         polynomial_degree_table,
@@ -428,7 +428,7 @@ def _fit_polynomial(sets, name, degree, criterion):
 
 
 def _fit_deadzone(sets, name, map_input):
-    from uuvid.identify.steady import fit_deadzone_curve
+    from uuvid.identify.thruster.steady import fit_deadzone_curve
 
     data = _stack(sets)
     inp = map_input
@@ -466,7 +466,7 @@ def _fit_deadzone(sets, name, map_input):
 
 
 def _fit_table(sets, name, n_points):
-    from uuvid.identify.steady import fit_table
+    from uuvid.identify.thruster.steady import fit_table
 
     data = _stack(sets)
     sf = fit_table(data, n_points)
@@ -488,7 +488,7 @@ def _fit_table(sets, name, n_points):
 
 
 def _fit_physical(sets, name, supply_voltage, linear_duty):
-    from uuvid.identify.physical import fit_physical
+    from uuvid.identify.thruster.physical import fit_physical
 
     pf = fit_physical(sets, duty_curvature=not linear_duty, emit_warnings=False)
     v = supply_voltage if supply_voltage is not None else sets[0].nominal_voltage()
@@ -542,7 +542,7 @@ def _step_start(t, u, y):
 
 
 def _dynamic_runs(sets, model):
-    from uuvid.identify.dynamic import Run
+    from uuvid.identify.thruster.dynamic import Run
 
     runs = []
     for s in sets:
@@ -571,7 +571,7 @@ def _dyn_chain(sets, block_chain, name):
 
 
 def _dynamic_figure(title, cf, ylabel):
-    from uuvid.report.plots import new_figure
+    from uuvid.core.plots import new_figure
 
     n = len(cf.runs)
     fig, ax = new_figure(2, n, squeeze=False, sharex="col", height_ratios=[3, 1],
@@ -609,7 +609,7 @@ def _dyn_outcome(model, cf, sets, name, unit, ylabel, notes=(), prepend=True):
 
 
 def _fit_first_order(sets, name, resample):
-    from uuvid.identify.dynamic import fit_first_order
+    from uuvid.identify.thruster.dynamic import fit_first_order
 
     runs = _dynamic_runs(sets, "first-order")
     cf = fit_first_order(runs, resample=resample, emit_warnings=False)
@@ -617,7 +617,7 @@ def _fit_first_order(sets, name, resample):
 
 
 def _fit_yoerger(sets, name, resample):
-    from uuvid.identify.dynamic import fit_yoerger
+    from uuvid.identify.thruster.dynamic import fit_yoerger
 
     runs = _dynamic_runs(sets, "yoerger")
     cf = fit_yoerger(runs, resample=resample, emit_warnings=False)
@@ -625,7 +625,7 @@ def _fit_yoerger(sets, name, resample):
 
 
 def _fit_bessa(sets, name, resample):
-    from uuvid.identify.dynamic import fit_bessa
+    from uuvid.identify.thruster.dynamic import fit_bessa
 
     runs = _dynamic_runs(sets, "bessa")
     u_end, y_end, slope = _step_start(np.asarray(runs[0].t), np.asarray(runs[0].u),
@@ -643,7 +643,7 @@ def _fit_bessa(sets, name, resample):
 
 
 def _fit_mclean(sets, name, start, resample):
-    from uuvid.identify.dynamic import Run, fit_tunnel_thruster
+    from uuvid.identify.thruster.dynamic import Run, fit_tunnel_thruster
     from uuvid.thruster.blocks import LoadCell, TunnelThruster
 
     tunnel = next((b for b in start.blocks if isinstance(b, TunnelThruster)), None)
@@ -666,8 +666,8 @@ def _fit_mclean(sets, name, start, resample):
 # structured dynamic models: dead band, joint speed + thrust, selection by held-out level
 # ------------------------------------------------------------------------------------------------
 def experiments_from(sets, what: str) -> list:
-    """Bench records → :class:`~uuvid.identify.dynamic_select.Experiment` (command − neutral)."""
-    from uuvid.identify.dynamic_select import Experiment
+    """Bench records → :class:`~uuvid.identify.thruster.dynamic_select.Experiment` (command − neutral)."""
+    from uuvid.identify.thruster.dynamic_select import Experiment
 
     out = []
     for s in sets:
@@ -710,7 +710,7 @@ def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, te
 
 
 def _fit_structured(sets, model, name, dead_band):
-    from uuvid.identify.dynamic_select import Structure, fit_dynamics, plot_predictions
+    from uuvid.identify.thruster.dynamic_select import Structure, fit_dynamics, plot_predictions
 
     exps = experiments_from(sets, f"--model {model}")
     df = fit_dynamics(exps, Structure(model, dead_band))
@@ -721,7 +721,7 @@ def _fit_structured(sets, model, name, dead_band):
 
 
 def _fit_select(sets, name, dead_band, families=None):
-    from uuvid.identify.dynamic_select import (
+    from uuvid.identify.thruster.dynamic_select import (
         Structure,
         default_structures,
         plot_predictions,
@@ -848,10 +848,10 @@ def _add_pre(rep, text: str) -> None:
 def write_report(outcome: FitOutcome, doc: dict, folder: Path, sources: list[str]) -> Path:
     """Plots (PNG), parameter and degree tables (CSV), the fit report text, summary.json and an
     ``index.html`` embedding all of it."""
-    from uuvid.io.atomic import atomic_write_json, atomic_write_text
-    from uuvid.io.modelfile import chain_to_dict
-    from uuvid.report.html import Report
-    from uuvid.report.plots import save_figure
+    from uuvid.core.atomic import atomic_write_json, atomic_write_text
+    from uuvid.core.html import Report
+    from uuvid.core.plots import save_figure
+    from uuvid.thruster.modelfile import chain_to_dict
 
     folder.mkdir(parents=True, exist_ok=True)
     rep = Report(f"uuvid thruster fit — {outcome.model} ({outcome.chain.name})")
@@ -912,7 +912,7 @@ class Replay(Result):
 
     def plot(self):
         """Measured and predicted speed and thrust per record."""
-        from uuvid.identify.dynamic_select import plot_predictions
+        from uuvid.identify.thruster.dynamic_select import plot_predictions
 
         return plot_predictions(self.predictions, f"{self.chain_name}: logged command replayed")
 
@@ -931,9 +931,9 @@ class Replay(Result):
     def write(self, folder: Path) -> Path:
         """``<record>.csv`` (time, command, measured, predicted), ``replay.png``,
         ``summary.json`` and ``index.html``."""
-        from uuvid.io.atomic import atomic_write_json, atomic_write_text
-        from uuvid.report.html import Report
-        from uuvid.report.plots import save_figure
+        from uuvid.core.atomic import atomic_write_json, atomic_write_text
+        from uuvid.core.html import Report
+        from uuvid.core.plots import save_figure
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
@@ -954,7 +954,7 @@ def replay_files(chain, paths, opts: ReadOptions) -> Replay:
 
     A chain whose input is the voltage gets the command as voltage (``--command-unit volts``, or
     duty × supply); a command chain gets the raw command (its driver holds the neutral)."""
-    from uuvid.identify.dynamic_select import predict_chain
+    from uuvid.identify.thruster.dynamic_select import predict_chain
 
     if chain.input_kind == "speed":
         raise FitError(f"{chain.name}: the model's input is the propeller speed; replay needs a "

@@ -23,7 +23,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from uuvid.io.atomic import atomic_path
+from uuvid.core.atomic import atomic_path
 
 __all__ = ["new_figure", "plot_time_series", "save_figure"]
 

@@ -27,10 +27,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.core.result import Result, jsonable
 from uuvid.identify.fit import Fit, Parameter, linear_lsq, nonlinear_lsq, residual_figure
-from uuvid.identify.regions import Regions
+from uuvid.identify.thruster.regions import Regions
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
-from uuvid.report.result import Result, jsonable
 from uuvid.thruster.blocks import Block, DeadZoneMap, PolynomialMap, QuadraticMap, TableMap
 
 DIRECTIONS = ("forward", "reverse")
@@ -378,7 +378,7 @@ class DegreeTable(Result):
 
     def plot(self):
         """In-sample RMSE and k-fold CV RMSE (± SE) against the degree."""
-        from uuvid.report.plots import new_figure
+        from uuvid.core.plots import new_figure
 
         fig, ax = new_figure(figsize=(6.4, 3.6))
         d = self.column("degree")

@@ -5,12 +5,12 @@
 * :func:`identify_inertia` — inertia from a sine experiment by the integrated regression
   (eqs. 15–19), with the drag from :func:`identify_steady` (or a vehicle file).
 
-Both take a log path (with the :class:`~uuvid.identify.vehicle_logs.LogSpec` fields as keywords),
-a ``LogSpec`` or a ready :class:`~uuvid.identify.vehicle_logs.LogData`, and return a result with
+Both take a log path (with the :class:`~uuvid.identify.vehicle.logs.LogSpec` fields as keywords),
+a ``LogSpec`` or a ready :class:`~uuvid.identify.vehicle.logs.LogData`, and return a result with
 ``summary()``, ``to_dict()`` (the JSON document of ``uuvid vehicle identify … --json``),
 ``report(folder)`` and ``plot()``::
 
-    from uuvid.identify.procedures import identify_steady, identify_inertia
+    from uuvid.identify.vehicle.procedures import identify_steady, identify_inertia
     yaw = identify_steady("pool.csv", dof="yaw", command_col="torque",
                           position_col="heading", angle_unit="deg", open_water=["+"])
     print(yaw.summary())
@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.identify.vehicle_logs import ANGULAR, LogData, LogSpec, read_vehicle_log
-from uuvid.report.result import Result, jsonable
+from uuvid.core.result import Result, jsonable
+from uuvid.identify.vehicle.logs import ANGULAR, LogData, LogSpec, read_vehicle_log
 
 __all__ = ["identify_steady", "identify_inertia", "SteadyIdentification",
            "InertiaIdentification", "run_steady", "run_inertia", "InertiaOptions", "load_drag",
@@ -133,8 +133,8 @@ def run_steady(data: LogData, dof: str, *, settle: float, min_duration: float, t
                open_water: list[str] | None, per_sign: bool, direction: str, quadratic: bool,
                cov_type: str, hac_lags: int | None, reduce: bool, has_mode_col: bool) -> dict:
     """Segments → robust velocities → η map → :func:`fit_drag`; everything for JSON/report."""
-    from uuvid.identify.segments import find_segments, segment_velocity, summarise_rejections
-    from uuvid.identify.vehicle_fit import SteadyPoint, eta_label, fit_drag
+    from uuvid.identify.vehicle.fit import SteadyPoint, eta_label, fit_drag
+    from uuvid.identify.vehicle.segments import find_segments, segment_velocity, summarise_rejections
 
     angle = dof in ANGULAR
     n = data.t_cmd.size
@@ -276,7 +276,7 @@ def no_segment_message(data: LogData, cmd: np.ndarray, *, settle: float,
 
 
 def _mode_etas(fit, emap: dict, seen: dict[str, set[str]]) -> dict[str, dict]:
-    from uuvid.identify.vehicle_fit import eta_label
+    from uuvid.identify.vehicle.fit import eta_label
 
     out = {}
     for mode, signs in seen.items():
@@ -512,7 +512,7 @@ class InertiaOptions:
 
 
 def run_inertia(data: LogData, dof: str, drag: dict, opt: InertiaOptions) -> dict:
-    from uuvid.identify.vehicle_fit import (
+    from uuvid.identify.vehicle.fit import (
         fit_inertia,
         phase_lag,
         predicted_phase_lag,
@@ -580,8 +580,8 @@ def run_inertia(data: LogData, dof: str, drag: dict, opt: InertiaOptions) -> dic
 
 
 def _validate_log(model, data: LogData, dof: str, window: int) -> dict:
-    from uuvid.identify.segments import clean_series, savgol_velocity
-    from uuvid.identify.vehicle_fit import validate_one_dof
+    from uuvid.identify.vehicle.fit import validate_one_dof
+    from uuvid.identify.vehicle.segments import clean_series, savgol_velocity
 
     angle = dof in ANGULAR
     cs = clean_series(data.t_pos, data.position, angle=angle, angle_unit="rad", window=window)
@@ -659,7 +659,7 @@ def uniform_position(t, x, *, resample="auto", angle: bool = False,
             raise ValueError(f"resample step must be > 0 s, got {resample!r}")
         why = "resampling asked for"
     if angle:
-        from uuvid.identify.segments import robust_unwrap
+        from uuvid.identify.vehicle.segments import robust_unwrap
 
         x = robust_unwrap(t, x, "rad")
     n = int(math.floor((t[-1] - t[0]) / step + 1e-9)) + 1
@@ -711,7 +711,7 @@ def _params_text(title: str, params: dict) -> str:
 class SteadyIdentification(Result):
     """Drag and installation coefficients of one DOF from a log (Caccia et al. 2000, §III-A).
 
-    ``fit`` is the :class:`~uuvid.identify.vehicle_fit.DragFit`; ``result`` everything the
+    ``fit`` is the :class:`~uuvid.identify.vehicle.fit.DragFit`; ``result`` everything the
     procedure found (segments, skipped segments, rejected samples, η map); ``document`` the JSON
     of ``uuvid vehicle identify steady --json``."""
 
@@ -753,14 +753,14 @@ class SteadyIdentification(Result):
     def report(self, folder) -> Path:
         """Plots, tables, fit report, summary.json, summary.txt, result.json and index.html in
         ``folder``; returns the index."""
-        from uuvid.identify.log_reports import write_steady_report
+        from uuvid.identify.vehicle.reports import write_steady_report
 
         index = write_steady_report(self.result, self.document, self.data, self.dof, Path(folder))
         self.write_basics(folder)
         return index
 
     def plot(self):
-        from uuvid.identify.log_reports import steady_figure
+        from uuvid.identify.vehicle.reports import steady_figure
 
         return steady_figure(self.result, self.document, self.data, self.dof)[0]
 
@@ -833,7 +833,7 @@ def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
 class InertiaIdentification(Result):
     """Inertia of one DOF from a sine experiment (Caccia et al. 2000, eqs. 15–19).
 
-    ``fit`` is the :class:`~uuvid.identify.vehicle_fit.InertiaFit`, ``model`` the identified
+    ``fit`` is the :class:`~uuvid.identify.vehicle.fit.InertiaFit`, ``model`` the identified
     :class:`~uuvid.vehicle.model.OneDofModel` (``None`` when it cannot be simulated),
     ``document`` the JSON of ``uuvid vehicle identify inertia --json``."""
 
@@ -883,7 +883,7 @@ class InertiaIdentification(Result):
     def report(self, folder) -> Path:
         """Plots, tables, fit report, summary.json, summary.txt, result.json and index.html in
         ``folder``; returns the index."""
-        from uuvid.identify.log_reports import write_inertia_report
+        from uuvid.identify.vehicle.reports import write_inertia_report
 
         index = write_inertia_report(self.result, self.document, self.data, self.dof,
                                      Path(folder), self.validation)
@@ -891,7 +891,7 @@ class InertiaIdentification(Result):
         return index
 
     def plot(self):
-        from uuvid.identify.log_reports import inertia_figure
+        from uuvid.identify.vehicle.reports import inertia_figure
 
         return inertia_figure(self.result, self.document, self.data, self.dof)
 

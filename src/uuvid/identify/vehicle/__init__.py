@@ -1,0 +1,3 @@
+"""Vehicle identification (Caccia et al. 2000): steady segments of a log (``segments``), least-squares
+drag, installation and inertia fits with statistics (``fit``), identification from pool logs
+(``logs``, ``procedures``), their reports (``reports``) and optimal input design (``design``)."""

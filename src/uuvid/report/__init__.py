@@ -1,2 +1,0 @@
-"""What users look at: headless figures (``plots``, ``mission``), self-contained HTML pages
-(``html``) and progress bars on stderr (``progress``)."""
