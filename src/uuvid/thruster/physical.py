@@ -14,26 +14,8 @@ Chain (steady state, per direction; forward = command above neutral):
    cancellation-free root); the shaft stays still while ``K_e V/R ≤ T_c``.
 3. **Propeller** — ``T = K_T Ω|Ω|`` per direction.
 
-Current.  The sheets log the *supply* current.  A PWM ESC is (to first order) a lossless DC/DC
-converter: ``V_s I_s = V_m I_m`` so ``I_s = d · I_m`` with ``I_m = (V − K_e Ω)/R`` the motor
-current.  The current is the only signal that separates ``K_e`` from ``R`` (thrust and speed
-alone only fix ``K_e`` and ``R K_Q / K_e``), so it is fitted — but with a reduced weight
-(``current_weight``, default 0.3), because the lossless-ESC relation ignores switching losses and
-the ESC's own supply, and the sheets round small currents to 0.05 A.
-
-Censored rows (readings the logger zeroed below its detection limit, e.g. T200 < 300 rpm) are not
-zeros: they contribute only a one-sided residual when the model predicts a speed above the limit.
-
-All parameters are fitted jointly by nonlinear least squares
-(:func:`uuvid.identify.fit.nonlinear_lsq`) on thrust, speed and current of all sheets, each
-channel of each sheet scaled by its largest magnitude (the fit's residuals are therefore
-dimensionless; per-sheet errors in physical units are in ``fit.extra["per_sheet"]``).
-
-On the Blue Robotics T200 sheets (12 V and 16 V) a linear ESC duty cannot carry one sheet to the
-other (fit on 16 V → 12 V thrust RMSE 3.5 % of max thrust); a duty curvature β ≈ 0.2 plus viscous
-friction brings that to ≈0.6 % (12 V → 16 V: 3.0 % → 1.1 %).  Then ``K_e`` sits on its floor
-(``min_back_emf_fraction``): the sheets' voltage scaling looks "resistive", so read the fitted
-``K_e``, ``R``, ``K_Q`` as effective values, not as datasheet motor constants.
+The supply current is ``I_s = d · I_m`` with ``I_m = (V − K_e Ω)/R`` the motor current (a PWM
+ESC as a lossless DC/DC converter, ``V_s I_s = V_m I_m``).
 
 :meth:`PhysicalModel.to_chain` builds the equivalent :class:`~uuvid.thruster.chain.ThrusterChain`
 ``ESC → DCMotor → QuadraticMap`` whose steady state equals :meth:`PhysicalModel.predict`.

@@ -1,19 +1,8 @@
 """Identification of the voltage-aware physical thruster model (:mod:`uuvid.thruster.physical`)
 from bench sheets at several supply voltages.
 
-Chain (steady state, per direction; forward = command above neutral):
-
-1. **ESC** — command → duty: ``s = (c − e)/(f − e)`` between the dead-band edge ``e`` and the
-   full-command point ``f`` (clipped to 0…1), optionally bent by a duty curvature β:
-   ``d = s (1 + β (s − 1))`` (monotone for |β| < 1; β = 0 is the linear ESC of Laidani et al.
-   eq. 1).  Motor voltage ``V = d · V_supply`` — the same duty gives more volts on a fuller
-   battery, which is what lets one model answer for any supply voltage.
-2. **DC motor** (averaged brushless motor; McLean 1991 eqs. 2.1–2.5 at rest), ``K_t = K_e``:
-   ``K_e (V − K_e Ω)/R = K_Q Ω|Ω| + c_v Ω + T_c sgn Ω`` with the propeller torque
-   ``K_Q Ω|Ω|`` per direction.  For ``Ω ≥ 0`` this is the quadratic
-   ``K_Q Ω² + (K_e²/R + c_v) Ω + (T_c − K_e V/R) = 0``, solved in closed form (vectorised,
-   cancellation-free root); the shaft stays still while ``K_e V/R ≤ T_c``.
-3. **Propeller** — ``T = K_T Ω|Ω|`` per direction.
+The model (ESC duty × supply voltage → DC motor against ``K_Q Ω|Ω|`` → ``T = K_T Ω|Ω|``, per
+direction) and its equations are in :mod:`uuvid.thruster.physical`.
 
 Current.  The sheets log the *supply* current.  A PWM ESC is (to first order) a lossless DC/DC
 converter: ``V_s I_s = V_m I_m`` so ``I_s = d · I_m`` with ``I_m = (V − K_e Ω)/R`` the motor
@@ -35,9 +24,6 @@ other (fit on 16 V → 12 V thrust RMSE 3.5 % of max thrust); a duty curvature �
 friction brings that to ≈0.6 % (12 V → 16 V: 3.0 % → 1.1 %).  Then ``K_e`` sits on its floor
 (``min_back_emf_fraction``): the sheets' voltage scaling looks "resistive", so read the fitted
 ``K_e``, ``R``, ``K_Q`` as effective values, not as datasheet motor constants.
-
-:meth:`PhysicalModel.to_chain` builds the equivalent :class:`~uuvid.thruster.chain.ThrusterChain`
-``ESC → DCMotor → QuadraticMap`` whose steady state equals :meth:`PhysicalModel.predict`.
 """
 
 from __future__ import annotations
