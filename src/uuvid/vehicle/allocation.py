@@ -359,9 +359,10 @@ class Allocator:
             tau = tau / np.where(tau >= 0, ep, en)
         return tau
 
-    def allocate(self, phi, saturation: str = "scale", tol: float = 1e-9) -> AllocationResult:
-        """Allocate ``φ`` (m); ``saturation``: ``"scale"`` (uniform), ``"clip"``, ``"none"``,
-        ``"priority"`` (exact when achievable, else weighted least error) or ``"maxscale"``."""
+    def allocate(self, phi, saturation: str = "priority", tol: float = 1e-9) -> AllocationResult:
+        """Allocate ``φ`` (m); ``saturation``: ``"priority"`` (default, as missions fly: exact
+        whenever achievable, else weighted least error), ``"maxscale"``, ``"scale"`` (uniform
+        scaling of ``T φ``), ``"clip"`` or ``"none"``."""
         if saturation in ("priority", "maxscale"):
             return self._allocate_bounded(np.asarray(phi, dtype=float), saturation, tol)
         phi = np.asarray(phi, dtype=float)
@@ -444,7 +445,7 @@ class Allocator:
                          np.where(tau < 0, self.limits[:, 0] / tau, np.inf))
         return float(np.min(r)) if r.size else math.inf
 
-    def to_array(self, method: str = "scale") -> np.ndarray:
+    def to_array(self, method: str = "priority") -> np.ndarray:
         """Flat parameters of :func:`allocate_compiled` for a saturation ``method``.
 
         Layout: ``[n, m, compensate, T (n·m, row-major), lower (n), upper (n), η₊ (n), η₋ (n),
