@@ -330,6 +330,25 @@ def test_warnings_are_said_once(sheets, tmp_path):
         assert both.count(" ".join(w.split())) == 1, w
 
 
+@pytest.mark.parametrize("model", ["quadratic", "polynomial", "table", "deadzone", "physical"])
+def test_thrust_sign_reversed_exits_2_naming_the_fix(sheets, tmp_path, model):
+    rows = list(csv.reader(open(sheets[0])))
+    k = rows[0].index("Force (kgf)")
+    path = tmp_path / "reversed.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(rows[0])
+        for r in rows[1:]:
+            r[k] = repr(-float(r[k]))
+            w.writerow(r)
+    out = tmp_path / "m.yaml"
+    res = _fit(path, *SHEET_COLS, "--voltage-col", "Voltage", "--current-col", "Current",
+               "--model", model, "--out-model", out)
+    assert res.exit_code == 2, res.output
+    assert "reversed.csv: thrust has the opposite sign of the command" in res.output
+    assert "negate the thrust column" in res.output and not out.exists()
+
+
 def test_missing_file_exit_2(tmp_path):
     res = _fit(tmp_path / "nope.csv", "--model", "table", "--out", tmp_path / "x.yaml")
     assert res.exit_code == 2 and "no such bench file" in " ".join(res.stderr.split())

@@ -308,7 +308,7 @@ def _steady_messages(sf) -> tuple[list[str], list[str]]:
     warn = [f"{k}: {w}" for k, f in sf.fits.items() for w in f.warnings]
     notes = []
     for n in sf.info.get("notes", ()):
-        (warn if "not identified" in n else notes).append(n)
+        (warn if "not identified" in n or n.startswith("zero thrust") else notes).append(n)
     return warn, notes
 
 
@@ -761,6 +761,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     there for ``dc-motor``/``healey`` and for the joint speed + thrust fit); ``families``: the
     dynamic families ``select`` compares (default: all)."""
     from uuvid.identify.fit import IdentifiabilityWarning
+    from uuvid.identify.plausibility import check_bench_signs
 
     if select:
         if opts.fmt == "t200":
@@ -769,7 +770,10 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             raise FitError("no data files given")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IdentifiabilityWarning)
-            return _fit_select(read_files(paths, opts), name or "selected", True, families)
+            sets = read_files(paths, opts)
+            for s in sets:
+                check_bench_signs(s)
+            return _fit_select(sets, name or "selected", True, families)
     if model not in MODELS:
         raise FitError(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
     if not paths:
@@ -781,6 +785,8 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     if model in DYNAMIC and opts.fmt == "t200":
         raise FitError(f"--model {model} needs time series; T200 sheets are steady sweeps")
     sets = read_files(paths, opts)
+    for s in sets:
+        check_bench_signs(s)
     name = name or model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings
