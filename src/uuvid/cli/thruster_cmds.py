@@ -192,7 +192,7 @@ def thruster_predict(
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
     from uuvid.thruster.chain import ThrusterChain, command_range_warnings, monotonicity_warnings
-    from uuvid.thruster.resolve import supply_law
+    from uuvid.thruster.resolve import supply_law, supply_voltage_warnings
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -204,7 +204,8 @@ def thruster_predict(
     if supply_voltage is not None:
         if supply_voltage <= 0:
             _fail(f"--supply-voltage must be positive, got {supply_voltage}")
-        law = supply_law(model, chain)  # a preset's own voltage law (the T200's speed is not ∝ V)
+        # a preset's own voltage law (the T200's speed is not ∝ V); its range is warned below
+        law = supply_law(model, chain, quiet=True)
         if law is None:
             _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
         blocks = list(law[0](supply_voltage).blocks)
@@ -225,6 +226,8 @@ def thruster_predict(
     doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
+    if supply_voltage is not None:
+        doc["warnings"] += supply_voltage_warnings(model, chain, supply_voltage)
     for w in doc["warnings"]:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:

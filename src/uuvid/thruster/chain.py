@@ -386,9 +386,14 @@ def command_range_warnings(x, esc, unit: str = "") -> list[str]:
     bad = x[(x < lo) | (x > hi)]
     if not bad.size:
         return []
+    hint = ""
+    if np.all(np.abs(bad) <= 1.0):
+        hint = (" — these look like duties (−1…1), not pulse widths: give µs, e.g. "
+                f"{esc.saturation_low:g}:{esc.saturation_high:g}:100")
     return [f"{bad.size} command(s) outside {lo:g}–{hi:g} µs, the pulse widths a servo output "
-            f"carries (e.g. {bad[0]:g} µs) — check the unit; the ESC would clip them to "
-            f"{esc.saturation_low:g}/{esc.saturation_high:g} µs"]
+            f"carries (e.g. {bad[0]:g} µs) — check the unit; the ESC expects "
+            f"{esc.saturation_low:g}–{esc.saturation_high:g} µs and would clip them to those "
+            f"ends{hint}"]
 
 
 def monotonicity_warnings(x, y, neutral: float = 0.0, rel_tol: float = 1e-3) -> list[str]:
