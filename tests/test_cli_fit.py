@@ -349,6 +349,27 @@ def test_thrust_sign_reversed_exits_2_naming_the_fix(sheets, tmp_path, model):
     assert "negate the thrust column" in res.output and not out.exists()
 
 
+@pytest.mark.parametrize("model, extra", [("table", []), ("deadzone", ["--map-input", "command"])])
+def test_command_maps_refuse_sheets_at_different_voltages(sheets, tmp_path, model, extra):
+    out = tmp_path / "m.yaml"
+    res = _fit(*sheets, *SHEET_COLS, "--voltage-col", "Voltage", "--model", model, *extra,
+               "--out-model", out)
+    assert res.exit_code == 2, res.output
+    assert "s12.csv at 12 V, s16.csv at 16 V" in res.output and "--model physical" in res.output
+    assert not out.exists()
+    # one voltage (two runs at 12 V) is fine
+    assert _fit(sheets[0], sheets[0], *SHEET_COLS, "--voltage-col", "Voltage", "--model", model,
+                *extra, "--out-model", out).exit_code == 0
+
+
+@pytest.mark.realdata
+def test_table_on_the_12_and_16_volt_t200_sheets_is_refused(shared_data, tmp_path):
+    d = shared_data / "t200-bluerobotics-2019"
+    res = _fit(d / "T200_12V.csv", d / "T200_16V.csv", "--format", "t200", "--model", "table",
+               "--out-model", tmp_path / "t.yaml")
+    assert res.exit_code == 2 and "T200_12V.csv at 12 V, T200_16V.csv at 16 V" in res.output
+
+
 def test_missing_file_exit_2(tmp_path):
     res = _fit(tmp_path / "nope.csv", "--model", "table", "--out", tmp_path / "x.yaml")
     assert res.exit_code == 2 and "no such bench file" in " ".join(res.stderr.split())

@@ -217,6 +217,24 @@ def _rms(e) -> float:
     return float(np.sqrt(np.mean(e**2))) if e.size else math.nan
 
 
+def _one_supply_voltage(sets, what: str, rel_tol: float = 0.02) -> None:
+    """Refuse to merge sheets at different supply voltages into a map of the command (the
+    thrust at a command depends on the voltage: merging would average the sheets silently)."""
+    volts = []
+    for s in sets:
+        if s.supply_voltage is not None:
+            volts.append((s.source or "data", s.nominal_voltage()))
+    if len(volts) < 2:
+        return
+    vs = [v for _, v in volts]
+    if max(vs) - min(vs) <= rel_tol * max(vs):
+        return
+    listing = ", ".join(f"{src} at {v:g} V" for src, v in volts)
+    raise FitError(f"{what}: the files are at different supply voltages ({listing}); a map of the "
+                   "command would average them. Fix: fit one voltage at a time, or use --model "
+                   "physical (it models the supply voltage), or a map of the propeller speed")
+
+
 def _stack(sets):
     from uuvid.io.bench import concat
 
@@ -434,6 +452,8 @@ def _fit_deadzone(sets, name, map_input):
     inp = map_input
     if inp == "auto":
         inp = "speed" if data.speed is not None else "command"
+    if inp == "command":
+        _one_supply_voltage(sets, "--model deadzone on the command")
     sf = fit_deadzone_curve(data, input=inp)
     block = sf.block
     warn, notes = _steady_messages(sf)
@@ -468,6 +488,7 @@ def _fit_deadzone(sets, name, map_input):
 def _fit_table(sets, name, n_points):
     from uuvid.identify.steady import fit_table
 
+    _one_supply_voltage(sets, "--model table")
     data = _stack(sets)
     sf = fit_table(data, n_points)
     chain = _chain((sf.block,), "command", name)
