@@ -47,3 +47,116 @@ def test_supply_voltage_of_a_model_file_is_checked_against_its_esc(tmp_path):
                 if "supply voltage" in w]
     doc = _predict(p, "--pwm", "1600", "--supply-voltage", 4 * v0)
     assert any(f"outside the data's {v0:g} V" in w for w in doc["warnings"])
+
+
+# ------------------------------------------------------------------ vehicle identification
+def _pool_log(tmp_path, name, *, heading_sign=1.0, heading_scale=1.0):
+    """Constant-torque yaw segments of ROMEO (Caccia et al. 2000), heading in rad × scale."""
+    import csv
+
+    import numpy as np
+
+    from uuvid.identify.vehicle_fit import simulate_one_dof
+    from uuvid.vehicle.model import OneDofModel
+
+    dt, seg = 0.1, 30.0
+    rng = np.random.default_rng(0)
+    f = np.concatenate([np.full(int(seg / dt), L) for L in (2.0, 5.0, 9.0, 14.0, -3.0, -7.0,
+                                                          -12.0, -18.0)])
+    t = np.arange(f.size) * dt
+    r = simulate_one_dof(OneDofModel(84.0, 20.5, 49.5), t, f)
+    psi = np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * dt)])
+    psi = heading_sign * heading_scale * (psi + rng.normal(0, 0.004, t.size))
+    p = tmp_path / name
+    with open(p, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["time", "torque", "heading"])
+        w.writerows([f"{a:.3f}", b, c] for a, b, c in zip(t, f, psi))
+    return p
+
+
+def _steady(p, **kw):
+    from uuvid.identify.procedures import identify_steady
+
+    return identify_steady(p, dof="yaw", command_col="torque", position_col="heading",
+                           settle=10, min_duration=10, **kw)
+
+
+def test_heading_reversed_gives_a_negative_drag_warning(tmp_path):
+    good = _steady(_pool_log(tmp_path, "good.csv"))
+    assert not [w for w in good.warnings if "implausible" in w]
+    bad = _steady(_pool_log(tmp_path, "bad.csv", heading_sign=-1.0))
+    hits = [w for w in bad.warnings if w.startswith("implausible yaw") and "drag" in w]
+    assert hits and "opposite signs" in hits[0]
+    assert bad.to_dict()["warnings"] == bad.warnings  # in the JSON too
+
+
+def test_degrees_read_as_radians_are_warned_and_the_unit_fixes_it(tmp_path):
+    import math
+
+    p = _pool_log(tmp_path, "deg.csv", heading_scale=180 / math.pi)
+    res = _steady(p)
+    hits = [w for w in res.warnings if "implausible yaw rates" in w]
+    assert hits and "rad (the default)" in hits[0] and "--angle-unit deg" in hits[0]
+    fixed = _steady(p, angle_unit="deg")
+    assert not [w for w in fixed.warnings if "implausible" in w]
+
+
+def test_centimetres_read_as_metres_are_warned(tmp_path):
+    import numpy as np
+
+    from uuvid.identify.plausibility import rate_warnings
+
+    t = np.arange(0, 60, 0.1)
+    x = 0.3 * t  # 0.3 m/s
+    assert rate_warnings(t, x, "surge", "m", True, angular=False) == []
+    (w,) = rate_warnings(t, 100 * x, "surge", "m", True, angular=False)
+    assert "m (the default)" in w and "--position-unit" in w
+
+
+def test_negative_inertia_is_warned(tmp_path):
+    from uuvid.identify.plausibility import inertia_warnings
+
+    assert inertia_warnings(84.0, 3.0, "yaw", "kg·m²") == []
+    (w,) = inertia_warnings(-84.0, 3.0, "yaw", "kg·m²")
+    assert "implausible yaw inertia -84" in w
+
+
+@pytest.mark.parametrize("reversed_", ["torque", "heading"])
+def test_inertia_from_a_reversed_channel_is_flagged(tmp_path, reversed_):
+    import csv
+
+    import numpy as np
+
+    from uuvid.identify.procedures import identify_inertia
+    from uuvid.identify.vehicle_fit import simulate_one_dof
+    from uuvid.vehicle.model import OneDofModel
+
+    t = np.arange(0.0, 130.0, 0.1)
+    cmd = -5.0 + 4.0 * np.sin(2 * np.pi * t / 24.0)
+    r = simulate_one_dof(OneDofModel(84.0, 20.5, 49.5), t, cmd)
+    psi = np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * 0.1)])
+    psi += np.random.default_rng(1).normal(0, 0.004, t.size)
+
+    def run(name, c, h):
+        p = tmp_path / name
+        with open(p, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["time", "torque", "heading"])
+            w.writerows([f"{a:.3f}", b, x] for a, b, x in zip(t, c, h))
+        return identify_inertia(p, dof="yaw", k=20.5, k_q=49.5, command_col="torque",
+                                position_col="heading").document["warnings"]
+
+    assert not [w for w in run("good.csv", cmd, psi) if "implausible" in w]
+    bad = run("bad.csv", -cmd, psi) if reversed_ == "torque" else run("bad.csv", cmd, -psi)
+    assert any(w.startswith(("implausible yaw fit", "implausible yaw inertia"))
+               and "opposite signs" in w for w in bad)
+
+
+def test_inertia_refuses_a_negative_drag_naming_the_sign(tmp_path):
+    from uuvid.identify.procedures import identify_inertia
+
+    drag = _steady(_pool_log(tmp_path, "bad.csv", heading_sign=-1.0))
+    with pytest.raises(ValueError, match="is negative .*opposite signs"):
+        identify_inertia(_pool_log(tmp_path, "x.csv"), dof="yaw", drag=drag, command_col="torque",
+                         position_col="heading")
