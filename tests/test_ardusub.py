@@ -269,6 +269,15 @@ def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
     np.testing.assert_allclose(d.factor_forces["Z_N"], T @ -np.array(VECTORED, float)[:, 3])
 
 
+def test_export_without_a_vehicle_says_the_forces_are_mixing_sums(tmp_path):
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    d = load_dive(p)
+    (w,) = [w for w in d.warnings if w.startswith("no vehicle given")]
+    assert "mixing-frame sums" in w and "--vehicle" in w and "not N·m" in w
+    assert f"warning: {w}" in d.summary()
+    assert not any(w.startswith("no vehicle given") for w in load_dive(p, vehicle="bluerov2").warnings)
+
+
 def test_thruster_model_file_with_an_esc_follows_the_logged_voltage(tmp_path):
     # was: voltage_aware False, thrust at the file's fixed 12 V whatever the battery said
     from uuvid.io.modelfile import save_chain
