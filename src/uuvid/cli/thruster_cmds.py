@@ -4,6 +4,7 @@ any input, export it to UUV Simulator, predict its steady output (e.g. at anothe
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -136,6 +137,10 @@ def thruster_export(
     table_points: int = typer.Option(
         101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
     ),
+    command_range: str | None = typer.Option(
+        None, "--command-range", help="uuv-simulator: LOW:HIGH input range over which a map "
+        "without an exact conversion (e.g. a polynomial) is tabulated (default: the ESC's range)."
+    ),
 ):
     """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
     import yaml
@@ -147,8 +152,20 @@ def thruster_export(
     out = renamed(out, "--out-file", old_out)
     chain = _load_model(model)
     if to == "uuv-simulator":
+        rng = None
+        if command_range is not None:
+            try:
+                lo, hi = (float(v) for v in command_range.split(":"))
+                if not (lo < hi) or not all(map(math.isfinite, (lo, hi))):
+                    raise ValueError
+            except ValueError:
+                _fail(f"--command-range: expected LOW:HIGH with LOW < HIGH, got {command_range!r}")
+            rng = (lo, hi)
+        if table_points < 2:
+            _fail(f"--table-points: expected at least 2, got {table_points}")
         try:
-            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points)
+            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points,
+                                    command_range=rng)
         except ExportError as e:
             _fail(str(e))
     elif to in ("yaml", "toml"):
