@@ -76,8 +76,12 @@ def test_quadratic_speed_one_direction_only():
 def test_quadratic_speed_with_thrust_reversed_is_an_error_not_a_zero_model():
     d = bench_from_speed()
     rev = BenchData(command=d.command, thrust=-d.thrust, speed=d.speed, source="rev.csv")
-    with pytest.raises(BenchDataError, match=r"rev.csv: K_T_fwd = -.*opposes the input.*Fix"):
+    with pytest.raises(BenchDataError, match=r"rev.csv: thrust has the opposite sign of the "
+                                             r"command .*Fix: negate the thrust column"):
         fit_quadratic_speed(rev)
+    for fit in (fit_polynomial, fit_table, fit_deadzone_curve):  # every steady fit checks
+        with pytest.raises(BenchDataError, match="opposite sign"):
+            fit(rev)
 
 
 def test_quadratic_speed_insignificant_negative_direction_is_a_zero_thrust_warning():

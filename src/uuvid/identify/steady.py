@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.identify.fit import Fit, Parameter, linear_lsq, nonlinear_lsq, residual_figure
+from uuvid.identify.plausibility import check_bench_signs
 from uuvid.identify.regions import Regions
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
 from uuvid.report.result import Result, jsonable
@@ -307,6 +308,7 @@ def fit_quadratic_speed(data: BenchData, *, cov_type: str = "classical") -> Stea
     left out.  ``cov_type`` as in :func:`linear_lsq` (``HC3`` when the noise grows with thrust).
     """
     data.require("thrust", "speed", what="fit_quadratic_speed")
+    check_bench_signs(data)
     m = data.measured & (data.speed != 0)
     src = f"{data.source}: " if data.source else ""
     names = {"forward": "K_T_fwd", "reverse": "K_T_rev"}
@@ -561,6 +563,7 @@ def fit_polynomial(data: BenchData, degree: int | None = None, *, criterion: str
     in the original units (N per (rad/s)^j), highest power first.
     """
     data.require("thrust", "speed", what="fit_polynomial")
+    check_bench_signs(data)
     fits, info, coefs = {}, {"tables": {}, "choices": {}, "notes": []}, {}
     for direction in DIRECTIONS:
         m = data.measured & (np.sign(data.speed) == _SIGN[direction])
@@ -605,6 +608,7 @@ def fit_deadzone_curve(data: BenchData, *, input: str = "command") -> SteadyFit:
     ``x`` = propeller speed [rad/s].  Censored rows are left out.
     """
     data.require("thrust", what="fit_deadzone_curve")
+    check_bench_signs(data)
     if input == "command":
         x = data.command - data.neutral
         unit = data.command_unit
@@ -705,6 +709,7 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     ``"drop"`` leaves them out.
     """
     data.require("thrust", what="fit_table")
+    check_bench_signs(data)
     if censored not in ("zero", "drop"):
         raise ValueError(f"censored must be 'zero' or 'drop', got {censored!r}")
     m = np.ones(len(data), dtype=bool) if censored == "zero" else data.measured
