@@ -160,3 +160,22 @@ def test_inertia_refuses_a_negative_drag_naming_the_sign(tmp_path):
     with pytest.raises(ValueError, match="is negative .*opposite signs"):
         identify_inertia(_pool_log(tmp_path, "x.csv"), dof="yaw", drag=drag, command_col="torque",
                          position_col="heading")
+
+
+# ------------------------------------------------------------------ bench commands in their unit
+def test_bench_commands_must_fit_their_unit():
+    import numpy as np
+
+    from uuvid.identify.plausibility import check_bench_commands
+    from uuvid.io.bench import BenchData, BenchDataError
+
+    duty = np.linspace(-1, 1, 41)
+    thrust = 40 * duty * np.abs(duty)
+    check_bench_commands(BenchData(command=duty, thrust=thrust, command_unit="duty"))
+    check_bench_commands(BenchData(command=1500 + 400 * duty, thrust=thrust))
+    with pytest.raises(BenchDataError, match=r"b.csv: the commands hold -1…1, not pulse widths.*"
+                                             r"pwm_us \(the default\).*--command-unit duty"):
+        check_bench_commands(BenchData(command=duty, thrust=thrust, source="b.csv"))
+    with pytest.raises(BenchDataError, match="look like pulse widths: give --command-unit pwm_us"):
+        check_bench_commands(BenchData(command=1500 + 400 * duty, thrust=thrust,
+                                       command_unit="duty"))

@@ -10,10 +10,35 @@ from uuvid.io.bench import BenchDataError
 _SIGN_AGREEMENT = 0.5
 
 
+def check_bench_commands(data) -> None:
+    """Raise :class:`BenchDataError` when the commands cannot be in the declared unit: PWM
+    outside 800–2200 µs in most rows (e.g. duties −1…1 read as µs) or duties beyond ±1."""
+    from uuvid.thruster.chain import PWM_PLAUSIBLE_US
+
+    c = data.command[np.isfinite(data.command)]
+    if not c.size:
+        return
+    src = f"{data.source}: " if data.source else ""
+    rng = f"{c.min():g}…{c.max():g}"
+    if data.command_unit == "pwm_us":
+        lo, hi = PWM_PLAUSIBLE_US
+        if np.mean((c >= lo) & (c <= hi)) < 0.5:
+            hint = ("they look like duties: give --command-unit duty" if np.all(np.abs(c) <= 1.0)
+                    else "give the command's unit with --command-unit (duty or volts)")
+            raise BenchDataError(f"{src}the commands hold {rng}, not pulse widths: command unit "
+                                 f"pwm_us (the default) expects {lo:g}–{hi:g} µs; {hint}")
+    elif data.command_unit == "duty" and np.any(np.abs(c) > 1.0 + 1e-9):
+        hint = (" — they look like pulse widths: give --command-unit pwm_us"
+                if np.mean((c >= 800) & (c <= 2200)) >= 0.5 else "")
+        raise BenchDataError(f"{src}the commands hold {rng}: a duty is within −1…1{hint}")
+
+
 def check_bench_signs(data, *, min_rows: int = 3) -> None:
-    """Raise :class:`BenchDataError` when a bench file's thrust (or signed speed) has the
-    opposite sign of the command direction in most measured rows (a reversed load cell or
-    column): identification would otherwise return a model with zero or negative thrust."""
+    """Raise :class:`BenchDataError` when a bench file's commands cannot be in their unit
+    (:func:`check_bench_commands`) or its thrust (or signed speed) has the opposite sign of the
+    command direction in most measured rows (a reversed load cell or column): identification
+    would otherwise return a model with zero or negative thrust."""
+    check_bench_commands(data)
     d = data.direction
     for name, unit in (("thrust", "N"), ("speed", "rad/s")):
         y = getattr(data, name)
