@@ -194,6 +194,17 @@ def test_physical_two_sheets_chain_at_supply_voltage(sheets, tmp_path):
     pwm = np.array([1150.0, 1300.0, 1600.0, 1850.0])
     assert chain.steady_thrust(pwm) == pytest.approx(TRUTH.thrust(pwm, 14.0), rel=0.02)
     assert (rep / "fit.png").is_file()
+    assert not any("outside the data" in w for w in doc["warnings"])
+
+
+def test_physical_chain_outside_the_sheets_voltages_is_warned(sheets, tmp_path):
+    doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
+                     "--model", "physical", "--supply-voltage", "48", "--out", tmp_path / "p.yaml",
+                     "--json"))
+    assert any("48 V is outside the data's 12–16 V" in w for w in doc["warnings"])
+    doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
+                     "--model", "physical", "--out", tmp_path / "q.yaml", "--json"))
+    assert any("first file's supply voltage (the default" in n for n in doc["notes"])
 
 
 # ------------------------------------------------------------------------------ dynamic models

@@ -24,7 +24,7 @@ def check_bench_commands(data) -> None:
         lo, hi = PWM_PLAUSIBLE_US
         if np.mean((c >= lo) & (c <= hi)) < 0.5:
             hint = ("they look like duties: give --command-unit duty" if np.all(np.abs(c) <= 1.0)
-                    else "give the command's unit with --command-unit (duty or volts)")
+                    else "give the command's unit: --command-unit duty or --command-unit volts")
             raise BenchDataError(f"{src}the commands hold {rng}, not pulse widths: command unit "
                                  f"pwm_us (the default) expects {lo:g}–{hi:g} µs; {hint}")
     elif data.command_unit == "duty" and np.any(np.abs(c) > 1.0 + 1e-9):

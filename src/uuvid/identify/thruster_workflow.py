@@ -541,11 +541,21 @@ def _fit_physical(sets, name, supply_voltage, linear_duty):
     fig = _direction_figure(f"{name}: physical model (ESC × supply → DC motor → K_T Ω|Ω|)",
                             panels, "command", "thrust [N]")
     extra = {"supply_voltage_V": v, "per_sheet": pf.per_sheet, "physical_model": model.as_dict()}
+    warn = list(pf.fit.warnings)
+    notes = [n for n in pf.notes if n not in pf.fit.warnings]
+    if supply_voltage is None:
+        notes.append(f"the written chain is at {v:g} V, the first file's supply voltage (the "
+                     "default; --supply-voltage sets another)")
+    volts = [s.nominal_voltage() for s in sets]
+    if not min(volts) * 0.95 <= v <= max(volts) * 1.05:
+        span = f"{min(volts):g} V" if min(volts) == max(volts) else f"{min(volts):g}–{max(volts):g} V"
+        warn.append(f"supply voltage {v:g} V is outside the data's {span}: the written chain "
+                    "extrapolates the motor model there, not backed by measurements")
     return FitOutcome("physical", chain, {"physical": pf.fit}, pf.summary(),
-                      _rms(np.concatenate(e_all)), "N", list(pf.fit.warnings), extra,
+                      _rms(np.concatenate(e_all)), "N", warn, extra,
                       figures=[("fit", fig, "Thrust vs command per sheet: data, model and "
                                             "residuals per direction")],
-                      notes=[n for n in pf.notes if n not in pf.fit.warnings])
+                      notes=notes)
 
 
 # ------------------------------------------------------------------------------------------------
