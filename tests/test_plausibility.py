@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
@@ -179,3 +181,65 @@ def test_bench_commands_must_fit_their_unit():
     with pytest.raises(BenchDataError, match="look like pulse widths: give --command-unit pwm_us"):
         check_bench_commands(BenchData(command=1500 + 400 * duty, thrust=thrust,
                                        command_unit="duty"))
+
+
+# ------------------------------------------------------------------ generated inputs
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(kt_f=st.floats(1e-5, 1e-3), kt_r=st.floats(1e-5, 1e-3), noise=st.floats(0.0, 0.3),
+       neutral=st.floats(1450.0, 1550.0), seed=st.integers(0, 2**16))
+def test_generated_reversed_bench_files_never_give_a_silent_model(kt_f, kt_r, noise, neutral, seed):
+    """Any bench sweep with its thrust negated is refused; the same sweep unreversed fits a map
+    whose thrust has the command's sign."""
+    import numpy as np
+
+    from uuvid.identify.steady import fit_quadratic_speed, fit_table
+    from uuvid.io.bench import BenchData, BenchDataError
+
+    rng = np.random.default_rng(seed)
+    pwm = np.arange(1100.0, 1901.0, 20.0)
+    w = 0.9 * (pwm - neutral)
+    t = np.where(w >= 0, kt_f, kt_r) * w * np.abs(w) + rng.normal(0, noise, w.size)
+    good = BenchData(command=pwm, thrust=t, speed=w, neutral=neutral)
+    bad = BenchData(command=pwm, thrust=-t, speed=w, neutral=neutral)
+    for fit in (fit_quadratic_speed, fit_table):
+        with pytest.raises(BenchDataError, match="opposite sign"):
+            fit(bad)
+    q = fit_quadratic_speed(good).block
+    assert q.k_pos > 0 and q.k_neg > 0
+    assert np.all(np.sign(q.thrust(w[w != 0])) == np.sign(w[w != 0]))
+
+
+_keys = st.text("abcdefgh_", min_size=1, max_size=6)
+_trees = st.recursive(st.integers(-5, 5) | st.floats(-1e3, 1e3, allow_nan=False),
+                      lambda kids: st.lists(kids, max_size=3)
+                      | st.dictionaries(_keys, kids, min_size=1, max_size=4), max_leaves=12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(doc=st.dictionaries(_keys, _trees, min_size=1, max_size=4), data=st.data())
+def test_generated_yaml_with_a_repeated_key_is_refused_with_its_path(doc, data):
+    """Dump a random document, repeat one mapping key somewhere: the reader names its path."""
+    import yaml
+
+    from uuvid.io.modelfile import ModelFileError, load_yaml_unique
+
+    assert load_yaml_unique(yaml.safe_dump(doc), "g.yaml") == doc
+    # every mapping with its key path
+    maps, stack = [], [(doc, "")]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, dict):
+            maps.append((node, path))
+            stack += [(v, f"{path}.{k}" if path else k) for k, v in node.items()]
+        elif isinstance(node, list):
+            stack += [(v, f"{path}[{i}]") for i, v in enumerate(node)]
+    target, path = data.draw(st.sampled_from(maps))
+    key = data.draw(st.sampled_from(sorted(target)))
+    target["zz_dup_marker"] = None  # placeholder replaced in the text below
+    text = yaml.safe_dump(doc, sort_keys=False, default_flow_style=True, width=10**6)
+    del target["zz_dup_marker"]
+    text = text.replace("zz_dup_marker: null", f"{key}: 0", 1)
+    with pytest.raises(ModelFileError) as exc:
+        load_yaml_unique(text, "g.yaml")
+    full = f"{path}.{key}" if path else key
+    assert str(exc.value).startswith(f"g.yaml: duplicated key {full} ")
