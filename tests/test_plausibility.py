@@ -99,7 +99,7 @@ def test_degrees_read_as_radians_are_warned_and_the_unit_fixes_it(tmp_path):
     p = _pool_log(tmp_path, "deg.csv", heading_scale=180 / math.pi)
     res = _steady(p)
     hits = [w for w in res.warnings if "implausible yaw rates" in w]
-    assert hits and "rad (the default)" in hits[0] and "--angle-unit deg" in hits[0]
+    assert hits and "read in rad, the default" in hits[0] and "--angle-unit deg" in hits[0]
     fixed = _steady(p, angle_unit="deg")
     assert not [w for w in fixed.warnings if "implausible" in w]
 
@@ -113,7 +113,7 @@ def test_centimetres_read_as_metres_are_warned(tmp_path):
     x = 0.3 * t  # 0.3 m/s
     assert rate_warnings(t, x, "surge", "m", True, angular=False) == []
     (w,) = rate_warnings(t, 100 * x, "surge", "m", True, angular=False)
-    assert "m (the default)" in w and "--position-unit" in w
+    assert "read in m, the default" in w and "--position-unit" in w
 
 
 def test_negative_inertia_is_warned(tmp_path):

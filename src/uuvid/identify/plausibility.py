@@ -127,7 +127,7 @@ def rate_warnings(t, x, dof: str, unit: str, defaulted: bool, angular: bool,
     if r90 <= limit:
         return []
     si = "rad" if angular else "m"
-    how = f"{unit} (the default)" if defaulted else unit
+    how = f"{unit}, the default" if defaulted else unit
     if angular:
         fix = ("is the angle in degrees? give --angle-unit deg" if unit == "rad" else
                "check --angle-unit")
