@@ -116,6 +116,18 @@ def test_centimetres_read_as_metres_are_warned(tmp_path):
     assert "read in m, the default" in w and "--position-unit" in w
 
 
+def test_a_heading_wrapping_while_spinning_is_not_a_unit_mistake():
+    import numpy as np
+
+    from uuvid.identify.plausibility import rate_warnings
+
+    t = np.arange(0, 60, 0.1)
+    psi = (1.5 * t + np.pi) % (2 * np.pi) - np.pi  # 1.5 rad/s, wrapped every 4.2 s
+    assert rate_warnings(t, psi, "yaw", "rad", True, angular=True) == []
+    (w,) = rate_warnings(t, np.degrees(psi), "yaw", "rad", True, angular=True)
+    assert "--angle-unit deg" in w
+
+
 def test_negative_inertia_is_warned(tmp_path):
     from uuvid.identify.plausibility import inertia_warnings
 

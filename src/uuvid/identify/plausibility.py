@@ -110,6 +110,12 @@ def rate_warnings(t, x, dof: str, unit: str, defaulted: bool, angular: bool,
     t, x = t[ok], x[ok]
     if t.size < 4:
         return []
+    if angular:  # a heading wrapping at ±π (a jump of about 2π) is not a fast turn
+        o = np.argsort(t, kind="stable")
+        t, d = t[o], np.diff(x[o])
+        wrap = np.abs(np.abs(d) - 2 * np.pi) < 1.0
+        d[wrap] -= np.sign(d[wrap]) * 2 * np.pi
+        x = np.concatenate(([x[o][0]], x[o][0] + np.cumsum(d)))
     dt = np.diff(t)
     dt = dt[dt > 0]
     if not dt.size:
