@@ -255,3 +255,28 @@ def test_generated_yaml_with_a_repeated_key_is_refused_with_its_path(doc, data):
         load_yaml_unique(text, "g.yaml")
     full = f"{path}.{key}" if path else key
     assert str(exc.value).startswith(f"g.yaml: duplicated key {full} ")
+
+
+def test_a_field_read_says_which_default_depth_it_took(tmp_path):
+    pytest.importorskip("pymavlink")
+    import struct
+
+    import numpy as np
+    from pymavlink import mavutil
+    from pymavlink.dialects.v20 import ardupilotmega as mv
+
+    from uuvid.identify.vehicle_logs import read_vehicle_log
+
+    p = tmp_path / "heave.tlog"
+    p.touch()
+    log = mavutil.mavlink_connection(str(p), write=True)
+    sub = mv.MAVLink(None, srcSystem=1, srcComponent=1)
+    for k in range(200):
+        ms = 5000 + 100 * k
+        for msg in (sub.global_position_int_encode(ms, 0, 0, 0, int(-1000 - 5 * k), 0, 0, 0, 0),
+                    sub.named_value_float_encode(ms, b"heave", float(np.sin(k / 20)))):
+            log.write(struct.pack(">Q", int(1.7e15 + ms * 1000)) + msg.pack(sub))
+    log.close()
+    data = read_vehicle_log(p, "heave", fields=["command=NAMED_VALUE_FLOAT.value"])
+    assert any(n.startswith("depth: -GLOBAL_POSITION_INT.relative_alt, the default of a --field")
+               for n in data.notes), data.notes

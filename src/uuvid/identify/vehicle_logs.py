@@ -755,6 +755,11 @@ def _read_ardusub_fields(spec: LogSpec) -> LogData:
     data = _from_channels(out, spec, info, command=cmd)
     used = out["position"].meta.get("original_names", {}).get("position", req["position"])
     names = {"command": raw.get("command", "servo outputs"), "position": used}
+    if "position" not in raw and spec.dof == "heave":  # say which default depth was taken
+        data.info.setdefault("notes", []).append(
+            f"depth: {used}, the default of a --field read (an altitude the autopilot reports); "
+            "without --field command=… the water-pressure sensor (BARO_PRIMARY) is used — give "
+            "--field position=… to choose")
     return _finish(data, spec, names, servo)
 
 
