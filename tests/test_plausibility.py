@@ -31,10 +31,11 @@ def test_pwm_in_range_has_no_warning():
     assert _predict("t200", "--pwm", "1100:1900:100")["warnings"] == []
 
 
+@pytest.mark.parametrize("model", ["t200", "t200-physical"])
 @pytest.mark.parametrize("volts, warned", [(48, True), (6, True), (12, False), (16, False),
                                            (16.8, False)])
-def test_supply_voltage_outside_the_sheets_is_warned(volts, warned):
-    doc = _predict("t200", "--pwm", "1900", "--supply-voltage", volts)
+def test_supply_voltage_outside_the_sheets_is_warned(model, volts, warned):
+    doc = _predict(model, "--pwm", "1900", "--supply-voltage", volts)
     hit = [w for w in doc["warnings"] if "outside the data's 12–16 V" in w]
     assert bool(hit) == warned, doc["warnings"]
 

@@ -106,7 +106,7 @@ def supply_voltage_range(ref, chain) -> tuple[float, float, str] | None:
     v0 = supply_voltage_of(chain)
     if v0 is None:
         return None
-    if str(ref) == "t200":
+    if str(ref) == "t200" or str(ref) in PHYSICAL_PRESETS:  # both fitted on the 12 and 16 V sheets
         return (*T200_SHEET_VOLTS, "Blue Robotics' T200 sheets")
     return v0, v0, f"model {chain.name}'s ESC (its supply_voltage)"
 
