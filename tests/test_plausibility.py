@@ -281,3 +281,17 @@ def test_a_field_read_says_which_default_depth_it_took(tmp_path):
     data = read_vehicle_log(p, "heave", fields=["command=NAMED_VALUE_FLOAT.value"])
     assert any(n.startswith("depth: -GLOBAL_POSITION_INT.relative_alt, the default of a --field")
                for n in data.notes), data.notes
+
+
+def test_a_model_that_gives_zero_thrust_everywhere_is_warned(tmp_path):
+    from uuvid.io.modelfile import save_chain
+    from uuvid.thruster.blocks import QuadraticMap
+    from uuvid.thruster.chain import ThrusterChain
+
+    zero = save_chain(ThrusterChain((QuadraticMap(k_pos=0.0, k_neg=0.0),), "speed", "z"),
+                      tmp_path / "z.yaml")
+    doc = _predict(zero, "--speed", "-300:300:100")
+    assert any("zero output at all 6 inputs" in w for w in doc["warnings"])
+    # a model that pushes is not warned
+    assert not [w for w in _predict("t200", "--pwm", "1100:1900:100")["warnings"]
+                if "zero output" in w]

@@ -208,7 +208,12 @@ def thruster_predict(
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
-    from uuvid.thruster.chain import ThrusterChain, command_range_warnings, monotonicity_warnings
+    from uuvid.thruster.chain import (
+        ThrusterChain,
+        command_range_warnings,
+        monotonicity_warnings,
+        zero_output_warnings,
+    )
     from uuvid.thruster.resolve import supply_law, supply_voltage_warnings
 
     chain = _load_model(model)
@@ -240,7 +245,8 @@ def thruster_predict(
     if supply_voltage is not None:
         doc["supply_voltage_V"] = supply_voltage
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
-    doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
+    doc["warnings"] = zero_output_warnings(x, thrust, neutral) + monotonicity_warnings(
+        x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
     if supply_voltage is not None:

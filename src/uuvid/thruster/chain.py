@@ -396,6 +396,18 @@ def command_range_warnings(x, esc, unit: str = "") -> list[str]:
             f"ends{hint}"]
 
 
+def zero_output_warnings(x, y, neutral: float = 0.0) -> list[str]:
+    """One sentence when a steady map gives exactly zero at every input away from ``neutral``
+    (e.g. a quadratic fit whose coefficients were clamped to 0): a model that cannot push."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    away = x != neutral
+    if not away.any() or np.any(y[away] != 0) or np.any(~np.isfinite(y[away])):
+        return []
+    return [f"the model gives zero output at all {int(away.sum())} inputs away from neutral "
+            f"({x[away].min():g}…{x[away].max():g}): it cannot push — check the model file (a fit "
+            "of data with a reversed thrust sign, or inputs inside its dead band)"]
+
+
 def monotonicity_warnings(x, y, neutral: float = 0.0, rel_tol: float = 1e-3) -> list[str]:
     """Where a steady map ``y(x)`` stops growing in magnitude away from ``neutral``.
 
