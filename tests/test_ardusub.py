@@ -156,7 +156,7 @@ def write_bin(path: Path, sc, *, prm=None, reboot_at=None, omit=()) -> Path:
 
 # ------------------------------------------------------------------------------ telemetry
 def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reboot_at=None,
-               vfr_alt=0.0, with_params=True, gpi=True) -> Path:
+               vfr_alt=0.0, with_params=True, gpi=True, pressure=False, ekf_swing=0.0) -> Path:
     """Telemetry log of the scenario as QGroundControl saves it: receive stamps quantised to
     50 ms batches (many exact duplicates) and one message saved twice; VFR_HUD.alt = 0 (no EKF
     origin); a BlueOS companion (component 194) with its own boot clock 1130 s ahead sending a
@@ -202,10 +202,11 @@ def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reb
         put(ap, tu + lat, att)
         if k == 50:
             put(ap, tu + lat, att)  # the same message saved twice
-        if gpi:
+        if gpi:  # the EKF's altitude, swinging by ekf_swing [m] as on deck
+            ekf = sc["depth"][k] + ekf_swing * math.sin(2 * math.pi * t[k] / 9.0)
             put(ap, tu + lat + 0.001, ap.global_position_int_encode(
-                ms, 0, 0, 0, int(round(-sc["depth"][k] * 1000)), 0, 0, 0, 0))
-        else:  # only the barometers: instance 0 in the enclosure, 1 in the water
+                ms, 0, 0, 0, int(round(-ekf * 1000)), 0, 0, 0, 0))
+        if not gpi or pressure:  # the barometers: instance 0 in the enclosure, 1 in the water
             put(ap, tu + lat + 0.001, ap.scaled_pressure_encode(ms, 980.0, 0, 3000))
             put(ap, tu + lat + 0.001, ap.scaled_pressure2_encode(
                 ms, 1000.0 + 98.0665 * sc["depth"][k], 0, 1500))
@@ -267,6 +268,15 @@ def test_wrong_vehicle_is_an_error_naming_the_difference(tmp_path):
     np.testing.assert_allclose(d.table[["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]], W)
     # the mixing-factor force stays available beside the physical wrench
     np.testing.assert_allclose(d.factor_forces["Z_N"], T @ -np.array(VECTORED, float)[:, 3])
+
+
+def test_export_without_a_vehicle_says_the_forces_are_mixing_sums(tmp_path):
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    d = load_dive(p)
+    (w,) = [w for w in d.warnings if w.startswith("no vehicle given")]
+    assert "mixing-frame sums" in w and "--vehicle" in w and "not N·m" in w
+    assert f"warning: {w}" in d.summary()
+    assert not any(w.startswith("no vehicle given") for w in load_dive(p, vehicle="bluerov2").warnings)
 
 
 def test_thruster_model_file_with_an_esc_follows_the_logged_voltage(tmp_path):
@@ -470,6 +480,28 @@ def test_tlog_depth_from_relative_alt_when_vfr_hud_alt_is_zero(tmp_path):
     np.testing.assert_allclose(d.table["depth_m"], np.interp(t, sc["t"], sc["depth"]), atol=1e-3)
 
 
+def test_tlog_depth_from_the_water_pressure_sensor_by_default(tmp_path):
+    """As in a .BIN: BARO_PRIMARY's pressure relative to its ground pressure, not the EKF's
+    relative_alt (which swings ±0.3 m here); the source is named in the provenance."""
+    sc = scenario(n=300)
+    prm = {**params(), "BARO2_GND_PRESS": 100000.0}  # 1000 hPa at the surface
+    d = load_dive(write_tlog(tmp_path / "d.tlog", sc, prm=prm, pressure=True, ekf_swing=0.3))
+    assert d.depth_source["message"] == "SCALED_PRESSURE2"
+    assert "BARO_PRIMARY" in d.depth_source["why"] and "BARO2_GND_PRESS" in d.depth_source["why"]
+    assert d.provenance["depth_m"]["source"] == "SCALED_PRESSURE2.press_abs − BARO2_GND_PRESS"
+    assert not any("lowest pressure" in w for w in d.warnings)
+    t = d.table["t_s"].to_numpy() + d.provenance["t_s"]["t0_boot_s"] - BOOT0
+    np.testing.assert_allclose(d.table["depth_m"], np.interp(t, sc["t"], sc["depth"]), atol=2e-3)
+    out = d.export(tmp_path / "o.csv")
+    side = json.loads(out.with_name("o.csv.json").read_text())
+    assert side["depth_source"]["message"] == "SCALED_PRESSURE2"
+    assert "depth: SCALED_PRESSURE2.press_abs" in d.summary()
+    # without BARO_PRIMARY the log does not say which sensor is in the water: the EKF's altitude
+    prm.pop("BARO_PRIMARY")
+    d2 = load_dive(write_tlog(tmp_path / "e.tlog", sc, prm=prm, pressure=True, ekf_swing=0.3))
+    assert d2.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
+
+
 def test_tlog_depth_from_primary_pressure_when_no_position_message(tmp_path):
     sc = scenario(n=300)
     d = load_dive(write_tlog(tmp_path / "d.tlog", sc, gpi=False))
@@ -646,8 +678,9 @@ def test_real_logs_inspect_and_export_without_options(shared_data, tmp_path, nam
     assert [m.direction for m in ins.config.active] == dirs
     d = load_dive(p)
     d.export(tmp_path / "o.csv")
-    if name.endswith(".tlog"):
-        assert d.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
+    if name.endswith(".tlog"):  # on deck: the water-pressure sensor stays within 3 cm
+        assert d.depth_source["source"] == "SCALED_PRESSURE2.press_abs − BARO2_GND_PRESS"
+        assert np.nanmax(np.abs(d.table["depth_m"])) < 0.04
     # hand computation on the real PWM: factors × direction × T200 thrust
     from uuvid.io.ardusub.frames import factor_matrix
 

@@ -194,6 +194,17 @@ def test_physical_two_sheets_chain_at_supply_voltage(sheets, tmp_path):
     pwm = np.array([1150.0, 1300.0, 1600.0, 1850.0])
     assert chain.steady_thrust(pwm) == pytest.approx(TRUTH.thrust(pwm, 14.0), rel=0.02)
     assert (rep / "fit.png").is_file()
+    assert not any("outside the data" in w for w in doc["warnings"])
+
+
+def test_physical_chain_outside_the_sheets_voltages_is_warned(sheets, tmp_path):
+    doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
+                     "--model", "physical", "--supply-voltage", "48", "--out", tmp_path / "p.yaml",
+                     "--json"))
+    assert any("48 V is outside the data's 12–16 V" in w for w in doc["warnings"])
+    doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
+                     "--model", "physical", "--out", tmp_path / "q.yaml", "--json"))
+    assert any("first file's supply voltage (the default" in n for n in doc["notes"])
 
 
 # ------------------------------------------------------------------------------ dynamic models
@@ -328,6 +339,46 @@ def test_warnings_are_said_once(sheets, tmp_path):
     both = " ".join((res.stdout + res.stderr).split())
     for w in doc["warnings"]:
         assert both.count(" ".join(w.split())) == 1, w
+
+
+@pytest.mark.parametrize("model", ["quadratic", "polynomial", "table", "deadzone", "physical"])
+def test_thrust_sign_reversed_exits_2_naming_the_fix(sheets, tmp_path, model):
+    rows = list(csv.reader(open(sheets[0])))
+    k = rows[0].index("Force (kgf)")
+    path = tmp_path / "reversed.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(rows[0])
+        for r in rows[1:]:
+            r[k] = repr(-float(r[k]))
+            w.writerow(r)
+    out = tmp_path / "m.yaml"
+    res = _fit(path, *SHEET_COLS, "--voltage-col", "Voltage", "--current-col", "Current",
+               "--model", model, "--out-model", out)
+    assert res.exit_code == 2, res.output
+    assert "reversed.csv: thrust has the opposite sign of the command" in res.output
+    assert "negate the thrust column" in res.output and not out.exists()
+
+
+@pytest.mark.parametrize("model, extra", [("table", []), ("deadzone", ["--map-input", "command"])])
+def test_command_maps_refuse_sheets_at_different_voltages(sheets, tmp_path, model, extra):
+    out = tmp_path / "m.yaml"
+    res = _fit(*sheets, *SHEET_COLS, "--voltage-col", "Voltage", "--model", model, *extra,
+               "--out-model", out)
+    assert res.exit_code == 2, res.output
+    assert "s12.csv at 12 V, s16.csv at 16 V" in res.output and "--model physical" in res.output
+    assert not out.exists()
+    # one voltage (two runs at 12 V) is fine
+    assert _fit(sheets[0], sheets[0], *SHEET_COLS, "--voltage-col", "Voltage", "--model", model,
+                *extra, "--out-model", out).exit_code == 0
+
+
+@pytest.mark.realdata
+def test_table_on_the_12_and_16_volt_t200_sheets_is_refused(shared_data, tmp_path):
+    d = shared_data / "t200-bluerobotics-2019"
+    res = _fit(d / "T200_12V.csv", d / "T200_16V.csv", "--format", "t200", "--model", "table",
+               "--out-model", tmp_path / "t.yaml")
+    assert res.exit_code == 2 and "T200_12V.csv at 12 V, T200_16V.csv at 16 V" in res.output
 
 
 def test_missing_file_exit_2(tmp_path):

@@ -95,3 +95,75 @@ def test_predict_warns_about_implausible_pwm():
     res = runner.invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1100:1900:100",
                               "--json"])
     assert not any("check the unit" in w for w in json.loads(res.stdout)["warnings"])
+
+
+# ------------------------------------------------------------------ quadratic and polynomial fits
+def test_asymmetric_quadratic_exports_exactly_as_bessa_with_zero_delta():
+    chain = ThrusterChain((QuadraticMap(k_pos=3.7e-4, k_neg=2.9e-4),), input_kind="speed")
+    xml = to_uuv_simulator(chain)
+    head = xml.splitlines()[0]
+    assert "exact" in head and "deltaL = deltaR = 0" in head and "the speed" in head
+    back = from_uuv_simulator(xml)
+    assert back.blocks[1] == DeadZoneMap(2.9e-4, 3.7e-4, 0.0, 0.0)
+    w = np.linspace(-400, 400, 81)
+    np.testing.assert_allclose(back.steady_thrust(w), chain.steady_thrust(w), rtol=1e-12, atol=0)
+
+
+def test_first_order_motor_gain_folds_into_a_quadratic_conversion_exactly():
+    from uuvid.thruster.blocks import FirstOrderMotor
+
+    chain = ThrusterChain((FirstOrderMotor(gain=20.0, time_constant=0.1),
+                           QuadraticMap(k_pos=3.7e-4, k_neg=2.9e-4)), input_kind="voltage")
+    xml = to_uuv_simulator(chain)
+    assert "exact" in xml.splitlines()[0] and "K_m²" in xml.splitlines()[0]
+    back = from_uuv_simulator(xml)
+    v = np.linspace(-16, 16, 33)
+    np.testing.assert_allclose(back.steady_thrust(v), chain.steady_thrust(v), rtol=1e-12)
+    r1 = chain.simulate(lambda t: 12 * np.sin(3 * t), 2.0)
+    r2 = back.simulate(lambda t: 12 * np.sin(3 * t), 2.0)
+    np.testing.assert_allclose(r2["thrust"], r1["thrust"], rtol=1e-9, atol=1e-9)
+
+
+def test_cli_exports_quadratic_and_polynomial_maps(tmp_path):
+    from uuvid.thruster.blocks import PolynomialMap
+    from uuvid.thruster.modelfile import save_chain
+
+    runner = CliRunner()
+    q = save_chain(ThrusterChain((QuadraticMap(k_pos=3.7e-4, k_neg=2.9e-4),), "speed", "q"),
+                   tmp_path / "q.yaml")
+    res = runner.invoke(app, ["thruster", "export", str(q), "--to", "uuv-simulator"])
+    assert res.exit_code == 0, res.output
+    assert "<type>Bessa</type>" in res.stdout
+    poly = ThrusterChain((PolynomialMap(forward=(1e-7, 3e-4, 0.0, 0.0),
+                                        reverse=(2e-4, 0.0, 0.0)),), "speed", "p")
+    p = save_chain(poly, tmp_path / "p.yaml")
+    res = runner.invoke(app, ["thruster", "export", str(p), "--to", "uuv-simulator"])
+    assert res.exit_code == 2 and "--command-range LOW:HIGH" in res.output
+    res = runner.invoke(app, ["thruster", "export", str(p), "--to", "uuv-simulator",
+                              "--command-range", "-300:300", "--table-points", "61"])
+    assert res.exit_code == 0, res.output
+    back = from_uuv_simulator(res.stdout)
+    x = np.array(back.blocks[1].input_values)
+    assert x[0] == -300 and x[-1] == 300 and x.size == 61
+    np.testing.assert_allclose(back.blocks[1].output_values, poly.steady_thrust(x), rtol=1e-9)
+    res = runner.invoke(app, ["thruster", "export", str(p), "--to", "uuv-simulator",
+                              "--command-range", "300:-300"])
+    assert res.exit_code == 2 and "LOW < HIGH" in res.output
+
+
+@pytest.mark.realdata
+def test_t200_quadratic_fit_exports_from_the_cli(shared_data, tmp_path):
+    runner = CliRunner()
+    sheet = shared_data / "t200-bluerobotics-2019" / "T200_16V.csv"
+    model = tmp_path / "q.yaml"
+    res = runner.invoke(app, ["thruster", "fit", str(sheet), "--format", "t200", "--model",
+                              "quadratic", "--out-model", str(model)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["thruster", "export", str(model), "--to", "uuv-simulator"])
+    assert res.exit_code == 0, res.output
+    back = from_uuv_simulator(res.stdout)
+    from uuvid.thruster.modelfile import load_chain
+
+    w = np.linspace(-380, 380, 39)
+    np.testing.assert_allclose(back.steady_thrust(w), load_chain(model).steady_thrust(w),
+                               rtol=1e-12)

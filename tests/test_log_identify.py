@@ -368,6 +368,7 @@ def test_tlog_duplicates_reboot_and_a_signed_field(tmp_path):
     neg = _json("vehicle", "identify", "steady", dup, *cols, "--field",
                 "position=-ATTITUDE.yaw", "--no-quadratic")
     assert neg["parameters"]["k"]["estimate"] < 0
+    assert any(w.startswith("implausible yaw linear drag") for w in neg["warnings"])
 
 
 # ------------------------------------------------------------------------------------ ROS 2 bag

@@ -73,6 +73,39 @@ def test_quadratic_speed_one_direction_only():
     assert any("no reverse samples" in n for n in r.warnings)
 
 
+def test_quadratic_speed_with_thrust_reversed_is_an_error_not_a_zero_model():
+    d = bench_from_speed()
+    rev = BenchData(command=d.command, thrust=-d.thrust, speed=d.speed, source="rev.csv")
+    with pytest.raises(BenchDataError, match=r"rev.csv: thrust has the opposite sign of the "
+                                             r"command .*Fix: negate the thrust column"):
+        fit_quadratic_speed(rev)
+    for fit in (fit_polynomial, fit_table, fit_deadzone_curve):  # every steady fit checks
+        with pytest.raises(BenchDataError, match="opposite sign"):
+            fit(rev)
+
+
+def test_quadratic_speed_insignificant_negative_direction_is_a_zero_thrust_warning():
+    d = bench_from_speed(noise=0.0)
+    rev = d.speed < 0
+    t = d.thrust.copy()
+    # reverse: a slope of -1e-6 (0.3 % of the forward one) under ±0.5 N scatter: not significant
+    h = -d.speed[rev] ** 2  # the regressor Ω|Ω|
+    e = 0.5 * (-1.0) ** np.arange(h.size)
+    e -= h * (h @ e) / (h @ h)  # scatter orthogonal to the regressor: the LS slope stays -1e-6
+    t[rev] = -1e-6 * h + e
+    r = fit_quadratic_speed(BenchData(command=d.command, thrust=t, speed=d.speed))
+    kn = r.reverse["K_T_rev"]
+    assert kn.value < 0 and -kn.value < 2 * kn.stderr
+    assert r.block.k_neg == 0.0 and r.block.k_pos == pytest.approx(3.6e-4)
+    assert any(n.startswith("zero thrust reverse") for n in r.info["notes"])
+
+
+def test_cv_with_thrust_reversed_is_an_error():
+    v = np.linspace(-20, 20, 41)
+    with pytest.raises(BenchDataError, match="c_V_fwd = -"):
+        fit_cv(v, -1.02 * v * np.abs(v))
+
+
 def test_quadratic_speed_needs_speed():
     with pytest.raises(BenchDataError, match="needs a propeller speed column"):
         fit_quadratic_speed(BenchData(command=[1500, 1600], thrust=[0, 1]))

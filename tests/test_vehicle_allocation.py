@@ -148,12 +148,12 @@ def test_compiled_allocator_matches_python():
     for modes, comp in [((), False), (("horizontal_all", "vertical_all"), True),
                         ("surge_front", False)]:
         al = v.allocator(modes, compensate_eta=comp)
-        a = al.to_array()
+        a = al.to_array("scale")
         for scale in (1.0, 100.0, 1000.0):
             w = rng.normal(size=6) * scale
             tau = np.empty(8)
             s = allocate_compiled(a, w, tau)
-            res = al.allocate(w)
+            res = al.allocate(w, saturation="scale")
             assert np.allclose(tau, res.thrust, rtol=1e-12, atol=1e-12)
             if res.saturated:
                 assert s < 1 and np.isclose(s, al.max_along(w))
@@ -261,3 +261,26 @@ def test_lp_force_is_unbounded_without_limits_and_zero_when_impossible():
     assert max_force_lp(B, -inf, inf, 0, 1, [0, 1, 2, 5]) == math.inf
     # pitch with the vertical pair at x = 0 and no surge allowed: nothing
     assert max_force_lp(B, -np.ones(6), np.ones(6), 4, 1, [0, 1, 2, 4, 5]) == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("name", ["bluerov2", "bluerov2-heavy"])
+def test_default_allocation_delivers_feasible_wrenches_exactly(name):
+    """Feasible wrenches that uniform scaling of ``T φ`` would shrink are delivered exactly."""
+    v = load_vehicle(name)
+    al = v.allocator()
+    ctl = list(al.controlled)
+    lo, hi = v.layout.limits.T
+    rng = np.random.default_rng(11)
+    checked = 0
+    for _ in range(400):
+        x = rng.uniform(lo, hi)  # thrusts within the limits: their wrench is feasible
+        w = np.zeros(6)
+        w[ctl] = (v.B @ x)[ctl]
+        if al.max_along(w) >= 1.0:
+            continue  # scaling would deliver it too; keep the cases that tell the methods apart
+        res = al.allocate(w)
+        assert res.saturation == "priority" and res.fraction == 1.0
+        assert np.allclose((v.B @ res.thrust)[ctl], w[ctl], atol=1e-8 * max(1.0, abs(w).max()))
+        assert np.all(res.thrust <= hi + 1e-9) and np.all(res.thrust >= lo - 1e-9)
+        checked += 1
+    assert checked >= 20

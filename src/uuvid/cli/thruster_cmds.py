@@ -4,6 +4,7 @@ any input, export it to UUV Simulator, predict its steady output (e.g. at anothe
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -136,6 +137,10 @@ def thruster_export(
     table_points: int = typer.Option(
         101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
     ),
+    command_range: str | None = typer.Option(
+        None, "--command-range", help="uuv-simulator: LOW:HIGH input range over which a map "
+        "without an exact conversion (e.g. a polynomial) is tabulated (default: the ESC's range)."
+    ),
 ):
     """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
     import yaml
@@ -147,8 +152,20 @@ def thruster_export(
     out = renamed(out, "--out-file", old_out)
     chain = _load_model(model)
     if to == "uuv-simulator":
+        rng = None
+        if command_range is not None:
+            try:
+                lo, hi = (float(v) for v in command_range.split(":"))
+                if not (lo < hi) or not all(map(math.isfinite, (lo, hi))):
+                    raise ValueError
+            except ValueError:
+                _fail(f"--command-range: expected LOW:HIGH with LOW < HIGH, got {command_range!r}")
+            rng = (lo, hi)
+        if table_points < 2:
+            _fail(f"--table-points: expected at least 2, got {table_points}")
         try:
-            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points)
+            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points,
+                                    command_range=rng)
         except ExportError as e:
             _fail(str(e))
     elif to in ("yaml", "toml"):
@@ -191,8 +208,13 @@ def thruster_predict(
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
-    from uuvid.thruster.chain import ThrusterChain, command_range_warnings, monotonicity_warnings
-    from uuvid.thruster.resolve import supply_law
+    from uuvid.thruster.chain import (
+        ThrusterChain,
+        command_range_warnings,
+        monotonicity_warnings,
+        zero_output_warnings,
+    )
+    from uuvid.thruster.resolve import supply_law, supply_voltage_warnings
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -204,7 +226,8 @@ def thruster_predict(
     if supply_voltage is not None:
         if supply_voltage <= 0:
             _fail(f"--supply-voltage must be positive, got {supply_voltage}")
-        law = supply_law(model, chain)  # a preset's own voltage law (the T200's speed is not ∝ V)
+        # a preset's own voltage law (the T200's speed is not ∝ V); its range is warned below
+        law = supply_law(model, chain, quiet=True)
         if law is None:
             _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
         blocks = list(law[0](supply_voltage).blocks)
@@ -222,9 +245,12 @@ def thruster_predict(
     if supply_voltage is not None:
         doc["supply_voltage_V"] = supply_voltage
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
-    doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
+    doc["warnings"] = zero_output_warnings(x, thrust, neutral) + monotonicity_warnings(
+        x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
+    if supply_voltage is not None:
+        doc["warnings"] += supply_voltage_warnings(model, chain, supply_voltage)
     for w in doc["warnings"]:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:

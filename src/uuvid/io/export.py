@@ -100,19 +100,30 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
     dyn_el, gain = _dynamics_element(dyn)
     if isinstance(dyn, FirstOrderMotor):
         notes.append(f"first-order motor gain K_m = {gain:g} moved into the conversion")
-    simple = (not before and len(after) == 1 and gain == 1.0
-              and isinstance(after[0], (QuadraticMap, DeadZoneMap, TableMap))
-              and not (isinstance(after[0], QuadraticMap) and after[0].k_pos != after[0].k_neg))
+    # x|x| maps absorb a gain g exactly (g x)|g x| = g² x|x|; a table does not
+    simple = (not before and len(after) == 1
+              and (isinstance(after[0], (QuadraticMap, DeadZoneMap))
+                   or (isinstance(after[0], TableMap) and gain == 1.0)))
     if simple:
         c = after[0]
+        g2 = gain * gain
+        if gain != 1.0:
+            notes[-1] = (f"first-order motor gain K_m = {gain:g} moved into the conversion "
+                         f"(rotor constants × K_m², dead-zone widths / K_m²: exact)")
         conv = ET.Element("conversion")
-        if isinstance(c, QuadraticMap):
+        if isinstance(c, QuadraticMap) and c.k_pos == c.k_neg:
             ET.SubElement(conv, "type").text = "Basic"
-            ET.SubElement(conv, "rotorConstant").text = _fmt(c.k_pos)
-        elif isinstance(c, DeadZoneMap):
+            ET.SubElement(conv, "rotorConstant").text = _fmt(c.k_pos * g2)
+        elif isinstance(c, (QuadraticMap, DeadZoneMap)):
+            if isinstance(c, QuadraticMap):  # per direction: Bessa's conversion with δ = 0
+                c = DeadZoneMap(rotor_constant_l=c.k_neg, rotor_constant_r=c.k_pos)
+                notes.append("quadratic map with k_pos ≠ k_neg written as the Bessa conversion "
+                             "with deltaL = deltaR = 0 (rotorConstantL = k_neg, rotorConstantR = "
+                             "k_pos)")
             ET.SubElement(conv, "type").text = "Bessa"
-            for tag, v in (("rotorConstantL", c.rotor_constant_l), ("rotorConstantR", c.rotor_constant_r),
-                           ("deltaL", c.delta_l), ("deltaR", c.delta_r)):
+            for tag, v in (("rotorConstantL", c.rotor_constant_l * g2),
+                           ("rotorConstantR", c.rotor_constant_r * g2),
+                           ("deltaL", c.delta_l / g2), ("deltaR", c.delta_r / g2)):
                 ET.SubElement(conv, tag).text = _fmt(v)
         else:
             conv = _table_element(np.array(c.input_values), np.array(c.output_values))
@@ -144,9 +155,12 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
     plugin.append(dyn_el)
     plugin.append(conv)
     ET.indent(plugin)
+    if chain.input_kind != "command":
+        notes.append(f"the plugin command is the model's input, the {chain.input_kind}")
     header = (f"<!-- uuvid export of thruster model '{chain.name}' "
               f"({' -> '.join(b.TYPE for b in blocks)}); "
-              f"{'exact' if exact else 'approximate: ' + '; '.join(notes)} -->")
+              f"{('exact' + ('; ' if notes else '')) if exact else 'approximate: '}"
+              f"{'; '.join(notes)} -->")
     return header + "\n" + ET.tostring(plugin, encoding="unicode") + "\n"
 
 
@@ -157,7 +171,11 @@ def _default_range(chain: ThrusterChain) -> tuple[float, float]:
         if isinstance(b, ESC) and math.isfinite(b.saturation_low) and math.isfinite(b.saturation_high):
             span = b.saturation_high - b.saturation_low
             return b.saturation_low - 0.25 * span, b.saturation_high + 0.25 * span
-    raise ExportError(f"{chain.name}: give command_range=(low, high) to tabulate the conversion")
+    raise ExportError(f"{chain.name}: its map ({', '.join(b.TYPE for b in chain.blocks)}) has no "
+                      "exact UUV Simulator conversion and no ESC range to tabulate it over; give "
+                      "the input range: command_range=(low, high), on the command line "
+                      f"--command-range LOW:HIGH (in the model's input, {chain.input_kind}; e.g. "
+                      "the bench data's range)")
 
 
 def from_uuv_simulator(xml: str, name: str = "uuv-simulator") -> ThrusterChain:

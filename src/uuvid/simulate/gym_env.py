@@ -169,7 +169,7 @@ class _Config:
         self.B = np.ascontiguousarray(v.B, dtype=float)
         self.vp = v.params.to_array()
         al = v.allocator()
-        self.alloc = al.to_array()
+        self.alloc = al.to_array("scale")  # uniform scaling: cheap per step, keeps the direction
         self.dofs = np.array(al.controlled, dtype=np.int64)
         if action == "thrust":
             self.mode, self.n_act = 0, v.layout.n

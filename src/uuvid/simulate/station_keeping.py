@@ -229,7 +229,7 @@ def fly_station(vehicle, controller: str, *, x_ref, z0, current=(0.0, 0.0, 0.0),
     Z = np.empty((nsteps, 13))
     F = np.empty((nsteps, n))
     lim = v.layout.limits
-    alloc = v.allocator().to_array()
+    alloc = v.allocator().to_array("scale")  # uniform scaling, as this study was tuned with
     if gains is None:
         from uuvid.simulate.vehicle_sim import default_gains
 

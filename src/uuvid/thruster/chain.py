@@ -386,9 +386,26 @@ def command_range_warnings(x, esc, unit: str = "") -> list[str]:
     bad = x[(x < lo) | (x > hi)]
     if not bad.size:
         return []
+    hint = ""
+    if np.all(np.abs(bad) <= 1.0):
+        hint = (" — these look like duties (−1…1), not pulse widths: give µs, e.g. "
+                f"{esc.saturation_low:g}:{esc.saturation_high:g}:100")
     return [f"{bad.size} command(s) outside {lo:g}–{hi:g} µs, the pulse widths a servo output "
-            f"carries (e.g. {bad[0]:g} µs) — check the unit; the ESC would clip them to "
-            f"{esc.saturation_low:g}/{esc.saturation_high:g} µs"]
+            f"carries (e.g. {bad[0]:g} µs) — check the unit; the ESC expects "
+            f"{esc.saturation_low:g}–{esc.saturation_high:g} µs and would clip them to those "
+            f"ends{hint}"]
+
+
+def zero_output_warnings(x, y, neutral: float = 0.0) -> list[str]:
+    """One sentence when a steady map gives exactly zero at every input away from ``neutral``
+    (e.g. a quadratic fit whose coefficients were clamped to 0): a model that cannot push."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    away = x != neutral
+    if not away.any() or np.any(y[away] != 0) or np.any(~np.isfinite(y[away])):
+        return []
+    return [f"the model gives zero output at all {int(away.sum())} inputs away from neutral "
+            f"({x[away].min():g}…{x[away].max():g}): it cannot push — check the model file (a fit "
+            "of data with a reversed thrust sign, or inputs inside its dead band)"]
 
 
 def monotonicity_warnings(x, y, neutral: float = 0.0, rel_tol: float = 1e-3) -> list[str]:

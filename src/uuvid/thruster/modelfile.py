@@ -209,6 +209,50 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
         raise ModelFileError(f"{where}: {e}") from None
 
 
+def _duplicate_key(root):
+    """``(key path, first line, second line)`` of the first mapping key given twice, or None
+    (iterative, each node once: deep nesting and alias bombs stay cheap)."""
+    seen, stack = set(), [(root, "")]
+    while stack:
+        node, path = stack.pop()
+        if id(node) in seen:  # an alias: checked where it was defined
+            continue
+        seen.add(id(node))
+        children = []
+        if isinstance(node, yaml.MappingNode):
+            first: dict = {}
+            for k, v in node.value:
+                kp = path
+                if isinstance(k, yaml.ScalarNode) and k.tag != "tag:yaml.org,2002:merge":
+                    kp = f"{path}.{k.value}" if path else str(k.value)
+                    if k.value in first:
+                        return kp, first[k.value], k.start_mark.line + 1
+                    first[k.value] = k.start_mark.line + 1
+                children.append((v, kp))
+        elif isinstance(node, yaml.SequenceNode):
+            children = [(v, f"{path}[{i}]") for i, v in enumerate(node.value)]
+        stack.extend(reversed(children))
+    return None
+
+
+def load_yaml_unique(text: str, where: str):
+    """Safe-load YAML text, rejecting a mapping key given twice (PyYAML keeps the last one
+    silently): raises :class:`ModelFileError` naming ``where``, the key path and both lines."""
+    # libyaml's loader when PyYAML has it (same safe subset, ~10× faster)
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        dup = _duplicate_key(node)
+        if dup:
+            raise ModelFileError(f"{where}: duplicated key {dup[0]} (lines {dup[1]} and {dup[2]}); "
+                                 "each key may appear once per mapping: remove or rename one")
+        return loader.construct_document(node)
+    finally:
+        loader.dispose()
+
+
 def read_model_text(path: str | Path) -> dict:
     path = Path(path)
     try:
@@ -218,8 +262,7 @@ def read_model_text(path: str | Path) -> dict:
     try:
         if path.suffix.lower() == ".toml":
             return tomllib.loads(text)
-        # libyaml's loader when PyYAML has it (same safe subset, ~10× faster)
-        return yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))  # noqa: S506
+        return load_yaml_unique(text, str(path))
     except (yaml.YAMLError, tomllib.TOMLDecodeError) as e:
         raise ModelFileError(f"{path}: not valid {'TOML' if path.suffix == '.toml' else 'YAML'}: "
                              f"{e}") from None

@@ -97,6 +97,36 @@ def _preset_at(ref: str, supply_voltage: float, quiet: bool = False):
         return preset_chain(ref, float(supply_voltage))
 
 
+def supply_voltage_range(ref, chain) -> tuple[float, float, str] | None:
+    """``(low, high, what)``: the supply voltages a chain's steady map rests on (the T200
+    preset: its 12 and 16 V sheets; another chain with an ESC: the one voltage its ESC is set
+    for), or ``None`` without an ESC."""
+    from uuvid.thruster.presets import T200_SHEET_VOLTS
+
+    v0 = supply_voltage_of(chain)
+    if v0 is None:
+        return None
+    if str(ref) == "t200" or str(ref) in PHYSICAL_PRESETS:  # both fitted on the 12 and 16 V sheets
+        return (*T200_SHEET_VOLTS, "Blue Robotics' T200 sheets")
+    return v0, v0, f"model {chain.name}'s ESC (its supply_voltage)"
+
+
+def supply_voltage_warnings(ref, chain, supply_voltage: float, rel_tol: float = 0.05) -> list[str]:
+    """One sentence when ``supply_voltage`` lies outside :func:`supply_voltage_range` by more than
+    ``rel_tol`` (the prediction then extrapolates the model's voltage law); else empty."""
+    rng = supply_voltage_range(ref, chain)
+    if rng is None:
+        return []
+    lo, hi, what = rng
+    v = float(supply_voltage)
+    if lo * (1 - rel_tol) <= v <= hi * (1 + rel_tol):
+        return []
+    span = f"{lo:g} V" if lo == hi else f"{lo:g}–{hi:g} V"
+    return [f"supply voltage {v:g} V is outside the data's {span} ({what}): the thrust is "
+            "extrapolated by the model's voltage law and is not backed by measurements; check the "
+            "value (a 4S battery is 12–16.8 V) or fit the model on data at that voltage"]
+
+
 def supply_law(ref, chain, quiet: bool = False):
     """``(f, text)``: ``f(V)`` is the chain at supply voltage ``V`` and ``text`` says how; ``None``
     when the chain cannot follow a supply voltage (no ESC block).  ``quiet``: no warning when a

@@ -26,12 +26,15 @@ constraints hold on the commanded forces and the vehicle feels ``B(η ∘ τ)``)
 ``compensate_eta=True`` it commands ``τ_i/η_i`` so the delivered wrench is the requested one
 (the constraints then hold on the delivered forces).
 
-Saturation: **uniform scaling** ``τ ← s τ``, ``s = min(1, min_i lim_i/τ_i)`` keeps the direction
-of the generalised force and reports the achieved fraction ``s``; per-thruster **clipping**
-(UUV Simulator's behaviour) is offered for comparison and bends the direction.
+Saturation: by default (``priority``, as missions fly) the **bounded** solution: every wrench the
+limits allow is delivered exactly (an active-set method; see :class:`Allocator`), and one they do
+not gets the weighted least error; ``maxscale`` scales the request until it is achievable.
+Named alternatives: **uniform scaling** ``τ ← s τ``, ``s = min(1, min_i lim_i/τ_i)`` of ``T φ``
+(keeps the direction but shrinks wrenches other thrust combinations could deliver) and
+per-thruster **clipping** (UUV Simulator's behaviour; bends the direction).
 
-:func:`allocate_compiled` is the numba version for simulation loops: the precomputed matrix
-``T`` plus η compensation and uniform scaling, on the flat array of :meth:`Allocator.to_array`.
+:func:`allocate_compiled` is the numba version for simulation loops, on the flat array of
+:meth:`Allocator.to_array` (every method).
 """
 
 from __future__ import annotations
@@ -359,9 +362,10 @@ class Allocator:
             tau = tau / np.where(tau >= 0, ep, en)
         return tau
 
-    def allocate(self, phi, saturation: str = "scale", tol: float = 1e-9) -> AllocationResult:
-        """Allocate ``φ`` (m); ``saturation``: ``"scale"`` (uniform), ``"clip"``, ``"none"``,
-        ``"priority"`` (exact when achievable, else weighted least error) or ``"maxscale"``."""
+    def allocate(self, phi, saturation: str = "priority", tol: float = 1e-9) -> AllocationResult:
+        """Allocate ``φ`` (m); ``saturation``: ``"priority"`` (default, as missions fly: exact
+        whenever achievable, else weighted least error), ``"maxscale"``, ``"scale"`` (uniform
+        scaling of ``T φ``), ``"clip"`` or ``"none"``."""
         if saturation in ("priority", "maxscale"):
             return self._allocate_bounded(np.asarray(phi, dtype=float), saturation, tol)
         phi = np.asarray(phi, dtype=float)
@@ -444,7 +448,7 @@ class Allocator:
                          np.where(tau < 0, self.limits[:, 0] / tau, np.inf))
         return float(np.min(r)) if r.size else math.inf
 
-    def to_array(self, method: str = "scale") -> np.ndarray:
+    def to_array(self, method: str = "priority") -> np.ndarray:
         """Flat parameters of :func:`allocate_compiled` for a saturation ``method``.
 
         Layout: ``[n, m, compensate, T (n·m, row-major), lower (n), upper (n), η₊ (n), η₋ (n),

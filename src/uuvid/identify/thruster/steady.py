@@ -29,6 +29,7 @@ import numpy as np
 
 from uuvid.core.result import Result, jsonable
 from uuvid.identify.fit import Fit, Parameter, linear_lsq, nonlinear_lsq, residual_figure
+from uuvid.identify.plausibility import check_bench_signs
 from uuvid.identify.thruster.regions import Regions
 from uuvid.io.bench import BenchData, BenchDataError, require_samples
 from uuvid.thruster.blocks import Block, DeadZoneMap, PolynomialMap, QuadraticMap, TableMap
@@ -272,12 +273,32 @@ def _quadratic_per_direction(x, y, d, *, names: dict, unit: str, model: str, sou
     return fits, notes
 
 
-def _quadratic_block(fits: dict, names: dict) -> QuadraticMap:
-    kp = fits["forward"][names["forward"]].value if "forward" in fits else None
-    kn = fits["reverse"][names["reverse"]].value if "reverse" in fits else None
+def _quadratic_block(fits: dict, names: dict, notes: list, source: str = "") -> QuadraticMap:
+    """The map of the per-direction fits.  A coefficient significantly below zero (thrust
+    opposing the input: a reversed sign) raises; one within 2σ of zero is set to 0 with a note
+    that the model gives no thrust in that direction (a warning in the fit's messages)."""
+    k = {}
+    for direction in DIRECTIONS:
+        if direction not in fits:
+            continue
+        p = fits[direction][names[direction]]
+        v = p.value
+        if v < 0:
+            if not (math.isfinite(p.stderr) and -v <= 2.0 * p.stderr):
+                raise BenchDataError(
+                    f"{source}{names[direction]} = {v:.4g} < 0: the {direction} thrust opposes the "
+                    "input, so the fitted map would give no thrust. Expected: positive thrust "
+                    "for a positive input. Fix: check the sign of the thrust column against the "
+                    "speed/command columns (negate the reversed one)")
+            notes.append(f"zero thrust {direction}: {names[direction]} = {v:.3g} is not "
+                         "significantly above zero; set to 0, so the model gives no "
+                         f"{direction} thrust (not identified from these data)")
+            v = 0.0
+        k[direction] = v
+    kp, kn = k.get("forward"), k.get("reverse")
     kp = kn if kp is None else kp
     kn = kp if kn is None else kn
-    return QuadraticMap(k_pos=max(kp, 0.0), k_neg=max(kn, 0.0))
+    return QuadraticMap(k_pos=kp, k_neg=kn)
 
 
 def fit_quadratic_speed(data: BenchData, *, cov_type: str = "classical") -> SteadyFit:
@@ -287,6 +308,7 @@ def fit_quadratic_speed(data: BenchData, *, cov_type: str = "classical") -> Stea
     left out.  ``cov_type`` as in :func:`linear_lsq` (``HC3`` when the noise grows with thrust).
     """
     data.require("thrust", "speed", what="fit_quadratic_speed")
+    check_bench_signs(data)
     m = data.measured & (data.speed != 0)
     src = f"{data.source}: " if data.source else ""
     names = {"forward": "K_T_fwd", "reverse": "K_T_rev"}
@@ -296,8 +318,8 @@ def fit_quadratic_speed(data: BenchData, *, cov_type: str = "classical") -> Stea
     n_cens = int(data.censored.sum())
     if n_cens:
         notes.append(f"{n_cens} censored row(s) left out (readings below the detection limit)")
-    return SteadyFit("T = K_T Ω|Ω| per direction", fits, _quadratic_block(fits, names),
-                     {"notes": tuple(notes)})
+    block = _quadratic_block(fits, names, notes, src)
+    return SteadyFit("T = K_T Ω|Ω| per direction", fits, block, {"notes": tuple(notes)})
 
 
 def fit_cv(voltage, thrust, *, cov_type: str = "classical") -> SteadyFit:
@@ -319,8 +341,9 @@ def fit_cv(voltage, thrust, *, cov_type: str = "classical") -> SteadyFit:
     fits, notes = _quadratic_per_direction(v[m], t[m], np.sign(v[m]), names=names, unit="N/V²",
                                            model="T = c_V V|V|", source="",
                                            input_name="voltage", cov_type=cov_type)
-    return SteadyFit("T = c_V V|V| per direction (Caccia et al. 2000)", fits,
-                     _quadratic_block(fits, names), {"notes": tuple(notes)})
+    block = _quadratic_block(fits, names, notes, "fit_cv: ")
+    return SteadyFit("T = c_V V|V| per direction (Caccia et al. 2000)", fits, block,
+                     {"notes": tuple(notes)})
 
 
 # ------------------------------------------------------------------------------------------------
@@ -540,6 +563,7 @@ def fit_polynomial(data: BenchData, degree: int | None = None, *, criterion: str
     in the original units (N per (rad/s)^j), highest power first.
     """
     data.require("thrust", "speed", what="fit_polynomial")
+    check_bench_signs(data)
     fits, info, coefs = {}, {"tables": {}, "choices": {}, "notes": []}, {}
     for direction in DIRECTIONS:
         m = data.measured & (np.sign(data.speed) == _SIGN[direction])
@@ -584,6 +608,7 @@ def fit_deadzone_curve(data: BenchData, *, input: str = "command") -> SteadyFit:
     ``x`` = propeller speed [rad/s].  Censored rows are left out.
     """
     data.require("thrust", what="fit_deadzone_curve")
+    check_bench_signs(data)
     if input == "command":
         x = data.command - data.neutral
         unit = data.command_unit
@@ -684,6 +709,7 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     ``"drop"`` leaves them out.
     """
     data.require("thrust", what="fit_table")
+    check_bench_signs(data)
     if censored not in ("zero", "drop"):
         raise ValueError(f"censored must be 'zero' or 'drop', got {censored!r}")
     m = np.ones(len(data), dtype=bool) if censored == "zero" else data.measured

@@ -217,6 +217,24 @@ def _rms(e) -> float:
     return float(np.sqrt(np.mean(e**2))) if e.size else math.nan
 
 
+def _one_supply_voltage(sets, what: str, rel_tol: float = 0.02) -> None:
+    """Refuse to merge sheets at different supply voltages into a map of the command (the
+    thrust at a command depends on the voltage: merging would average the sheets silently)."""
+    volts = []
+    for s in sets:
+        if s.supply_voltage is not None:
+            volts.append((s.source or "data", s.nominal_voltage()))
+    if len(volts) < 2:
+        return
+    vs = [v for _, v in volts]
+    if max(vs) - min(vs) <= rel_tol * max(vs):
+        return
+    listing = ", ".join(f"{src} at {v:g} V" for src, v in volts)
+    raise FitError(f"{what}: the files are at different supply voltages ({listing}); a map of the "
+                   "command would average them. Fix: fit one voltage at a time, or use --model "
+                   "physical (it models the supply voltage), or a map of the propeller speed")
+
+
 def _stack(sets):
     from uuvid.io.bench import concat
 
@@ -308,7 +326,7 @@ def _steady_messages(sf) -> tuple[list[str], list[str]]:
     warn = [f"{k}: {w}" for k, f in sf.fits.items() for w in f.warnings]
     notes = []
     for n in sf.info.get("notes", ()):
-        (warn if "not identified" in n else notes).append(n)
+        (warn if "not identified" in n or n.startswith("zero thrust") else notes).append(n)
     return warn, notes
 
 
@@ -434,6 +452,8 @@ def _fit_deadzone(sets, name, map_input):
     inp = map_input
     if inp == "auto":
         inp = "speed" if data.speed is not None else "command"
+    if inp == "command":
+        _one_supply_voltage(sets, "--model deadzone on the command")
     sf = fit_deadzone_curve(data, input=inp)
     block = sf.block
     warn, notes = _steady_messages(sf)
@@ -468,6 +488,7 @@ def _fit_deadzone(sets, name, map_input):
 def _fit_table(sets, name, n_points):
     from uuvid.identify.thruster.steady import fit_table
 
+    _one_supply_voltage(sets, "--model table")
     data = _stack(sets)
     sf = fit_table(data, n_points)
     chain = _chain((sf.block,), "command", name)
@@ -520,11 +541,21 @@ def _fit_physical(sets, name, supply_voltage, linear_duty):
     fig = _direction_figure(f"{name}: physical model (ESC × supply → DC motor → K_T Ω|Ω|)",
                             panels, "command", "thrust [N]")
     extra = {"supply_voltage_V": v, "per_sheet": pf.per_sheet, "physical_model": model.as_dict()}
+    warn = list(pf.fit.warnings)
+    notes = [n for n in pf.notes if n not in pf.fit.warnings]
+    if supply_voltage is None:
+        notes.append(f"the written chain is at {v:g} V, the first file's supply voltage (the "
+                     "default; --supply-voltage sets another)")
+    volts = [s.nominal_voltage() for s in sets]
+    if not min(volts) * 0.95 <= v <= max(volts) * 1.05:
+        span = f"{min(volts):g} V" if min(volts) == max(volts) else f"{min(volts):g}–{max(volts):g} V"
+        warn.append(f"supply voltage {v:g} V is outside the data's {span}: the written chain "
+                    "extrapolates the motor model there, not backed by measurements")
     return FitOutcome("physical", chain, {"physical": pf.fit}, pf.summary(),
-                      _rms(np.concatenate(e_all)), "N", list(pf.fit.warnings), extra,
+                      _rms(np.concatenate(e_all)), "N", warn, extra,
                       figures=[("fit", fig, "Thrust vs command per sheet: data, model and "
                                             "residuals per direction")],
-                      notes=[n for n in pf.notes if n not in pf.fit.warnings])
+                      notes=notes)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -761,6 +792,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     there for ``dc-motor``/``healey`` and for the joint speed + thrust fit); ``families``: the
     dynamic families ``select`` compares (default: all)."""
     from uuvid.identify.fit import IdentifiabilityWarning
+    from uuvid.identify.plausibility import check_bench_signs
 
     if select:
         if opts.fmt == "t200":
@@ -769,7 +801,10 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             raise FitError("no data files given")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IdentifiabilityWarning)
-            return _fit_select(read_files(paths, opts), name or "selected", True, families)
+            sets = read_files(paths, opts)
+            for s in sets:
+                check_bench_signs(s)
+            return _fit_select(sets, name or "selected", True, families)
     if model not in MODELS:
         raise FitError(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
     if not paths:
@@ -781,6 +816,8 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     if model in DYNAMIC and opts.fmt == "t200":
         raise FitError(f"--model {model} needs time series; T200 sheets are steady sweeps")
     sets = read_files(paths, opts)
+    for s in sets:
+        check_bench_signs(s)
     name = name or model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings

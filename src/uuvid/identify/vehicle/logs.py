@@ -280,6 +280,11 @@ def _magnitude_warnings(data: LogData, spec: LogSpec, names: dict, servo: bool) 
         out.append(f"position {names.get('position')!r} is constant ({p[0]:g}) over the log: not "
                    "a measurement of the motion (ArduSub's VFR_HUD.alt stays 0 without an EKF "
                    "origin: use -GLOBAL_POSITION_INT.relative_alt)")
+    from uuvid.identify.plausibility import rate_warnings
+
+    out += rate_warnings(data.t_pos, data.position, spec.dof, _position_unit(spec) or "m",
+                         defaulted=not (spec.angle_unit or spec.position_unit),
+                         angular=spec.dof in ANGULAR)
     if spec.dof == "heave" and p.size:
         if np.mean(p < 0) >= 0.8 and np.median(p) < -0.05:
             out.append(f"depth {names.get('position')!r} is mostly negative (median "
@@ -750,6 +755,11 @@ def _read_ardusub_fields(spec: LogSpec) -> LogData:
     data = _from_channels(out, spec, info, command=cmd)
     used = out["position"].meta.get("original_names", {}).get("position", req["position"])
     names = {"command": raw.get("command", "servo outputs"), "position": used}
+    if "position" not in raw and spec.dof == "heave":  # say which default depth was taken
+        data.info.setdefault("notes", []).append(
+            f"depth: {used}, the default of a --field read (an altitude the autopilot reports); "
+            "without --field command=… the water-pressure sensor (BARO_PRIMARY) is used — give "
+            "--field position=… to choose")
     return _finish(data, spec, names, servo)
 
 

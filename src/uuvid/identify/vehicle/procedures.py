@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.core.result import Result, jsonable
+from uuvid.identify.plausibility import drag_warnings, fit_quality_warnings, inertia_warnings
 from uuvid.identify.vehicle.logs import ANGULAR, LogData, LogSpec, read_vehicle_log
 
 __all__ = ["identify_steady", "identify_inertia", "SteadyIdentification",
@@ -825,7 +826,7 @@ def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
         raise ValueError(_msg(e)) from None
     res["notes"] = data.notes + res["notes"]
     doc = steady_document(res, dof, name, data)
-    doc["warnings"] = data.warnings
+    doc["warnings"] = data.warnings + drag_warnings(doc["parameters"], dof)
     return SteadyIdentification(dof, name, data, res, doc)
 
 
@@ -950,6 +951,11 @@ def _drag(drag, dof: str, k, k_q, eta, mode, one_dof) -> dict:
         if len(ev) != 2 or not all(math.isfinite(x) and x > 0 for x in ev):
             raise ValueError(f"--eta: expected η or η₊,η₋ (positive), got {eta!r}")
         dr["eta"] = (ev[0], ev[1])
+    if dr["k"] < 0 or dr["k_q"] < 0:
+        raise ValueError(f"the drag from {dr['source']} is negative (k = {dr['k']:.4g}, k_q = "
+                         f"{dr['k_q']:.4g}): implausible, drag must be >= 0 — the steady log's "
+                         "command and motion have opposite signs; fix the sign of its position/"
+                         "heading or command channel and identify the drag again")
     if dr["k"] <= 0 and dr["k_q"] <= 0:
         raise ValueError(f"the drag from {dr['source']} is zero (k = {dr['k']}, k_q = "
                          f"{dr['k_q']})")
@@ -1001,7 +1007,9 @@ def identify_inertia(log, dof: str | None = None, *, drag=None, k: float | None 
         raise ValueError(f"the regression is singular: {e}") from None
     res["notes"] = notes + res["notes"]
     doc = inertia_document(res, dof, name, dr, data)
-    doc["warnings"] = data.warnings
+    doc["warnings"] = (data.warnings + inertia_warnings(res["fit"].mass, res["fit"].mass_stderr,
+                                                        dof, doc["mass"]["unit"])
+                       + fit_quality_warnings(res.get("fit_nrmse"), dof))
     validation = None
     if validation_log is not None:
         if res["model"] is None:

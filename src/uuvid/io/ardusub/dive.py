@@ -279,6 +279,10 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         W = Ff
         basis = ("ArduSub mixing factors Σ f_i·T_i (no vehicle geometry given): X/Y/Z in N along "
                  f"the mixer's axes, K/M/N in {MOMENT_FACTOR_UNIT} — proportional to the moments")
+        warnings.append("no vehicle given: X_N … N_Nm are ArduSub's mixing-frame sums Σ f_i·T_i "
+                        "(the default without geometry), not the physical wrench — K_Nm, M_Nm, "
+                        f"N_Nm are in {MOMENT_FACTOR_UNIT}; give --vehicle (e.g. bluerov2) for "
+                        "B·T in N and N·m")
     for k, c in enumerate(DOF_COLUMNS):
         cols[c] = W[k]
         unit = ("N" if k < 3 else "N·m" if veh is not None else MOMENT_FACTOR_UNIT)

@@ -180,6 +180,8 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
         if k in params:
             used["BARO_SPEC_GRAV"] = float(params[k])
             break
+    for k in (1, 2, 3):  # ground (surface) pressure each barometer was calibrated to [Pa]
+        get(f"BARO{k}_GND_PRESS")
     baro = get("BARO_PRIMARY")
     if baro is None:
         notes.append("BARO_PRIMARY not in the log: barometer instance 0 assumed primary")

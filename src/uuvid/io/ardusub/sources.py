@@ -5,9 +5,11 @@ with duplicated stamps merged.
 
 Depth: dataflash ``-BARO[BARO_PRIMARY].Alt`` (instance 0 is often the enclosure sensor), else
 ``-BAR{n+1}.Alt`` on firmware that logged barometers as separate messages, else ``CTUN``;
-telemetry ``-GLOBAL_POSITION_INT.relative_alt`` (on-board stamp; ``VFR_HUD.alt`` reads 0 without
-an EKF origin), else a varying ``VFR_HUD.alt``, else the primary barometer's pressure
-(``SCALED_PRESSURE{n+1}``) relative to the lowest pressure in the log.
+telemetry: the pressure of barometer n = BARO_PRIMARY (``SCALED_PRESSURE{n+1}``, the water-pressure
+sensor, as in a .BIN) relative to ``BARO{n+1}_GND_PRESS`` when the log names BARO_PRIMARY, else the
+EKF's ``-GLOBAL_POSITION_INT.relative_alt`` (on-board stamp; ``VFR_HUD.alt`` reads 0 without an
+EKF origin), else a varying ``VFR_HUD.alt``, else that pressure relative to the lowest pressure in
+the log.
 """
 
 from __future__ import annotations
@@ -156,7 +158,11 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                                 "altitude estimate from the primary barometer) used instead"}
                 tried.append(f"CTUN.{fld} is constant or empty")
         raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(tried)}")
-    # telemetry
+    # telemetry: the BARO_PRIMARY sensor's pressure first (as the dataflash branch), when the log
+    # says which barometer that is
+    pressure = _tlog_pressure_depth(raw, config, warnings)
+    if pressure is not None:
+        return pressure
     gpi, vfr = raw.get("GLOBAL_POSITION_INT"), raw.get("VFR_HUD")
     origin = bool(raw.get("GPS_GLOBAL_ORIGIN") or raw.get("HOME_POSITION"))
     if gpi is not None and not origin:
@@ -210,6 +216,46 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                 "ekf_origin": origin, "vfr_hud_alt_constant": vfr_const}
     tried.append(f"no usable {msg}")
     raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(t for t in tried if t)}")
+
+
+def _tlog_pressure_depth(raw: RawLog, config: VehicleConfig | None,
+                         warnings: list) -> tuple[_Channel, dict] | None:
+    """Depth from ``SCALED_PRESSURE{n+1}.press_abs`` of barometer n = BARO_PRIMARY (the
+    water-pressure sensor ArduSub computes depth from), relative to its calibrated ground
+    pressure ``BARO{n+1}_GND_PRESS`` (else the lowest pressure in the log, warned); ``None`` when
+    the log does not name BARO_PRIMARY or has no varying pressure of that barometer."""
+    if config is None or "BARO_PRIMARY" not in config.params_used:
+        return None
+    primary = config.baro_primary
+    msg = "SCALED_PRESSURE" + ("" if primary == 0 else str(primary + 1))
+    sp = raw.get(msg)
+    if sp is None or "press_abs" not in sp.values:
+        return None
+    sg = config.params_used.get("BARO_SPEC_GRAV") or 1.0
+    per_m = 1000.0 * sg * G_WATER  # Pa per metre of water
+    ch = _channel(raw, sp, "press_abs", 100.0 / per_m, source=f"{msg}.press_abs")
+    if not ch.v.size or _constant(ch):
+        return None
+    gnd_name = f"BARO{primary + 1}_GND_PRESS"
+    gnd = config.params_used.get(gnd_name)
+    density = f"water density {1000.0 * sg:g} kg/m³ (BARO_SPEC_GRAV)"
+    if gnd is not None and math.isfinite(gnd) and gnd > 0:
+        surface = gnd / per_m
+        ref = f"relative to its calibrated ground pressure {gnd_name} = {gnd:g} Pa, {density}"
+        src = f"{msg}.press_abs − {gnd_name}"
+    else:
+        surface = float(ch.v.min())
+        ref = f"relative to the lowest pressure in the log ({gnd_name} not in the log), {density}"
+        src = f"{msg}.press_abs − surface"
+        warnings.append(f"depth from {msg}.press_abs: surface taken as the lowest pressure in the "
+                        f"log ({gnd_name} not in the log), {density}; check against a known depth")
+    ch = _Channel(ch.t, ch.v - surface, ch.part, src, ch.how)
+    others = [m for m in ("GLOBAL_POSITION_INT", "VFR_HUD") if raw.get(m) is not None]
+    why = (f"{msg} is barometer {primary} = BARO_PRIMARY, the water-pressure sensor ArduSub "
+           f"computes depth from (as BARO[{primary}] in a .BIN); {ref}"
+           + (f"; the EKF's {' and '.join(others)} altitude not used" if others else ""))
+    return ch, {"message": msg, "field": "press_abs", "instance": primary,
+                "ground_pressure_Pa": gnd, "scale": 100.0 / per_m, "why": why}
 
 
 def _attitude(raw: RawLog) -> tuple[list[_Channel], str]:

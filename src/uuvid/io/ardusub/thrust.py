@@ -42,11 +42,13 @@ class ThrustModel:
 
 
 def _physical_from_yaml(path: Path):
-    import yaml
-
+    from uuvid.thruster.modelfile import ModelFileError, read_model_text
     from uuvid.thruster.physical import PhysicalModel
 
-    doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    try:
+        doc = read_model_text(path)
+    except ModelFileError as e:
+        raise LogDataError(str(e)) from None
     if not isinstance(doc, dict) or doc.get("kind") != "thruster_physical":
         return None
     try:
