@@ -185,14 +185,16 @@ def thruster_predict(
     voltage: str | None = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
     speed: str | None = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
     supply_voltage: float | None = typer.Option(
-        None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."
+        None, "--supply-voltage",
+        help="Battery voltage [V] for models with an ESC (default: the model's own, printed; "
+        "t200 16 V, laidani-a2212 12 V).",
     ),
     json_out: bool = typer.Option(False, "--json", help="Print {input: [...], thrust_N: [...]} as JSON."),
 ):
     """Steady thrust of a model at given commands, voltages or speeds."""
     from uuvid.thruster.blocks import ESC
     from uuvid.thruster.chain import ThrusterChain, command_range_warnings, monotonicity_warnings
-    from uuvid.thruster.resolve import supply_law
+    from uuvid.thruster.resolve import supply_law, supply_used
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -204,7 +206,7 @@ def thruster_predict(
     if supply_voltage is not None:
         if supply_voltage <= 0:
             _fail(f"--supply-voltage must be positive, got {supply_voltage}")
-        law = supply_law(model, chain)  # a preset's own voltage law (the T200's speed is not ∝ V)
+        law = supply_law(model, chain, quiet=True)  # a preset's own law (the T200's speed is not ∝ V)
         if law is None:
             _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
         blocks = list(law[0](supply_voltage).blocks)
@@ -219,10 +221,15 @@ def thruster_predict(
     out_key = {"thrust": "thrust_N", "measured_thrust": "measured_thrust_N", "speed": "speed_rad_s",
                "voltage": "voltage_V"}.get(sub.output_kind, sub.output_kind)
     doc = {key: x.tolist(), out_key: thrust.tolist(), "model": chain.name}
-    if supply_voltage is not None:
-        doc["supply_voltage_V"] = supply_voltage
+    volts, source, supply_warnings = supply_used(model, chain, supply_voltage)
+    if volts is not None and start == 0:  # the supply matters only when the ESC is in the path
+        doc["supply_voltage_V"] = volts
+        doc["supply_voltage_source"] = source
+        err_console.print(f"supply voltage: {source}", highlight=False, soft_wrap=True, markup=False)
+    else:
+        supply_warnings = []
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
-    doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
+    doc["warnings"] = supply_warnings + monotonicity_warnings(x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
     for w in doc["warnings"]:
@@ -232,7 +239,8 @@ def thruster_predict(
     else:
         out_console.print(
             _table(
-                f"{chain.name}: steady {sub.output_kind}",
+                f"{chain.name}: steady {sub.output_kind}"
+                + (f" at {doc['supply_voltage_V']:g} V supply" if "supply_voltage_V" in doc else ""),
                 [{key: float(a), out_key: float(b)} for a, b in zip(x, thrust)],
                 [key, out_key],
                 "{:.4g}",
