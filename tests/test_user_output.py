@@ -41,3 +41,25 @@ def test_readme_predict_example_is_inside_its_data_or_explained():
         if line.startswith("uuvid thruster predict laidani-a2212") and "--supply-voltage" in line:
             assert "--supply-voltage 12 " in line, line
     assert "identified at 12 V only" in readme
+
+
+def test_thruster_simulate_prints_units_and_the_size_it_writes(tmp_path, monkeypatch):
+    res = runner.invoke(app, ["thruster", "simulate", "t200", "--signal",
+                              "kind=sine,offset=1500,amplitude=400,period=2", "--t-end", "0.2"])
+    assert res.exit_code == 0, res.output
+    rows = {ln.split("│")[1].strip(): ln.split("│")[3].strip()
+            for ln in res.stdout.splitlines() if ln.count("│") == 4}
+    assert rows["command"] == "µs" and rows["thrust"] == "N" and rows["motor_speed"] == "rad/s"
+    res = runner.invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.2"])
+    assert "│ s " in res.stdout and "│ N " in res.stdout
+    import uuvid.cli.thruster_cmds as tc
+
+    monkeypatch.setattr(tc, "CSV_WARN_BYTES", 1e4)  # a 2000 s run writes ~264 MB; same path
+    res = runner.invoke(app, ["thruster", "simulate", "t200", "--t-end", "0.5",
+                              "--out", str(tmp_path / "sim"), "--json"])
+    assert res.exit_code == 0, res.output
+    size = (tmp_path / "sim" / "response.csv").stat().st_size
+    assert "warning:" in res.stderr and "501 rows × 6 columns" in res.stderr and "--dt" in res.stderr
+    mb = float(res.stderr.split("≈ ")[1].split(" MB")[0])
+    assert abs(mb * 1e6 - size) < 0.1 * size
+    assert json.loads(res.stdout)["units"]["channels"]["thrust"] == "N"

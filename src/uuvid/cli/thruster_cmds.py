@@ -15,6 +15,10 @@ from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_consol
 from uuvid.cli.options import deprecated_out, renamed
 
 
+#: ``thruster simulate --out`` warns before writing a time series bigger than this [bytes].
+CSV_WARN_BYTES = 50e6
+
+
 # ------------------------------------------------------------------------------------ thruster
 def _parse_signal(spec: str):
     """``kind=step,amplitude=24,t0=0`` → a signal."""
@@ -90,12 +94,34 @@ def thruster_simulate(
     if not is_step:
         summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
                                    + type(sig).__name__)
+    from uuvid.simulate.metrics import STEP_METRIC_UNITS
+    from uuvid.simulate.response import CHANNEL_UNITS
+    from uuvid.thruster.blocks import ESC
+
+    esc = next((b for b in chain.blocks if isinstance(b, ESC)), None)
+    units = dict(CHANNEL_UNITS, time="s")
+    if esc is not None:
+        units["command"] = {"pwm_us": "µs", "volts": "V", "duty": "duty (−1..1)"}.get(
+            esc.command_unit, esc.command_unit)
+    elif chain.input_kind in ("voltage", "speed"):
+        units["command"] = units[{"voltage": "voltage", "speed": "prop_speed"}[chain.input_kind]]
+    summary["units"] = {"t_end": "s", "dt": "s", **{k: STEP_METRIC_UNITS.get(k, "") for k in metrics},
+                        "channels": {k: units.get(k, "") for k in resp.channels}}
     if out:
         from uuvid.io.atomic import atomic_write_json
         from uuvid.report.html import Report
         from uuvid.report.plots import save_figure
 
         out.mkdir(parents=True, exist_ok=True)
+        size = resp.csv_bytes_estimate()
+        rows = f"{len(resp.t):,} rows × {len(resp.channels) + 1} columns ≈ {size / 1e6:.3g} MB"
+        summary["csv_size"] = rows
+        big = size > CSV_WARN_BYTES
+        err_console.print(("[yellow]warning:[/] " if big else "") + escape(
+            f"writing {out / 'response.csv'}: {rows}"
+            + (f" (over {CSV_WARN_BYTES / 1e6:g} MB: a larger --dt, the output sample time, "
+               "writes fewer rows; --substeps keeps the integration step)" if big else "")),
+            highlight=False, soft_wrap=True)
         resp.to_csv(out / "response.csv")
         png = save_figure(resp.plot(title=chain.name), out / "response.png")
         atomic_write_json(out / "summary.json", summary)
@@ -111,14 +137,15 @@ def thruster_simulate(
                           markup=False)
         out_console.print(
             _table(f"{chain.name}: final values (SI)",
-                   [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
-                   "{:.4g}"))
+                   [{"channel": k, "final": float(resp[k][-1]), "unit": units.get(k, "")}
+                    for k in resp.channels], ["channel", "final", "unit"], "{:.4g}"))
     else:
         out_console.print(
             _table(
                 f"{chain.name} response (SI)",
-                [{"metric": k, "value": v if v is not None else float("nan")} for k, v in metrics.items()],
-                ["metric", "value"],
+                [{"metric": k, "value": v if v is not None else float("nan"),
+                  "unit": STEP_METRIC_UNITS.get(k, "")} for k, v in metrics.items()],
+                ["metric", "value", "unit"],
                 "{:.4g}",
             )
         )
