@@ -63,3 +63,24 @@ def test_thruster_simulate_prints_units_and_the_size_it_writes(tmp_path, monkeyp
     mb = float(res.stderr.split("≈ ")[1].split(" MB")[0])
     assert abs(mb * 1e6 - size) < 0.1 * size
     assert json.loads(res.stdout)["units"]["channels"]["thrust"] == "N"
+
+
+def test_fit_table_prints_a_short_summary_and_keeps_the_whole_table_in_the_files(tmp_path):
+    import numpy as np
+    import yaml
+
+    c = np.arange(1100.0, 1901.0, 4.0)  # 201 commands → 201 knots
+    rng = np.random.default_rng(3)
+    rows = [f"{a:g},{np.sign(a - 1500) * ((a - 1500) / 400) ** 2 * 40 + rng.normal(0, .2):.4f}"
+            for a in np.repeat(c, 2)]
+    (tmp_path / "b.csv").write_text("command,thrust\n" + "\n".join(rows) + "\n")
+    args = ["thruster", "fit", str(tmp_path / "b.csv"), "--command-col", "command",
+            "--thrust-col", "thrust", "--model", "table", "--out-model", str(tmp_path / "m.yaml")]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert len(res.stdout.splitlines()) <= 8 and "201 knots" in res.stdout
+    assert "µs" in res.stdout and " N" in res.stdout and "T(1500)" not in res.stdout
+    doc = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    assert len(doc["parameters"]) == 201
+    blocks = yaml.safe_load((tmp_path / "m.yaml").read_text())["blocks"]
+    assert len(next(iter(b for b in blocks if "input_values" in b))["input_values"]) == 201
