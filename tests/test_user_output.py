@@ -84,3 +84,17 @@ def test_fit_table_prints_a_short_summary_and_keeps_the_whole_table_in_the_files
     assert len(doc["parameters"]) == 201
     blocks = yaml.safe_load((tmp_path / "m.yaml").read_text())["blocks"]
     assert len(next(iter(b for b in blocks if "input_values" in b))["input_values"]) == 201
+
+
+def test_vehicle_info_has_json_units_and_tells_the_bluerov2_sets_apart():
+    res = runner.invoke(app, ["vehicle", "info", "bluerov2"])
+    assert res.exit_code == 0, res.output
+    text = res.stdout
+    assert "kg·m²" in text and "N·s²/m²" in text and "N·s/m" in text and "[surge, sway" in text
+    assert "bluerov2-heavy" in text and "× apart in quadratic surge drag" in text
+    doc = json.loads(runner.invoke(app, ["vehicle", "info", "bluerov2-heavy", "--json"]).stdout)
+    assert doc["mass_kg"] == 13.5 and doc["units"]["quadratic_damping"][0] == "N·s²/m²"
+    assert len(doc["thrusters"]) == 8 and doc["thrusters"][0]["limits_N"][1] > 50
+    assert "7.8× apart" in doc["provenance_note"]
+    doc = json.loads(runner.invoke(app, ["vehicle", "info", "romeo", "--json"]).stdout)
+    assert doc["provenance_note"] is None
