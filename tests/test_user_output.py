@@ -2,12 +2,56 @@
 that show all they hold."""
 
 import json
+from html.parser import HTMLParser
 
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
 
 runner = CliRunner()
+
+
+class Page(HTMLParser):
+    """A report page as a headless reader sees it: images, links, tables (cell texts), style."""
+
+    def __init__(self, text: str):
+        super().__init__()
+        self.images, self.links, self.tables, self.style, self.text = [], [], [], "", []
+        self._in_style = False
+        self._cell = None
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.images.append(a)
+        elif tag == "a":
+            self.links.append(a.get("href"))
+        elif tag == "table":
+            self.tables.append([])
+        elif tag == "tr" and self.tables:
+            self.tables[-1].append([])
+        elif tag in ("td", "th"):
+            self._cell = []
+        elif tag == "style":
+            self._in_style = True
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self._cell is not None and self.tables:
+            self.tables[-1][-1].append("".join(self._cell))
+            self._cell = None
+        elif tag == "style":
+            self._in_style = False
+
+    def handle_data(self, data):
+        if self._in_style:
+            self.style += data
+        elif self._cell is not None:
+            self._cell.append(data)
+        self.text.append(data)
+
+    def get_text(self) -> str:
+        return "".join(self.text)
 
 
 def test_predict_says_the_default_supply_voltage_it_used():
@@ -98,3 +142,44 @@ def test_vehicle_info_has_json_units_and_tells_the_bluerov2_sets_apart():
     assert "7.8× apart" in doc["provenance_note"]
     doc = json.loads(runner.invoke(app, ["vehicle", "info", "romeo", "--json"]).stdout)
     assert doc["provenance_note"] is None
+
+
+def _fake_hold():
+    import numpy as np
+
+    from uuvid.vehicle.hold import CapabilityResult, EnduranceResult
+
+    deg = np.arange(0.0, 360.0, 45.0)
+    cap = CapabilityResult("rov", deg, 0.6 + 0.1 * np.cos(np.radians(deg)), supply_voltage=16.0)
+    t = np.linspace(0, 3600, 5)
+    endur = EnduranceResult("rov", 0.5, 30.0, t, np.linspace(.8, .1, 5), np.linspace(15, 12, 5),
+                            np.linspace(11, 15, 5), np.linspace(50, 37, 5), 3600.0,
+                            "loaded voltage below the minimum", np.ones((5, 3)),
+                            1500 + np.outer(np.arange(5), [10, -10, 20]), ("A", "B", "C"))
+    return cap, endur
+
+
+def test_hold_report_has_index_endurance_figure_and_the_requested_current(tmp_path, monkeypatch):
+    from uuvid.report.plots import figure_problems
+    from uuvid.vehicle import hold
+
+    cap, endur = _fake_hold()
+    fig = cap.plot(mark=(0.5, 30.0, True))
+    assert any("requested 0.5 m/s from 30°" in ln.get_label() for ln in fig.axes[0].lines)
+    efig = endur.plot()
+    assert efig._suptitle.get_text() == endur.title()  # whole, not cut at 110 characters
+    assert [t.get_text() for t in efig.axes[3].get_legend().get_texts()] == ["A", "B", "C"]
+    assert figure_problems(fig) == [] and figure_problems(efig) == []
+    # the command line: every output of --out, an index linking them (the slow physics faked)
+    monkeypatch.setattr(hold, "capability", lambda *a, **k: cap)
+    monkeypatch.setattr(hold, "max_current", lambda *a, **k: (0.7, {}))
+    monkeypatch.setattr(hold, "endurance", lambda *a, **k: endur)
+    out = tmp_path / "hold"
+    res = runner.invoke(app, ["vehicle", "hold", "bluerov2-heavy", "--current", "0.5,30",
+                              "--battery", "0.8", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert {p.name for p in out.iterdir()} >= {"capability.png", "endurance.png", "hold.json",
+                                                "index.html"}
+    page = Page((out / "index.html").read_text())
+    assert len(page.images) == 2 and "hold.json" in page.links
+    assert "requested current" in page.get_text()
