@@ -4,6 +4,8 @@ that show all they hold."""
 import json
 from html.parser import HTMLParser
 
+import pytest
+
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
@@ -183,3 +185,14 @@ def test_hold_report_has_index_endurance_figure_and_the_requested_current(tmp_pa
     page = Page((out / "index.html").read_text())
     assert len(page.images) == 2 and "hold.json" in page.links
     assert "requested current" in page.get_text()
+
+
+@pytest.mark.realdata
+def test_log_inspect_warns_only_about_merged_stamps_of_channels_it_uses(shared_data):
+    from uuvid.io.ardusub import inspect_log
+
+    for name in ("small.tlog", "2023-04-18_11-03-34.tlog"):
+        ins = inspect_log(shared_data / "ardusub-bluerov2" / name)
+        assert ins.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
+        merged = [w for w in ins.warnings if "merged" in w]
+        assert not any("VFR_HUD.alt" in w for w in merged), merged  # depth is not read from it
