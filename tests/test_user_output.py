@@ -196,3 +196,35 @@ def test_log_inspect_warns_only_about_merged_stamps_of_channels_it_uses(shared_d
         assert ins.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
         merged = [w for w in ins.warnings if "merged" in w]
         assert not any("VFR_HUD.alt" in w for w in merged), merged  # depth is not read from it
+
+
+def test_inertia_fit_names_the_units_of_m_c_b():
+    import numpy as np
+
+    from uuvid.identify.vehicle_fit import fit_inertia
+
+    t = np.arange(0.0, 120.0, 0.1)
+    rng = np.random.default_rng(1)
+    phi = -5.0 + 4.0 * np.sin(0.2 * t)
+    v = np.zeros_like(t)  # m v' = φ − k v, m = 80, k = 20 (Euler is enough for a label test)
+    for i in range(1, t.size):
+        v[i] = v[i - 1] + 0.1 * (phi[i - 1] - 20.0 * v[i - 1]) / 80.0
+    x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * 0.1)]) + rng.normal(0, 1e-3, t.size)
+    for angle, units in ((False, ["kg", "N·s", "N"]), (True, ["kg·m²", "N·m·s", "N·m"])):
+        fit = fit_inertia(t, x, phi, k=20.0, angle=angle, clean=False).fit
+        assert [p.unit for p in fit.parameters] == units
+
+
+def test_design_input_prints_the_unit_of_offset_amplitude_distance():
+    base = ["vehicle", "design-input", "--k", "28.6", "--mass-air", "93.75", "--speed", "-0.175"]
+    rows = {}
+    for dof in ("yaw", "surge"):
+        res = runner.invoke(app, [*base, "--dof", dof])
+        assert res.exit_code == 0, res.output
+        rows[dof] = {ln.split("│")[1].strip(): ln.split("│")[2].strip()
+                     for ln in res.stdout.splitlines() if ln.count("│") == 3}
+    assert rows["yaw"]["offset φ₀"].endswith(" N·m") and rows["surge"]["offset φ₀"].endswith(" N")
+    assert " N·m (limited by" in rows["yaw"]["amplitude Δφ"]
+    assert " rad (" in rows["yaw"]["distance"] and rows["surge"]["distance"].endswith(" m")
+    doc = json.loads(runner.invoke(app, [*base, "--json"]).stdout)
+    assert doc["units"]["offset"] == "N | N·m" and doc["units"]["duration"] == "s"

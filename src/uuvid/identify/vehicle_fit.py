@@ -577,8 +577,10 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
     y = Phi - k * xr - k_q * Iq
     ts_r, vs_r, y_r, tt_r, xr_r, Iq_r = ts[keep], vs[keep], y[keep], tt[keep], xr[keep], Iq[keep]
     H = np.column_stack([vs_r, -np.ones(ts_r.size), -tt_r])
+    # y = m·v − c − b·t in N·s (N·m·s about an axis): m in kg (kg·m²), c in N·s, b in N
+    units = ["kg·m²", "N·m·s", "N·m"] if angle else ["kg", "N·s", "N"]
     f = linear_lsq(H, y_r, ["m", "c", "b"], model="inertia (integrated regression, eqs. 15–19)",
-                   cov_type=cov_type, hac_lags=hac_lags, emit_warnings=False,
+                   units=units, cov_type=cov_type, hac_lags=hac_lags, emit_warnings=False,
                    extra={"k": k, "k_q": k_q, "rows_excluded": n_excluded})
     notes = ["classical σ assumes white residuals; the integrated regression's residuals are "
              "autocorrelated — compare cov_type='HAC'"] if cov_type == "classical" else []
