@@ -228,3 +228,22 @@ def test_design_input_prints_the_unit_of_offset_amplitude_distance():
     assert " rad (" in rows["yaw"]["distance"] and rows["surge"]["distance"].endswith(" m")
     doc = json.loads(runner.invoke(app, [*base, "--json"]).stdout)
     assert doc["units"]["offset"] == "N | N·m" and doc["units"]["duration"] == "s"
+
+
+def test_sweep_summary_names_the_unit_of_every_metric_and_parameter(tmp_path):
+    from uuvid.uncertainty.sweep import run_sweep
+
+    f = tmp_path / "s.yaml"
+    f.write_text("name: s\ntarget: {kind: thruster_step, chain: auv2-tunnel, t_end: 0.5, "
+                 "substeps: 1}\nparameters:\n  - {name: tunnel_length, unit: in, values: [5, 20]}\n"
+                 "  - {name: voltage, values: [12, 24]}\n"
+                 "metrics: [peak_output_thrust, time_to_peak]\n")
+    res = runner.invoke(app, ["sweep", str(f), "--out", str(tmp_path / "o"), "--backend",
+                              "inprocess"])
+    assert res.exit_code == 0, res.output
+    assert "peak_output_thrust [N]" in res.stdout and "time_to_peak [s]" in res.stdout
+    assert "wall time [s]" in res.stdout
+    doc = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert doc["metrics"]["time_to_peak"]["unit"] == "s"
+    text = run_sweep(f, backend="inprocess", report=False).summary()
+    assert "tunnel_length [m]" in text and "voltage [V]" in text and "steady" not in text

@@ -150,12 +150,15 @@ class StudyResult(DictSummaryResult):
                  + (f", backend {i['backend']}" if i.get("backend") else "")
                  + (f", {i['wall_time_s']:.3g} s" if i.get("wall_time_s") is not None else ""),
                  "  status: " + ", ".join(f"{k} {v}" for k, v in counts.items())]
+        from uuvid.uncertainty.targets import metric_label
+
         num = self._numeric()
         for c in list(num.columns)[:12]:
             x = num[c].to_numpy(dtype=float)
             x = x[np.isfinite(x)]
             if x.size:
-                lines.append(f"  {c:<28} median {np.median(x):.4g}  [{x.min():.4g}, {x.max():.4g}]")
+                lines.append(f"  {metric_label(c):<32} median {np.median(x):.4g}  "
+                             f"[{x.min():.4g}, {x.max():.4g}]")
         req = i.get("requirement")
         if isinstance(req, dict) and "probability" in req:
             lines.append(f"  requirement met with probability {req['probability']:.3g}")

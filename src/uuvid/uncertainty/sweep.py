@@ -39,7 +39,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from uuvid.uncertainty import params as PR
-from uuvid.uncertainty.targets import StudyBase, Target, metric_label, resolve_paths
+from uuvid.uncertainty.targets import StudyBase, Target, metric_label, metric_unit, resolve_paths
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 DATA = Path(__file__).resolve().parent / "data"
@@ -336,7 +336,7 @@ class SweepStudy(StudyBase):
                 x = x[np.isfinite(x)]
                 if x.size:
                     out["metrics"][m] = {"min": float(x.min()), "max": float(x.max()),
-                                         "mean": float(x.mean())}
+                                         "mean": float(x.mean()), "unit": metric_unit(m)}
         if self.spec.requirement and len(table):
             out["requirement"] = probability_summary(table, self.spec.requirement)
         return out
