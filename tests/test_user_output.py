@@ -37,6 +37,8 @@ class Page(HTMLParser):
             self._cell = []
         elif tag == "style":
             self._in_style = True
+        elif tag == "wbr" and self._cell is not None:
+            self._cell.append("\u200b")  # a line-break opportunity
 
     def handle_endtag(self, tag):
         if tag in ("td", "th") and self._cell is not None and self.tables:
@@ -54,6 +56,60 @@ class Page(HTMLParser):
 
     def get_text(self) -> str:
         return "".join(self.text)
+
+
+#: The page's content width [px] (body max-width 1100 px less 2 × 1em padding) and a generous
+#: character width at the tables' .92em of 16 px (proportional ≈ 8 px, monospace digits ≈ 8.8 px)
+PAGE_PX, CHAR, PAD = 1068, 9.0, 19.0
+
+
+def table_problems(html: str) -> list[str]:
+    """Tables a reader cannot read whole: wider than the page even at their narrowest (every
+    cell broken wherever the page lets it: spaces, <wbr>, long words when cells wrap anywhere),
+    or put behind a horizontal scroll bar."""
+    import re
+
+    page = Page(html)
+    anywhere = "overflow-wrap:anywhere" in page.style.replace(" ", "")
+    out = []
+    for selector, body in re.findall(r"([^{}]+)\{([^}]*)\}", page.style):
+        if re.search(r"table|\.tw|\btd\b|\bth\b", selector) and re.search(
+                r"overflow(-x)?\s*:\s*(auto|scroll|hidden)", body):
+            out.append(f"{selector.strip()} scrolls or clips its overflow")
+    for k, table in enumerate(page.tables):
+        if not table:
+            continue
+        width = 0.0
+        for j in range(max(len(r) for r in table)):
+            longest = 0
+            for r, row in enumerate(table):
+                if j >= len(row):
+                    continue
+                text = row[j]
+                numeric = r > 0 and re.fullmatch(r"[-+0-9.eE]+|NaN", text.strip()) is not None
+                words = [w for w in re.split(r"[\s\u200b]+", text) if w]
+                if not numeric and anywhere:
+                    words = [w[:24] for w in words]
+                longest = max([longest, *map(len, words)])
+            width += longest * CHAR + PAD
+        if width > PAGE_PX:
+            out.append(f"table {k} ({' | '.join(table[0])[:60]}…) needs {width:.0f} px > {PAGE_PX}")
+    return out
+
+
+def test_wide_tables_wrap_or_split_and_keep_every_column():
+    from uuvid.report.html import Report
+
+    names = [f"rms_tracking_error_{i}_m" for i in range(14)]
+    rows = [{"run": f"case {r}", **{n: 1234.5678 * (r + i) for i, n in enumerate(names)}}
+            for r in range(3)]
+    html = Report("r").add_table(rows, caption="wide").add_table([{"a": 1, "b": "x"}]).to_html()
+    assert table_problems(html) == []
+    page = Page(html)
+    headers = [h.replace("\u200b", "") for t in page.tables for h in t[0]]
+    assert set(headers) == {"run", "a", "b", *names}  # split, none hidden
+    assert all(t[0][0].replace("\u200b", "") in ("run", "a") for t in page.tables)
+    assert "part 1 of" in page.get_text()
 
 
 def test_predict_says_the_default_supply_voltage_it_used():
