@@ -303,3 +303,19 @@ def test_sweep_summary_names_the_unit_of_every_metric_and_parameter(tmp_path):
     assert doc["metrics"]["time_to_peak"]["unit"] == "s"
     text = run_sweep(f, backend="inprocess", report=False).summary()
     assert "tunnel_length [m]" in text and "voltage [V]" in text and "steady" not in text
+
+
+def test_thruster_loop_answer_names_the_bandwidths_tried_and_brackets_the_limit():
+    from uuvid.papers.thruster_loop_study import _answer
+
+    def rows(grid):  # the same truth: tunnel clean to 6, first-order and Yoerger cycle above 5
+        return [{"kind": k, "model": m, "bandwidth": b, "limit_cycle": m != "tunnel" and b > 5}
+                for k in ("heading", "depth") for m in ("tunnel", "first-order", "yoerger")
+                for b in grid]
+
+    models = ["tunnel", "first-order", "yoerger"]
+    demo = _answer(rows((2.0, 6.0)), models, (2.0, 6.0))
+    cli = _answer(rows((1.0, 2.0, 4.0, 6.0)), models, (1.0, 2.0, 4.0, 6.0))
+    assert demo[0]["heading"]["first-order"] == 2 and cli[0]["heading"]["first-order"] == 4
+    assert "tried (2, 6 rad/s)" in demo[3] and "tried (1, 2, 4, 6 rad/s)" in cli[3]
+    assert "first-order 2 (cycles at 6)" in demo[3] and "first-order 4 (cycles at 6)" in cli[3]
