@@ -319,3 +319,16 @@ def test_thruster_loop_answer_names_the_bandwidths_tried_and_brackets_the_limit(
     assert demo[0]["heading"]["first-order"] == 2 and cli[0]["heading"]["first-order"] == 4
     assert "tried (2, 6 rad/s)" in demo[3] and "tried (1, 2, 4, 6 rad/s)" in cli[3]
     assert "first-order 2 (cycles at 6)" in demo[3] and "first-order 4 (cycles at 6)" in cli[3]
+
+
+def test_thruster_simulate_default_input_is_in_the_models_unit_and_said():
+    res = runner.invoke(app, ["thruster", "simulate", "t200", "--t-end", "0.3", "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["signal"]["amplitude"] == 1900 and doc["metrics_SI"]["steady_thrust"] > 40
+    assert "default input: step 1500 → 1900 µs" in res.stderr
+    res = runner.invoke(app, ["thruster", "simulate", "t200", "--t-end", "0.3",
+                              "--signal", "kind=step,amplitude=24"])
+    assert "outside 800–2200 µs" in res.stderr  # 24 µs: a volt meant, not a pulse width
+    res = runner.invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.3"])
+    assert "default input: step 0 → 24 V" in res.stderr

@@ -58,11 +58,14 @@ def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) 
 
 def thruster_simulate(
     model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name."),
-    signal: str = typer.Option(
-        "kind=step,amplitude=24",
+    signal: str | None = typer.Option(
+        None,
         "--signal",
-        help="Input, e.g. kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
-        "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,...",
+        help="Input in the model's command unit (µs for a PWM ESC, V for a voltage input), e.g. "
+        "kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
+        "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,... "
+        "Default: a step to full forward command (1500 → 1900 µs for the T200, 0 → 24 for a "
+        "voltage input), printed.",
     ),
     t_end: float = typer.Option(2.0, "--t-end", help="Simulated time [s]."),
     dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
@@ -76,12 +79,14 @@ def thruster_simulate(
 
     ``--signal kind=sampled,file=RUN.csv,time_col=t,command_col=V,...`` replays a logged command
     and compares with the logged speed/thrust (see ``uuvid thruster replay``)."""
-    if "file=" in signal:
+    if signal is not None and "file=" in signal:
         from uuvid.cli.replay_cmd import replay_from_spec
 
         return replay_from_spec(model, signal, out, json_out)
     chain = _load_model(model)
-    sig = _parse_signal(signal)
+    from uuvid.thruster.chain import command_range_warnings, default_step
+
+    sig = _parse_signal(signal) if signal is not None else default_step(chain)
     try:
         resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
     except ValueError as e:
@@ -107,6 +112,14 @@ def thruster_simulate(
         units["command"] = units[{"voltage": "voltage", "speed": "prop_speed"}[chain.input_kind]]
     summary["units"] = {"t_end": "s", "dt": "s", **{k: STEP_METRIC_UNITS.get(k, "") for k in metrics},
                         "channels": {k: units.get(k, "") for k in resp.channels}}
+    if signal is None:
+        summary["signal_note"] = (f"default input: step {sig.baseline:g} → {sig.amplitude:g} "
+                                  f"{units['command']} at t = {sig.t0:g} s (--signal to change)")
+        err_console.print(summary["signal_note"], highlight=False, markup=False, soft_wrap=True)
+    if esc is not None:
+        for w in command_range_warnings(resp["command"], esc, units["command"]):
+            summary.setdefault("warnings", []).append(w)
+            err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if out:
         from uuvid.io.atomic import atomic_write_json
         from uuvid.report.html import Report

@@ -375,6 +375,19 @@ class ThrusterChain:
 PWM_PLAUSIBLE_US = (800.0, 2200.0)
 
 
+def default_step(chain):
+    """The input ``thruster simulate`` uses when none is given: a step to full forward command in
+    the chain's own unit (a PWM ESC: neutral → saturation_high µs; otherwise 0 → 24, e.g. volts
+    for McLean's 24 V motor)."""
+    from uuvid.simulate.signals import Step
+    from uuvid.thruster.blocks import ESC
+
+    first = chain.blocks[0]
+    if isinstance(first, ESC) and first.command_unit == "pwm_us":
+        return Step(amplitude=float(first.saturation_high), baseline=float(first.neutral))
+    return Step(amplitude=24.0)
+
+
 def command_range_warnings(x, esc, unit: str = "") -> list[str]:
     """Commands ``x`` an ESC cannot be given: PWM outside :data:`PWM_PLAUSIBLE_US` (a wrong unit
     or a typo, not a wish for more thrust; the ESC clips it to the end of its full-command range
