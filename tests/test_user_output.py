@@ -5,7 +5,6 @@ import json
 from html.parser import HTMLParser
 
 import pytest
-
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app

@@ -64,16 +64,21 @@ def design_input(
     choice: Choice = typer.Option(Choice.nominal, "--choice",
                                   help="nominal: 1/(√3 τ_c); robust: maximin D-efficiency over the "
                                        "inertia range."),
-    n_periods: float = typer.Option(3.0, "--n-periods", help="Sine periods to record."),
-    settle_tau: float = typer.Option(4.0, "--settle-tau", help="Settling time in τ_c (largest)."),
+    n_periods: float = typer.Option(3.0, "--n-periods",
+                                    help="Sine periods to record (count)."),
+    settle_tau: float = typer.Option(4.0, "--settle-tau",
+                                     help="Settling time in multiples of τ_c (the largest τ_c)."),
     lead_in: float = typer.Option(0.0, "--lead-in", help="Offset-only lead-in (s)."),
     max_distance: float | None = typer.Option(None, "--max-distance",
-                                              help="Maneuvering space (m, or rad for a rotation): raise ω so it fits."),
+                                              help="Maneuvering space (m, or rad for a "
+                                                   "rotation): raise ω so it fits."),
     force_limit: float | None = typer.Option(None, "--force-limit",
-                                             help="Largest |φ| the thrusters give in the mode (N or N·m)."),
+                                             help="Largest |φ| the thrusters give in the mode "
+                                                  "(N or N·m)."),
     reversal_margin: float = typer.Option(0.1, "--reversal-margin",
                                           help="Keep Δφ ≤ (1 − margin)|φ₀| (no thrust reversal)."),
-    amplitude: float | None = typer.Option(None, "--amplitude", help="Impose the amplitude Δφ (N or N·m)."),
+    amplitude: float | None = typer.Option(None, "--amplitude",
+                                           help="Impose the amplitude Δφ (N or N·m)."),
     sample_time: float = typer.Option(0.1, "--sample-time", help="Command sample time (s)."),
     dof: str | None = typer.Option(None, "--dof",
                                    help="DOF name (surge, sway, heave, roll, pitch, yaw); needed "

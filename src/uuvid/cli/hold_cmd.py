@@ -35,7 +35,8 @@ def vehicle_hold(
     battery: float = typer.Option(None, "--battery", help="State of charge (0–1) of the vehicle "
                                   "file's battery: limits at its loaded voltage; with --current "
                                   "also the endurance from this charge."),
-    voltage: float = typer.Option(None, "--voltage", help="Fixed supply voltage for the limits."),
+    voltage: float = typer.Option(None, "--voltage", help="Fixed supply voltage [V] for the "
+                                  "limits (default: the vehicle file's own thrust limits)."),
     step: float = typer.Option(15.0, "--step", help="Angle step of the capability plot, deg."),
     simulate: str = typer.Option("", "--simulate", help="Angles (deg, comma-separated) to confirm "
                                  "by simulation, e.g. 0,90."),

@@ -14,7 +14,6 @@ from rich.table import Table
 from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_console, out_console
 from uuvid.cli.options import deprecated_out, renamed
 
-
 #: ``thruster simulate --out`` warns before writing a time series bigger than this [bytes].
 CSV_WARN_BYTES = 50e6
 

@@ -162,7 +162,8 @@ def montecarlo_cmd(
     max_draws: int = typer.Option(100, "--max-draws", help="reject: draws per run before giving up."),
     requirement: str | None = typer.Option(None, "--requirement",
                                            help='e.g. "max_tracking_error_m<0.5" (vehicle default).'),
-    band: float = typer.Option(0.95, "--band", help="Central probability of the prediction bands."),
+    band: float = typer.Option(0.95, "--band", help="Central probability of the prediction bands "
+                                                     "(0–1, 0.95 = 95 %)."),
     backend: str | None = typer.Option(None, "--backend",
                                        help="auto (default) | inprocess | processes | dask."),
     workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPUs)."),
