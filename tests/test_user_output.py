@@ -331,3 +331,57 @@ def test_thruster_simulate_default_input_is_in_the_models_unit_and_said():
     assert "outside 800–2200 µs" in res.stderr  # 24 µs: a volt meant, not a pulse width
     res = runner.invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.3"])
     assert "default input: step 0 → 24 V" in res.stderr
+
+
+@pytest.mark.slow  # the whole demo (≈ 30 s on a free machine)
+def test_demo_report_shows_all_it_holds(tmp_path, monkeypatch):
+    """The demo folder read headless: every figure titled with labelled, united axes; every table
+    fits the page; every sub-report reachable from the main page."""
+    from matplotlib.figure import Figure
+
+    from uuvid.demo import run_demo
+    from uuvid.report.plots import figure_problems
+
+    seen, problems = set(), []
+    original = Figure.savefig
+
+    def savefig(fig, *a, **k):
+        if id(fig) not in seen:
+            seen.add(id(fig))
+            title = fig._suptitle.get_text() if fig._suptitle else next(
+                (ax.get_title() for ax in fig.axes if ax.get_title()), "")
+            problems.extend(f"{title[:50]!r}: {p}" for p in figure_problems(fig))
+        return original(fig, *a, **k)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    out = tmp_path / "demo"
+    run_demo(out, quick=True)
+    assert len(seen) > 20 and problems == [], problems
+    pages = sorted(out.rglob("index.html"))
+    assert len(pages) > 5
+    for page in pages:
+        assert table_problems(page.read_text()) == [], page
+    main = Page((out / "index.html").read_text()).links
+    for page in pages[1:] if pages[0] == out / "index.html" else pages:
+        rel = page.relative_to(out).as_posix()
+        if rel == "index.html":
+            continue
+        parent = page.parent.parent / "index.html"
+        up = Page(parent.read_text()).links if parent.exists() and parent != out / "index.html" else []
+        assert rel in main or page.relative_to(page.parent.parent).as_posix() in up, \
+            f"{rel} is not linked from index.html"
+
+
+def _surface():
+    from test_result_surface import FACTORIES, SLOW
+
+    return FACTORIES, SLOW
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in _surface()[1]
+                                  else n for n in _surface()[0]])
+def test_every_result_plot_is_titled_with_united_axes(name, tmp_path):
+    from uuvid.report.plots import figure_problems
+
+    fig = _surface()[0][name](tmp_path).plot()
+    assert figure_problems(fig) == []

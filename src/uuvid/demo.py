@@ -120,6 +120,7 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     ax[2].set_ylabel("thruster commands [µs]")
     for a in ax:
         a.set_xlabel("t [s]")
+    fig.suptitle(f"BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack ({hold_s:g} s)")
     rep.add_figure(save_figure(fig, d / "battery_mission_heavy.png"),
                    caption="BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack (voltage-aware "
                    "T200 model in the loop): the voltage sags, the commands grow to hold the thrust")

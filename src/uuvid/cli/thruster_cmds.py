@@ -268,9 +268,10 @@ def thruster_predict(
     else:
         supply_warnings = []
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
-    doc["warnings"] = supply_warnings + monotonicity_warnings(x, thrust, neutral)
+    doc["warnings"] = monotonicity_warnings(x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
+    doc["warnings"] += supply_warnings
     for w in doc["warnings"]:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:

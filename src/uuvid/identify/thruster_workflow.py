@@ -135,7 +135,7 @@ class FitOutcome(Result):
             return self.figures[0][1]
         from uuvid.identify.fit import residual_figure
 
-        return residual_figure(self.fits, self.model)
+        return residual_figure(self.fits, self.model, unit=self.rmse_unit or None)
 
     def report(self, folder, sources=()) -> Path:
         """Plots, tables, fit report, summary.json, result.json and index.html in ``folder``."""
@@ -226,6 +226,14 @@ def _stack(sets):
     return sets[0] if len(sets) == 1 else concat(sets)
 
 
+def _residual_label(ylabel: str) -> str:
+    """``residual [N]`` for a panel whose data are ``thrust [N]`` (the residual's unit is theirs)."""
+    import re
+
+    m = re.search(r"\[([^\]]+)\]", ylabel)
+    return f"residual [{m.group(1)}]" if m else f"residual (as {ylabel})"
+
+
 def _direction_figure(title: str, panels: list[dict], xlabel: str, ylabel: str):
     """Top row: data and fitted curve per panel (direction); bottom row: residuals."""
     from uuvid.report.plots import new_figure
@@ -250,7 +258,7 @@ def _direction_figure(title: str, panels: list[dict], xlabel: str, ylabel: str):
         a.grid(True, alpha=0.3)
         a.legend(loc="best", fontsize="small")
         r.axhline(0.0, color="k", lw=0.8)
-        r.set_ylabel("residual")
+        r.set_ylabel(_residual_label(ylabel))
         r.set_xlabel(xlabel)
         r.grid(True, alpha=0.3)
     fig.suptitle(title)
@@ -294,7 +302,7 @@ def _degree_figure(tables: dict, chosen: dict):
         if d in chosen:
             a.axvline(chosen[d], color="r", ls="--", lw=1, label=f"selected: {chosen[d]}")
         a.set_yscale("log")
-        a.set_xlabel("polynomial degree")
+        a.set_xlabel("polynomial degree [–]")
         a.set_ylabel("thrust error [N]")
         a.set_title(d)
         a.grid(True, which="both", alpha=0.3)
@@ -618,7 +626,7 @@ def _dynamic_figure(title, cf, ylabel):
         ax[0, j].legend(fontsize="small")
         ax[1, j].plot(r.t, r.y - yhat, ".", ms=2)
         ax[1, j].axhline(0.0, color="k", lw=0.8)
-        ax[1, j].set_ylabel("residual")
+        ax[1, j].set_ylabel(_residual_label(ylabel))
         ax[1, j].set_xlabel("t [s]")
         ax[1, j].grid(True, alpha=0.3)
     fig.suptitle(title)

@@ -439,12 +439,15 @@ class InertiaFit(Result):
         if np.size(self.fit.residuals) == self.y.size:
             ax[0].plot(self.t, self.y - self.fit.residuals, "-", color="C1", label="fitted")
         ax[0].legend(fontsize=8)
-        ax[0].set_title(f"m = {self.mass:.4g} ± {self.mass_stderr:.2g}", fontsize=10)
+        angular = self.fit["m"].unit == "kg·m²"
+        ax[0].set_ylabel("y [N·m·s]" if angular else "y [N·s]")
+        ax[0].set_title(f"m = {self.mass:.4g} ± {self.mass_stderr:.2g} {self.fit['m'].unit}",
+                        fontsize=10)
         if self.t_raw.size:
             ax[1].plot(self.t_raw, self.velocity_raw, "--", color="0.6", lw=0.8,
                        label="Savitzky–Golay, whole record")
         ax[1].plot(self.t, self.velocity, ".", ms=2, label="rows used")
-        ax[1].set_ylabel("velocity")
+        ax[1].set_ylabel("velocity [rad/s]" if angular else "velocity [m/s]")
         ax[1].set_xlabel("t [s]")
         ax[1].legend(fontsize=8)
         return fig

@@ -209,6 +209,8 @@ def figure_problems(fig: Figure) -> list[str]:
             continue
         for axis, get, shared in (("x", "get_xlabel", ax.get_shared_x_axes()),
                                   ("y", "get_ylabel", ax.get_shared_y_axes())):
+            if _categorical(ax.xaxis if axis == "x" else ax.yaxis):
+                continue  # named categories (directions, message types) carry no unit
             labels = [getattr(a, get)() for a in [ax, *shared.get_siblings(ax)]]
             twins = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds]
             if axis == "x":
@@ -219,3 +221,12 @@ def figure_problems(fig: Figure) -> list[str]:
             elif not _HAS_UNIT.search(label):
                 out.append(f"{where}: {axis} label {label!r} names no unit")
     return out
+
+
+def _categorical(axis) -> bool:
+    """An axis of named categories: string data, or tick labels set to words."""
+    conv = axis.get_converter() if hasattr(axis, "get_converter") else getattr(axis, "converter", None)
+    if type(conv).__name__ == "StrCategoryConverter":
+        return True
+    texts = [t.get_text() for t in axis.get_ticklabels()]
+    return any(re.search(r"[A-Za-z]", t) for t in texts)

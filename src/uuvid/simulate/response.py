@@ -125,5 +125,6 @@ class TimeResponse(Result):
                       if any(c in rec.channels for c in g)]
             groups = [[c for c in g if c in rec.channels] for g in groups]
         labels = {k: f"{k} [{CHANNEL_UNITS.get(k, '')}]" for k in rec.channels}
+        title = title or str(self.meta.get("name") or self.meta.get("model") or "Time response")
         return plot_time_series(rec.t, rec.channels, title=title, ylabel_by_channel=labels,
                                 axes_groups=groups)

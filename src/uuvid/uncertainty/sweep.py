@@ -471,6 +471,7 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
                 ax.plot(shown(p.x, g[p.x].to_numpy()), g[p.metric].to_numpy(), "o-", ms=3, label=lab)
             ax.set_xlabel(label(p.x))
             ax.set_ylabel(metric_label(p.metric))
+            ax.set_title(f"{p.metric} vs {p.x}" + (f" per {p.hue}" if p.hue else ""))
             if p.hue:
                 ax.legend(fontsize=7, ncol=2)
         fixed = [a.name for a in spec.parameters if a.name not in (p.x, p.y, p.hue)]
