@@ -385,3 +385,11 @@ def test_every_result_plot_is_titled_with_united_axes(name, tmp_path):
 
     fig = _surface()[0][name](tmp_path).plot()
     assert figure_problems(fig) == []
+
+
+def test_stability_table_names_the_speed_unit():
+    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.vehicle.stability import static_stability
+
+    rows = static_stability(load_vehicle("bluerov2")).rows()
+    assert all("max_speed_m_s" in r and all(k != "max_speed" for k in r) for r in rows)
