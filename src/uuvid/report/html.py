@@ -206,7 +206,7 @@ LONG_WORD = 24
 def column_min_px(header: str, cells: Iterable[tuple[str, bool]]) -> float:
     """Narrowest a column can be: its longest unbreakable piece (headers break at spaces and
     after underscores, text at spaces, long words anywhere; numbers do not break)."""
-    words = [len(w) for w in re.split(r"[\s_]+", header) if w] or [0]
+    words = [len(w) for w in re.split(r"(?<=_)|\s+", header) if w] or [0]  # "speed_" stays whole
     longest = max(words)
     for text, numeric in cells:
         if numeric:
