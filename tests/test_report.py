@@ -236,3 +236,20 @@ def test_stage_names_the_step_in_the_bar(monkeypatch: pytest.MonkeyPatch) -> Non
         cols = [type(c).__name__ for c in task._progress.columns]
     assert desc == "job — fitting"
     assert "TimeRemainingColumn" not in cols
+
+
+def test_interrupted_task_says_interrupted_not_failed(monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    with pytest.raises(KeyboardInterrupt), progress_task("job", stages=2) as task:
+        task.stage("first")
+        raise KeyboardInterrupt
+    with pytest.raises(RuntimeError), progress_task("job", stages=2) as task:
+        task.stage("first")
+        raise RuntimeError("boom")
+    lines = err.getvalue().splitlines()
+    assert lines[1].startswith("job: interrupted after ") and "failed" not in lines[1]
+    assert lines[3].startswith("job: failed after ")

@@ -120,6 +120,7 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     ax[2].set_ylabel("thruster commands [µs]")
     for a in ax:
         a.set_xlabel("t [s]")
+    fig.suptitle(f"BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack ({hold_s:g} s)")
     rep.add_figure(save_figure(fig, d / "battery_mission_heavy.png"),
                    caption="BlueROV2 Heavy holding station in 0.5 m/s on a 25 % pack (voltage-aware "
                    "T200 model in the loop): the voltage sags, the commands grow to hold the thrust")
@@ -165,6 +166,7 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
     rep.add_figure(out / "mission" / "thrusters.png")
     rep.add_table([{k: v_ for k, v_ in res.metrics.items() if not isinstance(v_, list)}])
     envs = {}
+    rep.add_paragraph(v.provenance_note() or "")
     for name in ("bluerov2", "bluerov2-heavy"):
         check = confirm_envelope(v if name == "bluerov2" else load_vehicle(name))
         envs[name] = check.to_dict()
@@ -179,13 +181,22 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
 def _study_section(out: Path, rep: Report) -> dict:
     from uuvid.papers import thruster_loop_study as st
 
-    result = st.run_study(bandwidths=(2.0, 6.0))
+    result = st.run_study(bandwidths=DEMO_LOOP_BANDWIDTHS)
     result.report(out / "study")
     rep.add_heading("Study: lagging vs leading thrusters in heading and depth loops")
     rep.add_links("Full page:", ["study/index.html"])
     rep.add_paragraph(result["answer"])
+    rep.add_paragraph(
+        f"For time the demo tries only {', '.join(f'{b:g}' for b in DEMO_LOOP_BANDWIDTHS)} rad/s; "
+        f"`uuvid study thruster-loop` tries {', '.join(f'{b:g}' for b in st.BANDWIDTHS)} rad/s, so "
+        "its largest clean bandwidth can be higher (e.g. first-order 4 instead of 2 rad/s): both "
+        "bracket the same limit, between the largest clean and the smallest cycling bandwidth.")
     rep.add_figure(out / "study" / "limit_cycles.png")
     return result
+
+
+#: The controller bandwidths [rad/s] the demo's thruster-loop study tries (the CLI: 1, 2, 4, 6).
+DEMO_LOOP_BANDWIDTHS = (2.0, 6.0)
 
 
 def _caccia_section(out: Path, rep: Report) -> dict:
@@ -366,6 +377,7 @@ def _ardusub_section(out: Path, rep: Report) -> dict:
         rep.add_paragraph(f"Skipped: {e}")
         return {"skipped": str(e)}
     dive.report(out / "ardusub")
+    rep.add_links("Full page:", ["ardusub/index.html"])
     rep.add_paragraph(f"{log.name} (clydemcqueen/ardusub_log_tools, MIT): configuration from its "
                       f"parameters, depth from {dive.depth_source['source']} "
                       f"({dive.depth_source['why']}). Table: ardusub/dive.csv with "

@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -430,8 +431,9 @@ class CapabilityResult(Result):
                 "simulated_max_current_m_s": self.simulated.tolist(),
                 "simulated_over_analytic": self.agreement.tolist(), "note": self.note}
 
-    def plot(self, path=None):
-        """Polar capability plot (0° = current from ahead, clockwise to starboard)."""
+    def plot(self, path=None, mark=None):
+        """Polar capability plot (0° = current from ahead, clockwise to starboard); ``mark``
+        ``(speed m/s, from deg[, held])`` draws a requested current on it."""
         from uuvid.core.plots import new_figure, save_figure
 
         fig, ax = new_figure(1, 1, figsize=(5.5, 5.5), subplot_kw={"projection": "polar"})
@@ -441,6 +443,12 @@ class CapabilityResult(Result):
         ax.plot(th, np.append(self.max_current, self.max_current[:1]), label="analytic")
         if self.simulated.size:
             ax.plot(np.radians(self.simulated_deg), self.simulated, "o", label="simulated")
+        if mark is not None:
+            sp, deg = float(mark[0]), float(mark[1])
+            held = bool(mark[2]) if len(mark) > 2 else sp <= self.analytic_at(deg)
+            ax.plot([np.radians(deg)], [sp], "*", ms=14, color="tab:green" if held else "tab:red",
+                    label=f"requested {sp:g} m/s from {deg:g}° ({'held' if held else 'NOT held'})")
+            ax.set_rmax(max(ax.get_rmax(), 1.1 * sp))
         v = f" at {self.supply_voltage:g} V" if self.supply_voltage else ""
         ax.set_title(f"{self.vehicle}{v}: largest current held (m/s)\nvs the direction it comes from")
         ax.legend(loc="lower right", fontsize=8)
@@ -639,6 +647,7 @@ class EnduranceResult(Result):
     reason: str
     thrust: np.ndarray = None  # (k, n) held thrusts
     command: np.ndarray = None  # (k, n) commands giving them at the loaded voltage
+    thruster_names: tuple = ()  # the legend of the held commands
 
     def summary(self) -> str:
         e = self.endurance_s
@@ -671,12 +680,22 @@ class EnduranceResult(Result):
         ax[2].plot(tm, self.max_forward_thrust)
         ax[2].set_ylabel("forward thrust limit [N]")
         if self.command is not None:
-            ax[3].plot(tm, self.command)
+            names = list(self.thruster_names) or [f"T{i + 1}" for i in range(self.command.shape[1])]
+            for j, name in enumerate(names[: self.command.shape[1]]):
+                ax[3].plot(tm, self.command[:, j], label=name)
+            ax[3].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
         ax[3].set_ylabel("held commands [µs]")
         for a in ax:
             a.set_xlabel("time [min]")
-        fig.suptitle(self.summary()[:110])
+        ax[2].set_title("thrust limit at the loaded voltage")
+        ax[3].set_title("commands holding station, per thruster")
+        fig.suptitle(self.title())
         return save_figure(fig, path) if path is not None else fig
+
+    def title(self) -> str:
+        """One whole line for a figure: vehicle, current, endurance (the summary is too long)."""
+        return (f"{self.vehicle} holding station against {self.speed:.2f} m/s from "
+                f"{self.relative_deg:.0f}°: {self.endurance_s / 60:.1f} min")
 
 
 def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float = 1.0,
@@ -708,7 +727,8 @@ def _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, 
     if not h.held:
         return EnduranceResult(vehicle.name, speed, relative_deg, np.zeros(1), np.array([soc]),
                                np.array([h.voltage]), np.array([h.current]),
-                               np.array([h.limits[0, 1]]), 0.0, h.reason)
+                               np.array([h.limits[0, 1]]), 0.0, h.reason,
+                               thruster_names=tuple(t.name for t in vehicle.layout))
     rows.append((t, soc, h.voltage, h.current, h.limits[0, 1]))
     extra = [(h.allocation.thrust, h.command)]
     while soc > 0:
@@ -741,4 +761,36 @@ def _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, 
     a = np.array(rows)
     return EnduranceResult(vehicle.name, speed, relative_deg, a[:, 0], a[:, 1], a[:, 2], a[:, 3],
                            a[:, 4], float(a[-1, 0]), reason, np.array([e[0] for e in extra]),
-                           np.array([e[1] for e in extra]))
+                           np.array([e[1] for e in extra]),
+                           tuple(t.name for t in vehicle.layout))
+
+
+def write_hold_report(folder, cap: CapabilityResult, doc: dict, current=None,
+                      endur: EnduranceResult | None = None) -> Path:
+    """``uuvid vehicle hold --out``: capability.png (the requested ``current`` = (speed, from
+    deg) marked), endurance.png when there is an endurance, hold.json and an index.html linking
+    them all.  Returns the index."""
+    from uuvid.core.atomic import atomic_write_json
+    from uuvid.core.html import Report
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    a = doc.get("at_current")
+    mark = None if current is None else (*current[:2], a["holds"]) if a else current
+    cap.plot(folder / "capability.png", mark=mark)
+    rep = Report(f"Station keeping: {cap.vehicle}")
+    rep.add_preformatted(cap.summary())
+    rep.add_figure(folder / "capability.png", caption="Largest current held [m/s] against the "
+                   "direction it comes from" + (" — the star is the requested current"
+                                                if current is not None else ""))
+    if a:
+        rep.add_table([{"current_m_s": a["speed_m_s"], "from_deg": a["from_deg"],
+                        "largest_held_m_s": a["max_current_m_s"], "holds": a["holds"]}],
+                      caption="The requested current")
+    if endur is not None:
+        endur.plot(folder / "endurance.png")
+        rep.add_preformatted(endur.summary())
+        rep.add_figure(folder / "endurance.png", caption="Discharge while holding station")
+    rep.add_links("Data:", ["hold.json"])
+    atomic_write_json(folder / "hold.json", doc)
+    return rep.write(folder)

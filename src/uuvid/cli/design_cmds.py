@@ -36,35 +36,49 @@ def _pair(text: str | None, opt: str) -> tuple[float, float] | None:
     return a, b
 
 
+def _units(dof: str | None) -> dict:
+    """Units of the design's numbers for a linear or angular DOF (both when it is not given)."""
+    lin = {"f": "N", "x": "m", "m": "kg", "k": "N·s/m"}
+    ang = {"f": "N·m", "x": "rad", "m": "kg·m²", "k": "N·m·s/rad"}
+    if dof is None:
+        return {key: f"{lin[key]} | {ang[key]}" for key in lin}
+    return ang if dof in ("roll", "pitch", "yaw") else lin
+
+
 def design_input(
     k: float = typer.Option(..., "--k", help="Prior linear drag k (N·s/m or N·m·s/rad)."),
-    kq: float = typer.Option(0.0, "--kq", help="Prior quadratic drag k_q."),
+    kq: float = typer.Option(0.0, "--kq", help="Prior quadratic drag k_q (N·s²/m² or N·m·s²/rad²)."),
     mass: float | None = typer.Option(None, "--mass",
-                                      help="Nominal inertia for τ_c (default: --mass-air, the "
-                                           "paper's yaw choice)."),
+                                      help="Nominal inertia for τ_c, kg or kg·m² (default: "
+                                           "--mass-air, the paper's yaw choice)."),
     mass_air: float | None = typer.Option(None, "--mass-air",
-                                          help="In-air (rigid-body) inertia along the DOF."),
+                                          help="In-air (rigid-body) inertia along the DOF (kg or kg·m²)."),
     added_mass_range: str = typer.Option("0.1,1.0", "--added-mass-range",
                                          help="Added mass as fractions of --mass-air: LOW,HIGH."),
     speed: float = typer.Option(..., "--speed",
                                 help="Regime speed ξ* (m/s or rad/s); its sign sets the offset's."),
     speed_range: str | None = typer.Option(None, "--speed-range",
-                                           help="Keep the speed within LOW,HIGH."),
-    eta: float = typer.Option(1.0, "--eta", help="Installation coefficient of the mode."),
-    w: float = typer.Option(0.0, "--w", help="Mean disturbance w."),
+                                           help="Keep the speed within LOW,HIGH (m/s or rad/s)."),
+    eta: float = typer.Option(1.0, "--eta", help="Installation coefficient of the mode (dimensionless)."),
+    w: float = typer.Option(0.0, "--w", help="Mean disturbance w (N or N·m)."),
     choice: Choice = typer.Option(Choice.nominal, "--choice",
                                   help="nominal: 1/(√3 τ_c); robust: maximin D-efficiency over the "
                                        "inertia range."),
-    n_periods: float = typer.Option(3.0, "--n-periods", help="Sine periods to record."),
-    settle_tau: float = typer.Option(4.0, "--settle-tau", help="Settling time in τ_c (largest)."),
+    n_periods: float = typer.Option(3.0, "--n-periods",
+                                    help="Sine periods to record (count)."),
+    settle_tau: float = typer.Option(4.0, "--settle-tau",
+                                     help="Settling time in multiples of τ_c (the largest τ_c)."),
     lead_in: float = typer.Option(0.0, "--lead-in", help="Offset-only lead-in (s)."),
     max_distance: float | None = typer.Option(None, "--max-distance",
-                                              help="Maneuvering space (m): raise ω so it fits."),
+                                              help="Maneuvering space (m, or rad for a "
+                                                   "rotation): raise ω so it fits."),
     force_limit: float | None = typer.Option(None, "--force-limit",
-                                             help="Largest |φ| the thrusters give in the mode."),
+                                             help="Largest |φ| the thrusters give in the mode "
+                                                  "(N or N·m)."),
     reversal_margin: float = typer.Option(0.1, "--reversal-margin",
                                           help="Keep Δφ ≤ (1 − margin)|φ₀| (no thrust reversal)."),
-    amplitude: float | None = typer.Option(None, "--amplitude", help="Impose the amplitude Δφ."),
+    amplitude: float | None = typer.Option(None, "--amplitude",
+                                           help="Impose the amplitude Δφ (N or N·m)."),
     sample_time: float = typer.Option(0.1, "--sample-time", help="Command sample time (s)."),
     dof: str | None = typer.Option(None, "--dof",
                                    help="DOF name (surge, sway, heave, roll, pitch, yaw); needed "
@@ -118,6 +132,10 @@ def design_input(
     except ValueError as e:
         fail(f"design-input: {e}")
     doc = {"command": "vehicle design-input", **des.as_dict()}
+    u = _units(dof)
+    doc["units"] = {"k": u["k"], "mass": u["m"], "k_L": u["k"], "offset": u["f"],
+                    "amplitude": u["f"], "distance": u["x"], "tau_c": "s", "duration": "s",
+                    "settle": "s", "period": "s", "omega": "rad/s", "sample_time": "s"}
     doc["omega_opt_analytic"] = des.omega_opt
     doc["omega_opt_numeric"] = des.omega_numeric
     rel = abs(des.omega_numeric - des.omega_opt) / des.omega_opt
@@ -180,8 +198,8 @@ def design_input(
     t = Table(title=f"Sine experiment for the {dof or 'DOF'} inertia")
     t.add_column("quantity")
     t.add_column("value")
-    rows = [("k_L = k + 2 k_q |ξ*|", f"{des.k_L:.4g}"),
-            (f"τ_c (nominal inertia {nominal:.4g}, {doc['nominal_inertia_from']})",
+    rows = [("k_L = k + 2 k_q |ξ*|", f"{des.k_L:.4g} {u['k']}"),
+            (f"τ_c (nominal inertia {nominal:.4g} {u['m']}, {doc['nominal_inertia_from']})",
              f"{des.tau_c:.4g} s")]
     if "tau_c_range" in doc:
         rows.append((f"τ_c range (in-air + {frac[0]:.0%} … {frac[1]:.0%} added)",
@@ -191,14 +209,19 @@ def design_input(
     rows += [("ω_opt = 1/(√3 τ_c)", f"{des.omega_opt:.4g} rad/s"),
              ("ω_opt numeric (Fisher)", f"{des.omega_numeric:.4g} rad/s"),
              ("ω applied", f"{des.omega:.4g} rad/s (period {des.period:.4g} s, {des.choice})"),
-             ("offset φ₀", f"{des.offset:.4g}"),
-             ("amplitude Δφ", f"{des.amplitude:.4g} (limited by {des.levels['limited_by']})"),
+             ("offset φ₀", f"{des.offset:.4g} {u['f']}"),
+             ("amplitude Δφ", f"{des.amplitude:.4g} {u['f']} (limited by "
+                              f"{des.levels['limited_by']})"),
              ("duration", f"{des.duration:.4g} s (settle {des.settle:.4g} s)"),
-             ("distance", f"{des.distance:.4g}"),
+             ("distance", f"{des.distance:.4g} {u['x']}"
+              + (f" ({math.degrees(des.distance):.4g}°)" if u["x"] == "rad" else "")),
              ("D-efficiency", f"{des.efficiency:.3f}")]
     for a, b in rows:
         t.add_row(a, b)
     out_console.print(t)
+    if dof is None:
+        err_console.print("note: units shown as linear | angular DOF (give --dof to pick one)",
+                          highlight=False, markup=False)
     for m in des.messages:
         err_console.print(f"[yellow]note:[/] {escape(m)}", highlight=False, soft_wrap=True)
     if out is not None:

@@ -35,11 +35,13 @@ def vehicle_hold(
     battery: float = typer.Option(None, "--battery", help="State of charge (0–1) of the vehicle "
                                   "file's battery: limits at its loaded voltage; with --current "
                                   "also the endurance from this charge."),
-    voltage: float = typer.Option(None, "--voltage", help="Fixed supply voltage for the limits."),
+    voltage: float = typer.Option(None, "--voltage", help="Fixed supply voltage [V] for the "
+                                  "limits (default: the vehicle file's own thrust limits)."),
     step: float = typer.Option(15.0, "--step", help="Angle step of the capability plot, deg."),
     simulate: str = typer.Option("", "--simulate", help="Angles (deg, comma-separated) to confirm "
                                  "by simulation, e.g. 0,90."),
-    out: Path = typer.Option(None, "--out", help="Folder for capability.png and hold.json."),
+    out: Path = typer.Option(None, "--out", help="Folder for capability.png (the requested "
+                             "current marked), endurance.png, hold.json and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
 ):
     """Station-keeping capability (largest current held per direction, a polar "capability plot")
@@ -78,15 +80,18 @@ def vehicle_hold(
             endur = hold.endurance(v, speed, deg, soc0=battery)
             doc["endurance"] = endur.to_dict()
     if out is not None:
-        from uuvid.core.atomic import atomic_write_json
-
-        out.mkdir(parents=True, exist_ok=True)
-        cap.plot(out / "capability.png")
-        atomic_write_json(out / "hold.json", doc)
+        hold.write_hold_report(out, cap, doc, cur, endur)
         doc["out"] = str(out)
+    if voltage is None and battery is None:
+        doc["limits_note"] = ("thrust limits: the vehicle file's own (default; --voltage V or "
+                              "--battery SOC for the limits at a supply voltage)")
     if json_out:
         _print_json(doc)
         return
+    if "limits_note" in doc:
+        from uuvid.cli.common import err_console
+
+        err_console.print(f"note: {doc['limits_note']}", markup=False, highlight=False)
     out_console.print(cap.summary(), markup=False, highlight=False)
     if cur is not None:
         a = doc["at_current"]
@@ -96,5 +101,6 @@ def vehicle_hold(
         if endur is not None:
             out_console.print(endur.summary(), markup=False, highlight=False)
     if out is not None:
-        out_console.print(f"wrote {out}/capability.png, hold.json", markup=False)
+        out_console.print(f"wrote {out}/capability.png" + (", endurance.png" if endur else "")
+                          + f", hold.json and {out}/index.html", markup=False)
 

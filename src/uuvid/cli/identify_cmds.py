@@ -91,11 +91,13 @@ def identify_steady(
                                                         "each constant-command interval (s)."),
     min_duration: float = typer.Option(10.0, "--min-duration",
                                        help="Shortest steady window kept (s)."),
-    tol: float = typer.Option(0.0, "--tol", help="Absolute tolerance of a constant command."),
+    tol: float = typer.Option(0.0, "--tol", help="Absolute tolerance of a constant command "
+                                                  "(N or N·m, the command's unit)."),
     rel_tol: float = typer.Option(0.02, "--rel-tol", help="Relative tolerance of a constant "
-                                                          "command."),
+                                                          "command (fraction, 0.02 = 2 %)."),
     threshold: float = typer.Option(3.5, "--threshold",
-                                    help="Outlier threshold in robust scales."),
+                                    help="Outlier threshold in robust scales (× the MAD-based "
+                                         "σ, dimensionless)."),
     direction: Direction = typer.Option(Direction.both, "--direction",
                                         help="Keep segments moving this way (the paper fits "
                                              "forward and backward surge separately)."),

@@ -15,6 +15,9 @@ from rich.table import Table
 from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_console, out_console
 from uuvid.cli.options import deprecated_out, renamed
 
+#: ``thruster simulate --out`` warns before writing a time series bigger than this [bytes].
+CSV_WARN_BYTES = 50e6
+
 
 # ------------------------------------------------------------------------------------ thruster
 def _parse_signal(spec: str):
@@ -55,11 +58,14 @@ def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) 
 
 def thruster_simulate(
     model: str = typer.Argument(..., help="Model file (YAML/TOML) or preset name."),
-    signal: str = typer.Option(
-        "kind=step,amplitude=24",
+    signal: str | None = typer.Option(
+        None,
         "--signal",
-        help="Input, e.g. kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
-        "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,...",
+        help="Input in the model's command unit (µs for a PWM ESC, V for a voltage input), e.g. "
+        "kind=step,amplitude=24 | kind=sine,offset=1500,amplitude=400,period=2 "
+        "| kind=square,low=0,high=24,period=1 | kind=sawtooth,... | kind=ramp,... | kind=sweep,... "
+        "Default: a step to full forward command (1500 → 1900 µs for the T200, 0 → 24 for a "
+        "voltage input), printed.",
     ),
     t_end: float = typer.Option(2.0, "--t-end", help="Simulated time [s]."),
     dt: float = typer.Option(1e-3, "--dt", help="Output sample time [s]."),
@@ -73,12 +79,15 @@ def thruster_simulate(
 
     ``--signal kind=sampled,file=RUN.csv,time_col=t,command_col=V,...`` replays a logged command
     and compares with the logged speed/thrust (see ``uuvid thruster replay``)."""
-    if "file=" in signal:
+    if signal is not None and "file=" in signal:
         from uuvid.cli.replay_cmd import replay_from_spec
 
         return replay_from_spec(model, signal, out, json_out)
     chain = _load_model(model)
-    sig = _parse_signal(signal)
+    from uuvid.simulate.signals import default_step
+    from uuvid.thruster.chain import command_range_warnings
+
+    sig = _parse_signal(signal) if signal is not None else default_step(chain)
     try:
         resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
     except ValueError as e:
@@ -91,12 +100,42 @@ def thruster_simulate(
     if not is_step:
         summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
                                    + type(sig).__name__)
+    from uuvid.core.metrics import STEP_METRIC_UNITS
+    from uuvid.core.response import CHANNEL_UNITS
+    from uuvid.thruster.blocks import ESC
+
+    esc = next((b for b in chain.blocks if isinstance(b, ESC)), None)
+    units = dict(CHANNEL_UNITS, time="s")
+    if esc is not None:
+        units["command"] = {"pwm_us": "µs", "volts": "V", "duty": "duty (−1..1)"}.get(
+            esc.command_unit, esc.command_unit)
+    elif chain.input_kind in ("voltage", "speed"):
+        units["command"] = units[{"voltage": "voltage", "speed": "prop_speed"}[chain.input_kind]]
+    summary["units"] = {"t_end": "s", "dt": "s", **{k: STEP_METRIC_UNITS.get(k, "") for k in metrics},
+                        "channels": {k: units.get(k, "") for k in resp.channels}}
+    if signal is None:
+        summary["signal_note"] = (f"default input: step {sig.baseline:g} → {sig.amplitude:g} "
+                                  f"{units['command']} at t = {sig.t0:g} s (--signal to change)")
+        err_console.print(summary["signal_note"], highlight=False, markup=False, soft_wrap=True)
+    if esc is not None:
+        for w in command_range_warnings(resp["command"], esc, units["command"]):
+            summary.setdefault("warnings", []).append(w)
+            err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if out:
         from uuvid.core.atomic import atomic_write_json
         from uuvid.core.html import Report
         from uuvid.core.plots import save_figure
 
         out.mkdir(parents=True, exist_ok=True)
+        size = resp.csv_bytes_estimate()
+        rows = f"{len(resp.t):,} rows × {len(resp.channels) + 1} columns ≈ {size / 1e6:.3g} MB"
+        summary["csv_size"] = rows
+        big = size > CSV_WARN_BYTES
+        err_console.print(("[yellow]warning:[/] " if big else "") + escape(
+            f"writing {out / 'response.csv'}: {rows}"
+            + (f" (over {CSV_WARN_BYTES / 1e6:g} MB: a larger --dt, the output sample time, "
+               "writes fewer rows; --substeps keeps the integration step)" if big else "")),
+            highlight=False, soft_wrap=True)
         resp.to_csv(out / "response.csv")
         png = save_figure(resp.plot(title=chain.name), out / "response.png")
         atomic_write_json(out / "summary.json", summary)
@@ -112,14 +151,15 @@ def thruster_simulate(
                           markup=False)
         out_console.print(
             _table(f"{chain.name}: final values (SI)",
-                   [{"channel": k, "final": float(resp[k][-1])} for k in resp.channels], ["channel", "final"],
-                   "{:.4g}"))
+                   [{"channel": k, "final": float(resp[k][-1]), "unit": units.get(k, "")}
+                    for k in resp.channels], ["channel", "final", "unit"], "{:.4g}"))
     else:
         out_console.print(
             _table(
                 f"{chain.name} response (SI)",
-                [{"metric": k, "value": v if v is not None else float("nan")} for k, v in metrics.items()],
-                ["metric", "value"],
+                [{"metric": k, "value": v if v is not None else float("nan"),
+                  "unit": STEP_METRIC_UNITS.get(k, "")} for k, v in metrics.items()],
+                ["metric", "value", "unit"],
                 "{:.4g}",
             )
         )
@@ -202,7 +242,9 @@ def thruster_predict(
     voltage: str | None = typer.Option(None, "--voltage", help="Motor voltages [V] (voltage-driven models)."),
     speed: str | None = typer.Option(None, "--speed", help="Propeller speeds [rad/s] (speed-driven maps)."),
     supply_voltage: float | None = typer.Option(
-        None, "--supply-voltage", help="Battery voltage [V] for models with an ESC."
+        None, "--supply-voltage",
+        help="Battery voltage [V] for models with an ESC (default: the model's own, printed; "
+        "t200 16 V, laidani-a2212 12 V).",
     ),
     json_out: bool = typer.Option(False, "--json", help="Print {input: [...], thrust_N: [...]} as JSON."),
 ):
@@ -214,7 +256,7 @@ def thruster_predict(
         monotonicity_warnings,
         zero_output_warnings,
     )
-    from uuvid.thruster.resolve import supply_law, supply_voltage_warnings
+    from uuvid.thruster.resolve import supply_law, supply_used, supply_voltage_warnings
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -242,15 +284,20 @@ def thruster_predict(
     out_key = {"thrust": "thrust_N", "measured_thrust": "measured_thrust_N", "speed": "speed_rad_s",
                "voltage": "voltage_V"}.get(sub.output_kind, sub.output_kind)
     doc = {key: x.tolist(), out_key: thrust.tolist(), "model": chain.name}
-    if supply_voltage is not None:
-        doc["supply_voltage_V"] = supply_voltage
+    volts, source, _ = supply_used(model, chain, supply_voltage)
+    supply_warnings = []
+    if volts is not None and start == 0:  # the supply matters only when the ESC is in the path
+        doc["supply_voltage_V"] = volts
+        doc["supply_voltage_source"] = source
+        err_console.print(f"supply voltage: {source}", highlight=False, soft_wrap=True, markup=False)
+        # one range check for presets and model files alike (the data's voltages)
+        supply_warnings = supply_voltage_warnings(model, chain, volts)
     neutral = blocks[start].neutral if isinstance(blocks[start], ESC) else 0.0
     doc["warnings"] = zero_output_warnings(x, thrust, neutral) + monotonicity_warnings(
         x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
-    if supply_voltage is not None:
-        doc["warnings"] += supply_voltage_warnings(model, chain, supply_voltage)
+    doc["warnings"] += supply_warnings
     for w in doc["warnings"]:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
     if json_out:
@@ -258,7 +305,8 @@ def thruster_predict(
     else:
         out_console.print(
             _table(
-                f"{chain.name}: steady {sub.output_kind}",
+                f"{chain.name}: steady {sub.output_kind}"
+                + (f" at {doc['supply_voltage_V']:g} V supply" if "supply_voltage_V" in doc else ""),
                 [{key: float(a), out_key: float(b)} for a, b in zip(x, thrust)],
                 [key, out_key],
                 "{:.4g}",

@@ -57,8 +57,8 @@ def _show(summary: dict, title: str) -> None:
             {"quantity": "backend", "value": f"{summary['backend']} ({summary.get('workers', 1)} "
                                              "workers)"},
             {"quantity": "backend chosen because", "value": summary.get("backend_reason", "")},
-            {"quantity": "wall time (s)", "value": f"{summary['wall_time_s']:.3g}"},
-            {"quantity": "runs/s", "value": f"{summary['runs_per_s']:.4g}"}]
+            {"quantity": "wall time [s]", "value": f"{summary['wall_time_s']:.3g}"},
+            {"quantity": "runs per second [1/s]", "value": f"{summary['runs_per_s']:.4g}"}]
     if summary.get("failed_chunks"):
         rows.append({"quantity": "failed chunks", "value": "; ".join(
             f"{c['start']}–{c['stop'] - 1}: {c['error']}" for c in summary["failed_chunks"])})
@@ -72,12 +72,14 @@ def _show(summary: dict, title: str) -> None:
         rows.append({"quantity": "draws", "value": f"{d['total']} ({d['rejected_draws']} rejected by "
                                                    f"bounds, {d['runs_rejected']} runs without an "
                                                    "admissible draw)"})
+    from uuvid.uncertainty.targets import metric_label
+
     for m, v in (summary.get("metrics") or {}).items():
-        rows.append({"quantity": m, "value": f"{v['min']:.4g} … {v['max']:.4g}"})
+        rows.append({"quantity": metric_label(m), "value": f"{v['min']:.4g} … {v['max']:.4g}"})
     for m, v in (summary.get("metric_quantiles") or {}).items():
         qs = [k for k in v if k.startswith("q")]
-        rows.append({"quantity": m, "value": f"median {v['median']:.4g}, "
-                                             f"[{v[qs[0]]:.4g}, {v[qs[-1]]:.4g}]"})
+        rows.append({"quantity": metric_label(m), "value": f"median {v['median']:.4g}, "
+                                                           f"[{v[qs[0]]:.4g}, {v[qs[-1]]:.4g}]"})
     out_console.print(_table(title, rows, ["quantity", "value"]))
 
 
@@ -160,7 +162,8 @@ def montecarlo_cmd(
     max_draws: int = typer.Option(100, "--max-draws", help="reject: draws per run before giving up."),
     requirement: str | None = typer.Option(None, "--requirement",
                                            help='e.g. "max_tracking_error_m<0.5" (vehicle default).'),
-    band: float = typer.Option(0.95, "--band", help="Central probability of the prediction bands."),
+    band: float = typer.Option(0.95, "--band", help="Central probability of the prediction bands "
+                                                     "(0–1, 0.95 = 95 %)."),
     backend: str | None = typer.Option(None, "--backend",
                                        help="auto (default) | inprocess | processes | dask."),
     workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPUs)."),

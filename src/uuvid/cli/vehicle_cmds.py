@@ -171,10 +171,17 @@ def simulate(
 
 
 @vehicle_app.command("info")
-def vehicle_info(vehicle: str = typer.Argument(..., help="Vehicle preset or file.")):
-    """Print a vehicle's parameters, thrusters, modes and sources."""
+def vehicle_info(
+    vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
+    json_out: bool = typer.Option(False, "--json", help="Print as JSON (units in the keys and "
+                                  "in `units`)."),
+):
+    """Print a vehicle's parameters (SI, with units), thrusters, modes, sources and notes."""
     v = _load_vehicle(vehicle)
-    _helpers()[4].print(v.summary())
+    if json_out:
+        _helpers()[1](v.to_dict())
+        return
+    _helpers()[4].print(v.summary(), markup=False, highlight=False)
 
 
 @vehicle_app.command("envelope")

@@ -22,6 +22,7 @@ import json
 import math
 import numbers
 import os
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -35,15 +36,16 @@ body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-
   max-width:1100px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}
 h1{border-bottom:2px solid #ccc;padding-bottom:.2em}
 h2{margin-top:1.6em;border-bottom:1px solid #e3e3e3}
-table{border-collapse:collapse;margin:1em 0;font-size:.92em}
-th,td{border:1px solid #ccc;padding:.25em .6em;text-align:left;vertical-align:top}
+table{border-collapse:collapse;margin:1em 0;font-size:.92em;max-width:100%}
+th,td{border:1px solid #ccc;padding:.25em .6em;text-align:left;vertical-align:top;
+  overflow-wrap:anywhere}
 th{background:#f2f2f2}
 td.num{text-align:right;font-variant-numeric:tabular-nums;font-family:ui-monospace,monospace}
 tr:nth-child(even) td{background:#fafafa}
 caption,figcaption{font-style:italic;color:#555;padding:.3em 0;text-align:left}
 figure{margin:1.2em 0}
 figure img{max-width:100%;height:auto;border:1px solid #eee}
-.tw{overflow-x:auto;max-width:100%}
+.tw{max-width:100%}
 a{color:#0b5cad}
 pre{background:#f6f8fa;border:1px solid #e3e3e3;padding:.8em;overflow:auto;font-size:.88em}
 """
@@ -110,26 +112,22 @@ class Report:
 
         *columns* selects and orders the columns; by default all keys in order of first
         appearance.  Missing cells and ``None`` are blank; floats (Python or numpy) are formatted
-        with *float_fmt*; numeric cells are right-aligned.
+        with *float_fmt*; numeric cells are right-aligned.  Cells wrap; a table still wider than
+        the page (:data:`MAX_TABLE_PX`, :func:`column_min_px`) is split into several, each
+        repeating the first column, so no column hides behind a scroll bar.
         """
         rows = list(rows)
         if columns is None:
             columns = list(dict.fromkeys(k for row in rows for k in row))
-        out = ['<div class="tw"><table>']  # wide tables scroll instead of being cut off
-        if caption:
-            out.append(f"<caption>{_esc(caption)}</caption>")
-        header = "".join(f"<th>{_esc(c)}</th>" for c in columns)
-        out.append(f"<thead><tr>{header}</tr></thead>")
-        out.append("<tbody>")
-        for row in rows:
-            cells = []
-            for c in columns:
-                text, numeric = _format_cell(row.get(c), float_fmt)
-                cls = ' class="num"' if numeric else ""
-                cells.append(f"<td{cls}>{_esc(text)}</td>")
-            out.append("<tr>" + "".join(cells) + "</tr>")
-        out.append("</tbody></table></div>")
-        self._blocks.append("\n".join(out))
+        columns = list(columns)
+        cells = [[_format_cell(row.get(c), float_fmt) for c in columns] for row in rows]
+        groups = _split_columns(columns, cells)
+        for g, cols in enumerate(groups):
+            cap = caption
+            if len(groups) > 1:  # too wide for the page: split, the first column repeated
+                part = f"part {g + 1} of {len(groups)}, split to fit the page"
+                cap = f"{caption} ({part})" if caption else part.capitalize()
+            self._blocks.append(_table_html(columns, cells, cols, cap))
         return self
 
     def add_figure(
@@ -195,6 +193,62 @@ class Report:
 
 
 # -------------------------------------------------------------------- helpers
+
+#: Widest table [px] the page holds (1100 px body less its padding): wider ones are split.
+MAX_TABLE_PX = 1060
+#: Estimated width of one character of a table cell [px] (.92em of 16 px, bold headers included)
+#: and of a cell's padding and border.
+CHAR_PX, CELL_PAD_PX = 9.0, 19.0
+#: A text cell's word longer than this wraps anywhere (``overflow-wrap:anywhere``); numbers never.
+LONG_WORD = 24
+
+
+def column_min_px(header: str, cells: Iterable[tuple[str, bool]]) -> float:
+    """Narrowest a column can be: its longest unbreakable piece (headers break at spaces and
+    after underscores, text at spaces, long words anywhere; numbers do not break)."""
+    words = [len(w) for w in re.split(r"(?<=_)|\s+", header) if w] or [0]  # "speed_" stays whole
+    longest = max(words)
+    for text, numeric in cells:
+        if numeric:
+            longest = max(longest, len(text))
+        else:
+            longest = max([longest, *(min(len(w), LONG_WORD) for w in text.split())])
+    return longest * CHAR_PX + CELL_PAD_PX
+
+
+def _split_columns(columns: list[str], cells: list[list[tuple[str, bool]]]) -> list[list[int]]:
+    """Column indices per table: one table when it fits :data:`MAX_TABLE_PX`, else consecutive
+    groups that do, each starting with the first (key) column."""
+    w = [column_min_px(c, (row[i] for row in cells)) for i, c in enumerate(columns)]
+    if sum(w) <= MAX_TABLE_PX or len(columns) < 3:
+        return [list(range(len(columns)))]
+    groups, cur, width = [], [0], w[0]
+    for i in range(1, len(columns)):
+        if width + w[i] > MAX_TABLE_PX and len(cur) > 1:
+            groups.append(cur)
+            cur, width = [0], w[0]
+        cur.append(i)
+        width += w[i]
+    groups.append(cur)
+    return groups
+
+
+def _table_html(columns, cells, cols: list[int], caption: str | None) -> str:
+    out = ['<div class="tw"><table>']  # fits the page: wraps (and is split) rather than scrolls
+    if caption:
+        out.append(f"<caption>{_esc(caption)}</caption>")
+    header = "".join(f"<th>{_esc(columns[i]).replace('_', '_<wbr>')}</th>" for i in cols)
+    out.append(f"<thead><tr>{header}</tr></thead>")
+    out.append("<tbody>")
+    for row in cells:
+        tds = []
+        for i in cols:
+            text, numeric = row[i]
+            cls = ' class="num"' if numeric else ""
+            tds.append(f"<td{cls}>{_esc(text)}</td>")
+        out.append("<tr>" + "".join(tds) + "</tr>")
+    out.append("</tbody></table></div>")
+    return "\n".join(out)
 
 
 def _relative_href(href: str | os.PathLike[str]) -> str:

@@ -256,6 +256,12 @@ class StepMetrics:
         return d
 
 
+#: Unit of each :class:`StepMetrics` field (for tables that print them).
+STEP_METRIC_UNITS = {"peak_output_thrust": "N", "max_true_thrust": "N", "steady_thrust": "N",
+                     "steady_speed": "rad/s", "time_to_peak": "s", "time_constant_speed": "s",
+                     "time_constant_decay": "s"}
+
+
 def step_response_metrics(
     t: Any,
     thrust_true: Any,

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from uuvid.core.atomic import atomic_path
 
-__all__ = ["new_figure", "plot_time_series", "save_figure"]
+__all__ = ["figure_problems", "new_figure", "plot_time_series", "save_figure"]
 
 # keyword arguments of Figure.subplots(); everything else goes to Figure()
 _SUBPLOTS_KW = {
@@ -185,3 +185,48 @@ def plot_time_series(
     if title:
         fig.suptitle(title)
     return fig
+
+
+_HAS_UNIT = re.compile(r"[\[(][^\[\]()]+[\])]")
+
+
+def figure_problems(fig: Figure) -> list[str]:
+    """What a reader of *fig* would miss: a title (the figure's or an axes'), and on every axes
+    that shows data an x and a y label naming a unit in brackets or parentheses (``[m/s]``,
+    ``(N)``, ``[-]``); a shared axis may carry its label on a sibling.  A polar axes names its
+    radial unit in its title.  Empty when nothing is missing."""
+    out = []
+    sup = fig._suptitle.get_text() if getattr(fig, "_suptitle", None) is not None else ""
+    data_axes = [ax for ax in fig.axes if not hasattr(ax, "_colorbar") and (
+        ax.lines or ax.collections or ax.images or ax.patches or ax.containers)]
+    if not sup.strip() and not any(ax.get_title().strip() for ax in fig.axes):
+        out.append("no title")
+    for i, ax in enumerate(data_axes):
+        where = f"axes {i}" + (f" ({ax.get_title()!r})" if ax.get_title() else "")
+        if ax.name == "polar":
+            if not (_HAS_UNIT.search(ax.get_title()) or _HAS_UNIT.search(sup)):
+                out.append(f"{where}: polar plot without its radial unit in the title")
+            continue
+        for axis, get, shared in (("x", "get_xlabel", ax.get_shared_x_axes()),
+                                  ("y", "get_ylabel", ax.get_shared_y_axes())):
+            if _categorical(ax.xaxis if axis == "x" else ax.yaxis):
+                continue  # named categories (directions, message types) carry no unit
+            labels = [getattr(a, get)() for a in [ax, *shared.get_siblings(ax)]]
+            twins = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds]
+            if axis == "x":
+                labels += [a.get_xlabel() for a in twins]
+            label = next((lab for lab in labels if lab.strip()), "")
+            if not label:
+                out.append(f"{where}: no {axis} label")
+            elif not _HAS_UNIT.search(label):
+                out.append(f"{where}: {axis} label {label!r} names no unit")
+    return out
+
+
+def _categorical(axis) -> bool:
+    """An axis of named categories: string data, or tick labels set to words."""
+    conv = axis.get_converter() if hasattr(axis, "get_converter") else getattr(axis, "converter", None)
+    if type(conv).__name__ == "StrCategoryConverter":
+        return True
+    texts = [t.get_text() for t in axis.get_ticklabels()]
+    return any(re.search(r"[A-Za-z]", t) for t in texts)

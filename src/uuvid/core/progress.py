@@ -137,8 +137,10 @@ class ProgressTask:
         if self._progress is not None:
             self._progress.stop()
             self._progress = None
+            if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
+                self._line(f"interrupted after {self.elapsed:.1f} s")
         elif self.lines and self.stages:
-            self._line(f"{'failed after' if exc_type else 'done in'} {self.elapsed:.1f} s")
+            self._line(f"{_ending(exc_type)} {self.elapsed:.1f} s")
 
     def advance(self, n: float = 1) -> None:
         """Mark *n* more units of work as done."""
@@ -164,6 +166,15 @@ class ProgressTask:
             self._progress.update(
                 self._task_id, description=description, total=total, completed=completed
             )
+
+
+def _ending(exc_type: type[BaseException] | None) -> str:
+    """How a task ended: Ctrl-C is "interrupted", not "failed" (the work was not wrong)."""
+    if exc_type is None:
+        return "done in"
+    if issubclass(exc_type, KeyboardInterrupt):
+        return "interrupted after"
+    return "failed after"
 
 
 def progress_task(

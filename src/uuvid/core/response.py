@@ -70,6 +70,15 @@ class TimeResponse(Result):
             self.to_frame().to_csv(tmp, index=False)
         return path
 
+    def csv_bytes_estimate(self) -> int:
+        """About how many bytes :meth:`to_csv` writes (formats up to 1000 rows and scales up), so
+        a caller can say how big a file will be before writing it."""
+        n = len(self.t)
+        if n == 0:
+            return 0
+        head = self.to_frame().iloc[: min(n, 1000)].to_csv(index=False)
+        return int(len(head.encode()) * n / min(n, 1000))
+
     report_title = "Time response"
 
     def summary(self) -> str:
@@ -116,5 +125,6 @@ class TimeResponse(Result):
                       if any(c in rec.channels for c in g)]
             groups = [[c for c in g if c in rec.channels] for g in groups]
         labels = {k: f"{k} [{CHANNEL_UNITS.get(k, '')}]" for k in rec.channels}
+        title = title or str(self.meta.get("name") or self.meta.get("model") or "Time response")
         return plot_time_series(rec.t, rec.channels, title=title, ylabel_by_channel=labels,
                                 axes_groups=groups)

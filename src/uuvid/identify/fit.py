@@ -175,7 +175,7 @@ class Fit(Result):
 
     def plot(self):
         """Residuals against sample index and their histogram."""
-        return residual_figure({self.model: self})
+        return residual_figure({self.model: self}, unit=self.extra.get("residual_unit"))
 
     def summary(self) -> str:
         """A readable fit report (lmfit-style)."""
@@ -218,9 +218,10 @@ class Fit(Result):
         return self.summary()
 
 
-def residual_figure(fits: dict, title: str | None = None):
+def residual_figure(fits: dict, title: str | None = None, unit: str | None = None):
     """One row per fit (label → :class:`Fit`): residuals against sample index and their
-    histogram (a headless Figure)."""
+    histogram (a headless Figure).  ``unit``: the residuals' unit (that of the fitted output;
+    unnamed when not known)."""
     from uuvid.core.plots import new_figure
 
     fig, ax = new_figure(max(len(fits), 1), 2, figsize=(10, 1.2 + 2.4 * max(len(fits), 1)),
@@ -230,11 +231,13 @@ def residual_figure(fits: dict, title: str | None = None):
         r = r[np.isfinite(r)]
         row[0].plot(r, ".", ms=3)
         row[0].axhline(0.0, color="k", lw=0.6)
-        row[0].set_ylabel("residual")
+        u = unit or f.extra.get("residual_unit") or "fitted output's unit"
+        row[0].set_ylabel(f"residual [{u}]")
         row[0].set_title(f"{label}: RMSE {f.rmse:.4g}, {f.n_samples} samples", fontsize=10)
         row[1].hist(r, bins=max(5, min(40, r.size // 4)), orientation="horizontal")
-    ax[-1, 0].set_xlabel("sample")
-    ax[-1, 1].set_xlabel("count")
+        row[1].set_ylabel(f"residual [{u}]")
+        row[0].set_xlabel("sample [index]")
+        row[1].set_xlabel("count [samples]")
     if title:
         fig.suptitle(title, fontsize=11)
     return fig

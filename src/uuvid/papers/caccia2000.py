@@ -980,7 +980,7 @@ def _plot_drag(ax, fit: DragFit, pts: list[SteadyPoint], title: str, scale: floa
                 ax.plot(ff, np.asarray(vv) * scale, color=f"C{j}", lw=1)
     ax.axhline(0, color="0.7", lw=0.5)
     ax.axvline(0, color="0.7", lw=0.5)
-    ax.set_xlabel("nominal applied force/torque φ")
+    ax.set_xlabel("nominal applied torque φ [N·m]" if unit == "°/s" else "nominal applied force φ [N]")
     ax.set_ylabel(f"LS steady velocity [{unit}] (±2σ)")
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=7)
@@ -1064,7 +1064,7 @@ def write_outputs(result: Reproduction, out_dir: str | Path) -> Path:
     for j, (key, unit, sc) in enumerate((("yaw", "°/s", 180 / math.pi), ("surge", "m/s", 1.0))):
         inf, ex = art["inertia"][key]
         ax[0, j].plot(ex["t"], ex["force"])
-        ax[0, j].set_ylabel("nominal force/torque")
+        ax[0, j].set_ylabel("nominal torque [N·m]" if key == "yaw" else "nominal force [N]")
         ax[0, j].set_title(f"{key} inertia experiment (cf. Figs. 12, 14)", fontsize=10)
         ax[1, j].plot(ex["ts"], ex["y"] * (sc if key == "yaw" else 1.0), ".", ms=2,
                       label="measured")
@@ -1087,7 +1087,8 @@ def write_outputs(result: Reproduction, out_dir: str | Path) -> Path:
                                              ("validation_surge", 1.0, "m/s"))):
             tg, vm, vp, tf, ff = art[key]
             ax[0, j].plot(tf, ff)
-            ax[0, j].set_ylabel("nominal force/torque")
+            ax[0, j].set_ylabel("nominal torque [N·m]" if key == "validation_yaw"
+                                else "nominal force [N]")
             ax[1, j].plot(tg, vm * sc, label="measured (S–G)")
             ax[1, j].plot(tg, vp * sc, label="predicted (identified 1-DOF model)")
             ax[1, j].set_ylabel(f"velocity [{unit}]")

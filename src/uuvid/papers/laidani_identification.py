@@ -232,7 +232,7 @@ def plot_degree_selection(result: dict):
         a.axvline(sel, color="r", ls="--", lw=1, label=f"selected (CV, one SE): {sel}")
         a.axvline(PAPER_DEGREE, color="0.5", ls=":", lw=1, label=f"paper's choice: {PAPER_DEGREE}")
         a.set_yscale("log")
-        a.set_xlabel("polynomial degree")
+        a.set_xlabel("polynomial degree [–]")
         a.set_ylabel("thrust error [N]")
         a.set_title(f"{key} (noise σ = {result['noise_N'][key]:.4f} N)")
         a.grid(True, which="both", alpha=0.3)

@@ -191,7 +191,7 @@ class McLeanReproduction(PaperReproduction):
         ax.set_xticks(range(len(self["table1"])))
         ax.set_xticklabels([r["case"] for r in self["table1"]], rotation=30, ha="right",
                            fontsize=8)
-        ax.set_ylabel("ours / thesis")
+        ax.set_ylabel("ours / thesis [–]")
         ax.set_title("Table I reproduced", fontsize=10)
         ax.legend(fontsize=7)
         return fig
@@ -321,6 +321,7 @@ def write_outputs(result: dict, responses: dict, out: Path) -> Path:
     ax.set_xscale("log")
     ax.set_xlabel("pulsing frequency [Hz]")
     ax.set_ylabel("mean thrust [lb]")
+    ax.set_title("Voltage pulsing: mean thrust against pulsing frequency")
     ax.legend()
     report.add_figure(save_figure(fig, out / "pulsing.png"), caption="Pulsing (open question, Ch. V)")
     pd.DataFrame(

@@ -50,6 +50,7 @@ import numpy as np
 
 __all__ = [
     "SIGNAL_KINDS",
+    "default_step",
     "Constant",
     "Ramp",
     "Sampled",
@@ -464,3 +465,15 @@ def signal_from_spec(spec: Mapping[str, Any]) -> Signal:
         if required and f.name not in params:
             raise ValueError(f"{kind}: missing required key {f.name!r}")
     return cls(**params)
+
+
+def default_step(chain):
+    """The input ``thruster simulate`` uses when none is given: a step to full forward command in
+    the chain's own unit (a PWM ESC: neutral → saturation_high µs; otherwise 0 → 24, e.g. volts
+    for McLean's 24 V motor)."""
+    from uuvid.thruster.blocks import ESC
+
+    first = chain.blocks[0]
+    if isinstance(first, ESC) and first.command_unit == "pwm_us":
+        return Step(amplitude=float(first.saturation_high), baseline=float(first.neutral))
+    return Step(amplitude=24.0)

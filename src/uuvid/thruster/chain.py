@@ -282,7 +282,17 @@ class ThrusterChain:
                           "last value reached", RuntimeWarning, stacklevel=2)
         return SweepResult(u, {name: finals[:, i] for i, name in enumerate(CHANNELS)},
                            output=_SIGNAL_CHANNEL[self.output_kind],
-                           not_converged=tuple(float(v) for v in u[todo]) if prev is not None and nx else ())
+                           not_converged=tuple(float(v) for v in u[todo]) if prev is not None and nx else (),
+                           input_unit=self.input_unit())
+
+    def input_unit(self) -> str:
+        """Unit of the chain's input: an ESC's command unit (µs, V, duty), else V or rad/s."""
+        from uuvid.thruster.blocks import ESC
+
+        first = self.blocks[0] if self.blocks else None
+        if isinstance(first, ESC):
+            return {"pwm_us": "µs", "volts": "V"}.get(first.command_unit, first.command_unit)
+        return {"voltage": "V", "speed": "rad/s"}.get(self.input_kind, "")
 
     def fastest_time_constant(self) -> float | None:
         """The shortest time constant we know of in the chain (for step-size advice)."""
@@ -462,6 +472,7 @@ class SweepResult(Result):
     channels: dict[str, np.ndarray]
     output: str = "thrust"
     not_converged: tuple[float, ...] = ()
+    input_unit: str = ""
 
     @property
     def final(self) -> np.ndarray:
@@ -498,7 +509,8 @@ class SweepResult(Result):
         for a, k in zip(ax[:, 0], names):
             a.plot(self.inputs, self.channels[k], ".-", ms=3)
             a.set_ylabel(f"{k} [{CHANNEL_UNITS.get(k, '')}]")
-        ax[-1, 0].set_xlabel("input")
+        ax[-1, 0].set_xlabel(f"input [{self.input_unit or 'the chain input unit'}]")
+        ax[0, 0].set_title(f"Steady {self.output} against the input ({len(self.inputs)} levels)")
         return fig
 
 

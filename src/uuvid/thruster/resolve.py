@@ -142,3 +142,34 @@ def supply_law(ref, chain, quiet: bool = False):
                 f"nominal {v0:g} V)")
     return (lambda v: at_supply(chain, v),
             f"the chain's ESC (set for {v0:g} V) at each voltage (V = duty × supply)")
+
+
+def supply_data_range(ref) -> tuple[float, float] | None:
+    """Supply voltages [V] a preset's data were taken at (Laidani's bench: 12 V; the T200 sheets:
+    12 and 16 V); ``None`` for a model file or a preset without an ESC."""
+    from uuvid.thruster.presets import LAIDANI_SUPPLY, T200_SHEET_VOLTS
+
+    return {"laidani-a2212": (LAIDANI_SUPPLY, LAIDANI_SUPPLY), "t200": T200_SHEET_VOLTS,
+            "t200-physical": T200_SHEET_VOLTS}.get(str(ref))
+
+
+def supply_used(ref, chain, supply_voltage: float | None = None) -> tuple[float | None, str, list[str]]:
+    """``(volts, source, warnings)``: the supply voltage [V] a prediction of ``chain`` (named
+    ``ref``) uses, where it came from (the option, or the model's own default, said aloud) and a
+    warning when it lies outside the preset's data (its voltage law extrapolates there)."""
+    v0 = supply_voltage_of(chain)
+    if v0 is None:
+        return None, "no ESC block: the model does not depend on a supply voltage", []
+    if supply_voltage is None:
+        what = "preset" if is_preset(ref) else "model file's ESC block"
+        v, source = v0, f"default {v0:g} V (the {what}'s supply_voltage; set --supply-voltage)"
+    else:
+        v, source = float(supply_voltage), f"{float(supply_voltage):g} V (--supply-voltage)"
+    warns = []
+    rng = supply_data_range(ref)
+    if rng is not None and not (rng[0] - 1e-9 <= v <= rng[1] + 1e-9):
+        span = f"{rng[0]:g} V" if rng[0] == rng[1] else f"{rng[0]:g}–{rng[1]:g} V"
+        warns.append(f"supply {v:g} V is outside the {span} the preset {ref}'s data were taken at: "
+                     "its voltage law extrapolates there (a map fitted at that supply may be used "
+                     "past its fastest measured speed); do not trust it without data")
+    return v, source, warns

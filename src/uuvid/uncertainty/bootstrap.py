@@ -146,7 +146,8 @@ class BootstrapResult(Result):
         ax.axhline(1.0, color="k", lw=1, ls="--")
         ax.set_xticks(range(len(self.names)))
         ax.set_xticklabels(self.names, rotation=45, ha="right", fontsize=8)
-        ax.set_ylabel("bootstrap σ / LS σ")
+        ax.set_xlabel("parameter [name]")
+        ax.set_ylabel("bootstrap σ / LS σ [–]")
         ax.set_title(f"{self.procedure} ({self.kind}, {self.n_boot} replicates)")
         return fig if fig is not None else ax.figure
 

@@ -150,12 +150,15 @@ class StudyResult(DictSummaryResult):
                  + (f", backend {i['backend']}" if i.get("backend") else "")
                  + (f", {i['wall_time_s']:.3g} s" if i.get("wall_time_s") is not None else ""),
                  "  status: " + ", ".join(f"{k} {v}" for k, v in counts.items())]
+        from uuvid.uncertainty.targets import metric_label
+
         num = self._numeric()
         for c in list(num.columns)[:12]:
             x = num[c].to_numpy(dtype=float)
             x = x[np.isfinite(x)]
             if x.size:
-                lines.append(f"  {c:<28} median {np.median(x):.4g}  [{x.min():.4g}, {x.max():.4g}]")
+                lines.append(f"  {metric_label(c):<32} median {np.median(x):.4g}  "
+                             f"[{x.min():.4g}, {x.max():.4g}]")
         req = i.get("requirement")
         if isinstance(req, dict) and "probability" in req:
             lines.append(f"  requirement met with probability {req['probability']:.3g}")
@@ -179,8 +182,9 @@ class StudyResult(DictSummaryResult):
         for a, c in zip(ax[0], cols):
             x = num[c].to_numpy(dtype=float) if c in num else np.zeros(0)
             a.hist(x[np.isfinite(x)], bins=20)
-            a.set_xlabel(c)
-        ax[0, 0].set_ylabel("runs")
+            a.set_xlabel(_unit_label(c))
+            a.set_ylabel("runs [count]")
+        fig.suptitle(f"Distribution over the successful runs ({len(num)} of {len(self.table)})")
         return fig
 
     def _numeric(self) -> pd.DataFrame:
@@ -656,3 +660,12 @@ def _run_dask(fn, payload, chunks, retries, workers, threads, sched, client, com
         if cluster is not None:
             cluster.close()
     return info
+
+
+def _unit_label(column: str) -> str:
+    """A result column with its unit: ``max_error_m [m]``; ``[SI]`` when the name says none."""
+    from uuvid.uncertainty.targets import metric_unit
+
+    u = metric_unit(column) or {"_m": "m", "_s": "s", "_N": "N", "_V": "V", "_A": "A"}.get(
+        column[column.rfind("_"):] if "_" in column else "", "")
+    return f"{column} [{u or 'SI'}]"

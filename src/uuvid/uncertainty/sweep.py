@@ -39,7 +39,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from uuvid.uncertainty import params as PR
-from uuvid.uncertainty.targets import StudyBase, Target, metric_label, resolve_paths
+from uuvid.uncertainty.targets import StudyBase, Target, metric_label, metric_unit, resolve_paths
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 DATA = Path(__file__).resolve().parent / "data"
@@ -336,7 +336,7 @@ class SweepStudy(StudyBase):
                 x = x[np.isfinite(x)]
                 if x.size:
                     out["metrics"][m] = {"min": float(x.min()), "max": float(x.max()),
-                                         "mean": float(x.mean())}
+                                         "mean": float(x.mean()), "unit": metric_unit(m)}
         if self.spec.requirement and len(table):
             out["requirement"] = probability_summary(table, self.spec.requirement)
         return out
@@ -471,6 +471,7 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
                 ax.plot(shown(p.x, g[p.x].to_numpy()), g[p.metric].to_numpy(), "o-", ms=3, label=lab)
             ax.set_xlabel(label(p.x))
             ax.set_ylabel(metric_label(p.metric))
+            ax.set_title(f"{p.metric} vs {p.x}" + (f" per {p.hue}" if p.hue else ""))
             if p.hue:
                 ax.legend(fontsize=7, ncol=2)
         fixed = [a.name for a in spec.parameters if a.name not in (p.x, p.y, p.hue)]

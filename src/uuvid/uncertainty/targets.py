@@ -130,8 +130,16 @@ METRIC_UNITS = {
 }
 
 
+def metric_unit(name: str) -> str:
+    """SI unit of a metric (``""`` unknown), or of a parameter column (:func:`~uuvid.uncertainty.
+    params.si_unit`) — what a table or label of a study's results prints beside it."""
+    return (METRIC_UNITS.get(name)
+            or ("N" if name.startswith(("max_thrust_", "min_thrust_")) else "")
+            or PR.si_unit(name))
+
+
 def metric_label(name: str) -> str:
-    u = METRIC_UNITS.get(name) or ("N" if name.startswith(("max_thrust_", "min_thrust_")) else "")
+    u = metric_unit(name)
     return f"{name} [{u}]" if u else name
 
 

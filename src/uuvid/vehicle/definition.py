@@ -60,6 +60,17 @@ from uuvid.vehicle.model import DOF_NAMES, OneDofModel, VehicleParams
 from uuvid.vehicle.rigid_body import skew_ref
 
 PRESET_DIR = Path(__file__).resolve().parent / "presets"
+#: Presets of one vehicle family from different published parameter sets (told to the user).
+PARAMETER_SET_SIBLINGS = {"bluerov2": "bluerov2-heavy", "bluerov2-heavy": "bluerov2"}
+
+
+def _diag(a) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    return np.diag(a) if a.ndim == 2 else a
+
+
+def _is_preset_path(path) -> bool:
+    return Path(path).resolve().parent == PRESET_DIR
 
 
 class VehicleFileError(ModelFileError):
@@ -280,8 +291,57 @@ class Vehicle:
     def citation(self) -> str:
         return str(self.source.get("citation", ""))
 
+    def provenance_note(self) -> str | None:
+        """For a preset with a sibling from another parameter set (``bluerov2`` ↔
+        ``bluerov2-heavy``): how far apart the two sets are, so nobody reads the difference as
+        the frame's.  ``None`` otherwise."""
+        preset = self.path is not None and _is_preset_path(self.path)
+        other = PARAMETER_SET_SIBLINGS.get(self.name) if preset else None
+        if other is None:
+            return None
+        o = load_vehicle(other)
+        a, b = float(_diag(self.params.quadratic_damping)[0]), float(_diag(o.params.quadratic_damping)[0])
+        ratio = max(a, b) / min(a, b)
+        return (f"{self.name} and {other} come from different published parameter sets "
+                f"({self.description.split(', ')[-1]} vs {o.description.split(', ')[-1]}), "
+                f"{ratio:.1f}× apart in quadratic surge drag ({a:g} vs {b:g} N·s²/m²; linear "
+                f"{_diag(self.params.linear_damping)[0]:g} vs {_diag(o.params.linear_damping)[0]:g} "
+                "N·s/m): their "
+                "speeds and endurance differ mostly by the data set, not by the 6- vs 8-thruster "
+                "frame (uuvid vehicle envelope shows it)")
+
+    def to_dict(self) -> dict:
+        """The vehicle as JSON-safe data, every quantity's unit in its key or in ``units``."""
+        from uuvid.core.atomic import to_jsonable
+
+        p = self.params
+        d = {
+            "name": self.name, "description": self.description, "source": dict(self.source),
+            "provenance_note": self.provenance_note(),
+            "mass_kg": p.mass, "weight_N": p.weight, "buoyancy_N": p.buoyancy,
+            "center_of_gravity_m": p.r_g, "center_of_buoyancy_m": p.r_b,
+            "inertia_kg_m2": p.inertia, "added_mass": p.added_mass,
+            "linear_damping": p.linear_damping, "quadratic_damping": p.quadratic_damping,
+            "dofs": ["surge", "sway", "heave", "roll", "pitch", "yaw"],
+            "units": {"added_mass": ["kg"] * 3 + ["kg·m²"] * 3,
+                      "linear_damping": ["N·s/m"] * 3 + ["N·m·s/rad"] * 3,
+                      "quadratic_damping": ["N·s²/m²"] * 3 + ["N·m·s²/rad²"] * 3},
+            "thrusters": [{"name": t.name, "model": t.model, "position_m": t.position,
+                           "axis": t.axis, "limits_N": t.limits} for t in self.layout],
+            "modes": list(self.modes), "default_modes": list(self.default_modes),
+            "assumptions": dict(self.assumptions),
+            "battery": None if self.battery is None else {
+                "name": self.battery.name, "capacity_Ah": self.battery.capacity_ah,
+                "resistance_ohm": self.battery.resistance,
+                "hotel_load_W": self.battery.hotel_load_w},
+            "file": None if self.path is None else str(self.path),
+        }
+        return to_jsonable(d)
+
     def summary(self) -> str:
         lines = [f"{self.name}: {self.description}".rstrip(": "), f"  source: {self.citation}",
+                 *([f"  notes: {self.source['notes']}"] if self.source.get("notes") else []),
+                 *([f"  note: {n}"] if (n := self.provenance_note()) else []),
                  self.params.summary(),
                  f"  {self.layout.n} thrusters: " + ", ".join(
                      f"{t.name} ({t.model}, [{t.limits[0]:.4g}, {t.limits[1]:.4g}] N)"

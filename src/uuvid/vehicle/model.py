@@ -219,9 +219,12 @@ class VehicleParams:
             return np.array2string(np.diag(a), precision=4, separator=", ")
 
         return (f"{self.name}: m = {self.mass:g} kg, W = {self.weight:.4g} N, "
-                f"B = {self.buoyancy:.4g} N, r_g = {self.r_g.tolist()}, r_b = {self.r_b.tolist()}\n"
-                f"  inertia diag {d(self.inertia)}, M_A diag {d(self.added_mass)}\n"
-                f"  D_L diag {d(self.linear_damping)}, D_Q diag {d(self.quadratic_damping)}")
+                f"B = {self.buoyancy:.4g} N, r_g = {self.r_g.tolist()} m, r_b = {self.r_b.tolist()} m\n"
+                f"  inertia diag {d(self.inertia)} kg·m²\n"
+                f"  M_A diag {d(self.added_mass)} (kg ×3, kg·m² ×3)\n"
+                f"  D_L diag {d(self.linear_damping)} (N·s/m ×3, N·m·s/rad ×3)\n"
+                f"  D_Q diag {d(self.quadratic_damping)} (N·s²/m² ×3, N·m·s²/rad² ×3)\n"
+                f"  [surge, sway, heave, roll, pitch, yaw]")
 
 
 def make_params(mass: float, inertia, *, r_g=(0, 0, 0), r_b=(0, 0, 0), weight: float | None = None,

@@ -239,7 +239,7 @@ class StabilityResult(Result):
         out = []
         for c in self.cases:
             r = {"direction": c.direction, "free": ", ".join(c.free) or "—",
-                 "max_speed": c.max_speed, "limit": c.limit_text(), "reason": c.limit_reason}
+                 "max_speed_m_s": c.max_speed, "limit": c.limit_text(), "reason": c.limit_reason}
             for k in c.free:
                 r[f"righting_{k}_Nm_per_rad"] = c.righting[k]
             out.append(r)

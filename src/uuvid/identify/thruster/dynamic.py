@@ -484,7 +484,9 @@ class ChainFit(Result):
         ax.plot(p.t, p.y, ".", ms=2, color="0.5", label="measured")
         ax.plot(p.t, self.predict(run), "-", color="C1", label="fitted chain")
         ax.set_xlabel("t [s]")
-        ax.set_ylabel(p.channel)
+        from uuvid.core.response import CHANNEL_UNITS
+
+        ax.set_ylabel(f"{p.channel} [{CHANNEL_UNITS.get(p.channel) or 'SI'}]")
         ax.set_title(f"{self.chain.name}: {p.name}", fontsize=10)
         ax.legend(fontsize=8)
         return fig

@@ -75,7 +75,8 @@ class PhysicalFit(Result):
 
     def plot(self):
         """Residuals of the joint fit over all sheets."""
-        return residual_figure({"physical": self.fit}, "physical model")
+        return residual_figure({"physical": self.fit}, "physical model",
+                               unit="fraction of each channel's largest value")
 
     def summary(self) -> str:
         lines = [self.fit.summary(), "[[Per sheet]]"]

@@ -90,7 +90,7 @@ class SteadyFit(Result):
 
     def plot(self):
         """Residuals of each fit (forward / reverse / all)."""
-        return residual_figure(self.fits, self.model)
+        return residual_figure(self.fits, self.model, unit="N")  # every steady map gives thrust
 
     def summary(self) -> str:
         parts = [f"=== {self.model} ==="]
@@ -408,8 +408,10 @@ class DegreeTable(Result):
         ax.plot(d, self.column("rmse"), "o-", label="RMSE (in sample)")
         ax.errorbar(d, self.column("cv_rmse"), yerr=self.column("cv_se"), fmt="s--", capsize=3,
                     label=f"CV{self.k} RMSE")
-        ax.set_xlabel("degree")
-        ax.set_ylabel("RMSE")
+        ax.set_xlabel("polynomial degree [–]")
+        ax.set_ylabel("thrust RMSE [N]")
+        ax.set_title(f"Degree selection: in-sample and {self.k}-fold CV error, "
+                     f"{self.n_samples} samples", fontsize=10)
         ax.legend(fontsize=8)
         return fig
 

@@ -99,6 +99,9 @@ class FitOutcome(Result):
     tables: list = field(default_factory=list)  # (file stem, rows, columns, caption)
     #: what was done and why (not a problem with the result; ``warnings`` are the problems)
     notes: list[str] = field(default_factory=list)
+    #: a short text for the terminal when ``report_text`` is long (a 201-knot table); the full
+    #: text stays in the report's fit_report.txt, the model file and the JSON
+    terminal_text: str | None = None
 
     def parameters(self) -> dict:
         """``{name: {estimate, sigma, percentile_error, unit, significant}}``; names are prefixed
@@ -119,8 +122,8 @@ class FitOutcome(Result):
     report_title = "Thruster fit"
 
     def summary(self) -> str:
-        """The fit report text (what ``uuvid thruster fit`` prints)."""
-        return self.report_text
+        """What ``uuvid thruster fit`` prints: the fit report, or its short form when long."""
+        return self.terminal_text or self.report_text
 
     def to_dict(self) -> dict:
         """The ``uuvid thruster fit --json`` document (without the output paths)."""
@@ -132,7 +135,7 @@ class FitOutcome(Result):
             return self.figures[0][1]
         from uuvid.identify.fit import residual_figure
 
-        return residual_figure(self.fits, self.model)
+        return residual_figure(self.fits, self.model, unit=self.rmse_unit or None)
 
     def report(self, folder, sources=()) -> Path:
         """Plots, tables, fit report, summary.json, result.json and index.html in ``folder``."""
@@ -241,6 +244,14 @@ def _stack(sets):
     return sets[0] if len(sets) == 1 else concat(sets)
 
 
+def _residual_label(ylabel: str) -> str:
+    """``residual [N]`` for a panel whose data are ``thrust [N]`` (the residual's unit is theirs)."""
+    import re
+
+    m = re.search(r"\[([^\]]+)\]", ylabel)
+    return f"residual [{m.group(1)}]" if m else f"residual (as {ylabel})"
+
+
 def _direction_figure(title: str, panels: list[dict], xlabel: str, ylabel: str):
     """Top row: data and fitted curve per panel (direction); bottom row: residuals."""
     from uuvid.core.plots import new_figure
@@ -265,7 +276,7 @@ def _direction_figure(title: str, panels: list[dict], xlabel: str, ylabel: str):
         a.grid(True, alpha=0.3)
         a.legend(loc="best", fontsize="small")
         r.axhline(0.0, color="k", lw=0.8)
-        r.set_ylabel("residual")
+        r.set_ylabel(_residual_label(ylabel))
         r.set_xlabel(xlabel)
         r.grid(True, alpha=0.3)
     fig.suptitle(title)
@@ -309,7 +320,7 @@ def _degree_figure(tables: dict, chosen: dict):
         if d in chosen:
             a.axvline(chosen[d], color="r", ls="--", lw=1, label=f"selected: {chosen[d]}")
         a.set_yscale("log")
-        a.set_xlabel("polynomial degree")
+        a.set_xlabel("polynomial degree [–]")
         a.set_ylabel("thrust error [N]")
         a.set_title(d)
         a.grid(True, which="both", alpha=0.3)
@@ -502,10 +513,39 @@ def _fit_table(sets, name, n_points):
                                           xg_range=rng),
                             f"command [{data.command_unit}]", "thrust [N]")
     warn, notes = _steady_messages(sf)
-    return FitOutcome("table", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
+    rms = _rms(y - yfit)
+    return FitOutcome("table", chain, dict(sf.fits), sf.summary(), rms, "N",
                       warn, {"knots": len(sf.block.input_values)},
                       figures=[("fit", fig, "Thrust vs command, table and residuals")],
-                      notes=notes)
+                      notes=notes, terminal_text=_table_short_text(sf, data.command_unit, rms))
+
+
+#: A table with more knots than this is summarised on the terminal (the full one is in the files).
+TABLE_KNOTS_SHOWN = 12
+
+
+def _table_short_text(sf, command_unit: str, rms: float) -> str | None:
+    """A few lines for a long lookup table: knots, ranges with units, residual, σ; ``None`` when
+    the table is short enough to print whole."""
+    x = np.asarray(sf.block.input_values, dtype=float)
+    y = np.asarray(sf.block.output_values, dtype=float)
+    if x.size <= TABLE_KNOTS_SHOWN:
+        return None
+    unit = {"pwm_us": "µs"}.get(command_unit, command_unit)
+    se = np.array([p.stderr for p in sf.fits["all"].parameters], dtype=float)
+    known = se[np.isfinite(se)]
+    sig = (f"σ per entry: median {np.median(known):.3g} N, max {known.max():.3g} N"
+           + (f" ({se.size - known.size} entries without repeats: σ unknown)"
+              if known.size < se.size else "") if known.size else "σ unknown (no repeats)")
+    ends = ", ".join(f"T({a:g})={b:.4g} N" for a, b in zip(x[:3], y[:3]))
+    tail = ", ".join(f"T({a:g})={b:.4g} N" for a, b in zip(x[-3:], y[-3:]))
+    return "\n".join([
+        f"{sf.model}: {x.size} knots",
+        f"  command {x.min():g} … {x.max():g} {unit}; thrust {y.min():.4g} … {y.max():.4g} N",
+        f"  RMS residual {rms:.3g} N; {sig}",
+        f"  knots: {ends}, …, {tail}",
+        "  the whole table: the model file (--out-model), --json, and fit_report.txt in --report",
+    ])
 
 
 def _fit_physical(sets, name, supply_voltage, linear_duty):
@@ -617,7 +657,7 @@ def _dynamic_figure(title, cf, ylabel):
         ax[0, j].legend(fontsize="small")
         ax[1, j].plot(r.t, r.y - yhat, ".", ms=2)
         ax[1, j].axhline(0.0, color="k", lw=0.8)
-        ax[1, j].set_ylabel("residual")
+        ax[1, j].set_ylabel(_residual_label(ylabel))
         ax[1, j].set_xlabel("t [s]")
         ax[1, j].grid(True, alpha=0.3)
     fig.suptitle(title)

@@ -439,12 +439,15 @@ class InertiaFit(Result):
         if np.size(self.fit.residuals) == self.y.size:
             ax[0].plot(self.t, self.y - self.fit.residuals, "-", color="C1", label="fitted")
         ax[0].legend(fontsize=8)
-        ax[0].set_title(f"m = {self.mass:.4g} ± {self.mass_stderr:.2g}", fontsize=10)
+        angular = self.fit["m"].unit == "kg·m²"
+        ax[0].set_ylabel("y [N·m·s]" if angular else "y [N·s]")
+        ax[0].set_title(f"m = {self.mass:.4g} ± {self.mass_stderr:.2g} {self.fit['m'].unit}",
+                        fontsize=10)
         if self.t_raw.size:
             ax[1].plot(self.t_raw, self.velocity_raw, "--", color="0.6", lw=0.8,
                        label="Savitzky–Golay, whole record")
         ax[1].plot(self.t, self.velocity, ".", ms=2, label="rows used")
-        ax[1].set_ylabel("velocity")
+        ax[1].set_ylabel("velocity [rad/s]" if angular else "velocity [m/s]")
         ax[1].set_xlabel("t [s]")
         ax[1].legend(fontsize=8)
         return fig
@@ -577,8 +580,10 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
     y = Phi - k * xr - k_q * Iq
     ts_r, vs_r, y_r, tt_r, xr_r, Iq_r = ts[keep], vs[keep], y[keep], tt[keep], xr[keep], Iq[keep]
     H = np.column_stack([vs_r, -np.ones(ts_r.size), -tt_r])
+    # y = m·v − c − b·t in N·s (N·m·s about an axis): m in kg (kg·m²), c in N·s, b in N
+    units = ["kg·m²", "N·m·s", "N·m"] if angle else ["kg", "N·s", "N"]
     f = linear_lsq(H, y_r, ["m", "c", "b"], model="inertia (integrated regression, eqs. 15–19)",
-                   cov_type=cov_type, hac_lags=hac_lags, emit_warnings=False,
+                   units=units, cov_type=cov_type, hac_lags=hac_lags, emit_warnings=False,
                    extra={"k": k, "k_q": k_q, "rows_excluded": n_excluded})
     notes = ["classical σ assumes white residuals; the integrated regression's residuals are "
              "autocorrelated — compare cov_type='HAC'"] if cov_type == "classical" else []

@@ -111,7 +111,7 @@ def write_steady_report(res: dict, doc: dict, data: LogData, dof: str, folder: P
     sc = 180 / math.pi if angular else 1.0
     fig, ax = new_figure(2, 1, figsize=(12, 6), sharex=True)
     ax[0].step(data.t_cmd, data.command, where="post", lw=0.8)
-    ax[0].set_ylabel("command φ")
+    ax[0].set_ylabel("command φ [N·m]" if angular else "command φ [N]")
     ax[1].plot(data.t_pos, data.position * sc, ".", ms=1.5, color="C0", label="position")
     for r in res["segments"]:
         for a in ax:
@@ -165,7 +165,7 @@ def inertia_figure(res: dict, doc: dict, data: LogData, dof: str):
     n_rows = 3 if "predicted" in res else 2
     fig, ax = new_figure(n_rows, 1, figsize=(12, 2.8 * n_rows), sharex=True)
     ax[0].step(data.t_cmd, data.command, where="post", lw=0.8)
-    ax[0].set_ylabel("command φ")
+    ax[0].set_ylabel("command φ [N·m]" if angular else "command φ [N]")
     ax[1].plot(fit.t_raw, fit.velocity_raw * sc, "--", color="0.6", lw=0.8,
                label="Savitzky–Golay, whole record")
     ax[1].plot(fit.t, fit.velocity * sc, ".", ms=2, label="rows used by the regression")

@@ -133,6 +133,7 @@ def inspect_log(path, params=None) -> LogInspection:
     params, changed = raw.param_values()
     params = merge_params(params, params_given, warnings)
     config, err, dsrc = None, None, None
+    used: set = set()  # the channels this inspection reads: only their merged stamps matter
     try:
         config = config_from_params(params, name=raw.name, outputs_seen=_outputs_seen(raw))
     except LogDataError as e:
@@ -145,15 +146,18 @@ def inspect_log(path, params=None) -> LogInspection:
     try:
         ch, dsrc = _depth(raw, config, warnings)
         dsrc = {**dsrc, "source": ch.source}
+        used.add(ch.source)
         if ch.v.size > 1 and float(np.ptp(ch.v)) == 0.0:
             warnings.append(f"depth channel {ch.source} is constant over the log")
     except LogDataError as e:
         warnings.append(str(e))
     mode_ch, arm_ch = _mode_events(raw, warnings)
     modes = _intervals(mode_ch, arm_ch, t0, (tt.max() - t0) if tt.size else 0.0)
-    if raw.duplicates:
+    used |= {c.source for c in (mode_ch, arm_ch) if c is not None}
+    dups = {k: v for k, v in raw.duplicates.items() if k in used}
+    if dups:
         warnings.append("duplicated time stamps merged: "
-                        + ", ".join(f"{k}: {v}" for k, v in raw.duplicates.items()))
+                        + ", ".join(f"{k}: {v}" for k, v in dups.items()))
     return LogInspection(raw.path, raw.format, duration, senders, msgs, config, err, dsrc, modes,
                          warnings, raw.parts)
 
