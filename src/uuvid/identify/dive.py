@@ -39,9 +39,11 @@ from uuvid.simulate.dive_replay import (
     SURFACE_M,
     UNITS,
     OneDofParams,
+    _STATE_SPAN,
     WindowProblem,
     _dof_list,
     dive_windows,
+    initial_state,
     params_from_vehicle,
     replay_windows,
 )
@@ -331,14 +333,6 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
 
     free = np.ones(P, bool)
     sol = _levenberg_marquardt(resid, jac, z0, free)
-    dropped = []
-    for i, name in ((2, "quadratic"), (1, "linear")):  # a negative drag term is dropped
-        if sol["x"][i] < 0:
-            free[i] = False
-            z1 = sol["x"].copy()
-            z1[i] = 0.0
-            sol = _levenberg_marquardt(resid, jac, z1, free)
-            dropped.append(name)
     th = sol["x"][:4]
     J = sol["jac"][:, free]
     sd_f, corr_f = _covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:4])))
@@ -355,36 +349,53 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
                 warns.append(f"{PARAMS[i]} and {PARAMS[j]} are hard to separate in this dive "
                              f"(correlation {corr[i, j]:+.2f}): more varied forces and speeds help")
     for k in ("linear", "quadratic"):
-        if k in dropped:
-            continue
-        if sigma[k] > 0.5 * abs(values[k]):
+        if values[k] < 0:
+            warns.append(f"{k} drag estimate is negative ({values[k]:.3g} ± {sigma[k]:.2g}): "
+                         f"{'not significant' if values[k] > -3 * sigma[k] else 'the model does not fit'}"
+                         "; a vehicle file gets 0")
+        elif sigma[k] > 0.5 * abs(values[k]):
             warns.append(f"{k} drag poorly determined: σ {sigma[k]:.2g} is "
                          f"{100 * sigma[k] / abs(values[k]):.0f} % of the value")
+    tf = dc.channels[DIVE_DOFS[dof][1]][0]
+    tf = tf[(tf >= windows[0][0]) & (tf <= windows[-1][1])]
+    dt_f = float(np.median(np.diff(tf))) if tf.size > 2 else math.inf
+    v_rms = float(np.sqrt(np.mean(np.asarray(prob.v0_meas) ** 2))) if pos else \
+        float(np.sqrt(np.mean(prob.y ** 2)))
+    tau = values["mass"] / max(values["linear"] + 2 * max(values["quadratic"], 0.0) * v_rms,
+                               1e-12)
+    if dt_f > 0.5 * tau:
+        warns.append(f"the force ({DIVE_DOFS[dof][1]}) is logged every {dt_f:.2g} s but {dof} "
+                     f"responds in about {tau:.2g} s: what the controllers did between samples is "
+                     "unknown, so mass and drag may be biased beyond σ; log the servo outputs "
+                     "faster (telemetry SERVO_OUTPUT_RAW stream rate, or the .BIN's RCOU)")
     if sigma["mass"] > 0.5 * values["mass"]:
         warns.append(f"mass poorly determined (σ {sigma['mass']:.2g}): the dive has little "
                      "acceleration")
-    for name in dropped:
-        warns.append(f"{name} drag came out negative and was dropped (fixed at 0, σ 0): the dive "
-                     f"cannot support a {name} term")
     if not sol["success"]:
         warns.append(f"optimiser stopped: {sol['message']}")
     # in-sample replay from the measured state, identified and base
     p_id = OneDofParams(*values.values())
-    pr_id = prob.predict(p_id.as_array(), prob.y0_meas, prob.v0_meas)
-    pr_b = prob.predict(base.as_array(), prob.y0_meas, prob.v0_meas)
-    err = pr_id - prob.y
-    sd_y = float(np.std(prob.y))
+    span = _STATE_SPAN[dof]
+    y0, v0, sc = initial_state(prob, p_id.as_array(), span)
+    pr_id = prob.predict(p_id.as_array(), y0, v0)
+    y0b, v0b, _ = initial_state(prob, base.as_array(), span)
+    pr_b = prob.predict(base.as_array(), y0b, v0b)
+    err = (pr_id - prob.y)[sc]
+    sd_y = float(np.std(prob.y[sc]))
     train = {"rms": float(np.sqrt(np.mean(err ** 2))),
              "nrmse": float(np.sqrt(np.mean(err ** 2)) / sd_y) if sd_y > 0 else float("nan"),
              "rms_fit": float(np.sqrt(np.mean(sol["fun"] ** 2))), "iterations": sol["nit"],
-             "rms_base": float(np.sqrt(np.mean((pr_b - prob.y) ** 2))), "n": int(N)}
-    traces = {"train": (prob.t, prob.y, pr_id, pr_b, prob.w)}
+             "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
+             "n": int(np.count_nonzero(sc))}
+    traces = {"train": (prob.t[sc], prob.y[sc], pr_id[sc], pr_b[sc], prob.w[sc])}
     return values, sigma, corr, start, windows, notes, warns, train, traces
 
 
 def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 60) -> dict:
     """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
-    equations: small dense problems, no SVD of the tall Jacobian)."""
+    equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
+    the cost by less than 0.1 % of one residual's variance (a step that small moves the
+    estimates by a tiny fraction of their σ)."""
     z = np.array(z0, float)
 
     def cost_of(r):
@@ -422,11 +433,11 @@ def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 60) -> dict:
             if not improved:
                 msg, ok = "no further decrease", True
                 break
-            rel = (cost - cn) / max(cost, 1e-300)
+            drop = cost - cn
             z, r, cost = zn, rn, cn
             lam = max(lam / 3, 1e-9)
             J = jac(z)
-            if rel < 1e-9:
+            if drop < 1e-3 * cost / r.size:  # moves every estimate by far less than its σ
                 msg, ok = "converged", True
                 break
     return {"x": z, "fun": r, "jac": J, "success": ok, "message": msg, "nit": it}
@@ -488,7 +499,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             else:
                 held = {"identified": m_id, "base": m_b, "horizon_s": Hh,
                         "improvement": m_b["rms"] / m_id["rms"] if m_id["rms"] > 0 else math.inf}
-                traces["held_out"] = (tr_id[0], tr_id[1], tr_id[2], tr_b[2], tr_id[3])
+                if tr_b[0].size == tr_id[0].size:
+                    traces["held_out"] = (tr_id[0], tr_id[1], tr_id[2], tr_b[2], tr_id[3])
         if dof == "heave":
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")

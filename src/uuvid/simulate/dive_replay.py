@@ -8,7 +8,9 @@ weight ``W − B``)::
 is integrated (RK4, fixed step) with the *logged* force ``F`` — linear between its own samples,
 never resampled — in windows of ``horizon`` seconds; each window starts from the measured state
 (position from a local quadratic fit of the measured samples around the start, velocity its
-slope) and is compared with the measurements on their own stamps (cubic Hermite between steps).
+slope, refined through the model on the window's first seconds, :func:`initial_state`) and is
+compared with the measurements after those seconds on their own stamps (cubic Hermite between
+steps).
 Heave windows that touch the surface (depth < ``SURFACE_M``) are left out: there the buoyancy
 changes and the model does not hold.  :func:`replay_dive` returns :class:`DiveReplay`.
 """
@@ -189,6 +191,35 @@ class WindowProblem:
                 + (s3 - s2) * d1)
 
 
+_STATE_SPAN = {"heave": 2.0, "yaw": 0.5, "surge": 1.0, "sway": 1.0}  # initial-state fit [s]
+
+
+def initial_state(prob, theta, span: float):
+    """``(y0, v0, scored)``: each window's initial state fitted (Gauss–Newton, model fixed) to the
+    samples of its first ``span`` seconds — the measured state, read through the model as a
+    Kalman filter would — and the mask of the samples after it, which are scored."""
+    y0, v0 = prob.y0_meas.copy(), prob.v0_meas.copy()
+    early = prob.t <= prob.ta[prob.w] + span
+    w = prob.w[early]
+    if prob.position:
+        for _ in range(3):
+            r = (prob.predict(theta, y0, v0) - prob.y)[early]
+            dy = 1e-4
+            ry = (prob.predict(theta, y0 + dy, v0) - prob.y)[early]
+            rv = (prob.predict(theta, y0, v0 + dy) - prob.y)[early]
+            jy, jv = (ry - r) / dy, (rv - r) / dy
+            a = np.bincount(w, jy * jy, prob.W)
+            b = np.bincount(w, jy * jv, prob.W)
+            c = np.bincount(w, jv * jv, prob.W)
+            gy = np.bincount(w, jy * r, prob.W)
+            gv = np.bincount(w, jv * r, prob.W)
+            det = a * c - b * b
+            ok = det > 1e-12 * np.maximum(a * c, 1e-300)
+            y0 = y0 - np.where(ok, (c * gy - b * gv) / np.where(ok, det, 1), 0.0)
+            v0 = v0 - np.where(ok, (a * gv - b * gy) / np.where(ok, det, 1), 0.0)
+    return y0, v0, ~early
+
+
 def _metrics(y, pred) -> dict:
     err = pred - y
     rms = float(np.sqrt(np.mean(err ** 2))) if err.size else float("nan")
@@ -274,10 +305,13 @@ def replay_windows(dc, dof: str, params: OneDofParams, horizon: float, t_start=N
     if not windows:
         return None, None, notes
     prob = WindowProblem(dc, dof, windows)
-    pred = prob.predict(params.as_array(), prob.y0_meas, prob.v0_meas)
-    met = _metrics(prob.y, pred)
+    span = _STATE_SPAN[dof]
+    y0, v0, sc = initial_state(prob, params.as_array(), span)
+    pred = prob.predict(params.as_array(), y0, v0)
+    met = _metrics(prob.y[sc], pred[sc])
     met["windows"] = len(windows)
-    return met, (prob.t, prob.y, pred, prob.w), notes
+    met["state_fit_s"] = span
+    return met, (prob.t[sc], prob.y[sc], pred[sc], prob.w[sc]), notes
 
 
 def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None, horizon=None,
