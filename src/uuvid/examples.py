@@ -147,7 +147,7 @@ def _dive(seed: int) -> dict[str, np.ndarray | list]:
     return cols
 
 
-DIVE_SECONDS = 360.0
+DIVE_SECONDS = 300.0
 EXAMPLES["dive"] = Example(
     "dive", "dive.csv",
     "synthetic piloted BlueROV2 dive (6-DOF model, MANUAL/STABILIZE/ALT_HOLD, tether drag, battery "

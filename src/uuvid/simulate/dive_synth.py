@@ -17,6 +17,8 @@ force columns ``X_N … N_Nm`` computed from the logged PWM at the logged voltag
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from uuvid.io.ardusub.frames import DOF_COLUMNS
@@ -77,15 +79,21 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     pwm_tab = np.arange(1100.0, 1901.0, 1.0)
     thr_tab = t200.thrust(pwm_tab, np.full(pwm_tab.size, 16.0))
 
+    pos, neg = pwm_tab > 1500, pwm_tab < 1500
+    # thrust(pwm, V) tabulated once: whole µs × 0.05 V (linear in V between rows)
+    v_tab = np.arange(13.0, 17.0001, 0.05)
+    TT = np.stack([t200.thrust(pwm_tab, np.full(pwm_tab.size, v)) for v in v_tab])
+
+    def thrust_at(pwm, volts):
+        i = np.clip(np.round(pwm - 1100.0).astype(int), 0, pwm_tab.size - 1)
+        u = np.clip((volts - v_tab[0]) / 0.05, 0, v_tab.size - 1.000001)
+        k = int(u)
+        f = u - k
+        return TT[k, i] * (1 - f) + TT[k + 1, i] * f
+
     def pwm_for(T):  # ArduSub-like: thrust wanted at the nominal 16 V → PWM (no compensation)
-        out = np.empty_like(T)
-        for j, x in enumerate(T):
-            if abs(x) < 1e-3:
-                out[j] = 1500.0
-            elif x > 0:
-                out[j] = np.interp(x, thr_tab[pwm_tab > 1500], pwm_tab[pwm_tab > 1500])
-            else:
-                out[j] = np.interp(x, thr_tab[pwm_tab < 1500], pwm_tab[pwm_tab < 1500])
+        out = np.where(T > 1e-3, np.interp(T, thr_tab[pos], pwm_tab[pos]),
+                       np.where(T < -1e-3, np.interp(T, thr_tab[neg], pwm_tab[neg]), 1500.0))
         return np.round(out)
 
     n = int(round(duration / DT))
@@ -112,7 +120,8 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     v_batt = 16.4
     for i in range(n + 1):
         ti = t[i]
-        rpy = quat_to_euler(x[3:7])
+        qw, qx, qy, qz = x[3:7]
+        rpy = (0.0, 0.0, math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
         mode = next((m for a, b, m in segs if a <= ti < b), "MANUAL")
         armed = ti >= disarmed
         if ti >= next_stick:
@@ -145,7 +154,7 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
         pwm = pwm_for(T_cmd) if armed else np.full(n_thr, 1500.0)
         load = float(np.sum(np.abs(T_cmd)))
         v_batt = 16.4 - 1.2 * ti / max(duration, 1.0) - 0.01 * load
-        T = t200.thrust(pwm, np.full(n_thr, v_batt))
+        T = thrust_at(pwm, v_batt)
         X[i], PWM[i], V[i], MODE[i], ARM[i] = x, pwm, v_batt, mode, armed
         if i == n:
             break
