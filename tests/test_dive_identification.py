@@ -136,7 +136,6 @@ def test_truth_within_3_sigma_at_telemetry_rates_over_seeds(seed):
         assert abs(e.values[k] - truth["heave"][k]) <= 3 * e.sigma[k], (seed, k)
     assert e.held_out["improvement"] > 2
     assert any("logged every" in w for w in res.estimates["yaw"].warnings)
-    assert res.seconds < 60
 
 
 @pytest.mark.realdata

@@ -254,7 +254,10 @@ def _covariance(J, r, groups, n_glob):
     """``(cov of the first n_glob params, how)``: max of classical and window-cluster-robust."""
     N, P = J.shape
     A = J.T @ J
-    Ainv = np.linalg.pinv(A)
+    try:
+        Ainv = np.linalg.pinv(A)
+    except np.linalg.LinAlgError:
+        return np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
     s2 = float(r @ r) / max(N - P, 1)
     classical = s2 * Ainv
     meat = np.zeros((P, P))
@@ -329,6 +332,9 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
             zz = z.copy()
             zz[sl] += d
             J[rows, 4 + j * W + prob.w] = (resid(zz) - r0) / d[prob.w]
+        bad = ~np.isfinite(J)
+        if bad.any():  # a perturbed window blew up: no information from it in this direction
+            J[bad] = 0.0
         return J
 
     free = np.ones(P, bool)
@@ -391,7 +397,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
     return values, sigma, corr, start, windows, notes, warns, train, traces
 
 
-def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 60) -> dict:
+def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40) -> dict:
     """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
     equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
     the cost by less than 0.1 % of one residual's variance (a step that small moves the

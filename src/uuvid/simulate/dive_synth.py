@@ -128,6 +128,10 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
             stick = np.array([rng.uniform(-surge, surge) * (rng.random() < 0.4),
                               rng.uniform(-0.8, 0.8) * (rng.random() < 0.7),
                               rng.uniform(-0.6, 0.6) * (rng.random() < 0.6)])
+            if x[2] < 1.5:  # the pilot keeps the vehicle down (it floats: W < B)
+                stick[1] = rng.uniform(0.2, 0.8)
+            elif x[2] > 12.0:
+                stick[1] = rng.uniform(-0.8, -0.2)
             next_stick = ti + rng.uniform(2, 8)
             if mode == "ALT_HOLD":
                 depth_tgt = float(np.clip(x[2] + rng.uniform(-2, 2), 0.5, 15.0))
