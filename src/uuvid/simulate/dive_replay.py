@@ -180,8 +180,10 @@ class WindowProblem:
         return X, V
 
     def predict(self, theta, y0, v0):
-        """The model's output at every measured sample's own stamp."""
-        X, V = self.simulate(theta, y0, v0)
+        """The model's output at every measured sample's own stamp (NaN/inf where a window's
+        simulation blows up, e.g. under a trial step of the optimiser)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            X, V = self.simulate(theta, y0, v0)
         w, k, s, h = self.w, self.k, self.s, self.h
         if not self.position:
             return X[w, k] * (1 - s) + X[w, k + 1] * s

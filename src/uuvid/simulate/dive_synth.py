@@ -56,9 +56,12 @@ def dive_truth(vehicle="bluerov2", tether=None) -> dict:
 
 def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *,
                    tether=None, depth_noise: float = 0.01, yaw_noise: float = 0.005,
-                   disarmed: float = 8.0, pwm_rate: float = 2.0, surge: float = 0.1):
+                   disarmed: float = 8.0, pwm_rate: float = 2.0, surge: float = 0.1,
+                   rates: dict | None = None, jitter: float = 0.3):
     """``(table, truth)``: a piloted dive as a pandas DataFrame (see the module doc) and
-    :func:`dive_truth`."""
+    :func:`dive_truth`.  ``rates`` overrides the logging rates ``{"depth": 3, "yaw": 20,
+    "pwm": pwm_rate, "battery": 1}`` [Hz]; ``jitter`` is the relative spread of the intervals
+    (0: every channel at the same rate shares its stamps, as in a dataflash log)."""
     import pandas as pd
 
     from uuvid.io.ardusub.thrust import default_t200
@@ -182,10 +185,11 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     yaw_true = np.unwrap(np.array([quat_to_euler(q)[2] for q in X[:, 3:7]]))
     roll_pitch = np.array([quat_to_euler(q)[:2] for q in X[:, 3:7]])
     # ---- logging at each channel's own rate
-    t_d = _stamps(rng, 0.0, duration, 3.0)
-    t_y = _stamps(rng, 0.0, duration, 20.0)
-    t_p = _stamps(rng, 0.0, duration, pwm_rate)
-    t_b = _stamps(rng, 0.0, duration, 1.0)
+    hz = {"depth": 3.0, "yaw": 20.0, "pwm": pwm_rate, "battery": 1.0, **(rates or {})}
+    t_d = _stamps(rng, 0.0, duration, hz["depth"], jitter)
+    t_y = _stamps(rng, 0.0, duration, hz["yaw"], jitter)
+    t_p = _stamps(rng, 0.0, duration, hz["pwm"], jitter)
+    t_b = _stamps(rng, 0.0, duration, hz["battery"], jitter)
     depth = np.interp(t_d, t, X[:, 2]) + depth_noise * rng.standard_normal(t_d.size)
     yaw = np.interp(t_y, t, yaw_true) + yaw_noise * rng.standard_normal(t_y.size)
     yaw = (yaw + np.pi) % (2 * np.pi) - np.pi  # logged wrapped, like ATTITUDE.yaw
