@@ -34,12 +34,12 @@ import numpy as np
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
 from uuvid.report.result import Result
 from uuvid.simulate.dive_replay import (
+    _STATE_SPAN,
     CHANNEL_NAMES,
     DEFAULT_HORIZON,
     SURFACE_M,
     UNITS,
     OneDofParams,
-    _STATE_SPAN,
     WindowProblem,
     _dof_list,
     dive_windows,
@@ -413,7 +413,7 @@ def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40) -> dict:
         cost = cost_of(r)
         lam, msg, ok, it = 1e-3, "maximum iterations", False, 0
         J = jac(z)
-        for it in range(1, max_iter + 1):
+        for it in range(1, max_iter + 1):  # noqa: B007  (returned as nit)
             Jf = J[:, free]
             A = Jf.T @ Jf
             g = Jf.T @ r

@@ -166,7 +166,7 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
         if i == n:
             break
 
-        def f(z):
+        def f(z, T=T):
             tau6 = B @ T
             tau6[2] -= tether.get("heave", (0, 0))[0] * z[9] + tether.get("heave", (0, 0))[1] \
                 * z[9] * abs(z[9])
