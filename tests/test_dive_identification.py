@@ -97,6 +97,8 @@ def test_bad_input_gives_clear_errors(dive):
         identify_dive(df, "bluerov2", ["heave"], t_end=30.0)
     with pytest.raises(DiveDataError, match="6 pwm_ columns.*8 thrusters"):
         identify_dive(df, "bluerov2-heavy")
+    with pytest.raises(DiveDataError, match="surge velocity \\(DVL"):
+        identify_dive(df, "bluerov2", ["surge"])
     with pytest.raises(DiveDataError, match="unknown DOF"):
         identify_dive(df, "bluerov2", ["pitch"])
 
@@ -122,6 +124,16 @@ def test_cli_identify_dive_then_replay(dive, tmp_path):
     res = runner.invoke(app, ["vehicle", "identify", "dive", str(log), "--vehicle", "bluerov2",
                               "--t-end", "20"])
     assert res.exit_code == 2 and "window too short" in res.output
+
+
+def test_surge_from_a_logged_velocity():
+    """Surge is identified where a velocity is logged (DVL, 5 Hz); the 6-DOF vehicle pitches as it
+    surges, so only the path and the plausibility of the numbers are checked here."""
+    df, _ = synthetic_dive(200.0, seed=3, surge=0.3, pwm_rate=10.0, dvl=True)
+    res = identify_dive(df, "bluerov2", ["surge"], t_end=160.0)
+    e = res.estimates["surge"]
+    assert 0.5 < e.values["mass"] / e.base["mass"] < 2 and e.held_out is not None
+    assert "mass [kg]" in res.summary()
 
 
 @pytest.mark.parametrize("fmt", ["bin", pytest.param("tlog", marks=pytest.mark.slow)])

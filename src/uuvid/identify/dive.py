@@ -55,6 +55,10 @@ PARAMS = ("mass", "linear", "quadratic", "bias")
 _SVF_OMEGA = {"heave": 1.5, "yaw": 4.0, "surge": 2.0, "sway": 2.0}
 _LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
                     "quadratic": "quadratic drag [N·s²/m²]", "bias": "net weight W−B [N]"},
+          "surge": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
+                    "quadratic": "quadratic drag [N·s²/m²]", "bias": "force bias [N]"},
+          "sway": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
+                   "quadratic": "quadratic drag [N·s²/m²]", "bias": "force bias [N]"},
           "yaw": {"mass": "inertia [kg·m²]", "linear": "linear drag [N·m·s/rad]",
                   "quadratic": "quadratic drag [N·m·s²/rad²]", "bias": "moment bias [N·m]"}}
 

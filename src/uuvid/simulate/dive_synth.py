@@ -57,11 +57,12 @@ def dive_truth(vehicle="bluerov2", tether=None) -> dict:
 def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *,
                    tether=None, depth_noise: float = 0.01, yaw_noise: float = 0.005,
                    disarmed: float = 8.0, pwm_rate: float = 2.0, surge: float = 0.1,
-                   rates: dict | None = None, jitter: float = 0.3):
+                   rates: dict | None = None, jitter: float = 0.3, dvl: bool = False):
     """``(table, truth)``: a piloted dive as a pandas DataFrame (see the module doc) and
     :func:`dive_truth`.  ``rates`` overrides the logging rates ``{"depth": 3, "yaw": 20,
     "pwm": pwm_rate, "battery": 1}`` [Hz]; ``jitter`` is the relative spread of the intervals
-    (0: every channel at the same rate shares its stamps, as in a dataflash log)."""
+    (0: every channel at the same rate shares its stamps, as in a dataflash log).  ``dvl``: add
+    body velocities ``u_mps``/``v_mps`` at 5 Hz (σ 0.01 m/s), as a DVL would log them."""
     import pandas as pd
 
     from uuvid.io.ardusub.thrust import default_t200
@@ -199,7 +200,8 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     v_at_p = np.interp(t_p, t_b, batt)
     T_l = np.stack([t200.thrust(pwm_l[:, j], v_at_p) for j in range(n_thr)], axis=1)
     W_l = T_l @ B.T
-    stamps = np.unique(np.concatenate([t_d, t_y, t_p, t_b]))
+    t_v = _stamps(rng, 0.0, duration, 5.0, jitter) if dvl else np.zeros(0)
+    stamps = np.unique(np.concatenate([t_d, t_y, t_p, t_b, t_v]))
     df = pd.DataFrame({"t_s": stamps})
     idx = {nm: np.searchsorted(stamps, ts) for nm, ts in (("d", t_d), ("y", t_y), ("p", t_p),
                                                         ("b", t_b))}
@@ -214,6 +216,10 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     df["roll_rad"] = col("y", np.interp(t_y, t, roll_pitch[:, 0]))
     df["pitch_rad"] = col("y", np.interp(t_y, t, roll_pitch[:, 1]))
     df["battery_V"] = col("b", batt)
+    if dvl:
+        idx["v"] = np.searchsorted(stamps, t_v)
+        for c, j in (("u_mps", 7), ("v_mps", 8)):
+            df[c] = col("v", np.interp(t_v, t, X[:, j]) + 0.01 * rng.standard_normal(t_v.size))
     for j in range(n_thr):
         df[f"pwm_{j + 1}"] = col("p", pwm_l[:, j])
     for k, c in enumerate(DOF_COLUMNS):
