@@ -173,7 +173,10 @@ class DiveIdentification(Result):
 
     def write_vehicle(self, out, base=None) -> object:
         """Write the base vehicle with the identified values and their provenance
-        (:func:`uuvid.vehicle.writeback.write_identified`); returns the path."""
+        (:func:`uuvid.vehicle.writeback.write_identified`); returns the path.  Mass, added mass
+        and drag go into ``hydrodynamics`` (the 6-DOF model every command flies); the bias (in
+        heave the net weight) only into ``one_dof.<dof>.disturbance`` — ``rigid_body.weight`` and
+        ``buoyancy`` stay the base vehicle's."""
         from uuvid.vehicle.writeback import write_identified
 
         base = base or self.vehicle_ref
@@ -255,7 +258,10 @@ class DiveIdentification(Result):
 
 
 def _covariance(J, r, groups, n_glob):
-    """``(cov of the first n_glob params, how)``: max of classical and window-cluster-robust."""
+    """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
+    the fit, so their uncertainty is accounted for): per parameter the larger of the classical
+    ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
+    classical matrix where the sandwich is degenerate)."""
     N, P = J.shape
     A = J.T @ J
     try:
@@ -263,26 +269,21 @@ def _covariance(J, r, groups, n_glob):
     except np.linalg.LinAlgError:
         return np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
     s2 = float(r @ r) / max(N - P, 1)
-    classical = s2 * Ainv
+    c = (s2 * Ainv)[:n_glob, :n_glob]
     meat = np.zeros((P, P))
     for g in np.unique(groups):
         sel = groups == g
         gw = J[sel].T @ r[sel]
         meat += np.outer(gw, gw)
     G = np.unique(groups).size
-    robust = Ainv @ meat @ Ainv * (G / max(G - 1, 1))
-    c = classical[:n_glob, :n_glob]
-    rb = robust[:n_glob, :n_glob]
-    use = rb if np.trace(rb / np.maximum(np.abs(np.diag(c)), 1e-300)[:, None]) > n_glob else c
-    # elementwise: the larger variance per parameter, correlations from the robust matrix
+    rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
     sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb)))
+    use = rb if np.all(np.diag(rb) > 0) else c
     d = np.sqrt(np.maximum(np.diag(use), 1e-300))
-    corr = use / np.outer(d, d)
-    return sd, corr
+    return sd, use / np.outer(d, d)
 
 
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
-
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
     if len(windows) < MIN_WINDOWS:
         span = f"[{t_start if t_start is not None else 'start'}, {t_end if t_end is not None else 'end'}]"
