@@ -48,9 +48,10 @@ from uuvid.simulate.dive_replay import (
     replay_windows,
 )
 
-__all__ = ["identify_dive", "DiveIdentification", "MIN_WINDOWS"]
+__all__ = ["identify_dive", "DiveIdentification", "MIN_WINDOWS", "MIN_SECONDS"]
 
 MIN_WINDOWS = 4
+MIN_SECONDS = 30.0  # of armed, submerged windows: fewer cannot separate four parameters
 PARAMS = ("mass", "linear", "quadratic", "bias")
 _SVF_OMEGA = {"heave": 1.5, "yaw": 4.0, "surge": 2.0, "sway": 2.0}
 _LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
@@ -201,7 +202,7 @@ class DiveIdentification(Result):
             ch = CHANNEL_NAMES[dof]
             lines.append(f"  in-sample replay: {ch} rms {e.train['rms']:.3g} {UNITS[dof]}, "
                          f"nrmse {e.train['nrmse']:.3f}")
-            if e.held_out:
+            if e.held_out and e.held_out["improvement"] is not None:
                 h = e.held_out
                 lines.append(f"  held-out (t > {self.t_end:g} s): {ch} rms identified "
                              f"{h['identified']['rms']:.3g} vs base {h['base']['rms']:.3g} "
@@ -285,13 +286,14 @@ def _covariance(J, r, groups, n_glob):
 
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
-    if len(windows) < MIN_WINDOWS:
+    need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
+    if len(windows) < need:
         span = f"[{t_start if t_start is not None else 'start'}, {t_end if t_end is not None else 'end'}]"
         raise DiveDataError(
             f"{dc.name}: window too short to identify {dof}: {len(windows)} usable armed window(s) "
-            f"of {horizon:g} s in {span} s (need at least {MIN_WINDOWS}, i.e. "
-            f"{MIN_WINDOWS * horizon:g} s of armed, submerged data); widen --t-start/--t-end or "
-            "pass a longer dive" + (f" ({'; '.join(notes)})" if notes else ""))
+            f"of {horizon:g} s in {span} s (need at least {need}, i.e. {need * horizon:g} s of "
+            "armed, submerged data); widen --t-start/--t-end or pass a longer dive"
+            + (f" ({'; '.join(notes)})" if notes else ""))
     prob = WindowProblem(dc, dof, windows)
     W = prob.W
     th0 = _svf_start(dc, dof, windows, _SVF_OMEGA[dof])
@@ -399,6 +401,9 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
              "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
              "n": int(np.count_nonzero(sc))}
     traces = {"train": (prob.t[sc], prob.y[sc], pr_id[sc], pr_b[sc], prob.w[sc])}
+    if not math.isfinite(train["rms"]):
+        warns.append("the identified model does not stay finite when replayed from the measured "
+                     "states (too stiff for the replay's step, or unstable): do not use it")
     return values, sigma, corr, start, windows, notes, warns, train, traces
 
 
@@ -508,8 +513,12 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                 notes.append(f"no armed {Hh:g} s window after --t-end {t_end:g} s: no held-out "
                              "score" + (f" ({'; '.join(nt)})" if nt else ""))
             else:
+                ratio = m_b["rms"] / m_id["rms"] if m_id["rms"] > 0 else math.nan
                 held = {"identified": m_id, "base": m_b, "horizon_s": Hh,
-                        "improvement": m_b["rms"] / m_id["rms"] if m_id["rms"] > 0 else math.inf}
+                        "improvement": ratio if math.isfinite(ratio) else None}
+                if not math.isfinite(m_id["rms"]):
+                    warns.append("the identified model does not stay finite on the held-out part "
+                                 "(too stiff for the replay's step, or unstable): do not use it")
                 if tr_b[0].size == tr_id[0].size:
                     traces["held_out"] = (tr_id[0], tr_id[1], tr_id[2], tr_b[2], tr_id[3])
         if dof == "heave":
