@@ -190,3 +190,6 @@ def test_real_logs_without_a_dive_give_clear_errors(shared_data):
         identify_dive(d / "small.tlog", "bluerov2-heavy", ["heave"])
     with pytest.raises(DiveDataError, match="window too short"):
         identify_dive(d / "small.BIN", "bluerov2", ["yaw"])
+    # 16 s armed fill five 2 s yaw windows: that once returned four parameters correlated ±1
+    with pytest.raises(DiveDataError, match="window too short.*30 s"):
+        identify_dive(d / "small.tlog", "bluerov2-heavy", ["yaw"], horizon=2.0, t_end=218.0)
