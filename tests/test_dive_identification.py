@@ -84,10 +84,22 @@ def test_written_vehicle_replays_as_identified(result, dive, tmp_path):
     assert "W − B" in base.channels["depth"]["params_source"]
 
 
+def test_forces_from_pwm_columns_at_the_logged_voltage(dive, result):
+    """A table with pwm_<j> and battery_V but no force columns: thrust from the T200 model at the
+    logged voltage through the vehicle's B gives the same identification."""
+    df, _ = dive
+    res = identify_dive(df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]),
+                        "bluerov2", ["heave"], t_end=270.0)
+    assert res.estimates["heave"].values["mass"] == pytest.approx(
+        result.estimates["heave"].values["mass"], rel=1e-3)
+    assert any("forces computed from pwm_1" in w for w in res.warnings)
+
+
 def test_bad_input_gives_clear_errors(dive):
     df, _ = dive
     with pytest.raises(DiveDataError, match="Z_N.*servo outputs"):
-        identify_dive(df.drop(columns=["Z_N"]), "bluerov2", ["heave"])
+        identify_dive(df.drop(columns=["Z_N"] + [f"pwm_{j}" for j in range(1, 7)]), "bluerov2",
+                      ["heave"])
     with pytest.raises(DiveDataError, match="depth source"):
         identify_dive(df.drop(columns=["depth_m"]), "bluerov2", ["heave"])
     unarmed = df.assign(armed=False)

@@ -141,6 +141,9 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
         raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(pwm)}) but vehicle "
                             f"{veh.name!r} has {veh.B.shape[1]} thrusters; pass the vehicle the "
                             "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
+    missing = [c for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm") if c not in chans]
+    if missing and pwm and veh is not None:
+        _forces_from_pwm(chans, pwm, veh, name, warnings)
     if "armed" in cols:
         a = df["armed"]
         am = a.map(lambda x: str(x).strip().lower() in ("true", "1", "1.0", "yes")).to_numpy(bool)
@@ -151,6 +154,34 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm)
+
+
+def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list) -> None:
+    """``X_N … N_Nm`` from ``pwm_<j>`` columns: the voltage-aware T200 model at ``battery_V``
+    (linear between its own samples) and the vehicle's ``B`` (thruster j = column j)."""
+    from uuvid.io.ardusub.frames import DOF_COLUMNS
+    from uuvid.io.ardusub.thrust import default_t200
+
+    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    t = pwm[keys[0]][0]
+    if any(pwm[k][0].size != t.size or not np.array_equal(pwm[k][0], t) for k in keys):
+        raise DiveDataError(f"{name}: the pwm_ columns do not share their rows; every pwm_<j> needs "
+                            "a value on each servo-output row")
+    if "battery_V" not in chans or chans["battery_V"][0].size == 0:
+        volts = np.full(t.size, 16.0)
+        warnings.append(f"{name}: no battery_V column: thrust from pwm_ at the T200 sheet's nominal "
+                        "16 V (default); log the battery voltage")
+    else:
+        tb, vb = chans["battery_V"]
+        volts = np.interp(t, tb, vb)
+    tm = default_t200()
+    T = np.stack([np.where(pwm[k][1] > 0, tm.thrust(pwm[k][1], volts), 0.0) for k in keys])
+    W = np.asarray(veh.B, float) @ T
+    for i, c in enumerate(DOF_COLUMNS):
+        chans.setdefault(c, (t, W[i]))
+    warnings.append(f"{name}: forces computed from pwm_{keys[0]}…pwm_{keys[-1]} with {tm.name} at "
+                    f"battery_V and {veh.name}'s thruster geometry (pwm_j drives thruster j along "
+                    "its axis: no reversal applied)")
 
 
 def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None) -> DiveChannels:
