@@ -198,6 +198,8 @@ def test_real_logs_without_a_dive_give_clear_errors(shared_data):
     d = shared_data / "ardusub-bluerov2"
     with pytest.raises(DiveDataError, match="unarmed log"):
         identify_dive(d / "2023-04-18_11-03-34.tlog", "bluerov2-heavy")
+    with pytest.raises(DiveDataError, match="unarmed log"):
+        replay_dive(d / "2023-04-18_11-03-34.tlog", "bluerov2-heavy")
     with pytest.raises(DiveDataError, match="window too short"):
         identify_dive(d / "small.tlog", "bluerov2-heavy", ["heave"])
     with pytest.raises(DiveDataError, match="window too short"):

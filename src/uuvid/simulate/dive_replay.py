@@ -329,6 +329,9 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
 
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model)
+    if not dc.armed:
+        raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
+                            "pushed and there is nothing to replay; pass the log of a dive")
     dofs = _dof_list(dofs, dc)
     notes, chans, traces, hz = [], {}, {}, {}
     for dof in dofs:
