@@ -353,6 +353,24 @@ def f_dive(tmp_path):
     return load_dive(_synthetic_bin(tmp_path))
 
 
+def _short_dive():
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    return synthetic_dive(150.0, seed=5, pwm_rate=10.0, surge=0.0)[0]
+
+
+def f_dive_identification(tmp_path):
+    from uuvid.identify.dive import identify_dive
+
+    return identify_dive(_short_dive(), "bluerov2", ["heave", "yaw"], t_end=110.0)
+
+
+def f_dive_replay(tmp_path):
+    from uuvid.simulate.dive_replay import replay_dive
+
+    return replay_dive(_short_dive(), "bluerov2", ["heave", "yaw"])
+
+
 #: class (module.qualname) → factory; ``slow`` ones run with --run-slow (CI)
 FACTORIES = {
     "uuvid.identify.fit.Fit": f_fit,
@@ -388,6 +406,8 @@ FACTORIES = {
     "uuvid.papers.thruster_loop_study.LoopStudy": f_loop_study,
     "uuvid.io.ardusub.inspect.LogInspection": f_log_inspection,
     "uuvid.io.ardusub.dive.DiveLog": f_dive,
+    "uuvid.identify.dive.DiveIdentification": f_dive_identification,
+    "uuvid.simulate.dive_replay.DiveReplay": f_dive_replay,
 }
 SLOW = {"uuvid.identify.thruster.dynamic_select.Selection", "uuvid.papers.thruster_loop_study.LoopStudy",
         "uuvid.papers.laidani.LaidaniReproduction",

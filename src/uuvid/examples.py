@@ -138,6 +138,25 @@ EXAMPLES: dict[str, Example] = {
 }
 
 
+def _dive(seed: int) -> dict[str, np.ndarray | list]:
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    df, _ = synthetic_dive(DIVE_SECONDS, seed=seed)
+    cols = {c: df[c].to_numpy(float) for c in df.columns if c not in ("mode", "armed")}
+    cols["mode"] = [str(m) for m in df["mode"]]
+    cols["armed"] = ["true" if a else "false" for a in df["armed"]]
+    return cols
+
+
+DIVE_SECONDS = 300.0
+EXAMPLES["dive"] = Example(
+    "dive", "dive.csv",
+    "synthetic piloted BlueROV2 dive (6-DOF model, MANUAL/STABILIZE/ALT_HOLD, tether drag, battery "
+    "sag; depth 3 Hz, yaw 20 Hz, PWM 2 Hz; columns t_s, depth_m, yaw_rad, …, X_N … N_Nm, mode, "
+    "armed; a channel's empty cells are not samples) — for `uuvid vehicle identify dive` and "
+    "`uuvid vehicle replay`", _dive, 3)
+
+
 def example_names() -> list[str]:
     return list(EXAMPLES)
 

@@ -47,4 +47,5 @@ def run_benchmarks() -> dict:
     result.update(_load("bench_gym").run_all())
     result.update(_load("bench_dynamics").run_all())
     result.update(_load("bench_controllers").run_all())
+    result.update(_load("bench_dive").run_all())
     return result

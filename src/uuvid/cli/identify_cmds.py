@@ -159,9 +159,11 @@ def register(vehicle_app: typer.Typer, reproduce_app: typer.Typer) -> None:
     """Add ``reproduce caccia2000``, ``vehicle identify steady|inertia`` and ``vehicle
     design-input``."""
     from uuvid.cli.design_cmds import design_input, reproduce_caccia2000
+    from uuvid.cli.dive_cmds import register as register_dive
 
     reproduce_app.command("caccia2000")(reproduce_caccia2000)
     vehicle_app.add_typer(identify_app, name="identify")
+    register_dive(vehicle_app, identify_app)
     vehicle_app.command("design-input")(design_input)
 
 

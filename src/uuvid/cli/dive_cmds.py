@@ -1,0 +1,126 @@
+"""``uuvid vehicle identify dive`` and ``uuvid vehicle replay``: a model from a whole piloted dive,
+and how well a model predicts a dive.
+
+::
+
+    uuvid vehicle identify dive LOG --vehicle V [--dof heave|yaw|surge|sway|all] [--t-start S]
+          [--t-end S] [--horizon S] [--out-vehicle OUT.yaml] [--report DIR] [--json]
+    uuvid vehicle replay LOG --vehicle V [--dof ...] [--t-start S] [--t-end S] [--horizon S]
+          [--out DIR] [--json]
+
+The work is done by :func:`uuvid.identify.dive.identify_dive` and
+:func:`uuvid.simulate.dive_replay.replay_dive`; this module parses options and prints.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+LOG_ARG = typer.Argument(..., help="ArduSub .tlog/.BIN, or CSV/Parquet with t_s, depth_m, yaw_rad "
+                                   "and force columns (Z_N, N_Nm, …; optional armed, mode).")
+VEHICLE = typer.Option(..., "--vehicle", help="Base vehicle: preset or vehicle file (its thruster "
+                                              "geometry turns servo outputs into forces).")
+DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, a comma list, or all (every DOF "
+                                        "the log has a measured channel for).")
+T_START = typer.Option(None, "--t-start", help="Use the log from this time [s].")
+T_END = typer.Option(None, "--t-end", help="Use the log up to this time [s]; identify dive scores "
+                                           "the rest as held out.")
+HORIZON = typer.Option(None, "--horizon", help="Window length [s] (default heave 10, yaw 4, "
+                                               "surge/sway 5).")
+JSON = typer.Option(False, "--json", help="Print one JSON document.")
+
+
+def _dofs(text: str):
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    return "all" if parts == ["all"] else parts
+
+
+def _errors():
+    from uuvid.io.logs import LogDataError
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.vehicle.writeback import WritebackError
+
+    return (LogDataError, ModelFileError, WritebackError, FileNotFoundError, KeyError)
+
+
+def identify_dive_cmd(
+    log: Path = LOG_ARG,
+    vehicle: str = VEHICLE,
+    dof: str = DOF,
+    t_start: float | None = T_START,
+    t_end: float | None = T_END,
+    horizon: float | None = HORIZON,
+    out_vehicle: Path | None = typer.Option(None, "--out-vehicle",
+                                            help="Write the base vehicle with the identified "
+                                                 "values and their provenance (YAML)."),
+    report: Path | None = typer.Option(None, "--report", help="Folder for the report."),
+    json_out: bool = JSON,
+):
+    """Identify per-DOF models (mass with added mass, drag, net buoyancy) from every armed sample
+    of a piloted dive, closed-loop modes included."""
+    from uuvid.cli.common import _fail, _print_json, err_console, out_console
+    from uuvid.identify.dive import identify_dive
+
+    if out_vehicle is not None and out_vehicle.suffix.lower() not in (".yaml", ".yml"):
+        _fail(f"--out-vehicle {out_vehicle}: the new vehicle file must end in .yaml or .yml")
+    try:
+        res = identify_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
+                            horizon=horizon)
+        doc = res.to_dict()
+        if out_vehicle is not None:
+            doc["out_vehicle"] = str(res.write_vehicle(out_vehicle))
+        if report is not None:
+            doc["report"] = str(res.report(report))
+    except _errors() as e:
+        _fail(str(e).strip("'\""))
+    except OSError as e:
+        _fail(f"cannot write: {e.strerror or e} ({e.filename})")
+    if json_out:
+        _print_json(doc)
+        return
+    out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
+    for k in ("out_vehicle", "report"):
+        if k in doc:
+            err_console.print(f"wrote {doc[k]}", highlight=False, markup=False)
+
+
+def replay_dive_cmd(
+    log: Path = LOG_ARG,
+    vehicle: str = VEHICLE,
+    dof: str = DOF,
+    t_start: float | None = T_START,
+    t_end: float | None = T_END,
+    horizon: float | None = HORIZON,
+    out: Path | None = typer.Option(None, "--out", help="Folder for predicted-vs-measured plots "
+                                                        "and result.json."),
+    json_out: bool = JSON,
+):
+    """Drive the vehicle's model with the logged thruster forces (at the logged voltage),
+    restarting every --horizon s from the measured state; compare depth, heading, velocities."""
+    from uuvid.cli.common import _fail, _print_json, err_console, out_console
+    from uuvid.simulate.dive_replay import replay_dive
+
+    try:
+        res = replay_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
+                          horizon=horizon)
+        doc = res.to_dict()
+        if out is not None:
+            doc["report"] = str(res.report(out))
+    except _errors() as e:
+        _fail(str(e).strip("'\""))
+    except OSError as e:
+        _fail(f"--out {out}: cannot write ({e.strerror or e})")
+    if json_out:
+        _print_json(doc)
+        return
+    out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
+    if out is not None:
+        err_console.print(f"wrote {doc['report']}", highlight=False, markup=False)
+
+
+def register(vehicle_app: typer.Typer, identify_app: typer.Typer) -> None:
+    """Add ``vehicle identify dive`` and ``vehicle replay``."""
+    identify_app.command("dive")(identify_dive_cmd)
+    vehicle_app.command("replay")(replay_dive_cmd)

@@ -1,0 +1,531 @@
+"""Identify a vehicle from a whole piloted dive: every armed sample, closed loop or not.
+
+In every armed sample the thrust is known from the servo outputs (at the logged battery voltage,
+:mod:`uuvid.io.ardusub`), so a piloted dive informs the model whether a pilot or ArduSub's
+depth/heading controllers moved the sticks.  Per DOF (heave from depth, yaw from heading; surge
+and sway where a velocity is logged) the 1-DOF model of :mod:`uuvid.simulate.dive_replay`
+``m v̇ = F − k v − k_q v|v| + b`` (``m`` with added mass; ``b`` the net weight in heave) is
+identified in two steps:
+
+1. **start value** — equation error through a state-variable filter (``ω²/(s² + 2ζωs + ω²)``
+   applied to the measured output and to the force alike, so derivatives are never raw
+   differences; the channels are interpolated onto a 20 Hz grid for this step only);
+2. **output error over short horizons** (the estimate): the dive is cut into windows of
+   ``horizon`` s; each window is simulated with the logged force (linear between its own samples)
+   from its own initial position and velocity (nuisance parameters) and compared with the
+   measurements on *their own* stamps; ``scipy.optimize.least_squares`` minimises the error.
+
+σ: the larger of the classical ``s²(JᵀJ)⁻¹`` and a cluster-robust sandwich with one cluster per
+window (residuals within a window are correlated when the model is not exact), the nuisance
+parameters included.  Warnings name parameters the dive cannot separate (|ρ| > 0.95), terms
+whose σ exceeds half their value, estimates at a bound.  With ``t_end`` before the end of the
+log, the rest is a held-out part: both the identified and the base vehicle's model replay it
+(:func:`uuvid.simulate.dive_replay.replay_windows`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
+from uuvid.report.result import Result
+from uuvid.simulate.dive_replay import (
+    _STATE_SPAN,
+    CHANNEL_NAMES,
+    DEFAULT_HORIZON,
+    SURFACE_M,
+    UNITS,
+    OneDofParams,
+    WindowProblem,
+    _dof_list,
+    dive_windows,
+    initial_state,
+    params_from_vehicle,
+    replay_windows,
+)
+
+__all__ = ["identify_dive", "DiveIdentification", "MIN_WINDOWS", "MIN_SECONDS"]
+
+MIN_WINDOWS = 4
+MIN_SECONDS = 30.0  # of armed, submerged windows: fewer cannot separate four parameters
+PARAMS = ("mass", "linear", "quadratic", "bias")
+_SVF_OMEGA = {"heave": 1.5, "yaw": 4.0, "surge": 2.0, "sway": 2.0}
+_LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
+                    "quadratic": "quadratic drag [N·s²/m²]", "bias": "net weight W−B [N]"},
+          "surge": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
+                    "quadratic": "quadratic drag [N·s²/m²]", "bias": "force bias [N]"},
+          "sway": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
+                   "quadratic": "quadratic drag [N·s²/m²]", "bias": "force bias [N]"},
+          "yaw": {"mass": "inertia [kg·m²]", "linear": "linear drag [N·m·s/rad]",
+                  "quadratic": "quadratic drag [N·m·s²/rad²]", "bias": "moment bias [N·m]"}}
+
+
+def _svf_start(dc, dof, windows, omega):
+    """Equation-error LS through a state-variable filter over the windows' span (start value)."""
+    from scipy.signal import lsim
+
+    meas, force, position = DIVE_DOFS[dof]
+    tm, ym = dc.channels[meas]
+    tf, F = dc.channels[force]
+    rows, rhs = [], []
+    # contiguous runs of windows
+    runs, cur = [], [windows[0][0], windows[0][1]]
+    for a, b in windows[1:]:
+        if a <= cur[1] + 1e-9:
+            cur[1] = b
+        else:
+            runs.append(tuple(cur))
+            cur = [a, b]
+    runs.append(tuple(cur))
+    z = 0.9
+    A = np.array([[0.0, 1.0], [-omega ** 2, -2 * z * omega]])
+    Bm = np.array([[0.0], [omega ** 2]])
+    C = np.eye(2)
+    D = np.zeros((2, 1))
+    for a, b in runs:
+        g = np.arange(a, b, 0.05)
+        if g.size < 40:
+            continue
+        y = np.interp(g, tm, ym)
+        f = np.interp(g, tf, F)
+        _, yf, _ = lsim((A, Bm, C, D), y, g - g[0], X0=[y[0], 0.0])
+        _, ff, _ = lsim((A, Bm, C, D), f, g - g[0], X0=[f[0], 0.0])
+        skip = g - g[0] > 3.0 / omega
+        if position:
+            p, d1 = yf[:, 0], yf[:, 1]
+            d2 = omega ** 2 * (y - p) - 2 * z * omega * d1
+            vel, acc = d1, d2
+        else:
+            vel, acc = yf[:, 0], yf[:, 1]
+        rows.append(np.column_stack([acc, vel, vel * np.abs(vel), -np.ones_like(vel)])[skip])
+        rhs.append(ff[:, 0][skip])
+    if not rows:
+        return None
+    H, r = np.vstack(rows), np.concatenate(rhs)
+    th, *_ = np.linalg.lstsq(H, r, rcond=None)
+    return th
+
+
+@dataclass
+class DofEstimate:
+    """One DOF's estimate (plain object inside :class:`DiveIdentification`)."""
+
+    dof: str
+    values: dict
+    sigma: dict
+    correlation: list
+    start: dict
+    base: dict
+    base_source: str
+    windows: int
+    horizon: float
+    train: dict
+    held_out: dict | None
+    warnings: list
+    notes: list
+    traces: dict = field(default_factory=dict, repr=False)
+
+    def params(self) -> OneDofParams:
+        v = self.values
+        return OneDofParams(v["mass"], v["linear"], v["quadratic"], v["bias"])
+
+    def to_dict(self) -> dict:
+        ratio = {k: (self.values[k] / self.base[k] if self.base.get(k) else None)
+                 for k in PARAMS}
+        return {"dof": self.dof, "values": self.values, "sigma": self.sigma,
+                "correlation": {"params": list(PARAMS), "matrix": self.correlation},
+                "start_value_svf": self.start, "base": self.base, "base_source": self.base_source,
+                "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
+                "train": self.train, "held_out": self.held_out, "warnings": self.warnings,
+                "notes": self.notes}
+
+
+@dataclass
+class DiveIdentification(Result):
+    """Per-DOF 1-DOF models identified from a dive (see :func:`identify_dive`)."""
+
+    log: str
+    vehicle: str
+    vehicle_ref: object
+    estimates: dict  # dof → DofEstimate
+    t_start: float | None
+    t_end: float | None
+    seconds: float
+    warnings: list = field(default_factory=list)
+
+    report_title = "Dive identification"
+
+    def identified(self) -> dict:
+        """The estimates in :func:`uuvid.vehicle.writeback.write_identified`'s form."""
+        out = {}
+        for dof, e in self.estimates.items():
+            v, s = e.values, e.sigma
+            out[dof] = {"mass": v["mass"], "linear": max(v["linear"], 0.0),
+                        "quadratic": max(v["quadratic"], 0.0), "disturbance": v["bias"],
+                        "sigma": {"mass": s["mass"], "linear": s["linear"],
+                                  "quadratic": s["quadratic"], "disturbance": s["bias"]},
+                        "log": self.log, "method": "dive output-error",
+                        "notes": f"{e.windows} windows of {e.horizon:g} s"}
+        return out
+
+    def write_vehicle(self, out, base=None) -> object:
+        """Write the base vehicle with the identified values and their provenance
+        (:func:`uuvid.vehicle.writeback.write_identified`); returns the path.  Mass, added mass
+        and drag go into ``hydrodynamics`` (the 6-DOF model every command flies); the bias (in
+        heave the net weight) only into ``one_dof.<dof>.disturbance`` — ``rigid_body.weight`` and
+        ``buoyancy`` stay the base vehicle's."""
+        from uuvid.vehicle.writeback import write_identified
+
+        base = base or self.vehicle_ref
+        return write_identified(base, self.identified(), out, log=self.log,
+                                command="uuvid vehicle identify dive")
+
+    def summary(self) -> str:
+        span = ""
+        if self.t_start is not None or self.t_end is not None:
+            span = f" over [{self.t_start if self.t_start is not None else 'start'}, " \
+                   f"{self.t_end if self.t_end is not None else 'end'}] s"
+        lines = [f"dive identification of {self.log}{span}, base vehicle {self.vehicle} "
+                 f"({self.seconds:.1f} s)"]
+        for dof, e in self.estimates.items():
+            lab = _LABEL.get(dof, {k: k for k in PARAMS})
+            lines.append(f"{dof}: {e.windows} windows of {e.horizon:g} s (output error)")
+            for k in PARAMS:
+                b = e.base.get(k)
+                ratio = (f"  ×{e.values[k] / b:.2f} of base {b:.4g}" if b else
+                         f"  (base {b:.4g})" if b is not None else "")
+                lines.append(f"  {lab[k]:30s} {e.values[k]:10.4g} ± {e.sigma[k]:.2g}{ratio}")
+            ch = CHANNEL_NAMES[dof]
+            lines.append(f"  in-sample replay: {ch} rms {e.train['rms']:.3g} {UNITS[dof]}, "
+                         f"nrmse {e.train['nrmse']:.3f}")
+            if e.held_out and e.held_out["improvement"] is not None:
+                h = e.held_out
+                lines.append(f"  held-out (t > {self.t_end:g} s): {ch} rms identified "
+                             f"{h['identified']['rms']:.3g} vs base {h['base']['rms']:.3g} "
+                             f"{UNITS[dof]} ({h['improvement']:.2f}× better)")
+            lines += [f"  warning: {w}" for w in e.warnings]
+            lines += [f"  note: {n}" for n in e.notes]
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"log": self.log, "vehicle": self.vehicle, "t_start": self.t_start,
+                "t_end": self.t_end, "seconds": self.seconds,
+                "dofs": {d: e.to_dict() for d, e in self.estimates.items()},
+                "warnings": self.warnings}
+
+    def plot(self, path=None):
+        from uuvid.report.plots import new_figure, save_figure
+
+        dofs = list(self.estimates)
+        fig, ax = new_figure(len(dofs), 1, figsize=(10, 3.2 * len(dofs)))
+        ax = np.atleast_1d(ax)
+        for a, dof in zip(ax, dofs):
+            e = self.estimates[dof]
+            key = "held_out" if "held_out" in e.traces else "train"
+            t, y, p_id, p_base, w = e.traces[key]
+            a.plot(t, y, ".", ms=2, color="0.4", label="measured")
+            for k in np.unique(w):
+                s = w == k
+                first = k == w[0]
+                a.plot(t[s], p_id[s], "-", color="C1", lw=1, label="identified" if first else None)
+                a.plot(t[s], p_base[s], "--", color="C0", lw=0.8, label=f"base {self.vehicle}"
+                       if first else None)
+            a.set_ylabel(f"{CHANNEL_NAMES[dof]} [{UNITS[dof]}]")
+            a.set_title(f"{dof}: {'held-out' if key == 'held_out' else 'in-sample'} replay")
+            a.legend(loc="upper right", fontsize="small")
+        ax[-1].set_xlabel("t [s]")
+        if path is not None:
+            save_figure(fig, path)
+        return fig
+
+    def report(self, folder):
+        from pathlib import Path
+
+        from uuvid.report.html import Report
+
+        folder = self.write_basics(folder)
+        fig = Path(folder) / "replay.png"
+        self.plot(fig)
+        rep = Report(f"{self.report_title} — {self.log}")
+        rep.add_preformatted(self.summary(), caption="Summary: identified vs base vehicle")
+        rep.add_figure(fig, caption="Replay (each window restarted from the measured state): "
+                                    "identified vs base model vs measured")
+        return rep.write(folder)
+
+
+def _covariance(J, r, groups, n_glob):
+    """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
+    the fit, so their uncertainty is accounted for): per parameter the larger of the classical
+    ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
+    classical matrix where the sandwich is degenerate)."""
+    N, P = J.shape
+    A = J.T @ J
+    try:
+        Ainv = np.linalg.pinv(A)
+    except np.linalg.LinAlgError:
+        return np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
+    s2 = float(r @ r) / max(N - P, 1)
+    c = (s2 * Ainv)[:n_glob, :n_glob]
+    meat = np.zeros((P, P))
+    for g in np.unique(groups):
+        sel = groups == g
+        gw = J[sel].T @ r[sel]
+        meat += np.outer(gw, gw)
+    G = np.unique(groups).size
+    rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
+    sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb)))
+    use = rb if np.all(np.diag(rb) > 0) else c
+    d = np.sqrt(np.maximum(np.diag(use), 1e-300))
+    return sd, use / np.outer(d, d)
+
+
+def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
+    windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
+    need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
+    if len(windows) < need:
+        span = f"[{t_start if t_start is not None else 'start'}, {t_end if t_end is not None else 'end'}]"
+        raise DiveDataError(
+            f"{dc.name}: window too short to identify {dof}: {len(windows)} usable armed window(s) "
+            f"of {horizon:g} s in {span} s (need at least {need}, i.e. {need * horizon:g} s of "
+            "armed, submerged data); widen --t-start/--t-end or pass a longer dive"
+            + (f" ({'; '.join(notes)})" if notes else ""))
+    prob = WindowProblem(dc, dof, windows)
+    W = prob.W
+    th0 = _svf_start(dc, dof, windows, _SVF_OMEGA[dof])
+    start = {k: float(v) for k, v in zip(PARAMS, th0)} if th0 is not None else {}
+    th0 = np.array(th0 if th0 is not None else base.as_array(), float)
+    if not (th0[0] > 0):
+        notes.append(f"state-variable-filter start value had mass {th0[0]:.3g} ≤ 0; started from "
+                     "the base vehicle's mass instead")
+        th0[0] = base.mass
+    th0[1] = max(th0[1], 0.0)
+    th0[2] = max(th0[2], 0.0)
+    pos = prob.position
+    n_nuis = 2 if pos else 1
+
+    def unpack(z):
+        th = z[:4]
+        if pos:
+            return th, z[4:4 + W], z[4 + W:]
+        return th, z[4:4 + W], None
+
+    def resid(z):
+        th, y0, v0 = unpack(z)
+        return prob.predict(th, y0, v0 if v0 is not None else np.zeros(W)) - prob.y
+
+    z0 = np.concatenate([th0, prob.y0_meas] + ([prob.v0_meas] if pos else []))
+    N = prob.y.size
+    P = z0.size
+    rows = np.arange(N)
+
+    def jac(z):
+        # globals by forward differences; each window's nuisance touches only its own rows, so
+        # all windows' y0 (then v0) are perturbed at once
+        r0 = resid(z)
+        J = np.zeros((N, P))
+        for i in range(4):
+            dz = 1e-6 * max(abs(z[i]), 1e-3)
+            zz = z.copy()
+            zz[i] += dz
+            J[:, i] = (resid(zz) - r0) / dz
+        for j in range(n_nuis):
+            sl = slice(4 + j * W, 4 + (j + 1) * W)
+            d = 1e-6 * np.maximum(np.abs(z[sl]), 1e-2)
+            zz = z.copy()
+            zz[sl] += d
+            J[rows, 4 + j * W + prob.w] = (resid(zz) - r0) / d[prob.w]
+        bad = ~np.isfinite(J)
+        if bad.any():  # a perturbed window blew up: no information from it in this direction
+            J[bad] = 0.0
+        return J
+
+    free = np.ones(P, bool)
+    sol = _levenberg_marquardt(resid, jac, z0, free)
+    th = sol["x"][:4]
+    J = sol["jac"][:, free]
+    sd_f, corr_f = _covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:4])))
+    sd, corr = np.zeros(4), np.eye(4)
+    fi = np.flatnonzero(free[:4])
+    sd[fi] = sd_f
+    corr[np.ix_(fi, fi)] = corr_f
+    values = {k: float(v) for k, v in zip(PARAMS, th)}
+    sigma = {k: float(v) for k, v in zip(PARAMS, sd)}
+    warns = []
+    for i in range(4):
+        for j in range(i + 1, 4):
+            if abs(corr[i, j]) > 0.95:
+                warns.append(f"{PARAMS[i]} and {PARAMS[j]} are hard to separate in this dive "
+                             f"(correlation {corr[i, j]:+.2f}): more varied forces and speeds help")
+    for k in ("linear", "quadratic"):
+        if values[k] < 0:
+            warns.append(f"{k} drag estimate is negative ({values[k]:.3g} ± {sigma[k]:.2g}): "
+                         f"{'not significant' if values[k] > -3 * sigma[k] else 'the model does not fit'}"
+                         "; a vehicle file gets 0")
+        elif sigma[k] > 0.5 * abs(values[k]):
+            warns.append(f"{k} drag poorly determined: σ {sigma[k]:.2g} is "
+                         f"{100 * sigma[k] / abs(values[k]):.0f} % of the value")
+    tf = dc.channels[DIVE_DOFS[dof][1]][0]
+    tf = tf[(tf >= windows[0][0]) & (tf <= windows[-1][1])]
+    dt_f = float(np.median(np.diff(tf))) if tf.size > 2 else math.inf
+    v_rms = float(np.sqrt(np.mean(np.asarray(prob.v0_meas) ** 2))) if pos else \
+        float(np.sqrt(np.mean(prob.y ** 2)))
+    tau = values["mass"] / max(values["linear"] + 2 * max(values["quadratic"], 0.0) * v_rms,
+                               1e-12)
+    if dt_f > 0.5 * tau:
+        warns.append(f"the force ({DIVE_DOFS[dof][1]}) is logged every {dt_f:.2g} s but {dof} "
+                     f"responds in about {tau:.2g} s: what the controllers did between samples is "
+                     "unknown, so mass and drag may be biased beyond σ; log the servo outputs "
+                     "faster (telemetry SERVO_OUTPUT_RAW stream rate, or the .BIN's RCOU)")
+    if sigma["mass"] > 0.5 * values["mass"]:
+        warns.append(f"mass poorly determined (σ {sigma['mass']:.2g}): the dive has little "
+                     "acceleration")
+    if not sol["success"]:
+        warns.append(f"optimiser stopped: {sol['message']}")
+    # in-sample replay from the measured state, identified and base
+    p_id = OneDofParams(*values.values())
+    span = _STATE_SPAN[dof]
+    y0, v0, sc = initial_state(prob, p_id.as_array(), span)
+    pr_id = prob.predict(p_id.as_array(), y0, v0)
+    y0b, v0b, _ = initial_state(prob, base.as_array(), span)
+    pr_b = prob.predict(base.as_array(), y0b, v0b)
+    err = (pr_id - prob.y)[sc]
+    sd_y = float(np.std(prob.y[sc]))
+    train = {"rms": float(np.sqrt(np.mean(err ** 2))),
+             "nrmse": float(np.sqrt(np.mean(err ** 2)) / sd_y) if sd_y > 0 else float("nan"),
+             "rms_fit": float(np.sqrt(np.mean(sol["fun"] ** 2))), "iterations": sol["nit"],
+             "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
+             "n": int(np.count_nonzero(sc))}
+    traces = {"train": (prob.t[sc], prob.y[sc], pr_id[sc], pr_b[sc], prob.w[sc])}
+    if not math.isfinite(train["rms"]):
+        warns.append("the identified model does not stay finite when replayed from the measured "
+                     "states (too stiff for the replay's step, or unstable): do not use it")
+    return values, sigma, corr, start, windows, notes, warns, train, traces
+
+
+def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40) -> dict:
+    """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
+    equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
+    the cost by less than 0.1 % of one residual's variance (a step that small moves the
+    estimates by a tiny fraction of their σ)."""
+    z = np.array(z0, float)
+
+    def cost_of(r):
+        c = float(r @ r)
+        return c if math.isfinite(c) else math.inf
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = resid(z)
+        cost = cost_of(r)
+        lam, msg, ok, it = 1e-3, "maximum iterations", False, 0
+        J = jac(z)
+        for it in range(1, max_iter + 1):  # noqa: B007  (returned as nit)
+            Jf = J[:, free]
+            A = Jf.T @ Jf
+            g = Jf.T @ r
+            D = np.maximum(np.diag(A), 1e-12)
+            improved = False
+            while lam < 1e12:
+                try:
+                    step = np.linalg.solve(A + lam * np.diag(D), -g)
+                except np.linalg.LinAlgError:
+                    lam *= 10
+                    continue
+                zn = z.copy()
+                zn[free] += step
+                if zn[0] <= 0:
+                    lam *= 4
+                    continue
+                rn = resid(zn)
+                cn = cost_of(rn)
+                if cn < cost:
+                    improved = True
+                    break
+                lam *= 4
+            if not improved:
+                msg, ok = "no further decrease", True
+                break
+            drop = cost - cn
+            z, r, cost = zn, rn, cn
+            lam = max(lam / 3, 1e-9)
+            J = jac(z)
+            if drop < 1e-3 * cost / r.size:  # moves every estimate by far less than its σ
+                msg, ok = "converged", True
+                break
+    return {"x": z, "fun": r, "jac": J, "success": ok, "message": msg, "nit": it}
+
+
+def _pwm_notes(dc, t_start, t_end) -> list:
+    out = []
+    for m, (t, p) in dc.pwm.items():
+        sel = (t >= (t_start if t_start is not None else -np.inf)) & \
+              (t <= (t_end if t_end is not None else np.inf)) & (p > 0)
+        if not sel.any():
+            continue
+        sat = np.count_nonzero((p[sel] >= 1895) | (p[sel] <= 1105))
+        if sat:
+            out.append(f"motor {m}: {sat} of {np.count_nonzero(sel)} PWM samples at the 1100/1900 "
+                       "µs limits (saturated: thrust there is still known, used as logged)")
+    return out
+
+
+def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None,
+                  horizon=None, params=None, thruster_model=None, dive=None,
+                  held_out_horizon=None) -> DiveIdentification:
+    """Identify per-DOF 1-DOF models from every armed sample of a dive (see the module doc).
+
+    ``log``: ArduSub ``.tlog``/``.BIN``, CSV/Parquet with force columns, or a DataFrame;
+    ``vehicle``: the base vehicle (preset, file or :class:`~uuvid.vehicle.definition.Vehicle`);
+    ``dofs``: names or ``"all"``; ``t_start``/``t_end`` [s]: the part to identify from (the rest
+    after ``t_end`` is scored as held out); ``horizon`` [s]: output-error window (default per DOF,
+    :data:`uuvid.simulate.dive_replay.DEFAULT_HORIZON`).
+    """
+    from uuvid.vehicle.definition import load_vehicle
+
+    t0 = time.perf_counter()
+    veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
+    dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model)
+    if not dc.armed:
+        raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
+                            "pushed and nothing can be identified; pass the log of a dive (armed "
+                            "in the water)")
+    if t_start is not None and t_end is not None and t_end <= t_start:
+        raise DiveDataError(f"--t-end {t_end:g} s must be after --t-start {t_start:g} s")
+    dofs = _dof_list(dofs, dc)
+    ests = {}
+    warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end)
+    for dof in dofs:
+        dc.require(dof)
+        H = float(horizon or DEFAULT_HORIZON[dof])
+        base, base_src = params_from_vehicle(veh, dof)
+        values, sigma, corr, start, windows, notes, warns, train, traces = _fit_dof(
+            dc, dof, H, t_start, t_end, base)
+        held = None
+        if t_end is not None:
+            Hh = float(held_out_horizon or H)
+            m_id, tr_id, nt = replay_windows(dc, dof, OneDofParams(*values.values()), Hh, t_end)
+            m_b, tr_b, _ = replay_windows(dc, dof, base, Hh, t_end)
+            if m_id is None:
+                notes.append(f"no armed {Hh:g} s window after --t-end {t_end:g} s: no held-out "
+                             "score" + (f" ({'; '.join(nt)})" if nt else ""))
+            else:
+                ratio = m_b["rms"] / m_id["rms"] if m_id["rms"] > 0 else math.nan
+                held = {"identified": m_id, "base": m_b, "horizon_s": Hh,
+                        "improvement": ratio if math.isfinite(ratio) else None}
+                if not math.isfinite(m_id["rms"]):
+                    warns.append("the identified model does not stay finite on the held-out part "
+                                 "(too stiff for the replay's step, or unstable): do not use it")
+                if tr_b[0].size == tr_id[0].size:
+                    traces["held_out"] = (tr_id[0], tr_id[1], tr_id[2], tr_b[2], tr_id[3])
+        if dof == "heave":
+            notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
+                         "used")
+        ests[dof] = DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
+                                base_src, len(windows), H, train, held, warns, notes, traces)
+    return DiveIdentification(dc.name, veh.name, vehicle if not hasattr(vehicle, "B") else
+                              (veh.path or veh.name), ests, t_start, t_end,
+                              time.perf_counter() - t0, warnings)

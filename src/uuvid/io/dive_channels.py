@@ -1,0 +1,227 @@
+"""A whole piloted dive as channels on their own stamps, for dive identification and replay.
+
+:func:`read_dive_channels` reads an ArduSub ``.tlog``/``.BIN`` (through
+:func:`uuvid.io.ardusub.load_dive`: forces from the servo outputs at the logged battery voltage,
+physical wrench ``B·T`` of the given vehicle) or a CSV/Parquet table with force columns
+(``t_s``, ``depth_m``, ``yaw_rad``, ``Z_N``, ``N_Nm``, … optional ``armed``, ``mode``,
+``u_mps``/``v_mps``).  In a table each column keeps its *own* samples: a row where a column is
+empty is not a sample of it, so channels at different, irregular rates stay as logged (no
+resampling).  ROS bags are not read yet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from uuvid.io.logs import LogDataError
+
+__all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS"]
+
+#: DOF → (measured channel, force channel, measured is a position (True) or a velocity)
+DIVE_DOFS = {"heave": ("depth_m", "Z_N", True), "yaw": ("yaw_rad", "N_Nm", True),
+             "surge": ("u_mps", "X_N", False), "sway": ("v_mps", "Y_N", False)}
+_SOURCE_HINT = {"depth_m": "a depth source (ArduSub: BARO/GLOBAL_POSITION_INT; table: depth_m)",
+                "yaw_rad": "a heading source (ArduSub: ATT/ATTITUDE; table: yaw_rad)",
+                "u_mps": "a surge velocity (DVL; table column u_mps)",
+                "v_mps": "a sway velocity (DVL; table column v_mps)"}
+
+
+class DiveDataError(LogDataError):
+    """A dive log cannot be used for identification or replay (the message says what to pass)."""
+
+
+@dataclass
+class DiveChannels:
+    """Channels ``name → (t, v)`` (finite samples, sorted), armed intervals and provenance."""
+
+    name: str
+    format: str
+    channels: dict
+    armed: list  # [(t0, t1)] armed intervals
+    modes: list = field(default_factory=list)  # [(t0, t1, mode)]
+    warnings: list = field(default_factory=list)
+    sources: dict = field(default_factory=dict)
+    pwm: dict = field(default_factory=dict)  # motor → (t, pwm) where logged
+
+    @property
+    def t_range(self) -> tuple[float, float]:
+        ts = [c[0] for c in self.channels.values() if c[0].size]
+        return float(min(t[0] for t in ts)), float(max(t[-1] for t in ts))
+
+    def require(self, dof: str) -> None:
+        """Raise :class:`DiveDataError` when the log lacks what ``dof`` needs."""
+        meas, force, _ = DIVE_DOFS[dof]
+        if meas not in self.channels or self.channels[meas][0].size < 4:
+            raise DiveDataError(f"{self.name}: no {meas} samples: {dof} needs "
+                                f"{_SOURCE_HINT[meas]}; pass --dof "
+                                + "|".join(d for d in DIVE_DOFS if DIVE_DOFS[d][0] in self.channels
+                                           and self.channels[DIVE_DOFS[d][0]][0].size >= 4)
+                                + " or a log that has it")
+        if force not in self.channels or self.channels[force][0].size < 2:
+            raise DiveDataError(f"{self.name}: no {force} samples (thruster forces): the log has no "
+                                "servo outputs / force column; pass an ArduSub log with "
+                                "SERVO_OUTPUT_RAW/RCOU or a table with a " + force + " column")
+
+
+def _finite(t, v):
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    ok = np.isfinite(t) & np.isfinite(v)
+    t, v = t[ok], v[ok]
+    o = np.argsort(t, kind="stable")
+    t, v = t[o], v[o]
+    keep = np.concatenate(([True], np.diff(t) > 0))
+    return t[keep], v[keep]
+
+
+def _intervals(t, flag) -> list:
+    """``[(t0, t1)]`` runs where ``flag`` is true (a run ends at the next false stamp)."""
+    out = []
+    flag = np.asarray(flag, bool)
+    if not flag.any():
+        return out
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], flag.astype(int), [0]))))
+    for a, b in zip(edges[::2], edges[1::2]):
+        out.append((float(t[a]), float(t[min(b, t.size - 1)])))
+    return out
+
+
+def _mode_runs(t, modes) -> list:
+    out = []
+    modes = np.asarray(modes).astype(str)
+    if modes.size == 0:
+        return out
+    starts = np.flatnonzero(np.concatenate(([True], modes[1:] != modes[:-1])))
+    ends = np.concatenate((starts[1:], [modes.size - 1]))
+    for a, b in zip(starts, ends):
+        out.append((float(t[a]), float(t[b]), str(modes[a])))
+    return out
+
+
+def _vehicle(vehicle):
+    from uuvid.vehicle.definition import load_vehicle
+
+    if vehicle is None or hasattr(vehicle, "B"):
+        return vehicle
+    return load_vehicle(vehicle)
+
+
+def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
+    cols = list(df.columns)
+    tcol = "t_s" if "t_s" in cols else ("t" if "t" in cols else None)
+    if tcol is None:
+        raise DiveDataError(f"{name}: no time column: expected t_s (seconds); columns are "
+                            f"{', '.join(map(str, cols[:12]))}")
+    t = np.asarray(df[tcol], float)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise DiveDataError(f"{name}: column {tcol}, row {bad[0] + 2}: not a number; every row "
+                            "needs a time stamp in seconds")
+    chans = {}
+    for c in ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "u_mps", "v_mps", "battery_V",
+              "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+        if c in cols:
+            try:
+                v = np.asarray(df[c], float)
+            except (TypeError, ValueError):
+                raise DiveDataError(f"{name}: column {c}: not numeric; expected numbers (SI "
+                                    "units) or empty cells") from None
+            chans[c] = _finite(t, v)
+    if "yaw_rad" in chans:  # headings may be logged wrapped to ±π
+        ty, y = chans["yaw_rad"]
+        chans["yaw_rad"] = (ty, np.unwrap(y))
+    pwm = {}
+    for c in cols:
+        if str(c).startswith("pwm_"):
+            pwm[str(c)[4:]] = _finite(t, np.asarray(df[c], float))
+    if veh is not None and pwm and len(pwm) != veh.B.shape[1]:
+        raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(pwm)}) but vehicle "
+                            f"{veh.name!r} has {veh.B.shape[1]} thrusters; pass the vehicle the "
+                            "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
+    missing = [c for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm") if c not in chans]
+    if missing and pwm and veh is not None:
+        _forces_from_pwm(chans, pwm, veh, name, warnings)
+    if "armed" in cols:
+        a = df["armed"]
+        am = a.map(lambda x: str(x).strip().lower() in ("true", "1", "1.0", "yes")).to_numpy(bool)
+        armed = _intervals(t, am)
+    else:
+        armed = [(float(t.min()), float(t.max()))]
+        warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
+    modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
+    src = {c: f"{name}:{c}" for c in chans}
+    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm)
+
+
+def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list) -> None:
+    """``X_N … N_Nm`` from ``pwm_<j>`` columns: the voltage-aware T200 model at ``battery_V``
+    (linear between its own samples) and the vehicle's ``B`` (thruster j = column j)."""
+    from uuvid.io.ardusub.frames import DOF_COLUMNS
+    from uuvid.io.ardusub.thrust import default_t200
+
+    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    t = pwm[keys[0]][0]
+    if any(pwm[k][0].size != t.size or not np.array_equal(pwm[k][0], t) for k in keys):
+        raise DiveDataError(f"{name}: the pwm_ columns do not share their rows; every pwm_<j> needs "
+                            "a value on each servo-output row")
+    if "battery_V" not in chans or chans["battery_V"][0].size == 0:
+        volts = np.full(t.size, 16.0)
+        warnings.append(f"{name}: no battery_V column: thrust from pwm_ at the T200 sheet's nominal "
+                        "16 V (default); log the battery voltage")
+    else:
+        tb, vb = chans["battery_V"]
+        volts = np.interp(t, tb, vb)
+    tm = default_t200()
+    T = np.stack([np.where(pwm[k][1] > 0, tm.thrust(pwm[k][1], volts), 0.0) for k in keys])
+    W = np.asarray(veh.B, float) @ T
+    for i, c in enumerate(DOF_COLUMNS):
+        chans.setdefault(c, (t, W[i]))
+    warnings.append(f"{name}: forces computed from pwm_{keys[0]}…pwm_{keys[-1]} with {tm.name} at "
+                    f"battery_V and {veh.name}'s thruster geometry (pwm_j drives thruster j along "
+                    "its axis: no reversal applied)")
+
+
+def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None) -> DiveChannels:
+    """Read a dive (path or pandas DataFrame; see the module doc).  Raises
+    :class:`DiveDataError` / :class:`~uuvid.io.logs.LogDataError` naming what is missing."""
+    import pandas as pd
+
+    warnings: list = []
+    veh = _vehicle(vehicle)
+    if isinstance(log, pd.DataFrame):
+        return _from_table(log, "<table>", "table", veh, warnings)
+    p = Path(log)
+    if not p.exists():
+        raise DiveDataError(f"{p}: no such file")
+    suf = p.suffix.lower()
+    if suf == ".csv":
+        return _from_table(pd.read_csv(p), p.name, "csv", veh, warnings)
+    if suf == ".parquet":
+        return _from_table(pd.read_parquet(p), p.name, "parquet", veh, warnings)
+    if suf in (".tlog", ".bin", ".log"):
+        from uuvid.io.ardusub import load_dive
+
+        if veh is None:
+            raise DiveDataError(f"{p.name}: an ArduSub log needs --vehicle (its thruster geometry "
+                                "turns the servo outputs into forces and moments)")
+        dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model)
+        tb = dive.table
+        t = tb["t_s"].to_numpy(float)
+        chans = {}
+        for c in ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "battery_V", "X_N", "Y_N",
+                  "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+            if c in tb:
+                chans[c] = _finite(t, tb[c].to_numpy(float))
+        armed_flag = tb["armed"].fillna(False).to_numpy(bool)
+        armed = _intervals(t, armed_flag)
+        pwm = {str(m): _finite(t, tb[f"pwm_{m}"].to_numpy(float)) for m in dive.motors}
+        src = {c: (dive.provenance.get(c) or {}).get("source") for c in chans}
+        return DiveChannels(p.name, dive.format, chans, armed,
+                            _mode_runs(t, tb["mode"].astype(str).to_numpy()),
+                            warnings + list(dive.warnings), src, pwm)
+    raise DiveDataError(f"{p.name}: unknown dive log type {p.suffix!r}; expected .tlog, .bin, .log "
+                        "(ArduSub), .csv or .parquet (table with force columns); ROS bags are not "
+                        "read by identify dive yet")

@@ -1,0 +1,369 @@
+"""Replay a logged dive through per-DOF 1-DOF models, restarting from the measured state.
+
+Per DOF the model (Caccia et al. 2000, eq. 3, with a constant bias ``b``: in heave the net
+weight ``W − B``)::
+
+    ẋ = v,   m v̇ = F(t) − k v − k_q v|v| + b
+
+is integrated (RK4, fixed step) with the *logged* force ``F`` — linear between its own samples,
+never resampled — in windows of ``horizon`` seconds; each window starts from the measured state
+(position from a local quadratic fit of the measured samples around the start, velocity its
+slope, refined through the model on the window's first seconds, :func:`initial_state`) and is
+compared with the measurements after those seconds on their own stamps (cubic Hermite between
+steps).
+Heave windows that touch the surface (depth < ``SURFACE_M``) are left out: there the buoyancy
+changes and the model does not hold.  :func:`replay_dive` returns :class:`DiveReplay`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
+from uuvid.report.result import Result
+
+__all__ = ["OneDofParams", "DiveReplay", "replay_dive", "dive_windows", "WindowProblem",
+           "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON"]
+
+CHANNEL_NAMES = {"heave": "depth", "yaw": "heading", "surge": "u", "sway": "v"}
+UNITS = {"heave": "m", "yaw": "rad", "surge": "m/s", "sway": "m/s"}
+DEFAULT_HORIZON = {"heave": 10.0, "yaw": 4.0, "surge": 5.0, "sway": 5.0}
+_FIT_HALF = {"heave": 1.0, "yaw": 0.25, "surge": 0.5, "sway": 0.5}  # local fit half-width [s]
+SURFACE_M = 0.2
+_INDEX = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}
+
+
+@dataclass(frozen=True)
+class OneDofParams:
+    """``m`` (incl. added mass), ``k``, ``k_q`` (≥ 0) and the bias ``b`` of one DOF, SI units."""
+
+    mass: float
+    linear: float
+    quadratic: float
+    bias: float = 0.0
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.mass, self.linear, self.quadratic, self.bias])
+
+    def to_dict(self) -> dict:
+        return {"mass": self.mass, "linear": self.linear, "quadratic": self.quadratic,
+                "bias": self.bias}
+
+
+def params_from_vehicle(veh, dof: str) -> tuple[OneDofParams, str]:
+    """The vehicle's 1-DOF parameters for ``dof`` and where they came from: its ``one_dof``
+    entry for the DOF when it has one (an identified file), else the diagonal of
+    ``M_RB + M_A``, ``D_L``, ``D_Q`` and, in heave, ``W − B``."""
+    for key, m in (veh.one_dof or {}).items():
+        if m.dof == dof:
+            return (OneDofParams(m.mass, m.linear, m.quadratic, m.disturbance),
+                    f"one_dof.{key} of {veh.name}")
+    i = _INDEX[dof]
+    p = veh.params
+    M = np.asarray(p.M_RB) + np.asarray(p.added_mass)
+    bias = float(p.weight - p.buoyancy) if dof == "heave" else 0.0
+    return (OneDofParams(float(M[i, i]), float(p.linear_damping[i, i]),
+                         float(p.quadratic_damping[i, i]), bias),
+            f"{veh.name}: diagonal of M_RB + M_A, D_L, D_Q" + (", W − B" if dof == "heave" else ""))
+
+
+def dive_windows(dc, dof: str, horizon: float, t_start=None, t_end=None) -> tuple[list, list]:
+    """Windows ``[(t0, t1)]`` of length ``horizon`` inside the armed intervals ∩ [t_start, t_end]
+    where the measured and force channels have samples, and notes on what was left out."""
+    meas, force, _ = DIVE_DOFS[dof]
+    tm, ym = dc.channels[meas]
+    tf = dc.channels[force][0]
+    lo = max(tm[0], tf[0], -np.inf if t_start is None else t_start)
+    hi = min(tm[-1], tf[-1], np.inf if t_end is None else t_end)
+    out, surface, sparse = [], 0, 0
+    for a, b in dc.armed:
+        a, b = max(a, lo), min(b, hi)
+        s = a
+        while s + horizon <= b + 1e-9:
+            e = s + horizon
+            sel = (tm >= s) & (tm <= e)
+            fsel = (tf >= s - 1.0) & (tf <= e + 1.0)
+            if np.count_nonzero(sel) < 4 or np.count_nonzero(fsel) < 2 \
+                    or np.max(np.diff(np.concatenate(([s], tf[fsel], [e])))) > max(3.0, horizon):
+                sparse += 1
+            elif dof == "heave" and np.min(ym[sel]) < SURFACE_M:
+                surface += 1
+            else:
+                out.append((s, e))
+            s = e
+    notes = []
+    if surface:
+        notes.append(f"{surface} {dof} window(s) of {horizon:g} s at the surface (depth < "
+                     f"{SURFACE_M:g} m) left out")
+    if sparse:
+        notes.append(f"{sparse} {dof} window(s) with too few samples (or a gap in the force) left out")
+    return out, notes
+
+
+def _local_state(t, y, t0, half, position: bool):
+    """Value and slope at ``t0`` from a quadratic (position) fit of the samples within ±half."""
+    sel = np.abs(t - t0) <= half
+    while np.count_nonzero(sel) < 4 and half < 10:
+        half *= 1.5
+        sel = np.abs(t - t0) <= half
+    tt, yy = t[sel] - t0, y[sel]
+    if not position:
+        return float(np.mean(yy)), 0.0
+    c = np.polyfit(tt, yy, 2 if tt.size >= 5 else 1)
+    return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
+
+
+class WindowProblem:
+    """Windows of one DOF prepared for vectorised simulation: force at the RK4 half steps and
+    where each measured sample falls (window, step, fraction)."""
+
+    def __init__(self, dc, dof: str, windows, h: float | None = None):
+        meas, force, position = DIVE_DOFS[dof]
+        self.dof, self.position = dof, position
+        tm, ym = dc.channels[meas]
+        tf, F = dc.channels[force]
+        self.windows = list(windows)
+        W = len(self.windows)
+        horizon = self.windows[0][1] - self.windows[0][0]
+        h = h or min(0.05, horizon / 40)
+        self.n = int(np.ceil(horizon / h - 1e-9))
+        self.h = horizon / self.n
+        ta = np.array([w[0] for w in self.windows])
+        self.ta = ta
+        th = ta[:, None] + 0.5 * self.h * np.arange(2 * self.n + 1)[None, :]
+        self.Fh = np.interp(th, tf, F)
+        wi, ti, yi = [], [], []
+        for k, (a, b) in enumerate(self.windows):
+            sel = (tm >= a) & (tm <= b)
+            wi.append(np.full(np.count_nonzero(sel), k))
+            ti.append(tm[sel])
+            yi.append(ym[sel])
+        self.w = np.concatenate(wi)
+        self.t = np.concatenate(ti)
+        self.y = np.concatenate(yi)
+        u = (self.t - ta[self.w]) / self.h
+        self.k = np.clip(np.floor(u).astype(int), 0, self.n - 1)
+        self.s = u - self.k
+        half = _FIT_HALF[dof]
+        st = np.array([_local_state(tm, ym, a, half, position) for a, _ in self.windows])
+        self.y0_meas, self.v0_meas = st[:, 0], st[:, 1]
+        self.W = W
+
+    def simulate(self, theta, y0, v0):
+        """``(X, V)`` (W × n+1): position (or velocity-only: V) over each window."""
+        m, k, kq, b = theta
+        h, n = self.h, self.n
+        X = np.empty((self.W, n + 1))
+        V = np.empty((self.W, n + 1))
+        x, v = np.array(y0, float), np.array(v0, float)
+        if not self.position:
+            v = x.copy()
+        X[:, 0], V[:, 0] = x, v
+        inv = 1.0 / m
+        Fh = self.Fh
+        for s in range(n):
+            f0, f1, f2 = Fh[:, 2 * s], Fh[:, 2 * s + 1], Fh[:, 2 * s + 2]
+            a1 = (f0 - k * v - kq * v * np.abs(v) + b) * inv
+            v2 = v + 0.5 * h * a1
+            a2 = (f1 - k * v2 - kq * v2 * np.abs(v2) + b) * inv
+            v3 = v + 0.5 * h * a2
+            a3 = (f1 - k * v3 - kq * v3 * np.abs(v3) + b) * inv
+            v4 = v + h * a3
+            a4 = (f2 - k * v4 - kq * v4 * np.abs(v4) + b) * inv
+            x = x + h / 6 * (v + 2 * v2 + 2 * v3 + v4)
+            v = v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            X[:, s + 1], V[:, s + 1] = x, v
+        if not self.position:
+            X = V
+        return X, V
+
+    def predict(self, theta, y0, v0):
+        """The model's output at every measured sample's own stamp (NaN/inf where a window's
+        simulation blows up, e.g. under a trial step of the optimiser)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            X, V = self.simulate(theta, y0, v0)
+        w, k, s, h = self.w, self.k, self.s, self.h
+        if not self.position:
+            return X[w, k] * (1 - s) + X[w, k + 1] * s
+        x0, x1, d0, d1 = X[w, k], X[w, k + 1], V[w, k] * h, V[w, k + 1] * h
+        s2, s3 = s * s, s * s * s
+        return ((2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * x1
+                + (s3 - s2) * d1)
+
+
+_STATE_SPAN = {"heave": 2.0, "yaw": 0.5, "surge": 1.0, "sway": 1.0}  # initial-state fit [s]
+
+
+def initial_state(prob, theta, span: float):
+    """``(y0, v0, scored)``: each window's initial state fitted (Gauss–Newton, model fixed) to the
+    samples of its first ``span`` seconds — the measured state, read through the model as a
+    Kalman filter would — and the mask of the samples after it, which are scored."""
+    y0, v0 = prob.y0_meas.copy(), prob.v0_meas.copy()
+    early = prob.t <= prob.ta[prob.w] + span
+    w = prob.w[early]
+    if prob.position:
+        for _ in range(3):
+            r = (prob.predict(theta, y0, v0) - prob.y)[early]
+            dy = 1e-4
+            ry = (prob.predict(theta, y0 + dy, v0) - prob.y)[early]
+            rv = (prob.predict(theta, y0, v0 + dy) - prob.y)[early]
+            jy, jv = (ry - r) / dy, (rv - r) / dy
+            a = np.bincount(w, jy * jy, prob.W)
+            b = np.bincount(w, jy * jv, prob.W)
+            c = np.bincount(w, jv * jv, prob.W)
+            gy = np.bincount(w, jy * r, prob.W)
+            gv = np.bincount(w, jv * r, prob.W)
+            det = a * c - b * b
+            ok = det > 1e-12 * np.maximum(a * c, 1e-300)
+            y0 = y0 - np.where(ok, (c * gy - b * gv) / np.where(ok, det, 1), 0.0)
+            v0 = v0 - np.where(ok, (a * gv - b * gy) / np.where(ok, det, 1), 0.0)
+    return y0, v0, ~early
+
+
+def _metrics(y, pred) -> dict:
+    err = pred - y
+    rms = float(np.sqrt(np.mean(err ** 2))) if err.size else float("nan")
+    sd = float(np.std(y)) if y.size > 1 else float("nan")
+    return {"rms": rms, "nrmse": rms / sd if sd > 0 else float("nan"), "n": int(err.size),
+            "std_measured": sd}
+
+
+@dataclass
+class DiveReplay(Result):
+    """Predicted vs measured per channel (see :func:`replay_dive`)."""
+
+    log: str
+    vehicle: str
+    horizon: dict
+    channels: dict  # name → {rms, nrmse, n, unit, dof, params, params_source}
+    traces: dict = field(default_factory=dict, repr=False)  # name → (t, measured, predicted, w)
+    notes: list = field(default_factory=list)
+    t_start: float | None = None
+    t_end: float | None = None
+
+    report_title = "Dive replay"
+
+    def summary(self) -> str:
+        span = ("" if self.t_start is None and self.t_end is None else
+                f" over [{self.t_start if self.t_start is not None else '…'}, "
+                f"{self.t_end if self.t_end is not None else '…'}] s")
+        lines = [f"replay of {self.log} with {self.vehicle}{span} (restart every horizon from "
+                 "the measured state)"]
+        for name, c in self.channels.items():
+            lines.append(f"  {name:8s} rms {c['rms']:.4g} {c['unit']}, nrmse {c['nrmse']:.3f} "
+                         f"({c['n']} samples, {c['windows']} windows of {c['horizon']:g} s; "
+                         f"model: {c['params_source']})")
+        lines += [f"  note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"log": self.log, "vehicle": self.vehicle, "t_start": self.t_start,
+                "t_end": self.t_end, "channels": self.channels, "notes": self.notes}
+
+    def plot(self, path=None):
+        from uuvid.report.plots import new_figure, save_figure
+
+        names = list(self.traces) or ["(none)"]
+        fig, ax = new_figure(len(names), 1, figsize=(10, 3 * len(names)))
+        ax = np.atleast_1d(ax)
+        for a, name in zip(ax, names):
+            if name not in self.traces:
+                continue
+            t, y, p, w = self.traces[name]
+            a.plot(t, y, ".", ms=2, color="0.4", label="measured")
+            for k in np.unique(w):
+                s = w == k
+                a.plot(t[s], p[s], "-", color="C1", lw=1, label="predicted" if k == w[0] else None)
+            a.set_ylabel(f"{name} [{self.channels[name]['unit']}]")
+            a.set_title(f"{name}: rms {self.channels[name]['rms']:.3g} "
+                        f"{self.channels[name]['unit']}, nrmse {self.channels[name]['nrmse']:.3f}")
+            a.legend(loc="upper right", fontsize="small")
+        ax[-1].set_xlabel("t [s]")
+        if path is not None:
+            save_figure(fig, path)
+        return fig
+
+    def report(self, folder):
+        from pathlib import Path
+
+        from uuvid.report.html import Report
+
+        folder = self.write_basics(folder)
+        fig = Path(folder) / "replay.png"
+        self.plot(fig)
+        rep = Report(f"{self.report_title} — {self.log}")
+        rep.add_preformatted(self.summary(), caption="Summary")
+        rep.add_figure(fig, caption="Predicted (each window restarted from the measured state) vs "
+                                    "measured")
+        return rep.write(folder)
+
+
+def replay_windows(dc, dof: str, params: OneDofParams, horizon: float, t_start=None,
+                   t_end=None):
+    """``(metrics, trace, notes)`` of one DOF (``None`` metrics when no window fits)."""
+    windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
+    if not windows:
+        return None, None, notes
+    prob = WindowProblem(dc, dof, windows)
+    span = _STATE_SPAN[dof]
+    y0, v0, sc = initial_state(prob, params.as_array(), span)
+    pred = prob.predict(params.as_array(), y0, v0)
+    met = _metrics(prob.y[sc], pred[sc])
+    met["windows"] = len(windows)
+    met["state_fit_s"] = span
+    return met, (prob.t[sc], prob.y[sc], pred[sc], prob.w[sc]), notes
+
+
+def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None, horizon=None,
+                params=None, thruster_model=None, dive=None) -> DiveReplay:
+    """Drive each DOF's 1-DOF model (the vehicle's, :func:`params_from_vehicle`) with the logged
+    forces; restart every ``horizon`` s from the measured state; compare (see the module doc).
+
+    ``dofs``: ``"all"`` or names among heave, yaw, surge, sway (those without a measured channel
+    are skipped with a note when ``"all"``).  ``dive``: an already read
+    :class:`~uuvid.io.dive_channels.DiveChannels`.
+    """
+    from uuvid.vehicle.definition import load_vehicle
+
+    veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
+    dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model)
+    if not dc.armed:
+        raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
+                            "pushed and there is nothing to replay; pass the log of a dive")
+    dofs = _dof_list(dofs, dc)
+    notes, chans, traces, hz = [], {}, {}, {}
+    for dof in dofs:
+        dc.require(dof)
+        H = float(horizon or DEFAULT_HORIZON[dof])
+        hz[dof] = H
+        p, src = params_from_vehicle(veh, dof)
+        met, trace, nt = replay_windows(dc, dof, p, H, t_start, t_end)
+        notes += nt
+        if met is None:
+            notes.append(f"{dof}: no armed {H:g} s window in the range: nothing replayed")
+            continue
+        name = CHANNEL_NAMES[dof]
+        chans[name] = {**met, "unit": UNITS[dof], "dof": dof, "horizon": H,
+                       "params": p.to_dict(), "params_source": src}
+        traces[name] = trace
+    if not chans:
+        raise DiveDataError(f"{dc.name}: no armed window of the horizon to replay in the range "
+                            "given; widen --t-start/--t-end or shorten --horizon")
+    return DiveReplay(dc.name, veh.name, hz, chans, traces, notes, t_start, t_end)
+
+
+def _dof_list(dofs, dc) -> list:
+    if dofs in (None, "all") or dofs == ("all",) or dofs == ["all"]:
+        out = [d for d in DIVE_DOFS if DIVE_DOFS[d][0] in dc.channels
+               and DIVE_DOFS[d][1] in dc.channels]
+        if not out:
+            dc.require("heave")
+        return out
+    if isinstance(dofs, str):
+        dofs = [dofs]
+    bad = [d for d in dofs if d not in DIVE_DOFS]
+    if bad:
+        raise DiveDataError(f"unknown DOF {bad[0]!r}; expected heave, yaw, surge, sway or all")
+    return list(dofs)

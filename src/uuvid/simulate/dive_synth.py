@@ -1,0 +1,230 @@
+"""A synthetic piloted dive flown by the project's 6-DOF model, logged as ArduSub would log it.
+
+:func:`synthetic_dive` flies a vehicle (default ``bluerov2``) with
+:func:`uuvid.vehicle.model.vehicle_rhs` (RK4, 50 Hz) under a pilot who switches between MANUAL,
+STABILIZE (heading hold) and ALT_HOLD (depth + heading hold, PID like ArduSub's), with:
+
+* thrusters driven by PWM computed for a nominal 16 V, delivering the voltage-aware T200 thrust
+  at the *sagging* battery voltage (``uuvid.io.ardusub.thrust.default_t200``);
+* an unmodelled tether-like drag in heave and yaw (linear + quadratic, added to the vehicle's);
+* channels logged at their own jittered rates: depth ≈ 3 Hz (σ 1 cm), yaw ≈ 20 Hz (σ 0.3°),
+  PWM ≈ 2 Hz, battery ≈ 1 Hz (σ 0.02 V); a disarmed stretch at the start.
+
+The table has one row per stamp of any channel (NaN where a channel has no sample) with the
+force columns ``X_N … N_Nm`` computed from the logged PWM at the logged voltage (as
+``uuvid log export`` does).  Written as CSV, not as a real .tlog/.BIN (not done yet).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uuvid.io.ardusub.frames import DOF_COLUMNS
+
+__all__ = ["synthetic_dive", "dive_truth"]
+
+TETHER = {"heave": (3.0, 12.0), "yaw": (0.05, 0.6)}  # (linear, quadratic) extra drag
+DT = 0.02
+
+
+def _stamps(rng, t0, t1, rate, jitter=0.3):
+    dt = 1.0 / rate
+    n = int((t1 - t0) / dt) + 2
+    steps = dt * (1 + jitter * rng.uniform(-1, 1, n))
+    t = t0 + np.cumsum(steps)
+    return t[t < t1]
+
+
+def dive_truth(vehicle="bluerov2", tether=None) -> dict:
+    """The 1-DOF parameters the synthetic dive obeys (vehicle + tether drag), per DOF."""
+    from uuvid.vehicle.definition import load_vehicle
+
+    v = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
+    tether = TETHER if tether is None else tether
+    p = v.params
+    M = np.asarray(p.M_RB) + np.asarray(p.added_mass)
+    out = {}
+    for dof, i in (("heave", 2), ("yaw", 5)):
+        kt, kqt = tether.get(dof, (0.0, 0.0))
+        out[dof] = {"mass": float(M[i, i]), "linear": float(p.linear_damping[i, i] + kt),
+                    "quadratic": float(p.quadratic_damping[i, i] + kqt),
+                    "bias": float(p.weight - p.buoyancy) if dof == "heave" else 0.0}
+    return out
+
+
+def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *,
+                   tether=None, depth_noise: float = 0.01, yaw_noise: float = 0.005,
+                   disarmed: float = 8.0, pwm_rate: float = 2.0, surge: float = 0.1,
+                   rates: dict | None = None, jitter: float = 0.3, dvl: bool = False):
+    """``(table, truth)``: a piloted dive as a pandas DataFrame (see the module doc) and
+    :func:`dive_truth`.  ``rates`` overrides the logging rates ``{"depth": 3, "yaw": 20,
+    "pwm": pwm_rate, "battery": 1}`` [Hz]; ``jitter`` is the relative spread of the intervals
+    (0: every channel at the same rate shares its stamps, as in a dataflash log).  ``dvl``: add
+    body velocities ``u_mps``/``v_mps`` at 5 Hz (σ 0.01 m/s), as a DVL would log them."""
+    import pandas as pd
+
+    from uuvid.io.ardusub.thrust import default_t200
+    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.vehicle.kinematics import normalise_state, quat_to_euler
+    from uuvid.vehicle.model import make_state, vehicle_rhs
+
+    rng = np.random.default_rng(seed)
+    veh = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
+    tether = TETHER if tether is None else tether
+    p = veh.params.to_array()
+    B = np.asarray(veh.B, float)
+    n_thr = B.shape[1]
+    lim = veh.layout.limits
+    ctrl_rows = [0, 1, 2, 5]
+    A = np.linalg.pinv(B[ctrl_rows])
+    t200 = default_t200()
+    pwm_tab = np.arange(1100.0, 1901.0, 1.0)
+    thr_tab = t200.thrust(pwm_tab, np.full(pwm_tab.size, 16.0))
+
+    pos, neg = pwm_tab > 1500, pwm_tab < 1500
+    # thrust(pwm, V) tabulated once: whole µs × 0.05 V (linear in V between rows)
+    v_tab = np.arange(13.0, 17.0001, 0.05)
+    TT = np.stack([t200.thrust(pwm_tab, np.full(pwm_tab.size, v)) for v in v_tab])
+
+    def thrust_at(pwm, volts):
+        i = np.clip(np.round(pwm - 1100.0).astype(int), 0, pwm_tab.size - 1)
+        u = np.clip((volts - v_tab[0]) / 0.05, 0, v_tab.size - 1.000001)
+        k = int(u)
+        f = u - k
+        return TT[k, i] * (1 - f) + TT[k + 1, i] * f
+
+    def pwm_for(T):  # ArduSub-like: thrust wanted at the nominal 16 V → PWM (no compensation)
+        out = np.where(T > 1e-3, np.interp(T, thr_tab[pos], pwm_tab[pos]),
+                       np.where(T < -1e-3, np.interp(T, thr_tab[neg], pwm_tab[neg]), 1500.0))
+        return np.round(out)
+
+    n = int(round(duration / DT))
+    t = np.arange(n + 1) * DT
+    x = make_state(position=(0, 0, 0.3), rpy=(0, 0, rng.uniform(-np.pi, np.pi)))
+    # pilot schedule: segments of 15–40 s cycling the modes
+    segs, s = [], disarmed
+    modes = ["MANUAL", "STABILIZE", "ALT_HOLD"]
+    k = 0
+    while s < duration:
+        d = rng.uniform(15, 40)
+        segs.append((s, min(s + d, duration), modes[k % 3]))
+        s += d
+        k += 1
+    X = np.empty((n + 1, 13))
+    PWM = np.empty((n + 1, n_thr))
+    V = np.empty(n + 1)
+    MODE = np.empty(n + 1, object)
+    ARM = np.zeros(n + 1, bool)
+    stick = np.zeros(3)  # surge, heave, yaw
+    next_stick = disarmed
+    depth_tgt, yaw_tgt, integ = 1.0, 0.0, 0.0
+    prev_mode = None
+    v_batt = 16.4
+    for i in range(n + 1):
+        ti = t[i]
+        qw, qx, qy, qz = x[3:7]
+        rpy = (0.0, 0.0, math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
+        mode = next((m for a, b, m in segs if a <= ti < b), "MANUAL")
+        armed = ti >= disarmed
+        if ti >= next_stick:
+            stick = np.array([rng.uniform(-surge, surge) * (rng.random() < 0.4),
+                              rng.uniform(-0.8, 0.8) * (rng.random() < 0.7),
+                              rng.uniform(-0.6, 0.6) * (rng.random() < 0.6)])
+            if x[2] < 1.5:  # the pilot keeps the vehicle down (it floats: W < B)
+                stick[1] = rng.uniform(0.2, 0.8)
+            elif x[2] > 12.0:
+                stick[1] = rng.uniform(-0.8, -0.2)
+            next_stick = ti + rng.uniform(2, 8)
+            if mode == "ALT_HOLD":
+                depth_tgt = float(np.clip(x[2] + rng.uniform(-2, 2), 0.5, 15.0))
+            yaw_tgt = rpy[2] + rng.uniform(-1.5, 1.5)
+        if mode != prev_mode:
+            depth_tgt, yaw_tgt, integ = float(x[2]), float(rpy[2]), 0.0
+            prev_mode = mode
+        w, r = x[9], x[12]
+        tau = np.zeros(4)
+        tau[0] = 25.0 * stick[0]
+        if mode == "MANUAL":
+            tau[2] = 40.0 * stick[1]
+            tau[3] = 2.0 * stick[2]
+        else:
+            e = (yaw_tgt - rpy[2] + np.pi) % (2 * np.pi) - np.pi
+            tau[3] = np.clip(4.0 * e - 1.2 * r, -4, 4)
+            if mode == "ALT_HOLD":
+                ez = depth_tgt - x[2]
+                integ = np.clip(integ + ez * DT, -20, 20)
+                tau[2] = np.clip(60.0 * ez - 50.0 * w + 3.0 * integ, -60, 60)
+            else:
+                tau[2] = 40.0 * stick[1]
+        T_cmd = np.clip(A @ tau, lim[:, 0], lim[:, 1]) if armed else np.zeros(n_thr)
+        pwm = pwm_for(T_cmd) if armed else np.full(n_thr, 1500.0)
+        load = float(np.sum(np.abs(T_cmd)))
+        v_batt = 16.4 - 1.2 * ti / max(duration, 1.0) - 0.01 * load
+        T = thrust_at(pwm, v_batt)
+        X[i], PWM[i], V[i], MODE[i], ARM[i] = x, pwm, v_batt, mode, armed
+        if i == n:
+            break
+
+        def f(z, T=T):
+            tau6 = B @ T
+            tau6[2] -= tether.get("heave", (0, 0))[0] * z[9] + tether.get("heave", (0, 0))[1] \
+                * z[9] * abs(z[9])
+            tau6[5] -= tether.get("yaw", (0, 0))[0] * z[12] + tether.get("yaw", (0, 0))[1] \
+                * z[12] * abs(z[12])
+            return vehicle_rhs(z, tau6, p)
+
+        k1 = f(x)
+        k2 = f(x + 0.5 * DT * k1)
+        k3 = f(x + 0.5 * DT * k2)
+        k4 = f(x + DT * k3)
+        x = x + DT / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        normalise_state(x)
+        if x[2] < 0:  # the surface: no flying out of the water
+            x[2], x[9] = 0.0, max(x[9], 0.0)
+    yaw_true = np.unwrap(np.array([quat_to_euler(q)[2] for q in X[:, 3:7]]))
+    roll_pitch = np.array([quat_to_euler(q)[:2] for q in X[:, 3:7]])
+    # ---- logging at each channel's own rate
+    hz = {"depth": 3.0, "yaw": 20.0, "pwm": pwm_rate, "battery": 1.0, **(rates or {})}
+    t_d = _stamps(rng, 0.0, duration, hz["depth"], jitter)
+    t_y = _stamps(rng, 0.0, duration, hz["yaw"], jitter)
+    t_p = _stamps(rng, 0.0, duration, hz["pwm"], jitter)
+    t_b = _stamps(rng, 0.0, duration, hz["battery"], jitter)
+    depth = np.interp(t_d, t, X[:, 2]) + depth_noise * rng.standard_normal(t_d.size)
+    yaw = np.interp(t_y, t, yaw_true) + yaw_noise * rng.standard_normal(t_y.size)
+    yaw = (yaw + np.pi) % (2 * np.pi) - np.pi  # logged wrapped, like ATTITUDE.yaw
+    idx_p = np.clip(np.searchsorted(t, t_p, side="right") - 1, 0, n)
+    pwm_l = PWM[idx_p]
+    batt = np.interp(t_b, t, V) + 0.02 * rng.standard_normal(t_b.size)
+    v_at_p = np.interp(t_p, t_b, batt)
+    T_l = np.stack([t200.thrust(pwm_l[:, j], v_at_p) for j in range(n_thr)], axis=1)
+    W_l = T_l @ B.T
+    t_v = _stamps(rng, 0.0, duration, 5.0, jitter) if dvl else np.zeros(0)
+    stamps = np.unique(np.concatenate([t_d, t_y, t_p, t_b, t_v]))
+    df = pd.DataFrame({"t_s": stamps})
+    idx = {nm: np.searchsorted(stamps, ts) for nm, ts in (("d", t_d), ("y", t_y), ("p", t_p),
+                                                        ("b", t_b))}
+
+    def col(key, vals):
+        c = np.full(stamps.size, np.nan)
+        c[idx[key]] = vals
+        return c
+
+    df["depth_m"] = col("d", depth)
+    df["yaw_rad"] = col("y", yaw)
+    df["roll_rad"] = col("y", np.interp(t_y, t, roll_pitch[:, 0]))
+    df["pitch_rad"] = col("y", np.interp(t_y, t, roll_pitch[:, 1]))
+    df["battery_V"] = col("b", batt)
+    if dvl:
+        idx["v"] = np.searchsorted(stamps, t_v)
+        for c, j in (("u_mps", 7), ("v_mps", 8)):
+            df[c] = col("v", np.interp(t_v, t, X[:, j]) + 0.01 * rng.standard_normal(t_v.size))
+    for j in range(n_thr):
+        df[f"pwm_{j + 1}"] = col("p", pwm_l[:, j])
+    for k, c in enumerate(DOF_COLUMNS):
+        df[c] = col("p", W_l[:, k])
+    ii = np.clip(np.searchsorted(t, stamps, side="right") - 1, 0, n)
+    df["mode"] = MODE[ii]
+    df["armed"] = ARM[ii]
+    return df, dive_truth(veh, tether)

@@ -1,0 +1,209 @@
+"""Identification from a whole piloted dive and its replay (issue 19).
+
+Evidence: synthetic piloted dives flown by the project's 6-DOF model (MANUAL / STABILIZE /
+ALT_HOLD with depth and heading controllers acting, battery sag, unmodelled tether drag, channels
+at their own jittered rates) written as tables with force columns (not yet as real .tlog/.BIN).
+The truth of a 1-DOF model is the vehicle's diagonal plus the tether drag; the dives used for the
+truth checks fly no surge (surge couples into yaw through the Munk moment, which a 1-DOF model
+does not have)."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.identify.dive import identify_dive
+from uuvid.io.dive_channels import DiveDataError
+from uuvid.simulate.dive_replay import replay_dive
+from uuvid.simulate.dive_synth import synthetic_dive
+from uuvid.vehicle.definition import load_vehicle
+
+runner = CliRunner()
+PARAMS = ("mass", "linear", "quadratic", "bias")
+
+
+@pytest.fixture(scope="module")
+def dive():
+    # .BIN-like force rate (RCOU 10 Hz); depth 3 Hz, yaw 20 Hz
+    return synthetic_dive(360.0, seed=11, pwm_rate=10.0, surge=0.0)
+
+
+@pytest.fixture(scope="module")
+def result(dive):
+    df, _ = dive
+    return identify_dive(df, "bluerov2", t_end=270.0)
+
+
+def test_truth_within_3_sigma_and_the_preset_is_not(dive, result):
+    _, truth = dive
+    for dof in ("heave", "yaw"):
+        e = result.estimates[dof]
+        for k in PARAMS:
+            assert abs(e.values[k] - truth[dof][k]) <= 3 * e.sigma[k], (dof, k, e.values[k],
+                                                                        e.sigma[k], truth[dof][k])
+        # the check can fail: the preset (no tether) is far outside the estimate's 3σ
+        assert abs(e.values["quadratic"] - e.base["quadratic"]) > 3 * e.sigma["quadratic"]
+
+
+def test_held_out_part_is_predicted_near_the_noise_floor_and_better_than_the_preset(result):
+    h = result.estimates["heave"].held_out
+    assert h is not None and h["identified"]["rms"] < 0.03  # depth noise σ 1 cm
+    assert h["improvement"] > 2
+    y = result.estimates["yaw"].held_out
+    assert y["identified"]["rms"] < 0.05 and y["improvement"] > 2  # heading noise σ 0.005 rad
+    # the fit's residual is at the measurement noise
+    assert result.estimates["heave"].train["rms_fit"] < 2 * 0.01
+
+
+def test_result_surface_and_report(result, tmp_path):
+    d = result.to_dict()
+    json.dumps(d)
+    e = d["dofs"]["heave"]
+    assert set(e["values"]) == set(PARAMS) and set(e["sigma"]) == set(PARAMS)
+    assert e["ratio_to_base"]["mass"] == pytest.approx(e["values"]["mass"] / e["base"]["mass"])
+    assert len(e["correlation"]["matrix"]) == 4
+    text = result.summary()
+    assert "held-out" in text and "of base" in text
+    idx = result.report(tmp_path / "rep")
+    assert idx.is_file() and (tmp_path / "rep" / "replay.png").is_file()
+
+
+def test_written_vehicle_replays_as_identified(result, dive, tmp_path):
+    df, _ = dive
+    out = result.write_vehicle(tmp_path / "mine.yaml")
+    v = load_vehicle(out)
+    assert v.one_dof["heave"].mass == pytest.approx(result.estimates["heave"].values["mass"],
+                                                    rel=1e-5)
+    ident = replay_dive(df, v, ["heave", "yaw"], t_start=270.0)
+    base = replay_dive(df, "bluerov2", ["heave", "yaw"], t_start=270.0)
+    for ch in ("depth", "heading"):
+        assert ident.channels[ch]["rms"] < base.channels[ch]["rms"] / 2
+        assert "one_dof" in ident.channels[ch]["params_source"]
+    assert "W − B" in base.channels["depth"]["params_source"]
+
+
+def test_forces_from_pwm_columns_at_the_logged_voltage(dive, result):
+    """A table with pwm_<j> and battery_V but no force columns: thrust from the T200 model at the
+    logged voltage through the vehicle's B gives the same identification."""
+    df, _ = dive
+    res = identify_dive(df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]),
+                        "bluerov2", ["heave"], t_end=270.0)
+    assert res.estimates["heave"].values["mass"] == pytest.approx(
+        result.estimates["heave"].values["mass"], rel=1e-3)
+    assert any("forces computed from pwm_1" in w for w in res.warnings)
+
+
+def test_bad_input_gives_clear_errors(dive):
+    df, _ = dive
+    with pytest.raises(DiveDataError, match="Z_N.*servo outputs"):
+        identify_dive(df.drop(columns=["Z_N"] + [f"pwm_{j}" for j in range(1, 7)]), "bluerov2",
+                      ["heave"])
+    with pytest.raises(DiveDataError, match="depth source"):
+        identify_dive(df.drop(columns=["depth_m"]), "bluerov2", ["heave"])
+    unarmed = df.assign(armed=False)
+    with pytest.raises(DiveDataError, match="unarmed log"):
+        identify_dive(unarmed, "bluerov2")
+    with pytest.raises(DiveDataError, match="window too short.*--t-start/--t-end"):
+        identify_dive(df, "bluerov2", ["heave"], t_end=30.0)
+    with pytest.raises(DiveDataError, match="6 pwm_ columns.*8 thrusters"):
+        identify_dive(df, "bluerov2-heavy")
+    with pytest.raises(DiveDataError, match="surge velocity \\(DVL"):
+        identify_dive(df, "bluerov2", ["surge"])
+    with pytest.raises(DiveDataError, match="unknown DOF"):
+        identify_dive(df, "bluerov2", ["pitch"])
+
+
+def test_cli_identify_dive_then_replay(dive, tmp_path):
+    df, _ = dive
+    log = tmp_path / "dive.csv"
+    df.to_csv(log, index=False)
+    out = tmp_path / "mine.yaml"
+    res = runner.invoke(app, ["vehicle", "identify", "dive", str(log), "--vehicle", "bluerov2",
+                              "--dof", "heave", "--t-end", "270", "--out-vehicle", str(out),
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["dofs"]["heave"]["held_out"]["improvement"] > 2 and out.is_file()
+    res = runner.invoke(app, ["vehicle", "replay", str(log), "--vehicle", str(out), "--dof",
+                              "heave", "--t-start", "270", "--out", str(tmp_path / "rp"),
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["channels"]["depth"]["rms"] < 0.03 and "nrmse" in doc["channels"]["depth"]
+    assert (tmp_path / "rp" / "replay.png").is_file()
+    res = runner.invoke(app, ["vehicle", "identify", "dive", str(log), "--vehicle", "bluerov2",
+                              "--t-end", "20"])
+    assert res.exit_code == 2 and "window too short" in res.output
+
+
+def test_surge_from_a_logged_velocity():
+    """Surge is identified where a velocity is logged (DVL, 5 Hz); the 6-DOF vehicle pitches as it
+    surges, so only the path and the plausibility of the numbers are checked here."""
+    df, _ = synthetic_dive(200.0, seed=3, surge=0.3, pwm_rate=10.0, dvl=True)
+    res = identify_dive(df, "bluerov2", ["surge"], t_end=160.0)
+    e = res.estimates["surge"]
+    assert 0.5 < e.values["mass"] / e.base["mass"] < 2 and e.held_out is not None
+    assert "mass [kg]" in res.summary()
+
+
+@pytest.mark.parametrize("fmt", ["bin", pytest.param("tlog", marks=pytest.mark.slow)])
+def test_identify_dive_from_ardusub_logs_with_reversed_and_disabled_outputs(fmt, tmp_path):
+    """The synthetic dive written as a real .BIN / .tlog (10 Hz, per-motor reversal
+    MOT_n_DIRECTION, SERVO7/8 disabled at 0 µs; .BIN: BARO[1] the water sensor; .tlog: receive
+    stamps in 50 ms batches, a companion computer on its own clock) and read back through
+    uuvid.io.ardusub: the truth within 3σ, the held-out part predicted 2× better than the preset."""
+    pytest.importorskip("pymavlink")
+    from test_ardusub import DIRECTIONS, write_bin, write_tlog
+
+    df, truth = synthetic_dive(300.0, seed=7, surge=0.0, jitter=0.0,
+                               rates={"depth": 10, "yaw": 10, "pwm": 10, "battery": 10})
+    df = df.dropna(subset=["depth_m", "yaw_rad", "pwm_1", "battery_V"])
+    d = np.asarray(DIRECTIONS, float)
+    pwm = 1500 + d * (df[[f"pwm_{j}" for j in range(1, 7)]].to_numpy() - 1500)  # as logged
+    modes = {"MANUAL": 19, "STABILIZE": 0, "ALT_HOLD": 2}
+    sc = {"t": df["t_s"].to_numpy(), "pwm": pwm, "volts": df["battery_V"].to_numpy(),
+          "depth": df["depth_m"].to_numpy(), "psi": df["yaw_rad"].to_numpy(),
+          "armed": df["armed"].to_numpy(bool), "mode": df["mode"].map(modes).to_numpy()}
+    path = (write_bin(tmp_path / "dive.BIN", sc) if fmt == "bin"
+            else write_tlog(tmp_path / "dive.tlog", sc))
+    res = identify_dive(path, "bluerov2", t_end=230.0)
+    for dof in ("heave", "yaw"):
+        e = res.estimates[dof]
+        for k in PARAMS:
+            assert abs(e.values[k] - truth[dof][k]) <= 3 * e.sigma[k], (dof, k, e.values[k],
+                                                                        e.sigma[k])
+        assert e.held_out["improvement"] > 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(4))
+def test_truth_within_3_sigma_at_telemetry_rates_over_seeds(seed):
+    """The issue's telemetry rates (servo outputs 2 Hz): heave's truth within 3σ on every seed; the
+    force is then sampled slower than yaw responds, which identify dive must say."""
+    df, truth = synthetic_dive(600.0, seed=seed, pwm_rate=2.0, surge=0.0)
+    res = identify_dive(df, "bluerov2", t_end=450.0)
+    e = res.estimates["heave"]
+    for k in PARAMS:
+        assert abs(e.values[k] - truth["heave"][k]) <= 3 * e.sigma[k], (seed, k)
+    assert e.held_out["improvement"] > 2
+    assert any("logged every" in w for w in res.estimates["yaw"].warnings)
+
+
+@pytest.mark.realdata
+def test_real_logs_without_a_dive_give_clear_errors(shared_data):
+    """The shared real logs are deck/bench logs: one never armed, the others armed for seconds at
+    the surface.  identify dive must say so rather than return a model."""
+    d = shared_data / "ardusub-bluerov2"
+    with pytest.raises(DiveDataError, match="unarmed log"):
+        identify_dive(d / "2023-04-18_11-03-34.tlog", "bluerov2-heavy")
+    with pytest.raises(DiveDataError, match="unarmed log"):
+        replay_dive(d / "2023-04-18_11-03-34.tlog", "bluerov2-heavy")
+    with pytest.raises(DiveDataError, match="window too short"):
+        identify_dive(d / "small.tlog", "bluerov2-heavy", ["heave"])
+    with pytest.raises(DiveDataError, match="window too short"):
+        identify_dive(d / "small.BIN", "bluerov2", ["yaw"])
+    # 16 s armed fill five 2 s yaw windows: that once returned four parameters correlated ±1
+    with pytest.raises(DiveDataError, match="window too short.*30 s"):
+        identify_dive(d / "small.tlog", "bluerov2-heavy", ["yaw"], horizon=2.0, t_end=218.0)
