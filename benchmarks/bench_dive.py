@@ -1,7 +1,7 @@
 """Dive identification benchmark: a 10-minute synthetic piloted dive (heave and yaw).
 
 Run standalone (``python benchmarks/bench_dive.py``) or through ``uuvid bench``.  Times
-:func:`uuvid.identify.dive.identify_dive` on a 600 s dive from
+:func:`uuvid.identify.vehicle.dive.identify_dive` on a 600 s dive from
 :func:`uuvid.simulate.dive_synth.synthetic_dive` (the dive's generation is not timed); the issue
 asks for seconds, not minutes.
 """
@@ -12,7 +12,7 @@ import time
 
 
 def dive_identification(repeat: int = 2) -> dict:
-    from uuvid.identify.dive import identify_dive
+    from uuvid.identify.vehicle.dive import identify_dive
     from uuvid.simulate.dive_synth import synthetic_dive
 
     df, _ = synthetic_dive(600.0, seed=0, pwm_rate=10.0, surge=0.0)

@@ -14,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
-from uuvid.identify.dive import identify_dive
+from uuvid.identify.vehicle.dive import identify_dive
 from uuvid.io.dive_channels import DiveDataError
 from uuvid.simulate.dive_replay import replay_dive
 from uuvid.simulate.dive_synth import synthetic_dive

@@ -360,7 +360,7 @@ def _short_dive():
 
 
 def f_dive_identification(tmp_path):
-    from uuvid.identify.dive import identify_dive
+    from uuvid.identify.vehicle.dive import identify_dive
 
     return identify_dive(_short_dive(), "bluerov2", ["heave", "yaw"], t_end=110.0)
 
@@ -406,7 +406,7 @@ FACTORIES = {
     "uuvid.papers.thruster_loop_study.LoopStudy": f_loop_study,
     "uuvid.io.ardusub.inspect.LogInspection": f_log_inspection,
     "uuvid.io.ardusub.dive.DiveLog": f_dive,
-    "uuvid.identify.dive.DiveIdentification": f_dive_identification,
+    "uuvid.identify.vehicle.dive.DiveIdentification": f_dive_identification,
     "uuvid.simulate.dive_replay.DiveReplay": f_dive_replay,
 }
 SLOW = {"uuvid.identify.thruster.dynamic_select.Selection", "uuvid.papers.thruster_loop_study.LoopStudy",

@@ -8,7 +8,7 @@ and how well a model predicts a dive.
     uuvid vehicle replay LOG --vehicle V [--dof ...] [--t-start S] [--t-end S] [--horizon S]
           [--out DIR] [--json]
 
-The work is done by :func:`uuvid.identify.dive.identify_dive` and
+The work is done by :func:`uuvid.identify.vehicle.dive.identify_dive` and
 :func:`uuvid.simulate.dive_replay.replay_dive`; this module parses options and prints.
 """
 
@@ -39,7 +39,7 @@ def _dofs(text: str):
 
 def _errors():
     from uuvid.io.logs import LogDataError
-    from uuvid.io.modelfile import ModelFileError
+    from uuvid.thruster.modelfile import ModelFileError
     from uuvid.vehicle.writeback import WritebackError
 
     return (LogDataError, ModelFileError, WritebackError, FileNotFoundError, KeyError)
@@ -61,7 +61,7 @@ def identify_dive_cmd(
     """Identify per-DOF models (mass with added mass, drag, net buoyancy) from every armed sample
     of a piloted dive, closed-loop modes included."""
     from uuvid.cli.common import _fail, _print_json, err_console, out_console
-    from uuvid.identify.dive import identify_dive
+    from uuvid.identify.vehicle.dive import identify_dive
 
     if out_vehicle is not None and out_vehicle.suffix.lower() not in (".yaml", ".yml"):
         _fail(f"--out-vehicle {out_vehicle}: the new vehicle file must end in .yaml or .yml")

@@ -9,5 +9,5 @@ thruster/   thruster identification: steady maps and degree selection (``steady`
 vehicle/    vehicle identification (Caccia et al. 2000): steady segments (``segments``), drag,
             installation and inertia fits (``fit``), one DOF from a log (``logs``), identify_steady /
             identify_inertia (``procedures``), their report folders (``reports``), D-optimal input
-            design (``design``)
+            design (``design``), identification from a whole piloted dive (``dive``)
 """

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.core.result import Result
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
-from uuvid.report.result import Result
 
 __all__ = ["OneDofParams", "DiveReplay", "replay_dive", "dive_windows", "WindowProblem",
            "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON"]
@@ -263,7 +263,7 @@ class DiveReplay(Result):
                 "t_end": self.t_end, "channels": self.channels, "notes": self.notes}
 
     def plot(self, path=None):
-        from uuvid.report.plots import new_figure, save_figure
+        from uuvid.core.plots import new_figure, save_figure
 
         names = list(self.traces) or ["(none)"]
         fig, ax = new_figure(len(names), 1, figsize=(10, 3 * len(names)))
@@ -288,7 +288,7 @@ class DiveReplay(Result):
     def report(self, folder):
         from pathlib import Path
 
-        from uuvid.report.html import Report
+        from uuvid.core.html import Report
 
         folder = self.write_basics(folder)
         fig = Path(folder) / "replay.png"

@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.core.result import Result
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
-from uuvid.report.result import Result
 from uuvid.simulate.dive_replay import (
     _STATE_SPAN,
     CHANNEL_NAMES,
@@ -219,7 +219,7 @@ class DiveIdentification(Result):
                 "warnings": self.warnings}
 
     def plot(self, path=None):
-        from uuvid.report.plots import new_figure, save_figure
+        from uuvid.core.plots import new_figure, save_figure
 
         dofs = list(self.estimates)
         fig, ax = new_figure(len(dofs), 1, figsize=(10, 3.2 * len(dofs)))
@@ -246,7 +246,7 @@ class DiveIdentification(Result):
     def report(self, folder):
         from pathlib import Path
 
-        from uuvid.report.html import Report
+        from uuvid.core.html import Report
 
         folder = self.write_basics(folder)
         fig = Path(folder) / "replay.png"
