@@ -269,3 +269,32 @@ def test_a_map_used_beyond_its_range_is_named():
     r = CliRunner().invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1500:1900:50",
                                  "--supply-voltage", "14", "--json"])
     assert r.exit_code == 0 and "beyond the range" in json.loads(r.stdout)["warnings"][0]
+
+
+def test_swept_table_cache_is_keyed_on_the_code_version(cache_dir, monkeypatch):
+    """Another code version (package version + source hash) is another entry."""
+    from uuvid.thruster import chain as chain_mod
+
+    chain = _motor_chain()
+    chain.steady_thrust(LEVELS)
+    monkeypatch.setattr(chain_mod, "_CODE_DIGEST", None)
+    monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+another-tree")
+
+    def boom(*a, **k):
+        raise AssertionError("swept again")
+
+    monkeypatch.setattr(ThrusterChain, "sweep", boom)
+    with pytest.raises(AssertionError, match="swept again"):
+        chain.steady_thrust(LEVELS)
+
+
+def test_source_digest_sees_every_source_and_data_file(tmp_path):
+    (tmp_path / "pkg" / "sub").mkdir(parents=True)
+    (tmp_path / "pkg" / "a.py").write_text("x = 1\n")
+    (tmp_path / "pkg" / "sub" / "b.yaml").write_text("k: 1\n")
+    first = disk.source_digest(tmp_path / "pkg")
+    (tmp_path / "pkg" / "sub" / "b.yaml").write_text("k: 2\n")
+    second = disk.source_digest(tmp_path / "pkg")
+    (tmp_path / "pkg" / "sub" / "b.yaml").rename(tmp_path / "pkg" / "b.yaml")
+    assert len({first, second, disk.source_digest(tmp_path / "pkg")}) == 3
+    assert disk.code_version().startswith(__import__("uuvid").__version__ + "+")
