@@ -139,14 +139,14 @@ def test_flown_battery_obeys_its_equations():
         s = setup_mission(v, square_mission(speed=0.3), t_end=3.0, battery=bat, soc0=0.5)
         runs[hotel] = (bat, s, fly_mission(s))
     for hotel, (bat, s, r) in runs.items():
-        V, I, soc = r.supply[:, 0], r.supply[:, 1], r.supply[:, 2]
+        V, amps, soc = r.supply[:, 0], r.supply[:, 1], r.supply[:, 2]
         ocv = np.interp(soc, bat.ocv_soc, bat.ocv_voltage)
-        np.testing.assert_allclose(V[1:], ocv[1:] - bat.resistance * I[:-1], rtol=1e-9)
+        np.testing.assert_allclose(V[1:], ocv[1:] - bat.resistance * amps[:-1], rtol=1e-9)
         assert V[0] == pytest.approx(ocv[0])
         assert np.min(V) > s.battery_array[8 + 2 * len(bat.ocv_soc)] + 0.5  # inside the grid
-        np.testing.assert_allclose(np.diff(soc), -I[:-1] * s.dt / (3600 * bat.capacity_ah),
+        np.testing.assert_allclose(np.diff(soc), -amps[:-1] * s.dt / (3600 * bat.capacity_ah),
                                    rtol=1e-9, atol=1e-15)
-        assert np.all(I >= hotel / V - 1e-12)
+        assert np.all(amps >= hotel / V - 1e-12)
     (_, _, r0), (_, _, r1) = runs[0.0], runs[150.0]
     # the first step flies the same commands in both: the currents differ by the hotel load
     assert r1.supply[0, 1] - r0.supply[0, 1] == pytest.approx(150.0 / r1.supply[0, 0], rel=1e-9)
