@@ -438,13 +438,41 @@ def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
 
 def run_demo(out: Path, quick: bool = False) -> dict:
     """All sections; ``quick``: a shorter run (no thruster-loop study or LQI flight; coarser hold
-    polar, endurance and dynamics selection)."""
+    polar, endurance and dynamics selection).  The folder is written as a whole
+    (:func:`uuvid.io.atomic.atomic_dir`)."""
+    from uuvid.io.atomic import atomic_dir
+
+    final = Path(out)
+    # the whole folder is built next to its place and swapped in at the end: an interrupted demo
+    # leaves the previous report intact (or nothing), never a folder without index.html
+    with atomic_dir(final) as out:
+        return _run_demo_into(out, final, quick)
+
+
+def _rebase(doc, work: Path, final: Path):
+    """``doc`` as JSON-able data with the paths under the temporary folder ``work`` pointing at
+    ``final``, where the folder ends up."""
+    from uuvid.io.atomic import to_jsonable
+
+    w, f = str(work), str(final)
+
+    def walk(x):
+        if isinstance(x, str):
+            return f + x[len(w):] if x.startswith(w) else x
+        if isinstance(x, dict):
+            return {k: walk(v) for k, v in x.items()}
+        if isinstance(x, list):
+            return [walk(v) for v in x]
+        return x
+
+    return walk(to_jsonable(doc))
+
+
+def _run_demo_into(out: Path, final: Path, quick: bool) -> dict:
     from uuvid.io.modelfile import load_chain, save_chain
     from uuvid.papers import laidani, mclean1991
     from uuvid.thruster.presets import laidani_chain
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     with progress_task("uuvid demo", total=23, eta=False, stages=13) as task:
         task.stage("McLean 1991: Table I step responses")
         mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
@@ -524,6 +552,7 @@ def run_demo(out: Path, quick: bool = False) -> dict:
             "hold": hold_,
             "model_file": {"path": str(path), "round_trip_equal": same},
         }
+        result = _rebase(result, out, final)
         atomic_write_json(out / "demo.json", result)
         rep.add_json({"model_file": result["model_file"]}, caption="Model file round trip")
         rep.write(out)
