@@ -291,9 +291,10 @@ def test_sweep_removes_orphans_and_old_leftovers_only(tmp_path: Path) -> None:
     legacy_old = make(".tmp-22222222-data.csv", 2 * 24 * 3600)
     legacy_new = make(".tmp-33333333-data.csv", 600)
     mine = make("keep.png", 9 * 24 * 3600)
+    foreign = make(".tmp-editor-swap", 9 * 24 * 3600)  # not a name uuvid makes
     removed = sweep_stale(tmp_path, now=now)
     assert sorted(removed) == sorted([orphan, orphan_dir, legacy_old, live])
-    assert fresh_orphan.exists() and legacy_new.exists() and mine.exists()
+    assert fresh_orphan.exists() and legacy_new.exists() and mine.exists() and foreign.exists()
 
 
 def test_next_write_sweeps_its_directory(tmp_path: Path) -> None:

@@ -58,7 +58,8 @@ _TMP_PREFIX = ".tmp-"
 #: whose owner process is gone goes after :data:`_ORPHAN_GRACE_S`.
 STALE_AFTER_S = 24 * 3600.0
 _ORPHAN_GRACE_S = 60.0
-_OWNED = re.compile(r"^\.tmp-(\d+)-[0-9a-f]{8}-")
+_OWNED = re.compile(r"^\.tmp-(\d+)-[0-9a-f]{8}-.")
+_LEGACY = re.compile(r"^\.tmp-[0-9a-f]{8}-.")  # before the pid was in the name
 _SWEPT: set[str] = set()
 
 
@@ -108,7 +109,9 @@ def sweep_stale(directory: str | os.PathLike[str], *, max_age_s: float = STALE_A
                 now: float | None = None) -> list[Path]:
     """Remove the ``.tmp-*`` files and folders in *directory* left by interrupted writes: those
     whose owner process (pid in the name) is gone and that are older than a minute, and any older
-    than ``max_age_s``.  Best effort (errors are ignored); returns what was removed."""
+    than ``max_age_s``.  Only names of the form uuvid makes (``.tmp-<pid>-<8 hex>-<name>``, or
+    the older ``.tmp-<8 hex>-<name>``) are considered.  Best effort (errors are ignored);
+    returns what was removed."""
     d = Path(os.fspath(directory))
     now = time.time() if now is None else now
     removed = []
@@ -117,13 +120,13 @@ def sweep_stale(directory: str | os.PathLike[str], *, max_age_s: float = STALE_A
     except OSError:
         return removed
     for e in entries:
-        if not e.name.startswith(_TMP_PREFIX):
-            continue
+        m = _OWNED.match(e.name)
+        if m is None and not _LEGACY.match(e.name):
+            continue  # not a name uuvid makes: never touched
         try:
             age = now - e.stat(follow_symlinks=False).st_mtime
         except OSError:
             continue
-        m = _OWNED.match(e.name)
         orphan = m is not None and age > _ORPHAN_GRACE_S and not _pid_alive(int(m.group(1)))
         if not (orphan or age > max_age_s):
             continue
