@@ -310,3 +310,17 @@ def test_next_write_sweeps_its_directory(tmp_path: Path) -> None:
     atomic_write_text(tmp_path / "note.txt", "x")
     assert not left.exists()
     assert atomic._OWNED.match(atomic._temp_name(tmp_path / "a.png"))
+
+
+def test_atomic_dir_without_an_exchange_call(tmp_path: Path, monkeypatch) -> None:
+    """Where the system has no atomic exchange, two renames replace the folder and nothing of
+    the old report is left beside it."""
+    import uuvid.io.atomic as atomic
+
+    monkeypatch.setattr(atomic, "_exchange", lambda a, b: False)
+    out = tmp_path / "rep"
+    for text in ("old", "new"):
+        with atomic.atomic_dir(out) as work:
+            _report(work, {"x.txt": text})
+    assert (out / "x.txt").read_text() == "new"
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]
