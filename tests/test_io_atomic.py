@@ -206,9 +206,14 @@ def test_atomic_dir_keeps_files_it_did_not_write(tmp_path: Path) -> None:
 
     (tmp_path / "notes.md").write_text("mine")
     (tmp_path / "index.html").write_text("<html>my site</html>")
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "mine.yaml").write_text("k: 1")
     with atomic_dir(tmp_path) as work:
         _report(work, {"a.txt": "1"})
+        (work / "models").mkdir()
+        (work / "models" / "new.yaml").write_text("k: 2")
     assert (tmp_path / "notes.md").read_text() == "mine"
+    assert sorted(p.name for p in (tmp_path / "models").iterdir()) == ["mine.yaml", "new.yaml"]
     assert "uuvid" in (tmp_path / "index.html").read_text() and (tmp_path / "a.txt").exists()
     assert not [p for p in tmp_path.parent.iterdir() if p.name.startswith(".tmp-")]
 
@@ -324,3 +329,19 @@ def test_atomic_dir_without_an_exchange_call(tmp_path: Path, monkeypatch) -> Non
             _report(work, {"x.txt": text})
     assert (out / "x.txt").read_text() == "new"
     assert [p.name for p in tmp_path.iterdir()] == ["rep"]
+
+
+def test_atomic_dir_into_the_working_folder(tmp_path: Path, monkeypatch) -> None:
+    """``--out .``: the working folder is filled in place (never swapped away from under the
+    process), and written again the same way."""
+    from uuvid.io.atomic import atomic_dir
+
+    work_dir = tmp_path / "w"
+    work_dir.mkdir()
+    monkeypatch.chdir(work_dir)
+    for text in ("old", "new"):
+        with atomic_dir(".") as work:
+            assert work.parent == tmp_path
+            _report(work, {"x.txt": text})
+    assert Path.cwd() == work_dir and (work_dir / "x.txt").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w"]

@@ -255,6 +255,21 @@ def _is_report_folder(d: Path) -> bool:
         return False
 
 
+def _merge_into(src: Path, dst: Path) -> None:
+    """Move ``src``'s entries into the existing folder ``dst``, one atomic rename each, folders
+    merged recursively (nothing of ``dst`` is removed but files of the same name), ``index.html``
+    last; ``src`` is removed."""
+    for p in sorted(src.iterdir(), key=lambda q: q.name == "index.html"):
+        d = dst / p.name
+        if p.is_dir() and not p.is_symlink() and d.is_dir() and not d.is_symlink():
+            _merge_into(p, d)
+        elif p.is_dir() and (d.is_dir() or d.is_symlink()):
+            raise IsADirectoryError(f"cannot replace {d} by the folder {p.name}")
+        else:
+            os.replace(p, d)
+    src.rmdir()
+
+
 @contextlib.contextmanager
 def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield an empty temporary folder next to *path*; when the block succeeds it takes the
@@ -267,9 +282,13 @@ def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
     kept and the new entries moved in one by one, ``index.html`` last.  Nested use (a report
     inside a report folder) works: the inner folder is swapped inside the outer temporary one.
     """
-    target = Path(os.fspath(path))
+    target = Path(os.path.abspath(os.fspath(path)))  # "." and ".." get a name and a parent
+    if target == target.parent:
+        raise ValueError(f"cannot write a report folder over the file-system root {target}")
     if target.exists() and not target.is_dir():
         raise NotADirectoryError(f"{target} exists and is not a folder; choose another --out")
+    cwd = Path(os.path.abspath(os.getcwd()))
+    holds_cwd = cwd == target or target in cwd.parents  # never swap the working folder away
     target.parent.mkdir(parents=True, exist_ok=True)
     _sweep_once(target.parent)
     tmp = target.with_name(_temp_name(target))
@@ -279,7 +298,7 @@ def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
         _fsync_dir(tmp)
         if not target.exists():
             os.rename(tmp, target)
-        elif _is_report_folder(target):
+        elif not holds_cwd and _is_report_folder(target):
             if _exchange(tmp, target):
                 shutil.rmtree(tmp, ignore_errors=True)  # now holds the old report
             else:
@@ -288,13 +307,7 @@ def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
                 os.rename(tmp, target)
                 shutil.rmtree(old, ignore_errors=True)
         else:
-            entries = sorted(tmp.iterdir(), key=lambda p: p.name == "index.html")
-            for p in entries:
-                dst = target / p.name
-                if dst.is_dir() and not dst.is_symlink() and p.is_dir():
-                    shutil.rmtree(dst)
-                os.replace(p, dst)
-            tmp.rmdir()
+            _merge_into(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
