@@ -298,3 +298,19 @@ def test_source_digest_sees_every_source_and_data_file(tmp_path):
     (tmp_path / "pkg" / "sub" / "b.yaml").rename(tmp_path / "pkg" / "b.yaml")
     assert len({first, second, disk.source_digest(tmp_path / "pkg")}) == 3
     assert disk.code_version().startswith(__import__("uuvid").__version__ + "+")
+
+
+def test_numba_caches_of_uuvid_are_keyed_on_all_its_compiled_code(monkeypatch):
+    """numba stamps a cached function by its own file only, so the mission loop kept running an
+    edited controller's old code (control.dp_control, called from vehicle_sim): uuvid's functions
+    carry a digest of every module that uses numba in their stamp as well."""
+    import uuvid._numba_cache as nc
+    from uuvid.simulate import control
+
+    loc = control.dp_control._cache._impl._locator
+    assert type(loc).__name__.startswith("Uuvid")
+    stamp = loc.get_source_stamp()
+    assert stamp[1] == nc.numba_sources_digest()
+    monkeypatch.setattr(nc, "numba_sources_digest", lambda: "another-tree")
+    assert loc.get_source_stamp() != stamp  # an edit anywhere in the compiled code: recompile
+    assert not nc._ours(np.__file__)  # other packages keep numba's own locators

@@ -21,3 +21,8 @@ Domains:
 """
 
 __version__ = "0.1.0"
+
+# numba's cache=True stamps a function by its own file only: key uuvid's on all its compiled code
+from uuvid import _numba_cache  # noqa: E402
+
+_numba_cache.install()
