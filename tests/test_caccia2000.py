@@ -2,6 +2,7 @@
 vehicle, the whole identification procedure run on its simulated logs."""
 
 import json
+import math
 
 import pytest
 
@@ -28,17 +29,13 @@ def test_every_table_and_parameter(result):
             assert row["sigma"] > 0, (table, name)
 
 
-def test_truth_within_three_sigma(result):
-    for table in TABLES:
-        for name, row in result[table]["parameters"].items():
-            assert abs(row["estimate"] - row["truth"]) <= 3 * row["sigma"], (table, name, row)
-
-
 def test_sigma_of_the_papers_order(result):
-    for table in TABLES:
-        for name, row in result[table]["parameters"].items():
-            if row["paper_sigma"]:
-                assert 1 / 3 <= row["sigma"] / row["paper_sigma"] <= 3, (table, name, row)
+    """The criterion the 16-seed study applies (≥ 90 % of σ within a factor 3 of the paper's),
+    not "every σ on this seed", which seed 0 meets and 3 of seeds 0–15 do not."""
+    ratios = [row["sigma"] / row["paper_sigma"] for table in TABLES
+              for row in result[table]["parameters"].values() if row["paper_sigma"]]
+    assert len(ratios) >= 30
+    assert sum(1 / 3 <= q <= 3 for q in ratios) >= 0.9 * len(ratios)
 
 
 def test_low_speed_yaw_reduced_to_linear(result):
@@ -48,21 +45,54 @@ def test_low_speed_yaw_reduced_to_linear(result):
     assert low["parameters"]["k_q"]["percentile_error"] > 51.02
     assert "k_q" not in result["yaw_linear"]["parameters"]
     assert result["yaw_linear_quadratic"]["quadratic_significant"] is True
-    assert result["acceptance"]["passed"], result["acceptance"]["failures"]
 
 
-def test_design_and_phase_lags(result):
+def test_design(result):
     d = result["design"]
-    assert d["omega_opt_yaw"] == pytest.approx(0.176, rel=0.02)
+    assert d["omega_opt_yaw"] == pytest.approx(0.176, rel=0.02)  # the paper's printed optima
     assert d["omega_opt_surge"] == pytest.approx(0.18, rel=0.02)
     assert d["fisher_check"]["yaw_numeric_over_analytic"] == pytest.approx(1.0, abs=1e-4)
-    assert d["phase_lag_yaw_deg"] == pytest.approx(37.6, abs=0.5)
-    assert d["phase_lag_surge_deg"] == pytest.approx(45.4, abs=0.5)
-    # measured in the simulated sine experiments (the paper measured 39° and 37°)
-    assert d["phase_lag_yaw_measured_deg"] == pytest.approx(d["phase_lag_yaw_deg"], abs=3.0)
-    assert d["phase_lag_surge_measured_deg"] == pytest.approx(d["phase_lag_surge_deg"], abs=3.0)
     assert d["surge_experiment"]["command_samples"] > 100
     assert d["surge_experiment"]["omega"] > d["surge_experiment"]["omega_opt"]  # 20 m pool
+
+
+def test_measured_phase_lags_match_the_identified_models(result):
+    """The lag measured in the simulated sine logs (less the 10 Hz command's half-sample delay)
+    against atan(ω m̂/k̂_L) of the *identified* inertia and drag (computed here from the
+    estimates, not from the paper's numbers); over 16 seeds the mean difference is judged in
+    test_procedure_over_sixteen_seeds."""
+    d = result["design"]
+    wy, ws = 2 * math.pi / 24.0, 2 * math.pi / 26.0
+    yaw_i = result["yaw_inertia"]["parameters"]["I"]["estimate"]
+    yaw_k = result["yaw_linear"]["parameters"]["k"]["estimate"]
+    m = result["surge_mass"]["parameters"]["m"]["estimate"]
+    drag = result["surge_mass"]["drag_used"]
+    k_l = drag["k"] + 2 * drag["k_q"] * 0.27  # linearised at the paper's ξ* = 0.27 m/s
+    pred = {"yaw": math.degrees(math.atan(wy * yaw_i / yaw_k)),
+            "surge": math.degrees(math.atan(ws * m / k_l))}
+    for dof in ("yaw", "surge"):
+        assert d["phase_lag_identified_deg"][dof] == pytest.approx(pred[dof], abs=1e-9)
+        lag = d[f"phase_lag_{dof}_measured_deg"] - d["zoh_delay_deg"][dof]
+        assert lag == pytest.approx(pred[dof], abs=5.0), dof
+
+
+@pytest.mark.slow
+def test_procedure_over_sixteen_seeds():
+    """The procedure judged over seeds 0–15 rather than one chosen seed: σ honest (3σ coverage
+    of the truth ≥ 97 % of all estimates, each parameter ≥ 14 of 16), σ of the paper's order
+    (≥ 90 % within a factor 3), the low-speed quadratic dropped in ≥ 12 of 16, measured phase
+    lags unbiased against the identified models (mean within 1.5°); the pass rate of the
+    whole acceptance is reported as it comes out."""
+    s = caccia2000.seed_study(range(16))
+    assert s["n_seeds"] == 16 and s["estimates"] >= 16 * 38
+    assert s["coverage_3sigma"] >= 0.97, s["coverage_3sigma"]
+    assert min(s["coverage_by_parameter"].values()) >= 14 / 16, s["coverage_by_parameter"]
+    assert s["sigma_within_factor3_of_paper"] >= 0.9
+    assert len(s["low_speed_quadratic_kept_seeds"]) <= 4
+    for dof, v in s["phase_lag_minus_identified_deg"].items():
+        assert abs(v["mean"]) < 1.5, (dof, v)
+    assert s["pass_rate"] == len(s["passed_seeds"]) / 16
+    assert set(s["failures"]) == {str(k) for k in range(16)} - {str(k) for k in s["passed_seeds"]}
 
 
 def test_sensors_had_outliers_and_gaps(result):
@@ -100,3 +130,27 @@ def test_write_outputs(result, tmp_path):
     assert json.loads((tmp_path / "caccia2000.json").read_text())["seed"] == 0
     with pytest.raises(ValueError, match="artifacts"):
         caccia2000.write_outputs(dict(result), tmp_path)
+
+
+def test_demo_reports_the_pass_rate_over_seeds_not_one_seed(result, tmp_path, monkeypatch):
+    """The demo's Caccia section and its terminal line give the multi-seed pass rate and
+    coverage as computed (a stubbed study here: 5 of 16 pass), and in --quick say that one
+    seed is not the verdict."""
+    from uuvid import demo
+    from uuvid.core.html import Report
+
+    study = {"seeds": list(range(16)), "n_seeds": 16, "within_3sigma": 640, "estimates": 656,
+             "coverage_3sigma": 640 / 656, "passed_seeds": [0, 3, 6, 9, 12], "pass_rate": 5 / 16,
+             "failures": {str(k): ["x.y: 3.5 σ"] for k in range(16) if k % 3},
+             "phase_lag_minus_identified_deg": {"yaw": {"mean": 0.3}, "surge": {"mean": -0.3}}}
+    monkeypatch.setattr(caccia2000, "reproduce", lambda seed=0, fast=False: result)
+    monkeypatch.setattr(caccia2000, "seed_study", lambda *a, **k: study)
+    monkeypatch.setattr(type(result), "report", lambda self, out: None)
+    rep = Report("t")
+    doc = demo._caccia_section(tmp_path, rep)
+    html = rep.to_html()
+    assert "passes on 5 of 16 seeds (31 %)" in html and "640 of 656" in html
+    line = demo.caccia_headline(doc)
+    assert "passes on 5 (31 %)" in line and "97.6 % of 656" in line
+    quick = demo._caccia_section(tmp_path, Report("q"), quick=True)
+    assert "one seed only" in demo.caccia_headline(quick)

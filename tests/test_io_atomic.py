@@ -157,3 +157,191 @@ def test_to_jsonable_plain_values_untouched() -> None:
     assert to_jsonable(None) is None
     assert to_jsonable("s") == "s"
     assert to_jsonable([1, [2.0, math.nan]]) == [1, [2.0, None]]
+
+
+# --------------------------------------------------------------------------- whole folders
+def _report(folder: Path, files: dict[str, str]) -> None:
+    from uuvid.core.html import Report
+
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    Report("t").write(folder)
+
+
+def test_atomic_dir_new_folder_appears_whole_or_not_at_all(tmp_path: Path) -> None:
+    from uuvid.core.atomic import atomic_dir
+
+    out = tmp_path / "rep"
+    with pytest.raises(RuntimeError, match="interrupted"), atomic_dir(out) as work:
+        _report(work, {"a.txt": "1"})
+        raise RuntimeError("interrupted")
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    with atomic_dir(out) as work:
+        assert work.parent == tmp_path and work.name.startswith(".tmp-")
+        _report(work, {"a.txt": "1"})
+    assert sorted(p.name for p in out.iterdir()) == ["a.txt", "index.html"]
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]
+
+
+def test_atomic_dir_replaces_a_report_folder_as_a_whole(tmp_path: Path) -> None:
+    from uuvid.core.atomic import atomic_dir
+
+    out = tmp_path / "rep"
+    with atomic_dir(out) as work:
+        _report(work, {"old.png": "old", "same.txt": "old"})
+    with pytest.raises(KeyboardInterrupt), atomic_dir(out) as work:
+        _report(work, {"same.txt": "new"})
+        raise KeyboardInterrupt
+    assert (out / "same.txt").read_text() == "old" and (out / "old.png").exists()
+    with atomic_dir(out) as work:
+        _report(work, {"same.txt": "new"})
+    assert sorted(p.name for p in out.iterdir()) == ["index.html", "same.txt"]
+    assert (out / "same.txt").read_text() == "new"
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]
+
+
+def test_atomic_dir_keeps_files_it_did_not_write(tmp_path: Path) -> None:
+    """A folder that is not a uuvid report (no index.html of ours) keeps its other files."""
+    from uuvid.core.atomic import atomic_dir
+
+    (tmp_path / "notes.md").write_text("mine")
+    (tmp_path / "index.html").write_text("<html>my site</html>")
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "mine.yaml").write_text("k: 1")
+    with atomic_dir(tmp_path) as work:
+        _report(work, {"a.txt": "1"})
+        (work / "models").mkdir()
+        (work / "models" / "new.yaml").write_text("k: 2")
+    assert (tmp_path / "notes.md").read_text() == "mine"
+    assert sorted(p.name for p in (tmp_path / "models").iterdir()) == ["mine.yaml", "new.yaml"]
+    assert "uuvid" in (tmp_path / "index.html").read_text() and (tmp_path / "a.txt").exists()
+    assert not [p for p in tmp_path.parent.iterdir() if p.name.startswith(".tmp-")]
+
+
+def test_interrupted_result_report_leaves_the_old_folder(tmp_path: Path, monkeypatch) -> None:
+    """Result.report (every report command's path): a failure while plotting leaves the previous
+    report folder as it was, and a first report that fails leaves no folder at all."""
+    from uuvid.core.result import Result
+
+    class DictSummaryResult(Result):
+        report_title = "t"
+
+        def __init__(self, doc):
+            self.doc = doc
+
+        def summary(self):
+            return repr(self.doc)
+
+        def to_dict(self):
+            return self.doc
+
+        def plot(self):
+            from uuvid.core.plots import new_figure
+
+            fig, ax = new_figure(1, 1)
+            ax.plot([0, 1], [0, self.doc["a"]])
+            return fig
+
+    res = DictSummaryResult({"a": 1.0})
+    out = tmp_path / "rep"
+    index = res.report(out)
+    assert index == out / "index.html" and index.is_file()
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def boom(self):
+        raise RuntimeError("killed while plotting")
+
+    monkeypatch.setattr(DictSummaryResult, "plot", boom)
+    with pytest.raises(RuntimeError, match="killed"):
+        DictSummaryResult({"a": 2.0}).report(out)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    with pytest.raises(RuntimeError, match="killed"):
+        DictSummaryResult({"a": 2.0}).report(tmp_path / "fresh")
+    assert not (tmp_path / "fresh").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+# ------------------------------------------------------------------------------ leftovers
+def _dead_pid() -> int:
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_sweep_removes_orphans_and_old_leftovers_only(tmp_path: Path) -> None:
+    import time
+
+    from uuvid.core.atomic import sweep_stale
+
+    now = time.time()
+    dead = _dead_pid()
+
+    def make(name, age, folder=False):
+        p = tmp_path / name
+        if folder:
+            p.mkdir()
+            (p / "index.html").write_text("x")
+        else:
+            p.write_text("x")
+        os.utime(p, (now - age, now - age))
+        return p
+
+    orphan = make(f".tmp-{dead}-0123abcd-fig.png", 120)
+    orphan_dir = make(f".tmp-{dead}-89abcdef-rep", 120, folder=True)
+    fresh_orphan = make(f".tmp-{dead}-00000000-new.png", 5)  # its owner may be another host's
+    live = make(f".tmp-{os.getpid()}-11111111-fig.png", 3 * 24 * 3600 - 100)
+    legacy_old = make(".tmp-22222222-data.csv", 2 * 24 * 3600)
+    legacy_new = make(".tmp-33333333-data.csv", 600)
+    mine = make("keep.png", 9 * 24 * 3600)
+    foreign = make(".tmp-editor-swap", 9 * 24 * 3600)  # not a name uuvid makes
+    removed = sweep_stale(tmp_path, now=now)
+    assert sorted(removed) == sorted([orphan, orphan_dir, legacy_old, live])
+    assert fresh_orphan.exists() and legacy_new.exists() and mine.exists() and foreign.exists()
+
+
+def test_next_write_sweeps_its_directory(tmp_path: Path) -> None:
+    import time
+
+    import uuvid.core.atomic as atomic
+
+    dead = _dead_pid()
+    left = tmp_path / f".tmp-{dead}-0123abcd-fig.png"
+    left.write_text("half a figure")
+    old = time.time() - 300
+    os.utime(left, (old, old))
+    atomic_write_text(tmp_path / "note.txt", "x")
+    assert not left.exists()
+    assert atomic._OWNED.match(atomic._temp_name(tmp_path / "a.png"))
+
+
+def test_atomic_dir_without_an_exchange_call(tmp_path: Path, monkeypatch) -> None:
+    """Where the system has no atomic exchange, two renames replace the folder and nothing of
+    the old report is left beside it."""
+    import uuvid.core.atomic as atomic
+
+    monkeypatch.setattr(atomic, "_exchange", lambda a, b: False)
+    out = tmp_path / "rep"
+    for text in ("old", "new"):
+        with atomic.atomic_dir(out) as work:
+            _report(work, {"x.txt": text})
+    assert (out / "x.txt").read_text() == "new"
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]
+
+
+def test_atomic_dir_into_the_working_folder(tmp_path: Path, monkeypatch) -> None:
+    """``--out .``: the working folder is filled in place (never swapped away from under the
+    process), and written again the same way."""
+    from uuvid.core.atomic import atomic_dir
+
+    work_dir = tmp_path / "w"
+    work_dir.mkdir()
+    monkeypatch.chdir(work_dir)
+    for text in ("old", "new"):
+        with atomic_dir(".") as work:
+            assert work.parent == tmp_path
+            _report(work, {"x.txt": text})
+    assert Path.cwd() == work_dir and (work_dir / "x.txt").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w"]

@@ -25,21 +25,31 @@ def test_corrections_from_table1_steady_columns(corrections):
     assert abs(db.value - 0.185) < 3 * db.stderr
 
 
-def test_corrections_reproduce_the_steady_rows(corrections):
-    """With the identified corrections the model's steady speed is within 5 % of every printed
-    row and the steady thrust within 20 % (8 V: 0.129 against a printed 0.15 lb)."""
-    for row in corrections.extra["rows"]:
-        assert row["model_rpm"] == pytest.approx(row["steady_rpm"], rel=0.05), row
-        assert row["model_lbf"] == pytest.approx(row["steady_lbf"], rel=0.2), row
+def test_corrections_predict_each_steady_row_left_out():
+    """Identified from the other rows, the corrections predict each row's printed steady speed
+    within 5 % and its thrust within 20 % (8 V: 0.126 against a printed 0.15 lb)."""
+    rows = mi.leave_one_out()
+    assert [r["case"] for r in rows] == list(mi.STEADY_CASES)
+    for row in rows:
+        assert row["predicted_rpm"] == pytest.approx(row["steady_rpm"], rel=0.05), row
+        assert row["predicted_lbf"] == pytest.approx(row["steady_lbf"], rel=0.2), row
+
+
+def test_pe0_row_is_motor_and_friction_alone(corrections):
     pe0 = corrections.extra["pe0_check"]
-    assert pe0["model_rpm"] == pytest.approx(3000, rel=0.01)  # motor + friction alone
+    assert pe0["model_rpm"] == pytest.approx(3000, rel=0.01)  # not a row the fit used
 
 
-def test_output_error_cross_check_agrees(corrections):
-    out = mi.identify_corrections(method="output")
-    for name in ("energy_correction", "momentum_correction"):
+@pytest.mark.parametrize("start", [mi.OUTPUT_START, (10.0, 0.05), (0.3, 0.02)])
+def test_output_error_cross_check_agrees_from_away(corrections, start):
+    """The nonlinear output-error fit, started far from the answer, moves to the linear
+    equation-error solution (a frozen optimiser would stay at its start, many σ away)."""
+    out = mi.identify_corrections(method="output", start=start)
+    assert out.extra["start"] == list(start) and not out.warnings
+    for name, s0 in zip(("energy_correction", "momentum_correction"), start):
         a, b = corrections[name], out[name]
         assert abs(a.value - b.value) < 2 * max(a.stderr, b.stderr)
+        assert abs(b.value - s0) > 10 * b.stderr  # it moved
 
 
 def test_corrections_reject_bad_cases():

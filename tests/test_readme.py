@@ -5,7 +5,7 @@ and test steps a newcomer pastes first (``python3 -m venv``, ``. .venv/bin/activ
 install``, ``python -m pytest``) are recognised and left out — CI runs them itself.  ``python``
 blocks run with this interpreter; ``yaml`` blocks must parse (and load, if they are thruster model
 files).  A block that reads ``../shared/`` runs with that folder beside its directory and skips when
-the data is absent; shell and Python blocks start processes and are marked slow (CI runs them).  Blocks without a language (directory trees, output) are not code.
+the data is absent (fails under ``CI=true``); shell and Python blocks start processes and are marked slow (CI runs them).  Blocks without a language (directory trees, output) are not code.
 """
 
 from __future__ import annotations
@@ -92,7 +92,9 @@ def test_readme_block_runs(lang, text, tmp_path):
     work.mkdir()
     if "../shared/" in text:
         if not SHARED_DATA.is_dir():
-            pytest.skip("the block reads ../shared/data, which is not present")
+            from conftest import missing_shared_data
+
+            missing_shared_data("the block reads ../shared/data, which is not present")
         (tmp_path / "shared").symlink_to(SHARED_DATA.parent, target_is_directory=True)
     if lang in ("yaml", "yml"):
         doc = yaml.safe_load(text)

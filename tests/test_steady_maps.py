@@ -269,3 +269,48 @@ def test_a_map_used_beyond_its_range_is_named():
     r = CliRunner().invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1500:1900:50",
                                  "--supply-voltage", "14", "--json"])
     assert r.exit_code == 0 and "beyond the range" in json.loads(r.stdout)["warnings"][0]
+
+
+def test_swept_table_cache_is_keyed_on_the_code_version(cache_dir, monkeypatch):
+    """Another code version (package version + source hash) is another entry."""
+    from uuvid.thruster import chain as chain_mod
+
+    chain = _motor_chain()
+    chain.steady_thrust(LEVELS)
+    monkeypatch.setattr(chain_mod, "_CODE_DIGEST", None)
+    monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+another-tree")
+
+    def boom(*a, **k):
+        raise AssertionError("swept again")
+
+    monkeypatch.setattr(ThrusterChain, "sweep", boom)
+    with pytest.raises(AssertionError, match="swept again"):
+        chain.steady_thrust(LEVELS)
+
+
+def test_source_digest_sees_every_source_and_data_file(tmp_path):
+    (tmp_path / "pkg" / "sub").mkdir(parents=True)
+    (tmp_path / "pkg" / "a.py").write_text("x = 1\n")
+    (tmp_path / "pkg" / "sub" / "b.yaml").write_text("k: 1\n")
+    first = disk.source_digest(tmp_path / "pkg")
+    (tmp_path / "pkg" / "sub" / "b.yaml").write_text("k: 2\n")
+    second = disk.source_digest(tmp_path / "pkg")
+    (tmp_path / "pkg" / "sub" / "b.yaml").rename(tmp_path / "pkg" / "b.yaml")
+    assert len({first, second, disk.source_digest(tmp_path / "pkg")}) == 3
+    assert disk.code_version().startswith(__import__("uuvid").__version__ + "+")
+
+
+def test_numba_caches_of_uuvid_are_keyed_on_all_its_compiled_code(monkeypatch):
+    """numba stamps a cached function by its own file only, so the mission loop kept running an
+    edited controller's old code (control.dp_control, called from vehicle_sim): uuvid's functions
+    carry a digest of every module that uses numba in their stamp as well."""
+    import uuvid.core.numba_cache as nc
+    from uuvid.simulate.control import pid as control
+
+    loc = control.dp_control._cache._impl._locator
+    assert type(loc).__name__.startswith("Uuvid")
+    stamp = loc.get_source_stamp()
+    assert stamp[1] == nc.numba_sources_digest()
+    monkeypatch.setattr(nc, "numba_sources_digest", lambda: "another-tree")
+    assert loc.get_source_stamp() != stamp  # an edit anywhere in the compiled code: recompile
+    assert not nc._ours(np.__file__)  # other packages keep numba's own locators

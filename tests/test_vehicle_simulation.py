@@ -249,3 +249,21 @@ def test_level_speed_limit_is_cached_per_vehicle(tmp_path, monkeypatch, bluerov2
         bluerov2.params, mass=bluerov2.params.mass * 1.1))
     level_speed_limit(heavier)
     assert len(calls) == 1
+
+
+def test_level_speed_limit_cache_is_keyed_on_the_whole_code_version(tmp_path, monkeypatch,
+                                                                      bluerov2):
+    """The scan depends on more than stability.py (allocation, model, hydrodynamics ...): a new
+    code version (package version + source hash) must scan again, not read the old entry."""
+    from uuvid.core import cache as disk
+    from uuvid.simulate.reference import level_speed_limit
+    from uuvid.vehicle import stability
+
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path))
+    level_speed_limit(bluerov2)
+    calls = []
+    real = stability.static_stability
+    monkeypatch.setattr(stability, "static_stability", lambda v, **k: calls.append(v) or real(v, **k))
+    monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+another-tree")
+    level_speed_limit(bluerov2)
+    assert len(calls) == 1

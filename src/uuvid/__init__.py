@@ -24,3 +24,8 @@ Rooms, bottom layer first (every import runs down; see docs/architecture.md):
 """
 
 __version__ = "0.1.0"
+
+# numba's cache=True stamps a function by its own file only: key uuvid's on all its compiled code
+from uuvid.core import numba_cache  # noqa: E402
+
+numba_cache.install()

@@ -236,6 +236,9 @@ def demo(
         return
     _show_mclean(result["mclean1991"])
     _show_laidani(result["laidani"])
+    from uuvid.demo import caccia_headline
+
+    out_console.print(caccia_headline(result["caccia2000"]))
     out_console.print(f"\nReport: [bold]{out / 'index.html'}[/]  (numbers: {out / 'demo.json'})")
 
 

@@ -13,8 +13,16 @@ Parent directories are created as needed.
 ...     # df.to_csv(tmp) works the same way
 
 The temporary name keeps the target's full file name as its ending
-(``.tmp-<random>-fig.png``), so tools that infer the format from the extension (Matplotlib
+(``.tmp-<pid>-<random>-fig.png``), so tools that infer the format from the extension (Matplotlib
 ``savefig``, pandas compression inference for ``.csv.gz``) behave as they would on the target.
+
+**Folders** (:func:`atomic_dir`): a report folder is built whole in a temporary sibling folder and
+then takes the old folder's place in one step (an atomic exchange on Linux), so an interrupted
+report leaves the old folder intact, or nothing when there was none.
+
+**Leftovers**: a process killed mid-write (SIGKILL, power loss) leaves its ``.tmp-*`` file or
+folder behind.  The next write into that directory removes those whose owner process is gone
+(the pid is in the name) and any older than :data:`STALE_AFTER_S` (:func:`sweep_stale`).
 """
 
 from __future__ import annotations
@@ -26,20 +34,33 @@ import enum
 import json
 import math
 import os
+import re
 import secrets
+import shutil
+import sys
+import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path, PurePath
 from typing import Any
 
 __all__ = [
+    "atomic_dir",
     "atomic_path",
     "atomic_write_bytes",
     "atomic_write_json",
     "atomic_write_text",
+    "sweep_stale",
     "to_jsonable",
 ]
 
 _TMP_PREFIX = ".tmp-"
+#: A ``.tmp-*`` leftover older than this (seconds) is removed whatever its owner (one day); one
+#: whose owner process is gone goes after :data:`_ORPHAN_GRACE_S`.
+STALE_AFTER_S = 24 * 3600.0
+_ORPHAN_GRACE_S = 60.0
+_OWNED = re.compile(r"^\.tmp-(\d+)-[0-9a-f]{8}-.")
+_LEGACY = re.compile(r"^\.tmp-[0-9a-f]{8}-.")  # before the pid was in the name
+_SWEPT: set[str] = set()
 
 
 # --------------------------------------------------------------------------------------------
@@ -56,7 +77,7 @@ def _create_temp(target: Path) -> Path:
     """
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     for _ in range(100):
-        tmp = target.with_name(f"{_TMP_PREFIX}{secrets.token_hex(4)}-{target.name}")
+        tmp = target.with_name(_temp_name(target))
         try:
             fd = os.open(tmp, flags, 0o666)
         except FileExistsError:
@@ -64,6 +85,69 @@ def _create_temp(target: Path) -> Path:
         os.close(fd)
         return tmp
     raise FileExistsError(f"could not create a temporary file next to {target}")
+
+
+def _temp_name(target: Path) -> str:
+    """``.tmp-<pid>-<8 hex>-<target name>``: the owner's pid lets :func:`sweep_stale` tell an
+    orphan from a write in progress."""
+    return f"{_TMP_PREFIX}{os.getpid()}-{secrets.token_hex(4)}-{target.name}"
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists (another user's) or cannot tell: keep it
+    return True
+
+
+def sweep_stale(directory: str | os.PathLike[str], *, max_age_s: float = STALE_AFTER_S,
+                now: float | None = None) -> list[Path]:
+    """Remove the ``.tmp-*`` files and folders in *directory* left by interrupted writes: those
+    whose owner process (pid in the name) is gone and that are older than a minute, and any older
+    than ``max_age_s``.  Only names of the form uuvid makes (``.tmp-<pid>-<8 hex>-<name>``, or
+    the older ``.tmp-<8 hex>-<name>``) are considered.  Best effort (errors are ignored);
+    returns what was removed."""
+    d = Path(os.fspath(directory))
+    now = time.time() if now is None else now
+    removed = []
+    try:
+        entries = list(os.scandir(d))
+    except OSError:
+        return removed
+    for e in entries:
+        m = _OWNED.match(e.name)
+        if m is None and not _LEGACY.match(e.name):
+            continue  # not a name uuvid makes: never touched
+        try:
+            age = now - e.stat(follow_symlinks=False).st_mtime
+        except OSError:
+            continue
+        orphan = m is not None and age > _ORPHAN_GRACE_S and not _pid_alive(int(m.group(1)))
+        if not (orphan or age > max_age_s):
+            continue
+        p = Path(e.path)
+        try:
+            if e.is_dir(follow_symlinks=False):
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+        except OSError:
+            continue
+        removed.append(p)
+    return removed
+
+
+def _sweep_once(directory: Path) -> None:
+    """:func:`sweep_stale` a directory the first time this process writes into it."""
+    key = os.fspath(directory)
+    if key not in _SWEPT:
+        _SWEPT.add(key)
+        sweep_stale(directory)
 
 
 def _fsync_file(path: Path) -> None:
@@ -120,6 +204,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     target = Path(os.fspath(path))
     target.parent.mkdir(parents=True, exist_ok=True)
+    _sweep_once(target.parent)
     tmp = _create_temp(target)
     try:
         yield tmp
@@ -133,6 +218,98 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         os.replace(tmp, target)
     except BaseException:
         _unlink_quietly(tmp)
+        raise
+    _fsync_dir(target.parent)
+
+
+#: ``index.html`` pages uuvid writes carry this tag; a folder whose index.html has it is a report
+#: folder :func:`atomic_dir` may replace as a whole.
+GENERATOR_TAG = '<meta name="generator" content="uuvid">'
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one step (Linux ``renameat2(RENAME_EXCHANGE)``); False when the
+    system cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    AT_FDCWD, RENAME_EXCHANGE = -100, 2
+    rc = fn(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE)
+    return rc == 0
+
+
+def _is_report_folder(d: Path) -> bool:
+    """Empty, or a folder whose ``index.html`` uuvid wrote (:data:`GENERATOR_TAG`)."""
+    try:
+        if not any(d.iterdir()):
+            return True
+        with open(d / "index.html", encoding="utf-8", errors="replace") as fh:
+            return GENERATOR_TAG in fh.read(4096)
+    except OSError:
+        return False
+
+
+def _merge_into(src: Path, dst: Path) -> None:
+    """Move ``src``'s entries into the existing folder ``dst``, one atomic rename each, folders
+    merged recursively (nothing of ``dst`` is removed but files of the same name), ``index.html``
+    last; ``src`` is removed."""
+    for p in sorted(src.iterdir(), key=lambda q: q.name == "index.html"):
+        d = dst / p.name
+        if p.is_dir() and not p.is_symlink() and d.is_dir() and not d.is_symlink():
+            _merge_into(p, d)
+        elif p.is_dir() and (d.is_dir() or d.is_symlink()):
+            raise IsADirectoryError(f"cannot replace {d} by the folder {p.name}")
+        else:
+            os.replace(p, d)
+    src.rmdir()
+
+
+@contextlib.contextmanager
+def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield an empty temporary folder next to *path*; when the block succeeds it takes the
+    place of *path* as a whole, and on any exception it is removed and *path* is left as it was.
+
+    *path* absent: the folder is renamed into place.  *path* a report folder (empty, or its
+    ``index.html`` written by uuvid): the two are exchanged atomically (Linux; elsewhere two
+    renames a moment apart) and the old one removed — files of the old report the new one does
+    not write go with it.  *path* a folder holding other files (not a report of ours): they are
+    kept and the new entries moved in one by one, ``index.html`` last.  Nested use (a report
+    inside a report folder) works: the inner folder is swapped inside the outer temporary one.
+    """
+    target = Path(os.path.abspath(os.fspath(path)))  # "." and ".." get a name and a parent
+    if target == target.parent:
+        raise ValueError(f"cannot write a report folder over the file-system root {target}")
+    if target.exists() and not target.is_dir():
+        raise NotADirectoryError(f"{target} exists and is not a folder; choose another --out")
+    cwd = Path(os.path.abspath(os.getcwd()))
+    holds_cwd = cwd == target or target in cwd.parents  # never swap the working folder away
+    target.parent.mkdir(parents=True, exist_ok=True)
+    _sweep_once(target.parent)
+    tmp = target.with_name(_temp_name(target))
+    tmp.mkdir()
+    try:
+        yield tmp
+        _fsync_dir(tmp)
+        if not target.exists():
+            os.rename(tmp, target)
+        elif not holds_cwd and _is_report_folder(target):
+            if _exchange(tmp, target):
+                shutil.rmtree(tmp, ignore_errors=True)  # now holds the old report
+            else:
+                old = target.with_name(_temp_name(target))
+                os.rename(target, old)
+                os.rename(tmp, target)
+                shutil.rmtree(old, ignore_errors=True)
+        else:
+            _merge_into(tmp, target)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
         raise
     _fsync_dir(target.parent)
 

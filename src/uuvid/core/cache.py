@@ -3,13 +3,16 @@
 Location: ``$UUVID_KERNEL_CACHE/<sub>`` when that variable is set, else
 ``$XDG_CACHE_HOME/uuvid/<sub>`` (default ``~/.cache/uuvid/<sub>``); the batch kernels live in
 ``$UUVID_KERNEL_CACHE`` itself (``~/.cache/uuvid/batch_kernels``).  Entries are ``.npy`` files
-named by a hash the caller computes from everything the result depends on; they are written
+named by a hash the caller computes from everything the result depends on — always including
+:func:`code_version` (the package version and a hash of every source and data file of the
+installed package), so a changed or reinstalled uuvid never reads an older entry; they are written
 atomically (:mod:`uuvid.core.atomic`), so a reader sees a whole entry or none.  A cache that cannot
 be read or written never fails the caller: the value is recomputed and one warning says why.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import os
@@ -70,6 +73,30 @@ def file_digest(*paths) -> str:
         with open(p, "rb") as fh:
             h.update(fh.read())
     return h.hexdigest()[:16]
+
+
+def source_digest(root) -> str:
+    """SHA-256 (16 hex) of the relative path and bytes of every ``.py``/``.yaml``/``.json``/
+    ``.csv`` file under ``root`` (``__pycache__`` left out)."""
+    root = Path(root)
+    h = hashlib.sha256()
+    files = sorted(p for ext in ("py", "yaml", "yml", "json", "csv") for p in root.rglob(f"*.{ext}")
+                   if "__pycache__" not in p.parts)
+    for p in files:
+        h.update(p.relative_to(root).as_posix().encode())
+        h.update(b"\x00")
+        h.update(p.read_bytes())
+        h.update(b"\x00")
+    return h.hexdigest()[:16]
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """``<uuvid version>+<source digest>`` of the installed package (:func:`source_digest`).
+    Every disk-cache key includes it: any change to the code or its shipped data is a new key."""
+    import uuvid
+
+    return f"{uuvid.__version__}+{source_digest(Path(uuvid.__file__).resolve().parent)}"
 
 
 def load_array(sub: str, key: str, shape: tuple[int, ...] | None = None) -> np.ndarray | None:

@@ -27,7 +27,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from uuvid.core.atomic import atomic_write_text, to_jsonable
+from uuvid.core.atomic import GENERATOR_TAG, atomic_write_text, to_jsonable
 
 __all__ = ["Report"]
 
@@ -178,6 +178,7 @@ class Report:
         return (
             "<!DOCTYPE html>\n"
             '<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            f"{GENERATOR_TAG}\n"
             '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
             f"<title>{_esc(self.title)}</title>\n"
             f"<style>{_CSS}</style>\n</head>\n<body>\n"

@@ -131,7 +131,18 @@ class Result:
 
     def report(self, folder: str | os.PathLike[str]) -> Path:
         """Write ``summary.txt``, ``result.json``, ``plot.png`` and a self-contained
-        ``index.html`` into ``folder``; returns the path of ``index.html``."""
+        ``index.html`` into ``folder``, as a whole (:func:`uuvid.core.atomic.atomic_dir`: built
+        beside it and swapped in, so an interrupted report leaves the old folder intact);
+        returns the path of ``index.html``."""
+        from uuvid.core.atomic import atomic_dir
+
+        final = Path(os.fspath(folder))
+        with atomic_dir(final) as work:
+            index = self._report_into(work)
+        return final / Path(index).relative_to(work)
+
+    def _report_into(self, folder: Path) -> Path:
+        """:meth:`report`'s content, written into ``folder``; returns ``index.html``'s path."""
         from uuvid.core.html import Report
         from uuvid.core.plots import save_figure
 

@@ -59,7 +59,8 @@ errors-in-variables correction for the Savitzky–Golay velocity noise (the plai
 paper's Fig. 14 uses a subset).  Measured phase lags include the half-sample delay of the 10 Hz
 zero-order-hold command (``design.zoh_delay_deg``, ≈ 0.7°).
 
-**Seed dependence**: seed 0 passes the whole acceptance; of seeds 0–15, 9 pass.  The misses are
+**Seed dependence** (:func:`seed_study` computes it): seed 0 passes the whole acceptance; of
+seeds 0–15, 9 pass, and 650 of 656 estimates (99.1 %) lie within 3σ of the truth.  The misses are
 single parameters at 3–4σ (expected now and then: ~38 parameters with t-distributed errors on
 13–16 residual degrees of freedom), the low-speed quadratic term coming out significant although
 its truth is 0 (7 % of 40 seeds — the false-positive rate of the 51.02 % rule at 15 degrees of
@@ -1118,3 +1119,67 @@ def write_outputs(result: Reproduction, out_dir: str | Path) -> Path:
                  caption="design, validation, coupling check, experiment plan, acceptance")
     atomic_write_json(out / "caccia2000.json", dict(result))
     return rep.write(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# the procedure judged over many seeds
+# ---------------------------------------------------------------------------------------------
+#: Seeds :func:`seed_study` runs by default (one seed proves little: the acceptance is judged
+#: over these).
+STUDY_SEEDS = tuple(range(16))
+
+
+def seed_study(seeds=STUDY_SEEDS, fast: bool = True) -> dict:
+    """:func:`reproduce` for each seed and what the procedure achieves across them: the 3σ
+    coverage (fraction of estimates within 3σ of the truth) overall and per parameter, the
+    fraction of σ within a factor 3 of the paper's, the seeds whose low-speed quadratic came out
+    significant, the acceptance pass rate and each failing seed's reasons, and the measured
+    phase lags (less the command's half-sample delay) against
+    those predicted from the *identified* inertia and drag (mean and largest difference, °).
+    About 9 s per seed."""
+    seeds = [int(s) for s in seeds]
+    if len(seeds) < 1:
+        raise ValueError("seed_study needs at least one seed")
+    hits: dict[str, list[bool]] = {}
+    ratios: list[float] = []
+    low_speed_quadratic_kept = []
+    passed, failures = [], {}
+    lag_diff = {"yaw": [], "surge": []}
+    for s in seeds:
+        r = reproduce(seed=s, fast=fast)
+        for table in TABLE_KEYS:
+            for name, row in r[table]["parameters"].items():
+                hits.setdefault(f"{table}.{name}", []).append(bool(row["within_3sigma"]))
+        ratios += list(r["acceptance"]["sigma_ratio"].values())
+        if r["yaw_low_speed"]["quadratic_significant"]:
+            low_speed_quadratic_kept.append(s)
+        if r["acceptance"]["passed"]:
+            passed.append(s)
+        else:
+            failures[str(s)] = list(r["acceptance"]["failures"])
+        d = r["design"]
+        for dof in lag_diff:
+            lag_diff[dof].append(d[f"phase_lag_{dof}_measured_deg"] - d["zoh_delay_deg"][dof]
+                                 - d["phase_lag_identified_deg"][dof])
+    n_est = sum(len(v) for v in hits.values())
+    n_in = sum(sum(v) for v in hits.values())
+    return {
+        "seeds": seeds,
+        "n_seeds": len(seeds),
+        "coverage_3sigma": n_in / n_est,
+        "estimates": n_est,
+        "within_3sigma": n_in,
+        "coverage_by_parameter": {k: sum(v) / len(v) for k, v in hits.items()},
+        "sigma_within_factor3_of_paper": float(np.mean([1 / 3 <= q <= 3 for q in ratios])),
+        "low_speed_quadratic_kept_seeds": low_speed_quadratic_kept,
+        "passed_seeds": passed,
+        "pass_rate": len(passed) / len(seeds),
+        "failures": failures,
+        "phase_lag_minus_identified_deg": {
+            k: {"mean": float(np.mean(v)), "max_abs": float(np.max(np.abs(v)))}
+            for k, v in lag_diff.items()},
+        "note": "coverage of honest σ: ≈ 99.7 % for normal errors, a little less with the t "
+                "distribution of 13–16 residual degrees of freedom; the acceptance needs every one "
+                "of ~38 parameters within 3σ, every σ within a factor 3 of the paper's and the "
+                "low-speed quadratic dropped, so some seeds fail it by chance",
+    }

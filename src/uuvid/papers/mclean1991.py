@@ -238,6 +238,8 @@ def identification() -> dict:
             "delta_beta": corr["momentum_correction"].value,
             "delta_beta_sigma": corr["momentum_correction"].stderr,
             "digest_values": {"delta_alpha": 3.0, "delta_beta": 0.185},
+            # each steady row predicted from the corrections fitted to the others
+            "leave_one_out": ident.leave_one_out(),
         },
         "experiment_fit": {
             "mean_abs_rel_error": exp["mean_abs_rel_error"],

@@ -6,7 +6,6 @@ responses); it is empty for a document read back from JSON."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from uuvid.core.result import Result
@@ -35,13 +34,13 @@ class PaperReproduction(dict, Result):
         artifacts it needs are missing): the default report is written instead."""
         return None
 
-    def report(self, folder: str | os.PathLike[str]) -> Path:
+    def _report_into(self, folder: Path) -> Path:
         """The paper's full report (plots, tables, JSON, index.html) when it can be written, else
-        the default one; ``summary.txt`` and ``result.json`` in both cases."""
-        folder = Path(os.fspath(folder))
+        the default one; ``summary.txt`` and ``result.json`` in both cases (:meth:`report`
+        writes it into a folder as a whole)."""
         index = self._write_outputs(folder)
         if index is None:
-            return super().report(folder)
+            return super()._report_into(folder)
         self.write_basics(folder)
         return index
 

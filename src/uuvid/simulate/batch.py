@@ -1064,7 +1064,11 @@ def _kernel(st: _Structure, pv_names, sh_names, ctrl_fn=None):
         from numba import njit
 
         src = _generate(st, pv_names, sh_names)
-        modname = f"_uuvid_batch_{key}"
+        # the generated module calls the package's compiled kernels, which numba's cache does not
+        # track: the code version (version + source hash) is part of the module's name
+        from uuvid.core.cache import code_version, digest
+
+        modname = f"_uuvid_batch_{key}_{digest(code_version())[:12]}"
         path = os.path.join(_cache_dir(), modname + ".py")
         try:
             if st.user:

@@ -33,16 +33,17 @@ _SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL = 1e-3, 8, 1e-9  # sweep() defaults (part 
 
 
 def _kernel_code_digest() -> str:
-    """Digest of the code a swept steady table comes from (blocks, kernels, this module)."""
+    """Digest of the code a swept steady table comes from: the blocks, kernels and this module,
+    and the whole package's :func:`~uuvid.core.cache.code_version` (version + source hash)."""
     global _CODE_DIGEST
     if _CODE_DIGEST is None:
         from importlib.util import find_spec
 
-        from uuvid.core.cache import file_digest
+        from uuvid.core.cache import code_version, file_digest
         from uuvid.thruster import blocks as _blocks
 
         kernels_py = find_spec("uuvid.thruster.kernels").origin  # located, not imported (numba)
-        _CODE_DIGEST = file_digest(_blocks.__file__, kernels_py, __file__)
+        _CODE_DIGEST = file_digest(_blocks.__file__, kernels_py, __file__) + code_version()
     return _CODE_DIGEST
 
 

@@ -138,11 +138,15 @@ class FitOutcome(Result):
         return residual_figure(self.fits, self.model, unit=self.rmse_unit or None)
 
     def report(self, folder, sources=()) -> Path:
-        """Plots, tables, fit report, summary.json, result.json and index.html in ``folder``."""
-        index = write_report(self, summary(self, None, Path(folder)), Path(folder),
-                             [str(s) for s in sources])
-        self.write_basics(folder)
-        return index
+        """Plots, tables, fit report, summary.json, result.json and index.html in ``folder``,
+        written as a whole (:func:`uuvid.core.atomic.atomic_dir`); returns the index."""
+        from uuvid.core.atomic import atomic_dir
+
+        final = Path(folder)
+        with atomic_dir(final) as work:
+            index = write_report(self, summary(self, None, final), work, [str(s) for s in sources])
+            self.write_basics(work)
+        return final / Path(index).relative_to(work)
 
     def parameter_rows(self) -> list[dict]:
         rows = []
@@ -993,7 +997,7 @@ class Replay(Result):
 
         return plot_predictions(self.predictions, f"{self.chain_name}: logged command replayed")
 
-    def report(self, folder) -> Path:
+    def _report_into(self, folder) -> Path:
         """:meth:`write` plus ``summary.txt`` and ``result.json``; returns ``index.html``."""
         index = self.write(folder)
         self.write_basics(folder)

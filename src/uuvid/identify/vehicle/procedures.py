@@ -751,9 +751,9 @@ class SteadyIdentification(Result):
     def to_dict(self) -> dict:
         return jsonable(self.document)
 
-    def report(self, folder) -> Path:
+    def _report_into(self, folder) -> Path:
         """Plots, tables, fit report, summary.json, summary.txt, result.json and index.html in
-        ``folder``; returns the index."""
+        ``folder`` (:meth:`report` writes the folder as a whole); returns the index."""
         from uuvid.identify.vehicle.reports import write_steady_report
 
         index = write_steady_report(self.result, self.document, self.data, self.dof, Path(folder))
@@ -881,9 +881,9 @@ class InertiaIdentification(Result):
     def to_dict(self) -> dict:
         return jsonable(self.document)
 
-    def report(self, folder) -> Path:
+    def _report_into(self, folder) -> Path:
         """Plots, tables, fit report, summary.json, summary.txt, result.json and index.html in
-        ``folder``; returns the index."""
+        ``folder`` (:meth:`report` writes the folder as a whole); returns the index."""
         from uuvid.identify.vehicle.reports import write_inertia_report
 
         index = write_inertia_report(self.result, self.document, self.data, self.dof,

@@ -132,9 +132,9 @@ class DiveLog(Result):
 
     report_title = "ArduSub dive"
 
-    def report(self, folder) -> Path:
+    def _report_into(self, folder) -> Path:
         """``dive.csv`` (+ ``dive.csv.json``), ``dive.png``, ``summary.txt``, ``result.json`` and
-        ``index.html`` in ``folder``; returns the index."""
+        ``index.html`` in ``folder`` (:meth:`report` writes it as a whole); returns the index."""
         from uuvid.core.html import Report
 
         folder = self.write_basics(folder)
