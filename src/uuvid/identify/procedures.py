@@ -701,10 +701,18 @@ def write_back(vehicle: str, out_vehicle, identified: dict, log, command: str) -
 def _params_text(title: str, params: dict) -> str:
     lines = [title, f"  {'parameter':<16}{'estimate':>12}{'σ':>11}  {'% error':>8}  significant"]
     for n, r in params.items():
-        lines.append(f"  {n:<16}{r['estimate']:>12.5g}{r['sigma']:>11.3g}  "
-                     f"{r['percentile_error']:>8.1f}  {'yes' if r['significant'] else 'no'}"
-                     f"  {r.get('unit') or ''}")
+        lines.append(f"  {n:<16}{_cell(r['estimate'], '>12.5g')}{_cell(r['sigma'], '>11.3g')}  "
+                     f"{_cell(r['percentile_error'], '>8.1f')}  "
+                     f"{'yes' if r['significant'] else 'no'}  {r.get('unit') or ''}")
     return "\n".join(lines)
+
+
+def _cell(x, fmt: str) -> str:
+    """A number for the text table; "—" where the fit gave none (None, NaN, inf)."""
+    width = int("".join(c for c in fmt.split(".")[0] if c.isdigit()) or 0)
+    if x is None or not math.isfinite(x):
+        return "—".rjust(width)
+    return format(x, fmt)
 
 
 @dataclass

@@ -30,6 +30,7 @@ Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
 
 from __future__ import annotations
 
+import reprlib
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal
@@ -190,7 +191,7 @@ class ScenarioSpec(BaseModel):
             if not ok:
                 raise ValueError(f"expected N,E,D (m/s): three numbers, the water velocity "
                                  f"north, east, down (where it flows to), e.g. [0.3, 0, 0]; got "
-                                 f"{list(v)}")
+                                 f"{reprlib.repr(list(v))}")
         return v
 
 
@@ -217,7 +218,7 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         ControllerFileError,
         make_controller,
     )
-    from uuvid.simulate.vehicle_sim import default_gains, setup_mission
+    from uuvid.simulate.vehicle_sim import default_gains, setup_mission, step_count
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     vref = spec.vehicle
@@ -255,6 +256,13 @@ def build(spec: ScenarioSpec, base: Path | None = None):
                                      else None)
     except ControllerFileError as e:
         raise ScenarioError(f"{spec.name}: controller: {e}") from None
+    try:
+        step_count(spec.duration if spec.duration is not None else mission.duration, spec.dt,
+                   "duration", "dt")
+    except ValueError as e:
+        hint = ("" if spec.duration is not None else " (duration not given: the mission's "
+                "length, from its waypoints and speeds)")
+        raise ScenarioError(f"{spec.name}: {e}{hint}") from None
     try:
         setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
                               thruster_chain=chain, current=cur, t_end=spec.duration,

@@ -865,12 +865,43 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0), max_lag: float = MAX_CRUI
     return g
 
 
+MAX_STEPS = 2_000_000
+"""Most control steps one flight may hold in memory (≈ 0.5 kB each: 5.5 h at dt = 0.01 s)."""
+
+
+def step_count(duration: float, dt: float, name: str = "t_end", dt_name: str = "dt",
+               max_steps: int | None = None) -> int:
+    """The number of steps of ``dt`` in ``duration``, checked before anything is allocated:
+    ``ValueError`` naming ``name``/``dt_name`` for a non-finite or sub-step duration or more than
+    ``max_steps`` (default :data:`MAX_STEPS`) steps."""
+    limit = MAX_STEPS if max_steps is None else int(max_steps)
+    try:
+        T, h = float(duration), float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a duration in seconds, got {duration!r}") from None
+    if not (math.isfinite(h) and h > 0):
+        raise ValueError(f"{dt_name} = {h:g} s: expected a finite step > 0")
+    if not (math.isfinite(T) and T > 0):
+        raise ValueError(f"{name} = {T:g} s: expected a finite duration > 0 (check the mission's "
+                         "waypoints and speeds)")
+    n = T / h
+    if n < 0.5:
+        raise ValueError(f"{name} = {T:g} s is shorter than one step ({dt_name} = {h:g} s); give "
+                         f"a duration of at least {dt_name}")
+    if n > limit:
+        raise ValueError(f"{name} = {T:g} s at {dt_name} = {h:g} s is {n:.3g} steps, more than "
+                         f"the {limit:,} one flight may hold in memory; shorten {name} or raise "
+                         f"{dt_name}")
+    return int(round(n))
+
+
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
                   gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
                   current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None,
                   allocation: str = "priority", battery=None, soc0: float = 1.0,
                   controller: Controller | None = None,
-                  disturbance: Disturbance | None = None) -> MissionSetup:
+                  disturbance: Disturbance | None = None,
+                  max_steps: int | None = None) -> MissionSetup:
     """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
@@ -880,7 +911,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     the supply voltage a state, starting at ``soc0`` (:func:`battery_tables`);
     ``controller`` (:class:`uuvid.simulate.control.Controller`; default: the built-in PID DP with
     ``gains``, :func:`~uuvid.simulate.control.pid`) and ``disturbance``
-    (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle).
+    (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle);
+    ``max_steps`` (default :data:`MAX_STEPS`) bounds the time series held in memory.
     """
     from uuvid.simulate.currents import as_current
 
@@ -911,7 +943,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     dofs = np.array(al.controlled, dtype=np.int64)
     ep, en = al.eta
     T = t_end if t_end is not None else mission.duration
-    t = np.arange(int(round(T / dt))) * dt
+    t = np.arange(step_count(T, dt, "t_end" if t_end is not None else "the mission's duration",
+                             max_steps=max_steps)) * dt
     ref = mission(t)
     cm = as_current(current)
     series = None
