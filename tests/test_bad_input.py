@@ -177,3 +177,151 @@ def test_sweep_with_unknown_or_bad_keywords(tmp_path, text, needle):
     p.write_text(text)
     res = runner.invoke(app, ["sweep", str(p), "--out", str(tmp_path / "out")])
     clean_error(res, "sw.yaml", needle)
+
+
+# ------------------------------------------------------------------------- logs and clocks
+def _dense_boot_from_log(log_t, ref_log, ref_boot, window=5.0):
+    """The receive → boot clock mapping with a dense 1 s bin array (the former implementation:
+    memory grows with the time span), kept as an independent reference."""
+    from scipy.ndimage import minimum_filter1d
+
+    d = ref_log - ref_boot
+    origin = ref_log.min()
+    b = np.floor(ref_log - origin).astype(np.int64)
+    env = np.full(int(b.max()) + 1, np.inf)
+    np.minimum.at(env, b, d)
+    env = minimum_filter1d(env, size=2 * int(window) + 1, mode="nearest")
+    ok = np.isfinite(env)
+    return log_t - np.interp(log_t, origin + np.arange(env.size)[ok] + 0.5, env[ok])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_receive_clock_mapping_matches_the_dense_reference(seed):
+    from uuvid.io.logs import _boot_from_log
+
+    rng = np.random.default_rng(seed)
+    boot = np.sort(rng.uniform(0, 300, 400))
+    boot = boot[(boot < 100) | (boot > 100 + rng.uniform(5, 60))]  # a gap in the link
+    recv = 1.7e9 + boot + 0.3 + rng.exponential(0.05, boot.size) + 1e-4 * boot  # latency, drift
+    log_t = np.sort(rng.uniform(recv.min() - 3, recv.max() + 3, 500))
+    np.testing.assert_allclose(_boot_from_log(log_t, recv, boot),
+                               _dense_boot_from_log(log_t, recv, boot), rtol=0, atol=1e-9)
+
+
+def test_corrupt_receive_stamp_does_not_allocate_the_time_span():
+    import tracemalloc
+
+    from uuvid.io.logs import _boot_from_log
+
+    boot = np.arange(0.0, 200.0, 0.1)
+    recv = 1.7e9 + boot + 0.2
+    recv[1000] += 4.6e12  # a flipped high bit in one tlog stamp: 146,000 years later
+    tracemalloc.start()
+    out = _boot_from_log(recv[:999], recv, boot)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 50e6, peak
+    np.testing.assert_allclose(out, boot[:999], atol=1e-6)
+
+
+def test_align_refuses_a_grid_past_its_budget():
+    from uuvid.io.logs import LogDataError, TimeResponse, align
+
+    r = TimeResponse(np.array([0.0, 1.0, 1e7]), {"a": np.array([1.0, 2.0, 3.0])}, {})
+    with pytest.raises(LogDataError, match="more than 10,000,000; give a larger resampling"):
+        align([r], 1e-3)
+    assert align([r], 1e5).t.size == 101
+
+
+def _tlog_frames(b: bytes):
+    """(offset, message id) of each record of a MAVLink telemetry log."""
+    off, out = 0, []
+    while off < len(b) - 10:
+        if b[off + 8] == 0xFD:
+            n, mid = 10 + b[off + 9] + 2 + (13 if b[off + 10] & 1 else 0), int.from_bytes(
+                b[off + 15:off + 18], "little")
+        elif b[off + 8] == 0xFE:
+            n, mid = 8 + b[off + 9], b[off + 13]
+        else:
+            break
+        out.append((off, mid))
+        off += 8 + n
+    return out
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("msgid", [30, 74])  # ATTITUDE (stamped), VFR_HUD (mapped)
+def test_tlog_with_a_corrupt_receive_stamp_ends_in_a_clear_error_or_a_result(
+        shared_data, tmp_path, msgid):
+    from uuvid.io.logs import LogDataError, read_ardusub
+
+    b = bytearray((shared_data / "ardusub-bluerov2" / "small.tlog").read_bytes())
+    frames = _tlog_frames(b)
+    assert len(frames) > 1000
+    k = next(o for o, m in frames[len(frames) // 2:] if m == msgid)
+    b[k] ^= 0x40  # the receive stamp's top byte: + 4.6e12 s
+    p = tmp_path / "corrupt.tlog"
+    p.write_bytes(bytes(b))
+    try:
+        out = read_ardusub(p, on_duplicate="mean")
+    except LogDataError as e:
+        assert "corrupt.tlog" in str(e)
+    else:
+        for r in out.values():
+            assert np.all(np.isfinite(r.t)) and r.t.max() - r.t.min() < 1e4
+
+
+@pytest.mark.realdata
+def test_bin_with_a_corrupt_format_description_names_the_field(shared_data, tmp_path):
+    from uuvid.io.ardusub.reader import read_raw
+    from uuvid.io.logs import LogDataError
+
+    b = bytearray((shared_data / "ardusub-bluerov2" / "small.BIN").read_bytes())
+    i = b.find(b"\xa3\x95\x80")
+    while i >= 0:  # FMT records: BARO's label "Alt" becomes "alt"
+        if bytes(b[i + 5:i + 9]) == b"BARO":
+            j = bytes(b[i + 25:i + 89]).find(b"Alt")
+            b[i + 25 + j] ^= 0x20
+        i = b.find(b"\xa3\x95\x80", i + 1)
+    p = tmp_path / "corrupt.BIN"
+    p.write_bytes(bytes(b))
+    with pytest.raises(LogDataError, match=r"corrupt\.BIN: BARO has no field 'Alt'.*FMT"):
+        read_raw(p).get("BARO").array("Alt")
+    res = runner.invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "x.csv")])
+    assert "Traceback" not in res.output and "BARO has no field 'Alt'" in res.output
+
+
+# ------------------------------------------------------------------------- inertia logs
+def _inertia_csv(path, jump=0.0):
+    import csv
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_log_identify import _jittery_sine
+
+    _, rows, _, _ = _jittery_sine(uniform=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["time", "torque", "yaw"])
+        for i, r in enumerate(rows):
+            w.writerow([f"{float(r[0]) + (jump if i > len(rows) // 2 else 0.0):.4f}", *r[1:]])
+    return path
+
+
+INERTIA = ("vehicle", "identify", "inertia")
+COLS = ("--dof", "yaw", "--command-col", "torque", "--position-col", "yaw", "--k", "20.5",
+        "--kq", "49.5")
+
+
+@pytest.mark.parametrize("resample", ["auto", "off"])
+def test_clock_jump_in_an_inertia_log_is_refused_before_gridding(tmp_path, resample):
+    p = _inertia_csv(tmp_path / "jump.csv", jump=1e7)
+    res = runner.invoke(app, [*INERTIA, str(p), *COLS, "--resample", resample])
+    clean_error(res, "the largest gap is 1e+07 s", "--t-start/--t-end")
+
+
+def test_inertia_resample_step_past_the_grid_budget(tmp_path):
+    p = _inertia_csv(tmp_path / "ok.csv")
+    res = runner.invoke(app, [*INERTIA, str(p), *COLS, "--resample", "1e-6"])
+    clean_error(res, "more than 2,000,000; give a larger --resample step")
