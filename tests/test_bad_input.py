@@ -325,3 +325,148 @@ def test_inertia_resample_step_past_the_grid_budget(tmp_path):
     p = _inertia_csv(tmp_path / "ok.csv")
     res = runner.invoke(app, [*INERTIA, str(p), *COLS, "--resample", "1e-6"])
     clean_error(res, "more than 2,000,000; give a larger --resample step")
+
+
+# ------------------------------------------------------------------------- compiled entry points
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+BAD = st.sampled_from([math.nan, math.inf, -math.inf])
+
+
+@pytest.fixture(scope="module")
+def short_setup():
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    return setup_mission(load_vehicle("bluerov2"), square_mission(speed=0.5), t_end=0.5)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(which=st.sampled_from(["vehicle_params", "thruster_params", "currents"]),
+       fast=st.booleans(), runs=st.integers(1, 3), pos=st.integers(0, 10_000), bad=BAD)
+def test_batch_runners_refuse_non_finite_inputs_before_compiled_code(short_setup, which, fast,
+                                                                     runs, pos, bad):
+    from uuvid.simulate.batch import run_batch_fast
+    from uuvid.simulate.vehicle_sim import run_batch
+
+    s = short_setup
+    args = {"vehicle_params": np.tile(s.vp, (runs, 1)),
+            "thruster_params": np.tile(s.bank.params, (runs, 1, 1)),
+            "currents": np.zeros((runs, 3))}
+    a = args[which]
+    a.ravel()[pos % a.size] = bad
+    with pytest.raises(ValueError, match=rf"^{which}\[.*\] = -?(nan|inf): expected finite"):
+        (run_batch_fast if fast else run_batch)(s, **args)
+
+
+@pytest.mark.parametrize("fast", [False, True])
+@pytest.mark.parametrize("which, shape", [("vehicle_params", (2, 100)),
+                                          ("thruster_params", (2, 3, 17)), ("currents", (1, 3))])
+def test_batch_runners_refuse_wrong_shapes(short_setup, fast, which, shape):
+    from uuvid.simulate.batch import run_batch_fast
+    from uuvid.simulate.vehicle_sim import run_batch
+
+    s = short_setup
+    args = {"vehicle_params": np.tile(s.vp, (2, 1))}
+    args[which] = np.zeros(shape)
+    with pytest.raises(ValueError, match=rf"^{which}: expected .*shape"):
+        (run_batch_fast if fast else run_batch)(s, **args)
+
+
+def test_batch_runners_accept_zero_runs(short_setup):
+    from uuvid.simulate.batch import run_batch_fast
+
+    assert run_batch_fast(short_setup, np.zeros((0, short_setup.vp.size))).shape[0] == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(i=st.integers(0, 5), bad=BAD,
+       sat=st.sampled_from(["scale", "clip", "none", "priority", "maxscale"]))
+def test_allocate_refuses_a_non_finite_wrench(i, bad, sat):
+    al = _allocator()
+    phi = np.array([10.0, -5.0, 3.0, 0.0, 0.0, 1.0])
+    phi[i] = bad
+    with pytest.raises(ValueError, match=rf"phi\[{i}\] = -?(nan|inf): expected finite"):
+        al.allocate(phi, sat)
+
+
+_AL = []
+
+
+def _allocator():
+    from uuvid.vehicle.definition import load_vehicle
+
+    if not _AL:
+        _AL.append(load_vehicle("bluerov2").allocator())
+    return _AL[0]
+
+
+@pytest.mark.parametrize("kw", [{"dt": 0.0}, {"dt": -1e-3}, {"dt": math.nan},
+                                {"settle_time": 0.0}, {"settle_time": math.inf},
+                                {"dt": 1e-12}, {"max_passes": 0}])
+def test_thruster_sweep_checks_its_step_before_the_kernel(kw):
+    from uuvid.thruster.presets import preset_chain
+
+    with pytest.raises(ValueError, match="^sweep: "):
+        preset_chain("laidani-a2212").sweep([4.0, 8.0], **kw)
+
+
+@settings(max_examples=30, deadline=None)
+@given(levels=st.lists(st.floats(0, 12), min_size=1, max_size=4), pos=st.integers(0, 3), bad=BAD)
+def test_thruster_sweep_refuses_non_finite_levels(levels, pos, bad):
+    from uuvid.thruster.presets import preset_chain
+
+    levels[pos % len(levels)] = bad
+    with pytest.raises(ValueError, match=r"u\[\d+\] = -?(nan|inf)"):
+        preset_chain("laidani-a2212").sweep(levels)
+
+
+def test_thruster_simulate_refuses_a_run_past_its_memory_budget():
+    from uuvid.thruster.chain import MAX_SAMPLES, _n_samples
+    from uuvid.thruster.presets import preset_chain
+
+    c = preset_chain("laidani-a2212")
+    with pytest.raises(ValueError, match="more than the 2,000,000"):
+        c.simulate(1.0, t_end=1e7)
+    with pytest.raises(ValueError, match="× 400 runs"):
+        c.simulate_batch(np.tile(c.compile().params, (400, 1)), 1.0, t_end=5.0)
+    assert _n_samples((MAX_SAMPLES - 1) * 1e-3, 1e-3, 4) == MAX_SAMPLES  # the budget itself
+    with pytest.raises(ValueError):
+        _n_samples((MAX_SAMPLES + 1) * 1e-3, 1e-3, 4)
+    res = runner.invoke(app, ["thruster", "simulate", "t200", "--t-end", "1e7"])
+    clean_error(res, "shorten t_end (--t-end) or raise dt (--dt)")
+
+
+def test_dynamic_fit_with_time_in_microseconds_is_refused_at_once():
+    import time
+
+    from uuvid.identify.dynamic import Run, fit_first_order
+
+    t = np.arange(0.0, 2.0, 0.005)
+    y = 100 * (1 - np.exp(-t / 0.1))
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match="time column in ms or µs"):
+        fit_first_order([Run(t * 1e6, np.full(t.size, 12.0), y, "prop_speed")])
+    assert time.perf_counter() - t0 < 2.0
+
+
+def test_healey_fit_on_vanishing_thrust_is_an_error(tmp_path):
+    import csv
+
+    from uuvid.identify.dynamic_select import reference_two_state_thruster, synthetic_experiments
+
+    recs = synthetic_experiments(reference_two_state_thruster(), (2.0,), rate=200.0, seed=5)
+    files = []
+    for e in recs:
+        p = tmp_path / f"run{e.name}.csv"
+        with open(p, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["t", "V", "w", "T"])
+            w.writerows(zip(e.t, e.u, e.speed, e.thrust * 1e-300))
+        files.append(str(p))
+    res = runner.invoke(app, ["thruster", "fit", *files, "--time-col", "t", "--command-col", "V",
+                              "--command-unit", "volts", "--speed-col", "w", "--thrust-col", "T",
+                              "--model", "healey", "--out-model", str(tmp_path / "h.yaml")])
+    clean_error(res, "healey", "thrust column's unit")

@@ -992,6 +992,50 @@ def allocation_method(alloc: np.ndarray) -> str:
     return next(k for k in SATURATION_METHODS if _METHOD_CODE[k] == code)
 
 
+def _first_bad(a: np.ndarray, bad: np.ndarray) -> str:
+    idx = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), a.shape)
+    return f"[{', '.join(str(int(i)) for i in idx)}] = {float(a[idx])!r}"
+
+
+def batch_inputs(setup: MissionSetup, vehicle_params, thruster_params=None,
+                 currents=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(VP, TP, VC)`` for the compiled batch loops, checked before any of them runs: shapes
+    ``(R, N_PARAMS)``, ``(R, n, P)`` of the setup's bank and ``(R, 3)``; no NaN; infinities only
+    where the setup's own thruster parameters have them (an absent limit). ``ValueError`` names
+    the argument, the element and what was expected."""
+    from uuvid.vehicle.model import LAYOUT_VERSION, N_PARAMS, P_VERSION
+
+    b = setup.bank
+    VP = np.ascontiguousarray(np.atleast_2d(np.asarray(vehicle_params, dtype=float)))
+    if VP.ndim != 2 or VP.shape[1] != N_PARAMS:
+        raise ValueError(f"vehicle_params: expected (runs, {N_PARAMS}) rows of "
+                         f"VehicleParams.to_array(), got shape {VP.shape}")
+    R = VP.shape[0]
+    if not np.all(np.isfinite(VP)):
+        raise ValueError(f"vehicle_params{_first_bad(VP, ~np.isfinite(VP))}: expected finite "
+                         "values (rows of VehicleParams.to_array())")
+    if np.any(VP[:, P_VERSION] != LAYOUT_VERSION):
+        raise ValueError(f"vehicle_params{_first_bad(VP[:, :1], VP[:, :1] != LAYOUT_VERSION)}: "
+                         f"column 0 is the layout version {LAYOUT_VERSION:g}; build the rows "
+                         "with VehicleParams.to_array()")
+    TP = (np.ascontiguousarray(thruster_params, dtype=float) if thruster_params is not None
+          else np.ascontiguousarray(np.broadcast_to(b.params, (R,) + b.params.shape)))
+    if TP.shape != (R,) + b.params.shape:
+        raise ValueError(f"thruster_params: expected shape {(R,) + b.params.shape} (runs, "
+                         f"thrusters, parameters of the setup's bank), got {TP.shape}")
+    bad = np.isnan(TP) | (np.isinf(TP) & np.isfinite(b.params)[None])
+    if bad.any():
+        raise ValueError(f"thruster_params{_first_bad(TP, bad)}: expected finite values (start "
+                         "from the setup's bank.params)")
+    VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
+          else np.zeros((R, 3)) + setup.current)
+    if VC.shape != (R, 3):
+        raise ValueError(f"currents: expected shape ({R}, 3) (NED m/s per run), got {VC.shape}")
+    if not np.all(np.isfinite(VC)):
+        raise ValueError(f"currents{_first_bad(VC, ~np.isfinite(VC))}: expected finite NED m/s")
+    return VP, TP, VC
+
+
 def require_constant_current(setup: MissionSetup) -> None:
     """Batch runs take a constant current and an ideal supply."""
     if setup.battery_array is not None:
@@ -1172,12 +1216,8 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     s = setup
     require_constant_current(s)
     b = s.bank
-    VP = np.ascontiguousarray(vehicle_params, dtype=float)
+    VP, TP, VC = batch_inputs(s, vehicle_params, thruster_params, currents)
     nrun = VP.shape[0]
-    TP = (np.ascontiguousarray(thruster_params, dtype=float) if thruster_params is not None
-          else np.ascontiguousarray(np.broadcast_to(b.params, (nrun,) + b.params.shape)))
-    VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
-          else np.zeros((nrun, 3)) + s.current)
     OUT = np.empty((nrun, len(RUN_COLUMNS)))
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
     if s.controller is not None or s.disturbance is not None:
