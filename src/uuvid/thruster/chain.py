@@ -251,7 +251,7 @@ class ThrusterChain:
         u = np.atleast_1d(np.asarray(u, dtype=float))
         if u.ndim != 1 or not np.all(np.isfinite(u)):
             bad = np.flatnonzero(~np.isfinite(u.ravel()))
-            raise ValueError(f"sweep: u must be finite input levels (a 1-D array)"
+            raise ValueError("sweep: u must be finite input levels (a 1-D array)"
                              + (f"; u[{bad[0]}] = {float(u.ravel()[bad[0]])!r}" if bad.size else
                                 f", got shape {u.shape}"))
         settle = settle_time if settle_time is not None else self.settling_time_hint()
