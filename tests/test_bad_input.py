@@ -470,3 +470,105 @@ def test_healey_fit_on_vanishing_thrust_is_an_error(tmp_path):
                               "--command-unit", "volts", "--speed-col", "w", "--thrust-col", "T",
                               "--model", "healey", "--out-model", str(tmp_path / "h.yaml")])
     clean_error(res, "healey", "thrust column's unit")
+
+
+# ------------------------------------------------------------------------- generated documents
+LEAVES = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20),
+                   st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8),
+                   st.sampled_from(["quadratic", "bluerov2", "t200", "esc", "1e7", "-1", ""]))
+VALUES = st.recursive(LEAVES, lambda c: st.lists(c, max_size=4)
+                      | st.dictionaries(st.text(max_size=6), c, max_size=3), max_leaves=8)
+
+
+def _paths(doc, prefix=()):
+    yield prefix
+    items = doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    for k, v in items:
+        yield from _paths(v, (*prefix, k))
+
+
+def _mutate(doc, data):
+    """A deep copy of ``doc`` with one value (anywhere, the whole document included) replaced or
+    one key deleted, drawn by hypothesis."""
+    import copy
+
+    doc = copy.deepcopy(doc)
+    paths = list(_paths(doc))
+    path = data.draw(st.sampled_from(paths), label="path")
+    new = data.draw(VALUES, label="value")
+    if not path:
+        return new
+    parent = doc
+    for k in path[:-1]:
+        parent = parent[k]
+    if isinstance(parent, dict) and data.draw(st.booleans(), label="delete"):
+        del parent[path[-1]]
+    else:
+        parent[path[-1]] = new
+    return doc
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_generated_model_files_end_in_a_model_file_error_or_a_valid_chain(data):
+    from uuvid.io.modelfile import ModelFileError, chain_from_dict
+    from uuvid.thruster.presets import preset_chain
+
+    doc = _mutate(preset_chain("t200").to_dict(), data)
+    try:
+        chain = chain_from_dict(doc, where="m.yaml")
+    except ModelFileError as e:
+        assert str(e).startswith("m.yaml"), str(e)
+        return
+    assert chain.n_states >= 0
+
+
+@settings(max_examples=100, deadline=None)
+@given(data=st.data())
+def test_generated_vehicle_files_end_in_a_vehicle_file_error_or_a_vehicle(data):
+    from uuvid.io.modelfile import ModelFileError, read_model_text
+    from uuvid.vehicle.definition import preset_path, vehicle_from_dict
+
+    doc = _mutate(_BLUEROV2.setdefault("doc", read_model_text(preset_path("bluerov2"))), data)
+    try:
+        v = vehicle_from_dict(doc, where="v.yaml", base_dir=preset_path("bluerov2").parent)
+    except ModelFileError as e:
+        assert "v.yaml" in str(e), str(e)
+        return
+    assert np.all(np.isfinite(v.params.to_array()))
+
+
+_BLUEROV2: dict = {}
+SCENARIO = {"name": "s", "vehicle": "bluerov2", "dt": 0.05, "duration": 2.0,
+            "mission": {"kind": "waypoints", "waypoints": [[0, 0, 0, 0], [0, 0, 1, 0]],
+                        "speed": 0.3},
+            "current": [0.1, 0.0, 0.0], "controller": {"bandwidth": [1.5, 1.5, 1.5, 2.0]}}
+
+
+@settings(max_examples=60, deadline=None)
+@given(data=st.data())
+def test_generated_scenarios_end_in_a_scenario_error_or_a_setup(data, tmp_path_factory):
+    from uuvid.io.modelfile import ModelFileError
+    from uuvid.simulate.scenario import build, scenario_from_dict
+
+    doc = _mutate(SCENARIO, data)
+    try:
+        _, setup = build(scenario_from_dict(doc, where="s.yaml"), None)
+    except (ModelFileError, FileNotFoundError) as e:  # FileNotFoundError: a missing named file
+        assert str(e), repr(e)
+        return
+    assert setup.t.size >= 1 and np.all(np.isfinite(setup.vp))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(raw=st.one_of(st.binary(max_size=200), st.text(max_size=200).map(str.encode)),
+       suffix=st.sampled_from([".yaml", ".toml"]))
+def test_generated_file_bytes_end_in_a_model_file_error(tmp_path, raw, suffix):
+    from uuvid.io.modelfile import ModelFileError, load_chain
+
+    p = tmp_path / f"m{suffix}"
+    p.write_bytes(b"blocks:\n  - type: quadratic\n" + raw if suffix == ".yaml" else raw)
+    try:
+        load_chain(p)
+    except ModelFileError as e:
+        assert str(p) in str(e)
