@@ -572,3 +572,16 @@ def test_generated_file_bytes_end_in_a_model_file_error(tmp_path, raw, suffix):
         load_chain(p)
     except ModelFileError as e:
         assert str(p) in str(e)
+
+
+@pytest.mark.parametrize("raw, needle", [(b'{"kind": "x\xff"}', "not UTF-8 text"),
+                                         (b'{"kind": ', "line 1, column 10: not valid JSON")])
+def test_uncertain_model_json_that_cannot_be_read(tmp_path, raw, needle):
+    from uuvid.uncertainty.montecarlo import ModelError, load_model
+
+    p = tmp_path / "model.json"
+    p.write_bytes(raw)
+    with pytest.raises(ModelError, match=f"model.json: {needle}"):
+        load_model(p)
+    res = runner.invoke(app, ["montecarlo", str(p), "--runs", "2", "--out", str(tmp_path / "o")])
+    clean_error(res, "model.json", needle)
