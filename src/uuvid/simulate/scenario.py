@@ -268,7 +268,7 @@ def build(spec: ScenarioSpec, base: Path | None = None):
                    "duration", "dt")
     except ValueError as e:
         hint = ("" if spec.duration is not None else " (duration not given: the mission's "
-                "length, from its waypoints and speeds)")
+                "length, from its waypoints or side and its speed; shorten the mission)")
         raise ScenarioError(f"{spec.name}: {e}{hint}") from None
     try:
         setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
