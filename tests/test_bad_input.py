@@ -585,3 +585,22 @@ def test_uncertain_model_json_that_cannot_be_read(tmp_path, raw, needle):
         load_model(p)
     res = runner.invoke(app, ["montecarlo", str(p), "--runs", "2", "--out", str(tmp_path / "o")])
     clean_error(res, "model.json", needle)
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_batch_runners_refuse_thruster_parameters_their_blocks_refuse(short_setup, fast):
+    """Zero thruster parameters made the kernels divide by zero (ZeroDivisionError from
+    run_batch_fast, SystemError from run_batch); the blocks' own rules now apply to raw rows."""
+    from uuvid.simulate.batch import run_batch_fast
+    from uuvid.simulate.vehicle_sim import _positive_slots, run_batch
+
+    s = short_setup
+    names = {name for i, _, name, _ in _positive_slots(s.bank) if i == 0}
+    assert "first_order_motor.time_constant" in names and "esc.supply_voltage" in names
+    assert "esc.saturation_high" not in names  # a relation to saturation_low, not a sign rule
+    TP = np.tile(s.bank.params, (2, 1, 1))
+    slot = next(k for i, k, n, _ in _positive_slots(s.bank) if n.endswith("time_constant"))
+    TP[1, 3, slot] = 0.0
+    with pytest.raises(ValueError, match=rf"thruster_params\[1, 3, {slot}\] = 0.0: .*"
+                                         r"time_constant, which must be > 0"):
+        (run_batch_fast if fast else run_batch)(s, np.tile(s.vp, (2, 1)), TP)

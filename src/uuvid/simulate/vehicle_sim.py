@@ -35,7 +35,7 @@ from uuvid.simulate.control import (
 )
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
-from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
+from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, ParameterError
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
@@ -997,6 +997,46 @@ def _first_bad(a: np.ndarray, bad: np.ndarray) -> str:
     return f"[{', '.join(str(int(i)) for i in idx)}] = {float(a[idx])!r}"
 
 
+def _positive_slots(bank: ThrusterBank) -> list[tuple[int, int, str, bool]]:
+    """``(thruster, slot, "block.field", strict)`` for every block parameter its block requires
+    positive (strict) or non-negative, found by asking the block itself: the slot is where the
+    field lands in ``params_array``, the rule is the block's own validation of a tiny positive
+    value, of 0 and of −v."""
+    import dataclasses
+
+    rules = []
+    for i, ch in enumerate(bank.chains):
+        poff = ch.compile().poff
+        for j, blk in enumerate(ch.blocks):
+            base = blk.params_array()
+            for f in dataclasses.fields(blk):
+                v = getattr(blk, f.name)
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
+                        math.isfinite(v) and v > 0):
+                    continue
+                try:
+                    moved = dataclasses.replace(blk, **{f.name: 1.5 * v}).params_array()
+                except Exception:  # noqa: BLE001 - a field the block does not take this way
+                    continue
+                d = np.flatnonzero(moved != base) if moved.shape == base.shape else []
+                if len(d) != 1 or base[d[0]] != v:
+                    continue
+                ok = []  # the block accepts a tiny positive value, 0, −v?
+                for trial in (1e-6 * v, 0.0, -v):
+                    try:
+                        dataclasses.replace(blk, **{f.name: trial})
+                        ok.append(True)
+                    except ParameterError:
+                        ok.append(False)
+                    except Exception:  # noqa: BLE001
+                        ok.append(None)
+                if ok[0] is True and ok[1:] in ([False, False], [True, False]):
+                    # a sign rule alone (not a relation to another field, as saturation limits)
+                    rules.append((i, int(poff[j]) + int(d[0]), f"{blk.TYPE}.{f.name}",
+                                  ok[1] is False))
+    return rules
+
+
 def batch_inputs(setup: MissionSetup, vehicle_params, thruster_params=None,
                  currents=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(VP, TP, VC)`` for the compiled batch loops, checked before any of them runs: shapes
@@ -1027,6 +1067,13 @@ def batch_inputs(setup: MissionSetup, vehicle_params, thruster_params=None,
     if bad.any():
         raise ValueError(f"thruster_params{_first_bad(TP, bad)}: expected finite values (start "
                          "from the setup's bank.params)")
+    for i, slot, name, strict in _positive_slots(b):
+        v = TP[:, i, slot]
+        low = v <= 0 if strict else v < 0
+        if low.any():
+            r = int(np.flatnonzero(low)[0])
+            raise ValueError(f"thruster_params[{r}, {i}, {slot}] = {float(v[r])!r}: that slot is "
+                             f"{name}, which must be {'> 0' if strict else '>= 0'}")
     VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
           else np.zeros((R, 3)) + setup.current)
     if VC.shape != (R, 3):
