@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import platform
+import sys
 from pathlib import Path
 
 
@@ -28,10 +29,24 @@ def benchmarks_dir() -> Path:
 
 
 def _load(name: str):
+    """Import ``benchmarks/<name>.py`` as the module ``uuvid_benchmarks_<name>``, registered in
+    ``sys.modules`` before it runs: numba's ``cache=True`` records a function's module by name,
+    and an unregistered module is cached as ``<dynamic>``, which the next process cannot import."""
+    mod_name = f"uuvid_benchmarks_{name}"
     path = benchmarks_dir() / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(f"uuvid_benchmarks_{name}", path)
+    loaded = sys.modules.get(mod_name)
+    if loaded is not None and Path(getattr(loaded, "__file__", "")) == path:
+        return loaded
+    spec = importlib.util.spec_from_file_location(mod_name, path)
+    if spec is None or spec.loader is None:
+        raise FileNotFoundError(f"{path}: not a Python benchmark file")
     mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    sys.modules[mod_name] = mod
+    try:
+        spec.loader.exec_module(mod)
+    except BaseException:
+        sys.modules.pop(mod_name, None)
+        raise
     return mod
 
 

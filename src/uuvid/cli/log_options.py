@@ -4,6 +4,7 @@ turn library errors and messages into CLI output."""
 
 from __future__ import annotations
 
+import math
 from enum import StrEnum
 from pathlib import Path
 
@@ -161,9 +162,18 @@ def params_table(title: str, params: dict):
     for c in ("parameter", "estimate", "σ", "unit", "% error", "significant"):
         t.add_column(c)
     for n, r in params.items():
-        t.add_row(escape(n), f"{r['estimate']:.5g}", f"{r['sigma']:.3g}", escape(r.get("unit") or ""),
-                  f"{r['percentile_error']:.1f}", "yes" if r["significant"] else "no")
+        t.add_row(escape(n), _num(r.get("estimate"), ".5g"), _num(r.get("sigma"), ".3g"),
+                  escape(r.get("unit") or ""), _num(r.get("percentile_error"), ".1f"),
+                  "yes" if r.get("significant") else "no")
     return t
+
+
+def _num(x, fmt: str) -> str:
+    """A table cell: "—" for a value the fit could not give (None in JSON, NaN/inf)."""
+    try:
+        return "—" if x is None or not math.isfinite(x) else format(x, fmt)
+    except TypeError:
+        return str(x)
 
 
 def check_write_back(write_vehicle, out_vehicle) -> None:

@@ -83,7 +83,7 @@ def _show(summary: dict, title: str) -> None:
     out_console.print(_table(title, rows, ["quantity", "value"]))
 
 
-def _run(fn, out: Path | None, json_out: bool, title: str):
+def _run(fn, out: Path | None, json_out: bool, title: str, where: str = ""):
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
         res = fn()
@@ -92,8 +92,9 @@ def _run(fn, out: Path | None, json_out: bool, title: str):
         raise typer.Exit(code=130) from None
     except ImportError as e:
         _fail(str(e))
-    except _user_errors() as e:
-        _fail(str(e))
+    except _user_errors() as e:  # the file's name first, unless the message starts with it
+        text = str(e)
+        _fail(text if not where or text.startswith(where) else f"{where}: {text}")
     summary = dict(res.info)
     if out is not None:
         summary["out"] = str(out)
@@ -135,7 +136,7 @@ def sweep_cmd(
         _fail(str(e))
     _run(lambda: run_sweep(spec, out, backend=backend, workers=workers, scheduler=scheduler,
                            chunk_size=chunk_size, retries=retries),
-         out, json_out, f"sweep {spec.name}: {spec.n_runs} runs")
+         out, json_out, f"sweep {spec.name}: {spec.n_runs} runs", sweep)
 
 
 def _parse_requirement(text: str):
@@ -190,7 +191,7 @@ def montecarlo_cmd(
     _run(lambda: run_montecarlo(m, runs, out, seed=seed, bounds=bounds, max_draws=max_draws,
                                 requirement=req, band=band, backend=backend, workers=workers,
                                 scheduler=scheduler, chunk_size=chunk_size, retries=retries),
-         out, json_out, f"Monte Carlo {m.name}: {runs} draws")
+         out, json_out, f"Monte Carlo {m.name}: {runs} draws", model)
 
 
 def register(app: typer.Typer) -> None:

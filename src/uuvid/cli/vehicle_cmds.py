@@ -32,7 +32,7 @@ def _load_vehicle(name: str):
         _fail(msg if "preset" in msg else f"{msg} (presets: {', '.join(list_presets())})")
 
 
-def _fly(spec, base, out, json_out, label):
+def _fly(spec, base, out, json_out, label, where):
     from uuvid.core.progress import progress_task
     from uuvid.simulate.control.files import describe
     from uuvid.simulate.scenario import build
@@ -43,10 +43,13 @@ def _fly(spec, base, out, json_out, label):
     try:
         vehicle, setup = build(spec, base)
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
-        _fail(str(e))
+        _fail(f"{where}: {e}")
     err_console.print(f"controller: {describe(setup.controller)}")
     with progress_task(f"flying {label}", total=2) as task:
-        result = fly_mission(setup)
+        try:
+            result = fly_mission(setup)
+        except ValueError as e:  # diverged: a result the scenario must change, not a traceback
+            _fail(f"{where}: {e}")
         task.advance()
         if out:
             from uuvid.simulate.mission_report import write_mission_outputs
@@ -151,7 +154,7 @@ def simulate(
             )
         except ModelFileError as e:
             _fail(str(e))
-        _fly(spec, None, out, json_out, f"{kind} with {vehicle}")
+        _fly(spec, None, out, json_out, f"{kind} with {vehicle}", "command line")
         return
     if kind is not None:
         _fail(f"unexpected argument {kind!r} after the scenario file")
@@ -167,7 +170,7 @@ def simulate(
                                       where="--controller")
     except ModelFileError as e:
         _fail(str(e))
-    _fly(spec, scenario.parent, out, json_out, spec.name)
+    _fly(spec, scenario.parent, out, json_out, spec.name, str(scenario))
 
 
 @vehicle_app.command("info")

@@ -217,6 +217,10 @@ def _interp(t_src, v_src, grid, how: str):
 _PER_CHANNEL_META = ("units", "original_units", "original_names")
 
 
+MAX_GRID_POINTS = 10_000_000
+"""Most points of a uniform resampling grid (checked before it is allocated)."""
+
+
 def align(responses: Mapping[str, TimeResponse] | Iterable[TimeResponse],
           resample: str | float = "union", *, interp: str | Mapping[str, str] = "linear",
           span: str = "overlap") -> TimeResponse:
@@ -275,7 +279,12 @@ def align(responses: Mapping[str, TimeResponse] | Iterable[TimeResponse],
         if not (math.isfinite(dt) and dt > 0):
             raise LogDataError(f"align: the resampling step must be a positive number of seconds, "
                                f"got {resample!r}")
-        n = int(math.floor((hi - lo) / dt + 1e-9)) + 1
+        n = math.floor((hi - lo) / dt + 1e-9) + 1
+        if n > MAX_GRID_POINTS:
+            raise LogDataError(f"align: a uniform {dt:g} s grid over {hi - lo:.6g} s ({lo:.6g}…"
+                               f"{hi:.6g} s) is {n:.3g} points, more than {MAX_GRID_POINTS:,}; "
+                               "give a larger resampling step or cut the log (a time stamp far "
+                               "from the others stretches the span: check the log's clock)")
         grid = lo + dt * np.arange(n)
     how = ({n: interp.get(n, "linear") for n in series} if isinstance(interp, Mapping)
            else dict.fromkeys(series, interp))
@@ -1148,16 +1157,21 @@ def _boot_from_log(log_t: np.ndarray, ref_log: np.ndarray, ref_boot: np.ndarray,
     """
     d = ref_log - ref_boot
     origin = ref_log.min()
-    b = np.floor(ref_log - origin).astype(np.int64)
-    nb = int(b.max()) + 1
-    env = np.full(nb, np.inf)
-    np.minimum.at(env, b, d)
-    from scipy.ndimage import minimum_filter1d
-
-    env = minimum_filter1d(env, size=2 * int(window) + 1, mode="nearest")
-    ok = np.isfinite(env)
-    centres = origin + np.arange(nb) + 0.5
-    off = np.interp(log_t, centres[ok], env[ok])
+    # 1 s bins, only those holding a message (a corrupt receive stamp years away must not
+    # allocate every second in between: memory follows the message count, not the time span)
+    occ, inv = np.unique(np.floor(ref_log - origin).astype(np.int64), return_inverse=True)
+    env = np.full(occ.size, np.inf)
+    np.minimum.at(env, inv.ravel(), d)
+    w = int(window)
+    # the nodes: every bin within ±w of an occupied one, each the lowest offset within ±w
+    nodes = np.unique((occ[:, None] + np.arange(-w, w + 1)).ravel())
+    nodes = nodes[(nodes >= occ[0]) & (nodes <= occ[-1])]
+    low = np.full(nodes.size, np.inf)
+    for k in range(-w, w + 1):
+        j = np.minimum(np.searchsorted(occ, nodes + k), occ.size - 1)
+        hit = occ[j] == nodes + k
+        low[hit] = np.minimum(low[hit], env[j[hit]])
+    off = np.interp(log_t, origin + nodes + 0.5, low)
     return log_t - off
 
 

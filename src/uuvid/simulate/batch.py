@@ -1102,18 +1102,7 @@ def _kernel(st: _Structure, pv_names, sh_names, ctrl_fn=None):
 # Public API
 # ---------------------------------------------------------------------------------------------
 def _inputs(setup, vehicle_params, thruster_params, currents):
-    b = setup.bank
-    VP = np.ascontiguousarray(np.atleast_2d(vehicle_params), dtype=float)
-    R = VP.shape[0]
-    TP = (np.ascontiguousarray(thruster_params, dtype=float) if thruster_params is not None
-          else np.ascontiguousarray(np.broadcast_to(b.params, (R,) + b.params.shape)))
-    if TP.shape != (R,) + b.params.shape:
-        raise ValueError(f"thruster_params must be {(R,) + b.params.shape}, got {TP.shape}")
-    VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
-          else np.zeros((R, 3)) + setup.current)
-    if VC.shape != (R, 3):
-        raise ValueError(f"currents must be ({R}, 3), got {VC.shape}")
-    return VP, TP, VC
+    return vehicle_sim.batch_inputs(setup, vehicle_params, thruster_params, currents)
 
 
 def fast_path_reason(setup, vehicle_params=None, thruster_params=None, currents=None) -> str | None:
@@ -1156,7 +1145,9 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     R = VP.shape[0]
     trace_runs = [int(r) for r in trace_runs]
     if any(not 0 <= r < R for r in trace_runs):
-        raise ValueError("trace_runs out of range")
+        raise ValueError(f"trace_runs: expected run indices in [0, {R}), got {trace_runs}")
+    if R == 0:
+        return np.empty((0, N_SUMMARY))
     try:
         prep = _analyse(s, VP, TP, VC, int(chunk), tuple(fastmath))
     except _NoFastPath as exc:

@@ -30,9 +30,10 @@ Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
 
 from __future__ import annotations
 
+import reprlib
 from dataclasses import replace
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -92,13 +93,17 @@ class LqrWeightsSpec(BaseModel):
     thrust: float = Field(10.0, gt=0)
 
 
+_Pos = Annotated[float, Field(gt=0)]
+_NonNeg = Annotated[float, Field(ge=0)]
+
+
 class ControllerSpec(BaseModel):
     model_config = _CFG
     kind: Literal["pid", "lqr", "python"] = "pid"
-    bandwidth: tuple[float, float, float, float] = (1.5, 1.5, 1.5, 2.0)
-    kp: tuple[float, float, float, float] | None = None
-    ki: tuple[float, float, float, float] | None = None
-    kd: tuple[float, float, float, float] | None = None
+    bandwidth: tuple[_Pos, _Pos, _Pos, _Pos] = (1.5, 1.5, 1.5, 2.0)  # rad/s
+    kp: tuple[_NonNeg, _NonNeg, _NonNeg, _NonNeg] | None = None
+    ki: tuple[_NonNeg, _NonNeg, _NonNeg, _NonNeg] | None = None
+    kd: tuple[_NonNeg, _NonNeg, _NonNeg, _NonNeg] | None = None
     weights: LqrWeightsSpec | None = None  # lqr
     file: str | None = None  # python
     factory: str = "make_controller"  # python
@@ -190,7 +195,7 @@ class ScenarioSpec(BaseModel):
             if not ok:
                 raise ValueError(f"expected N,E,D (m/s): three numbers, the water velocity "
                                  f"north, east, down (where it flows to), e.g. [0.3, 0, 0]; got "
-                                 f"{list(v)}")
+                                 f"{reprlib.repr(list(v))}")
         return v
 
 
@@ -217,7 +222,7 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         make_controller,
     )
     from uuvid.simulate.control.pid import DPGains
-    from uuvid.simulate.vehicle_sim import default_gains, setup_mission
+    from uuvid.simulate.vehicle_sim import default_gains, setup_mission, step_count
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     vref = spec.vehicle
@@ -233,11 +238,14 @@ def build(spec: ScenarioSpec, base: Path | None = None):
         except FileNotFoundError as e:
             raise ScenarioError(f"thruster_model: {e}") from None
     c = spec.controller
-    if c.kp is not None:
-        g0 = default_gains(vehicle)
-        gains = DPGains(c.kp, c.ki or (0.0,) * 4, c.kd or (0.0,) * 4, g0.tau_max, g0.i_limit)
-    else:
-        gains = default_gains(vehicle, omega=c.bandwidth)
+    try:
+        if c.kp is not None:
+            g0 = default_gains(vehicle)
+            gains = DPGains(c.kp, c.ki or (0.0,) * 4, c.kd or (0.0,) * 4, g0.tau_max, g0.i_limit)
+        else:
+            gains = default_gains(vehicle, omega=c.bandwidth)
+    except ValueError as e:
+        raise ScenarioError(f"{spec.name}: controller: {e}") from None
     cur = spec.current
     if hasattr(cur, "build"):
         try:
@@ -255,6 +263,13 @@ def build(spec: ScenarioSpec, base: Path | None = None):
                                      else None)
     except ControllerFileError as e:
         raise ScenarioError(f"{spec.name}: controller: {e}") from None
+    try:
+        step_count(spec.duration if spec.duration is not None else mission.duration, spec.dt,
+                   "duration", "dt")
+    except ValueError as e:
+        hint = ("" if spec.duration is not None else " (duration not given: the mission's "
+                "length, from its waypoints or side and its speed; shorten the mission)")
+        raise ScenarioError(f"{spec.name}: {e}{hint}") from None
     try:
         setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
                               thruster_chain=chain, current=cur, t_end=spec.duration,

@@ -29,7 +29,7 @@ from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandw
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
 from uuvid.thruster import kernels
-from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
+from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, ParameterError
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
@@ -860,12 +860,43 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0), max_lag: float = MAX_CRUI
     return g
 
 
+MAX_STEPS = 2_000_000
+"""Most control steps one flight may hold in memory (≈ 0.5 kB each: 5.5 h at dt = 0.01 s)."""
+
+
+def step_count(duration: float, dt: float, name: str = "t_end", dt_name: str = "dt",
+               max_steps: int | None = None) -> int:
+    """The number of steps of ``dt`` in ``duration``, checked before anything is allocated:
+    ``ValueError`` naming ``name``/``dt_name`` for a non-finite or sub-step duration or more than
+    ``max_steps`` (default :data:`MAX_STEPS`) steps."""
+    limit = MAX_STEPS if max_steps is None else int(max_steps)
+    try:
+        T, h = float(duration), float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a duration in seconds, got {duration!r}") from None
+    if not (math.isfinite(h) and h > 0):
+        raise ValueError(f"{dt_name} = {h:g} s: expected a finite step > 0")
+    if not (math.isfinite(T) and T > 0):
+        raise ValueError(f"{name} = {T:g} s: expected a finite duration > 0 (check the mission's "
+                         "waypoints and speeds)")
+    n = T / h
+    if n < 0.5:
+        raise ValueError(f"{name} = {T:g} s is shorter than one step ({dt_name} = {h:g} s); give "
+                         f"a duration of at least {dt_name}")
+    if n > limit:
+        raise ValueError(f"{name} = {T:g} s at {dt_name} = {h:g} s is {n:.3g} steps, more than "
+                         f"the {limit:,} one flight may hold in memory; shorten {name} or raise "
+                         f"{dt_name}")
+    return int(round(n))
+
+
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
                   gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
                   current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None,
                   allocation: str = "priority", battery=None, soc0: float = 1.0,
                   controller: Controller | None = None,
-                  disturbance: Disturbance | None = None) -> MissionSetup:
+                  disturbance: Disturbance | None = None,
+                  max_steps: int | None = None) -> MissionSetup:
     """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
@@ -875,7 +906,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     the supply voltage a state, starting at ``soc0`` (:func:`battery_tables`);
     ``controller`` (:class:`uuvid.simulate.control.blocks.Controller`; default: the built-in PID DP with
     ``gains``, :func:`~uuvid.simulate.control.pid.pid`) and ``disturbance``
-    (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle).
+    (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle);
+    ``max_steps`` (default :data:`MAX_STEPS`) bounds the time series held in memory.
     """
     from uuvid.simulate.currents import as_current
 
@@ -906,7 +938,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     dofs = np.array(al.controlled, dtype=np.int64)
     ep, en = al.eta
     T = t_end if t_end is not None else mission.duration
-    t = np.arange(int(round(T / dt))) * dt
+    t = np.arange(step_count(T, dt, "t_end" if t_end is not None else "the mission's duration",
+                             max_steps=max_steps)) * dt
     ref = mission(t)
     cm = as_current(current)
     series = None
@@ -952,6 +985,97 @@ def allocation_method(alloc: np.ndarray) -> str:
     o = 3 + n * m + 4 * n
     code = 0.0 if alloc.size <= o else float(alloc[o])
     return next(k for k in SATURATION_METHODS if _METHOD_CODE[k] == code)
+
+
+def _first_bad(a: np.ndarray, bad: np.ndarray) -> str:
+    idx = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), a.shape)
+    return f"[{', '.join(str(int(i)) for i in idx)}] = {float(a[idx])!r}"
+
+
+def _positive_slots(bank: ThrusterBank) -> list[tuple[int, int, str, bool]]:
+    """``(thruster, slot, "block.field", strict)`` for every block parameter its block requires
+    positive (strict) or non-negative, found by asking the block itself: the slot is where the
+    field lands in ``params_array``, the rule is the block's own validation of a tiny positive
+    value, of 0 and of −v."""
+    import dataclasses
+
+    rules = []
+    for i, ch in enumerate(bank.chains):
+        poff = ch.compile().poff
+        for j, blk in enumerate(ch.blocks):
+            base = blk.params_array()
+            for f in dataclasses.fields(blk):
+                v = getattr(blk, f.name)
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
+                        math.isfinite(v) and v > 0):
+                    continue
+                try:
+                    moved = dataclasses.replace(blk, **{f.name: 1.5 * v}).params_array()
+                except Exception:  # noqa: BLE001 - a field the block does not take this way
+                    continue
+                d = np.flatnonzero(moved != base) if moved.shape == base.shape else []
+                if len(d) != 1 or base[d[0]] != v:
+                    continue
+                ok = []  # the block accepts a tiny positive value, 0, −v?
+                for trial in (1e-6 * v, 0.0, -v):
+                    try:
+                        dataclasses.replace(blk, **{f.name: trial})
+                        ok.append(True)
+                    except ParameterError:
+                        ok.append(False)
+                    except Exception:  # noqa: BLE001
+                        ok.append(None)
+                if ok[0] is True and ok[1:] in ([False, False], [True, False]):
+                    # a sign rule alone (not a relation to another field, as saturation limits)
+                    rules.append((i, int(poff[j]) + int(d[0]), f"{blk.TYPE}.{f.name}",
+                                  ok[1] is False))
+    return rules
+
+
+def batch_inputs(setup: MissionSetup, vehicle_params, thruster_params=None,
+                 currents=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(VP, TP, VC)`` for the compiled batch loops, checked before any of them runs: shapes
+    ``(R, N_PARAMS)``, ``(R, n, P)`` of the setup's bank and ``(R, 3)``; no NaN; infinities only
+    where the setup's own thruster parameters have them (an absent limit). ``ValueError`` names
+    the argument, the element and what was expected."""
+    from uuvid.vehicle.model import LAYOUT_VERSION, N_PARAMS, P_VERSION
+
+    b = setup.bank
+    VP = np.ascontiguousarray(np.atleast_2d(np.asarray(vehicle_params, dtype=float)))
+    if VP.ndim != 2 or VP.shape[1] != N_PARAMS:
+        raise ValueError(f"vehicle_params: expected (runs, {N_PARAMS}) rows of "
+                         f"VehicleParams.to_array(), got shape {VP.shape}")
+    R = VP.shape[0]
+    if not np.all(np.isfinite(VP)):
+        raise ValueError(f"vehicle_params{_first_bad(VP, ~np.isfinite(VP))}: expected finite "
+                         "values (rows of VehicleParams.to_array())")
+    if np.any(VP[:, P_VERSION] != LAYOUT_VERSION):
+        raise ValueError(f"vehicle_params{_first_bad(VP[:, :1], VP[:, :1] != LAYOUT_VERSION)}: "
+                         f"column 0 is the layout version {LAYOUT_VERSION:g}; build the rows "
+                         "with VehicleParams.to_array()")
+    TP = (np.ascontiguousarray(thruster_params, dtype=float) if thruster_params is not None
+          else np.ascontiguousarray(np.broadcast_to(b.params, (R,) + b.params.shape)))
+    if TP.shape != (R,) + b.params.shape:
+        raise ValueError(f"thruster_params: expected shape {(R,) + b.params.shape} (runs, "
+                         f"thrusters, parameters of the setup's bank), got {TP.shape}")
+    bad = np.isnan(TP) | (np.isinf(TP) & np.isfinite(b.params)[None])
+    if bad.any():
+        raise ValueError(f"thruster_params{_first_bad(TP, bad)}: expected finite values (start "
+                         "from the setup's bank.params)")
+    for i, slot, name, strict in _positive_slots(b):
+        v = TP[:, i, slot]
+        low = v <= 0 if strict else v < 0
+        if low.any():
+            r = int(np.flatnonzero(low)[0])
+            raise ValueError(f"thruster_params[{r}, {i}, {slot}] = {float(v[r])!r}: that slot is "
+                             f"{name}, which must be {'> 0' if strict else '>= 0'}")
+    VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
+          else np.zeros((R, 3)) + setup.current)
+    if VC.shape != (R, 3):
+        raise ValueError(f"currents: expected shape ({R}, 3) (NED m/s per run), got {VC.shape}")
+    if not np.all(np.isfinite(VC)):
+        raise ValueError(f"currents{_first_bad(VC, ~np.isfinite(VC))}: expected finite NED m/s")
+    return VP, TP, VC
 
 
 def require_constant_current(setup: MissionSetup) -> None:
@@ -1134,12 +1258,8 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     s = setup
     require_constant_current(s)
     b = s.bank
-    VP = np.ascontiguousarray(vehicle_params, dtype=float)
+    VP, TP, VC = batch_inputs(s, vehicle_params, thruster_params, currents)
     nrun = VP.shape[0]
-    TP = (np.ascontiguousarray(thruster_params, dtype=float) if thruster_params is not None
-          else np.ascontiguousarray(np.broadcast_to(b.params, (nrun,) + b.params.shape)))
-    VC = (np.ascontiguousarray(currents, dtype=float) if currents is not None
-          else np.zeros((nrun, 3)) + s.current)
     OUT = np.empty((nrun, len(RUN_COLUMNS)))
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
     if s.controller is not None or s.disturbance is not None:

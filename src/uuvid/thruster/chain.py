@@ -30,6 +30,25 @@ from uuvid.thruster.blocks import (
 _STATIC_STATES = 0
 _STEADY_CACHE = "steady_maps"  # sub-folder of the kernel cache for swept steady tables
 _SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL = 1e-3, 8, 1e-9  # sweep() defaults (part of the cache key)
+MAX_SAMPLES = 2_000_000
+"""Most output samples (× runs) one simulation holds in memory (≈ 0.2 kB each)."""
+MAX_SWEEP_STEPS = 1e12
+"""Most integration steps a sweep may take (levels × pass length / dt, all passes)."""
+
+
+def _n_samples(t_end, dt, substeps, runs: int = 1) -> int:
+    """Output samples of a simulation, checked before anything is allocated."""
+    if not (math.isfinite(t_end) and t_end > 0 and math.isfinite(dt) and dt > 0):
+        raise ValueError(f"t_end and dt must be finite and positive, got t_end={t_end}, dt={dt}")
+    if int(substeps) < 1:
+        raise ValueError(f"substeps must be >= 1, got {substeps}")
+    n = t_end / dt + 1
+    if n * max(runs, 1) > MAX_SAMPLES:
+        per = f" × {runs} runs" if runs > 1 else ""
+        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s is {n:.3g} samples{per}, more than "
+                         f"the {MAX_SAMPLES:,} a simulation may hold in memory; shorten t_end "
+                         "(--t-end) or raise dt (--dt)")
+    return int(round(t_end / dt)) + 1
 
 
 def _kernel_code_digest() -> str:
@@ -231,7 +250,25 @@ class ThrusterChain:
         ``max_passes``; levels still moving after that are reported in ``not_converged``.
         """
         u = np.atleast_1d(np.asarray(u, dtype=float))
+        if u.ndim != 1 or not np.all(np.isfinite(u)):
+            bad = np.flatnonzero(~np.isfinite(u.ravel()))
+            raise ValueError("sweep: u must be finite input levels (a 1-D array)"
+                             + (f"; u[{bad[0]}] = {float(u.ravel()[bad[0]])!r}" if bad.size else
+                                f", got shape {u.shape}"))
         settle = settle_time if settle_time is not None else self.settling_time_hint()
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"sweep: dt must be a finite step > 0 s, got {dt!r}")
+        if not (math.isfinite(settle) and settle > 0):
+            raise ValueError(f"sweep: settle_time must be a finite time > 0 s, got {settle!r}")
+        if int(max_passes) < 1 or not (rtol > 0):
+            raise ValueError(f"sweep: max_passes must be >= 1 and rtol > 0, got {max_passes!r}, "
+                             f"{rtol!r}")
+        steps = u.size * settle / dt * 2.0 ** max(int(max_passes) - 1, 0)
+        if steps > MAX_SWEEP_STEPS:
+            raise ValueError(f"sweep: {u.size} levels × {settle:g} s / dt {dt:g} s over up to "
+                             f"{max_passes} passes is up to {steps:.3g} steps, more than "
+                             f"{MAX_SWEEP_STEPS:.0e}; raise dt, shorten settle_time or use fewer "
+                             "levels or passes")
         nsamp = int(math.ceil(settle / dt)) + 1
         c = self.compile()
         nx = self.n_states
@@ -332,11 +369,7 @@ class ThrusterChain:
         output interval; ``substeps`` RK4 steps advance the state inside it (fixed step
         ``dt/substeps``; convergence against ``solve_ivp`` is tested).
         """
-        if not (t_end > 0 and dt > 0):
-            raise ValueError(f"t_end and dt must be positive, got t_end={t_end}, dt={dt}")
-        if int(substeps) < 1:
-            raise ValueError(f"substeps must be >= 1, got {substeps}")
-        n = int(round(t_end / dt)) + 1
+        n = _n_samples(t_end, dt, substeps)
         t = np.arange(n) * dt
         u = _sample_signal(signal, t)
         c = self.compile()
@@ -365,13 +398,20 @@ class ThrusterChain:
                        substeps: int = 4, channel: str = "thrust") -> np.ndarray:
         """Simulate many parameter vectors (rows, same layout as ``compile().params``) in parallel;
         returns ``channel`` as an array ``(runs, samples)``."""
-        n = int(round(t_end / dt)) + 1
-        t = np.arange(n) * dt
-        u = _sample_signal(signal, t)
+        if channel not in CH:
+            raise ValueError(f"channel {channel!r}: expected one of {', '.join(CHANNELS)}")
         c = self.compile()
         P = np.ascontiguousarray(chains_params, dtype=np.float64)
         if P.ndim != 2 or P.shape[1] != c.params.size:
-            raise ValueError(f"parameter batch must have shape (runs, {c.params.size})")
+            raise ValueError(f"chains_params: expected shape (runs, {c.params.size}) (rows like "
+                             f"compile().params), got {P.shape}")
+        bad = np.isnan(P) | (np.isinf(P) & np.isfinite(c.params)[None])
+        if bad.any():
+            r, j = (int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(f"chains_params[{r}, {j}] = {float(P[r, j])!r}: expected finite values")
+        n = _n_samples(t_end, dt, substeps, runs=P.shape[0])
+        t = np.arange(n) * dt
+        u = _sample_signal(signal, t)
         Y = np.empty((P.shape[0], n))
         _kernels().rk4_chain_batch(c.kinds, c.poff, P, c.soff, c.outch, c.in_ch, c.exact,
                                 np.zeros(self.n_states), u, float(dt), int(substeps), CH[channel], Y)

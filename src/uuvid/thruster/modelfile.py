@@ -146,6 +146,10 @@ def _normalise(raw: Any, where: str) -> dict:
         fixed = []
         for i, b in enumerate(blocks):
             if isinstance(b, dict) and "type" in b:
+                if not isinstance(b["type"], str):
+                    raise ModelFileError(
+                        f"{where}: blocks[{i}].type: expected a block type name (a string), got "
+                        f"{type(b['type']).__name__} {b['type']!r}; write e.g. 'type: quadratic'")
                 b = dict(b)
                 b["type"] = BLOCK_ALIASES.get(b["type"], b["type"])
                 if b["type"] not in BLOCK_TYPES:
@@ -259,13 +263,57 @@ def read_model_text(path: str | Path) -> dict:
         text = path.read_text(encoding="utf-8")
     except OSError as e:
         raise ModelFileError(f"{path}: cannot read model file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        line = path.read_bytes()[:e.start].count(b"\n") + 1
+        raise ModelFileError(f"{path}: line {line}: not UTF-8 text (byte 0x{e.object[e.start]:02x} "
+                             f"at offset {e.start}); save the model file as UTF-8") from None
     try:
         if path.suffix.lower() == ".toml":
             return tomllib.loads(text)
-        return load_yaml_unique(text, str(path))
+        raw = load_yaml_unique(text, str(path))
     except (yaml.YAMLError, tomllib.TOMLDecodeError) as e:
         raise ModelFileError(f"{path}: not valid {'TOML' if path.suffix == '.toml' else 'YAML'}: "
                              f"{e}") from None
+    check_expanded_size(raw, str(path))
+    return raw
+
+
+MAX_NODES = 1_000_000
+"""Most values a model, vehicle or scenario file may hold once YAML aliases are expanded."""
+
+
+def check_expanded_size(raw: Any, where: str, limit: int = MAX_NODES) -> int:
+    """The number of values in ``raw`` with every alias expanded (counted without expanding);
+    :class:`ModelFileError` past ``limit`` or for a value that contains itself (an alias bomb
+    or a recursive anchor would otherwise take unbounded time and memory to validate)."""
+    sizes: dict[int, int] = {}
+    active: set[int] = set()
+
+    def size(x, key: str) -> int:
+        if not isinstance(x, (dict, list)):
+            return 1
+        i = id(x)
+        if i in sizes:
+            return sizes[i]
+        if i in active:
+            raise ModelFileError(f"{where}: {key or 'top level'}: a YAML anchor refers to itself "
+                                 "(recursive alias); write the value out")
+        active.add(i)
+        items = x.items() if isinstance(x, dict) else enumerate(x)
+        n = 1
+        for k, v in items:
+            n += size(v, f"{key}.{k}" if isinstance(x, dict) and key else
+                      str(k) if isinstance(x, dict) else f"{key}[{k}]")
+            if n > limit:
+                raise ModelFileError(
+                    f"{where}: {key or 'top level'}: more than {limit:,} values once YAML "
+                    "aliases are expanded (an alias bomb?); write the values out or use fewer "
+                    "aliases")
+        active.discard(i)
+        sizes[i] = n
+        return n
+
+    return size(raw, "")
 
 
 def load_chain(path: str | Path) -> ThrusterChain:

@@ -282,6 +282,19 @@ def _physical_bounds(name: str) -> dict:
     return {}
 
 
+def _read_json(p: Path):
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as e:
+        raise ModelError(f"{p}: not UTF-8 text (byte offset {e.start}); save the file as UTF-8 "
+                         "JSON") from None
+    except json.JSONDecodeError as e:
+        raise ModelError(f"{p}: line {e.lineno}, column {e.colno}: not valid JSON ({e.msg})") \
+            from None
+    except OSError as e:
+        raise ModelError(f"{p}: cannot read the model file ({e.strerror or e})") from None
+
+
 def load_model(path_or_name: str | Path) -> UncertainModel:
     """A model file (YAML/TOML/JSON) or a built-in name (:data:`BUILTIN_MODELS`)."""
     from uuvid.thruster.modelfile import read_model_text
@@ -293,7 +306,7 @@ def load_model(path_or_name: str | Path) -> UncertainModel:
             raise FileNotFoundError(f"{path_or_name}: no such model file, and not a built-in "
                                     f"model ({', '.join(BUILTIN_MODELS)})")
         p = cand
-    raw = read_model_text(p) if p.suffix.lower() != ".json" else json.loads(p.read_text())
+    raw = read_model_text(p) if p.suffix.lower() != ".json" else _read_json(p)
     return model_from_dict(raw, where=str(p), base_dir=p.resolve().parent)
 
 

@@ -186,10 +186,18 @@ class ThrusterStepPlan:
             self.factory = lambda **kw: fixed
             if target.preset_kwargs:
                 raise PR.ParameterNameError("preset_kwargs only apply to preset chains")
-        self.base = self.factory(**target.preset_kwargs)
+        kwargs = self._factory_kwargs(inspect)
+        unknown = sorted(set(target.preset_kwargs) - set(kwargs or ()))
+        if unknown:
+            raise PR.ParameterNameError(
+                f"target.preset_kwargs: unknown keyword(s) {', '.join(map(repr, unknown))} for the "
+                f"preset {target.chain!r}; it takes {', '.join(sorted(kwargs or [])) or 'none'}")
+        try:
+            self.base = self.factory(**target.preset_kwargs)
+        except ParameterError as e:
+            raise ValueError(f"target.preset_kwargs{'.' + e.param if e.param else ''}: {e}") from None
         self.signal_spec = dict(target.signal)
         self.base_signal = signal_from_spec(self.signal_spec)
-        kwargs = self._factory_kwargs(inspect)
         self.kind_of: dict[str, tuple[str, str]] = {}
         for n in names:
             if n.startswith("signal."):
@@ -367,6 +375,12 @@ class ThrusterSteadyPlan:
         from uuvid.thruster.physical import PhysicalModel
 
         self.target = target
+        fnames = {f.name for f in fields(PhysicalModel)}
+        unknown = sorted(set(target.physical_model) - fnames)
+        if unknown:
+            raise PR.ParameterNameError(
+                f"base.physical_model: unknown key(s) {', '.join(map(repr, unknown))}; expected "
+                f"the fields of a thruster physical fit: {', '.join(sorted(fnames))}")
         self.base = PhysicalModel(**target.physical_model)
         known = set(PHYSICAL_NAMES) | {f.name for f in fields(PhysicalModel)
                                        if f.name not in ("command_unit", "neutral")}

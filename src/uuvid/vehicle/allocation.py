@@ -362,10 +362,24 @@ class Allocator:
             tau = tau / np.where(tau >= 0, ep, en)
         return tau
 
+    def _check_wrench(self, phi) -> np.ndarray:
+        """``phi`` as floats, refused unless it has one finite component per row of ``B``."""
+        phi = np.asarray(phi, dtype=float)
+        m = self.B.shape[0]
+        if phi.shape != (m,):
+            raise ValueError(f"phi: expected {m} components (surge, sway, heave, roll, pitch, "
+                             f"yaw: N and N·m), got shape {phi.shape}")
+        bad = np.flatnonzero(~np.isfinite(phi))
+        if bad.size:
+            raise ValueError(f"phi[{bad[0]}] = {float(phi[bad[0]])!r}: expected finite forces and "
+                             "moments (a NaN wrench would give NaN thrusts)")
+        return phi
+
     def allocate(self, phi, saturation: str = "priority", tol: float = 1e-9) -> AllocationResult:
         """Allocate ``φ`` (m); ``saturation``: ``"priority"`` (default, as missions fly: exact
         whenever achievable, else weighted least error), ``"maxscale"``, ``"scale"`` (uniform
         scaling of ``T φ``), ``"clip"`` or ``"none"``."""
+        phi = self._check_wrench(phi)
         if saturation in ("priority", "maxscale"):
             return self._allocate_bounded(np.asarray(phi, dtype=float), saturation, tol)
         phi = np.asarray(phi, dtype=float)

@@ -87,6 +87,21 @@ def _inertia3(values) -> np.ndarray:
                          f"{a.shape}", "inertia")
 
 
+MAX_MAGNITUDE = 1e12
+"""Largest parameter magnitude accepted in SI units (a 10¹² kg vehicle is a unit mistake; beyond
+this the mass matrix overflows or loses every digit of its smaller terms)."""
+
+
+def _bounded(name: str, v) -> None:
+    a = np.abs(np.asarray(v, dtype=float))
+    if a.size and a.max() > MAX_MAGNITUDE:
+        i = int(np.argmax(a))
+        idx = np.unravel_index(i, a.shape)
+        where = f"[{', '.join(str(int(k)) for k in idx)}]" if a.size > 1 else ""
+        raise ParameterError(f"VehicleParams.{name}{where} = {np.ravel(v)[i]:g}: larger than "
+                             f"{MAX_MAGNITUDE:g} in SI units; check the value and its unit", name)
+
+
 @dataclass(frozen=True, eq=False)
 class VehicleParams:
     """Rigid-body, hydrostatic and hydrodynamic parameters of a vehicle (SI, positive magnitudes).
@@ -137,6 +152,13 @@ class VehicleParams:
                 raise ParameterError(str(e), nm) from None
             if not np.all(np.isfinite(mats[nm])):
                 raise ParameterError(f"VehicleParams.{nm} must be finite", nm)
+        _bounded("mass", m)
+        for nm in ("weight", "buoyancy", "quaternion_gain", "r_g", "r_b", "current"):
+            _bounded(nm, getattr(self, nm))
+        if np.all(np.isfinite(Ig)):
+            _bounded("inertia", Ig)
+        for nm, v in mats.items():
+            _bounded(nm, v)
         if not np.all(np.isfinite(Ig)) or not np.allclose(Ig, Ig.T, rtol=0, atol=1e-12 * max(
                 1.0, np.abs(Ig).max())):
             raise ParameterError("VehicleParams.inertia must be a finite symmetric 3×3 tensor",

@@ -368,6 +368,27 @@ def set_parameter(
 # ------------------------------------------------------------------------------------------------
 # simulation of a run with the compiled kernel
 # ------------------------------------------------------------------------------------------------
+MAX_SUBSTEPS = 10_000
+"""Most RK4 steps between two samples (a 10 s sample interval at the default 1 ms step)."""
+MAX_RUN_STEPS = 50_000_000
+"""Most RK4 steps one simulation of a run may take (the fit simulates it many times)."""
+
+
+def check_step_budget(runs, max_step: float) -> None:
+    """Refuse runs whose simulation would take unbounded time (``ValueError`` naming the run):
+    samples seconds apart at a millisecond step — typically time in ms or µs read as s."""
+    for r in runs:
+        nsub = math.ceil(r.dt / max_step - 1e-9)
+        total = nsub * r.t.size
+        if nsub > MAX_SUBSTEPS or total > MAX_RUN_STEPS:
+            raise ValueError(
+                f"{r.name}: samples {r.dt:.6g} s apart ({r.t.size} samples over {r.t[-1] - r.t[0]:.6g} "
+                f"s) need {nsub:,} RK4 steps of max_step = {max_step:g} s each, {total:.3g} in all "
+                f"(limits {MAX_SUBSTEPS:,} per sample, {MAX_RUN_STEPS:.0e} per run): is the time "
+                "column in ms or µs but read as seconds? Convert it to seconds (check the time "
+                "unit), or cut the record")
+
+
 def _simulate_run(chain: ThrusterChain, run: _Prepared, max_step: float) -> np.ndarray:
     """All channels of ``chain`` under ``run.u`` on ``run.t`` (samples × channels)."""
     c = chain.compile()
@@ -619,6 +640,7 @@ def fit_chain(
     prepared = validate_runs(runs, len(fps), resample=resample, normalize=normalize)
     if not (max_step > 0):
         raise ValueError(f"max_step must be positive, got {max_step}")
+    check_step_budget(prepared, max_step)
     start = np.array([f.value_in(template) for f in fps], dtype=float)
     if x0 is not None:
         if isinstance(x0, Mapping):

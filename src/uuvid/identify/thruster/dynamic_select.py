@@ -275,8 +275,18 @@ def _template(s: Structure, g: _Guess, with_thrust: bool, offset: float, limit: 
         ku = J * W / (1.5 * V * tau)
         T = g.thrust[sg] if math.isfinite(g.thrust[sg]) and g.thrust[sg] > 0 else 1.0
         ua = 2.43 * T * tau / mf
-        kt = {d: (g.thrust[d] if math.isfinite(g.thrust[d]) and g.thrust[d] > 0 else T)
-              / (0.7 * g.w[d] ** 2) for d in dirs}
+        with np.errstate(all="ignore"):
+            kt = {d: (g.thrust[d] if math.isfinite(g.thrust[d]) and g.thrust[d] > 0 else T)
+                  / (0.7 * g.w[d] ** 2) for d in dirs}
+            starts = np.array([ku, ku * V / (2 * W), ku * V / (2 * W * W), *kt.values(),
+                               0.43 * T / (W * ua) if W * ua else np.inf,
+                               T / ua ** 2 if ua ** 2 else np.inf])
+        if not np.all(np.isfinite(starts) & (starts > 0)):
+            raise ValueError(
+                f"healey: a steady thrust of {T:.3g} N at {W:.3g} rad/s and {V:.3g} command "
+                "units gives no finite start values for the axial-flow state (thrust far too "
+                "small or large); check the thrust column's unit (N) and the speed's (rad/s), or "
+                "choose a model without the flow state (first-order, yoerger)")
         dyn = HealeyThruster(inertia=J, drive_gain=ku, viscous=ku * V / (2 * W),
                              torque_coefficient=ku * V / (2 * W * W),
                              thrust_coefficient=kt.get(1.0, kt[sg]),

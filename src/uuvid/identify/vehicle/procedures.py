@@ -469,6 +469,9 @@ def detect_omega(t, u) -> tuple[float | None, float]:
     if t.size < 16:
         return None, 0.0
     dt = float(np.median(np.diff(t)))
+    if not dt > 0:
+        return None, 0.0
+    _check_grid(t, dt, "command", relative=True)
     grid = np.arange(t[0], t[-1], dt)
     idx = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1)
     ug = u[idx]
@@ -624,6 +627,34 @@ def inertia_document(res: dict, dof: str, log: Path, drag: dict, data: LogData) 
 # =============================================================================================
 # a uniform position grid for the inertia regression
 # =============================================================================================
+MAX_GRID = 2_000_000
+"""Most points of a uniform grid an identification builds (the budget checked before
+allocating it)."""
+
+
+def _check_grid(t: np.ndarray, step: float, what: str, *, relative: bool,
+                option: str | None = None) -> int:
+    """The size of a uniform ``step`` grid over ``t``, refused (``ValueError``) past
+    :data:`MAX_GRID` points or, with ``relative``, past 10× the samples (a clock jump or a time
+    column in the wrong unit: the grid would fill the gap)."""
+    span = float(t[-1] - t[0])
+    n = math.floor(span / step + 1e-9) + 1 if math.isfinite(span) else math.inf
+    if relative and n > 10 * t.size + 16:
+        d = np.diff(t)
+        i = int(np.argmax(d))
+        raise ValueError(
+            f"{what} time stamps: the largest gap is {d[i]:.6g} s (after t = {t[i]:.6g} s, sample "
+            f"{i + 1}) for a median step of {step:.4g} s; {t.size} samples span {span:.6g} s: "
+            "a clock jump or a time column in the wrong unit (check --time-unit); cut the log "
+            "with --t-start/--t-end around the experiment")
+    if n > MAX_GRID:
+        raise ValueError(
+            f"{what}: a uniform {step:.4g} s grid over {span:.6g} s is {n:.3g} points, more than "
+            f"{MAX_GRID:,}; " + (f"give a larger {option} step" if option else
+                                 "cut the log with --t-start/--t-end"))
+    return int(n)
+
+
 def uniform_position(t, x, *, resample="auto", angle: bool = False,
                      jitter_tol: float = 0.01) -> tuple[np.ndarray, np.ndarray, str | None]:
     """The position on a uniform grid for the Savitzky–Golay derivative of the inertia fit.
@@ -647,6 +678,7 @@ def uniform_position(t, x, *, resample="auto", angle: bool = False,
     if isinstance(resample, str):
         if resample != "auto":
             raise ValueError(f"resample {resample!r}: expected auto, off or a step in seconds")
+        _check_grid(t, step, "position", relative=True)
         k = np.rint((t - t[0]) / step)
         off = np.abs(t - (t[0] + k * step))
         if np.max(off) <= jitter_tol * step and np.unique(k).size == k.size:
@@ -663,7 +695,8 @@ def uniform_position(t, x, *, resample="auto", angle: bool = False,
         from uuvid.identify.vehicle.segments import robust_unwrap
 
         x = robust_unwrap(t, x, "rad")
-    n = int(math.floor((t[-1] - t[0]) / step + 1e-9)) + 1
+    n = _check_grid(t, step, "position", relative=isinstance(resample, str),
+                    option=None if isinstance(resample, str) else "--resample")
     grid = t[0] + step * np.arange(n)
     from scipy.interpolate import CubicSpline
 
@@ -702,10 +735,18 @@ def write_back(vehicle: str, out_vehicle, identified: dict, log, command: str) -
 def _params_text(title: str, params: dict) -> str:
     lines = [title, f"  {'parameter':<16}{'estimate':>12}{'σ':>11}  {'% error':>8}  significant"]
     for n, r in params.items():
-        lines.append(f"  {n:<16}{r['estimate']:>12.5g}{r['sigma']:>11.3g}  "
-                     f"{r['percentile_error']:>8.1f}  {'yes' if r['significant'] else 'no'}"
-                     f"  {r.get('unit') or ''}")
+        lines.append(f"  {n:<16}{_cell(r['estimate'], '>12.5g')}{_cell(r['sigma'], '>11.3g')}  "
+                     f"{_cell(r['percentile_error'], '>8.1f')}  "
+                     f"{'yes' if r['significant'] else 'no'}  {r.get('unit') or ''}")
     return "\n".join(lines)
+
+
+def _cell(x, fmt: str) -> str:
+    """A number for the text table; "—" where the fit gave none (None, NaN, inf)."""
+    width = int("".join(c for c in fmt.split(".")[0] if c.isdigit()) or 0)
+    if x is None or not math.isfinite(x):
+        return "—".rjust(width)
+    return format(x, fmt)
 
 
 @dataclass

@@ -43,9 +43,17 @@ class Series:
     seq: list = field(default_factory=list)  # position in the log (message number)
     t: np.ndarray | None = None  # on the time base (filled by RawLog.finish)
     part: np.ndarray | None = None
+    log: str = ""  # the log's file name (for errors)
 
     def array(self, name: str) -> np.ndarray:
-        return np.asarray(self.values[name], dtype=float)
+        v = self.values.get(name)
+        if v is None:  # a field the log's own format description (FMT) does not give
+            raise LogDataError(
+                f"{self.log or 'log'}: {self.msg} has no field {name!r} (its fields: "
+                f"{', '.join(sorted(self.values)) or 'none'}); the log's format description "
+                "(FMT) of that message is corrupt or from an unsupported firmware: re-download "
+                "the log from the vehicle")
+        return np.asarray(v, dtype=float)
 
 
 @dataclass
@@ -201,7 +209,7 @@ def read_raw(path) -> RawLog:
             key = (mt, src)
             sr = series.get(key)
             if sr is None:
-                sr = series[key] = Series(mt, src)
+                sr = series[key] = Series(mt, src, log=p.name)
             vals = _numeric_fields(m)
             for f, v in vals.items():
                 lst = sr.values.get(f)

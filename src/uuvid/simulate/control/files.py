@@ -56,6 +56,9 @@ def load_factory(path: str | Path, factory: str):
         raise ControllerFileError(f"controller file {p}: no such file")
     name = "uuvid_user_controller_" + hashlib.sha1(str(p.resolve()).encode()).hexdigest()[:12]
     spec = importlib.util.spec_from_file_location(name, p)
+    if spec is None or spec.loader is None:  # no .py suffix: Python finds no loader for it
+        raise ControllerFileError(f"controller file {p}: expected a Python file ending in .py "
+                                  f"(got suffix {p.suffix!r}); rename it to {p.stem}.py")
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod  # numba and dataclasses look their module up
     try:
