@@ -1,0 +1,114 @@
+"""Vehicle-file inflow switch and the steady analyses with thrust at the advance speed (issue 21)."""
+
+
+import numpy as np
+import pytest
+import yaml
+
+from uuvid.vehicle import VehicleFileError, load_vehicle, vehicle_from_dict
+from uuvid.vehicle.definition import preset_path
+from uuvid.vehicle.envelope import speed_envelope
+from uuvid.vehicle.inflow import inflow_limits
+
+
+def _preset_raw(name):
+    return yaml.safe_load(preset_path(name).read_text())
+
+
+def _with(name, inflow="four-quadrant", wake=None):
+    raw = _preset_raw(name)
+    raw["inflow"] = inflow
+    if wake is not None:
+        for t in raw["thrusters"]:
+            t["wake"] = wake
+    return vehicle_from_dict(raw, where=f"{name}.yaml")
+
+
+# ------------------------------------------------------------------ file
+def test_file_switch_and_wake_are_read():
+    v = _with("bluerov2", wake=0.2)
+    assert v.inflow == "four-quadrant"
+    assert v.wake == (0.2,) * 6
+    assert load_vehicle("bluerov2").inflow == "none"
+
+
+@pytest.mark.parametrize("mutate, expected", [
+    (lambda r: r.update(inflow="momentum"), "inflow"),
+    (lambda r: r["thrusters"][1].update(wake=1.0), r"thrusters\[1\]\.wake"),
+    (lambda r: r["thrusters"][0].update(wake=-0.1), r"thrusters\[0\]\.wake"),
+])
+def test_bad_inflow_input_names_the_key(mutate, expected):
+    raw = _preset_raw("bluerov2")
+    mutate(raw)
+    with pytest.raises(VehicleFileError, match=expected):
+        vehicle_from_dict(raw, where="b.yaml")
+
+
+def test_inflow_needs_a_known_propeller():
+    raw = _preset_raw("bluerov2")
+    raw["inflow"] = "four-quadrant"
+    raw["thrusters"][2]["model"] = "my_thruster.yaml"
+    with pytest.raises(VehicleFileError, match=r"thrusters\[2\]\.model: inflow"):
+        vehicle_from_dict(raw, where="b.yaml")
+
+
+# ------------------------------------------------------------------ limits
+def test_limits_at_rest_are_the_files_exactly():
+    v = _with("bluerov2")
+    il = inflow_limits(v)
+    np.testing.assert_array_equal(il.limits_at(np.zeros(6)), v.layout.limits)
+
+
+def test_limits_fall_when_propelling_and_rise_against_the_flow():
+    v0, v3 = _with("bluerov2"), _with("bluerov2", wake=0.3)
+    nu = np.array([1.0, 0, 0, 0, 0, 0])
+    il = inflow_limits(v0)
+    a, b = il.limits_at(nu), inflow_limits(v3).limits_at(nu)
+    lim = v0.layout.limits
+    ua = il.advance(nu)
+    for i in range(4):  # horizontal thrusters, axes at ±45° to surge
+        prop = 1 if ua[i] > 0 else 0  # the limit whose thrust pushes into the advance
+        other = 1 - prop
+        assert abs(a[i, prop]) < abs(b[i, prop]) < abs(lim[i, prop])  # wake gives some back
+        assert abs(a[i, other]) > abs(lim[i, other])  # flow from behind the jet helps
+    np.testing.assert_array_equal(a[4:], lim[4:])  # the vertical pair sees no surge advance
+
+
+# ------------------------------------------------------------------ envelope
+def test_envelope_inflow_none_restores_the_bollard_envelope():
+    v = _with("bluerov2")
+    off = speed_envelope(v, inflow="none")
+    plain = speed_envelope(load_vehicle("bluerov2"))
+    assert off.to_dict() == plain.to_dict()
+    assert "speed_bollard" not in plain.to_dict()["rows"][0]
+
+
+@pytest.mark.parametrize("name", ["bluerov2", "bluerov2-heavy"])
+def test_envelope_with_inflow_balances_drag_against_the_thrust_at_that_speed(name):
+    v = _with(name)
+    env = speed_envelope(v, dofs=["surge", "heave"])
+    p = v.params
+    for r in env.rows:
+        d = {"surge": 0, "heave": 2}[r.dof]
+        assert abs(r.speed) < abs(r.speed_bollard)
+        # the force behind the row is the LP maximum at the limits of its own steady state …
+        nu = np.zeros(6)
+        nu[d] = r.speed
+        lim = inflow_limits(v).limits_at(nu)
+        from uuvid.vehicle.envelope import _forces
+
+        al = v.allocator(None, compensate_eta=True)
+        ep, en = al.eta
+        C = al.mode.constraint_rows(v.B) if al.mode is not None else None
+        F, _ = _forces(al, v.B, lim, d, r.sign, al.controlled, ep, en, C)
+        # … and it balances drag (plus W − B in heave)
+        drag = p.linear_damping[d, d] * r.speed + p.quadratic_damping[d, d] * r.speed * abs(r.speed)
+        bias = p.net_weight if d == 2 else 0.0
+        assert drag == pytest.approx(r.sign * F + bias, rel=1e-8)
+
+
+def test_wake_raises_the_speed_towards_bollard():
+    s0 = speed_envelope(_with("bluerov2"), dofs=["surge"])["forward"].speed
+    s3 = speed_envelope(_with("bluerov2", wake=0.3), dofs=["surge"])["forward"].speed
+    sb = speed_envelope(load_vehicle("bluerov2"), dofs=["surge"])["forward"].speed
+    assert s0 < s3 < sb
