@@ -112,3 +112,74 @@ def test_wake_raises_the_speed_towards_bollard():
     s3 = speed_envelope(_with("bluerov2", wake=0.3), dofs=["surge"])["forward"].speed
     sb = speed_envelope(load_vehicle("bluerov2"), dofs=["surge"])["forward"].speed
     assert s0 < s3 < sb
+
+
+# ------------------------------------------------------------------ stability and hold
+def test_stability_inflow_none_restores_today_and_inflow_only_changes_range_and_fractions():
+    from uuvid.vehicle.stability import static_stability
+
+    v = _with("bluerov2")
+    plain = static_stability(load_vehicle("bluerov2"), n_speeds=9)
+    off = static_stability(v, n_speeds=9, inflow="none")
+    assert off.to_dict() == plain.to_dict()
+    on = static_stability(v, n_speeds=9)
+    fwd_on, fwd_off = on["forward"], off["forward"]
+    assert fwd_on.max_speed < fwd_off.max_speed
+    # the level limit is a property of trim, not of thrust: the same with and without inflow
+    assert fwd_on.limit_speed == pytest.approx(fwd_off.limit_speed, rel=1e-3)
+    # at the same speed the thrusters work harder when the advance speed eats their thrust
+    u = fwd_on.speeds[3]
+    from uuvid.vehicle.stability import trim_state
+
+    assert u > 0
+    i_off = int(np.argmin(np.abs(fwd_off.speeds - u)))
+    if fwd_off.speeds[i_off] == pytest.approx(u):
+        assert fwd_on.thrust_fraction[3] > fwd_off.thrust_fraction[i_off]
+    assert trim_state(v, "surge", 1, u)["ok"]
+
+
+def test_hold_with_inflow_none_is_today_and_inflow_lowers_the_held_current():
+    from uuvid.analysis.hold import max_current
+
+    v = _with("bluerov2-heavy")  # thrust-limited in a current (the BlueROV2 tilts first)
+    base = max_current(load_vehicle("bluerov2-heavy"), 90.0, stability=False)
+    off = max_current(v, 90.0, stability=False, inflow="none")
+    assert off[0] == base[0] and off[1]["limit"] == "thrust"
+    on = max_current(v, 90.0, stability=False)
+    assert on[0] < off[0]
+
+
+def test_held_current_from_ahead_equals_the_envelope_speed_with_inflow():
+    """Two code paths (allocation in a current; LP envelope in still water) meet: holding still in
+    a head current V is flying at V through still water, advance speed included."""
+    from uuvid.analysis.hold import max_current
+
+    v = _with("bluerov2-heavy")
+    held = max_current(v, 0.0, stability=False, tol=1e-5)[0]
+    env = speed_envelope(v, dofs=["surge"])["forward"].speed
+    assert held == pytest.approx(env, rel=2e-3)
+
+
+# ------------------------------------------------------------------ CLI
+def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    run = CliRunner()
+    plain = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--no-confirm", "--json"])
+    off = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--no-confirm", "--json",
+                           "--inflow", "none"])
+    assert plain.exit_code == 0 and off.exit_code == 0
+    assert json.loads(off.output) == json.loads(plain.output)
+    on = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--inflow", "four-quadrant"])
+    assert on.exit_code == 0, on.output
+    assert "bollard_speed" in on.output and "not confirmed by simulation" in on.output
+    doc = json.loads(run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--json",
+                                      "--inflow", "four-quadrant"]).output)
+    fwd = next(r for r in doc["rows"] if r["direction"] == "forward")
+    assert fwd["allocator_speed"] < fwd["bollard_speed"]
+    bad = run.invoke(app, ["vehicle", "stability", "bluerov2", "--inflow", "bogus"])
+    assert bad.exit_code == 2 and "inflow must be one of" in bad.output

@@ -177,11 +177,16 @@ def vehicle_info(vehicle: str = typer.Argument(..., help="Vehicle preset or file
     _helpers()[4].print(v.summary())
 
 
+INFLOW_HELP = ("Thrust against the advance speed: none (bollard, as before) or four-quadrant; "
+               "default: the vehicle file's inflow key.")
+
+
 @vehicle_app.command("envelope")
 def vehicle_envelope(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
     confirm: bool = typer.Option(True, "--confirm/--no-confirm", help="Confirm each speed by simulation."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
+    inflow: str = typer.Option(None, "--inflow", help=INFLOW_HELP),
 ):
     """Maximum steady speed per DOF, analytic and confirmed by simulation (Laidani Table 4 kind).
 
@@ -192,13 +197,25 @@ def vehicle_envelope(
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle)
-    check = confirm_envelope(v, simulate=confirm)
+    try:
+        check = confirm_envelope(v, simulate=confirm, inflow=inflow)
+    except ValueError as e:
+        _fail(str(e))
     if json_out:
         _print_json(check.to_dict())
         return
+    with_inflow = "bollard_speed" in check.rows[0] if check.rows else False
     cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
             "limit"]
-    out_console.print(_table(f"{v.name}: speed envelope", check.table_rows(cols), cols, "{:.4g}"))
+    if with_inflow:  # side by side: the allocator speed with and without inflow
+        cols = ["direction", "force", "allocator_speed", "bollard_speed", "limit"]
+    title = f"{v.name}: speed envelope" + (" (thrust at the advance speed; bollard_speed: "
+                                           "inflow off)" if with_inflow else "")
+    out_console.print(_table(title, check.table_rows(cols), cols, "{:.4g}"))
+    if with_inflow:
+        out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
+                          "not confirmed by simulation (the mission loop has no inflow yet)",
+                          highlight=False, soft_wrap=True, markup=False)
     if any(r["tumbling_full_command"] for r in check.rows):
         out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
                           "full command it tumbles (its speed only in --json, tumbling_full_command)",
@@ -215,6 +232,7 @@ def vehicle_stability(
                                    "(the same 20° as vehicle hold)."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
     out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
+    inflow: str = typer.Option(None, "--inflow", help=INFLOW_HELP),
 ):
     """Static stability in steady flight: trim roll/pitch against speed, and where it stops.
 
@@ -224,7 +242,10 @@ def vehicle_stability(
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle)
-    res = static_stability(v, max_tilt_deg=max_tilt)
+    try:
+        res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
+    except ValueError as e:
+        _fail(str(e))
     if out:
         from uuvid.core.atomic import atomic_write_json
 

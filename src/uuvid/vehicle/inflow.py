@@ -46,6 +46,13 @@ class InflowLimits:
     n_fwd: np.ndarray  # rev/s at the upper limit
     n_rev: np.ndarray  # rev/s at the lower limit (negative)
 
+    def with_limits(self, limits) -> InflowLimits:
+        """The same thrusters with other bollard limits (e.g. at a supply voltage)."""
+        lim = np.asarray(limits, float).reshape(self.limits.shape)
+        return InflowLimits(self.model, self.maps, self.positions, self.axes, self.wake, lim,
+                            np.array([m.shaft_speed_for(lim[i, 1]) for i, m in enumerate(self.maps)]),
+                            np.array([m.shaft_speed_for(lim[i, 0]) for i, m in enumerate(self.maps)]))
+
     def advance(self, nu_r) -> np.ndarray:
         """Advance speed at each thruster (m/s) for body velocity ``ν_r`` relative to the water."""
         return advance_speeds(nu_r, self.positions, self.axes, self.wake)
