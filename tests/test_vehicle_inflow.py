@@ -183,3 +183,16 @@ def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
     assert fwd["allocator_speed"] < fwd["bollard_speed"]
     bad = run.invoke(app, ["vehicle", "stability", "bluerov2", "--inflow", "bogus"])
     assert bad.exit_code == 2 and "inflow must be one of" in bad.output
+
+
+def test_demo_section_shows_both_vehicles_with_and_without_inflow(tmp_path):
+    from uuvid.core.html import Report
+    from uuvid.demo import _inflow_rows
+
+    rep = Report("inflow")
+    rows = _inflow_rows(rep, load_vehicle("bluerov2"))
+    assert [r["vehicle"] for r in rows] == ["bluerov2", "bluerov2-heavy"]
+    for r in rows:
+        assert 0 < r["thrust at the advance speed [m/s]"] < r["bollard thrust [m/s]"]
+    rep.write(tmp_path)
+    assert "advance speed" in (tmp_path / "index.html").read_text()
