@@ -199,3 +199,37 @@ def test_t200_pitch_and_diameter_are_consistent_with_its_sheet():
     # pitch angle at 0.7 R from P/D
     assert math.tan(t.pitch_angle) == pytest.approx(t.pitch_ratio / (0.7 * math.pi))
     assert t.inflow_coefficient > 0
+
+
+# ------------------------------------------------------------------ compiled pieces for a loop
+def test_inflow_thrust_kernel_is_bollard_at_zero_advance_and_the_map_elsewhere():
+    from uuvid.thruster.inflow import inflow_params, inflow_thrust_nb
+
+    prm = inflow_params(MAP)
+    for f in (51.485, 12.0, -39.913, -3.0, 0.0):
+        assert inflow_thrust_nb(f, 0.0, prm) == f  # bit for bit: the bollard model
+        n = MAP.shaft_speed_for(f) if f else 0.0
+        for ua in (-1.2, -0.3, 0.4, 1.5):
+            want = float(MAP.thrust_torque(n, ua)[0])
+            assert inflow_thrust_nb(f, ua, prm) == pytest.approx(want, rel=1e-10, abs=1e-12)
+        # continuous as the advance speed goes to zero
+        assert inflow_thrust_nb(f, 1e-9, prm) == pytest.approx(f, rel=1e-6, abs=1e-9)
+
+
+def test_state_advance_speeds_match_the_geometric_form():
+    from uuvid.vehicle.inflow import state_advance_speeds_nb
+    from uuvid.vehicle.kinematics import quat_to_rotmat
+
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    x = np.r_[rng.normal(size=3), q, rng.normal(size=6)]
+    vc = rng.normal(size=3) * 0.3
+    P = rng.normal(size=(4, 3)) * 0.2
+    A = rng.normal(size=(4, 3))
+    A /= np.linalg.norm(A, axis=1)[:, None]
+    w = rng.uniform(0, 0.3, 4)
+    got = state_advance_speeds_nb(x, vc, P, A, w, np.empty(4))
+    nu_r = x[7:13].copy()
+    nu_r[:3] -= quat_to_rotmat(q).T @ vc
+    np.testing.assert_allclose(got, advance_speeds(nu_r, P, A, w), rtol=0, atol=1e-13)

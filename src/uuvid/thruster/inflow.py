@@ -229,6 +229,34 @@ class FourQuadrantMap:
         return self.ct(beta) / self.ct(b0) * (1.0 + (np.asarray(ua, float) / vt) ** 2)
 
 
+def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH) -> np.ndarray:
+    """Flat parameters of :func:`inflow_thrust_nb`: ``[ρ, D, |K_T0| ahead, |K_T0| astern, N,
+    C_T* cos (N), C_T* sin (N)]``."""
+    return np.array([rho, fq.diameter, abs(fq.bollard_kt(1)), abs(fq.bollard_kt(-1)),
+                     len(fq.ct_a), *fq.ct_a, *fq.ct_b], dtype=np.float64)
+
+
+@njit(cache=True)
+def inflow_thrust_nb(f, ua, prm):
+    """Thrust at advance speed ``u_a`` of a thruster whose bollard model gives ``f`` (N).
+
+    The shaft speed is the one the map needs for ``f`` at bollard, ``n = sgn f ·
+    sqrt(|f| / (ρ |K_T0| D⁴))``; the thrust is then the map's ``T(n, u_a)``.  For ``f ≠ 0`` this is
+    ``f · T(n, u_a)/T(n, 0)``, so the chain's own bollard calibration is kept; ``u_a = 0`` returns
+    ``f`` itself (bit for bit: the bollard model is the zero-advance case).  ``prm``:
+    :func:`inflow_params`.  This is the evaluation a mission loop calls per thruster and stage."""
+    if ua == 0.0:
+        return f
+    rho, D = prm[0], prm[1]
+    kt = prm[2] if f >= 0.0 else prm[3]
+    nc = int(prm[4])
+    n = math.copysign(math.sqrt(abs(f) / (rho * kt * D ** 4)), f)
+    vt = 0.7 * math.pi * n * D
+    beta = math.atan2(ua, vt)
+    ct = fourier_nb(prm[5:5 + nc], prm[5 + nc:5 + 2 * nc], beta)
+    return ct * 0.5 * rho * (ua * ua + vt * vt) * 0.25 * math.pi * D * D
+
+
 # ------------------------------------------------------------------------------------------------
 # Healey's full blade-element form with the advance speed in the axial flow
 # ------------------------------------------------------------------------------------------------

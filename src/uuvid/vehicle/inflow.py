@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from uuvid.thruster.inflow import INFLOW_MODELS, FourQuadrantMap, advance_speeds, propeller_map
 
@@ -97,6 +98,33 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
     n_rev = np.array([m.shaft_speed_for(lim[i, 0]) for i, m in enumerate(maps)])
     return InflowLimits(mode, tuple(maps), P, A / np.linalg.norm(A, axis=1)[:, None], wake, lim,
                         n_fwd, n_rev)
+
+
+@njit(cache=True)
+def state_advance_speeds_nb(x, vc_ned, positions, axes, wake, out):
+    """Advance speeds (in place) from the 13-state ``x = [η (3), q (4), ν (6)]`` of
+    :func:`uuvid.vehicle.model.vehicle_rhs_into` and the NED current: ``ν_r = ν − [Rᵀ v_c; 0]``,
+    then ``u_a = (1 − w) axisᵀ(v_r + ω × r)`` (for a mission loop, per RK4 stage)."""
+    e, ex, ey, ez = x[3], x[4], x[5], x[6]
+    r00 = 1.0 - 2.0 * (ey * ey + ez * ez)
+    r01 = 2.0 * (ex * ey - ez * e)
+    r02 = 2.0 * (ex * ez + ey * e)
+    r10 = 2.0 * (ex * ey + ez * e)
+    r11 = 1.0 - 2.0 * (ex * ex + ez * ez)
+    r12 = 2.0 * (ey * ez - ex * e)
+    r20 = 2.0 * (ex * ez - ey * e)
+    r21 = 2.0 * (ey * ez + ex * e)
+    r22 = 1.0 - 2.0 * (ex * ex + ey * ey)
+    u = x[7] - (r00 * vc_ned[0] + r10 * vc_ned[1] + r20 * vc_ned[2])
+    v = x[8] - (r01 * vc_ned[0] + r11 * vc_ned[1] + r21 * vc_ned[2])
+    w = x[9] - (r02 * vc_ned[0] + r12 * vc_ned[1] + r22 * vc_ned[2])
+    p, q, r = x[10], x[11], x[12]
+    for i in range(positions.shape[0]):
+        px, py, pz = positions[i, 0], positions[i, 1], positions[i, 2]
+        out[i] = (1.0 - wake[i]) * (axes[i, 0] * (u + q * pz - r * py)
+                                    + axes[i, 1] * (v + r * px - p * pz)
+                                    + axes[i, 2] * (w + p * py - q * px))
+    return out
 
 
 def steady_speed_with_inflow(speed_of_force, force_at_speed, s0: float) -> float:
