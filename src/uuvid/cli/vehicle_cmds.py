@@ -32,7 +32,7 @@ def _load_vehicle(name: str):
         _fail(msg if "preset" in msg else f"{msg} (presets: {', '.join(list_presets())})")
 
 
-def _fly(spec, base, out, json_out, label):
+def _fly(spec, base, out, json_out, label, inflow=None):
     from uuvid.core.progress import progress_task
     from uuvid.simulate.control.files import describe
     from uuvid.simulate.scenario import build
@@ -42,6 +42,13 @@ def _fly(spec, base, out, json_out, label):
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
         vehicle, setup = build(spec, base)
+        if inflow is not None:  # --inflow overrides the vehicle file's key
+            import dataclasses
+
+            from uuvid.simulate.vehicle_sim import _inflow_arrays
+
+            setup = dataclasses.replace(setup, inflow_arrays=_inflow_arrays(
+                vehicle, inflow, None if not spec.thruster_model else True))
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         _fail(str(e))
     err_console.print(f"controller: {describe(setup.controller)}")
@@ -110,6 +117,9 @@ def simulate(
     ),
     out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    inflow: str = typer.Option(None, "--inflow", help="Thrust against the advance speed: none "
+                               "(bollard, as before) or four-quadrant; default: the vehicle "
+                               "file's inflow key."),
 ):
     """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
 
@@ -151,7 +161,7 @@ def simulate(
             )
         except ModelFileError as e:
             _fail(str(e))
-        _fly(spec, None, out, json_out, f"{kind} with {vehicle}")
+        _fly(spec, None, out, json_out, f"{kind} with {vehicle}", inflow)
         return
     if kind is not None:
         _fail(f"unexpected argument {kind!r} after the scenario file")
@@ -167,7 +177,7 @@ def simulate(
                                       where="--controller")
     except ModelFileError as e:
         _fail(str(e))
-    _fly(spec, scenario.parent, out, json_out, spec.name)
+    _fly(spec, scenario.parent, out, json_out, spec.name, inflow)
 
 
 @vehicle_app.command("info")

@@ -230,13 +230,17 @@ class FourQuadrantMap:
 
 
 def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH) -> np.ndarray:
-    """Flat parameters of :func:`inflow_thrust_nb`: ``[ρ, D, |K_T0| ahead, |K_T0| astern, N,
-    C_T* cos (N), C_T* sin (N)]``."""
-    return np.array([rho, fq.diameter, abs(fq.bollard_kt(1)), abs(fq.bollard_kt(-1)),
+    """Flat parameters of :func:`inflow_thrust_nb`: ``[0.7πD, ⅛πρD², 1/(ρ|K_T0|D⁴) ahead, the same
+    astern, N, C_T* cos (N), C_T* sin (N)]`` (the constants precomputed: the loop calls it per
+    thruster and RK4 stage)."""
+    D = fq.diameter
+    return np.array([0.7 * math.pi * D, 0.125 * math.pi * rho * D * D,
+                     1.0 / (rho * abs(fq.bollard_kt(1)) * D ** 4),
+                     1.0 / (rho * abs(fq.bollard_kt(-1)) * D ** 4),
                      len(fq.ct_a), *fq.ct_a, *fq.ct_b], dtype=np.float64)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def inflow_thrust_nb(f, ua, prm):
     """Thrust at advance speed ``u_a`` of a thruster whose bollard model gives ``f`` (N).
 
@@ -247,14 +251,18 @@ def inflow_thrust_nb(f, ua, prm):
     :func:`inflow_params`.  This is the evaluation a mission loop calls per thruster and stage."""
     if ua == 0.0:
         return f
-    rho, D = prm[0], prm[1]
-    kt = prm[2] if f >= 0.0 else prm[3]
+    c = prm[2] if f >= 0.0 else prm[3]
     nc = int(prm[4])
-    n = math.copysign(math.sqrt(abs(f) / (rho * kt * D ** 4)), f)
-    vt = 0.7 * math.pi * n * D
-    beta = math.atan2(ua, vt)
-    ct = fourier_nb(prm[5:5 + nc], prm[5 + nc:5 + 2 * nc], beta)
-    return ct * 0.5 * rho * (ua * ua + vt * vt) * 0.25 * math.pi * D * D
+    vt = prm[0] * math.copysign(math.sqrt(abs(f) * c), f)  # 0.7π n D
+    v2 = ua * ua + vt * vt
+    ir = 1.0 / math.sqrt(v2)
+    c1, s1 = vt * ir, ua * ir  # cos β, sin β without atan2; cos kβ, sin kβ by angle addition
+    ck, sk = 1.0, 0.0
+    ct = 0.0
+    for k in range(nc):
+        ct += prm[5 + k] * ck + prm[5 + nc + k] * sk
+        ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
+    return ct * prm[1] * v2
 
 
 # ------------------------------------------------------------------------------------------------
@@ -431,8 +439,8 @@ def wageningen_b4_70_approx(diameter: float = 1.0) -> FourQuadrantMap:
     1969; MARIN) were not available here.  The map is Healey's blade-element shape (C_L ∝ sin 2α,
     C_D ∝ 1 − cos 2α, in the geometric advance angle) with pitch angle, lift and drag gains fitted
     by least squares to the recalled open-water points :data:`B4_70_PD10_OPEN_WATER`, the astern
-    lift scaled by :data:`B4_70_REVERSE_LIFT`, then expanded to an 8th-order Fourier
-    series (exact: the shape is a trigonometric polynomial).
+    lift scaled by :data:`B4_70_REVERSE_LIFT`, then expanded to a 4th-order Fourier
+    series (exact: the shape is a trigonometric polynomial of degree 4).
     Replace it by the published table (:meth:`FourQuadrantMap.fit`) for quantitative work.
     """
     from scipy.optimize import least_squares
@@ -451,7 +459,7 @@ def wageningen_b4_70_approx(diameter: float = 1.0) -> FourQuadrantMap:
     grid = np.linspace(-np.pi, np.pi, 721)[:-1]
     ct, cq = _blade_map_coefficients(grid, x[0], x[1], x[2], B4_70_REVERSE_LIFT * x[1], x[3])
     return FourQuadrantMap.fit(
-        "wageningen-b4-70-pd1.0-approx", diameter, grid, ct, cq, order=8,
+        "wageningen-b4-70-pd1.0-approx", diameter, grid, ct, cq, order=4,
         source="shape: Healey et al. 1995 blade element; level: Wageningen B4-70 P/D=1.0 open-water "
                "chart (van Lammeren et al. 1969), recalled points",
         assumption="not the published four-quadrant table; open-water points recalled to ~±10 %; "

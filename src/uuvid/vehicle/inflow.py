@@ -101,10 +101,11 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
 
 
 @njit(cache=True)
-def state_advance_speeds_nb(x, vc_ned, positions, axes, wake, out):
+def state_advance_speeds_nb(x, vc_ned, G, out):
     """Advance speeds (in place) from the 13-state ``x = [η (3), q (4), ν (6)]`` of
     :func:`uuvid.vehicle.model.vehicle_rhs_into` and the NED current: ``ν_r = ν − [Rᵀ v_c; 0]``,
-    then ``u_a = (1 − w) axisᵀ(v_r + ω × r)`` (for a mission loop, per RK4 stage)."""
+    then ``u_a = (1 − w) axisᵀ(v_r + ω × r)`` (for a mission loop, per RK4 stage).  ``G`` (n, 7):
+    rows ``[r (3), unit axis (3), w]`` (:func:`inflow_geometry`)."""
     e, ex, ey, ez = x[3], x[4], x[5], x[6]
     r00 = 1.0 - 2.0 * (ey * ey + ez * ez)
     r01 = 2.0 * (ex * ey - ez * e)
@@ -119,12 +120,39 @@ def state_advance_speeds_nb(x, vc_ned, positions, axes, wake, out):
     v = x[8] - (r01 * vc_ned[0] + r11 * vc_ned[1] + r21 * vc_ned[2])
     w = x[9] - (r02 * vc_ned[0] + r12 * vc_ned[1] + r22 * vc_ned[2])
     p, q, r = x[10], x[11], x[12]
-    for i in range(positions.shape[0]):
-        px, py, pz = positions[i, 0], positions[i, 1], positions[i, 2]
-        out[i] = (1.0 - wake[i]) * (axes[i, 0] * (u + q * pz - r * py)
-                                    + axes[i, 1] * (v + r * px - p * pz)
-                                    + axes[i, 2] * (w + p * py - q * px))
+    for i in range(G.shape[0]):
+        px, py, pz = G[i, 0], G[i, 1], G[i, 2]
+        out[i] = (1.0 - G[i, 6]) * (G[i, 3] * (u + q * pz - r * py)
+                                    + G[i, 4] * (v + r * px - p * pz)
+                                    + G[i, 5] * (w + p * py - q * px))
     return out
+
+
+def inflow_geometry(vehicle) -> np.ndarray:
+    """``(n, 7)`` rows ``[r (3), unit axis (3), wake]`` of a vehicle's thrusters."""
+    lay = vehicle.layout
+    P = np.array([t.position for t in lay], float)
+    A = np.array([t.axis for t in lay], float)
+    A = A / np.linalg.norm(A, axis=1)[:, None]
+    w = np.asarray(vehicle.wake if len(getattr(vehicle, "wake", ())) else np.zeros(lay.n), float)
+    return np.ascontiguousarray(np.column_stack([P, A, w]))
+
+
+def loop_arrays(vehicle, inflow: str | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(map parameters, geometry)`` for a mission loop (:func:`uuvid.thruster.inflow.
+    inflow_params`, :func:`inflow_geometry`), or ``None`` when inflow is off.  One map for all
+    thrusters (a vehicle's thrusters share one chain structure in the loop)."""
+    from uuvid.thruster.inflow import inflow_params
+
+    il = inflow_limits(vehicle, inflow)
+    if il is None:
+        return None
+    names = {m.name for m in il.maps}
+    diam = {m.diameter for m in il.maps}
+    if len(names) > 1 or len(diam) > 1:
+        raise ValueError(f"{vehicle.name}: the mission loop takes one propeller map for all "
+                         f"thrusters, got {sorted(names)} at diameters {sorted(diam)}")
+    return inflow_params(il.maps[0]), inflow_geometry(vehicle)
 
 
 def steady_speed_with_inflow(speed_of_force, force_at_speed, s0: float) -> float:
