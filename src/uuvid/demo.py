@@ -189,7 +189,7 @@ def _inflow_rows(rep: Report, bluerov2) -> list[dict]:
                      "change": f"{r.speed_allocator / r.speed_allocator_bollard - 1:+.1%}"})
     rep.add_table(rows, caption="Max forward surge speed (allocator), bollard thrusters against "
                   "thrust at the advance speed (four-quadrant map, approximate B4-70 P/D 1.0 — "
-                  "docs: 'Thrust that knows the water speed'); not yet in the mission loop")
+                  "docs: 'Thrust that knows the water speed'); analytic, not confirmed by simulation")
     return rows
 
 

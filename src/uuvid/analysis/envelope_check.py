@@ -309,7 +309,7 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
 
     ``inflow`` (``None``: the vehicle file's, ``'none'``: bollard thrust): with inflow the rows
     carry the bollard speed beside (``bollard_speed``) and are not simulated — the confirming
-    flight runs bollard thrusters (the mission loop does not take the advance speed yet)."""
+    flight (:func:`hold_flight`, its own kernel) runs bollard thrusters."""
     from uuvid.vehicle.envelope import speed_envelope
     from uuvid.vehicle.stability import static_stability, trim_state
 
@@ -342,7 +342,7 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
         if not simulate:
             d["limit"] = case.limit_text() if case is not None else "—"
             d["method"] = "analytic"
-            d["note"] = ("not simulated (the simulation has no inflow yet)" if with_inflow
+            d["note"] = ("not simulated (the confirming flight has no inflow yet)" if with_inflow
                          else "not simulated")
             if case is not None and case.limited and case.limit_speed < abs(ref):
                 d["confirmed"] = False

@@ -500,8 +500,8 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
 
     inflow = resolve_inflow(vehicle, inflow)
     if inflow != "none" and simulate_deg:
-        raise ValueError("simulated confirmation flies bollard thrusters (the mission loop has no "
-                         "inflow yet): use inflow='none' with simulate_deg")
+        raise ValueError("simulated confirmation does not take inflow yet (its flights follow the "
+                         "vehicle file, not this switch): use inflow='none' with simulate_deg")
 
     if supply_voltage is not None and limits is None:
         limits = limits_at(vehicle, supply_voltage)

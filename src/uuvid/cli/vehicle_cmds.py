@@ -224,7 +224,7 @@ def vehicle_envelope(
     out_console.print(_table(title, check.table_rows(cols), cols, "{:.4g}"))
     if with_inflow:
         out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
-                          "not confirmed by simulation (the mission loop has no inflow yet)",
+                          "not confirmed by simulation (the confirming flight has no inflow yet)",
                           highlight=False, soft_wrap=True, markup=False)
     if any(r["tumbling_full_command"] for r in check.rows):
         out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
