@@ -100,7 +100,7 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
                         n_fwd, n_rev)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def state_advance_speeds_nb(x, vc_ned, G, out):
     """Advance speeds (in place) from the 13-state ``x = [η (3), q (4), ν (6)]`` of
     :func:`uuvid.vehicle.model.vehicle_rhs_into` and the NED current: ``ν_r = ν − [Rᵀ v_c; 0]``,
