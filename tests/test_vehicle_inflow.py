@@ -291,3 +291,28 @@ def test_cli_simulate_inflow_none_is_today_and_four_quadrant_differs():
     plain, off, on = doc(), doc("--inflow", "none"), doc("--inflow", "four-quadrant")
     assert off == plain
     assert on["rms_tracking_error_m"] != plain["rms_tracking_error_m"]
+
+
+def test_gym_env_inflow_none_is_today_and_inflow_lowers_the_thrust_when_moving():
+    pytest.importorskip("gymnasium")
+    from uuvid.simulate.gym_env import StationKeepingEnv
+
+    def one_step(vehicle, speed, **kw):
+        """Surge at ``speed`` (level, at the target), full surge force for one step (0.1 s)."""
+        env = StationKeepingEnv(vehicle, action="force", offset_range=0.0, **kw)
+        env.reset(seed=1)
+        env._z[7] = speed
+        act = np.zeros(env.action_space.shape)
+        act[0] = 1.0
+        env.step(act)
+        return env.state
+
+    for u in (0.0, 1.0):
+        plain = one_step("bluerov2", u)
+        off = one_step(_with("bluerov2"), u, inflow="none")
+        on = one_step(_with("bluerov2"), u)
+        np.testing.assert_array_equal(off, plain)  # inflow none: today's environment
+        if u == 0.0:  # from rest the advance speed only builds up within the step
+            assert on[7] == pytest.approx(off[7], rel=0.05)
+        else:  # moving: the propellers keep less of their bollard thrust
+            assert on[7] - u < 0.95 * (off[7] - u)
