@@ -316,3 +316,13 @@ def test_gym_env_inflow_none_is_today_and_inflow_lowers_the_thrust_when_moving()
             assert on[7] == pytest.approx(off[7], rel=0.05)
         else:  # moving: the propellers keep less of their bollard thrust
             assert on[7] - u < 0.95 * (off[7] - u)
+
+
+def test_simd_batch_refuses_inflow_too():
+    from uuvid.simulate.batch import run_batch_fast
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+
+    s = setup_mission(_with("bluerov2"), square_mission(speed=0.3))
+    with pytest.raises(ValueError, match="inflow"):
+        run_batch_fast(s, s.vp[None, :])

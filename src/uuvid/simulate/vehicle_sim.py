@@ -1041,7 +1041,10 @@ def allocation_method(alloc: np.ndarray) -> str:
 
 
 def require_constant_current(setup: MissionSetup) -> None:
-    """Batch runs take a constant current and an ideal supply."""
+    """Batch runs take a constant current and an ideal supply, and bollard thrusters."""
+    if getattr(setup, "inflow_arrays", None) is not None:
+        raise ValueError("batch runs fly bollard thrusters (the batch kernels have no inflow yet): "
+                         "set up the mission with inflow='none'")
     if setup.battery_array is not None:
         raise ValueError("batch runs take an ideal supply; fly a battery run with fly_mission")
     if setup.current_series is not None:
@@ -1221,9 +1224,6 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     state; a plain Python controller flies the vehicles one after another)."""
     s = setup
     require_constant_current(s)
-    if s.inflow_arrays is not None:
-        raise ValueError("batch runs fly bollard thrusters (the batch kernels have no inflow yet): "
-                         "set up the mission with inflow='none'")
     b = s.bank
     VP = np.ascontiguousarray(vehicle_params, dtype=float)
     nrun = VP.shape[0]
