@@ -175,7 +175,24 @@ def _vehicle_section(out: Path, rep: Report) -> dict:
         if name == "bluerov2":
             rep.add_figure(check.stability.plot(out / "bluerov2_stability.png"),
                            caption="BlueROV2: trim in steady flight; it cannot stay level beyond the limits")
-    return {"mission": res.metrics, "envelopes": envs}
+    return {"mission": res.metrics, "envelopes": envs, "inflow": _inflow_rows(rep, v)}
+
+
+def _inflow_rows(rep: Report, bluerov2) -> list[dict]:
+    """Max surge speed with bollard thrust and with thrust at the advance speed (issue 21)."""
+    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.vehicle.envelope import speed_envelope
+
+    rows = []
+    for name, v in (("bluerov2", bluerov2), ("bluerov2-heavy", load_vehicle("bluerov2-heavy"))):
+        r = speed_envelope(v, dofs=["surge"], inflow="four-quadrant")["forward"]
+        rows.append({"vehicle": name, "bollard thrust [m/s]": round(r.speed_allocator_bollard, 3),
+                     "thrust at the advance speed [m/s]": round(r.speed_allocator, 3),
+                     "change": f"{r.speed_allocator / r.speed_allocator_bollard - 1:+.1%}"})
+    rep.add_table(rows, caption="Max forward surge speed (allocator), bollard thrusters against "
+                  "thrust at the advance speed (four-quadrant map, approximate B4-70 P/D 1.0 — "
+                  "docs: 'Thrust that knows the water speed'); analytic, not confirmed by simulation")
+    return rows
 
 
 def _study_section(out: Path, rep: Report) -> dict:

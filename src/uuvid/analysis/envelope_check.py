@@ -302,18 +302,28 @@ def _level_limit(case) -> str:
 
 
 def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLERANCE,
-                     simulate: bool = True) -> EnvelopeCheck:
+                     simulate: bool = True, inflow: str | None = None) -> EnvelopeCheck:
     """Simulate every direction of the envelope (see the module text) and say which are
     confirmed within ``tolerance`` of the allocator's analytic speed, and why not
-    (``simulate=False``: the analytic rows with the stability limits only)."""
+    (``simulate=False``: the analytic rows with the stability limits only).
+
+    ``inflow`` (``None``: the vehicle file's, ``'none'``: bollard thrust): with inflow the rows
+    carry the bollard speed beside (``bollard_speed``) and are not simulated — the confirming
+    flight (:func:`hold_flight`, its own kernel) runs bollard thrusters."""
     from uuvid.vehicle.envelope import speed_envelope
     from uuvid.vehicle.stability import static_stability, trim_state
 
-    env = speed_envelope(vehicle) if env is None else env
-    stab = static_stability(vehicle, envelope=env) if stability is None else stability
+    env = speed_envelope(vehicle, inflow=inflow) if env is None else env
+    stab = static_stability(vehicle, envelope=env, inflow=env.inflow) if stability is None \
+        else stability
+    with_inflow = env.inflow != "none"
+    simulate = simulate and not with_inflow
     rows = []
     for r in env.rows:
         d = _row(r)
+        if with_inflow:
+            d["bollard_speed"] = None if math.isnan(r.speed_allocator_bollard) else \
+                r.speed_allocator_bollard
         k = dof_index(r.dof)
         ref = r.speed_allocator
         if k in (3, 4):
@@ -332,7 +342,8 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
         if not simulate:
             d["limit"] = case.limit_text() if case is not None else "—"
             d["method"] = "analytic"
-            d["note"] = "not simulated"
+            d["note"] = ("not simulated (the confirming flight has no inflow yet)" if with_inflow
+                         else "not simulated")
             if case is not None and case.limited and case.limit_speed < abs(ref):
                 d["confirmed"] = False
                 d["limit"] = _level_limit(case)

@@ -265,7 +265,8 @@ def _allocator(vehicle, limits=None, modes=None) -> Allocator:
 
 def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth: float = 2.0,
                 v_cap: float = 10.0, tol: float = 1e-4, soc: float | None = None,
-                battery=None, stability: bool = True, gains=None) -> tuple[float, dict]:
+                battery=None, stability: bool = True, gains=None,
+                inflow: str | None = None) -> tuple[float, dict]:
     """Largest current speed (m/s) held from ``relative_deg``; also the allocation at it.
 
     Held: the steady wrench is delivered within the limits (:func:`steady_hold`: thrust,
@@ -275,8 +276,28 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     ``attitude``, ``stability`` or ``uncontrolled`` (the current pushes along a DOF no thruster
     controls), ``info["reason"]`` in words; ``info["drifting"]`` the DOFs left to drift
     neutrally (uncontrolled, taken out of the stability test).  With ``soc`` the limits follow
-    the battery's loaded voltage (:func:`hold_on_battery`)."""
+    the battery's loaded voltage (:func:`hold_on_battery`).
+
+    ``inflow`` (``None``: the vehicle file's; ``'none'``: bollard limits): each thruster's limit
+    at the advance speed the current gives it while the vehicle holds still, level, heading
+    north (``ν_r = −ν_c``; :mod:`uuvid.vehicle.inflow`).  The hold gains keep the bollard reach."""
+    from uuvid.vehicle.inflow import inflow_limits
+
     al = _allocator(vehicle, limits, modes)
+    il = inflow_limits(vehicle, inflow)
+    if il is not None and soc is not None:
+        raise ValueError("max_current: inflow with battery-limited thrust (soc) is not supported "
+                         "yet; use inflow='none'")
+    if il is not None and limits is not None:
+        il = il.with_limits(limits)
+
+    def al_at(v):  # the allocation with the thrust limits at current speed v
+        if il is None or v == 0.0:
+            return al
+        nu = np.zeros(6)
+        nu[:3] = -current_ned(v, relative_deg)
+        return _allocator(vehicle, il.limits_at(nu), modes)
+
     if stability and gains is None:
         gains = hold_gains(vehicle if limits is None else _with_limits(vehicle, limits), modes)
 
@@ -293,8 +314,8 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
             good, roll, pitch, r, a_ = h.held, h.roll, h.pitch, h.allocation, \
                 _allocator(vehicle, h.limits, modes)
         else:
-            good, roll, pitch, r = steady_hold(vehicle, cur, al, depth, a0)
-            a_ = al
+            a_ = al_at(v)
+            good, roll, pitch, r = steady_hold(vehicle, cur, a_, depth, a0)
         if not good:
             push = uncontrolled_push(vehicle, cur, a_, depth)
             if push:
@@ -357,9 +378,9 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
                     if not hb.achievable else [],
                     "roll_deg": math.degrees(h.roll), "pitch_deg": math.degrees(h.pitch),
                     "supply_voltage_V": h.voltage, "battery_current_A": h.current}
-    _, roll, pitch, r = steady_hold(vehicle, current_ned(lo, relative_deg), al, depth, ang)
+    _, roll, pitch, r = steady_hold(vehicle, current_ned(lo, relative_deg), al_at(lo), depth, ang)
     # just beyond the boundary: thrusters at their limits if thrust is what runs out
-    rb = steady_hold(vehicle, current_ned(hi, relative_deg), al, depth, ang)[3]
+    rb = steady_hold(vehicle, current_ned(hi, relative_deg), al_at(hi), depth, ang)[3]
     lim = [names[i] for i in rb.limiting] if not rb.achievable else []
     return lo, {"limit": why.get(hi, ""), "reason": detail.get(hi, ""), "drifting": sorted(drifting),
                 "limiting_thrusters": lim,
@@ -381,6 +402,8 @@ class CapabilityResult(Result):
     simulated_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     simulated: np.ndarray = field(default_factory=lambda: np.zeros(0))
     note: str = ""
+    inflow: str = "none"  # thrust against advance speed (issue 21)
+    max_current_bollard: np.ndarray = field(default_factory=lambda: np.zeros(0))  # inflow off
 
     def analytic_at(self, deg: float) -> float:
         i = int(np.argmin(np.abs((self.relative_deg - deg + 180) % 360 - 180)))
@@ -397,6 +420,13 @@ class CapabilityResult(Result):
         lines = [f"station-keeping capability of {self.vehicle}{v}: largest current held "
                  f"{np.min(self.max_current):.3f}–{np.max(self.max_current):.3f} m/s "
                  f"(weakest from {self.relative_deg[k]:.0f}° off the bow)"]
+        if self.inflow != "none" and self.max_current_bollard.size:
+            lines.append(f"  inflow {self.inflow}: thrust at each thruster's advance speed in the "
+                         f"current; with bollard thrust {np.min(self.max_current_bollard):.3f}–"
+                         f"{np.max(self.max_current_bollard):.3f} m/s")
+            lines.append("  from [deg]   held with inflow [m/s]   with bollard thrust [m/s]")
+            for d, a, b in zip(self.relative_deg, self.max_current, self.max_current_bollard):
+                lines.append(f"  {d:>10.0f}   {a:>22.3f}   {b:>25.3f}")
         if self.limit:
             c = {k: sum(1 for x in self.limit if x == k) for k in
                  ("thrust", "attitude", "stability", "uncontrolled")}
@@ -421,15 +451,19 @@ class CapabilityResult(Result):
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        return {"vehicle": self.vehicle, "relative_deg": self.relative_deg.tolist(),
-                "max_current_m_s": self.max_current.tolist(),
-                "limiting_thrusters": [list(x) for x in self.limiting],
-                "limit": list(self.limit), "reasons": list(self.reasons),
-                "drifting": list(self.drifting),
-                "supply_voltage_V": self.supply_voltage,
-                "simulated_deg": self.simulated_deg.tolist(),
-                "simulated_max_current_m_s": self.simulated.tolist(),
-                "simulated_over_analytic": self.agreement.tolist(), "note": self.note}
+        d = {"vehicle": self.vehicle, "relative_deg": self.relative_deg.tolist(),
+             "max_current_m_s": self.max_current.tolist(),
+             "limiting_thrusters": [list(x) for x in self.limiting],
+             "limit": list(self.limit), "reasons": list(self.reasons),
+             "drifting": list(self.drifting),
+             "supply_voltage_V": self.supply_voltage,
+             "simulated_deg": self.simulated_deg.tolist(),
+             "simulated_max_current_m_s": self.simulated.tolist(),
+             "simulated_over_analytic": self.agreement.tolist(), "note": self.note}
+        if self.inflow != "none":  # inflow off: the dict as before issue 21
+            d["inflow"] = self.inflow
+            d["max_current_bollard_m_s"] = self.max_current_bollard.tolist()
+        return d
 
     def plot(self, path=None, mark=None):
         """Polar capability plot (0° = current from ahead, clockwise to starboard); ``mark``
@@ -457,16 +491,25 @@ class CapabilityResult(Result):
 
 def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
                supply_voltage: float | None = None, soc: float | None = None, simulate_deg=(),
-               progress: bool | None = None, **sim) -> CapabilityResult:
+               progress: bool | None = None, inflow: str | None = None,
+               **sim) -> CapabilityResult:
     """Capability plot data: :func:`max_current` every ``step_deg``; the angles in
     ``simulate_deg`` are also found by simulation (:func:`simulate_boundary`).
 
     Thrust limits: ``limits`` (n, 2); or the thruster model's at ``supply_voltage``; or, with
     ``soc``, at the battery's loaded voltage for each current (the vehicle file's battery);
     default the vehicle file's limits.  ``progress``: a bar (one stage per angle) on stderr
-    (:mod:`uuvid.core.progress`; ``None``: automatic)."""
+    (:mod:`uuvid.core.progress`; ``None``: automatic).  ``inflow`` (``None``: the vehicle file's,
+    ``'none'``: bollard): with inflow the limits follow each thruster's advance speed in the
+    current (:func:`max_current`) and the bollard-thrust capability is computed beside it."""
     from uuvid.core.progress import progress_task
+    from uuvid.vehicle.inflow import resolve_inflow
     from uuvid.vehicle.power import limits_at
+
+    inflow = resolve_inflow(vehicle, inflow)
+    if inflow != "none" and simulate_deg:
+        raise ValueError("simulated confirmation does not take inflow yet (its flights follow the "
+                         "vehicle file, not this switch): use inflow='none' with simulate_deg")
 
     if supply_voltage is not None and limits is None:
         limits = limits_at(vehicle, supply_voltage)
@@ -475,7 +518,7 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     degs = np.arange(0.0, 360.0, float(step_deg))
     if simulate_deg and soc is not None:
         raise ValueError("simulated confirmation runs at fixed limits (give supply_voltage)")
-    vals, lim, why, words, drift = [], [], [], [], set()
+    vals, lim, why, words, drift, bollard = [], [], [], [], set(), []
     n = len(degs) + len(simulate_deg)
     task = progress_task(f"{vehicle.name} capability", total=n, eta=False, stages=n,
                          disable=None if progress is None else not progress)
@@ -483,7 +526,11 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
         for d in degs:
             task.stage(f"current from {d:g}°" + (f" on the battery at SOC {soc:.0%}"
                                                  if soc is not None else ""))
-            v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc)
+            v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc,
+                                  inflow=inflow)
+            if inflow != "none":
+                bollard.append(max_current(vehicle, d, limits=limits, modes=modes, depth=depth,
+                                           soc=soc, inflow="none")[0])
             task.advance()
             vals.append(v)
             lim.append(tuple(info.get("limiting_thrusters", ())))
@@ -500,7 +547,8 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
                            tuple(why), tuple(words), tuple(sorted(drift)),
                            note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
-                                 "loaded voltage" if soc is not None else ""))
+                                 "loaded voltage" if soc is not None else ""),
+                           inflow=inflow, max_current_bollard=np.array(bollard))
     if simulate_deg:
         sd = np.asarray(simulate_deg, float)
         res = dataclasses.replace(res, simulated_deg=sd, simulated=np.array(sv), note=(

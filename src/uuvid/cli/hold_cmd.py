@@ -43,6 +43,9 @@ def vehicle_hold(
     out: Path = typer.Option(None, "--out", help="Folder for capability.png (the requested "
                              "current marked), endurance.png, hold.json and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
+    inflow: str = typer.Option(None, "--inflow", help="Thrust against the advance speed: none "
+                               "(bollard, as before) or four-quadrant; default: the vehicle "
+                               "file's inflow key."),
 ):
     """Station-keeping capability (largest current held per direction, a polar "capability plot")
     and, with --current and --battery, the endurance on the battery."""
@@ -65,7 +68,7 @@ def vehicle_hold(
         _fail("--simulate confirms at fixed limits: give --voltage instead of --battery")
     try:
         cap = hold.capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
-                              simulate_deg=sim)
+                              simulate_deg=sim, inflow=inflow)
     except ValueError as e:
         _fail(str(e))
     doc = {"capability": cap.to_dict()}
@@ -73,7 +76,7 @@ def vehicle_hold(
     if cur is not None:
         speed, deg = cur
         lim = None if voltage is None else limits_at(v, voltage)
-        vmax = hold.max_current(v, deg, soc=battery, limits=lim)[0]
+        vmax = hold.max_current(v, deg, soc=battery, limits=lim, inflow=cap.inflow)[0]
         doc["at_current"] = {"speed_m_s": speed, "from_deg": deg, "max_current_m_s": vmax,
                              "holds": bool(speed <= vmax), "margin": vmax / speed if speed else None}
         if battery is not None:

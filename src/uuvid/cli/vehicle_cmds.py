@@ -32,7 +32,7 @@ def _load_vehicle(name: str):
         _fail(msg if "preset" in msg else f"{msg} (presets: {', '.join(list_presets())})")
 
 
-def _fly(spec, base, out, json_out, label, where):
+def _fly(spec, base, out, json_out, label, where, inflow=None):
     from uuvid.core.progress import progress_task
     from uuvid.simulate.control.files import describe
     from uuvid.simulate.scenario import build
@@ -42,6 +42,13 @@ def _fly(spec, base, out, json_out, label, where):
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
         vehicle, setup = build(spec, base)
+        if inflow is not None:  # --inflow overrides the vehicle file's key
+            import dataclasses
+
+            from uuvid.simulate.vehicle_sim import _inflow_arrays
+
+            setup = dataclasses.replace(setup, inflow_arrays=_inflow_arrays(
+                vehicle, inflow, None if not spec.thruster_model else True))
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         _fail(f"{where}: {e}")
     err_console.print(f"controller: {describe(setup.controller)}")
@@ -113,6 +120,9 @@ def simulate(
     ),
     out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    inflow: str = typer.Option(None, "--inflow", help="Thrust against the advance speed: none "
+                               "(bollard, as before) or four-quadrant; default: the vehicle "
+                               "file's inflow key."),
 ):
     """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
 
@@ -154,7 +164,7 @@ def simulate(
             )
         except ModelFileError as e:
             _fail(str(e))
-        _fly(spec, None, out, json_out, f"{kind} with {vehicle}", "command line")
+        _fly(spec, None, out, json_out, f"{kind} with {vehicle}", "command line", inflow)
         return
     if kind is not None:
         _fail(f"unexpected argument {kind!r} after the scenario file")
@@ -170,7 +180,7 @@ def simulate(
                                       where="--controller")
     except ModelFileError as e:
         _fail(str(e))
-    _fly(spec, scenario.parent, out, json_out, spec.name, str(scenario))
+    _fly(spec, scenario.parent, out, json_out, spec.name, str(scenario), inflow)
 
 
 @vehicle_app.command("info")
@@ -187,11 +197,16 @@ def vehicle_info(
     _helpers()[4].print(v.summary(), markup=False, highlight=False)
 
 
+INFLOW_HELP = ("Thrust against the advance speed: none (bollard, as before) or four-quadrant; "
+               "default: the vehicle file's inflow key.")
+
+
 @vehicle_app.command("envelope")
 def vehicle_envelope(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
     confirm: bool = typer.Option(True, "--confirm/--no-confirm", help="Confirm each speed by simulation."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
+    inflow: str = typer.Option(None, "--inflow", help=INFLOW_HELP),
 ):
     """Maximum steady speed per DOF, analytic and confirmed by simulation (Laidani Table 4 kind).
 
@@ -202,13 +217,25 @@ def vehicle_envelope(
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle)
-    check = confirm_envelope(v, simulate=confirm)
+    try:
+        check = confirm_envelope(v, simulate=confirm, inflow=inflow)
+    except ValueError as e:
+        _fail(str(e))
     if json_out:
         _print_json(check.to_dict())
         return
+    with_inflow = "bollard_speed" in check.rows[0] if check.rows else False
     cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
             "limit"]
-    out_console.print(_table(f"{v.name}: speed envelope", check.table_rows(cols), cols, "{:.4g}"))
+    if with_inflow:  # side by side: the allocator speed with and without inflow
+        cols = ["direction", "force", "allocator_speed", "bollard_speed", "limit"]
+    title = f"{v.name}: speed envelope" + (" (thrust at the advance speed; bollard_speed: "
+                                           "inflow off)" if with_inflow else "")
+    out_console.print(_table(title, check.table_rows(cols), cols, "{:.4g}"))
+    if with_inflow:
+        out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
+                          "not confirmed by simulation (the confirming flight has no inflow yet)",
+                          highlight=False, soft_wrap=True, markup=False)
     if any(r["tumbling_full_command"] for r in check.rows):
         out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
                           "full command it tumbles (its speed only in --json, tumbling_full_command)",
@@ -225,6 +252,7 @@ def vehicle_stability(
                                    "(the same 20° as vehicle hold)."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
     out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
+    inflow: str = typer.Option(None, "--inflow", help=INFLOW_HELP),
 ):
     """Static stability in steady flight: trim roll/pitch against speed, and where it stops.
 
@@ -234,7 +262,10 @@ def vehicle_stability(
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle)
-    res = static_stability(v, max_tilt_deg=max_tilt)
+    try:
+        res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
+    except ValueError as e:
+        _fail(str(e))
     if out:
         from uuvid.core.atomic import atomic_write_json
 

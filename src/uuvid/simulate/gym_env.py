@@ -22,6 +22,10 @@ to their limits, in a constant NED current (optionally randomised per episode).
 :class:`StationKeepingEnv` is one vehicle (passes ``gymnasium.utils.env_checker.check_env``);
 :class:`StationKeepingVectorEnv` steps ``num_envs`` vehicles in one parallel compiled call
 (numba ``prange``), next-step autoreset as in Gymnasium's own vector environments.
+
+``inflow`` (``None``: the vehicle file's key; ``'none'``; ``'four-quadrant'``): the held thrusts
+are taken to each thruster's advance speed at every RK4 stage (:mod:`uuvid.vehicle.inflow`,
+issue 21); the action still scales the bollard limits.
 """
 
 from __future__ import annotations
@@ -41,8 +45,11 @@ except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError("uuvid.simulate.gym_env needs gymnasium: pip install 'uuvid[gym]'") from e
 
 from uuvid.simulate.station_keeping import rk4_held, thrust_to_tau
+from uuvid.thruster.inflow import inflow_thrust_nb
 from uuvid.vehicle.allocation import allocate_compiled
-from uuvid.vehicle.kinematics import quat_to_rotmat
+from uuvid.vehicle.inflow import state_advance_speeds_nb
+from uuvid.vehicle.kinematics import normalise_state, quat_to_rotmat
+from uuvid.vehicle.model import vehicle_rhs_into
 
 N_OBS = 12
 
@@ -76,12 +83,45 @@ def _observe(z, wp, obs):
 
 def work_size(n_thrusters: int) -> int:
     """Length of the scratch array :func:`_step_one` needs (no allocation in the hot loop)."""
-    return 5 * 13 + 3 + 6 + 6 + n_thrusters
+    return 5 * 13 + 3 + 6 + 6 + 2 * n_thrusters
+
+
+@njit(cache=True)
+def _inflow_tau(zs, f, Bthr, vc, IPRM, IGEO, ua, tau):
+    """``τ = B T(f, u_a)``: the held thrusts taken to the advance speed of the state ``zs``."""
+    state_advance_speeds_nb(zs, vc, IGEO, ua)
+    for i in range(f.size):
+        ua[i] = inflow_thrust_nb(f[i], ua[i], IPRM)  # ua reused for the delivered thrust
+    thrust_to_tau(Bthr, ua, tau)
+
+
+@njit(cache=True)
+def _rk4_held_inflow(z, f, Bthr, vp, vc, h, nsub, dvc, k1, k2, k3, k4, zt, tau, IPRM, IGEO, ua):
+    """:func:`~uuvid.simulate.station_keeping.rk4_held` with the thrust at each stage's advance
+    speed (issue 21)."""
+    for _ in range(nsub):
+        _inflow_tau(z, f, Bthr, vc, IPRM, IGEO, ua, tau)
+        vehicle_rhs_into(z, tau, vp, vc, dvc, k1)
+        for i in range(13):
+            zt[i] = z[i] + 0.5 * h * k1[i]
+        _inflow_tau(zt, f, Bthr, vc, IPRM, IGEO, ua, tau)
+        vehicle_rhs_into(zt, tau, vp, vc, dvc, k2)
+        for i in range(13):
+            zt[i] = z[i] + 0.5 * h * k2[i]
+        _inflow_tau(zt, f, Bthr, vc, IPRM, IGEO, ua, tau)
+        vehicle_rhs_into(zt, tau, vp, vc, dvc, k3)
+        for i in range(13):
+            zt[i] = z[i] + h * k3[i]
+        _inflow_tau(zt, f, Bthr, vc, IPRM, IGEO, ua, tau)
+        vehicle_rhs_into(zt, tau, vp, vc, dvc, k4)
+        for i in range(13):
+            z[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        normalise_state(z)
 
 
 @njit(cache=True)
 def _step_one(z, act, wps, widx, mode, alloc, dofs, fscale, lo, hi, Bthr, vp, vc, dt, nsub, w,
-              accept, obs, work):
+              accept, obs, work, IPRM, IGEO):
     """One control step of one vehicle (``z`` in place); returns ``(reward, position error)``
     and the new waypoint index through ``widx[0]``.  ``work``: :func:`work_size` scratch."""
     n = Bthr.shape[1]
@@ -95,6 +135,7 @@ def _step_one(z, act, wps, widx, mode, alloc, dofs, fscale, lo, hi, Bthr, vp, vc
     tau = work[68:74]
     phi = work[74:80]
     f = work[80:80 + n]
+    ua = work[80 + n:80 + 2 * n]
     for i in range(3):
         dvc[i] = 0.0
     if mode == 0:
@@ -109,8 +150,12 @@ def _step_one(z, act, wps, widx, mode, alloc, dofs, fscale, lo, hi, Bthr, vp, vc
         allocate_compiled(alloc, phi, f)
         for i in range(n):
             f[i] = min(max(f[i], lo[i]), hi[i])
-    thrust_to_tau(Bthr, f, tau)
-    rk4_held(z, tau, vp, vc, dt / nsub, nsub, dvc, k1, k2, k3, k4, zt)
+    if IPRM.size > 0:  # thrust at the advance speed (uuvid.vehicle.inflow.loop_arrays)
+        _rk4_held_inflow(z, f, Bthr, vp, vc, dt / nsub, nsub, dvc, k1, k2, k3, k4, zt, tau, IPRM,
+                         IGEO, ua)
+    else:
+        thrust_to_tau(Bthr, f, tau)
+        rk4_held(z, tau, vp, vc, dt / nsub, nsub, dvc, k1, k2, k3, k4, zt)
     k = widx[0]
     ep, ea = _observe(z, wps[k], obs)
     if ep < accept and k + 1 < wps.shape[0]:
@@ -129,13 +174,13 @@ def _step_one(z, act, wps, widx, mode, alloc, dofs, fscale, lo, hi, Bthr, vp, vc
 
 @njit(cache=True, parallel=True)
 def _step_batch(Z, A, wps, WIDX, active, mode, alloc, dofs, fscale, lo, hi, Bthr, vp, VC, dt,
-                nsub, w, accept, OBS, REW, DIST, WORK):
+                nsub, w, accept, OBS, REW, DIST, WORK, IPRM, IGEO):
     """:func:`_step_one` for every row of ``Z`` with ``active``; the others only observe."""
     for r in prange(Z.shape[0]):
         if active[r]:
             REW[r], DIST[r] = _step_one(Z[r], A[r], wps, WIDX[r:r + 1], mode, alloc, dofs, fscale,
                                         lo, hi, Bthr, vp, VC[r], dt, nsub, w, accept, OBS[r],
-                                        WORK[r])
+                                        WORK[r], IPRM, IGEO)
         else:
             ep, _ = _observe(Z[r], wps[WIDX[r]], OBS[r])
             REW[r] = 0.0
@@ -149,8 +194,9 @@ class _Config:
     """Vehicle arrays and episode settings shared by the single and the vector environment."""
 
     def __init__(self, vehicle, *, dt, substeps, max_steps, action, offset_range, current,
-                 current_range, waypoints, acceptance_radius, max_distance, weights):
+                 current_range, waypoints, acceptance_radius, max_distance, weights, inflow):
         from uuvid.vehicle.definition import load_vehicle
+        from uuvid.vehicle.inflow import loop_arrays
 
         v = load_vehicle(vehicle) if isinstance(vehicle, (str, Path)) else vehicle
         self.vehicle = v
@@ -194,6 +240,8 @@ class _Config:
         self.accept = float(acceptance_radius)
         self.max_distance = float(max_distance)
         self.w = np.asarray(weights, dtype=float).reshape(4)
+        arrays = loop_arrays(v, inflow)
+        self.iprm, self.igeo = arrays if arrays is not None else (np.zeros(0), np.zeros((0, 7)))
 
     def initial_states(self, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``n`` random 13-states around the first waypoint and their currents."""
@@ -217,7 +265,7 @@ class _Config:
 _DEFAULTS = dict(dt=0.1, substeps=2, max_steps=400, action="thrust",
                  offset_range=(2.0, 2.0, 1.0, math.pi / 4), current=(0.0, 0.0, 0.0),
                  current_range=0.0, waypoints=None, acceptance_radius=0.25, max_distance=10.0,
-                 weights=(1.0, 0.5, 0.1, 0.05))
+                 weights=(1.0, 0.5, 0.1, 0.05), inflow=None)
 
 
 class StationKeepingEnv(gym.Env):
@@ -261,7 +309,7 @@ class StationKeepingEnv(gym.Env):
         a = np.asarray(action, dtype=np.float64).reshape(c.n_act)
         rew, dist = _step_one(self._z, a, c.wps, self._widx, c.mode, c.alloc, c.dofs, c.fscale,
                               c.lo, c.hi, c.B, c.vp, self._vc, c.dt, c.nsub, c.w, c.accept,
-                              self._obs, self._work)
+                              self._obs, self._work, c.iprm, c.igeo)
         self._steps += 1
         terminated = bool(dist > c.max_distance or not np.all(np.isfinite(self._z)))
         truncated = bool(self._steps >= c.max_steps)
@@ -324,7 +372,7 @@ class StationKeepingVectorEnv(VectorEnv):
         c = self.cfg
         _step_batch(self._Z, actions, c.wps, self._widx, active, c.mode, c.alloc, c.dofs,
                     c.fscale, c.lo, c.hi, c.B, c.vp, self._VC, c.dt, c.nsub, c.w, c.accept,
-                    self._obs, self._rew, self._dist, self._work)
+                    self._obs, self._rew, self._dist, self._work, c.iprm, c.igeo)
 
     def step(self, actions):
         c = self.cfg

@@ -219,7 +219,7 @@ def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | No
     else:
         got = None
     if got is None:  # −1: no limit in that direction (the cache stores finite values only)
-        st = stability.static_stability(vehicle)
+        st = stability.static_stability(vehicle, inflow="none")  # trim only: the cache key holds
         got = np.full(len(names), -1.0)
         for c in st.cases:
             if c.direction in names and c.limit_speed is not None and np.isfinite(c.limit_speed):

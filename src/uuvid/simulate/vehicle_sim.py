@@ -31,7 +31,9 @@ from uuvid.simulate.reference import WaypointMission, level_speed_limit
 from uuvid.thruster import kernels
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, ParameterError
 from uuvid.thruster.chain import ThrusterChain
+from uuvid.thruster.inflow import inflow_thrust_nb
 from uuvid.vehicle.allocation import allocate_compiled
+from uuvid.vehicle.inflow import state_advance_speeds_nb
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.model import vehicle_rhs_into
 from uuvid.vehicle.stability import MAX_TILT_DEG
@@ -205,14 +207,19 @@ def _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch,
     """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)] (no
     disturbance force; :func:`_rhs_d`)."""
     _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc,
-           dz, thrust, tau, ch, blk, np.zeros(6))
+           dz, thrust, tau, ch, blk, np.zeros(6), np.zeros(0), np.zeros((0, 7)), np.zeros(0))
 
 
 @njit(cache=True)
 def _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc,
-           dz, thrust, tau, ch, blk, tau_d):
+           dz, thrust, tau, ch, blk, tau_d, IPRM, IGEO, ua):
     """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)] under the
     thrust and the disturbance force ``tau_d`` (body frame).
+
+    Inflow (issue 21; ``IPRM`` empty: off, bollard thrusters as before): each chain's thrust is
+    taken to its advance speed at this stage's state, ``u_a = (1 − w) axisᵀ(v_r + ω × r)``
+    (:func:`uuvid.vehicle.inflow.state_advance_speeds_nb`, geometry ``IGEO``), through the
+    four-quadrant map (:func:`uuvid.thruster.inflow.inflow_thrust_nb`, parameters ``IPRM``).
 
     ``tparams`` is (n, P); thruster i's states start at ``13 + i·ns``; ``blk`` is (n, nb).
     ``sig0[i]`` is the (held) input of block ``start`` of thruster i: the static blocks in front
@@ -223,9 +230,14 @@ def _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outc
     nb = blk.shape[1]
     tflat = tparams.reshape(n * P)
     bflat = blk.reshape(n * nb)
+    inflow = IPRM.size > 0
+    if inflow:
+        state_advance_speeds_nb(z, vc, IGEO, ua)
     for i in range(n):
         f = kernels.eval_chain_at(kinds, poff, tflat, i * P, soff, outch, in_ch, z, 13 + i * ns,
                                   sig0[i], dz, ch, bflat, i * nb, start)
+        if inflow:
+            f = inflow_thrust_nb(f, ua[i], IPRM)
         thrust[i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
     for k in range(6):
         s = tau_d[k]
@@ -262,6 +274,44 @@ def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3,
     for i in range(13):
         zt[i] = z[i] + h * k3[i]
     _tau_from(th_stage, 2, B, tau, tau_d)
+    vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
+    for i in range(13):
+        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@njit(cache=True)
+def _tau_inflow(th, st, zs, vc, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua):
+    """``τ`` at one RK4 stage with the bollard thrusts ``th[st]`` taken to the advance speed of the
+    stage state ``zs`` (:func:`_rhs_d`'s inflow, for the closed-form fast path)."""
+    n = th.shape[1]
+    state_advance_speeds_nb(zs, vc, IGEO, ua)
+    for i in range(n):
+        f = inflow_thrust_nb(th[st, i], ua[i], IPRM)
+        ua[i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])  # ua reused for the delivered thrust
+    for k in range(6):
+        acc = tau_d[k]
+        for i in range(n):
+            acc += B[k, i] * ua[i]
+        tau[k] = acc
+
+
+@njit(cache=True)
+def _vehicle_rk4_inflow(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d,
+                        eta_p, eta_n, IPRM, IGEO, ua):
+    """:func:`_vehicle_rk4` with thrust at the advance speed of each stage's own state."""
+    _tau_inflow(th_stage, 0, z, vc0, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
+    vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k1[i]
+    _tau_inflow(th_stage, 1, zt, vc1, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
+    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k2[i]
+    _tau_inflow(th_stage, 1, zt, vc1, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
+    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
+    for i in range(13):
+        zt[i] = z[i] + h * k3[i]
+    _tau_inflow(th_stage, 2, zt, vc2, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
     vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -339,19 +389,19 @@ _DIST = no_disturbance
 @njit(cache=True)
 def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact,
         inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub,
-        Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
+        Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT, IPRM, IGEO):
     """:func:`_fly_loop` with the built-in PID DP controller (``gains`` =
     :meth:`DPGains.to_array`) and no disturbance force (the cached default kernel)."""
     _fly_loop(gains.ravel(), np.zeros(PID_STATE_SIZE), np.zeros(0), False, 0, z0, vp, B, alloc,
               eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact, inv_t, inv_c,
               ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT,
-              BAT, VOUT)
+              BAT, VOUT, IPRM, IGEO)
 
 
 @njit(cache=True)
 def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, eta_p, eta_n, dofs, kinds,
               poff, tparams, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw,
-              ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT):
+              ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, VCT, DVCT, BAT, VOUT, IPRM, IGEO):
     """Fly ``ref_*.shape[0]`` steps of ``dt``; writes states ``Z``, delivered thrusts ``F``,
     allocated thrusts ``FDES``, controller output ``TAU`` and allocation scale ``SCALE``.
 
@@ -371,7 +421,11 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
     supply voltage ``V = OCV(SOC) − R I`` (I of the previous step) sets the thrust limits of the
     allocation and the inverse maps (tables at a grid of voltages, interpolated), scales the ESC
     output (duty × supply), and the battery current ``Σ I_i(T_i, V) + P_hotel/V`` discharges
-    ``SOC``; ``VOUT[k] = [V, I, SOC, command of each thruster]``."""
+    ``SOC``; ``VOUT[k] = [V, I, SOC, command of each thruster]``.
+
+    Inflow (``IPRM``/``IGEO`` from :func:`uuvid.vehicle.inflow.loop_arrays`; empty: off): the
+    thrust at each RK4 stage follows the advance speed of that stage's state (:func:`_rhs_d`;
+    on the closed-form fast path :func:`_vehicle_rk4_inflow`)."""
     nsteps = ref_pos.shape[0]
     n = tparams.shape[0]
     nz = z0.size
@@ -422,6 +476,8 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                 dyn = b
     if dyn >= 0 and exact[dyn] and soff[nb] == 1:
         fast = True
+    inflow = IPRM.size > 0
+    ua = np.zeros(n)
     th_stage = np.zeros((3, n))
     tgt = np.zeros(n)
     tconst = np.zeros(n)
@@ -527,13 +583,27 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     for st in range(3):
                         xs = tgt[i] + (x0 - tgt[i]) * math.exp(-0.5 * st * h / tconst[i])
                         f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
-                        th_stage[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+                        if inflow:  # the bollard thrust; advance speed and η per RK4 stage
+                            th_stage[st, i] = f
+                        else:
+                            th_stage[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
                     z[o] = x0  # thruster state advanced below, exactly
                 if sub == 0:
+                    if inflow:
+                        state_advance_speeds_nb(z, vc0, IGEO, ua)
                     for i in range(n):
-                        F[k, i] = th_stage[0, i]
+                        if inflow:
+                            f = inflow_thrust_nb(th_stage[0, i], ua[i], IPRM)
+                            F[k, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+                        else:
+                            F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d)
+                if inflow:
+                    _vehicle_rk4_inflow(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2,
+                                        k3, k4, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
+                else:
+                    _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4,
+                                 tau_d)
                 for i in range(n):
                     o = 13 + i * ns
                     z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
@@ -548,7 +618,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     vc1[j] = VCT[k, j] + DVCT[k, j] * ((sub + 0.5) * h)
                     vc2[j] = VCT[k, j] + DVCT[k, j] * ((sub + 1.0) * h)
             _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc0, dvc,
-                   k1, thrust, tau, ch, blk, tau_d)
+                   k1, thrust, tau, ch, blk, tau_d, IPRM, IGEO, ua)
             if sub == 0:
                 for i in range(n):
                     F[k, i] = thrust[i]
@@ -556,15 +626,15 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k1[i]
             _rhs_d(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc,
-                   k2, thrust, tau, ch, blk2, tau_d)
+                   k2, thrust, tau, ch, blk2, tau_d, IPRM, IGEO, ua)
             for i in range(nz):
                 zt[i] = z[i] + 0.5 * h * k2[i]
             _rhs_d(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc1, dvc,
-                   k3, thrust, tau, ch, blk2, tau_d)
+                   k3, thrust, tau, ch, blk2, tau_d, IPRM, IGEO, ua)
             for i in range(nz):
                 zt[i] = z[i] + h * k3[i]
             _rhs_d(zt, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc2, dvc,
-                   k4, thrust, tau, ch, blk2, tau_d)
+                   k4, thrust, tau, ch, blk2, tau_d, IPRM, IGEO, ua)
             for i in range(nz):
                 zn[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             for i in range(n):  # first-order thruster blocks under a held input: exact update
@@ -640,7 +710,7 @@ def _batch_template(cparams, cstate0, dparams, use_dist, out_kind, z0, VP, B, al
         _LOOP(cparams, cstate0.copy(), dparams, use_dist, out_kind, z0, VP[r], B, alloc, eta_p, eta_n, dofs,
               kinds, poff, TP[r], soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
               ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC, np.zeros((0, 3)),
-              np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+              np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 7)))
         _summarise_run(Z, F, SC, ref_pos, OUT[r])
 
 
@@ -783,6 +853,7 @@ class MissionSetup:
     battery_array: np.ndarray | None = None
     controller: Controller | None = None  # None: the built-in PID DP with ``gains``
     disturbance: Disturbance | None = None
+    inflow_arrays: tuple | None = None  # (map params, geometry) of the inflow model; None: off
 
     def blocks(self):
         """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist, out_kind)`` of a
@@ -896,7 +967,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                   allocation: str = "priority", battery=None, soc0: float = 1.0,
                   controller: Controller | None = None,
                   disturbance: Disturbance | None = None,
-                  max_steps: int | None = None) -> MissionSetup:
+                  max_steps: int | None = None, inflow: str | None = None) -> MissionSetup:
     """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
@@ -908,6 +979,9 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     ``gains``, :func:`~uuvid.simulate.control.pid.pid`) and ``disturbance``
     (:class:`uuvid.simulate.disturbances.Disturbance`, a generalized force on the vehicle);
     ``max_steps`` (default :data:`MAX_STEPS`) bounds the time series held in memory.
+    ``inflow`` (``None``: the vehicle file's ``inflow`` key; ``'none'``: bollard thrusters, as
+    before issue 21; ``'four-quadrant'``): thrust at each thruster's advance speed
+    (:func:`uuvid.vehicle.inflow.loop_arrays`).
     """
     from uuvid.simulate.currents import as_current
 
@@ -954,10 +1028,21 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                          int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                          np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
                          const, t, ref, cm, series, allocation, battery, bat, controller,
-                         disturbance)
+                         disturbance, _inflow_arrays(vehicle, inflow, thruster_chain))
     if controller is not None:
         _check_controller(setup)
     return setup
+
+
+def _inflow_arrays(vehicle, inflow, thruster_chain):
+    """The loop's inflow arrays; a replaced thruster chain has no propeller map of its own."""
+    from uuvid.vehicle.inflow import loop_arrays, resolve_inflow
+
+    if thruster_chain is not None and resolve_inflow(vehicle, inflow) != "none":
+        raise ValueError(f"inflow {resolve_inflow(vehicle, inflow)!r} takes the propeller of the "
+                         "vehicle's own thruster models; with another thruster model give "
+                         "inflow='none'")
+    return loop_arrays(vehicle, inflow)
 
 
 def _check_controller(setup: MissionSetup) -> None:
@@ -1079,7 +1164,10 @@ def batch_inputs(setup: MissionSetup, vehicle_params, thruster_params=None,
 
 
 def require_constant_current(setup: MissionSetup) -> None:
-    """Batch runs take a constant current and an ideal supply."""
+    """Batch runs take a constant current and an ideal supply, and bollard thrusters."""
+    if getattr(setup, "inflow_arrays", None) is not None:
+        raise ValueError("batch runs fly bollard thrusters (the batch kernels have no inflow yet): "
+                         "set up the mission with inflow='none'")
     if setup.battery_array is not None:
         raise ValueError("batch runs take an ideal supply; fly a battery run with fly_mission")
     if setup.current_series is not None:
@@ -1147,12 +1235,14 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     VOUT = np.zeros((N if BAT.size else 0, 3 + b.n))
+    IPRM, IGEO = s.inflow_arrays if s.inflow_arrays is not None else (np.zeros(0), np.zeros((0, 7)))
     if s.controller is None and s.disturbance is None:  # the cached default kernel
         def run(k):
             fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
                 b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(),
                 ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k], s.current, s.dt, s.substeps,
-                Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT)
+                Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT,
+                IPRM, IGEO)
         compiled = bool(fly.signatures)
     else:  # the loop compiled around the setup's controller and disturbance
         loop, _, cpar, cstate0, dpar, use_d, okind = s.blocks()
@@ -1162,7 +1252,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                  s.dofs, b.kinds, b.poff, b.params, b.soff, b.outch, b.in_ch, b.exact,
                  b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
                  s.current, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT,
-                 VOUT[:k] if BAT.size else VOUT)
+                 VOUT[:k] if BAT.size else VOUT, IPRM, IGEO)
         compiled = bool(loop.signatures)
     compile_s = 0.0
     if not compiled:  # first flight in this process: compile (or load) the kernel on one

@@ -10,6 +10,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
     assumptions:                 # key path → why the value is assumed (not from the source)
       thrusters: positions approximate, from the frame drawing
     environment: {current: [0, 0, 0]}        # constant current, NED, m/s (optional)
+    inflow: none                 # or four-quadrant: thrust falls with the advance speed (issue 21)
     rigid_body:
       mass: 11.5
       weight: 112.8              # optional, default m·g
@@ -28,6 +29,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
         model: t200                          # thruster preset name or model-file path
         limits: [-39.91, 51.49]              # [min, max] thrust, N
         installation: {surge_front: [1.0, 0.89]}   # η per mode: value or [η₊, η₋]
+        wake: 0.0                            # wake fraction in [0, 1) (with inflow only)
     allocation: {dofs: [surge, sway, heave, yaw], weights: [...], default_modes: [...]}
     modes:                       # thrust-mapping modes (Caccia et al. 2000, Table I)
       surge_front:
@@ -145,6 +147,7 @@ class ThrusterSchema(BaseModel):
     model: str = Field(min_length=1)
     limits: tuple[float, float]
     installation: dict[str, float | tuple[float, float]] = {}
+    wake: float = Field(0.0, ge=0, lt=1)  # wake fraction w: u_a = (1 − w) axisᵀ(v_r + ω × r)
     notes: str | None = None
 
 
@@ -201,6 +204,7 @@ class VehicleSchema(BaseModel):
     source: SourceSchema
     assumptions: dict[str, str] = {}
     environment: EnvironmentSchema = EnvironmentSchema()
+    inflow: Literal["none", "four-quadrant"] = "none"
     quaternion_gain: float = Field(1.0, ge=0)
     rigid_body: RigidBodySchema
     hydrodynamics: HydrodynamicsSchema
@@ -231,6 +235,8 @@ class Vehicle:
     description: str = ""
     path: Path | None = None
     battery: Any = None  # uuvid.vehicle.power.Battery, from the file's ``battery`` block
+    inflow: str = "none"  # thrust against advance speed: "none" (bollard) or "four-quadrant"
+    wake: tuple[float, ...] = ()  # wake fraction per thruster (empty: all 0)
 
     @property
     def B(self) -> np.ndarray:
@@ -460,6 +466,15 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
             continue
         thrusters.append(Thruster(t.name, t.position, tuple(axis), t.model, (lo, hi),
                                   dict(t.installation)))
+        if spec.inflow != "none":
+            from uuvid.thruster.inflow import propeller_map
+
+            try:
+                propeller_map(t.model)
+            except KeyError:
+                err(f"{p}.model", f"inflow {spec.inflow!r} needs the propeller of model "
+                    f"{t.model!r}, which uuvid does not know (known: t200, t200-physical); "
+                    "set inflow: none")
     layout = None
     if not errors:
         layout = ThrusterLayout(tuple(thrusters))
@@ -528,7 +543,8 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                    None if al.weights is None else np.asarray(al.weights, float),
                    tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
                    dict(spec.assumptions), spec.description, path,
-                   _battery(spec.battery, where) if spec.battery is not None else None)
+                   _battery(spec.battery, where) if spec.battery is not None else None,
+                   spec.inflow, tuple(float(t.wake) for t in spec.thrusters))
 
 
 def _battery(b: BatterySchema, where: str):

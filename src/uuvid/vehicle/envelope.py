@@ -85,6 +85,8 @@ class EnvelopeRow:
     speed_allocator: float
     force_unit: str
     speed_unit: str
+    speed_bollard: float = math.nan  # the same speed with bollard thrust limits (inflow off)
+    speed_allocator_bollard: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,7 @@ class Envelope(Result):
     rows: tuple[EnvelopeRow, ...]
     mode: str | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+    inflow: str = "none"
 
     def __getitem__(self, direction: str) -> EnvelopeRow:
         for r in self.rows:
@@ -103,8 +106,15 @@ class Envelope(Result):
         raise KeyError(f"no envelope row {direction!r}; have {[r.direction for r in self.rows]}")
 
     def as_dict(self) -> dict:
-        return {"vehicle": self.vehicle, "mode": self.mode,
-                "rows": [r.__dict__.copy() for r in self.rows], "notes": list(self.notes)}
+        d = {"vehicle": self.vehicle, "mode": self.mode,
+             "rows": [r.__dict__.copy() for r in self.rows], "notes": list(self.notes)}
+        if self.inflow != "none":
+            d["inflow"] = self.inflow
+        else:  # inflow off: the rows as before issue 21
+            for r in d["rows"]:
+                r.pop("speed_bollard")
+                r.pop("speed_allocator_bollard")
+        return d
 
     report_title = "Performance envelope"
 
@@ -141,14 +151,42 @@ class Envelope(Result):
             spa = "—" if math.isnan(r.speed_allocator) else \
                 f"{abs(r.speed_allocator):.3g} {r.speed_unit}"
             lines.append(f"{r.dof:<6} {r.direction:<26} {r.force:>8.4g} {r.force_unit:<3} "
-                         f"{sp:>14} {r.force_allocator:>10.4g} {r.force_unit:<5} {spa:>16}")
+                         f"{sp:>14} {r.force_allocator:>10.4g} {r.force_unit:<5} {spa:>16}"
+                         + ("" if self.inflow == "none" or math.isnan(r.speed_bollard) else
+                            f"   (bollard thrust: {abs(r.speed_bollard):.3g} {r.speed_unit})"))
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
 
 
-def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None) -> Envelope:
+def _forces(alloc, B, lim, d, sign, controlled, ep, en, C) -> tuple[float, float]:
+    """``(LP maximum, allocator force)`` along ``sign·e_d`` with thrust limits ``lim`` (n, 2)."""
+    F = max_force_lp(B, lim[:, 0], lim[:, 1], d, sign, controlled, ep, en, C)
+    e = np.zeros(B.shape[0])
+    e[d] = sign
+    tau = alloc.nominal(e)
+    with np.errstate(divide="ignore", invalid="ignore"):  # Allocator.max_along at these limits
+        r = np.where(tau > 0, lim[:, 1] / tau, np.where(tau < 0, lim[:, 0] / tau, np.inf))
+    s = float(np.min(r)) if r.size else math.inf
+    if not np.any(tau):  # the allocator does not act on this DOF
+        Fa = 0.0
+    elif math.isfinite(s):
+        Fa = max(0.0, float(sign * (B @ apply_eta(s * tau, ep, en))[d]))
+    else:
+        Fa = math.inf
+    return F, Fa
+
+
+def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
+                   inflow: str | None = None) -> Envelope:
     """Envelope of a :class:`~uuvid.vehicle.definition.Vehicle` (default: its allocation DOFs
-    and default modes)."""
+    and default modes).
+
+    ``inflow``: ``None`` → the vehicle file's ``inflow`` key; ``'none'`` → bollard limits (the
+    envelope as before issue 21); ``'four-quadrant'`` → each thruster's limit at the advance speed
+    of the steady state itself (:mod:`uuvid.vehicle.inflow`), the speed the fixed point
+    ``k_L v + k_Q v|v| = F_max(v)``; the bollard speeds are kept beside (``speed_bollard``)."""
+    from uuvid.vehicle.inflow import inflow_limits, steady_speed_with_inflow
+
     alloc = vehicle.allocator(modes, compensate_eta=True)
     mode = alloc.mode
     B = vehicle.B
@@ -159,21 +197,12 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None) -> Envelop
     p = vehicle.params
     kL = np.diag(p.linear_damping)
     kQ = np.diag(p.quadratic_damping)
+    inf_lim = inflow_limits(vehicle, inflow)
     wanted = controlled if dofs is None else tuple(dof_index(d) for d in dofs)
     rows = []
     for d in wanted:
         for sign in (1, -1):
-            F = max_force_lp(B, lim[:, 0], lim[:, 1], d, sign, controlled, ep, en, C)
-            e = np.zeros(B.shape[0])
-            e[d] = sign
-            tau = alloc.nominal(e)
-            s = alloc.max_along(e)
-            if not np.any(tau):  # the allocator does not act on this DOF
-                Fa = 0.0
-            elif math.isfinite(s):
-                Fa = max(0.0, float(sign * (B @ apply_eta(s * tau, ep, en))[d]))
-            else:
-                Fa = math.inf
+            F, Fa = _forces(alloc, B, lim, d, sign, controlled, ep, en, C)
             if d in (3, 4):
                 v = va = math.nan
             else:
@@ -181,10 +210,30 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None) -> Envelop
                 v = steady_speed(kL[d], kQ[d], sign * F + bias) if (kL[d] or kQ[d]) else math.inf
                 va = steady_speed(kL[d], kQ[d], sign * Fa + bias) if (kL[d] or kQ[d]) else \
                     math.inf
+            vb, vab = v, va
+            if inf_lim is not None and d not in (3, 4) and (kL[d] or kQ[d]):
+                def forces_at(s, d=d, sign=sign):
+                    nu = np.zeros(6)
+                    nu[d] = s
+                    return _forces(alloc, B, inf_lim.limits_at(nu), d, sign, controlled, ep, en, C)
+
+                def speed_of(force, d=d, bias=bias):
+                    return steady_speed(kL[d], kQ[d], force + bias)
+
+                v = steady_speed_with_inflow(lambda f, s=sign: speed_of(s * f),
+                                             lambda s: forces_at(s)[0], vb)
+                va = steady_speed_with_inflow(lambda f, s=sign: speed_of(s * f),
+                                              lambda s: forces_at(s)[1], vab)
+                F, Fa = forces_at(v)[0], forces_at(va)[1]
             rows.append(EnvelopeRow(DOF_NAMES[d], DIRECTIONS[d][0 if sign > 0 else 1], sign,
-                                    F, v, Fa, va, *UNITS[d]))
+                                    F, v, Fa, va, *UNITS[d], vb, vab))
     notes = [(f"drag: diagonal of D_L and D_Q; heave includes W - B = {p.net_weight:+.3g} N; "
               "roll/pitch: restoring, no steady rate")]
+    if inf_lim is not None:
+        notes.append(f"inflow {inf_lim.model}: thrust limits at the advance speed of each steady "
+                     "state (propeller map " + inf_lim.maps[0].name + ", full-command shaft speed "
+                     "held; wake " + ", ".join(f"{w:g}" for w in sorted(set(inf_lim.wake))) +
+                     "); bollard-thrust speeds beside (speed_bollard)")
     unc = [DOF_NAMES[i] for i in range(6) if i not in controlled]
     if unc:
         notes.append(f"not controlled (left free): {', '.join(unc)}")
@@ -194,4 +243,4 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None) -> Envelop
                      "flight limits: uuvid.vehicle.stability.static_stability (`uuvid vehicle "
                      "stability`)")
     return Envelope(vehicle.name, tuple(rows), mode.name if mode is not None else None,
-                    tuple(notes))
+                    tuple(notes), inf_lim.model if inf_lim is not None else "none")

@@ -48,8 +48,9 @@ MAX_TILT_DEG = 20.0
 class _Balance:
     """Residual ``(τ_thr − τ_req)`` on the free rows for one driven DOF and direction."""
 
-    def __init__(self, vehicle, dof: int, sign: int, modes=None):
+    def __init__(self, vehicle, dof: int, sign: int, modes=None, inflow=None):
         self.p = vehicle.params
+        self.inflow = inflow  # uuvid.vehicle.inflow.InflowLimits, or None (bollard limits)
         self.alloc = vehicle.allocator(modes, compensate_eta=True)
         self.B = vehicle.B
         self.ep, self.en = self.alloc.eta
@@ -82,8 +83,12 @@ class _Balance:
                + restoring_forces(p.weight, p.buoyancy, p.r_g, p.r_b, R))
         t = self.alloc.nominal(req)
         thr = self.B @ apply_eta(t, self.ep, self.en)
+        lo, hi = self.lo, self.hi
+        if self.inflow is not None:  # limits at the advance speed of this steady state
+            lim = self.inflow.limits_at(nu)
+            lo, hi = lim[:, 0], lim[:, 1]
         with np.errstate(divide="ignore", invalid="ignore"):
-            frac = np.where(t >= 0, t / self.hi, t / self.lo)
+            frac = np.where(t >= 0, t / hi, t / lo)
         return req, thr, float(np.nanmax(frac, initial=0.0))
 
     def residual(self, z, U):
@@ -350,14 +355,20 @@ def _scan(bal: _Balance, max_speed: float, n: int, max_tilt: float):
 
 
 def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int = 41, modes=None,
-                     envelope=None) -> StabilityResult:
+                     envelope=None, inflow: str | None = None) -> StabilityResult:
     """Trim angle against speed and the speed where the vehicle can no longer stay level, for
-    every controlled translational direction up to its envelope speed (see the module text)."""
+    every controlled translational direction up to its envelope speed (see the module text).
+
+    ``inflow`` (``None``: the vehicle file's; ``'none'``: bollard): the envelope speed scanned to
+    and the thrust fraction use each thruster's limit at the advance speed of the trim state
+    (:mod:`uuvid.vehicle.inflow`); the trim itself does not depend on the limits."""
 
     from uuvid.vehicle.envelope import speed_envelope
+    from uuvid.vehicle.inflow import inflow_limits
     from uuvid.vehicle.layout import dof_index
 
-    env = speed_envelope(vehicle, modes) if envelope is None else envelope
+    env = speed_envelope(vehicle, modes, inflow=inflow) if envelope is None else envelope
+    il = inflow_limits(vehicle, inflow)
     p = vehicle.params
     bgw = {"roll": p.weight * p.r_g[2] - p.buoyancy * p.r_b[2],
            "pitch": p.weight * p.r_g[2] - p.buoyancy * p.r_b[2]}
@@ -367,7 +378,7 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
         if d > 2 or not math.isfinite(r.speed):
             continue
         vmax = max(abs(r.speed), abs(r.speed_allocator))
-        bal = _Balance(vehicle, d, r.sign, modes)
+        bal = _Balance(vehicle, d, r.sign, modes, il)
         speeds, sols, limit, ldof, reason = _scan(bal, vmax, n_speeds, max_tilt_deg)
         free = tuple(DOF_NAMES[k] for k in bal.free_att)
         tilt = {k: np.full(len(speeds), np.nan) for k in free}
@@ -397,4 +408,7 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
              f"(translations and held attitude) take what the balance needs; free: roll/pitch "
              f"angles settle on the righting moment BG·W = W z_G − B z_B = "
              f"{bgw['pitch']:.3g} N·m/rad"]
+    if il is not None:
+        notes.append(f"inflow {il.model}: envelope speeds and thrust fractions with each "
+                     "thruster's limit at its advance speed (the trim angles do not depend on it)")
     return StabilityResult(vehicle.name, tuple(cases), float(max_tilt_deg), tuple(notes))

@@ -1,0 +1,510 @@
+"""Thrust that knows the water speed: advance speed, four-quadrant maps, Healey's full form.
+
+Three pieces, each a pure function of (state, input, parameters) with a compiled core:
+
+* **Advance speed** at a thruster (Fossen 2011, *Handbook of Marine Craft Hydrodynamics*, §6.7;
+  the wake fraction of ship propulsion, Carlton, *Marine Propellers and Propulsion*, ch. 5)::
+
+      u_a = (1 − w) · axisᵀ (v_r + ω × r)
+
+  with ``v_r`` the linear part of the body-frame velocity relative to the water, ``ω`` the angular
+  rate, ``r`` the thruster position and ``w`` the wake fraction.
+
+* **Four-quadrant map** (van Lammeren, van Manen & Oosterveld 1969, "The Wageningen B-screw
+  series", SNAME Trans. 77; Carlton ch. 6.5): with the advance angle
+  ``β = atan2(u_a, 0.7·π·n·D)`` (``n`` rev/s) and ``V_r² = u_a² + (0.7·π·n·D)²``::
+
+      T = C_T*(β) · ½ρ V_r² · (π/4) D²,     Q = C_Q*(β) · ½ρ V_r² · (π/4) D³
+
+  ``C_T*``, ``C_Q*`` a Fourier series in β (the published form of the Wageningen four-quadrant
+  data), or a periodic table.  β covers both shaft directions, so one map holds "per direction".
+  At ``u_a = 0`` the map is ``T = K_T(0) ρ n² D⁴`` — today's bollard ``T = k_t Ω|Ω|``.
+
+* **Healey's full blade-element form** (Healey, Rock, Cody, Miles & Brown 1995, IEEE JOE 20(4),
+  eqs. 6–11) with the vehicle's advance speed in the axial-flow state (Blanke, Lindegaard &
+  Fossen 2000, "Dynamic model for thrust generation of marine propellers", IFAC MCMC, eq. for the
+  axial flow; Fossen 2011 §6.7)::
+
+      β = atan2(u_p, 0.7 R Ω),  α = p − β,  V² = u_p² + (0.7 R Ω)²
+      L = ½ρ A V² C_Lmax sin 2α,   D = ½ρ A V² C_Dmax (1 − cos 2α)
+      T = L cos β − D sin β,       Q = 0.7 R (L sin β + D cos β)
+      m_f u̇_p = T − d_f |u_p| (u_p − u_a)
+
+  ``u_p`` is the flow through the propeller, ``u_a`` the ambient advance speed.  At ``u_a = 0``
+  the flow equation is exactly Healey's ``m_f u̇_p = T − d_f u_p|u_p|`` (today's
+  :class:`~uuvid.thruster.blocks.HealeyThruster`).  For small ``α`` and ``β`` the thrust is the
+  linear form ``T = k_t Ω|Ω| − k_a |Ω| u_p`` with ``k_t = ρ A C_Lmax (0.7R)² p`` and
+  ``k_a = ρ A C_Lmax 0.7R`` (:meth:`BladeElement.linear_coefficients`), so the existing block is
+  the small-angle special case.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from uuvid.thruster.blocks import HealeyThruster, ParameterError
+
+#: Fresh water, kg/m³ (the density :meth:`HealeyThruster.from_geometry` also assumes).
+RHO_FRESH = 1000.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Advance speed
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True)
+def advance_speeds_nb(nu_r, positions, axes, wake, out):
+    """Compiled ``u_a,i = (1 − w_i) axis_iᵀ(v_r + ω × r_i)`` for every thruster (in place)."""
+    u, v, w = nu_r[0], nu_r[1], nu_r[2]
+    p, q, r = nu_r[3], nu_r[4], nu_r[5]
+    for i in range(positions.shape[0]):
+        x, y, z = positions[i, 0], positions[i, 1], positions[i, 2]
+        vx = u + q * z - r * y
+        vy = v + r * x - p * z
+        vz = w + p * y - q * x
+        out[i] = (1.0 - wake[i]) * (axes[i, 0] * vx + axes[i, 1] * vy + axes[i, 2] * vz)
+    return out
+
+
+def advance_speeds(nu_r, positions, axes, wake=None) -> np.ndarray:
+    """Advance speed at each thruster, m/s: ``u_a = (1 − w) axisᵀ(v_r + ω × r)``.
+
+    ``nu_r`` (6,) body velocity relative to the water ``[u, v, w, p, q, r]``; ``positions`` and
+    ``axes`` (n, 3) (axes are normalised here); ``wake`` (n,) wake fractions in [0, 1) (default 0).
+    """
+    nu_r = np.asarray(nu_r, dtype=np.float64).reshape(-1)
+    if nu_r.shape != (6,):
+        raise ValueError(f"advance_speeds: nu_r must have 6 values [u, v, w, p, q, r], got "
+                         f"{nu_r.size}")
+    P = np.ascontiguousarray(np.asarray(positions, dtype=np.float64).reshape(-1, 3))
+    A = np.asarray(axes, dtype=np.float64).reshape(-1, 3)
+    if A.shape != P.shape:
+        raise ValueError(f"advance_speeds: axes {A.shape} and positions {P.shape} differ")
+    norm = np.linalg.norm(A, axis=1)
+    if np.any(norm < 1e-12):
+        raise ValueError("advance_speeds: every thruster axis must be a non-zero vector")
+    A = np.ascontiguousarray(A / norm[:, None])
+    w = np.zeros(len(P)) if wake is None else np.asarray(wake, dtype=np.float64).reshape(-1)
+    check_wake(w)
+    return advance_speeds_nb(nu_r, P, A, np.ascontiguousarray(w), np.empty(len(P)))
+
+
+def check_wake(wake) -> None:
+    """Wake fractions must lie in [0, 1) (``w = 1`` would hide the vehicle's speed entirely)."""
+    w = np.atleast_1d(np.asarray(wake, dtype=float))
+    bad = ~((w >= 0.0) & (w < 1.0))
+    if np.any(bad):
+        raise ParameterError(f"wake fraction must be in [0, 1), got {w[bad][0]!r}", "wake")
+
+
+# ------------------------------------------------------------------------------------------------
+# Four-quadrant map
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def fourier_nb(a, b, beta):
+    """``Σ_k a_k cos kβ + b_k sin kβ`` (k = 0 … len(a) − 1)."""
+    s = 0.0
+    for k in range(a.shape[0]):
+        s += a[k] * math.cos(k * beta) + b[k] * math.sin(k * beta)
+    return s
+
+
+@njit(cache=True)
+def map_thrust_torque_nb(ct_a, ct_b, cq_a, cq_b, diameter, rho, n, ua):
+    """Compiled four-quadrant ``(T, Q)`` at shaft speed ``n`` (rev/s) and advance ``u_a`` (m/s)."""
+    vt = 0.7 * math.pi * n * diameter
+    beta = math.atan2(ua, vt)
+    q = 0.5 * rho * (ua * ua + vt * vt) * 0.25 * math.pi * diameter * diameter
+    return (fourier_nb(ct_a, ct_b, beta) * q, fourier_nb(cq_a, cq_b, beta) * q * diameter)
+
+
+@dataclass(frozen=True)
+class FourQuadrantMap:
+    """``C_T*(β)``, ``C_Q*(β)`` as Fourier series (see the module docstring for the equations).
+
+    ``ct_a``/``ct_b`` (cos/sin coefficients, k = 0 … N) and likewise ``cq_*``; ``diameter`` in m.
+    ``source`` and ``assumption`` say where the numbers come from.
+    """
+
+    name: str
+    diameter: float
+    ct_a: tuple[float, ...]
+    ct_b: tuple[float, ...]
+    cq_a: tuple[float, ...]
+    cq_b: tuple[float, ...]
+    source: str = ""
+    assumption: str = ""
+
+    def __post_init__(self):
+        if not (math.isfinite(self.diameter) and self.diameter > 0):
+            raise ParameterError(f"FourQuadrantMap.diameter must be a positive length in m, got "
+                                 f"{self.diameter!r}", "diameter")
+        n = len(self.ct_a)
+        for f in ("ct_b", "cq_a", "cq_b"):
+            if len(getattr(self, f)) != n:
+                raise ParameterError(f"FourQuadrantMap.{f} must have {n} coefficients (as ct_a), "
+                                     f"got {len(getattr(self, f))}", f)
+        if n == 0 or not np.all(np.isfinite(np.r_[self.ct_a, self.ct_b, self.cq_a, self.cq_b])):
+            raise ParameterError("FourQuadrantMap coefficients must be finite and non-empty",
+                                 "ct_a")
+
+    @classmethod
+    def fit(cls, name: str, diameter: float, beta, ct, cq, order: int = 16, **kw):
+        """Least-squares Fourier series of order ``order`` through samples ``(β [rad], C_T*, C_Q*)``
+        (e.g. a published table); the samples must cover the whole circle."""
+        beta = np.asarray(beta, float)
+        k = np.arange(order + 1)
+        X = np.hstack([np.cos(np.outer(beta, k)), np.sin(np.outer(beta, k[1:]))])
+        ca = np.linalg.lstsq(X, np.asarray(ct, float), rcond=None)[0]
+        qa = np.linalg.lstsq(X, np.asarray(cq, float), rcond=None)[0]
+
+        def split(c):
+            c = [float(v) for v in c]
+            return tuple(c[:order + 1]), (0.0,) + tuple(c[order + 1:])
+
+        (cta, ctb), (cqa, cqb) = split(ca), split(qa)
+        return cls(name, diameter, cta, ctb, cqa, cqb, **kw)
+
+    def with_diameter(self, diameter: float) -> FourQuadrantMap:
+        """The same non-dimensional map for a geometrically similar propeller of another size."""
+        return FourQuadrantMap(self.name, diameter, self.ct_a, self.ct_b, self.cq_a, self.cq_b,
+                               self.source, self.assumption)
+
+    def _arrays(self):
+        return (np.asarray(self.ct_a), np.asarray(self.ct_b), np.asarray(self.cq_a),
+                np.asarray(self.cq_b))
+
+    def ct(self, beta) -> np.ndarray:
+        """``C_T*(β)``, β in rad."""
+        b = np.asarray(beta, float)[..., None]
+        k = np.arange(len(self.ct_a))
+        return (np.asarray(self.ct_a) * np.cos(k * b) + np.asarray(self.ct_b) * np.sin(k * b)).sum(-1)
+
+    def cq(self, beta) -> np.ndarray:
+        """``C_Q*(β)``, β in rad."""
+        b = np.asarray(beta, float)[..., None]
+        k = np.arange(len(self.cq_a))
+        return (np.asarray(self.cq_a) * np.cos(k * b) + np.asarray(self.cq_b) * np.sin(k * b)).sum(-1)
+
+    def thrust_torque(self, n, ua, rho: float = RHO_FRESH):
+        """``(T [N], Q [N·m])`` at shaft speed ``n`` (rev/s) and advance speed ``u_a`` (m/s)."""
+        n, ua = np.broadcast_arrays(np.asarray(n, float), np.asarray(ua, float))
+        vt = 0.7 * np.pi * n * self.diameter
+        beta = np.arctan2(ua, vt)
+        q = 0.5 * rho * (ua ** 2 + vt ** 2) * 0.25 * np.pi * self.diameter ** 2
+        return self.ct(beta) * q, self.cq(beta) * q * self.diameter
+
+    def kt_kq(self, J):
+        """Open-water ``K_T(J)``, ``K_Q(J)`` for ``n > 0``: ``K = C* · (π/8)(J² + (0.7π)²)``."""
+        J = np.asarray(J, float)
+        beta = np.arctan2(J, 0.7 * np.pi)
+        s = np.pi / 8.0 * (J ** 2 + (0.7 * np.pi) ** 2)
+        return self.ct(beta) * s, self.cq(beta) * s
+
+    def bollard_kt(self, direction: int = 1) -> float:
+        """``K_T`` at ``u_a = 0``: ``T = K_T ρ n² D⁴`` (sign of thrust with ``direction``)."""
+        return float(self.ct(0.0 if direction > 0 else math.pi)) * math.pi / 8.0 * (0.7 * math.pi) ** 2
+
+    def shaft_speed_for(self, thrust: float, rho: float = RHO_FRESH) -> float:
+        """Shaft speed (rev/s, signed) that gives bollard ``thrust`` (N, signed)."""
+        if thrust == 0:
+            return 0.0
+        d = 1 if thrust > 0 else -1
+        kt = self.bollard_kt(d)
+        if kt * d <= 0:
+            raise ValueError(f"{self.name}: bollard K_T has the wrong sign for direction {d}")
+        return d * math.sqrt(abs(thrust) / (rho * abs(kt) * self.diameter ** 4))
+
+    def thrust_ratio(self, n, ua) -> np.ndarray:
+        """``T(n, u_a) / T(n, 0)`` — the fraction of bollard thrust left at advance ``u_a`` with the
+        shaft speed held (equals 1 exactly at ``u_a = 0``)."""
+        n = np.asarray(n, float)
+        vt = 0.7 * np.pi * n * self.diameter
+        beta = np.arctan2(ua, vt)
+        b0 = np.where(n >= 0, 0.0, np.pi)
+        return self.ct(beta) / self.ct(b0) * (1.0 + (np.asarray(ua, float) / vt) ** 2)
+
+
+def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH) -> np.ndarray:
+    """Flat parameters of :func:`inflow_thrust_nb`: ``[0.7πD, ⅛πρD², 1/(ρ|K_T0|D⁴) ahead, the same
+    astern, N, C_T* cos (N), C_T* sin (N)]`` (the constants precomputed: the loop calls it per
+    thruster and RK4 stage)."""
+    D = fq.diameter
+    return np.array([0.7 * math.pi * D, 0.125 * math.pi * rho * D * D,
+                     1.0 / (rho * abs(fq.bollard_kt(1)) * D ** 4),
+                     1.0 / (rho * abs(fq.bollard_kt(-1)) * D ** 4),
+                     len(fq.ct_a), *fq.ct_a, *fq.ct_b], dtype=np.float64)
+
+
+@njit(cache=True, inline="always")
+def inflow_thrust_nb(f, ua, prm):
+    """Thrust at advance speed ``u_a`` of a thruster whose bollard model gives ``f`` (N).
+
+    The shaft speed is the one the map needs for ``f`` at bollard, ``n = sgn f ·
+    sqrt(|f| / (ρ |K_T0| D⁴))``; the thrust is then the map's ``T(n, u_a)``.  For ``f ≠ 0`` this is
+    ``f · T(n, u_a)/T(n, 0)``, so the chain's own bollard calibration is kept; ``u_a = 0`` returns
+    ``f`` itself (bit for bit: the bollard model is the zero-advance case).  ``prm``:
+    :func:`inflow_params`.  This is the evaluation a mission loop calls per thruster and stage."""
+    if ua == 0.0:
+        return f
+    c = prm[2] if f >= 0.0 else prm[3]
+    nc = int(prm[4])
+    vt = prm[0] * math.copysign(math.sqrt(abs(f) * c), f)  # 0.7π n D
+    v2 = ua * ua + vt * vt
+    ir = 1.0 / math.sqrt(v2)
+    c1, s1 = vt * ir, ua * ir  # cos β, sin β without atan2; cos kβ, sin kβ by angle addition
+    ck, sk = 1.0, 0.0
+    ct = 0.0
+    for k in range(nc):
+        ct += prm[5 + k] * ck + prm[5 + nc + k] * sk
+        ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
+    return ct * prm[1] * v2
+
+
+# ------------------------------------------------------------------------------------------------
+# Healey's full blade-element form with the advance speed in the axial flow
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True)
+def blade_element_nb(omega, up, pitch, lift_gain, drag_gain, r07):
+    """Compiled Healey 1995 blade forces ``(T, Q)``.
+
+    ``lift_gain = ½ρ A C_Lmax``, ``drag_gain = ½ρ A C_Dmax``, ``r07 = 0.7 R``; see
+    :class:`BladeElement`."""
+    vt = r07 * omega
+    beta = math.atan2(up, vt)
+    v2 = up * up + vt * vt
+    alpha = pitch - beta
+    lift = lift_gain * v2 * math.sin(2.0 * alpha)
+    drag = drag_gain * v2 * (1.0 - math.cos(2.0 * alpha))
+    cb, sb = math.cos(beta), math.sin(beta)
+    return lift * cb - drag * sb, r07 * (lift * sb + drag * cb)
+
+
+@njit(cache=True, inline="always")
+def axial_flow_rate_nb(thrust, up, ua, fluid_mass, flow_damping):
+    """``u̇_p = (T − d_f |u_p| (u_p − u_a)) / m_f`` (Blanke et al. 2000); ``u_a = 0`` is Healey's
+    ``(T − d_f u_p|u_p|)/m_f``."""
+    return (thrust - flow_damping * abs(up) * (up - ua)) / fluid_mass
+
+
+def axial_flow_rate(thrust, up, ua, fluid_mass: float, flow_damping: float):
+    """NumPy form of :func:`axial_flow_rate_nb`."""
+    up = np.asarray(up, float)
+    return (np.asarray(thrust, float) - flow_damping * np.abs(up) * (up - np.asarray(ua, float))) \
+        / fluid_mass
+
+
+def linear_healey_forces(block: HealeyThruster, omega, up):
+    """Today's linear Healey thrust and torque (``HealeyThruster``): ``T = k_t Ω|Ω| − k_a|Ω|u_p``."""
+    p = block.params_array()
+    omega, up = np.asarray(omega, float), np.asarray(up, float)
+    aw = np.abs(omega)
+    kt = np.where(omega >= 0, p[5], p[6])
+    return kt * omega * aw - p[7] * aw * up, p[3] * omega * aw - p[4] * aw * up
+
+
+def steady_flow(thrust_of, omega: float, ua: float, flow_damping: float) -> float:
+    """The steady axial flow ``u_p`` where ``T(Ω, u_p) = d_f |u_p|(u_p − u_a)`` (bracketed root).
+
+    ``thrust_of(omega, up)`` returns the thrust.  Between ``u_a`` and the bollard-like bound the
+    residual changes sign once for a propeller whose thrust falls with the flow."""
+    from scipy.optimize import brentq
+
+    def g(up):
+        return float(thrust_of(omega, up)) - flow_damping * abs(up) * (up - ua)
+
+    lo, hi = ua, ua
+    g0 = g(ua)
+    if g0 == 0.0:
+        return ua
+    step = max(1e-3, abs(ua) * 0.1, math.sqrt(abs(g0) / flow_damping))
+    for _ in range(200):
+        if g0 > 0:
+            hi = hi + step
+            if g(hi) <= 0:
+                break
+        else:
+            lo = lo - step
+            if g(lo) >= 0:
+                break
+        step *= 1.6
+    else:  # pragma: no cover - a thrust law that never balances the flow
+        raise ValueError("steady_flow: no steady axial flow found")
+    return brentq(g, lo, hi, xtol=1e-14, rtol=1e-13) if g0 > 0 else brentq(g, lo, ua, xtol=1e-14,
+                                                                            rtol=1e-13)
+
+
+@dataclass(frozen=True)
+class BladeElement:
+    """Healey et al. 1995 full thruster: blade lift and drag at 0.7 R with the flow state ``u_p``.
+
+    ``pitch`` p (rad, geometric pitch angle at 0.7 R: ``tan p = (P/D)/(0.7π)``), ``radius`` R (m),
+    ``blade_area`` A (m², effective), ``cl_max``, ``cd_max``, ``fluid_mass`` m_f (kg) and
+    ``flow_damping`` d_f (kg/m) of the axial-flow control volume, ``rho`` (kg/m³).
+    """
+
+    pitch: float
+    radius: float
+    blade_area: float
+    cl_max: float
+    cd_max: float
+    fluid_mass: float
+    flow_damping: float
+    rho: float = RHO_FRESH
+
+    def __post_init__(self):
+        for f in ("radius", "blade_area", "cl_max", "fluid_mass", "flow_damping", "rho"):
+            v = getattr(self, f)
+            if not (math.isfinite(v) and v > 0):
+                raise ParameterError(f"BladeElement.{f} must be positive, got {v!r}", f)
+        if not (math.isfinite(self.cd_max) and self.cd_max >= 0):
+            raise ParameterError(f"BladeElement.cd_max must be >= 0, got {self.cd_max!r}", "cd_max")
+        if not (0 < self.pitch < math.pi / 2):
+            raise ParameterError(f"BladeElement.pitch must be an angle in (0, π/2) rad, got "
+                                 f"{self.pitch!r}", "pitch")
+
+    @property
+    def r07(self) -> float:
+        return 0.7 * self.radius
+
+    def forces(self, omega, up):
+        """``(T, Q)`` at shaft speed ``Ω`` (rad/s) and axial flow ``u_p`` (m/s) (vectorised)."""
+        f = np.vectorize(lambda w, u: blade_element_nb(
+            w, u, self.pitch, 0.5 * self.rho * self.blade_area * self.cl_max,
+            0.5 * self.rho * self.blade_area * self.cd_max, self.r07), otypes=[float, float])
+        return f(np.asarray(omega, float), np.asarray(up, float))
+
+    def flow_rate(self, omega, up, ua):
+        """``u̇_p`` with the ambient advance speed ``u_a`` in the axial flow (Blanke et al. 2000)."""
+        return axial_flow_rate(self.forces(omega, up)[0], up, ua, self.fluid_mass,
+                               self.flow_damping)
+
+    def linear_coefficients(self) -> tuple[float, float]:
+        """``(k_t, k_a)`` of the small-angle form ``T = k_t Ω|Ω| − k_a |Ω| u_p``:
+        ``k_t = ρ A C_Lmax (0.7R)² p``, ``k_a = ρ A C_Lmax 0.7R`` (``sin 2α ≈ 2α``, ``β ≈ u_p/0.7RΩ``)."""
+        g = self.rho * self.blade_area * self.cl_max
+        return g * self.r07 ** 2 * self.pitch, g * self.r07
+
+    def steady(self, omega: float, ua: float) -> dict:
+        """Steady flow, thrust and torque at shaft speed ``Ω`` and advance speed ``u_a``."""
+        up = steady_flow(lambda w, u: self.forces(w, u)[0], omega, ua, self.flow_damping)
+        T, Q = self.forces(omega, up)
+        return {"up": up, "thrust": float(T), "torque": float(Q)}
+
+
+def linear_healey_steady(block: HealeyThruster, omega: float, ua: float) -> dict:
+    """Steady flow and thrust of the linear Healey block at ``Ω`` with the advance speed ``u_a`` in
+    the axial flow (at ``u_a = 0``: today's steady state ``k_tΩ|Ω| − k_a|Ω|u_p = d_f u_p|u_p|``)."""
+    up = steady_flow(lambda w, u: linear_healey_forces(block, w, u)[0], omega, ua,
+                     block.flow_damping)
+    T, Q = linear_healey_forces(block, omega, up)
+    return {"up": up, "thrust": float(T), "torque": float(Q)}
+
+
+# ------------------------------------------------------------------------------------------------
+# Presets
+# ------------------------------------------------------------------------------------------------
+#: Approximate open-water points of the Wageningen B4-70, P/D = 1.0 (J, K_T, 10 K_Q).
+#: ASSUMPTION: recalled readings of the B-series open-water chart (van Lammeren et al. 1969;
+#: Oosterveld & van Oossanen 1975 polynomials), good to about ±10 %, NOT a digitisation of the
+#: published table: K_T(0) ≈ 0.45, K_T = 0 near J ≈ 1.08, best η₀ ≈ 0.7 near J ≈ 0.85.
+B4_70_PD10_OPEN_WATER = ((0.0, 0.45, 0.63), (0.2, 0.40, 0.58), (0.5, 0.31, 0.48),
+                         (0.8, 0.18, 0.33), (1.08, 0.0, 0.12))
+#: ASSUMPTION: reverse (n < 0) lift relative to forward; B-series propellers give about 0.7–0.8 of
+#: their ahead bollard thrust astern (Carlton ch. 6.5, quoted from memory).
+B4_70_REVERSE_LIFT = 0.75
+
+
+def _blade_map_coefficients(beta, pitch, cl, cd, cl_rev, cd0=0.0):
+    """The blade-element shape of a four-quadrant map in the geometric advance angle β:
+    ``C_T* = c_l(β) sin 2(p−β) cos β − c_D sin β``, ``C_Q* = 0.35 (c_l(β) sin 2(p−β) sin β +
+    c_D cos β)`` with ``c_D = c_d0 + c_d (1 − cos 2(p−β))`` (Healey's drag plus a profile drag
+    ``c_d0``, so that the torque stays positive where the thrust vanishes), and the lift weight
+    ``c_l(β)`` blending smoothly from ahead (cos β = 1) to astern (cos β = −1)."""
+    a = pitch - beta
+    clb = cl * (1 + np.cos(beta)) / 2 + cl_rev * (1 - np.cos(beta)) / 2
+    lift, drag = clb * np.sin(2 * a), cd0 + cd * (1 - np.cos(2 * a))
+    return lift * np.cos(beta) - drag * np.sin(beta), 0.35 * (lift * np.sin(beta) + drag * np.cos(beta))
+
+
+@functools.cache
+def wageningen_b4_70_approx(diameter: float = 1.0) -> FourQuadrantMap:
+    """Four-quadrant map shaped like a Wageningen B4-70, P/D = 1.0 propeller.
+
+    ASSUMPTION (labelled): the published four-quadrant Fourier coefficients (van Lammeren et al.
+    1969; MARIN) were not available here.  The map is Healey's blade-element shape (C_L ∝ sin 2α,
+    C_D ∝ 1 − cos 2α, in the geometric advance angle) with pitch angle, lift and drag gains fitted
+    by least squares to the recalled open-water points :data:`B4_70_PD10_OPEN_WATER`, the astern
+    lift scaled by :data:`B4_70_REVERSE_LIFT`, then expanded to a 4th-order Fourier
+    series (exact: the shape is a trigonometric polynomial of degree 4).
+    Replace it by the published table (:meth:`FourQuadrantMap.fit`) for quantitative work.
+    """
+    from scipy.optimize import least_squares
+
+    pts = np.asarray(B4_70_PD10_OPEN_WATER, float)
+    J, kt, kq = pts[:, 0], pts[:, 1], pts[:, 2] / 10.0
+    beta = np.arctan2(J, 0.7 * np.pi)
+    s = np.pi / 8 * (J ** 2 + (0.7 * np.pi) ** 2)
+
+    def res(x):
+        ct, cq = _blade_map_coefficients(beta, x[0], x[1], x[2], x[1], x[3])
+        return np.r_[(ct * s - kt) / 0.45, (cq * s - kq) / 0.063]
+
+    x = least_squares(res, [math.atan(1.0 / (0.7 * math.pi)), 0.3, 0.3, 0.0],
+                      bounds=([0.05, 0.0, 0.0, 0.0], [1.4, 5.0, 5.0, 1.0])).x
+    grid = np.linspace(-np.pi, np.pi, 721)[:-1]
+    ct, cq = _blade_map_coefficients(grid, x[0], x[1], x[2], B4_70_REVERSE_LIFT * x[1], x[3])
+    return FourQuadrantMap.fit(
+        "wageningen-b4-70-pd1.0-approx", diameter, grid, ct, cq, order=4,
+        source="shape: Healey et al. 1995 blade element; level: Wageningen B4-70 P/D=1.0 open-water "
+               "chart (van Lammeren et al. 1969), recalled points",
+        assumption="not the published four-quadrant table; open-water points recalled to ~±10 %; "
+                   f"astern lift {B4_70_REVERSE_LIFT:g} × ahead (assumed)")
+
+
+#: ASSUMPTION: T200 propeller diameter 76 mm (Blue Robotics' 3-inch propeller), pitch ratio 1.0.
+#: The pitch ratio is derived, not measured: the preset's fitted bollard coefficient
+#: ``k_t = 3.668e-4 N·s²/rad²`` is ``K_T = k_t (2π)² / (ρ D⁴) = 0.43`` at D = 76 mm — the bollard
+#: K_T of a B4-70 propeller at P/D ≈ 1.0 — and the full-command speed that map gives for the
+#: sheet's 51.5 N is within a few % of the sheet's 3500 rpm (tests/test_inflow.py checks both).
+T200_DIAMETER = 0.076
+T200_PITCH_RATIO = 1.0
+
+
+@dataclass(frozen=True)
+class T200Inflow:
+    """The T200 preset's inflow coefficients (all derived from diameter and pitch ratio, see
+    :data:`T200_DIAMETER`)."""
+
+    diameter: float
+    pitch_ratio: float
+    pitch_angle: float  # rad at 0.7 R: tan p = (P/D) / (0.7 π)
+    inflow_coefficient: float  # k_a of the linear Healey form, N·s/(rad·m): k_t / (0.7 R p)
+    map: FourQuadrantMap
+
+
+def t200_inflow(kt_fwd: float | None = None) -> T200Inflow:
+    """T200 inflow coefficients from its pitch and diameter (assumptions at :data:`T200_DIAMETER`)."""
+    if kt_fwd is None:
+        from uuvid.thruster.presets import T200_STEADY
+
+        kt_fwd = T200_STEADY.kt_fwd
+    p = math.atan(T200_PITCH_RATIO / (0.7 * math.pi))
+    r07 = 0.35 * T200_DIAMETER
+    return T200Inflow(T200_DIAMETER, T200_PITCH_RATIO, p, kt_fwd / (r07 * p),
+                      wageningen_b4_70_approx(T200_DIAMETER))
+
+
+#: Thruster model names with known propeller data → their four-quadrant map.
+def propeller_map(model: str) -> FourQuadrantMap:
+    """The four-quadrant map of a thruster model (preset name); ``KeyError`` when none is known."""
+    if model in ("t200", "t200-physical"):
+        return t200_inflow().map
+    raise KeyError(model)
+
+
+INFLOW_MODELS = ("none", "four-quadrant")

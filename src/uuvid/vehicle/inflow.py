@@ -1,0 +1,179 @@
+"""Thrust limits at the vehicle's own speed: the steady analyses' view of inflow (issue 21).
+
+The vehicle file's thrust limits ``[min, max]`` are bollard values (zero advance).  With
+``inflow: four-quadrant`` each thruster's limit at a steady body velocity ``ν_r`` (relative to
+the water) is its bollard limit times the fraction of bollard thrust its propeller keeps at the
+advance speed ``u_a = (1 − w) axisᵀ(v_r + ω × r)`` (:func:`uuvid.thruster.inflow.advance_speeds`)::
+
+    T_max(u_a) = T_max · T(n₊, u_a) / T(n₊, 0),    T_min(u_a) = T_min · T(n₋, u_a) / T(n₋, 0)
+
+with ``T(n, u_a)`` the four-quadrant map of the thruster's propeller and ``n±`` the shaft speed
+giving the bollard limit.  ASSUMPTION (labelled): the shaft speed at full command does not
+change with the advance speed (in a real ESC/motor the unloaded propeller speeds up a little, so
+this errs on the side of less thrust).  A limit that would change sign is held at zero (the
+thruster then cannot push that way at all).  At ``ν_r = 0`` the limits are exactly the file's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from uuvid.thruster.inflow import INFLOW_MODELS, FourQuadrantMap, advance_speeds, propeller_map
+
+
+def resolve_inflow(vehicle, inflow: str | None = None) -> str:
+    """The inflow model in force: ``inflow`` if given (``'none'`` switches it off), else the
+    vehicle file's ``inflow`` key."""
+    mode = getattr(vehicle, "inflow", "none") if inflow is None else inflow
+    if mode not in INFLOW_MODELS:
+        raise ValueError(f"inflow must be one of {', '.join(INFLOW_MODELS)}, got {mode!r}")
+    return mode
+
+
+@dataclass(frozen=True, eq=False)
+class InflowLimits:
+    """Per-thruster data to turn bollard limits into limits at a body velocity."""
+
+    model: str
+    maps: tuple[FourQuadrantMap, ...]
+    positions: np.ndarray  # (n, 3)
+    axes: np.ndarray  # (n, 3)
+    wake: np.ndarray  # (n,)
+    limits: np.ndarray  # (n, 2) bollard
+    n_fwd: np.ndarray  # rev/s at the upper limit
+    n_rev: np.ndarray  # rev/s at the lower limit (negative)
+
+    def with_limits(self, limits) -> InflowLimits:
+        """The same thrusters with other bollard limits (e.g. at a supply voltage)."""
+        lim = np.asarray(limits, float).reshape(self.limits.shape)
+        return InflowLimits(self.model, self.maps, self.positions, self.axes, self.wake, lim,
+                            np.array([m.shaft_speed_for(lim[i, 1]) for i, m in enumerate(self.maps)]),
+                            np.array([m.shaft_speed_for(lim[i, 0]) for i, m in enumerate(self.maps)]))
+
+    def advance(self, nu_r) -> np.ndarray:
+        """Advance speed at each thruster (m/s) for body velocity ``ν_r`` relative to the water."""
+        return advance_speeds(nu_r, self.positions, self.axes, self.wake)
+
+    def limits_at(self, nu_r) -> np.ndarray:
+        """``(n, 2)`` thrust limits at steady body velocity ``ν_r`` (see the module text)."""
+        ua = self.advance(nu_r)
+        out = self.limits.copy()
+        for i, m in enumerate(self.maps):
+            if ua[i] == 0.0:
+                continue
+            if self.n_fwd[i] != 0.0:
+                out[i, 1] = max(0.0, self.limits[i, 1] * float(m.thrust_ratio(self.n_fwd[i], ua[i])))
+            if self.n_rev[i] != 0.0:
+                out[i, 0] = min(0.0, self.limits[i, 0] * float(m.thrust_ratio(self.n_rev[i], ua[i])))
+        return out
+
+
+def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
+    """The vehicle's :class:`InflowLimits`, or ``None`` when inflow is off (``'none'``)."""
+    mode = resolve_inflow(vehicle, inflow)
+    if mode == "none":
+        return None
+    lay = vehicle.layout
+    maps = []
+    for t in lay:
+        try:
+            maps.append(propeller_map(t.model))
+        except KeyError:
+            raise ValueError(f"{vehicle.name}: thrusters[{t.name}].model {t.model!r}: inflow "
+                             f"{mode!r} needs its propeller, which uuvid does not know (known: "
+                             "t200, t200-physical); use inflow none") from None
+    lim = np.asarray(lay.limits, float)
+    for i, t in enumerate(lay):
+        if not np.all(np.isfinite(lim[i])):
+            raise ValueError(f"{vehicle.name}: thrusters[{t.name}].limits must be finite for inflow "
+                             f"(bollard thrust at full command), got {tuple(lim[i])}")
+    P = np.array([t.position for t in lay], float)
+    A = np.array([t.axis for t in lay], float)
+    wake = np.asarray(vehicle.wake if len(getattr(vehicle, "wake", ())) else np.zeros(lay.n), float)
+    n_fwd = np.array([m.shaft_speed_for(lim[i, 1]) for i, m in enumerate(maps)])
+    n_rev = np.array([m.shaft_speed_for(lim[i, 0]) for i, m in enumerate(maps)])
+    return InflowLimits(mode, tuple(maps), P, A / np.linalg.norm(A, axis=1)[:, None], wake, lim,
+                        n_fwd, n_rev)
+
+
+@njit(cache=True, inline="always")
+def state_advance_speeds_nb(x, vc_ned, G, out):
+    """Advance speeds (in place) from the 13-state ``x = [η (3), q (4), ν (6)]`` of
+    :func:`uuvid.vehicle.model.vehicle_rhs_into` and the NED current: ``ν_r = ν − [Rᵀ v_c; 0]``,
+    then ``u_a = (1 − w) axisᵀ(v_r + ω × r)`` (for a mission loop, per RK4 stage).  ``G`` (n, 7):
+    rows ``[r (3), unit axis (3), w]`` (:func:`inflow_geometry`)."""
+    e, ex, ey, ez = x[3], x[4], x[5], x[6]
+    r00 = 1.0 - 2.0 * (ey * ey + ez * ez)
+    r01 = 2.0 * (ex * ey - ez * e)
+    r02 = 2.0 * (ex * ez + ey * e)
+    r10 = 2.0 * (ex * ey + ez * e)
+    r11 = 1.0 - 2.0 * (ex * ex + ez * ez)
+    r12 = 2.0 * (ey * ez - ex * e)
+    r20 = 2.0 * (ex * ez - ey * e)
+    r21 = 2.0 * (ey * ez + ex * e)
+    r22 = 1.0 - 2.0 * (ex * ex + ey * ey)
+    u = x[7] - (r00 * vc_ned[0] + r10 * vc_ned[1] + r20 * vc_ned[2])
+    v = x[8] - (r01 * vc_ned[0] + r11 * vc_ned[1] + r21 * vc_ned[2])
+    w = x[9] - (r02 * vc_ned[0] + r12 * vc_ned[1] + r22 * vc_ned[2])
+    p, q, r = x[10], x[11], x[12]
+    for i in range(G.shape[0]):
+        px, py, pz = G[i, 0], G[i, 1], G[i, 2]
+        out[i] = (1.0 - G[i, 6]) * (G[i, 3] * (u + q * pz - r * py)
+                                    + G[i, 4] * (v + r * px - p * pz)
+                                    + G[i, 5] * (w + p * py - q * px))
+    return out
+
+
+def inflow_geometry(vehicle) -> np.ndarray:
+    """``(n, 7)`` rows ``[r (3), unit axis (3), wake]`` of a vehicle's thrusters."""
+    lay = vehicle.layout
+    P = np.array([t.position for t in lay], float)
+    A = np.array([t.axis for t in lay], float)
+    A = A / np.linalg.norm(A, axis=1)[:, None]
+    w = np.asarray(vehicle.wake if len(getattr(vehicle, "wake", ())) else np.zeros(lay.n), float)
+    return np.ascontiguousarray(np.column_stack([P, A, w]))
+
+
+def loop_arrays(vehicle, inflow: str | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(map parameters, geometry)`` for a mission loop (:func:`uuvid.thruster.inflow.
+    inflow_params`, :func:`inflow_geometry`), or ``None`` when inflow is off.  One map for all
+    thrusters (a vehicle's thrusters share one chain structure in the loop)."""
+    from uuvid.thruster.inflow import inflow_params
+
+    il = inflow_limits(vehicle, inflow)
+    if il is None:
+        return None
+    names = {m.name for m in il.maps}
+    diam = {m.diameter for m in il.maps}
+    if len(names) > 1 or len(diam) > 1:
+        raise ValueError(f"{vehicle.name}: the mission loop takes one propeller map for all "
+                         f"thrusters, got {sorted(names)} at diameters {sorted(diam)}")
+    return inflow_params(il.maps[0]), inflow_geometry(vehicle)
+
+
+def steady_speed_with_inflow(speed_of_force, force_at_speed, s0: float) -> float:
+    """Fixed point ``s = speed_of_force(force_at_speed(s))`` by bracketing (``s0``: the bollard
+    speed, where the thrust is largest).  ``φ(s) = s − speed_of_force(force_at_speed(s))`` rises
+    through zero once between 0 and ``s0`` for a thrust that falls with speed."""
+    from scipy.optimize import brentq
+
+    if not math.isfinite(s0) or s0 == 0.0:
+        return s0
+
+    def phi(s):
+        return s - speed_of_force(force_at_speed(s))
+
+    a, b = 0.0, s0
+    fa, fb = phi(a), phi(b)
+    k = 0
+    while fa * fb > 0 and k < 40:  # thrust rising with speed: widen the bracket
+        b *= 1.5
+        fb = phi(b)
+        k += 1
+    if fa * fb > 0:
+        raise ValueError("steady speed with inflow: no balance of drag and thrust found")
+    return float(brentq(phi, min(a, b), max(a, b), xtol=1e-12, rtol=1e-12))

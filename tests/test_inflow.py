@@ -1,0 +1,235 @@
+"""Inflow-dependent thrust (issue 21): advance speed, four-quadrant map, Healey's full form."""
+
+import math
+
+import numpy as np
+import pytest
+
+from uuvid.thruster.blocks import HealeyThruster, ParameterError
+from uuvid.thruster.inflow import (
+    RHO_FRESH,
+    BladeElement,
+    advance_speeds,
+    axial_flow_rate,
+    linear_healey_steady,
+    map_thrust_torque_nb,
+    t200_inflow,
+    wageningen_b4_70_approx,
+)
+
+D = 0.076
+MAP = wageningen_b4_70_approx(D)
+
+
+# ------------------------------------------------------------------ advance speed
+def test_advance_speed_against_cross_product():
+    rng = np.random.default_rng(3)
+    P = rng.normal(size=(5, 3)) * 0.2
+    A = rng.normal(size=(5, 3))
+    w = rng.uniform(0, 0.4, 5)
+    nu = rng.normal(size=6)
+    got = advance_speeds(nu, P, A, w)
+    a = A / np.linalg.norm(A, axis=1)[:, None]
+    want = [(1 - w[i]) * a[i] @ (nu[:3] + np.cross(nu[3:], P[i])) for i in range(5)]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
+
+
+def test_advance_speed_yaw_rate_sign():
+    # yaw rate r > 0 (clockwise seen from above, z down): a point at y = +0.1 moves backwards
+    ua = advance_speeds([0, 0, 0, 0, 0, 1.0], [[0.0, 0.1, 0.0]], [[1.0, 0, 0]])
+    assert ua[0] == pytest.approx(-0.1)
+
+
+def test_advance_speed_bad_input_names_field():
+    with pytest.raises(ParameterError, match="wake"):
+        advance_speeds(np.zeros(6), [[0, 0, 0]], [[1, 0, 0]], [1.0])
+    with pytest.raises(ValueError, match="nu_r"):
+        advance_speeds(np.zeros(3), [[0, 0, 0]], [[1, 0, 0]])
+    with pytest.raises(ValueError, match="axis"):
+        advance_speeds(np.zeros(6), [[0, 0, 0]], [[0, 0, 0]])
+
+
+# ------------------------------------------------------------------ zero advance = bollard
+@pytest.mark.parametrize("n", [-60.0, -3.0, 2.5, 58.0])
+def test_map_at_zero_advance_is_the_bollard_square_law(n):
+    T, _ = MAP.thrust_torque(n, 0.0)
+    kt = abs(MAP.bollard_kt(1 if n > 0 else -1))  # today: T = k_t Ω|Ω|, k_t > 0 per direction
+    assert float(T) == pytest.approx(kt * RHO_FRESH * n * abs(n) * D ** 4, rel=1e-12, abs=0)
+    assert float(MAP.thrust_ratio(n, 0.0)) == pytest.approx(1.0, rel=1e-12, abs=0)
+
+
+def test_healey_axial_flow_at_zero_advance_equals_todays_kernel():
+    from uuvid.thruster.kernels import _healey
+
+    blk = HealeyThruster()
+    p = blk.params_array()
+    for w, up, V in [(300.0, 1.2, 10.0), (-250.0, -0.7, -8.0), (120.0, -0.3, 3.0)]:
+        dx, ch = np.zeros(2), np.zeros(8)
+        thrust = _healey(p, 0, np.array([w, up]), 0, V, dx, ch)
+        new = axial_flow_rate(thrust, up, 0.0, blk.fluid_mass, blk.flow_damping)
+        assert float(new) == pytest.approx(dx[1], rel=1e-12, abs=1e-15)
+
+
+def test_linear_healey_steady_at_zero_advance_is_todays_closed_form():
+    blk = HealeyThruster()
+    kt, ka, df = blk.thrust_coefficient, blk.inflow_coefficient, blk.flow_damping
+    for w in (50.0, 300.0):
+        # today's steady state: k_t Ω² − k_a Ω u = d_f u²
+        up = (-ka * w + math.sqrt((ka * w) ** 2 + 4 * df * kt * w * w)) / (2 * df)
+        s = linear_healey_steady(blk, w, 0.0)
+        assert s["up"] == pytest.approx(up, rel=1e-12)
+        assert s["thrust"] == pytest.approx(df * up * up, rel=1e-11)
+
+
+# ------------------------------------------------------------------ momentum theory
+def _actuator_disc(area):
+    """A blade-element thruster whose flow damping is the actuator disc's 2ρA."""
+    return BladeElement(pitch=0.43, radius=math.sqrt(area / math.pi), blade_area=0.3 * area,
+                        cl_max=1.0, cd_max=0.8, fluid_mass=1.0, flow_damping=2 * RHO_FRESH * area)
+
+
+def test_axial_flow_steady_state_obeys_froude_momentum_theory():
+    A = math.pi * 0.038 ** 2
+    be = _actuator_disc(A)
+    for ua in (0.0, 0.5, 1.5):
+        s = be.steady(300.0, ua)
+        T, up = s["thrust"], s["up"]
+        assert T > 0
+        # actuator disc: induced speed from T = 2ρA u_p (u_p − u_a)
+        want = (ua + math.sqrt(ua * ua + 2 * T / (RHO_FRESH * A))) / 2
+        assert up == pytest.approx(want, rel=1e-9)
+        if ua > 0:  # ideal (Froude) efficiency
+            cth = T / (0.5 * RHO_FRESH * A * ua * ua)
+            assert ua / up == pytest.approx(2 / (1 + math.sqrt(1 + cth)), rel=1e-9)
+
+
+def test_thrust_falls_with_advance_and_vanishes_near_pitch_speed():
+    be = _actuator_disc(math.pi * 0.038 ** 2)
+    w = 300.0
+    T = [be.steady(w, ua)["thrust"] for ua in (0.0, 0.5, 1.0, 2.0)]
+    assert all(a > b for a, b in zip(T, T[1:]))
+    # blade at zero lift: the flow at 0.7R meets the blade along its pitch → u ≈ 0.7RΩ tan p
+    u_pitch = 0.7 * be.radius * w * math.tan(be.pitch)
+    assert be.steady(w, 1.05 * u_pitch)["thrust"] < 0 < be.steady(w, 0.8 * u_pitch)["thrust"]
+
+
+def test_map_efficiency_within_froude_ideal_efficiency():
+    J = np.linspace(0.05, 1.0, 40)
+    kt, kq = MAP.kt_kq(J)
+    keep = kt > 0
+    eta = J[keep] * kt[keep] / (2 * np.pi * kq[keep])
+    cth = 8 * kt[keep] / (np.pi * J[keep] ** 2)
+    assert np.all(eta <= 2 / (1 + np.sqrt(1 + cth)))
+
+
+def test_full_healey_reduces_to_the_linear_form_at_small_angles():
+    be = BladeElement(pitch=0.01, radius=0.04, blade_area=1e-3, cl_max=1.2, cd_max=0.0,
+                      fluid_mass=1.0, flow_damping=4.5)
+    kt, ka = be.linear_coefficients()
+    w = 300.0
+    up = 0.002 * 0.7 * be.radius * w
+    T, _ = be.forces(w, up)
+    lin = kt * w * w - ka * w * up
+    assert float(T) == pytest.approx(lin, rel=1e-3)
+    # and the error grows with the angle (the linear form is only the small-angle limit)
+    be2 = BladeElement(pitch=0.4, radius=0.04, blade_area=1e-3, cl_max=1.2, cd_max=0.0,
+                       fluid_mass=1.0, flow_damping=4.5)
+    kt2, ka2 = be2.linear_coefficients()
+    assert abs(float(be2.forces(w, 0.0)[0]) / (kt2 * w * w) - 1) > 1e-2
+
+
+# ------------------------------------------------------------------ quadrants
+def test_map_continuous_across_quadrant_boundaries():
+    eps = 1e-7
+    for u in (-2.0, -0.3, 0.4, 1.5):  # n crosses zero at fixed advance
+        a = np.array(MAP.thrust_torque(-eps, u))
+        b = np.array(MAP.thrust_torque(eps, u))
+        assert np.all(np.abs(a - b) < 1e-5)
+    for n in (-40.0, -5.0, 7.0, 55.0):  # advance crosses zero at fixed shaft speed
+        a = np.array(MAP.thrust_torque(n, -eps))
+        b = np.array(MAP.thrust_torque(n, eps))
+        assert np.all(np.abs(a - b) < 1e-5)
+    # β = ±π is the same point of the circle
+    assert float(MAP.ct(np.pi)) == pytest.approx(float(MAP.ct(-np.pi)), abs=1e-12)
+
+
+def test_map_signs_per_quadrant():
+    n = 50.0
+    assert MAP.thrust_torque(n, 0.0)[0] > 0 > MAP.thrust_torque(-n, 0.0)[0]
+    # locked shaft in a flow from ahead: drag, thrust negative; from astern: positive
+    assert MAP.thrust_torque(0.0, 1.0)[0] < 0 < MAP.thrust_torque(0.0, -1.0)[0]
+    # astern weaker than ahead at the same |n| (labelled assumption of the preset)
+    assert abs(MAP.thrust_torque(-n, 0.0)[0]) < MAP.thrust_torque(n, 0.0)[0]
+
+
+def test_compiled_map_equals_numpy():
+    a = [np.asarray(c) for c in (MAP.ct_a, MAP.ct_b, MAP.cq_a, MAP.cq_b)]
+    for n, u in [(40.0, 0.7), (-30.0, 1.2), (0.0, -0.5), (12.0, -2.0)]:
+        T, Q = MAP.thrust_torque(n, u)
+        Tn, Qn = map_thrust_torque_nb(*a, D, RHO_FRESH, n, u)
+        assert Tn == pytest.approx(float(T), rel=1e-12, abs=1e-12)
+        assert Qn == pytest.approx(float(Q), rel=1e-12, abs=1e-12)
+
+
+# ------------------------------------------------------------------ energy
+def test_shaft_power_exceeds_thrust_power_in_propelling_quadrants():
+    n = np.linspace(5, 60, 12)[:, None]
+    ua = np.linspace(0, 3, 31)[None, :]
+    for s in (1, -1):  # ahead (n > 0, u_a ≥ 0) and astern (n < 0, u_a ≤ 0)
+        T, Q = MAP.thrust_torque(s * n, s * ua)
+        prop = T * s > 0
+        assert prop.sum() > 50
+        assert np.all((2 * np.pi * s * n * Q)[prop] >= (T * s * ua)[prop])
+    be = _actuator_disc(math.pi * 0.038 ** 2)
+    for ua_ in (0.0, 0.5, 1.0, 2.0):
+        st = be.steady(300.0, ua_)
+        if st["thrust"] > 0:
+            assert st["torque"] * 300.0 >= st["thrust"] * ua_
+
+
+# ------------------------------------------------------------------ T200 coefficients
+def test_t200_pitch_and_diameter_are_consistent_with_its_sheet():
+    from uuvid.thruster.presets import T200_FULL_SPEED, T200_MAX_THRUST_N, T200_STEADY
+
+    t = t200_inflow()
+    kt_nd = T200_STEADY.kt_fwd * (2 * np.pi) ** 2 / (RHO_FRESH * t.diameter ** 4)
+    assert kt_nd == pytest.approx(t.map.bollard_kt(1), rel=0.15)
+    n = t.map.shaft_speed_for(T200_MAX_THRUST_N[0]) * 2 * np.pi
+    assert n == pytest.approx(T200_FULL_SPEED, rel=0.05)
+    # pitch angle at 0.7 R from P/D
+    assert math.tan(t.pitch_angle) == pytest.approx(t.pitch_ratio / (0.7 * math.pi))
+    assert t.inflow_coefficient > 0
+
+
+# ------------------------------------------------------------------ compiled pieces for a loop
+def test_inflow_thrust_kernel_is_bollard_at_zero_advance_and_the_map_elsewhere():
+    from uuvid.thruster.inflow import inflow_params, inflow_thrust_nb
+
+    prm = inflow_params(MAP)
+    for f in (51.485, 12.0, -39.913, -3.0, 0.0):
+        assert inflow_thrust_nb(f, 0.0, prm) == f  # bit for bit: the bollard model
+        n = MAP.shaft_speed_for(f) if f else 0.0
+        for ua in (-1.2, -0.3, 0.4, 1.5):
+            want = float(MAP.thrust_torque(n, ua)[0])
+            assert inflow_thrust_nb(f, ua, prm) == pytest.approx(want, rel=1e-10, abs=1e-12)
+        # continuous as the advance speed goes to zero
+        assert inflow_thrust_nb(f, 1e-9, prm) == pytest.approx(f, rel=1e-6, abs=1e-9)
+
+
+def test_state_advance_speeds_match_the_geometric_form():
+    from uuvid.vehicle.inflow import state_advance_speeds_nb
+    from uuvid.vehicle.kinematics import quat_to_rotmat
+
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    x = np.r_[rng.normal(size=3), q, rng.normal(size=6)]
+    vc = rng.normal(size=3) * 0.3
+    P = rng.normal(size=(4, 3)) * 0.2
+    A = rng.normal(size=(4, 3))
+    A /= np.linalg.norm(A, axis=1)[:, None]
+    w = rng.uniform(0, 0.3, 4)
+    got = state_advance_speeds_nb(x, vc, np.column_stack([P, A, w]), np.empty(4))
+    nu_r = x[7:13].copy()
+    nu_r[:3] -= quat_to_rotmat(q).T @ vc
+    np.testing.assert_allclose(got, advance_speeds(nu_r, P, A, w), rtol=0, atol=1e-13)

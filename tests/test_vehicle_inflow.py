@@ -1,0 +1,328 @@
+"""Vehicle-file inflow switch and the steady analyses with thrust at the advance speed (issue 21)."""
+
+
+import numpy as np
+import pytest
+import yaml
+
+from uuvid.vehicle import VehicleFileError, load_vehicle, vehicle_from_dict
+from uuvid.vehicle.definition import preset_path
+from uuvid.vehicle.envelope import speed_envelope
+from uuvid.vehicle.inflow import inflow_limits
+
+
+def _preset_raw(name):
+    return yaml.safe_load(preset_path(name).read_text())
+
+
+def _with(name, inflow="four-quadrant", wake=None):
+    raw = _preset_raw(name)
+    raw["inflow"] = inflow
+    if wake is not None:
+        for t in raw["thrusters"]:
+            t["wake"] = wake
+    return vehicle_from_dict(raw, where=f"{name}.yaml")
+
+
+# ------------------------------------------------------------------ file
+def test_file_switch_and_wake_are_read():
+    v = _with("bluerov2", wake=0.2)
+    assert v.inflow == "four-quadrant"
+    assert v.wake == (0.2,) * 6
+    assert load_vehicle("bluerov2").inflow == "none"
+
+
+@pytest.mark.parametrize("mutate, expected", [
+    (lambda r: r.update(inflow="momentum"), "inflow"),
+    (lambda r: r["thrusters"][1].update(wake=1.0), r"thrusters\[1\]\.wake"),
+    (lambda r: r["thrusters"][0].update(wake=-0.1), r"thrusters\[0\]\.wake"),
+])
+def test_bad_inflow_input_names_the_key(mutate, expected):
+    raw = _preset_raw("bluerov2")
+    mutate(raw)
+    with pytest.raises(VehicleFileError, match=expected):
+        vehicle_from_dict(raw, where="b.yaml")
+
+
+def test_inflow_needs_a_known_propeller():
+    raw = _preset_raw("bluerov2")
+    raw["inflow"] = "four-quadrant"
+    raw["thrusters"][2]["model"] = "my_thruster.yaml"
+    with pytest.raises(VehicleFileError, match=r"thrusters\[2\]\.model: inflow"):
+        vehicle_from_dict(raw, where="b.yaml")
+
+
+# ------------------------------------------------------------------ limits
+def test_limits_at_rest_are_the_files_exactly():
+    v = _with("bluerov2")
+    il = inflow_limits(v)
+    np.testing.assert_array_equal(il.limits_at(np.zeros(6)), v.layout.limits)
+
+
+def test_limits_fall_when_propelling_and_rise_against_the_flow():
+    v0, v3 = _with("bluerov2"), _with("bluerov2", wake=0.3)
+    nu = np.array([1.0, 0, 0, 0, 0, 0])
+    il = inflow_limits(v0)
+    a, b = il.limits_at(nu), inflow_limits(v3).limits_at(nu)
+    lim = v0.layout.limits
+    ua = il.advance(nu)
+    for i in range(4):  # horizontal thrusters, axes at ±45° to surge
+        prop = 1 if ua[i] > 0 else 0  # the limit whose thrust pushes into the advance
+        other = 1 - prop
+        assert abs(a[i, prop]) < abs(b[i, prop]) < abs(lim[i, prop])  # wake gives some back
+        assert abs(a[i, other]) > abs(lim[i, other])  # flow from behind the jet helps
+    np.testing.assert_array_equal(a[4:], lim[4:])  # the vertical pair sees no surge advance
+
+
+# ------------------------------------------------------------------ envelope
+def test_envelope_inflow_none_restores_the_bollard_envelope():
+    v = _with("bluerov2")
+    off = speed_envelope(v, inflow="none")
+    plain = speed_envelope(load_vehicle("bluerov2"))
+    assert off.to_dict() == plain.to_dict()
+    assert "speed_bollard" not in plain.to_dict()["rows"][0]
+
+
+@pytest.mark.parametrize("name", ["bluerov2", "bluerov2-heavy"])
+def test_envelope_with_inflow_balances_drag_against_the_thrust_at_that_speed(name):
+    v = _with(name)
+    env = speed_envelope(v, dofs=["surge", "heave"])
+    p = v.params
+    for r in env.rows:
+        d = {"surge": 0, "heave": 2}[r.dof]
+        assert abs(r.speed) < abs(r.speed_bollard)
+        # the force behind the row is the LP maximum at the limits of its own steady state …
+        nu = np.zeros(6)
+        nu[d] = r.speed
+        lim = inflow_limits(v).limits_at(nu)
+        from uuvid.vehicle.envelope import _forces
+
+        al = v.allocator(None, compensate_eta=True)
+        ep, en = al.eta
+        C = al.mode.constraint_rows(v.B) if al.mode is not None else None
+        F, _ = _forces(al, v.B, lim, d, r.sign, al.controlled, ep, en, C)
+        # … and it balances drag (plus W − B in heave)
+        drag = p.linear_damping[d, d] * r.speed + p.quadratic_damping[d, d] * r.speed * abs(r.speed)
+        bias = p.net_weight if d == 2 else 0.0
+        assert drag == pytest.approx(r.sign * F + bias, rel=1e-8)
+
+
+def test_wake_raises_the_speed_towards_bollard():
+    s0 = speed_envelope(_with("bluerov2"), dofs=["surge"])["forward"].speed
+    s3 = speed_envelope(_with("bluerov2", wake=0.3), dofs=["surge"])["forward"].speed
+    sb = speed_envelope(load_vehicle("bluerov2"), dofs=["surge"])["forward"].speed
+    assert s0 < s3 < sb
+
+
+# ------------------------------------------------------------------ stability and hold
+def test_stability_inflow_none_restores_today_and_inflow_only_changes_range_and_fractions():
+    from uuvid.vehicle.stability import static_stability
+
+    v = _with("bluerov2")
+    plain = static_stability(load_vehicle("bluerov2"), n_speeds=9)
+    off = static_stability(v, n_speeds=9, inflow="none")
+    assert off.to_dict() == plain.to_dict()
+    on = static_stability(v, n_speeds=9)
+    fwd_on, fwd_off = on["forward"], off["forward"]
+    assert fwd_on.max_speed < fwd_off.max_speed
+    # the level limit is a property of trim, not of thrust: the same with and without inflow
+    assert fwd_on.limit_speed == pytest.approx(fwd_off.limit_speed, rel=1e-3)
+    # at the same speed the thrusters work harder when the advance speed eats their thrust
+    u = fwd_on.speeds[3]
+    from uuvid.vehicle.stability import trim_state
+
+    assert u > 0
+    i_off = int(np.argmin(np.abs(fwd_off.speeds - u)))
+    if fwd_off.speeds[i_off] == pytest.approx(u):
+        assert fwd_on.thrust_fraction[3] > fwd_off.thrust_fraction[i_off]
+    assert trim_state(v, "surge", 1, u)["ok"]
+
+
+def test_hold_with_inflow_none_is_today_and_inflow_lowers_the_held_current():
+    from uuvid.analysis.hold import max_current
+
+    v = _with("bluerov2-heavy")  # thrust-limited in a current (the BlueROV2 tilts first)
+    base = max_current(load_vehicle("bluerov2-heavy"), 90.0, stability=False)
+    off = max_current(v, 90.0, stability=False, inflow="none")
+    assert off[0] == base[0] and off[1]["limit"] == "thrust"
+    on = max_current(v, 90.0, stability=False)
+    assert on[0] < off[0]
+
+
+def test_held_current_from_ahead_equals_the_envelope_speed_with_inflow():
+    """Two code paths (allocation in a current; LP envelope in still water) meet: holding still in
+    a head current V is flying at V through still water, advance speed included."""
+    from uuvid.analysis.hold import max_current
+
+    v = _with("bluerov2-heavy")
+    held = max_current(v, 0.0, stability=False, tol=1e-5)[0]
+    env = speed_envelope(v, dofs=["surge"])["forward"].speed
+    assert held == pytest.approx(env, rel=2e-3)
+
+
+# ------------------------------------------------------------------ CLI
+def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    run = CliRunner()
+    plain = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--no-confirm", "--json"])
+    off = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--no-confirm", "--json",
+                           "--inflow", "none"])
+    assert plain.exit_code == 0 and off.exit_code == 0
+    assert json.loads(off.output) == json.loads(plain.output)
+    on = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--inflow", "four-quadrant"])
+    assert on.exit_code == 0, on.output
+    assert "bollard_speed" in on.output and "not confirmed by simulation" in on.output
+    doc = json.loads(run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--json",
+                                      "--inflow", "four-quadrant"]).output)
+    fwd = next(r for r in doc["rows"] if r["direction"] == "forward")
+    assert fwd["allocator_speed"] < fwd["bollard_speed"]
+    bad = run.invoke(app, ["vehicle", "stability", "bluerov2", "--inflow", "bogus"])
+    assert bad.exit_code == 2 and "inflow must be one of" in bad.output
+
+
+def test_demo_section_shows_both_vehicles_with_and_without_inflow(tmp_path):
+    from uuvid.core.html import Report
+    from uuvid.demo import _inflow_rows
+
+    rep = Report("inflow")
+    rows = _inflow_rows(rep, load_vehicle("bluerov2"))
+    assert [r["vehicle"] for r in rows] == ["bluerov2", "bluerov2-heavy"]
+    for r in rows:
+        assert 0 < r["thrust at the advance speed [m/s]"] < r["bollard thrust [m/s]"]
+    rep.write(tmp_path)
+    assert "advance speed" in (tmp_path / "index.html").read_text()
+
+
+# ------------------------------------------------------------------ the mission loop
+REF = __import__("pathlib").Path(__file__).parent / "data" / "square_mission_bluerov2.npz"
+
+
+def test_mission_inflow_none_is_the_stored_square_mission():
+    """A vehicle file with inflow on, flown with inflow='none', is today's recorded mission."""
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+
+    ref = np.load(REF)
+    r = fly_mission(setup_mission(_with("bluerov2"), square_mission(), inflow="none"))
+    rows = ref["rows"]
+    assert np.max(np.abs(r.state[rows, :13] - ref["state"])) <= 1e-12
+    assert np.max(np.abs(r.thrust[rows] - ref["thrust"])) <= 1e-12
+
+
+def test_mission_thrust_is_the_map_at_each_thrusters_advance_speed():
+    """The loop's delivered thrust at the start of a step equals the map taken to the advance
+    speed computed here independently (numpy geometry, rotation matrix, with a current)."""
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.thruster.inflow import advance_speeds, inflow_params, inflow_thrust_nb
+    from uuvid.vehicle.kinematics import quat_to_rotmat
+
+    v = _with("bluerov2", wake=0.1)
+    cur = np.array([0.1, -0.05, 0.0])
+    s = setup_mission(v, square_mission(speed=0.3), inflow="four-quadrant", current=cur)
+    r = fly_mission(s)
+    b = s.bank
+    prm = inflow_params(inflow_limits(v).maps[0])
+    P = np.array([t.position for t in v.layout])
+    A = np.array([t.axis for t in v.layout])
+    checked = 0
+    for k in range(500, r.t.size, 997):
+        z = r.state[k]
+        nu_r = z[7:13].copy()
+        nu_r[:3] -= quat_to_rotmat(z[3:7]).T @ cur
+        ua = advance_speeds(nu_r, P, A, v.wake)
+        for i in range(b.n):
+            f = b.chains[i].blocks[-1].thrust(z[13 + i])  # the T200 map: K_T Ω|Ω| of the motor state
+            want = inflow_thrust_nb(float(f), float(ua[i]), prm)
+            want *= s.eta_p[i] if want >= 0 else s.eta_n[i]
+            assert r.thrust[k, i] == pytest.approx(want, rel=1e-9, abs=1e-9)
+            checked += abs(ua[i]) > 0.05
+    assert checked > 20  # the vehicle was moving through the water at those samples
+
+
+def test_mission_with_inflow_needs_more_allocated_thrust_to_cruise():
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+
+    v = _with("bluerov2")
+    m = square_mission(speed=0.4)
+    on = fly_mission(setup_mission(v, m))
+    off = fly_mission(setup_mission(v, m, inflow="none"))
+    assert on.metrics["max_tracking_error_m"] < 1.0
+    cruise = np.linalg.norm(off.state[:, 7:9], axis=1) > 0.3  # moving horizontally
+    assert cruise.sum() > 1000
+    work_on = np.abs(on.thrust_cmd[cruise, :4]).mean()
+    work_off = np.abs(off.thrust_cmd[cruise, :4]).mean()
+    assert work_on > 1.02 * work_off
+
+
+def test_batch_refuses_inflow_it_cannot_fly():
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import run_batch, setup_mission
+
+    s = setup_mission(_with("bluerov2"), square_mission(speed=0.3))
+    with pytest.raises(ValueError, match="inflow"):
+        run_batch(s, s.vp[None, :])
+
+
+def test_cli_simulate_inflow_none_is_today_and_four_quadrant_differs():
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    run = CliRunner()
+    args = ["simulate", "mission", "square", "--speed", "0.3", "--json"]
+
+    def doc(*extra):
+        res = run.invoke(app, args + list(extra))
+        assert res.exit_code == 0, res.output
+        d = json.loads(res.stdout[res.stdout.index("{"):])
+        for k in [k for k in d if k.endswith("time_s") or "real_time" in k]:
+            d.pop(k)
+        return d
+
+    plain, off, on = doc(), doc("--inflow", "none"), doc("--inflow", "four-quadrant")
+    assert off == plain
+    assert on["rms_tracking_error_m"] != plain["rms_tracking_error_m"]
+
+
+def test_gym_env_inflow_none_is_today_and_inflow_lowers_the_thrust_when_moving():
+    pytest.importorskip("gymnasium")
+    from uuvid.simulate.gym_env import StationKeepingEnv
+
+    def one_step(vehicle, speed, **kw):
+        """Surge at ``speed`` (level, at the target), full surge force for one step (0.1 s)."""
+        env = StationKeepingEnv(vehicle, action="force", offset_range=0.0, **kw)
+        env.reset(seed=1)
+        env._z[7] = speed
+        act = np.zeros(env.action_space.shape)
+        act[0] = 1.0
+        env.step(act)
+        return env.state
+
+    for u in (0.0, 1.0):
+        plain = one_step("bluerov2", u)
+        off = one_step(_with("bluerov2"), u, inflow="none")
+        on = one_step(_with("bluerov2"), u)
+        np.testing.assert_array_equal(off, plain)  # inflow none: today's environment
+        if u == 0.0:  # from rest the advance speed only builds up within the step
+            assert on[7] == pytest.approx(off[7], rel=0.05)
+        else:  # moving: the propellers keep less of their bollard thrust
+            assert on[7] - u < 0.95 * (off[7] - u)
+
+
+def test_simd_batch_refuses_inflow_too():
+    from uuvid.simulate.batch import run_batch_fast
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+
+    s = setup_mission(_with("bluerov2"), square_mission(speed=0.3))
+    with pytest.raises(ValueError, match="inflow"):
+        run_batch_fast(s, s.vp[None, :])
