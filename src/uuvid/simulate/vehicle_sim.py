@@ -33,7 +33,7 @@ from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
-from uuvid.vehicle.model import vehicle_rhs_into
+from uuvid.vehicle.model import vehicle_rhs_into, vehicle_rhs_still_into
 from uuvid.vehicle.stability import MAX_TILT_DEG
 
 N_CH = len(CHANNELS)
@@ -235,7 +235,7 @@ def _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outc
     vehicle_rhs_into(z[:13], tau, vp, vc, dvc, dz[:13])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _tau_from(th, st, B, tau, tau_d):
     n = th.shape[1]
     for k in range(6):
@@ -245,24 +245,33 @@ def _tau_from(th, st, B, tau, tau_d):
         tau[k] = acc
 
 
-@njit(cache=True)
-def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d):
+@njit(cache=True, inline="always")
+def _vrhs(still, x, tau, vp, vc, dvc, fsc, dx):
+    if still:  # no current: its terms are zeros, skipped (the same numbers, no allocation)
+        vehicle_rhs_still_into(x, tau, vp, fsc, dx)
+    else:
+        vehicle_rhs_into(x, tau, vp, vc, dvc, dx)
+
+
+@njit(cache=True, inline="always")
+def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d,
+                 still, fsc):
     """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
     (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h, plus the held disturbance
-    force ``tau_d``."""
+    force ``tau_d``; ``still``: there is no current (``fsc``: 6 values of scratch)."""
     _tau_from(th_stage, 0, B, tau, tau_d)
-    vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
+    _vrhs(still, z, tau, vp, vc0, dvc, fsc, k1)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k1[i]
     _tau_from(th_stage, 1, B, tau, tau_d)
-    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
+    _vrhs(still, zt, tau, vp, vc1, dvc, fsc, k2)
     for i in range(13):
         zt[i] = z[i] + 0.5 * h * k2[i]
-    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
+    _vrhs(still, zt, tau, vp, vc1, dvc, fsc, k3)
     for i in range(13):
         zt[i] = z[i] + h * k3[i]
     _tau_from(th_stage, 2, B, tau, tau_d)
-    vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
+    _vrhs(still, zt, tau, vp, vc2, dvc, fsc, k4)
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
@@ -425,6 +434,17 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
     th_stage = np.zeros((3, n))
     tgt = np.zeros(n)
     tconst = np.zeros(n)
+    # the lag's decay over 0, h/2 and h: the time constants are fixed for the flight, so the
+    # exponentials are taken once, not 4 per thruster and step
+    lag = np.ones((3, n))
+    if fast:
+        for i in range(n):
+            tconst[i] = tparams[i, poff[dyn] + (1 if kinds[dyn] == K_FIRST_ORDER_MOTOR else 0)]
+            for st in range(3):
+                lag[st, i] = math.exp(-0.5 * st * h / tconst[i])
+    still = not varying and vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
+    fsc = np.zeros(6)
+    jtab = np.zeros(n, dtype=np.int64)  # interval of the last inverse-table read, per thruster
     # battery (BAT from battery_tables; empty: ideal supply, the chains' own voltage)
     batt = BAT.size > 0
     b_cap = BAT[0] if batt else 1.0
@@ -477,7 +497,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                 cmd[i] = (1 - wv) * _interp(vtt[jv], vtc[jv], fdes[i]) + \
                     wv * _interp(vtt[jv + 1], vtc[jv + 1], fdes[i])
             else:
-                cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
+                cmd[i], jtab[i] = kernels.interp_sorted_from(inv_t[i], inv_c[i], fdes[i], jtab[i])
             if out_kind == 2:
                 cmd[i] = cout[i]
             sig0[i] = cmd[i]
@@ -509,10 +529,8 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                 pb = poff[dyn]
                 if kinds[dyn] == K_FIRST_ORDER_MOTOR:
                     tgt[i] = tparams[i, pb] * sig0[i]
-                    tconst[i] = tparams[i, pb + 1]
                 else:
                     tgt[i] = sig0[i]
-                    tconst[i] = tparams[i, pb]
             for sub in range(nsub):
                 if use_dist:
                     _DIST(k * dt + sub * h, z[0:7], z[7:13], dparams, tau_d)
@@ -525,7 +543,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     o = 13 + i * ns
                     x0 = z[o]
                     for st in range(3):
-                        xs = tgt[i] + (x0 - tgt[i]) * math.exp(-0.5 * st * h / tconst[i])
+                        xs = tgt[i] + (x0 - tgt[i]) * lag[st, i]
                         f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
                         th_stage[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
                     z[o] = x0  # thruster state advanced below, exactly
@@ -533,10 +551,11 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     for i in range(n):
                         F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d)
+                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d,
+                             still, fsc)
                 for i in range(n):
                     o = 13 + i * ns
-                    z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
+                    z[o] = tgt[i] + (z[o] - tgt[i]) * lag[2, i]
                 normalise_state(z)
             continue
         for sub in range(nsub):
