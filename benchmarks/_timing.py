@@ -21,31 +21,35 @@ def _stats(x) -> dict:
 def interleaved(ours, reference, repeats: int = 15, budget_s: float = 30.0, warmup: int = 1) -> dict:
     """Time ``ours()`` and ``reference()`` in alternating pairs; stops after ``repeats`` pairs or
     when ``budget_s`` is spent (at least 3 pairs).  Returns medians and min–max of both times and
-    of the per-pair ratio ``reference / ours`` (> 1: ours faster) and ``ours / reference``.  A
-    function that returns a float has timed itself (e.g. the loop inside a larger call)."""
+    of the per-pair ratio ``reference / ours`` (> 1: ours faster) and ``ours / reference``, in
+    wall time and in the thread's CPU time (``cpu_*``: what the wall time is on an idle machine;
+    on shared, busy cores the steadier figure)."""
     for _ in range(warmup):
         ours()
         reference()
-    t_ours, t_ref = [], []
+    wall = {ours: [], reference: []}
+    cpu = {ours: [], reference: []}
     start = time.perf_counter()
     for k in range(repeats):
-        pair = (ours, reference) if k % 2 == 0 else (reference, ours)
-        got = {}
-        for fn in pair:
+        for fn in ((ours, reference) if k % 2 == 0 else (reference, ours)):
+            c0 = time.thread_time()
             t0 = time.perf_counter()
-            own = fn()
-            got[fn] = own if isinstance(own, float) else time.perf_counter() - t0
-        t_ours.append(got[ours])
-        t_ref.append(got[reference])
+            fn()
+            wall[fn].append(time.perf_counter() - t0)
+            cpu[fn].append(time.thread_time() - c0)
         if k >= 2 and time.perf_counter() - start > budget_s:
             break
-    t_ours = np.array(t_ours)
-    t_ref = np.array(t_ref)
+    t_ours, t_ref = np.array(wall[ours]), np.array(wall[reference])
+    c_ours, c_ref = np.array(cpu[ours]), np.array(cpu[reference])
     r = _stats(t_ref / t_ours)
     s = _stats(t_ours / t_ref)
+    cs = _stats(c_ours / c_ref)
     return {"pairs": int(t_ours.size), "time_s": float(np.median(t_ours)),
             "time_s_min_max": [float(t_ours.min()), float(t_ours.max())],
             "reference_time_s": float(np.median(t_ref)),
             "reference_time_s_min_max": [float(t_ref.min()), float(t_ref.max())],
             "ratio": r["median"], "ratio_min_max": [r["min"], r["max"]],
-            "ours_over_reference": s["median"], "ours_over_reference_min_max": [s["min"], s["max"]]}
+            "ours_over_reference": s["median"], "ours_over_reference_min_max": [s["min"], s["max"]],
+            "cpu_time_s": float(np.median(c_ours)), "reference_cpu_time_s": float(np.median(c_ref)),
+            "cpu_ours_over_reference": cs["median"],
+            "cpu_ours_over_reference_min_max": [cs["min"], cs["max"]]}
