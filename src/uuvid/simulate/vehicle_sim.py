@@ -246,34 +246,27 @@ def _tau_from(th, st, B, tau, tau_d):
 
 
 @njit(cache=True, inline="always")
-def _vrhs(still, x, tau, vp, vc, dvc, fsc, dx):
-    if still:  # no current: its terms are zeros, skipped (the same numbers, no allocation)
-        vehicle_rhs_still_into(x, tau, vp, fsc, dx)
-    else:
-        vehicle_rhs_into(x, tau, vp, vc, dvc, dx)
-
-
-@njit(cache=True, inline="always")
-def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d,
-                 still, fsc):
+def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, K, tau_d, still, fsc):
     """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
     (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h, plus the held disturbance
-    force ``tau_d``; ``still``: there is no current (``fsc``: 6 values of scratch)."""
-    _tau_from(th_stage, 0, B, tau, tau_d)
-    _vrhs(still, z, tau, vp, vc0, dvc, fsc, k1)
+    force ``tau_d``; ``still``: there is no current (its terms skipped; ``fsc``: 6 values of
+    scratch).  The stages run in a loop (``K`` holds their 4 × 13 slopes) so that the
+    right-hand side is compiled into the mission loop once, not four times."""
     for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k1[i]
-    _tau_from(th_stage, 1, B, tau, tau_d)
-    _vrhs(still, zt, tau, vp, vc1, dvc, fsc, k2)
+        zt[i] = z[i]
+    for st in range(4):
+        _tau_from(th_stage, 0 if st == 0 else (1 if st < 3 else 2), B, tau, tau_d)
+        kk = K[st]
+        if still:
+            vehicle_rhs_still_into(zt, tau, vp, fsc, kk)
+        else:
+            vehicle_rhs_into(zt, tau, vp, vc0 if st == 0 else (vc1 if st < 3 else vc2), dvc, kk)
+        if st < 3:
+            c = 1.0 if st == 2 else 0.5
+            for i in range(13):
+                zt[i] = z[i] + c * h * kk[i]
     for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k2[i]
-    _vrhs(still, zt, tau, vp, vc1, dvc, fsc, k3)
-    for i in range(13):
-        zt[i] = z[i] + h * k3[i]
-    _tau_from(th_stage, 2, B, tau, tau_d)
-    _vrhs(still, zt, tau, vp, vc2, dvc, fsc, k4)
-    for i in range(13):
-        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        z[i] = z[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
 @njit(cache=True)
@@ -444,6 +437,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                 lag[st, i] = math.exp(-0.5 * st * h / tconst[i])
     still = not varying and vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
     fsc = np.zeros(6)
+    K4 = np.zeros((4, 13))  # RK4 slopes of the fast path
     jtab = np.zeros(n, dtype=np.int64)  # interval of the last inverse-table read, per thruster
     # battery (BAT from battery_tables; empty: ideal supply, the chains' own voltage)
     batt = BAT.size > 0
@@ -551,8 +545,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     for i in range(n):
                         F[k, i] = th_stage[0, i]
                         FDES[k, i] = fdes[i]
-                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d,
-                             still, fsc)
+                _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, K4, tau_d, still, fsc)
                 for i in range(n):
                     o = 13 + i * ns
                     z[o] = tgt[i] + (z[o] - tgt[i]) * lag[2, i]
