@@ -22,8 +22,8 @@ def interleaved(ours, reference, repeats: int = 15, budget_s: float = 30.0, warm
     """Time ``ours()`` and ``reference()`` in alternating pairs; stops after ``repeats`` pairs or
     when ``budget_s`` is spent (at least 3 pairs).  Returns medians and min–max of both times and
     of the per-pair ratio ``reference / ours`` (> 1: ours faster) and ``ours / reference``, in
-    wall time and in the thread's CPU time (``cpu_*``: what the wall time is on an idle machine;
-    on shared, busy cores the steadier figure)."""
+    wall time and in the process's CPU time (``cpu_*``, all its threads: what the wall time is
+    on an idle machine for single-threaded code; on shared, busy cores the steadier figure)."""
     for _ in range(warmup):
         ours()
         reference()
@@ -32,11 +32,11 @@ def interleaved(ours, reference, repeats: int = 15, budget_s: float = 30.0, warm
     start = time.perf_counter()
     for k in range(repeats):
         for fn in ((ours, reference) if k % 2 == 0 else (reference, ours)):
-            c0 = time.thread_time()
+            c0 = time.process_time()
             t0 = time.perf_counter()
             fn()
             wall[fn].append(time.perf_counter() - t0)
-            cpu[fn].append(time.thread_time() - c0)
+            cpu[fn].append(time.process_time() - c0)
         if k >= 2 and time.perf_counter() - start > budget_s:
             break
     t_ours, t_ref = np.array(wall[ours]), np.array(wall[reference])

@@ -32,7 +32,6 @@ from __future__ import annotations
 import json
 import math
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -58,15 +57,6 @@ _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # the sibling module, also when loaded by file (uuvid bench)
     sys.path.insert(0, _HERE)
 from _timing import interleaved  # noqa: E402
-
-
-def _best_of(fn, repeat: int) -> tuple[float, object]:
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 # ------------------------------------------------------------------------------------------------
@@ -252,9 +242,17 @@ def _ours_mclean(runs):
 
 
 def mclean_fit(repeat: int = 3) -> list[dict]:
+    """Ours and each reference in interleaved pairs (``repeat`` pairs at most, within a time
+    budget: the solve_ivp reference takes tens of seconds a fit)."""
     runs = _mclean_runs()
     _ours_mclean(runs[:1])  # compile / load the numba cache
-    ours_t, cf = _best_of(lambda: _ours_mclean(runs), repeat)
+    got = {}
+
+    def ours_fit():
+        got["ours"] = _ours_mclean(runs)
+
+    ours_fit()
+    cf = got["ours"]
     ours = np.array([cf.values[f"blocks[0].{k}"] for k in NAMES])
     sig = np.array([cf.stderrs[f"blocks[0].{k}"] for k in NAMES])
     truth = np.array([TRUE_MCLEAN[k] for k in NAMES])
@@ -271,11 +269,12 @@ def mclean_fit(repeat: int = 3) -> list[dict]:
              "scipy least_squares (2-point Jacobian, diff_step 1e-4), residual via solve_ivp "
              "LSODA rtol=1e-8 atol=1e-11 on ThrusterChain.rhs per run (with rtol 1e-6 and the "
              "default step the fit stalls near its start)")):
-        t0 = time.perf_counter()
-        sol = fn(runs)
-        ref_t = time.perf_counter() - t0
-        out.append({"case": case, "time_s": ours_t, "reference": label,
-                    "reference_time_s": ref_t, "ratio": ref_t / ours_t,
+        def reference(fn=fn):
+            got["ref"] = fn(runs)
+
+        t = interleaved(ours_fit, reference, repeats=repeat, budget_s=60.0, warmup=0)
+        sol = got["ref"]
+        out.append({"case": case, **t, "reference": label + ", interleaved pairs",
                     "reference_result": sol.x.tolist(), "reference_nfev": int(sol.nfev),
                     "max_rel_difference": float(np.max(np.abs(sol.x - ours) / np.abs(ours))),
                     "max_difference_in_sigma": float(np.max(np.abs(sol.x - ours) / sig)),
