@@ -29,7 +29,7 @@ from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandw
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
 from uuvid.thruster import kernels
-from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
+from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, K_QUADRATIC
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
@@ -435,6 +435,15 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
             tconst[i] = tparams[i, poff[dyn] + (1 if kinds[dyn] == K_FIRST_ORDER_MOTOR else 0)]
             for st in range(3):
                 lag[st, i] = math.exp(-0.5 * st * h / tconst[i])
+    # the common static back of the fast path, one quadratic map (ESC → first-order motor → map):
+    # evaluated inline from its two coefficients — the general block dispatch in the innermost
+    # loop (3 stages × n thrusters per step) cost more than the rest of the step's thrusters
+    quad = fast and dyn + 2 == nb and kinds[nb - 1] == K_QUADRATIC
+    qk = np.zeros((n, 2))
+    if quad:
+        for i in range(n):
+            qk[i, 0] = tparams[i, poff[nb - 1]]
+            qk[i, 1] = tparams[i, poff[nb - 1] + 1]
     still = not varying and vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
     fsc = np.zeros(6)
     K4 = np.zeros((4, 13))  # RK4 slopes of the fast path
@@ -538,7 +547,10 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     x0 = z[o]
                     for st in range(3):
                         xs = tgt[i] + (x0 - tgt[i]) * lag[st, i]
-                        f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
+                        if quad:  # the map's own arithmetic (kernels._static_block)
+                            f = (qk[i, 0] if xs >= 0.0 else qk[i, 1]) * (xs * abs(xs))
+                        else:
+                            f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
                         th_stage[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
                     z[o] = x0  # thruster state advanced below, exactly
                 if sub == 0:
