@@ -29,7 +29,7 @@ from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandw
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
 from uuvid.thruster import kernels
-from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, K_QUADRATIC
+from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.kinematics import normalise_state
@@ -438,7 +438,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
     # the common static back of the fast path, one quadratic map (ESC → first-order motor → map):
     # evaluated inline from its two coefficients — the general block dispatch in the innermost
     # loop (3 stages × n thrusters per step) cost more than the rest of the step's thrusters
-    quad = fast and dyn + 2 == nb and kinds[nb - 1] == K_QUADRATIC
+    quad = fast and dyn + 2 == nb and kinds[nb - 1] == kernels.K_QUADRATIC
     qk = np.zeros((n, 2))
     if quad:
         for i in range(n):
