@@ -1,4 +1,4 @@
-"""Identification benchmarks: our fits against plain ``scipy.optimize.least_squares`` set-ups.
+"""Identification benchmarks: our fits against what a user writes with NumPy/SciPy alone.
 
 Run standalone (``python benchmarks/bench_identification.py``) or through ``uuvid bench``.  Each
 case times our implementation and a plain reference — what a user would write with scipy alone on
@@ -9,9 +9,11 @@ Cases
     polynomial_fit_1e5
         Laidani's degree-5 per-direction polynomial with σ on 10⁵ bench samples.  Ours:
         :func:`uuvid.identify.thruster.steady.fit_polynomial` (scaled Vandermonde, linear LS, Caccia σ).
-        Reference: ``least_squares`` with its default 2-point finite-difference Jacobian on a
-        per-sample-loop residual (Horner in a Python loop), in the same scaled variable Ω/max Ω
-        (without that scaling the plain fit does not converge at all), σ from ``(JᵀJ)⁻¹``.
+        Reference: ``np.linalg.lstsq`` on the Vandermonde matrix in the same scaled variable
+        Ω/max Ω, σ from ``s²(VᵀV)⁻¹`` — the best a user writes for a linear model; interleaved.
+    nonlinear_fit_20000_blas_one_thread
+        A small nonlinear fit (5 parameters, 20,000 samples) through ``nonlinear_lsq`` (one BLAS
+        thread) against the same ``least_squares`` call with the BLAS threads as loaded.
     mclean_fit_3steps
         McLean's tunnel thruster seen through the rig's load cell: α_o−α_i, β_o−β_i and K_a from
         three 1.5 s voltage steps (24, 16, 8 V) sampled at 1 kHz, synthetic from the thesis's
@@ -29,8 +31,9 @@ from __future__ import annotations
 
 import json
 import math
-import time
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -50,14 +53,10 @@ from uuvid.thruster.presets import (
     mclean_load_cell,
 )
 
-
-def _best_of(fn, repeat: int) -> tuple[float, object]:
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:  # the sibling module, also when loaded by file (uuvid bench)
+    sys.path.insert(0, _HERE)
+from _timing import interleaved  # noqa: E402
 
 
 # ------------------------------------------------------------------------------------------------
@@ -75,60 +74,99 @@ def _laidani_samples(n: int, seed: int = 0) -> BenchData:
 
 
 def _plain_polynomial(x: np.ndarray, y: np.ndarray, degree: int):
-    """What a user writes with scipy alone: a per-sample residual loop, default 2-point Jacobian,
-    σ from the Jacobian at the optimum (in the scaled variable z = x/max x)."""
+    """What a user writes with NumPy alone for a linear model: ``np.linalg.lstsq`` on the
+    Vandermonde matrix in the scaled variable z = x/max x, σ from ``s² (VᵀV)⁻¹``."""
     s = float(x.max())
-    z = (x / s).tolist()
-    yl = y.tolist()
-    n = len(z)
-
-    def residual(theta):
-        r = np.empty(n)
-        th = list(theta)
-        for i in range(n):
-            acc = 0.0
-            zi = z[i]
-            for c in th:
-                acc = acc * zi + c
-            r[i] = acc - yl[i]
-        return r
-
-    sol = least_squares(residual, np.zeros(degree + 1))
-    J = sol.jac
-    s2 = float(sol.fun @ sol.fun) / (n - degree - 1)
-    cov = s2 * np.linalg.inv(J.T @ J)
+    V = np.vander(x / s, degree + 1)
+    c, *_ = np.linalg.lstsq(V, y, rcond=None)
+    r = y - V @ c
+    s2 = float(r @ r) / (x.size - degree - 1)
+    cov = s2 * np.linalg.inv(V.T @ V)
     D = np.array([s ** (-j) for j in range(degree, -1, -1)])
-    return sol.x * D, np.sqrt(np.diag(cov)) * D, int(sol.nfev)
+    return c * D, np.sqrt(np.diag(cov)) * D
 
 
 def polynomial_fit(n: int = 100_000, degree: int = 5) -> dict:
     data = _laidani_samples(n)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", IdentifiabilityWarning)
-        fit_polynomial(data.subset(np.arange(200)), degree)  # warm up imports
-        ours, sf = _best_of(lambda: fit_polynomial(data, degree), 3)
     masks = {"forward": data.speed > 0, "reverse": data.speed < 0}
-    t0 = time.perf_counter()
-    ref = {d: _plain_polynomial(np.abs(data.speed[m]), np.abs(data.thrust[m]), degree)
-           for d, m in masks.items()}
-    ref_time = time.perf_counter() - t0
+    out = {}
+
+    def ours():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", IdentifiabilityWarning)
+            out["ours"] = fit_polynomial(data, degree)
+
+    def reference():
+        out["ref"] = {d: _plain_polynomial(np.abs(data.speed[m]), np.abs(data.thrust[m]), degree)
+                      for d, m in masks.items()}
+
+    t = interleaved(ours, reference, repeats=9, budget_s=20.0)
+    sf, ref = out["ours"], out["ref"]
     grid = np.linspace(0.0, 131.3016 * 12, 401)
     diff, sig = 0.0, 0.0
     for d in masks:
         c_ours = np.array([p.value for p in sf[d].parameters])
         s_ours = np.array([p.stderr for p in sf[d].parameters])
-        c_ref, s_ref, _ = ref[d]
+        c_ref, s_ref = ref[d]
         diff = max(diff, float(np.max(np.abs(np.polyval(c_ours, grid) - np.polyval(c_ref, grid)))))
         sig = max(sig, float(np.max(np.abs(s_ours / s_ref - 1.0))))
     e = math.log10(n)
     label = f"1e{round(e)}" if abs(e - round(e)) < 1e-12 else str(n)
-    return {"case": f"polynomial_fit_{label}", "time_s": ours,
-            "reference": "scipy least_squares, default 2-point Jacobian, per-sample Python-loop "
-                         "residual (scaled Ω), σ from (JᵀJ)⁻¹",
-            "reference_time_s": ref_time, "ratio": ref_time / ours,
+    return {"case": f"polynomial_fit_{label}", **t,
+            "reference": "np.linalg.lstsq on the scaled Vandermonde matrix per direction, "
+                         "σ from s²(VᵀV)⁻¹ (ours also detects the regions, diagnoses "
+                         "identifiability and selects nothing else), interleaved pairs",
             "max_abs_curve_difference_N": diff, "max_rel_sigma_difference": sig,
-            "reference_nfev": {d: r[2] for d, r in ref.items()},
             "samples": n, "degree": degree}
+
+
+# ------------------------------------------------------------------------------------------------
+# (a') BLAS threads on a small nonlinear fit
+# ------------------------------------------------------------------------------------------------
+def blas_threads(n: int = 20000, repeats: int = 9) -> dict:
+    """A steady thruster map with ESC curvature (5 parameters, ``n`` bench samples) fitted by
+    :func:`uuvid.identify.fit.nonlinear_lsq` — which runs ``least_squares`` with one BLAS thread
+    (:func:`uuvid.core.threads.small_blas`) — against the same ``least_squares`` call with the
+    BLAS threads as loaded (what a user's plain call gets), interleaved pairs."""
+    from uuvid.identify.fit import nonlinear_lsq
+
+    rng = np.random.default_rng(1)
+    pwm = rng.uniform(1100.0, 1900.0, n)
+    true = np.array([0.04, 3.7e-4, 2.9e-4, -0.35, -0.37])
+
+    def model(th, c):
+        v = th[0] * (c - 1500.0)
+        cur = np.where(v >= 0, th[3], th[4])
+        v = v * (1.0 + cur * (np.abs(v) / 16.0 - 1.0))
+        w = 23.47 * v
+        return np.where(w >= 0, th[1], th[2]) * w * np.abs(w)
+
+    y = model(true, pwm) + rng.normal(0.0, 0.2, n)
+    x0 = np.array([0.035, 3e-4, 3e-4, -0.2, -0.2])
+
+    def residual(th):
+        return model(th, pwm) - y
+
+    names = ("a", "k_pos", "k_neg", "c_fwd", "c_rev")
+    got = {}
+
+    def ours():
+        got["ours"] = nonlinear_lsq(residual, x0, names, x_scale="jac", emit_warnings=False)
+
+    def reference():
+        got["ref"] = least_squares(residual, x0, x_scale="jac")
+
+    t = interleaved(ours, reference, repeats=repeats, budget_s=20.0)
+    from threadpoolctl import threadpool_info
+
+    threads = max((d["num_threads"] for d in threadpool_info() if d["user_api"] == "blas"),
+                  default=1)
+    diff = float(np.max(np.abs(np.array([p.value for p in got["ours"].parameters])
+                                - got["ref"].x) / np.abs(got["ref"].x)))
+    return {"case": f"nonlinear_fit_{n}_blas_one_thread", **t,
+            "reference": f"the same scipy least_squares with the BLAS pools as loaded "
+                         f"({threads} threads), interleaved pairs",
+            "blas_threads_default": threads, "max_rel_parameter_difference": diff}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -204,9 +242,17 @@ def _ours_mclean(runs):
 
 
 def mclean_fit(repeat: int = 3) -> list[dict]:
+    """Ours and each reference in interleaved pairs (``repeat`` pairs at most, within a time
+    budget: the solve_ivp reference takes tens of seconds a fit)."""
     runs = _mclean_runs()
     _ours_mclean(runs[:1])  # compile / load the numba cache
-    ours_t, cf = _best_of(lambda: _ours_mclean(runs), repeat)
+    got = {}
+
+    def ours_fit():
+        got["ours"] = _ours_mclean(runs)
+
+    ours_fit()
+    cf = got["ours"]
     ours = np.array([cf.values[f"blocks[0].{k}"] for k in NAMES])
     sig = np.array([cf.stderrs[f"blocks[0].{k}"] for k in NAMES])
     truth = np.array([TRUE_MCLEAN[k] for k in NAMES])
@@ -223,11 +269,12 @@ def mclean_fit(repeat: int = 3) -> list[dict]:
              "scipy least_squares (2-point Jacobian, diff_step 1e-4), residual via solve_ivp "
              "LSODA rtol=1e-8 atol=1e-11 on ThrusterChain.rhs per run (with rtol 1e-6 and the "
              "default step the fit stalls near its start)")):
-        t0 = time.perf_counter()
-        sol = fn(runs)
-        ref_t = time.perf_counter() - t0
-        out.append({"case": case, "time_s": ours_t, "reference": label,
-                    "reference_time_s": ref_t, "ratio": ref_t / ours_t,
+        def reference(fn=fn):
+            got["ref"] = fn(runs)
+
+        t = interleaved(ours_fit, reference, repeats=repeat, budget_s=60.0, warmup=0)
+        sol = got["ref"]
+        out.append({"case": case, **t, "reference": label + ", interleaved pairs",
                     "reference_result": sol.x.tolist(), "reference_nfev": int(sol.nfev),
                     "max_rel_difference": float(np.max(np.abs(sol.x - ours) / np.abs(ours))),
                     "max_difference_in_sigma": float(np.max(np.abs(sol.x - ours) / sig)),
@@ -236,7 +283,7 @@ def mclean_fit(repeat: int = 3) -> list[dict]:
 
 
 def run_all() -> dict:
-    return {"identification": [polynomial_fit(), *mclean_fit()]}
+    return {"identification": [polynomial_fit(), blas_threads(), *mclean_fit()]}
 
 
 if __name__ == "__main__":

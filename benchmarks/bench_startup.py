@@ -15,6 +15,8 @@ Cases:
   often shares the cores with other work: ``load_average_1min`` says how much).
   ``PYTHONDONTWRITEBYTECODE`` is dropped for these processes so that, as in an installed package,
   the bytecode is cached.
+* **library mission process**: a plain ``fly_mission`` of the BlueROV2 square as a whole process
+  (warm caches) against the same floor, interleaved pairs, CPU-time ratio (target ≤ 1.25).
 * **uuvid --help (whole process)**: the command line alone, against ``python -c "import numpy"``.
 * **setup_mission**: the BlueROV2 (T200 chains: ESC → first-order motor → map, closed-form steady
   map) and the AUV II (tunnel thrusters: simulated to rest, the table read from the disk cache),
@@ -127,6 +129,56 @@ def whole_process_cases(repeat: int = 5) -> list[dict]:
     ]
 
 
+MISSION_PROCESS = ("from uuvid.simulate.reference import square_mission\n"
+                   "from uuvid.simulate.vehicle_sim import fly_mission, setup_mission\n"
+                   "from uuvid.vehicle.definition import load_vehicle\n"
+                   "fly_mission(setup_mission(load_vehicle('bluerov2'), square_mission()))")
+
+
+def _run_once(argv: list[str], env: dict, cwd: str | None) -> tuple[float, float]:
+    c0 = _child_cpu()
+    t0 = time.perf_counter()
+    subprocess.run(argv, env=env, cwd=cwd, check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t0, _child_cpu() - c0
+
+
+def warm_mission_process(repeat: int = 9) -> dict:
+    """A plain library mission (BlueROV2 square, warm caches) as a whole process against the
+    numba floor (import numba + numpy, one cached call), interleaved pairs; the ratio of CPU
+    times (what the wall time is on an idle machine) is the figure, target ≤ 1.25."""
+    env = _env()
+    ours = [sys.executable, "-c", MISSION_PROCESS]
+    floor = [sys.executable, "-c", "import numpy, uuvid_startup_floor as m; m.one(1.0)"]
+    fcwd = _floor_dir()
+    _run_once(ours, env, None)
+    _run_once(floor, env, fcwd)
+    w, c, wr, cr = [], [], [], []
+    for k in range(repeat):
+        if k % 2 == 0:
+            a = _run_once(ours, env, None)
+            b = _run_once(floor, env, fcwd)
+        else:
+            b = _run_once(floor, env, fcwd)
+            a = _run_once(ours, env, None)
+        w.append(a[0])
+        c.append(a[1])
+        wr.append(b[0])
+        cr.append(b[1])
+    ratio = [x / y for x, y in zip(c, cr)]
+    wratio = [x / y for x, y in zip(w, wr)]
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return {"case": "library mission process (bluerov2 square, warm) vs numba floor",
+            "time_s": statistics.median(w), "cpu_time_s": statistics.median(c),
+            "reference": "python: import numba, numpy + call one cached @njit function",
+            "reference_time_s": statistics.median(wr), "reference_cpu_time_s": statistics.median(cr),
+            "ratio": statistics.median(wr) / statistics.median(w),
+            "cpu_ours_over_floor": statistics.median(ratio),
+            "cpu_ours_over_floor_min_max": [min(ratio), max(ratio)],
+            "wall_ours_over_floor": statistics.median(wratio),
+            "target": "cpu_ours_over_floor <= 1.25", "pairs": repeat, "load_average_1min": load}
+
+
 def setup_cases(repeat: int = 5) -> list[dict]:
     import numpy as np
 
@@ -166,7 +218,8 @@ def setup_cases(repeat: int = 5) -> list[dict]:
 
 
 def run_all(repeat: int = 5) -> dict:
-    return {"startup": whole_process_cases(repeat) + setup_cases(repeat)}
+    return {"startup": whole_process_cases(repeat) + [warm_mission_process()]
+            + setup_cases(repeat)}
 
 
 if __name__ == "__main__":

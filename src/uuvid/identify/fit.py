@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.core.result import Result, jsonable
+from uuvid.core.threads import small_blas
 
 #: Caccia et al. 2000: percentile error above this → insignificant at 95 % (1/1.96 = 51.02 %).
 SIGNIFICANCE_PERCENT = 100.0 / 1.96
@@ -340,7 +341,8 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
         Hw, yw = H, y
     norms = np.linalg.norm(Hw, axis=0)
     scale = np.where(norms > 0, norms, 1.0)
-    theta_s, *_ = np.linalg.lstsq(Hw / scale, yw, rcond=None)
+    with small_blas(p):
+        theta_s, *_ = np.linalg.lstsq(Hw / scale, yw, rcond=None)
     theta = theta_s / scale
     r = yw - Hw @ theta
     dof = max(n - p, 1)
@@ -373,7 +375,8 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     from scipy.optimize import least_squares
 
     x0 = np.asarray(x0, dtype=float)
-    sol = least_squares(residual, x0, bounds=bounds, x_scale=x_scale, jac=jac, **kwargs)
+    with small_blas(x0.size):  # a few parameters: threaded SVDs of the Jacobian only cost
+        sol = least_squares(residual, x0, bounds=bounds, x_scale=x_scale, jac=jac, **kwargs)
     J = np.asarray(sol.jac, dtype=float)
     r = np.asarray(sol.fun, dtype=float)
     n, p = J.shape

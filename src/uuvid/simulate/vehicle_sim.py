@@ -35,7 +35,7 @@ from uuvid.thruster.inflow import inflow_thrust_nb
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.inflow import state_advance_speeds_nb
 from uuvid.vehicle.kinematics import normalise_state
-from uuvid.vehicle.model import vehicle_rhs_into
+from uuvid.vehicle.model import vehicle_rhs_into, vehicle_rhs_still_into
 from uuvid.vehicle.stability import MAX_TILT_DEG
 
 N_CH = len(CHANNELS)
@@ -247,7 +247,7 @@ def _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outc
     vehicle_rhs_into(z[:13], tau, vp, vc, dvc, dz[:13])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _tau_from(th, st, B, tau, tau_d):
     n = th.shape[1]
     for k in range(6):
@@ -257,26 +257,28 @@ def _tau_from(th, st, B, tau, tau_d):
         tau[k] = acc
 
 
-@njit(cache=True)
-def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d):
+@njit(cache=True, inline="always")
+def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, K, tau_d, still, fsc):
     """One RK4 step of the 13 vehicle states with the thrust (``th_stage``) and the current
     (``vc0``, ``vc1``, ``vc2``, NED) known at t, t + h/2 and t + h, plus the held disturbance
-    force ``tau_d``."""
-    _tau_from(th_stage, 0, B, tau, tau_d)
-    vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
+    force ``tau_d``; ``still``: there is no current (its terms skipped; ``fsc``: 6 values of
+    scratch).  The stages run in a loop (``K`` holds their 4 × 13 slopes) so that the
+    right-hand side is compiled into the mission loop once, not four times."""
     for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k1[i]
-    _tau_from(th_stage, 1, B, tau, tau_d)
-    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
+        zt[i] = z[i]
+    for st in range(4):
+        _tau_from(th_stage, 0 if st == 0 else (1 if st < 3 else 2), B, tau, tau_d)
+        kk = K[st]
+        if still:
+            vehicle_rhs_still_into(zt, tau, vp, fsc, kk)
+        else:
+            vehicle_rhs_into(zt, tau, vp, vc0 if st == 0 else (vc1 if st < 3 else vc2), dvc, kk)
+        if st < 3:
+            c = 1.0 if st == 2 else 0.5
+            for i in range(13):
+                zt[i] = z[i] + c * h * kk[i]
     for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k2[i]
-    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
-    for i in range(13):
-        zt[i] = z[i] + h * k3[i]
-    _tau_from(th_stage, 2, B, tau, tau_d)
-    vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
-    for i in range(13):
-        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        z[i] = z[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
 @njit(cache=True)
@@ -481,6 +483,27 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
     th_stage = np.zeros((3, n))
     tgt = np.zeros(n)
     tconst = np.zeros(n)
+    # the lag's decay over 0, h/2 and h: the time constants are fixed for the flight, so the
+    # exponentials are taken once, not 4 per thruster and step
+    lag = np.ones((3, n))
+    if fast:
+        for i in range(n):
+            tconst[i] = tparams[i, poff[dyn] + (1 if kinds[dyn] == K_FIRST_ORDER_MOTOR else 0)]
+            for st in range(3):
+                lag[st, i] = math.exp(-0.5 * st * h / tconst[i])
+    # the common static back of the fast path, one quadratic map (ESC → first-order motor → map):
+    # evaluated inline from its two coefficients — the general block dispatch in the innermost
+    # loop (3 stages × n thrusters per step) cost more than the rest of the step's thrusters
+    quad = fast and dyn + 2 == nb and kinds[nb - 1] == kernels.K_QUADRATIC
+    qk = np.zeros((n, 2))
+    if quad:
+        for i in range(n):
+            qk[i, 0] = tparams[i, poff[nb - 1]]
+            qk[i, 1] = tparams[i, poff[nb - 1] + 1]
+    still = not varying and vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
+    fsc = np.zeros(6)
+    K4 = np.zeros((4, 13))  # RK4 slopes of the fast path
+    jtab = np.zeros(n, dtype=np.int64)  # interval of the last inverse-table read, per thruster
     # battery (BAT from battery_tables; empty: ideal supply, the chains' own voltage)
     batt = BAT.size > 0
     b_cap = BAT[0] if batt else 1.0
@@ -533,7 +556,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                 cmd[i] = (1 - wv) * _interp(vtt[jv], vtc[jv], fdes[i]) + \
                     wv * _interp(vtt[jv + 1], vtc[jv + 1], fdes[i])
             else:
-                cmd[i] = _interp(inv_t[i], inv_c[i], fdes[i])
+                cmd[i], jtab[i] = kernels.interp_sorted_from(inv_t[i], inv_c[i], fdes[i], jtab[i])
             if out_kind == 2:
                 cmd[i] = cout[i]
             sig0[i] = cmd[i]
@@ -565,10 +588,8 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                 pb = poff[dyn]
                 if kinds[dyn] == K_FIRST_ORDER_MOTOR:
                     tgt[i] = tparams[i, pb] * sig0[i]
-                    tconst[i] = tparams[i, pb + 1]
                 else:
                     tgt[i] = sig0[i]
-                    tconst[i] = tparams[i, pb]
             for sub in range(nsub):
                 if use_dist:
                     _DIST(k * dt + sub * h, z[0:7], z[7:13], dparams, tau_d)
@@ -581,8 +602,11 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     o = 13 + i * ns
                     x0 = z[o]
                     for st in range(3):
-                        xs = tgt[i] + (x0 - tgt[i]) * math.exp(-0.5 * st * h / tconst[i])
-                        f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
+                        xs = tgt[i] + (x0 - tgt[i]) * lag[st, i]
+                        if quad:  # the map's own arithmetic (kernels._static_block)
+                            f = (qk[i, 0] if xs >= 0.0 else qk[i, 1]) * (xs * abs(xs))
+                        else:
+                            f = kernels.eval_static_range(kinds, poff, tflat, i * P, xs, dyn + 1, nb)
                         if inflow:  # the bollard thrust; advance speed and η per RK4 stage
                             th_stage[st, i] = f
                         else:
@@ -602,11 +626,10 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                     _vehicle_rk4_inflow(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2,
                                         k3, k4, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
                 else:
-                    _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4,
-                                 tau_d)
+                    _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, K4, tau_d, still, fsc)
                 for i in range(n):
                     o = 13 + i * ns
-                    z[o] = tgt[i] + (z[o] - tgt[i]) * math.exp(-h / tconst[i])
+                    z[o] = tgt[i] + (z[o] - tgt[i]) * lag[2, i]
                 normalise_state(z)
             continue
         for sub in range(nsub):

@@ -271,7 +271,37 @@ def interp_sorted(xs, ys, x):
     return ys[lo] + (ys[hi] - ys[lo]) * (x - xs[lo]) / (xs[hi] - xs[lo])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def interp_sorted_from(xs, ys, x, j):
+    """:func:`interp_sorted` starting its search at interval ``j`` (a loop that reads one table
+    every step keeps the previous interval: the value moves little, so a few comparisons find
+    it instead of a full binary search); returns ``(value, interval)``.  The same interval and
+    formula as :func:`interp_sorted`, so the same value."""
+    n = xs.size
+    if x <= xs[0]:
+        return ys[0], j
+    if x >= xs[n - 1]:
+        return ys[n - 1], j
+    lo = min(max(j, 0), n - 2)
+    for _ in range(4):  # walk from the guess: xs[lo] <= x < xs[lo + 1]
+        if xs[lo] > x:
+            lo -= 1
+        elif xs[lo + 1] <= x:
+            lo += 1
+        else:
+            return ys[lo] + (ys[lo + 1] - ys[lo]) * (x - xs[lo]) / (xs[lo + 1] - xs[lo]), lo
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if xs[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return ys[lo] + (ys[hi] - ys[lo]) * (x - xs[lo]) / (xs[hi] - xs[lo]), lo
+
+
+@njit(cache=True, inline="always")
 def eval_chain_prefix(kinds, poff, params, po, cmd, blk_in, bo, stop):
     """Output of the static blocks ``0 … stop−1`` (no states) for input ``cmd``."""
     sig = cmd
@@ -281,7 +311,7 @@ def eval_chain_prefix(kinds, poff, params, po, cmd, blk_in, bo, stop):
     return sig
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def eval_static_range(kinds, poff, params, po, sig, b0, b1):
     """Output of the static blocks ``b0 … b1−1`` for input ``sig``."""
     for b in range(b0, b1):

@@ -981,7 +981,7 @@ def _fraction(a, phi, tau, n, m):
     return min(num / den, 1.0) if den > 0.0 else 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def allocate_compiled(a, phi, tau):
     """Allocate ``φ`` into ``tau`` (n) by the method stored in ``a``; returns the achieved fraction.
 

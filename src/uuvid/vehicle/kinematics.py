@@ -79,7 +79,7 @@ def quat_derivative(q, w, gain):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def normalise_quaternion(q):
     """``q/|q|`` (in place) with a non-negative scalar part; returns ``|q|`` before normalising."""
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
@@ -89,7 +89,7 @@ def normalise_quaternion(q):
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def normalise_state(x):
     """Normalise the quaternion ``x[3:7]`` of a vehicle state in place (call after each step)."""
     return normalise_quaternion(x[3:7])

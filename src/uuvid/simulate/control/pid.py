@@ -78,35 +78,46 @@ def gains_from_bandwidth(mass: np.ndarray, damping: np.ndarray, tau_max, omega=(
 quat_to_rot = quat_to_rotmat  # body → NED (Fossen 2011, §2.2.2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def quat_yaw(q):
     """Yaw angle ψ of a unit quaternion (ZYX convention)."""
     n, e1, e2, e3 = q[0], q[1], q[2], q[3]
     return math.atan2(2 * (n * e3 + e1 * e2), 1 - 2 * (e2 * e2 + e3 * e3))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def wrap_angle(a):
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def dp_errors(pos, q, nu, ref_pos, ref_vel, ref_yaw, ref_rate, e, edot):
     """Body-frame errors ``e`` and their rates ``edot`` for (surge, sway, heave, yaw)."""
-    R = quat_to_rot(q)
-    for i in range(3):
-        s = 0.0
-        sv = 0.0
-        for k in range(3):
-            s += R[k, i] * (ref_pos[k] - pos[k])
-            sv += R[k, i] * ref_vel[k]
-        e[i] = s
-        edot[i] = sv - nu[i]
+    # R(q) (quat_to_rot) as scalars: no array per step; e = Rᵀ (p_ref − p), ė = Rᵀ v_ref − ν
+    qe, qx, qy, qz = q[0], q[1], q[2], q[3]
+    r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
+    r01 = 2.0 * (qx * qy - qz * qe)
+    r02 = 2.0 * (qx * qz + qy * qe)
+    r10 = 2.0 * (qx * qy + qz * qe)
+    r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
+    r12 = 2.0 * (qy * qz - qx * qe)
+    r20 = 2.0 * (qx * qz - qy * qe)
+    r21 = 2.0 * (qy * qz + qx * qe)
+    r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
+    d0 = ref_pos[0] - pos[0]
+    d1 = ref_pos[1] - pos[1]
+    d2 = ref_pos[2] - pos[2]
+    e[0] = r00 * d0 + r10 * d1 + r20 * d2
+    e[1] = r01 * d0 + r11 * d1 + r21 * d2
+    e[2] = r02 * d0 + r12 * d1 + r22 * d2
+    edot[0] = (r00 * ref_vel[0] + r10 * ref_vel[1] + r20 * ref_vel[2]) - nu[0]
+    edot[1] = (r01 * ref_vel[0] + r11 * ref_vel[1] + r21 * ref_vel[2]) - nu[1]
+    edot[2] = (r02 * ref_vel[0] + r12 * ref_vel[1] + r22 * ref_vel[2]) - nu[2]
     e[3] = wrap_angle(ref_yaw - quat_yaw(q))
     edot[3] = ref_rate - nu[5]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def attitude_hold(q, nu, gains, tau_out):
     """PD to level roll and pitch (only for vehicles that can produce roll/pitch moments)."""
     if gains[5, 0] == 0.0 and gains[5, 1] == 0.0 and gains[5, 2] == 0.0 and gains[5, 3] == 0.0:
@@ -119,7 +130,7 @@ def attitude_hold(q, nu, gains, tau_out):
     tau_out[4] = -gains[5, 1] * pitch - gains[5, 3] * nu[4]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def dp_control(e, edot, integ, gains, dt, tau_out, integ_out):
     """PID with conditional-integration anti-windup; writes the 6-vector ``tau_out`` and the new
     integrator state.  ``gains`` is :meth:`DPGains.to_array` (rows kp, ki, kd, tau_max, i_limit)."""
@@ -146,7 +157,7 @@ def dp_control(e, edot, integ, gains, dt, tau_out, integ_out):
 PID_STATE_SIZE = 16
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pid_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
     """The built-in DP controller in the :class:`Controller` interface: body-frame PID on surge,
     sway, heave and yaw (:func:`dp_errors`, :func:`dp_control`) plus roll/pitch hold
