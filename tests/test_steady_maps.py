@@ -305,9 +305,9 @@ def test_numba_caches_of_uuvid_are_keyed_on_all_its_compiled_code(monkeypatch):
     edited controller's old code (control.dp_control, called from vehicle_sim): uuvid's functions
     carry a digest of every module that uses numba in their stamp as well."""
     import uuvid.core.numba_cache as nc
-    from uuvid.simulate.control.pid import pid as control
+    from uuvid.simulate.control.pid import dp_control
 
-    loc = control.dp_control._cache._impl._locator
+    loc = dp_control._cache._impl._locator
     assert type(loc).__name__.startswith("Uuvid")
     stamp = loc.get_source_stamp()
     assert stamp[1] == nc.numba_sources_digest()

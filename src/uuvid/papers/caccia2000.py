@@ -679,7 +679,7 @@ class Reproduction(PaperReproduction):
         ax.axhline(3.0, color="r", ls="--", lw=1, label="3σ")
         ax.set_xticks(range(len(names)))
         ax.set_xticklabels(names, rotation=90, fontsize=6)
-        ax.set_ylabel("|estimate − truth| / σ")
+        ax.set_ylabel("|estimate − truth| / σ [-]")
         ax.set_title("Identified back from simulation: distance to the truth", fontsize=10)
         ax.legend(fontsize=8)
         return fig

@@ -280,7 +280,8 @@ class DiveReplay(Result):
             a.set_title(f"{name}: rms {self.channels[name]['rms']:.3g} "
                         f"{self.channels[name]['unit']}, nrmse {self.channels[name]['nrmse']:.3f}")
             a.legend(loc="upper right", fontsize="small")
-        ax[-1].set_xlabel("t [s]")
+        for a in ax:  # every panel names its time axis (they do not share one)
+            a.set_xlabel("t [s]")
         if path is not None:
             save_figure(fig, path)
         return fig

@@ -238,7 +238,8 @@ class DiveIdentification(Result):
             a.set_ylabel(f"{CHANNEL_NAMES[dof]} [{UNITS[dof]}]")
             a.set_title(f"{dof}: {'held-out' if key == 'held_out' else 'in-sample'} replay")
             a.legend(loc="upper right", fontsize="small")
-        ax[-1].set_xlabel("t [s]")
+        for a in ax:  # every panel names its time axis (they do not share one)
+            a.set_xlabel("t [s]")
         if path is not None:
             save_figure(fig, path)
         return fig
