@@ -60,30 +60,21 @@ def identify_dive_cmd(
 ):
     """Identify per-DOF models (mass with added mass, drag, net buoyancy) from every armed sample
     of a piloted dive, closed-loop modes included."""
-    from uuvid.cli.common import _fail, _print_json, err_console, out_console
+    from uuvid.cli.common import _fail
     from uuvid.identify.vehicle.dive import identify_dive
 
     if out_vehicle is not None and out_vehicle.suffix.lower() not in (".yaml", ".yml"):
         _fail(f"--out-vehicle {out_vehicle}: the new vehicle file must end in .yaml or .yml")
-    try:
-        res = identify_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
-                            horizon=horizon)
-        doc = res.to_dict()
+
+    def write(res, doc):
         if out_vehicle is not None:
             doc["out_vehicle"] = str(res.write_vehicle(out_vehicle))
         if report is not None:
             doc["report"] = str(res.report(report))
-    except _errors() as e:
-        _fail(str(e).strip("'\""))
-    except OSError as e:
-        _fail(f"cannot write: {e.strerror or e} ({e.filename})")
-    if json_out:
-        _print_json(doc)
-        return
-    out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
-    for k in ("out_vehicle", "report"):
-        if k in doc:
-            err_console.print(f"wrote {doc[k]}", highlight=False, markup=False)
+
+    _run(lambda: identify_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
+                               horizon=horizon), write, json_out,
+         lambda e: f"cannot write: {e.strerror or e} ({e.filename})")
 
 
 def replay_dive_cmd(
@@ -99,25 +90,38 @@ def replay_dive_cmd(
 ):
     """Drive the vehicle's model with the logged thruster forces (at the logged voltage),
     restarting every --horizon s from the measured state; compare depth, heading, velocities."""
-    from uuvid.cli.common import _fail, _print_json, err_console, out_console
     from uuvid.simulate.dive_replay import replay_dive
 
-    try:
-        res = replay_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
-                          horizon=horizon)
-        doc = res.to_dict()
+    def write(res, doc):
         if out is not None:
             doc["report"] = str(res.report(out))
+
+    _run(lambda: replay_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
+                             horizon=horizon), write, json_out,
+         lambda e: f"--out {out}: cannot write ({e.strerror or e})")
+
+
+def _run(compute, write, json_out: bool, write_error) -> None:
+    """The shell both dive commands share: compute the result, write its files (``write(res,
+    doc)`` records their paths in ``doc``), then print the JSON or the summary and what was
+    written; bad input and unwritable outputs end in one line, not a traceback."""
+    from uuvid.cli.common import _fail, _print_json, err_console, out_console
+
+    try:
+        res = compute()
+        doc = res.to_dict()
+        write(res, doc)
     except _errors() as e:
         _fail(str(e).strip("'\""))
     except OSError as e:
-        _fail(f"--out {out}: cannot write ({e.strerror or e})")
+        _fail(write_error(e))
     if json_out:
         _print_json(doc)
         return
     out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
-    if out is not None:
-        err_console.print(f"wrote {doc['report']}", highlight=False, markup=False)
+    for k in ("out_vehicle", "report"):
+        if k in doc:
+            err_console.print(f"wrote {doc[k]}", highlight=False, markup=False)
 
 
 def register(vehicle_app: typer.Typer, identify_app: typer.Typer) -> None:

@@ -230,6 +230,17 @@ def _metrics(y, pred) -> dict:
             "std_measured": sd}
 
 
+def plot_windows(ax, t, measured, window, predictions) -> None:
+    """Measured samples as dots and each prediction as one line per replay window (``window``:
+    the window index of each sample, so no line joins two restarts); ``predictions`` is a list
+    of ``(values, label, line style)``, each labelled once."""
+    ax.plot(t, measured, ".", ms=2, color="0.4", label="measured")
+    for k in np.unique(window):
+        s = window == k
+        for values, label, style in predictions:
+            ax.plot(t[s], values[s], label=label if k == window[0] else None, **style)
+
+
 @dataclass
 class DiveReplay(Result):
     """Predicted vs measured per channel (see :func:`replay_dive`)."""
@@ -272,10 +283,7 @@ class DiveReplay(Result):
             if name not in self.traces:
                 continue
             t, y, p, w = self.traces[name]
-            a.plot(t, y, ".", ms=2, color="0.4", label="measured")
-            for k in np.unique(w):
-                s = w == k
-                a.plot(t[s], p[s], "-", color="C1", lw=1, label="predicted" if k == w[0] else None)
+            plot_windows(a, t, y, w, [(p, "predicted", {"color": "C1", "lw": 1})])
             a.set_ylabel(f"{name} [{self.channels[name]['unit']}]")
             a.set_title(f"{name}: rms {self.channels[name]['rms']:.3g} "
                         f"{self.channels[name]['unit']}, nrmse {self.channels[name]['nrmse']:.3f}")

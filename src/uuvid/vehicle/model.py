@@ -297,18 +297,14 @@ def _sub_kirchhoff(p, off, v, f):
     f[5] -= (v[0] * a1 - v[1] * a0) + (v[3] * a4 - v[4] * a3)
 
 
-@njit(cache=True)
-def vehicle_rhs_into(x, tau, p, vc_ned, dvc_ned, dx):
-    """``ẋ = f(x, τ, p)`` written into ``dx`` (13), with a current ``v_c`` and its rate in NED.
-
-    No allocation except two 6-vectors; ``p`` is :meth:`VehicleParams.to_array` (its own current
-    slots are ignored here).  See the module docstring for the equations.
-    """
+@njit(cache=True, inline="always")
+def _kinematics_into(x, p, dx):
+    """``ṗ = R(q) v`` and ``q̇`` (with the unit-norm correction γ) into ``dx[0:7]``; returns the
+    rotation matrix R(q) (body → NED, Fossen 2011, §2.2.2) by its nine elements."""
     e = x[3]
     ex = x[4]
     ey = x[5]
     ez = x[6]
-    # R(q), body → NED (Fossen 2011, §2.2.2)
     r00 = 1.0 - 2.0 * (ey * ey + ez * ez)
     r01 = 2.0 * (ex * ey - ez * e)
     r02 = 2.0 * (ex * ez + ey * e)
@@ -324,7 +320,6 @@ def vehicle_rhs_into(x, tau, p, vc_ned, dvc_ned, dx):
     pp = x[10]
     qq = x[11]
     rr = x[12]
-    # kinematics
     dx[0] = r00 * u + r01 * v + r02 * w
     dx[1] = r10 * u + r11 * v + r12 * w
     dx[2] = r20 * u + r21 * v + r22 * w
@@ -333,6 +328,46 @@ def vehicle_rhs_into(x, tau, p, vc_ned, dvc_ned, dx):
     dx[4] = 0.5 * (e * pp - ez * qq + ey * rr) + k * ex
     dx[5] = 0.5 * (ez * pp + e * qq - ex * rr) + k * ey
     dx[6] = 0.5 * (-ey * pp + ex * qq + e * rr) + k * ez
+    return r00, r01, r02, r10, r11, r12, r20, r21, r22
+
+
+@njit(cache=True, inline="always")
+def _restoring_accel_into(p, r20, r21, r22, f, dx):
+    """Add ``−g(q) = [(W − B) k ; (W r_g − B r_b) × k]`` (``k = Rᵀ e_z``, the last row of R) to
+    the generalized force ``f`` and write ``ν̇ = M⁻¹ f`` into ``dx[7:13]``."""
+    W = p[P_W]
+    B = p[P_B]
+    kx, ky, kz = r20, r21, r22
+    f[0] += (W - B) * kx
+    f[1] += (W - B) * ky
+    f[2] += (W - B) * kz
+    mx = W * p[P_RG] - B * p[P_RB]
+    my = W * p[P_RG + 1] - B * p[P_RB + 1]
+    mz = W * p[P_RG + 2] - B * p[P_RB + 2]
+    f[3] += my * kz - mz * ky
+    f[4] += mz * kx - mx * kz
+    f[5] += mx * ky - my * kx
+    for i in range(6):
+        s = 0.0
+        for j in range(6):
+            s += p[P_MINV + 6 * i + j] * f[j]
+        dx[7 + i] = s
+
+
+@njit(cache=True)
+def vehicle_rhs_into(x, tau, p, vc_ned, dvc_ned, dx):
+    """``ẋ = f(x, τ, p)`` written into ``dx`` (13), with a current ``v_c`` and its rate in NED.
+
+    No allocation except two 6-vectors; ``p`` is :meth:`VehicleParams.to_array` (its own current
+    slots are ignored here).  See the module docstring for the equations.
+    """
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _kinematics_into(x, p, dx)
+    u = x[7]
+    v = x[8]
+    w = x[9]
+    pp = x[10]
+    qq = x[11]
+    rr = x[12]
     # current in body axes and its rate: ν_c = [Rᵀ v_c; 0], ν̇_c = [−ω × Rᵀv_c + Rᵀ v̇_c; 0]
     cu = r00 * vc_ned[0] + r10 * vc_ned[1] + r20 * vc_ned[2]
     cv = r01 * vc_ned[0] + r11 * vc_ned[1] + r21 * vc_ned[2]
@@ -361,24 +396,7 @@ def vehicle_rhs_into(x, tau, p, vc_ned, dvc_ned, dx):
         # + M_A ν̇_c (only its translational part is non-zero)
         s -= p[P_MA + 6 * i] * au + p[P_MA + 6 * i + 1] * av + p[P_MA + 6 * i + 2] * aw
         f[i] -= s
-    # −g(q) = [(W − B) k ; (W r_g − B r_b) × k],  k = Rᵀ e_z
-    W = p[P_W]
-    B = p[P_B]
-    kx, ky, kz = r20, r21, r22
-    f[0] += (W - B) * kx
-    f[1] += (W - B) * ky
-    f[2] += (W - B) * kz
-    mx = W * p[P_RG] - B * p[P_RB]
-    my = W * p[P_RG + 1] - B * p[P_RB + 1]
-    mz = W * p[P_RG + 2] - B * p[P_RB + 2]
-    f[3] += my * kz - mz * ky
-    f[4] += mz * kx - mx * kz
-    f[5] += mx * ky - my * kx
-    for i in range(6):
-        s = 0.0
-        for j in range(6):
-            s += p[P_MINV + 6 * i + j] * f[j]
-        dx[7 + i] = s
+    _restoring_accel_into(p, r20, r21, r22, f, dx)
 
 
 @njit(cache=True, inline="always")
@@ -386,33 +404,7 @@ def vehicle_rhs_still_into(x, tau, p, f, dx):
     """:func:`vehicle_rhs_into` in still water (``v_c = v̇_c = 0``, so ``ν_r = ν``), for loops
     that step it many times: no current terms, and no allocation (``f`` is a 6-vector of
     scratch).  The same arithmetic on the remaining terms, so the same numbers."""
-    e = x[3]
-    ex = x[4]
-    ey = x[5]
-    ez = x[6]
-    r00 = 1.0 - 2.0 * (ey * ey + ez * ez)
-    r01 = 2.0 * (ex * ey - ez * e)
-    r02 = 2.0 * (ex * ez + ey * e)
-    r10 = 2.0 * (ex * ey + ez * e)
-    r11 = 1.0 - 2.0 * (ex * ex + ez * ez)
-    r12 = 2.0 * (ey * ez - ex * e)
-    r20 = 2.0 * (ex * ez - ey * e)
-    r21 = 2.0 * (ey * ez + ex * e)
-    r22 = 1.0 - 2.0 * (ex * ex + ey * ey)
-    u = x[7]
-    v = x[8]
-    w = x[9]
-    pp = x[10]
-    qq = x[11]
-    rr = x[12]
-    dx[0] = r00 * u + r01 * v + r02 * w
-    dx[1] = r10 * u + r11 * v + r12 * w
-    dx[2] = r20 * u + r21 * v + r22 * w
-    k = 0.5 * p[P_GAMMA] * (1.0 - (e * e + ex * ex + ey * ey + ez * ez))
-    dx[3] = 0.5 * (-ex * pp - ey * qq - ez * rr) + k * e
-    dx[4] = 0.5 * (e * pp - ez * qq + ey * rr) + k * ex
-    dx[5] = 0.5 * (ez * pp + e * qq - ex * rr) + k * ey
-    dx[6] = 0.5 * (-ey * pp + ex * qq + e * rr) + k * ez
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _kinematics_into(x, p, dx)
     nu = x[7:13]
     for i in range(6):
         f[i] = tau[i]
@@ -424,23 +416,7 @@ def vehicle_rhs_still_into(x, tau, p, f, dx):
             nj = nu[j]
             s += p[P_DL + 6 * i + j] * nj + p[P_DQ + 6 * i + j] * abs(nj) * nj
         f[i] -= s
-    W = p[P_W]
-    B = p[P_B]
-    kx, ky, kz = r20, r21, r22
-    f[0] += (W - B) * kx
-    f[1] += (W - B) * ky
-    f[2] += (W - B) * kz
-    mx = W * p[P_RG] - B * p[P_RB]
-    my = W * p[P_RG + 1] - B * p[P_RB + 1]
-    mz = W * p[P_RG + 2] - B * p[P_RB + 2]
-    f[3] += my * kz - mz * ky
-    f[4] += mz * kx - mx * kz
-    f[5] += mx * ky - my * kx
-    for i in range(6):
-        s = 0.0
-        for j in range(6):
-            s += p[P_MINV + 6 * i + j] * f[j]
-        dx[7 + i] = s
+    _restoring_accel_into(p, r20, r21, r22, f, dx)
 
 
 @njit(cache=True)

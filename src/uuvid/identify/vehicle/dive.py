@@ -45,6 +45,7 @@ from uuvid.simulate.dive_replay import (
     dive_windows,
     initial_state,
     params_from_vehicle,
+    plot_windows,
     replay_windows,
 )
 
@@ -228,13 +229,9 @@ class DiveIdentification(Result):
             e = self.estimates[dof]
             key = "held_out" if "held_out" in e.traces else "train"
             t, y, p_id, p_base, w = e.traces[key]
-            a.plot(t, y, ".", ms=2, color="0.4", label="measured")
-            for k in np.unique(w):
-                s = w == k
-                first = k == w[0]
-                a.plot(t[s], p_id[s], "-", color="C1", lw=1, label="identified" if first else None)
-                a.plot(t[s], p_base[s], "--", color="C0", lw=0.8, label=f"base {self.vehicle}"
-                       if first else None)
+            plot_windows(a, t, y, w, [(p_id, "identified", {"color": "C1", "lw": 1}),
+                                      (p_base, f"base {self.vehicle}",
+                                       {"color": "C0", "lw": 0.8, "ls": "--"})])
             a.set_ylabel(f"{CHANNEL_NAMES[dof]} [{UNITS[dof]}]")
             a.set_title(f"{dof}: {'held-out' if key == 'held_out' else 'in-sample'} replay")
             a.legend(loc="upper right", fontsize="small")
