@@ -57,6 +57,11 @@ def test_demo_writes_report_folder(tmp_path):
     heavy = doc["vehicle"]["envelopes"]["bluerov2-heavy"]["rows"]
     assert all(r["confirmed"] for r in heavy if r["dof"] in ("surge", "sway", "heave"))
     assert doc["linearize"]["pid"]["rms_position_error_m"] > 0
+    # issue 19: dive → identify → replay → fly; the identified file beats the preset held out
+    rp = {k: v["channels"] for k, v in doc["dive"]["replay"].items()}
+    assert rp["identified (my-rov.yaml)"]["depth"]["rms"] < 0.6 * rp["preset bluerov2"]["depth"]["rms"]
+    assert (out / "dive" / "my-rov.yaml").is_file() and doc["dive"]["mission"]["completed"]
+    assert "dive/identify/index.html" in html
 
 
 def test_thruster_simulate_preset_json(tmp_path):
