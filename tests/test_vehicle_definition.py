@@ -213,3 +213,55 @@ def test_auv2_layout_from_mclean():
     assert al.controlled == (1, 2, 4, 5)
     assert np.allclose(v.B[[1, 2, 4, 5]] @ al.T[:, [1, 2, 4, 5]], np.eye(4))
     assert math.isclose(v.params.weight, v.params.buoyancy)
+
+
+def test_validated_files_are_cached_by_content(tmp_path, monkeypatch):
+    """A vehicle file validated once is read back from the disk cache (no parsing, no pydantic);
+    the same file with other bytes is validated again, and an invalid one is never cached."""
+    from uuvid.vehicle import definition
+
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+    path = tmp_path / "v.yaml"
+    path.write_text(definition.preset_path("bluerov2").read_text())
+    first = load_vehicle(path)
+    assert list((tmp_path / "cache" / "vehicles").glob("*.pkl"))
+
+    def refuse(*a, **k):
+        raise AssertionError("validated again although the file did not change")
+
+    monkeypatch.setattr(definition, "vehicle_from_dict", refuse)
+    again = load_vehicle(path)
+    assert again is not first and again.path == first.path
+    assert again.to_dict() == first.to_dict()
+    np.testing.assert_array_equal(again.B, first.B)
+    monkeypatch.undo()
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+    raw = yaml.safe_load(path.read_text())
+    raw["rigid_body"]["mass"] = 2 * raw["rigid_body"]["mass"]
+    path.write_text(yaml.safe_dump(raw))
+    assert load_vehicle(path).params.mass == pytest.approx(2 * first.params.mass)
+    raw["rigid_body"]["mass"] = -1.0
+    path.write_text(yaml.safe_dump(raw))
+    for _ in range(2):  # an invalid file is reported every time
+        with pytest.raises(VehicleFileError, match="rigid_body.mass"):
+            load_vehicle(path)
+
+
+def test_a_warm_mission_process_imports_no_pydantic(tmp_path):
+    """Issue 20: a plain mission with warm caches needs neither pydantic nor a vehicle-file
+    parse (the validated preset comes from the cache)."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "from uuvid.simulate.reference import square_mission\n"
+            "from uuvid.simulate.vehicle_sim import setup_mission\n"
+            "from uuvid.vehicle.definition import load_vehicle\n"
+            "setup_mission(load_vehicle('bluerov2'), square_mission())\n"
+            "print(sorted(m for m in ('pydantic', 'typer', 'rich', 'pandas', 'matplotlib') "
+            "if m in sys.modules))\n")
+    env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                           check=True).stdout.strip() for _ in range(2)]
+    assert runs[1] == "[]", runs

@@ -99,6 +99,59 @@ def code_version() -> str:
     return f"{uuvid.__version__}+{source_digest(Path(uuvid.__file__).resolve().parent)}"
 
 
+def tree_stamp(*subpackages: str) -> str:
+    """Digest of the package version and the relative path, size and modification time of every
+    ``.py``/``.yaml``/``.json``/``.csv`` file in the given subpackages of uuvid (``""``: the top
+    ``__init__``): a cheap stamp (no file is read, as Python's own bytecode cache does it) for
+    results that depend only on those layers' code — imports only run downhill, so a result of
+    layer ``k`` depends on layers ``0..k`` alone."""
+    import uuvid
+
+    root = Path(uuvid.__file__).resolve().parent
+    parts = [uuvid.__version__]
+    for sub in subpackages:
+        base = root / sub if sub else root
+        for dirpath, dirnames, filenames in os.walk(base):
+            dirnames[:] = sorted(d for d in dirnames if d != "__pycache__") if sub else []
+            for f in sorted(filenames):
+                if f.rsplit(".", 1)[-1] in ("py", "yaml", "yml", "json", "csv"):
+                    st = os.stat(os.path.join(dirpath, f))
+                    parts.append(f"{os.path.relpath(os.path.join(dirpath, f), root)}:"
+                                 f"{st.st_size}:{st.st_mtime_ns}")
+    return digest(*parts)
+
+
+def load_object(sub: str, key: str):
+    """The object pickled under ``key`` in ``cache_dir(sub)`` by :func:`store_object`, or
+    ``None`` (no entry, or one that cannot be read: it is overwritten by the next store).  The
+    cache folder is the user's own, as numba's cache of compiled functions (also pickles) is."""
+    import pickle
+
+    path = cache_dir(sub) / f"{key}.pkl"
+    if not path.is_file():
+        return None
+    try:
+        with open(path, "rb") as fh:
+            return pickle.load(fh)
+    except Exception as e:  # noqa: BLE001 - any unreadable entry is recomputed
+        warn_once(f"unreadable cache entry: {path} ({type(e).__name__}: {e}); recomputing")
+        return None
+
+
+def store_object(sub: str, key: str, obj) -> None:
+    """Pickle ``obj`` under ``key`` atomically; an unwritable cache only warns (once)."""
+    import pickle
+
+    path = cache_dir(sub) / f"{key}.pkl"
+    try:
+        from uuvid.core.atomic import atomic_write_bytes
+
+        atomic_write_bytes(path, pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL))
+    except (OSError, pickle.PicklingError, TypeError, AttributeError) as e:
+        warn_once(f"unwritable cache: {path.parent} ({e}); results are computed each time "
+                  "(set UUVID_KERNEL_CACHE to a writable folder)")
+
+
 def load_array(sub: str, key: str, shape: tuple[int, ...] | None = None) -> np.ndarray | None:
     """The array stored under ``key`` in ``cache_dir(sub)``, or ``None`` when there is none.  An
     entry that cannot be read, or has the wrong shape or non-finite values, counts as none (and

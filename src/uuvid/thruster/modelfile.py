@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from uuvid.core.atomic import atomic_write_text
 from uuvid.thruster.blocks import BLOCK_ALIASES, BLOCK_TYPES, Block, DCMotor, ParameterError
@@ -81,10 +80,12 @@ def _annotation(tp):
     return Any
 
 
-_SCHEMAS: dict[str, type[BaseModel]] = {}
+_SCHEMAS: dict = {}  # block type → pydantic schema (built on first use)
 
 
-def _schema_for(type_name: str, cls: type[Block]) -> type[BaseModel]:
+def _schema_for(type_name: str, cls: type[Block]):
+    from pydantic import ConfigDict, create_model
+
     fields_ = {}
     hints = typing.get_type_hints(cls)
     optional = OPTIONAL.get(type_name, set())
@@ -103,9 +104,11 @@ def _schema_for(type_name: str, cls: type[Block]) -> type[BaseModel]:
 
 
 @functools.cache
-def _chain_schema() -> type[BaseModel]:
+def _chain_schema():
     """The model-file schema, built on first use (a command that reads no model file does not pay
-    for it)."""
+    for it, nor for importing pydantic)."""
+    from pydantic import BaseModel, ConfigDict, Field, create_model
+
     # The nested motor is built first so the tunnel schema can refer to it.
     _SCHEMAS["dc_motor"] = _schema_for("dc_motor", BLOCK_TYPES["dc_motor"])
     for name, cls in BLOCK_TYPES.items():
@@ -174,6 +177,8 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
             return preset_chain(raw["preset"])
         except KeyError as e:
             raise ModelFileError(f"{where}: preset: {e.args[0]}") from None
+    from pydantic import ValidationError
+
     raw = _normalise(raw, where)
     try:
         spec = _chain_schema().model_validate(raw)

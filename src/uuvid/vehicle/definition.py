@@ -48,18 +48,21 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from uuvid.core.units import G0
 from uuvid.thruster.blocks import ParameterError
 from uuvid.thruster.modelfile import ModelFileError, format_loc, read_model_text
 from uuvid.vehicle.allocation import Allocator, ThrustMode
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, axis_from_rpy, dof_index
 from uuvid.vehicle.model import DOF_NAMES, OneDofModel, VehicleParams
 from uuvid.vehicle.rigid_body import skew_ref
+
+if TYPE_CHECKING:  # pydantic is imported only when a file is validated
+    from pydantic import ValidationError
+
+    from uuvid.vehicle.schema import BatterySchema
 
 PRESET_DIR = Path(__file__).resolve().parent / "presets"
 #: Presets of one vehicle family from different published parameter sets (told to the user).
@@ -77,142 +80,6 @@ def _is_preset_path(path) -> bool:
 
 class VehicleFileError(ModelFileError):
     """A vehicle file is unreadable or invalid; the message names the file and the key path."""
-
-
-# ---------------------------------------------------------------------------------------------
-# Schema
-# ---------------------------------------------------------------------------------------------
-_CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
-Vec3 = tuple[float, float, float]
-DofName = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
-
-
-def _six_or_36(v: list[float]) -> list[float]:
-    if len(v) not in (6, 36):
-        raise ValueError(f"expected 6 (diagonal) or 36 (6×6 row-major) values, got {len(v)}")
-    return v
-
-
-class SourceSchema(BaseModel):
-    model_config = _CFG
-    citation: str = Field(min_length=1)
-    transcribed_from: str | list[str] | None = None
-    notes: str | None = None
-
-
-class EnvironmentSchema(BaseModel):
-    model_config = _CFG
-    current: Vec3 = (0.0, 0.0, 0.0)
-
-
-class RigidBodySchema(BaseModel):
-    model_config = _CFG
-    mass: float = Field(gt=0)
-    weight: float | None = Field(None, ge=0)
-    buoyancy: float | None = Field(None, ge=0)
-    displaced_volume: float | None = Field(None, gt=0)
-    water_density: float | None = Field(None, gt=0)
-    gravity: float = Field(G0, gt=0)
-    center_of_gravity: Vec3
-    center_of_buoyancy: Vec3
-    inertia: list[float]
-    inertia_about: Literal["cg", "origin"] = "cg"
-
-    @field_validator("inertia")
-    @classmethod
-    def _inertia_len(cls, v):
-        if len(v) not in (3, 9):
-            raise ValueError(f"expected 3 (principal) or 9 (3×3 row-major) values, got {len(v)}")
-        return v
-
-
-class HydrodynamicsSchema(BaseModel):
-    model_config = _CFG
-    added_mass: list[float]
-    linear_damping: list[float]
-    quadratic_damping: list[float]
-
-    @field_validator("added_mass", "linear_damping", "quadratic_damping")
-    @classmethod
-    def _len(cls, v):
-        return _six_or_36(v)
-
-
-class ThrusterSchema(BaseModel):
-    model_config = _CFG
-    name: str = Field(min_length=1)
-    position: Vec3
-    axis: Vec3 | None = None
-    rpy_deg: Vec3 | None = None
-    model: str = Field(min_length=1)
-    limits: tuple[float, float]
-    installation: dict[str, float | tuple[float, float]] = {}
-    wake: float = Field(0.0, ge=0, lt=1)  # wake fraction w: u_a = (1 − w) axisᵀ(v_r + ω × r)
-    notes: str | None = None
-
-
-class ModeSchema(BaseModel):
-    model_config = _CFG
-    description: str = ""
-    constraints: list[dict[str, float]] = []
-    zero_dofs: list[DofName] = []
-    off: list[str] = []
-    open_water: str = ""
-    eta_dof: dict[str, float] = {}
-
-
-class AllocationSchema(BaseModel):
-    model_config = _CFG
-    dofs: list[DofName] = list(DOF_NAMES)
-    weights: list[float] | None = None
-    default_modes: list[str] = []
-
-
-class OneDofSchema(BaseModel):
-    model_config = _CFG
-    dof: DofName
-    mass: float = Field(gt=0)
-    linear: float = Field(ge=0)
-    quadratic: float = Field(0.0, ge=0)
-    eta_pos: float = Field(1.0, gt=0)
-    eta_neg: float = Field(1.0, gt=0)
-    disturbance: float = 0.0
-    mode: str | None = None
-    notes: str | None = None
-
-
-class BatterySchema(BaseModel):
-    """Battery block (see :mod:`uuvid.vehicle.power`): OCV vs SOC, internal resistance, capacity."""
-    model_config = _CFG
-    name: str = "battery"
-    capacity_ah: float = Field(gt=0)
-    ocv_soc: list[float] = Field(min_length=2)
-    ocv_voltage: list[float] = Field(min_length=2)
-    resistance: float = Field(ge=0)
-    hotel_load_w: float = Field(0.0, ge=0)
-    min_voltage: float = Field(0.0, ge=0)
-    max_current: float | None = Field(None, gt=0)
-    thruster_power_model: str = "t200-physical"
-    source: str = ""
-    assumptions: str = ""
-
-
-class VehicleSchema(BaseModel):
-    model_config = _CFG
-    name: str = Field(min_length=1)
-    description: str = ""
-    source: SourceSchema
-    assumptions: dict[str, str] = {}
-    environment: EnvironmentSchema = EnvironmentSchema()
-    inflow: Literal["none", "four-quadrant"] = "none"
-    quaternion_gain: float = Field(1.0, ge=0)
-    rigid_body: RigidBodySchema
-    hydrodynamics: HydrodynamicsSchema
-    thrusters: list[ThrusterSchema] = []
-    allocation: AllocationSchema = AllocationSchema()
-    modes: dict[str, ModeSchema] = {}
-    one_dof: dict[str, OneDofSchema] = {}
-    battery: BatterySchema | None = None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -402,6 +269,10 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
     if not isinstance(raw, dict):
         raise VehicleFileError(f"{where}: expected a mapping at the top level, got "
                                f"{type(raw).__name__}")
+    from pydantic import ValidationError
+
+    from uuvid.vehicle.schema import VehicleSchema
+
     try:
         spec = VehicleSchema.model_validate(raw)
     except ValidationError as e:
@@ -571,7 +442,13 @@ def preset_path(name: str) -> Path:
 
 
 def load_vehicle(path_or_name: str | Path) -> Vehicle:
-    """Load a vehicle from a YAML/TOML file or by preset name (``bluerov2``, ``romeo``, …)."""
+    """Load a vehicle from a YAML/TOML file or by preset name (``bluerov2``, ``romeo``, …).
+
+    A file validated once is kept in the disk cache (``vehicles`` beside the steady maps,
+    :mod:`uuvid.core.cache`), keyed on its bytes, its path and a stamp of the code it depends
+    on (layers 0–2: ``core``, ``thruster``, ``vehicle``): a warm start reads it back without
+    parsing or validating again, and without importing pydantic.  An invalid file is never
+    cached, so its errors are reported every time."""
     p = Path(path_or_name)
     if not p.is_file():
         if isinstance(path_or_name, str) and path_or_name in list_presets():
@@ -579,9 +456,22 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
         else:
             raise VehicleFileError(f"{path_or_name}: no such vehicle file and not a preset "
                                    f"(presets: {', '.join(list_presets())})")
+    from uuvid.core.cache import digest, load_object, store_object, tree_stamp
+
+    try:
+        key = digest(tree_stamp("", "core", "thruster", "vehicle"), str(p.resolve()),
+                     p.read_bytes())
+    except OSError:
+        key = None
+    cached = load_object("vehicles", key) if key else None
+    if isinstance(cached, Vehicle):
+        return cached
     try:
         raw = read_model_text(p)
     except ModelFileError as e:
         raise VehicleFileError(str(e)) from None
-    return vehicle_from_dict(raw, where=p.name if p.parent == PRESET_DIR else str(p),
-                             base_dir=p.parent, path=p.resolve())
+    vehicle = vehicle_from_dict(raw, where=p.name if p.parent == PRESET_DIR else str(p),
+                                base_dir=p.parent, path=p.resolve())
+    if key:
+        store_object("vehicles", key, vehicle)
+    return vehicle

@@ -43,7 +43,6 @@ from uuvid.core.atomic import atomic_write_text
 from uuvid.thruster.modelfile import ModelFileError, read_model_text
 from uuvid.vehicle.definition import (
     PRESET_DIR,
-    SourceSchema,
     VehicleFileError,
     list_presets,
     load_vehicle,
@@ -312,6 +311,8 @@ def identified_yaml(vehicle_file_or_preset, identified: Mapping[str, Mapping[str
     source = dict(raw.get("source") or {})
     sentence = ("Identified by uuvid on " + when + (f" from {log}" if log else "") + ": "
                 + "; ".join(r["summary"] for r in records) + ".")
+    from uuvid.vehicle.schema import SourceSchema
+
     if "identified" in SourceSchema.model_fields:
         prev = source.get("identified")
         prev = list(prev) if isinstance(prev, list) else ([prev] if prev else [])

@@ -1,0 +1,145 @@
+"""The vehicle file's schema (pydantic), apart from :mod:`uuvid.vehicle.definition` so that
+pydantic is imported only when a file is validated — a vehicle read from the cache of validated
+files (:func:`uuvid.vehicle.definition.load_vehicle`) and a plain mission never import it.
+Every key is documented in :mod:`uuvid.vehicle.definition`."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from uuvid.core.units import G0
+from uuvid.vehicle.model import DOF_NAMES
+
+_CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
+Vec3 = tuple[float, float, float]
+DofName = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
+
+
+def _six_or_36(v: list[float]) -> list[float]:
+    if len(v) not in (6, 36):
+        raise ValueError(f"expected 6 (diagonal) or 36 (6×6 row-major) values, got {len(v)}")
+    return v
+
+
+class SourceSchema(BaseModel):
+    model_config = _CFG
+    citation: str = Field(min_length=1)
+    transcribed_from: str | list[str] | None = None
+    notes: str | None = None
+
+
+class EnvironmentSchema(BaseModel):
+    model_config = _CFG
+    current: Vec3 = (0.0, 0.0, 0.0)
+
+
+class RigidBodySchema(BaseModel):
+    model_config = _CFG
+    mass: float = Field(gt=0)
+    weight: float | None = Field(None, ge=0)
+    buoyancy: float | None = Field(None, ge=0)
+    displaced_volume: float | None = Field(None, gt=0)
+    water_density: float | None = Field(None, gt=0)
+    gravity: float = Field(G0, gt=0)
+    center_of_gravity: Vec3
+    center_of_buoyancy: Vec3
+    inertia: list[float]
+    inertia_about: Literal["cg", "origin"] = "cg"
+
+    @field_validator("inertia")
+    @classmethod
+    def _inertia_len(cls, v):
+        if len(v) not in (3, 9):
+            raise ValueError(f"expected 3 (principal) or 9 (3×3 row-major) values, got {len(v)}")
+        return v
+
+
+class HydrodynamicsSchema(BaseModel):
+    model_config = _CFG
+    added_mass: list[float]
+    linear_damping: list[float]
+    quadratic_damping: list[float]
+
+    @field_validator("added_mass", "linear_damping", "quadratic_damping")
+    @classmethod
+    def _len(cls, v):
+        return _six_or_36(v)
+
+
+class ThrusterSchema(BaseModel):
+    model_config = _CFG
+    name: str = Field(min_length=1)
+    position: Vec3
+    axis: Vec3 | None = None
+    rpy_deg: Vec3 | None = None
+    model: str = Field(min_length=1)
+    limits: tuple[float, float]
+    installation: dict[str, float | tuple[float, float]] = {}
+    wake: float = Field(0.0, ge=0, lt=1)  # wake fraction w: u_a = (1 − w) axisᵀ(v_r + ω × r)
+    notes: str | None = None
+
+
+class ModeSchema(BaseModel):
+    model_config = _CFG
+    description: str = ""
+    constraints: list[dict[str, float]] = []
+    zero_dofs: list[DofName] = []
+    off: list[str] = []
+    open_water: str = ""
+    eta_dof: dict[str, float] = {}
+
+
+class AllocationSchema(BaseModel):
+    model_config = _CFG
+    dofs: list[DofName] = list(DOF_NAMES)
+    weights: list[float] | None = None
+    default_modes: list[str] = []
+
+
+class OneDofSchema(BaseModel):
+    model_config = _CFG
+    dof: DofName
+    mass: float = Field(gt=0)
+    linear: float = Field(ge=0)
+    quadratic: float = Field(0.0, ge=0)
+    eta_pos: float = Field(1.0, gt=0)
+    eta_neg: float = Field(1.0, gt=0)
+    disturbance: float = 0.0
+    mode: str | None = None
+    notes: str | None = None
+
+
+class BatterySchema(BaseModel):
+    """Battery block (see :mod:`uuvid.vehicle.power`): OCV vs SOC, internal resistance, capacity."""
+    model_config = _CFG
+    name: str = "battery"
+    capacity_ah: float = Field(gt=0)
+    ocv_soc: list[float] = Field(min_length=2)
+    ocv_voltage: list[float] = Field(min_length=2)
+    resistance: float = Field(ge=0)
+    hotel_load_w: float = Field(0.0, ge=0)
+    min_voltage: float = Field(0.0, ge=0)
+    max_current: float | None = Field(None, gt=0)
+    thruster_power_model: str = "t200-physical"
+    source: str = ""
+    assumptions: str = ""
+
+
+class VehicleSchema(BaseModel):
+    model_config = _CFG
+    name: str = Field(min_length=1)
+    description: str = ""
+    source: SourceSchema
+    assumptions: dict[str, str] = {}
+    environment: EnvironmentSchema = EnvironmentSchema()
+    inflow: Literal["none", "four-quadrant"] = "none"
+    quaternion_gain: float = Field(1.0, ge=0)
+    rigid_body: RigidBodySchema
+    hydrodynamics: HydrodynamicsSchema
+    thrusters: list[ThrusterSchema] = []
+    allocation: AllocationSchema = AllocationSchema()
+    modes: dict[str, ModeSchema] = {}
+    one_dof: dict[str, OneDofSchema] = {}
+    battery: BatterySchema | None = None
