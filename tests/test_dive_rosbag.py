@@ -118,8 +118,12 @@ def _msg(ts, name, **given):
     return cls(**kw)
 
 
-def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3"):
-    """The dive ``df`` (a synthetic_dive table) as mavros would record it (see the module doc)."""
+def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3", pressure=None,
+              twist=None):
+    """The dive ``df`` (a synthetic_dive table) as mavros would record it (see the module doc).
+    ``pressure``: also ``/mavros/imu/static_pressure`` (sensor_msgs/FluidPressure), this surface
+    pressure [Pa] + 1000 kg/m³ · g · depth; ``twist``: ``(topic, type)`` of a DVL velocity
+    (TwistStamped or Odometry) with linear = (0.1 t, 0.2, 0) and header stamps left at zero."""
     ts = _store(ros)
     if ros == 1:
         from rosbags.rosbag1 import Writer
@@ -175,6 +179,27 @@ def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3"):
             out.append([ns(ti) + OFFSET, "/mavros/global_position/rel_alt", F64(data=-float(d))])
             if k % 40 == 3:
                 out.append(out[-1])
+    if pressure is not None:
+        for ti, d in zip(t[rows], df.loc[rows, "depth_m"].to_numpy(float)):
+            fp = _msg(ts, "sensor_msgs/msg/FluidPressure", header=hdr(ns(ti)),
+                      fluid_pressure=pressure + 1000.0 * 9.80665 * d)
+            out.append([ns(ti) + OFFSET, "/mavros/imu/static_pressure", fp])
+    if twist is not None:
+        Tw = ts.types["geometry_msgs/msg/Twist"]
+        for ti in np.arange(1.0, t.max(), 0.2):
+            tw = Tw(linear=Vec(x=0.1 * ti, y=0.2, z=0.0), angular=Vec(x=0.0, y=0.0, z=0.0))
+            if twist[1] == "geometry_msgs/msg/TwistStamped":
+                m = _msg(ts, twist[1], header=hdr(0), twist=tw)
+            else:
+                TwC = ts.types["geometry_msgs/msg/TwistWithCovariance"]
+                PoC = ts.types["geometry_msgs/msg/PoseWithCovariance"]
+                Pose, Pt = ts.types["geometry_msgs/msg/Pose"], ts.types["geometry_msgs/msg/Point"]
+                pose = PoC(pose=Pose(position=Pt(x=0.0, y=0.0, z=0.0),
+                                     orientation=Quat(x=0.0, y=0.0, z=0.0, w=1.0)),
+                           covariance=np.zeros(36))
+                m = _msg(ts, twist[1], header=hdr(0), child_frame_id="base_link", pose=pose,
+                         twist=TwC(twist=tw, covariance=np.zeros(36)))
+            out.append([ns(ti) + OFFSET, twist[0], m])
     rows = df["battery_V"].notna().to_numpy()
     for ti, v in zip(t[rows], df.loc[rows, "battery_V"].to_numpy(float)):
         out.append([ns(ti) + OFFSET, "/mavros/battery",
@@ -193,6 +218,10 @@ def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3"):
              "/mavros/state": "mavros_msgs/msg/State"}
     if depth_topic:
         types[depth_topic] = "std_msgs/msg/Float64"
+    if pressure is not None:
+        types["/mavros/imu/static_pressure"] = "sensor_msgs/msg/FluidPressure"
+    if twist is not None:
+        types[twist[0]] = twist[1]
     short = {"/mavros/rc/out": "rc", "/mavros/imu/data": "imu",
              "/mavros/global_position/rel_alt": "rel_alt", "/mavros/battery": "battery",
              "/mavros/state": "state"}
@@ -319,6 +348,43 @@ def test_a_bag_without_a_needed_topic_says_what_is_missing(dive, tmp_path, omit,
                            "/mavros/battery (sensor_msgs/msg/BatteryState") if t.split()[0] != topic]
     for t in present:
         assert t in msg
+
+
+def test_depth_from_the_pressure_topic(dive, tmp_path):
+    """No rel_alt: depth from mavros' static_pressure, surface = the lowest pressure in the bag (a
+    warning) or BARO1_GND_PRESS from the parameters; a pressure that does not vary is refused."""
+    df = _short(dive)
+    bag = write_bag(tmp_path / "p.bag", 1, df, omit=("rel_alt",), pressure=101325.0)
+    rows = df["depth_m"].notna().to_numpy()
+    depth = df.loc[rows, "depth_m"].to_numpy()
+    dc = read_dive_channels(bag, "bluerov2")
+    np.testing.assert_allclose(dc.channels["depth_m"][1], depth - depth.min(), atol=1e-9)
+    w = " ".join(dc.warnings)
+    assert "depth from /mavros/imu/static_pressure (default)" in w
+    assert "the lowest pressure in the bag" in w and "ρ = 1000 kg/m³" in w
+    dc = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 101325.0})
+    np.testing.assert_allclose(dc.channels["depth_m"][1], depth, atol=1e-9)
+    sea = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 101325.0,
+                                                      "BARO_SPEC_GRAV": 1.025})
+    np.testing.assert_allclose(sea.channels["depth_m"][1], depth / 1.025, atol=1e-9)
+    flat = write_bag(tmp_path / "enclosure.bag", 1, df.assign(depth_m=1.0), omit=("rel_alt",),
+                     pressure=101325.0)
+    with pytest.raises(DiveDataError, match="not the water pressure.*--topic depth="):
+        read_dive_channels(flat, "bluerov2")
+
+
+@pytest.mark.parametrize("msgtype", ["geometry_msgs/msg/TwistStamped", "nav_msgs/msg/Odometry"])
+def test_dvl_velocity_topic_and_zero_header_stamps(dive, tmp_path, msgtype):
+    """A body velocity topic (FLU, REP 103) gives u = x, v = −y; its header stamps are zero, so
+    the receive times are used, moved onto the servo outputs' header clock."""
+    bag = write_bag(tmp_path / "dvl.bag", 1, _short(dive), twist=("/dvl/twist", msgtype))
+    dc = read_dive_channels(bag, "bluerov2", topics=["velocity=/dvl/twist"])
+    tu, u = dc.channels["u_mps"]
+    t0 = _short(dive)["t_s"].min()
+    np.testing.assert_allclose(u, 0.1 * (tu + t0), atol=1e-9)  # back on the header clock
+    np.testing.assert_allclose(dc.channels["v_mps"][1], -0.2)
+    w = " ".join(dc.warnings)
+    assert "/dvl/twist: receive time (header.stamp is zero in" in w and "moved by -0.250 s" in w
 
 
 def test_bad_options_and_wrong_vehicle(dive, tmp_path):

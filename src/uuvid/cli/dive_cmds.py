@@ -27,10 +27,10 @@ PARAMS = typer.Option(None, "--params", help="ArduSub parameter file (QGroundCon
                                              "Planner / BlueOS) for what the log lacks: a ROS bag "
                                              "has none, so SERVOn_FUNCTION and MOT_n_DIRECTION "
                                              "(reversed motors) come from here.")
-TOPIC = typer.Option(None, "--topic", help="ROS bags: ROLE=TOPIC[:FIELD] overriding a default "
-                                           "mavros topic; roles pwm, attitude, yaw, depth, "
-                                           "altitude, pressure, battery, armed, mode, velocity, "
-                                           "u, v (e.g. depth=/bar30/depth:data). Repeatable.")
+TOPIC = typer.Option(None, "--topic", metavar="ROLE=TOPIC:FIELD",
+                     help="ROS bags: ROLE=TOPIC[:FIELD] overriding a default mavros topic; roles "
+                          "pwm, attitude, yaw, depth, altitude, pressure, battery, armed, mode, "
+                          "velocity, u, v (e.g. depth=/bar30/depth:data). Repeatable.")
 VEHICLE = typer.Option(..., "--vehicle", help="Base vehicle: preset or vehicle file (its thruster "
                                               "geometry turns servo outputs into forces).")
 DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, a comma list, or all (every DOF "

@@ -515,6 +515,9 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         good = vb > 0  # BatteryState: NaN or 0 when unknown
         chans["battery_V"] = (tb[good], vb[good])
         sources["battery_V"] = src("battery", "voltage [V]")
+    else:
+        warnings.append(f"{name}: no {specs['battery'][0]} topic (battery): thrust at the T200 "
+                        "sheet's nominal 16 V (default); pass --topic battery=TOPIC:FIELD")
     if have("velocity"):
         tv, uv = series("velocity")
         chans["u_mps"], chans["v_mps"] = (tv, uv[:, 0]), (tv, -uv[:, 1])
