@@ -310,6 +310,14 @@ def test_the_traps_matter(bag1, dive, from_csv):
     np.testing.assert_allclose(yaw, np.unwrap(df.loc[rows, "yaw_rad"].to_numpy()), atol=1e-9)
     assert "ENU" in ok.sources["yaw_rad"] and "rel_alt" in ok.sources["depth_m"]
     assert {m for _a, _b, m in ok.modes} == {"MANUAL", "STABILIZE", "ALT_HOLD"}
+    # with FRAME_CONFIG the vehicle is checked against ArduSub's frame: bluerov2 is frame 1 …
+    frame = read_dive_channels(bag1, "bluerov2", params={"FRAME_CONFIG": 1, **{
+        f"MOT_{j}_DIRECTION": d for j, d in enumerate(DIRECTIONS, 1)}})
+    np.testing.assert_allclose(frame.channels["Z_N"][1], z_ok)
+    assert not any("no FRAME_CONFIG given" in x for x in frame.warnings)
+    # … and not the Heavy's frame 2 (8 motors)
+    with pytest.raises(DiveDataError, match="FRAME_CONFIG = 2"):
+        read_dive_channels(bag1, "bluerov2", params={"FRAME_CONFIG": 2})
 
 
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])

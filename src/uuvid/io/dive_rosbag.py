@@ -48,8 +48,10 @@ Thrust: as for a table with ``pwm_<j>`` columns, the voltage-aware T200 at the l
 voltage and the vehicle's ``B``.  A bag holds no ArduSub parameters: output n drives motor n
 (thruster n of the vehicle) with ``MOT_n_DIRECTION = +1`` unless ``params`` (``{NAME: value}`` or a
 parameter file) gives ``SERVOn_FUNCTION``/``MOT_n_DIRECTION`` (with ``FRAME_CONFIG`` the vehicle is
-also checked against ArduSub's frame); outputs at 0 µs throughout are disabled outputs, a 0 µs
-sample is no pulse (no thrust).  Every default used is a warning.
+also checked against ArduSub's frame; give every SERVOn_FUNCTION, as a parameter file does: a motor
+no output drives is left out and the vehicle then has a thruster too many); outputs at 0 µs
+throughout are disabled outputs, a 0 µs sample is no pulse (no thrust).  Every default used is a
+warning.
 
 Time: a topic whose messages carry a non-zero ``header.stamp`` is on that stamp, else on the bag's
 receive time; topics on another clock than the servo outputs (receive time against header stamps,
@@ -68,8 +70,8 @@ import numpy as np
 
 from uuvid.io.logs import LogDataError
 
-__all__ = ["DEFAULT_TOPICS", "ROLES", "BagDive", "read_bag_dive", "enu_flu_to_ned_frd", "parse_topic_options",
-           "is_bag"]
+__all__ = ["DEFAULT_TOPICS", "ROLES", "BagDive", "read_bag_dive", "enu_flu_to_ned_frd",
+           "parse_topic_options", "is_bag"]
 
 G = 9.80665
 RHO_FRESH = 1000.0
@@ -173,12 +175,10 @@ class _Topic:
 
 
 def _split(role: str, spec: str) -> tuple[str, str]:
+    """``"topic[:field]"`` → (topic, field); without a field, the role's usual one (std_msgs
+    scalars: ``data``; ``velocity``: found from the message type)."""
     topic, sep, fld = spec.strip().partition(":")
-    if role in ("yaw", "depth", "altitude", "u", "v"):
-        default = "data"
-    else:
-        default = _DEFAULT_FIELD.get(role, "data")
-    return topic.strip(), (fld.strip() if sep else default)
+    return topic.strip(), (fld.strip() if sep else _DEFAULT_FIELD.get(role, "data"))
 
 
 def _walk(msg, fld: str, where: str):
