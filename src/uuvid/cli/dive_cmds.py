@@ -4,9 +4,10 @@ and how well a model predicts a dive.
 ::
 
     uuvid vehicle identify dive LOG --vehicle V [--dof heave|yaw|surge|sway|all] [--t-start S]
-          [--t-end S] [--horizon S] [--out-vehicle OUT.yaml] [--report DIR] [--json]
+          [--t-end S] [--horizon S] [--params FILE] [--topic ROLE=TOPIC[:FIELD] ...]
+          [--out-vehicle OUT.yaml] [--report DIR] [--json]
     uuvid vehicle replay LOG --vehicle V [--dof ...] [--t-start S] [--t-end S] [--horizon S]
-          [--out DIR] [--json]
+          [--params FILE] [--topic ROLE=TOPIC[:FIELD] ...] [--out DIR] [--json]
 
 The work is done by :func:`uuvid.identify.vehicle.dive.identify_dive` and
 :func:`uuvid.simulate.dive_replay.replay_dive`; this module parses options and prints.
@@ -18,8 +19,18 @@ from pathlib import Path
 
 import typer
 
-LOG_ARG = typer.Argument(..., help="ArduSub .tlog/.BIN, or CSV/Parquet with t_s, depth_m, yaw_rad "
-                                   "and force columns (Z_N, N_Nm, …; optional armed, mode).")
+LOG_ARG = typer.Argument(..., help="ArduSub .tlog/.BIN; a ROS 1 .bag or ROS 2 bag directory "
+                                   "(ArduSub + mavros topics); or CSV/Parquet with t_s, depth_m, "
+                                   "yaw_rad and force columns (Z_N, N_Nm, …; optional armed, "
+                                   "mode).")
+PARAMS = typer.Option(None, "--params", help="ArduSub parameter file (QGroundControl / Mission "
+                                             "Planner / BlueOS) for what the log lacks: a ROS bag "
+                                             "has none, so SERVOn_FUNCTION and MOT_n_DIRECTION "
+                                             "(reversed motors) come from here.")
+TOPIC = typer.Option(None, "--topic", metavar="ROLE=TOPIC:FIELD",
+                     help="ROS bags: ROLE=TOPIC[:FIELD] overriding a default mavros topic; roles "
+                          "pwm, attitude, yaw, depth, altitude, pressure, battery, armed, mode, "
+                          "velocity, u, v (e.g. depth=/bar30/depth:data). Repeatable.")
 VEHICLE = typer.Option(..., "--vehicle", help="Base vehicle: preset or vehicle file (its thruster "
                                               "geometry turns servo outputs into forces).")
 DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, a comma list, or all (every DOF "
@@ -42,7 +53,7 @@ def _errors():
     from uuvid.thruster.modelfile import ModelFileError
     from uuvid.vehicle.writeback import WritebackError
 
-    return (LogDataError, ModelFileError, WritebackError, FileNotFoundError, KeyError)
+    return (LogDataError, ModelFileError, WritebackError, FileNotFoundError, KeyError, ImportError)
 
 
 def identify_dive_cmd(
@@ -52,6 +63,8 @@ def identify_dive_cmd(
     t_start: float | None = T_START,
     t_end: float | None = T_END,
     horizon: float | None = HORIZON,
+    params: Path | None = PARAMS,
+    topic: list[str] | None = TOPIC,
     out_vehicle: Path | None = typer.Option(None, "--out-vehicle",
                                             help="Write the base vehicle with the identified "
                                                  "values and their provenance (YAML)."),
@@ -73,7 +86,7 @@ def identify_dive_cmd(
             doc["report"] = str(res.report(report))
 
     _run(lambda: identify_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
-                               horizon=horizon), write, json_out,
+                               horizon=horizon, params=params, topics=topic), write, json_out,
          lambda e: f"cannot write: {e.strerror or e} ({e.filename})")
 
 
@@ -84,6 +97,8 @@ def replay_dive_cmd(
     t_start: float | None = T_START,
     t_end: float | None = T_END,
     horizon: float | None = HORIZON,
+    params: Path | None = PARAMS,
+    topic: list[str] | None = TOPIC,
     out: Path | None = typer.Option(None, "--out", help="Folder for predicted-vs-measured plots "
                                                         "and result.json."),
     json_out: bool = JSON,
@@ -97,7 +112,7 @@ def replay_dive_cmd(
             doc["report"] = str(res.report(out))
 
     _run(lambda: replay_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
-                             horizon=horizon), write, json_out,
+                             horizon=horizon, params=params, topics=topic), write, json_out,
          lambda e: f"--out {out}: cannot write ({e.strerror or e})")
 
 

@@ -4,9 +4,13 @@
 :func:`uuvid.io.ardusub.load_dive`: forces from the servo outputs at the logged battery voltage,
 physical wrench ``B·T`` of the given vehicle) or a CSV/Parquet table with force columns
 (``t_s``, ``depth_m``, ``yaw_rad``, ``Z_N``, ``N_Nm``, … optional ``armed``, ``mode``,
-``u_mps``/``v_mps``).  In a table each column keeps its *own* samples: a row where a column is
-empty is not a sample of it, so channels at different, irregular rates stay as logged (no
-resampling).  ROS bags are not read yet.
+``u_mps``/``v_mps``), or a ROS 1 ``.bag`` / ROS 2 bag directory as ArduSub + mavros record it
+(:mod:`uuvid.io.dive_rosbag`: servo outputs ``/mavros/rc/out``, attitude ``/mavros/imu/data``
+turned from ENU/FLU into NED heading, depth from ``/mavros/global_position/rel_alt`` or a pressure,
+battery, ``/mavros/state``; ``topics={role: "topic:field"}`` overrides a topic; forces as for a
+table's ``pwm_<j>`` columns, reversal from ``params``).  In a table each column keeps its *own*
+samples: a row where a column is empty is not a sample of it, so channels at different, irregular
+rates stay as logged (no resampling); a bag's topics keep theirs.
 """
 
 from __future__ import annotations
@@ -23,10 +27,14 @@ __all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS"]
 #: DOF → (measured channel, force channel, measured is a position (True) or a velocity)
 DIVE_DOFS = {"heave": ("depth_m", "Z_N", True), "yaw": ("yaw_rad", "N_Nm", True),
              "surge": ("u_mps", "X_N", False), "sway": ("v_mps", "Y_N", False)}
-_SOURCE_HINT = {"depth_m": "a depth source (ArduSub: BARO/GLOBAL_POSITION_INT; table: depth_m)",
-                "yaw_rad": "a heading source (ArduSub: ATT/ATTITUDE; table: yaw_rad)",
-                "u_mps": "a surge velocity (DVL; table column u_mps)",
-                "v_mps": "a sway velocity (DVL; table column v_mps)"}
+_SOURCE_HINT = {"depth_m": "a depth source (ArduSub: BARO/GLOBAL_POSITION_INT; table: depth_m; "
+                           "ROS bag: --topic depth=TOPIC:FIELD)",
+                "yaw_rad": "a heading source (ArduSub: ATT/ATTITUDE; table: yaw_rad; ROS bag: "
+                           "--topic attitude=TOPIC:FIELD)",
+                "u_mps": "a surge velocity (DVL; table column u_mps; ROS bag: --topic "
+                         "velocity=TOPIC)",
+                "v_mps": "a sway velocity (DVL; table column v_mps; ROS bag: --topic "
+                         "velocity=TOPIC)"}
 
 
 class DiveDataError(LogDataError):
@@ -156,10 +164,13 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm)
 
 
-def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list) -> None:
-    """``X_N … N_Nm`` from ``pwm_<j>`` columns: the voltage-aware T200 model at ``battery_V``
-    (linear between its own samples) and the vehicle's ``B`` (thruster j = column j)."""
-    from uuvid.io.ardusub.frames import DOF_COLUMNS
+def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
+                     directions: dict | None = None, thrust_model=None, label: str = "") -> None:
+    """``X_N … N_Nm`` from ``pwm_<j>`` columns: the voltage-aware T200 model (or
+    ``thrust_model``) at ``battery_V`` (linear between its own samples) and the vehicle's ``B``
+    (thruster j = column j).  ``directions`` ``{j: ±1}``: ArduSub's ``MOT_j_DIRECTION`` (thrust
+    at ``1500 + d (pwm − 1500)``); ``label`` names where the PWM came from (default the columns)."""
+    from uuvid.io.ardusub.frames import DOF_COLUMNS, effective_pwm
     from uuvid.io.ardusub.thrust import default_t200
 
     keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
@@ -174,28 +185,54 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list) -> 
     else:
         tb, vb = chans["battery_V"]
         volts = np.interp(t, tb, vb)
-    tm = default_t200()
-    T = np.stack([np.where(pwm[k][1] > 0, tm.thrust(pwm[k][1], volts), 0.0) for k in keys])
+    tm = default_t200() if thrust_model is None else thrust_model
+    d = {k: 1.0 for k in keys} if directions is None else {k: float(directions[k]) for k in keys}
+    # 0 µs is "no pulse" (output off), not full reverse
+    T = np.stack([np.where(pwm[k][1] > 0, tm.thrust(effective_pwm(pwm[k][1], d[k]), volts), 0.0)
+                  for k in keys])
     W = np.asarray(veh.B, float) @ T
     for i, c in enumerate(DOF_COLUMNS):
         chans.setdefault(c, (t, W[i]))
-    warnings.append(f"{name}: forces computed from pwm_{keys[0]}…pwm_{keys[-1]} with {tm.name} at "
-                    f"battery_V and {veh.name}'s thruster geometry (pwm_j drives thruster j along "
-                    "its axis: no reversal applied)")
+    if directions is None:
+        warnings.append(f"{name}: forces computed from pwm_{keys[0]}…pwm_{keys[-1]} with {tm.name} "
+                        f"at battery_V and {veh.name}'s thruster geometry (pwm_j drives thruster j "
+                        "along its axis: no reversal applied)")
+    else:
+        rev = [k for k in keys if d[k] < 0]
+        warnings.append(f"{name}: forces computed from {label or 'pwm_'} with {tm.name} at "
+                        f"battery_V and {veh.name}'s thruster geometry (motor j = thruster j; "
+                        + (f"reversed (MOT_n_DIRECTION = -1): motor(s) {', '.join(rev)}"
+                           if rev else "no motor reversed") + ")")
 
 
-def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None) -> DiveChannels:
-    """Read a dive (path or pandas DataFrame; see the module doc).  Raises
-    :class:`DiveDataError` / :class:`~uuvid.io.logs.LogDataError` naming what is missing."""
+def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
+                       topics=None) -> DiveChannels:
+    """Read a dive (path or pandas DataFrame; see the module doc).  ``topics``: ROS bags only,
+    ``{role: "topic:field"}`` or ``["role=topic:field", …]`` overriding the default topics
+    (:data:`uuvid.io.dive_rosbag.DEFAULT_TOPICS`).  Raises :class:`DiveDataError` /
+    :class:`~uuvid.io.logs.LogDataError` naming what is missing."""
     import pandas as pd
+
+    from uuvid.io.dive_rosbag import is_bag, read_bag_dive
 
     warnings: list = []
     veh = _vehicle(vehicle)
-    if isinstance(log, pd.DataFrame):
+    p = None if isinstance(log, pd.DataFrame) else Path(log)
+    if p is not None and not p.exists():
+        raise DiveDataError(f"{p}: no such file or bag")
+    if p is not None and is_bag(p):
+        try:
+            return _from_bag(read_bag_dive(p, veh, topics=topics, params=params), veh,
+                             thruster_model)
+        except DiveDataError:
+            raise
+        except LogDataError as e:
+            raise DiveDataError(str(e)) from None
+    if topics:
+        raise DiveDataError(f"{'<table>' if p is None else p.name}: --topic applies to ROS bags "
+                            "only (a .bag file or a ROS 2 bag directory)")
+    if p is None:
         return _from_table(log, "<table>", "table", veh, warnings)
-    p = Path(log)
-    if not p.exists():
-        raise DiveDataError(f"{p}: no such file")
     suf = p.suffix.lower()
     if suf == ".csv":
         return _from_table(pd.read_csv(p), p.name, "csv", veh, warnings)
@@ -222,6 +259,33 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None) -
         return DiveChannels(p.name, dive.format, chans, armed,
                             _mode_runs(t, tb["mode"].astype(str).to_numpy()),
                             warnings + list(dive.warnings), src, pwm)
-    raise DiveDataError(f"{p.name}: unknown dive log type {p.suffix!r}; expected .tlog, .bin, .log "
-                        "(ArduSub), .csv or .parquet (table with force columns); ROS bags are not "
-                        "read by identify dive yet")
+    raise DiveDataError(f"{p.name}: unknown dive log type {p.suffix!r}; expected .tlog, .bin, "
+                        ".log (ArduSub), .csv or .parquet (table with force columns), a ROS 1 .bag "
+                        "or a ROS 2 bag directory (with metadata.yaml)")
+
+
+def _from_bag(bd, veh, thruster_model) -> DiveChannels:
+    """Forces, armed intervals and mode runs of a :class:`uuvid.io.dive_rosbag.BagDive` (a state
+    holds until the next message, so the last run lasts to the bag's last sample)."""
+    tm = None
+    if thruster_model is not None:
+        from uuvid.io.ardusub.thrust import load_thrust_model
+
+        tm = load_thrust_model(thruster_model)
+    chans, warnings = dict(bd.channels), list(bd.warnings)
+    _forces_from_pwm(chans, bd.pwm, veh, bd.name, warnings, directions=bd.directions,
+                     thrust_model=tm, label=bd.pwm_label)
+    if bd.armed is not None:
+        ta, a = bd.armed
+        armed = _intervals(ta, a > 0.5)
+        if armed and a[-1] > 0.5:
+            armed[-1] = (armed[-1][0], max(armed[-1][1], bd.t_end))
+    else:
+        armed = [(min(float(c[0][0]) for c in chans.values() if c[0].size), bd.t_end)]
+    modes = []
+    if bd.modes is not None:
+        modes = _mode_runs(*bd.modes)
+        if modes:
+            modes[-1] = (modes[-1][0], max(modes[-1][1], bd.t_end), modes[-1][2])
+    return DiveChannels(bd.name, bd.format, chans, armed, modes, warnings, dict(bd.sources),
+                        dict(bd.pwm))

@@ -326,18 +326,20 @@ def replay_windows(dc, dof: str, params: OneDofParams, horizon: float, t_start=N
 
 
 def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None, horizon=None,
-                params=None, thruster_model=None, dive=None) -> DiveReplay:
+                params=None, thruster_model=None, dive=None, topics=None) -> DiveReplay:
     """Drive each DOF's 1-DOF model (the vehicle's, :func:`params_from_vehicle`) with the logged
     forces; restart every ``horizon`` s from the measured state; compare (see the module doc).
 
     ``dofs``: ``"all"`` or names among heave, yaw, surge, sway (those without a measured channel
     are skipped with a note when ``"all"``).  ``dive``: an already read
-    :class:`~uuvid.io.dive_channels.DiveChannels`.
+    :class:`~uuvid.io.dive_channels.DiveChannels`; ``params``, ``topics``: as for
+    :func:`~uuvid.io.dive_channels.read_dive_channels` (ArduSub parameters; a ROS bag's topics).
     """
     from uuvid.vehicle.definition import load_vehicle
 
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
-    dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model)
+    dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
+                                    topics=topics)
     if not dc.armed:
         raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
                             "pushed and there is nothing to replay; pass the log of a dive")

@@ -473,10 +473,12 @@ def _pwm_notes(dc, t_start, t_end) -> list:
 
 def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None,
                   horizon=None, params=None, thruster_model=None, dive=None,
-                  held_out_horizon=None) -> DiveIdentification:
+                  held_out_horizon=None, topics=None) -> DiveIdentification:
     """Identify per-DOF 1-DOF models from every armed sample of a dive (see the module doc).
 
-    ``log``: ArduSub ``.tlog``/``.BIN``, CSV/Parquet with force columns, or a DataFrame;
+    ``log``: ArduSub ``.tlog``/``.BIN``, CSV/Parquet with force columns, a DataFrame, or a ROS 1/2
+    bag (``topics``: ``{role: "topic:field"}`` overriding mavros' topics,
+    :mod:`uuvid.io.dive_rosbag`; ``params``: ArduSub parameters the log lacks);
     ``vehicle``: the base vehicle (preset, file or :class:`~uuvid.vehicle.definition.Vehicle`);
     ``dofs``: names or ``"all"``; ``t_start``/``t_end`` [s]: the part to identify from (the rest
     after ``t_end`` is scored as held out); ``horizon`` [s]: output-error window (default per DOF,
@@ -486,7 +488,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
 
     t0 = time.perf_counter()
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
-    dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model)
+    dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
+                                    topics=topics)
     if not dc.armed:
         raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
                             "pushed and nothing can be identified; pass the log of a dive (armed "

@@ -1,0 +1,590 @@
+"""A piloted dive from a ROS bag, as a BlueROV2 running ArduSub + mavros records it.
+
+:func:`read_bag_dive` reads a ROS 1 ``.bag`` or a ROS 2 bag directory (sqlite3 or MCAP; the
+``rosbags`` package, extra ``[logs]``) into the channels of
+:class:`~uuvid.io.dive_channels.DiveChannels` (it is called by
+:func:`~uuvid.io.dive_channels.read_dive_channels`).  Each *role* has a default topic (what mavros
+publishes) that ``topics={role: "topic[:field.path]"}`` (CLI ``--topic role=topic[:field]``)
+overrides:
+
+============  =============================================  ====================================
+role          default                                        becomes
+============  =============================================  ====================================
+``pwm``       ``/mavros/rc/out:channels`` (mavros_msgs/      servo outputs [µs], output n =
+              RCOut)                                         element n − 1 → thrust → forces
+``attitude``  ``/mavros/imu/data:orientation``               ``roll_rad``, ``pitch_rad``,
+              (sensor_msgs/Imu)                              ``yaw_rad`` (NED/FRD, see below)
+``yaw``       —                                              ``yaw_rad`` as given (rad, NED:
+                                                             clockwise from north)
+``depth``     —                                              ``depth_m`` as given (m, down)
+``altitude``  ``/mavros/global_position/rel_alt:data``       ``depth_m = −altitude``
+              (std_msgs/Float64, m, up)
+``pressure``  ``/mavros/imu/static_pressure:fluid_pressure``  ``depth_m = (p − p_surface)/(ρ g)``
+              (sensor_msgs/FluidPressure, Pa)
+``battery``   ``/mavros/battery:voltage``                    ``battery_V``
+              (sensor_msgs/BatteryState)
+``armed``     ``/mavros/state:armed`` (mavros_msgs/State)    armed intervals
+``mode``      ``/mavros/state:mode``                         flight-mode runs
+``velocity``  — (geometry_msgs/TwistStamped,                 ``u_mps`` = linear.x,
+              TwistWithCovarianceStamped, nav_msgs/Odometry)  ``v_mps`` = −linear.y (FLU body)
+``u``, ``v``  —                                              ``u_mps``/``v_mps`` as given (m/s,
+                                                             forward / starboard)
+============  =============================================  ====================================
+
+Depth: ``depth`` if given, else ``altitude`` (mavros' ``rel_alt`` is ArduSub's
+``GLOBAL_POSITION_INT.relative_alt``, positive up), else ``pressure`` (mavros' ``static_pressure``
+is ``SCALED_PRESSURE``, barometer 0, which on some BlueROV2s is the enclosure sensor — check) with
+``p_surface`` = ``BARO1_GND_PRESS`` from ``params`` else the lowest pressure in the bag, ρ = 1000
+kg/m³ (fresh water; × ``BARO_SPEC_GRAV`` from ``params``), g = 9.80665 m/s².
+
+Heading: mavros publishes ``imu/data`` orientation as the rotation from the FLU ``base_link`` to
+the ENU world (REP 103), not ArduSub's FRD-to-NED attitude: it computes ``q_ENU,FLU = Q_NED→ENU ⊗
+q_NED,FRD ⊗ Q_FRD→FLU`` with ``Q_NED→ENU`` = roll π, yaw π/2 and ``Q_FRD→FLU`` = roll π (mavros
+``ftf_frame_conversions.cpp``, ``plugins/imu.cpp``).  :func:`enu_flu_to_ned_frd` inverts it, so
+``yaw_rad`` is the NED heading ArduSub logs (ψ_NED = π/2 − ψ_ENU; pitch up positive, roll right
+positive).
+
+Thrust: as for a table with ``pwm_<j>`` columns, the voltage-aware T200 at the logged battery
+voltage and the vehicle's ``B``.  A bag holds no ArduSub parameters: output n drives motor n
+(thruster n of the vehicle) with ``MOT_n_DIRECTION = +1`` unless ``params`` (``{NAME: value}`` or a
+parameter file) gives ``SERVOn_FUNCTION``/``MOT_n_DIRECTION`` (with ``FRAME_CONFIG`` the vehicle is
+also checked against ArduSub's frame; give every SERVOn_FUNCTION, as a parameter file does: a motor
+no output drives is left out and the vehicle then has a thruster too many); outputs at 0 µs
+throughout are disabled outputs, a 0 µs sample is no pulse (no thrust).  Every default used is a
+warning.
+
+Time: a topic whose messages carry a non-zero ``header.stamp`` is on that stamp, else on the bag's
+receive time; topics on another clock than the servo outputs (receive time against header stamps,
+or a header clock seconds away) are moved onto the servo outputs' clock by the median difference
+of receive and stamp times, and a warning says by how much.  Samples are sorted; samples sharing
+a stamp are merged (mean; the last one for servo outputs, attitude and state), as in the ArduSub
+path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uuvid.io.logs import LogDataError
+
+__all__ = ["DEFAULT_TOPICS", "ROLES", "BagDive", "read_bag_dive", "enu_flu_to_ned_frd",
+           "parse_topic_options", "is_bag"]
+
+G = 9.80665
+RHO_FRESH = 1000.0
+
+#: role → default ``topic:field`` (what ArduSub + mavros publish)
+DEFAULT_TOPICS = {
+    "pwm": "/mavros/rc/out:channels",
+    "attitude": "/mavros/imu/data:orientation",
+    "altitude": "/mavros/global_position/rel_alt:data",
+    "pressure": "/mavros/imu/static_pressure:fluid_pressure",
+    "battery": "/mavros/battery:voltage",
+    "armed": "/mavros/state:armed",
+    "mode": "/mavros/state:mode",
+}
+#: role → what it is (for messages and help)
+ROLES = {
+    "pwm": "servo outputs [µs], an array (output n = element n-1)",
+    "attitude": "orientation quaternion, ENU world / FLU body (REP 103, as mavros publishes it)",
+    "yaw": "heading [rad], NED (clockwise from north)",
+    "depth": "depth [m], positive down",
+    "altitude": "altitude [m], positive up (depth = -altitude)",
+    "pressure": "absolute pressure [Pa]",
+    "battery": "battery voltage [V]",
+    "armed": "armed flag (bool)",
+    "mode": "flight mode name (string)",
+    "velocity": "body velocity (TwistStamped, TwistWithCovarianceStamped or Odometry; FLU body)",
+    "u": "surge velocity [m/s], forward",
+    "v": "sway velocity [m/s], starboard",
+}
+_DEFAULT_FIELD = {"pwm": "channels", "attitude": "orientation", "battery": "voltage",
+                  "pressure": "fluid_pressure", "armed": "armed", "mode": "mode", "velocity": ""}
+# definitions used when a bag does not embed them (ROS 2 sqlite3 bags before Iron); current mavros
+MAVROS_MSGS = {
+    "mavros_msgs/msg/RCOut": "std_msgs/Header header\nuint16[] channels\n",
+    "mavros_msgs/msg/State": "std_msgs/Header header\nbool connected\nbool armed\nbool guided\n"
+                             "bool manual_input\nstring mode\nuint8 system_status\n",
+}
+_STEP_ROLES = ("pwm", "attitude", "armed", "mode")  # duplicated stamps: keep the last sample
+
+
+def is_bag(path) -> bool:
+    """A ROS 1 ``.bag`` file, a ROS 2 bag directory or a file inside one."""
+    from pathlib import Path
+
+    p = Path(path)
+    return (p.suffix == ".bag" and p.is_file()) or (p.is_dir() and (p / "metadata.yaml").exists()) \
+        or (p.is_file() and p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").exists())
+
+
+def parse_topic_options(items) -> dict:
+    """``["depth=/my/depth:data", …]`` (the CLI's ``--topic``) or a mapping → ``{role: spec}``."""
+    if not items:
+        return {}
+    if isinstance(items, dict):
+        pairs = list(items.items())
+    else:
+        pairs = []
+        for it in items:
+            role, sep, spec = str(it).partition("=")
+            if not sep or not spec.strip():
+                raise LogDataError(f"--topic {it!r}: expected ROLE=TOPIC[:FIELD], e.g. "
+                                    "depth=/my/depth:data; roles: " + ", ".join(ROLES))
+            pairs.append((role.strip(), spec.strip()))
+    out = {}
+    for role, spec in pairs:
+        if role not in ROLES:
+            raise LogDataError(f"--topic {role}={spec}: unknown role {role!r}; roles: "
+                                + "; ".join(f"{k} ({v})" for k, v in ROLES.items()))
+        out[role] = spec
+    return out
+
+
+def enu_flu_to_ned_frd(qx, qy, qz, qw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Roll, pitch, yaw [rad] (ZYX, FRD body in NED) from quaternions of the FLU body in ENU
+    (REP 103, mavros ``imu/data``): ``R_NED,FRD = P · R_ENU,FLU · D`` with ``P`` the ENU↔NED axis
+    swap ``[[0,1,0],[1,0,0],[0,0,-1]]`` and ``D = diag(1, −1, −1)`` (FLU↔FRD)."""
+    qx, qy, qz, qw = (np.asarray(a, float) for a in (qx, qy, qz, qw))
+    n = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
+    # the elements of R_ENU,FLU needed: R_NED,FRD = P R D has rows (R₁, R₀, −R₂) with columns 1
+    # and 2 negated, so N00 = R10, N10 = R00, N20 = −R20, N21 = R21, N22 = R22
+    r00 = 1 - 2 * (qy * qy + qz * qz)
+    r10 = 2 * (qx * qy + qz * qw)
+    r20 = 2 * (qx * qz - qy * qw)
+    r21 = 2 * (qy * qz + qx * qw)
+    r22 = 1 - 2 * (qx * qx + qy * qy)
+    yaw = np.arctan2(r00, r10)  # atan2(N10, N00)
+    pitch = np.arcsin(np.clip(r20, -1.0, 1.0))  # −asin(N20)
+    roll = np.arctan2(r21, r22)  # atan2(N21, N22)
+    return roll, pitch, yaw
+
+
+# ------------------------------------------------------------------------------------ reading
+@dataclass
+class _Topic:
+    topic: str
+    msgtype: str = ""
+    recv: list = field(default_factory=list)
+    hdr: list | None = field(default_factory=list)
+    values: dict = field(default_factory=dict)  # role → list of extracted objects
+
+
+def _split(role: str, spec: str) -> tuple[str, str]:
+    """``"topic[:field]"`` → (topic, field); without a field, the role's usual one (std_msgs
+    scalars: ``data``; ``velocity``: found from the message type)."""
+    topic, sep, fld = spec.strip().partition(":")
+    return topic.strip(), (fld.strip() if sep else _DEFAULT_FIELD.get(role, "data"))
+
+
+def _walk(msg, fld: str, where: str):
+    from uuvid.io.logs import _describe_fields, _msg_fields, _parse_field_path
+
+    cur = msg
+    if not fld:
+        return cur
+    for tok in _parse_field_path(fld):
+        if isinstance(tok, int):
+            if not isinstance(cur, (list, tuple, np.ndarray)) or not -len(cur) <= tok < len(cur):
+                raise LogDataError(f"{where}: cannot take [{tok}] in {fld!r}")
+            cur = cur[tok]
+        else:
+            if tok not in _msg_fields(cur):
+                raise LogDataError(f"{where}: no field {tok!r} (in {fld!r}); the fields are: "
+                                   f"{_describe_fields(cur)}")
+            cur = getattr(cur, tok)
+    return cur
+
+
+def _value(role: str, obj, where: str):
+    """The sample of ``role`` from the object at its field path."""
+    if role == "pwm":
+        if not isinstance(obj, (list, tuple, np.ndarray)):
+            raise LogDataError(f"{where}: the servo outputs must be an array (e.g. "
+                               f"mavros_msgs/RCOut channels), got {type(obj).__name__}")
+        return np.asarray(obj, float)
+    if role == "attitude":
+        if not all(hasattr(obj, c) for c in ("x", "y", "z", "w")):
+            raise LogDataError(f"{where}: attitude must be a quaternion (x, y, z, w), e.g. "
+                               "sensor_msgs/Imu orientation; for a heading in radians use --topic "
+                               "yaw=TOPIC:FIELD")
+        return (float(obj.x), float(obj.y), float(obj.z), float(obj.w))
+    if role == "mode":
+        return str(obj)
+    if role == "velocity":
+        for path in ("twist.twist", "twist", ""):  # Odometry / TwistWith…Stamped, TwistStamped
+            cur = obj
+            for name in filter(None, path.split(".")):
+                cur = getattr(cur, name, None)
+            lin = getattr(cur, "linear", None) if cur is not None else None
+            if lin is not None and hasattr(lin, "x"):
+                return (float(lin.x), float(lin.y))
+        if hasattr(obj, "x") and hasattr(obj, "y"):  # a Vector3 field path
+            return (float(obj.x), float(obj.y))
+        raise LogDataError(f"{where}: no body velocity (twist.linear) in "
+                           f"{getattr(obj, '__msgtype__', type(obj).__name__)}; give a "
+                           "geometry_msgs/TwistStamped or nav_msgs/Odometry topic, or --topic "
+                           "u=TOPIC:FIELD and v=TOPIC:FIELD")
+    if isinstance(obj, (bool, int, float, np.number, np.bool_)):
+        return float(obj)
+    raise LogDataError(f"{where}: expected a number for {role} ({ROLES[role]}), got "
+                       f"{getattr(obj, '__msgtype__', type(obj).__name__)}")
+
+
+def _read(bag_path, specs: dict, name: str, fail):
+    """``{topic: _Topic}`` of the topics that ``specs`` (role → (topic, field, given)) name and the
+    bag has, and the bag's topic listing.  ``fail(msg)`` raises the dive error."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from uuvid.io.logs import _bag_locations
+
+    bags, ros, _p = _bag_locations(bag_path)
+    fallback = get_typestore(Stores.ROS1_NOETIC if ros == 1 else Stores.ROS2_HUMBLE)
+    for mt, text in MAVROS_MSGS.items():
+        fallback.register(get_types_from_msg(text, mt))
+    try:
+        reader = AnyReader(bags, default_typestore=fallback)
+        reader.open()
+    except Exception as e:  # rosbags' own error types
+        fail(f"{name}: cannot read the bag: {type(e).__name__}: {e}")
+    try:
+        available = {t: (i.msgtype or "several types", i.msgcount)
+                     for t, i in reader.topics.items()}
+        listing = "; ".join(f"{t} ({mt}, {n} msgs)" for t, (mt, n) in sorted(available.items()))
+        want: dict[str, _Topic] = {}
+        roles_of: dict[str, list] = {}
+        for role, (topic, fld, _given) in specs.items():
+            hit = next((c for c in ([topic] if topic.startswith("/") else [topic, "/" + topic])
+                        if c in available), None)
+            if hit is None:
+                continue
+            want.setdefault(hit, _Topic(hit, available[hit][0]))
+            roles_of.setdefault(hit, []).append((role, fld))
+            specs[role] = (hit, fld, specs[role][2])
+        conns = [c for c in reader.connections if c.topic in want]
+        for conn, t_ns, raw in reader.messages(connections=conns):
+            tp = want[conn.topic]
+            k = len(tp.recv) + 1
+            mt = conn.msgtype
+            try:
+                if mt in reader.typestore.types:
+                    msg = reader.deserialize(raw, mt)
+                elif mt in fallback.types:
+                    msg = (fallback.deserialize_cdr(raw, mt) if reader.is2
+                           else fallback.deserialize_ros1(raw, mt))
+                else:
+                    fail(f"{name}: topic {conn.topic} has type {mt}, whose definition is neither "
+                         "in the bag nor in the built-in type store")
+            except LogDataError:
+                raise
+            except Exception as e:
+                fail(f"{name}: topic {conn.topic} message {k}: cannot decode {mt}: {e}")
+            tp.recv.append(int(t_ns))
+            if tp.hdr is not None:
+                st = getattr(getattr(msg, "header", None), "stamp", None)
+                if st is None or not hasattr(st, "sec"):
+                    tp.hdr = None
+                else:
+                    tp.hdr.append(int(st.sec) * 1_000_000_000 + int(st.nanosec))
+            for role, fld in roles_of[conn.topic]:
+                where = f"{name}: {role} topic {conn.topic} ({mt}) message {k}"
+                tp.values.setdefault(role, []).append(_value(role, _walk(msg, fld, where), where))
+    finally:
+        reader.close()
+    return want, listing
+
+
+def _stamps(tp: _Topic) -> tuple[np.ndarray, np.ndarray, str]:
+    """(stamps ns, receive ns, which) of a topic's messages."""
+    recv = np.asarray(tp.recv, np.int64)
+    if tp.hdr is None:
+        return recv, recv, "receive time (the message has no header)"
+    h = np.asarray(tp.hdr, np.int64)
+    if h.size and np.all(h > 0):
+        return h, recv, "header.stamp"
+    return recv, recv, (f"receive time (header.stamp is zero in {np.count_nonzero(h <= 0)} of "
+                        f"{h.size} messages)")
+
+
+def _merge(t: np.ndarray, v: np.ndarray, last: bool) -> tuple[np.ndarray, np.ndarray, int]:
+    """Sorted by time; samples sharing a stamp merged (mean, or the last one)."""
+    o = np.argsort(t, kind="stable")
+    t, v = t[o], v[o]
+    if t.size < 2:
+        return t, v, 0
+    start = np.concatenate(([True], np.diff(t) != 0))
+    nd = int(t.size - np.count_nonzero(start))
+    if nd:
+        if last:
+            v = v[np.concatenate((start[1:], [True]))]
+        else:
+            g = np.cumsum(start) - 1
+            cnt = np.bincount(g)
+            v = (np.stack([np.bincount(g, weights=c) for c in np.atleast_2d(v.T)]).T
+                 / cnt[:, None]).reshape((-1,) + v.shape[1:])
+        t = t[start]
+    return t, v, nd
+
+
+@dataclass
+class BagDive:
+    """What :func:`read_bag_dive` read; :func:`uuvid.io.dive_channels.read_dive_channels` turns
+    the servo outputs into forces and the state into armed intervals and mode runs."""
+
+    name: str
+    format: str
+    channels: dict  # name → (t, v), forces not yet computed
+    pwm: dict  # motor → (t, pwm as logged; 0 = no pulse)
+    directions: dict  # motor → MOT_n_DIRECTION
+    pwm_label: str
+    armed: tuple | None  # (t, armed 0/1) or None
+    modes: tuple | None  # (t, names) or None
+    warnings: list
+    sources: dict
+    t_end: float  # the last sample of any channel [s]
+
+
+def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
+    """Read a bag (see the module doc); raises :class:`~uuvid.io.logs.LogDataError` naming the bag,
+    the topic looked for, the bag's topics and the option to pass."""
+    from pathlib import Path
+
+    from uuvid.io.ardusub.frames import check_vehicle, config_from_params
+    from uuvid.io.ardusub.sources import merge_params
+    from uuvid.io.logs import _require
+
+    p = Path(path)
+    name = p.name
+    _require("rosbags", "reading ROS bags")
+
+    def fail(msg):
+        raise LogDataError(msg)
+
+    if veh is None:
+        fail(f"{name}: a ROS bag needs --vehicle (its thruster geometry turns the servo outputs "
+             "into forces and moments)")
+    given = parse_topic_options(topics)
+    warnings: list = []
+    specs = {}
+    for role in ROLES:
+        if role in given:
+            specs[role] = (*_split(role, given[role]), True)
+        elif role in DEFAULT_TOPICS:
+            specs[role] = (*_split(role, DEFAULT_TOPICS[role]), False)
+    data, listing = _read(p, specs, name, fail)
+
+    def have(role):
+        return role in specs and specs[role][0] in data and data[specs[role][0]].recv
+
+    def missing(role, what, alt=""):
+        topic, fld, _g = specs[role]
+        return (f"{name}: no {what}: the bag has no topic {topic} ({role}: {ROLES[role]}); "
+                f"the bag's topics are: {listing or '(none)'}; pass --topic {role}=TOPIC:FIELD"
+                + alt)
+
+    for role, (_topic, _fld, g) in specs.items():
+        if g and not have(role):
+            fail(missing(role, f"{role} topic given by --topic"))
+    if not have("pwm"):
+        fail(missing("pwm", "servo outputs"))
+    if not (have("yaw") or have("attitude")):
+        fail(missing("attitude", "heading", " (a quaternion) or --topic yaw=TOPIC:FIELD (NED "
+                     "heading in rad)"))
+    depth_role = next((r for r in ("depth", "altitude", "pressure") if have(r)), None)
+    if depth_role is None:
+        fail(missing("altitude", "depth", f" (altitude, up) or --topic depth=TOPIC:FIELD (down) "
+                     f"or --topic pressure=TOPIC:FIELD (Pa; default {DEFAULT_TOPICS['pressure']})"))
+    # ---- one clock: the servo outputs'
+    clocks = {}
+    for tp in data.values():
+        if tp.recv:
+            st, rc, how = _stamps(tp)
+            clocks[tp.topic] = (st, float(np.median(rc - st)), how)
+    ref_topic = specs["pwm"][0]
+    ref_off = clocks[ref_topic][1]
+    ref_hdr = clocks[ref_topic][2] == "header.stamp"
+    t_ns, stamp_note = {}, {}
+    for tp, (st, off, how) in clocks.items():
+        shift = 0.0
+        same_kind = (how == "header.stamp") == ref_hdr
+        if not same_kind or abs(off - ref_off) > 1e9:
+            shift = off - ref_off
+        t_ns[tp] = st + int(round(shift))
+        stamp_note[tp] = how + (f", moved by {shift / 1e9:+.3f} s onto the clock of {ref_topic} "
+                                f"(median receive − stamp: {off / 1e9:.3f} s here, "
+                                f"{ref_off / 1e9:.3f} s there)" if shift else "")
+    t0 = min(int(t.min()) for t in t_ns.values())
+    warnings.append(f"{name}: time stamps: " + "; ".join(f"{tp}: {stamp_note[tp]}"
+                                                        for tp in sorted(stamp_note))
+                    + f"; t = 0 is bag time {t0} ns")
+    chans: dict = {}
+    sources: dict = {}
+    dups: dict = {}
+
+    def series(role):
+        tp = specs[role][0]
+        t = (t_ns[tp] - t0).astype(float) / 1e9
+        vals = data[tp].values[role]
+        if role == "mode":
+            # mode strings are merged by index (the last one of a stamp)
+            o = np.argsort(t, kind="stable")
+            ts = t[o]
+            keep = np.concatenate((np.diff(ts) != 0, [True])) if ts.size else np.zeros(0, bool)
+            return ts[keep], np.asarray(vals, object)[o][keep]
+        if role == "pwm":
+            width = max(len(v) for v in vals)
+            arr = np.full((len(vals), width), np.nan)
+            for i, v in enumerate(vals):
+                arr[i, :len(v)] = v
+        else:
+            arr = np.asarray(vals, float)
+        ok = np.isfinite(t) & (np.all(np.isfinite(arr.reshape(len(vals), -1)), axis=1)
+                               if role != "pwm" else True)
+        tt, vv, nd = _merge(t[ok], arr[ok], role in _STEP_ROLES)
+        if nd:
+            dups[f"{tp} ({role})"] = nd
+        return tt, vv
+
+    def src(role, how):
+        topic, fld, g = specs[role]
+        return (f"{topic}:{fld} ({data[topic].msgtype}) {how}; {stamp_note[topic].split(',')[0]}"
+                + ("" if g else "; default topic"))
+
+    # ---- heading
+    if have("yaw"):
+        ty, y = series("yaw")
+        chans["yaw_rad"] = (ty, np.unwrap(y))
+        sources["yaw_rad"] = src("yaw", "as given (rad, NED), unwrapped")
+    else:
+        tq, q = series("attitude")
+        roll, pitch, yaw = enu_flu_to_ned_frd(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
+        chans["roll_rad"], chans["pitch_rad"] = (tq, roll), (tq, pitch)
+        chans["yaw_rad"] = (tq, np.unwrap(yaw))
+        how = ("quaternion of the FLU body in ENU (REP 103, as mavros publishes it) → roll, pitch, "
+               "yaw of the FRD body in NED (ψ_NED = π/2 − ψ_ENU), yaw unwrapped")
+        for c in ("roll_rad", "pitch_rad", "yaw_rad"):
+            sources[c] = src("attitude", how)
+        if not specs["attitude"][2]:
+            warnings.append(f"{name}: heading from {specs['attitude'][0]} (default): {how}")
+    # ---- depth
+    td, d = series(depth_role)
+    if depth_role == "depth":
+        how = "as given (m, positive down)"
+    elif depth_role == "altitude":
+        d = -d
+        how = "depth = −altitude (m, positive up: mavros rel_alt is ArduSub's " \
+              "GLOBAL_POSITION_INT.relative_alt)"
+    else:
+        prm = merge_params({}, params, []) if params is not None else {}
+        sg = float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0)))
+        rho = RHO_FRESH * sg
+        gnd = prm.get("BARO1_GND_PRESS")
+        if gnd is not None and math.isfinite(float(gnd)) and float(gnd) > 0:
+            ps, ps_how = float(gnd), f"BARO1_GND_PRESS = {float(gnd):g} Pa (--params)"
+        else:
+            ps, ps_how = float(d.min()), (f"the lowest pressure in the bag ({float(d.min()):.0f} "
+                                          "Pa; default: no BARO1_GND_PRESS in --params)")
+        if d.size > 1 and float(np.ptp(d)) < rho * G * 0.05:
+            fail(f"{name}: pressure topic {specs['pressure'][0]} varies by only "
+                 f"{float(np.ptp(d)):.0f} Pa (< 5 cm of water) over the bag: it is not the water "
+                 "pressure (mavros' static_pressure is SCALED_PRESSURE, barometer 0, on some "
+                 "BlueROV2s the enclosure sensor); pass --topic depth=TOPIC:FIELD or "
+                 "--topic altitude=TOPIC:FIELD")
+        d = (d - ps) / (rho * G)
+        how = (f"depth = (p − p_surface)/(ρ g), p_surface = {ps_how}, ρ = {rho:g} kg/m³ "
+               + ("(BARO_SPEC_GRAV from --params)" if sg != 1.0 else
+                  "(fresh water, default; sea water ≈ 1025: give BARO_SPEC_GRAV in --params)")
+               + f", g = {G} m/s²")
+    chans["depth_m"] = (td, d)
+    sources["depth_m"] = src(depth_role, how)
+    if not specs[depth_role][2]:
+        why = {"altitude": "", "pressure": f" (no {DEFAULT_TOPICS['altitude'].split(':')[0]} in "
+                                           "the bag; mavros' static_pressure is SCALED_PRESSURE, "
+                                           "barometer 0 — on some BlueROV2s the enclosure "
+                                           "sensor: check)"}
+        warnings.append(f"{name}: depth from {specs[depth_role][0]} (default){why[depth_role]}: "
+                        f"{how}")
+    # ---- battery, velocities
+    if have("battery"):
+        tb, vb = series("battery")
+        good = vb > 0  # BatteryState: NaN or 0 when unknown
+        chans["battery_V"] = (tb[good], vb[good])
+        sources["battery_V"] = src("battery", "voltage [V]")
+    else:
+        warnings.append(f"{name}: no {specs['battery'][0]} topic (battery): thrust at the T200 "
+                        "sheet's nominal 16 V (default); pass --topic battery=TOPIC:FIELD")
+    if have("velocity"):
+        tv, uv = series("velocity")
+        chans["u_mps"], chans["v_mps"] = (tv, uv[:, 0]), (tv, -uv[:, 1])
+        for c in ("u_mps", "v_mps"):
+            sources[c] = src("velocity", "twist.linear of the FLU body: u = x, v = −y (starboard)")
+        warnings.append(f"{name}: velocities from {specs['velocity'][0]}: taken as the body's "
+                        "(FLU, REP 103: Odometry's child frame / the stamped frame) linear "
+                        "velocity: u_mps = x, v_mps = −y")
+    for role, c in (("u", "u_mps"), ("v", "v_mps")):
+        if have(role):
+            chans[c] = series(role)
+            sources[c] = src(role, f"as given ({ROLES[role]})")
+    # ---- servo outputs → motors → forces
+    tp_, P = series("pwm")
+    seen = {k + 1: bool(np.any(np.isfinite(P[:, k]) & (P[:, k] > 0))) for k in range(P.shape[1])}
+    prm = merge_params({}, params, warnings)
+    B = np.asarray(veh.B, float)
+    frame_given = "FRAME_CONFIG" in prm
+    cfg_params = prm if frame_given else {**prm, "FRAME_CONFIG": 7}
+    try:
+        config = config_from_params(cfg_params, name=name, outputs_seen=seen, custom_B=B)
+        check_vehicle(config, veh, name=name)
+    except LogDataError as e:
+        raise LogDataError(str(e) + ("" if frame_given else
+                                     "; a bag has no ArduSub parameters: output n drives thruster "
+                                     "n of the vehicle unless --params gives SERVOn_FUNCTION")) from None
+    for note in config.notes:
+        if note.startswith(("BARO_PRIMARY", "FRAME_CONFIG = 7")):
+            continue
+        warnings.append(f"{name}: " + note.replace(" not in the log", " not given (a ROS bag "
+                                                   "holds no ArduSub parameters; --params)")
+                        .replace("no SERVOn_FUNCTION in the log", "no SERVOn_FUNCTION given")
+                        .replace("give --params", "pass --params"))
+    if not frame_given:
+        warnings.append(f"{name}: no FRAME_CONFIG given: {veh.name}'s thruster j is motor j and "
+                        "pushes along its B column (not checked against an ArduSub frame)")
+    if config.disabled_outputs:
+        warnings.append(f"{name}: outputs {', '.join(map(str, config.disabled_outputs))} are 0 µs "
+                        "throughout (disabled) and drive no motor")
+    used = {m.output for m in config.active}
+    extra = [k for k, s in seen.items() if s and k not in used]
+    if extra:
+        warnings.append(f"{name}: outputs {', '.join(map(str, extra))} carry PWM but drive no "
+                        f"thruster of {veh.name} (lights, gripper, camera tilt?): ignored")
+    pwm, dirs = {}, {}
+    for m in config.active:
+        col = P[:, m.output - 1]
+        pwm[str(m.number)] = (tp_, np.where(np.isfinite(col), col, 0.0))
+        dirs[str(m.number)] = m.direction
+    label = f"{specs['pwm'][0]} outputs " + ", ".join(f"{m.output}→motor {m.number}"
+                                                       for m in config.active)
+    for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+        sources[c] = src("pwm", "servo outputs → thrust at battery_V → B·T")
+    t_end = max([float(c[0][-1]) for c in chans.values() if c[0].size] + [float(tp_[-1])])
+    armed = modes = None
+    if have("armed"):
+        armed = series("armed")
+        sources["armed"] = src("armed", "armed flag; a state holds until the next message")
+    else:
+        warnings.append(f"{name}: no {specs['armed'][0]} topic (armed): every sample is taken as "
+                        "armed (default); pass --topic armed=TOPIC:FIELD")
+    if have("mode"):
+        modes = series("mode")
+        sources["mode"] = src("mode", "flight mode name")
+    if dups:
+        warnings.append(f"{name}: merged samples with duplicated time stamps (mean; the last one "
+                        "for servo outputs, attitude and state): "
+                        + ", ".join(f"{k}: {v}" for k, v in dups.items()))
+    fmt = "rosbag1" if p.suffix == ".bag" else "rosbag2"
+    return BagDive(name, fmt, chans, pwm, dirs, label, armed, modes, warnings, sources, t_end)

@@ -1,0 +1,441 @@
+"""Dive identification and replay from ROS bags as ArduSub + mavros record them (issue 19).
+
+Evidence: the project's synthetic piloted dive (6-DOF model, MANUAL/STABILIZE/ALT_HOLD, tether
+drag, battery sag) written with ``rosbags`` as ROS 1 and ROS 2 bags on mavros' topics and types,
+with the traps of a real recording: motors reversed by ``MOT_n_DIRECTION`` (the outputs carry the
+reflected PWM, as ArduSub writes them), outputs 7 and 8 disabled at 0 µs, messages written twice,
+header stamps a constant 0.25 s before the receive times (``rel_alt`` has no header, so only its
+receive time) and header stamps out of order in the bag.  The attitude is written as mavros does
+(ENU world, FLU body) from the NED heading the dive flew.  The same dive as a CSV table is the
+reference: the bag must give the same estimates (it is the same data) and the truth within 3σ.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+pytest.importorskip("rosbags")
+
+from uuvid.cli.app import app  # noqa: E402
+from uuvid.identify.vehicle.dive import identify_dive  # noqa: E402
+from uuvid.io.dive_channels import DiveDataError, read_dive_channels  # noqa: E402
+from uuvid.io.dive_rosbag import enu_flu_to_ned_frd  # noqa: E402
+from uuvid.simulate.dive_replay import replay_dive  # noqa: E402
+from uuvid.simulate.dive_synth import synthetic_dive  # noqa: E402
+
+runner = CliRunner()
+PARAMS = ("mass", "linear", "quadratic", "bias")
+DIRECTIONS = [-1, -1, 1, -1, -1, 1]  # MOT_n_DIRECTION as on real BlueROV2s
+PARAM_TEXT = "".join(f"MOT_{j}_DIRECTION,{d}\n" for j, d in enumerate(DIRECTIONS, 1))
+T0 = 1_700_000_000 * 10**9
+OFFSET = 250_000_000  # receive time − header stamp [ns]
+RCOUT = "std_msgs/Header header\nuint16[] channels\n"
+STATE = ("std_msgs/Header header\nbool connected\nbool armed\nbool guided\nbool manual_input\n"
+         "string mode\nuint8 system_status\n")
+ALL = ("rc", "imu", "rel_alt", "battery", "state")
+
+
+# ----------------------------------------------------------------------- quaternions (w, x, y, z)
+def _qmul(a, b):
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
+
+
+def _axis(angle, k):
+    q = [math.cos(angle / 2), 0.0, 0.0, 0.0]
+    q[1 + k] = math.sin(angle / 2)
+    return tuple(q)
+
+
+def _rpy(roll, pitch, yaw):  # ZYX: q = qz(yaw) qy(pitch) qx(roll)
+    return _qmul(_qmul(_axis(yaw, 2), _axis(pitch, 1)), _axis(roll, 0))
+
+
+def mavros_orientation(roll, pitch, yaw):
+    """What mavros publishes on imu/data for ArduSub's NED/FRD attitude (plugins/imu.cpp:
+    transform_orientation_aircraft_baselink(transform_orientation_ned_enu(q)) = Q_NE q Q_AB with
+    Q_NE = rpy(π, 0, π/2), Q_AB = rpy(π, 0, 0), ftf_frame_conversions.cpp)."""
+    return _qmul(_qmul(_rpy(math.pi, 0.0, math.pi / 2), _rpy(roll, pitch, yaw)),
+                 _rpy(math.pi, 0.0, 0.0))
+
+
+def test_heading_from_a_mavros_quaternion():
+    """ENU/FLU → NED/FRD: the identity (body x along ENU x = east) is heading east, ψ = +π/2;
+    mixing the frames up gives 0 or −π/2 and fails here."""
+    r, p, y = enu_flu_to_ned_frd(0.0, 0.0, 0.0, 1.0)
+    assert (float(r), float(p), float(y)) == pytest.approx((0.0, 0.0, math.pi / 2), abs=1e-12)
+    # ENU yaw +0.3 (counter-clockwise from east, seen from above) is NED heading π/2 − 0.3
+    _, _, y = enu_flu_to_ned_frd(0.0, 0.0, math.sin(0.15), math.cos(0.15))
+    assert float(y) == pytest.approx(math.pi / 2 - 0.3, abs=1e-12)
+    # nose up: a rotation about FLU y (left) by −0.2 is pitch +0.2 in FRD/NED
+    _, p, _ = enu_flu_to_ned_frd(0.0, math.sin(-0.1), 0.0, math.cos(-0.1))
+    assert float(p) == pytest.approx(0.2, abs=1e-12)
+    # and the round trip through mavros' own composition of static rotations
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        rpy = (rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-math.pi, math.pi))
+        w, x, yq, z = mavros_orientation(*rpy)
+        got = [float(a) for a in enu_flu_to_ned_frd(x, yq, z, w)]
+        assert got == pytest.approx(list(rpy), abs=1e-9)
+
+
+# ------------------------------------------------------------------------------ writing bags
+def _store(ros):
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC if ros == 1 else Stores.ROS2_HUMBLE)
+    ts.register({**get_types_from_msg(RCOUT, "mavros_msgs/msg/RCOut"),
+                 **get_types_from_msg(STATE, "mavros_msgs/msg/State")})
+    return ts
+
+
+def _default(ts, typ: str):
+    if typ == "float":
+        return 0.0
+    if typ == "int":
+        return 0
+    if typ == "bool":
+        return False
+    if typ == "str":
+        return ""
+    if typ.startswith("np.ndarray"):
+        return np.zeros(0, np.float32)
+    raise AssertionError(typ)
+
+
+def _msg(ts, name, **given):
+    cls = ts.types[name]
+    kw = {f.name: given[f.name] if f.name in given else _default(ts, f.type)
+          for f in dataclasses.fields(cls) if not f.type.startswith("ClassVar")}
+    return cls(**kw)
+
+
+def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3", pressure=None,
+              twist=None):
+    """The dive ``df`` (a synthetic_dive table) as mavros would record it (see the module doc).
+    ``pressure``: also ``/mavros/imu/static_pressure`` (sensor_msgs/FluidPressure), this surface
+    pressure [Pa] + 1000 kg/m³ · g · depth; ``twist``: ``(topic, type)`` of a DVL velocity
+    (TwistStamped or Odometry) with linear = (0.1 t, 0.2, 0) and header stamps left at zero."""
+    ts = _store(ros)
+    if ros == 1:
+        from rosbags.rosbag1 import Writer
+
+        writer, ser = Writer(path), ts.serialize_ros1
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        writer, ser = Writer(path, version=9, storage_plugin=plugin), ts.serialize_cdr
+    Time, Header = ts.types["builtin_interfaces/msg/Time"], ts.types["std_msgs/msg/Header"]
+    Quat, Vec = ts.types["geometry_msgs/msg/Quaternion"], ts.types["geometry_msgs/msg/Vector3"]
+
+    def hdr(ns):
+        return Header(stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="base_link",
+                      **({"seq": 0} if ros == 1 else {}))
+
+    def ns(t):
+        return T0 + int(round(float(t) * 1e9))
+
+    t = df["t_s"].to_numpy(float)
+    out = []  # (receive ns, topic, message)
+    rows = df["pwm_1"].notna().to_numpy()
+    pwm = df.loc[rows, [f"pwm_{j}" for j in range(1, 7)]].to_numpy(float)
+    logged = np.round(1500 + np.asarray(DIRECTIONS, float) * (pwm - 1500))  # ArduSub reflects
+    rc = []
+    for k, (ti, row) in enumerate(zip(t[rows], logged)):
+        ch = np.zeros(8, np.uint16)  # outputs 7 and 8: disabled, 0 µs
+        ch[:6] = row
+        m = _msg(ts, "mavros_msgs/msg/RCOut", header=hdr(ns(ti)), channels=ch)
+        rc.append([ns(ti) + OFFSET, "/mavros/rc/out", m])
+        if k % 50 == 7:  # the same message twice
+            rc.append([ns(ti) + OFFSET + 1_000_000, "/mavros/rc/out", m])
+    for k in range(10, len(rc) - 1, 97):  # arrivals swapped: header stamps out of bag order
+        rc[k][0], rc[k + 1][0] = rc[k + 1][0], rc[k][0]
+    out += rc
+    rows = df["yaw_rad"].notna().to_numpy()
+    for ti, r, p, y in zip(t[rows], *(df.loc[rows, c].to_numpy(float)
+                                      for c in ("roll_rad", "pitch_rad", "yaw_rad"))):
+        w, x, yq, z = mavros_orientation(r, p, y)
+        imu = _msg(ts, "sensor_msgs/msg/Imu", header=hdr(ns(ti)),
+                   orientation=Quat(x=x, y=yq, z=z, w=w), orientation_covariance=np.zeros(9),
+                   angular_velocity=Vec(x=0.0, y=0.0, z=0.0), angular_velocity_covariance=np.zeros(9),
+                   linear_acceleration=Vec(x=0.0, y=0.0, z=9.8),
+                   linear_acceleration_covariance=np.zeros(9))
+        out.append([ns(ti) + OFFSET, "/mavros/imu/data", imu])
+    rows = df["depth_m"].notna().to_numpy()
+    F64 = ts.types["std_msgs/msg/Float64"]
+    for k, (ti, d) in enumerate(zip(t[rows], df.loc[rows, "depth_m"].to_numpy(float))):
+        if depth_topic:
+            out.append([ns(ti) + OFFSET, depth_topic, F64(data=float(d))])
+        else:  # rel_alt: altitude, up, no header: only the receive time
+            out.append([ns(ti) + OFFSET, "/mavros/global_position/rel_alt", F64(data=-float(d))])
+            if k % 40 == 3:
+                out.append(out[-1])
+    if pressure is not None:
+        for ti, d in zip(t[rows], df.loc[rows, "depth_m"].to_numpy(float)):
+            fp = _msg(ts, "sensor_msgs/msg/FluidPressure", header=hdr(ns(ti)),
+                      fluid_pressure=pressure + 1000.0 * 9.80665 * d)
+            out.append([ns(ti) + OFFSET, "/mavros/imu/static_pressure", fp])
+    if twist is not None:
+        Tw = ts.types["geometry_msgs/msg/Twist"]
+        for ti in np.arange(1.0, t.max(), 0.2):
+            tw = Tw(linear=Vec(x=0.1 * ti, y=0.2, z=0.0), angular=Vec(x=0.0, y=0.0, z=0.0))
+            if twist[1] == "geometry_msgs/msg/TwistStamped":
+                m = _msg(ts, twist[1], header=hdr(0), twist=tw)
+            else:
+                TwC = ts.types["geometry_msgs/msg/TwistWithCovariance"]
+                PoC = ts.types["geometry_msgs/msg/PoseWithCovariance"]
+                Pose, Pt = ts.types["geometry_msgs/msg/Pose"], ts.types["geometry_msgs/msg/Point"]
+                pose = PoC(pose=Pose(position=Pt(x=0.0, y=0.0, z=0.0),
+                                     orientation=Quat(x=0.0, y=0.0, z=0.0, w=1.0)),
+                           covariance=np.zeros(36))
+                m = _msg(ts, twist[1], header=hdr(0), child_frame_id="base_link", pose=pose,
+                         twist=TwC(twist=tw, covariance=np.zeros(36)))
+            out.append([ns(ti) + OFFSET, twist[0], m])
+    rows = df["battery_V"].notna().to_numpy()
+    for ti, v in zip(t[rows], df.loc[rows, "battery_V"].to_numpy(float)):
+        out.append([ns(ti) + OFFSET, "/mavros/battery",
+                    _msg(ts, "sensor_msgs/msg/BatteryState", header=hdr(ns(ti)), voltage=v)])
+    # state: on every change of armed or mode, and about once a second (mavros: each HEARTBEAT)
+    armed, mode = df["armed"].to_numpy(bool), df["mode"].astype(str).to_numpy()
+    change = np.concatenate(([True], (armed[1:] != armed[:-1]) | (mode[1:] != mode[:-1])))
+    beat = np.concatenate(([True], np.floor(t[1:]) != np.floor(t[:-1])))
+    for i in np.flatnonzero(change | beat):
+        st = _msg(ts, "mavros_msgs/msg/State", header=hdr(ns(t[i])), connected=True,
+                  armed=bool(armed[i]), mode=str(mode[i]))
+        out.append([ns(t[i]) + OFFSET, "/mavros/state", st])
+    types = {"/mavros/rc/out": "mavros_msgs/msg/RCOut", "/mavros/imu/data": "sensor_msgs/msg/Imu",
+             "/mavros/global_position/rel_alt": "std_msgs/msg/Float64",
+             "/mavros/battery": "sensor_msgs/msg/BatteryState",
+             "/mavros/state": "mavros_msgs/msg/State"}
+    if depth_topic:
+        types[depth_topic] = "std_msgs/msg/Float64"
+    if pressure is not None:
+        types["/mavros/imu/static_pressure"] = "sensor_msgs/msg/FluidPressure"
+    if twist is not None:
+        types[twist[0]] = twist[1]
+    short = {"/mavros/rc/out": "rc", "/mavros/imu/data": "imu",
+             "/mavros/global_position/rel_alt": "rel_alt", "/mavros/battery": "battery",
+             "/mavros/state": "state"}
+    out = [m for m in out if short.get(m[1]) not in omit]
+    out.sort(key=lambda m: m[0])
+    with writer as w:
+        conns = {tp: w.add_connection(tp, mt, typestore=ts) for tp, mt in types.items()
+                 if short.get(tp) not in omit}
+        for recv, tp, m in out:
+            w.write(conns[tp], recv, ser(m, types[tp]))
+    return path
+
+
+# --------------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope="module")
+def dive():
+    df, truth = synthetic_dive(240.0, seed=7, pwm_rate=10.0, surge=0.0)
+    return df, truth
+
+
+@pytest.fixture(scope="module")
+def bag1(dive, tmp_path_factory):
+    return write_bag(tmp_path_factory.mktemp("ros1") / "dive.bag", 1, dive[0])
+
+
+@pytest.fixture(scope="module")
+def params_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("prm") / "bluerov2.params"
+    p.write_text(PARAM_TEXT)
+    return p
+
+
+@pytest.fixture(scope="module")
+def from_bag(bag1, params_file):
+    return identify_dive(bag1, "bluerov2", params=params_file)
+
+
+@pytest.fixture(scope="module")
+def from_csv(dive):
+    df, _ = dive
+    # the same table with t = 0 at its first sample, as the bag's t = 0 is its first message
+    return identify_dive(df.assign(t_s=df["t_s"] - df["t_s"].min()), "bluerov2")
+
+
+def test_bag_gives_the_csv_estimates_and_the_truth_within_3_sigma(dive, from_bag, from_csv):
+    _, truth = dive
+    for dof in ("heave", "yaw"):
+        b, c = from_bag.estimates[dof], from_csv.estimates[dof]
+        for k in PARAMS:
+            # the same data: the same estimate, far inside σ
+            assert abs(b.values[k] - c.values[k]) <= 0.05 * c.sigma[k], (dof, k, b.values[k],
+                                                                         c.values[k], c.sigma[k])
+            assert abs(b.values[k] - truth[dof][k]) <= 3 * b.sigma[k], (dof, k, b.values[k],
+                                                                        b.sigma[k], truth[dof][k])
+    w = " ".join(from_bag.warnings)
+    assert "reversed (MOT_n_DIRECTION = -1): motor(s) 1, 2, 4, 5" in w
+    assert "outputs 7, 8 are 0 µs throughout (disabled)" in w
+    assert "/mavros/global_position/rel_alt: receive time (the message has no header), moved by " \
+           "-0.250 s" in w
+    assert "/mavros/rc/out: header.stamp" in w
+    assert "merged samples with duplicated time stamps" in w
+    assert "/mavros/rc/out (pwm): 48" in w  # every 50th of 2400 messages written twice
+
+
+def test_the_traps_matter(bag1, dive, from_csv):
+    """Without the reversal the forces are wrong (and the reader says it assumed +1); the
+    disarmed start is not armed; the heading is the NED one the dive flew."""
+    df, _ = dive
+    dc = read_dive_channels(bag1, "bluerov2")
+    w = " ".join(dc.warnings)
+    assert "MOT_n_DIRECTION not given" in w and "+1 (normal) assumed" in w
+    assert "no FRAME_CONFIG given" in w
+    ok = read_dive_channels(bag1, "bluerov2", params={f"MOT_{j}_DIRECTION": d
+                                                      for j, d in enumerate(DIRECTIONS, 1)})
+    z_wrong, z_ok = dc.channels["Z_N"][1], ok.channels["Z_N"][1]
+    assert np.max(np.abs(z_wrong - z_ok)) > 10.0
+    rows = df["Z_N"].notna().to_numpy()
+    np.testing.assert_allclose(z_ok, df.loc[rows, "Z_N"].to_numpy(), atol=1e-9)
+    t0 = df["t_s"].min()
+    first_armed = df.loc[df["armed"], "t_s"].min() - t0
+    assert ok.armed[0][0] == pytest.approx(first_armed, abs=1e-6)
+    assert ok.armed[-1][1] == pytest.approx(df["t_s"].max() - t0, abs=1e-6)
+    ty, yaw = ok.channels["yaw_rad"]
+    rows = df["yaw_rad"].notna().to_numpy()
+    np.testing.assert_allclose(ty, df.loc[rows, "t_s"].to_numpy() - t0, atol=1e-9)
+    np.testing.assert_allclose(yaw, np.unwrap(df.loc[rows, "yaw_rad"].to_numpy()), atol=1e-9)
+    assert "ENU" in ok.sources["yaw_rad"] and "rel_alt" in ok.sources["depth_m"]
+    assert {m for _a, _b, m in ok.modes} == {"MANUAL", "STABILIZE", "ALT_HOLD"}
+    # with FRAME_CONFIG the vehicle is checked against ArduSub's frame: bluerov2 is frame 1 …
+    frame = read_dive_channels(bag1, "bluerov2", params={"FRAME_CONFIG": 1, **{
+        f"MOT_{j}_DIRECTION": d for j, d in enumerate(DIRECTIONS, 1)}})
+    np.testing.assert_allclose(frame.channels["Z_N"][1], z_ok)
+    assert not any("no FRAME_CONFIG given" in x for x in frame.warnings)
+    # … and not the Heavy's frame 2 (8 motors)
+    with pytest.raises(DiveDataError, match="FRAME_CONFIG = 2"):
+        read_dive_channels(bag1, "bluerov2", params={"FRAME_CONFIG": 2})
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_ros2_bag_reads_as_the_ros1_bag(dive, bag1, tmp_path, storage, params_file):
+    df, _ = dive
+    bag2 = write_bag(tmp_path / "dive2", 2, df, storage=storage)
+    a = read_dive_channels(bag1, "bluerov2", params=params_file)
+    b = read_dive_channels(bag2, "bluerov2", params=params_file)
+    assert b.format == "rosbag2" and a.format == "rosbag1"
+    assert set(a.channels) == set(b.channels)
+    for c in a.channels:
+        np.testing.assert_array_equal(a.channels[c][0], b.channels[c][0])
+        np.testing.assert_allclose(a.channels[c][1], b.channels[c][1], rtol=1e-6)
+    assert a.armed == b.armed
+
+
+def _short(dive):
+    df, _ = dive
+    return df[df["t_s"] < 20.0]
+
+
+@pytest.mark.parametrize("omit,topic,option", [
+    (("rc",), "/mavros/rc/out", "--topic pwm=TOPIC:FIELD"),
+    (("rel_alt",), "/mavros/global_position/rel_alt", "--topic depth=TOPIC:FIELD"),
+    (("imu",), "/mavros/imu/data", "--topic yaw=TOPIC:FIELD"),
+])
+def test_a_bag_without_a_needed_topic_says_what_is_missing(dive, tmp_path, omit, topic, option):
+    bag = write_bag(tmp_path / "short.bag", 1, _short(dive), omit=omit)
+    with pytest.raises(DiveDataError) as e:
+        read_dive_channels(bag, "bluerov2")
+    msg = str(e.value)
+    assert msg.startswith("short.bag: no ") and f"no topic {topic}" in msg
+    assert option in msg
+    present = [t for t in ("/mavros/rc/out (mavros_msgs/msg/RCOut",
+                           "/mavros/imu/data (sensor_msgs/msg/Imu",
+                           "/mavros/battery (sensor_msgs/msg/BatteryState") if t.split()[0] != topic]
+    for t in present:
+        assert t in msg
+
+
+def test_depth_from_the_pressure_topic(dive, tmp_path):
+    """No rel_alt: depth from mavros' static_pressure, surface = the lowest pressure in the bag (a
+    warning) or BARO1_GND_PRESS from the parameters; a pressure that does not vary is refused."""
+    df = _short(dive)
+    bag = write_bag(tmp_path / "p.bag", 1, df, omit=("rel_alt",), pressure=101325.0)
+    rows = df["depth_m"].notna().to_numpy()
+    depth = df.loc[rows, "depth_m"].to_numpy()
+    dc = read_dive_channels(bag, "bluerov2")
+    np.testing.assert_allclose(dc.channels["depth_m"][1], depth - depth.min(), atol=1e-9)
+    w = " ".join(dc.warnings)
+    assert "depth from /mavros/imu/static_pressure (default)" in w
+    assert "the lowest pressure in the bag" in w and "ρ = 1000 kg/m³" in w
+    dc = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 101325.0})
+    np.testing.assert_allclose(dc.channels["depth_m"][1], depth, atol=1e-9)
+    sea = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 101325.0,
+                                                      "BARO_SPEC_GRAV": 1.025})
+    np.testing.assert_allclose(sea.channels["depth_m"][1], depth / 1.025, atol=1e-9)
+    flat = write_bag(tmp_path / "enclosure.bag", 1, df.assign(depth_m=1.0), omit=("rel_alt",),
+                     pressure=101325.0)
+    with pytest.raises(DiveDataError, match="not the water pressure.*--topic depth="):
+        read_dive_channels(flat, "bluerov2")
+
+
+@pytest.mark.parametrize("msgtype", ["geometry_msgs/msg/TwistStamped", "nav_msgs/msg/Odometry"])
+def test_dvl_velocity_topic_and_zero_header_stamps(dive, tmp_path, msgtype):
+    """A body velocity topic (FLU, REP 103) gives u = x, v = −y; its header stamps are zero, so
+    the receive times are used, moved onto the servo outputs' header clock."""
+    bag = write_bag(tmp_path / "dvl.bag", 1, _short(dive), twist=("/dvl/twist", msgtype))
+    dc = read_dive_channels(bag, "bluerov2", topics=["velocity=/dvl/twist"])
+    tu, u = dc.channels["u_mps"]
+    t0 = _short(dive)["t_s"].min()
+    np.testing.assert_allclose(u, 0.1 * (tu + t0), atol=1e-9)  # back on the header clock
+    np.testing.assert_allclose(dc.channels["v_mps"][1], -0.2)
+    w = " ".join(dc.warnings)
+    assert "/dvl/twist: receive time (header.stamp is zero in" in w and "moved by -0.250 s" in w
+
+
+def test_bad_options_and_wrong_vehicle(dive, tmp_path):
+    bag = write_bag(tmp_path / "short.bag", 1, _short(dive))
+    with pytest.raises(DiveDataError, match="unknown role 'dpeth'"):
+        read_dive_channels(bag, "bluerov2", topics=["dpeth=/x:data"])
+    with pytest.raises(DiveDataError, match="no topic /my/depth.*--topic depth="):
+        read_dive_channels(bag, "bluerov2", topics={"depth": "/my/depth:data"})
+    with pytest.raises(DiveDataError, match="has 8 thrusters.*drives 6 motors"):
+        read_dive_channels(bag, "bluerov2-heavy")
+    with pytest.raises(DiveDataError, match="no field 'chanels'"):
+        read_dive_channels(bag, "bluerov2", topics=["pwm=/mavros/rc/out:chanels"])
+    with pytest.raises(DiveDataError, match="--topic applies to ROS bags only"):
+        read_dive_channels(dive[0], "bluerov2", topics=["depth=/x"])
+
+
+def test_cli_identify_dive_and_replay_from_a_bag(dive, tmp_path, params_file):
+    """A depth sensor on its own topic (positive down) given with --topic; ArduSub's reversal with
+    --params; then replay the bag with the identified vehicle."""
+    df, _ = dive
+    bag = write_bag(tmp_path / "bar30.bag", 1, df, omit=("rel_alt",), depth_topic="/bar30/depth")
+    out = tmp_path / "mine.yaml"
+    res = runner.invoke(app, ["vehicle", "identify", "dive", str(bag), "--vehicle", "bluerov2",
+                              "--dof", "heave", "--t-end", "190", "--params", str(params_file),
+                              "--topic", "depth=/bar30/depth:data", "--out-vehicle", str(out),
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["dofs"]["heave"]["held_out"]["improvement"] > 2 and out.is_file()
+    assert any("/bar30/depth" in w for w in doc["warnings"])
+    res = runner.invoke(app, ["vehicle", "replay", str(bag), "--vehicle", str(out), "--dof",
+                              "heave", "--t-start", "190", "--params", str(params_file),
+                              "--topic", "depth=/bar30/depth", "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["channels"]["depth"]["rms"] < 0.03
+    res = runner.invoke(app, ["vehicle", "replay", str(bag), "--vehicle", "bluerov2"])
+    assert res.exit_code == 2 and "no topic /mavros/global_position/rel_alt" in res.output
+    assert "--topic depth=" in res.output
+
+
+def test_replay_reads_the_bag_like_the_table(bag1, dive, params_file):
+    df, _ = dive
+    a = replay_dive(bag1, "bluerov2", ["heave"], params=params_file, t_start=150.0)
+    b = replay_dive(df.assign(t_s=df["t_s"] - df["t_s"].min()), "bluerov2", ["heave"],
+                    t_start=150.0)
+    assert a.channels["depth"]["rms"] == pytest.approx(b.channels["depth"]["rms"], rel=1e-6)
