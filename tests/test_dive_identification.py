@@ -2,7 +2,8 @@
 
 Evidence: synthetic piloted dives flown by the project's 6-DOF model (MANUAL / STABILIZE /
 ALT_HOLD with depth and heading controllers acting, battery sag, unmodelled tether drag, channels
-at their own jittered rates) written as tables with force columns (not yet as real .tlog/.BIN).
+at their own jittered rates) written as tables with force columns and as real .BIN/.tlog files
+(ROS bags: tests/test_dive_rosbag.py).
 The truth of a 1-DOF model is the vehicle's diagonal plus the tether drag; the dives used for the
 truth checks fly no surge (surge couples into yaw through the Munk moment, which a 1-DOF model
 does not have)."""

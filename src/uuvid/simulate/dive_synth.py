@@ -12,7 +12,9 @@ STABILIZE (heading hold) and ALT_HOLD (depth + heading hold, PID like ArduSub's)
 
 The table has one row per stamp of any channel (NaN where a channel has no sample) with the
 force columns ``X_N … N_Nm`` computed from the logged PWM at the logged voltage (as
-``uuvid log export`` does).  Written as CSV, not as a real .tlog/.BIN (not done yet).
+``uuvid log export`` does).  The tests also write it as real ``.BIN``/``.tlog`` files
+(pymavlink) and as ROS 1/2 bags (rosbags), and read those back through the same readers users'
+logs go through.
 """
 
 from __future__ import annotations
