@@ -199,13 +199,28 @@ _STATE_SPAN = {"heave": 2.0, "yaw": 0.5, "surge": 1.0, "sway": 1.0}  # initial-s
 def initial_state(prob, theta, span: float):
     """``(y0, v0, scored)``: each window's initial state fitted (Gauss–Newton, model fixed) to the
     samples of its first ``span`` seconds — the measured state, read through the model as a
-    Kalman filter would — and the mask of the samples after it, which are scored."""
+    Kalman filter would — and the mask of the samples after it, which are scored.
+
+    Each window's step is accepted only where it lowers that window's error (else halved, up to
+    four times, else the window keeps its state): with strong quadratic drag the initial velocity
+    is barely observable from the positions a moment later, and undamped Gauss–Newton steps can
+    run to tens of m/s, after which the replay overflows."""
     y0, v0 = prob.y0_meas.copy(), prob.v0_meas.copy()
     early = prob.t <= prob.ta[prob.w] + span
     w = prob.w[early]
-    if prob.position:
-        for _ in range(3):
-            r = (prob.predict(theta, y0, v0) - prob.y)[early]
+    if not prob.position:
+        return y0, v0, ~early
+
+    def window_cost(y, v):
+        r = (prob.predict(theta, y, v) - prob.y)[early]
+        c = np.bincount(w, np.where(np.isfinite(r), r * r, np.inf), prob.W)
+        return r, np.where(np.isfinite(c), c, np.inf)
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        r, cost = window_cost(y0, v0)
+        for _ in range(4):
+            if not np.all(np.isfinite(r)):
+                break
             dy = 1e-4
             ry = (prob.predict(theta, y0 + dy, v0) - prob.y)[early]
             rv = (prob.predict(theta, y0, v0 + dy) - prob.y)[early]
@@ -216,9 +231,23 @@ def initial_state(prob, theta, span: float):
             gy = np.bincount(w, jy * r, prob.W)
             gv = np.bincount(w, jv * r, prob.W)
             det = a * c - b * b
-            ok = det > 1e-12 * np.maximum(a * c, 1e-300)
-            y0 = y0 - np.where(ok, (c * gy - b * gv) / np.where(ok, det, 1), 0.0)
-            v0 = v0 - np.where(ok, (a * gv - b * gy) / np.where(ok, det, 1), 0.0)
+            ok = np.isfinite(det) & (det > 1e-12 * np.maximum(a * c, 1e-300))
+            sy = -np.where(ok, (c * gy - b * gv) / np.where(ok, det, 1), 0.0)
+            sv = -np.where(ok, (a * gv - b * gy) / np.where(ok, det, 1), 0.0)
+            frac = np.ones(prob.W)
+            pending = ok.copy()
+            for _ in range(5):  # per-window backtracking
+                if not pending.any():
+                    break
+                yt = np.where(pending, y0 + frac * sy, y0)
+                vt = np.where(pending, v0 + frac * sv, v0)
+                rt, ct = window_cost(yt, vt)
+                better = pending & (ct < cost)
+                y0, v0 = np.where(better, yt, y0), np.where(better, vt, v0)
+                cost = np.where(better, ct, cost)
+                pending &= ~better
+                frac = np.where(pending, 0.5 * frac, frac)
+            r, cost = window_cost(y0, v0)
     return y0, v0, ~early
 
 
