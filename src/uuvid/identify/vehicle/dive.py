@@ -418,7 +418,8 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     sd_y = float(np.std(prob.y[sc]))
     train = {"rms": float(np.sqrt(np.mean(err ** 2))),
              "nrmse": float(np.sqrt(np.mean(err ** 2)) / sd_y) if sd_y > 0 else float("nan"),
-             "rms_fit": float(np.sqrt(np.mean(sol["fun"] ** 2))), "iterations": sol["nit"],
+             "rms_fit": float(np.sqrt(np.mean((sol["fun"] / wts) ** 2))),  # unweighted
+             "iterations": sol["nit"],
              "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
              "n": int(np.count_nonzero(sc))}
     traces = {"train": (prob.t[sc], prob.y[sc], pr_id[sc], pr_b[sc], prob.w[sc])}
@@ -427,22 +428,28 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
                      "states (too stiff for the replay's step, or unstable): do not use it")
     weighting_d = weighting_summary(flags, weights if weights is not None else
                                     (np.ones(prob.y.size) if flags is not None and weighting
-                                     else None), prob.w, windows[0][0], windows[-1][1], W)
+                                     else None), prob.w, windows[0][0], windows[-1][1], W,
+                                    (DIVE_DOFS[dof][1],))
     weighting_d["enabled"] = bool(weighting and flags is not None)
     return values, sigma, corr, start, windows, notes, warns, train, traces, weighting_d
 
 
-def _pwm_notes(dc, t_start, t_end) -> list:
+def _pwm_notes(dc, t_start, t_end, flags=None) -> list:
+    """Per motor: how many PWM samples sit at the thruster model's saturation (within 5 µs of
+    where its thrust stops growing; 1100/1900 µs without a model)."""
     out = []
+    lo, hi = ((flags.regions.full_rev, flags.regions.full_fwd) if flags is not None
+              else (1100.0, 1900.0))
     for m, (t, p) in dc.pwm.items():
         sel = (t >= (t_start if t_start is not None else -np.inf)) & \
               (t <= (t_end if t_end is not None else np.inf)) & (p > 0)
         if not sel.any():
             continue
-        sat = np.count_nonzero((p[sel] >= 1895) | (p[sel] <= 1105))
+        sat = np.count_nonzero((p[sel] >= hi - 5.0) | (p[sel] <= lo + 5.0))
         if sat:
-            out.append(f"motor {m}: {sat} of {np.count_nonzero(sel)} PWM samples at the 1100/1900 "
-                       "µs limits (saturated: thrust there is still known, used as logged)")
+            out.append(f"motor {m}: {sat} of {np.count_nonzero(sel)} PWM samples at the "
+                       f"{lo:.0f}/{hi:.0f} µs limits (saturated: thrust there is still known, "
+                       "used as logged)")
     return out
 
 
@@ -489,8 +496,13 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         raise DiveDataError(f"--t-end {t_end:g} s must be after --t-start {t_start:g} s")
     dofs = _dof_list(dofs, dc)
     ests = {}
-    warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end)
     flags = _flags(dc, veh, thruster_model)
+    warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end, flags)
+    if "horizontal" in dofs and {"surge", "sway", "yaw"} & set(dofs):
+        warnings.append("both the coupled horizontal model and 1-DOF "
+                        + "/".join(d for d in ("surge", "sway", "yaw") if d in dofs)
+                        + " were identified: a written vehicle gets the coupled model's values "
+                          "(the 6-DOF simulator flies the coupled model)")
     for dof in dofs:
         if dof == "horizontal":
             from uuvid.identify.vehicle.dive_horizontal import fit_horizontal

@@ -341,7 +341,7 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
                                   for c in H_CHANNELS}
     wd = weighting_summary(flags, weights if weights is not None else
                            (np.ones(N) if flags is not None and weighting else None), prob.w,
-                           windows[0][0], windows[-1][1], W)
+                           windows[0][0], windows[-1][1], W, H_FORCES)
     wd["enabled"] = bool(weighting and flags is not None)
     notes.append("yaw rate from the heading through the model (not measured); residuals divided "
                  "by each channel's noise σ (" + ", ".join(

@@ -135,9 +135,11 @@ def dead_band_weights(delta_y, sigma_y) -> np.ndarray:
     return w
 
 
-def weighting_summary(flags, weights, windows_of_rows, t0, t1, n_windows: int) -> dict:
-    """Counts for summary()/to_dict(): force samples with thrusters at the dead band's edge or
-    saturated within ``[t0, t1]``, residual samples and windows down-weighted."""
+def weighting_summary(flags, weights, windows_of_rows, t0, t1, n_windows: int,
+                      forces=()) -> dict:
+    """Counts for summary()/to_dict(): force samples within ``[t0, t1]`` whose ``forces``
+    (channel names, e.g. ``("Z_N",)``) depend on thrusters at the dead band's edge, samples
+    with a saturated thruster, residual samples and windows down-weighted."""
     out = {"enabled": weights is not None, "rule": "w = 1/sqrt(1 + (δy/σ_y)²), δy: the "
            "prediction's change under the edge thrusters' uncertain thrust",
            "force_samples": 0, "force_samples_dead_band_edge": 0, "force_samples_saturated": 0,
@@ -145,8 +147,10 @@ def weighting_summary(flags, weights, windows_of_rows, t0, t1, n_windows: int) -
            "windows_down_weighted": 0, "mean_weight": 1.0, "regions": None}
     if flags is not None:
         sel = (flags.t >= t0) & (flags.t <= t1)
+        edge = (np.any([flags.sigma_of(f)[1] > 0 for f in forces], axis=0) if forces
+                else flags.n_edge > 0)
         out.update(force_samples=int(np.count_nonzero(sel)),
-                   force_samples_dead_band_edge=int(np.count_nonzero(flags.n_edge[sel] > 0)),
+                   force_samples_dead_band_edge=int(np.count_nonzero(edge[sel])),
                    force_samples_saturated=int(np.count_nonzero(flags.n_sat[sel] > 0)),
                    regions=flags.regions.to_dict())
     if weights is not None:
@@ -165,8 +169,9 @@ def weighting_text(d: dict) -> str:
     r = d["regions"] or {}
     band = r.get("dead_band_us")
     head = (f"dead band {band[0]:.0f}–{band[1]:.0f} µs ({r.get('model')}): " if band else "")
-    txt = (f"{head}{d['force_samples_dead_band_edge']} of {d['force_samples']} force samples with "
-           f"thrusters at its edge, {d['force_samples_saturated']} saturated")
+    txt = (f"{head}{d['force_samples_dead_band_edge']} of {d['force_samples']} force samples of "
+           f"this model depend on thrusters at its edge, {d['force_samples_saturated']} have one "
+           "saturated")
     if d["enabled"]:
         txt += (f"; {d['residual_samples_down_weighted']} of {d['residual_samples']} residual "
                 f"samples in {d['windows_down_weighted']} of {d['windows']} windows down-weighted "
