@@ -21,6 +21,14 @@ parameters included.  Warnings name parameters the dive cannot separate (|ρ| > 
 whose σ exceeds half their value, estimates at a bound.  With ``t_end`` before the end of the
 log, the rest is a held-out part: both the identified and the base vehicle's model replay it
 (:func:`uuvid.simulate.dive_replay.replay_windows`).
+
+Dead band: where servo outputs are logged, each force sample whose thrusters sit at the edge of
+the dead band (read off the thruster model, :func:`uuvid.io.dive_channels.pwm_flags`) carries an
+uncertain force σ_F; it is propagated through the model from each window's start and the
+residuals weighted by ``1/sqrt(1 + (δy/σ_y)²)``
+(:func:`uuvid.identify.vehicle.output_error.dead_band_weights`); saturated samples are counted,
+not down-weighted (their thrust is known).  ``dofs="horizontal"`` identifies surge, sway and yaw
+jointly with the coupled model (:mod:`uuvid.identify.vehicle.dive_horizontal`).
 """
 
 from __future__ import annotations
