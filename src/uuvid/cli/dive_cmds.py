@@ -3,8 +3,9 @@ and how well a model predicts a dive.
 
 ::
 
-    uuvid vehicle identify dive LOG --vehicle V [--dof heave|yaw|surge|sway|all] [--t-start S]
-          [--t-end S] [--horizon S] [--params FILE] [--topic ROLE=TOPIC[:FIELD] ...]
+    uuvid vehicle identify dive LOG --vehicle V [--dof heave|yaw|surge|sway|horizontal|all]
+          [--t-start S] [--t-end S] [--horizon S] [--no-dead-band-weights] [--params FILE]
+          [--topic ROLE=TOPIC[:FIELD] ...]
           [--out-vehicle OUT.yaml] [--report DIR] [--json]
     uuvid vehicle replay LOG --vehicle V [--dof ...] [--t-start S] [--t-end S] [--horizon S]
           [--params FILE] [--topic ROLE=TOPIC[:FIELD] ...] [--out DIR] [--json]
@@ -33,13 +34,14 @@ TOPIC = typer.Option(None, "--topic", metavar="ROLE=TOPIC:FIELD",
                           "velocity, u, v (e.g. depth=/bar30/depth:data). Repeatable.")
 VEHICLE = typer.Option(..., "--vehicle", help="Base vehicle: preset or vehicle file (its thruster "
                                               "geometry turns servo outputs into forces).")
-DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, a comma list, or all (every DOF "
-                                        "the log has a measured channel for).")
+DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, horizontal (surge, sway and yaw "
+                                        "coupled; needs u_mps, v_mps, yaw_rad), a comma list, or "
+                                        "all (every DOF the log has a measured channel for).")
 T_START = typer.Option(None, "--t-start", help="Use the log from this time [s].")
 T_END = typer.Option(None, "--t-end", help="Use the log up to this time [s]; identify dive scores "
                                            "the rest as held out.")
 HORIZON = typer.Option(None, "--horizon", help="Window length [s] (default heave 10, yaw 4, "
-                                               "surge/sway 5).")
+                                               "surge, sway and horizontal 5).")
 JSON = typer.Option(False, "--json", help="Print one JSON document.")
 
 
@@ -69,10 +71,15 @@ def identify_dive_cmd(
                                             help="Write the base vehicle with the identified "
                                                  "values and their provenance (YAML)."),
     report: Path | None = typer.Option(None, "--report", help="Folder for the report."),
+    dead_band_weights: bool = typer.Option(True, "--dead-band-weights/--no-dead-band-weights",
+                                           help="Down-weight residuals whose force comes from "
+                                                "thrusters at the dead band's edge (needs "
+                                                "logged PWM)."),
     json_out: bool = JSON,
 ):
     """Identify per-DOF models (mass with added mass, drag, net buoyancy) from every armed sample
-    of a piloted dive, closed-loop modes included."""
+    of a piloted dive, closed-loop modes included; --dof horizontal identifies surge, sway and
+    yaw jointly with the coupled model where a DVL logs u and v."""
     from uuvid.cli.common import _fail
     from uuvid.identify.vehicle.dive import identify_dive
 
@@ -86,7 +93,8 @@ def identify_dive_cmd(
             doc["report"] = str(res.report(report))
 
     _run(lambda: identify_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
-                               horizon=horizon, params=params, topics=topic), write, json_out,
+                               horizon=horizon, params=params, topics=topic,
+                               dead_band_weighting=dead_band_weights), write, json_out,
          lambda e: f"cannot write: {e.strerror or e} ({e.filename})")
 
 

@@ -22,7 +22,8 @@ import numpy as np
 
 from uuvid.io.logs import LogDataError
 
-__all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS"]
+__all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS", "ThrustRegions",
+           "thrust_regions", "PwmFlags", "pwm_flags"]
 
 #: DOF → (measured channel, force channel, measured is a position (True) or a velocity)
 DIVE_DOFS = {"heave": ("depth_m", "Z_N", True), "yaw": ("yaw_rad", "N_Nm", True),
@@ -289,3 +290,122 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
             modes[-1] = (modes[-1][0], max(modes[-1][1], bd.t_end), modes[-1][2])
     return DiveChannels(bd.name, bd.format, chans, armed, modes, warnings, dict(bd.sources),
                         dict(bd.pwm))
+
+
+# ---------------------------------------------------------------------------------------------
+# Dead band and saturation of the thrusters, per force sample
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ThrustRegions:
+    """Where a thruster model's steady thrust is zero (dead band ``[edge_rev, edge_fwd]`` around
+    ``neutral``) and where it stops growing (``full_rev``/``full_fwd``), in µs, read off the
+    model (:func:`thrust_regions`)."""
+
+    model: str
+    neutral: float
+    edge_rev: float
+    edge_fwd: float
+    full_rev: float
+    full_fwd: float
+
+    def edge_region(self) -> tuple[float, float]:
+        """``[edge_rev − (neutral − edge_rev), edge_fwd + (edge_fwd − neutral)]``: the dead band
+        and as much again beyond each edge — where the ESC may or may not spin (published T200
+        dead bands run from ±18 µs, the shipped model's, to ±25–36 µs: the edge is uncertain by
+        about its own width)."""
+        return (2 * self.edge_rev - self.neutral, 2 * self.edge_fwd - self.neutral)
+
+    def to_dict(self) -> dict:
+        lo, hi = self.edge_region()
+        return {"model": self.model, "neutral_us": self.neutral, "dead_band_us": [self.edge_rev,
+                self.edge_fwd], "edge_region_us": [lo, hi],
+                "saturation_us": [self.full_rev, self.full_fwd]}
+
+
+def thrust_regions(thrust_model, volts: float = 16.0, neutral: float = 1500.0,
+                   lo: float = 1100.0, hi: float = 1900.0) -> ThrustRegions:
+    """Dead band and saturation onsets of ``thrust_model`` (``.thrust(pwm, volts)``, e.g.
+    :func:`uuvid.io.ardusub.thrust.default_t200`) on a 0.5 µs grid at ``volts``: the dead band is
+    the run of commands around ``neutral`` with zero thrust (|T| ≤ 10⁻⁶ of the largest), the
+    saturation onset where the thrust comes within 0.1 % of its extreme."""
+    c = np.arange(lo, hi + 0.25, 0.5)
+    T = np.asarray(thrust_model.thrust(c, np.full(c.size, volts)), float)
+    T = np.where(np.isfinite(T), T, 0.0)
+    zero = np.abs(T) <= 1e-6 * max(float(np.max(np.abs(T))), 1e-12)
+    i0 = int(np.argmin(np.abs(c - neutral)))
+    a = b = i0
+    while a > 0 and zero[a - 1]:
+        a -= 1
+    while b < c.size - 1 and zero[b + 1]:
+        b += 1
+    tmax, tmin = float(np.max(T)), float(np.min(T))
+    full_fwd = float(c[np.flatnonzero(T >= tmax - 1e-3 * abs(tmax))[0]])
+    full_rev = float(c[np.flatnonzero(T <= tmin + 1e-3 * abs(tmin))[-1]])
+    return ThrustRegions(getattr(thrust_model, "name", "thruster model"), float(neutral),
+                         float(c[a]), float(c[b]), full_rev, full_fwd)
+
+
+@dataclass
+class PwmFlags:
+    """Per servo-output sample (stamps ``t``): thrusters in the dead band's edge region
+    (``n_edge``) and at saturation (``n_sat``), and the force/moment uncertainty ``sigma``
+    (6 × n, N and N·m) the edge-region thrusters leave (:func:`pwm_flags`)."""
+
+    t: np.ndarray
+    n_edge: np.ndarray
+    n_sat: np.ndarray
+    sigma: np.ndarray
+    regions: ThrustRegions
+    motors: int
+
+    def sigma_of(self, force: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(t, σ)`` of one force channel (``X_N`` … ``N_Nm``)."""
+        from uuvid.io.ardusub.frames import DOF_COLUMNS
+
+        return self.t, self.sigma[list(DOF_COLUMNS).index(force)]
+
+
+def pwm_flags(dc: DiveChannels, B, thrust_model, t_start=None, t_end=None) -> PwmFlags | None:
+    """Flag each servo-output sample of ``dc.pwm`` (``None`` when no PWM is logged).
+
+    A thruster is in the *edge region* when its command lies in
+    :meth:`ThrustRegions.edge_region` but not at neutral (|c − neutral| < 1 µs: the output is
+    off, its zero thrust is certain); its thrust then lies anywhere between 0 and the model's
+    thrust at the outer end of the region, ``T_o`` (at the logged battery voltage, 16 V when
+    none), so its uncertainty is taken as ``σ_T = |T_o|/2``.  The wrench uncertainty is
+    ``σ_i = sqrt(Σ_j (B_ij σ_Tj)²)`` (thrusters' errors independent).  It is *saturated* within
+    5 µs of the model's saturation onset: there the thrust is known (used as logged) but not
+    what the controller asked for.  Disabled outputs (PWM ≤ 0) are neither.
+    """
+    if not dc.pwm:
+        return None
+    keys = sorted(dc.pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    t = dc.pwm[keys[0]][0]
+    P = np.full((len(keys), t.size), np.nan)
+    for j, k in enumerate(keys):
+        tk, pk = dc.pwm[k]
+        P[j] = np.interp(t, tk, pk) if tk.size else np.nan
+    sel = np.ones(t.size, bool)
+    if t_start is not None:
+        sel &= t >= t_start
+    if t_end is not None:
+        sel &= t <= t_end
+    t, P = t[sel], P[:, sel]
+    reg = thrust_regions(thrust_model)
+    lo, hi = reg.edge_region()
+    on = np.isfinite(P) & (P > 0)
+    edge = on & (P >= lo) & (P <= hi) & (np.abs(P - reg.neutral) >= 1.0)
+    sat = on & ((P >= reg.full_fwd - 5.0) | (P <= reg.full_rev + 5.0))
+    if "battery_V" in dc.channels and dc.channels["battery_V"][0].size:
+        volts = np.interp(t, *dc.channels["battery_V"])
+    else:
+        volts = np.full(t.size, 16.0)
+    t_hi = np.abs(np.asarray(thrust_model.thrust(np.full(t.size, hi), volts), float))
+    t_lo = np.abs(np.asarray(thrust_model.thrust(np.full(t.size, lo), volts), float))
+    sT = 0.5 * np.where(edge, np.where(P >= reg.neutral, t_hi, t_lo), 0.0)
+    Bm = np.asarray(B, float)
+    if Bm.shape[1] != len(keys):
+        sigma = np.zeros((6, t.size))
+    else:
+        sigma = np.sqrt((Bm ** 2) @ (sT ** 2))
+    return PwmFlags(t, edge.sum(axis=0), sat.sum(axis=0), sigma, reg, len(keys))

@@ -23,13 +23,19 @@ import numpy as np
 
 from uuvid.core.result import Result
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
+from uuvid.simulate.dive_horizontal import (
+    H_FORCES,
+    H_MEAS,
+    horizontal_from_vehicle,
+    replay_horizontal,
+)
 
 __all__ = ["OneDofParams", "DiveReplay", "replay_dive", "dive_windows", "WindowProblem",
            "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON"]
 
 CHANNEL_NAMES = {"heave": "depth", "yaw": "heading", "surge": "u", "sway": "v"}
 UNITS = {"heave": "m", "yaw": "rad", "surge": "m/s", "sway": "m/s"}
-DEFAULT_HORIZON = {"heave": 10.0, "yaw": 4.0, "surge": 5.0, "sway": 5.0}
+DEFAULT_HORIZON = {"heave": 10.0, "yaw": 4.0, "surge": 5.0, "sway": 5.0, "horizontal": 5.0}
 _FIT_HALF = {"heave": 1.0, "yaw": 0.25, "surge": 0.5, "sway": 0.5}  # local fit half-width [s]
 SURFACE_M = 0.2
 _INDEX = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}
@@ -359,8 +365,10 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     """Drive each DOF's 1-DOF model (the vehicle's, :func:`params_from_vehicle`) with the logged
     forces; restart every ``horizon`` s from the measured state; compare (see the module doc).
 
-    ``dofs``: ``"all"`` or names among heave, yaw, surge, sway (those without a measured channel
-    are skipped with a note when ``"all"``).  ``dive``: an already read
+    ``dofs``: ``"all"`` or names among heave, yaw, surge, sway and ``horizontal`` (the coupled
+    surge–sway–yaw model of :mod:`uuvid.simulate.dive_horizontal`: channels ``u (horizontal)``,
+    ``v (horizontal)``, ``heading (horizontal)``); with ``"all"`` those without measured
+    channels are left out.  ``dive``: an already read
     :class:`~uuvid.io.dive_channels.DiveChannels`; ``params``, ``topics``: as for
     :func:`~uuvid.io.dive_channels.read_dive_channels` (ArduSub parameters; a ROS bag's topics).
     """
@@ -375,9 +383,22 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     dofs = _dof_list(dofs, dc)
     notes, chans, traces, hz = [], {}, {}, {}
     for dof in dofs:
-        dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
         hz[dof] = H
+        if dof == "horizontal":
+            ph, src = horizontal_from_vehicle(veh)
+            mets, trs, nt = replay_horizontal(dc, ph, H, t_start, t_end)
+            notes += nt
+            if mets is None:
+                notes.append(f"horizontal: no armed {H:g} s window in the range: nothing replayed")
+                continue
+            for name, met in mets.items():
+                key = f"{name} (horizontal)"
+                chans[key] = {**met, "dof": "horizontal", "horizon": H,
+                              "params": ph.to_dict(), "params_source": src}
+                traces[key] = trs[name]
+            continue
+        dc.require(dof)
         p, src = params_from_vehicle(veh, dof)
         met, trace, nt = replay_windows(dc, dof, p, H, t_start, t_end)
         notes += nt
@@ -395,15 +416,22 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
 
 
 def _dof_list(dofs, dc) -> list:
+    """The DOF names to work on: ``"all"`` is every DOF with its measured and force channels,
+    plus ``horizontal`` (the coupled surge–sway–yaw model) when u, v and the heading are all
+    logged with X, Y, N."""
     if dofs in (None, "all") or dofs == ("all",) or dofs == ["all"]:
         out = [d for d in DIVE_DOFS if DIVE_DOFS[d][0] in dc.channels
                and DIVE_DOFS[d][1] in dc.channels]
         if not out:
             dc.require("heave")
+        if all(c in dc.channels and dc.channels[c][0].size >= 4 for c in H_MEAS) and \
+                all(f in dc.channels for f in H_FORCES):
+            out.append("horizontal")
         return out
     if isinstance(dofs, str):
         dofs = [dofs]
-    bad = [d for d in dofs if d not in DIVE_DOFS]
+    bad = [d for d in dofs if d not in DIVE_DOFS and d != "horizontal"]
     if bad:
-        raise DiveDataError(f"unknown DOF {bad[0]!r}; expected heave, yaw, surge, sway or all")
+        raise DiveDataError(f"unknown DOF {bad[0]!r}; expected heave, yaw, surge, sway, "
+                            "horizontal or all")
     return list(dofs)

@@ -25,7 +25,7 @@ import numpy as np
 
 from uuvid.io.ardusub.frames import DOF_COLUMNS
 
-__all__ = ["synthetic_dive", "dive_truth"]
+__all__ = ["synthetic_dive", "dive_truth", "synthetic_horizontal_dive", "horizontal_truth_vehicle"]
 
 TETHER = {"heave": (3.0, 12.0), "yaw": (0.05, 0.6)}  # (linear, quadratic) extra drag
 DT = 0.02
@@ -230,3 +230,161 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     df["mode"] = MODE[ii]
     df["armed"] = ARM[ii]
     return df, dive_truth(veh, tether)
+
+
+def _edge_shifted(model, edges):
+    """``thrust(pwm, volts)`` of ``model`` with its dead band moved to ``edges`` = (rev, fwd) µs
+    *only* inside the model's edge region (:meth:`uuvid.io.dive_channels.ThrustRegions.
+    edge_region`): commands there are mapped linearly so that the truth starts to push at the
+    new edge and meets the model at the region's outer end; outside it truth = model."""
+    from uuvid.io.dive_channels import thrust_regions
+
+    reg = thrust_regions(model)
+    lo, hi = reg.edge_region()
+    e_rev, e_fwd = edges
+
+    def thrust(pwm, volts):
+        c = np.asarray(pwm, float).copy()
+        f = (c > e_fwd) & (c < hi)
+        c[f] = reg.edge_fwd + (c[f] - e_fwd) * (hi - reg.edge_fwd) / (hi - e_fwd)
+        r = (c < e_rev) & (c > lo)
+        c[r] = reg.edge_rev - (e_rev - c[r]) * (reg.edge_rev - lo) / (e_rev - lo)
+        mid = (np.asarray(pwm, float) >= e_rev) & (np.asarray(pwm, float) <= e_fwd)
+        return np.where(mid, 0.0, model.thrust(c, volts))
+
+    return thrust
+
+
+def horizontal_truth_vehicle(vehicle="bluerov2", added=(1.4, 1.2, 1.5),
+                             extra_linear=(3.0, 2.0, 0.1), extra_quadratic=(0.0, 6.0, 0.5)):
+    """The vehicle a synthetic horizontal dive flies: ``vehicle`` with its centre of gravity at
+    the origin and ``W = B`` (so the 6-DOF model stays in the horizontal plane), its surge/sway/yaw
+    added mass scaled by ``added`` and extra drag (a tether) — so the base vehicle is not the
+    truth.  Returns ``(Vehicle, VehicleParams)``."""
+    from dataclasses import replace
+
+    from uuvid.vehicle.definition import load_vehicle
+
+    veh = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
+    p = veh.params
+    MA = np.array(p.added_mass)
+    DL = np.array(p.linear_damping)
+    DQ = np.array(p.quadratic_damping)
+    for j, i in enumerate((0, 1, 5)):
+        MA[i, i] *= added[j]
+        DL[i, i] += extra_linear[j]
+        DQ[i, i] += extra_quadratic[j]
+    pt = replace(p, r_g=np.zeros(3), r_b=np.zeros(3), weight=p.buoyancy, added_mass=MA,
+                 linear_damping=DL, quadratic_damping=DQ)
+    return veh, pt
+
+
+def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="bluerov2", *,
+                              dvl_rate: float = 6.0, yaw_rate: float = 20.0,
+                              pwm_rate: float = 10.0, dvl_noise: float = 0.01,
+                              yaw_noise: float = 0.005, truth_dead_band=None,
+                              jitter: float = 0.2, turning: float = 1.0):
+    """``(table, truth)``: a dive in the horizontal plane flown by the project's 6-DOF model
+    (:func:`uuvid.vehicle.model.vehicle_rhs`, RK4 at 50 Hz) with the vehicle of
+    :func:`horizontal_truth_vehicle`; ``truth`` is its :class:`~uuvid.vehicle.horizontal.
+    HorizontalParams` as a dict (biases 0).
+
+    A pilot holds surge, sway and yaw sticks for 2–6 s at a time (often surging while turning,
+    ``turning`` scales the yaw stick); ArduSub-like, each thruster's command is linear in its
+    share of the wanted wrench, ``pwm = 1500 + 400 T/T_max`` (no dead-band compensation, so
+    small commands sit in the dead band), reaching the thrusters through a 0.15 s lag.  The
+    thrust is the shipped T200 model at the sagging battery voltage — or, with
+    ``truth_dead_band=(rev, fwd)`` µs, that model with its dead band moved
+    (:func:`_edge_shifted`): the log's forces, computed from the PWM with the shipped model,
+    are then wrong at the dead band's edge.  Only X, Y, N act (heave, roll, pitch held).
+    Logged: u/v (DVL, ``dvl_rate`` Hz, σ ``dvl_noise``), heading (``yaw_rate`` Hz, wrapped),
+    ``pwm_<j>`` (``pwm_rate`` Hz), battery (1 Hz); no force columns (the reader computes them
+    from the PWM)."""
+    import pandas as pd
+
+    from uuvid.io.ardusub.thrust import default_t200
+    from uuvid.vehicle.horizontal import horizontal_params
+    from uuvid.vehicle.kinematics import normalise_state
+    from uuvid.vehicle.model import make_state, vehicle_rhs
+
+    rng = np.random.default_rng(seed)
+    veh, pt = horizontal_truth_vehicle(vehicle)
+    p = pt.to_array()
+    B = np.asarray(veh.B, float)
+    n_thr = B.shape[1]
+    rows = [0, 1, 5]
+    A = np.linalg.pinv(B[rows])
+    t_max = 40.0
+    t200 = default_t200()
+    thrust_fn = t200.thrust if truth_dead_band is None else _edge_shifted(t200,
+                                                                          truth_dead_band)
+    # thrust(pwm, V) tabulated once: whole µs × 0.05 V (linear in V between rows)
+    pwm_tab = np.arange(1100.0, 1901.0, 1.0)
+    v_tab = np.arange(13.0, 17.0001, 0.05)
+    TT = np.stack([thrust_fn(pwm_tab, np.full(pwm_tab.size, v)) for v in v_tab])
+
+    n = int(round(duration / DT))
+    t = np.arange(n + 1) * DT
+    # the pilot's wrench, held 2–6 s at a time
+    want = np.zeros((n + 1, 3))
+    s0 = 0.0
+    while s0 < duration:
+        s1 = s0 + rng.uniform(2, 6)
+        stick = np.array([25.0 * rng.uniform(-1, 1) * (rng.random() < 0.75),
+                          20.0 * rng.uniform(-1, 1) * (rng.random() < 0.5),
+                          3.0 * turning * rng.uniform(-1, 1) * (rng.random() < 0.7)])
+        if rng.random() < 0.25:  # fine corrections: commands near the dead band
+            stick = stick * 0.08
+        want[(t >= s0) & (t < s1)] = stick
+        s0 = s1
+    from scipy.signal import lfilter
+
+    cmd_want = np.clip(want @ A.T / t_max, -1, 1)
+    a_lag = DT / 0.15  # first-order lag, forward Euler at the simulation step
+    cmd = lfilter([a_lag], [1.0, -(1.0 - a_lag)], cmd_want, axis=0)
+    cmd = np.vstack([np.zeros((1, n_thr)), cmd[:-1]])
+    PWM = np.round(1500.0 + 400.0 * cmd)
+    V = 16.2 - 1.0 * t / max(duration, 1.0) - 0.005 * np.sum(np.abs(cmd), axis=1) * t_max
+    iv = np.clip((V - v_tab[0]) / 0.05, 0.0, v_tab.size - 1.000001)
+    kv = iv.astype(int)
+    fv = (iv - kv)[:, None]
+    ip = np.clip(np.round(PWM - 1100.0).astype(int), 0, pwm_tab.size - 1)
+    T = TT[kv[:, None], ip] * (1 - fv) + TT[kv[:, None] + 1, ip] * fv
+    TAU = T @ B.T
+    TAU[:, 2:5] = 0.0
+    X = np.empty((n + 1, 13))
+    x = make_state(rpy=(0, 0, rng.uniform(-np.pi, np.pi)))
+    X[0] = x
+    for i in range(n):
+        tau6 = TAU[i]
+        k1 = vehicle_rhs(x, tau6, p)
+        k2 = vehicle_rhs(x + 0.5 * DT * k1, tau6, p)
+        k3 = vehicle_rhs(x + 0.5 * DT * k2, tau6, p)
+        k4 = vehicle_rhs(x + DT * k3, tau6, p)
+        x = x + DT / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        normalise_state(x)
+        X[i + 1] = x
+    qw, qx, qy, qz = X[:, 3], X[:, 4], X[:, 5], X[:, 6]
+    yaw_true = np.unwrap(np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
+    t_y = _stamps(rng, 0.0, duration, yaw_rate, jitter)
+    t_v = _stamps(rng, 0.0, duration, dvl_rate, jitter)
+    t_p = _stamps(rng, 0.0, duration, pwm_rate, jitter)
+    t_b = _stamps(rng, 0.0, duration, 1.0, jitter)
+    stamps = np.unique(np.concatenate([t_y, t_v, t_p, t_b]))
+    df = pd.DataFrame({"t_s": stamps})
+
+    def col(ts, vals):
+        c = np.full(stamps.size, np.nan)
+        c[np.searchsorted(stamps, ts)] = vals
+        return c
+
+    yaw = np.interp(t_y, t, yaw_true) + yaw_noise * rng.standard_normal(t_y.size)
+    df["yaw_rad"] = col(t_y, (yaw + np.pi) % (2 * np.pi) - np.pi)
+    for c, j in (("u_mps", 7), ("v_mps", 8)):
+        df[c] = col(t_v, np.interp(t_v, t, X[:, j]) + dvl_noise * rng.standard_normal(t_v.size))
+    df["battery_V"] = col(t_b, np.interp(t_b, t, V) + 0.02 * rng.standard_normal(t_b.size))
+    idx_p = np.clip(np.searchsorted(t, t_p, side="right") - 1, 0, n)
+    for j in range(n_thr):
+        df[f"pwm_{j + 1}"] = col(t_p, PWM[idx_p, j])
+    df["armed"] = True
+    return df, horizontal_params(pt).to_dict()

@@ -21,6 +21,14 @@ parameters included.  Warnings name parameters the dive cannot separate (|ρ| > 
 whose σ exceeds half their value, estimates at a bound.  With ``t_end`` before the end of the
 log, the rest is a held-out part: both the identified and the base vehicle's model replay it
 (:func:`uuvid.simulate.dive_replay.replay_windows`).
+
+Dead band: where servo outputs are logged, each force sample whose thrusters sit at the edge of
+the dead band (read off the thruster model, :func:`uuvid.io.dive_channels.pwm_flags`) carries an
+uncertain force σ_F; it is propagated through the model from each window's start and the
+residuals weighted by ``1/sqrt(1 + (δy/σ_y)²)``
+(:func:`uuvid.identify.vehicle.output_error.dead_band_weights`); saturated samples are counted,
+not down-weighted (their thrust is known).  ``dofs="horizontal"`` identifies surge, sway and yaw
+jointly with the coupled model (:mod:`uuvid.identify.vehicle.dive_horizontal`).
 """
 
 from __future__ import annotations
@@ -32,7 +40,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.core.result import Result
-from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
+from uuvid.identify.vehicle.output_error import (
+    correlation_warnings,
+    covariance,
+    dead_band_weights,
+    levenberg_marquardt,
+    noise_sigma,
+    weighting_summary,
+    weighting_text,
+)
+from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, pwm_flags, read_dive_channels
 from uuvid.simulate.dive_replay import (
     _STATE_SPAN,
     CHANNEL_NAMES,
@@ -129,6 +146,7 @@ class DofEstimate:
     warnings: list
     notes: list
     traces: dict = field(default_factory=dict, repr=False)
+    weighting: dict = field(default_factory=dict)
 
     def params(self) -> OneDofParams:
         v = self.values
@@ -142,7 +160,47 @@ class DofEstimate:
                 "start_value_svf": self.start, "base": self.base, "base_source": self.base_source,
                 "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
                 "train": self.train, "held_out": self.held_out, "warnings": self.warnings,
-                "notes": self.notes}
+                "notes": self.notes, "dead_band": self.weighting}
+
+    def identified(self, log: str) -> dict:
+        """``{dof: entry}`` for :func:`uuvid.vehicle.writeback.write_identified`."""
+        v, s = self.values, self.sigma
+        return {self.dof: {"mass": v["mass"], "linear": max(v["linear"], 0.0),
+                           "quadratic": max(v["quadratic"], 0.0), "disturbance": v["bias"],
+                           "sigma": {"mass": s["mass"], "linear": s["linear"],
+                                     "quadratic": s["quadratic"], "disturbance": s["bias"]},
+                           "log": log, "method": "dive output-error",
+                           "notes": f"{self.windows} windows of {self.horizon:g} s"}}
+
+    def summary_lines(self, t_end) -> list:
+        dof, e = self.dof, self
+        lab = _LABEL.get(dof, {k: k for k in PARAMS})
+        lines = [f"{dof}: {e.windows} windows of {e.horizon:g} s (output error)"]
+        for k in PARAMS:
+            b = e.base.get(k)
+            ratio = (f"  ×{e.values[k] / b:.2f} of base {b:.4g}" if b else
+                     f"  (base {b:.4g})" if b is not None else "")
+            lines.append(f"  {lab[k]:30s} {e.values[k]:10.4g} ± {e.sigma[k]:.2g}{ratio}")
+        ch = CHANNEL_NAMES[dof]
+        lines.append(f"  in-sample replay: {ch} rms {e.train['rms']:.3g} {UNITS[dof]}, "
+                     f"nrmse {e.train['nrmse']:.3f}")
+        if e.held_out and e.held_out["improvement"] is not None:
+            h = e.held_out
+            lines.append(f"  held-out (t > {t_end:g} s): {ch} rms identified "
+                         f"{h['identified']['rms']:.3g} vs base {h['base']['rms']:.3g} "
+                         f"{UNITS[dof]} ({h['improvement']:.2f}× better)")
+        if e.weighting:
+            lines.append(f"  {weighting_text(e.weighting)}")
+        lines += [f"  warning: {w}" for w in e.warnings]
+        lines += [f"  note: {n}" for n in e.notes]
+        return lines
+
+    def panels(self) -> list:
+        """``[(trace, y label, title)]`` for the report's figure; a trace is ``(t, measured,
+        identified, base, window)``."""
+        key = "held_out" if "held_out" in self.traces else "train"
+        return [(self.traces[key], f"{CHANNEL_NAMES[self.dof]} [{UNITS[self.dof]}]",
+                 f"{self.dof}: {'held-out' if key == 'held_out' else 'in-sample'} replay")]
 
 
 @dataclass
@@ -161,16 +219,15 @@ class DiveIdentification(Result):
     report_title = "Dive identification"
 
     def identified(self) -> dict:
-        """The estimates in :func:`uuvid.vehicle.writeback.write_identified`'s form."""
+        """The estimates in :func:`uuvid.vehicle.writeback.write_identified`'s form.  Where the
+        coupled horizontal model was identified too, its surge, sway and yaw values are written
+        (it is the model the 6-DOF simulator flies; the 1-DOF ones stay in the result)."""
         out = {}
-        for dof, e in self.estimates.items():
-            v, s = e.values, e.sigma
-            out[dof] = {"mass": v["mass"], "linear": max(v["linear"], 0.0),
-                        "quadratic": max(v["quadratic"], 0.0), "disturbance": v["bias"],
-                        "sigma": {"mass": s["mass"], "linear": s["linear"],
-                                  "quadratic": s["quadratic"], "disturbance": s["bias"]},
-                        "log": self.log, "method": "dive output-error",
-                        "notes": f"{e.windows} windows of {e.horizon:g} s"}
+        for e in self.estimates.values():
+            if e.dof != "horizontal":
+                out.update(e.identified(self.log))
+        if "horizontal" in self.estimates:
+            out.update(self.estimates["horizontal"].identified(self.log))
         return out
 
     def write_vehicle(self, out, base=None) -> object:
@@ -192,24 +249,8 @@ class DiveIdentification(Result):
                    f"{self.t_end if self.t_end is not None else 'end'}] s"
         lines = [f"dive identification of {self.log}{span}, base vehicle {self.vehicle} "
                  f"({self.seconds:.1f} s)"]
-        for dof, e in self.estimates.items():
-            lab = _LABEL.get(dof, {k: k for k in PARAMS})
-            lines.append(f"{dof}: {e.windows} windows of {e.horizon:g} s (output error)")
-            for k in PARAMS:
-                b = e.base.get(k)
-                ratio = (f"  ×{e.values[k] / b:.2f} of base {b:.4g}" if b else
-                         f"  (base {b:.4g})" if b is not None else "")
-                lines.append(f"  {lab[k]:30s} {e.values[k]:10.4g} ± {e.sigma[k]:.2g}{ratio}")
-            ch = CHANNEL_NAMES[dof]
-            lines.append(f"  in-sample replay: {ch} rms {e.train['rms']:.3g} {UNITS[dof]}, "
-                         f"nrmse {e.train['nrmse']:.3f}")
-            if e.held_out and e.held_out["improvement"] is not None:
-                h = e.held_out
-                lines.append(f"  held-out (t > {self.t_end:g} s): {ch} rms identified "
-                             f"{h['identified']['rms']:.3g} vs base {h['base']['rms']:.3g} "
-                             f"{UNITS[dof]} ({h['improvement']:.2f}× better)")
-            lines += [f"  warning: {w}" for w in e.warnings]
-            lines += [f"  note: {n}" for n in e.notes]
+        for e in self.estimates.values():
+            lines += e.summary_lines(self.t_end)
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
@@ -222,18 +263,15 @@ class DiveIdentification(Result):
     def plot(self, path=None):
         from uuvid.core.plots import new_figure, save_figure
 
-        dofs = list(self.estimates)
-        fig, ax = new_figure(len(dofs), 1, figsize=(10, 3.2 * len(dofs)))
+        panels = [p for e in self.estimates.values() for p in e.panels()]
+        fig, ax = new_figure(len(panels), 1, figsize=(10, 3.2 * len(panels)))
         ax = np.atleast_1d(ax)
-        for a, dof in zip(ax, dofs):
-            e = self.estimates[dof]
-            key = "held_out" if "held_out" in e.traces else "train"
-            t, y, p_id, p_base, w = e.traces[key]
+        for a, ((t, y, p_id, p_base, w), ylabel, title) in zip(ax, panels):
             plot_windows(a, t, y, w, [(p_id, "identified", {"color": "C1", "lw": 1}),
                                       (p_base, f"base {self.vehicle}",
                                        {"color": "C0", "lw": 0.8, "ls": "--"})])
-            a.set_ylabel(f"{CHANNEL_NAMES[dof]} [{UNITS[dof]}]")
-            a.set_title(f"{dof}: {'held-out' if key == 'held_out' else 'in-sample'} replay")
+            a.set_ylabel(ylabel)
+            a.set_title(title)
             a.legend(loc="upper right", fontsize="small")
         for a in ax:  # every panel names its time axis (they do not share one)
             a.set_xlabel("t [s]")
@@ -256,33 +294,21 @@ class DiveIdentification(Result):
         return rep.write(folder)
 
 
-def _covariance(J, r, groups, n_glob):
-    """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
-    the fit, so their uncertainty is accounted for): per parameter the larger of the classical
-    ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
-    classical matrix where the sandwich is degenerate)."""
-    N, P = J.shape
-    A = J.T @ J
-    try:
-        Ainv = np.linalg.pinv(A)
-    except np.linalg.LinAlgError:
-        return np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
-    s2 = float(r @ r) / max(N - P, 1)
-    c = (s2 * Ainv)[:n_glob, :n_glob]
-    meat = np.zeros((P, P))
-    for g in np.unique(groups):
-        sel = groups == g
-        gw = J[sel].T @ r[sel]
-        meat += np.outer(gw, gw)
-    G = np.unique(groups).size
-    rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
-    sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb)))
-    use = rb if np.all(np.diag(rb) > 0) else c
-    d = np.sqrt(np.maximum(np.diag(use), 1e-300))
-    return sd, use / np.outer(d, d)
+def _dead_band_delta(prob, force_sigma, theta, y0, v0):
+    """``δy`` of :func:`~uuvid.identify.vehicle.output_error.dead_band_weights`: the prediction
+    with the force raised by its dead-band uncertainty σ_F (linear between the servo-output
+    samples, like the force) minus the prediction with the logged force."""
+    import copy
+
+    tF, sF = force_sigma
+    th = prob.ta[:, None] + 0.5 * prob.h * np.arange(2 * prob.n + 1)[None, :]
+    pert = copy.copy(prob)
+    pert.Fh = prob.Fh + np.interp(th, tF, sF, left=0.0, right=0.0)
+    return pert.predict(theta, y0, v0) - prob.predict(theta, y0, v0)
 
 
-def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
+def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
+             weighting: bool = True):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
     if len(windows) < need:
@@ -312,9 +338,19 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
             return th, z[4:4 + W], z[4 + W:]
         return th, z[4:4 + W], None
 
+    weights = None
+    if flags is not None and weighting:
+        fs = flags.sigma_of(DIVE_DOFS[dof][1])
+        if np.any(fs[1] > 0):
+            with np.errstate(over="ignore", invalid="ignore"):
+                delta = _dead_band_delta(prob, fs, th0, prob.y0_meas,
+                                         prob.v0_meas if pos else np.zeros(W))
+            weights = dead_band_weights(delta, noise_sigma(*dc.channels[DIVE_DOFS[dof][0]]))
+    wts = weights if weights is not None else 1.0
+
     def resid(z):
         th, y0, v0 = unpack(z)
-        return prob.predict(th, y0, v0 if v0 is not None else np.zeros(W)) - prob.y
+        return (prob.predict(th, y0, v0 if v0 is not None else np.zeros(W)) - prob.y) * wts
 
     z0 = np.concatenate([th0, prob.y0_meas] + ([prob.v0_meas] if pos else []))
     N = prob.y.size
@@ -343,22 +379,17 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
         return J
 
     free = np.ones(P, bool)
-    sol = _levenberg_marquardt(resid, jac, z0, free)
+    sol = levenberg_marquardt(resid, jac, z0, free)
     th = sol["x"][:4]
     J = sol["jac"][:, free]
-    sd_f, corr_f = _covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:4])))
+    sd_f, corr_f = covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:4])))
     sd, corr = np.zeros(4), np.eye(4)
     fi = np.flatnonzero(free[:4])
     sd[fi] = sd_f
     corr[np.ix_(fi, fi)] = corr_f
     values = {k: float(v) for k, v in zip(PARAMS, th)}
     sigma = {k: float(v) for k, v in zip(PARAMS, sd)}
-    warns = []
-    for i in range(4):
-        for j in range(i + 1, 4):
-            if abs(corr[i, j]) > 0.95:
-                warns.append(f"{PARAMS[i]} and {PARAMS[j]} are hard to separate in this dive "
-                             f"(correlation {corr[i, j]:+.2f}): more varied forces and speeds help")
+    warns = correlation_warnings(PARAMS, corr)
     for k in ("linear", "quadratic"):
         if values[k] < 0:
             warns.append(f"{k} drag estimate is negative ({values[k]:.3g} ± {sigma[k]:.2g}): "
@@ -395,94 +426,73 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams):
     sd_y = float(np.std(prob.y[sc]))
     train = {"rms": float(np.sqrt(np.mean(err ** 2))),
              "nrmse": float(np.sqrt(np.mean(err ** 2)) / sd_y) if sd_y > 0 else float("nan"),
-             "rms_fit": float(np.sqrt(np.mean(sol["fun"] ** 2))), "iterations": sol["nit"],
+             "rms_fit": float(np.sqrt(np.mean((sol["fun"] / wts) ** 2))),  # unweighted
+             "iterations": sol["nit"],
              "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
              "n": int(np.count_nonzero(sc))}
     traces = {"train": (prob.t[sc], prob.y[sc], pr_id[sc], pr_b[sc], prob.w[sc])}
     if not math.isfinite(train["rms"]):
         warns.append("the identified model does not stay finite when replayed from the measured "
                      "states (too stiff for the replay's step, or unstable): do not use it")
-    return values, sigma, corr, start, windows, notes, warns, train, traces
+    weighting_d = weighting_summary(flags, weights if weights is not None else
+                                    (np.ones(prob.y.size) if flags is not None and weighting
+                                     else None), prob.w, windows[0][0], windows[-1][1], W,
+                                    (DIVE_DOFS[dof][1],))
+    weighting_d["enabled"] = bool(weighting and flags is not None)
+    return values, sigma, corr, start, windows, notes, warns, train, traces, weighting_d
 
 
-def _levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40) -> dict:
-    """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
-    equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
-    the cost by less than 0.1 % of one residual's variance (a step that small moves the
-    estimates by a tiny fraction of their σ)."""
-    z = np.array(z0, float)
-
-    def cost_of(r):
-        c = float(r @ r)
-        return c if math.isfinite(c) else math.inf
-
-    with np.errstate(over="ignore", invalid="ignore"):
-        r = resid(z)
-        cost = cost_of(r)
-        lam, msg, ok, it = 1e-3, "maximum iterations", False, 0
-        J = jac(z)
-        for it in range(1, max_iter + 1):  # noqa: B007  (returned as nit)
-            Jf = J[:, free]
-            A = Jf.T @ Jf
-            g = Jf.T @ r
-            D = np.maximum(np.diag(A), 1e-12)
-            improved = False
-            while lam < 1e12:
-                try:
-                    step = np.linalg.solve(A + lam * np.diag(D), -g)
-                except np.linalg.LinAlgError:
-                    lam *= 10
-                    continue
-                zn = z.copy()
-                zn[free] += step
-                if zn[0] <= 0:
-                    lam *= 4
-                    continue
-                rn = resid(zn)
-                cn = cost_of(rn)
-                if cn < cost:
-                    improved = True
-                    break
-                lam *= 4
-            if not improved:
-                msg, ok = "no further decrease", True
-                break
-            drop = cost - cn
-            z, r, cost = zn, rn, cn
-            lam = max(lam / 3, 1e-9)
-            J = jac(z)
-            if drop < 1e-3 * cost / r.size:  # moves every estimate by far less than its σ
-                msg, ok = "converged", True
-                break
-    return {"x": z, "fun": r, "jac": J, "success": ok, "message": msg, "nit": it}
-
-
-def _pwm_notes(dc, t_start, t_end) -> list:
+def _pwm_notes(dc, t_start, t_end, flags=None) -> list:
+    """Per motor: how many PWM samples sit at the thruster model's saturation (within 5 µs of
+    where its thrust stops growing; 1100/1900 µs without a model)."""
     out = []
+    lo, hi = ((flags.regions.full_rev, flags.regions.full_fwd) if flags is not None
+              else (1100.0, 1900.0))
     for m, (t, p) in dc.pwm.items():
         sel = (t >= (t_start if t_start is not None else -np.inf)) & \
               (t <= (t_end if t_end is not None else np.inf)) & (p > 0)
         if not sel.any():
             continue
-        sat = np.count_nonzero((p[sel] >= 1895) | (p[sel] <= 1105))
+        sat = np.count_nonzero((p[sel] >= hi - 5.0) | (p[sel] <= lo + 5.0))
         if sat:
-            out.append(f"motor {m}: {sat} of {np.count_nonzero(sel)} PWM samples at the 1100/1900 "
-                       "µs limits (saturated: thrust there is still known, used as logged)")
+            out.append(f"motor {m}: {sat} of {np.count_nonzero(sel)} PWM samples at the "
+                       f"{lo:.0f}/{hi:.0f} µs limits (saturated: thrust there is still known, "
+                       "used as logged)")
     return out
+
+
+def _flags(dc, veh, thruster_model):
+    """Dead-band/saturation flags of the servo outputs with the thruster model that turned them
+    into forces: a table's pwm_ columns always through the shipped T200 model
+    (:func:`uuvid.io.dive_channels.read_dive_channels`), an ArduSub log's through
+    ``thruster_model`` when given."""
+    from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
+
+    if not dc.pwm:
+        return None
+    tm = (load_thrust_model(thruster_model) if thruster_model is not None
+          and dc.format not in ("table", "csv", "parquet") else default_t200())
+    return pwm_flags(dc, veh.B, tm)
 
 
 def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None,
                   horizon=None, params=None, thruster_model=None, dive=None,
-                  held_out_horizon=None, topics=None) -> DiveIdentification:
+                  held_out_horizon=None, topics=None,
+                  dead_band_weighting: bool = True) -> DiveIdentification:
     """Identify per-DOF 1-DOF models from every armed sample of a dive (see the module doc).
 
     ``log``: ArduSub ``.tlog``/``.BIN``, CSV/Parquet with force columns, a DataFrame, or a ROS 1/2
     bag (``topics``: ``{role: "topic:field"}`` overriding mavros' topics,
     :mod:`uuvid.io.dive_rosbag`; ``params``: ArduSub parameters the log lacks);
     ``vehicle``: the base vehicle (preset, file or :class:`~uuvid.vehicle.definition.Vehicle`);
-    ``dofs``: names or ``"all"``; ``t_start``/``t_end`` [s]: the part to identify from (the rest
-    after ``t_end`` is scored as held out); ``horizon`` [s]: output-error window (default per DOF,
-    :data:`uuvid.simulate.dive_replay.DEFAULT_HORIZON`).
+    ``dofs``: names among heave, yaw, surge, sway, ``horizontal`` (surge, sway and yaw jointly
+    with the coupled model, :mod:`uuvid.identify.vehicle.dive_horizontal`; needs ``u_mps``,
+    ``v_mps`` and ``yaw_rad``) or ``"all"`` (every one the log has channels for);
+    ``t_start``/``t_end`` [s]: the part to identify from (the rest after ``t_end`` is scored as
+    held out); ``horizon`` [s]: output-error window (default per DOF,
+    :data:`uuvid.simulate.dive_replay.DEFAULT_HORIZON`).  ``dead_band_weighting``: down-weight
+    residuals whose force comes from thrusters at the dead band's edge
+    (:func:`~uuvid.identify.vehicle.output_error.dead_band_weights`; needs logged PWM).
     """
     from uuvid.vehicle.definition import load_vehicle
 
@@ -498,13 +508,26 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         raise DiveDataError(f"--t-end {t_end:g} s must be after --t-start {t_start:g} s")
     dofs = _dof_list(dofs, dc)
     ests = {}
-    warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end)
+    flags = _flags(dc, veh, thruster_model)
+    warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end, flags)
+    if "horizontal" in dofs and {"surge", "sway", "yaw"} & set(dofs):
+        warnings.append("both the coupled horizontal model and 1-DOF "
+                        + "/".join(d for d in ("surge", "sway", "yaw") if d in dofs)
+                        + " were identified: a written vehicle gets the coupled model's values "
+                          "(the 6-DOF simulator flies the coupled model)")
     for dof in dofs:
+        if dof == "horizontal":
+            from uuvid.identify.vehicle.dive_horizontal import fit_horizontal
+
+            ests[dof] = fit_horizontal(dc, veh, float(horizon or DEFAULT_HORIZON[dof]), t_start,
+                                       t_end, flags=flags, weighting=dead_band_weighting,
+                                       held_out_horizon=held_out_horizon)
+            continue
         dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
         base, base_src = params_from_vehicle(veh, dof)
-        values, sigma, corr, start, windows, notes, warns, train, traces = _fit_dof(
-            dc, dof, H, t_start, t_end, base)
+        values, sigma, corr, start, windows, notes, warns, train, traces, wd = _fit_dof(
+            dc, dof, H, t_start, t_end, base, flags, dead_band_weighting)
         held = None
         if t_end is not None:
             Hh = float(held_out_horizon or H)
@@ -526,7 +549,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
         ests[dof] = DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
-                                base_src, len(windows), H, train, held, warns, notes, traces)
+                                base_src, len(windows), H, train, held, warns, notes, traces, wd)
     return DiveIdentification(dc.name, veh.name, vehicle if not hasattr(vehicle, "B") else
                               (veh.path or veh.name), ests, t_start, t_end,
                               time.perf_counter() - t0, warnings)

@@ -1,0 +1,181 @@
+"""Output error over windows, shared by the per-DOF and the coupled horizontal dive fits.
+
+* :func:`levenberg_marquardt` — the minimiser (small dense problems, normal equations);
+* :func:`covariance` — σ and correlations: the larger of ``s²(JᵀJ)⁻¹`` and a window-cluster
+  sandwich, nuisance initial states included;
+* :func:`correlation_warnings` — parameters a dive cannot separate (|ρ| > 0.95);
+* :func:`noise_sigma` — a channel's measurement noise from its own samples
+  (:func:`uuvid.simulate.dive_horizontal.noise_sigma`);
+* :func:`dead_band_weights` — the weight rule for residuals whose force comes from thrusters
+  at the dead band's edge (see its docstring).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uuvid.simulate.dive_horizontal import noise_sigma
+
+__all__ = ["levenberg_marquardt", "covariance", "correlation_warnings", "noise_sigma",
+           "dead_band_weights", "weighting_summary", "weighting_text", "DOWN_WEIGHTED"]
+
+#: a residual sample counts as down-weighted below this weight
+DOWN_WEIGHTED = 0.9
+
+
+def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,)) -> dict:
+    """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
+    equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
+    the cost by less than 0.1 % of one residual's variance (a step that small moves the
+    estimates by a tiny fraction of their σ).  A trial step that makes an entry of ``positive``
+    (indices: masses, inertias) ≤ 0 is refused."""
+    z = np.array(z0, float)
+
+    def cost_of(r):
+        c = float(r @ r)
+        return c if math.isfinite(c) else math.inf
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = resid(z)
+        cost = cost_of(r)
+        lam, msg, ok, it = 1e-3, "maximum iterations", False, 0
+        J = jac(z)
+        for it in range(1, max_iter + 1):  # noqa: B007  (returned as nit)
+            Jf = J[:, free]
+            A = Jf.T @ Jf
+            g = Jf.T @ r
+            D = np.maximum(np.diag(A), 1e-12)
+            improved = False
+            while lam < 1e12:
+                try:
+                    step = np.linalg.solve(A + lam * np.diag(D), -g)
+                except np.linalg.LinAlgError:
+                    lam *= 10
+                    continue
+                zn = z.copy()
+                zn[free] += step
+                if np.any(zn[list(positive)] <= 0):
+                    lam *= 4
+                    continue
+                rn = resid(zn)
+                cn = cost_of(rn)
+                if cn < cost:
+                    improved = True
+                    break
+                lam *= 4
+            if not improved:
+                msg, ok = "no further decrease", True
+                break
+            drop = cost - cn
+            z, r, cost = zn, rn, cn
+            lam = max(lam / 3, 1e-9)
+            J = jac(z)
+            if drop < 1e-3 * cost / r.size:  # moves every estimate by far less than its σ
+                msg, ok = "converged", True
+                break
+    return {"x": z, "fun": r, "jac": J, "success": ok, "message": msg, "nit": it}
+
+
+def covariance(J, r, groups, n_glob):
+    """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
+    the fit, so their uncertainty is accounted for): per parameter the larger of the classical
+    ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
+    classical matrix where the sandwich is degenerate)."""
+    N, P = J.shape
+    A = J.T @ J
+    try:
+        Ainv = np.linalg.pinv(A)
+    except np.linalg.LinAlgError:
+        return np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
+    s2 = float(r @ r) / max(N - P, 1)
+    c = (s2 * Ainv)[:n_glob, :n_glob]
+    meat = np.zeros((P, P))
+    for g in np.unique(groups):
+        sel = groups == g
+        gw = J[sel].T @ r[sel]
+        meat += np.outer(gw, gw)
+    G = np.unique(groups).size
+    rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
+    sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb)))
+    use = rb if np.all(np.diag(rb) > 0) else c
+    d = np.sqrt(np.maximum(np.diag(use), 1e-300))
+    return sd, use / np.outer(d, d)
+
+
+def correlation_warnings(names, corr, limit: float = 0.95) -> list:
+    """One warning per pair of parameters correlated beyond ``limit``."""
+    out = []
+    n = len(names)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if abs(corr[i][j]) > limit:
+                out.append(f"{names[i]} and {names[j]} are hard to separate in this dive "
+                           f"(correlation {corr[i][j]:+.2f}): more varied forces and speeds help")
+    return out
+
+
+def dead_band_weights(delta_y, sigma_y) -> np.ndarray:
+    """Weights ``w_i = 1/sqrt(1 + (δy_i/σ_y)²)`` of the output-error residuals.
+
+    ``δy_i`` is how far sample i's prediction moves when every thruster at the dead band's edge
+    pushes its uncertain thrust ``σ_T`` (:func:`uuvid.io.dive_channels.pwm_flags`) from the
+    window's start on (the same model, the same initial state: the input uncertainty propagated
+    through the model); ``σ_y`` the channel's measurement noise (:func:`noise_sigma`).  The
+    residual's variance is then ``σ_y² + δy_i²`` and ``w_i ∝ 1/sqrt`` of it — weighted least
+    squares with the input error treated as an output error (errors in variables to first
+    order).  Samples whose force is certain keep ``w = 1``; a window whose thrusters sat at the
+    edge early counts little for the whole of it, since its error accumulates.  Saturated
+    samples are not down-weighted: their thrust is known.
+    """
+    d = np.asarray(delta_y, float)
+    s = max(float(sigma_y), 1e-12) if math.isfinite(float(sigma_y)) else 1.0
+    w = 1.0 / np.sqrt(1.0 + (np.where(np.isfinite(d), d, 0.0) / s) ** 2)
+    return w
+
+
+def weighting_summary(flags, weights, windows_of_rows, t0, t1, n_windows: int,
+                      forces=()) -> dict:
+    """Counts for summary()/to_dict(): force samples within ``[t0, t1]`` whose ``forces``
+    (channel names, e.g. ``("Z_N",)``) depend on thrusters at the dead band's edge, samples
+    with a saturated thruster, residual samples and windows down-weighted."""
+    out = {"enabled": weights is not None, "rule": "w = 1/sqrt(1 + (δy/σ_y)²), δy: the "
+           "prediction's change under the edge thrusters' uncertain thrust",
+           "force_samples": 0, "force_samples_dead_band_edge": 0, "force_samples_saturated": 0,
+           "residual_samples": 0, "residual_samples_down_weighted": 0, "windows": n_windows,
+           "windows_down_weighted": 0, "mean_weight": 1.0, "regions": None}
+    if flags is not None:
+        sel = (flags.t >= t0) & (flags.t <= t1)
+        edge = (np.any([flags.sigma_of(f)[1] > 0 for f in forces], axis=0) if forces
+                else flags.n_edge > 0)
+        out.update(force_samples=int(np.count_nonzero(sel)),
+                   force_samples_dead_band_edge=int(np.count_nonzero(edge[sel])),
+                   force_samples_saturated=int(np.count_nonzero(flags.n_sat[sel] > 0)),
+                   regions=flags.regions.to_dict())
+    if weights is not None:
+        w = np.asarray(weights, float)
+        low = w < DOWN_WEIGHTED
+        out.update(residual_samples=int(w.size), residual_samples_down_weighted=int(
+            np.count_nonzero(low)), mean_weight=float(np.mean(w)) if w.size else 1.0,
+            windows_down_weighted=int(np.unique(np.asarray(windows_of_rows)[low]).size))
+    return out
+
+
+def weighting_text(d: dict) -> str:
+    """One line for a summary."""
+    if d["force_samples"] == 0 and not d["enabled"]:
+        return "dead-band weighting: no servo outputs logged (forces used as logged)"
+    r = d["regions"] or {}
+    band = r.get("dead_band_us")
+    head = (f"dead band {band[0]:.0f}–{band[1]:.0f} µs ({r.get('model')}): " if band else "")
+    txt = (f"{head}{d['force_samples_dead_band_edge']} of {d['force_samples']} force samples of "
+           f"this model depend on thrusters at its edge, {d['force_samples_saturated']} have one "
+           "saturated")
+    if d["enabled"]:
+        txt += (f"; {d['residual_samples_down_weighted']} of {d['residual_samples']} residual "
+                f"samples in {d['windows_down_weighted']} of {d['windows']} windows down-weighted "
+                f"(w < {DOWN_WEIGHTED:g}; mean weight {d['mean_weight']:.2f})")
+    else:
+        txt += "; not down-weighted (weighting off)"
+    return txt
