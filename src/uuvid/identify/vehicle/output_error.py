@@ -25,12 +25,15 @@ __all__ = ["levenberg_marquardt", "covariance", "correlation_warnings", "noise_s
 DOWN_WEIGHTED = 0.9
 
 
-def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,)) -> dict:
+def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,),
+                        nonneg=()) -> dict:
     """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
     equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
     the cost by less than 0.1 % of one residual's variance (a step that small moves the
     estimates by a tiny fraction of their σ).  A trial step that makes an entry of ``positive``
-    (indices: masses, inertias) ≤ 0 is refused."""
+    (indices: masses, inertias) ≤ 0 is refused; entries of ``nonneg`` (drag coefficients) are
+    projected onto ≥ 0 (a negative drag feeds energy in: a model that blows up on replay, or
+    that a vehicle file, which clips it to 0, would turn into another model)."""
     z = np.array(z0, float)
 
     def cost_of(r):
@@ -56,6 +59,9 @@ def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,))
                     continue
                 zn = z.copy()
                 zn[free] += step
+                if nonneg:
+                    nn = list(nonneg)
+                    zn[nn] = np.maximum(zn[nn], 0.0)
                 if np.any(zn[list(positive)] <= 0):
                     lam *= 4
                     continue
@@ -76,6 +82,22 @@ def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,))
                 msg, ok = "converged", True
                 break
     return {"x": z, "fun": r, "jac": J, "success": ok, "message": msg, "nit": it}
+
+
+def best_starts(cost, candidates, keep: int = 2) -> list:
+    """``[(cost, candidate)]`` to refine, cheapest first: the first candidate — the data's own
+    start value — and, when they cost less than it, up to ``keep − 1`` of the others (all of
+    them ranked by ``cost(candidate)``; a start whose simulation blows up costs ∞).  When the
+    data's own start is the cheapest, it alone is refined."""
+    scored = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        for c in candidates:
+            v = float(cost(c))
+            scored.append((v if math.isfinite(v) else math.inf, c))
+    first = scored[0]
+    better = sorted((x for x in scored[1:] if x[0] < first[0]), key=lambda x: x[0])
+    out = better[:keep - 1] + ([first] if math.isfinite(first[0]) else better[keep - 1:keep])
+    return sorted(out, key=lambda x: x[0]) or [first]
 
 
 def covariance(J, r, groups, n_glob):
