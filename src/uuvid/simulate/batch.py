@@ -49,6 +49,12 @@ quadratic map — and purely static chains (thrust = map(command), e.g. ROMEO's 
 Static blocks: ESC, quadratic, polynomial, dead zone, zero-order.  Anything else (DC motors,
 tunnel thrusters, load cells, tables) falls back to :func:`~uuvid.simulate.vehicle_sim.fly_batch`.
 
+**Inflow** (issue 21, a setup with ``inflow='four-quadrant'``) is not in the generated kernel:
+such a setup goes to :func:`~uuvid.simulate.vehicle_sim.fly_batch`, whose per-vehicle loop takes
+each thruster's thrust to its advance speed at every RK4 stage exactly as
+:func:`~uuvid.simulate.vehicle_sim.fly_mission` does (``fallback=False`` raises, naming the
+option; :func:`fast_path_reason` says so).
+
 **User controllers.**  A numba-compiled :class:`~uuvid.simulate.control.blocks.Controller` with
 ``output="wrench"`` takes the place of the inline PID: each step a scalar loop gathers a lane's
 state into small arrays, calls the controller (a module global of the generated kernel, so numba
@@ -234,6 +240,10 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
         raise _NoFastPath("a plain Python controller flies the compiled loop per vehicle, one "
                           "vehicle after another (vehicle_sim.run_batch)")
     user = ctrl is not None
+    if getattr(s, "inflow_arrays", None) is not None:
+        raise _NoFastPath("inflow (the setup's inflow='four-quadrant') needs run_batch: the SIMD "
+                          "kernel flies bollard thrusters only; vehicle_sim.run_batch flies the "
+                          "advance speed per RK4 stage (set up with inflow='none' for this kernel)")
     if VP.shape[1] != N_PARAMS or np.any(VP[:, P_VERSION] != LAYOUT_VERSION):
         raise _NoFastPath("vehicle parameters do not have layout version 1")
     dynb = [i for i in range(nb) if soff[i + 1] > soff[i]]
@@ -1262,7 +1272,7 @@ def _fallback(s, VP, TP, VC) -> np.ndarray:
         vehicle_sim.fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff,
                               TP, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
                               s.gains.to_array(), ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt,
-                              s.substeps, o5)
+                              s.substeps, o5, s.inflow_arrays)
     out = np.full((R, N_SUMMARY), np.nan)
     out[:, :5] = o5[:, :5]
     out[:, 8] = o5[:, 5]
