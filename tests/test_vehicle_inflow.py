@@ -305,20 +305,26 @@ def test_batch_flies_inflow_as_the_single_mission_loop():
     assert np.all(np.abs(out[:, 1] - off[:, 1]) > 1e-6 * np.abs(off[:, 1]))
 
 
-def test_simd_batch_sends_inflow_to_the_per_vehicle_loop_and_says_so():
-    """The SIMD kernel has no inflow: fast_path_reason names the option, fallback=False raises
-    naming it, and the default falls back to the per-vehicle loop, which flies inflow."""
-    from uuvid.simulate.batch import fast_path_reason, run_batch_fast
-    from uuvid.simulate.vehicle_sim import run_batch
+def test_simd_batch_flies_inflow_as_the_per_vehicle_loop():
+    """The SIMD kernel with inflow on: its summaries and a traced trajectory equal run_batch's
+    (the per-vehicle loop, itself fly_mission's arithmetic) to 1e-9."""
+    import dataclasses
 
-    s, VP, TP, VC = _inflow_batch_case(2)
-    assert "inflow" in fast_path_reason(s, VP, TP, VC)
-    with pytest.raises(ValueError, match="inflow.*run_batch"):
-        run_batch_fast(s, VP, TP, VC, fallback=False)
-    out = run_batch_fast(s, VP, TP, VC)
+    from uuvid.simulate.batch import fast_path_reason, run_batch_fast
+    from uuvid.simulate.vehicle_sim import fly_mission, run_batch
+
+    s, VP, TP, VC = _inflow_batch_case()
+    assert fast_path_reason(s, VP, TP, VC) is None
+    out, tr = run_batch_fast(s, VP, TP, VC, trace_runs=[1], trace_every=50)
     ref = run_batch(s, VP, TP, VC)
-    np.testing.assert_allclose(out[:, :5], ref[:, :5], rtol=1e-12)
-    np.testing.assert_allclose(out[:, 8], ref[:, 5], rtol=1e-12)
+    np.testing.assert_allclose(out[:, :5], ref[:, :5], rtol=1e-9, atol=0)
+    np.testing.assert_allclose(out[:, 8], ref[:, 5], rtol=0, atol=1e-6)
+    one = fly_mission(dataclasses.replace(s, vp=VP[1], current=VC[1],
+                                          bank=dataclasses.replace(s.bank, params=TP[1])))
+    Z = one.state[::50, :13]
+    assert np.max(np.abs(tr[0] - Z)) <= 1e-9 * max(1.0, float(np.max(np.abs(Z))))
+    off = run_batch_fast(dataclasses.replace(s, inflow_arrays=None), VP, TP, VC)
+    assert np.all(np.abs(out[:, 1] - off[:, 1]) > 1e-6 * np.abs(off[:, 1]))
 
 
 def test_cli_simulate_inflow_none_is_today_and_four_quadrant_differs():
