@@ -942,6 +942,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             sets = read_files(paths, opts)
             for s in sets:
                 check_bench_signs(s)
+            _check_flow_model(sets, "select")
             return _fit_select(sets, name or "selected", True, families)
     if model not in MODELS:
         raise FitError(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
@@ -1002,7 +1003,9 @@ def _check_flow_model(sets, model: str) -> None:
         if s.flow_speed is not None and np.any(s.flow_speed != 0):
             i = int(np.flatnonzero(s.flow_speed != 0)[0])
             raise FitError(f"{s.source}: column 'flow_speed', data row {i + 1}: water speed "
-                           f"{s.flow_speed[i]:g} m/s, but --model {model} does not model the "
+                           f"{s.flow_speed[i]:g} m/s, but "
+                           f"{'--select' if model == 'select' else '--model ' + model} does not "
+                           "model the "
                            f"water speed. Use --model {' or '.join(INFLOW)}, or keep only the "
                            "still-water rows")
 
