@@ -221,3 +221,18 @@ def test_models_that_ignore_the_water_speed_refuse_runs_in_a_flow(tmp_path):
     out = run_fit([f], "polynomial", ReadOptions(thrust_col="thrust", speed_col="speed",
                                                  flow_speed_col=None))
     assert out.model == "polynomial"
+
+
+def test_four_quadrant_default_order_follows_the_directions_in_the_data():
+    """Ahead and astern (β near 0 and near π) take order 2 by default and fit to the noise."""
+    truth = FourQuadrantMap("both", 0.076, (0.05, 0.30, -0.05), (0.0, -0.55, 0.10), (0.05,) * 3,
+                            (0.0,) * 3)
+    cmd, w, u = _design(reverse=True, flows=np.array([0.0, 0.3, 0.6, 0.9]))
+    t = truth.thrust_torque(w / (2 * np.pi), u)[0] + np.random.default_rng(3).normal(0, NOISE_N,
+                                                                                     w.size)
+    sf = fit_four_quadrant(BenchData(command=cmd, thrust=t, speed=w, flow_speed=u), 0.076)
+    f = sf.fits["four-quadrant"]
+    assert f.names == ["a_0", "a_1", "a_2", "b_1", "b_2"]
+    assert f.rmse == pytest.approx(NOISE_N, rel=0.25)
+    for k, v in zip(f.names, (0.05, 0.30, -0.05, -0.55, 0.10)):
+        assert _inside(f[k].value, f[k].stderr, v, z=4.0)

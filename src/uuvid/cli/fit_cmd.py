@@ -121,7 +121,8 @@ def thruster_fit(
                                         "with thrust records, dc-motor, healey, --select)."),
     degree: int | None = typer.Option(None, "--degree",
                                       help="polynomial: fixed degree (default: chosen by CV); "
-                                           "four-quadrant: Fourier order of C_T*(β) (default 1)."),
+                                           "four-quadrant: Fourier order of C_T*(β) (default 1, 2 for "
+                                           "data turning both ways)."),
     criterion: Criterion = typer.Option(Criterion.cv, "--criterion",
                                         help="polynomial: degree rule, cv (one-SE) or bic."),
     map_input: MapInput = typer.Option(MapInput.auto, "--map-input",

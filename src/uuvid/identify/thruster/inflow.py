@@ -148,18 +148,22 @@ def four_quadrant_regressors(speed, flow, diameter: float, order: int, rho: floa
     return np.hstack([np.cos(np.outer(beta, k)), np.sin(np.outer(beta, k[1:]))]) * q[:, None]
 
 
-def fit_four_quadrant(data: BenchData, diameter: float, *, order: int = 1,
+def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = None,
                       rho: float = RHO_FRESH, cov_type: str = "classical") -> SteadyFit:
     """The Fourier coefficients of ``C_T*(β)`` (:data:`FOUR_QUADRANT_FORM`) by linear least
     squares → :class:`SteadyFit` with one fit ``"four-quadrant"`` (``a_0 … a_order``,
     ``b_1 … b_order``), ``info["map"]`` the :class:`~uuvid.thruster.inflow.FourQuadrantMap`
     (thrust only: its ``C_Q*`` is zero, the bench gives no torque here) and the bollard
     :class:`~uuvid.thruster.blocks.QuadraticMap` of that map as the block.  The coefficients hold
-    over the advance angles in the data (``info["beta_range"]``); outside them the series is
-    an extrapolation."""
+    over the advance angles in the data (``info["beta_range_deg"]``); outside them the series is
+    an extrapolation.  ``order`` (default): 1 for data turning one way (β near 0 or near ±π), 2
+    when they turn both ways (ahead and astern need their own level and slope)."""
     if not (math.isfinite(diameter) and diameter > 0):
         raise BenchDataError(f"the four-quadrant fit needs the propeller diameter in m "
                              f"(--diameter), got {diameter!r}")
+    if order is None:
+        order = 2 if data.speed is not None and np.any(data.speed > 0) and np.any(data.speed < 0) \
+            else 1
     if not (isinstance(order, int) and 0 <= order <= 8):
         raise BenchDataError(f"the four-quadrant Fourier order must be an integer in [0, 8], got "
                              f"{order!r}")

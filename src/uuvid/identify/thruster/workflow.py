@@ -431,8 +431,9 @@ def _fit_inflow(data, name, model, diameter=None, order=None):
     if model == "four-quadrant":
         if diameter is None:
             raise FitError("--model four-quadrant needs the propeller diameter: --diameter D (m)")
-        sf = fit_four_quadrant(data, diameter, order=1 if order is None else order)
-        title = f"C_T*(β) Fourier order {1 if order is None else order}, D = {diameter:g} m"
+        sf = fit_four_quadrant(data, diameter, order=order)
+        k = (len(next(iter(sf.fits.values())).parameters) - 1) // 2
+        title = f"C_T*(β) Fourier order {k}, D = {diameter:g} m"
     else:
         sf = fit_inflow_linear(data)
         title = "T = K_T Ω|Ω| − k_a |Ω| u_a"
