@@ -7,6 +7,11 @@ over the whole mission, in interleaved pairs; its trajectory is checked against 
 The peer row: the same vehicle stepped PythonVehicleSimulator-style (Python, NumPy, Euler).
 
 ``batch``: 1,000 BlueROV2s with perturbed parameters fly the square mission in parallel.
+
+``batch_inflow``: 256 perturbed BlueROV2s on a short square mission with the vehicle file's
+``inflow: four-quadrant`` on against the same batch with inflow off, interleaved pairs, for the
+SIMD kernel (``run_batch_fast``) and the per-vehicle loop (``run_batch``); issue 21 asks the
+inflow batch to stay within 15 % of the bollard one.
 """
 
 from __future__ import annotations
@@ -140,7 +145,8 @@ def simulate(sim_time: float = 600.0, repeats: int = 15, budget_s: float = 40.0)
         vehicle_sim.fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff,
                         b.params, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
                         gains, ref_pos, ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps,
-                        Zo, Fo, FD, TAU, SC, none3, none3, none0, np.zeros((0, 3 + b.n)))
+                        Zo, Fo, FD, TAU, SC, none3, none3, none0, np.zeros((0, 3 + b.n)),
+                        none0, np.zeros((0, 7)))  # no inflow
 
     def kernel():
         minimal_kernel.fly_minimal(z0, a["Minv"], a["MRB"], a["MA"], a["DL"], a["DQ"], a["grav"],
@@ -210,8 +216,41 @@ def batch(runs: int = 1000) -> dict:
             "wall_s": wall, "vehicle_steps_per_s": runs * setup.t.size / wall}
 
 
+def batch_inflow(runs: int = 256, sim_time: float = 30.0, repeats: int = 7,
+                 budget_s: float = 60.0) -> list[dict]:
+    """Inflow on (ours) against off (the reference) on the same perturbed vehicles, for the SIMD
+    kernel and the per-vehicle loop; vehicle-steps/s from the median times."""
+    import dataclasses
+
+    import yaml
+
+    from uuvid.simulate.batch import fast_path_reason, perturb_batch, run_batch_fast
+    from uuvid.vehicle.definition import preset_path, vehicle_from_dict
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw["inflow"] = "four-quadrant"
+    on = setup_mission(vehicle_from_dict(raw, where="bluerov2.yaml"), square_mission(speed=0.4),
+                       t_end=sim_time)
+    off = dataclasses.replace(on, inflow_arrays=None)
+    VP, TP, VC = perturb_batch(on, np.random.default_rng(0), runs)
+    assert fast_path_reason(on, VP, TP, VC) is None
+    steps = int(on.t.size)
+    out = []
+    for name, fn in (("simd", run_batch_fast), ("per_vehicle_loop", vehicle_sim.run_batch)):
+        t = interleaved(lambda f=fn: f(on, VP, TP, VC), lambda f=fn: f(off, VP, TP, VC),
+                        repeats=repeats, budget_s=budget_s)
+        out.append({"case": f"bluerov2_square_{sim_time:g}s_x{runs}_inflow_{name}",
+                    "kernel": fn.__name__, "runs": runs, "steps": steps, **t,
+                    "vehicle_steps_per_s_inflow": runs * steps / t["time_s"],
+                    "vehicle_steps_per_s_no_inflow": runs * steps / t["reference_time_s"],
+                    "reference": "the same batch with inflow off (bollard thrusters), "
+                                 "interleaved pairs",
+                    "target": "ours_over_reference <= 1.15 (issue 21)"})
+    return out
+
+
 def run_all() -> dict:
-    return {"simulate": [simulate(), peer()], "batch": [batch()]}
+    return {"simulate": [simulate(), peer()], "batch": [batch(), *batch_inflow()]}
 
 
 if __name__ == "__main__":

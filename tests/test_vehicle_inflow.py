@@ -261,13 +261,70 @@ def test_mission_with_inflow_needs_more_allocated_thrust_to_cruise():
     assert work_on > 1.02 * work_off
 
 
-def test_batch_refuses_inflow_it_cannot_fly():
+def _inflow_batch_case(runs=3):
+    """A short square mission with inflow on (a wake and a current, so every term of the advance
+    speed is used) and ``runs`` perturbed vehicles (mass, damping, thrusters, current)."""
+    from uuvid.simulate.batch import perturb_batch
     from uuvid.simulate.reference import square_mission
-    from uuvid.simulate.vehicle_sim import run_batch, setup_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
 
-    s = setup_mission(_with("bluerov2"), square_mission(speed=0.3))
-    with pytest.raises(ValueError, match="inflow"):
-        run_batch(s, s.vp[None, :])
+    s = setup_mission(_with("bluerov2", wake=0.1), square_mission(speed=0.35), t_end=12.0,
+                      current=np.array([0.1, -0.05, 0.0]))
+    assert s.inflow_arrays is not None
+    VP, TP, VC = perturb_batch(s, np.random.default_rng(3), runs)
+    return s, VP, TP, VC
+
+
+def _single_flights(s, VP, TP, VC):
+    """Each vehicle flown alone by fly_mission, summarised as the batch summarises a run."""
+    import dataclasses
+
+    from uuvid.simulate.vehicle_sim import RUN_COLUMNS, _summarise_run, fly_mission
+
+    rows = np.empty((len(VP), len(RUN_COLUMNS)))
+    for r in range(len(VP)):
+        one = dataclasses.replace(s, vp=VP[r], current=VC[r],
+                                  bank=dataclasses.replace(s.bank, params=TP[r]))
+        res = fly_mission(one)
+        _summarise_run(res.state, res.thrust, res.scale, res.ref_pos, rows[r])
+    return rows
+
+
+def test_batch_flies_inflow_as_the_single_mission_loop():
+    """run_batch with inflow on: every vehicle's summary equals its own fly_mission (to 1e-9),
+    and differs from the bollard batch (inflow really flown, not dropped)."""
+    import dataclasses
+
+    from uuvid.simulate.vehicle_sim import run_batch
+
+    s, VP, TP, VC = _inflow_batch_case()
+    out = run_batch(s, VP, TP, VC)
+    ref = _single_flights(s, VP, TP, VC)
+    np.testing.assert_allclose(out, ref, rtol=1e-9, atol=1e-12)
+    off = run_batch(dataclasses.replace(s, inflow_arrays=None), VP, TP, VC)
+    assert np.all(np.abs(out[:, 1] - off[:, 1]) > 1e-6 * np.abs(off[:, 1]))
+
+
+def test_simd_batch_flies_inflow_as_the_per_vehicle_loop():
+    """The SIMD kernel with inflow on: its summaries and a traced trajectory equal run_batch's
+    (the per-vehicle loop, itself fly_mission's arithmetic) to 1e-9."""
+    import dataclasses
+
+    from uuvid.simulate.batch import fast_path_reason, run_batch_fast
+    from uuvid.simulate.vehicle_sim import fly_mission, run_batch
+
+    s, VP, TP, VC = _inflow_batch_case()
+    assert fast_path_reason(s, VP, TP, VC) is None
+    out, tr = run_batch_fast(s, VP, TP, VC, trace_runs=[1], trace_every=50)
+    ref = run_batch(s, VP, TP, VC)
+    np.testing.assert_allclose(out[:, :5], ref[:, :5], rtol=1e-9, atol=0)
+    np.testing.assert_allclose(out[:, 8], ref[:, 5], rtol=0, atol=1e-6)
+    one = fly_mission(dataclasses.replace(s, vp=VP[1], current=VC[1],
+                                          bank=dataclasses.replace(s.bank, params=TP[1])))
+    Z = one.state[::50, :13]
+    assert np.max(np.abs(tr[0] - Z)) <= 1e-9 * max(1.0, float(np.max(np.abs(Z))))
+    off = run_batch_fast(dataclasses.replace(s, inflow_arrays=None), VP, TP, VC)
+    assert np.all(np.abs(out[:, 1] - off[:, 1]) > 1e-6 * np.abs(off[:, 1]))
 
 
 def test_cli_simulate_inflow_none_is_today_and_four_quadrant_differs():
@@ -316,13 +373,3 @@ def test_gym_env_inflow_none_is_today_and_inflow_lowers_the_thrust_when_moving()
             assert on[7] == pytest.approx(off[7], rel=0.05)
         else:  # moving: the propellers keep less of their bollard thrust
             assert on[7] - u < 0.95 * (off[7] - u)
-
-
-def test_simd_batch_refuses_inflow_too():
-    from uuvid.simulate.batch import run_batch_fast
-    from uuvid.simulate.reference import square_mission
-    from uuvid.simulate.vehicle_sim import setup_mission
-
-    s = setup_mission(_with("bluerov2"), square_mission(speed=0.3))
-    with pytest.raises(ValueError, match="inflow"):
-        run_batch_fast(s, s.vp[None, :])

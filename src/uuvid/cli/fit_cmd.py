@@ -8,8 +8,11 @@
 Steady models (``quadratic``, ``cv``, ``polynomial``, ``deadzone``, ``table``, ``physical``) use
 every row of every file; dynamic models (``first-order``, ``yoerger``, ``bessa``, ``dc-motor``,
 ``healey``, ``mclean``) need a time column, one run per file.  ``--select`` picks the dynamic
-family by leave-one-level-out prediction.  What each model reads and writes is tabulated in
-:mod:`uuvid.identify.thruster.workflow`, which does the work; this module only parses options.
+family by leave-one-level-out prediction.  A bench run in a flow (a ``flow_speed`` column, m/s)
+gives ``quadratic`` the inflow coefficient ``k_a`` of ``T = K_T Ω|Ω| − k_a|Ω|u_a`` and
+``four-quadrant`` (with ``--diameter``) the Fourier series of ``C_T*(β)``.  What each model
+reads and writes is tabulated in :mod:`uuvid.identify.thruster.workflow`, which does the work;
+this module only parses options.
 
 Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
 status 2 and the :class:`~uuvid.io.bench.BenchDataError` message, which names the file, the column
@@ -54,7 +57,7 @@ class ModelKind(StrEnum):
     dc_motor = "dc-motor"
     healey = "healey"
     mclean = "mclean"
-
+    four_quadrant = "four-quadrant"
 
 
 class DataFormat(StrEnum):
@@ -89,6 +92,13 @@ def thruster_fit(
     current_col: str | None = typer.Option(None, "--current-col", help="Supply current column [A]."),
     voltage_col: str | None = typer.Option(None, "--voltage-col", help="Supply voltage column [V]."),
     time_col: str | None = typer.Option(None, "--time-col", help="Time column, in seconds (dynamic models)."),
+    flow_speed_col: str = typer.Option(
+        "auto", "--flow-speed-col",
+        help="Water speed through the propeller [m/s] (bench in a flow; quadratic and "
+             "four-quadrant fit the inflow coefficients): auto = the column 'flow_speed' if the "
+             "file has one | a column name | none."),
+    diameter: float | None = typer.Option(None, "--diameter",
+                                          help="four-quadrant: propeller diameter [m]."),
     command_unit: str = typer.Option("pwm_us", "--command-unit", help="pwm_us (or us) | duty | volts."),
     neutral: float | None = typer.Option(None, "--neutral",
                                          help="Neutral command (default 1500 µs, or 0)."),
@@ -110,7 +120,9 @@ def thruster_fit(
                                         "direction in front, fitted with the dynamics (always on "
                                         "with thrust records, dc-motor, healey, --select)."),
     degree: int | None = typer.Option(None, "--degree",
-                                      help="polynomial: fixed degree (default: chosen by CV)."),
+                                      help="polynomial: fixed degree (default: chosen by CV); "
+                                           "four-quadrant: Fourier order of C_T*(β) (default 1, 2 for "
+                                           "data turning both ways)."),
     criterion: Criterion = typer.Option(Criterion.cv, "--criterion",
                                         help="polynomial: degree rule, cv (one-SE) or bic."),
     map_input: MapInput = typer.Option(MapInput.auto, "--map-input",
@@ -166,7 +178,10 @@ def thruster_fit(
     opts = ReadOptions(fmt=fmt.value, command_col=command_col, thrust_col=thrust_col,
                        speed_col=speed_col, current_col=current_col, voltage_col=voltage_col,
                        time_col=time_col, command_unit=command_unit, thrust_unit=thrust_unit,
-                       speed_unit=speed_unit, supply_voltage=supply_voltage, neutral=neutral)
+                       speed_unit=speed_unit, supply_voltage=supply_voltage, neutral=neutral,
+                       flow_speed_col=None if flow_speed_col.lower() == "none" else flow_speed_col)
+    if diameter is not None and not (math.isfinite(diameter) and diameter > 0):
+        _fail(f"--diameter must be a positive length in m, got {diameter}")
     if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
         _fail(f"--supply-voltage must be positive, got {supply_voltage}")
     try:
@@ -174,7 +189,7 @@ def thruster_fit(
                           map_input=map_input.value, table_points=table_points,
                           linear_duty=linear_duty, start=start_chain, resample=resample,
                           name=name, dead_band=dead_band, select=select,
-                          families=fams)
+                          families=fams, diameter=diameter)
     except (BenchDataError, FitError, ParameterError, ModelFileError) as e:
         _fail(str(e))
     except ValueError as e:  # run validation in the dynamic fits (time grid, lengths, channels)

@@ -1,7 +1,9 @@
 """Bench data in: steady sweeps and time series of a thruster on a test stand, in SI units.
 
 A bench file is a table (CSV, or Parquet when ``pyarrow`` is installed) with one row per sample:
-a command column and any of thrust, propeller speed, current, supply voltage and time.
+a command column and any of thrust, propeller speed, current, supply voltage, time and the water
+speed through the propeller (``flow_speed``, m/s: the carriage or tunnel speed of a bench run in a
+flow; read when the file has a column of that name, issue 21).
 :func:`read_bench` picks the columns by name, converts units at the edge (kgf, lbf, gram-force,
 rpm → N, rad/s) and validates every cell; :func:`read_t200` reads Blue Robotics' T200
 performance-sheet layout directly.
@@ -41,7 +43,13 @@ CHANNEL_COLUMNS = {
     "supply_voltage": "the supply voltage (--voltage-col or --supply-voltage / voltage_col=, "
                       "supply_voltage=)",
     "time": "a time column (--time-col / time_col=)",
+    "flow_speed": "a water speed column (--flow-speed-col / flow_speed_col=, default 'flow_speed')",
 }
+#: the column read as the water speed through the propeller when the file has it
+FLOW_SPEED_COLUMN = "flow_speed"
+#: a propeller turning one way in water at rest or flowing from behind it cannot push the other
+#: way; readings of the wrong sign up to this fraction of the file's largest |thrust| are noise
+FLOW_SIGN_TOLERANCE = 0.02
 #: other spellings of a command unit (``us`` as the time unit accepts it)
 COMMAND_UNIT_ALIASES = {"us": "pwm_us", "µs": "pwm_us", "pwm": "pwm_us", "v": "volts",
                         "volt": "volts"}
@@ -105,6 +113,10 @@ class BenchData:
         The neutral command (default 1500 µs for PWM, 0 otherwise).
     censor_speed
         The detection limit [rad/s] below which readings were zeroed, when known.
+    flow_speed
+        Water speed through the propeller [m/s] along its axis (forward positive: the water meets
+        a forward-turning propeller from ahead, as the advance speed ``u_a`` of
+        :mod:`uuvid.thruster.inflow`), or ``None`` for a bench in still water.
     """
 
     command: np.ndarray
@@ -118,6 +130,7 @@ class BenchData:
     censored: np.ndarray | None = None
     neutral: float | None = None
     censor_speed: float | None = None
+    flow_speed: np.ndarray | None = None
 
     def __post_init__(self):
         if self.command_unit not in COMMAND_UNITS:
@@ -128,7 +141,7 @@ class BenchData:
             raise BenchDataError(f"{self._where()}command must be a non-empty 1-D array")
         object.__setattr__(self, "command", cmd)
         n = cmd.size
-        for name in ("thrust", "speed", "current", "time"):
+        for name in ("thrust", "speed", "current", "time", "flow_speed"):
             v = getattr(self, name)
             if v is not None:
                 a = np.asarray(v, dtype=float)
@@ -204,7 +217,8 @@ class BenchData:
 
         return replace(self, command=self.command[idx], thrust=take(self.thrust),
                        speed=take(self.speed), current=take(self.current), supply_voltage=sv,
-                       time=take(self.time), censored=self.censored[idx])
+                       time=take(self.time), censored=self.censored[idx],
+                       flow_speed=take(self.flow_speed))
 
     def forward(self) -> BenchData:
         return self.subset(self.command > self.neutral)
@@ -224,7 +238,7 @@ class BenchData:
         out = {"source": self.source, "samples": len(self), "censored": int(self.censored.sum()),
                "command_unit": self.command_unit, "neutral": self.neutral,
                "command_range": [float(self.command.min()), float(self.command.max())]}
-        for name in ("thrust", "speed", "current"):
+        for name in ("thrust", "speed", "current", "flow_speed"):
             a = getattr(self, name)
             if a is not None:
                 out[f"{name}_range"] = [float(a.min()), float(a.max())]
@@ -381,7 +395,8 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                voltage_col: str | None = None, time_col: str | None = None,
                command_unit: str = "pwm_us", thrust_unit: str = "N", speed_unit: str = "rad/s",
                supply_voltage: float | None = None, neutral: float | None = None,
-               speed_sign: str = "auto", censor_speed_below: float | None = None) -> BenchData:
+               speed_sign: str = "auto", censor_speed_below: float | None = None,
+               flow_speed_col: str | None = "auto") -> BenchData:
     """Read a bench file (CSV, or Parquet with pyarrow) into :class:`BenchData` (SI units).
 
     Parameters
@@ -404,6 +419,14 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     censor_speed_below
         Detection limit in ``speed_unit``: rows whose |speed| is below it were zeroed by the
         logger and are marked censored.
+    flow_speed_col
+        The water speed through the propeller [m/s] (a run in a flow: carriage or tunnel speed).
+        ``"auto"`` (default): the column :data:`FLOW_SPEED_COLUMN` when the file has one, else
+        none (a bench in still water: nothing changes); ``None``: never read.  With thrust, a
+        row whose thrust opposes the command while the water is at rest or comes from behind the
+        propeller (a forward command with ``flow_speed ≤ 0``, or the reverse) is an error: the
+        blades' angle of attack only grows there (Healey et al. 1995), beyond
+        :data:`FLOW_SIGN_TOLERANCE` × the largest |thrust| such a reading is not noise.
     """
     if isinstance(command_unit, str):
         command_unit = COMMAND_UNIT_ALIASES.get(command_unit.strip().lower(), command_unit)
@@ -432,9 +455,15 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     _, current = opt(current_col, "current", "A")
     vcol, volts = opt(voltage_col, "supply voltage", "V")
     tmcol, time = opt(time_col, "time", "s")
+    if flow_speed_col == "auto":
+        have = [c for c in t.columns if _norm(c) == _norm(FLOW_SPEED_COLUMN)]
+        flow_speed_col = have[0] if len(have) == 1 else None
+    fcol, flow = opt(flow_speed_col, "water speed through the propeller", "m/s")
 
     if thrust is not None:
         thrust = thrust * THRUST_UNITS[thrust_unit]
+    if flow is not None and thrust is not None:
+        _check_thrust_in_flow(t, tcol, fcol, cmd - neutral_v, thrust, flow)
     censored = np.zeros(cmd.size, dtype=bool)
     speed = None
     censor_speed = None
@@ -476,7 +505,28 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                              "identify (wrong column, or wrong neutral?)")
     return BenchData(command=cmd, command_unit=command_unit, thrust=thrust, speed=speed,
                      current=current, supply_voltage=sv, time=time, source=t.name,
-                     censored=censored, neutral=neutral_v, censor_speed=censor_speed)
+                     censored=censored, neutral=neutral_v, censor_speed=censor_speed,
+                     flow_speed=flow)
+
+
+def _check_thrust_in_flow(t: _Table, tcol: str, fcol: str, direction, thrust, flow) -> None:
+    """A propeller turning forward in water at rest or flowing from behind it (``u_a ≤ 0``) has
+    its blades at an angle of attack ``α = p − β ≥ p > 0`` (``β = atan2(u_a, 0.7RΩ) ≤ 0``,
+    Healey et al. 1995), so its thrust is forward; the same holds astern.  A reading against
+    that by more than :data:`FLOW_SIGN_TOLERANCE` of the largest |thrust| is a wrong sign in
+    the thrust or flow column, named by file, column and row."""
+    tol = FLOW_SIGN_TOLERANCE * float(np.max(np.abs(thrust)))
+    bad = ((direction > 0) & (flow <= 0) & (thrust < -tol)) | \
+        ((direction < 0) & (flow >= 0) & (thrust > tol))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        way = "forward" if direction[i] > 0 else "astern"
+        raise BenchDataError(
+            f"{t.where(tcol, i)}: thrust {thrust[i]:+.4g} N with the propeller driven {way} and "
+            f"{fcol!r} = {flow[i]:g} m/s (water at rest or from behind it): the thrust cannot "
+            f"oppose the command there (beyond {FLOW_SIGN_TOLERANCE:.0%} of the largest |thrust| "
+            "as noise). Fix: the sign of the thrust or of the flow-speed column (flow_speed > 0: "
+            "the water meets a forward-turning propeller from ahead)")
 
 
 def read_t200(path) -> BenchData:
@@ -524,11 +574,18 @@ def concat(sets: Sequence[BenchData]) -> BenchData:
     if all(s.supply_voltage is not None for s in sets):
         sv = np.concatenate([s.supply_voltage_array() for s in sets])
     cs = {s.censor_speed for s in sets}
+    flows = [s.flow_speed for s in sets]
+    if any(f is not None for f in flows) and any(f is None for f in flows):
+        still = [s.source or "data" for s in sets if s.flow_speed is None]
+        raise BenchDataError(f"cannot stack bench files with and without a flow_speed column "
+                             f"({', '.join(still)} has none): add flow_speed = 0 to a file "
+                             "recorded in still water")
     return BenchData(command=cat("command"), command_unit=unit, thrust=cat("thrust"),
                      speed=cat("speed"), current=cat("current"), supply_voltage=sv,
                      time=None, source="+".join(s.source for s in sets if s.source),
                      censored=np.concatenate([s.censored for s in sets]), neutral=neutral,
-                     censor_speed=cs.pop() if len(cs) == 1 else None)
+                     censor_speed=cs.pop() if len(cs) == 1 else None,
+                     flow_speed=cat("flow_speed"))
 
 
 __all__ = ["BenchData", "BenchDataError", "read_bench", "read_t200", "require_samples", "concat",

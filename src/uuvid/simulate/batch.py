@@ -49,6 +49,15 @@ quadratic map — and purely static chains (thrust = map(command), e.g. ROMEO's 
 Static blocks: ESC, quadratic, polynomial, dead zone, zero-order.  Anything else (DC motors,
 tunnel thrusters, load cells, tables) falls back to :func:`~uuvid.simulate.vehicle_sim.fly_batch`.
 
+**Inflow** (issue 21, a setup with ``inflow='four-quadrant'``): at every RK4 stage each lane
+takes the bollard thrust of the first-order chain to the advance speed of that stage's own state,
+``u_a = (1 − w) axisᵀ(v_r + ω × r)``, through the four-quadrant map — the expressions of
+:func:`uuvid.vehicle.inflow.state_advance_speeds_nb` and
+:func:`uuvid.thruster.inflow.inflow_thrust_nb` (the mission loop's
+:func:`~uuvid.simulate.vehicle_sim._vehicle_rk4_inflow`), unrolled on the map's Fourier order
+with the thruster geometry and map as shared values, so every lane agrees with ``fly()`` to
+rounding.  A static chain with inflow flies :func:`~uuvid.simulate.vehicle_sim.fly_batch`.
+
 **User controllers.**  A numba-compiled :class:`~uuvid.simulate.control.blocks.Controller` with
 ``output="wrench"`` takes the place of the inline PID: each step a scalar loop gathers a lane's
 state into small arrays, calls the controller (a module global of the generated kernel, so numba
@@ -178,6 +187,7 @@ class _Structure:
     attitude: bool  # roll/pitch attitude hold on (control.attitude_hold)
     fastmath: tuple
     user: bool = False  # a user's compiled wrench controller instead of the inline PID
+    inflow: int = 0  # Fourier terms of the four-quadrant map (0: bollard thrusters)
 
     def key(self) -> str:
         return hashlib.sha1(repr((KERNEL_VERSION, self)).encode()).hexdigest()[:16]
@@ -303,13 +313,18 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
     bpat = tuple(bool(Bm[k, i] != 0) for k in range(6) for i in range(n))
     eta_one = tuple(bool(s.eta_p[i] == 1.0 and s.eta_n[i] == 1.0) for i in range(n))
     ki_pos = tuple(not user and bool(G[1, j] > 0) for j in range(4))
+    inflow = getattr(s, "inflow_arrays", None)
+    if inflow is not None and not dyn:
+        raise _NoFastPath("inflow with a static thruster chain flies the per-vehicle loop "
+                          "(vehicle_sim.fly_batch)")
+    IPRM, IGEO = inflow if inflow is not None else (np.zeros(5), None)
 
     struct = _Structure(n, int(s.substeps), int(chunk),
                         tuple((xs_.size, g[0], g[1], g[2]) for (xs_, _), g in zip(utab, grids)),
                         tuple(tmap), prefix, int(dyn), suffix,
                         pat(P_MRB), pat(P_MA), pat(P_DL), pat(P_DQ), pat(P_MINV), restoring,
                         current, tpat, bpat, bool(compensate), eta_one, ki_pos, attitude,
-                        tuple(sorted(fastmath)), user)
+                        tuple(sorted(fastmath)), user, int(IPRM[4]) if inflow is not None else 0)
 
     # ---- per-lane values
     pv = {}
@@ -365,6 +380,15 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
         for i in range(n):
             if bpat[k * n + i]:
                 sh[f"B{k}_{i}"] = float(Bm[k, i])
+    if inflow is not None:  # map (inflow_params) and geometry (inflow_geometry) of the setup
+        nc = int(IPRM[4])
+        for j in range(4):
+            sh[f"inf_p{j}"] = float(IPRM[j])
+        for k in range(nc):
+            sh[f"inf_a{k}"], sh[f"inf_b{k}"] = float(IPRM[5 + k]), float(IPRM[5 + nc + k])
+        for i in range(n):
+            for j in range(7):
+                sh[f"inf_g{i}_{j}"] = float(IGEO[i, j])
     for t, ((xs_, ys_), g) in enumerate(zip(utab, grids)):
         sh[f"x0_{t}"], sh[f"y0_{t}"] = float(xs_[0]), float(ys_[0])
         sh[f"xm_{t}"], sh[f"ym_{t}"] = float(xs_[-1]), float(ys_[-1])
@@ -637,6 +661,68 @@ def _emit_rhs(e: _Emitter, st: _Structure, x: list, tau: list, tag: str) -> list
     for i in range(6):
         e(f"{d[7 + i]} = " + _sum(f"minv{6 * i + j} * {f[j]}" for j in range(6) if st.minv[6 * i + j]))
     return d
+
+
+def _emit_inflow_thrusts(e: _Emitter, st: _Structure, x: list, bollard: list) -> list:
+    """Delivered thrusts (η applied) of the bollard thrusts ``bollard`` at the advance speeds of
+    state ``x``: :func:`uuvid.vehicle.inflow.state_advance_speeds_nb` then
+    :func:`uuvid.thruster.inflow.inflow_thrust_nb`, the same expressions in the same order
+    (the Fourier loop unrolled on the map's ``st.inflow`` terms; ``u_a = 0`` returns the bollard
+    thrust itself, by a select)."""
+    e_, ex, ey, ez = x[3], x[4], x[5], x[6]
+    R = {}
+    for k, expr in (("00", f"1.0 - 2.0 * ({ey} * {ey} + {ez} * {ez})"),
+                    ("01", f"2.0 * ({ex} * {ey} - {ez} * {e_})"),
+                    ("02", f"2.0 * ({ex} * {ez} + {ey} * {e_})"),
+                    ("10", f"2.0 * ({ex} * {ey} + {ez} * {e_})"),
+                    ("11", f"1.0 - 2.0 * ({ex} * {ex} + {ez} * {ez})"),
+                    ("12", f"2.0 * ({ey} * {ez} - {ex} * {e_})"),
+                    ("20", f"2.0 * ({ex} * {ez} - {ey} * {e_})"),
+                    ("21", f"2.0 * ({ey} * {ez} + {ex} * {e_})"),
+                    ("22", f"1.0 - 2.0 * ({ex} * {ex} + {ey} * {ey})")):
+        R[k] = e.tmp("ir")
+        e(f"{R[k]} = {expr}")
+    uvw = []
+    for j, a in enumerate(("0", "1", "2")):
+        t = e.tmp("iu")
+        if st.current:  # ν_r = ν − Rᵀ v_c
+            e(f"{t} = {x[7 + j]} - ({R['0' + a]} * vc0 + {R['1' + a]} * vc1 + {R['2' + a]} * vc2)")
+        else:  # no current: the loop subtracts zeros
+            e(f"{t} = {x[7 + j]}")
+        uvw.append(t)
+    u, v, w = uvw
+    p, q, r = x[10], x[11], x[12]
+    out = []
+    for i in range(st.n):
+        g = [f"inf_g{i}_{j}" for j in range(7)]
+        ua, f = e.tmp("ua"), bollard[i]
+        e(f"{ua} = (1.0 - {g[6]}) * ({g[3]} * ({u} + {q} * {g[2]} - {r} * {g[1]}) + {g[4]} * "
+          f"({v} + {r} * {g[0]} - {p} * {g[2]}) + {g[5]} * ({w} + {p} * {g[1]} - {q} * {g[0]}))")
+        vt, v2, ir, c1, s1 = (e.tmp(nm) for nm in ("vt", "v2", "iv", "c1", "s1"))
+        e(f"{vt} = inf_p0 * math.copysign(math.sqrt(abs({f}) * (inf_p2 if {f} >= 0.0 else "
+          f"inf_p3)), {f})")
+        e(f"{v2} = {ua} * {ua} + {vt} * {vt}")
+        e(f"{ir} = 1.0 / math.sqrt({v2})")
+        e(f"{c1} = {vt} * {ir}")
+        e(f"{s1} = {ua} * {ir}")
+        ck, sk, ct = "1.0", "0.0", "0.0"
+        for k in range(st.inflow):
+            nct = e.tmp("ct")
+            e(f"{nct} = {ct} + (inf_a{k} * {ck} + inf_b{k} * {sk})")
+            ct = nct
+            if k < st.inflow - 1:
+                nck, nsk = e.tmp("ck"), e.tmp("sk")
+                e(f"{nck} = {ck} * {c1} - {sk} * {s1}")
+                e(f"{nsk} = {sk} * {c1} + {ck} * {s1}")
+                ck, sk = nck, nsk
+        fi = e.tmp("fi")
+        e(f"{fi} = {f} if {ua} == 0.0 else {ct} * inf_p1 * {v2}")
+        if not st.eta_one[i]:
+            fe = e.tmp("fe")
+            e(f"{fe} = {fi} * (ep{i} if {fi} >= 0.0 else en{i})")
+            fi = fe
+        out.append(fi)
+    return out
 
 
 def _table_offsets(st: _Structure):
@@ -970,7 +1056,7 @@ def _emit_rest(e: _Emitter, st: _Structure, Wr, Pr, z, pv_names) -> None:
                 for bdesc, bi in zip(st.suffix, range(nb_pre + 1, nb_pre + 1 + len(st.suffix))):
                     sig = _emit_static(e, bdesc, f"t{i}b{bi}", sig)
                 thv = f"th{stg}_{i}"
-                if st.eta_one[i]:
+                if st.eta_one[i] or st.inflow:  # inflow: η after the map, per RK4 stage
                     e(f"{thv} = {sig}")
                 else:
                     e(f"{thv} = {sig} * (ep{i} if {sig} >= 0.0 else en{i})")
@@ -981,41 +1067,60 @@ def _emit_rest(e: _Emitter, st: _Structure, Wr, Pr, z, pv_names) -> None:
             e(f"th0_{i} = {Wr(f'tg{i}')}")
             th[0][i] = th[1][i] = th[2][i] = f"th0_{i}"
     fm = Wr("fmax")
-    e(f"fm = {fm}")
-    for i in range(n):
-        e(f"fm = max(fm, abs({th[0][i]}))")
-    if st.nsub > 1:
-        e(f"{fm} = fm if sub == 0 else {fm}")
-    else:
-        e(f"{fm} = fm")
-    stages = (0, 1, 2) if st.dyn else (0,)
-    taus = {}
-    for stg in stages:
+
+    def emit_fmax(thrusts):
+        e(f"fm = {fm}")
+        for i in range(n):
+            e(f"fm = max(fm, abs({thrusts[i]}))")
+        if st.nsub > 1:
+            e(f"{fm} = fm if sub == 0 else {fm}")
+        else:
+            e(f"{fm} = fm")
+
+    def emit_tau(thrusts, tag):
         tv = []
         for k in range(6):
-            terms = [f"B{k}_{i} * {th[stg][i]}" for i in range(n) if st.bpat[k * n + i]]
+            terms = [f"B{k}_{i} * {thrusts[i]}" for i in range(n) if st.bpat[k * n + i]]
             if terms:
-                nm = f"tau{stg}_{k}"
+                nm = f"tau{tag}_{k}"
                 e(f"{nm} = " + _sum(terms))
                 tv.append(nm)
             else:
                 tv.append("0.0")
-        taus[stg] = tv
-    if not st.dyn:
-        taus[1] = taus[2] = taus[0]
-    k1 = _emit_rhs(e, st, z, taus[0], "a")
+        return tv
+
     zt = [f"zt{j}" for j in range(13)]
-    for j in range(13):
-        e(f"{zt[j]} = {z[j]} + hh * {k1[j]}")
-    k2 = _emit_rhs(e, st, zt, taus[1], "b")
     zu = [f"zu{j}" for j in range(13)]
-    for j in range(13):
-        e(f"{zu[j]} = {z[j]} + hh * {k2[j]}")
-    k3 = _emit_rhs(e, st, zu, taus[1], "c")
     zw = [f"zw{j}" for j in range(13)]
-    for j in range(13):
-        e(f"{zw[j]} = {z[j]} + h * {k3[j]}")
-    k4 = _emit_rhs(e, st, zw, taus[2], "d")
+    if st.inflow:  # thrust at the advance speed of each stage's own state (_vehicle_rk4_inflow)
+        f0 = _emit_inflow_thrusts(e, st, z, th[0])
+        emit_fmax(f0)
+        k1 = _emit_rhs(e, st, z, emit_tau(f0, "0"), "a")
+        for j in range(13):
+            e(f"{zt[j]} = {z[j]} + hh * {k1[j]}")
+        k2 = _emit_rhs(e, st, zt, emit_tau(_emit_inflow_thrusts(e, st, zt, th[1]), "1"), "b")
+        for j in range(13):
+            e(f"{zu[j]} = {z[j]} + hh * {k2[j]}")
+        k3 = _emit_rhs(e, st, zu, emit_tau(_emit_inflow_thrusts(e, st, zu, th[1]), "2"), "c")
+        for j in range(13):
+            e(f"{zw[j]} = {z[j]} + h * {k3[j]}")
+        k4 = _emit_rhs(e, st, zw, emit_tau(_emit_inflow_thrusts(e, st, zw, th[2]), "3"), "d")
+    else:
+        emit_fmax(th[0])
+        stages = (0, 1, 2) if st.dyn else (0,)
+        taus = {stg: emit_tau(th[stg], str(stg)) for stg in stages}
+        if not st.dyn:
+            taus[1] = taus[2] = taus[0]
+        k1 = _emit_rhs(e, st, z, taus[0], "a")
+        for j in range(13):
+            e(f"{zt[j]} = {z[j]} + hh * {k1[j]}")
+        k2 = _emit_rhs(e, st, zt, taus[1], "b")
+        for j in range(13):
+            e(f"{zu[j]} = {z[j]} + hh * {k2[j]}")
+        k3 = _emit_rhs(e, st, zu, taus[1], "c")
+        for j in range(13):
+            e(f"{zw[j]} = {z[j]} + h * {k3[j]}")
+        k4 = _emit_rhs(e, st, zw, taus[2], "d")
     for j in range(13):
         # 2.0·k = k + k exactly (an addition instead of a multiplication)
         e(f"n{j} = {z[j]} + h6 * ({k1[j]} + ({k2[j]} + {k2[j]}) + ({k3[j]} + {k3[j]}) + {k4[j]})")
@@ -1262,7 +1367,7 @@ def _fallback(s, VP, TP, VC) -> np.ndarray:
         vehicle_sim.fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff,
                               TP, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
                               s.gains.to_array(), ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt,
-                              s.substeps, o5)
+                              s.substeps, o5, s.inflow_arrays)
     out = np.full((R, N_SUMMARY), np.nan)
     out[:, :5] = o5[:, :5]
     out[:, 8] = o5[:, 5]

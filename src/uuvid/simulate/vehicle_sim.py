@@ -716,11 +716,13 @@ _LOOP = _fly_loop
 
 def _batch_template(cparams, cstate0, dparams, use_dist, out_kind, z0, VP, B, alloc, eta_p, eta_n, dofs,
                     kinds, poff, TP, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
-                    ref_yaw, ref_rate, VC, dt, nsub, OUT):
+                    ref_yaw, ref_rate, VC, dt, nsub, OUT, IPRM, IGEO):
     """Vehicles (rows of ``VP``, ``TP``, ``VC``) flying the mission in parallel through ``_LOOP``
     (:func:`_fly_loop`, or the loop :func:`compiled_loop` builds around a user's controller);
     each vehicle starts from its own copy of the controller state ``cstate0``; ``OUT[r]`` from
-    :func:`_summarise_run`."""
+    :func:`_summarise_run`.  ``IPRM``/``IGEO``: the inflow arrays of :func:`_fly_loop` (empty:
+    bollard thrusters), shared by every vehicle — each flies the loop's own per-stage advance
+    speed, so a batch vehicle is the single flight's arithmetic."""
     nrun = VP.shape[0]
     nsteps = ref_pos.shape[0]
     n = TP.shape[1]
@@ -733,7 +735,7 @@ def _batch_template(cparams, cstate0, dparams, use_dist, out_kind, z0, VP, B, al
         _LOOP(cparams, cstate0.copy(), dparams, use_dist, out_kind, z0, VP[r], B, alloc, eta_p, eta_n, dofs,
               kinds, poff, TP[r], soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
               ref_yaw, ref_rate, VC[r], dt, nsub, Z, F, FD, TAU, SC, np.zeros((0, 3)),
-              np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 7)))
+              np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), IPRM, IGEO)
         _summarise_run(Z, F, SC, ref_pos, OUT[r])
 
 
@@ -741,15 +743,27 @@ _fly_batch_pid = njit(cache=True, parallel=True)(_batch_template)
 
 
 def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch, in_ch, exact,
-              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT):
+              inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt, nsub, OUT,
+              inflow_arrays=None):
     """Many vehicles (rows of ``VP``, thruster params ``TP[r]``, currents ``VC[r]``) flying the same
     mission in parallel with the built-in PID DP (:func:`fly` per vehicle; a compiled, cached
     ``prange`` kernel).  ``OUT[r] = [max tracking error, rms tracking error, max |thrust|,
-    final position error, min allocation scale]``."""
+    final position error, min allocation scale]``.  ``inflow_arrays``: ``(IPRM, IGEO)`` of
+    :func:`uuvid.vehicle.inflow.loop_arrays` (``None``: bollard thrusters)."""
+    IPRM, IGEO = _inflow_or_empty(inflow_arrays)
     _fly_batch_pid(np.ascontiguousarray(gains, dtype=np.float64).ravel(), np.zeros(PID_STATE_SIZE),
                    np.zeros(0), False, 0, z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff,
                    outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel, ref_yaw, ref_rate, VC, dt,
-                   nsub, OUT)
+                   nsub, OUT, IPRM, IGEO)
+
+
+def _inflow_or_empty(inflow_arrays) -> tuple[np.ndarray, np.ndarray]:
+    """``(IPRM, IGEO)`` for the compiled loops: the setup's inflow arrays, or empty ones (off)."""
+    if inflow_arrays is None:
+        return np.zeros(0), np.zeros((0, 7))
+    IPRM, IGEO = inflow_arrays
+    return (np.ascontiguousarray(IPRM, dtype=np.float64),
+            np.ascontiguousarray(IGEO, dtype=np.float64))
 
 
 @functools.lru_cache(maxsize=32)
@@ -1187,10 +1201,8 @@ def batch_inputs(setup: MissionSetup, vehicle_params, thruster_params=None,
 
 
 def require_constant_current(setup: MissionSetup) -> None:
-    """Batch runs take a constant current and an ideal supply, and bollard thrusters."""
-    if getattr(setup, "inflow_arrays", None) is not None:
-        raise ValueError("batch runs fly bollard thrusters (the batch kernels have no inflow yet): "
-                         "set up the mission with inflow='none'")
+    """Batch runs take a constant current and an ideal supply (inflow flies: each vehicle's
+    thrust follows its advance speed per RK4 stage, as in :func:`fly_mission`)."""
     if setup.battery_array is not None:
         raise ValueError("batch runs take an ideal supply; fly a battery run with fly_mission")
     if setup.current_series is not None:
@@ -1258,7 +1270,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     VOUT = np.zeros((N if BAT.size else 0, 3 + b.n))
-    IPRM, IGEO = s.inflow_arrays if s.inflow_arrays is not None else (np.zeros(0), np.zeros((0, 7)))
+    IPRM, IGEO = _inflow_or_empty(s.inflow_arrays)
     if s.controller is None and s.disturbance is None:  # the cached default kernel
         def run(k):
             fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
@@ -1367,7 +1379,12 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
 
     A setup with a user controller or a disturbance flies the loop compiled around them
     (:func:`compiled_loop`: one vehicle per thread, each from its own copy of the controller
-    state; a plain Python controller flies the vehicles one after another)."""
+    state; a plain Python controller flies the vehicles one after another).
+
+    Inflow (the setup's ``inflow``, issue 21): every vehicle flies :func:`_fly_loop` with the
+    setup's inflow arrays, so its thrust follows the advance speed of each RK4 stage exactly as
+    in :func:`fly_mission` (the same compiled arithmetic; the propeller map and thruster
+    geometry are the setup's, shared by the batch)."""
     s = setup
     require_constant_current(s)
     b = s.bank
@@ -1375,13 +1392,14 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     nrun = VP.shape[0]
     OUT = np.empty((nrun, len(RUN_COLUMNS)))
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(a) for a in s.ref)
+    IPRM, IGEO = _inflow_or_empty(s.inflow_arrays)
     if s.controller is not None or s.disturbance is not None:
         _, batch, cpar, cstate0, dpar, use_d, okind = s.blocks()
         batch(cpar, cstate0, dpar, use_d, okind, s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs,
               b.kinds, b.poff, TP, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
-              ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT)
+              ref_pos, ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT, IPRM, IGEO)
         return OUT
     fly_batch(s.z0(), VP, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, TP, b.soff,
               b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(), ref_pos,
-              ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT)
+              ref_vel, ref_yaw, ref_rate, VC, s.dt, s.substeps, OUT, (IPRM, IGEO))
     return OUT

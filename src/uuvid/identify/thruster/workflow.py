@@ -14,7 +14,11 @@ What each model reads and writes (the model file loads with :func:`uuvid.thruste
 ===========  =====================================  ===========================================
 model        data                                   chain written
 ===========  =====================================  ===========================================
-quadratic    thrust, speed                          speed → ``T = K_T Ω|Ω|`` per direction
+quadratic    thrust, speed (and flow_speed: the     speed → ``T = K_T Ω|Ω|`` per direction
+             inflow coefficient k_a of
+             ``T = K_T Ω|Ω| − k_a|Ω|u_a``)
+four-        thrust, speed, flow_speed, --diameter  speed → the bollard ``K_T Ω|Ω|`` of the fitted
+quadrant                                            ``C_T*(β)`` Fourier series (order --degree)
 cv           thrust, command in volts (or duty ×    voltage → ``T = c_V V|V|`` (Caccia 2000)
              supply)
 polynomial   thrust, speed                          speed → ``|T| = P(|Ω|)`` per direction,
@@ -47,6 +51,13 @@ With a PWM command (neutral ≠ 0) the ``deadzone`` (command input) and dynamic 
 unit-gain ESC in front that only subtracts the neutral command, so ``uuvid thruster predict --pwm``
 works on the written file; its "voltage" is then ``command − neutral``.
 
+Bench runs in a flow (a ``flow_speed`` column, m/s; :mod:`uuvid.identify.thruster.inflow`):
+``quadratic`` and ``four-quadrant`` identify how thrust falls with the water speed, with σ,
+correlations, residuals and a plot of thrust against the water speed per command.  A flow column
+that is zero throughout leaves the inflow coefficient unidentifiable (a warning; the bollard map is
+fitted); other models refuse data with water speeds they do not model.  Without a flow column
+nothing changes.
+
 Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
 status 2 and the :class:`~uuvid.io.bench.BenchDataError` message, which names the file, the column
 and the row.
@@ -69,8 +80,10 @@ __all__ = ["DYNAMIC", "MODELS", "STEADY", "FitError", "FitOutcome", "ReadOptions
            "read_files", "run_fit", "summary", "write_report"]
 
 MODELS = ("quadratic", "cv", "polynomial", "deadzone", "table", "physical", "first-order",
-          "yoerger", "bessa", "dc-motor", "healey", "mclean")
-STEADY = ("quadratic", "cv", "polynomial", "deadzone", "table", "physical")
+          "yoerger", "bessa", "dc-motor", "healey", "mclean", "four-quadrant")
+STEADY = ("quadratic", "cv", "polynomial", "deadzone", "table", "physical", "four-quadrant")
+#: Models that take the water speed of a bench in a flow into account (``flow_speed``).
+INFLOW = ("quadratic", "four-quadrant")
 DYNAMIC = ("first-order", "yoerger", "bessa", "dc-motor", "healey", "mclean")
 #: Families fitted with a dead-band driver, jointly on speed + thrust (see dynamic_select).
 STRUCTURED = ("first-order", "yoerger", "bessa", "dc-motor", "healey")
@@ -176,6 +189,7 @@ class ReadOptions:
     speed_unit: str = "rad/s"
     supply_voltage: float | None = None
     neutral: float | None = None
+    flow_speed_col: str | None = "auto"  # auto: the column 'flow_speed' when the file has one
 
 
 def read_files(paths, opts: ReadOptions) -> list:
@@ -194,7 +208,7 @@ def read_files(paths, opts: ReadOptions) -> list:
                 command_unit=opts.command_unit, thrust_unit=opts.thrust_unit,
                 speed_unit=opts.speed_unit,
                 supply_voltage=opts.supply_voltage if opts.voltage_col is None else None,
-                neutral=opts.neutral))
+                neutral=opts.neutral, flow_speed_col=opts.flow_speed_col))
     return sets
 
 
@@ -346,9 +360,12 @@ def _steady_messages(sf) -> tuple[list[str], list[str]]:
 
 
 def _fit_quadratic(sets, name):
+    from uuvid.identify.thruster.inflow import BOLLARD_ONLY, is_bollard
     from uuvid.identify.thruster.steady import fit_quadratic_speed
 
     data = _stack(sets)
+    if data.flow_speed is not None and not is_bollard(data):
+        return _fit_inflow(data, name, "quadratic")
     data.require("thrust", "speed", what="--model quadratic (thrust = k·Ω|Ω| against speed)")
     sf = fit_quadratic_speed(data)
     chain = _chain((sf.block,), "speed", name)
@@ -361,9 +378,86 @@ def _fit_quadratic(sets, name):
         censored_x=data.speed[cm] if cm.any() else None,
         censored_dir=np.sign(data.command[cm] - data.neutral)), "Ω [rad/s]", "thrust [N]")
     warn, notes = _steady_messages(sf)
+    if data.flow_speed is not None:  # a flow column, zero throughout: say what it cannot give
+        warn.append(BOLLARD_ONLY)
     return FitOutcome("quadratic", chain, dict(sf.fits), sf.summary(), _rms(y - yfit), "N",
                       warn, figures=[("fit", fig, "Thrust vs propeller speed, fit "
                                                   "and residuals per direction")], notes=notes)
+
+
+def _command_groups(data, m, max_groups: int = 8) -> list[tuple[str, np.ndarray]]:
+    """Rows ``m`` grouped by command (one curve each in the inflow plot); more distinct commands
+    than ``max_groups`` are binned by propeller speed."""
+    cmd = data.command
+    levels = np.unique(cmd[m])
+    if levels.size <= max_groups:
+        return [(f"{c:g} {data.command_unit}", m & (cmd == c)) for c in levels]
+    edges = np.quantile(np.abs(data.speed[m]), np.linspace(0, 1, max_groups + 1))
+    out = []
+    for j in range(max_groups):
+        a = np.abs(data.speed)
+        g = m & (a >= edges[j]) & ((a <= edges[j + 1]) if j == max_groups - 1 else (a < edges[j + 1]))
+        if g.any():
+            out.append((f"|Ω| {edges[j]:.0f}–{edges[j + 1]:.0f} rad/s", g))
+    return out
+
+
+def _inflow_figure(data, sf, name, title):
+    """Thrust against the water speed, data and model per command (curves at the group's median
+    propeller speed), residuals below, one panel per direction."""
+    from uuvid.identify.thruster.inflow import model_thrust
+
+    m = data.measured & (data.speed != 0)
+    panels = []
+    fl = data.flow_speed
+    ug = np.linspace(float(fl[m].min()), float(fl[m].max()), 200)
+    for dname, sgn in (("forward", 1.0), ("reverse", -1.0)):
+        series = []
+        for label, g in _command_groups(data, m & (np.sign(data.speed) == sgn)):
+            w = data.speed[g]
+            series.append({"x": fl[g], "y": data.thrust[g], "yfit": model_thrust(sf, w, fl[g]),
+                           "xg": ug, "yg": model_thrust(sf, np.full(ug.size, np.median(w)), ug),
+                           "label": label, "fit_label": None})
+        if series:
+            panels.append({"title": dname, "series": series})
+    return _direction_figure(f"{name}: {title}", panels, "water speed u_a [m/s]", "thrust [N]")
+
+
+def _fit_inflow(data, name, model, diameter=None, order=None):
+    """``quadratic`` or ``four-quadrant`` on a bench in a flow (:mod:`uuvid.identify.thruster.
+    inflow`): the chain is the bollard map, the inflow coefficients are the fit's parameters."""
+    from uuvid.identify.thruster.inflow import fit_four_quadrant, fit_inflow_linear, model_thrust
+
+    if model == "four-quadrant":
+        if diameter is None:
+            raise FitError("--model four-quadrant needs the propeller diameter: --diameter D (m)")
+        sf = fit_four_quadrant(data, diameter, order=order)
+        k = (len(next(iter(sf.fits.values())).parameters) - 1) // 2
+        title = f"C_T*(β) Fourier order {k}, D = {diameter:g} m"
+    else:
+        sf = fit_inflow_linear(data)
+        title = "T = K_T Ω|Ω| − k_a |Ω| u_a"
+    (label, fit), = sf.fits.items()
+    m = data.measured & (data.speed != 0)
+    resid = data.thrust[m] - model_thrust(sf, data.speed[m], data.flow_speed[m])
+    corr = fit.correlation
+    extra = {"inflow": {"form": fit.model, "flow_levels_m_s": fit.extra["flow_levels"],
+                        "parameters": {p.name: {"estimate": p.value, "sigma": p.stderr,
+                                                "unit": p.unit} for p in fit.parameters},
+                        "correlation": {"names": fit.names, "matrix": np.asarray(corr).tolist()}}}
+    if "beta_range_deg" in sf.info:
+        extra["inflow"]["beta_range_deg"] = sf.info["beta_range_deg"]
+    warn, notes = _steady_messages(sf)
+    notes.append("the model file holds the bollard map (u_a = 0) of the fit; the inflow "
+                 "coefficients are the fit's parameters (summary key 'inflow')")
+    text = sf.summary() + "\n=== correlation ===\n" + "\n".join(
+        f"{a:>10s} " + " ".join(f"{c:+.3f}" for c in row) for a, row in zip(fit.names, corr))
+    return FitOutcome(model, _chain((sf.block,), "speed", name), dict(sf.fits), text, _rms(resid),
+                      "N", warn, extra,
+                      [("fit", _inflow_figure(data, sf, name, title),
+                        "Thrust against the water speed through the propeller: data and model "
+                        "per command (curves at each command's median propeller speed), "
+                        "residuals below")], notes=notes)
 
 
 def _voltage_of(data):
@@ -828,13 +922,14 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             criterion: str = "cv", map_input: str = "auto", table_points: int | None = None,
             linear_duty: bool = False, start=None, resample: bool = False,
             name: str | None = None, dead_band: bool = False, select: bool = False,
-            families: list[str] | None = None) -> FitOutcome:
+            families: list[str] | None = None, diameter: float | None = None) -> FitOutcome:
     """Read the files and fit ``model``; raises ``BenchDataError``/``FitError``/``ValueError``.
 
     ``select``: ignore ``model`` and pick the dynamic family by leave-one-level-out prediction;
     ``dead_band``: a dead-band driver in front of ``first-order``/``yoerger``/``bessa`` (always
     there for ``dc-motor``/``healey`` and for the joint speed + thrust fit); ``families``: the
-    dynamic families ``select`` compares (default: all)."""
+    dynamic families ``select`` compares (default: all); ``diameter``: the propeller diameter (m)
+    of ``four-quadrant``, whose Fourier order is ``degree`` (default 1)."""
     from uuvid.identify.fit import IdentifiabilityWarning
     from uuvid.identify.plausibility import check_bench_signs
 
@@ -848,20 +943,27 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             sets = read_files(paths, opts)
             for s in sets:
                 check_bench_signs(s)
+            _check_flow_model(sets, "select")
             return _fit_select(sets, name or "selected", True, families)
     if model not in MODELS:
         raise FitError(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
     if not paths:
         raise FitError("no data files given")
-    if degree is not None and model != "polynomial":
-        raise FitError("--degree applies to --model polynomial only")
-    if degree is not None and not 1 <= degree <= 12:
+    if degree is not None and model not in ("polynomial", "four-quadrant"):
+        raise FitError("--degree applies to --model polynomial (and four-quadrant: its Fourier "
+                       "order) only")
+    if diameter is not None and model != "four-quadrant":
+        raise FitError("--diameter applies to --model four-quadrant only")
+    if degree is not None and model == "four-quadrant" and not 0 <= degree <= 8:
+        raise FitError(f"--degree (Fourier order) must be between 0 and 8, got {degree}")
+    if degree is not None and model == "polynomial" and not 1 <= degree <= 12:
         raise FitError(f"--degree must be between 1 and 12, got {degree}")
     if model in DYNAMIC and opts.fmt == "t200":
         raise FitError(f"--model {model} needs time series; T200 sheets are steady sweeps")
     sets = read_files(paths, opts)
     for s in sets:
         check_bench_signs(s)
+    _check_flow_model(sets, model)
     name = name or model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings
@@ -870,6 +972,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             return _fit_structured(sets, model, name, True)
         fitters = {
             "quadratic": lambda: _fit_quadratic(sets, name),
+            "four-quadrant": lambda: _fit_inflow(_stack(sets), name, model, diameter, degree),
             "cv": lambda: _fit_cv(sets, name),
             "polynomial": lambda: _fit_polynomial(sets, name, degree, criterion),
             "deadzone": lambda: _fit_deadzone(sets, name, map_input),
@@ -886,6 +989,26 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
 
             start = auv2_rig_chain()
         return _fit_mclean(sets, name, start, resample)
+
+
+def _check_flow_model(sets, model: str) -> None:
+    """A model that ignores the water speed must not average runs in a flow into a bollard map;
+    ``four-quadrant`` needs the flow column."""
+    if model in INFLOW:
+        if model == "four-quadrant" and any(s.flow_speed is None for s in sets):
+            src = next(s.source for s in sets if s.flow_speed is None)
+            raise FitError(f"{src}: --model four-quadrant needs a flow_speed column (water speed "
+                           "through the propeller, m/s; --flow-speed-col names another)")
+        return
+    for s in sets:
+        if s.flow_speed is not None and np.any(s.flow_speed != 0):
+            i = int(np.flatnonzero(s.flow_speed != 0)[0])
+            raise FitError(f"{s.source}: column 'flow_speed', data row {i + 1}: water speed "
+                           f"{s.flow_speed[i]:g} m/s, but "
+                           f"{'--select' if model == 'select' else '--model ' + model} does not "
+                           "model the "
+                           f"water speed. Use --model {' or '.join(INFLOW)}, or keep only the "
+                           "still-water rows")
 
 
 def summary(outcome: FitOutcome, out: Path | None, report: Path | None) -> dict:

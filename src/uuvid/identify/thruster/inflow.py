@@ -1,0 +1,209 @@
+"""Inflow coefficients from bench runs recorded in a flow (issue 21, item 3).
+
+A bench file with a ``flow_speed`` column (m/s: the carriage or tunnel speed, i.e. the water speed
+through the propeller along its axis — the advance speed ``u_a`` of :mod:`uuvid.thruster.inflow`
+with no wake on an open bench) beside thrust and propeller speed determines how the thrust falls
+with the water speed.  Two forms, both linear in their coefficients (ordinary least squares with
+σ and correlations, :func:`uuvid.identify.fit.linear_lsq`; no optimiser start to choose):
+
+* **linear inflow form** (Healey et al. 1995, IEEE JOE 20(4), eq. 6 in its small-angle form with
+  the flow through the propeller taken as the advance speed; equivalently the open-water line
+  ``K_T(J) = α₁ + α₂ J`` of Fossen 2011, *Handbook of Marine Craft Hydrodynamics*, §6.7)::
+
+      T = K_T Ω|Ω| − k_a |Ω| u_a            (K_T per direction, Ω in rad/s, u_a in m/s)
+
+  ``k_a`` [N·s/(rad·m)] is the inflow coefficient of :class:`~uuvid.thruster.blocks.HealeyThruster`
+  and of :meth:`uuvid.thruster.inflow.BladeElement.linear_coefficients`; at ``u_a = 0`` the form is
+  the bollard map ``T = K_T Ω|Ω|`` written to the model file.
+
+* **four-quadrant map** (van Lammeren et al. 1969; Carlton, *Marine Propellers and Propulsion*,
+  ch. 6.5; :class:`uuvid.thruster.inflow.FourQuadrantMap`): with ``n = Ω/2π`` rev/s,
+  ``β = atan2(u_a, 0.7πnD)`` and ``V_r² = u_a² + (0.7πnD)²``::
+
+      T = C_T*(β) · ½ρ V_r² (π/4) D²,   C_T*(β) = Σ_k a_k cos kβ + b_k sin kβ  (k ≤ order)
+
+  the Fourier coefficients of ``C_T*`` over the advance angles the data span (the propeller
+  diameter ``D`` given, fresh water unless ``rho`` says otherwise).
+
+Identifiability: the inflow term needs water speeds that differ.  All ``flow_speed = 0`` (a
+bollard bench) leaves the coefficient undetermined — the fit then says so as a warning and returns
+the bollard map only, never a silent value; fewer than :data:`MIN_FLOW_LEVELS` distinct water
+speeds raise (two levels always fit a line in ``u_a``; a third tests the form).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uuvid.identify.fit import Fit, linear_lsq
+from uuvid.identify.thruster.steady import SteadyFit
+from uuvid.io.bench import BenchData, BenchDataError
+from uuvid.thruster.blocks import QuadraticMap
+from uuvid.thruster.inflow import RHO_FRESH, FourQuadrantMap
+
+#: Distinct water speeds (rounded to :data:`FLOW_RESOLUTION`) an inflow fit needs.
+MIN_FLOW_LEVELS = 3
+#: Water speeds closer than this (m/s) count as one level.
+FLOW_RESOLUTION = 1e-3
+#: The warning of a bench in still water (every ``flow_speed`` zero).
+BOLLARD_ONLY = ("the inflow coefficient is not identifiable from bollard data: flow_speed is 0 in "
+                "every row, so the thrust never meets a water speed; only the bollard map was "
+                "fitted (record runs at three or more carriage/tunnel speeds to identify it)")
+LINEAR_FORM = "T = K_T Ω|Ω| − k_a |Ω| u_a"
+FOUR_QUADRANT_FORM = "T = C_T*(β) ½ρ V_r² (π/4) D²"
+
+
+def flow_levels(flow) -> np.ndarray:
+    """The distinct water speeds (m/s) of a flow column, to :data:`FLOW_RESOLUTION`."""
+    return np.unique(np.round(np.asarray(flow, float) / FLOW_RESOLUTION) * FLOW_RESOLUTION)
+
+
+def is_bollard(data: BenchData) -> bool:
+    """``True`` when the data have a flow column that is zero in every row (a still-water bench)."""
+    return data.flow_speed is not None and not np.any(data.flow_speed != 0)
+
+
+def _rows(data: BenchData, what: str) -> np.ndarray:
+    """Measured rows with thrust, speed ≠ 0 and a water speed; checks the number of levels."""
+    data.require("thrust", "speed", "flow_speed", what=what)
+    m = data.measured & (data.speed != 0)
+    src = f"{data.source}: " if data.source else ""
+    lv = flow_levels(data.flow_speed[m])
+    if lv.size < MIN_FLOW_LEVELS:
+        shown = ", ".join(f"{v:g}" for v in lv)
+        raise BenchDataError(
+            f"{src}column 'flow_speed': {lv.size} distinct water speed(s) ({shown} m/s) in the "
+            f"{int(m.sum())} measured rows with the propeller turning; {what} needs at least "
+            f"{MIN_FLOW_LEVELS} (two always fit a line in u_a, a third tests the form). Fix: "
+            "record the runs at more carriage/tunnel speeds")
+    return m
+
+
+def _directions(speed) -> list[tuple[str, float]]:
+    return [(d, s) for d, s in (("forward", 1.0), ("reverse", -1.0)) if np.any(np.sign(speed) == s)]
+
+
+def linear_regressors(speed, flow, directions) -> np.ndarray:
+    """Columns of :data:`LINEAR_FORM`: ``Ω|Ω|`` per direction (zero in the other), ``−|Ω| u_a``."""
+    w = np.asarray(speed, float)
+    cols = [np.where(np.sign(w) == s, w * np.abs(w), 0.0) for _, s in directions]
+    cols.append(-np.abs(w) * np.asarray(flow, float))
+    return np.column_stack(cols)
+
+
+def linear_inflow_thrust(speed, flow, k_fwd: float, k_rev: float, k_a: float) -> np.ndarray:
+    """:data:`LINEAR_FORM` at propeller speed ``Ω`` (rad/s) and water speed ``u_a`` (m/s)."""
+    w = np.asarray(speed, float)
+    kt = np.where(w >= 0, k_fwd, k_rev)
+    return kt * w * np.abs(w) - k_a * np.abs(w) * np.asarray(flow, float)
+
+
+def fit_inflow_linear(data: BenchData, *, cov_type: str = "classical") -> SteadyFit:
+    """:data:`LINEAR_FORM` by linear least squares over every measured row (one joint fit: the
+    directions share ``k_a``) → a :class:`SteadyFit` with one fit ``"inflow"`` (``K_T_fwd``,
+    ``K_T_rev`` where the data turn that way, ``k_a``; σ, covariance, correlation, residuals) and
+    the bollard :class:`~uuvid.thruster.blocks.QuadraticMap` (``u_a = 0``) as its block."""
+    what = f"the inflow fit ({LINEAR_FORM})"
+    m = _rows(data, what)
+    w, u, y = data.speed[m], data.flow_speed[m], data.thrust[m]
+    dirs = _directions(w)
+    names = [f"K_T_{'fwd' if d == 'forward' else 'rev'}" for d, _ in dirs] + ["k_a"]
+    units = ["N·s²/rad²"] * len(dirs) + ["N·s/(rad·m)"]
+    fit = linear_lsq(linear_regressors(w, u, dirs), y, names, model=LINEAR_FORM, units=units,
+                     cov_type=cov_type, emit_warnings=False,
+                     extra={"flow_levels": flow_levels(u).tolist()})
+    src = f"{data.source}: " if data.source else ""
+    for nm in names[:-1]:
+        p = fit[nm]
+        if p.value < 0 and not -p.value <= 2.0 * p.stderr:
+            raise BenchDataError(f"{src}{nm} = {p.value:.4g} < 0: the thrust opposes the propeller "
+                                 "speed. Fix: check the sign of the thrust column against the "
+                                 "speed column")
+    v = fit.values
+    kf = max(v.get("K_T_fwd", v.get("K_T_rev", 0.0)), 0.0)
+    kr = max(v.get("K_T_rev", kf), 0.0)
+    notes = [f"{int((~data.measured).sum())} censored row(s) left out"] if (~data.measured).any() \
+        else []
+    return SteadyFit(f"{LINEAR_FORM} (Healey et al. 1995, small-angle form)", {"inflow": fit},
+                     QuadraticMap(k_pos=kf, k_neg=kr), {"notes": tuple(notes), "form": "linear"})
+
+
+# ------------------------------------------------------------------------------------------------
+# four-quadrant map
+# ------------------------------------------------------------------------------------------------
+def advance_angle(speed, flow, diameter: float) -> np.ndarray:
+    """``β = atan2(u_a, 0.7 π n D)`` (rad) with ``n = Ω/2π``."""
+    return np.arctan2(np.asarray(flow, float), 0.7 * np.asarray(speed, float) / 2.0 * diameter)
+
+
+def four_quadrant_regressors(speed, flow, diameter: float, order: int, rho: float) -> np.ndarray:
+    """Columns of :data:`FOUR_QUADRANT_FORM` for the coefficients ``a_0 … a_order, b_1 … b_order``."""
+    vt = 0.7 * np.asarray(speed, float) / 2.0 * diameter  # 0.7 π n D with n = Ω / 2π
+    u = np.asarray(flow, float)
+    q = 0.5 * rho * (u * u + vt * vt) * 0.25 * math.pi * diameter * diameter
+    beta = np.arctan2(u, vt)
+    k = np.arange(order + 1)
+    return np.hstack([np.cos(np.outer(beta, k)), np.sin(np.outer(beta, k[1:]))]) * q[:, None]
+
+
+def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = None,
+                      rho: float = RHO_FRESH, cov_type: str = "classical") -> SteadyFit:
+    """The Fourier coefficients of ``C_T*(β)`` (:data:`FOUR_QUADRANT_FORM`) by linear least
+    squares → :class:`SteadyFit` with one fit ``"four-quadrant"`` (``a_0 … a_order``,
+    ``b_1 … b_order``), ``info["map"]`` the :class:`~uuvid.thruster.inflow.FourQuadrantMap`
+    (thrust only: its ``C_Q*`` is zero, the bench gives no torque here) and the bollard
+    :class:`~uuvid.thruster.blocks.QuadraticMap` of that map as the block.  The coefficients hold
+    over the advance angles in the data (``info["beta_range_deg"]``); outside them the series is
+    an extrapolation.  ``order`` (default): 1 for data turning one way (β near 0 or near ±π), 2
+    when they turn both ways (ahead and astern need their own level and slope)."""
+    if not (math.isfinite(diameter) and diameter > 0):
+        raise BenchDataError(f"the four-quadrant fit needs the propeller diameter in m "
+                             f"(--diameter), got {diameter!r}")
+    if order is None:
+        order = 2 if data.speed is not None and np.any(data.speed > 0) and np.any(data.speed < 0) \
+            else 1
+    if not (isinstance(order, int) and 0 <= order <= 8):
+        raise BenchDataError(f"the four-quadrant Fourier order must be an integer in [0, 8], got "
+                             f"{order!r}")
+    what = f"the four-quadrant fit ({FOUR_QUADRANT_FORM})"
+    m = _rows(data, what)
+    w, u, y = data.speed[m], data.flow_speed[m], data.thrust[m]
+    names = [f"a_{k}" for k in range(order + 1)] + [f"b_{k}" for k in range(1, order + 1)]
+    beta = advance_angle(w, u, diameter)
+    fit = linear_lsq(four_quadrant_regressors(w, u, diameter, order, rho), y, names,
+                     model=FOUR_QUADRANT_FORM, units=[""] * len(names), cov_type=cov_type,
+                     emit_warnings=False,
+                     extra={"flow_levels": flow_levels(u).tolist(), "diameter": diameter,
+                            "rho": rho, "beta_range_deg": [float(np.degrees(beta.min())),
+                                                           float(np.degrees(beta.max()))]})
+    v = fit.values
+    a = tuple(v[f"a_{k}"] for k in range(order + 1))
+    b = (0.0,) + tuple(v[f"b_{k}"] for k in range(1, order + 1))
+    fq = FourQuadrantMap(f"fitted {data.source}".strip(), diameter, a, b, (0.0,) * len(a),
+                         (0.0,) * len(a), source=f"bench in a flow: {data.source}",
+                         assumption="C_Q* not identified (no torque fitted)")
+    # bollard map T = K_T ρ n² D⁴ as K_T Ω|Ω| (n = Ω/2π) per direction the data turn
+    c = rho * diameter ** 4 / (2.0 * math.pi) ** 2
+    dirs = dict(_directions(w))
+    kf = max(fq.bollard_kt(1) * c, 0.0) if "forward" in dirs else None
+    kr = max(-fq.bollard_kt(-1) * c, 0.0) if "reverse" in dirs else None
+    kf = kr if kf is None else kf
+    return SteadyFit(f"{FOUR_QUADRANT_FORM}, C_T* Fourier order {order}", {"four-quadrant": fit},
+                     QuadraticMap(k_pos=kf, k_neg=kr),
+                     {"form": "four-quadrant", "map": fq, "notes": (),
+                      "beta_range_deg": fit.extra["beta_range_deg"]})
+
+
+def model_thrust(sf: SteadyFit, speed, flow) -> np.ndarray:
+    """The fitted thrust of :func:`fit_inflow_linear` or :func:`fit_four_quadrant` (N)."""
+    if sf.info.get("form") == "four-quadrant":
+        fit: Fit = sf.fits["four-quadrant"]
+        ex = fit.extra
+        order = (len(fit.parameters) - 1) // 2
+        H = four_quadrant_regressors(speed, flow, ex["diameter"], order, ex["rho"])
+        return H @ np.array([p.value for p in fit.parameters])
+    v = sf.fits["inflow"].values
+    kf = v.get("K_T_fwd", v.get("K_T_rev"))
+    return linear_inflow_thrust(speed, flow, kf, v.get("K_T_rev", kf), v["k_a"])
