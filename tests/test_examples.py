@@ -26,7 +26,9 @@ def test_every_example_is_deterministic_and_written_as_named(tmp_path):
         for p in paths:
             assert fnmatch.fnmatch(p.name, e.filename)
             cols, again = files_a[p.name], files_b[p.name]
-            assert list(cols) == list(again) and ({"time", "t", "t_s"} & set(cols))
+            # logs are time series; a steady bench sweep (one row per operating point) is not
+            assert list(cols) == list(again) and (({"time", "t", "t_s"} & set(cols))
+                                                  or name == "thruster-flow")
             for k in cols:
                 x, y = np.asarray(cols[k]), np.asarray(again[k])
                 assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), k

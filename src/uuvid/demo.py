@@ -507,6 +507,56 @@ def _dive_section(out: Path, rep: Report) -> dict:
                                                   if not isinstance(v, list)}}
 
 
+def _horizontal_section(rep: Report) -> dict:
+    """Surge, sway and yaw identified jointly where a DVL logs body velocities (issue 19)."""
+    from uuvid.identify.vehicle.dive import identify_dive
+    from uuvid.simulate.dive_synth import synthetic_horizontal_dive
+
+    table, truth = synthetic_horizontal_dive(100.0, seed=21)
+    res = identify_dive(table, "bluerov2", ["surge", "horizontal"], t_end=70.0)
+    h = res.estimates["horizontal"]
+    units = {"m": "kg", "I": "kg·m²", "k": "N·s/m", "kq": "N·s²/m²", "b": "N"}
+    rows = [{"parameter": k, "unit": units[k.split("_")[0]] if not k.endswith("_r") else
+             {"I": "kg·m²", "k": "N·m·s/rad", "kq": "N·m·s²/rad²", "b": "N·m"}[k.split("_")[0]],
+             "identified": f"{h.values[k]:.4g}", "σ": f"{h.sigma[k]:.2g}",
+             "truth": f"{truth[k]:.4g}"} for k in h.values]
+    held = {c: {"coupled": h.held_out["identified"][c]["rms"]} for c in ("u", "v", "heading")}
+    held["u"]["1-DOF surge"] = res.estimates["surge"].held_out["identified"]["rms"]
+    rep.add_heading("Surge, sway and yaw together from a DVL (coupled horizontal model)")
+    rep.add_paragraph("A synthetic dive in the horizontal plane (the 6-DOF model, a pilot surging "
+                      "while turning; DVL u, v at 6 Hz, heading 20 Hz, servo outputs 10 Hz) "
+                      "identified with the coupled model m_u u̇ − m_v v r = X − …, "
+                      "m_v v̇ + m_u u r = Y − …, I_r ṙ − (m_u − m_v) u v = N − … on t ≤ 70 s.")
+    rep.add_table(rows, caption="Identified against the truth the dive obeys")
+    rep.add_table([{"channel": c, **{k: f"{v:.3g}" for k, v in d.items()}}
+                   for c, d in held.items()],
+                  caption="Held-out rms (t > 70 s; u, v in m/s, heading in rad): the coupled model "
+                          "against the 1-DOF surge model, which has no Coriolis terms")
+    return {"values": h.values, "sigma": h.sigma, "truth": truth, "held_out_rms": held}
+
+
+def _inflow_bench_section(out: Path, rep: Report) -> dict:
+    """The inflow coefficient from a bench run in a flow (issue 21)."""
+    from uuvid.examples import thruster_flow_truth, write_example
+    from uuvid.identify.thruster.workflow import ReadOptions, run_fit
+
+    path = write_example("thruster-flow", out / "thruster_flow")[0]
+    fit = run_fit([path], "quadratic", ReadOptions(thrust_col="thrust", speed_col="speed"))
+    fig = save_figure(fit.plot(), out / "thruster_flow" / "fit.png")
+    truth = thruster_flow_truth()
+    p = fit.parameters()
+    rep.add_heading("Thrust that falls with the water speed: k_a from a bench in a flow")
+    rep.add_paragraph("uuvid examples thruster-flow: a T200-like thruster at five speeds each way "
+                      "in water at 0–0.8 m/s; uuvid thruster fit --model quadratic fits "
+                      "T = K_T Ω|Ω| − k_a |Ω| u_a (Healey et al. 1995) by linear least squares "
+                      "when the file has a flow_speed column.")
+    rep.add_table([{"parameter": k, "unit": p[k]["unit"], "estimate": f"{p[k]['estimate']:.4g}",
+                    "σ": f"{p[k]['sigma']:.2g}", "truth": f"{truth[k]:.4g}"} for k in p],
+                  caption="Identified against the truth of the example")
+    rep.add_figure(fig, caption="Thrust against water speed per command: data and model")
+    return {"parameters": p, "truth": truth, "file": str(path)}
+
+
 def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
     """Dead band + two-state thruster: selection by held-out level, prediction at a new level."""
     from uuvid.identify.thruster.dynamic_select import selection_demo
@@ -616,6 +666,8 @@ def _run_demo_into(out: Path, final: Path, quick: bool) -> dict:
         task.advance()
         task.stage("a model from a piloted dive: identify, replay, fly")
         dive = _dive_section(out, rep)
+        horizontal = _horizontal_section(rep)
+        inflow_bench = _inflow_bench_section(out, rep)
         task.advance()
         task.stage("station keeping: allocation, currents, battery")
         hold_ = _hold_section(out, rep, quick)
@@ -641,6 +693,8 @@ def _run_demo_into(out: Path, final: Path, quick: bool) -> dict:
             "linearize": linear,
             "ardusub": ardusub,
             "dive": dive,
+            "dive_horizontal": horizontal,
+            "inflow_bench": inflow_bench,
             "hold": hold_,
             "model_file": {"path": str(path), "round_trip_equal": same},
         }

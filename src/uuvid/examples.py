@@ -138,6 +138,43 @@ EXAMPLES: dict[str, Example] = {
 }
 
 
+def _thruster_flow(seed: int) -> dict[str, np.ndarray]:
+    """A T200-like thruster in a flow (towing carriage or flume), the truth the linear Healey form
+    ``T = k_t Ω|Ω| − k_a |Ω| u_a`` with the T200 preset's k_t and the k_a derived from its pitch
+    and diameter (:func:`uuvid.thruster.inflow.t200_inflow`): five speeds each way × five water
+    speeds 0–0.8 m/s, three repeats, thrust noise σ 0.25 N (columns command [µs], speed
+    [rad/s], thrust [N], flow_speed [m/s])."""
+    from uuvid.thruster.blocks import HealeyThruster
+    from uuvid.thruster.inflow import linear_healey_forces, t200_inflow
+    from uuvid.thruster.presets import T200_STEADY
+
+    truth = HealeyThruster(thrust_coefficient=T200_STEADY.kt_fwd,
+                           thrust_coefficient_rev=T200_STEADY.kt_rev,
+                           inflow_coefficient=t200_inflow().inflow_coefficient)
+    speeds = np.array([120.0, 170.0, 220.0, 270.0, 320.0])
+    w, u = np.meshgrid(np.concatenate([speeds, -speeds]), np.linspace(0.0, 0.8, 5), indexing="ij")
+    w, u = np.repeat(w.ravel(), 3), np.repeat(u.ravel(), 3)
+    thrust = linear_healey_forces(truth, w, u)[0]
+    thrust = thrust + np.random.default_rng(seed).normal(0.0, 0.25, thrust.size)
+    return {"command": 1500.0 + w / 0.8, "speed": w, "thrust": thrust, "flow_speed": u}
+
+
+def thruster_flow_truth() -> dict:
+    """The coefficients the ``thruster-flow`` example obeys."""
+    from uuvid.thruster.inflow import t200_inflow
+    from uuvid.thruster.presets import T200_STEADY
+
+    return {"K_T_fwd": T200_STEADY.kt_fwd, "K_T_rev": T200_STEADY.kt_rev,
+            "k_a": t200_inflow().inflow_coefficient}
+
+
+EXAMPLES["thruster-flow"] = Example(
+    "thruster-flow", "thruster_flow.csv",
+    "a T200-like thruster on a bench in a flow (water speed 0–0.8 m/s; columns command [µs], "
+    "speed [rad/s], thrust [N], flow_speed [m/s]) — for `uuvid thruster fit --model quadratic "
+    "--speed-col speed --thrust-col thrust`: the inflow coefficient k_a", _thruster_flow, 4)
+
+
 def _dive(seed: int) -> dict[str, np.ndarray | list]:
     from uuvid.simulate.dive_synth import synthetic_dive
 
