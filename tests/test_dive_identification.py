@@ -208,3 +208,16 @@ def test_real_logs_without_a_dive_give_clear_errors(shared_data):
     # 16 s armed fill five 2 s yaw windows: that once returned four parameters correlated ±1
     with pytest.raises(DiveDataError, match="window too short.*30 s"):
         identify_dive(d / "small.tlog", "bluerov2-heavy", ["yaw"], horizon=2.0, t_end=218.0)
+
+
+def test_all_returns_what_the_log_can_inform_and_says_what_it_cannot(dive):
+    """``--dof all`` on a log whose heading stops after 40 s: heave is identified and yaw is named
+    in the warnings (too few windows); naming yaw explicitly is an error."""
+    df, _ = dive
+    cut = df.copy()
+    cut.loc[cut["t_s"] > 40.0, "yaw_rad"] = np.nan
+    res = identify_dive(cut, "bluerov2", "all")
+    assert "heave" in res.estimates and "yaw" not in res.estimates
+    assert any(w.startswith("yaw not identified") and "too short" in w for w in res.warnings)
+    with pytest.raises(DiveDataError, match="too short to identify yaw"):
+        identify_dive(cut, "bluerov2", ["heave", "yaw"])

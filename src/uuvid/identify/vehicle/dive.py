@@ -559,6 +559,10 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                             "in the water)")
     if t_start is not None and t_end is not None and t_end <= t_start:
         raise DiveDataError(f"--t-end {t_end:g} s must be after --t-start {t_start:g} s")
+    # "all": every DOF the log can inform; one that cannot be identified (too few windows, …)
+    # is said in the warnings and the others are returned
+    every = isinstance(dofs, str) and dofs == "all" or dofs is None or \
+        (not isinstance(dofs, str) and list(dofs) == ["all"])
     dofs = _dof_list(dofs, dc)
     ests = {}
     flags = _flags(dc, veh, thruster_model)
@@ -568,14 +572,13 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                         + "/".join(d for d in ("surge", "sway", "yaw") if d in dofs)
                         + " were identified: a written vehicle gets the coupled model's values "
                           "(the 6-DOF simulator flies the coupled model)")
-    for dof in dofs:
+    def one(dof):
         if dof == "horizontal":
             from uuvid.identify.vehicle.dive_horizontal import fit_horizontal
 
-            ests[dof] = fit_horizontal(dc, veh, float(horizon or DEFAULT_HORIZON[dof]), t_start,
-                                       t_end, flags=flags, weighting=dead_band_weighting,
-                                       held_out_horizon=held_out_horizon)
-            continue
+            return fit_horizontal(dc, veh, float(horizon or DEFAULT_HORIZON[dof]), t_start,
+                                  t_end, flags=flags, weighting=dead_band_weighting,
+                                  held_out_horizon=held_out_horizon)
         dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
         base, base_src = params_from_vehicle(veh, dof)
@@ -601,8 +604,19 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         if dof == "heave":
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
-        ests[dof] = DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
-                                base_src, len(windows), H, train, held, warns, notes, traces, wd)
+        return DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
+                           base_src, len(windows), H, train, held, warns, notes, traces, wd)
+    failed = []
+    for dof in dofs:
+        try:
+            ests[dof] = one(dof)
+        except DiveDataError as e:
+            if not every:  # DOFs the user named: each must be identified
+                raise
+            failed.append(e)
+            warnings.append(f"{dof} not identified: {e}")
+    if not ests:
+        raise failed[0]
     return DiveIdentification(dc.name, veh.name, vehicle if not hasattr(vehicle, "B") else
                               (veh.path or veh.name), ests, t_start, t_end,
                               time.perf_counter() - t0, warnings)
