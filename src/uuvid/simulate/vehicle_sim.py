@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from uuvid.core.result import DictSummaryResult, jsonable
-from uuvid.simulate.control.blocks import Controller
+from uuvid.simulate.control.blocks import Controller, compiled_form
 from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandwidth, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
@@ -707,7 +707,9 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
     supply, no inflow.  Only what that mission uses is compiled, with nothing generic left in
     the step (no block dispatch, no per-step flags); the same arithmetic as :func:`_fly_loop`'s
     closed-form fast path in the same order, so the same numbers, bit for bit
-    (``tparams``/``poff``: the bank's parameters, blocks ESC, motor, map)."""
+    (``tparams``/``poff``: the bank's parameters, blocks ESC, motor, map; ``cparams``/``cstate``
+    the controller's, as :func:`_fly_loop`'s).  :func:`compiled_quad` builds it around a user's
+    wrench controller."""
     nsteps = ref_pos.shape[0]
     n = tparams.shape[0]
     nz = z0.size
@@ -766,6 +768,17 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
                 o = 13 + i
                 z[o] = tgt[i] + (z[o] - tgt[i]) * lag[2, i]
             normalise_state(z)
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_quad(ctrl_fn):
+    """:func:`fly_quad` compiled around a wrench controller's numba function (memoised; on
+    first use, not cached on disk — as :func:`compiled_loop`)."""
+    import types
+
+    g = dict(fly_quad.py_func.__globals__)
+    g["_CTRL"] = ctrl_fn
+    return njit(types.FunctionType(fly_quad.py_func.__code__, g, "fly_quad"))
 
 
 def quad_chain(bank: ThrusterBank) -> bool:
@@ -1346,9 +1359,10 @@ def mission_runner(setup: MissionSetup):
     compiled loop :func:`fly_mission` uses, into ``outputs`` = ``(Z, F, FD, TAU, SC, VOUT)``
     (preallocated for the whole mission); ``compiled``: that loop is already compiled or loaded
     in this process.  The loop is :func:`fly_quad` for the configuration it is specialised to
-    (the built-in PID, no disturbance, a constant current, an ideal supply, no inflow, chains
-    ESC → first-order motor → quadratic map), else the general :func:`fly` (built-in PID, no
-    disturbance) or the loop compiled around the setup's controller and disturbance."""
+    (a wrench controller — the built-in PID, cached, or the setup's, compiled around it by
+    :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, no inflow,
+    chains ESC → first-order motor → quadratic map), else the general :func:`fly` (built-in PID,
+    no disturbance) or the loop compiled around the setup's controller and disturbance."""
     s = setup
     N = s.t.size
     b = s.bank
@@ -1363,17 +1377,22 @@ def mission_runner(setup: MissionSetup):
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     VOUT = np.zeros((N if BAT.size else 0, 3 + b.n))
     IPRM, IGEO = s.inflow_arrays if s.inflow_arrays is not None else (np.zeros(0), np.zeros((0, 7)))
-    if (s.controller is None and s.disturbance is None and not BAT.size and not IPRM.size
-            and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
-        gains = s.gains.to_array().ravel()
+    c = s.controller
+    if (s.disturbance is None and (c is None or c.output_code == 0) and not BAT.size
+            and not IPRM.size and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
+        loop, cpar, cstate0 = fly_quad, s.gains.to_array().ravel(), np.zeros(PID_STATE_SIZE)
+        if c is not None:  # a wrench controller: the same loop compiled around it
+            cfn, cpar = compiled_form(c)
+            cpar, cstate0 = np.ascontiguousarray(cpar), c.state0
+            if cfn is not _CTRL:
+                loop = compiled_quad(cfn)
         vc = np.asarray(s.current, dtype=float)
 
         def run(k):
-            fly_quad(gains, np.zeros(PID_STATE_SIZE), z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n,
-                     b.poff, b.params, b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k],
-                     ref_yaw[:k], ref_rate[:k], vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k],
-                     TAU[:k], SC[:k])
-        compiled = bool(fly_quad.signatures)
+            loop(cpar, cstate0.copy(), z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, b.poff, b.params,
+                 b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
+                 vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k])
+        compiled = bool(loop.signatures)
     elif s.controller is None and s.disturbance is None:  # the cached default kernel
         def run(k):
             fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
