@@ -117,9 +117,12 @@ def pvs_style_peer(setup, steps: int) -> np.ndarray:
 
 def simulate(sim_time: float = 600.0, repeats: int = 15, budget_s: float = 40.0) -> dict:
     """``fly_mission``'s compiled loop against the minimal kernel (:mod:`minimal_kernel`) on the
-    full 600 s mission, interleaved pairs.  Ours is the compiled loop called as ``fly_mission``
-    calls it (the summary after it excluded), the kernel its one call; both write the states and
-    thrusts of every step into preallocated arrays."""
+    full 600 s mission, interleaved pairs.  Ours is the compiled loop ``fly_mission`` selects for
+    this configuration (``vehicle_sim.mission_runner``: the loop specialised to ESC → first-order
+    motor → quadratic map, built-in PID, still water), called as ``fly_mission`` calls it (the
+    summary after it excluded), the kernel its one call; both write the states and thrusts of
+    every step into preallocated arrays.  Both are plain ``@njit`` code (no ``fastmath``, no
+    other codegen flags), timed in CPU and wall time."""
     vehicle = load_vehicle("bluerov2")
     setup = setup_mission(vehicle, laps_mission(), t_end=sim_time)
     r = fly_mission(setup)  # load the compiled code
@@ -132,21 +135,13 @@ def simulate(sim_time: float = 600.0, repeats: int = 15, budget_s: float = 40.0)
     ref_pos, ref_vel, ref_yaw, ref_rate = (np.ascontiguousarray(x) for x in setup.ref)
     z0 = setup.z0()
 
-    # ours: the compiled loop exactly as fly_mission calls it (its summary afterwards excluded)
-    s, b = setup, setup.bank
+    # ours: the compiled loop exactly as fly_mission calls it (its summary afterwards excluded):
+    # the same runner, so the same (specialised) loop, arguments and output arrays
+    run, _, (Zo, *_) = vehicle_sim.mission_runner(setup)
     N = setup.t.size
-    Zo = np.empty((N, z0.size))
-    Fo, FD = np.empty((N, b.n)), np.empty((N, b.n))
-    TAU, SC = np.empty((N, 6)), np.empty(N)
-    none3, none0 = np.zeros((0, 3)), np.zeros(0)  # no current series, ideal supply
-    gains = s.gains.to_array()
 
     def ours():
-        vehicle_sim.fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff,
-                        b.params, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
-                        gains, ref_pos, ref_vel, ref_yaw, ref_rate, s.current, s.dt, s.substeps,
-                        Zo, Fo, FD, TAU, SC, none3, none3, none0, np.zeros((0, 3 + b.n)),
-                        none0, np.zeros((0, 7)))  # no inflow
+        run(N)
 
     def kernel():
         minimal_kernel.fly_minimal(z0, a["Minv"], a["MRB"], a["MA"], a["DL"], a["DQ"], a["grav"],

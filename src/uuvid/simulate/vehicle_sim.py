@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from uuvid.core.result import DictSummaryResult, jsonable
-from uuvid.simulate.control.blocks import Controller
+from uuvid.simulate.control.blocks import Controller, compiled_form
 from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandwidth, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import WaypointMission, level_speed_limit
@@ -677,6 +677,117 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
             normalise_state(z)
 
 
+@njit(cache=True, inline="always")
+def _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc):
+    """:func:`_vehicle_rk4` in still water without a disturbance force, its four stages written
+    out (the same arithmetic, so the same numbers)."""
+    _tau_from(th, 0, B, tau, fsc[6:12])
+    vehicle_rhs_still_into(z, tau, vp, fsc, k1)
+    _tau_from(th, 1, B, tau, fsc[6:12])
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k1[i]
+    vehicle_rhs_still_into(zt, tau, vp, fsc, k2)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k2[i]
+    vehicle_rhs_still_into(zt, tau, vp, fsc, k3)
+    _tau_from(th, 2, B, tau, fsc[6:12])
+    for i in range(13):
+        zt[i] = z[i] + 1.0 * h * k3[i]
+    vehicle_rhs_still_into(zt, tau, vp, fsc, k4)
+    for i in range(13):
+        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@njit(cache=True)
+def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv_t, inv_c,
+             ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE):
+    """:func:`_fly_loop` specialised to its commonest configuration: every thruster ESC →
+    first-order motor → quadratic map (:func:`quad_chain`), a wrench controller (``_CTRL``, the
+    built-in PID), no disturbance, a constant current (``vc``, NED; zero: still water), an ideal
+    supply, no inflow.  Only what that mission uses is compiled, with nothing generic left in
+    the step (no block dispatch, no per-step flags); the same arithmetic as :func:`_fly_loop`'s
+    closed-form fast path in the same order, so the same numbers, bit for bit
+    (``tparams``/``poff``: the bank's parameters, blocks ESC, motor, map; ``cparams``/``cstate``
+    the controller's, as :func:`_fly_loop`'s).  :func:`compiled_quad` builds it around a user's
+    wrench controller."""
+    nsteps = ref_pos.shape[0]
+    n = tparams.shape[0]
+    nz = z0.size
+    z = z0.copy()
+    zt = np.empty(13)
+    k1 = np.empty(13)
+    k2 = np.empty(13)
+    k3 = np.empty(13)
+    k4 = np.empty(13)
+    K4 = np.zeros((4, 13))
+    fsc = np.zeros(12)  # scratch (6) and a zero disturbance force (6)
+    tau = np.empty(6)
+    tau_des = np.zeros(6)
+    fdes = np.zeros(n)
+    tgt = np.zeros(n)
+    th = np.zeros((3, n))
+    lag = np.ones((3, n))
+    jtab = np.zeros(n, dtype=np.int64)
+    still = vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
+    dvc = np.zeros(3)
+    pe = poff[0]  # the ESC's parameters, the motor's (gain, time constant), the map's (k+, k−)
+    pm = poff[1]
+    pq = poff[2]
+    h = dt / nsub
+    for i in range(n):
+        for st in range(3):
+            lag[st, i] = math.exp(-0.5 * st * h / tparams[i, pm + 1])
+    for k in range(nsteps):
+        _CTRL(k * dt, z[0:7], z[7:13], ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], cparams,
+              cstate, dt, tau_des)
+        s = allocate_compiled(alloc, tau_des, fdes)
+        for i in range(n):  # inverse steady map, then the ESC: the motor speed aimed at
+            c, jtab[i] = kernels.interp_sorted_from(inv_t[i], inv_c[i], fdes[i], jtab[i])
+            tgt[i] = tparams[i, pm] * kernels.esc_output(tparams[i], pe, c)
+        for i in range(nz):
+            Z[k, i] = z[i]
+        for j in range(6):
+            TAU[k, j] = tau_des[j]
+        SCALE[k] = s
+        for sub in range(nsub):
+            for i in range(n):  # thrust at the RK4 stage times, the motor's lag in closed form
+                x0 = z[13 + i]
+                for st in range(3):
+                    xs = tgt[i] + (x0 - tgt[i]) * lag[st, i]
+                    f = (tparams[i, pq] if xs >= 0.0 else tparams[i, pq + 1]) * (xs * abs(xs))
+                    th[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+            if sub == 0:
+                for i in range(n):
+                    F[k, i] = th[0, i]
+                    FDES[k, i] = fdes[i]
+            if still:
+                _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc)
+            else:
+                _vehicle_rk4(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, K4, fsc[6:12], False, fsc)
+            for i in range(n):
+                o = 13 + i
+                z[o] = tgt[i] + (z[o] - tgt[i]) * lag[2, i]
+            normalise_state(z)
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_quad(ctrl_fn):
+    """:func:`fly_quad` compiled around a wrench controller's numba function (memoised; on
+    first use, not cached on disk — as :func:`compiled_loop`)."""
+    import types
+
+    g = dict(fly_quad.py_func.__globals__)
+    g["_CTRL"] = ctrl_fn
+    return njit(types.FunctionType(fly_quad.py_func.__code__, g, "fly_quad"))
+
+
+def quad_chain(bank: ThrusterBank) -> bool:
+    """Are the bank's chains ESC → first-order motor → quadratic map (:func:`fly_quad`)?"""
+    return (bank.kinds.size == 3 and int(bank.kinds[0]) == kernels.K_ESC
+            and int(bank.kinds[1]) == K_FIRST_ORDER_MOTOR
+            and int(bank.kinds[2]) == kernels.K_QUADRATIC and bank.n_states == 1)
+
+
 @njit(cache=True)
 def _summarise_run(Z, F, SC, ref_pos, out):
     """``out = [max tracking error, rms tracking error, max |thrust|, final position error,
@@ -1255,8 +1366,15 @@ def mission_tilt_warning(setup: MissionSetup, att: dict) -> str:
     return msg
 
 
-def fly_mission(setup: MissionSetup) -> MissionResult:
-    """Fly the mission once; returns the time series and the summary."""
+def mission_runner(setup: MissionSetup):
+    """``(run, compiled, outputs)``: ``run(k)`` flies the first ``k`` steps of the setup with the
+    compiled loop :func:`fly_mission` uses, into ``outputs`` = ``(Z, F, FD, TAU, SC, VOUT)``
+    (preallocated for the whole mission); ``compiled``: that loop is already compiled or loaded
+    in this process.  The loop is :func:`fly_quad` for the configuration it is specialised to
+    (a wrench controller — the built-in PID, cached, or the setup's, compiled around it by
+    :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, no inflow,
+    chains ESC → first-order motor → quadratic map), else the general :func:`fly` (built-in PID,
+    no disturbance) or the loop compiled around the setup's controller and disturbance."""
     s = setup
     N = s.t.size
     b = s.bank
@@ -1271,7 +1389,23 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     VOUT = np.zeros((N if BAT.size else 0, 3 + b.n))
     IPRM, IGEO = _inflow_or_empty(s.inflow_arrays)
-    if s.controller is None and s.disturbance is None:  # the cached default kernel
+    c = s.controller
+    if (s.disturbance is None and (c is None or c.output_code == 0) and not BAT.size
+            and not IPRM.size and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
+        loop, cpar, cstate0 = fly_quad, s.gains.to_array().ravel(), np.zeros(PID_STATE_SIZE)
+        if c is not None:  # a wrench controller: the same loop compiled around it
+            cfn, cpar = compiled_form(c)
+            cpar, cstate0 = np.ascontiguousarray(cpar), c.state0
+            if cfn is not _CTRL:
+                loop = compiled_quad(cfn)
+        vc = np.asarray(s.current, dtype=float)
+
+        def run(k):
+            loop(cpar, cstate0.copy(), z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, b.poff, b.params,
+                 b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
+                 vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k])
+        compiled = bool(loop.signatures)
+    elif s.controller is None and s.disturbance is None:  # the cached default kernel
         def run(k):
             fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
                 b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(),
@@ -1289,6 +1423,18 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                  s.current, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT,
                  VOUT[:k] if BAT.size else VOUT, IPRM, IGEO)
         compiled = bool(loop.signatures)
+    return run, compiled, (Z, F, FD, TAU, SC, VOUT)
+
+
+def fly_mission(setup: MissionSetup) -> MissionResult:
+    """Fly the mission once; returns the time series and the summary."""
+    s = setup
+    b = s.bank
+    run, compiled, (Z, F, FD, TAU, SC, VOUT) = mission_runner(s)
+    N = s.t.size
+    ref_pos, ref_yaw = np.ascontiguousarray(s.ref[0]), np.ascontiguousarray(s.ref[2])
+    VCT = s.current_series[0] if s.current_series is not None else np.zeros((0, 3))
+    BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     compile_s = 0.0
     if not compiled:  # first flight in this process: compile (or load) the kernel on one
         # step, timed apart, so the real-time factor measures flying, not compiling

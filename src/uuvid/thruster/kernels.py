@@ -46,6 +46,12 @@ STICK_SPEED = 1e-3  # rad/s: below this a shaft with Coulomb friction may stick 
 
 
 @njit(cache=True, inline="always")
+def esc_output(params, pb, cmd):
+    """The ESC block's output for command ``cmd`` (its parameters at ``params[pb:]``)."""
+    return _esc(params, pb, cmd)
+
+
+@njit(cache=True, inline="always")
 def _esc(params, pb, cmd):
     c = min(max(cmd, params[pb + 6]), params[pb + 7])
     if c > params[pb + 5]:

@@ -118,26 +118,31 @@ def dp_errors(pos, q, nu, ref_pos, ref_vel, ref_yaw, ref_rate, e, edot):
 
 
 @njit(cache=True, inline="always")
-def attitude_hold(q, nu, gains, tau_out):
-    """PD to level roll and pitch (only for vehicles that can produce roll/pitch moments)."""
-    if gains[5, 0] == 0.0 and gains[5, 1] == 0.0 and gains[5, 2] == 0.0 and gains[5, 3] == 0.0:
+def _attitude_hold_row(q, nu, g, tau_out):
+    """:func:`attitude_hold` with its gains row ``g`` = [kp_roll, kp_pitch, kd_roll, kd_pitch]."""
+    if g[0] == 0.0 and g[1] == 0.0 and g[2] == 0.0 and g[3] == 0.0:
         return
     n, e1, e2, e3 = q[0], q[1], q[2], q[3]
     roll = math.atan2(2 * (n * e1 + e2 * e3), 1 - 2 * (e1 * e1 + e2 * e2))
     s = 2 * (n * e2 - e3 * e1)
     pitch = math.asin(min(1.0, max(-1.0, s)))
-    tau_out[3] = -gains[5, 0] * roll - gains[5, 2] * nu[3]
-    tau_out[4] = -gains[5, 1] * pitch - gains[5, 3] * nu[4]
+    tau_out[3] = -g[0] * roll - g[2] * nu[3]
+    tau_out[4] = -g[1] * pitch - g[3] * nu[4]
 
 
 @njit(cache=True, inline="always")
-def dp_control(e, edot, integ, gains, dt, tau_out, integ_out):
-    """PID with conditional-integration anti-windup; writes the 6-vector ``tau_out`` and the new
-    integrator state.  ``gains`` is :meth:`DPGains.to_array` (rows kp, ki, kd, tau_max, i_limit)."""
+def attitude_hold(q, nu, gains, tau_out):
+    """PD to level roll and pitch (only for vehicles that can produce roll/pitch moments)."""
+    _attitude_hold_row(q, nu, gains[5], tau_out)
+
+
+@njit(cache=True, inline="always")
+def _dp_control_rows(e, edot, integ, kpr, kir, kdr, tmr, ilr, dt, tau_out, integ_out):
+    """:func:`dp_control` with the gains as five rows (kp, ki, kd, tau_max, i_limit)."""
     for k in range(6):
         tau_out[k] = 0.0
     for j in range(4):
-        kp, ki, kd, tmax, ilim = gains[0, j], gains[1, j], gains[2, j], gains[3, j], gains[4, j]
+        kp, ki, kd, tmax, ilim = kpr[j], kir[j], kdr[j], tmr[j], ilr[j]
         u_unsat = kp * e[j] + ki * integ[j] + kd * edot[j]
         saturated = abs(u_unsat) >= tmax and u_unsat * e[j] > 0
         new_i = integ[j] if saturated else integ[j] + e[j] * dt
@@ -148,6 +153,14 @@ def dp_control(e, edot, integ, gains, dt, tau_out, integ_out):
         u = kp * e[j] + ki * new_i + kd * edot[j]
         u = min(max(u, -tmax), tmax)
         tau_out[DP_DOFS[j]] = u
+
+
+@njit(cache=True, inline="always")
+def dp_control(e, edot, integ, gains, dt, tau_out, integ_out):
+    """PID with conditional-integration anti-windup; writes the 6-vector ``tau_out`` and the new
+    integrator state.  ``gains`` is :meth:`DPGains.to_array` (rows kp, ki, kd, tau_max, i_limit)."""
+    _dp_control_rows(e, edot, integ, gains[0], gains[1], gains[2], gains[3], gains[4], dt, tau_out,
+                     integ_out)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -163,13 +176,15 @@ def pid_controller(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, stat
     sway, heave and yaw (:func:`dp_errors`, :func:`dp_control`) plus roll/pitch hold
     (:func:`attitude_hold`).  ``params`` = ``DPGains.to_array().ravel()`` (24);
     ``state[0:4]`` the integrator, ``state[4:16]`` scratch (:data:`PID_STATE_SIZE`)."""
-    gains = params.reshape(6, 4)
+    # the gains read as rows of params (views), not params.reshape(6, 4): numba's reshape calls
+    # out to a C helper on every step, which cost ~10 % of the whole mission step
     e = state[4:8]
     edot = state[8:12]
     integ_new = state[12:16]
     dp_errors(eta[0:3], eta[3:7], nu, ref_pos, ref_vel, ref_yaw, ref_rate, e, edot)
-    dp_control(e, edot, state[0:4], gains, dt, tau_out, integ_new)
-    attitude_hold(eta[3:7], nu, gains, tau_out)
+    _dp_control_rows(e, edot, state[0:4], params[0:4], params[4:8], params[8:12], params[12:16],
+                     params[16:20], dt, tau_out, integ_new)
+    _attitude_hold_row(eta[3:7], nu, params[20:24], tau_out)
     for j in range(4):
         state[j] = integ_new[j]
 
