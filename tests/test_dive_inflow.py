@@ -159,13 +159,13 @@ def test_ka_and_drag_within_3_sigma_over_seeds_and_bollard_model_is_biased():
     z_on = [z for s in SEEDS for dof in ("heave", "yaw") for z in _run(s)[0][dof].values()]
     inside = np.mean(np.abs(z_on) <= 3.0)
     assert inside >= 0.9, (inside, z_on)
-    # the bollard-thrust model on the same data books the loss as drag: beyond 3σ in every dive
-    # (c(t) grows with the thrust, which grows with the speed, so the loss looks mostly like
-    # *quadratic* drag)
+    # the bollard-thrust model on the same data books the loss as drag, beyond 3σ in every dive:
+    # c(t) grows with the thrust, which grows with the speed, so the loss looks mostly like
+    # *quadratic* drag (the linear drag stays within a few σ, slightly low)
     for s in SEEDS:
         for dof in ("heave", "yaw"):
             z = _run(s)[1][dof]
-            assert max(z.values()) > 3.0, (s, dof, z)
+            assert z["quadratic"] > 3.0, (s, dof, z)
 
 
 # ------------------------------------------------------------------------------------------------
