@@ -655,6 +655,11 @@ def _inflow_setup(dc, veh, dofs, inflow, thruster_model, warnings):
             raise DiveDataError(msg + "; pass --no-inflow or a log with SERVO_OUTPUT_RAW/RCOU or "
                                       "pwm_<j> columns")
         warnings.append(msg + ": identified with bollard thrust (inflow off)")
+    elif getattr(veh, "inflow", "none") == "none":
+        warnings.append("inflow: the drag identified is the hull's, without the thrust loss "
+                        "(k_a goes to one_dof.<dof>.inflow_coefficient, which the dive replay "
+                        f"flies); {veh.name} has inflow: none, so a 6-DOF simulation of a written "
+                        "file loses no thrust to the advance speed unless its inflow is set")
     return speeds, starts
 
 
