@@ -75,6 +75,11 @@ def identify_dive_cmd(
                                            help="Down-weight residuals whose force comes from "
                                                 "thrusters at the dead band's edge (needs "
                                                 "logged PWM)."),
+    inflow: bool | None = typer.Option(None, "--inflow/--no-inflow",
+                                       help="Fit the inflow coefficient k_a jointly: the thrust "
+                                            "lost to the advance speed, F − k_a c(t) v (needs "
+                                            "logged PWM). Default: on when the vehicle file has "
+                                            "inflow other than none."),
     json_out: bool = JSON,
 ):
     """Identify per-DOF models (mass with added mass, drag, net buoyancy) from every armed sample
@@ -94,8 +99,8 @@ def identify_dive_cmd(
 
     _run(lambda: identify_dive(log, vehicle, _dofs(dof), t_start=t_start, t_end=t_end,
                                horizon=horizon, params=params, topics=topic,
-                               dead_band_weighting=dead_band_weights), write, json_out,
-         lambda e: f"cannot write: {e.strerror or e} ({e.filename})")
+                               dead_band_weighting=dead_band_weights, inflow=inflow),
+         write, json_out, lambda e: f"cannot write: {e.strerror or e} ({e.filename})")
 
 
 def replay_dive_cmd(

@@ -23,7 +23,7 @@ import numpy as np
 from uuvid.io.logs import LogDataError
 
 __all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS", "ThrustRegions",
-           "thrust_regions", "PwmFlags", "pwm_flags"]
+           "thrust_regions", "PwmFlags", "pwm_flags", "rotor_speeds", "inflow_gain"]
 
 #: DOF → (measured channel, force channel, measured is a position (True) or a velocity)
 DIVE_DOFS = {"heave": ("depth_m", "Z_N", True), "yaw": ("yaw_rad", "N_Nm", True),
@@ -409,3 +409,65 @@ def pwm_flags(dc: DiveChannels, B, thrust_model, t_start=None, t_end=None) -> Pw
     else:
         sigma = np.sqrt((Bm ** 2) @ (sT ** 2))
     return PwmFlags(t, edge.sum(axis=0), sat.sum(axis=0), sigma, reg, len(keys))
+
+
+# ---------------------------------------------------------------------------------------------
+# Rotor speeds and the thrust lost to the advance speed (issue 21)
+# ---------------------------------------------------------------------------------------------
+def rotor_speeds(dc: DiveChannels, thrust_model=None) -> tuple[np.ndarray, np.ndarray, str] | None:
+    """``(t, |Ω| (n × len(t)) [rad/s], how)``: each thruster's rotor speed on the servo-output
+    stamps, or ``None`` when no PWM is logged.
+
+    ``|Ω|`` is the steady speed the thruster model gives for the logged PWM at the logged battery
+    voltage (16 V without one): the voltage-aware T200 model's DC-motor balance
+    (:meth:`uuvid.io.ardusub.thrust.ThrustModel.speed`).  A model that gives thrust only (a
+    command-driven chain) gives ``|Ω| = sqrt(|T| / K_T)`` with the shipped T200 model's ``K_T``
+    per direction (``how`` says which).  MOT_n_DIRECTION reversal is not applied: forward and
+    astern speeds at the same offset from neutral differ by a few per cent."""
+    from uuvid.io.ardusub.thrust import T200_MODEL_FILE, _physical_from_yaml, default_t200
+
+    if not dc.pwm:
+        return None
+    tm = default_t200() if thrust_model is None else thrust_model
+    keys = sorted(dc.pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    t = dc.pwm[keys[0]][0]
+    P = np.stack([np.interp(t, *dc.pwm[k]) if dc.pwm[k][0].size else np.full(t.size, 1500.0)
+                  for k in keys])
+    if "battery_V" in dc.channels and dc.channels["battery_V"][0].size:
+        volts = np.interp(t, *dc.channels["battery_V"])
+    else:
+        volts = np.full(t.size, 16.0)
+    on = np.isfinite(P) & (P > 0)
+    P = np.where(on, P, 1500.0)
+    if tm.has_speed:
+        W = np.abs(np.stack([tm.speed(p, volts) for p in P]))
+        how = f"{tm.name}: steady rotor speed at the logged PWM and battery voltage"
+    else:
+        T = np.stack([tm.thrust(p, volts) for p in P])
+        pm = _physical_from_yaml(T200_MODEL_FILE)
+        kt = np.where(T >= 0, pm.kt_fwd, pm.kt_rev)
+        W = np.sqrt(np.abs(T) / kt)
+        how = (f"{tm.name} gives thrust only: |Ω| = sqrt(|T|/K_T) with the T200 model's K_T "
+               f"({pm.kt_fwd:.4g} ahead, {pm.kt_rev:.4g} astern N·s²/rad²)")
+    W = np.where(on & np.isfinite(W), W, 0.0)
+    return t, W, how
+
+
+def inflow_gain(dc: DiveChannels, vehicle, dof: str, speeds=None,
+                thrust_model=None) -> tuple[np.ndarray, np.ndarray, str] | None:
+    """``(t, c, how)``: the gain ``c(t) = Σ_i G_ji |Ω_i(t)|`` of the thrust lost to the advance
+    speed in DOF ``dof`` (:func:`uuvid.vehicle.inflow.one_dof_inflow_matrix`): with the linear
+    inflow form (Healey et al. 1995; Fossen 2011 §6.7) the DOF's force is ``F(t) − k_a c(t) v``.
+    ``speeds``: :func:`rotor_speeds` already computed; ``None`` when no PWM is logged."""
+    from uuvid.vehicle.inflow import one_dof_inflow_matrix
+
+    rs = speeds if speeds is not None else rotor_speeds(dc, thrust_model)
+    if rs is None:
+        return None
+    t, W, how = rs
+    G = one_dof_inflow_matrix(vehicle)
+    j = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}[dof]
+    if G.shape[1] != W.shape[0]:
+        raise DiveDataError(f"{dc.name}: {W.shape[0]} servo outputs but vehicle {vehicle.name!r} "
+                            f"has {G.shape[1]} thrusters: the inflow term needs one per thruster")
+    return t, G[j] @ W, how

@@ -3,7 +3,14 @@
 Per DOF the model (Caccia et al. 2000, eq. 3, with a constant bias ``b``: in heave the net
 weight ``W − B``)::
 
-    ẋ = v,   m v̇ = F(t) − k v − k_q v|v| + b
+    ẋ = v,   m v̇ = F(t) − k v − k_q v|v| + b − k_a c(t) v
+
+``F`` is the bollard force from the servo outputs; the last term is the thrust the propellers lose
+to the advance speed with the linear inflow form ``T_i = T_i,bollard − k_a |Ω_i| u_a,i`` (Healey
+et al. 1995, IEEE JOE 20(4), eq. 6, small-angle form; Fossen 2011 §6.7), ``c(t) = Σ_i G_ji |Ω_i|``
+(:func:`uuvid.vehicle.inflow.one_dof_inflow_matrix`, :func:`uuvid.io.dive_channels.inflow_gain`);
+``k_a = 0`` (the default, and every model without ``one_dof.<dof>.inflow_coefficient``) is the
+bollard model.
 
 is integrated (RK4, fixed step) with the *logged* force ``F`` — linear between its own samples,
 never resampled — in windows of ``horizon`` seconds; each window starts from the measured state
@@ -43,19 +50,26 @@ _INDEX = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}
 
 @dataclass(frozen=True)
 class OneDofParams:
-    """``m`` (incl. added mass), ``k``, ``k_q`` (≥ 0) and the bias ``b`` of one DOF, SI units."""
+    """``m`` (incl. added mass), ``k``, ``k_q`` (≥ 0), the bias ``b`` and the inflow coefficient
+    ``k_a`` [N·s/(rad·m)] (0: bollard thrust) of one DOF, SI units."""
 
     mass: float
     linear: float
     quadratic: float
     bias: float = 0.0
+    inflow: float = 0.0
 
     def as_array(self) -> np.ndarray:
-        return np.array([self.mass, self.linear, self.quadratic, self.bias])
+        """``[m, k, k_q, b]``, plus ``k_a`` when it is not 0."""
+        a = [self.mass, self.linear, self.quadratic, self.bias]
+        return np.array(a + [self.inflow] if self.inflow else a)
 
     def to_dict(self) -> dict:
-        return {"mass": self.mass, "linear": self.linear, "quadratic": self.quadratic,
-                "bias": self.bias}
+        d = {"mass": self.mass, "linear": self.linear, "quadratic": self.quadratic,
+             "bias": self.bias}
+        if self.inflow:
+            d["inflow"] = self.inflow
+        return d
 
 
 def params_from_vehicle(veh, dof: str) -> tuple[OneDofParams, str]:
@@ -64,8 +78,10 @@ def params_from_vehicle(veh, dof: str) -> tuple[OneDofParams, str]:
     ``M_RB + M_A``, ``D_L``, ``D_Q`` and, in heave, ``W − B``."""
     for key, m in (veh.one_dof or {}).items():
         if m.dof == dof:
-            return (OneDofParams(m.mass, m.linear, m.quadratic, m.disturbance),
-                    f"one_dof.{key} of {veh.name}")
+            ka = float(getattr(m, "inflow_coefficient", 0.0) or 0.0)
+            return (OneDofParams(m.mass, m.linear, m.quadratic, m.disturbance, ka),
+                    f"one_dof.{key} of {veh.name}" + (" (with its inflow coefficient)"
+                                                      if ka else ""))
     i = _INDEX[dof]
     p = veh.params
     M = np.asarray(p.M_RB) + np.asarray(p.added_mass)
@@ -123,9 +139,11 @@ def _local_state(t, y, t0, half, position: bool):
 
 class WindowProblem:
     """Windows of one DOF prepared for vectorised simulation: force at the RK4 half steps and
-    where each measured sample falls (window, step, fraction)."""
+    where each measured sample falls (window, step, fraction).  ``gain``: ``(t, c)`` of
+    :func:`uuvid.io.dive_channels.inflow_gain` (linear between its samples, like the force),
+    needed by a θ with ``k_a`` (a fifth entry)."""
 
-    def __init__(self, dc, dof: str, windows, h: float | None = None):
+    def __init__(self, dc, dof: str, windows, h: float | None = None, gain=None):
         meas, force, position = DIVE_DOFS[dof]
         self.dof, self.position = dof, position
         tm, ym = dc.channels[meas]
@@ -140,6 +158,7 @@ class WindowProblem:
         self.ta = ta
         th = ta[:, None] + 0.5 * self.h * np.arange(2 * self.n + 1)[None, :]
         self.Fh = np.interp(th, tf, F)
+        self.Ch = None if gain is None else np.interp(th, gain[0], gain[1])
         wi, ti, yi = [], [], []
         for k, (a, b) in enumerate(self.windows):
             sel = (tm >= a) & (tm <= b)
@@ -158,8 +177,11 @@ class WindowProblem:
         self.W = W
 
     def simulate(self, theta, y0, v0):
-        """``(X, V)`` (W × n+1): position (or velocity-only: V) over each window."""
-        m, k, kq, b = theta
+        """``(X, V)`` (W × n+1): position (or velocity-only: V) over each window.  ``theta``:
+        ``[m, k, k_q, b]`` or ``[m, k, k_q, b, k_a]``; the inflow loss ``k_a c(t) v`` enters as a
+        time-varying linear drag ``k + k_a c(t)``."""
+        m, k, kq, b = theta[:4]
+        ka = theta[4] if len(theta) > 4 else 0.0
         h, n = self.h, self.n
         X = np.empty((self.W, n + 1))
         V = np.empty((self.W, n + 1))
@@ -169,15 +191,23 @@ class WindowProblem:
         X[:, 0], V[:, 0] = x, v
         inv = 1.0 / m
         Fh = self.Fh
+        if ka != 0.0:
+            if self.Ch is None:
+                raise ValueError("an inflow coefficient k_a needs the inflow gain c(t) (logged "
+                                 "servo outputs): WindowProblem(..., gain=inflow_gain(...))")
+            K = k + ka * self.Ch
+        else:
+            K = np.full(Fh.shape, float(k))
         for s in range(n):
             f0, f1, f2 = Fh[:, 2 * s], Fh[:, 2 * s + 1], Fh[:, 2 * s + 2]
-            a1 = (f0 - k * v - kq * v * np.abs(v) + b) * inv
+            k0, k1, k2 = K[:, 2 * s], K[:, 2 * s + 1], K[:, 2 * s + 2]
+            a1 = (f0 - k0 * v - kq * v * np.abs(v) + b) * inv
             v2 = v + 0.5 * h * a1
-            a2 = (f1 - k * v2 - kq * v2 * np.abs(v2) + b) * inv
+            a2 = (f1 - k1 * v2 - kq * v2 * np.abs(v2) + b) * inv
             v3 = v + 0.5 * h * a2
-            a3 = (f1 - k * v3 - kq * v3 * np.abs(v3) + b) * inv
+            a3 = (f1 - k1 * v3 - kq * v3 * np.abs(v3) + b) * inv
             v4 = v + h * a3
-            a4 = (f2 - k * v4 - kq * v4 * np.abs(v4) + b) * inv
+            a4 = (f2 - k2 * v4 - kq * v4 * np.abs(v4) + b) * inv
             x = x + h / 6 * (v + 2 * v2 + 2 * v3 + v4)
             v = v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
             X[:, s + 1], V[:, s + 1] = x, v
@@ -345,12 +375,13 @@ class DiveReplay(Result):
 
 
 def replay_windows(dc, dof: str, params: OneDofParams, horizon: float, t_start=None,
-                   t_end=None):
-    """``(metrics, trace, notes)`` of one DOF (``None`` metrics when no window fits)."""
+                   t_end=None, gain=None):
+    """``(metrics, trace, notes)`` of one DOF (``None`` metrics when no window fits); ``gain``:
+    the inflow gain ``(t, c)`` a model with ``k_a`` needs."""
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
     if not windows:
         return None, None, notes
-    prob = WindowProblem(dc, dof, windows)
+    prob = WindowProblem(dc, dof, windows, gain=gain)
     span = _STATE_SPAN[dof]
     y0, v0, sc = initial_state(prob, params.as_array(), span)
     pred = prob.predict(params.as_array(), y0, v0)
@@ -400,7 +431,21 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
             continue
         dc.require(dof)
         p, src = params_from_vehicle(veh, dof)
-        met, trace, nt = replay_windows(dc, dof, p, H, t_start, t_end)
+        gain = None
+        if p.inflow:
+            from uuvid.io.dive_channels import inflow_gain
+
+            g = inflow_gain(dc, veh, dof, thrust_model=_thrust_model(dc, thruster_model))
+            if g is None:
+                notes.append(f"{dof}: the vehicle's inflow coefficient k_a = {p.inflow:.4g} "
+                             "needs the servo outputs (rotor speeds) and the log has none: "
+                             "replayed with bollard thrust (k_a = 0)")
+                p = OneDofParams(p.mass, p.linear, p.quadratic, p.bias)
+            else:
+                gain = g[:2]
+                notes.append(f"{dof}: thrust lost to the advance speed with k_a = {p.inflow:.4g} "
+                             f"N·s/(rad·m) (rotor speeds: {g[2]})")
+        met, trace, nt = replay_windows(dc, dof, p, H, t_start, t_end, gain=gain)
         notes += nt
         if met is None:
             notes.append(f"{dof}: no armed {H:g} s window in the range: nothing replayed")
@@ -413,6 +458,15 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         raise DiveDataError(f"{dc.name}: no armed window of the horizon to replay in the range "
                             "given; widen --t-start/--t-end or shorten --horizon")
     return DiveReplay(dc.name, veh.name, hz, chans, traces, notes, t_start, t_end)
+
+
+def _thrust_model(dc, thruster_model):
+    """The thruster model that turned the servo outputs into forces: a table's pwm_ columns
+    always the shipped T200 model, an ArduSub log's or a bag's ``thruster_model`` when given."""
+    from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
+
+    return (load_thrust_model(thruster_model) if thruster_model is not None
+            and dc.format not in ("table", "csv", "parquet") else default_t200())
 
 
 def _dof_list(dofs, dc) -> list:

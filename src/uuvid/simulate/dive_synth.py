@@ -7,6 +7,11 @@ STABILIZE (heading hold) and ALT_HOLD (depth + heading hold, PID like ArduSub's)
 * thrusters driven by PWM computed for a nominal 16 V, delivering the voltage-aware T200 thrust
   at the *sagging* battery voltage (``uuvid.io.ardusub.thrust.default_t200``);
 * an unmodelled tether-like drag in heave and yaw (linear + quadratic, added to the vehicle's);
+* optionally (``inflow_coefficient`` k_a > 0) thrust that falls with the advance speed, the linear
+  inflow form ``T_i = T_i,bollard − k_a |Ω_i| u_a,i`` (Healey et al. 1995, small-angle form;
+  Fossen 2011 §6.7) with ``u_a`` from :func:`uuvid.thruster.inflow.advance_speeds` at each RK4
+  stage and ``|Ω_i|`` the T200 model's rotor speed at the PWM and battery voltage — the log still
+  records the bollard force (as ArduSub's servo outputs would give it);
 * channels logged at their own jittered rates: depth ≈ 3 Hz (σ 1 cm), yaw ≈ 20 Hz (σ 0.3°),
   PWM ≈ 2 Hz, battery ≈ 1 Hz (σ 0.02 V); a disarmed stretch at the start.
 
@@ -39,8 +44,9 @@ def _stamps(rng, t0, t1, rate, jitter=0.3):
     return t[t < t1]
 
 
-def dive_truth(vehicle="bluerov2", tether=None) -> dict:
-    """The 1-DOF parameters the synthetic dive obeys (vehicle + tether drag), per DOF."""
+def dive_truth(vehicle="bluerov2", tether=None, inflow_coefficient: float = 0.0) -> dict:
+    """The 1-DOF parameters the synthetic dive obeys (vehicle + tether drag), per DOF; with an
+    inflow coefficient, also ``inflow`` (k_a, the same for every DOF: one thruster type)."""
     from uuvid.vehicle.definition import load_vehicle
 
     v = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
@@ -53,18 +59,23 @@ def dive_truth(vehicle="bluerov2", tether=None) -> dict:
         out[dof] = {"mass": float(M[i, i]), "linear": float(p.linear_damping[i, i] + kt),
                     "quadratic": float(p.quadratic_damping[i, i] + kqt),
                     "bias": float(p.weight - p.buoyancy) if dof == "heave" else 0.0}
+        if inflow_coefficient:
+            out[dof]["inflow"] = float(inflow_coefficient)
     return out
 
 
 def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *,
                    tether=None, depth_noise: float = 0.01, yaw_noise: float = 0.005,
                    disarmed: float = 8.0, pwm_rate: float = 2.0, surge: float = 0.1,
-                   rates: dict | None = None, jitter: float = 0.3, dvl: bool = False):
+                   rates: dict | None = None, jitter: float = 0.3, dvl: bool = False,
+                   inflow_coefficient: float = 0.0):
     """``(table, truth)``: a piloted dive as a pandas DataFrame (see the module doc) and
     :func:`dive_truth`.  ``rates`` overrides the logging rates ``{"depth": 3, "yaw": 20,
     "pwm": pwm_rate, "battery": 1}`` [Hz]; ``jitter`` is the relative spread of the intervals
     (0: every channel at the same rate shares its stamps, as in a dataflash log).  ``dvl``: add
-    body velocities ``u_mps``/``v_mps`` at 5 Hz (σ 0.01 m/s), as a DVL would log them."""
+    body velocities ``u_mps``/``v_mps`` at 5 Hz (σ 0.01 m/s), as a DVL would log them.
+    ``inflow_coefficient`` k_a [N·s/(rad·m)] > 0: the thrusters lose ``k_a |Ω_i| u_a,i`` to the
+    advance speed (see the module doc; default 0: bollard thrust, the dive as before)."""
     import pandas as pd
 
     from uuvid.io.ardusub.thrust import default_t200
@@ -84,18 +95,32 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     t200 = default_t200()
     pwm_tab = np.arange(1100.0, 1901.0, 1.0)
     thr_tab = t200.thrust(pwm_tab, np.full(pwm_tab.size, 16.0))
+    ka = float(inflow_coefficient)
+    if not (math.isfinite(ka) and ka >= 0):
+        raise ValueError(f"inflow_coefficient must be a finite number >= 0, got {ka!r}")
 
     pos, neg = pwm_tab > 1500, pwm_tab < 1500
     # thrust(pwm, V) tabulated once: whole µs × 0.05 V (linear in V between rows)
     v_tab = np.arange(13.0, 17.0001, 0.05)
     TT = np.stack([t200.thrust(pwm_tab, np.full(pwm_tab.size, v)) for v in v_tab])
 
-    def thrust_at(pwm, volts):
+    def thrust_at(pwm, volts, table=TT):
         i = np.clip(np.round(pwm - 1100.0).astype(int), 0, pwm_tab.size - 1)
         u = np.clip((volts - v_tab[0]) / 0.05, 0, v_tab.size - 1.000001)
         k = int(u)
         f = u - k
-        return TT[k, i] * (1 - f) + TT[k + 1, i] * f
+        return table[k, i] * (1 - f) + table[k + 1, i] * f
+
+    if ka:
+        from uuvid.thruster.inflow import advance_speeds
+
+        OO = np.stack([np.abs(t200.speed(pwm_tab, np.full(pwm_tab.size, v))) for v in v_tab])
+        P_thr = np.array([t_.position for t_ in veh.layout], float)
+        A_thr = np.array([t_.axis for t_ in veh.layout], float)
+        wake = np.asarray(veh.wake if len(veh.wake) else np.zeros(n_thr), float)
+        # u_a is linear in ν: its rows per unit body velocity, from the project's advance_speeds
+        GA = np.column_stack([advance_speeds(np.eye(6)[k], P_thr, A_thr, wake)
+                              for k in range(6)])
 
     def pwm_for(T):  # ArduSub-like: thrust wanted at the nominal 16 V → PWM (no compensation)
         out = np.where(T > 1e-3, np.interp(T, thr_tab[pos], pwm_tab[pos]),
@@ -165,11 +190,14 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
         load = float(np.sum(np.abs(T_cmd)))
         v_batt = 16.4 - 1.2 * ti / max(duration, 1.0) - 0.01 * load
         T = thrust_at(pwm, v_batt)
+        Om = thrust_at(pwm, v_batt, OO) if ka else None
         X[i], PWM[i], V[i], MODE[i], ARM[i] = x, pwm, v_batt, mode, armed
         if i == n:
             break
 
-        def f(z, T=T):
+        def f(z, T=T, Om=Om):
+            if Om is not None:  # thrust lost to the advance speed (linear inflow form)
+                T = T - ka * Om * (GA @ z[7:13])
             tau6 = B @ T
             tau6[2] -= tether.get("heave", (0, 0))[0] * z[9] + tether.get("heave", (0, 0))[1] \
                 * z[9] * abs(z[9])
@@ -229,7 +257,7 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     ii = np.clip(np.searchsorted(t, stamps, side="right") - 1, 0, n)
     df["mode"] = MODE[ii]
     df["armed"] = ARM[ii]
-    return df, dive_truth(veh, tether)
+    return df, dive_truth(veh, tether, ka)
 
 
 def _edge_shifted(model, edges):

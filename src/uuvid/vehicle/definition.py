@@ -396,7 +396,7 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
             err(f"one_dof.{key}.linear", "linear or quadratic drag must be > 0")
             continue
         one_dof[key] = OneDofModel(od.mass, od.linear, od.quadratic, od.eta_pos, od.eta_neg,
-                                   od.disturbance, od.dof)
+                                   od.disturbance, od.dof, od.inflow_coefficient)
     if errors:
         raise VehicleFileError("\n".join(errors))
 

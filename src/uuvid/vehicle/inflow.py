@@ -177,3 +177,38 @@ def steady_speed_with_inflow(speed_of_force, force_at_speed, s0: float) -> float
     if fa * fb > 0:
         raise ValueError("steady speed with inflow: no balance of drag and thrust found")
     return float(brentq(phi, min(a, b), max(a, b), xtol=1e-12, rtol=1e-12))
+
+
+def one_dof_inflow_matrix(vehicle) -> np.ndarray:
+    """``(6, n)`` matrix ``G`` of the thrust lost to the advance speed in a 1-DOF motion.
+
+    With the linear inflow form of each thruster (Healey et al. 1995, IEEE JOE 20(4), eq. 6 in
+    its small-angle form; Fossen 2011, *Handbook of Marine Craft Hydrodynamics*, §6.7)::
+
+        T_i = T_i,bollard − k_a |Ω_i| u_a,i,     u_a,i = (1 − w_i) axis_iᵀ(v + ω × r_i)
+
+    (:func:`uuvid.thruster.inflow.advance_speeds`), a motion along DOF ``j`` alone at speed
+    ``ν_j`` (m/s, or rad/s for roll, pitch, yaw: then ``ω × r_i`` gives the lever arm) has
+    ``u_a,i = (1 − w_i) a_ij ν_j`` with ``a_ij`` the advance speed at thruster i per unit ``ν_j``
+    (the axis' component along j; for yaw ``(e_z × r_i)·axis_i = (r_i × axis_i)_z``).  The DOF's
+    generalised force ``τ_j = Σ_i B_ji T_i`` is then::
+
+        τ_j = F_j,bollard − k_a c_j(t) ν_j,     c_j(t) = Σ_i G_ji |Ω_i(t)|,
+        G_ji = B_ji (1 − w_i) a_ij
+
+    Since ``B``'s column i is ``[axis_i; r_i × axis_i]``, ``a_ij = B_ji`` and ``G_ji =
+    (1 − w_i) B_ji² ≥ 0``: the loss always opposes the motion, a drag proportional to the rotor
+    speeds.  ``G`` is computed from :func:`advance_speeds` with unit velocities (not from that
+    identity), so a change to the advance-speed convention carries over.
+    """
+    lay = vehicle.layout
+    P = np.array([t.position for t in lay], float).reshape(-1, 3)
+    A = np.array([t.axis for t in lay], float).reshape(-1, 3)
+    w = np.asarray(vehicle.wake if len(getattr(vehicle, "wake", ())) else np.zeros(lay.n), float)
+    B = np.asarray(vehicle.B, float)
+    G = np.zeros((6, P.shape[0]))
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = 1.0
+        G[j] = B[j] * advance_speeds(e, P, A, w)
+    return G

@@ -487,8 +487,15 @@ class OneDofModel:
     eta_neg: float = 1.0
     disturbance: float = 0.0
     dof: str = ""
+    #: ``k_a`` [N·s/(rad·m)] of the linear inflow form ``T_i = T_i,bollard − k_a |Ω_i| u_a,i``
+    #: (Healey et al. 1995): the dive replay's thrust loss ``k_a c(t) v``
+    #: (:mod:`uuvid.simulate.dive_replay`); 0 is bollard thrust
+    inflow_coefficient: float = 0.0
 
     def __post_init__(self):
+        if not (math.isfinite(self.inflow_coefficient) and self.inflow_coefficient >= 0):
+            raise ParameterError(f"OneDofModel.inflow_coefficient must be a finite number >= 0, "
+                                 f"got {self.inflow_coefficient!r}", "inflow_coefficient")
         if not (math.isfinite(self.mass) and self.mass > 0):
             raise ParameterError(f"OneDofModel.mass must be positive, got {self.mass!r}", "mass")
         for nm in ("linear", "quadratic", "eta_pos", "eta_neg"):

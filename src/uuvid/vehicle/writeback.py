@@ -16,7 +16,10 @@ loads and ``uuvid simulate`` flies:
   per-thruster ``installation`` coefficients (which the 6-DOF simulator applies) are left as they
   were — mapping DOF-level coefficients to thrusters is not unique;
 * ``one_dof.<key>``: the eq. 3 model (``mass``, ``linear``, ``quadratic``, ``eta_pos``,
-  ``eta_neg``, ``disturbance``, ``mode``), created or updated;
+  ``eta_neg``, ``disturbance``, ``mode``), created or updated; ``inflow_coefficient`` (``k_a`` of
+  the linear inflow form, identified from a dive: :func:`uuvid.identify.vehicle.dive.identify_dive`)
+  goes only there — the dive replay reads it; ``hydrodynamics`` then holds the hull's drag
+  without the thrust loss;
 * ``source.identified`` (a list of records: what was identified, from which log, when, with σ)
   when the schema has that key, else a sentence appended to ``source.notes``.
 
@@ -56,7 +59,7 @@ __all__ = ["WritebackError", "write_identified", "identified_yaml"]
 
 #: keys accepted per DOF in ``identified``
 KEYS = {"linear", "quadratic", "mass", "inertia", "eta", "disturbance", "mode", "key", "sigma",
-        "log", "method", "notes"}
+        "log", "method", "notes", "inflow_coefficient"}
 
 
 class WritebackError(ValueError):
@@ -145,7 +148,8 @@ def _describe(dof: str, d: Mapping, etas: Mapping, added: float | None) -> str:
 
     for name, key in (("linear damping", "linear"), ("quadratic damping", "quadratic"),
                       ("inertia" if dof in ("roll", "pitch", "yaw") else "mass", "mass"),
-                      ("disturbance", "disturbance")):
+                      ("disturbance", "disturbance"),
+                      ("inflow coefficient", "inflow_coefficient")):
         s = pm(name, key)
         if s:
             parts.append(s)
@@ -209,6 +213,8 @@ def identified_yaml(vehicle_file_or_preset, identified: Mapping[str, Mapping[str
         mass = None if mass is None else _num(dof, "mass", mass, positive=True)
         dist = d.get("disturbance")
         dist = None if dist is None else _num(dof, "disturbance", dist)
+        ka = d.get("inflow_coefficient")
+        ka = None if ka is None else _num(dof, "inflow_coefficient", ka, nonneg=True)
         etas = _etas(dof, d.get("eta"))
         # ---------------------------------------------------------------- hydrodynamics
         for key, v in (("linear_damping", lin), ("quadratic_damping", quad)):
@@ -290,6 +296,8 @@ def identified_yaml(vehicle_file_or_preset, identified: Mapping[str, Mapping[str
             entry["eta_neg"] = _fmt(n) if n is not None else 1.0
         if dist is not None:
             entry["disturbance"] = _fmt(dist)
+        if ka is not None:
+            entry["inflow_coefficient"] = _fmt(ka)
         desc = _describe(dof, d, etas, added)
         src_txt = f" from {d.get('log') or log}" if (d.get("log") or log) else ""
         entry["notes"] = (f"identified by uuvid{' (' + str(d['method']) + ')' if d.get('method') else ''}"
@@ -298,7 +306,8 @@ def identified_yaml(vehicle_file_or_preset, identified: Mapping[str, Mapping[str
         rec = {"dof": dof, "when": when, "log": d.get("log") or log, "method": d.get("method"),
                "command": command, "one_dof_key": key, "summary": desc}
         rec["values"] = {k: v for k, v in (("linear", lin), ("quadratic", quad), ("mass", mass),
-                                            ("added_mass", added), ("disturbance", dist))
+                                            ("added_mass", added), ("disturbance", dist),
+                                            ("inflow_coefficient", ka))
                          if v is not None}
         if etas:
             rec["eta"] = {m: {"pos": p, "neg": n} for m, (p, n) in etas.items()}

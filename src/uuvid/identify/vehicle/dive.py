@@ -22,6 +22,17 @@ whose σ exceeds half their value, estimates at a bound.  With ``t_end`` before 
 log, the rest is a held-out part: both the identified and the base vehicle's model replay it
 (:func:`uuvid.simulate.dive_replay.replay_windows`).
 
+Inflow (issue 21): the logged force is the *bollard* thrust; a moving propeller gives less.  With
+the linear inflow form per thruster ``T_i = T_i,bollard − k_a |Ω_i| u_a,i`` (Healey et al. 1995,
+IEEE JOE 20(4), eq. 6, small-angle form; Fossen 2011, *Handbook of Marine Craft Hydrodynamics*,
+§6.7) and the advance speed of a 1-DOF motion ``u_a,i = (1 − w_i) a_ij v``, the DOF's force is
+``F(t) − k_a c(t) v`` with ``c(t) = Σ_i B_ji (1 − w_i) a_ij |Ω_i(t)|``
+(:func:`uuvid.vehicle.inflow.one_dof_inflow_matrix`; ``|Ω_i|`` the thruster model's rotor speed
+at the logged PWM and voltage, :func:`uuvid.io.dive_channels.rotor_speeds`).  With ``inflow``
+on, ``k_a`` is a fifth parameter fitted jointly (same windows, same output error); without it a
+model identified from a moving vehicle books that loss as linear drag.  ``k_a`` and the linear
+drag both multiply ``v``; only the variation of ``c(t)`` with the thrust separates them.
+
 Dead band: where servo outputs are logged, each force sample whose thrusters sit at the edge of
 the dead band (read off the thruster model, :func:`uuvid.io.dive_channels.pwm_flags`) carries an
 uncertain force σ_F; it is propagated through the model from each window's start and the
@@ -72,6 +83,7 @@ __all__ = ["identify_dive", "DiveIdentification", "MIN_WINDOWS", "MIN_SECONDS"]
 MIN_WINDOWS = 4
 MIN_SECONDS = 30.0  # of armed, submerged windows: fewer cannot separate four parameters
 PARAMS = ("mass", "linear", "quadratic", "bias")
+PARAMS_INFLOW = PARAMS + ("inflow",)
 _SVF_OMEGA = {"heave": 1.5, "yaw": 4.0, "surge": 2.0, "sway": 2.0}
 _LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
                     "quadratic": "quadratic drag [N·s²/m²]", "bias": "net weight W−B [N]"},
@@ -81,6 +93,10 @@ _LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
                    "quadratic": "quadratic drag [N·s²/m²]", "bias": "force bias [N]"},
           "yaw": {"mass": "inertia [kg·m²]", "linear": "linear drag [N·m·s/rad]",
                   "quadratic": "quadratic drag [N·m·s²/rad²]", "bias": "moment bias [N·m]"}}
+for _lab in _LABEL.values():
+    _lab["inflow"] = "inflow coefficient k_a [N·s/(rad·m)]"
+#: |ρ| beyond which k_a and the linear drag are reported as not separated
+RHO_LIMIT = 0.95
 
 
 def _svf_start(dc, dof, windows, omega):
@@ -148,40 +164,55 @@ class DofEstimate:
     notes: list
     traces: dict = field(default_factory=dict, repr=False)
     weighting: dict = field(default_factory=dict)
+    inflow: dict | None = None  # the thrust-loss split (see _inflow_split), None when off
+
+    @property
+    def names(self) -> tuple:
+        return PARAMS_INFLOW if "inflow" in self.values else PARAMS
 
     def params(self) -> OneDofParams:
         v = self.values
-        return OneDofParams(v["mass"], v["linear"], v["quadratic"], v["bias"])
+        return OneDofParams(v["mass"], v["linear"], v["quadratic"], v["bias"],
+                            v.get("inflow", 0.0))
 
     def to_dict(self) -> dict:
         ratio = {k: (self.values[k] / self.base[k] if self.base.get(k) else None)
-                 for k in PARAMS}
+                 for k in self.names}
         return {"dof": self.dof, "values": self.values, "sigma": self.sigma,
-                "correlation": {"params": list(PARAMS), "matrix": self.correlation},
+                "correlation": {"params": list(self.names), "matrix": self.correlation},
                 "start_value_svf": self.start, "base": self.base, "base_source": self.base_source,
                 "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
                 "train": self.train, "held_out": self.held_out, "warnings": self.warnings,
-                "notes": self.notes, "dead_band": self.weighting}
+                "notes": self.notes, "dead_band": self.weighting, "inflow": self.inflow}
 
     def identified(self, log: str) -> dict:
         """``{dof: entry}`` for :func:`uuvid.vehicle.writeback.write_identified`."""
         v, s = self.values, self.sigma
-        return {self.dof: {"mass": v["mass"], "linear": max(v["linear"], 0.0),
-                           "quadratic": max(v["quadratic"], 0.0), "disturbance": v["bias"],
-                           "sigma": {"mass": s["mass"], "linear": s["linear"],
-                                     "quadratic": s["quadratic"], "disturbance": s["bias"]},
-                           "log": log, "method": "dive output-error",
-                           "notes": f"{self.windows} windows of {self.horizon:g} s"}}
+        e = {"mass": v["mass"], "linear": max(v["linear"], 0.0),
+             "quadratic": max(v["quadratic"], 0.0), "disturbance": v["bias"],
+             "sigma": {"mass": s["mass"], "linear": s["linear"],
+                       "quadratic": s["quadratic"], "disturbance": s["bias"]},
+             "log": log, "method": "dive output-error" + (" with inflow" if "inflow" in v else ""),
+             "notes": f"{self.windows} windows of {self.horizon:g} s"}
+        if "inflow" in v:
+            e["inflow_coefficient"] = max(v["inflow"], 0.0)
+            e["sigma"]["inflow_coefficient"] = s["inflow"]
+            e["notes"] += ("; linear drag without the thrust lost to the advance speed (k_a: "
+                           "one_dof inflow_coefficient, read by the dive replay)")
+        return {self.dof: e}
 
     def summary_lines(self, t_end) -> list:
         dof, e = self.dof, self
-        lab = _LABEL.get(dof, {k: k for k in PARAMS})
-        lines = [f"{dof}: {e.windows} windows of {e.horizon:g} s (output error)"]
-        for k in PARAMS:
+        lab = _LABEL.get(dof, {k: k for k in PARAMS_INFLOW})
+        lines = [f"{dof}: {e.windows} windows of {e.horizon:g} s (output error"
+                 + (", inflow coefficient jointly)" if e.inflow else ")")]
+        for k in e.names:
             b = e.base.get(k)
             ratio = (f"  ×{e.values[k] / b:.2f} of base {b:.4g}" if b else
                      f"  (base {b:.4g})" if b is not None else "")
             lines.append(f"  {lab[k]:30s} {e.values[k]:10.4g} ± {e.sigma[k]:.2g}{ratio}")
+        if e.inflow:
+            lines.append(f"  {_inflow_text(e.inflow, UNITS_DRAG[dof])}")
         ch = CHANNEL_NAMES[dof]
         lines.append(f"  in-sample replay: {ch} rms {e.train['rms']:.3g} {UNITS[dof]}, "
                      f"nrmse {e.train['nrmse']:.3f}")
@@ -295,6 +326,62 @@ class DiveIdentification(Result):
         return rep.write(folder)
 
 
+UNITS_DRAG = {"heave": "N·s/m", "surge": "N·s/m", "sway": "N·s/m", "yaw": "N·m·s/rad"}
+
+
+def _inflow_split(prob, values: dict, sigma: dict) -> dict:
+    """How much of the apparent linear drag is thrust loss: over the fitted windows the loss acts
+    as the drag ``k_a c(t)``; its mean ``k_a c̄`` (c̄ weighted by |v|, where the term acts) beside
+    the hull's ``k``.  A bollard-thrust model books ``k + k_a c̄`` as its linear drag."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        _, V = prob.simulate(np.array([values[k] for k in PARAMS_INFLOW]), prob.y0_meas,
+                             prob.v0_meas if prob.position else np.zeros(prob.W))
+    Ck = prob.Ch[:, ::2]
+    w = np.abs(V)
+    w = np.where(np.isfinite(w), w, 0.0)
+    c_bar = float(np.sum(Ck * w) / np.sum(w)) if np.sum(w) > 0 else float(np.mean(Ck))
+    loss = values["inflow"] * c_bar
+    apparent = values["linear"] + loss
+    return {"c_mean": c_bar, "c_range": [float(np.min(Ck)), float(np.max(Ck))],
+            "loss_as_drag": loss, "loss_as_drag_sigma": sigma["inflow"] * c_bar,
+            "apparent_linear": apparent,
+            "loss_fraction": loss / apparent if apparent > 0 else float("nan")}
+
+
+def _inflow_text(s: dict, unit: str) -> str:
+    return (f"thrust loss as drag k_a·c̄ = {s['loss_as_drag']:.3g} ± "
+            f"{s['loss_as_drag_sigma']:.2g} {unit} (c̄ = {s['c_mean']:.3g}, c(t) "
+            f"{s['c_range'][0]:.3g}–{s['c_range'][1]:.3g}): "
+            f"{100 * s['loss_fraction']:.0f} % of the apparent linear drag "
+            f"{s['apparent_linear']:.3g} {unit} a bollard-thrust model would report")
+
+
+def inflow_warnings(values: dict, sigma: dict, corr) -> list:
+    """Warnings on the inflow coefficient of a 5-parameter fit (:data:`PARAMS_INFLOW` order):
+    ``k_a`` and the linear drag both multiply the speed — only the variation of ``c(t)`` with the
+    thrust tells them apart — so |ρ(k, k_a)| > :data:`RHO_LIMIT` is named as that confusion; a
+    negative or poorly determined ``k_a`` is named too."""
+    out = []
+    rho = float(np.asarray(corr)[1, 4])
+    if abs(rho) > RHO_LIMIT:
+        out.append(f"the inflow coefficient k_a and the linear drag are not separated in this "
+                   f"dive (correlation {rho:+.2f}): both multiply the speed, and the rotor speeds "
+                   "varied too little between the moving stretches; their split is uncertain "
+                   "(their sum, the apparent drag, is not) — fly at one speed with different "
+                   "thrusts (e.g. against a current or with a payload)")
+    ka, s = values["inflow"], sigma["inflow"]
+    if ka < 0:
+        out.append(f"inflow coefficient negative ({ka:.3g} ± {s:.2g}): thrust that grows with the "
+                   "advance speed is not physical; "
+                   + ("not significant" if ka > -3 * s else "the model does not fit")
+                   + "; a vehicle file gets 0")
+    elif s > 0.5 * abs(ka):
+        out.append(f"inflow coefficient poorly determined: σ {s:.2g} is "
+                   + (f"{100 * s / abs(ka):.0f} % of the value" if ka else
+                      "above a zero estimate"))
+    return out
+
+
 def _dead_band_delta(prob, force_sigma, theta, y0, v0):
     """``δy`` of :func:`~uuvid.identify.vehicle.output_error.dead_band_weights`: the prediction
     with the force raised by its dead-band uncertainty σ_F (linear between the servo-output
@@ -314,13 +401,19 @@ _GRID_MASS = (0.6, 1.5, 3.0)
 _GRID_DRAG = (0.3, 1.0, 3.0, 10.0)
 
 
-def _start_candidates(th_svf, base: OneDofParams) -> list:
+def _start_candidates(th_svf, base: OneDofParams, inflow_starts=None) -> list:
     """``[(label, θ)]``: the state-variable-filter estimate first, the base vehicle, and a grid
     around the base (mass × :data:`_GRID_MASS`, each drag × :data:`_GRID_DRAG`, bias the SVF's or
     the base's).  From a start far from the truth the output-error fit can settle where some
     windows diverge (a vehicle 4× draggier than its preset: heading rms 2.8 rad); the candidates
-    are ranked by the output error from the measured initial states and the best refined."""
-    b = base.as_array()
+    are ranked by the output error from the measured initial states and the best refined.
+    ``inflow_starts`` (k_a values, e.g. 0 and the T200 preset's): each candidate once per value,
+    θ then has ``k_a`` as a fifth entry (the SVF start first with the first value)."""
+    if inflow_starts:
+        four = _start_candidates(th_svf[:4], OneDofParams(*base.as_array()[:4]))
+        return [(lab if ka == inflow_starts[0] else f"{lab}, k_a {ka:.3g}",
+                 np.append(th[:4], ka)) for ka in inflow_starts for lab, th in four]
+    b = base.as_array()[:4]
     out = [("SVF", np.asarray(th_svf, float)), ("base", b.copy())]
     lin = max(b[1], 1e-3 * b[0])
     quad = max(b[2], 1e-3 * b[0])
@@ -334,7 +427,7 @@ def _start_candidates(th_svf, base: OneDofParams) -> list:
 
 def _cost(resid, z0, th) -> float:
     z = z0.copy()
-    z[:4] = th
+    z[:len(th)] = th
     r = resid(z)
     c = float(r @ r)
     return c if math.isfinite(c) else math.inf
@@ -345,7 +438,7 @@ def _fmt_theta(th) -> str:
 
 
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
-             weighting: bool = True):
+             weighting: bool = True, gain=None, inflow_starts=None):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
     if len(windows) < need:
@@ -355,11 +448,13 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             f"of {horizon:g} s in {span} s (need at least {need}, i.e. {need * horizon:g} s of "
             "armed, submerged data); widen --t-start/--t-end or pass a longer dive"
             + (f" ({'; '.join(notes)})" if notes else ""))
-    prob = WindowProblem(dc, dof, windows)
+    prob = WindowProblem(dc, dof, windows, gain=gain)
     W = prob.W
+    names = PARAMS_INFLOW if gain is not None else PARAMS
+    NP = len(names)
     th0 = _svf_start(dc, dof, windows, _SVF_OMEGA[dof])
     start = {k: float(v) for k, v in zip(PARAMS, th0)} if th0 is not None else {}
-    th0 = np.array(th0 if th0 is not None else base.as_array(), float)
+    th0 = np.array(th0 if th0 is not None else base.as_array()[:4], float)
     if not (th0[0] > 0):
         notes.append(f"state-variable-filter start value had mass {th0[0]:.3g} ≤ 0; started from "
                      "the base vehicle's mass instead")
@@ -370,10 +465,10 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     n_nuis = 2 if pos else 1
 
     def unpack(z):
-        th = z[:4]
+        th = z[:NP]
         if pos:
-            return th, z[4:4 + W], z[4 + W:]
-        return th, z[4:4 + W], None
+            return th, z[NP:NP + W], z[NP + W:]
+        return th, z[NP:NP + W], None
 
     weights = None
     if flags is not None and weighting:
@@ -389,7 +484,8 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         th, y0, v0 = unpack(z)
         return (prob.predict(th, y0, v0 if v0 is not None else np.zeros(W)) - prob.y) * wts
 
-    z0 = np.concatenate([th0, prob.y0_meas] + ([prob.v0_meas] if pos else []))
+    th0_full = np.append(th0, inflow_starts[0] if gain is not None else [])
+    z0 = np.concatenate([th0_full, prob.y0_meas] + ([prob.v0_meas] if pos else []))
     N = prob.y.size
     P = z0.size
     rows = np.arange(N)
@@ -399,17 +495,17 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         # all windows' y0 (then v0) are perturbed at once
         r0 = resid(z)
         J = np.zeros((N, P))
-        for i in range(4):
+        for i in range(NP):
             dz = 1e-6 * max(abs(z[i]), 1e-3)
             zz = z.copy()
             zz[i] += dz
             J[:, i] = (resid(zz) - r0) / dz
         for j in range(n_nuis):
-            sl = slice(4 + j * W, 4 + (j + 1) * W)
+            sl = slice(NP + j * W, NP + (j + 1) * W)
             d = 1e-6 * np.maximum(np.abs(z[sl]), 1e-2)
             zz = z.copy()
             zz[sl] += d
-            J[rows, 4 + j * W + prob.w] = (resid(zz) - r0) / d[prob.w]
+            J[rows, NP + j * W + prob.w] = (resid(zz) - r0) / d[prob.w]
         bad = ~np.isfinite(J)
         if bad.any():  # a perturbed window blew up: no information from it in this direction
             J[bad] = 0.0
@@ -417,28 +513,31 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
 
     free = np.ones(P, bool)
     sol, sol_cost = None, math.inf
-    starts = best_starts(lambda c: _cost(resid, z0, c[1]), _start_candidates(th0, base))
+    starts = best_starts(lambda c: _cost(resid, z0, c[1]),
+                         _start_candidates(th0, base, inflow_starts if gain is not None else None))
     for _, (label, th_start) in starts:
         z = z0.copy()
-        z[:4] = th_start
+        z[:NP] = th_start
         s_ = levenberg_marquardt(resid, jac, z, free, nonneg=(1, 2))
-        c1 = _cost(resid, s_["x"], s_["x"][:4])
+        c1 = _cost(resid, s_["x"], s_["x"][:NP])
         if sol is None or c1 < sol_cost:
             sol, sol_cost, kept = s_, c1, label
     if len(starts) > 1 or kept != "SVF":
         notes.append("output error refined from " + "; ".join(
             f"the {label} start {_fmt_theta(th)} (cost {c:.3g})" for c, (label, th) in starts)
             + f": kept the fit from the {kept} start (lowest cost)")
-    th = sol["x"][:4]
+    th = sol["x"][:NP]
     J = sol["jac"][:, free]
-    sd_f, corr_f = covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:4])))
-    sd, corr = np.zeros(4), np.eye(4)
-    fi = np.flatnonzero(free[:4])
+    sd_f, corr_f = covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:NP])))
+    sd, corr = np.zeros(NP), np.eye(NP)
+    fi = np.flatnonzero(free[:NP])
     sd[fi] = sd_f
     corr[np.ix_(fi, fi)] = corr_f
-    values = {k: float(v) for k, v in zip(PARAMS, th)}
-    sigma = {k: float(v) for k, v in zip(PARAMS, sd)}
-    warns = correlation_warnings(PARAMS, corr)
+    values = {k: float(v) for k, v in zip(names, th)}
+    sigma = {k: float(v) for k, v in zip(names, sd)}
+    warns = correlation_warnings(names, corr, RHO_LIMIT)
+    if gain is not None:
+        warns += inflow_warnings(values, sigma, corr)
     for k in ("linear", "quadratic"):
         if values[k] == 0:
             warns.append(f"{k} drag estimate is at its bound 0 (± {sigma[k]:.2g}): the dive "
@@ -470,11 +569,13 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         warns.append(f"optimiser stopped: {sol['message']}")
     # in-sample replay from the measured state, identified and base
     p_id = OneDofParams(*values.values())
+    split = _inflow_split(prob, values, sigma) if gain is not None else None
     span = _STATE_SPAN[dof]
     y0, v0, sc = initial_state(prob, p_id.as_array(), span)
     pr_id = prob.predict(p_id.as_array(), y0, v0)
-    y0b, v0b, _ = initial_state(prob, base.as_array(), span)
-    pr_b = prob.predict(base.as_array(), y0b, v0b)
+    b_arr = base.as_array() if prob.Ch is not None else base.as_array()[:4]
+    y0b, v0b, _ = initial_state(prob, b_arr, span)
+    pr_b = prob.predict(b_arr, y0b, v0b)
     err = (pr_id - prob.y)[sc]
     sd_y = float(np.std(prob.y[sc]))
     train = {"rms": float(np.sqrt(np.mean(err ** 2))),
@@ -492,7 +593,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
                                      else None), prob.w, windows[0][0], windows[-1][1], W,
                                     (DIVE_DOFS[dof][1],))
     weighting_d["enabled"] = bool(weighting and flags is not None)
-    return values, sigma, corr, start, windows, notes, warns, train, traces, weighting_d
+    return values, sigma, corr, start, windows, notes, warns, train, traces, weighting_d, split
 
 
 def _pwm_notes(dc, t_start, t_end, flags=None) -> list:
@@ -528,10 +629,45 @@ def _flags(dc, veh, thruster_model):
     return pwm_flags(dc, veh.B, tm)
 
 
+def _inflow_setup(dc, veh, dofs, inflow, thruster_model, warnings):
+    """``(rotor speeds | None, k_a starts)``: whether the inflow coefficient is fitted (see
+    :func:`identify_dive`) and the rotor speeds it needs."""
+    from uuvid.io.dive_channels import rotor_speeds
+    from uuvid.simulate.dive_replay import _thrust_model
+    from uuvid.thruster.inflow import t200_inflow
+
+    carried = sorted({float(getattr(m, "inflow_coefficient", 0.0)) for m in
+                      (veh.one_dof or {}).values() if getattr(m, "inflow_coefficient", 0.0)})
+    on = inflow if inflow is not None else (getattr(veh, "inflow", "none") != "none"
+                                            or bool(carried))
+    starts = [0.0, t200_inflow().inflow_coefficient] + carried
+    if not on:
+        return None, starts
+    if set(dofs) == {"horizontal"}:
+        warnings.append("inflow: the coupled horizontal model keeps bollard thrust (k_a is fitted "
+                        "by the 1-DOF models only)")
+        return None, starts
+    speeds = rotor_speeds(dc, _thrust_model(dc, thruster_model))
+    if speeds is None:
+        msg = (f"{dc.name}: the inflow coefficient needs the servo outputs (the rotor speeds "
+               "come from the PWM at the logged voltage) and the log has none")
+        if inflow:
+            raise DiveDataError(msg + "; pass --no-inflow or a log with SERVO_OUTPUT_RAW/RCOU or "
+                                      "pwm_<j> columns")
+        warnings.append(msg + ": identified with bollard thrust (inflow off)")
+    elif getattr(veh, "inflow", "none") == "none":
+        warnings.append("inflow: the drag identified is the hull's, without the thrust loss "
+                        "(k_a goes to one_dof.<dof>.inflow_coefficient, which the dive replay "
+                        f"flies); {veh.name} has inflow: none, so a 6-DOF simulation of a written "
+                        "file loses no thrust to the advance speed unless its inflow is set")
+    return speeds, starts
+
+
 def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None,
                   horizon=None, params=None, thruster_model=None, dive=None,
                   held_out_horizon=None, topics=None,
-                  dead_band_weighting: bool = True) -> DiveIdentification:
+                  dead_band_weighting: bool = True, inflow: bool | None = None
+                  ) -> DiveIdentification:
     """Identify per-DOF 1-DOF models from every armed sample of a dive (see the module doc).
 
     ``log``: ArduSub ``.tlog``/``.BIN``, CSV/Parquet with force columns, a DataFrame, or a ROS 1/2
@@ -546,6 +682,12 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     :data:`uuvid.simulate.dive_replay.DEFAULT_HORIZON`).  ``dead_band_weighting``: down-weight
     residuals whose force comes from thrusters at the dead band's edge
     (:func:`~uuvid.identify.vehicle.output_error.dead_band_weights`; needs logged PWM).
+    ``inflow``: fit the inflow coefficient ``k_a`` jointly (the thrust lost to the advance speed,
+    ``F − k_a c(t) v``, see the module doc; needs logged PWM); ``None`` (default): on when the
+    base vehicle has ``inflow`` other than ``none`` or a ``one_dof`` entry with an
+    ``inflow_coefficient`` (off for the presets).  Starts: ``k_a`` = 0 and the T200 preset's
+    (:func:`uuvid.thruster.inflow.t200_inflow`) with every start of the 4-parameter screen.
+    (1-DOF models only; the coupled horizontal model keeps bollard thrust.)
     """
     from uuvid.vehicle.definition import load_vehicle
 
@@ -567,6 +709,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     ests = {}
     flags = _flags(dc, veh, thruster_model)
     warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end, flags)
+    speeds, ka_starts = _inflow_setup(dc, veh, dofs, inflow, thruster_model, warnings)
     if "horizontal" in dofs and {"surge", "sway", "yaw"} & set(dofs):
         warnings.append("both the coupled horizontal model and 1-DOF "
                         + "/".join(d for d in ("surge", "sway", "yaw") if d in dofs)
@@ -582,13 +725,25 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
         base, base_src = params_from_vehicle(veh, dof)
-        values, sigma, corr, start, windows, notes, warns, train, traces, wd = _fit_dof(
-            dc, dof, H, t_start, t_end, base, flags, dead_band_weighting)
+        gain = None
+        if speeds is not None:
+            from uuvid.io.dive_channels import inflow_gain
+
+            gain = inflow_gain(dc, veh, dof, speeds=speeds)[:2]
+        elif base.inflow:
+            base = OneDofParams(*base.as_array()[:4])
+            base_src += " (its inflow coefficient not used: inflow off)"
+        values, sigma, corr, start, windows, notes, warns, train, traces, wd, split = _fit_dof(
+            dc, dof, H, t_start, t_end, base, flags, dead_band_weighting, gain, ka_starts)
+        if speeds is not None:
+            notes.append(f"inflow: rotor speeds from {speeds[2]}; k_a started at "
+                         + " and ".join(f"{k:.3g}" for k in ka_starts) + " N·s/(rad·m)")
         held = None
         if t_end is not None:
             Hh = float(held_out_horizon or H)
-            m_id, tr_id, nt = replay_windows(dc, dof, OneDofParams(*values.values()), Hh, t_end)
-            m_b, tr_b, _ = replay_windows(dc, dof, base, Hh, t_end)
+            m_id, tr_id, nt = replay_windows(dc, dof, OneDofParams(*values.values()), Hh, t_end,
+                                             gain=gain)
+            m_b, tr_b, _ = replay_windows(dc, dof, base, Hh, t_end, gain=gain)
             if m_id is None:
                 notes.append(f"no armed {Hh:g} s window after --t-end {t_end:g} s: no held-out "
                              "score" + (f" ({'; '.join(nt)})" if nt else ""))
@@ -605,7 +760,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
         return DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
-                           base_src, len(windows), H, train, held, warns, notes, traces, wd)
+                           base_src, len(windows), H, train, held, warns, notes, traces, wd,
+                           split)
     failed = []
     for dof in dofs:
         try:

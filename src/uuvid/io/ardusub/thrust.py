@@ -32,9 +32,23 @@ class ThrustModel:
     voltage_aware: bool
     _fn: object
     voltage: str = "logged battery voltage (the model takes the supply voltage directly)"
+    _speed_fn: object = None
 
     def thrust(self, pwm, volts) -> np.ndarray:
         return np.asarray(self._fn(np.asarray(pwm, float), np.asarray(volts, float)), float)
+
+    @property
+    def has_speed(self) -> bool:
+        """Whether the model gives the rotor speed itself (a physical, voltage-aware model)."""
+        return self._speed_fn is not None
+
+    def speed(self, pwm, volts) -> np.ndarray | None:
+        """Steady rotor speed Ω [rad/s, signed] at ``pwm`` and ``volts`` (the physical model's
+        DC-motor balance, :meth:`uuvid.thruster.physical.PhysicalModel.predict`), or ``None``
+        when the model gives thrust only."""
+        if self._speed_fn is None:
+            return None
+        return np.asarray(self._speed_fn(np.asarray(pwm, float), np.asarray(volts, float)), float)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "source": self.source, "voltage_aware": self.voltage_aware,
@@ -58,14 +72,18 @@ def _physical_from_yaml(path: Path):
 
 
 def _physical(model, name: str, source: str) -> ThrustModel:
-    def fn(pwm, volts):
-        out = np.zeros(np.broadcast(pwm, volts).shape)
-        ok = np.isfinite(pwm) & np.isfinite(volts) & (volts > 0)
-        out[~ok] = np.nan
-        out[ok] = model.thrust(pwm[ok], volts[ok])
-        return out
+    def of(what):
+        def fn(pwm, volts):
+            pwm, volts = np.broadcast_arrays(pwm, volts)
+            out = np.zeros(pwm.shape)
+            ok = np.isfinite(pwm) & np.isfinite(volts) & (volts > 0)
+            out[~ok] = np.nan
+            out[ok] = getattr(model.predict(pwm[ok], volts[ok]), what)
+            return out
 
-    return ThrustModel(name, source, True, fn)
+        return fn
+
+    return ThrustModel(name, source, True, of("thrust"), _speed_fn=of("speed"))
 
 
 def default_t200() -> ThrustModel:
