@@ -29,7 +29,8 @@ PARAMS = typer.Option(None, "--params", help="ArduSub parameter file (QGroundCon
                                              "has none, so SERVOn_FUNCTION and MOT_n_DIRECTION "
                                              "(reversed motors) come from here.")
 TOPIC = typer.Option(None, "--topic", metavar="ROLE=TOPIC:FIELD",
-                     help="ROS bags: ROLE=TOPIC[:FIELD] overriding a default mavros topic; roles "
+                     help="ROS bags: ROLE=TOPIC:FIELD, or ROLE=TOPIC for the topic's usual "
+                          "field, overriding a default mavros topic; roles "
                           "pwm, attitude, yaw, depth, altitude, pressure, battery, armed, mode, "
                           "velocity, u, v (e.g. depth=/bar30/depth:data). Repeatable.")
 VEHICLE = typer.Option(..., "--vehicle", help="Base vehicle: preset or vehicle file (its thruster "
