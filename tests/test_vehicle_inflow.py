@@ -59,7 +59,7 @@ def test_limits_at_rest_are_the_files_exactly():
     np.testing.assert_array_equal(il.limits_at(np.zeros(6)), v.layout.limits)
 
 
-def test_limits_fall_when_propelling_and_rise_against_the_flow():
+def test_limits_fall_when_propelling_into_the_flow():
     v0, v3 = _with("bluerov2"), _with("bluerov2", wake=0.3)
     nu = np.array([1.0, 0, 0, 0, 0, 0])
     il = inflow_limits(v0)
@@ -70,7 +70,13 @@ def test_limits_fall_when_propelling_and_rise_against_the_flow():
         prop = 1 if ua[i] > 0 else 0  # the limit whose thrust pushes into the advance
         other = 1 - prop
         assert abs(a[i, prop]) < abs(b[i, prop]) < abs(lim[i, prop])  # wake gives some back
-        assert abs(a[i, other]) > abs(lim[i, other])  # flow from behind the jet helps
+        # flow from behind the jet: momentum theory says it helps a little, but the published
+        # B4-70 table (thruster/data) is flat there — at |J| ≈ 0.16 ahead and astern its thrust
+        # is within a few % of bollard (ripple of the 21-term fit) — so only: no large loss,
+        # and a smaller change than the ~10 % lost when propelling into the same flow
+        d_other = abs(a[i, other]) / abs(lim[i, other]) - 1
+        d_prop = 1 - abs(a[i, prop]) / abs(lim[i, prop])
+        assert d_other > -0.05 and abs(d_other) < d_prop
     np.testing.assert_array_equal(a[4:], lim[4:])  # the vertical pair sees no surge advance
 
 

@@ -441,7 +441,7 @@ def wageningen_b4_70_approx(diameter: float = 1.0) -> FourQuadrantMap:
     by least squares to the recalled open-water points :data:`B4_70_PD10_OPEN_WATER`, the astern
     lift scaled by :data:`B4_70_REVERSE_LIFT`, then expanded to a 4th-order Fourier
     series (exact: the shape is a trigonometric polynomial of degree 4).
-    Replace it by the published table (:meth:`FourQuadrantMap.fit`) for quantitative work.
+    Kept for comparison: the published table is :func:`wageningen_b4_70`.
     """
     from scipy.optimize import least_squares
 
@@ -466,11 +466,32 @@ def wageningen_b4_70_approx(diameter: float = 1.0) -> FourQuadrantMap:
                    f"astern lift {B4_70_REVERSE_LIFT:g} × ahead (assumed)")
 
 
+@functools.cache
+def wageningen_b4_70(diameter: float = 1.0) -> FourQuadrantMap:
+    """Four-quadrant map of the Wageningen B4-70, P/D = 1.0 screw from its published Fourier table
+    (21 terms; van Lammeren, van Manen & Oosterveld 1969 form, the B4-70 table of Smogeli 2006),
+    ``data/wageningen_b4_70_pd10_4q.csv`` — provenance and the cross-checks in that file's header;
+    quadrant 1 checked against the Oosterveld & van Oossanen (1975) polynomial
+    (:func:`uuvid.thruster.wageningen.wageningen_open_water`, tests/test_wageningen.py)."""
+    from uuvid.thruster.wageningen import four_quadrant_table
+
+    at, bt, aq, bq = four_quadrant_table("wageningen_b4_70_pd10_4q.csv")
+    return FourQuadrantMap(
+        "wageningen-b4-70-pd1.0", diameter, at, bt, aq, bq,
+        source="Wageningen B4-70, P/D = 1.0 four-quadrant Fourier table (MARIN B-series; van "
+               "Lammeren, van Manen & Oosterveld 1969, Trans. SNAME 77), as tabulated by Smogeli "
+               "2006 (PhD thesis, NTNU); uuvid/thruster/data/wageningen_b4_70_pd10_4q.csv",
+        assumption="transcribed from public copies of the table (two agree digit for digit), not "
+                   "from the printed page; P/D = 1.0 confirmed by the open-water polynomial")
+
+
 #: ASSUMPTION: T200 propeller diameter 76 mm (Blue Robotics' 3-inch propeller), pitch ratio 1.0.
 #: The pitch ratio is derived, not measured: the preset's fitted bollard coefficient
-#: ``k_t = 3.668e-4 N·s²/rad²`` is ``K_T = k_t (2π)² / (ρ D⁴) = 0.43`` at D = 76 mm — the bollard
-#: K_T of a B4-70 propeller at P/D ≈ 1.0 — and the full-command speed that map gives for the
-#: sheet's 51.5 N is within a few % of the sheet's 3500 rpm (tests/test_inflow.py checks both).
+#: ``k_t = 3.668e-4 N·s²/rad²`` is ``K_T = k_t (2π)² / (ρ D⁴) = 0.434`` at D = 76 mm, within 3 % of
+#: the bollard K_T = 0.445 of the published B4-70, P/D = 1.0 table (:func:`wageningen_b4_70`; the
+#: Oosterveld–van Oossanen polynomial gives 0.455, and P/D = 0.9 / 1.1 would give 0.41 / 0.50 there),
+#: and the full-command speed that map gives for the sheet's 51.5 N is within 1 % of the sheet's
+#: 3500 rpm (tests/test_inflow.py checks both).
 T200_DIAMETER = 0.076
 T200_PITCH_RATIO = 1.0
 
@@ -496,7 +517,7 @@ def t200_inflow(kt_fwd: float | None = None) -> T200Inflow:
     p = math.atan(T200_PITCH_RATIO / (0.7 * math.pi))
     r07 = 0.35 * T200_DIAMETER
     return T200Inflow(T200_DIAMETER, T200_PITCH_RATIO, p, kt_fwd / (r07 * p),
-                      wageningen_b4_70_approx(T200_DIAMETER))
+                      wageningen_b4_70(T200_DIAMETER))
 
 
 #: Thruster model names with known propeller data → their four-quadrant map.
