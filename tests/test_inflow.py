@@ -61,6 +61,7 @@ def test_map_at_zero_advance_is_the_bollard_square_law(n):
     assert float(MAP.thrust_ratio(n, 0.0)) == pytest.approx(1.0, rel=1e-12, abs=0)
 
 
+@pytest.mark.slow
 def test_healey_axial_flow_at_zero_advance_equals_todays_kernel():
     from uuvid.thruster.kernels import _healey
 
@@ -169,6 +170,7 @@ def test_map_signs_per_quadrant(fq):
     assert abs(fq.thrust_torque(-n, 0.0)[0]) < fq.thrust_torque(n, 0.0)[0]
 
 
+@pytest.mark.slow
 @MAPS
 def test_compiled_map_equals_numpy(fq):
     a = [np.asarray(c) for c in (fq.ct_a, fq.ct_b, fq.cq_a, fq.cq_b)]
@@ -211,6 +213,7 @@ def test_t200_pitch_and_diameter_are_consistent_with_its_sheet():
 
 
 # ------------------------------------------------------------------ compiled pieces for a loop
+@pytest.mark.slow
 @MAPS
 def test_inflow_thrust_kernel_is_bollard_at_zero_advance_and_the_map_elsewhere(fq):
     from uuvid.thruster.inflow import inflow_params, inflow_thrust_nb
@@ -221,11 +224,36 @@ def test_inflow_thrust_kernel_is_bollard_at_zero_advance_and_the_map_elsewhere(f
         n = fq.shaft_speed_for(f) if f else 0.0
         for ua in (-1.2, -0.3, 0.4, 1.5):
             want = float(fq.thrust_torque(n, ua)[0])
-            assert inflow_thrust_nb(f, ua, prm) == pytest.approx(want, rel=1e-10, abs=1e-12)
+            # the series read from its cubic table (ct_table: < 1e-11 of C_T*, checked below)
+            assert inflow_thrust_nb(f, ua, prm) == pytest.approx(want, rel=1e-9, abs=1e-12)
         # continuous as the advance speed goes to zero
         assert inflow_thrust_nb(f, 1e-9, prm) == pytest.approx(f, rel=1e-6, abs=1e-9)
 
 
+@MAPS
+def test_the_loops_ct_table_is_the_series(fq):
+    """The cubic table the loops read (values and slopes of the series at its nodes) against the
+    Fourier series itself, everywhere on the circle, nodes and midpoints included."""
+    from uuvid.thruster.inflow import INFLOW_TABLE_INTERVALS, ct_table
+
+    N = INFLOW_TABLE_INTERVALS
+    T = ct_table(fq)
+    assert T.shape == (N, 4)
+    b = np.linspace(-np.pi, np.pi, 8 * N + 1)
+    x = (b + np.pi) * N / (2 * np.pi)
+    j = np.minimum(x.astype(int), N - 1)
+    t = x - j
+    c = T[j]
+    got = c[:, 0] + t * (c[:, 1] + t * (c[:, 2] + t * c[:, 3]))
+    assert np.max(np.abs(got - fq.ct(b))) < 1e-11 * np.max(np.abs(fq.ct(b)))
+    # continuous across every node (value and slope): the pieces join
+    end = T.sum(axis=1)
+    assert np.max(np.abs(end[:-1] - T[1:, 0])) < 1e-14
+    slope_end = T[:, 1] + 2 * T[:, 2] + 3 * T[:, 3]
+    assert np.max(np.abs(slope_end[:-1] - T[1:, 1])) < 1e-14
+
+
+@pytest.mark.slow
 def test_state_advance_speeds_match_the_geometric_form():
     from uuvid.vehicle.inflow import state_advance_speeds_nb
     from uuvid.vehicle.kinematics import quat_to_rotmat

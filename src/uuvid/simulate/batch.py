@@ -54,9 +54,11 @@ takes the bollard thrust of the first-order chain to the advance speed of that s
 ``u_a = (1 − w) axisᵀ(v_r + ω × r)``, through the four-quadrant map — the expressions of
 :func:`uuvid.vehicle.inflow.state_advance_speeds_nb` and
 :func:`uuvid.thruster.inflow.inflow_thrust_nb` (the mission loop's
-:func:`~uuvid.simulate.vehicle_sim._vehicle_rk4_inflow`), unrolled on the map's Fourier order
-with the thruster geometry and map as shared values, so every lane agrees with ``fly()`` to
-rounding.  A static chain with inflow flies :func:`~uuvid.simulate.vehicle_sim.fly_batch`.
+:func:`~uuvid.simulate.vehicle_sim._vehicle_rk4_inflow`), with the thruster geometry as shared
+values and ``C_T*(β)`` summed by Clenshaw's recurrence (``fly()`` reads the same series from a
+cubic table, within 1e-11 of it: a table gather would stop the lanes' vectorisation), so every
+lane agrees with ``fly()`` to ~1e-11.  A static chain with inflow flies
+:func:`~uuvid.simulate.vehicle_sim.fly_batch`.
 
 **User controllers.**  A numba-compiled :class:`~uuvid.simulate.control.blocks.Controller` with
 ``output="wrench"`` takes the place of the inline PID: each step a scalar loop gathers a lane's
@@ -103,6 +105,7 @@ from uuvid.thruster.blocks import (
     K_QUADRATIC,
     K_ZERO_ORDER,
 )
+from uuvid.thruster.inflow import inflow_series as _inflow_series
 from uuvid.vehicle.model import (
     LAYOUT_VERSION,
     N_PARAMS,
@@ -187,7 +190,7 @@ class _Structure:
     attitude: bool  # roll/pitch attitude hold on (control.attitude_hold)
     fastmath: tuple
     user: bool = False  # a user's compiled wrench controller instead of the inline PID
-    inflow: int = 0  # Fourier terms of the four-quadrant map (0: bollard thrusters)
+    inflow: int = 0  # Fourier terms of the four-quadrant map's C_T* (0: bollard thrusters)
 
     def key(self) -> str:
         return hashlib.sha1(repr((KERNEL_VERSION, self)).encode()).hexdigest()[:16]
@@ -317,14 +320,15 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
     if inflow is not None and not dyn:
         raise _NoFastPath("inflow with a static thruster chain flies the per-vehicle loop "
                           "(vehicle_sim.fly_batch)")
-    IPRM, IGEO = inflow if inflow is not None else (np.zeros(5), None)
+    IPRM, IGEO = inflow if inflow is not None else (None, None)
+    inflow_series = _inflow_series(IPRM) if inflow is not None else ((), ())
 
     struct = _Structure(n, int(s.substeps), int(chunk),
                         tuple((xs_.size, g[0], g[1], g[2]) for (xs_, _), g in zip(utab, grids)),
                         tuple(tmap), prefix, int(dyn), suffix,
                         pat(P_MRB), pat(P_MA), pat(P_DL), pat(P_DQ), pat(P_MINV), restoring,
                         current, tpat, bpat, bool(compensate), eta_one, ki_pos, attitude,
-                        tuple(sorted(fastmath)), user, int(IPRM[4]) if inflow is not None else 0)
+                        tuple(sorted(fastmath)), user, len(inflow_series[0]))
 
     # ---- per-lane values
     pv = {}
@@ -381,11 +385,10 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
             if bpat[k * n + i]:
                 sh[f"B{k}_{i}"] = float(Bm[k, i])
     if inflow is not None:  # map (inflow_params) and geometry (inflow_geometry) of the setup
-        nc = int(IPRM[4])
         for j in range(4):
             sh[f"inf_p{j}"] = float(IPRM[j])
-        for k in range(nc):
-            sh[f"inf_a{k}"], sh[f"inf_b{k}"] = float(IPRM[5 + k]), float(IPRM[5 + nc + k])
+        for k, (a, b) in enumerate(zip(inflow_series[0], inflow_series[1])):
+            sh[f"inf_a{k}"], sh[f"inf_b{k}"] = float(a), float(b)
         for i in range(n):
             for j in range(7):
                 sh[f"inf_g{i}_{j}"] = float(IGEO[i, j])
@@ -667,8 +670,9 @@ def _emit_inflow_thrusts(e: _Emitter, st: _Structure, x: list, bollard: list) ->
     """Delivered thrusts (η applied) of the bollard thrusts ``bollard`` at the advance speeds of
     state ``x``: :func:`uuvid.vehicle.inflow.state_advance_speeds_nb` then
     :func:`uuvid.thruster.inflow.inflow_thrust_nb`, the same expressions in the same order
-    (the Fourier loop unrolled on the map's ``st.inflow`` terms; ``u_a = 0`` returns the bollard
-    thrust itself, by a select)."""
+    (``C_T*`` by Clenshaw's recurrence on the map's ``st.inflow`` Fourier terms, where the loop
+    reads the same series from its cubic table: within 1e-11 of each other; ``u_a = 0`` returns
+    the bollard thrust itself, by a select)."""
     e_, ex, ey, ez = x[3], x[4], x[5], x[6]
     R = {}
     for k, expr in (("00", f"1.0 - 2.0 * ({ey} * {ey} + {ez} * {ez})"),
@@ -703,18 +707,9 @@ def _emit_inflow_thrusts(e: _Emitter, st: _Structure, x: list, bollard: list) ->
           f"inf_p3)), {f})")
         e(f"{v2} = {ua} * {ua} + {vt} * {vt}")
         e(f"{ir} = 1.0 / math.sqrt({v2})")
-        e(f"{c1} = {vt} * {ir}")
-        e(f"{s1} = {ua} * {ir}")
-        ck, sk, ct = "1.0", "0.0", "0.0"
-        for k in range(st.inflow):
-            nct = e.tmp("ct")
-            e(f"{nct} = {ct} + (inf_a{k} * {ck} + inf_b{k} * {sk})")
-            ct = nct
-            if k < st.inflow - 1:
-                nck, nsk = e.tmp("ck"), e.tmp("sk")
-                e(f"{nck} = {ck} * {c1} - {sk} * {s1}")
-                e(f"{nsk} = {sk} * {c1} + {ck} * {s1}")
-                ck, sk = nck, nsk
+        e(f"{c1} = {vt} * {ir}")  # cos β
+        e(f"{s1} = {ua} * {ir}")  # sin β
+        ct = _emit_clenshaw(e, st.inflow, c1, s1)
         fi = e.tmp("fi")
         e(f"{fi} = {f} if {ua} == 0.0 else {ct} * inf_p1 * {v2}")
         if not st.eta_one[i]:
@@ -722,6 +717,23 @@ def _emit_inflow_thrusts(e: _Emitter, st: _Structure, x: list, bollard: list) ->
             e(f"{fe} = {fi} * (ep{i} if {fi} >= 0.0 else en{i})")
             fi = fe
         out.append(fi)
+    return out
+
+
+def _emit_clenshaw(e: _Emitter, nk: int, c: str, s: str) -> str:
+    """``Σ_k a_k cos kβ + b_k sin kβ`` (``inf_a{k}``, ``inf_b{k}``, k < ``nk``) from ``cos β``,
+    ``sin β`` by Clenshaw's recurrence ``u_k = a_k + 2 cos β u_{k+1} − u_{k+2}`` (one for each
+    series; no gathers, so the lane loop stays vectorised; ~6 flops a term)."""
+    c2 = e.tmp("c2")
+    e(f"{c2} = {c} + {c}")
+    ua1 = ua2 = ub1 = ub2 = "0.0"
+    for k in range(nk - 1, 0, -1):
+        na, nb = e.tmp("ca"), e.tmp("cb")
+        e(f"{na} = inf_a{k} + {c2} * {ua1} - {ua2}")
+        e(f"{nb} = inf_b{k} + {c2} * {ub1} - {ub2}")
+        ua1, ua2, ub1, ub2 = na, ua1, nb, ub1
+    out = e.tmp("ct")
+    e(f"{out} = (inf_a0 + {c} * {ua1} - {ua2}) + {s} * {ub1}")
     return out
 
 

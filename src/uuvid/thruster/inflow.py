@@ -229,15 +229,52 @@ class FourQuadrantMap:
         return self.ct(beta) / self.ct(b0) * (1.0 + (np.asarray(ua, float) / vt) ** 2)
 
 
-def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH) -> np.ndarray:
+#: Intervals of the C_T*(β) table a mission loop reads (:func:`inflow_params`): cubic Hermite
+#: pieces on a uniform grid over [−π, π] with the series' exact values and slopes at the nodes,
+#: within 1e-11 of the series (of C_T*, whose peak is ~1) for the 21-term published map
+#: (tests/test_inflow.py), and as cheap for a 21-term series as for a 5-term one.
+INFLOW_TABLE_INTERVALS = 8192
+#: Header length of :func:`inflow_params` before the table.
+INFLOW_TABLE_OFFSET = 6
+
+
+def ct_table(fq: FourQuadrantMap, intervals: int = INFLOW_TABLE_INTERVALS) -> np.ndarray:
+    """``(intervals, 4)`` cubic coefficients ``c0 + c1 t + c2 t² + c3 t³`` (``t`` ∈ [0, 1] across
+    an interval) of ``C_T*(β)`` on the uniform grid ``β_j = −π + 2πj/intervals``: Hermite pieces
+    through the series' values and slopes ``dC_T*/dβ = Σ k (b_k cos kβ − a_k sin kβ)``."""
+    N = int(intervals)
+    h = 2.0 * math.pi / N
+    b = -math.pi + h * np.arange(N + 1)
+    k = np.arange(len(fq.ct_a))
+    a, bb = np.asarray(fq.ct_a, float), np.asarray(fq.ct_b, float)
+    kb = k * b[:, None]
+    f = (a * np.cos(kb) + bb * np.sin(kb)).sum(-1)
+    d = h * (k * (bb * np.cos(kb) - a * np.sin(kb))).sum(-1)
+    f0, f1, d0, d1 = f[:-1], f[1:], d[:-1], d[1:]
+    return np.column_stack([f0, d0, 3.0 * (f1 - f0) - 2.0 * d0 - d1, 2.0 * (f0 - f1) + d0 + d1])
+
+
+def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH,
+                  intervals: int = INFLOW_TABLE_INTERVALS) -> np.ndarray:
     """Flat parameters of :func:`inflow_thrust_nb`: ``[0.7πD, ⅛πρD², 1/(ρ|K_T0|D⁴) ahead, the same
-    astern, N, C_T* cos (N), C_T* sin (N)]`` (the constants precomputed: the loop calls it per
-    thruster and RK4 stage)."""
+    astern, N, N/(2π), the C_T* table (N × 4, :func:`ct_table`), K, the series' K cos and K sin
+    coefficients]`` (the constants precomputed: the loop calls it per thruster and RK4 stage; the
+    series itself is for the SIMD batch kernel, :func:`inflow_series`)."""
     D = fq.diameter
-    return np.array([0.7 * math.pi * D, 0.125 * math.pi * rho * D * D,
-                     1.0 / (rho * abs(fq.bollard_kt(1)) * D ** 4),
-                     1.0 / (rho * abs(fq.bollard_kt(-1)) * D ** 4),
-                     len(fq.ct_a), *fq.ct_a, *fq.ct_b], dtype=np.float64)
+    head = [0.7 * math.pi * D, 0.125 * math.pi * rho * D * D,
+            1.0 / (rho * abs(fq.bollard_kt(1)) * D ** 4),
+            1.0 / (rho * abs(fq.bollard_kt(-1)) * D ** 4),
+            float(intervals), intervals / (2.0 * math.pi)]
+    assert len(head) == INFLOW_TABLE_OFFSET
+    return np.concatenate([head, ct_table(fq, intervals).ravel(), [len(fq.ct_a)], fq.ct_a,
+                           fq.ct_b]).astype(np.float64)
+
+
+def inflow_series(prm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The ``C_T*`` Fourier coefficients ``(a, b)`` held at the end of :func:`inflow_params`."""
+    o = INFLOW_TABLE_OFFSET + 4 * int(prm[4])
+    k = int(prm[o])
+    return prm[o + 1:o + 1 + k], prm[o + 1 + k:o + 1 + 2 * k]
 
 
 @njit(cache=True, inline="always")
@@ -248,21 +285,18 @@ def inflow_thrust_nb(f, ua, prm):
     sqrt(|f| / (ρ |K_T0| D⁴))``; the thrust is then the map's ``T(n, u_a)``.  For ``f ≠ 0`` this is
     ``f · T(n, u_a)/T(n, 0)``, so the chain's own bollard calibration is kept; ``u_a = 0`` returns
     ``f`` itself (bit for bit: the bollard model is the zero-advance case).  ``prm``:
-    :func:`inflow_params`.  This is the evaluation a mission loop calls per thruster and stage."""
+    :func:`inflow_params` (``C_T*(β)`` read from its cubic table: one table step whatever the
+    series' order).  This is the evaluation a mission loop calls per thruster and stage."""
     if ua == 0.0:
         return f
     c = prm[2] if f >= 0.0 else prm[3]
-    nc = int(prm[4])
     vt = prm[0] * math.copysign(math.sqrt(abs(f) * c), f)  # 0.7π n D
-    v2 = ua * ua + vt * vt
-    ir = 1.0 / math.sqrt(v2)
-    c1, s1 = vt * ir, ua * ir  # cos β, sin β without atan2; cos kβ, sin kβ by angle addition
-    ck, sk = 1.0, 0.0
-    ct = 0.0
-    for k in range(nc):
-        ct += prm[5 + k] * ck + prm[5 + nc + k] * sk
-        ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
-    return ct * prm[1] * v2
+    x = (math.atan2(ua, vt) + math.pi) * prm[5]  # β on the table's grid, [0, N]
+    j = min(int(x), int(prm[4]) - 1)
+    t = x - j
+    o = 6 + 4 * j
+    ct = prm[o] + t * (prm[o + 1] + t * (prm[o + 2] + t * prm[o + 3]))
+    return ct * prm[1] * (ua * ua + vt * vt)
 
 
 # ------------------------------------------------------------------------------------------------
