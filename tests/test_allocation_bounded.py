@@ -93,6 +93,7 @@ def _check(name, modes, comp, N, seed):
     return stats
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,modes,comp", CASES)
 def test_bounded_allocation_matches_oracles(name, modes, comp):
     _check(name, modes, comp, 120, 7)
@@ -104,6 +105,7 @@ def test_bounded_allocation_matches_oracles_1e4(name, modes, comp):
     _check(name, modes, comp, 10_000, 11)
 
 
+@pytest.mark.slow
 def test_feasible_wrench_that_uniform_scaling_gives_up_is_delivered():
     """The issue's finding: minimum-norm + uniform scaling reports feasible wrenches saturated."""
     al = load_vehicle("bluerov2").allocator()
@@ -121,6 +123,7 @@ def test_feasible_wrench_that_uniform_scaling_gives_up_is_delivered():
     assert found > 0
 
 
+@pytest.mark.slow
 def test_shortfall_names_the_lost_dofs_and_priority_keeps_heave():
     al = load_vehicle("bluerov2").allocator()
     phi = np.array([400.0, 0, 60.0, 0, 0, 0])  # far too much surge, achievable heave

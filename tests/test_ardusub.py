@@ -224,6 +224,7 @@ def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reb
 
 
 # ============================================================================= configuration
+@pytest.mark.slow
 def test_config_vectored_factors_directions_and_disabled_outputs(tmp_path):
     sc = scenario(n=80)
     ins = inspect_log(write_bin(tmp_path / "d.BIN", sc))
@@ -279,6 +280,7 @@ def test_export_without_a_vehicle_says_the_forces_are_mixing_sums(tmp_path):
     assert not any(w.startswith("no vehicle given") for w in load_dive(p, vehicle="bluerov2").warnings)
 
 
+@pytest.mark.slow
 def test_thruster_model_file_with_an_esc_follows_the_logged_voltage(tmp_path):
     # was: voltage_aware False, thrust at the file's fixed 12 V whatever the battery said
     from uuvid.thruster.modelfile import save_chain
@@ -299,6 +301,7 @@ def test_thruster_model_file_with_an_esc_follows_the_logged_voltage(tmp_path):
     assert np.max(np.abs(d.table["thrust_1_N"] - fixed)) > 0.1 * np.max(np.abs(fixed))
 
 
+@pytest.mark.slow
 def test_physical_chain_file_matches_the_voltage_aware_default(tmp_path):
     """A chain of the shipped physical T200 fit written at 12 V gives, at the logged voltage,
     the thrust of the voltage-aware default (the same model)."""
@@ -312,6 +315,7 @@ def test_physical_chain_file_matches_the_voltage_aware_default(tmp_path):
     np.testing.assert_allclose(tm.thrust(pwm, volts), ref.thrust(pwm, volts), rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_thruster_model_without_esc_cannot_follow_voltage_and_says_so(tmp_path):
     from uuvid.thruster.blocks import TableMap
     from uuvid.thruster.chain import ThrusterChain
@@ -375,6 +379,7 @@ def test_bin_depth_from_baro_primary_not_the_enclosure_sensor(tmp_path):
     assert abs(d.table["depth_m"].mean() - (9.2 - 0.01 * t.mean())) > 1.0
 
 
+@pytest.mark.slow
 def test_bin_yaw_unwrapped_through_360(tmp_path):
     sc = scenario(n=500)
     d = load_dive(write_bin(tmp_path / "d.BIN", sc))
@@ -409,6 +414,7 @@ def _rate(t, x):
     return savgol_filter(x, 11, 2, deriv=1, delta=float(np.median(np.diff(t))))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["BIN", "tlog"])
 def test_physics_heave_force_and_depth_rate_correlate_yaw_signs_agree(tmp_path, fmt):
     sc = scenario()
@@ -426,6 +432,7 @@ def test_physics_heave_force_and_depth_rate_correlate_yaw_signs_agree(tmp_path, 
     assert np.mean(np.sign(tb["N_Nm"][settled]) == np.sign(r[settled])) > 0.95
 
 
+@pytest.mark.slow
 def test_bin_modes_arming_and_open_loop(tmp_path):
     d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=600)))
     modes = [(s["mode"], s["armed"]) for s in d.modes]
@@ -471,6 +478,7 @@ def test_bin_missing_messages_and_repeated_parameters(tmp_path):
 
 
 # ============================================================================ telemetry traps
+@pytest.mark.slow
 def test_tlog_depth_from_relative_alt_when_vfr_hud_alt_is_zero(tmp_path):
     sc = scenario(n=300)
     d = load_dive(write_tlog(tmp_path / "d.tlog", sc))
@@ -480,6 +488,7 @@ def test_tlog_depth_from_relative_alt_when_vfr_hud_alt_is_zero(tmp_path):
     np.testing.assert_allclose(d.table["depth_m"], np.interp(t, sc["t"], sc["depth"]), atol=1e-3)
 
 
+@pytest.mark.slow
 def test_tlog_depth_from_the_water_pressure_sensor_by_default(tmp_path):
     """As in a .BIN: BARO_PRIMARY's pressure relative to its ground pressure, not the EKF's
     relative_alt (which swings ±0.3 m here); the source is named in the provenance."""
@@ -502,6 +511,7 @@ def test_tlog_depth_from_the_water_pressure_sensor_by_default(tmp_path):
     assert d2.depth_source["source"] == "-GLOBAL_POSITION_INT.relative_alt"
 
 
+@pytest.mark.slow
 def test_tlog_depth_from_primary_pressure_when_no_position_message(tmp_path):
     sc = scenario(n=300)
     d = load_dive(write_tlog(tmp_path / "d.tlog", sc, gpi=False))
@@ -512,6 +522,7 @@ def test_tlog_depth_from_primary_pressure_when_no_position_message(tmp_path):
     np.testing.assert_allclose(d.table["depth_m"], truth, atol=2e-3)
 
 
+@pytest.mark.slow
 def test_tlog_companion_clock_is_not_the_autopilot_clock(tmp_path):
     sc = scenario(n=300)
     p = write_tlog(tmp_path / "d.tlog", sc)
@@ -531,6 +542,7 @@ def test_tlog_qgc_duplicated_stamps_are_merged_and_reported(tmp_path):
     assert d.table["t_s"].is_monotonic_increasing
 
 
+@pytest.mark.slow
 def test_tlog_reboot_splits_into_parts(tmp_path):
     sc = scenario(n=400)
     d = load_dive(write_tlog(tmp_path / "d.tlog", sc, reboot_at=200))
@@ -543,6 +555,7 @@ def test_tlog_reboot_splits_into_parts(tmp_path):
     assert inspect_log(write_tlog(tmp_path / "e.tlog", sc, reboot_at=200)).parts == 2
 
 
+@pytest.mark.slow
 def test_tlog_without_parameters_needs_a_parameter_file(tmp_path):
     sc = scenario(n=100)
     p = write_tlog(tmp_path / "d.tlog", sc, with_params=False)
@@ -556,6 +569,7 @@ def test_tlog_without_parameters_needs_a_parameter_file(tmp_path):
     assert inspect_log(p, params=tmp_path / "v.params").config.frame == 1
 
 
+@pytest.mark.slow
 def test_tlog_modes_from_autopilot_heartbeat(tmp_path):
     d = load_dive(write_tlog(tmp_path / "d.tlog", scenario(n=600)))
     seen = [(s["mode"], s["armed"]) for s in d.modes]
@@ -563,6 +577,7 @@ def test_tlog_modes_from_autopilot_heartbeat(tmp_path):
 
 
 # ============================================================================ export and CLI
+@pytest.mark.slow
 def test_export_csv_sidecar_and_parquet_metadata(tmp_path):
     d = load_dive(write_tlog(tmp_path / "d.tlog", scenario(n=120)))
     cols = ["t_s", "depth_m", "roll_rad", "pitch_rad", "yaw_rad", "battery_V", "mode", "armed",
@@ -585,6 +600,7 @@ def test_export_csv_sidecar_and_parquet_metadata(tmp_path):
         d.export(tmp_path / "o.xlsx")
 
 
+@pytest.mark.slow
 def test_cli_log_inspect_and_export(tmp_path):
     from typer.testing import CliRunner
 
@@ -610,6 +626,7 @@ def test_cli_log_inspect_and_export(tmp_path):
     assert r.exit_code == 2 and "expected .csv or .parquet" in r.output
 
 
+@pytest.mark.slow
 def test_plot_shades_each_mode_and_hatches_disarmed(tmp_path):
     """The legend names what the figure shows: one entry per mode (MANUAL unshaded), and the
     disarmed stretches drawn hatched without fill; without a vehicle the moment axis says its
@@ -648,6 +665,7 @@ def test_factor_tables_hold_no_negative_zero():
 REAL = "ardusub-bluerov2"
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_real_small_bin_depth_is_baro_primary(shared_data):
     from pymavlink import mavutil
@@ -665,6 +683,7 @@ def test_real_small_bin_depth_is_baro_primary(shared_data):
     np.testing.assert_allclose(d.table["depth_m"], -np.interp(t, tb_, alt), atol=1e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("name,frame,dirs", [
     ("small.BIN", 1, [-1, -1, 1, -1, -1, 1]),

@@ -111,6 +111,7 @@ def test_absurd_vehicle_parameters_are_refused_by_name(field, value):
 
 
 # ------------------------------------------------------------------------- scenarios
+@pytest.mark.slow
 @pytest.mark.parametrize("text, needle", [
     ("duration: 0.001\n", "shorter than one step"),
     ("duration: 1.0e7\n", "shorten duration or raise dt"),
@@ -137,6 +138,7 @@ def test_step_count_budget():
             step_count(T, dt)
 
 
+@pytest.mark.slow
 def test_divergence_in_uuvid_simulate_is_an_error_not_a_traceback(tmp_path, monkeypatch):
     import uuvid.simulate.vehicle_sim as vs
 
@@ -249,6 +251,7 @@ def _tlog_frames(b: bytes):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("msgid", [30, 74])  # ATTITUDE (stamped), VFR_HUD (mapped)
 def test_tlog_with_a_corrupt_receive_stamp_ends_in_a_clear_error_or_a_result(
@@ -271,6 +274,7 @@ def test_tlog_with_a_corrupt_receive_stamp_ends_in_a_clear_error_or_a_result(
             assert np.all(np.isfinite(r.t)) and r.t.max() - r.t.min() < 1e4
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_bin_with_a_corrupt_format_description_names_the_field(shared_data, tmp_path):
     from uuvid.io.ardusub.reader import read_raw
@@ -314,6 +318,7 @@ COLS = ("--dof", "yaw", "--command-col", "torque", "--position-col", "yaw", "--k
         "--kq", "49.5")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("resample", ["auto", "off"])
 def test_clock_jump_in_an_inertia_log_is_refused_before_gridding(tmp_path, resample):
     p = _inertia_csv(tmp_path / "jump.csv", jump=1e7)
@@ -321,6 +326,7 @@ def test_clock_jump_in_an_inertia_log_is_refused_before_gridding(tmp_path, resam
     clean_error(res, "the largest gap is 1e+07 s", "--t-start/--t-end")
 
 
+@pytest.mark.slow
 def test_inertia_resample_step_past_the_grid_budget(tmp_path):
     p = _inertia_csv(tmp_path / "ok.csv")
     res = runner.invoke(app, [*INERTIA, str(p), *COLS, "--resample", "1e-6"])
@@ -343,6 +349,7 @@ def short_setup():
     return setup_mission(load_vehicle("bluerov2"), square_mission(speed=0.5), t_end=0.5)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(which=st.sampled_from(["vehicle_params", "thruster_params", "currents"]),
        fast=st.booleans(), runs=st.integers(1, 3), pos=st.integers(0, 10_000), bad=BAD)
@@ -452,6 +459,7 @@ def test_dynamic_fit_with_time_in_microseconds_is_refused_at_once():
     assert time.perf_counter() - t0 < 2.0
 
 
+@pytest.mark.slow
 def test_healey_fit_on_vanishing_thrust_is_an_error(tmp_path):
     import csv
 
@@ -508,6 +516,7 @@ def _mutate(doc, data):
     return doc
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(data=st.data())
 def test_generated_model_files_end_in_a_model_file_error_or_a_valid_chain(data):
@@ -523,6 +532,7 @@ def test_generated_model_files_end_in_a_model_file_error_or_a_valid_chain(data):
     assert chain.n_states >= 0
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None)
 @given(data=st.data())
 def test_generated_vehicle_files_end_in_a_vehicle_file_error_or_a_vehicle(data):
@@ -545,6 +555,7 @@ SCENARIO = {"name": "s", "vehicle": "bluerov2", "dt": 0.05, "duration": 2.0,
             "current": [0.1, 0.0, 0.0], "controller": {"bandwidth": [1.5, 1.5, 1.5, 2.0]}}
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(data=st.data())
 def test_generated_scenarios_end_in_a_scenario_error_or_a_setup(data, tmp_path_factory):
@@ -560,6 +571,7 @@ def test_generated_scenarios_end_in_a_scenario_error_or_a_setup(data, tmp_path_f
     assert setup.t.size >= 1 and np.all(np.isfinite(setup.vp))
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(raw=st.one_of(st.binary(max_size=200), st.text(max_size=200).map(str.encode)),
        suffix=st.sampled_from([".yaml", ".toml"]))
@@ -574,6 +586,7 @@ def test_generated_file_bytes_end_in_a_model_file_error(tmp_path, raw, suffix):
         assert str(p) in str(e)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("raw, needle", [(b'{"kind": "x\xff"}', "not UTF-8 text"),
                                          (b'{"kind": ', "line 1, column 10: not valid JSON")])
 def test_uncertain_model_json_that_cannot_be_read(tmp_path, raw, needle):

@@ -73,6 +73,7 @@ def _check_against_fly(setup, VP, TP, VC, trace_run=None):
     return out
 
 
+@pytest.mark.slow
 def test_perturbed_bluerov2_matches_fly(square):
     """Mass, added mass, damping, current and thruster perturbations: summaries and the
     trajectory of a run equal fly()'s (to rounding; asserted at 1e-9)."""
@@ -89,6 +90,7 @@ def test_perturbed_bluerov2_matches_fly(square):
     np.testing.assert_array_equal(batch.run_batch_fast(square, VP[p], TP[p], VC[p]), out[p])
 
 
+@pytest.mark.slow
 def test_default_arguments_are_run_batch_defaults(bluerov2):
     """Default thruster parameters and the setup's current (as run_batch)."""
     setup = setup_mission(bluerov2, square_mission(), t_end=20.0, current=(0.1, -0.05, 0.0))
@@ -139,6 +141,7 @@ def test_perturb_thruster_params(square):
                                   np.broadcast_to(b.params[:, b.poff[2]:b.poff[3]], (6, 6, 4)))
 
 
+@pytest.mark.slow
 def test_unsupported_chain_falls_back_to_fly_batch():
     setup = setup_mission(load_vehicle("auv2"), square_mission(), t_end=5.0)
     VP = np.tile(setup.vp, (2, 1))
@@ -150,6 +153,7 @@ def test_unsupported_chain_falls_back_to_fly_batch():
         batch.run_batch_fast(setup, VP, fallback=False)
 
 
+@pytest.mark.slow
 def test_batch_throughput_reports(square):
     short = setup_mission(square.vehicle, square_mission(), t_end=2.0)
     r = batch.batch_throughput(short, runs=10, reference_runs=2)

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 TINY = '''from numba import njit
 
 
@@ -20,6 +22,7 @@ def run_all():
 '''
 
 
+@pytest.mark.slow
 def test_benchmark_loader_runs_twice_with_numba_cache(tmp_path):
     bench = tmp_path / "benchmarks"
     bench.mkdir()

@@ -19,6 +19,7 @@ def result():
     return caccia2000.reproduce(seed=0, fast=True)
 
 
+@pytest.mark.slow
 def test_every_table_and_parameter(result):
     assert caccia2000.TABLE_KEYS == TABLES
     for table in TABLES:
@@ -29,6 +30,7 @@ def test_every_table_and_parameter(result):
             assert row["sigma"] > 0, (table, name)
 
 
+@pytest.mark.slow
 def test_sigma_of_the_papers_order(result):
     """The criterion the 16-seed study applies (≥ 90 % of σ within a factor 3 of the paper's),
     not "every σ on this seed", which seed 0 meets and 3 of seeds 0–15 do not."""
@@ -38,6 +40,7 @@ def test_sigma_of_the_papers_order(result):
     assert sum(1 / 3 <= q <= 3 for q in ratios) >= 0.9 * len(ratios)
 
 
+@pytest.mark.slow
 def test_low_speed_yaw_reduced_to_linear(result):
     low = result["yaw_low_speed"]
     assert low["quadratic_significant"] is False
@@ -112,6 +115,7 @@ def test_inertia_reports_both_sigmas(result):
         assert "6-DOF" in r["simulation"]
 
 
+@pytest.mark.slow
 def test_json_and_determinism(result):
     text = json.dumps(to_jsonable(dict(result)), allow_nan=False)
     assert "surge_mass" in text
@@ -121,6 +125,7 @@ def test_json_and_determinism(result):
             assert again[table]["parameters"][name]["estimate"] == row["estimate"]
 
 
+@pytest.mark.slow
 def test_write_outputs(result, tmp_path):
     page = caccia2000.write_outputs(result, tmp_path)
     assert page.name == "index.html" and "Caccia" in page.read_text()

@@ -11,6 +11,7 @@ from uuvid.cli.app import app
 runner = CliRunner()
 
 
+@pytest.mark.slow
 def test_reproduce_mclean1991_json():
     res = runner.invoke(app, ["reproduce", "mclean1991", "--json"])
     assert res.exit_code == 0, res.output
@@ -29,6 +30,7 @@ def test_reproduce_mclean1991_json():
     assert ef["parameters"]
 
 
+@pytest.mark.slow
 def test_reproduce_laidani_json_and_out(tmp_path):
     res = runner.invoke(app, ["reproduce", "laidani", "--json", "--out", str(tmp_path)])
     assert res.exit_code == 0, res.output
@@ -64,6 +66,7 @@ def test_demo_writes_report_folder(tmp_path):
     assert "dive/identify/index.html" in html
 
 
+@pytest.mark.slow
 def test_thruster_simulate_preset_json(tmp_path):
     res = runner.invoke(app, ["thruster", "simulate", "auv2-tunnel", "--signal",
                               "kind=step,amplitude=24", "--t-end", "1.0", "--json", "--out",

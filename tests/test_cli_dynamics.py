@@ -60,6 +60,7 @@ def test_select_over_every_family_writes_the_report(files, tmp_path):
     assert (rep / "held_out.png").is_file() and (rep / "selection.csv").is_file()
 
 
+@pytest.mark.slow
 def test_healey_fit_then_replay_at_a_new_level(files, tmp_path):
     out = tmp_path / "h.yaml"
     doc = _json(runner.invoke(app, ["thruster", "fit", str(files["+2V"]), str(files["-2V"]), *COLS,
@@ -82,6 +83,7 @@ def test_healey_fit_then_replay_at_a_new_level(files, tmp_path):
     assert sim["records"] == rep["records"]
 
 
+@pytest.mark.slow
 def test_first_order_with_thrust_is_fitted_jointly_with_a_map(files, tmp_path):
     out = tmp_path / "fo.yaml"
     doc = _json(runner.invoke(app, ["thruster", "fit", str(files["+2V"]), *COLS, "--model",
@@ -90,6 +92,7 @@ def test_first_order_with_thrust_is_fitted_jointly_with_a_map(files, tmp_path):
     assert set(doc["noise"]) == {"speed", "thrust"}
 
 
+@pytest.mark.slow
 def test_select_needs_two_levels(files, tmp_path):
     res = runner.invoke(app, ["thruster", "fit", str(files["+2V"]), str(files["-2V"]), *COLS,
                               "--select", "--out", str(tmp_path / "x.yaml")])

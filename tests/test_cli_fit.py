@@ -95,6 +95,7 @@ def _sigma_ok(doc, name, truth, n=3.0):
 
 
 # ------------------------------------------------------------------------------ steady models
+@pytest.mark.slow
 def test_quadratic_recovers_kt_and_writes_report(sheets, tmp_path):
     out, rep = tmp_path / "q.yaml", tmp_path / "rep"
     doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "quadratic", "--out", out,
@@ -116,6 +117,7 @@ def test_quadratic_recovers_kt_and_writes_report(sheets, tmp_path):
     assert "K_T_fwd" in (rep / "parameters.csv").read_text()
 
 
+@pytest.mark.slow
 def test_polynomial_selects_a_degree_with_a_reason(sheets, tmp_path):
     out, rep = tmp_path / "p.toml", tmp_path / "rep"
     doc = _json(_fit(sheets[0], *SHEET_COLS, "--model", "polynomial", "--out", out,
@@ -181,6 +183,7 @@ def test_cv_on_a_voltage_command(tmp_path):
     assert res.exit_code == 2 and "--command-unit volts" in res.stderr
 
 
+@pytest.mark.slow
 def test_physical_two_sheets_chain_at_supply_voltage(sheets, tmp_path):
     out, rep = tmp_path / "phys.yaml", tmp_path / "rep"
     doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
@@ -197,6 +200,7 @@ def test_physical_two_sheets_chain_at_supply_voltage(sheets, tmp_path):
     assert not any("outside the data" in w for w in doc["warnings"])
 
 
+@pytest.mark.slow
 def test_physical_chain_outside_the_sheets_voltages_is_warned(sheets, tmp_path):
     doc = _json(_fit(*sheets, *SHEET_COLS, "--current-col", "Current", "--voltage-col", "Voltage",
                      "--model", "physical", "--supply-voltage", "48", "--out", tmp_path / "p.yaml",
@@ -219,6 +223,7 @@ def _step_csv(path, chain, level, t_end, dt, channel, noise, seed, t0=0.05):
 DYN_COLS = ["--time-col", "time", "--command-col", "u", "--command-unit", "volts"]
 
 
+@pytest.mark.slow
 def test_first_order_from_a_voltage_step(tmp_path):
     truth = ThrusterChain((FirstOrderMotor(gain=131.3016, time_constant=0.01021),),
                           input_kind="voltage")
@@ -234,6 +239,7 @@ def test_first_order_from_a_voltage_step(tmp_path):
     assert (rep / "fit.png").is_file()
 
 
+@pytest.mark.slow
 def test_yoerger_on_pwm_steps_gets_a_neutral_shifting_esc(tmp_path):
     truth = ThrusterChain((Yoerger(alpha=0.02, beta=5.0),), input_kind="command")
     files = []
@@ -274,6 +280,7 @@ def test_bessa_reports_the_identifiable_combinations(tmp_path):
     load_chain(tmp_path / "b.yaml")
 
 
+@pytest.mark.slow
 def test_mclean_tunnel_thruster_from_two_rig_steps(tmp_path):
     rig = P.auv2_rig_chain()
     files = [_step_csv(tmp_path / f"m{v:g}.csv", rig, v, 1.0, 2e-3, "measured_thrust", 0.2,
@@ -328,6 +335,7 @@ def test_t200_sheet_without_its_format_is_told_to_use_it(tmp_path):
     assert res.exit_code == 2 and "t200" not in res.stderr
 
 
+@pytest.mark.slow
 def test_warnings_are_said_once(sheets, tmp_path):
     """Without --json the report on stdout carries the warnings; stderr does not repeat them."""
     args = [*sheets, *SHEET_COLS, "--voltage-col", "Voltage", "--model", "physical",
@@ -360,6 +368,7 @@ def test_thrust_sign_reversed_exits_2_naming_the_fix(sheets, tmp_path, model):
     assert "negate the thrust column" in res.output and not out.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model, extra", [("table", []), ("deadzone", ["--map-input", "command"])])
 def test_command_maps_refuse_sheets_at_different_voltages(sheets, tmp_path, model, extra):
     out = tmp_path / "m.yaml"
@@ -387,6 +396,7 @@ def test_missing_file_exit_2(tmp_path):
 
 
 # ------------------------------------------------------------------------------ real data
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_t200_physical_on_both_sheets(shared_data, tmp_path):
     d = shared_data / "t200-bluerobotics-2019"
@@ -403,6 +413,7 @@ def test_t200_physical_on_both_sheets(shared_data, tmp_path):
     assert (rep / "index.html").is_file()
 
 
+@pytest.mark.slow
 def test_fit_checks_the_file_then_reports_every_missing_option(tmp_path):
     from typer.testing import CliRunner
 

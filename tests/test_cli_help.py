@@ -3,6 +3,7 @@
 import inspect
 import re
 
+import pytest
 from typer.models import ParameterInfo
 from typer.testing import CliRunner
 
@@ -34,6 +35,7 @@ def _flat(text: str) -> str:
     return re.sub(r"[\s│┃]+", "", text)
 
 
+@pytest.mark.slow
 def test_every_command_help_keeps_its_bracketed_units_and_plain_flags():
     cmds = list(_commands(app))
     assert len(cmds) > 15  # the walk found the whole tree
@@ -79,6 +81,7 @@ def test_console_tables_wrap_instead_of_cutting():
     assert "0.61678±0.00912(significant)" in _flat(out)
 
 
+@pytest.mark.slow
 def test_out_is_a_folder_and_file_outputs_have_their_own_option(tmp_path):
     from uuvid.thruster.modelfile import load_chain
     from uuvid.thruster.presets import laidani_chain

@@ -166,6 +166,7 @@ def steady(logs):
     return doc
 
 
+@pytest.mark.slow
 def test_steady_recovers_drag_and_installation_coefficients(steady):
     p = steady["parameters"]
     assert set(p) == {"k", "k_q", "w", "eta_hull", "eta_hull_prop"}
@@ -185,6 +186,7 @@ def test_steady_recovers_drag_and_installation_coefficients(steady):
     assert m["open_water"] == ["yaw_fl_rr+"]
 
 
+@pytest.mark.slow
 def test_steady_flags_compass_spikes_and_reports_them(steady, logs):
     rej = steady["rejected"]
     assert rej and all(r["reason"] == "outlier" for r in rej)
@@ -201,6 +203,7 @@ def test_steady_flags_compass_spikes_and_reports_them(steady, logs):
     assert steady["report"].endswith("index.html")
 
 
+@pytest.mark.slow
 def test_steady_counts_dropped_headings_as_missing(steady, logs):
     """Empty heading cells inside the segments are samples lost, not silently absent: they count
     in "missing" and in the total (it said "4332/4347 used, 0 missing" with dropouts)."""
@@ -238,6 +241,7 @@ def test_no_segment_message_says_what_was_excluded_and_the_remedy():
     assert "--settle" in flags(m) and "--min-duration" in flags(m)
 
 
+@pytest.mark.slow
 def test_open_water_mode_gives_the_same_fit_with_generated_names(logs, steady):
     doc = _json("vehicle", "identify", "steady", logs["yaw"], *STEADY_COLS,
                 "--open-water-mode", "yaw_fl_rr+")
@@ -250,12 +254,14 @@ def test_open_water_mode_gives_the_same_fit_with_generated_names(logs, steady):
         steady["parameters"]["k"]["estimate"], rel=1e-12)
 
 
+@pytest.mark.slow
 def test_robust_covariance_and_no_reduce_options(logs):
     doc = _json("vehicle", "identify", "steady", logs["yaw"], *STEADY_COLS, "--eta-map", ETA_MAP,
                 "--cov-type", "HC3", "--no-quadratic")
     assert doc["cov_type"] == "HC3" and "k_q" not in doc["parameters"]
 
 
+@pytest.mark.slow
 def test_write_back_round_trip_and_the_new_vehicle_flies(steady, logs):
     path = logs["dir"] / "romeo_identified.yaml"
     assert steady["vehicle_out"] == str(path)
@@ -290,6 +296,7 @@ def test_write_back_refuses_a_negative_added_mass(tmp_path):
 
 
 # ------------------------------------------------------------------------------------ inertia
+@pytest.mark.slow
 def test_inertia_from_the_steady_json_and_from_the_written_vehicle(steady, logs):
     d = logs["dir"]
     cols = ("--dof", "yaw", "--command-col", "torque", "--position-col", "heading_deg",
@@ -322,6 +329,7 @@ def test_inertia_from_the_steady_json_and_from_the_written_vehicle(steady, logs)
 
 
 # ------------------------------------------------------------------------------------ heave
+@pytest.mark.slow
 def test_heave_with_ballast_and_the_buoyancy_figure(tmp_path):
     path = _write_csv(tmp_path / "heave.csv", _heave_log())
     doc = _json("vehicle", "identify", "steady", path, "--dof", "heave", "--command-col",
@@ -341,6 +349,7 @@ def test_heave_with_ballast_and_the_buoyancy_figure(tmp_path):
 
 
 # ------------------------------------------------------------------------------------ other logs
+@pytest.mark.slow
 def test_the_same_log_as_parquet_and_as_a_ros2_bag(logs, steady, tmp_path):
     pd = pytest.importorskip("pandas")
     pytest.importorskip("pyarrow")
@@ -454,6 +463,7 @@ def _write_tlog(path, params: bool = False, reversed_motors=()):
     return P
 
 
+@pytest.mark.slow
 def test_ardusub_tlog_thrust_from_the_servo_outputs(tmp_path):
     pytest.importorskip("pymavlink")
     P = _write_tlog(tmp_path / "dive.tlog")
@@ -467,6 +477,7 @@ def test_ardusub_tlog_thrust_from_the_servo_outputs(tmp_path):
     assert r.exit_code == 2 and "--vehicle" in r.output
 
 
+@pytest.mark.slow
 def test_ardusub_tlog_read_as_its_parameters_describe_the_vehicle(tmp_path):
     """With the parameter download the log itself says the frame (FRAME_CONFIG 1 → the BlueROV2
     preset, said in the notes), which output drives which motor and which motors are reversed:
@@ -484,6 +495,7 @@ def test_ardusub_tlog_read_as_its_parameters_describe_the_vehicle(tmp_path):
 
 
 # ------------------------------------------------------------------------------------ design
+@pytest.mark.slow
 def test_design_input_paper_frequency_and_command_file(tmp_path):
     doc = _json("vehicle", "design-input", "--k", "28.6", "--mass-air", "93.75", "--speed",
                 str(-5 / 28.6))
@@ -510,6 +522,7 @@ def test_design_input_paper_frequency_and_command_file(tmp_path):
 
 
 # ------------------------------------------------------------------------------------ reproduce
+@pytest.mark.slow
 def test_reproduce_caccia2000_fast_json():
     doc = _json("reproduce", "caccia2000", "--fast")
     tables = ("heave", "yaw_linear_quadratic", "yaw_low_speed", "yaw_linear",
@@ -528,6 +541,7 @@ def test_reproduce_caccia2000_fast_json():
 
 
 # ------------------------------------------------------------------------------------ errors
+@pytest.mark.slow
 def test_clear_errors_exit_2(logs, tmp_path):
     r = _run("vehicle", "identify", "steady", tmp_path / "nope.csv", "--dof", "yaw")
     assert r.exit_code == 2 and "no such log file" in r.output

@@ -41,6 +41,7 @@ def test_parse_controller_arg():
         parse_controller_arg("sliding-mode")
 
 
+@pytest.mark.slow
 def test_scenario_controller_kinds(tmp_path):
     """pid flies the built-in loop (no Controller block), lqr the hover LQI (per-thruster
     thrust), python the factory's Controller; the file is found relative to the scenario."""

@@ -88,6 +88,7 @@ def base_gains(vehicle):
     return default_gains(vehicle)
 
 
+@pytest.mark.slow
 def test_pid_as_a_controller_block_equals_the_built_in_loop(bluerov2):
     """The PID DP passed as a Controller (with a zero-amplitude disturbance block, which shares
     its compiled loop with test_disturbance_force) flies the loop compiled around it; states,
@@ -159,6 +160,7 @@ def test_python_controller_equals_the_compiled_one(pd_setup, bluerov2):
     assert out[0, 0] == pytest.approx(rp.metrics["max_tracking_error_m"], rel=1e-12)
 
 
+@pytest.mark.slow
 def test_disturbance_force(bluerov2):
     """A sinusoidal disturbance of zero amplitude flies exactly the undisturbed mission; a
     constant surge force c is cancelled by the PID's integral action on the final hold
@@ -272,6 +274,7 @@ def test_command_output_gives_the_chains_steady_thrust(bluerov2):
     assert chain.input_kind != "thrust"
 
 
+@pytest.mark.slow
 def test_per_thruster_output_errors():
     """A wrong output kind or length is named with what was expected (the Heavy: 8 thrusters)."""
     with pytest.raises(ValueError, match="wrench, thrust, command"):
@@ -293,6 +296,7 @@ def test_per_thruster_output_errors():
 # ---------------------------------------------------------------------------------------------
 # User controllers in the SIMD batch kernel
 # ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_which_controllers_the_simd_kernel_takes(bluerov2, pd_setup):
     """Compiled wrench controllers fly the SIMD kernel; the others say why not."""
     from uuvid.simulate.batch import fast_path_reason

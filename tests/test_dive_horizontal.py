@@ -27,6 +27,7 @@ from uuvid.vehicle.model import make_state, vehicle_rhs, vehicle_rhs_reference
 runner = CliRunner()
 
 
+@pytest.mark.slow
 def test_coupled_rhs_is_the_6dof_model_in_the_horizontal_plane():
     """With heave, roll and pitch zero (and r_g = 0, diagonal M and D: the synthetic dive's
     vehicle) the project's 6-DOF right-hand side — compiled and NumPy reference — gives the
@@ -60,6 +61,7 @@ def _within(e, truth):
     return np.array([abs(e.values[k] - truth[k]) <= 3 * e.sigma[k] for k in HORIZONTAL_NAMES])
 
 
+@pytest.mark.slow
 def test_truth_within_3_sigma_over_seeds():
     """Eight seeds (every one, none picked): ≥ 90 % of the 96 estimates within 3σ of the truth;
     the base vehicle (no tether, other added mass) is far outside."""
@@ -85,6 +87,7 @@ def result(dive):
     return identify_dive(df, "bluerov2", ["surge", "sway", "horizontal"], t_end=70.0)
 
 
+@pytest.mark.slow
 def test_coupled_model_predicts_held_out_velocities_better_than_1dof(result):
     """The vehicle turns while it moves: the coupled model predicts the held-out u and v near the
     DVL noise (1 cm/s), the 1-DOF surge and sway models (no v r, u r terms) far worse."""
@@ -96,6 +99,7 @@ def test_coupled_model_predicts_held_out_velocities_better_than_1dof(result):
     assert h["improvement"]["heading"] > 2
 
 
+@pytest.mark.slow
 def test_result_surface_report_and_write_back(result, dive, tmp_path):
     df, truth = dive
     d = result.to_dict()
@@ -122,6 +126,7 @@ def test_result_surface_report_and_write_back(result, dive, tmp_path):
         assert "nrmse" in mine.channels[ch]
 
 
+@pytest.mark.slow
 def test_bad_input_names_what_is_missing(dive):
     df, _ = dive
     with pytest.raises(DiveDataError, match="no v_mps samples: --dof horizontal.*sway velocity"):
@@ -135,6 +140,7 @@ def test_bad_input_names_what_is_missing(dive):
     assert "horizontal" in _dof_list("all", read_dive_channels(df, "bluerov2"))
 
 
+@pytest.mark.slow
 def test_cli_horizontal(dive, tmp_path):
     df, _ = dive
     log = tmp_path / "dive.csv"
@@ -163,6 +169,7 @@ def test_dead_band_is_read_off_the_thruster_model():
     assert lo < reg.edge_rev < reg.neutral < reg.edge_fwd < hi
 
 
+@pytest.mark.slow
 def test_down_weighting_dead_band_samples_brings_the_fit_closer_to_truth():
     """The real ESCs start to push at ±6 µs where the model (and so the logged force) says zero
     up to ±18 µs: over five seeds the down-weighted fit's masses and drags are closer to the

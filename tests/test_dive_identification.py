@@ -37,6 +37,7 @@ def result(dive):
     return identify_dive(df, "bluerov2", t_end=270.0)
 
 
+@pytest.mark.slow
 def test_truth_within_3_sigma_and_the_preset_is_not(dive, result):
     _, truth = dive
     for dof in ("heave", "yaw"):
@@ -48,6 +49,7 @@ def test_truth_within_3_sigma_and_the_preset_is_not(dive, result):
         assert abs(e.values["quadratic"] - e.base["quadratic"]) > 3 * e.sigma["quadratic"]
 
 
+@pytest.mark.slow
 def test_held_out_part_is_predicted_near_the_noise_floor_and_better_than_the_preset(result):
     h = result.estimates["heave"].held_out
     assert h is not None and h["identified"]["rms"] < 0.03  # depth noise σ 1 cm
@@ -58,6 +60,7 @@ def test_held_out_part_is_predicted_near_the_noise_floor_and_better_than_the_pre
     assert result.estimates["heave"].train["rms_fit"] < 2 * 0.01
 
 
+@pytest.mark.slow
 def test_result_surface_and_report(result, tmp_path):
     d = result.to_dict()
     json.dumps(d)
@@ -71,6 +74,7 @@ def test_result_surface_and_report(result, tmp_path):
     assert idx.is_file() and (tmp_path / "rep" / "replay.png").is_file()
 
 
+@pytest.mark.slow
 def test_written_vehicle_replays_as_identified(result, dive, tmp_path):
     df, _ = dive
     out = result.write_vehicle(tmp_path / "mine.yaml")
@@ -85,6 +89,7 @@ def test_written_vehicle_replays_as_identified(result, dive, tmp_path):
     assert "W − B" in base.channels["depth"]["params_source"]
 
 
+@pytest.mark.slow
 def test_forces_from_pwm_columns_at_the_logged_voltage(dive, result):
     """A table with pwm_<j> and battery_V but no force columns: thrust from the T200 model at the
     logged voltage through the vehicle's B gives the same identification."""
@@ -96,6 +101,7 @@ def test_forces_from_pwm_columns_at_the_logged_voltage(dive, result):
     assert any("forces computed from pwm_1" in w for w in res.warnings)
 
 
+@pytest.mark.slow
 def test_bad_input_gives_clear_errors(dive):
     df, _ = dive
     with pytest.raises(DiveDataError, match="Z_N.*servo outputs"):
@@ -116,6 +122,7 @@ def test_bad_input_gives_clear_errors(dive):
         identify_dive(df, "bluerov2", ["pitch"])
 
 
+@pytest.mark.slow
 def test_cli_identify_dive_then_replay(dive, tmp_path):
     df, _ = dive
     log = tmp_path / "dive.csv"
@@ -139,6 +146,7 @@ def test_cli_identify_dive_then_replay(dive, tmp_path):
     assert res.exit_code == 2 and "window too short" in res.output
 
 
+@pytest.mark.slow
 def test_surge_from_a_logged_velocity():
     """Surge is identified where a velocity is logged (DVL, 5 Hz); the 6-DOF vehicle pitches as it
     surges, so only the path and the plausibility of the numbers are checked here."""
@@ -149,7 +157,8 @@ def test_surge_from_a_logged_velocity():
     assert "mass [kg]" in res.summary()
 
 
-@pytest.mark.parametrize("fmt", ["bin", pytest.param("tlog", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", ["bin", "tlog"])
 def test_identify_dive_from_ardusub_logs_with_reversed_and_disabled_outputs(fmt, tmp_path):
     """The synthetic dive written as a real .BIN / .tlog (10 Hz, per-motor reversal
     MOT_n_DIRECTION, SERVO7/8 disabled at 0 µs; .BIN: BARO[1] the water sensor; .tlog: receive
@@ -192,6 +201,7 @@ def test_truth_within_3_sigma_at_telemetry_rates_over_seeds(seed):
     assert any("logged every" in w for w in res.estimates["yaw"].warnings)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_real_logs_without_a_dive_give_clear_errors(shared_data):
     """The shared real logs are deck/bench logs: one never armed, the others armed for seconds at
@@ -210,6 +220,7 @@ def test_real_logs_without_a_dive_give_clear_errors(shared_data):
         identify_dive(d / "small.tlog", "bluerov2-heavy", ["yaw"], horizon=2.0, t_end=218.0)
 
 
+@pytest.mark.slow
 def test_all_returns_what_the_log_can_inform_and_says_what_it_cannot(dive):
     """``--dof all`` on a log whose heading stops after 40 s: heave is identified and yaw is named
     in the warnings (too few windows); naming yaw explicitly is an error."""

@@ -37,6 +37,7 @@ DRAG = ("linear", "quadratic")
 # ------------------------------------------------------------------------------------------------
 # the physics: c(t) from the project's advance speeds
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_one_dof_force_with_inflow_equals_bollard_force_minus_ka_c_v():
     """Σ_i B_ji (T_i,bollard − k_a |Ω_i| u_a,i) with u_a from advance_speeds for a motion along
     DOF j alone equals F_j − k_a c_j v with c_j = Σ_i G_ji |Ω_i| — for every DOF, with wake."""
@@ -65,6 +66,7 @@ def test_one_dof_force_with_inflow_equals_bollard_force_minus_ka_c_v():
     np.testing.assert_allclose(G, (1 - wake) * B ** 2, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_rotor_speed_is_the_physical_models_and_gain_is_G_times_it():
     df, _ = synthetic_dive(40.0, seed=2, disarmed=2.0, pwm_rate=5.0)
     veh = load_vehicle("bluerov2")
@@ -83,6 +85,7 @@ def test_rotor_speed_is_the_physical_models_and_gain_is_G_times_it():
     assert np.ptp(c) > 0  # it varies with the thrust: that is what separates k_a from drag
 
 
+@pytest.mark.slow
 def test_window_model_with_constant_c_is_a_linear_drag_k_plus_ka_c():
     df, _ = synthetic_dive(60.0, seed=4, disarmed=2.0, pwm_rate=5.0)
     dc = read_dive_channels(df, load_vehicle("bluerov2"))
@@ -100,6 +103,7 @@ def test_window_model_with_constant_c_is_a_linear_drag_k_plus_ka_c():
         WindowProblem(dc, "heave", wins).predict(np.array([m, k, kq, b, ka]), y0, v0)
 
 
+@pytest.mark.slow
 def test_synthetic_dive_default_unchanged_and_inflow_slows_it():
     a, truth = synthetic_dive(30.0, seed=5, disarmed=2.0)
     b, _ = synthetic_dive(30.0, seed=5, disarmed=2.0, inflow_coefficient=0.0)
@@ -181,6 +185,7 @@ def result(dive):
     return identify_dive(dive[0], "bluerov2", "heave", t_end=120.0, inflow=True)
 
 
+@pytest.mark.slow
 def test_result_shows_ka_and_the_share_of_the_apparent_drag(result, tmp_path):
     e = result.estimates["heave"]
     d = result.to_dict()["dofs"]["heave"]
@@ -195,6 +200,7 @@ def test_result_shows_ka_and_the_share_of_the_apparent_drag(result, tmp_path):
     assert result.report(tmp_path / "rep").is_file()
 
 
+@pytest.mark.slow
 def test_written_vehicle_carries_ka_and_its_replay_uses_it(result, dive, tmp_path):
     out = result.write_vehicle(tmp_path / "mine.yaml")
     v = load_vehicle(out)
@@ -215,6 +221,7 @@ def test_written_vehicle_carries_ka_and_its_replay_uses_it(result, dive, tmp_pat
     assert "inflow" in r2.estimates["heave"].values
 
 
+@pytest.mark.slow
 def test_default_off_for_presets_and_needs_pwm(dive):
     df = dive[0]
     r = identify_dive(df, "bluerov2", "heave", t_end=120.0)
@@ -224,6 +231,7 @@ def test_default_off_for_presets_and_needs_pwm(dive):
         identify_dive(forces_only, "bluerov2", "heave", inflow=True)
 
 
+@pytest.mark.slow
 def test_cli_inflow_option(dive, tmp_path):
     p = tmp_path / "dive.csv"
     dive[0].to_csv(p, index=False)

@@ -266,6 +266,7 @@ def from_csv(dive):
     return identify_dive(df.assign(t_s=df["t_s"] - df["t_s"].min()), "bluerov2")
 
 
+@pytest.mark.slow
 def test_bag_gives_the_csv_estimates_and_the_truth_within_3_sigma(dive, from_bag, from_csv):
     _, truth = dive
     for dof in ("heave", "yaw"):
@@ -286,6 +287,7 @@ def test_bag_gives_the_csv_estimates_and_the_truth_within_3_sigma(dive, from_bag
     assert "/mavros/rc/out (pwm): 48" in w  # every 50th of 2400 messages written twice
 
 
+@pytest.mark.slow
 def test_the_traps_matter(bag1, dive, from_csv):
     """Without the reversal the forces are wrong (and the reader says it assumed +1); the
     disarmed start is not armed; the heading is the NED one the dive flew."""
@@ -320,6 +322,7 @@ def test_the_traps_matter(bag1, dive, from_csv):
         read_dive_channels(bag1, "bluerov2", params={"FRAME_CONFIG": 2})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
 def test_ros2_bag_reads_as_the_ros1_bag(dive, bag1, tmp_path, storage, params_file):
     df, _ = dive
@@ -339,6 +342,7 @@ def _short(dive):
     return df[df["t_s"] < 20.0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("omit,topic,option", [
     (("rc",), "/mavros/rc/out", "--topic pwm=TOPIC:FIELD"),
     (("rel_alt",), "/mavros/global_position/rel_alt", "--topic depth=TOPIC:FIELD"),
@@ -358,6 +362,7 @@ def test_a_bag_without_a_needed_topic_says_what_is_missing(dive, tmp_path, omit,
         assert t in msg
 
 
+@pytest.mark.slow
 def test_depth_from_the_pressure_topic(dive, tmp_path):
     """No rel_alt: depth from mavros' static_pressure, surface = the lowest pressure in the bag (a
     warning) or BARO1_GND_PRESS from the parameters; a pressure that does not vary is refused."""
@@ -381,6 +386,7 @@ def test_depth_from_the_pressure_topic(dive, tmp_path):
         read_dive_channels(flat, "bluerov2")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("msgtype", ["geometry_msgs/msg/TwistStamped", "nav_msgs/msg/Odometry"])
 def test_dvl_velocity_topic_and_zero_header_stamps(dive, tmp_path, msgtype):
     """A body velocity topic (FLU, REP 103) gives u = x, v = −y; its header stamps are zero, so
@@ -395,6 +401,7 @@ def test_dvl_velocity_topic_and_zero_header_stamps(dive, tmp_path, msgtype):
     assert "/dvl/twist: receive time (header.stamp is zero in" in w and "moved by -0.250 s" in w
 
 
+@pytest.mark.slow
 def test_bad_options_and_wrong_vehicle(dive, tmp_path):
     bag = write_bag(tmp_path / "short.bag", 1, _short(dive))
     with pytest.raises(DiveDataError, match="unknown role 'dpeth'"):
@@ -409,6 +416,7 @@ def test_bad_options_and_wrong_vehicle(dive, tmp_path):
         read_dive_channels(dive[0], "bluerov2", topics=["depth=/x"])
 
 
+@pytest.mark.slow
 def test_cli_identify_dive_and_replay_from_a_bag(dive, tmp_path, params_file):
     """A depth sensor on its own topic (positive down) given with --topic; ArduSub's reversal with
     --params; then replay the bag with the identified vehicle."""
@@ -433,6 +441,7 @@ def test_cli_identify_dive_and_replay_from_a_bag(dive, tmp_path, params_file):
     assert "--topic depth=" in res.output
 
 
+@pytest.mark.slow
 def test_replay_reads_the_bag_like_the_table(bag1, dive, params_file):
     df, _ = dive
     a = replay_dive(bag1, "bluerov2", ["heave"], params=params_file, t_start=150.0)

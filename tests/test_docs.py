@@ -31,12 +31,10 @@ def test_every_tutorial_has_code_and_is_in_the_nav():
         assert f"tutorials/{t.name}" in nav, f"{t.name} is not in mkdocs.yml's nav"
 
 
-#: tutorials that compile mission loops around their own controllers (≈ 10 s each): CI only
-SLOW_TUTORIALS = {"controllers"}
-
-
-@pytest.mark.parametrize("path", [pytest.param(t, marks=pytest.mark.slow) if t.stem in SLOW_TUTORIALS
-                                  else t for t in TUTORIALS], ids=[t.stem for t in TUTORIALS])
+#: every tutorial runs the library end to end (2–30 s each, the controllers' compile their own
+#: mission loops): with --run-slow (CI), not in the default suite
+@pytest.mark.slow
+@pytest.mark.parametrize("path", TUTORIALS, ids=[t.stem for t in TUTORIALS])
 def test_tutorial_runs(path, tmp_path, monkeypatch):
     code = blocks(path)
     for mod, pkg in OPTIONAL.items():

@@ -64,6 +64,7 @@ def test_yoerger_two_runs_both_directions():
     assert [r["name"] for r in fit.fit.extra["runs"]] == ["run0", "run1"]
 
 
+@pytest.mark.slow
 def test_bessa_identifiable_combinations():
     """Only K_t/(R_m J_msp), K_v1/J_msp, K_v2/J_msp are identifiable; K_t, R_m fixed at truth."""
     rng = np.random.default_rng(13)
@@ -105,6 +106,7 @@ def _dc_runs(motor, channels, seed):
     return runs
 
 
+@pytest.mark.slow
 def test_dc_motor_from_speed_alone(dc_truth):
     """Speed alone: K (=K_T=K_G), J_M, K_Q, T_c, with R and the viscous friction fixed."""
     start = dc_truth.replace(torque_constant=0.025, back_emf_constant=0.025, motor_inertia=5e-6,
@@ -143,6 +145,7 @@ def rig_runs():
             for v in (24.0, 16.0)]
 
 
+@pytest.mark.slow
 def test_mclean_tunnel_thruster_through_the_load_cell(rig_runs):
     start = P.auv2_tunnel_thruster(energy_correction=2.0, momentum_correction=0.25,
                                    added_mass_coefficient=0.5)
@@ -153,6 +156,7 @@ def test_mclean_tunnel_thruster_through_the_load_cell(rig_runs):
     json.dumps(fit.as_dict())  # the fitted chain is stored JSON-able in extra
 
 
+@pytest.mark.slow
 def test_mclean_tunnel_thruster_at_75_hz_with_load_cell_damping():
     """The thesis's sampling rate: each 13.3 ms interval is integrated in RK4 substeps."""
     rng = np.random.default_rng(17)

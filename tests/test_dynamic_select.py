@@ -65,6 +65,7 @@ def test_driver_and_healey_round_trip_through_a_model_file():
     assert h.fluid_mass == pytest.approx(1000 * 0.0045 * 0.2 * 1.25)
 
 
+@pytest.mark.slow
 def test_joint_fit_recovers_the_truth_within_its_sigma(fit2):
     truth = {f"blocks[{i}].{k}": v for i, b in enumerate(TRUTH.blocks) for k, v in vars(b).items()}
     for p in fit2.fit.parameters:
@@ -76,6 +77,7 @@ def test_joint_fit_recovers_the_truth_within_its_sigma(fit2):
     assert abs(ka["estimate"] - 0.05 / 1.0) < 4 * ka["sigma"]
 
 
+@pytest.mark.slow
 def test_fit_at_2V_predicts_3V_within_1p5_times_in_sample(records, fit2):
     for e in (e for e in records if e.level == 3.0):
         p = fit2.predict(e)
@@ -88,6 +90,7 @@ def test_fit_at_2V_predicts_3V_within_1p5_times_in_sample(records, fit2):
         assert inside > 0.7
 
 
+@pytest.mark.slow
 def test_a_model_without_dead_band_extrapolates_worse():
     """The issue's finding: a first-order lag without the dead band misses the next level."""
     from uuvid.thruster.blocks import FirstOrderMotor, QuadraticMap
@@ -104,6 +107,7 @@ def test_a_model_without_dead_band_extrapolates_worse():
     assert err(with_db) < err(without)
 
 
+@pytest.mark.slow
 def test_driver_saturation_is_identified_when_the_records_reach_it():
     from uuvid.thruster.blocks import FirstOrderMotor
 
@@ -115,6 +119,7 @@ def test_driver_saturation_is_identified_when_the_records_reach_it():
     assert abs(p.value - 2.5) < 4 * p.stderr
 
 
+@pytest.mark.slow
 def test_selection_picks_the_true_structure(records):
     sel = select_structure(records, ["first-order", "yoerger", "healey"])
     assert sel.chosen == "healey+deadband"
@@ -171,6 +176,7 @@ def _t200_staircase(sheet, hold: int = 20, dt: float = 0.01):
     return out, float(zero)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("volts", [12, 16])
 def test_t200_steady_part_dead_band(shared_data, volts):

@@ -4,6 +4,7 @@ commands on them gives clear results and clear errors."""
 import json
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from uuvid.cli.app import app
@@ -13,6 +14,7 @@ from uuvid.vehicle.definition import load_vehicle
 runner = CliRunner()
 
 
+@pytest.mark.slow
 def test_every_example_is_deterministic_and_written_as_named(tmp_path):
     import fnmatch
 
@@ -37,6 +39,7 @@ def test_every_example_is_deterministic_and_written_as_named(tmp_path):
             assert len(lines) == len(next(iter(cols.values()))) + 1
 
 
+@pytest.mark.slow
 def test_cli_lists_and_writes_examples(tmp_path):
     res = runner.invoke(app, ["examples", "--list"])
     assert res.exit_code == 0
@@ -54,6 +57,7 @@ def test_cli_lists_and_writes_examples(tmp_path):
     assert res.exit_code == 2 and "no-such" in res.output and "yaw-steady" in res.output
 
 
+@pytest.mark.slow
 def test_steady_example_identifies_the_simulated_romeo_and_feeds_inertia(tmp_path):
     write_example("yaw-steady", tmp_path)
     write_example("yaw-sine", tmp_path)

@@ -67,6 +67,7 @@ def test_tunnel_thruster_has_no_uuv_dynamics():
         to_uuv_simulator(chain)
 
 
+@pytest.mark.slow
 def test_cli_export_and_predict(tmp_path):
     runner = CliRunner()
     out = tmp_path / "t.xml"
@@ -124,6 +125,7 @@ def test_first_order_motor_gain_folds_into_a_quadratic_conversion_exactly():
     np.testing.assert_allclose(r2["thrust"], r1["thrust"], rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_cli_exports_quadratic_and_polynomial_maps(tmp_path):
     from uuvid.thruster.blocks import PolynomialMap
     from uuvid.thruster.modelfile import save_chain

@@ -21,6 +21,7 @@ def test_required_wrench_balances_the_model():
     assert tau[0] > 0  # a head-on component must be pushed against
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("deg", [0.0, 90.0])
 def test_capability_analytic_matches_simulation_heavy(deg):
     """The analytic boundary (allocation within limits + steady drag) and the simulated one
@@ -38,6 +39,7 @@ def test_capability_analytic_matches_simulation_all(name):
     assert np.all(np.abs(r.agreement - 1) < 0.05), r.summary()
 
 
+@pytest.mark.slow
 def test_closed_loop_stability_bounds_the_bluerov2_head_on():
     """The BlueROV2 (no roll/pitch control) held against a current from ahead: the steady
     allocation and the pitch balance hold up to 0.58 m/s, but the DP loop linearised there has
@@ -52,6 +54,7 @@ def test_closed_loop_stability_bounds_the_bluerov2_head_on():
     assert not held and np.max(np.abs(r.tracking_error[r.t > 130])) < 0.5  # heading, not position
 
 
+@pytest.mark.slow
 def test_capability_shrinks_with_the_battery():
     v = load_vehicle("bluerov2-heavy")
     full = hold.max_current(v, 0.0, soc=1.0)
@@ -70,6 +73,7 @@ def test_held_command_compensates_for_voltage():
                                                                           16.0)[0, 1]
 
 
+@pytest.mark.slow
 def test_endurance_run_limit_shrinks_and_command_rises():
     v = load_vehicle("bluerov2-heavy")
     e = hold.endurance(v, 0.5, 0.0, dsoc=0.05)
@@ -109,6 +113,7 @@ def test_vehicle_file_battery_errors_name_the_key():
         vehicle_from_dict(raw, "x.yaml")
 
 
+@pytest.mark.slow
 def test_battery_mission_limit_shrinks_and_command_compensates():
     """Supply voltage as a state of the mission loop: holding station in a 0.5 m/s current on a
     part-charged pack, the voltage sags, the thrust limit (at that voltage) shrinks, the held
@@ -148,6 +153,7 @@ def _vhi(s):
     return B[8 + 2 * no + 2 * nv:8 + 2 * no + 3 * nv]
 
 
+@pytest.mark.slow
 def test_cli_hold_json(tmp_path):
     import json
 
@@ -166,6 +172,7 @@ def test_cli_hold_json(tmp_path):
     assert bad.exit_code == 2 and "--current" in bad.output
 
 
+@pytest.mark.slow
 def test_romeo_holds_with_installation_coefficients_below_one():
     """ROMEO's vertical mode delivers η = 0.56 of a downward command: the DP integrator raises
     the command until the delivered wrench balances the 0.7 N buoyancy, so the hold allocates
@@ -178,6 +185,7 @@ def test_romeo_holds_with_installation_coefficients_below_one():
     assert not hold.holds_in_simulation(v, 0.0, 1.1 * vmax)[0]
 
 
+@pytest.mark.slow
 def test_auv2_uncontrolled_surge_drifts_and_is_named():
     """AUV II has no surge thruster: its position along surge is a neutral (λ = 0) mode, not an
     instability; a current with a surge component cannot be held (and says why), one from the
@@ -195,6 +203,7 @@ def test_auv2_uncontrolled_surge_drifts_and_is_named():
     assert cap.to_dict()["drifting"] == ["surge"]
 
 
+@pytest.mark.slow
 def test_hold_and_stability_share_one_tilt_limit():
     """Station keeping against a beam current is the steady-flight balance at the same relative
     water speed: with one tilt limit (stability.MAX_TILT_DEG, 20°; hold used 45° and said the
@@ -208,6 +217,7 @@ def test_hold_and_stability_share_one_tilt_limit():
     assert case.limit_dof == "roll" and abs(vmax / case.limit_speed - 1) < 0.03
 
 
+@pytest.mark.slow
 def test_capability_and_endurance_report_progress_off_a_terminal(capsys, monkeypatch):
     """Long hold runs are not silent: one stderr line per angle (and per 10 % of charge)."""
     monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)

@@ -217,6 +217,7 @@ def test_drag_covariance_propagated_through_k_and_k_q_by_finite_differences():
 
 
 # -------------------------------------------------------------------------------- anti-windup
+@pytest.mark.slow
 def test_dp_control_stops_integrating_while_saturated_towards_the_error():
     """Conditional integration: saturated in the error's direction → the integrator holds;
     saturated against the error, or unsaturated → it integrates e·dt."""

@@ -131,6 +131,7 @@ def _write(path, d: BenchData, flow=True, thrust=None):
 OPTS = ReadOptions(thrust_col="thrust", speed_col="speed")
 
 
+@pytest.mark.slow
 def test_workflow_fits_inflow_with_plot_and_summary(tmp_path):
     f = _write(tmp_path / "flow.csv", _linear_bench(4))
     out = run_fit([f], "quadratic", OPTS)
@@ -150,6 +151,7 @@ def test_workflow_fits_inflow_with_plot_and_summary(tmp_path):
     assert (tmp_path / "rep" / "fit.png").exists()
 
 
+@pytest.mark.slow
 def test_four_quadrant_model_through_the_workflow_and_cli(tmp_path):
     from typer.testing import CliRunner
 
@@ -213,6 +215,7 @@ def test_thrust_against_the_command_in_still_water_names_the_row(tmp_path):
         read_bench(f, command_col="command", thrust_col="thrust", speed_col="speed")
 
 
+@pytest.mark.slow
 def test_models_that_ignore_the_water_speed_refuse_runs_in_a_flow(tmp_path):
     f = _write(tmp_path / "flow.csv", _linear_bench(11))
     with pytest.raises(FitError, match=r"flow\.csv: column 'flow_speed'.*--model polynomial"):

@@ -61,6 +61,7 @@ def mclean_reference():
     return chain, reference_response(chain, MCLEAN_STEP, MCLEAN_T_END, 1e-3, method="Radau")
 
 
+@pytest.mark.slow
 def test_mclean_rig_24V_step_rk4_agrees_with_radau(mclean_reference):
     chain, (t, ref) = mclean_reference
     r = chain.simulate(MCLEAN_STEP, MCLEAN_T_END)  # default dt = 1e-3, substeps = 4
@@ -74,6 +75,7 @@ def test_mclean_rig_24V_step_rk4_agrees_with_radau(mclean_reference):
     assert ref["measured_thrust"].max() > ref["thrust"].max()  # load-cell overshoot (ζ = 0.16)
 
 
+@pytest.mark.slow
 def test_mclean_rig_rk4_converges_at_fourth_order(mclean_reference):
     chain, (_, ref) = mclean_reference
     errs = []
@@ -86,6 +88,7 @@ def test_mclean_rig_rk4_converges_at_fourth_order(mclean_reference):
     assert errs[0] / errs[1] <= 32.0, errs
 
 
+@pytest.mark.slow
 def test_mclean_rig_halving_output_dt_also_converges(mclean_reference):
     chain, (_, ref) = mclean_reference
     coarse = chain.simulate(MCLEAN_STEP, MCLEAN_T_END, dt=2e-3, substeps=1)
@@ -100,6 +103,7 @@ def test_mclean_rig_halving_output_dt_also_converges(mclean_reference):
 LAIDANI_SINE = Sine(offset=1500.0, amplitude=400.0, period=2.0)
 
 
+@pytest.mark.slow
 def test_laidani_chain_sinusoidal_pwm_agrees_with_lsoda():
     chain = presets.laidani_chain()
     dt = 2e-3
@@ -114,6 +118,7 @@ def test_laidani_chain_sinusoidal_pwm_agrees_with_lsoda():
     np.testing.assert_array_equal(r["voltage"], ref["voltage"])
 
 
+@pytest.mark.slow
 def test_laidani_chain_sinusoidal_pwm_agrees_with_radau_at_default_dt():
     chain = presets.laidani_chain()
     _, ref = reference_response(chain, LAIDANI_SINE, 1.0, 1e-3, method="Radau")

@@ -218,6 +218,7 @@ def test_atomic_dir_keeps_files_it_did_not_write(tmp_path: Path) -> None:
     assert not [p for p in tmp_path.parent.iterdir() if p.name.startswith(".tmp-")]
 
 
+@pytest.mark.slow
 def test_interrupted_result_report_leaves_the_old_folder(tmp_path: Path, monkeypatch) -> None:
     """Result.report (every report command's path): a failure while plotting leaves the previous
     report folder as it was, and a first report that fails leaves no folder at all."""

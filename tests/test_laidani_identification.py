@@ -46,6 +46,7 @@ def test_error_table_equals_a_hand_polyfit(result):
     assert result["selected_degree"]["in_sample_minimum"] == {"direct": 8, "reverse": 8}
 
 
+@pytest.mark.slow
 def test_noise_is_fixed_beforehand_and_the_degree5_rmse_is_a_result():
     """σ is the same for every seed (never rescaled to the draw); over 16 seeds the degree-5 RMSE
     scatters around σ·√(1 − 6/n) — on average within 3 %, each seed within 15 % of the
@@ -93,6 +94,7 @@ def test_deterministic_and_seeded():
     assert LI.degree_selection(seed=4)["table"] != a["table"]
 
 
+@pytest.mark.slow
 def test_plot_and_report_section(result, tmp_path):
     from uuvid.core.html import Report
 

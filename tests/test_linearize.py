@@ -142,6 +142,7 @@ def test_params_without_thrusters_linearise_in_generalized_force(rov):
     np.testing.assert_allclose(lin.A, linearize(rov).A, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_forward_trim_is_level_flight_and_agrees_with_static_stability():
     """``OperatingPoint.forward`` trims the vehicle flying level (constant depth): its pitch is
     the trim of :func:`static_stability` at the same speed, and the velocity over ground is

@@ -81,6 +81,7 @@ def test_parse_scaled_and_quaternion_yaw():
 
 
 # ------------------------------------------------------------------------------------ CSV traps
+@pytest.mark.slow
 def test_csv_duplicated_stamps_merged_by_default_and_refused_on_request(tmp_path):
     t, f, y = _yaw_steps()
     rows = []
@@ -105,6 +106,7 @@ def test_csv_duplicated_stamps_merged_by_default_and_refused_on_request(tmp_path
     assert lg.meta["duplicates"] == n_dup
 
 
+@pytest.mark.slow
 def test_sign_scale_and_window_of_mapped_columns(tmp_path):
     t, f, y = _yaw_steps()
     p = _write_csv(tmp_path / "s.csv", ["time", "torque_x2", "heading_neg"],
@@ -126,6 +128,7 @@ def test_sign_scale_and_window_of_mapped_columns(tmp_path):
     assert win["n_points"] == 4 and max(s["t1"] for s in win["segments"]) <= 120
 
 
+@pytest.mark.slow
 def test_qgc_csv_export_with_growing_columns_and_iso_times(tmp_path):
     """QGroundControl writes 'Timestamp' as local ISO text and re-declares its header when a
     telemetry group appears; rows are read by their own header."""
@@ -163,6 +166,7 @@ def test_qgc_csv_export_with_growing_columns_and_iso_times(tmp_path):
     assert _within(doc["parameters"]["k"], YAW["k"])
 
 
+@pytest.mark.slow
 def test_qgc_csv_whose_rows_grow_when_a_battery_is_found(tmp_path):
     """QGroundControl writes its header once; a battery found after the first rows adds its
     cells in the middle of every later row, shifting the rest (mavlink/qgroundcontrol#11763)."""
@@ -201,6 +205,7 @@ def test_qgc_csv_whose_rows_grow_when_a_battery_is_found(tmp_path):
     assert _within(doc["parameters"]["k"], YAW["k"])
 
 
+@pytest.mark.slow
 def test_pwm_as_newtons_and_altitude_as_depth_are_named(tmp_path):
     t, f, y = _yaw_steps()
     pwm = 1500 + 20 * f  # a raw servo command, not a torque
@@ -271,6 +276,7 @@ def _jittery_sine(seed=1, duration=130.0, uniform=False):
     return rows, urows, ts, wrapped
 
 
+@pytest.mark.slow
 def test_inertia_resamples_a_jittery_attitude_and_refuses_when_asked(tmp_path):
     rows, urows, ts, head = _jittery_sine(uniform=True)
     p = _write_csv(tmp_path / "sine.csv", ["time", "torque", "yaw"], rows)
@@ -345,6 +351,7 @@ def _tlog(path, t, pwm, yaw, *, reboot_at=None, duplicate_every=None):
     return path
 
 
+@pytest.mark.slow
 def test_tlog_duplicates_reboot_and_a_signed_field(tmp_path):
     pytest.importorskip("pymavlink")
     t, pwm, _tau, yaw, P = _bluerov_yaw_turns()
@@ -375,6 +382,7 @@ def test_tlog_duplicates_reboot_and_a_signed_field(tmp_path):
 RCOUT_MSG = "std_msgs/Header header\nuint16[] channels\n"
 
 
+@pytest.mark.slow
 def test_humble_bag_rc_out_to_thrust_and_imu_quaternion_yaw(tmp_path):
     """A ROS 2 Humble bag (no embedded definitions): /mavros/rc/out PWM, /mavros/imu/data
     orientation; the force comes from the same PWM → thrust path as ArduSub logs."""
@@ -433,6 +441,7 @@ def test_humble_bag_rc_out_to_thrust_and_imu_quaternion_yaw(tmp_path):
 
 
 # ------------------------------------------------------------------------------------ Python API
+@pytest.mark.slow
 def test_python_api_in_a_few_lines(tmp_path):
     t, f, y = _yaw_steps()
     p = _write_csv(tmp_path / "pool.csv", ["time", "torque", "heading"],

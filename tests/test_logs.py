@@ -312,6 +312,7 @@ def _check_bag_channels(out, ros):
     assert out["thrust_1"].meta["msgtypes"] == {"thrust_1": "mavros_msgs/msg/RCOut"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
 def test_rosbag2_channels_and_time_axes(tmp_path, storage):
     pytest.importorskip("rosbags")
@@ -324,6 +325,7 @@ def test_rosbag2_channels_and_time_axes(tmp_path, storage):
     assert read_rosbag(inner, {"depth": TOPICS["depth"]})["depth"].t.size == N_MSG
 
 
+@pytest.mark.slow
 def test_rosbag1_channels_and_time_axes(tmp_path):
     pytest.importorskip("rosbags")
     bag = _write_bag(tmp_path / "dive.bag", 1)
@@ -367,6 +369,7 @@ def test_rosbag_receive_stamps_and_zero_header_stamps(tmp_path):
     assert out["thrust_1"].meta["stamp"] == {"thrust_1": "receive (header stamps are zero)"}
 
 
+@pytest.mark.slow
 def test_rosbag_missing_topic_and_field_errors(tmp_path):
     pytest.importorskip("rosbags")
     bag = _write_bag(tmp_path / "dive", 2)
@@ -395,6 +398,7 @@ def test_rosbag_missing_topic_and_field_errors(tmp_path):
         read_rosbag(write(tmp_path, "x"), {"t": "/a:data"})
 
 
+@pytest.mark.slow
 def test_rosbag2_without_embedded_definitions_uses_msg_definitions(tmp_path):
     """ROS 2 bags recorded before Iron (sqlite3) carry no type definitions."""
     pytest.importorskip("rosbags")

@@ -71,6 +71,7 @@ def experiments():
     return mi.fit_experiments()
 
 
+@pytest.mark.slow
 def test_experiment_fit_beats_the_thesis(experiments):
     """With Coulomb friction the model matches the nine numbers of Table II within 15 % on average
     (the thesis's simulation: 31.7 %)."""
@@ -79,6 +80,7 @@ def test_experiment_fit_beats_the_thesis(experiments):
     json.dumps(experiments)
 
 
+@pytest.mark.slow
 def test_experiment_fit_parameters_are_physical(experiments):
     p = experiments["parameters"]
     assert set(p) == set(mi.DEFAULT_FREE)

@@ -235,6 +235,7 @@ def test_error_measures_invalid(call, match):
         call()
 
 
+@pytest.mark.slow
 @settings(max_examples=50, deadline=None)
 @given(
     st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=30).flatmap(

@@ -58,6 +58,7 @@ def test_current_rate_is_applied():
     assert r.metrics["max_tracking_error_m"] < 1.0
 
 
+@pytest.mark.slow
 def test_gauss_markov_current_statistics():
     gm = GaussMarkovCurrent(mean=0.3, mu=0.1, sigma=0.02, min=0.0, max=1.0, seed=1)
     t = np.arange(200000) * 0.1
@@ -79,6 +80,7 @@ def test_time_series_errors_name_the_problem(tmp_path):
         TimeSeriesCurrent.from_csv(p)
 
 
+@pytest.mark.slow
 def test_square_mission_in_a_03_current_completes():
     """The BlueROV2 flies Laidani's square in a 0.3 m/s current (constant, and Gauss–Markov around
     0.3 m/s): completed (final error < 0.25 m, max < 1 m), never saturated."""
@@ -127,6 +129,7 @@ def test_scenario_battery(tmp_path):
     assert hi[0] < file_hi and lo[0] > file_lo  # a 60 % pack sits below the file's 16 V
 
 
+@pytest.mark.slow
 def test_heavy_tracks_the_square_at_least_as_well_as_the_bluerov2():
     """Default gains place the bandwidth so the cruise lag against the vehicle's own drag stays
     bounded: the Heavy (about 6× the BlueROV2's surge/sway drag) tracks Laidani's square, in

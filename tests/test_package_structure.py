@@ -10,6 +10,8 @@ import ast
 import re
 from pathlib import Path
 
+import pytest
+
 PKG = Path(__file__).resolve().parents[1] / "src" / "uuvid"
 DOCS_MAP = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 CLI_MAX_LINES = 400
@@ -106,11 +108,13 @@ def test_the_checker_finds_a_circle():
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 
+@pytest.mark.slow
 def test_no_import_circle_in_the_package():
     found = cycles(import_graph())
     assert not found, "import circles: " + "; ".join(" ↔ ".join(c) for c in found)
 
 
+@pytest.mark.slow
 def test_nothing_outside_cli_imports_cli():
     bad = [(m, t) for m, ts in import_graph().items() if not m.startswith("uuvid.cli")
            for t in ts if t.startswith("uuvid.cli")]
@@ -150,6 +154,7 @@ def test_the_checker_finds_an_upward_import():
     assert upward(fake) == ["uuvid.vehicle.model (layer 2) imports uuvid.simulate.vehicle_sim (layer 4)"]
 
 
+@pytest.mark.slow
 def test_every_import_runs_down_the_layers():
     bad = upward(import_graph())
     assert not bad, "imports running up the layers (move the code down, or the caller up):\n" + "\n".join(bad)
@@ -164,6 +169,7 @@ def test_a_function_local_import_counts(tmp_path):
     assert found == ["uuvid.cli.app"]
 
 
+@pytest.mark.slow
 def test_sibling_rooms_stay_apart():
     bad = [(m, t) for m, ts in import_graph().items() for t in ts for a, b in SIBLINGS
            for x, y in ((a, b), (b, a)) if _within(m, x) and _within(t, y)]

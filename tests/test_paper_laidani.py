@@ -13,6 +13,7 @@ def result(tmp_path_factory):
     return laidani.reproduce(out_dir=out), out
 
 
+@pytest.mark.slow
 def test_full_command_thrust_against_the_measured_maxima(result):
     """The chain at full command (ESC → motor at rest → polynomial, simulated) against the bench
     maxima the paper *measured* (12.7 N forward, 10.8 N reverse), which no preset parameter
@@ -24,6 +25,7 @@ def test_full_command_thrust_against_the_measured_maxima(result):
     assert r["full_reverse_N"] == pytest.approx(10.8, rel=0.01)
 
 
+@pytest.mark.slow
 def test_forward_polynomial_peak_against_its_derivative_root(result):
     """The reproduction's peak (a grid search) against the root of dT/dΩ found here, and the
     paper's printed ≈ 12.4 N near 1400 rad/s."""
@@ -37,6 +39,7 @@ def test_forward_polynomial_peak_against_its_derivative_root(result):
     assert 1300 < om < 1500
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("neutral,band,lo,hi", [(1500.0, 50.0, 1200.0, 1800.0),
                                                 (1520.0, 80.0, 1150.0, 1750.0)])
 def test_dead_zone_and_saturation_detected_from_a_simulated_map(neutral, band, lo, hi):
@@ -59,6 +62,7 @@ def test_dead_zone_and_saturation_detected_from_a_simulated_map(neutral, band, l
     assert reg.saturation[1] == pytest.approx(hi, abs=1.5)
 
 
+@pytest.mark.slow
 def test_reproduction_reports_the_detected_regions(result):
     r, _ = result
     assert r["dead_zone_width_us"] == pytest.approx(r["dead_zone_us"][1] - r["dead_zone_us"][0])

@@ -89,6 +89,7 @@ def test_model_validation():
         PhysicalModel(0.02, 0.0, 1e-6, 1e-6, 1e-4, 1e-4, 1520, 1480, 1900, 1100)
 
 
+@pytest.mark.slow
 def test_chain_steady_state_equals_predict():
     """ESC → DCMotor → QuadraticMap simulated to rest gives the closed-form steady state."""
     m = TRUTH.linear_duty()
@@ -135,6 +136,7 @@ def synthetic_fit():
         return fit_physical(synthetic_sheets(TRUTH))
 
 
+@pytest.mark.slow
 def test_synthetic_truth_recovered_within_3_sigma(synthetic_fit):
     f = synthetic_fit.fit
     assert f.names == list(TRUE_FIT)
@@ -204,6 +206,7 @@ def pct(model, data):
     return evaluate(model, data)["thrust_rmse_pct"]
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_t200_fit_on_both_in_sample(t200, t200_fits):
     m = t200_fits["both"].model
@@ -211,6 +214,7 @@ def test_t200_fit_on_both_in_sample(t200, t200_fits):
         assert pct(m, t200[v]) < 2.0  # issue: < 2 % of that voltage's max thrust
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_t200_fit_on_12V_predicts_16V(t200, t200_fits):
     """+4 V extrapolation, like the issue's 14 V → 18 V claim (< 4 %)."""

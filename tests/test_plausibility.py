@@ -228,6 +228,7 @@ _trees = st.recursive(st.integers(-5, 5) | st.floats(-1e3, 1e3, allow_nan=False)
                       | st.dictionaries(_keys, kids, min_size=1, max_size=4), max_leaves=12)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(doc=st.dictionaries(_keys, _trees, min_size=1, max_size=4), data=st.data())
 def test_generated_yaml_with_a_repeated_key_is_refused_with_its_path(doc, data):

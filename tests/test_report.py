@@ -40,11 +40,13 @@ def test_save_figure_writes_png(tmp_path: Path) -> None:
     assert [p.name for p in out.parent.iterdir()] == ["line.png"]
 
 
+@pytest.mark.slow
 def test_new_figure_axes_shape() -> None:
     _, axes = new_figure(2, 3, sharex=True)
     assert axes.shape == (2, 3)
 
 
+@pytest.mark.slow
 def test_plot_time_series_groups(tmp_path: Path) -> None:
     t, ch = _series()
     fig = plot_time_series(
@@ -80,6 +82,7 @@ def test_plot_time_series_validates() -> None:
         plot_time_series(t, {"bad": np.zeros(5)})
 
 
+@pytest.mark.slow
 def test_import_is_headless_and_leaves_backend_alone() -> None:
     code = (
         "import os; os.environ.pop('DISPLAY', None); os.environ.pop('WAYLAND_DISPLAY', None)\n"

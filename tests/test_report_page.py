@@ -29,6 +29,7 @@ def test_full_page_lines_are_relative_links_and_tables_fit():
             Report("r").add_links("x", [bad])
 
 
+@pytest.mark.slow
 def test_stacked_y_labels_fit_their_own_axes():
     t = np.linspace(0, 1, 50)
     chans = {"motor_speed": t, "prop_speed": t, "thrust": t, "measured_thrust": t, "torque": t}

@@ -412,7 +412,29 @@ FACTORIES = {
 SLOW = {"uuvid.identify.thruster.dynamic_select.Selection", "uuvid.papers.thruster_loop_study.LoopStudy",
         "uuvid.papers.laidani.LaidaniReproduction",
         "uuvid.papers.mclean1991.McLeanReproduction", "uuvid.papers.caccia2000.Reproduction",
-        "uuvid.papers.mclean1991_identification.McLeanIdentification"}
+        "uuvid.papers.mclean1991_identification.McLeanIdentification",
+        # ≥ 0.4 s each on a warm machine (fits, dives, envelopes): CI only
+        "uuvid.analysis.envelope_check.EnvelopeCheck",
+        "uuvid.analysis.hold.EnduranceResult",
+        "uuvid.core.response.TimeResponse",
+        "uuvid.identify.thruster.dynamic_select.DynamicsFit",
+        "uuvid.identify.thruster.physical.PhysicalFit",
+        "uuvid.identify.thruster.steady.SteadyFit",
+        "uuvid.identify.thruster.workflow.FitOutcome",
+        "uuvid.identify.thruster.workflow.Replay",
+        "uuvid.identify.vehicle.dive.DiveIdentification",
+        "uuvid.identify.vehicle.fit.DragFit",
+        "uuvid.identify.vehicle.fit.InertiaFit",
+        "uuvid.identify.vehicle.procedures.InertiaIdentification",
+        "uuvid.identify.vehicle.procedures.SteadyIdentification",
+        "uuvid.io.ardusub.dive.DiveLog",
+        "uuvid.papers.laidani_identification.DegreeSelection",
+        "uuvid.simulate.dive_replay.DiveReplay",
+        "uuvid.simulate.vehicle_sim.MissionResult",
+        "uuvid.thruster.chain.SweepResult",
+        "uuvid.vehicle.envelope.Envelope",
+        "uuvid.vehicle.stability.StabilityResult",
+}
 
 
 def test_every_result_class_has_a_factory():

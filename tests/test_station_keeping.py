@@ -22,6 +22,7 @@ def comparison(rov):
     return compare_station_keeping(rov)
 
 
+@pytest.mark.slow
 def test_loop_integrates_the_vehicle_model(rov):
     # open loop (K = 0): constant thrusts f0 in a current; the compiled RK4 loop must follow an
     # adaptive solution of the NumPy reference model

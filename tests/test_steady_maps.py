@@ -44,6 +44,7 @@ def _assert_matches_sweep(chain, u):
     assert agreement["max_relative_difference"] <= SWEEP_TOL
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(n for n in PRESETS if PRESETS[n]().has_closed_form_steady))
 def test_every_qualifying_preset_matches_its_sweep(name):
     chain = PRESETS[name]()
@@ -62,6 +63,7 @@ def _vehicle_chains():
     return out
 
 
+@pytest.mark.slow
 def test_every_vehicle_preset_thruster_that_qualifies_matches_its_sweep():
     chains = _vehicle_chains()
     qualifying = [c for c in chains.values() if c.has_closed_form_steady]
@@ -117,6 +119,7 @@ CHAINS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", sorted(CHAINS))
 def test_closed_form_matches_the_sweep(key):
     chain = CHAINS[key]
@@ -231,6 +234,7 @@ def test_unwritable_cache_warns_once_and_still_answers(tmp_path, monkeypatch):
     assert np.all(np.isfinite(b))
 
 
+@pytest.mark.slow
 def test_inverse_table_is_unchanged_by_the_closed_form(monkeypatch):
     """vehicle_sim's inverse thrust table from the closed form equals the one from the sweep."""
     from uuvid.simulate import vehicle_sim
@@ -249,6 +253,7 @@ def test_inverse_table_is_unchanged_by_the_closed_form(monkeypatch):
     assert z_closed == z_swept
 
 
+@pytest.mark.slow
 def test_a_map_used_beyond_its_range_is_named():
     """Laidani's 5th-order polynomial of propeller speed turns down past the fastest speed of its
     bench data; at 14 V full command reaches it, and predict says so (at 12 V it does not)."""

@@ -212,6 +212,7 @@ def test_bessa_dynamics_step_is_monotone_and_does_not_blow_up_in_100s(u):
     assert np.all(np.diff(s * x) >= -1e-12)
 
 
+@pytest.mark.slow
 def test_slow_yoerger_steady_thrust_is_the_equilibrium():
     # time constant 1/(2 alpha x_ss) = 5 s at u = 1, beyond the 3 s settling hint: the sweep must
     # keep going until the output is at rest (it used to return the value after 3 s)
@@ -224,6 +225,7 @@ def test_slow_yoerger_steady_thrust_is_the_equilibrium():
     np.testing.assert_allclose(chain.steady_thrust([1.0, -2.0]), [1.0, -2.0], rtol=1e-8)
 
 
+@pytest.mark.slow
 def test_sweep_does_not_warn_when_the_last_pass_reached_rest():
     chain = ThrusterChain((Yoerger(0.05, 0.05), QuadraticMap.basic(1.0)), input_kind="command")
     with warnings.catch_warnings():

@@ -69,6 +69,7 @@ def drag_points(seed=0, n_levels=10):
     return pts
 
 
+@pytest.mark.slow
 def test_drag_fit_segment_and_residual_bootstrap():
     pts = drag_points()
     seg = B.bootstrap_drag(pts, n_boot=300, kind="segment", seed=1, dof="surge")
@@ -103,6 +104,7 @@ def test_inertia_block_bootstrap_smoke():
     assert np.isfinite(r.boot_sigma).all() and r.boot_sigma[0] > 0
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_t200_quadratic_fit_bootstrap(shared_data):
     from uuvid.io.bench import read_t200

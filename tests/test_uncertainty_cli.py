@@ -3,6 +3,7 @@ pieces."""
 
 import json
 
+import pytest
 import typer
 from typer.testing import CliRunner
 
@@ -23,6 +24,7 @@ metrics: [peak_output_thrust, steady_thrust]
 """
 
 
+@pytest.mark.slow
 def test_sweep_command_json(tmp_path):
     f = tmp_path / "s.yaml"
     f.write_text(SWEEP_YAML)
@@ -49,6 +51,7 @@ def test_sweep_command_errors_exit_2(tmp_path):
     assert res.exit_code == 2 and "backend must be one of" in res.output
 
 
+@pytest.mark.slow
 def test_montecarlo_command_json(tmp_path):
     res = runner.invoke(app, ["montecarlo", "t200-physical", "--runs", "40", "--seed", "1",
                               "--backend", "inprocess", "--out", str(tmp_path / "mc"), "--json"])
@@ -72,6 +75,7 @@ def test_montecarlo_command_errors_exit_2():
     assert res.exit_code == 2 and "unknown metric" in res.output
 
 
+@pytest.mark.slow
 def test_demo_pieces(tmp_path):
     d = demo_sweep(tmp_path / "sweep")
     assert d["summary"]["succeeded"] == 30 and d["summary"]["figures"]

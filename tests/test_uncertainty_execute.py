@@ -60,6 +60,7 @@ class Interrupt:
 
 
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_inprocess_result_and_files(tmp_path):
     res = run_study(study(), tmp_path, backend="inprocess", chunk_size=5, progress=False)
     t = res.table
@@ -72,12 +73,14 @@ def test_inprocess_result_and_files(tmp_path):
     pd.testing.assert_frame_equal(back.table, t, check_dtype=False)
 
 
+@pytest.mark.slow
 def test_chunking_does_not_change_results():
     a = run_study(study(), None, backend="inprocess", chunk_size=18, progress=False).table
     b = run_study(study(), None, backend="inprocess", chunk_size=4, progress=False).table
     pd.testing.assert_frame_equal(a, b)
 
 
+@pytest.mark.slow
 def test_processes_backend_identical_and_retries(tmp_path):
     ref = run_study(study(), None, backend="inprocess", progress=False).table
     res = run_study(study(), tmp_path, backend="processes", workers=2, chunk_size=4,
@@ -134,6 +137,7 @@ def test_interrupt_leaves_readable_partial_result(tmp_path):
     assert np.isfinite(part.table["peak_output_thrust"]).all()
 
 
+@pytest.mark.slow
 def test_interrupt_in_the_main_process_with_workers(tmp_path):
     """Ctrl-C while the process pool works: queued chunks cancelled, parts on disk, partial."""
     def stop_after_two(res, done):

@@ -36,6 +36,7 @@ def eta_model(estimate=0.98, sigma=0.05, **kw):
         covariance=[[sigma**2, 0.0], [0.0, 0.01**2]], **kw)
 
 
+@pytest.mark.slow
 def test_draws_are_per_run_deterministic_and_follow_the_covariance():
     m = UncertainModel(name="g", kind="vehicle", base={"vehicle": "bluerov2"},
                        parameters=[{"name": "added_mass[surge]", "estimate": 5.0},
@@ -127,6 +128,7 @@ def test_model_file_round_trip_and_fit_summary(tmp_path):
     assert np.allclose(fm.cov, np.diag([1e-12, 1e-4]))
 
 
+@pytest.mark.slow
 def test_builtin_bluerov2_identified_is_honest_and_reproducible():
     from uuvid.uncertainty.identified import make_bluerov2_identified
 
@@ -153,6 +155,7 @@ def test_builtin_t200_physical_matches_a_fresh_fit(shared_data):
     assert np.allclose(fresh.cov, m.cov, rtol=1e-4, atol=1e-30)
 
 
+@pytest.mark.slow
 def test_t200_thrust_band(tmp_path):
     res = run_montecarlo("t200-physical", 300, tmp_path, seed=2, backend="inprocess", progress=False)
     s = res.info
@@ -169,6 +172,7 @@ def test_t200_thrust_band(tmp_path):
         assert (tmp_path / f).exists()
 
 
+@pytest.mark.slow
 def test_bluerov2_square_mission_probability_and_velocity_band():
     res = run_montecarlo("bluerov2-identified", 48, None, seed=5, backend="inprocess",
                          progress=False)

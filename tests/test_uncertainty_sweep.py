@@ -229,6 +229,7 @@ def test_vehicle_rows_match_vehicle_params():
         PR.parse_vehicle_name("added_mass[7]")
 
 
+@pytest.mark.slow
 def test_vehicle_sweep_added_mass_times_damping(tmp_path):
     spec = SweepSpec.model_validate({
         "name": "rov-am-damping",

@@ -147,6 +147,7 @@ def test_readme_predict_example_is_inside_its_data_or_explained():
     assert "identified at 12 V only" in readme
 
 
+@pytest.mark.slow
 def test_thruster_simulate_prints_units_and_the_size_it_writes(tmp_path, monkeypatch):
     res = runner.invoke(app, ["thruster", "simulate", "t200", "--signal",
                               "kind=sine,offset=1500,amplitude=400,period=2", "--t-end", "0.2"])
@@ -169,6 +170,7 @@ def test_thruster_simulate_prints_units_and_the_size_it_writes(tmp_path, monkeyp
     assert json.loads(res.stdout)["units"]["channels"]["thrust"] == "N"
 
 
+@pytest.mark.slow
 def test_fit_table_prints_a_short_summary_and_keeps_the_whole_table_in_the_files(tmp_path):
     import numpy as np
     import yaml
@@ -219,6 +221,7 @@ def _fake_hold():
     return cap, endur
 
 
+@pytest.mark.slow
 def test_hold_report_has_index_endurance_figure_and_the_requested_current(tmp_path, monkeypatch):
     from uuvid.analysis import hold
     from uuvid.core.plots import figure_problems
@@ -245,6 +248,7 @@ def test_hold_report_has_index_endurance_figure_and_the_requested_current(tmp_pa
     assert "requested current" in page.get_text()
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_log_inspect_warns_only_about_merged_stamps_of_channels_it_uses(shared_data):
     from uuvid.io.ardusub import inspect_log
@@ -275,6 +279,7 @@ def test_inertia_fit_names_the_units_of_m_c_b():
         assert [p.unit for p in fit.parameters] == units
 
 
+@pytest.mark.slow
 def test_design_input_prints_the_unit_of_offset_amplitude_distance():
     base = ["vehicle", "design-input", "--k", "28.6", "--mass-air", "93.75", "--speed", "-0.175"]
     rows = {}
@@ -290,6 +295,7 @@ def test_design_input_prints_the_unit_of_offset_amplitude_distance():
     assert doc["units"]["offset"] == "N | N·m" and doc["units"]["duration"] == "s"
 
 
+@pytest.mark.slow
 def test_sweep_summary_names_the_unit_of_every_metric_and_parameter(tmp_path):
     from uuvid.uncertainty.sweep import run_sweep
 
@@ -392,6 +398,7 @@ def test_every_result_plot_is_titled_with_united_axes(name, tmp_path):
     assert figure_problems(fig) == []
 
 
+@pytest.mark.slow
 def test_stability_table_names_the_speed_unit():
     from uuvid.vehicle.definition import load_vehicle
     from uuvid.vehicle.stability import static_stability

@@ -247,6 +247,7 @@ def test_validated_files_are_cached_by_content(tmp_path, monkeypatch):
             load_vehicle(path)
 
 
+@pytest.mark.slow
 def test_a_warm_mission_process_imports_no_pydantic(tmp_path):
     """Issue 20: a plain mission with warm caches needs neither pydantic nor a vehicle-file
     parse (the validated preset comes from the cache)."""

@@ -331,6 +331,7 @@ def _sine_log(model, period=24.0, offset=-5.0, amp=4.0, T=130.0, dt=0.1, noise=0
     return t, u, v, x
 
 
+@pytest.mark.slow
 def test_fit_inertia_recovers_mass_noise_free():
     m = OneDofModel(84.0, 28.6)
     t, u, v, x = _sine_log(m)

@@ -89,6 +89,7 @@ def test_envelope_inflow_none_restores_the_bollard_envelope():
     assert "speed_bollard" not in plain.to_dict()["rows"][0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["bluerov2", "bluerov2-heavy"])
 def test_envelope_with_inflow_balances_drag_against_the_thrust_at_that_speed(name):
     v = _with(name)
@@ -113,6 +114,7 @@ def test_envelope_with_inflow_balances_drag_against_the_thrust_at_that_speed(nam
         assert drag == pytest.approx(r.sign * F + bias, rel=1e-8)
 
 
+@pytest.mark.slow
 def test_wake_raises_the_speed_towards_bollard():
     s0 = speed_envelope(_with("bluerov2"), dofs=["surge"])["forward"].speed
     s3 = speed_envelope(_with("bluerov2", wake=0.3), dofs=["surge"])["forward"].speed
@@ -121,6 +123,7 @@ def test_wake_raises_the_speed_towards_bollard():
 
 
 # ------------------------------------------------------------------ stability and hold
+@pytest.mark.slow
 def test_stability_inflow_none_restores_today_and_inflow_only_changes_range_and_fractions():
     from uuvid.vehicle.stability import static_stability
 
@@ -155,6 +158,7 @@ def test_hold_with_inflow_none_is_today_and_inflow_lowers_the_held_current():
     assert on[0] < off[0]
 
 
+@pytest.mark.slow
 def test_held_current_from_ahead_equals_the_envelope_speed_with_inflow():
     """Two code paths (allocation in a current; LP envelope in still water) meet: holding still in
     a head current V is flying at V through still water, advance speed included."""
@@ -167,6 +171,7 @@ def test_held_current_from_ahead_equals_the_envelope_speed_with_inflow():
 
 
 # ------------------------------------------------------------------ CLI
+@pytest.mark.slow
 def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
     import json
 
@@ -191,6 +196,7 @@ def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
     assert bad.exit_code == 2 and "inflow must be one of" in bad.output
 
 
+@pytest.mark.slow
 def test_demo_section_shows_both_vehicles_with_and_without_inflow(tmp_path):
     from uuvid.core.html import Report
     from uuvid.demo import _inflow_rows
@@ -333,6 +339,7 @@ def test_simd_batch_flies_inflow_as_the_per_vehicle_loop():
     assert np.all(np.abs(out[:, 1] - off[:, 1]) > 1e-6 * np.abs(off[:, 1]))
 
 
+@pytest.mark.slow
 def test_cli_simulate_inflow_none_is_today_and_four_quadrant_differs():
     import json
 

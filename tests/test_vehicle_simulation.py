@@ -135,6 +135,7 @@ def test_scenario_errors_name_the_key():
         scenario_from_dict({"wobble": 1}, where="s.yaml")
 
 
+@pytest.mark.slow
 def test_cli_simulate_mission_square_json(tmp_path):
     runner = CliRunner()
     res = runner.invoke(app, ["simulate", "mission", "square", "--vehicle", "bluerov2", "--json",
@@ -152,6 +153,7 @@ def test_cli_simulate_mission_square_json(tmp_path):
         assert (tmp_path / f).exists(), f
 
 
+@pytest.mark.slow
 def test_cli_simulate_scenario_file(tmp_path):
     sc = tmp_path / "sc.yaml"
     sc.write_text("vehicle: bluerov2\nmission: {kind: square, side: 4, depth: 1}\ncurrent: [0.1, 0, 0]\n")
@@ -164,6 +166,7 @@ def test_cli_simulate_scenario_file(tmp_path):
     assert res.exit_code == 2 and "mission.kind" in res.output
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("preset", ["bluerov2", "bluerov2-heavy", "romeo", "auv2"])
 def test_cli_envelope_prints_a_table_for_every_preset(preset):
     res = CliRunner().invoke(app, ["vehicle", "envelope", preset])
@@ -182,6 +185,7 @@ def test_unknown_vehicle_names_the_presets_once(args):
     assert text.count("presets") == 1 and "bluerov2-heavy" in text and "['" not in text
 
 
+@pytest.mark.slow
 def test_cli_envelope_confirms_heave_and_yaw_and_the_heavy():
     """The Heavy controls roll and pitch: flown at full command with its attitude held, every
     translational direction reaches the analytic (allocator) speed; the BlueROV2 cannot hold
@@ -231,6 +235,7 @@ def test_thruster_loop_study_runs_and_answers():
     assert max(x["max_thrust_N"] for x in tunnel) > 2.3
 
 
+@pytest.mark.slow
 def test_level_speed_limit_is_cached_per_vehicle(tmp_path, monkeypatch, bluerov2):
     """The stability scan behind the default cruise speed runs once per vehicle and code version
     (≈ 0.5 s; a scenario build would pay it each time); a changed vehicle is scanned again."""
@@ -251,6 +256,7 @@ def test_level_speed_limit_is_cached_per_vehicle(tmp_path, monkeypatch, bluerov2
     assert len(calls) == 1
 
 
+@pytest.mark.slow
 def test_level_speed_limit_cache_is_keyed_on_the_whole_code_version(tmp_path, monkeypatch,
                                                                       bluerov2):
     """The scan depends on more than stability.py (allocation, model, hydrodynamics ...): a new

@@ -30,6 +30,7 @@ def _small_angle_pitch(v, U):
     return math.degrees(z_t * X / (bgw - z_t * p.net_weight - munk * U * U))
 
 
+@pytest.mark.slow
 def test_small_angle_trim_matches_the_hand_derivation(bluerov2, stab):
     c = stab["forward"]
     assert c.free == ("roll", "pitch")
@@ -44,6 +45,7 @@ def test_small_angle_trim_matches_the_hand_derivation(bluerov2, stab):
     assert c.righting["pitch"] == pytest.approx(112.8 * 0.02)  # W z_G − B z_B
 
 
+@pytest.mark.slow
 def test_limit_is_where_the_trim_reaches_the_tilt_limit(bluerov2, stab):
     for d, ang in (("forward", "pitch"), ("starboard", "roll")):
         c = stab[d]
@@ -57,12 +59,14 @@ def test_limit_is_where_the_trim_reaches_the_tilt_limit(bluerov2, stab):
     assert not stab["diving"].limited  # vertical thrust at the CG: no moment
 
 
+@pytest.mark.slow
 def test_vehicles_with_attitude_control_have_no_free_angle():
     res = static_stability(load_vehicle("bluerov2-heavy"))
     assert all(c.free == () and not c.limited for c in res.cases)
     assert "held by thrusters" in res.summary()
 
 
+@pytest.mark.slow
 def test_result_serialises_and_plots(stab, tmp_path):
     d = stab.to_dict()
     assert d["cases"][0]["limit"].startswith("stability")

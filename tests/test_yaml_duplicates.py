@@ -50,6 +50,7 @@ def test_scenario_file(tmp_path):
         load_scenario(p)
 
 
+@pytest.mark.slow
 def test_deep_nesting_is_an_error_or_a_document_never_a_recursion_error():
     text = "a: " + "[" * 5000 + "]" * 5000 + "\n"
     try:
