@@ -1,0 +1,117 @@
+"""Mission loops compiled around a controller or a disturbance are cached on disk (issue 20
+item 2): a later process loads the loop instead of compiling it (~10–40 s), and an edit to the
+controller's own file compiles a new one instead of running stale machine code."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from uuvid.simulate.disturbances import no_disturbance, sinusoidal_force
+from uuvid.simulate.vehicle_sim import _disk_cached, _disk_cached_loop, _importable, fly_quad
+
+CTRL = """
+from numba import njit
+
+
+@njit(cache=False)
+def my_ctrl(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
+    for j in range(6):
+        out[j] = {gain} * (rp[j] - eta[j] if j < 3 else 0.0)
+"""
+
+
+def _module(tmp_path, monkeypatch, gain: float, name: str = "user_ctrl_mod"):
+    d = tmp_path / "src"
+    d.mkdir(exist_ok=True)
+    (d / f"{name}.py").write_text(CTRL.format(gain=gain))
+    monkeypatch.syspath_prepend(str(d))
+    sys.modules.pop(name, None)
+    import importlib
+
+    return importlib.import_module(name)
+
+
+def test_a_controller_in_a_file_gets_a_module_keyed_on_that_files_bytes(tmp_path, monkeypatch):
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+    m = _module(tmp_path, monkeypatch, 1.0)
+    assert _importable(m.my_ctrl)[:2] == ("user_ctrl_mod", "my_ctrl")
+    _disk_cached.cache_clear()
+    loop = _disk_cached_loop(m.my_ctrl, sinusoidal_force)
+    assert loop is not None
+    made = sorted((tmp_path / "cache" / "mission_loops").glob("_uuvid_mission_loop_*.py"))
+    assert len(made) == 1
+    text = made[0].read_text()
+    assert "from user_ctrl_mod import my_ctrl as _CTRL" in text
+    assert "from uuvid.simulate.disturbances import sinusoidal_force as _DIST" in text
+    assert "def _fly_loop(" in text and "@njit" not in text.split("def _fly_loop(")[0]
+    # the same functions again: the same module
+    _disk_cached.cache_clear()
+    assert _disk_cached_loop(m.my_ctrl, sinusoidal_force) is not None
+    assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 1
+    # the controller's file edited: a new module, the old one is never loaded for it
+    m2 = _module(tmp_path, monkeypatch, 2.0)
+    _disk_cached.cache_clear()
+    assert _disk_cached_loop(m2.my_ctrl, sinusoidal_force) is not None
+    assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 2
+    # the loop specialised to wrench controllers (no disturbance) around the same controller
+    _disk_cached.cache_clear()
+    assert _disk_cached(fly_quad, m2.my_ctrl) is not None
+    quad = [p for p in (tmp_path / "cache" / "mission_loops").glob("*.py")
+            if "def fly_quad(" in p.read_text()]
+    assert len(quad) == 1 and "_DIST" not in quad[0].read_text()
+
+
+def test_functions_not_reachable_by_import_are_compiled_in_memory(tmp_path, monkeypatch):
+    from numba import njit
+
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+
+    def make():
+        @njit
+        def local(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
+            out[0] = 0.0
+        return local
+
+    local = make()
+    assert _importable(local) is None
+    _disk_cached.cache_clear()
+    assert _disk_cached_loop(local, no_disturbance) is None
+    assert not (tmp_path / "cache" / "mission_loops").exists()
+
+
+SCRIPT = textwrap.dedent("""
+    import json, sys
+    from uuvid.simulate.disturbances import sinusoidal
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import compiled_loop, fly_mission, setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    wave = sinusoidal(amplitude=(10.0, 0, 8.0, 0, 0, 0), period=5.0)
+    s = setup_mission(load_vehicle("bluerov2"), square_mission(), t_end=5.0, disturbance=wave)
+    r = fly_mission(s)
+    loop = s.blocks()[0]
+    print(json.dumps({"hits": sum(loop.stats.cache_hits.values()),
+                      "misses": sum(loop.stats.cache_misses.values()),
+                      "end": r.state[-1, :3].tolist()}))
+""")
+
+
+@pytest.mark.slow
+def test_a_second_process_loads_the_loop_from_disk(tmp_path):
+    env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
+    runs = []
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True,
+                             text=True, timeout=600)
+        assert out.returncode == 0, out.stderr[-2000:]
+        import json
+
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    assert runs[0]["misses"] >= 1 and runs[0]["hits"] == 0  # compiled in the first
+    assert runs[1]["hits"] >= 1 and runs[1]["misses"] == 0  # loaded in the second
+    assert runs[0]["end"] == runs[1]["end"]
