@@ -4,6 +4,7 @@ controller's own file compiles a new one instead of running stale machine code."
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import textwrap
 import pytest
 
 from uuvid.simulate.disturbances import no_disturbance, sinusoidal_force
-from uuvid.simulate.vehicle_sim import _disk_cached, _disk_cached_loop, _importable, fly_quad
+from uuvid.simulate.vehicle_sim import _disk_cached, _fly_loop, _importable, fly_quad
 
 CTRL = """
 from numba import njit
@@ -41,7 +42,7 @@ def test_a_controller_in_a_file_gets_a_module_keyed_on_that_files_bytes(tmp_path
     m = _module(tmp_path, monkeypatch, 1.0)
     assert _importable(m.my_ctrl)[:2] == ("user_ctrl_mod", "my_ctrl")
     _disk_cached.cache_clear()
-    loop = _disk_cached_loop(m.my_ctrl, sinusoidal_force)
+    loop = _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force)
     assert loop is not None
     made = sorted((tmp_path / "cache" / "mission_loops").glob("_uuvid_mission_loop_*.py"))
     assert len(made) == 1
@@ -51,12 +52,12 @@ def test_a_controller_in_a_file_gets_a_module_keyed_on_that_files_bytes(tmp_path
     assert "def _fly_loop(" in text and "@njit" not in text.split("def _fly_loop(")[0]
     # the same functions again: the same module
     _disk_cached.cache_clear()
-    assert _disk_cached_loop(m.my_ctrl, sinusoidal_force) is not None
+    assert _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force) is not None
     assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 1
     # the controller's file edited: a new module, the old one is never loaded for it
     m2 = _module(tmp_path, monkeypatch, 2.0)
     _disk_cached.cache_clear()
-    assert _disk_cached_loop(m2.my_ctrl, sinusoidal_force) is not None
+    assert _disk_cached(_fly_loop, m2.my_ctrl, sinusoidal_force) is not None
     assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 2
     # the loop specialised to wrench controllers (no disturbance) around the same controller
     _disk_cached.cache_clear()
@@ -80,7 +81,7 @@ def test_functions_not_reachable_by_import_are_compiled_in_memory(tmp_path, monk
     local = make()
     assert _importable(local) is None
     _disk_cached.cache_clear()
-    assert _disk_cached_loop(local, no_disturbance) is None
+    assert _disk_cached(_fly_loop, local, no_disturbance) is None
     assert not (tmp_path / "cache" / "mission_loops").exists()
 
 
@@ -109,8 +110,6 @@ def test_a_second_process_loads_the_loop_from_disk(tmp_path):
         out = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True,
                              text=True, timeout=600)
         assert out.returncode == 0, out.stderr[-2000:]
-        import json
-
         runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
     assert runs[0]["misses"] >= 1 and runs[0]["hits"] == 0  # compiled in the first
     assert runs[1]["hits"] >= 1 and runs[1]["misses"] == 0  # loaded in the second

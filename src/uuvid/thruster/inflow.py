@@ -241,15 +241,15 @@ INFLOW_TABLE_OFFSET = 6
 def ct_table(fq: FourQuadrantMap, intervals: int = INFLOW_TABLE_INTERVALS) -> np.ndarray:
     """``(intervals, 4)`` cubic coefficients ``c0 + c1 t + c2 t² + c3 t³`` (``t`` ∈ [0, 1] across
     an interval) of ``C_T*(β)`` on the uniform grid ``β_j = −π + 2πj/intervals``: Hermite pieces
-    through the series' values and slopes ``dC_T*/dβ = Σ k (b_k cos kβ − a_k sin kβ)``."""
+    through the series' values (:meth:`FourQuadrantMap.ct`) and slopes
+    ``dC_T*/dβ = Σ k (b_k cos kβ − a_k sin kβ)``."""
     N = int(intervals)
     h = 2.0 * math.pi / N
     b = -math.pi + h * np.arange(N + 1)
     k = np.arange(len(fq.ct_a))
-    a, bb = np.asarray(fq.ct_a, float), np.asarray(fq.ct_b, float)
     kb = k * b[:, None]
-    f = (a * np.cos(kb) + bb * np.sin(kb)).sum(-1)
-    d = h * (k * (bb * np.cos(kb) - a * np.sin(kb))).sum(-1)
+    f = fq.ct(b)
+    d = h * (k * (np.asarray(fq.ct_b) * np.cos(kb) - np.asarray(fq.ct_a) * np.sin(kb))).sum(-1)
     f0, f1, d0, d1 = f[:-1], f[1:], d[:-1], d[1:]
     return np.column_stack([f0, d0, 3.0 * (f1 - f0) - 2.0 * d0 - d1, 2.0 * (f0 - f1) + d0 + d1])
 
@@ -259,7 +259,13 @@ def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH,
     """Flat parameters of :func:`inflow_thrust_nb`: ``[0.7πD, ⅛πρD², 1/(ρ|K_T0|D⁴) ahead, the same
     astern, N, N/(2π), the C_T* table (N × 4, :func:`ct_table`), K, the series' K cos and K sin
     coefficients]`` (the constants precomputed: the loop calls it per thruster and RK4 stage; the
-    series itself is for the SIMD batch kernel, :func:`inflow_series`)."""
+    series itself is for the SIMD batch kernel, :func:`inflow_series`).  Built once per map (the
+    map is frozen); each call returns a fresh copy."""
+    return _inflow_params(fq, float(rho), int(intervals)).copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _inflow_params(fq: FourQuadrantMap, rho: float, intervals: int) -> np.ndarray:
     D = fq.diameter
     head = [0.7 * math.pi * D, 0.125 * math.pi * rho * D * D,
             1.0 / (rho * abs(fq.bollard_kt(1)) * D ** 4),
