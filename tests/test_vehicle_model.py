@@ -108,6 +108,18 @@ def test_quaternion_rotation_matches_euler_and_round_trips():
         assert np.allclose(quat_to_euler(q), rpy)
 
 
+def test_euler_of_a_stack_of_quaternions_is_each_ones_euler():
+    """The vectorised path (a trajectory's ``state[:, 3:7]``) reads the same angles as one at a time,
+    unnormalised quaternions and the gimbal-lock clip included."""
+    rng = np.random.default_rng(5)
+    Q = rng.standard_normal((200, 4)) * [1.0, 0.4, 0.4, 1.0]
+    Q[0] = [1.0, 0.0, 1.0, 0.0]  # θ = −90°: R₃₁ at the clip
+    each = np.array([quat_to_euler(q) for q in Q])
+    assert np.allclose(quat_to_euler(Q), each, rtol=0, atol=1e-12)
+    rpy = rng.uniform([-3, -1.4, -3], [3, 1.4, 3], (50, 3))
+    assert np.allclose(quat_to_euler(np.array([euler_to_quat(*a) for a in rpy])), rpy, atol=1e-12)
+
+
 # --------------------------------------------------------------------------- energy
 def test_kinetic_energy_conserved_without_damping_restoring_and_thrust():
     """Kirchhoff form: νᵀ(C_RB + C_A)ν = 0, so ½νᵀMν is a constant of the motion."""

@@ -588,7 +588,7 @@ def holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=No
     tail = err[r.t >= duration - 20.0]
     from uuvid.vehicle.kinematics import quat_to_euler
 
-    eul = np.array([quat_to_euler(q) for q in r.state[r.t >= duration - 20.0, 3:7]])
+    eul = quat_to_euler(r.state[r.t >= duration - 20.0, 3:7])
     tilt = float(np.max(np.abs(eul[:, :2])))
     # heading is held too: a yaw limit cycle (±40° at the BlueROV2's 0° boundary, with the
     # position still within centimetres) is not station keeping

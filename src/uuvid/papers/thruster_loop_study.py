@@ -86,7 +86,7 @@ def run_case(vehicle, chain, kind: str, bandwidth: float, dt: float = 0.01, subs
     if kind == "heading":
         from uuvid.vehicle.kinematics import quat_to_euler
 
-        yaw = np.array([quat_to_euler(q)[2] for q in r.state[:, 3:7]])
+        yaw = quat_to_euler(r.state[:, 3:7])[:, 2]
         sig = np.degrees(yaw)
         target = 20.0
         threshold = HEADING_THRESHOLD_DEG

@@ -27,13 +27,152 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from uuvid.io.ardusub.frames import DOF_COLUMNS
+from uuvid.thruster.inflow import advance_speeds_nb
+from uuvid.vehicle.kinematics import normalise_state
+from uuvid.vehicle.model import vehicle_rhs
 
 __all__ = ["synthetic_dive", "dive_truth", "synthetic_horizontal_dive", "horizontal_truth_vehicle"]
 
 TETHER = {"heave": (3.0, 12.0), "yaw": (0.05, 0.6)}  # (linear, quadratic) extra drag
 DT = 0.02
+MODES = ("MANUAL", "STABILIZE", "ALT_HOLD")  # the pilot's modes, coded 0, 1, 2 in the kernel
+
+
+@njit(cache=True, inline="always")
+def _table_at(table, pwm, volts):
+    """``table[V, pwm]`` (rows every 0.05 V from 13 V, columns every µs from 1100 µs), linear in V."""
+    i = min(max(int(np.rint(pwm - 1100.0)), 0), table.shape[1] - 1)
+    u = min(max((volts - 13.0) / 0.05, 0.0), table.shape[0] - 1.000001)
+    k = int(u)
+    f = u - k
+    return table[k, i] * (1 - f) + table[k + 1, i] * f
+
+
+@njit(cache=True)
+def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_tgt, integ,
+                 A, lim, thr_pos, pwm_pos, thr_neg, pwm_neg, TT, OO, ka, pos, axes, wake, B,
+                 tether, p, X, PWM, V):
+    """Steps ``i0 … i1 − 1`` of :func:`synthetic_dive` between two of the pilot's decisions (stick
+    and mode held): the mode's control (heading hold ``4 e − 1.2 r``, depth PID
+    ``60 e_z − 50 w + 3 ∫e_z``), thrust wanted → PWM at the nominal 16 V (no compensation), the
+    battery's sag, the T200's thrust at the logged PWM and the sagging voltage, less
+    ``k_a |Ω| u_a`` with inflow, the tether's drag, and one RK4 step of
+    :func:`uuvid.vehicle.model.vehicle_rhs`; ``x`` is advanced in place, ``X``/``PWM``/``V``
+    record each step.  Returns the depth integrator."""
+    n_thr = A.shape[0]
+    n = t.size - 1
+    tau = np.zeros(4)
+    T_cmd = np.zeros(n_thr)
+    pwm = np.zeros(n_thr)
+    T = np.zeros(n_thr)
+    Om = np.zeros(n_thr)
+    ua = np.zeros(n_thr)
+    Te = np.zeros(n_thr)
+    tau6 = np.zeros(6)
+    z = np.zeros(13)
+    ks = np.zeros((4, 13))
+    h = DT
+    for i in range(i0, i1):
+        ti = t[i]
+        qw, qx, qy, qz = x[3], x[4], x[5], x[6]
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        w, r = x[9], x[12]
+        tau[:] = 0.0
+        tau[0] = 25.0 * stick[0]
+        if mode == 0:
+            tau[2] = 40.0 * stick[1]
+            tau[3] = 2.0 * stick[2]
+        else:
+            e = (yaw_tgt - yaw + np.pi) % (2 * np.pi) - np.pi
+            tau[3] = min(max(4.0 * e - 1.2 * r, -4.0), 4.0)
+            if mode == 2:
+                ez = depth_tgt - x[2]
+                integ = min(max(integ + ez * h, -20.0), 20.0)
+                tau[2] = min(max(60.0 * ez - 50.0 * w + 3.0 * integ, -60.0), 60.0)
+            else:
+                tau[2] = 40.0 * stick[1]
+        armed = ti >= disarmed
+        load = 0.0
+        for j in range(n_thr):
+            if armed:
+                c = A[j, 0] * tau[0] + A[j, 1] * tau[1] + A[j, 2] * tau[2] + A[j, 3] * tau[3]
+                c = min(max(c, lim[j, 0]), lim[j, 1])
+                T_cmd[j] = c
+                if c > 1e-3:
+                    pwm[j] = np.rint(np.interp(c, thr_pos, pwm_pos))
+                elif c < -1e-3:
+                    pwm[j] = np.rint(np.interp(c, thr_neg, pwm_neg))
+                else:
+                    pwm[j] = 1500.0
+            else:
+                T_cmd[j] = 0.0
+                pwm[j] = 1500.0
+            load += abs(T_cmd[j])
+        v_batt = 16.4 - 1.2 * ti / max(duration, 1.0) - 0.01 * load
+        for j in range(n_thr):
+            T[j] = _table_at(TT, pwm[j], v_batt)
+            if ka != 0.0:
+                Om[j] = _table_at(OO, pwm[j], v_batt)
+        X[i] = x
+        PWM[i] = pwm
+        V[i] = v_batt
+        if i == n:
+            break
+        for s in range(4):  # RK4: stages at x, x + h/2 k1, x + h/2 k2, x + h k3
+            if s == 0:
+                z[:] = x
+            else:
+                a = 0.5 * h if s < 3 else h
+                for m in range(13):
+                    z[m] = x[m] + a * ks[s - 1, m]
+            if ka != 0.0:
+                advance_speeds_nb(z[7:13], pos, axes, wake, ua)
+                for j in range(n_thr):
+                    Te[j] = T[j] - ka * Om[j] * ua[j]
+            else:
+                Te[:] = T
+            for m in range(6):
+                acc = 0.0
+                for j in range(n_thr):
+                    acc += B[m, j] * Te[j]
+                tau6[m] = acc
+            tau6[2] -= tether[0] * z[9] + tether[1] * z[9] * abs(z[9])
+            tau6[5] -= tether[2] * z[12] + tether[3] * z[12] * abs(z[12])
+            ks[s] = vehicle_rhs(z, tau6, p)
+        for m in range(13):
+            x[m] = x[m] + h / 6 * (ks[0, m] + 2 * ks[1, m] + 2 * ks[2, m] + ks[3, m])
+        normalise_state(x)
+        if x[2] < 0:  # the surface: no flying out of the water
+            x[2], x[9] = 0.0, max(x[9], 0.0)
+    return integ
+
+
+@njit(cache=True)
+def _rk4_held(x, TAU, p, h, X):
+    """``X[0] = x``, then RK4 steps of :func:`uuvid.vehicle.model.vehicle_rhs` with the wrench
+    ``TAU[i]`` held over step ``i`` (quaternion normalised after each)."""
+    X[0] = x
+    z = np.empty(13)
+    for i in range(TAU.shape[0] - 1):
+        tau6 = TAU[i]
+        k1 = vehicle_rhs(x, tau6, p)
+        for m in range(13):
+            z[m] = x[m] + 0.5 * h * k1[m]
+        k2 = vehicle_rhs(z, tau6, p)
+        for m in range(13):
+            z[m] = x[m] + 0.5 * h * k2[m]
+        k3 = vehicle_rhs(z, tau6, p)
+        for m in range(13):
+            z[m] = x[m] + h * k3[m]
+        k4 = vehicle_rhs(z, tau6, p)
+        for m in range(13):
+            x[m] = x[m] + h / 6 * (k1[m] + 2 * k2[m] + 2 * k3[m] + k4[m])
+        normalise_state(x)
+        X[i + 1] = x
+    return X
 
 
 def _stamps(rng, t0, t1, rate, jitter=0.3):
@@ -80,18 +219,18 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
 
     from uuvid.io.ardusub.thrust import default_t200
     from uuvid.vehicle.definition import load_vehicle
-    from uuvid.vehicle.kinematics import normalise_state, quat_to_euler
-    from uuvid.vehicle.model import make_state, vehicle_rhs
+    from uuvid.vehicle.kinematics import quat_to_euler
+    from uuvid.vehicle.model import make_state
 
     rng = np.random.default_rng(seed)
     veh = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
     tether = TETHER if tether is None else tether
     p = veh.params.to_array()
-    B = np.asarray(veh.B, float)
+    B = np.ascontiguousarray(veh.B, float)
     n_thr = B.shape[1]
-    lim = veh.layout.limits
+    lim = np.ascontiguousarray(veh.layout.limits, float)
     ctrl_rows = [0, 1, 2, 5]
-    A = np.linalg.pinv(B[ctrl_rows])
+    A = np.ascontiguousarray(np.linalg.pinv(B[ctrl_rows]))
     t200 = default_t200()
     pwm_tab = np.arange(1100.0, 1901.0, 1.0)
     thr_tab = t200.thrust(pwm_tab, np.full(pwm_tab.size, 16.0))
@@ -103,58 +242,43 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     # thrust(pwm, V) tabulated once: whole µs × 0.05 V (linear in V between rows)
     v_tab = np.arange(13.0, 17.0001, 0.05)
     TT = np.stack([t200.thrust(pwm_tab, np.full(pwm_tab.size, v)) for v in v_tab])
-
-    def thrust_at(pwm, volts, table=TT):
-        i = np.clip(np.round(pwm - 1100.0).astype(int), 0, pwm_tab.size - 1)
-        u = np.clip((volts - v_tab[0]) / 0.05, 0, v_tab.size - 1.000001)
-        k = int(u)
-        f = u - k
-        return table[k, i] * (1 - f) + table[k + 1, i] * f
-
-    if ka:
-        from uuvid.thruster.inflow import advance_speeds
-
-        OO = np.stack([np.abs(t200.speed(pwm_tab, np.full(pwm_tab.size, v))) for v in v_tab])
-        P_thr = np.array([t_.position for t_ in veh.layout], float)
-        A_thr = np.array([t_.axis for t_ in veh.layout], float)
-        wake = np.asarray(veh.wake if len(veh.wake) else np.zeros(n_thr), float)
-        # u_a is linear in ν: its rows per unit body velocity, from the project's advance_speeds
-        GA = np.column_stack([advance_speeds(np.eye(6)[k], P_thr, A_thr, wake)
-                              for k in range(6)])
-
-    def pwm_for(T):  # ArduSub-like: thrust wanted at the nominal 16 V → PWM (no compensation)
-        out = np.where(T > 1e-3, np.interp(T, thr_tab[pos], pwm_tab[pos]),
-                       np.where(T < -1e-3, np.interp(T, thr_tab[neg], pwm_tab[neg]), 1500.0))
-        return np.round(out)
+    P_thr = np.array([t_.position for t_ in veh.layout], float).reshape(-1, 3)
+    A_thr = np.array([t_.axis for t_ in veh.layout], float).reshape(-1, 3)
+    wake = np.asarray(veh.wake if len(veh.wake) else np.zeros(n_thr), float)
+    # rotor speed |Ω|(pwm, V) on the same grid, for the inflow loss k_a |Ω| u_a
+    OO = (np.stack([np.abs(t200.speed(pwm_tab, np.full(pwm_tab.size, v))) for v in v_tab])
+          if ka else np.zeros((2, 1)))
+    teth = np.array([*tether.get("heave", (0.0, 0.0)), *tether.get("yaw", (0.0, 0.0))], float)
 
     n = int(round(duration / DT))
     t = np.arange(n + 1) * DT
     x = make_state(position=(0, 0, 0.3), rpy=(0, 0, rng.uniform(-np.pi, np.pi)))
     # pilot schedule: segments of 15–40 s cycling the modes
     segs, s = [], disarmed
-    modes = ["MANUAL", "STABILIZE", "ALT_HOLD"]
     k = 0
     while s < duration:
         d = rng.uniform(15, 40)
-        segs.append((s, min(s + d, duration), modes[k % 3]))
+        segs.append((s, min(s + d, duration), k % 3))
         s += d
         k += 1
+    mode = np.zeros(n + 1, np.int64)  # MANUAL outside the segments
+    for a, b, m in reversed(segs):
+        mode[(t >= a) & (t < b)] = m
+    mode_changes = np.flatnonzero(np.diff(mode)) + 1  # the steps whose mode differs from the last
     X = np.empty((n + 1, 13))
     PWM = np.empty((n + 1, n_thr))
     V = np.empty(n + 1)
-    MODE = np.empty(n + 1, object)
-    ARM = np.zeros(n + 1, bool)
     stick = np.zeros(3)  # surge, heave, yaw
     next_stick = disarmed
     depth_tgt, yaw_tgt, integ = 1.0, 0.0, 0.0
-    prev_mode = None
-    v_batt = 16.4
-    for i in range(n + 1):
+    prev_mode = -1
+    i = 0
+    # the pilot decides (new sticks and targets, a mode's first step) in Python; between two
+    # decisions the compiled _pilot_steps flies the vehicle
+    while i <= n:
         ti = t[i]
         qw, qx, qy, qz = x[3:7]
-        rpy = (0.0, 0.0, math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
-        mode = next((m for a, b, m in segs if a <= ti < b), "MANUAL")
-        armed = ti >= disarmed
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
         if ti >= next_stick:
             stick = np.array([rng.uniform(-surge, surge) * (rng.random() < 0.4),
                               rng.uniform(-0.8, 0.8) * (rng.random() < 0.7),
@@ -164,57 +288,25 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
             elif x[2] > 12.0:
                 stick[1] = rng.uniform(-0.8, -0.2)
             next_stick = ti + rng.uniform(2, 8)
-            if mode == "ALT_HOLD":
+            if mode[i] == 2:
                 depth_tgt = float(np.clip(x[2] + rng.uniform(-2, 2), 0.5, 15.0))
-            yaw_tgt = rpy[2] + rng.uniform(-1.5, 1.5)
-        if mode != prev_mode:
-            depth_tgt, yaw_tgt, integ = float(x[2]), float(rpy[2]), 0.0
-            prev_mode = mode
-        w, r = x[9], x[12]
-        tau = np.zeros(4)
-        tau[0] = 25.0 * stick[0]
-        if mode == "MANUAL":
-            tau[2] = 40.0 * stick[1]
-            tau[3] = 2.0 * stick[2]
-        else:
-            e = (yaw_tgt - rpy[2] + np.pi) % (2 * np.pi) - np.pi
-            tau[3] = np.clip(4.0 * e - 1.2 * r, -4, 4)
-            if mode == "ALT_HOLD":
-                ez = depth_tgt - x[2]
-                integ = np.clip(integ + ez * DT, -20, 20)
-                tau[2] = np.clip(60.0 * ez - 50.0 * w + 3.0 * integ, -60, 60)
-            else:
-                tau[2] = 40.0 * stick[1]
-        T_cmd = np.clip(A @ tau, lim[:, 0], lim[:, 1]) if armed else np.zeros(n_thr)
-        pwm = pwm_for(T_cmd) if armed else np.full(n_thr, 1500.0)
-        load = float(np.sum(np.abs(T_cmd)))
-        v_batt = 16.4 - 1.2 * ti / max(duration, 1.0) - 0.01 * load
-        T = thrust_at(pwm, v_batt)
-        Om = thrust_at(pwm, v_batt, OO) if ka else None
-        X[i], PWM[i], V[i], MODE[i], ARM[i] = x, pwm, v_batt, mode, armed
-        if i == n:
-            break
-
-        def f(z, T=T, Om=Om):
-            if Om is not None:  # thrust lost to the advance speed (linear inflow form)
-                T = T - ka * Om * (GA @ z[7:13])
-            tau6 = B @ T
-            tau6[2] -= tether.get("heave", (0, 0))[0] * z[9] + tether.get("heave", (0, 0))[1] \
-                * z[9] * abs(z[9])
-            tau6[5] -= tether.get("yaw", (0, 0))[0] * z[12] + tether.get("yaw", (0, 0))[1] \
-                * z[12] * abs(z[12])
-            return vehicle_rhs(z, tau6, p)
-
-        k1 = f(x)
-        k2 = f(x + 0.5 * DT * k1)
-        k3 = f(x + 0.5 * DT * k2)
-        k4 = f(x + DT * k3)
-        x = x + DT / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        normalise_state(x)
-        if x[2] < 0:  # the surface: no flying out of the water
-            x[2], x[9] = 0.0, max(x[9], 0.0)
-    yaw_true = np.unwrap(np.array([quat_to_euler(q)[2] for q in X[:, 3:7]]))
-    roll_pitch = np.array([quat_to_euler(q)[:2] for q in X[:, 3:7]])
+            yaw_tgt = yaw + rng.uniform(-1.5, 1.5)
+        if mode[i] != prev_mode:
+            depth_tgt, yaw_tgt, integ = float(x[2]), float(yaw), 0.0
+            prev_mode = mode[i]
+        after = mode_changes[mode_changes > i]
+        j = min(int(np.searchsorted(t, next_stick, side="left")),
+                int(after[0]) if after.size else n + 1, n + 1)
+        integ = _pilot_steps(i, max(j, i + 1), x, t, int(mode[i]), float(disarmed),
+                             float(duration), stick, depth_tgt, yaw_tgt, integ, A, lim,
+                             thr_tab[pos], pwm_tab[pos], thr_tab[neg], pwm_tab[neg], TT, OO, ka,
+                             P_thr, A_thr, wake, B, teth, p, X, PWM, V)
+        i = max(j, i + 1)
+    MODE = np.array(MODES, object)[mode]
+    ARM = t >= disarmed
+    euler = quat_to_euler(X[:, 3:7])
+    yaw_true = np.unwrap(euler[:, 2])
+    roll_pitch = euler[:, :2]
     # ---- logging at each channel's own rate
     hz = {"depth": 3.0, "yaw": 20.0, "pwm": pwm_rate, "battery": 1.0, **(rates or {})}
     t_d = _stamps(rng, 0.0, duration, hz["depth"], jitter)
@@ -332,8 +424,7 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
 
     from uuvid.io.ardusub.thrust import default_t200
     from uuvid.vehicle.horizontal import horizontal_params
-    from uuvid.vehicle.kinematics import normalise_state
-    from uuvid.vehicle.model import make_state, vehicle_rhs
+    from uuvid.vehicle.model import make_state
 
     rng = np.random.default_rng(seed)
     veh, pt = horizontal_truth_vehicle(vehicle)
@@ -380,18 +471,8 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     T = TT[kv[:, None], ip] * (1 - fv) + TT[kv[:, None] + 1, ip] * fv
     TAU = T @ B.T
     TAU[:, 2:5] = 0.0
-    X = np.empty((n + 1, 13))
     x = make_state(rpy=(0, 0, rng.uniform(-np.pi, np.pi)))
-    X[0] = x
-    for i in range(n):
-        tau6 = TAU[i]
-        k1 = vehicle_rhs(x, tau6, p)
-        k2 = vehicle_rhs(x + 0.5 * DT * k1, tau6, p)
-        k3 = vehicle_rhs(x + 0.5 * DT * k2, tau6, p)
-        k4 = vehicle_rhs(x + DT * k3, tau6, p)
-        x = x + DT / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        normalise_state(x)
-        X[i + 1] = x
+    X = _rk4_held(x, np.ascontiguousarray(TAU), p, DT, np.empty((n + 1, 13)))
     qw, qx, qy, qz = X[:, 3], X[:, 4], X[:, 5], X[:, 6]
     yaw_true = np.unwrap(np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
     t_y = _stamps(rng, 0.0, duration, yaw_rate, jitter)

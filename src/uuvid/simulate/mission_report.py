@@ -101,7 +101,7 @@ def mission_figures(result, vehicle) -> dict:
     ax.set_title("Top view")
     ax.legend()
     figs["path_top"] = fig
-    eul = np.array([quat_to_euler(q) for q in result.state[:, 3:7]])
+    eul = quat_to_euler(result.state[:, 3:7])
     fig, axes = new_figure(4, 1, sharex=True, figsize=(8, 8))
     for j, nm in enumerate(("north", "east", "down")):
         axes[j].plot(t, r[:, j], "k--", lw=1)

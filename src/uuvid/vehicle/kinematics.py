@@ -108,8 +108,16 @@ def euler_to_quat(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 
 def quat_to_euler(q) -> np.ndarray:
-    """Unit quaternion → zyx Euler angles ``[φ, θ, ψ]`` (rad), read off ``R(q)`` (§2.2.3)."""
-    R = quat_to_rotmat(np.asarray(q, dtype=float) / np.linalg.norm(q))
+    """Unit quaternion → zyx Euler angles ``[φ, θ, ψ]`` (rad), read off ``R(q)`` (§2.2.3):
+    ``φ = atan2(R₃₂, R₃₃)``, ``θ = −asin R₃₁``, ``ψ = atan2(R₂₁, R₁₁)``.  A stack of quaternions
+    ``(n, 4)`` gives ``(n, 3)`` (vectorised, e.g. a whole trajectory's ``state[:, 3:7]``)."""
+    q = np.asarray(q, dtype=float)
+    if q.ndim > 1:
+        e, x, y, z = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
+        return np.stack([np.arctan2(2.0 * (y * z + x * e), 1.0 - 2.0 * (x * x + y * y)),
+                         -np.arcsin(np.clip(2.0 * (x * z - y * e), -1.0, 1.0)),
+                         np.arctan2(2.0 * (x * y + z * e), 1.0 - 2.0 * (y * y + z * z))], axis=-1)
+    R = quat_to_rotmat(q / np.linalg.norm(q))
     roll = math.atan2(R[2, 1], R[2, 2])
     pitch = -math.asin(max(-1.0, min(1.0, R[2, 0])))
     yaw = math.atan2(R[1, 0], R[0, 0])
