@@ -234,13 +234,13 @@ def test_inflow_thrust_kernel_is_bollard_at_zero_advance_and_the_map_elsewhere(f
 def test_the_loops_ct_table_is_the_series(fq):
     """The cubic table the loops read (values and slopes of the series at its nodes) against the
     Fourier series itself, everywhere on the circle, nodes and midpoints included."""
-    from uuvid.thruster.inflow import INFLOW_TABLE_INTERVALS, ct_table
+    from uuvid.thruster.inflow import INFLOW_TABLE_INTERVALS, ct_table, diamond_angle
 
     N = INFLOW_TABLE_INTERVALS
     T = ct_table(fq)
     assert T.shape == (N, 4)
     b = np.linspace(-np.pi, np.pi, 8 * N + 1)
-    x = (b + np.pi) * N / (2 * np.pi)
+    x = (diamond_angle(np.sin(b), np.cos(b)) + 2.0) * N / 4
     j = np.minimum(x.astype(int), N - 1)
     t = x - j
     c = T[j]
@@ -251,6 +251,24 @@ def test_the_loops_ct_table_is_the_series(fq):
     assert np.max(np.abs(end[:-1] - T[1:, 0])) < 1e-14
     slope_end = T[:, 1] + 2 * T[:, 2] + 3 * T[:, 3]
     assert np.max(np.abs(slope_end[:-1] - T[1:, 1])) < 1e-14
+
+
+def test_the_diamond_angle_is_monotone_in_beta_and_inverts():
+    """The loops' table coordinate: p(β) rises with β over the circle, hits ±1 at ±π/2 and ±2 at
+    ±π, and diamond_to_beta inverts it with the right slope (finite differences)."""
+    from uuvid.thruster.inflow import diamond_angle, diamond_to_beta
+
+    b = np.linspace(-np.pi + 1e-9, np.pi - 1e-9, 20001)
+    p = diamond_angle(3.0 * np.sin(b), 3.0 * np.cos(b))  # any radius
+    assert np.all(np.diff(p) > 0) and p[0] == pytest.approx(-2) and p[-1] == pytest.approx(2)
+    assert diamond_angle(1.0, 0.0) == 1.0 and diamond_angle(-2.0, 0.0) == -1.0
+    assert diamond_angle(0.5, 0.5) == 0.5 and diamond_angle(0.5, -0.5) == 1.5
+    beta, slope = diamond_to_beta(p)
+    assert np.allclose(beta, b, atol=1e-12)
+    h = 1e-6
+    for q in (-1.7, -0.6, 0.0, 0.3, 1.2):
+        fd = (diamond_to_beta(q + h)[0] - diamond_to_beta(q - h)[0]) / (2 * h)
+        assert float(diamond_to_beta(q)[1]) == pytest.approx(float(fd), rel=1e-5)
 
 
 @pytest.mark.slow

@@ -287,21 +287,26 @@ def _general_loop(setup):
     vehicle_sim.fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
                     b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
                     s.gains.to_array(), *ref, s.current, s.dt, s.substeps, *out, np.zeros((0, 3)),
-                    np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3 + b.n)), np.zeros(0),
-                    np.zeros((0, 7)))
+                    np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3 + b.n)),
+                    *vehicle_sim._inflow_or_empty(s.inflow_arrays))
     return out
 
 
 @pytest.mark.parametrize("kw", [{}, {"current": (0.2, -0.1, 0.0), "substeps": 2,
-                                      "allocation": "scale"}], ids=["still", "current-substeps"])
+                                      "allocation": "scale"},
+                                 {"inflow": "four-quadrant"},
+                                 {"inflow": "four-quadrant", "current": (0.3, 0.1, 0.0)}],
+                         ids=["still", "current-substeps", "inflow", "inflow-current"])
 def test_specialised_loop_is_the_general_loop_bit_for_bit(bluerov2, kw):
     """fly_mission flies ESC → first-order motor → quadratic map vehicles with the built-in PID
     through the specialised loop (fly_quad): the same numbers as the general loop, bit for bit —
-    states, delivered and allocated thrusts, controller output and allocation scale."""
+    states, delivered and allocated thrusts, controller output and allocation scale — with the
+    thrust taken to the advance speed (inflow) too."""
     from uuvid.simulate import vehicle_sim
 
     setup = setup_mission(bluerov2, square_mission(), t_end=30.0, **kw)
     assert vehicle_sim.quad_chain(setup.bank)
+    assert (setup.inflow_arrays is not None) == ("inflow" in kw)
     run, _, out = vehicle_sim.mission_runner(setup)
     run(setup.t.size)
     for got, ref in zip(out, _general_loop(setup)):

@@ -281,7 +281,7 @@ def _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, K, tau_d, s
         z[i] = z[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _tau_inflow(th, st, zs, vc, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua):
     """``τ`` at one RK4 stage with the bollard thrusts ``th[st]`` taken to the advance speed of the
     stage state ``zs`` (:func:`_rhs_d`'s inflow, for the closed-form fast path)."""
@@ -299,22 +299,27 @@ def _tau_inflow(th, st, zs, vc, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua):
 
 @njit(cache=True)
 def _vehicle_rk4_inflow(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2, k3, k4, tau_d,
-                        eta_p, eta_n, IPRM, IGEO, ua):
-    """:func:`_vehicle_rk4` with thrust at the advance speed of each stage's own state."""
-    _tau_inflow(th_stage, 0, z, vc0, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
-    vehicle_rhs_into(z, tau, vp, vc0, dvc, k1)
-    for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k1[i]
-    _tau_inflow(th_stage, 1, zt, vc1, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
-    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k2)
-    for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k2[i]
-    _tau_inflow(th_stage, 1, zt, vc1, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
-    vehicle_rhs_into(zt, tau, vp, vc1, dvc, k3)
-    for i in range(13):
-        zt[i] = z[i] + h * k3[i]
-    _tau_inflow(th_stage, 2, zt, vc2, B, tau, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
-    vehicle_rhs_into(zt, tau, vp, vc2, dvc, k4)
+                        eta_p, eta_n, IPRM, IGEO, ua, still, fsc, f0):
+    """:func:`_vehicle_rk4` with thrust at the advance speed of each stage's own state;
+    ``still``: no current (the still-water right-hand side, ``fsc`` 6 values of scratch);
+    ``f0`` receives the delivered thrusts at the step's start (its first stage)."""
+    for st in range(4):
+        zs = z if st == 0 else zt
+        kk = k1 if st == 0 else (k2 if st == 1 else (k3 if st == 2 else k4))
+        vcs = vc0 if st == 0 else (vc1 if st < 3 else vc2)
+        _tau_inflow(th_stage, 0 if st == 0 else (1 if st < 3 else 2), zs, vcs, B, tau, tau_d,
+                    eta_p, eta_n, IPRM, IGEO, ua)
+        if st == 0:
+            for i in range(ua.size):
+                f0[i] = ua[i]
+        if still:
+            vehicle_rhs_still_into(zs, tau, vp, fsc, kk)
+        else:
+            vehicle_rhs_into(zs, tau, vp, vcs, dvc, kk)
+        if st < 3:
+            c = 1.0 if st == 2 else 0.5
+            for i in range(13):
+                zt[i] = z[i] + c * h * kk[i]
     for i in range(13):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
@@ -480,6 +485,7 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
         fast = True
     inflow = IPRM.size > 0
     ua = np.zeros(n)
+    f0 = np.zeros(n)
     th_stage = np.zeros((3, n))
     tgt = np.zeros(n)
     tconst = np.zeros(n)
@@ -613,18 +619,16 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
                             th_stage[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
                     z[o] = x0  # thruster state advanced below, exactly
                 if sub == 0:
-                    if inflow:
-                        state_advance_speeds_nb(z, vc0, IGEO, ua)
                     for i in range(n):
-                        if inflow:
-                            f = inflow_thrust_nb(th_stage[0, i], ua[i], IPRM)
-                            F[k, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
-                        else:
-                            F[k, i] = th_stage[0, i]
+                        F[k, i] = th_stage[0, i]  # with inflow: set by the RK4 step below
                         FDES[k, i] = fdes[i]
                 if inflow:
                     _vehicle_rk4_inflow(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, k1, k2,
-                                        k3, k4, tau_d, eta_p, eta_n, IPRM, IGEO, ua)
+                                        k3, k4, tau_d, eta_p, eta_n, IPRM, IGEO, ua, still, fsc,
+                                        f0)
+                    if sub == 0:
+                        for i in range(n):
+                            F[k, i] = f0[i]
                 else:
                     _vehicle_rk4(z, h, th_stage, B, vp, vc0, vc1, vc2, dvc, tau, zt, K4, tau_d, still, fsc)
                 for i in range(n):
@@ -700,13 +704,16 @@ def _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc):
 
 @njit(cache=True)
 def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv_t, inv_c,
-             ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE):
+             ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, IPRM,
+             IGEO):
     """:func:`_fly_loop` specialised to its commonest configuration: every thruster ESC →
     first-order motor → quadratic map (:func:`quad_chain`), a wrench controller (``_CTRL``, the
     built-in PID), no disturbance, a constant current (``vc``, NED; zero: still water), an ideal
-    supply, no inflow.  Only what that mission uses is compiled, with nothing generic left in
-    the step (no block dispatch, no per-step flags); the same arithmetic as :func:`_fly_loop`'s
-    closed-form fast path in the same order, so the same numbers, bit for bit
+    supply; with inflow (``IPRM``/``IGEO`` of :func:`_inflow_or_empty`, empty: off) the bollard
+    thrusts are taken to each RK4 stage's advance speed (:func:`_vehicle_rk4_inflow`).  Only
+    what that mission uses is compiled, with nothing generic left in the step (no block
+    dispatch); the same arithmetic as :func:`_fly_loop`'s closed-form fast path in the same
+    order, so the same numbers, bit for bit
     (``tparams``/``poff``: the bank's parameters, blocks ESC, motor, map; ``cparams``/``cstate``
     the controller's, as :func:`_fly_loop`'s).  :func:`compiled_quad` builds it around a user's
     wrench controller."""
@@ -729,6 +736,9 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
     lag = np.ones((3, n))
     jtab = np.zeros(n, dtype=np.int64)
     still = vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
+    inflow = IPRM.size > 0
+    ua = np.zeros(n)
+    f0 = np.zeros(n)
     dvc = np.zeros(3)
     pe = poff[0]  # the ESC's parameters, the motor's (gain, time constant), the map's (k+, k−)
     pm = poff[1]
@@ -755,12 +765,21 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
                 for st in range(3):
                     xs = tgt[i] + (x0 - tgt[i]) * lag[st, i]
                     f = (tparams[i, pq] if xs >= 0.0 else tparams[i, pq + 1]) * (xs * abs(xs))
-                    th[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+                    if inflow:  # the bollard thrust; advance speed and η per RK4 stage
+                        th[st, i] = f
+                    else:
+                        th[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
             if sub == 0:
                 for i in range(n):
-                    F[k, i] = th[0, i]
+                    F[k, i] = th[0, i]  # with inflow: set by the RK4 step below
                     FDES[k, i] = fdes[i]
-            if still:
+            if inflow:
+                _vehicle_rk4_inflow(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, k1, k2, k3, k4,
+                                    fsc[6:12], eta_p, eta_n, IPRM, IGEO, ua, still, fsc, f0)
+                if sub == 0:
+                    for i in range(n):
+                        F[k, i] = f0[i]
+            elif still:
                 _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc)
             else:
                 _vehicle_rk4(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, K4, fsc[6:12], False, fsc)
@@ -1036,7 +1055,7 @@ class MissionResult(DictSummaryResult):
 
         from uuvid.vehicle.kinematics import quat_to_euler
 
-        eul = np.array([quat_to_euler(q) for q in self.state[:, 3:7]])
+        eul = quat_to_euler(self.state[:, 3:7])
         cols = {"time": self.t}
         for j, nm in enumerate(("north", "east", "down")):
             cols[nm] = self.state[:, j]
@@ -1451,8 +1470,8 @@ def mission_runner(setup: MissionSetup):
     (preallocated for the whole mission); ``compiled``: that loop is already compiled or loaded
     in this process.  The loop is :func:`fly_quad` for the configuration it is specialised to
     (a wrench controller — the built-in PID, cached, or the setup's, compiled around it by
-    :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, no inflow,
-    chains ESC → first-order motor → quadratic map), else the general :func:`fly` (built-in PID,
+    :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, inflow or
+    not, chains ESC → first-order motor → quadratic map), else the general :func:`fly` (built-in PID,
     no disturbance) or the loop compiled around the setup's controller and disturbance."""
     s = setup
     N = s.t.size
@@ -1470,7 +1489,7 @@ def mission_runner(setup: MissionSetup):
     IPRM, IGEO = _inflow_or_empty(s.inflow_arrays)
     c = s.controller
     if (s.disturbance is None and (c is None or c.output_code == 0) and not BAT.size
-            and not IPRM.size and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
+            and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
         loop, cpar, cstate0 = fly_quad, s.gains.to_array().ravel(), np.zeros(PID_STATE_SIZE)
         if c is not None:  # a wrench controller: the same loop compiled around it
             cfn, cpar = compiled_form(c)
@@ -1482,7 +1501,7 @@ def mission_runner(setup: MissionSetup):
         def run(k):
             loop(cpar, cstate0.copy(), z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, b.poff, b.params,
                  b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
-                 vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k])
+                 vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], IPRM, IGEO)
         compiled = bool(loop.signatures)
     elif s.controller is None and s.disturbance is None:  # the cached default kernel
         def run(k):

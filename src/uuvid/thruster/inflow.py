@@ -229,8 +229,9 @@ class FourQuadrantMap:
         return self.ct(beta) / self.ct(b0) * (1.0 + (np.asarray(ua, float) / vt) ** 2)
 
 
-#: Intervals of the C_T*(β) table a mission loop reads (:func:`inflow_params`): cubic Hermite
-#: pieces on a uniform grid over [−π, π] with the series' exact values and slopes at the nodes,
+#: Intervals of the C_T* table a mission loop reads (:func:`inflow_params`): cubic Hermite
+#: pieces on a uniform grid of the diamond angle (:func:`diamond_angle`) over [−2, 2) — a
+#: quarter of them per quadrant of β — with the series' exact values and slopes at the nodes,
 #: within 1e-11 of the series (of C_T*, whose peak is ~1) for the 21-term published map
 #: (tests/test_inflow.py), and as cheap for a 21-term series as for a 5-term one.
 INFLOW_TABLE_INTERVALS = 8192
@@ -238,18 +239,44 @@ INFLOW_TABLE_INTERVALS = 8192
 INFLOW_TABLE_OFFSET = 6
 
 
+def diamond_angle(ua, vt) -> np.ndarray:
+    """The diamond angle ``p ∈ [−2, 2]`` of the point ``(vt, ua)``: ``q = u_a/(|u_a| + |v_t|)``,
+    ``p = q`` ahead (``v_t ≥ 0``, β ∈ [−π/2, π/2]) and ``p = ±2 − q`` astern (sign of ``u_a``).
+    It is monotone in the advance angle ``β = atan2(u_a, v_t)`` and equal to it at 0, ±π/2 (as
+    ±1) and ±π (as ±2), and it costs a division instead of an ``atan2``: the loops' table of
+    ``C_T*`` is uniform in ``p`` (:func:`ct_table`)."""
+    ua, vt = np.asarray(ua, float), np.asarray(vt, float)
+    q = ua / (np.abs(ua) + np.abs(vt))
+    return np.where(vt >= 0.0, q, np.copysign(2.0, ua) - q)
+
+
+def diamond_to_beta(p) -> tuple[np.ndarray, np.ndarray]:
+    """``(β, dβ/dp)`` at diamond angles ``p`` (:func:`diamond_angle`): on the diamond
+    ``|s| + |c| = 1`` with ``s = sin``-side, ``c = cos``-side coordinates linear in ``p``,
+    ``β = atan2(s, c)`` and ``dβ/dp = 1/(s² + c²)``."""
+    p = np.asarray(p, float)
+    s = np.where(np.abs(p) <= 1.0, p, np.copysign(2.0, p) - p)
+    c = 1.0 - np.abs(p)
+    return np.arctan2(s, c), 1.0 / (s * s + c * c)
+
+
 def ct_table(fq: FourQuadrantMap, intervals: int = INFLOW_TABLE_INTERVALS) -> np.ndarray:
     """``(intervals, 4)`` cubic coefficients ``c0 + c1 t + c2 t² + c3 t³`` (``t`` ∈ [0, 1] across
-    an interval) of ``C_T*(β)`` on the uniform grid ``β_j = −π + 2πj/intervals``: Hermite pieces
-    through the series' values (:meth:`FourQuadrantMap.ct`) and slopes
-    ``dC_T*/dβ = Σ k (b_k cos kβ − a_k sin kβ)``."""
+    an interval) of ``C_T*`` on the uniform grid of diamond angles ``p_j = −2 + 4j/intervals``
+    (:func:`diamond_angle`): Hermite pieces through the series' values (:meth:`FourQuadrantMap.ct`)
+    at ``β(p_j)`` and slopes ``dC_T*/dp = dβ/dp · Σ k (b_k cos kβ − a_k sin kβ)``.  ``β(p)`` is
+    smooth inside each quadrant and the quadrants' edges are nodes (``intervals`` a multiple of
+    4), so each piece interpolates a smooth function."""
     N = int(intervals)
-    h = 2.0 * math.pi / N
-    b = -math.pi + h * np.arange(N + 1)
+    if N % 4:
+        raise ValueError(f"the C_T* table needs a multiple of 4 intervals, got {N}")
+    h = 4.0 / N
+    b, dbdp = diamond_to_beta(-2.0 + h * np.arange(N + 1))
     k = np.arange(len(fq.ct_a))
     kb = k * b[:, None]
     f = fq.ct(b)
-    d = h * (k * (np.asarray(fq.ct_b) * np.cos(kb) - np.asarray(fq.ct_a) * np.sin(kb))).sum(-1)
+    d = h * dbdp * (k * (np.asarray(fq.ct_b) * np.cos(kb)
+                         - np.asarray(fq.ct_a) * np.sin(kb))).sum(-1)
     f0, f1, d0, d1 = f[:-1], f[1:], d[:-1], d[1:]
     return np.column_stack([f0, d0, 3.0 * (f1 - f0) - 2.0 * d0 - d1, 2.0 * (f0 - f1) + d0 + d1])
 
@@ -257,7 +284,7 @@ def ct_table(fq: FourQuadrantMap, intervals: int = INFLOW_TABLE_INTERVALS) -> np
 def inflow_params(fq: FourQuadrantMap, rho: float = RHO_FRESH,
                   intervals: int = INFLOW_TABLE_INTERVALS) -> np.ndarray:
     """Flat parameters of :func:`inflow_thrust_nb`: ``[0.7πD, ⅛πρD², 1/(ρ|K_T0|D⁴) ahead, the same
-    astern, N, N/(2π), the C_T* table (N × 4, :func:`ct_table`), K, the series' K cos and K sin
+    astern, N, N/4, the C_T* table (N × 4, :func:`ct_table`), K, the series' K cos and K sin
     coefficients]`` (the constants precomputed: the loop calls it per thruster and RK4 stage; the
     series itself is for the SIMD batch kernel, :func:`inflow_series`).  Built once per map (the
     map is frozen); each call returns a fresh copy."""
@@ -270,7 +297,7 @@ def _inflow_params(fq: FourQuadrantMap, rho: float, intervals: int) -> np.ndarra
     head = [0.7 * math.pi * D, 0.125 * math.pi * rho * D * D,
             1.0 / (rho * abs(fq.bollard_kt(1)) * D ** 4),
             1.0 / (rho * abs(fq.bollard_kt(-1)) * D ** 4),
-            float(intervals), intervals / (2.0 * math.pi)]
+            float(intervals), intervals / 4.0]
     assert len(head) == INFLOW_TABLE_OFFSET
     return np.concatenate([head, ct_table(fq, intervals).ravel(), [len(fq.ct_a)], fq.ct_a,
                            fq.ct_b]).astype(np.float64)
@@ -291,13 +318,15 @@ def inflow_thrust_nb(f, ua, prm):
     sqrt(|f| / (ρ |K_T0| D⁴))``; the thrust is then the map's ``T(n, u_a)``.  For ``f ≠ 0`` this is
     ``f · T(n, u_a)/T(n, 0)``, so the chain's own bollard calibration is kept; ``u_a = 0`` returns
     ``f`` itself (bit for bit: the bollard model is the zero-advance case).  ``prm``:
-    :func:`inflow_params` (``C_T*(β)`` read from its cubic table: one table step whatever the
-    series' order).  This is the evaluation a mission loop calls per thruster and stage."""
+    :func:`inflow_params` (``C_T*`` read from its cubic table in the diamond angle: one division
+    and one table step, no ``atan2``, whatever the series' order).  This is the evaluation a
+    mission loop calls per thruster and stage."""
     if ua == 0.0:
         return f
     c = prm[2] if f >= 0.0 else prm[3]
     vt = prm[0] * math.copysign(math.sqrt(abs(f) * c), f)  # 0.7π n D
-    x = (math.atan2(ua, vt) + math.pi) * prm[5]  # β on the table's grid, [0, N]
+    q = ua / (abs(ua) + abs(vt))  # the diamond angle of (vt, ua), monotone in β (diamond_angle)
+    x = ((q if vt >= 0.0 else math.copysign(2.0, ua) - q) + 2.0) * prm[5]  # on the grid, [0, N]
     j = min(int(x), int(prm[4]) - 1)
     t = x - j
     o = 6 + 4 * j
