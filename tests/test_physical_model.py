@@ -265,3 +265,30 @@ def test_t200_curvature_beats_linear_duty(t200, t200_fits):
     chain = lin.model.to_chain(14.0)
     u = np.array([1150.0, 1300.0, 1700.0, 1850.0])
     np.testing.assert_allclose(chain.sweep(u).final, lin.model.thrust(u, 14.0), rtol=1e-6)
+
+
+def test_compiled_predict_is_the_numpy_form_bit_for_bit():
+    """predict runs a compiled kernel (physical_kernel.steady_state_nb) for the battery and hold
+    analyses; it must give the NumPy form's numbers exactly — every field, every broadcast shape,
+    both directions, the dead band, a NaN command — and refuse the same voltages."""
+    from uuvid.thruster.physical import physical_model
+
+    rng = np.random.default_rng(4)
+    for m in (physical_model("t200-physical"),
+              PhysicalModel(back_emf_constant=0.02, resistance=0.3, kq_fwd=2e-7, kq_rev=3e-7,
+                            kt_fwd=1e-5, kt_rev=8e-6, viscous=1e-5, coulomb=0.01,
+                            edge_fwd=1540.0, edge_rev=1460.0, full_fwd=1900.0, full_rev=1100.0,
+                            curvature_fwd=-0.3, curvature_rev=0.4)):
+        cases = [(np.linspace(m.full_rev - 50, m.full_fwd + 50, 1201), 16.0),
+                 (rng.uniform(m.full_rev, m.full_fwd, (30, 7)), rng.uniform(8, 20, (30, 7))),
+                 (m.neutral, 12.0), (np.array([np.nan, m.full_rev, m.full_fwd, m.neutral]), 14.0),
+                 (np.array([1700.0]), np.array([[12.0], [16.0]])), (1700.0, np.array([12.0, 16.0]))]
+        for c, v in cases:
+            got, want = m.predict(c, v), m._predict_numpy(c, v)
+            for f in ("command", "supply_voltage", "duty", "voltage", "speed", "thrust",
+                      "motor_current", "current", "torque"):
+                a, b = getattr(got, f), getattr(want, f)
+                assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), f
+        for bad in (0.0, -3.0, np.nan, np.inf, np.array([12.0, np.nan])):
+            with pytest.raises(ValueError, match="supply voltage"):
+                m.predict(1600.0, bad)

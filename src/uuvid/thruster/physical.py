@@ -135,11 +135,42 @@ class PhysicalModel:
         return np.where(c > self.edge_fwd, d_f, np.where(c < self.edge_rev, -d_r, 0.0))
 
     def predict(self, command, supply_voltage) -> Prediction:
-        """Steady thrust, speed, currents at commands ``command`` and supply voltage(s)."""
+        """Steady thrust, speed, currents at commands ``command`` and supply voltage(s)
+        (compiled, :func:`uuvid.thruster.physical_kernel.steady_state_nb`: the arithmetic of
+        :meth:`duty` and the steady motor/propeller balance, element by element)."""
+        from uuvid.thruster.physical_kernel import steady_state_nb
+
+        c = np.asarray(command, dtype=float)
+        vs = np.asarray(supply_voltage, dtype=float)
+        if vs.ndim == 0 and c.ndim > 0:  # one voltage for every command (a grid)
+            vflat, vs = vs.reshape(1), np.broadcast_to(vs, c.shape)
+        else:
+            if c.shape != vs.shape:
+                c, vs = np.broadcast_arrays(c, vs)
+            vflat = np.ascontiguousarray(vs).ravel()
+        out = np.empty((7, c.size))
+        if steady_state_nb(np.ascontiguousarray(c).ravel(), vflat, self._kernel_params(),
+                           out) >= 0:
+            raise ValueError("supply voltage must be positive and finite")
+        d, v, speed, thrust, im, cur, torque = (o.reshape(c.shape) for o in out)
+        return Prediction(command=c, supply_voltage=vs, duty=d, voltage=v, speed=speed,
+                          thrust=thrust, motor_current=im, current=cur, torque=torque)
+
+    def _kernel_params(self) -> np.ndarray:
+        """The model's numbers in the order of :data:`uuvid.thruster.physical_kernel.PARAMS`
+        (built once: the model is frozen)."""
+        p = self.__dict__.get("_kp")
+        if p is None:
+            from uuvid.thruster.physical_kernel import PARAMS
+
+            p = np.array([float(getattr(self, k)) for k in PARAMS])
+            object.__setattr__(self, "_kp", p)
+        return p
+
+    def _predict_numpy(self, command, supply_voltage) -> Prediction:
+        """The NumPy form of :meth:`predict` (the reference its compiled kernel is tested against)."""
         c, vs = np.broadcast_arrays(np.asarray(command, dtype=float),
                                     np.asarray(supply_voltage, dtype=float))
-        if np.any(~np.isfinite(vs) | (vs <= 0)):
-            raise ValueError("supply voltage must be positive and finite")
         d = self.duty(c)
         v = d * vs
         sgn = np.sign(v)

@@ -343,6 +343,7 @@ class Allocator:
         if q.shape != (m,) or np.any(~np.isfinite(q)) or np.any(q <= 0):
             raise ValueError(f"priority must be {m} positive numbers, got {q}")
         object.__setattr__(self, "priority", q)
+        object.__setattr__(self, "_arrays", {})  # to_array per method, built once (frozen)
 
     @property
     def n(self) -> int:
@@ -429,7 +430,7 @@ class Allocator:
             raise ValueError(f"requested force must have {self.B.shape[0]} components")
         ep, en = self.eta
         tau = np.empty(self.n)
-        frac = float(allocate_compiled(self.to_array(method), phi, tau))
+        frac = float(allocate_compiled(self._array(method), phi, tau))
         tau0 = self.nominal(phi)
         lo, hi = self.limits[:, 0], self.limits[:, 1]
         delivered = apply_eta(tau, ep, en)
@@ -462,7 +463,18 @@ class Allocator:
                          np.where(tau < 0, self.limits[:, 0] / tau, np.inf))
         return float(np.min(r)) if r.size else math.inf
 
+    def _array(self, method: str) -> np.ndarray:
+        """:meth:`to_array`, built once per method (the allocator is frozen), not to be written."""
+        a = self._arrays.get(method)
+        if a is None:
+            a = self._arrays[method] = self._build_array(method)
+        return a
+
     def to_array(self, method: str = "priority") -> np.ndarray:
+        """Flat parameters of :func:`allocate_compiled` for a saturation ``method`` (a copy)."""
+        return self._array(method).copy()
+
+    def _build_array(self, method: str) -> np.ndarray:
         """Flat parameters of :func:`allocate_compiled` for a saturation ``method``.
 
         Layout: ``[n, m, compensate, T (n·m, row-major), lower (n), upper (n), η₊ (n), η₋ (n),
