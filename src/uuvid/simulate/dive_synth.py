@@ -150,31 +150,6 @@ def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_t
     return integ
 
 
-@njit(cache=True)
-def _rk4_held(x, TAU, p, h, X):
-    """``X[0] = x``, then RK4 steps of :func:`uuvid.vehicle.model.vehicle_rhs` with the wrench
-    ``TAU[i]`` held over step ``i`` (quaternion normalised after each)."""
-    X[0] = x
-    z = np.empty(13)
-    for i in range(TAU.shape[0] - 1):
-        tau6 = TAU[i]
-        k1 = vehicle_rhs(x, tau6, p)
-        for m in range(13):
-            z[m] = x[m] + 0.5 * h * k1[m]
-        k2 = vehicle_rhs(z, tau6, p)
-        for m in range(13):
-            z[m] = x[m] + 0.5 * h * k2[m]
-        k3 = vehicle_rhs(z, tau6, p)
-        for m in range(13):
-            z[m] = x[m] + h * k3[m]
-        k4 = vehicle_rhs(z, tau6, p)
-        for m in range(13):
-            x[m] = x[m] + h / 6 * (k1[m] + 2 * k2[m] + 2 * k3[m] + k4[m])
-        normalise_state(x)
-        X[i + 1] = x
-    return X
-
-
 def _stamps(rng, t0, t1, rate, jitter=0.3):
     dt = 1.0 / rate
     n = int((t1 - t0) / dt) + 2
@@ -423,8 +398,9 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     import pandas as pd
 
     from uuvid.io.ardusub.thrust import default_t200
+    from uuvid.simulate.station_keeping import rk4_held
     from uuvid.vehicle.horizontal import horizontal_params
-    from uuvid.vehicle.model import make_state
+    from uuvid.vehicle.model import P_VC, make_state
 
     rng = np.random.default_rng(seed)
     veh, pt = horizontal_truth_vehicle(vehicle)
@@ -472,7 +448,14 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     TAU = T @ B.T
     TAU[:, 2:5] = 0.0
     x = make_state(rpy=(0, 0, rng.uniform(-np.pi, np.pi)))
-    X = _rk4_held(x, np.ascontiguousarray(TAU), p, DT, np.empty((n + 1, 13)))
+    X = np.empty((n + 1, 13))
+    X[0] = x
+    TAU = np.ascontiguousarray(TAU)
+    vc, dvc = np.ascontiguousarray(p[P_VC:P_VC + 3]), np.zeros(3)  # vehicle_rhs's current
+    k1, k2, k3, k4, zt = (np.empty(13) for _ in range(5))
+    for i in range(n):  # one compiled RK4 step of vehicle_rhs per call, the wrench held
+        rk4_held(x, TAU[i], p, vc, DT, 1, dvc, k1, k2, k3, k4, zt)
+        X[i + 1] = x
     qw, qx, qy, qz = X[:, 3], X[:, 4], X[:, 5], X[:, 6]
     yaw_true = np.unwrap(np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
     t_y = _stamps(rng, 0.0, duration, yaw_rate, jitter)
