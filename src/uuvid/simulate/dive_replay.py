@@ -38,7 +38,7 @@ from uuvid.simulate.dive_horizontal import (
 )
 
 __all__ = ["OneDofParams", "DiveReplay", "replay_dive", "dive_windows", "WindowProblem",
-           "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON"]
+           "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON", "RK4_LIMIT"]
 
 CHANNEL_NAMES = {"heave": "depth", "yaw": "heading", "surge": "u", "sway": "v"}
 UNITS = {"heave": "m", "yaw": "rad", "surge": "m/s", "sway": "m/s"}
@@ -215,6 +215,20 @@ class WindowProblem:
             X = V
         return X, V
 
+    def stiffness(self, theta, y0, v0) -> np.ndarray:
+        """Per window the largest ``h·(k + k_a c + 2 k_q |v|)/m`` along its replay: the step times
+        the local rate ``−∂v̇/∂v``.  Beyond :data:`RK4_LIMIT` the fixed RK4 step amplifies instead
+        of damping (the replay is then not the model's solution: its sensitivity to the
+        parameters grows without bound, and ``predict`` may overflow)."""
+        m, k, kq = theta[0], theta[1], theta[2]
+        ka = theta[4] if len(theta) > 4 else 0.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            _, V = self.simulate(theta, y0, v0)
+            K = k + (ka * self.Ch[:, ::2] if ka != 0.0 and self.Ch is not None else 0.0)
+            lam = self.h * (K + 2 * max(kq, 0.0) * np.abs(V)) / m
+            lam = np.where(np.isfinite(lam), lam, np.inf)
+        return lam.max(axis=1)
+
     def predict(self, theta, y0, v0):
         """The model's output at every measured sample's own stamp (NaN/inf where a window's
         simulation blows up, e.g. under a trial step of the optimiser)."""
@@ -229,6 +243,7 @@ class WindowProblem:
                 + (s3 - s2) * d1)
 
 
+RK4_LIMIT = 2.785  # −z where RK4's amplification 1 + z + z²/2 + z³/6 + z⁴/24 reaches 1 (real axis)
 _STATE_SPAN = {"heave": 2.0, "yaw": 0.5, "surge": 1.0, "sway": 1.0}  # initial-state fit [s]
 
 

@@ -53,6 +53,7 @@ import numpy as np
 from uuvid.core.result import Result
 from uuvid.identify.vehicle.output_error import (
     best_starts,
+    blown_windows,
     correlation_warnings,
     covariance,
     dead_band_weights,
@@ -68,6 +69,7 @@ from uuvid.simulate.dive_replay import (
     DEFAULT_HORIZON,
     SURFACE_M,
     UNITS,
+    RK4_LIMIT,
     OneDofParams,
     WindowProblem,
     _dof_list,
@@ -493,23 +495,36 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     def jac(z):
         # globals by forward differences; each window's nuisance touches only its own rows, so
         # all windows' y0 (then v0) are perturbed at once
+        # (a window whose perturbed replay blew up gives no information in that direction:
+        # blown_windows zeroes it and the windows are reported with the fit)
         r0 = resid(z)
         J = np.zeros((N, P))
+        blown = np.zeros(W, bool)
         for i in range(NP):
             dz = 1e-6 * max(abs(z[i]), 1e-3)
             zz = z.copy()
             zz[i] += dz
-            J[:, i] = (resid(zz) - r0) / dz
+            dr, b = blown_windows(resid(zz) - r0, prob.w, W)
+            J[:, i] = dr / dz
+            blown |= b
         for j in range(n_nuis):
             sl = slice(NP + j * W, NP + (j + 1) * W)
             d = 1e-6 * np.maximum(np.abs(z[sl]), 1e-2)
             zz = z.copy()
             zz[sl] += d
-            J[rows, NP + j * W + prob.w] = (resid(zz) - r0) / d[prob.w]
-        bad = ~np.isfinite(J)
-        if bad.any():  # a perturbed window blew up: no information from it in this direction
-            J[bad] = 0.0
+            dr, b = blown_windows(resid(zz) - r0, prob.w, W)
+            J[rows, NP + j * W + prob.w] = dr / d[prob.w]
+            blown |= b
+        th, y0, v0 = unpack(z)
+        stiff = prob.stiffness(th, y0, v0 if v0 is not None else np.zeros(W))
+        unstable = stiff > RK4_LIMIT  # the replay there is not the model's solution
+        J[unstable[prob.w], :] = 0.0
+        J[~np.isfinite(J)] = 0.0
+        blown_at.clear()
+        blown_at[z.tobytes()] = (blown | unstable, stiff)
         return J
+
+    blown_at: dict = {}
 
     free = np.ones(P, bool)
     sol, sol_cost = None, math.inf
@@ -528,6 +543,19 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             + f": kept the fit from the {kept} start (lowest cost)")
     th = sol["x"][:NP]
     J = sol["jac"][:, free]
+    if sol["x"].tobytes() not in blown_at:  # the last Jacobian was another start's
+        J = jac(sol["x"])[:, free]
+    blown, stiff = blown_at[sol["x"].tobytes()]
+    warns_pre = []
+    if blown.any():
+        ts = ", ".join(f"{windows[k][0]:.1f}" for k in np.flatnonzero(blown)[:6])
+        more = f" (and {int(blown.sum()) - 6} more)" if blown.sum() > 6 else ""
+        warns_pre.append(
+            f"{int(blown.sum())} window(s) (starting at t = {ts} s{more}) are too stiff for the "
+            f"replay's fixed RK4 step of {prob.h:.3g} s at the fitted model (step × drag rate "
+            f"h·(k + 2k_q|v|)/m up to {float(np.max(stiff[blown])):.3g}; RK4 is stable below "
+            f"{RK4_LIMIT}) or blew up when a parameter moved by 1e-6 of its value: they are "
+            "left out of the standard errors; replays there are not the model's solution")
     sd_f, corr_f = covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:NP])))
     sd, corr = np.zeros(NP), np.eye(NP)
     fi = np.flatnonzero(free[:NP])
@@ -535,7 +563,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     corr[np.ix_(fi, fi)] = corr_f
     values = {k: float(v) for k, v in zip(names, th)}
     sigma = {k: float(v) for k, v in zip(names, sd)}
-    warns = correlation_warnings(names, corr, RHO_LIMIT)
+    warns = warns_pre + correlation_warnings(names, corr, RHO_LIMIT)
     if gain is not None:
         warns += inflow_warnings(values, sigma, corr)
     for k in ("linear", "quadratic"):

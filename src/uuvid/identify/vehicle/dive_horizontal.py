@@ -38,6 +38,7 @@ import numpy as np
 
 from uuvid.core.threads import small_blas
 from uuvid.identify.vehicle.output_error import (
+    blown_windows,
     correlation_warnings,
     covariance,
     dead_band_weights,
@@ -285,10 +286,11 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
         for j in range(4):
             xs[1 + _NP + j, :, j] += dx[:, j]
         R = (prob.predict_many(ths, xs) - prob.y) * rw
+        dR, _ = blown_windows((R[1:] - R[0]).T, prob.w, W)  # a blown-up window: no information
         J = np.zeros((N, P))
-        J[:, :_NP] = ((R[1:1 + _NP] - R[0]) / dth[:, None]).T
+        J[:, :_NP] = dR[:, :_NP] / dth
         for j in range(4):
-            J[rows, _NP + j * W + prob.w] = (R[1 + _NP + j] - R[0]) / dx[prob.w, j]
+            J[rows, _NP + j * W + prob.w] = dR[:, _NP + j] / dx[prob.w, j]
         J[~np.isfinite(J)] = 0.0
         return J
 

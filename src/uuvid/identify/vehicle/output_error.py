@@ -100,27 +100,59 @@ def best_starts(cost, candidates, keep: int = 2) -> list:
     return sorted(out, key=lambda x: x[0]) or [first]
 
 
+BLOWN_UP = 1e6  # a residual change this large from a 1e-6 relative perturbation: the replay blew up
+
+
+def blown_windows(delta, groups, n_windows: int):
+    """``(delta, blown)``: residual changes ``delta`` (rows, or rows × perturbations) of a
+    forward-difference Jacobian with every window in which a perturbed replay blew up set to 0
+    for that perturbation, and the boolean mask of those windows.
+
+    A window blows up when a change is not finite or beyond :data:`BLOWN_UP` (outputs are metres,
+    radians, m/s): an explicit RK4 step near its stability limit (stiff drag at speed) turns a
+    1e-6 nudge into an overflow, and the finite entries before the overflow (1e270 was seen) are
+    as meaningless as the inf after it, and would overflow ``JᵀJ``.  Such a window gives no
+    information in that direction."""
+    d = np.asarray(delta, float)
+    d2 = d.reshape(d.shape[0], -1)
+    with np.errstate(invalid="ignore"):
+        bad = ~(np.abs(d2) <= BLOWN_UP)
+    if not bad.any():
+        return d, np.zeros(n_windows, bool)
+    per = np.stack([np.bincount(groups, weights=bad[:, k], minlength=n_windows) > 0
+                    for k in range(d2.shape[1])], axis=1)
+    out = np.where(per[groups], 0.0, d2).reshape(d.shape)
+    return out, per.any(axis=1)
+
+
 def covariance(J, r, groups, n_glob):
     """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
     the fit, so their uncertainty is accounted for): per parameter the larger of the classical
     ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
     classical matrix where the sandwich is degenerate)."""
     N, P = J.shape
-    A = J.T @ J
+    nan = np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
+    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(r))):
+        return nan
+    # columns scaled to unit largest entry before JᵀJ (a column of 1e200 would overflow it; the
+    # scaling is undone exactly on the inverse: (JᵀJ)⁺ = D⁻¹ (JₛᵀJₛ)⁺ D⁻¹ for full rank)
+    scale = np.max(np.abs(J), axis=0)
+    scale[scale == 0] = 1.0
+    Js = J / scale
     try:
-        Ainv = np.linalg.pinv(A)
+        Ainv = np.linalg.pinv(Js.T @ Js)
     except np.linalg.LinAlgError:
-        return np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
+        return nan
     s2 = float(r @ r) / max(N - P, 1)
-    c = (s2 * Ainv)[:n_glob, :n_glob]
+    c = (s2 * Ainv)[:n_glob, :n_glob]  # in the scaled parameters: σ_i = σ_s,i / scale_i
     meat = np.zeros((P, P))
     for g in np.unique(groups):
         sel = groups == g
-        gw = J[sel].T @ r[sel]
+        gw = Js[sel].T @ r[sel]
         meat += np.outer(gw, gw)
     G = np.unique(groups).size
     rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
-    sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb)))
+    sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb))) / scale[:n_glob]
     use = rb if np.all(np.diag(rb) > 0) else c
     d = np.sqrt(np.maximum(np.diag(use), 1e-300))
     return sd, use / np.outer(d, d)

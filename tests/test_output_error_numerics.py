@@ -1,0 +1,97 @@
+"""Numerical guards of the dive output-error fit: a replay beyond RK4's stability limit, a window
+that blows up under a finite-difference nudge, and a Jacobian column too large for ``JᵀJ``."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from uuvid.identify.vehicle.output_error import BLOWN_UP, blown_windows, covariance
+from uuvid.simulate.dive_replay import RK4_LIMIT, WindowProblem
+
+
+class _Channels:
+    """The least a :class:`WindowProblem` reads: named channels ``(t, values)``."""
+
+    def __init__(self, t, u, force):
+        self.name = "synthetic"
+        self.channels = {"u_mps": (t, u), "X_N": (t, force)}
+
+
+def _surge_problem(n_windows=3, horizon=5.0):
+    t = np.arange(0.0, n_windows * horizon + 1.0, 0.1)
+    u = 0.5 + 0.1 * np.sin(t)
+    wins = [(k * horizon, (k + 1) * horizon) for k in range(n_windows)]
+    return WindowProblem(_Channels(t, u, np.zeros_like(t)), "surge", wins)
+
+
+def test_rk4_limit_is_where_the_amplification_reaches_one():
+    z = -RK4_LIMIT
+    amp = 1 + z + z ** 2 / 2 + z ** 3 / 6 + z ** 4 / 24
+    assert abs(amp - 1.0) < 1e-3
+    for zz in (-RK4_LIMIT + 0.05, -1.0, -0.1):
+        assert abs(1 + zz + zz ** 2 / 2 + zz ** 3 / 6 + zz ** 4 / 24) < 1.0
+
+
+@pytest.mark.parametrize("margin, grows", [(0.9, False), (1.1, True)])
+def test_stiffness_says_when_the_replay_amplifies(margin, grows):
+    """Linear drag only: the stiffness is ``h k / m`` exactly, and a replay from a nonzero
+    velocity with no force decays below the limit and grows beyond it."""
+    prob = _surge_problem()
+    m = 10.0
+    k = margin * RK4_LIMIT * m / prob.h
+    theta = np.array([m, k, 0.0, 0.0])
+    v0 = np.full(prob.W, 1.0)
+    st = prob.stiffness(theta, v0, v0)
+    assert np.allclose(st, prob.h * k / m, rtol=1e-12)
+    _, V = prob.simulate(theta, v0, v0)
+    assert (np.abs(V[:, -1]).max() > 1.0) == grows
+
+
+def test_stiffness_counts_quadratic_drag_at_twice_its_rate():
+    prob = _surge_problem()
+    theta = np.array([10.0, 0.0, 4.0, 0.0])  # d(k_q v|v|)/dv = 2 k_q |v|
+    v0 = np.full(prob.W, 2.0)
+    st = prob.stiffness(theta, v0, v0)
+    assert np.allclose(st, prob.h * 2 * 4.0 * 2.0 / 10.0, rtol=1e-12)  # largest |v| is the start
+
+
+def test_blown_windows_zero_the_whole_window_only_in_that_direction():
+    groups = np.repeat(np.arange(3), 4)
+    delta = np.tile(np.linspace(0.1, 0.4, 4), 3)[:, None].repeat(2, axis=1)
+    delta[4:6, 0] = [1e270, np.inf]      # window 1 overflows under perturbation 0: huge, then inf
+    delta[9, 1] = 10 * BLOWN_UP          # window 2 grows past the bound under perturbation 1
+    out, blown = blown_windows(delta, groups, 3)
+    assert blown.tolist() == [False, True, True]
+    assert np.all(out[4:8, 0] == 0) and np.all(out[4:8, 1] == delta[4:8, 1])
+    assert np.all(out[8:12, 1] == 0) and np.all(out[8:12, 0] == delta[8:12, 0])
+    assert np.all(out[0:4] == delta[0:4])
+    same, none = blown_windows(delta[:4], groups[:4], 3)  # nothing blown: unchanged
+    assert not none.any() and np.array_equal(same, delta[:4])
+
+
+def test_covariance_is_scale_free_and_does_not_overflow():
+    """Scaling a parameter by s scales its σ by 1/s: a column of 1e250 (σ 1e-250) gives finite
+    numbers, no overflow warning, and the same correlations."""
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(200, 3))
+    r = rng.normal(size=200) * 0.1
+    groups = np.repeat(np.arange(20), 10)
+    sd, corr = covariance(J, r, groups, 3)
+    Js = J.copy()
+    Js[:, 1] *= 1e250
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sd2, corr2 = covariance(Js, r, groups, 3)
+    assert np.allclose(sd2 * [1, 1e250, 1], sd, rtol=1e-10)
+    assert np.allclose(corr2, corr, atol=1e-12)
+    # the classical part is s²(JᵀJ)⁻¹ with s² from the residuals
+    s2 = r @ r / (200 - 3)
+    assert np.all(sd >= np.sqrt(np.diag(s2 * np.linalg.inv(J.T @ J))) * (1 - 1e-12))
+
+
+def test_covariance_of_a_non_finite_jacobian_is_nan_not_garbage():
+    J = np.ones((10, 2))
+    J[3, 1] = np.inf
+    sd, corr = covariance(J, np.ones(10), np.zeros(10, int), 2)
+    assert np.all(np.isnan(sd)) and np.all(np.isnan(corr))
