@@ -141,3 +141,22 @@ def test_fisher_bad_input():
         linearised_drag(-1.0, 0.0, 0.1)
     with pytest.raises(ValueError, match="mass_range"):
         robust_frequency(10.0, (5.0, 1.0))
+
+
+@pytest.mark.parametrize("a", [0.05, 0.4, 3.0])
+def test_vectorised_grid_is_the_one_frequency_fisher_information(a):
+    """The grid of d_optimal_frequency evaluates every ω at once: the same log det M(ω) as
+    fisher_information one ω at a time, and the same best grid point."""
+    from uuvid.identify.vehicle.design import _logdet_grid
+
+    omegas = np.exp(np.linspace(math.log(a / 100), math.log(a * 100), 97))
+    grid = _logdet_grid(omegas, a, "numeric")
+    one = []
+    for w in omegas:
+        s, ld = np.linalg.slogdet(fisher_information(w, a, 1.0))
+        one.append(ld if s > 0 else -np.inf)
+    one = np.array(one)
+    fin = np.isfinite(one)
+    assert np.array_equal(np.isfinite(grid), fin)
+    assert np.allclose(grid[fin], one[fin], rtol=0, atol=1e-8)
+    assert np.argmax(grid) == np.argmax(one)

@@ -414,3 +414,30 @@ def test_validate_one_dof():
     assert val["nrmse"] < 0.02
     worse = validate_one_dof(OneDofModel(600.0, 46.9, 250.0), t, u, truth, xi0=0.0)
     assert worse["nrmse"] > 3 * val["nrmse"]
+
+
+def test_spike_statistic_is_the_nan_median_of_the_neighbours():
+    """``_spikes`` takes each window's median from one sort of the rows: the value of
+    ``np.nanmedian`` (the middle non-NaN neighbour, or the mean of the two), for every count of
+    missing neighbours, bit for bit."""
+    import warnings
+
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    from uuvid.identify.vehicle.segments import _spikes
+
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        n = int(rng.integers(1, 50))
+        h = int(rng.integers(1, 7))
+        r = rng.normal(size=n)
+        inl = np.where(rng.random(n) < rng.random(), np.nan, r)
+        all_ = np.where(rng.random(n) < 0.1, np.nan, r)
+        pad = np.concatenate([np.full(h, np.nan), inl, np.full(h, np.nan)])
+        win = sliding_window_view(pad, 2 * h + 1).copy()
+        win[:, h] = np.nan
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            ref = np.nanmedian(win, axis=1)
+        want = all_ - np.where(np.isfinite(ref), ref, 0.0)
+        assert np.array_equal(_spikes(inl, all_, h), want, equal_nan=True)

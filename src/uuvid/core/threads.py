@@ -17,6 +17,10 @@ import sys
 
 #: Problems with at most this many unknowns are "small": one BLAS thread.
 SMALL_PROBLEM_COLUMNS = 64
+#: Matrices with at most this many entries never start BLAS threads (OpenBLAS runs a level-2/3
+#: call on one thread below 2304 × 4 = 9216 entries): nothing to limit, and entering the limit
+#: (~70 µs) would cost more than the solve.
+TINY_PROBLEM_ENTRIES = 4096
 
 
 @functools.lru_cache(maxsize=2)
@@ -30,9 +34,14 @@ def _controller(scipy_loaded: bool):
 
 
 @contextlib.contextmanager
-def small_blas(columns: int = 0, threads: int = 1):
+def small_blas(columns: int = 0, threads: int = 1, entries: int | None = None):
     """Limit the BLAS thread pools to ``threads`` inside the block when the problem has at most
-    :data:`SMALL_PROBLEM_COLUMNS` unknowns (``columns``); larger problems keep their threads."""
+    :data:`SMALL_PROBLEM_COLUMNS` unknowns (``columns``); larger problems keep their threads, and
+    a matrix of at most :data:`TINY_PROBLEM_ENTRIES` ``entries`` is left alone (BLAS runs it on
+    one thread anyway)."""
+    if entries is not None and entries <= TINY_PROBLEM_ENTRIES:
+        yield
+        return
     ctl = _controller("scipy.linalg" in sys.modules) if columns <= SMALL_PROBLEM_COLUMNS else None
     if ctl is None:
         yield

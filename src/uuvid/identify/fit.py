@@ -312,6 +312,17 @@ def _sandwich(H: np.ndarray, r: np.ndarray, bread: np.ndarray, cov_type: str, la
     return bread @ meat @ bread * n / max(n - p, 1)
 
 
+def lsq_solution(H: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``θ`` minimising ``|y − Hθ|`` (columns scaled to unit norm, ``lstsq``): the estimate of
+    :func:`linear_lsq` alone, bit for bit, for loops that need no statistics (iterated
+    re-weighting, outlier rejection)."""
+    norms = np.linalg.norm(H, axis=0)
+    scale = np.where(norms > 0, norms, 1.0)
+    with small_blas(H.shape[1], entries=H.size):
+        theta_s, *_ = np.linalg.lstsq(H / scale, y, rcond=None)
+    return theta_s / scale
+
+
 def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequence[str] | None = None,
                weights=None, cov_type: str = "classical", hac_lags: int | None = None,
                emit_warnings: bool = True, extra: dict | None = None) -> Fit:
@@ -339,11 +350,7 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
         Hw, yw = H * w[:, None], y * w
     else:
         Hw, yw = H, y
-    norms = np.linalg.norm(Hw, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
-    with small_blas(p):
-        theta_s, *_ = np.linalg.lstsq(Hw / scale, yw, rcond=None)
-    theta = theta_s / scale
+    theta = lsq_solution(Hw, yw)
     r = yw - Hw @ theta
     dof = max(n - p, 1)
     sigma2 = float(r @ r / dof)

@@ -61,7 +61,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.identify.fit import linear_lsq
+from uuvid.identify.fit import linear_lsq, lsq_solution
 
 __all__ = [
     "CleanSeries",
@@ -369,8 +369,7 @@ def segment_velocity(t, x, t0: float | None = None, t1: float | None = None, *,
                         "curvature; outlier rejection stopped (give min_scale)")
             break
         H = np.column_stack([np.ones(int(new.sum())), s[new]])
-        f = linear_lsq(H, xw[new], ["x0", "v"], emit_warnings=False)
-        icpt, slope = f["x0"].value, f["v"].value
+        icpt, slope = (float(v) for v in lsq_solution(H, xw[new]))
         if np.array_equal(new, inl) and it > 1:
             break
         inl = new
@@ -478,13 +477,14 @@ def _spikes(r_inliers: np.ndarray, r_all: np.ndarray, neighbours: int) -> np.nda
     pad = np.concatenate([np.full(h, np.nan), r_inliers, np.full(h, np.nan)])
     win = sliding_window_view(pad, 2 * h + 1).copy()
     win[:, h] = np.nan  # leave the sample itself out
-    with np.errstate(all="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            ref = np.nanmedian(win, axis=1)
-    ref = np.where(np.isfinite(ref), ref, 0.0)
+    # the median of each row's non-NaN entries (np.nanmedian's value: the middle one, or the mean
+    # of the two middle ones), from one sort of the rows — NaN sort last
+    win.sort(axis=1)
+    k = np.count_nonzero(~np.isnan(win), axis=1)
+    rows = np.arange(win.shape[0])
+    lo = win[rows, np.maximum(k - 1, 0) // 2]
+    hi = win[rows, k // 2]
+    ref = np.where(k > 0, (lo + hi) / 2, 0.0)
     return r_all - ref
 
 
