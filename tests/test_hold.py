@@ -230,3 +230,33 @@ def test_capability_and_endurance_report_progress_off_a_terminal(capsys, monkeyp
     hold.endurance(load_vehicle("bluerov2-heavy"), 0.3, 0.0, soc0=0.3, dsoc=0.05)
     err = capsys.readouterr().err
     assert "bluerov2-heavy endurance: holding 0.3 m/s at SOC" in err and "done in" in err
+
+
+@pytest.mark.parametrize("name, rel, roll, pitch", [
+    ("bluerov2", 45.0, 0.05, -0.03), ("bluerov2-heavy", 135.0, 0.0, 0.0),
+    ("romeo", 0.0, 0.02, 0.01), ("auv2", 90.0, 0.0, 0.04)])
+def test_compiled_loop_jacobian_is_the_python_one(name, rel, roll, pitch):
+    """The station-keeping loop's Jacobian (compiled: PID, bounded allocation, η, the 6-DOF model
+    and the Euler kinematics in one kernel) equals the one built through Allocator.allocate in
+    Python, entry by entry, to the rounding that central differences amplify."""
+    from uuvid.analysis.hold import (
+        _allocator,
+        _closed_loop_jacobian_py,
+        _loop_point,
+        current_ned,
+        hold_gains,
+    )
+    from uuvid.analysis.hold_linear import closed_loop_jacobian
+
+    v = load_vehicle(name)
+    al = _allocator(v)
+    gains = hold_gains(v)
+    cur = current_ned(0.3, rel)
+    G, P, c, s0 = _loop_point(v, cur, gains, 2.0, roll, pitch)
+    ep, en = al.eta
+    A = closed_loop_jacobian(s0, G, P, c, 2.0, al.to_array("priority"),
+                             np.ascontiguousarray(al.B), np.ascontiguousarray(ep, dtype=float),
+                             np.ascontiguousarray(en, dtype=float))
+    ref = _closed_loop_jacobian_py(v, cur, al, gains, 2.0, roll, pitch)
+    assert np.max(np.abs(A - ref)) <= 1e-8 * max(1.0, np.max(np.abs(ref)))
+    assert np.count_nonzero(np.abs(ref) > 1e-6) > 20  # the loop couples the states

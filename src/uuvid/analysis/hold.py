@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.analysis.hold_linear import closed_loop_jacobian
 from uuvid.core.result import Result
 from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
@@ -158,6 +159,24 @@ def closed_loop_growth(vehicle, current, al: Allocator, gains, depth: float, rol
     return closed_loop_modes(vehicle, current, al, gains, depth, roll, pitch)[0]
 
 
+def _loop_point(vehicle, current, gains, depth, roll, pitch):
+    """``(G, P, current, s0)``: gains and vehicle arrays, and the equilibrium state of the loop
+    (at rest at depth, the integrators holding the steady wrench)."""
+    from uuvid.simulate.control.pid import DP_DOFS
+
+    G = gains.to_array()
+    P = vehicle.params.to_array()
+    cur = np.asarray(current, float)
+    tau_req = required_wrench(vehicle, cur, depth, roll, pitch)
+    integ0 = np.array([tau_req[k] / G[1, j] if G[1, j] > 0 else 0.0
+                       for j, k in enumerate(DP_DOFS)])
+    s0 = np.zeros(16)
+    s0[2] = depth
+    s0[3], s0[4] = roll, pitch
+    s0[12:16] = integ0
+    return G, P, cur, s0
+
+
 def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll: float,
                       pitch: float) -> tuple[float, list[str]]:
     """Largest real part (1/s) of the eigenvalues of the station-keeping loop linearised at the
@@ -180,21 +199,45 @@ def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll
     out and returned by name as the second element (``growth`` is then that of the rest); any
     remaining eigenvalue with ``|Re λ| ≤ 1e-9 · max|λ|`` counts as 0 (marginal, not stable)."""
     from uuvid.simulate.control.pid import DP_DOFS
-    from uuvid.vehicle.kinematics import euler_to_quat
 
-    G = gains.to_array()
-    P = vehicle.params.to_array()
-    cur = np.asarray(current, float)
-    tau_req = required_wrench(vehicle, cur, depth, roll, pitch)
-    integ0 = np.array([tau_req[k] / G[1, j] if G[1, j] > 0 else 0.0
-                       for j, k in enumerate(DP_DOFS)])
+    G, P, cur, s0 = _loop_point(vehicle, current, gains, depth, roll, pitch)
+    ep, en = al.eta
+    A = closed_loop_jacobian(s0, np.ascontiguousarray(G), P, cur, float(depth),
+                             al.to_array("priority"), np.ascontiguousarray(al.B, dtype=float),
+                             np.ascontiguousarray(ep, dtype=float),
+                             np.ascontiguousarray(en, dtype=float))
+    from uuvid.vehicle.layout import DOF_NAMES
+
+    drop, drifting = [], []
+    for j, k in enumerate(DP_DOFS):
+        if k in al.controlled:
+            continue
+        st = [k if k < 3 else 5, 12 + j]  # position (or heading) state, integrator
+        keep = [i for i in range(16) if i not in st]
+        scale = max(1.0, float(np.max(np.abs(A))))
+        if np.all(np.abs(A[np.ix_(keep, st)]) <= 1e-9 * scale):
+            drop += st
+            drifting.append(DOF_NAMES[k])
+    keep = [i for i in range(16) if i not in drop]
+    ev = np.linalg.eigvals(A[np.ix_(keep, keep)])
+    re = ev.real.copy()
+    re[np.abs(re) <= 1e-9 * max(1.0, float(np.max(np.abs(ev))))] = 0.0
+    return float(np.max(re)), drifting
+
+
+def _closed_loop_jacobian_py(vehicle, current, al: Allocator, gains, depth: float, roll: float,
+                             pitch: float) -> np.ndarray:
+    """The loop's Jacobian through :meth:`Allocator.allocate` in Python: the reference
+    :func:`uuvid.analysis.hold_linear.closed_loop_jacobian` is tested against."""
+    from uuvid.simulate.control.pid import DP_DOFS
+    from uuvid.vehicle.kinematics import euler_to_quat, quat_to_rotmat
+
+    G, P, cur, s0 = _loop_point(vehicle, current, gains, depth, roll, pitch)
 
     def rhs(s):
         pos, eul, nu, integ = s[0:3], s[3:6], s[6:12], s[12:16]
         ph, th, ps = eul
         q = euler_to_quat(ph, th, ps)
-        from uuvid.vehicle.kinematics import quat_to_rotmat
-
         R = quat_to_rotmat(q)
         e = np.empty(4)
         ed = np.empty(4)
@@ -220,35 +263,13 @@ def closed_loop_modes(vehicle, current, al: Allocator, gains, depth: float, roll
                        [0.0, st_ / math.cos(th), ct / math.cos(th)]])
         return np.concatenate([R @ nu[:3], Tm @ nu[3:], dx[7:13], e])
 
-    s0 = np.zeros(16)
-    s0[2] = depth
-    s0[3], s0[4] = roll, pitch
-    s0[12:16] = integ0
-    f0 = rhs(s0)
     A = np.empty((16, 16))
     for j in range(16):
         h = 1e-6 * max(1.0, abs(s0[j]))
         d = np.zeros(16)
         d[j] = h
         A[:, j] = (rhs(s0 + d) - rhs(s0 - d)) / (2 * h)
-    del f0
-    from uuvid.vehicle.layout import DOF_NAMES
-
-    drop, drifting = [], []
-    for j, k in enumerate(DP_DOFS):
-        if k in al.controlled:
-            continue
-        st = [k if k < 3 else 5, 12 + j]  # position (or heading) state, integrator
-        keep = [i for i in range(16) if i not in st]
-        scale = max(1.0, float(np.max(np.abs(A))))
-        if np.all(np.abs(A[np.ix_(keep, st)]) <= 1e-9 * scale):
-            drop += st
-            drifting.append(DOF_NAMES[k])
-    keep = [i for i in range(16) if i not in drop]
-    ev = np.linalg.eigvals(A[np.ix_(keep, keep)])
-    re = ev.real.copy()
-    re[np.abs(re) <= 1e-9 * max(1.0, float(np.max(np.abs(ev))))] = 0.0
-    return float(np.max(re)), drifting
+    return A
 
 
 def _allocator(vehicle, limits=None, modes=None) -> Allocator:

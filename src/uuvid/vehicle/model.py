@@ -215,7 +215,16 @@ class VehicleParams:
         return replace(self, current=np.asarray(current_ned, dtype=float))
 
     def to_array(self) -> np.ndarray:
-        """The flattened parameter vector of :func:`vehicle_rhs` (layout :data:`PARAM_LAYOUT`)."""
+        """The flattened parameter vector of :func:`vehicle_rhs` (layout :data:`PARAM_LAYOUT`):
+        a fresh copy of the vector built once per (frozen) parameter set."""
+        p = self.__dict__.get("_array")
+        if p is None:
+            p = self._build_array()
+            p.flags.writeable = False
+            self.__dict__["_array"] = p
+        return p.copy()
+
+    def _build_array(self) -> np.ndarray:
         p = np.zeros(N_PARAMS)
         p[P_VERSION] = LAYOUT_VERSION
         p[P_MINV:P_MINV + 36] = np.linalg.inv(self.mass_matrix).ravel()
