@@ -287,3 +287,34 @@ def test_coulomb_friction_started_at_zero_stays_non_negative(rig_runs):
     tc = fit["blocks[0].motor.coulomb_torque"]
     assert tc.value >= 0 and tc.value < 3 * tc.stderr + 1e-4  # the truth has none
     assert fit["blocks[0].momentum_correction"].value == pytest.approx(0.185, rel=0.02)
+
+
+def test_threaded_jacobian_columns_give_the_serial_fit_bit_for_bit(monkeypatch):
+    """fit_chain evaluates the finite-difference columns in threads and reuses the residual
+    least_squares just computed: the fit is the one-thread fit, number for number."""
+    rng = np.random.default_rng(5)
+    truth = ThrusterChain((FirstOrder(time_constant=0.08), QuadraticMap(k_pos=0.004)),
+                          input_kind="speed")
+    t = np.arange(401) * 2e-3
+    u = np.where(t >= 0.1, 100.0, 0.0)
+    r = truth.simulate(u, t[-1], dt=2e-3)
+    runs = [D.Run(t, u, r["thrust"] + rng.normal(0, 0.2, t.size), "thrust")]
+    template = ThrusterChain((FirstOrder(time_constant=0.2), QuadraticMap(k_pos=0.01)),
+                             input_kind="speed")
+    free = ["blocks[0].time_constant", "blocks[1].k_pos"]
+    calls = []
+    real = D._fd_jacobian
+
+    def spy(*a, **k):
+        calls.append(a[-1] if len(a) > 6 else k.get("workers", 1))
+        return real(*a, **k)
+
+    monkeypatch.setattr(D, "_fd_jacobian", spy)
+    monkeypatch.setattr(D.os, "cpu_count", lambda: 2)
+    threaded = D.fit_chain(template, free, runs)
+    monkeypatch.setattr(D.os, "cpu_count", lambda: 1)
+    serial = D.fit_chain(template, free, runs)
+    assert set(calls) == {1, 2}
+    assert threaded.fit.values == serial.fit.values
+    assert np.array_equal(threaded.fit.covariance, serial.fit.covariance)
+    assert threaded.fit.extra["nfev"] == serial.fit.extra["nfev"]

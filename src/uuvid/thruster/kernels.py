@@ -402,11 +402,12 @@ def _stick(kinds, poff, params, soff, x_old, x_new, blk_in, h):
                     x_new[s] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, x0, u, dt, nsub, X, C):
     """Fixed-step RK4 over the chain; ``u[n]`` is held on ``[n dt, (n+1) dt)``.
 
     Writes the state ``X[n]`` and channels ``C[n]`` at every sample ``t = n dt`` (preallocated).
+    Releases the GIL (a fit's finite-difference columns run in threads).
     """
     nx = x0.size
     nb = kinds.size

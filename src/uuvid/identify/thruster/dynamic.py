@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -573,16 +574,32 @@ def _bounds(
     return lo, hi
 
 
-def _fd_jacobian(fun, x, f0, steps, lo, hi):
-    """Forward differences with per-parameter steps, stepping backwards at an upper bound."""
+def _fd_jacobian(fun, x, f0, steps, lo, hi, workers: int = 1):
+    """Forward differences with per-parameter steps, stepping backwards at an upper bound.
+
+    ``workers`` > 1 evaluates the columns in threads (each column is independent: the same
+    numbers in any order; the compiled simulation releases the GIL)."""
     J = np.empty((f0.size, x.size))
+    hs = []
     for i in range(x.size):
         h = steps[i]
         if x[i] + h > hi[i]:
             h = -h
+        hs.append(h)
+
+    def column(i):
         xp = x.copy()
-        xp[i] += h
-        J[:, i] = (fun(xp) - f0) / h
+        xp[i] += hs[i]
+        J[:, i] = (fun(xp) - f0) / hs[i]
+
+    if workers > 1 and x.size > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=min(workers, x.size)) as ex:
+            list(ex.map(column, range(x.size)))
+    else:
+        for i in range(x.size):
+            column(i)
     return J
 
 
@@ -674,6 +691,14 @@ def fit_chain(
                 f"parameters {dict(zip(names, theta))} are outside the model's valid range ({e}); give bounds"
             ) from None
 
+    last: dict = {}  # the residual at the last point least_squares asked for (the Jacobian's f0)
+
+    def residual_at(theta):
+        out = residual(theta)
+        last.clear()
+        last[theta.tobytes()] = out.copy()
+        return out
+
     def residual(theta):
         chain = build(theta)
         out = np.empty(n_total)
@@ -689,16 +714,20 @@ def fit_chain(
             k += e.size
         return out
 
+    workers = min(os.cpu_count() or 1, 4)
+
     def jac(theta):
-        f0 = residual(theta)
+        f0 = last.get(theta.tobytes())
+        if f0 is None:
+            f0 = residual(theta)
         steps = diff_step * np.maximum(np.abs(theta), typ)
-        return _fd_jacobian(residual, theta, f0, steps, lo, hi)
+        return _fd_jacobian(residual, theta, f0, steps, lo, hi, workers)
 
     label = model or f"{template.name}: " + "+".join(b.TYPE for b in template.blocks)
     units = dict(units or {})
     unit_list = [units.get(n, units.get(n.rsplit(".", 1)[-1].split("=")[0], "")) for n in names]
     fit = nonlinear_lsq(
-        residual,
+        residual_at,
         start,
         names,
         model=label,
