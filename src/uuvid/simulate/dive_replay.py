@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from uuvid.core.result import Result
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
@@ -137,6 +138,33 @@ def _local_state(t, y, t0, half, position: bool):
     return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
 
 
+@njit(cache=True)
+def _rk4_windows(Fh, K, m, kq, b, h, n, X, V):
+    """RK4 of ``ẋ = v, m v̇ = F − K v − k_q v|v| + b`` in every window (rows), force and linear
+    drag at the half steps (columns of ``Fh``, ``K``); ``X[:, 0]``, ``V[:, 0]`` hold the start.
+    The arithmetic of the vectorised NumPy form, element by element (same order: equal bits)."""
+    inv = 1.0 / m
+    hh = 0.5 * h
+    h6 = h / 6
+    for w in range(X.shape[0]):
+        x = X[w, 0]
+        v = V[w, 0]
+        for s in range(n):
+            f0, f1, f2 = Fh[w, 2 * s], Fh[w, 2 * s + 1], Fh[w, 2 * s + 2]
+            k0, k1, k2 = K[w, 2 * s], K[w, 2 * s + 1], K[w, 2 * s + 2]
+            a1 = (f0 - k0 * v - kq * v * abs(v) + b) * inv
+            v2 = v + hh * a1
+            a2 = (f1 - k1 * v2 - kq * v2 * abs(v2) + b) * inv
+            v3 = v + hh * a2
+            a3 = (f1 - k1 * v3 - kq * v3 * abs(v3) + b) * inv
+            v4 = v + h * a3
+            a4 = (f2 - k2 * v4 - kq * v4 * abs(v4) + b) * inv
+            x = x + h6 * (v + 2 * v2 + 2 * v3 + v4)
+            v = v + h6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            X[w, s + 1] = x
+            V[w, s + 1] = v
+
+
 class WindowProblem:
     """Windows of one DOF prepared for vectorised simulation: force at the RK4 half steps and
     where each measured sample falls (window, step, fraction).  ``gain``: ``(t, c)`` of
@@ -189,7 +217,6 @@ class WindowProblem:
         if not self.position:
             v = x.copy()
         X[:, 0], V[:, 0] = x, v
-        inv = 1.0 / m
         Fh = self.Fh
         if ka != 0.0:
             if self.Ch is None:
@@ -198,19 +225,7 @@ class WindowProblem:
             K = k + ka * self.Ch
         else:
             K = np.full(Fh.shape, float(k))
-        for s in range(n):
-            f0, f1, f2 = Fh[:, 2 * s], Fh[:, 2 * s + 1], Fh[:, 2 * s + 2]
-            k0, k1, k2 = K[:, 2 * s], K[:, 2 * s + 1], K[:, 2 * s + 2]
-            a1 = (f0 - k0 * v - kq * v * np.abs(v) + b) * inv
-            v2 = v + 0.5 * h * a1
-            a2 = (f1 - k1 * v2 - kq * v2 * np.abs(v2) + b) * inv
-            v3 = v + 0.5 * h * a2
-            a3 = (f1 - k1 * v3 - kq * v3 * np.abs(v3) + b) * inv
-            v4 = v + h * a3
-            a4 = (f2 - k2 * v4 - kq * v4 * np.abs(v4) + b) * inv
-            x = x + h / 6 * (v + 2 * v2 + 2 * v3 + v4)
-            v = v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-            X[:, s + 1], V[:, s + 1] = x, v
+        _rk4_windows(Fh, K, float(m), float(kq), float(b), float(h), n, X, V)
         if not self.position:
             X = V
         return X, V
