@@ -441,3 +441,23 @@ def test_spike_statistic_is_the_nan_median_of_the_neighbours():
             ref = np.nanmedian(win, axis=1)
         want = all_ - np.where(np.isfinite(ref), ref, 0.0)
         assert np.array_equal(_spikes(inl, all_, h), want, equal_nan=True)
+
+
+def test_lean_least_squares_are_linear_lsq_number_for_number():
+    """segment_velocity's inner regressions (fit.lsq_solution, fit.lsq_classical) skip the Fit
+    and its diagnostics, not the arithmetic: estimates, σ and s² equal linear_lsq's exactly."""
+    from uuvid.identify.fit import linear_lsq, lsq_classical, lsq_solution
+
+    rng = np.random.default_rng(3)
+    for n, p in ((5, 2), (40, 2), (63, 3), (200, 3)):
+        s = np.sort(rng.uniform(-5, 5, n))
+        H = np.column_stack([np.ones(n), s, 0.5 * s ** 2][:p])
+        y = H @ rng.normal(size=p) + rng.normal(0, 0.1, n)
+        f = linear_lsq(H, y, [f"c{i}" for i in range(p)], emit_warnings=False)
+        th, se, s2 = lsq_classical(H, y)
+        assert th.tolist() == [q.value for q in f.parameters]
+        assert se.tolist() == [q.stderr for q in f.parameters]
+        assert s2 == f.sigma2
+        assert lsq_solution(H, y).tolist() == th.tolist()
+    with pytest.raises(ValueError, match="too few samples"):
+        lsq_classical(np.ones((1, 2)), np.ones(1))

@@ -323,6 +323,20 @@ def lsq_solution(H: np.ndarray, y: np.ndarray) -> np.ndarray:
     return theta_s / scale
 
 
+def lsq_classical(H: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(θ, σ_θ, s²)`` of an unweighted classical :func:`linear_lsq` (the same arithmetic, the
+    same numbers) without building a :class:`Fit` or its diagnostics: for inner loops over many
+    small regressions (a segment's velocity)."""
+    n, p = H.shape
+    if n < p:
+        raise ValueError(f"too few samples: {n} for {p} parameters")
+    theta = lsq_solution(H, y)
+    r = y - H @ theta
+    sigma2 = float(r @ r / max(n - p, 1))
+    cov = sigma2 * np.linalg.pinv(H.T @ H)
+    return theta, np.sqrt(np.maximum(np.diag(cov), 0.0)), sigma2
+
+
 def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequence[str] | None = None,
                weights=None, cov_type: str = "classical", hac_lags: int | None = None,
                emit_warnings: bool = True, extra: dict | None = None) -> Fit:

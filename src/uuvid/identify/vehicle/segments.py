@@ -20,7 +20,7 @@ it rejected**:
      neighbours (±5 samples) is its *spike* ``d`` (a Hampel statistic, so a real vehicle's slow
      wander about the line is not mistaken for outliers); robust scale ``s = 1.4826·MAD(d)``;
      samples with ``|d| > threshold·s`` are rejected as ``"outlier"`` (default threshold 3.5);
-  4. ordinary LS refit on the inliers (:func:`uuvid.identify.fit.linear_lsq`), spikes of *all*
+  4. ordinary LS refit on the inliers (:func:`uuvid.identify.fit.lsq_classical`), spikes of *all*
      samples against it, new robust scale, new inlier set (earlier rejections may come back) —
      repeated until the set no longer changes.
 
@@ -61,7 +61,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.identify.fit import linear_lsq, lsq_solution
+from uuvid.identify.fit import lsq_classical, lsq_solution
 
 __all__ = [
     "CleanSeries",
@@ -374,8 +374,8 @@ def segment_velocity(t, x, t0: float | None = None, t1: float | None = None, *,
             break
         inl = new
     H = np.column_stack([np.ones(int(inl.sum())), s[inl]])
-    f = linear_lsq(H, xw[inl], ["x0", "v"], emit_warnings=False)
-    r = xw - (f["x0"].value + f["v"].value * s)
+    (x0, v), (_, v_se), s2 = lsq_classical(H, xw[inl])
+    r = xw - (x0 + v * s)
     for i in np.flatnonzero(finite & ~inl):
         rejected.append(Rejection(int(idx[i]), float(tw[i]), float(x[idx[i]]), float(r[i]),
                                   "outlier"))
@@ -384,14 +384,14 @@ def segment_velocity(t, x, t0: float | None = None, t1: float | None = None, *,
     acc, acc_se = 0.0, math.nan
     if inl.sum() > 3:
         H2 = np.column_stack([np.ones(int(inl.sum())), s[inl], 0.5 * s[inl] ** 2])
-        f2 = linear_lsq(H2, xw[inl], ["x0", "v", "a"], emit_warnings=False)
-        acc, acc_se = f2["a"].value, f2["a"].stderr
+        th2, se2, _ = lsq_classical(H2, xw[inl])
+        acc, acc_se = float(th2[2]), float(se2[2])
     settled = not (math.isfinite(acc_se) and acc_se > 0 and abs(acc) / acc_se > settled_z)
     used = np.zeros(t.size, dtype=bool)
     used[idx[inl]] = True
-    return SegmentVelocity(float(f["v"].value), float(f["v"].stderr),
-                           float(f["x0"].value - f["v"].value * tc), float(tw[0]), float(tw[-1]),
-                           int(idx.size), int(inl.sum()), float(math.sqrt(f.sigma2)), float(scale),
+    return SegmentVelocity(float(v), float(v_se),
+                           float(x0 - v * tc), float(tw[0]), float(tw[-1]),
+                           int(idx.size), int(inl.sum()), float(math.sqrt(s2)), float(scale),
                            float(acc), float(acc_se), bool(settled), tuple(rejected), angle, it,
                            used, tuple(msgs))
 
