@@ -260,3 +260,15 @@ def test_compiled_loop_jacobian_is_the_python_one(name, rel, roll, pitch):
     ref = _closed_loop_jacobian_py(v, cur, al, gains, 2.0, roll, pitch)
     assert np.max(np.abs(A - ref)) <= 1e-8 * max(1.0, np.max(np.abs(ref)))
     assert np.count_nonzero(np.abs(ref) > 1e-6) > 20  # the loop couples the states
+
+
+@pytest.mark.parametrize("volts", [10.5, 14.8, 16.0, 20.0])
+def test_limits_and_current_from_one_grid_are_the_two_calls(volts):
+    """Battery.supply reads the limits off the command grid's end points and the current from
+    the same grid: the same numbers as limits() and current(clip(thrust)) called apart."""
+    st = SupplyThruster(physical_model("t200-physical"))
+    thrusts = np.array([-60.0, -20.0, -0.01, 0.0, 0.3, 12.0, 33.0, 80.0])
+    (lo, hi), cur = st.limits_and_current(thrusts, volts)
+    assert (lo, hi) == st.limits(volts)
+    assert np.array_equal(cur, st.current(np.clip(thrusts, lo, hi), volts))
+    assert lo < 0 < hi and np.all(cur >= 0)

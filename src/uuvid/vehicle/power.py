@@ -30,10 +30,19 @@ class SupplyThruster:
     model: object
     points: int = 801
 
+    def _commands(self) -> np.ndarray:
+        """The command grid (full reverse … full forward; built once: the thruster is frozen)."""
+        c = self.__dict__.get("_c")
+        if c is None:
+            m = self.model
+            c = np.linspace(m.full_rev, m.full_fwd, self.points)
+            c.flags.writeable = False
+            self.__dict__["_c"] = c
+        return c
+
     def _grid(self, voltage: float):
-        m = self.model
-        c = np.linspace(m.full_rev, m.full_fwd, self.points)
-        p = m.predict(c, float(voltage))
+        c = self._commands()
+        p = self.model.predict(c, float(voltage))
         return c, p.thrust, p.current
 
     def limits(self, voltage: float) -> tuple[float, float]:
@@ -44,15 +53,28 @@ class SupplyThruster:
     def command_for(self, thrust, voltage: float) -> np.ndarray:
         """Command giving ``thrust`` at ``voltage`` (clipped to the limits)."""
         c, f, _ = self._grid(voltage)
-        order = np.argsort(f, kind="stable")
-        f, c = f[order], c[order]
-        keep = np.concatenate([[True], np.diff(f) > 0])
-        return np.interp(thrust, f[keep], c[keep])
+        return _invert(c, f, thrust)
 
     def current(self, thrust, voltage: float) -> np.ndarray:
         """Supply current (A) drawn while giving ``thrust`` at ``voltage``."""
         c = self.command_for(thrust, voltage)
         return self.model.predict(c, float(voltage)).current
+
+    def limits_and_current(self, thrust, voltage: float):
+        """``(limits(V), current(clip(thrust, limits), V))`` from one grid evaluation (its end
+        points are the full commands: the same numbers as the two calls)."""
+        c, f, _ = self._grid(voltage)
+        lo, hi = float(f[0]), float(f[-1])
+        cmd = _invert(c, f, np.clip(thrust, lo, hi))
+        return (lo, hi), self.model.predict(cmd, float(voltage)).current
+
+
+def _invert(c, f, thrust):
+    """The command of a monotone thrust grid ``f(c)`` giving ``thrust`` (flat parts dropped)."""
+    order = np.argsort(f, kind="stable")
+    f, c = f[order], c[order]
+    keep = np.concatenate([[True], np.diff(f) > 0])
+    return np.interp(thrust, f[keep], c[keep])
 
 
 @dataclass(frozen=True)
@@ -90,9 +112,8 @@ class Battery:
         thrusts = np.asarray(thrusts, float)
         i = 0.0
         for _ in range(50):
-            lo, hi = thruster.limits(v)
-            i = float(np.sum(thruster.current(np.clip(thrusts, lo, hi), v))) + \
-                self.hotel_load_w / v
+            _, cur = thruster.limits_and_current(thrusts, v)
+            i = float(np.sum(cur)) + self.hotel_load_w / v
             vn = self.terminal(soc, i)
             if vn <= 0:
                 return 0.0, math.inf
