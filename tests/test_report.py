@@ -256,3 +256,37 @@ def test_interrupted_task_says_interrupted_not_failed(monkeypatch: pytest.Monkey
     lines = err.getvalue().splitlines()
     assert lines[1].startswith("job: interrupted after ") and "failed" not in lines[1]
     assert lines[3].startswith("job: failed after ")
+
+
+def test_best_legend_is_searched_once_per_save_and_the_picture_is_unchanged(tmp_path, monkeypatch):
+    """save_figure lets a loc="best" legend search its corner once (constrained layout placed
+    it six times per save, each a search over every plotted vertex): same PNG bytes as a plain
+    savefig, one search per legend."""
+    from matplotlib.legend import Legend
+
+    def make():
+        rng = np.random.default_rng(1)
+        fig, axes = new_figure(2, 1)
+        t = np.linspace(0, 100, 2000)
+        for ax in axes:
+            for k in range(3):
+                ax.plot(t, np.sin(t * (k + 1) / 7) + 0.1 * rng.normal(size=t.size),
+                        label=f"channel {k} [m]")
+            ax.set_xlabel("t [s]")
+            ax.legend()
+        return fig
+
+    searches = []
+    real = Legend._find_best_position
+
+    def counted(self, *a):
+        searches.append(self)
+        return real(self, *a)
+
+    monkeypatch.setattr(Legend, "_find_best_position", counted)
+    make().savefig(tmp_path / "plain.png", dpi=110, format="png")
+    plain = len(searches)
+    searches.clear()
+    save_figure(make(), tmp_path / "once.png")
+    assert len(searches) == 2 < plain  # one per legend
+    assert (tmp_path / "once.png").read_bytes() == (tmp_path / "plain.png").read_bytes()

@@ -72,11 +72,48 @@ def save_figure(
     target = Path(os.fspath(path))
     fmt = savefig_kw.pop("format", None) or (target.suffix[1:].lower() or "png")
     try:
+        _best_legend_once(fig)
         with atomic_path(target) as tmp:
             fig.savefig(tmp, dpi=dpi, format=fmt, **savefig_kw)
     finally:
         _close(fig)
     return target
+
+
+def _best_legend_once(fig: Figure) -> None:
+    """Let each ``loc="best"`` legend of *fig* search for its place once per save.
+
+    Matplotlib searches every candidate corner against every plotted vertex each time the legend
+    is placed — and constrained layout places it in each of its passes before the final draw, so a
+    figure with a few thousand points spent half its save time there.  The first search picks the
+    corner; later placements put the legend in that corner of the (re-laid-out) axes.  Only
+    Matplotlib's private placement helpers change behaviour, so anything unexpected leaves the
+    legend alone."""
+    from matplotlib.transforms import Bbox
+
+    for ax in fig.axes:
+        leg = ax.get_legend()
+        if leg is None or getattr(leg, "_loc", None) != 0 or "_find_best_position" in vars(leg):
+            continue
+        search = getattr(leg, "_find_best_position", None)
+        anchored = getattr(leg, "_get_anchored_bbox", None)
+        codes = getattr(leg, "codes", None)
+        if search is None or anchored is None or not codes:
+            continue
+
+        def once(width, height, renderer, _leg=leg, _search=search, _anchored=anchored,
+                 _chosen=[]):  # noqa: B006  (the corner, remembered per legend)
+            box = Bbox.from_bounds(0, 0, width, height)
+            if _chosen:
+                return _anchored(_chosen[0], box, _leg.get_bbox_to_anchor(), renderer)
+            lb = _search(width, height, renderer)
+            for idx in range(1, len(_leg.codes)):
+                if tuple(_anchored(idx, box, _leg.get_bbox_to_anchor(), renderer)) == tuple(lb):
+                    _chosen.append(idx)
+                    break
+            return lb
+
+        leg._find_best_position = once
 
 
 def _close(fig: Figure) -> None:
