@@ -110,9 +110,16 @@ class Battery:
         ``V = OCV − R (Σ I_i(T_i, V) + P_hotel/V)`` (thrusts clipped to the limits at V)."""
         v = self.ocv(soc)
         thrusts = np.asarray(thrusts, float)
+        # any object with limits(V) and current(T, V) will do; a SupplyThruster gives both from
+        # one evaluation of its model (the same numbers)
+        both = getattr(thruster, "limits_and_current", None)
         i = 0.0
         for _ in range(50):
-            _, cur = thruster.limits_and_current(thrusts, v)
+            if both is not None:
+                _, cur = both(thrusts, v)
+            else:
+                lo, hi = thruster.limits(v)
+                cur = thruster.current(np.clip(thrusts, lo, hi), v)
             i = float(np.sum(cur)) + self.hotel_load_w / v
             vn = self.terminal(soc, i)
             if vn <= 0:
