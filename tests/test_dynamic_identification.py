@@ -177,19 +177,26 @@ def test_mclean_tunnel_thruster_at_75_hz_with_load_cell_damping():
 # ------------------------------------------------------------------------------------------------
 # the generic core
 # ------------------------------------------------------------------------------------------------
-def test_fit_chain_paths_x0_bounds_and_predict():
-    """First order on a thrust demand + quadratic map; parameters by path; thrust and speed runs
-    of one experiment fitted together."""
-    rng = np.random.default_rng(18)
+def _first_order_step(seed: int, samples: int):
+    """A 100 rad/s step into first order (τ 0.08 s) + quadratic map (k 0.004): thrust and speed
+    records with noise, and a template started away from the truth (τ 0.2 s, k 0.01)."""
+    rng = np.random.default_rng(seed)
     truth = ThrusterChain((FirstOrder(time_constant=0.08), QuadraticMap(k_pos=0.004)),
                           input_kind="speed")
-    t = np.arange(501) * 2e-3
+    t = np.arange(samples) * 2e-3
     u = np.where(t >= 0.1, 100.0, 0.0)
     r = truth.simulate(u, t[-1], dt=2e-3)
     runs = [D.Run(t, u, r["thrust"] + rng.normal(0, 0.2, t.size), "thrust"),
             D.Run(t, u, r["prop_speed"] + rng.normal(0, 1.0, t.size), "speed")]
     template = ThrusterChain((FirstOrder(time_constant=0.2), QuadraticMap(k_pos=0.01)),
                              input_kind="speed")
+    return runs, template
+
+
+def test_fit_chain_paths_x0_bounds_and_predict():
+    """First order on a thrust demand + quadratic map; parameters by path; thrust and speed runs
+    of one experiment fitted together."""
+    runs, template = _first_order_step(18, 501)
     fit = D.fit_chain(template, ["blocks[0].time_constant", ("blocks[1].k_pos", "blocks[1].k_neg")],
                       runs, x0={"time_constant": 0.05}, bounds={"time_constant": (0.01, 1.0)})
     assert fit.fit.names == ["blocks[0].time_constant", "blocks[1].k_pos=k_neg"]
@@ -292,15 +299,8 @@ def test_coulomb_friction_started_at_zero_stays_non_negative(rig_runs):
 def test_threaded_jacobian_columns_give_the_serial_fit_bit_for_bit(monkeypatch):
     """fit_chain evaluates the finite-difference columns in threads and reuses the residual
     least_squares just computed: the fit is the one-thread fit, number for number."""
-    rng = np.random.default_rng(5)
-    truth = ThrusterChain((FirstOrder(time_constant=0.08), QuadraticMap(k_pos=0.004)),
-                          input_kind="speed")
-    t = np.arange(401) * 2e-3
-    u = np.where(t >= 0.1, 100.0, 0.0)
-    r = truth.simulate(u, t[-1], dt=2e-3)
-    runs = [D.Run(t, u, r["thrust"] + rng.normal(0, 0.2, t.size), "thrust")]
-    template = ThrusterChain((FirstOrder(time_constant=0.2), QuadraticMap(k_pos=0.01)),
-                             input_kind="speed")
+    runs, template = _first_order_step(5, 401)
+    runs = runs[:1]  # thrust only
     free = ["blocks[0].time_constant", "blocks[1].k_pos"]
     calls = []
     real = D._fd_jacobian

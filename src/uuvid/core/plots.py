@@ -101,8 +101,10 @@ def _best_legend_once(fig: Figure) -> None:
         if search is None or anchored is None or not codes:
             continue
 
+        chosen: list = []  # the corner the first search picked, per legend
+
         def once(width, height, renderer, _leg=leg, _search=search, _anchored=anchored,
-                 _chosen=[]):  # noqa: B006  (the corner, remembered per legend)
+                 _chosen=chosen):
             box = Bbox.from_bounds(0, 0, width, height)
             if _chosen:
                 return _anchored(_chosen[0], box, _leg.get_bbox_to_anchor(), renderer)
