@@ -6,7 +6,12 @@ import warnings
 import numpy as np
 import pytest
 
-from uuvid.identify.vehicle.output_error import BLOWN_UP, blown_windows, covariance
+from uuvid.identify.vehicle.output_error import (
+    BLOWN_UP,
+    blown_windows,
+    covariance,
+    not_identifiable,
+)
 from uuvid.simulate.dive_replay import RK4_LIMIT, WindowProblem
 
 
@@ -95,6 +100,41 @@ def test_covariance_of_a_non_finite_jacobian_is_nan_not_garbage():
     J[3, 1] = np.inf
     sd, corr = covariance(J, np.ones(10), np.zeros(10, int), 2)
     assert np.all(np.isnan(sd)) and np.all(np.isnan(corr))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_covariance_of_an_undetermined_parameter_is_infinite_not_zero(seed):
+    """A parameter whose Jacobian column is all zero (every window left out in its direction) or
+    that trades off exactly against another gets σ = ∞ and a warning naming it; the determined
+    parameters keep the σ they have without it (a pseudo-inverse reported σ = 0 for the zero
+    column: a certainty the data do not give)."""
+    rng = np.random.default_rng(seed)
+    J = rng.normal(size=(120, 4))
+    r = rng.normal(size=120) * 0.1
+    groups = np.repeat(np.arange(12), 10)
+    sd_ref, _ = covariance(J[:, [0, 2, 3]], r, groups, 3)
+    Jz = J.copy()
+    Jz[:, 1] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sd, corr = covariance(Jz, r, groups, 4)
+    assert np.isinf(sd[1]) and np.all(np.isfinite(sd[[0, 2, 3]]))
+    assert np.allclose(sd[[0, 2, 3]], sd_ref, rtol=1e-9)
+    assert np.all(np.isnan(np.delete(corr[1], 1))) and corr[1, 1] == 1.0
+    names = ["mass", "linear", "quadratic", "bias"]
+    warns = not_identifiable(names, dict(zip(names, sd)))
+    assert len(warns) == 1 and warns[0].startswith("linear is not identifiable")
+    # two columns that only act through their sum: both undetermined, the others not
+    Jd = J.copy()
+    Jd[:, 2] = 2.0 * Jd[:, 1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sd, _ = covariance(Jd, r, groups, 4)
+    assert np.isinf(sd[1]) and np.isinf(sd[2]) and np.all(np.isfinite(sd[[0, 3]]))
+    # a nuisance column (beyond n_glob) that is zero does not make the globals undetermined
+    Jn = np.hstack([J, np.zeros((120, 1))])
+    sd, _ = covariance(Jn, r, groups, 4)
+    assert np.all(np.isfinite(sd))
 
 
 def _numpy_replay(prob, theta, y0, v0):

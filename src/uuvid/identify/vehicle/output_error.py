@@ -4,6 +4,7 @@
 * :func:`covariance` — σ and correlations: the larger of ``s²(JᵀJ)⁻¹`` and a window-cluster
   sandwich, nuisance initial states included;
 * :func:`correlation_warnings` — parameters a dive cannot separate (|ρ| > 0.95);
+* :func:`not_identifiable` — parameters the dive gives no information on (σ = ∞);
 * :func:`noise_sigma` — a channel's measurement noise from its own samples
   (:func:`uuvid.simulate.dive_horizontal.noise_sigma`);
 * :func:`dead_band_weights` — the weight rule for residuals whose force comes from thrusters
@@ -18,8 +19,8 @@ import numpy as np
 
 from uuvid.simulate.dive_horizontal import noise_sigma
 
-__all__ = ["levenberg_marquardt", "covariance", "correlation_warnings", "noise_sigma",
-           "dead_band_weights", "weighting_summary", "weighting_text", "DOWN_WEIGHTED"]
+__all__ = ["levenberg_marquardt", "covariance", "not_identifiable", "correlation_warnings",
+           "noise_sigma", "dead_band_weights", "weighting_summary", "weighting_text", "DOWN_WEIGHTED"]
 
 #: a residual sample counts as down-weighted below this weight
 DOWN_WEIGHTED = 0.9
@@ -129,7 +130,12 @@ def covariance(J, r, groups, n_glob):
     """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
     the fit, so their uncertainty is accounted for): per parameter the larger of the classical
     ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
-    classical matrix where the sandwich is degenerate)."""
+    classical matrix where the sandwich is degenerate).
+
+    A parameter the data cannot move the residuals with — its Jacobian column all zero (every
+    window left out in its direction), or a direction of ``JᵀJ``'s null space it takes part in —
+    gets σ = ∞ (not identifiable; :func:`not_identifiable` names it), never the 0 a
+    pseudo-inverse would report for it."""
     N, P = J.shape
     nan = np.full(n_glob, np.nan), np.full((n_glob, n_glob), np.nan)
     if not (np.all(np.isfinite(J)) and np.all(np.isfinite(r))):
@@ -139,11 +145,16 @@ def covariance(J, r, groups, n_glob):
     scale = np.max(np.abs(J), axis=0)
     scale[scale == 0] = 1.0
     Js = J / scale
+    A = Js.T @ Js
     try:
-        Ainv = np.linalg.pinv(Js.T @ Js)
+        Ainv = np.linalg.pinv(A)
+        w, V = np.linalg.eigh(A)
     except np.linalg.LinAlgError:
         return nan
-    s2 = float(r @ r) / max(N - P, 1)
+    null = w <= max(float(w[-1]), 1e-300) * NULL_RCOND
+    # a parameter with a share of a null direction is not determined (the zero column is one)
+    unidentified = np.sum(V[:n_glob][:, null] ** 2, axis=1) > NULL_SHARE
+    s2 = float(r @ r) / max(N - (P - int(null.sum())), 1)  # degrees of freedom: N − rank
     c = (s2 * Ainv)[:n_glob, :n_glob]  # in the scaled parameters: σ_i = σ_s,i / scale_i
     meat = np.zeros((P, P))
     for g in np.unique(groups):
@@ -152,10 +163,27 @@ def covariance(J, r, groups, n_glob):
         meat += np.outer(gw, gw)
     G = np.unique(groups).size
     rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
-    sd = np.sqrt(np.maximum(np.diag(c), np.diag(rb))) / scale[:n_glob]
+    # (a null direction's round-off can leave a diagonal entry at −1e-17: σ = ∞ there below)
+    sd = np.sqrt(np.maximum(np.maximum(np.diag(c), np.diag(rb)), 0.0)) / scale[:n_glob]
+    sd[unidentified] = np.inf
     use = rb if np.all(np.diag(rb) > 0) else c
     d = np.sqrt(np.maximum(np.diag(use), 1e-300))
-    return sd, use / np.outer(d, d)
+    corr = use / np.outer(d, d)
+    corr[unidentified, :] = corr[:, unidentified] = np.nan
+    corr[unidentified, unidentified] = 1.0
+    return sd, corr
+
+
+NULL_RCOND = 1e-12  # eigenvalue of the column-scaled JᵀJ below this × the largest: a null direction
+NULL_SHARE = 1e-6   # a parameter's squared share of the null directions above which it is undetermined
+
+
+def not_identifiable(names, sigma: dict) -> list:
+    """One warning per parameter whose σ is ∞ (see :func:`covariance`)."""
+    return [f"{k} is not identifiable from this dive: no window's residuals move with it "
+            "(every window was left out in its direction, or it trades off exactly against "
+            "another parameter); σ = ∞: its value is not determined by the data" for k in names
+            if math.isinf(sigma[k])]
 
 
 def correlation_warnings(names, corr, limit: float = 0.95) -> list:
