@@ -23,7 +23,8 @@ import numpy as np
 from uuvid.io.logs import LogDataError
 
 __all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS", "ThrustRegions",
-           "thrust_regions", "PwmFlags", "pwm_flags", "rotor_speeds", "inflow_gain"]
+           "thrust_regions", "PwmFlags", "pwm_flags", "rotor_speeds", "inflow_gain",
+           "horizontal_inflow_gain"]
 
 #: DOF → (measured channel, force channel, measured is a position (True) or a velocity)
 DIVE_DOFS = {"heave": ("depth_m", "Z_N", True), "yaw": ("yaw_rad", "N_Nm", True),
@@ -471,3 +472,21 @@ def inflow_gain(dc: DiveChannels, vehicle, dof: str, speeds=None,
         raise DiveDataError(f"{dc.name}: {W.shape[0]} servo outputs but vehicle {vehicle.name!r} "
                             f"has {G.shape[1]} thrusters: the inflow term needs one per thruster")
     return t, G[j] @ W, how
+
+
+def horizontal_inflow_gain(dc: DiveChannels, vehicle, speeds=None,
+                           thrust_model=None) -> tuple[np.ndarray, np.ndarray, str] | None:
+    """``(t, C (len(t) × 3 × 3), how)``: the matrix ``C(t) = Σ_i H_i |Ω_i(t)|`` of the thrust lost
+    to the advance speed in the coupled horizontal model, ``(X, Y, N) − k_a C(t) (u, v, r)``
+    (:func:`uuvid.vehicle.inflow.horizontal_inflow_matrix`); ``None`` when no PWM is logged."""
+    from uuvid.vehicle.inflow import horizontal_inflow_matrix
+
+    rs = speeds if speeds is not None else rotor_speeds(dc, thrust_model)
+    if rs is None:
+        return None
+    t, W, how = rs
+    H = horizontal_inflow_matrix(vehicle)
+    if H.shape[2] != W.shape[0]:
+        raise DiveDataError(f"{dc.name}: {W.shape[0]} servo outputs but vehicle {vehicle.name!r} "
+                            f"has {H.shape[2]} thrusters: the inflow term needs one per thruster")
+    return t, np.einsum("jki,it->tjk", H, W), how

@@ -24,7 +24,7 @@ import numpy as np
 from uuvid.io.dive_channels import DiveDataError
 from uuvid.vehicle.horizontal import HorizontalParams, horizontal_params, horizontal_rhs
 
-__all__ = ["HorizontalProblem", "horizontal_windows", "initial_state_horizontal",
+__all__ = ["HorizontalProblem", "horizontal_windows", "horizontal_inflow_of", "initial_state_horizontal",
            "replay_horizontal", "require_horizontal", "horizontal_from_vehicle", "noise_sigma",
            "H_MEAS", "H_FORCES", "H_CHANNELS", "H_UNITS", "H_STATE_SPAN"]
 
@@ -106,6 +106,23 @@ def horizontal_from_vehicle(veh) -> tuple[HorizontalParams, str]:
     return horizontal_params(veh.params, bias), text
 
 
+def horizontal_inflow_of(veh) -> tuple[float, str]:
+    """``(k_a, source)``: the inflow coefficient the coupled model flies — the
+    ``inflow_coefficient`` of the vehicle's ``one_dof`` surge/sway/yaw entries (a coupled fit
+    writes the same k_a to all three; where they differ, the largest, and the source says so);
+    ``(0.0, "")`` when none has one."""
+    vals = {key: float(getattr(m, "inflow_coefficient", 0.0) or 0.0)
+            for key, m in (veh.one_dof or {}).items() if m.dof in ("surge", "sway", "yaw")}
+    vals = {k: v for k, v in vals.items() if v}
+    if not vals:
+        return 0.0, ""
+    key = max(vals, key=vals.get)
+    src = f"one_dof.{key}.inflow_coefficient"
+    if len(set(vals.values())) > 1:
+        src += " (the largest of " + ", ".join(f"{k} {v:.4g}" for k, v in vals.items()) + ")"
+    return vals[key], src
+
+
 def horizontal_windows(dc, horizon: float, t_start=None, t_end=None) -> tuple[list, list]:
     """Windows ``[(t0, t1)]`` of ``horizon`` s inside the armed intervals ∩ [t_start, t_end]
     where u, v and the heading have ≥ 4 samples each and X, Y, N no gap longer than
@@ -142,9 +159,14 @@ class HorizontalProblem:
     """Windows prepared for the vectorised coupled simulation: X, Y, N at the RK4 half steps and,
     per measured sample (rows of u, then v, then heading), its channel ``c``, window ``w``, step
     ``k`` and fraction ``s``.  ``x0_meas`` (W × 4): ``(u, v, ψ, r)`` at each window's start from
-    local fits of the samples (u, v: mean within ±0.5 s; ψ, r: a quadratic within ±0.25 s)."""
+    local fits of the samples (u, v: mean within ±0.5 s; ψ, r: a quadratic within ±0.25 s).
 
-    def __init__(self, dc, windows, h: float | None = None):
+    ``gain``: ``(t, C (len(t) × 3 × 3))`` of the thrust lost to the advance speed
+    (:func:`uuvid.io.dive_channels.horizontal_inflow_gain`), linear between its samples like the
+    forces; the parameters then carry a 13th, the inflow coefficient ``k_a``, and the model's
+    force is ``(X, Y, N) − k_a C(t) (u, v, r)`` at every RK4 stage."""
+
+    def __init__(self, dc, windows, h: float | None = None, gain=None):
         self.windows = list(windows)
         W = len(self.windows)
         horizon = self.windows[0][1] - self.windows[0][0]
@@ -155,6 +177,11 @@ class HorizontalProblem:
         self.ta, self.W = ta, W
         th = ta[:, None] + 0.5 * self.h * np.arange(2 * self.n + 1)[None, :]
         self.Fh = np.stack([np.interp(th, *dc.channels[f]) for f in H_FORCES])
+        self.Ch = None  # (3, 3, W, 2n+1): the inflow matrix at the half steps
+        if gain is not None:
+            tg, C = gain
+            self.Ch = np.stack([np.stack([np.interp(th, tg, C[:, j, k]) for k in range(3)])
+                                for j in range(3)])
         cs, ws, ts, ys = [], [], [], []
         for c, m in enumerate(H_MEAS):
             tm, ym = dc.channels[m]
@@ -186,27 +213,41 @@ class HorizontalProblem:
 
     def simulate(self, thetas, x0s):
         """States ``(U, V, PSI, R)`` as a (4, C, W, n+1) array for ``C`` copies of the windows at
-        once: ``thetas`` (C × 12) parameters and ``x0s`` (C × W × 4) initial states per copy (a
-        Jacobian's perturbed copies in one vectorised integration).  RK4 with the forces at the
-        half steps."""
+        once: ``thetas`` (C × 12, or C × 13 with the inflow coefficient last when the problem has
+        a ``gain``) parameters and ``x0s`` (C × W × 4) initial states per copy (a Jacobian's
+        perturbed copies in one vectorised integration).  RK4 with the forces at the half
+        steps."""
         th = np.asarray(thetas, float)
         C = th.shape[0]
         W, h, n = self.W, self.h, self.n
-        theta = np.repeat(th, W, axis=0).T  # (12, C·W): one column per simulated window
+        if th.shape[1] == 13 and self.Ch is None:
+            raise ValueError("an inflow coefficient needs the problem's inflow gain (gain=)")
+        theta = np.repeat(th[:, :12], W, axis=0).T  # (12, C·W): one column per simulated window
+        ka = np.repeat(th[:, 12], W) if th.shape[1] == 13 else None
+        Cm = None if ka is None else [[np.tile(self.Ch[j, k], (C, 1)) for k in range(3)]
+                                      for j in range(3)]
         x0 = np.asarray(x0s, float).reshape(C * W, 4)
         u, v, psi, r = (x0[:, i].copy() for i in range(4))
         out = np.empty((4, C * W, n + 1))
         out[:, :, 0] = u, v, psi, r
         X, Y, N = (np.tile(f, (C, 1)) for f in self.Fh)
+
+        def rhs(u, v, r, i):
+            if ka is None:
+                return horizontal_rhs(u, v, r, X[:, i], Y[:, i], N[:, i], theta)
+            f = [F[:, i] - ka * (Cm[j][0][:, i] * u + Cm[j][1][:, i] * v + Cm[j][2][:, i] * r)
+                 for j, F in enumerate((X, Y, N))]
+            return horizontal_rhs(u, v, r, *f, theta)
+
         for s in range(n):
             i0, i1, i2 = 2 * s, 2 * s + 1, 2 * s + 2
-            a1 = horizontal_rhs(u, v, r, X[:, i0], Y[:, i0], N[:, i0], theta)
+            a1 = rhs(u, v, r, i0)
             u2, v2, r2 = u + 0.5 * h * a1[0], v + 0.5 * h * a1[1], r + 0.5 * h * a1[2]
-            a2 = horizontal_rhs(u2, v2, r2, X[:, i1], Y[:, i1], N[:, i1], theta)
+            a2 = rhs(u2, v2, r2, i1)
             u3, v3, r3 = u + 0.5 * h * a2[0], v + 0.5 * h * a2[1], r + 0.5 * h * a2[2]
-            a3 = horizontal_rhs(u3, v3, r3, X[:, i1], Y[:, i1], N[:, i1], theta)
+            a3 = rhs(u3, v3, r3, i1)
             u4, v4, r4 = u + h * a3[0], v + h * a3[1], r + h * a3[2]
-            a4 = horizontal_rhs(u4, v4, r4, X[:, i2], Y[:, i2], N[:, i2], theta)
+            a4 = rhs(u4, v4, r4, i2)
             psi = psi + h / 6 * (r + 2 * r2 + 2 * r3 + r4)
             u = u + h / 6 * (a1[0] + 2 * a2[0] + 2 * a3[0] + a4[0])
             v = v + h / 6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1])
@@ -235,7 +276,7 @@ class HorizontalProblem:
         return out
 
     def predict(self, theta, x0):
-        """One copy of :meth:`predict_many`: ``theta`` (12), ``x0`` (W × 4)."""
+        """One copy of :meth:`predict_many`: ``theta`` (12 or 13), ``x0`` (W × 4)."""
         return self.predict_many(np.asarray(theta, float)[None], np.asarray(x0, float)[None])[0]
 
 
@@ -291,10 +332,14 @@ def channel_scale(dc, prob: HorizontalProblem) -> tuple[np.ndarray, list]:
     return 1.0 / np.asarray(sig)[prob.c], sig
 
 
-def score_horizontal(prob: HorizontalProblem, params: HorizontalParams, scale):
+def score_horizontal(prob: HorizontalProblem, params: HorizontalParams, scale,
+                     inflow: float = 0.0):
     """``(metrics per channel name, traces per channel name, prediction, scored mask)`` of one
-    replay of ``prob`` with ``params`` (initial states fitted, the rest scored)."""
+    replay of ``prob`` with ``params`` (initial states fitted, the rest scored); ``inflow``: the
+    inflow coefficient k_a when ``prob`` has a gain."""
     th = params.as_array()
+    if prob.Ch is not None:
+        th = np.append(th, float(inflow))
     x0, sc = initial_state_horizontal(prob, th, scale)
     pred = prob.predict(th, x0)
     mets, traces = {}, {}
@@ -305,16 +350,18 @@ def score_horizontal(prob: HorizontalProblem, params: HorizontalParams, scale):
     return mets, traces, pred, sc
 
 
-def replay_horizontal(dc, params: HorizontalParams, horizon: float, t_start=None, t_end=None):
+def replay_horizontal(dc, params: HorizontalParams, horizon: float, t_start=None, t_end=None,
+                      gain=None, inflow: float = 0.0):
     """``(metrics, traces, notes)`` of the coupled model over the dive (``None`` metrics when no
-    window fits); metrics per channel u, v, heading: rms, nrmse, n."""
+    window fits); metrics per channel u, v, heading: rms, nrmse, n.  ``gain``/``inflow``: the
+    thrust lost to the advance speed (see :class:`HorizontalProblem`)."""
     require_horizontal(dc)
     windows, notes = horizontal_windows(dc, horizon, t_start, t_end)
     if not windows:
         return None, None, notes
-    prob = HorizontalProblem(dc, windows)
+    prob = HorizontalProblem(dc, windows, gain=gain)
     scale, _ = channel_scale(dc, prob)
-    mets, traces, _, _ = score_horizontal(prob, params, scale)
+    mets, traces, _, _ = score_horizontal(prob, params, scale, inflow)
     for m in mets.values():
         m["windows"] = len(windows)
         m["state_fit_s"] = H_STATE_SPAN

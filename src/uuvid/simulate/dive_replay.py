@@ -35,6 +35,7 @@ from uuvid.simulate.dive_horizontal import (
     H_FORCES,
     H_MEAS,
     horizontal_from_vehicle,
+    horizontal_inflow_of,
     replay_horizontal,
 )
 
@@ -448,7 +449,22 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         hz[dof] = H
         if dof == "horizontal":
             ph, src = horizontal_from_vehicle(veh)
-            mets, trs, nt = replay_horizontal(dc, ph, H, t_start, t_end)
+            ka, ka_src = horizontal_inflow_of(veh)
+            hgain = None
+            if ka:
+                from uuvid.io.dive_channels import horizontal_inflow_gain
+
+                g = horizontal_inflow_gain(dc, veh, thrust_model=_thrust_model(dc, thruster_model))
+                if g is None:
+                    notes.append(f"horizontal: the vehicle's inflow coefficient k_a = {ka:.4g} "
+                                 f"({ka_src}) needs the servo outputs (rotor speeds) and the log "
+                                 "has none: replayed with bollard thrust (k_a = 0)")
+                    ka = 0.0
+                else:
+                    hgain = g[:2]
+                    notes.append(f"horizontal: thrust lost to the advance speed with k_a = "
+                                 f"{ka:.4g} N·s/(rad·m) ({ka_src}; rotor speeds: {g[2]})")
+            mets, trs, nt = replay_horizontal(dc, ph, H, t_start, t_end, gain=hgain, inflow=ka)
             notes += nt
             if mets is None:
                 notes.append(f"horizontal: no armed {H:g} s window in the range: nothing replayed")

@@ -327,6 +327,40 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     return df, dive_truth(veh, tether, ka)
 
 
+@njit(cache=True)
+def _horizontal_inflow_steps(x, TAU, OM, ka, pos, axes, wake, B, p, h, X):
+    """RK4 steps of :func:`uuvid.vehicle.model.vehicle_rhs` for :func:`synthetic_horizontal_dive`
+    with inflow: the bollard wrench ``TAU[i]`` held over step i, less ``B (k_a |Ω_i| u_a,i)`` with
+    the advance speeds ``u_a`` (:func:`uuvid.thruster.inflow.advance_speeds_nb`) at each stage's
+    velocity; heave, roll and pitch forces zero (only X, Y, N act).  ``x`` is advanced in place,
+    ``X[i + 1]`` records it."""
+    n_thr = B.shape[1]
+    ua = np.zeros(n_thr)
+    tau6 = np.zeros(6)
+    z = np.zeros(13)
+    ks = np.zeros((4, 13))
+    for i in range(TAU.shape[0] - 1):
+        for s in range(4):
+            if s == 0:
+                z[:] = x
+            else:
+                a = 0.5 * h if s < 3 else h
+                for m in range(13):
+                    z[m] = x[m] + a * ks[s - 1, m]
+            advance_speeds_nb(z[7:13], pos, axes, wake, ua)
+            for m in range(6):
+                acc = TAU[i, m]
+                for j in range(n_thr):
+                    acc -= B[m, j] * ka * OM[i, j] * ua[j]
+                tau6[m] = acc
+            tau6[2] = tau6[3] = tau6[4] = 0.0
+            ks[s] = vehicle_rhs(z, tau6, p)
+        for m in range(13):
+            x[m] = x[m] + h / 6 * (ks[0, m] + 2 * ks[1, m] + 2 * ks[2, m] + ks[3, m])
+        normalise_state(x)
+        X[i + 1] = x
+
+
 def _edge_shifted(model, edges):
     """``thrust(pwm, volts)`` of ``model`` with its dead band moved to ``edges`` = (rev, fwd) µs
     *only* inside the model's edge region (:meth:`uuvid.io.dive_channels.ThrustRegions.
@@ -378,7 +412,8 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
                               dvl_rate: float = 6.0, yaw_rate: float = 20.0,
                               pwm_rate: float = 10.0, dvl_noise: float = 0.01,
                               yaw_noise: float = 0.005, truth_dead_band=None,
-                              jitter: float = 0.2, turning: float = 1.0):
+                              jitter: float = 0.2, turning: float = 1.0,
+                              inflow_coefficient: float = 0.0):
     """``(table, truth)``: a dive in the horizontal plane flown by the project's 6-DOF model
     (:func:`uuvid.vehicle.model.vehicle_rhs`, RK4 at 50 Hz) with the vehicle of
     :func:`horizontal_truth_vehicle`; ``truth`` is its :class:`~uuvid.vehicle.horizontal.
@@ -394,7 +429,12 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     are then wrong at the dead band's edge.  Only X, Y, N act (heave, roll, pitch held).
     Logged: u/v (DVL, ``dvl_rate`` Hz, σ ``dvl_noise``), heading (``yaw_rate`` Hz, wrapped),
     ``pwm_<j>`` (``pwm_rate`` Hz), battery (1 Hz); no force columns (the reader computes them
-    from the PWM)."""
+    from the PWM).
+
+    ``inflow_coefficient`` k_a [N·s/(rad·m)] > 0: every thruster loses ``k_a |Ω_i| u_a,i`` to
+    its advance speed at each RK4 stage (``|Ω_i|`` the T200 model's rotor speed at the PWM and
+    battery voltage), as :func:`synthetic_dive` does; ``truth`` then has ``inflow``.  0 (the
+    default): bollard thrust, the dive as before."""
     import pandas as pd
 
     from uuvid.io.ardusub.thrust import default_t200
@@ -402,6 +442,9 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     from uuvid.vehicle.horizontal import horizontal_params
     from uuvid.vehicle.model import P_VC, make_state
 
+    ka = float(inflow_coefficient)
+    if not (math.isfinite(ka) and ka >= 0):
+        raise ValueError(f"inflow_coefficient must be a finite number >= 0, got {ka!r}")
     rng = np.random.default_rng(seed)
     veh, pt = horizontal_truth_vehicle(vehicle)
     p = pt.to_array()
@@ -452,8 +495,17 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     X[0] = x
     TAU = np.ascontiguousarray(TAU)
     vc, dvc = np.ascontiguousarray(p[P_VC:P_VC + 3]), np.zeros(3)  # vehicle_rhs's current
+    if ka:
+        OO = np.stack([np.abs(t200.speed(pwm_tab, np.full(pwm_tab.size, v))) for v in v_tab])
+        OM = np.ascontiguousarray(OO[kv[:, None], ip] * (1 - fv) + OO[kv[:, None] + 1, ip] * fv)
+        P_thr = np.ascontiguousarray(np.array([t_.position for t_ in veh.layout], float))
+        A_thr = np.array([t_.axis for t_ in veh.layout], float)
+        A_thr = np.ascontiguousarray(A_thr / np.linalg.norm(A_thr, axis=1)[:, None])
+        wake = np.ascontiguousarray(veh.wake if len(veh.wake) else np.zeros(n_thr), float)
+        _horizontal_inflow_steps(x, TAU, OM, ka, P_thr, A_thr, wake, np.ascontiguousarray(B),
+                                 p, DT, X)
     k1, k2, k3, k4, zt = (np.empty(13) for _ in range(5))
-    for i in range(n):  # one compiled RK4 step of vehicle_rhs per call, the wrench held
+    for i in range(n if not ka else 0):  # one compiled RK4 step of vehicle_rhs per call
         rk4_held(x, TAU[i], p, vc, DT, 1, dvc, k1, k2, k3, k4, zt)
         X[i + 1] = x
     qw, qx, qy, qz = X[:, 3], X[:, 4], X[:, 5], X[:, 6]
@@ -479,4 +531,7 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     for j in range(n_thr):
         df[f"pwm_{j + 1}"] = col(t_p, PWM[idx_p, j])
     df["armed"] = True
-    return df, horizontal_params(pt).to_dict()
+    truth = horizontal_params(pt).to_dict()
+    if ka:
+        truth["inflow"] = ka
+    return df, truth

@@ -212,3 +212,35 @@ def one_dof_inflow_matrix(vehicle) -> np.ndarray:
         e[j] = 1.0
         G[j] = B[j] * advance_speeds(e, P, A, w)
     return G
+
+
+#: the rows of ``B`` (X, Y, N) and the velocity components (u, v, r) of the horizontal model
+HORIZONTAL_DOFS = (0, 1, 5)
+
+
+def horizontal_inflow_matrix(vehicle) -> np.ndarray:
+    """``(3, 3, n)`` array ``H`` of the thrust lost to the advance speed in the coupled horizontal
+    model (:mod:`uuvid.vehicle.horizontal`): with the linear inflow form of
+    :func:`one_dof_inflow_matrix` and a motion ``ν_h = (u, v, r)`` in the plane, the force and
+    moment ``(X, Y, N)`` are::
+
+        τ_h = τ_h,bollard − k_a C(t) ν_h,      C_jk(t) = Σ_i H_jki |Ω_i(t)|,
+        H_jki = B_ji (1 − w_i) a_ik
+
+    ``a_ik`` the advance speed at thruster i per unit ``ν_k`` (:func:`advance_speeds` with unit
+    velocities), ``j`` over the X, Y, N rows of ``B``.  ``C``'s diagonal is the 1-DOF gains
+    (:func:`one_dof_inflow_matrix`); its off-diagonal terms are the loss in one DOF from a motion
+    in another (a thruster at a lever arm sees the yaw rate as a surge/sway advance speed).
+    ``C`` is symmetric and positive semi-definite (``Σ_i (1 − w_i)|Ω_i| b_i b_iᵀ``, ``b_i`` the
+    thruster's (X, Y, N) column): the loss never feeds energy in."""
+    lay = vehicle.layout
+    P = np.array([t.position for t in lay], float).reshape(-1, 3)
+    A = np.array([t.axis for t in lay], float).reshape(-1, 3)
+    w = np.asarray(vehicle.wake if len(getattr(vehicle, "wake", ())) else np.zeros(lay.n), float)
+    B = np.asarray(vehicle.B, float)[list(HORIZONTAL_DOFS)]
+    H = np.zeros((3, 3, P.shape[0]))
+    for k, dof in enumerate(HORIZONTAL_DOFS):
+        e = np.zeros(6)
+        e[dof] = 1.0
+        H[:, k, :] = B * advance_speeds(e, P, A, w)[None, :]
+    return H

@@ -59,6 +59,7 @@ from uuvid.identify.vehicle.output_error import (
     dead_band_weights,
     levenberg_marquardt,
     noise_sigma,
+    not_identifiable,
     weighting_summary,
     weighting_text,
 )
@@ -377,7 +378,7 @@ def inflow_warnings(values: dict, sigma: dict, corr) -> list:
                    "advance speed is not physical; "
                    + ("not significant" if ka > -3 * s else "the model does not fit")
                    + "; a vehicle file gets 0")
-    elif s > 0.5 * abs(ka):
+    elif math.isfinite(s) and s > 0.5 * abs(ka):
         out.append(f"inflow coefficient poorly determined: σ {s:.2g} is "
                    + (f"{100 * s / abs(ka):.0f} % of the value" if ka else
                       "above a zero estimate"))
@@ -563,7 +564,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     corr[np.ix_(fi, fi)] = corr_f
     values = {k: float(v) for k, v in zip(names, th)}
     sigma = {k: float(v) for k, v in zip(names, sd)}
-    warns = warns_pre + correlation_warnings(names, corr, RHO_LIMIT)
+    warns = warns_pre + not_identifiable(names, sigma) + correlation_warnings(names, corr, RHO_LIMIT)
     if gain is not None:
         warns += inflow_warnings(values, sigma, corr)
     for k in ("linear", "quadratic"):
@@ -575,7 +576,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             warns.append(f"{k} drag estimate is negative ({values[k]:.3g} ± {sigma[k]:.2g}): "
                          f"{'not significant' if values[k] > -3 * sigma[k] else 'the model does not fit'}"
                          "; a vehicle file gets 0")
-        elif sigma[k] > 0.5 * abs(values[k]):
+        elif math.isfinite(sigma[k]) and sigma[k] > 0.5 * abs(values[k]):
             warns.append(f"{k} drag poorly determined: σ {sigma[k]:.2g} is "
                          f"{100 * sigma[k] / abs(values[k]):.0f} % of the value")
     tf = dc.channels[DIVE_DOFS[dof][1]][0]
@@ -590,7 +591,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
                      f"responds in about {tau:.2g} s: what the controllers did between samples is "
                      "unknown, so mass and drag may be biased beyond σ; log the servo outputs "
                      "faster (telemetry SERVO_OUTPUT_RAW stream rate, or the .BIN's RCOU)")
-    if sigma["mass"] > 0.5 * values["mass"]:
+    if math.isfinite(sigma["mass"]) and sigma["mass"] > 0.5 * values["mass"]:
         warns.append(f"mass poorly determined (σ {sigma['mass']:.2g}): the dive has little "
                      "acceleration")
     if not sol["success"]:
@@ -671,10 +672,6 @@ def _inflow_setup(dc, veh, dofs, inflow, thruster_model, warnings):
     starts = [0.0, t200_inflow().inflow_coefficient] + carried
     if not on:
         return None, starts
-    if set(dofs) == {"horizontal"}:
-        warnings.append("inflow: the coupled horizontal model keeps bollard thrust (k_a is fitted "
-                        "by the 1-DOF models only)")
-        return None, starts
     speeds = rotor_speeds(dc, _thrust_model(dc, thruster_model))
     if speeds is None:
         msg = (f"{dc.name}: the inflow coefficient needs the servo outputs (the rotor speeds "
@@ -715,7 +712,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     base vehicle has ``inflow`` other than ``none`` or a ``one_dof`` entry with an
     ``inflow_coefficient`` (off for the presets).  Starts: ``k_a`` = 0 and the T200 preset's
     (:func:`uuvid.thruster.inflow.t200_inflow`) with every start of the 4-parameter screen.
-    (1-DOF models only; the coupled horizontal model keeps bollard thrust.)
+    The coupled horizontal model fits one ``k_a`` for its three DOF, with the loss
+    ``k_a C(t) (u, v, r)`` coupling them (:func:`uuvid.vehicle.inflow.horizontal_inflow_matrix`).
     """
     from uuvid.vehicle.definition import load_vehicle
 
@@ -747,9 +745,18 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         if dof == "horizontal":
             from uuvid.identify.vehicle.dive_horizontal import fit_horizontal
 
-            return fit_horizontal(dc, veh, float(horizon or DEFAULT_HORIZON[dof]), t_start,
-                                  t_end, flags=flags, weighting=dead_band_weighting,
-                                  held_out_horizon=held_out_horizon)
+            hgain = None
+            if speeds is not None:
+                from uuvid.io.dive_channels import horizontal_inflow_gain
+
+                hgain = horizontal_inflow_gain(dc, veh, speeds=speeds)[:2]
+            est = fit_horizontal(dc, veh, float(horizon or DEFAULT_HORIZON[dof]), t_start,
+                                 t_end, flags=flags, weighting=dead_band_weighting,
+                                 held_out_horizon=held_out_horizon, gain=hgain,
+                                 inflow_start=ka_starts[0])
+            if speeds is not None:
+                est.notes.append(f"inflow: rotor speeds from {speeds[2]}")
+            return est
         dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
         base, base_src = params_from_vehicle(veh, dof)

@@ -43,6 +43,7 @@ from uuvid.identify.vehicle.output_error import (
     covariance,
     dead_band_weights,
     levenberg_marquardt,
+    not_identifiable,
     weighting_summary,
     weighting_text,
 )
@@ -54,6 +55,7 @@ from uuvid.simulate.dive_horizontal import (
     HorizontalProblem,
     channel_scale,
     horizontal_from_vehicle,
+    horizontal_inflow_of,
     horizontal_windows,
     replay_horizontal,
     require_horizontal,
@@ -66,7 +68,6 @@ __all__ = ["fit_horizontal", "HorizontalEstimate", "MIN_SECONDS_HORIZONTAL"]
 MIN_SECONDS_HORIZONTAL = 40.0  # of armed windows: twelve parameters need more than four do
 MIN_WINDOWS = 6
 _SVF_OMEGA = 2.5
-_NP = len(HORIZONTAL_NAMES)
 _LABEL = {"m_u": "surge mass m_u [kg]", "m_v": "sway mass m_v [kg]",
           "I_r": "yaw inertia I_r [kg·m²]", "k_u": "surge linear drag [N·s/m]",
           "kq_u": "surge quadratic drag [N·s²/m²]", "k_v": "sway linear drag [N·s/m]",
@@ -76,6 +77,21 @@ _LABEL = {"m_u": "surge mass m_u [kg]", "m_v": "sway mass m_v [kg]",
 _DOF_KEYS = {"surge": ("m_u", "k_u", "kq_u", "b_u"), "sway": ("m_v", "k_v", "kq_v", "b_v"),
              "yaw": ("I_r", "k_r", "kq_r", "b_r")}
 _DRAGS = ("k_u", "kq_u", "k_v", "kq_v", "k_r", "kq_r")
+_LABEL["inflow"] = "inflow coefficient k_a [N·s/(rad·m)]"
+
+
+def _inflow_warnings(ka: float, s: float) -> list:
+    """A negative or poorly determined joint inflow coefficient, said."""
+    if ka < 0:
+        return [f"inflow coefficient negative ({ka:.3g} ± {s:.2g}): thrust that grows with the "
+                "advance speed is not physical; "
+                + ("not significant" if ka > -3 * s else "the model does not fit")
+                + "; a vehicle file gets 0"]
+    if math.isfinite(s) and s > 0.5 * abs(ka):
+        return [f"inflow coefficient poorly determined: σ {s:.2g} is "
+                + (f"{100 * s / abs(ka):.0f} % of the value" if ka else "above a zero estimate")
+                + " (the dive's speeds and rotor speeds vary too little together)"]
+    return []
 _MASSES = ("m_u", "m_v", "I_r")
 
 
@@ -93,9 +109,11 @@ def _svf(g, y, omega, position: bool):
     return p, d1, d2
 
 
-def svf_start(dc, windows, omega: float = _SVF_OMEGA):
+def svf_start(dc, windows, omega: float = _SVF_OMEGA, gain=None):
     """Equation-error least squares of the three coupled equations through the state-variable
-    filter over the windows' contiguous runs (20 Hz grid), or ``None`` with too little data."""
+    filter over the windows' contiguous runs (20 Hz grid), or ``None`` with too little data.
+    With ``gain`` (``(t, C)``, :class:`~uuvid.simulate.dive_horizontal.HorizontalProblem`) a
+    13th column ``(C(t) ν)_j`` (C linear between its samples, ν filtered) gives k_a's start."""
     runs, cur = [], [windows[0][0], windows[0][1]]
     for a, b in windows[1:]:
         if a <= cur[1] + 1e-9:
@@ -116,12 +134,16 @@ def svf_start(dc, windows, omega: float = _SVF_OMEGA):
         F = [_svf(g, np.interp(g, *dc.channels[f]), omega, False)[0] for f in H_FORCES]
         keep = g - g[0] > 3.0 / omega
         one, zero = np.ones(g.size), np.zeros(g.size)
-        # columns: m_u m_v I_r k_u kq_u k_v kq_v k_r kq_r b_u b_v b_r
+        # columns: m_u m_v I_r k_u kq_u k_v kq_v k_r kq_r b_u b_v b_r [k_a]
         cols = [
             [du, -v * r, zero, u, u * np.abs(u), zero, zero, zero, zero, -one, zero, zero],
             [u * r, dv, zero, zero, zero, v, v * np.abs(v), zero, zero, zero, -one, zero],
             [-u * v, u * v, dr, zero, zero, zero, zero, r, r * np.abs(r), zero, zero, -one],
         ]
+        if gain is not None:
+            Cg = [[np.interp(g, gain[0], gain[1][:, j, k]) for k in range(3)] for j in range(3)]
+            for j in range(3):
+                cols[j].append(Cg[j][0] * u + Cg[j][1] * v + Cg[j][2] * r)
         for i in range(3):
             eq[i].append(np.column_stack(cols[i])[keep])
             rhs[i].append(F[i][keep])
@@ -159,15 +181,22 @@ class HorizontalEstimate:
     noise: dict = field(default_factory=dict)
     dof: str = "horizontal"
 
+    @property
+    def inflow(self) -> float | None:
+        """The inflow coefficient k_a when it was fitted jointly (else ``None``)."""
+        return self.values.get("inflow")
+
     def params(self) -> HorizontalParams:
-        return HorizontalParams(**self.values)
+        return HorizontalParams(**{k: self.values[k] for k in HORIZONTAL_NAMES})
 
     def to_dict(self) -> dict:
         ratio = {k: (self.values[k] / self.base[k] if self.base.get(k) else None)
                  for k in HORIZONTAL_NAMES}
-        return {"dof": "horizontal", "model": "coupled surge–sway–yaw (Fossen 2011 3-DOF)",
+        model = "coupled surge–sway–yaw (Fossen 2011 3-DOF)" + (
+            "; thrust less k_a C(t) (u, v, r) (inflow)" if self.inflow is not None else "")
+        return {"dof": "horizontal", "model": model,
                 "values": self.values, "sigma": self.sigma,
-                "correlation": {"params": list(HORIZONTAL_NAMES), "matrix": self.correlation},
+                "correlation": {"params": list(self.values), "matrix": self.correlation},
                 "start_value_svf": self.start, "base": self.base, "base_source": self.base_source,
                 "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
                 "noise_sigma": self.noise, "train": self.train, "held_out": self.held_out,
@@ -182,15 +211,21 @@ class HorizontalEstimate:
                         "disturbance": v[b],
                         "sigma": {"mass": s[m], "linear": s[k], "quadratic": s[kq],
                                   "disturbance": s[b]},
-                        "log": log, "method": "dive output-error, coupled horizontal model",
+                        "log": log, "method": "dive output-error, coupled horizontal model"
+                                              + (" with inflow" if self.inflow is not None else ""),
                         "notes": f"surge, sway and yaw jointly (Coriolis and Munk terms); "
                                  f"{self.windows} windows of {self.horizon:g} s"}
+            if self.inflow is not None:
+                out[dof]["inflow_coefficient"] = max(self.inflow, 0.0)
+                out[dof]["sigma"]["inflow_coefficient"] = s["inflow"]
+                out[dof]["notes"] += ("; drag without the thrust lost to the advance speed (k_a "
+                                      "of the coupled fit, the same for the three DOF)")
         return out
 
     def summary_lines(self, t_end) -> list:
         lines = [f"horizontal (surge, sway, yaw coupled): {self.windows} windows of "
                  f"{self.horizon:g} s (output error)"]
-        for k in HORIZONTAL_NAMES:
+        for k in self.values:
             b = self.base.get(k)
             ratio = (f"  ×{self.values[k] / b:.2f} of base {b:.4g}" if b else
                      f"  (base {b:.4g})" if b is not None else "")
@@ -232,11 +267,16 @@ def _dead_band_rows(prob, flags, th0, scale):
 
 
 def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=None,
-                   weighting: bool = True, held_out_horizon=None) -> HorizontalEstimate:
+                   weighting: bool = True, held_out_horizon=None, gain=None,
+                   inflow_start: float | None = None) -> HorizontalEstimate:
     """Identify the coupled model (see the module doc) from the armed windows of ``dc`` within
     ``[t_start, t_end]``; the part after ``t_end`` is replayed as held out.  Raises
     :class:`~uuvid.io.dive_channels.DiveDataError` naming a missing channel or too short a
-    range."""
+    range.
+
+    ``gain``: ``(t, C)`` of :func:`uuvid.io.dive_channels.horizontal_inflow_gain` — the inflow
+    coefficient ``k_a`` is then a 13th parameter (thrust less ``k_a C(t) (u, v, r)``), started
+    from the state-variable-filter regression (``inflow_start`` where it has none)."""
     require_horizontal(dc)
     windows, notes = horizontal_windows(dc, horizon, t_start, t_end)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS_HORIZONTAL / horizon - 1e-9))
@@ -248,13 +288,21 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
             f"{need}, i.e. {need * horizon:g} s with u, v and heading samples); widen "
             "--t-start/--t-end or pass a longer dive" + (f" ({'; '.join(notes)})" if notes else ""))
     base, base_src = horizontal_from_vehicle(veh)
-    prob = HorizontalProblem(dc, windows)
+    names = HORIZONTAL_NAMES + (("inflow",) if gain is not None else ())
+    npar = len(names)
+    prob = HorizontalProblem(dc, windows, gain=gain)
     scale, sig = channel_scale(dc, prob)
     W = prob.W
-    th_svf = svf_start(dc, windows)
-    start = {k: float(v) for k, v in zip(HORIZONTAL_NAMES, th_svf)} if th_svf is not None else {}
-    th0 = np.array(th_svf if th_svf is not None else base.as_array(), float)
+    th_svf = svf_start(dc, windows, gain=gain)
+    start = {k: float(v) for k, v in zip(names, th_svf)} if th_svf is not None else {}
     b0 = base.as_array()
+    if gain is not None:
+        b0 = np.append(b0, 0.0 if inflow_start is None else float(inflow_start))
+    th0 = np.array(th_svf if th_svf is not None else b0, float)
+    if gain is not None and not th0[-1] >= 0:
+        notes.append(f"state-variable-filter start value had k_a {th0[-1]:.3g} < 0; started "
+                     "k_a at 0")
+        th0[-1] = 0.0
     for i, k in enumerate(HORIZONTAL_NAMES):
         if k in _MASSES and not th0[i] > 0:
             notes.append(f"state-variable-filter start value had {k} {th0[i]:.3g} ≤ 0; started "
@@ -267,7 +315,7 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
     rw = scale * (weights if weights is not None else 1.0)
 
     def resid(z):
-        return (prob.predict(z[:_NP], z[_NP:].reshape(4, W).T) - prob.y) * rw
+        return (prob.predict(z[:npar], z[npar:].reshape(4, W).T) - prob.y) * rw
 
     z0 = np.concatenate([th0, prob.x0_meas.T.ravel()])
     N, P = prob.y.size, z0.size
@@ -277,48 +325,52 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
         # every perturbed copy in one vectorised simulation: 12 parameters, then each of the
         # four initial-state components of all windows at once (a window's state touches only
         # its own rows)
-        th, x0 = z[:_NP], z[_NP:].reshape(4, W).T
-        ths = np.repeat(th[None], 1 + _NP + 4, axis=0)
-        xs = np.repeat(x0[None], 1 + _NP + 4, axis=0)
+        th, x0 = z[:npar], z[npar:].reshape(4, W).T
+        ths = np.repeat(th[None], 1 + npar + 4, axis=0)
+        xs = np.repeat(x0[None], 1 + npar + 4, axis=0)
         dth = 1e-6 * np.maximum(np.abs(th), 1e-3)
-        ths[1 + np.arange(_NP), np.arange(_NP)] += dth
+        ths[1 + np.arange(npar), np.arange(npar)] += dth
         dx = 1e-6 * np.maximum(np.abs(x0), 1e-2)
         for j in range(4):
-            xs[1 + _NP + j, :, j] += dx[:, j]
+            xs[1 + npar + j, :, j] += dx[:, j]
         R = (prob.predict_many(ths, xs) - prob.y) * rw
         dR, _ = blown_windows((R[1:] - R[0]).T, prob.w, W)  # a blown-up window: no information
         J = np.zeros((N, P))
-        J[:, :_NP] = dR[:, :_NP] / dth
+        J[:, :npar] = dR[:, :npar] / dth
         for j in range(4):
-            J[rows, _NP + j * W + prob.w] = dR[:, _NP + j] / dx[prob.w, j]
+            J[rows, npar + j * W + prob.w] = dR[:, npar + j] / dx[prob.w, j]
         J[~np.isfinite(J)] = 0.0
         return J
 
     free = np.ones(P, bool)
     with small_blas():  # a few hundred unknowns, dense and small: one BLAS thread is fastest
         sol = levenberg_marquardt(resid, jac, z0, free, positive=(0, 1, 2))
-        sd, corr = covariance(sol["jac"], sol["fun"], prob.w, _NP)
-    th = sol["x"][:_NP]
-    values = {k: float(v) for k, v in zip(HORIZONTAL_NAMES, th)}
-    sigma = {k: float(v) for k, v in zip(HORIZONTAL_NAMES, sd)}
-    warns = correlation_warnings(HORIZONTAL_NAMES, corr)
+        sd, corr = covariance(sol["jac"], sol["fun"], prob.w, npar)
+    th = sol["x"][:npar]
+    values = {k: float(v) for k, v in zip(names, th)}
+    sigma = {k: float(v) for k, v in zip(names, sd)}
+    warns = not_identifiable(names, sigma) + correlation_warnings(names, corr)
+    if gain is not None:
+        warns += _inflow_warnings(values["inflow"], sigma["inflow"])
     for k in _DRAGS:
         if values[k] < 0:
             warns.append(f"{k} drag estimate is negative ({values[k]:.3g} ± {sigma[k]:.2g}): "
                          f"{'not significant' if values[k] > -3 * sigma[k] else 'the model does not fit'}"
                          "; a vehicle file gets 0")
-        elif sigma[k] > 0.5 * abs(values[k]):
+        elif math.isfinite(sigma[k]) and sigma[k] > 0.5 * abs(values[k]):
             warns.append(f"{k} drag poorly determined: σ {sigma[k]:.2g} is "
                          f"{100 * sigma[k] / abs(values[k]):.0f} % of the value")
     for k in _MASSES:
-        if sigma[k] > 0.5 * values[k]:
+        if math.isfinite(sigma[k]) and sigma[k] > 0.5 * values[k]:
             warns.append(f"{k} poorly determined (σ {sigma[k]:.2g}): the dive has little "
                          "acceleration or turning at speed")
     if not sol["success"]:
         warns.append(f"optimiser stopped: {sol['message']}")
-    p_id = HorizontalParams(**values)
-    m_id, tr_id, pr_id, sc = score_horizontal(prob, p_id, scale)
-    m_b, tr_b, _, _ = score_horizontal(prob, base, scale)
+    p_id = HorizontalParams(**{k: values[k] for k in HORIZONTAL_NAMES})
+    ka = values.get("inflow", 0.0)
+    m_id, tr_id, pr_id, sc = score_horizontal(prob, p_id, scale, ka)
+    ka_base = horizontal_inflow_of(veh)[0] if gain is not None else 0.0
+    m_b, tr_b, _, _ = score_horizontal(prob, base, scale, ka_base)
     train = {c: {**m_id[c], "rms_base": m_b[c]["rms"]} for c in H_CHANNELS}
     train["rms_fit_scaled"] = float(np.sqrt(np.mean(sol["fun"] ** 2)))
     train["iterations"] = sol["nit"]
@@ -329,8 +381,9 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
     held = None
     if t_end is not None:
         Hh = float(held_out_horizon or horizon)
-        h_id, ht_id, nt = replay_horizontal(dc, p_id, Hh, t_end)
-        h_b, ht_b, _ = replay_horizontal(dc, base, Hh, t_end)
+        h_id, ht_id, nt = replay_horizontal(dc, p_id, Hh, t_end, gain=gain, inflow=ka)
+        h_b, ht_b, _ = replay_horizontal(dc, base, Hh, t_end, gain=gain if ka_base else None,
+                                         inflow=ka_base)
         if h_id is None:
             notes.append(f"no armed {Hh:g} s window after --t-end {t_end:g} s: no held-out score"
                          + (f" ({'; '.join(nt)})" if nt else ""))
@@ -345,6 +398,12 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
                            (np.ones(N) if flags is not None and weighting else None), prob.w,
                            windows[0][0], windows[-1][1], W, H_FORCES)
     wd["enabled"] = bool(weighting and flags is not None)
+    if gain is not None:
+        notes.append("inflow: the thrust lost to the advance speed, k_a C(t) (u, v, r) with C(t) "
+                     "= Σ_i |Ω_i(t)| (1 − w_i) b_i b_iᵀ over the thrusters' (X, Y, N) columns "
+                     "b_i (uuvid.vehicle.inflow.horizontal_inflow_matrix), is fitted with the "
+                     "drags; the base vehicle is replayed with "
+                     + (f"its own k_a {ka_base:.4g}" if ka_base else "bollard thrust"))
     notes.append("yaw rate from the heading through the model (not measured); residuals divided "
                  "by each channel's noise σ (" + ", ".join(
                      f"{c} {s:.2g} {u}" for c, s, u in zip(H_CHANNELS, sig, H_UNITS)) + ")")
