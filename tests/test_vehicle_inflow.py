@@ -183,6 +183,28 @@ def test_envelope_with_inflow_is_the_speed_a_6dof_simulation_reaches():
 
 
 @pytest.mark.slow
+def test_confirm_envelope_flies_the_limits_at_the_advance_speed():
+    """``confirm_envelope`` with inflow flies every translational and yaw direction with the
+    thrust limits at the advance speeds (the hold flight's kernel): the Heavy's rows are all
+    confirmed to 1e-6 of the envelope's speeds with inflow, which lie 2–15 % below the bollard
+    ones (a flight with bollard limits would miss them by that); the BlueROV2's heave and yaw
+    rows likewise, its surge and sway rows say it cannot stay level."""
+    from uuvid.analysis.envelope_check import confirm_envelope
+
+    for name in ("bluerov2-heavy", "bluerov2"):
+        check = confirm_envelope(load_vehicle(name), inflow="four-quadrant")
+        for r in check.rows:
+            if r["dof"] in ("roll", "pitch"):
+                continue
+            if name == "bluerov2" and r["dof"] in ("surge", "sway"):
+                assert r["confirmed"] is False and "cannot stay level" in r["note"]
+                continue
+            assert r["confirmed"], (name, r["direction"], r["note"])
+            assert r["simulated_speed"] == pytest.approx(r["allocator_speed"], rel=1e-6)
+            assert 0.8 < r["allocator_speed"] / r["bollard_speed"] < 0.985, r
+
+
+@pytest.mark.slow
 def test_wake_raises_the_speed_towards_bollard():
     s0 = speed_envelope(_with("bluerov2"), dofs=["surge"])["forward"].speed
     s3 = speed_envelope(_with("bluerov2", wake=0.3), dofs=["surge"])["forward"].speed
@@ -255,11 +277,14 @@ def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
     assert json.loads(off.output) == json.loads(plain.output)
     on = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--inflow", "four-quadrant"])
     assert on.exit_code == 0, on.output
-    assert "bollard_speed" in on.output and "not confirmed by simulation" in on.output
+    assert "bollard_speed" in on.output and "simulated_speed" in on.output
+    assert "limit at its advance speed at every control step" in on.output
     doc = json.loads(run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--json",
                                       "--inflow", "four-quadrant"]).output)
     fwd = next(r for r in doc["rows"] if r["direction"] == "forward")
     assert fwd["allocator_speed"] < fwd["bollard_speed"]
+    assert fwd["confirmed"] and fwd["simulated_speed"] == pytest.approx(fwd["allocator_speed"],
+                                                                        rel=1e-6)
     bad = run.invoke(app, ["vehicle", "stability", "bluerov2", "--inflow", "bogus"])
     assert bad.exit_code == 2 and "inflow must be one of" in bad.output
 

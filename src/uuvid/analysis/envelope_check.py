@@ -29,6 +29,8 @@ import numpy as np
 from numba import njit
 
 from uuvid.core.result import Result, jsonable
+from uuvid.thruster.inflow import inflow_thrust_nb
+from uuvid.vehicle.inflow import state_advance_speeds_nb
 from uuvid.vehicle.kinematics import quat_to_rotmat
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import vehicle_rhs
@@ -63,13 +65,20 @@ def _settle(x0, tau, vp, dt, nsteps):
 
 
 @njit(cache=True)
-def _hold_run(x0, vp, B, T, lo, hi, ctl, dof, sgn, mode, speed, gains, dt, nsteps, ntail):
+def _hold_run(x0, vp, B, T, lo0, hi0, ctl, dof, sgn, mode, speed, gains, dt, nsteps, ntail,
+              inflow, lim, en, ep, IPRM, IGEO):
     """Fly with the hold controller; ``mode`` 0: full command on ``dof`` (priority to the hold),
-    1: NED speed ``sgn·speed`` held along ``dof`` too.  ``lo``/``hi``: delivered-thrust limits.
+    1: NED speed ``sgn·speed`` held along ``dof`` too.  ``lo0``/``hi0``: delivered-thrust limits.
     Returns tail means ``[ν_dof, roll, pitch, command fraction]`` and tail max ``|roll|, |pitch|``
     (angles in rad).  The hold: PID on the NED position (per axis) rotated into body axes and
-    PID on the Euler angles of the controlled attitude DOFs; ``gains`` = ``[K_p(6), K_d(6),
-    K_i(6)]``; thrust delivered instantly, ``τ = B t``."""
+    PID on the Euler angles of the controlled attitude DOFs other than ``dof``; ``gains`` =
+    ``[K_p(6), K_d(6), K_i(6)]``; thrust delivered instantly, ``τ = B t``.
+
+    ``inflow``: the limits at each control step are the thrusts the full commands give at the
+    thrusters' present advance speeds, ``η_i T_i(n_lim, u_a,i)`` (:func:`uuvid.thruster.inflow.
+    inflow_thrust_nb` of the bollard limits ``lim``; ``IPRM``, ``IGEO``: the mission loop's map
+    and geometry), the thrust allocated within them delivered — what the envelope with inflow
+    assumes (:func:`uuvid.vehicle.envelope.speed_envelope`)."""
     n = T.shape[0]
     x = x0.copy()
     integ = np.zeros(6)
@@ -78,9 +87,14 @@ def _hold_run(x0, vp, B, T, lo, hi, ctl, dof, sgn, mode, speed, gains, dt, nstep
     th = np.zeros(n)
     t = np.zeros(n)
     tau = np.zeros(6)
-    sig_full = 1e300
+    lo = lo0.copy()
+    hi = hi0.copy()
+    ua = np.zeros(n)
+    still = np.zeros(3)
     for i in range(n):
         tu[i] = T[i, dof] * sgn
+    sig_full = 1e300
+    for i in range(n):
         if tu[i] > 0.0:
             sig_full = min(sig_full, hi[i] / tu[i])
         elif tu[i] < 0.0:
@@ -88,6 +102,16 @@ def _hold_run(x0, vp, B, T, lo, hi, ctl, dof, sgn, mode, speed, gains, dt, nstep
     out = np.zeros(6)
     for step in range(nsteps):
         time = step * dt
+        if inflow:
+            state_advance_speeds_nb(x, still, IGEO, ua)
+            sig_full = 1e300
+            for i in range(n):
+                lo[i] = en[i] * inflow_thrust_nb(lim[i, 0], ua[i], IPRM)
+                hi[i] = ep[i] * inflow_thrust_nb(lim[i, 1], ua[i], IPRM)
+                if tu[i] > 0.0:
+                    sig_full = min(sig_full, hi[i] / tu[i])
+                elif tu[i] < 0.0:
+                    sig_full = min(sig_full, lo[i] / tu[i])
         q = x[3:7]
         R = quat_to_rotmat(q)
         ang = np.empty(3)
@@ -108,7 +132,7 @@ def _hold_run(x0, vp, B, T, lo, hi, ctl, dof, sgn, mode, speed, gains, dt, nstep
             phi[i] = R[0, i] * fned[0] + R[1, i] * fned[1] + R[2, i] * fned[2]
         for k in range(3, 6):
             phi[k] = 0.0
-            if ctl[k]:
+            if ctl[k] and k != dof:
                 e = -ang[k - 3]
                 phi[k] = gains[k] * e - gains[6 + k] * x[7 + k] + gains[12 + k] * integ[k]
                 integ[k] += e * dt
@@ -160,10 +184,17 @@ def _gains(vehicle, translation_bandwidth: float = 1.0, attitude_bandwidth: floa
 
 
 def hold_flight(vehicle, dof, sign: int, speed: float | None = None, t_end: float = 90.0,
-                dt: float = 0.01, tail: float = 15.0) -> dict:
+                dt: float = 0.01, tail: float = 15.0, inflow: str | None = "none") -> dict:
     """Fly along ``dof`` (sign ±) with the hold controller: at full command (``speed`` None) or
-    holding the NED speed ``speed``; tail means of the velocity along ``dof`` and of roll/pitch."""
+    holding the NED speed ``speed``; tail means of the velocity along ``dof`` and of roll/pitch.
+    ``dof`` a translation, or yaw (5: full yaw command, position and roll/pitch held).
+    ``inflow`` (``'none'``: bollard thrust; ``None``: the vehicle file's): the thrust limits at
+    the thrusters' advance speeds, step by step (see :func:`_hold_run`)."""
+    from uuvid.vehicle.inflow import loop_arrays
+
     d = dof_index(dof) if isinstance(dof, str) else int(dof)
+    arrays = loop_arrays(vehicle, inflow)
+    iprm, igeo = arrays if arrays is not None else (np.zeros(1), np.zeros((1, 7)))
     alloc = vehicle.allocator(compensate_eta=True)
     ep, en = alloc.eta
     lim = vehicle.layout.limits
@@ -175,7 +206,9 @@ def hold_flight(vehicle, dof, sign: int, speed: float | None = None, t_end: floa
     out = _hold_run(x0, vehicle.params.to_array(), np.ascontiguousarray(vehicle.B),
                     np.ascontiguousarray(alloc.T), lim[:, 0] * en, lim[:, 1] * ep, ctl, d,
                     float(sign), 0 if speed is None else 1, 0.0 if speed is None else float(speed),
-                    _gains(vehicle), dt, nsteps, int(round(tail / dt)))
+                    _gains(vehicle), dt, nsteps, int(round(tail / dt)), arrays is not None,
+                    np.ascontiguousarray(lim, dtype=float), np.asarray(en, float),
+                    np.asarray(ep, float), iprm, igeo)
     return {"speed": float(out[0]), "roll_deg": math.degrees(out[1]),
             "pitch_deg": math.degrees(out[2]), "command_fraction": min(1.0, float(out[3])),
             "max_abs_roll_deg": math.degrees(out[4]), "max_abs_pitch_deg": math.degrees(out[5]),
@@ -308,8 +341,10 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
     (``simulate=False``: the analytic rows with the stability limits only).
 
     ``inflow`` (``None``: the vehicle file's, ``'none'``: bollard thrust): with inflow the rows
-    carry the bollard speed beside (``bollard_speed``) and are not simulated — the confirming
-    flight (:func:`hold_flight`, its own kernel) runs bollard thrusters."""
+    carry the bollard speed beside (``bollard_speed``) and the confirming flight
+    (:func:`hold_flight`) takes each thruster's limit at its advance speed at every control step;
+    the yaw rows fly full yaw command with position, roll and pitch held (bollard yaw rows: the
+    allocated torque open loop, as before)."""
     from uuvid.vehicle.envelope import speed_envelope
     from uuvid.vehicle.stability import static_stability, trim_state
 
@@ -317,7 +352,6 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
     stab = static_stability(vehicle, envelope=env, inflow=env.inflow) if stability is None \
         else stability
     with_inflow = env.inflow != "none"
-    simulate = simulate and not with_inflow
     rows = []
     for r in env.rows:
         d = _row(r)
@@ -342,8 +376,7 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
         if not simulate:
             d["limit"] = case.limit_text() if case is not None else "—"
             d["method"] = "analytic"
-            d["note"] = ("not simulated (the confirming flight has no inflow yet)" if with_inflow
-                         else "not simulated")
+            d["note"] = "not simulated"
             if case is not None and case.limited and case.limit_speed < abs(ref):
                 d["confirmed"] = False
                 d["limit"] = _level_limit(case)
@@ -351,8 +384,8 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                              f"({case.limit_dof}: {case.limit_reason})")
             rows.append(d)
             continue
-        if k < 3:
-            sim = hold_flight(vehicle, k, r.sign)
+        if k < 3 or with_inflow:
+            sim = hold_flight(vehicle, k, r.sign, inflow=env.inflow)
             d.update(simulated_speed=sim["speed"], final_roll_deg=sim["roll_deg"],
                      final_pitch_deg=sim["pitch_deg"], method=sim["method"])
             tilt = (sim["max_abs_roll_deg"], sim["max_abs_pitch_deg"])
@@ -374,7 +407,7 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                      final_pitch_deg=None, confirmed=False)
             us = 0.8 * case.limit_speed
             st = trim_state(vehicle, k, r.sign, us)
-            fl = hold_flight(vehicle, k, r.sign, speed=us)
+            fl = hold_flight(vehicle, k, r.sign, speed=us, inflow=env.inflow)
             ang = case.limit_dof
             d["limit"] = _level_limit(case)
             d["trim_check_speed"] = us

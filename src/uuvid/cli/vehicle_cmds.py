@@ -228,13 +228,15 @@ def vehicle_envelope(
     cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
             "limit"]
     if with_inflow:  # side by side: the allocator speed with and without inflow
-        cols = ["direction", "force", "allocator_speed", "bollard_speed", "limit"]
+        cols = ["direction", "force", "allocator_speed", "simulated_speed", "relative_difference",
+                "bollard_speed", "limit"]
     title = f"{v.name}: speed envelope" + (" (thrust at the advance speed; bollard_speed: "
                                            "inflow off)" if with_inflow else "")
     out_console.print(_table(title, check.table_rows(cols), cols, "{:.4g}"))
     if with_inflow:
         out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
-                          "not confirmed by simulation (the confirming flight has no inflow yet)",
+                          "simulated_speed: the confirming flight takes each thruster's limit at "
+                          "its advance speed at every control step",
                           highlight=False, soft_wrap=True, markup=False)
     if any(r["tumbling_full_command"] for r in check.rows):
         out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
