@@ -479,3 +479,27 @@ def test_gym_env_inflow_none_is_today_and_inflow_lowers_the_thrust_when_moving()
             assert on[7] == pytest.approx(off[7], rel=0.05)
         else:  # moving: the propellers keep less of their bollard thrust
             assert on[7] - u < 0.95 * (off[7] - u)
+
+
+def test_mission_on_a_battery_keeps_the_vehicle_files_inflow():
+    """On a battery, setup_mission flies the voltage-aware T200 model in place of the 16 V preset
+    (the same thruster): a vehicle file with inflow on keeps its propeller map there (it used to
+    refuse the mission as if the user had swapped the thruster); inflow='none' is the bollard
+    flight, and a thruster chain the user swaps in is still refused with inflow on."""
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.thruster.presets import preset_chain
+
+    v = _with("bluerov2")
+    res = {}
+    for inflow in ("four-quadrant", "none"):
+        s = setup_mission(v, square_mission(), battery=True, t_end=20.0, inflow=inflow)
+        assert (s.inflow_arrays is not None) == (inflow != "none")
+        res[inflow] = fly_mission(s)
+    on, off = res["four-quadrant"], res["none"]
+    assert np.array_equal(on.thrust[0], off.thrust[0])  # at rest: the bollard thrust exactly
+    assert np.max(np.abs(on.thrust - off.thrust)) > 0.05  # moving: the loss acts
+    assert on.metrics["soc"][1] < off.metrics["soc"][1]  # more thrust asked for the same square
+    with pytest.raises(ValueError, match="with another thruster model give inflow='none'"):
+        setup_mission(v, square_mission(), battery=True, thruster_chain=preset_chain("t200"),
+                      t_end=5.0)

@@ -1240,6 +1240,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
         raise TypeError("disturbance must be a uuvid.simulate.disturbances.Disturbance(fn, params), "
                         f"got {type(disturbance).__name__}")
     n = len(vehicle.layout)
+    own_chain = thruster_chain  # the caller's replacement chain (None: the vehicle's own models)
     if battery is True:
         battery = vehicle.battery
         if battery is None:
@@ -1274,14 +1275,16 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                          int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                          np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
                          const, t, ref, cm, series, allocation, battery, bat, controller,
-                         disturbance, _inflow_arrays(vehicle, inflow, thruster_chain))
+                         disturbance, _inflow_arrays(vehicle, inflow, own_chain))
     if controller is not None:
         _check_controller(setup)
     return setup
 
 
 def _inflow_arrays(vehicle, inflow, thruster_chain):
-    """The loop's inflow arrays; a replaced thruster chain has no propeller map of its own."""
+    """The loop's inflow arrays; a chain the caller put in place of the vehicle's models has no
+    propeller map of its own (the voltage-aware T200 model :func:`setup_mission` picks itself on a
+    battery is the same thruster and keeps the vehicle's map)."""
     from uuvid.vehicle.inflow import loop_arrays, resolve_inflow
 
     if thruster_chain is not None and resolve_inflow(vehicle, inflow) != "none":
