@@ -7,8 +7,9 @@ model, the horizontal part of the project's 6-DOF model, also used by Caccia et 
     m_v v̇ + m_u u r = Y − k_v v − k_qv v|v| + b_v
     I_r ṙ − (m_u − m_v) u v = N − k_r r − k_qr r|r| + b_r,      ψ̇ = r
 
-has twelve parameters; they are identified like the 1-DOF models of
-:mod:`uuvid.identify.vehicle.dive`:
+has twelve parameters — thirteen with the thrust lost to the advance speed, ``(X, Y, N) −
+k_a C(t) (u, v, r)`` (:func:`uuvid.vehicle.inflow.horizontal_inflow_matrix`; ``identify_dive``'s
+``inflow``) — identified like the 1-DOF models of :mod:`uuvid.identify.vehicle.dive`:
 
 1. **start value** — equation error through a state-variable filter
    ``ω²/(s² + 2ζωs + ω²)`` applied to u, v, the heading and X, Y, N alike (the products
@@ -77,6 +78,7 @@ _LABEL = {"m_u": "surge mass m_u [kg]", "m_v": "sway mass m_v [kg]",
 _DOF_KEYS = {"surge": ("m_u", "k_u", "kq_u", "b_u"), "sway": ("m_v", "k_v", "kq_v", "b_v"),
              "yaw": ("I_r", "k_r", "kq_r", "b_r")}
 _DRAGS = ("k_u", "kq_u", "k_v", "kq_v", "k_r", "kq_r")
+_MASSES = ("m_u", "m_v", "I_r")
 _LABEL["inflow"] = "inflow coefficient k_a [N·s/(rad·m)]"
 
 
@@ -92,7 +94,6 @@ def _inflow_warnings(ka: float, s: float) -> list:
                 + (f"{100 * s / abs(ka):.0f} % of the value" if ka else "above a zero estimate")
                 + " (the dive's speeds and rotor speeds vary too little together)"]
     return []
-_MASSES = ("m_u", "m_v", "I_r")
 
 
 def _svf(g, y, omega, position: bool):
