@@ -311,3 +311,16 @@ def test_joint_inflow_is_written_and_replayed(tmp_path):
     bollard = replay_dive(df, load_vehicle(tmp_path / "no_ka.yaml"), ["horizontal"])
     for ch in ("u (horizontal)", "v (horizontal)"):
         assert rep.channels[ch]["rms"] < 0.7 * bollard.channels[ch]["rms"], ch
+
+
+def test_an_all_empty_column_is_an_empty_channel_not_a_traceback(dive):
+    """A DVL that logged nothing (v_mps present, every value empty) gets the same clear error as
+    a missing column; an empty battery_V column falls back to the nominal voltage, as a missing
+    one does (it crashed the reader with an IndexError before)."""
+    df, _ = dive
+    empty_v = df.assign(v_mps=np.nan)
+    with pytest.raises(DiveDataError, match="no v_mps samples: --dof horizontal"):
+        identify_dive(empty_v, "bluerov2", ["horizontal"])
+    dc = read_dive_channels(df.assign(battery_V=np.nan), "bluerov2")
+    assert dc.channels.get("battery_V", (np.zeros(0),))[0].size == 0
+    assert dc.channels["X_N"][0].size > 0

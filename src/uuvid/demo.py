@@ -563,7 +563,7 @@ def _horizontal_inflow_rows(rep: Report) -> dict:
             row[lab] = (f"{e.values[k]:.4g} ± {e.sigma[k]:.2g}" if k in e.values else "—")
         rows.append(row)
     rep.add_paragraph("The same coupled model on a dive whose thrusters lose k_a |Ω_i| u_a,i to "
-                      f"the water speed through them (k_a = {ka:.4g} N·s/(rad·m)): the loss is "
+                      f"the water speed through them (k_a = {ka:.4g} N·s²/(rad·m)): the loss is "
                       "(X, Y, N) − k_a C(t) (u, v, r) with C(t) = Σ (1 − w_i)|Ω_i| b_i b_iᵀ. "
                       "Fitted with k_a as a 13th parameter it comes back with the drags; fitted "
                       "with bollard thrust, the loss shows up as extra mass and drag.")

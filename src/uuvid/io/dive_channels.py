@@ -81,6 +81,8 @@ def _finite(t, v):
     v = np.asarray(v, float)
     ok = np.isfinite(t) & np.isfinite(v)
     t, v = t[ok], v[ok]
+    if t.size == 0:  # a column with no value at all: an empty channel (its users say what lacks)
+        return t, v
     o = np.argsort(t, kind="stable")
     t, v = t[o], v[o]
     keep = np.concatenate(([True], np.diff(t) > 0))

@@ -53,7 +53,7 @@ _INDEX = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}
 @dataclass(frozen=True)
 class OneDofParams:
     """``m`` (incl. added mass), ``k``, ``k_q`` (≥ 0), the bias ``b`` and the inflow coefficient
-    ``k_a`` [N·s/(rad·m)] (0: bollard thrust) of one DOF, SI units."""
+    ``k_a`` [N·s²/(rad·m)] (0: bollard thrust) of one DOF, SI units."""
 
     mass: float
     linear: float
@@ -463,7 +463,7 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
                 else:
                     hgain = g[:2]
                     notes.append(f"horizontal: thrust lost to the advance speed with k_a = "
-                                 f"{ka:.4g} N·s/(rad·m) ({ka_src}; rotor speeds: {g[2]})")
+                                 f"{ka:.4g} N·s²/(rad·m) ({ka_src}; rotor speeds: {g[2]})")
             mets, trs, nt = replay_horizontal(dc, ph, H, t_start, t_end, gain=hgain, inflow=ka)
             notes += nt
             if mets is None:
@@ -490,7 +490,7 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
             else:
                 gain = g[:2]
                 notes.append(f"{dof}: thrust lost to the advance speed with k_a = {p.inflow:.4g} "
-                             f"N·s/(rad·m) (rotor speeds: {g[2]})")
+                             f"N·s²/(rad·m) (rotor speeds: {g[2]})")
         met, trace, nt = replay_windows(dc, dof, p, H, t_start, t_end, gain=gain)
         notes += nt
         if met is None:

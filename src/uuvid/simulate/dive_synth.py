@@ -188,7 +188,7 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     "pwm": pwm_rate, "battery": 1}`` [Hz]; ``jitter`` is the relative spread of the intervals
     (0: every channel at the same rate shares its stamps, as in a dataflash log).  ``dvl``: add
     body velocities ``u_mps``/``v_mps`` at 5 Hz (σ 0.01 m/s), as a DVL would log them.
-    ``inflow_coefficient`` k_a [N·s/(rad·m)] > 0: the thrusters lose ``k_a |Ω_i| u_a,i`` to the
+    ``inflow_coefficient`` k_a [N·s²/(rad·m)] > 0: the thrusters lose ``k_a |Ω_i| u_a,i`` to the
     advance speed (see the module doc; default 0: bollard thrust, the dive as before)."""
     import pandas as pd
 
@@ -431,7 +431,7 @@ def synthetic_horizontal_dive(duration: float = 120.0, seed: int = 0, vehicle="b
     ``pwm_<j>`` (``pwm_rate`` Hz), battery (1 Hz); no force columns (the reader computes them
     from the PWM).
 
-    ``inflow_coefficient`` k_a [N·s/(rad·m)] > 0: every thruster loses ``k_a |Ω_i| u_a,i`` to
+    ``inflow_coefficient`` k_a [N·s²/(rad·m)] > 0: every thruster loses ``k_a |Ω_i| u_a,i`` to
     its advance speed at each RK4 stage (``|Ω_i|`` the T200 model's rotor speed at the PWM and
     battery voltage), as :func:`synthetic_dive` does; ``truth`` then has ``inflow``.  0 (the
     default): bollard thrust, the dive as before."""

@@ -969,10 +969,10 @@ class HealeyThruster(Block):
     drive_gain: float = 0.04  # K_u, N·m/V
     viscous: float = 5e-4  # K_n, N·m·s/rad
     torque_coefficient: float = 4.5e-6  # k_q, N·m·s²/rad²
-    torque_inflow: float = 0.0  # k_qa, N·m·s/(rad·m)
+    torque_inflow: float = 0.0  # k_qa, N·m·s²/(rad·m)
     thrust_coefficient: float = 6e-4  # k_t forward, N·s²/rad²
     thrust_coefficient_rev: float | None = None  # k_t for Ω < 0 (None: same)
-    inflow_coefficient: float = 0.02  # k_a, N·s/(rad·m)
+    inflow_coefficient: float = 0.02  # k_a, N·s²/(rad·m)
     fluid_mass: float = 1.0  # m_f = ρ A L γ, kg
     flow_damping: float = 4.5  # d_f = ρ A Δβ, kg/m
 

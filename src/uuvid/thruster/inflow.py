@@ -573,7 +573,7 @@ class T200Inflow:
     diameter: float
     pitch_ratio: float
     pitch_angle: float  # rad at 0.7 R: tan p = (P/D) / (0.7 π)
-    inflow_coefficient: float  # k_a of the linear Healey form, N·s/(rad·m): k_t / (0.7 R p)
+    inflow_coefficient: float  # k_a of the linear Healey form, N·s²/(rad·m): k_t / (0.7 R p)
     map: FourQuadrantMap
 
 

@@ -496,7 +496,7 @@ class OneDofModel:
     eta_neg: float = 1.0
     disturbance: float = 0.0
     dof: str = ""
-    #: ``k_a`` [N·s/(rad·m)] of the linear inflow form ``T_i = T_i,bollard − k_a |Ω_i| u_a,i``
+    #: ``k_a`` [N·s²/(rad·m)] of the linear inflow form ``T_i = T_i,bollard − k_a |Ω_i| u_a,i``
     #: (Healey et al. 1995): the dive replay's thrust loss ``k_a c(t) v``
     #: (:mod:`uuvid.simulate.dive_replay`); 0 is bollard thrust
     inflow_coefficient: float = 0.0

@@ -107,7 +107,7 @@ class OneDofSchema(BaseModel):
     eta_pos: float = Field(1.0, gt=0)
     eta_neg: float = Field(1.0, gt=0)
     disturbance: float = 0.0
-    inflow_coefficient: float = Field(0.0, ge=0)  # k_a [N·s/(rad·m)], thrust lost to u_a
+    inflow_coefficient: float = Field(0.0, ge=0)  # k_a [N·s²/(rad·m)], thrust lost to u_a
     mode: str | None = None
     notes: str | None = None
 

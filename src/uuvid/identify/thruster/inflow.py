@@ -12,7 +12,7 @@ with the water speed.  Two forms, both linear in their coefficients (ordinary le
 
       T = K_T Ω|Ω| − k_a |Ω| u_a            (K_T per direction, Ω in rad/s, u_a in m/s)
 
-  ``k_a`` [N·s/(rad·m)] is the inflow coefficient of :class:`~uuvid.thruster.blocks.HealeyThruster`
+  ``k_a`` [N·s²/(rad·m)] is the inflow coefficient of :class:`~uuvid.thruster.blocks.HealeyThruster`
   and of :meth:`uuvid.thruster.inflow.BladeElement.linear_coefficients`; at ``u_a = 0`` the form is
   the bollard map ``T = K_T Ω|Ω|`` written to the model file.
 
@@ -110,7 +110,7 @@ def fit_inflow_linear(data: BenchData, *, cov_type: str = "classical") -> Steady
     w, u, y = data.speed[m], data.flow_speed[m], data.thrust[m]
     dirs = _directions(w)
     names = [f"K_T_{'fwd' if d == 'forward' else 'rev'}" for d, _ in dirs] + ["k_a"]
-    units = ["N·s²/rad²"] * len(dirs) + ["N·s/(rad·m)"]
+    units = ["N·s²/rad²"] * len(dirs) + ["N·s²/(rad·m)"]
     fit = linear_lsq(linear_regressors(w, u, dirs), y, names, model=LINEAR_FORM, units=units,
                      cov_type=cov_type, emit_warnings=False,
                      extra={"flow_levels": flow_levels(u).tolist()})

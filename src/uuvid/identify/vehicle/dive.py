@@ -97,7 +97,7 @@ _LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
           "yaw": {"mass": "inertia [kg·m²]", "linear": "linear drag [N·m·s/rad]",
                   "quadratic": "quadratic drag [N·m·s²/rad²]", "bias": "moment bias [N·m]"}}
 for _lab in _LABEL.values():
-    _lab["inflow"] = "inflow coefficient k_a [N·s/(rad·m)]"
+    _lab["inflow"] = "inflow coefficient k_a [N·s²/(rad·m)]"
 #: |ρ| beyond which k_a and the linear drag are reported as not separated
 RHO_LIMIT = 0.95
 
@@ -772,7 +772,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             dc, dof, H, t_start, t_end, base, flags, dead_band_weighting, gain, ka_starts)
         if speeds is not None:
             notes.append(f"inflow: rotor speeds from {speeds[2]}; k_a started at "
-                         + " and ".join(f"{k:.3g}" for k in ka_starts) + " N·s/(rad·m)")
+                         + " and ".join(f"{k:.3g}" for k in ka_starts) + " N·s²/(rad·m)")
         held = None
         if t_end is not None:
             Hh = float(held_out_horizon or H)

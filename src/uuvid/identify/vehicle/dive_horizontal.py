@@ -79,7 +79,7 @@ _DOF_KEYS = {"surge": ("m_u", "k_u", "kq_u", "b_u"), "sway": ("m_v", "k_v", "kq_
              "yaw": ("I_r", "k_r", "kq_r", "b_r")}
 _DRAGS = ("k_u", "kq_u", "k_v", "kq_v", "k_r", "kq_r")
 _MASSES = ("m_u", "m_v", "I_r")
-_LABEL["inflow"] = "inflow coefficient k_a [N·s/(rad·m)]"
+_LABEL["inflow"] = "inflow coefficient k_a [N·s²/(rad·m)]"
 
 
 def _inflow_warnings(ka: float, s: float) -> list:
