@@ -51,6 +51,18 @@ def _table_at(table, pwm, volts):
     return table[k, i] * (1 - f) + table[k + 1, i] * f
 
 
+@njit(cache=True, inline="always")
+def _stage_point(x, ks, s, h, z):
+    """RK4 stage ``s``'s state into ``z``: ``x``, ``x + h/2 k1``, ``x + h/2 k2``, ``x + h k3``
+    (``ks[s - 1]`` the previous stage's derivative)."""
+    if s == 0:
+        z[:] = x
+    else:
+        a = 0.5 * h if s < 3 else h
+        for m in range(13):
+            z[m] = x[m] + a * ks[s - 1, m]
+
+
 @njit(cache=True)
 def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_tgt, integ,
                  A, lim, thr_pos, pwm_pos, thr_neg, pwm_neg, TT, OO, ka, pos, axes, wake, B,
@@ -122,12 +134,7 @@ def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_t
         if i == n:
             break
         for s in range(4):  # RK4: stages at x, x + h/2 k1, x + h/2 k2, x + h k3
-            if s == 0:
-                z[:] = x
-            else:
-                a = 0.5 * h if s < 3 else h
-                for m in range(13):
-                    z[m] = x[m] + a * ks[s - 1, m]
+            _stage_point(x, ks, s, h, z)
             if ka != 0.0:
                 advance_speeds_nb(z[7:13], pos, axes, wake, ua)
                 for j in range(n_thr):
@@ -341,12 +348,7 @@ def _horizontal_inflow_steps(x, TAU, OM, ka, pos, axes, wake, B, p, h, X):
     ks = np.zeros((4, 13))
     for i in range(TAU.shape[0] - 1):
         for s in range(4):
-            if s == 0:
-                z[:] = x
-            else:
-                a = 0.5 * h if s < 3 else h
-                for m in range(13):
-                    z[m] = x[m] + a * ks[s - 1, m]
+            _stage_point(x, ks, s, h, z)
             advance_speeds_nb(z[7:13], pos, axes, wake, ua)
             for m in range(6):
                 acc = TAU[i, m]
