@@ -463,6 +463,7 @@ def test_bin_missing_messages_and_repeated_parameters(tmp_path):
     assert set(d.table["mode"]) == {"UNKNOWN"} and d.table["armed"].isna().all()
     assert any("no battery voltage" in w for w in d.warnings)
     assert any("16 V" in w for w in d.warnings)
+    assert d.provenance["thrust_3_N"]["source"].endswith("at the nominal 16 V (no voltage logged)")
     np.testing.assert_allclose(
         d.table["thrust_3_N"], default_t200().thrust(d.table["pwm_3"], np.full(len(d.table), 16.0)))
     # a parameter written twice with another value: the last one wins, and it is said

@@ -297,6 +297,20 @@ def test_joint_inflow_is_written_and_replayed(tmp_path):
     d = res.to_dict()["dofs"]["horizontal"]
     assert "inflow" in d["values"] and d["correlation"]["params"][-1] == "inflow"
     assert "inflow coefficient k_a" in res.summary()
+    # the loss the bollard model would book as linear drag, per DOF, from the diagonal of C(t)
+    split = d["inflow_split"]
+    assert set(split) == {"surge", "sway", "yaw"}
+    for dof, k in (("surge", "k_u"), ("sway", "k_v"), ("yaw", "k_r")):
+        sp = split[dof]
+        assert sp["c_range"][0] <= sp["c_mean"] <= sp["c_range"][1]
+        assert sp["loss_as_drag"] == pytest.approx(e.values["inflow"] * sp["c_mean"], rel=1e-12)
+        assert sp["apparent_linear"] == pytest.approx(e.values[k] + sp["loss_as_drag"], rel=1e-12)
+        assert f"{dof}: thrust loss as drag" in res.summary()
+    assert split["yaw"]["c_unit"] == "rad·m²/s" and split["surge"]["c_unit"] == "rad/s"
+    assert "output error, inflow coefficient jointly" in res.summary()
+    off = identify_dive(df, "bluerov2", ["horizontal"], inflow=False)
+    assert "bollard thrust: inflow off" in off.summary()
+    assert off.to_dict()["dofs"]["horizontal"]["inflow_split"] is None
     out = res.write_vehicle(tmp_path / "mine.yaml")
     v = load_vehicle(out)
     kas = {m.dof: m.inflow_coefficient for m in v.one_dof.values()}

@@ -98,7 +98,12 @@ def test_forces_from_pwm_columns_at_the_logged_voltage(dive, result):
                         "bluerov2", ["heave"], t_end=270.0)
     assert res.estimates["heave"].values["mass"] == pytest.approx(
         result.estimates["heave"].values["mass"], rel=1e-3)
-    assert any("forces computed from pwm_1" in w for w in res.warnings)
+    assert any("forces computed from pwm_1" in w and "at battery_V" in w for w in res.warnings)
+    # no battery_V column: the warnings name the voltage used, not a column that is not there
+    nov = identify_dive(df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm", "battery_V"]),
+                        "bluerov2", ["heave"], t_end=270.0)
+    fw = [w for w in nov.warnings if "forces computed from pwm_1" in w]
+    assert fw and "at the nominal 16 V" in fw[0] and "battery_V" not in fw[0]
 
 
 @pytest.mark.slow

@@ -188,3 +188,20 @@ def test_compiled_window_replay_is_the_numpy_form_bit_for_bit(seed):
             X, V = prob.simulate(theta, y0, v0)
             Xr, Vr = _numpy_replay(prob, theta, y0, v0)
             assert np.array_equal(X, Xr) and np.array_equal(V, Vr)
+
+
+def test_loss_as_drag_weights_the_gain_by_the_speed():
+    """c̄ is the |ν|-weighted mean of c(t): where the vehicle does not move the loss does not act
+    as drag; k_a c̄ is the loss, k + k_a c̄ the drag a bollard model would report."""
+    from uuvid.identify.vehicle.output_error import loss_as_drag, loss_as_drag_text
+
+    c = np.array([100.0, 300.0, 200.0, 50.0])
+    v = np.array([0.5, 0.0, -0.5, np.nan])  # a blown-up sample carries no weight
+    s = loss_as_drag(c, v, 0.05, 0.001, 5.0, "rad/s")
+    assert s["c_mean"] == pytest.approx(150.0, rel=1e-15)
+    assert s["c_range"] == [50.0, 300.0]
+    assert s["loss_as_drag"] == pytest.approx(7.5) and s["loss_as_drag_sigma"] == pytest.approx(0.15)
+    assert s["apparent_linear"] == pytest.approx(12.5) and s["loss_fraction"] == pytest.approx(0.6)
+    still = loss_as_drag(c, np.zeros(4), 0.05, 0.001, 5.0, "rad/s")  # no motion: the plain mean
+    assert still["c_mean"] == pytest.approx(162.5)
+    assert "c̄ = 150 rad/s" in loss_as_drag_text(s, "N·s/m")

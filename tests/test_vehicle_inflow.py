@@ -201,7 +201,16 @@ def test_confirm_envelope_flies_the_limits_at_the_advance_speed():
                 continue
             assert r["confirmed"], (name, r["direction"], r["note"])
             assert r["simulated_speed"] == pytest.approx(r["allocator_speed"], rel=1e-6)
-            assert 0.8 < r["allocator_speed"] / r["bollard_speed"] < 0.985, r
+            assert 0.8 < r["allocator_speed"] / r["allocator_bollard_speed"] < 0.985, r
+        # the JSON keys mean what the envelope's fields mean (EnvelopeCheck's docstring)
+        env = speed_envelope(load_vehicle(name), inflow="four-quadrant")
+        for r, e in zip(check.rows, env.rows):
+            if e.dof in ("roll", "pitch"):
+                continue
+            assert (r["speed"], r["bollard_speed"]) == (e.speed, e.speed_bollard)
+            assert (r["allocator_speed"], r["allocator_bollard_speed"]) == \
+                (e.speed_allocator, e.speed_allocator_bollard)
+        assert check.inflow == "four-quadrant" and check.to_dict()["inflow"] == "four-quadrant"
 
 
 @pytest.mark.slow
@@ -277,16 +286,19 @@ def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
     assert json.loads(off.output) == json.loads(plain.output)
     on = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--inflow", "four-quadrant"])
     assert on.exit_code == 0, on.output
-    assert "bollard_speed" in on.output and "simulated_speed" in on.output
+    assert "allocator_bollard_speed" in on.output and "simulated_speed" in on.output
+    assert "allocator_force" in on.output  # the force behind allocator_speed, not the LP's
     assert "limit at its advance speed at every control step" in on.output
     doc = json.loads(run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--json",
                                       "--inflow", "four-quadrant"]).output)
     fwd = next(r for r in doc["rows"] if r["direction"] == "forward")
-    assert fwd["allocator_speed"] < fwd["bollard_speed"]
+    assert doc["inflow"] == "four-quadrant" and json.loads(off.output)["inflow"] == "none"
+    assert fwd["allocator_speed"] < fwd["allocator_bollard_speed"]
+    assert fwd["speed"] < fwd["bollard_speed"]
     assert fwd["confirmed"] and fwd["simulated_speed"] == pytest.approx(fwd["allocator_speed"],
                                                                         rel=1e-6)
     bad = run.invoke(app, ["vehicle", "stability", "bluerov2", "--inflow", "bogus"])
-    assert bad.exit_code == 2 and "inflow must be one of" in bad.output
+    assert bad.exit_code == 2 and "'--inflow'" in bad.output and "bogus" in bad.output
 
 
 @pytest.mark.slow

@@ -239,11 +239,19 @@ def simulated_speed(vehicle, dof: int, force: float, t_end: float = 120.0, dt: f
 @dataclass(frozen=True)
 class EnvelopeCheck(Result):
     """The envelope confirmed by simulation: one row per direction, always with every column of
-    :data:`ROW_KEYS` (``None`` where a value does not apply)."""
+    :data:`ROW_KEYS` (``None`` where a value does not apply).
+
+    Row keys and the :class:`~uuvid.vehicle.envelope.EnvelopeRow` fields they come from:
+    ``force``/``speed`` ← ``force``/``speed`` (the LP's largest force), ``allocator_force``/
+    ``allocator_speed`` ← ``force_allocator``/``speed_allocator`` (what the allocator delivers:
+    the speed the simulation checks).  With inflow on (``inflow`` ≠ ``'none'``) the rows also
+    carry the same speeds with bollard thrust limits: ``bollard_speed`` ← ``speed_bollard``,
+    ``allocator_bollard_speed`` ← ``speed_allocator_bollard``."""
 
     vehicle: str
     rows: tuple[dict, ...]
     stability: object = None  # uuvid.vehicle.stability.StabilityResult
+    inflow: str = "none"
 
     def __iter__(self):
         return iter(self.rows)
@@ -294,7 +302,8 @@ class EnvelopeCheck(Result):
     report_title = "Speed envelope confirmed by simulation"
 
     def to_dict(self) -> dict:
-        return jsonable({"vehicle": self.vehicle, "rows": [dict(r) for r in self.rows],
+        return jsonable({"vehicle": self.vehicle, "inflow": self.inflow,
+                         "rows": [dict(r) for r in self.rows],
                          "stability": self.stability.to_dict() if self.stability is not None
                          else None})
 
@@ -341,7 +350,8 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
     (``simulate=False``: the analytic rows with the stability limits only).
 
     ``inflow`` (``None``: the vehicle file's, ``'none'``: bollard thrust): with inflow the rows
-    carry the bollard speed beside (``bollard_speed``) and the confirming flight
+    carry the bollard-thrust speeds beside (``bollard_speed``, ``allocator_bollard_speed``: the
+    latter is the one to compare with ``allocator_speed``) and the confirming flight
     (:func:`hold_flight`) takes each thruster's limit at its advance speed at every control step;
     the yaw rows fly full yaw command with position, roll and pitch held (bollard yaw rows: the
     allocated torque open loop, as before)."""
@@ -355,8 +365,9 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
     rows = []
     for r in env.rows:
         d = _row(r)
-        if with_inflow:
-            d["bollard_speed"] = None if math.isnan(r.speed_allocator_bollard) else \
+        if with_inflow:  # the same speeds with bollard thrust limits (EnvelopeCheck's keys)
+            d["bollard_speed"] = None if math.isnan(r.speed_bollard) else r.speed_bollard
+            d["allocator_bollard_speed"] = None if math.isnan(r.speed_allocator_bollard) else \
                 r.speed_allocator_bollard
         k = dof_index(r.dof)
         ref = r.speed_allocator
@@ -427,4 +438,4 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                          f"{d['final_pitch_deg']:.0f}° (coupling the uncoupled analytic speed "
                          "ignores)")
         rows.append(d)
-    return EnvelopeCheck(vehicle.name, tuple(rows), stab)
+    return EnvelopeCheck(vehicle.name, tuple(rows), stab, env.inflow)

@@ -21,9 +21,12 @@ from pathlib import Path
 import typer
 
 LOG_ARG = typer.Argument(..., help="ArduSub .tlog/.BIN; a ROS 1 .bag or ROS 2 bag directory "
-                                   "(ArduSub + mavros topics); or CSV/Parquet with t_s, depth_m, "
-                                   "yaw_rad and force columns (Z_N, N_Nm, …; optional armed, "
-                                   "mode).")
+                                   "(ArduSub + mavros topics); or CSV/Parquet with t_s, the "
+                                   "measured channels (depth_m for heave, yaw_rad for yaw, u_mps "
+                                   "and v_mps (DVL) for surge and sway; horizontal needs u_mps, "
+                                   "v_mps and yaw_rad), forces X_N, Y_N, Z_N, K_Nm, M_Nm, N_Nm or "
+                                   "servo outputs pwm_1 … pwm_n (with battery_V; needed for "
+                                   "--inflow); optional armed, mode.")
 PARAMS = typer.Option(None, "--params", help="ArduSub parameter file (QGroundControl / Mission "
                                              "Planner / BlueOS) for what the log lacks: a ROS bag "
                                              "has none, so SERVOn_FUNCTION and MOT_n_DIRECTION "

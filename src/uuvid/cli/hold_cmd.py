@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from uuvid.cli.options import inflow_option
+
 
 def register(vehicle_app: typer.Typer) -> None:
     vehicle_app.command("hold")(vehicle_hold)
@@ -43,9 +45,7 @@ def vehicle_hold(
     out: Path = typer.Option(None, "--out", help="Folder for capability.png (the requested "
                              "current marked), endurance.png, hold.json and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
-    inflow: str = typer.Option(None, "--inflow", help="Thrust against the advance speed: none "
-                               "(bollard, as before) or four-quadrant; default: the vehicle "
-                               "file's inflow key."),
+    inflow: str = inflow_option(),
 ):
     """Station-keeping capability (largest current held per direction, a polar "capability plot")
     and, with --current and --battery, the endurance on the battery."""

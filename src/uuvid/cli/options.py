@@ -28,3 +28,22 @@ def renamed(new_value, new_name: str, old_value, old_name: str = "--out"):
     err_console.print(f"[yellow]note:[/] {old_name} FILE is deprecated here; use {new_name} FILE "
                       f"({old_name} always names a folder)", highlight=False, soft_wrap=True)
     return old_value
+
+
+INFLOW_HELP = ("Thrust against the advance speed: none (bollard, as before) or four-quadrant; "
+               "default: the vehicle file's inflow key.")
+
+
+def _check_inflow(value: str | None) -> str | None:
+    from uuvid.thruster.inflow import INFLOW_MODELS
+
+    if value is not None and value not in INFLOW_MODELS:
+        raise typer.BadParameter(f"must be one of {', '.join(INFLOW_MODELS)}, got {value!r}",
+                                 param_hint="'--inflow'")
+    return value
+
+
+def inflow_option() -> typer.models.OptionInfo:
+    """``--inflow none|four-quadrant`` (unset: the vehicle file's ``inflow`` key), checked at
+    parse time so an error names the option."""
+    return typer.Option(None, "--inflow", help=INFLOW_HELP, callback=_check_inflow)

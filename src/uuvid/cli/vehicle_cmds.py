@@ -7,6 +7,8 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
+from uuvid.cli.options import inflow_option
+
 vehicle_app = typer.Typer(
     no_args_is_help=True,
     help="Vehicles: info, speed envelope, static stability, station keeping (hold), "
@@ -120,9 +122,7 @@ def simulate(
     ),
     out: Path | None = typer.Option(None, "--out", help="Folder for time series, figures and index.html."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
-    inflow: str = typer.Option(None, "--inflow", help="Thrust against the advance speed: none "
-                               "(bollard, as before) or four-quadrant; default: the vehicle "
-                               "file's inflow key."),
+    inflow: str = inflow_option(),
 ):
     """Fly a vehicle: `uuvid simulate SCENARIO.yaml` or `uuvid simulate mission square --vehicle bluerov2`.
 
@@ -197,16 +197,12 @@ def vehicle_info(
     _helpers()[4].print(v.summary(), markup=False, highlight=False)
 
 
-INFLOW_HELP = ("Thrust against the advance speed: none (bollard, as before) or four-quadrant; "
-               "default: the vehicle file's inflow key.")
-
-
 @vehicle_app.command("envelope")
 def vehicle_envelope(
     vehicle: str = typer.Argument(..., help="Vehicle preset or file."),
     confirm: bool = typer.Option(True, "--confirm/--no-confirm", help="Confirm each speed by simulation."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
-    inflow: str = typer.Option(None, "--inflow", help=INFLOW_HELP),
+    inflow: str = inflow_option(),
 ):
     """Maximum steady speed per DOF, analytic and confirmed by simulation (Laidani Table 4 kind).
 
@@ -224,14 +220,15 @@ def vehicle_envelope(
     if json_out:
         _print_json(check.to_dict())
         return
-    with_inflow = "bollard_speed" in check.rows[0] if check.rows else False
+    with_inflow = check.inflow != "none"
     cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
             "limit"]
-    if with_inflow:  # side by side: the allocator speed with and without inflow
-        cols = ["direction", "force", "allocator_speed", "simulated_speed", "relative_difference",
-                "bollard_speed", "limit"]
-    title = f"{v.name}: speed envelope" + (" (thrust at the advance speed; bollard_speed: "
-                                           "inflow off)" if with_inflow else "")
+    if with_inflow:  # side by side: the allocator's force and speed with and without inflow
+        cols = ["direction", "allocator_force", "allocator_speed", "simulated_speed",
+                "relative_difference", "allocator_bollard_speed", "limit"]
+    title = f"{v.name}: speed envelope" + (f" (inflow {check.inflow}: thrust at the advance "
+                                           "speed; allocator_bollard_speed: the same with "
+                                           "bollard thrust)" if with_inflow else "")
     out_console.print(_table(title, check.table_rows(cols), cols, "{:.4g}"))
     if with_inflow:
         out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
@@ -254,7 +251,7 @@ def vehicle_stability(
                                    "(the same 20° as vehicle hold)."),
     json_out: bool = typer.Option(False, "--json", help="Print as JSON."),
     out: Path | None = typer.Option(None, "--out", help="Write stability.png and stability.json here."),
-    inflow: str = typer.Option(None, "--inflow", help=INFLOW_HELP),
+    inflow: str = inflow_option(),
 ):
     """Static stability in steady flight: trim roll/pitch against speed, and where it stops.
 

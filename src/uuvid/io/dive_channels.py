@@ -182,8 +182,10 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
     if any(pwm[k][0].size != t.size or not np.array_equal(pwm[k][0], t) for k in keys):
         raise DiveDataError(f"{name}: the pwm_ columns do not share their rows; every pwm_<j> needs "
                             "a value on each servo-output row")
+    at_v = "battery_V"
     if "battery_V" not in chans or chans["battery_V"][0].size == 0:
         volts = np.full(t.size, 16.0)
+        at_v = "the nominal 16 V"
         warnings.append(f"{name}: no battery_V column: thrust from pwm_ at the T200 sheet's nominal "
                         "16 V (default); log the battery voltage")
     else:
@@ -199,12 +201,12 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
         chans.setdefault(c, (t, W[i]))
     if directions is None:
         warnings.append(f"{name}: forces computed from pwm_{keys[0]}…pwm_{keys[-1]} with {tm.name} "
-                        f"at battery_V and {veh.name}'s thruster geometry (pwm_j drives thruster j "
+                        f"at {at_v} and {veh.name}'s thruster geometry (pwm_j drives thruster j "
                         "along its axis: no reversal applied)")
     else:
         rev = [k for k in keys if d[k] < 0]
         warnings.append(f"{name}: forces computed from {label or 'pwm_'} with {tm.name} at "
-                        f"battery_V and {veh.name}'s thruster geometry (motor j = thruster j; "
+                        f"{at_v} and {veh.name}'s thruster geometry (motor j = thruster j; "
                         + (f"reversed (MOT_n_DIRECTION = -1): motor(s) {', '.join(rev)}"
                            if rev else "no motor reversed") + ")")
 

@@ -570,7 +570,8 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     label = f"{specs['pwm'][0]} outputs " + ", ".join(f"{m.output}→motor {m.number}"
                                                        for m in config.active)
     for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
-        sources[c] = src("pwm", "servo outputs → thrust at battery_V → B·T")
+        sources[c] = src("pwm", "servo outputs → thrust at "
+                         + ("battery_V" if "battery_V" in chans else "the nominal 16 V") + " → B·T")
     t_end = max([float(c[0][-1]) for c in chans.values() if c[0].size] + [float(tp_[-1])])
     armed = modes = None
     if have("armed"):

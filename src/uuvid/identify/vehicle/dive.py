@@ -58,6 +58,8 @@ from uuvid.identify.vehicle.output_error import (
     covariance,
     dead_band_weights,
     levenberg_marquardt,
+    loss_as_drag,
+    loss_as_drag_text,
     noise_sigma,
     not_identifiable,
     weighting_summary,
@@ -215,7 +217,7 @@ class DofEstimate:
                      f"  (base {b:.4g})" if b is not None else "")
             lines.append(f"  {lab[k]:30s} {e.values[k]:10.4g} ± {e.sigma[k]:.2g}{ratio}")
         if e.inflow:
-            lines.append(f"  {_inflow_text(e.inflow, UNITS_DRAG[dof])}")
+            lines.append(f"  {loss_as_drag_text(e.inflow, UNITS_DRAG[dof])}")
         ch = CHANNEL_NAMES[dof]
         lines.append(f"  in-sample replay: {ch} rms {e.train['rms']:.3g} {UNITS[dof]}, "
                      f"nrmse {e.train['nrmse']:.3f}")
@@ -332,31 +334,18 @@ class DiveIdentification(Result):
 UNITS_DRAG = {"heave": "N·s/m", "surge": "N·s/m", "sway": "N·s/m", "yaw": "N·m·s/rad"}
 
 
-def _inflow_split(prob, values: dict, sigma: dict) -> dict:
-    """How much of the apparent linear drag is thrust loss: over the fitted windows the loss acts
-    as the drag ``k_a c(t)``; its mean ``k_a c̄`` (c̄ weighted by |v|, where the term acts) beside
-    the hull's ``k``.  A bollard-thrust model books ``k + k_a c̄`` as its linear drag."""
+#: unit of the inflow gain c(t) = Σ (1 − w_i)|Ω_i| b_i² per DOF (rad/s; yaw: lever arm² too)
+UNITS_GAIN = {"heave": "rad/s", "surge": "rad/s", "sway": "rad/s", "yaw": "rad·m²/s"}
+
+
+def _inflow_split(prob, values: dict, sigma: dict, dof: str) -> dict:
+    """:func:`~uuvid.identify.vehicle.output_error.loss_as_drag` over the fitted windows (the
+    identified model's own speeds)."""
     with np.errstate(over="ignore", invalid="ignore"):
         _, V = prob.simulate(np.array([values[k] for k in PARAMS_INFLOW]), prob.y0_meas,
                              prob.v0_meas if prob.position else np.zeros(prob.W))
-    Ck = prob.Ch[:, ::2]
-    w = np.abs(V)
-    w = np.where(np.isfinite(w), w, 0.0)
-    c_bar = float(np.sum(Ck * w) / np.sum(w)) if np.sum(w) > 0 else float(np.mean(Ck))
-    loss = values["inflow"] * c_bar
-    apparent = values["linear"] + loss
-    return {"c_mean": c_bar, "c_range": [float(np.min(Ck)), float(np.max(Ck))],
-            "loss_as_drag": loss, "loss_as_drag_sigma": sigma["inflow"] * c_bar,
-            "apparent_linear": apparent,
-            "loss_fraction": loss / apparent if apparent > 0 else float("nan")}
-
-
-def _inflow_text(s: dict, unit: str) -> str:
-    return (f"thrust loss as drag k_a·c̄ = {s['loss_as_drag']:.3g} ± "
-            f"{s['loss_as_drag_sigma']:.2g} {unit} (c̄ = {s['c_mean']:.3g}, c(t) "
-            f"{s['c_range'][0]:.3g}–{s['c_range'][1]:.3g}): "
-            f"{100 * s['loss_fraction']:.0f} % of the apparent linear drag "
-            f"{s['apparent_linear']:.3g} {unit} a bollard-thrust model would report")
+    return loss_as_drag(prob.Ch[:, ::2], V, values["inflow"], sigma["inflow"], values["linear"],
+                        UNITS_GAIN[dof])
 
 
 def inflow_warnings(values: dict, sigma: dict, corr) -> list:
@@ -598,7 +587,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         warns.append(f"optimiser stopped: {sol['message']}")
     # in-sample replay from the measured state, identified and base
     p_id = OneDofParams(*values.values())
-    split = _inflow_split(prob, values, sigma) if gain is not None else None
+    split = _inflow_split(prob, values, sigma, dof) if gain is not None else None
     span = _STATE_SPAN[dof]
     y0, v0, sc = initial_state(prob, p_id.as_array(), span)
     pr_id = prob.predict(p_id.as_array(), y0, v0)

@@ -44,6 +44,8 @@ from uuvid.identify.vehicle.output_error import (
     covariance,
     dead_band_weights,
     levenberg_marquardt,
+    loss_as_drag,
+    loss_as_drag_text,
     not_identifiable,
     weighting_summary,
     weighting_text,
@@ -181,6 +183,9 @@ class HorizontalEstimate:
     weighting: dict = field(default_factory=dict)
     noise: dict = field(default_factory=dict)
     dof: str = "horizontal"
+    #: per DOF (surge, sway, yaw) the thrust-loss split (:func:`_horizontal_inflow_split`),
+    #: ``None`` when inflow was off
+    inflow_split: dict | None = None
 
     @property
     def inflow(self) -> float | None:
@@ -201,6 +206,7 @@ class HorizontalEstimate:
                 "start_value_svf": self.start, "base": self.base, "base_source": self.base_source,
                 "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
                 "noise_sigma": self.noise, "train": self.train, "held_out": self.held_out,
+                "inflow_split": self.inflow_split,
                 "warnings": self.warnings, "notes": self.notes, "dead_band": self.weighting}
 
     def identified(self, log: str) -> dict:
@@ -225,12 +231,16 @@ class HorizontalEstimate:
 
     def summary_lines(self, t_end) -> list:
         lines = [f"horizontal (surge, sway, yaw coupled): {self.windows} windows of "
-                 f"{self.horizon:g} s (output error)"]
+                 f"{self.horizon:g} s (output error, "
+                 + ("inflow coefficient jointly)" if self.inflow is not None else
+                    "bollard thrust: inflow off)")]
         for k in self.values:
             b = self.base.get(k)
             ratio = (f"  ×{self.values[k] / b:.2f} of base {b:.4g}" if b else
                      f"  (base {b:.4g})" if b is not None else "")
             lines.append(f"  {_LABEL[k]:34s} {self.values[k]:10.4g} ± {self.sigma[k]:.2g}{ratio}")
+        for dof, sp in (self.inflow_split or {}).items():
+            lines.append(f"  {dof}: {loss_as_drag_text(sp, UNITS_DRAG[dof])}")
         lines.append("  in-sample replay: " + ", ".join(
             f"{c} rms {self.train[c]['rms']:.3g} {self.train[c]['unit']} (nrmse "
             f"{self.train[c]['nrmse']:.3f})" for c in H_CHANNELS))
@@ -252,6 +262,26 @@ class HorizontalEstimate:
         return [(self.traces[key][c], f"{c} [{u}]",
                  f"horizontal (coupled) {c}: {'held-out' if key == 'held_out' else 'in-sample'} "
                  "replay") for c, u in zip(H_CHANNELS, H_UNITS)]
+
+
+#: drag units of the horizontal DOFs (the loss-as-drag lines)
+UNITS_DRAG = {"surge": "N·s/m", "sway": "N·s/m", "yaw": "N·m·s/rad"}
+_UNITS_GAIN = {"surge": "rad/s", "sway": "rad/s", "yaw": "rad·m²/s"}
+
+
+def _horizontal_inflow_split(prob, th, x0, sigma_ka: float) -> dict:
+    """Per DOF the thrust loss booked as linear drag by a bollard model
+    (:func:`~uuvid.identify.vehicle.output_error.loss_as_drag`) from the diagonal of ``C(t)``
+    and the identified model's own ``u``, ``v``, ``r`` over the fitted windows (the off-diagonal
+    terms couple the DOFs and are not a drag of any one of them)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        S = prob.simulate(np.asarray(th, float)[None], np.asarray(x0, float)[None])[:, 0]
+    nu = {"surge": S[0], "sway": S[1], "yaw": S[3]}
+    out = {}
+    for j, (dof, (_, k, _, _)) in enumerate(_DOF_KEYS.items()):
+        out[dof] = loss_as_drag(prob.Ch[j, j][:, ::2], nu[dof], float(th[-1]), sigma_ka,
+                                float(th[HORIZONTAL_NAMES.index(k)]), _UNITS_GAIN[dof])
+    return out
 
 
 def _dead_band_rows(prob, flags, th0, scale):
@@ -369,6 +399,8 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
         warns.append(f"optimiser stopped: {sol['message']}")
     p_id = HorizontalParams(**{k: values[k] for k in HORIZONTAL_NAMES})
     ka = values.get("inflow", 0.0)
+    split = _horizontal_inflow_split(prob, th, sol["x"][npar:].reshape(4, W).T,
+                                     sigma["inflow"]) if gain is not None else None
     m_id, tr_id, pr_id, sc = score_horizontal(prob, p_id, scale, ka)
     ka_base = horizontal_inflow_of(veh)[0] if gain is not None else 0.0
     m_b, tr_b, _, _ = score_horizontal(prob, base, scale, ka_base)
@@ -403,11 +435,13 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
         notes.append("inflow: the thrust lost to the advance speed, k_a C(t) (u, v, r) with C(t) "
                      "= Σ_i |Ω_i(t)| (1 − w_i) b_i b_iᵀ over the thrusters' (X, Y, N) columns "
                      "b_i (uuvid.vehicle.inflow.horizontal_inflow_matrix), is fitted with the "
-                     "drags; the base vehicle is replayed with "
-                     + (f"its own k_a {ka_base:.4g}" if ka_base else "bollard thrust"))
+                     "drags; the base-vehicle comparison uses "
+                     + (f"the vehicle file's own k_a {ka_base:.4g}" if ka_base else
+                        "bollard thrust (the vehicle file has no k_a)"))
     notes.append("yaw rate from the heading through the model (not measured); residuals divided "
                  "by each channel's noise σ (" + ", ".join(
                      f"{c} {s:.2g} {u}" for c, s, u in zip(H_CHANNELS, sig, H_UNITS)) + ")")
     return HorizontalEstimate(values, sigma, corr.tolist(), start, base.to_dict(), base_src, W,
                               float(horizon), train, held, warns, notes, traces, wd,
-                              {c: float(s) for c, s in zip(H_CHANNELS, sig)})
+                              {c: float(s) for c, s in zip(H_CHANNELS, sig)},
+                              inflow_split=split)

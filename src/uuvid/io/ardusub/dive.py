@@ -342,6 +342,7 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
                 if np.isfinite(volts).any() else "")
         warnings.append(f"thruster model {tm.name!r} cannot follow the battery voltage{span}: "
                         f"{tm.voltage}")
+    at_v = "at battery_V" if np.isfinite(volts).any() else "at the nominal 16 V (no voltage logged)"
     if tm.voltage_aware and not np.all(np.isfinite(volts)):
         fill = float(np.nanmedian(volts)) if np.isfinite(volts).any() else 16.0
         warnings.append(f"battery voltage missing on {np.count_nonzero(~np.isfinite(volts))} rows: "
@@ -364,7 +365,7 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
     for j, m in enumerate(config.active):
         cols[f"thrust_{m.number}_N"] = T[j]
         prov[f"thrust_{m.number}_N"] = {
-            "source": f"{pwms[m.number].source} → {tm.name} at battery_V",
+            "source": f"{pwms[m.number].source} → {tm.name} {at_v}",
             "unit": "N", "direction": m.direction,
             "note": "thrust along ArduSub's mixing direction of the motor: T(1500 + d (pwm − 1500))"}
     return T
