@@ -226,10 +226,19 @@ def vehicle_envelope(
     if with_inflow:  # side by side: the allocator's force and speed with and without inflow
         cols = ["direction", "allocator_force", "allocator_speed", "simulated_speed",
                 "relative_difference", "allocator_bollard_speed", "limit"]
-    title = f"{v.name}: speed envelope" + (f" (inflow {check.inflow}: thrust at the advance "
-                                           "speed; allocator_bollard_speed: the same with "
-                                           "bollard thrust)" if with_inflow else "")
-    out_console.print(_table(title, check.table_rows(cols), cols, "{:.4g}"))
+    rows = check.table_rows(cols)
+    if with_inflow:  # short headers; the title names the JSON keys behind them
+        heads = {"allocator_force": "force", "allocator_speed": "speed",
+                 "simulated_speed": "simulated", "relative_difference": "difference",
+                 "allocator_bollard_speed": "bollard speed"}
+        rows = [{heads.get(c, c): r[c] for c in cols} for r in rows]
+        cols = [heads.get(c, c) for c in cols]
+        title = (f"{v.name}: speed envelope, inflow {check.inflow} (force, speed: the allocator's "
+                 "with each thruster's limit at its advance speed; bollard speed: the same with "
+                 "bollard thrust; JSON allocator_force, allocator_speed, allocator_bollard_speed)")
+    else:
+        title = f"{v.name}: speed envelope"
+    out_console.print(_table(title, rows, cols, "{:.4g}"))
     if with_inflow:
         out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
                           "simulated_speed: the confirming flight takes each thruster's limit at "
