@@ -517,3 +517,28 @@ def test_mission_on_a_battery_keeps_the_vehicle_files_inflow():
     with pytest.raises(ValueError, match="with another thruster model give inflow='none'"):
         setup_mission(v, square_mission(), battery=True, thruster_chain=preset_chain("t200"),
                       t_end=5.0)
+
+
+@pytest.mark.slow
+def test_minimal_inflow_kernel_flies_the_same_model():
+    """The benchmark's practical limit for the inflow loop (benchmarks/minimal_kernel.py's
+    fly_minimal_inflow: advance speed as ``M ν``, tip speed from the motor speed, no square root)
+    flies the same mission as fly_mission with inflow to ~1e-4 m, and differs from the bollard
+    kernel by the inflow's own effect — a reference that is the same model, not another one."""
+    import sys
+    from pathlib import Path
+
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import minimal_kernel
+
+    on = setup_mission(_with("bluerov2"), square_mission(speed=0.4), t_end=40.0)
+    off = setup_mission(load_vehicle("bluerov2"), square_mission(speed=0.4), t_end=40.0)
+    Zi, Fi = minimal_kernel.fly_inflow(on)
+    Zb, _ = minimal_kernel.fly(off)
+    r = fly_mission(on)
+    assert np.max(np.abs(Zi[:, :3] - r.state[:, :3])) < 3e-4
+    assert np.max(np.abs(Zi[:, :3] - Zb[:, :3])) > 10 * np.max(np.abs(Zi[:, :3] - r.state[:, :3]))
+    np.testing.assert_allclose(Fi[0], r.thrust[0], rtol=1e-12, atol=1e-12)  # at rest: bollard

@@ -31,7 +31,7 @@ from uuvid.simulate.reference import WaypointMission, level_speed_limit
 from uuvid.thruster import kernels
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, ParameterError
 from uuvid.thruster.chain import ThrusterChain
-from uuvid.thruster.inflow import inflow_thrust_nb
+from uuvid.thruster.inflow import inflow_thrust_at_nb, inflow_thrust_nb, tip_speed_nb
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.inflow import state_advance_speeds_nb
 from uuvid.vehicle.kinematics import normalise_state
@@ -702,6 +702,56 @@ def _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc):
         z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
+@njit(cache=True, inline="always")
+def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
+    """:func:`_tau_inflow` in still water with no disturbance force, the advance speed, the map
+    and the sum ``B T`` in one pass over the thrusters (the same arithmetic in the same order:
+    ``ν_r = ν`` is what :func:`~uuvid.vehicle.inflow.state_advance_speeds_nb` gives with no
+    current; ``vt[st]`` the tip speeds of ``th[st]``, :func:`~uuvid.thruster.inflow.tip_speed_nb`);
+    ``thr`` receives the delivered thrusts."""
+    u, v, w, p, q, r = x[7], x[8], x[9], x[10], x[11], x[12]
+    t0 = t1 = t2 = t3 = t4 = t5 = 0.0
+    for i in range(IGEO.shape[0]):
+        px, py, pz = IGEO[i, 0], IGEO[i, 1], IGEO[i, 2]
+        ua = (1.0 - IGEO[i, 6]) * (IGEO[i, 3] * (u + q * pz - r * py)
+                                   + IGEO[i, 4] * (v + r * px - p * pz)
+                                   + IGEO[i, 5] * (w + p * py - q * px))
+        f = inflow_thrust_at_nb(th[st, i], vt[st, i], ua, IPRM)
+        f = f * (eta_p[i] if f >= 0.0 else eta_n[i])
+        thr[i] = f
+        t0 += B[0, i] * f
+        t1 += B[1, i] * f
+        t2 += B[2, i] * f
+        t3 += B[3, i] * f
+        t4 += B[4, i] * f
+        t5 += B[5, i] * f
+    tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = t0, t1, t2, t3, t4, t5
+
+
+@njit(cache=True, inline="always")
+def _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, k1, k2, k3, k4, fsc, eta_p, eta_n, IPRM,
+                      IGEO, f0, thr):
+    """:func:`_vehicle_rk4_inflow` in still water without a disturbance force, its four stages
+    written out as :func:`_rk4_still`'s (the same arithmetic, so the same numbers); ``f0`` the
+    delivered thrusts at the step's start."""
+    _tau_inflow_still(th, vt, 0, z, B, tau, eta_p, eta_n, IPRM, IGEO, f0)
+    vehicle_rhs_still_into(z, tau, vp, fsc, k1)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k1[i]
+    _tau_inflow_still(th, vt, 1, zt, B, tau, eta_p, eta_n, IPRM, IGEO, thr)
+    vehicle_rhs_still_into(zt, tau, vp, fsc, k2)
+    for i in range(13):
+        zt[i] = z[i] + 0.5 * h * k2[i]
+    _tau_inflow_still(th, vt, 1, zt, B, tau, eta_p, eta_n, IPRM, IGEO, thr)
+    vehicle_rhs_still_into(zt, tau, vp, fsc, k3)
+    for i in range(13):
+        zt[i] = z[i] + 1.0 * h * k3[i]
+    _tau_inflow_still(th, vt, 2, zt, B, tau, eta_p, eta_n, IPRM, IGEO, thr)
+    vehicle_rhs_still_into(zt, tau, vp, fsc, k4)
+    for i in range(13):
+        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
 @njit(cache=True)
 def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv_t, inv_c,
              ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub, Z, F, FDES, TAU, SCALE, IPRM,
@@ -733,6 +783,7 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
     fdes = np.zeros(n)
     tgt = np.zeros(n)
     th = np.zeros((3, n))
+    vt = np.zeros((3, n))  # with inflow: the tip speeds of th (tip_speed_nb)
     lag = np.ones((3, n))
     jtab = np.zeros(n, dtype=np.int64)
     still = vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0
@@ -767,13 +818,20 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
                     f = (tparams[i, pq] if xs >= 0.0 else tparams[i, pq + 1]) * (xs * abs(xs))
                     if inflow:  # the bollard thrust; advance speed and η per RK4 stage
                         th[st, i] = f
+                        vt[st, i] = tip_speed_nb(f, IPRM)
                     else:
                         th[st, i] = f * (eta_p[i] if f >= 0.0 else eta_n[i])
             if sub == 0:
                 for i in range(n):
                     F[k, i] = th[0, i]  # with inflow: set by the RK4 step below
                     FDES[k, i] = fdes[i]
-            if inflow:
+            if inflow and still:
+                _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, k1, k2, k3, k4, fsc, eta_p,
+                                  eta_n, IPRM, IGEO, f0, ua)
+                if sub == 0:
+                    for i in range(n):
+                        F[k, i] = f0[i]
+            elif inflow:
                 _vehicle_rk4_inflow(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, k1, k2, k3, k4,
                                     fsc[6:12], eta_p, eta_n, IPRM, IGEO, ua, still, fsc, f0)
                 if sub == 0:

@@ -323,8 +323,24 @@ def inflow_thrust_nb(f, ua, prm):
     mission loop calls per thruster and stage."""
     if ua == 0.0:
         return f
+    return inflow_thrust_at_nb(f, tip_speed_nb(f, prm), ua, prm)
+
+
+@njit(cache=True, inline="always")
+def tip_speed_nb(f, prm):
+    """``v_t = 0.7π n D`` (m/s, signed) of the shaft speed the map needs for the bollard thrust
+    ``f`` (:func:`inflow_thrust_nb`): a loop whose bollard thrust is held over several RK4 stages
+    computes it once for them."""
     c = prm[2] if f >= 0.0 else prm[3]
-    vt = prm[0] * math.copysign(math.sqrt(abs(f) * c), f)  # 0.7π n D
+    return prm[0] * math.copysign(math.sqrt(abs(f) * c), f)
+
+
+@njit(cache=True, inline="always")
+def inflow_thrust_at_nb(f, vt, ua, prm):
+    """:func:`inflow_thrust_nb` with the tip speed ``vt`` (:func:`tip_speed_nb` of ``f``) given:
+    the same arithmetic, so the same numbers."""
+    if ua == 0.0:
+        return f
     q = ua / (abs(ua) + abs(vt))  # the diamond angle of (vt, ua), monotone in β (diamond_angle)
     x = ((q if vt >= 0.0 else math.copysign(2.0, ua) - q) + 2.0) * prm[5]  # on the grid, [0, N]
     j = min(int(x), int(prm[4]) - 1)
