@@ -228,6 +228,11 @@ def test_inflow_thrust_kernel_is_bollard_at_zero_advance_and_the_map_elsewhere(f
             assert inflow_thrust_nb(f, ua, prm) == pytest.approx(want, rel=1e-9, abs=1e-12)
         # continuous as the advance speed goes to zero
         assert inflow_thrust_nb(f, 1e-9, prm) == pytest.approx(f, rel=1e-6, abs=1e-9)
+        # a diverged state (NaN or infinite advance speed) gives NaN, not a number from
+        # somewhere else (the table index is clamped: int(NaN) is undefined)
+        for bad in (math.nan, math.inf, -math.inf):
+            assert math.isnan(inflow_thrust_nb(f, bad, prm))
+    assert math.isnan(inflow_thrust_nb(math.nan, 0.5, prm))
 
 
 @MAPS

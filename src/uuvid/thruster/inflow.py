@@ -343,7 +343,7 @@ def inflow_thrust_at_nb(f, vt, ua, prm):
         return f
     q = ua / (abs(ua) + abs(vt))  # the diamond angle of (vt, ua), monotone in β (diamond_angle)
     x = ((q if vt >= 0.0 else math.copysign(2.0, ua) - q) + 2.0) * prm[5]  # on the grid, [0, N]
-    j = min(int(x), int(prm[4]) - 1)
+    j = min(max(int(x), 0), int(prm[4]) - 1)  # clamped: a NaN state reads inside the table
     t = x - j
     o = 6 + 4 * j
     ct = prm[o] + t * (prm[o + 1] + t * (prm[o + 2] + t * prm[o + 3]))
