@@ -305,7 +305,8 @@ def test_joint_inflow_is_written_and_replayed(tmp_path):
         assert sp["c_range"][0] <= sp["c_mean"] <= sp["c_range"][1]
         assert sp["loss_as_drag"] == pytest.approx(e.values["inflow"] * sp["c_mean"], rel=1e-12)
         assert sp["apparent_linear"] == pytest.approx(e.values[k] + sp["loss_as_drag"], rel=1e-12)
-        assert f"{dof}: thrust loss as drag" in res.summary()
+        assert f"{dof} (c(t): the {dof} diagonal of C(t)): thrust loss as drag" in res.summary()
+        assert sp["unit"] == ("N·m·s/rad" if dof == "yaw" else "N·s/m")
     assert split["yaw"]["c_unit"] == "rad·m²/s" and split["surge"]["c_unit"] == "rad/s"
     assert "output error, inflow coefficient jointly" in res.summary()
     off = identify_dive(df, "bluerov2", ["horizontal"], inflow=False)
@@ -318,6 +319,12 @@ def test_joint_inflow_is_written_and_replayed(tmp_path):
     assert all(k == pytest.approx(e.values["inflow"], rel=1e-5) for k in kas.values())
     rep = replay_dive(df, v, ["horizontal"])
     assert any("thrust lost to the advance speed" in n for n in rep.notes)
+    assert rep.vehicle == f"bluerov2 ({out})"  # the written file, not only the base's name
+    # without a logged voltage the replay says what it assumed (reader warning and inflow note)
+    nob = replay_dive(df.drop(columns=["battery_V"]), v, ["horizontal"])
+    assert any("nominal 16 V" in w for w in nob.warnings)
+    assert any("rotor speeds" in n and "nominal 16 V" in n for n in nob.notes)
+    assert "warning:" in nob.summary() and nob.to_dict()["warnings"] == nob.warnings
     doc = yaml.safe_load(out.read_text())
     for entry in doc["one_dof"].values():
         entry.pop("inflow_coefficient")

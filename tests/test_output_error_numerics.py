@@ -204,4 +204,6 @@ def test_loss_as_drag_weights_the_gain_by_the_speed():
     assert s["apparent_linear"] == pytest.approx(12.5) and s["loss_fraction"] == pytest.approx(0.6)
     still = loss_as_drag(c, np.zeros(4), 0.05, 0.001, 5.0, "rad/s")  # no motion: the plain mean
     assert still["c_mean"] == pytest.approx(162.5)
-    assert "c̄ = 150 rad/s" in loss_as_drag_text(s, "N·s/m")
+    assert "= 150 rad/s" in loss_as_drag_text(s, "N·s/m") and "weighted mean" in \
+        loss_as_drag_text(s, "N·s/m")
+    assert loss_as_drag(c, v, 0.05, 0.001, 5.0, "rad/s", "N·s/m")["unit"] == "N·s/m"

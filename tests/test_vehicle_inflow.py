@@ -286,10 +286,11 @@ def test_cli_envelope_inflow_side_by_side_and_none_restores(tmp_path):
     assert json.loads(off.output) == json.loads(plain.output)
     on = run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--inflow", "four-quadrant"])
     assert on.exit_code == 0, on.output
-    assert "bollard speed" in on.output and "simulated" in on.output
-    # the title says which keys the short headers are: the allocator's force, not the LP's
-    assert "JSON allocator_force, allocator_speed, allocator_bollard_speed" in " ".join(
-        on.output.split())
+    text = " ".join(on.output.split())
+    assert "allocator speed (bollard)" in text and "simulated vs allocator" in text
+    # the legend says what the columns are and which JSON keys hold them
+    assert "(bollard): the same speeds with bollard thrust" in text
+    assert "keys force, speed, allocator_speed, bollard_speed, allocator_bollard_speed" in text
     assert "limit at its advance speed at every control step" in on.output
     doc = json.loads(run.invoke(app, ["vehicle", "envelope", "bluerov2-heavy", "--json",
                                       "--inflow", "four-quadrant"]).output)

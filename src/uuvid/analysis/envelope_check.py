@@ -36,9 +36,10 @@ from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import vehicle_rhs
 
 ROW_KEYS = ("dof", "direction", "sign", "force", "speed", "allocator_force", "allocator_speed",
-            "force_unit", "speed_unit", "simulated_speed", "relative_difference", "final_roll_deg",
-            "final_pitch_deg", "method", "confirmed", "limit", "trim_check_speed",
-            "trim_static_deg", "trim_simulated_deg", "tumbling_full_command", "note")
+            "bollard_speed", "allocator_bollard_speed", "force_unit", "speed_unit",
+            "simulated_speed", "relative_difference", "final_roll_deg", "final_pitch_deg",
+            "method", "confirmed", "limit", "trim_check_speed", "trim_static_deg",
+            "trim_simulated_deg", "tumbling_full_command", "note")
 TOLERANCE = 0.05  # relative difference accepted as confirmation
 
 
@@ -246,7 +247,7 @@ class EnvelopeCheck(Result):
     ``allocator_speed`` ← ``force_allocator``/``speed_allocator`` (what the allocator delivers:
     the speed the simulation checks).  With inflow on (``inflow`` ≠ ``'none'``) the rows also
     carry the same speeds with bollard thrust limits: ``bollard_speed`` ← ``speed_bollard``,
-    ``allocator_bollard_speed`` ← ``speed_allocator_bollard``."""
+    ``allocator_bollard_speed`` ← ``speed_allocator_bollard`` (``None`` with inflow off)."""
 
     vehicle: str
     rows: tuple[dict, ...]

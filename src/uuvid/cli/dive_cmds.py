@@ -24,9 +24,11 @@ LOG_ARG = typer.Argument(..., help="ArduSub .tlog/.BIN; a ROS 1 .bag or ROS 2 ba
                                    "(ArduSub + mavros topics); or CSV/Parquet with t_s, the "
                                    "measured channels (depth_m for heave, yaw_rad for yaw, u_mps "
                                    "and v_mps (DVL) for surge and sway; horizontal needs u_mps, "
-                                   "v_mps and yaw_rad), forces X_N, Y_N, Z_N, K_Nm, M_Nm, N_Nm or "
-                                   "servo outputs pwm_1 … pwm_n (with battery_V; needed for "
-                                   "--inflow); optional armed, mode.")
+                                   "v_mps and yaw_rad), the body-frame force X_N, Y_N, Z_N [N] "
+                                   "and moment K_Nm, M_Nm, N_Nm [N·m] (x forward, y starboard, z "
+                                   "down) or the servo outputs pwm_1 … pwm_n [µs] (--inflow needs "
+                                   "them) with battery_V [V] (without it: the nominal 16 V); "
+                                   "optional armed, mode.")
 PARAMS = typer.Option(None, "--params", help="ArduSub parameter file (QGroundControl / Mission "
                                              "Planner / BlueOS) for what the log lacks: a ROS bag "
                                              "has none, so SERVOn_FUNCTION and MOT_n_DIRECTION "
@@ -42,8 +44,9 @@ DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, horizontal (su
                                         "coupled; needs u_mps, v_mps, yaw_rad), a comma list, or "
                                         "all (every DOF the log has a measured channel for).")
 T_START = typer.Option(None, "--t-start", help="Use the log from this time [s].")
-T_END = typer.Option(None, "--t-end", help="Use the log up to this time [s]; identify dive scores "
-                                           "the rest as held out.")
+T_END = typer.Option(None, "--t-end", help="Use the log up to this time [s] (identify dive: "
+                                           "and score the identified model on the rest, held "
+                                           "out).")
 HORIZON = typer.Option(None, "--horizon", help="Window length [s] (default heave 10, yaw 4, "
                                                "surge, sway and horizontal 5).")
 JSON = typer.Option(False, "--json", help="Print one JSON document.")

@@ -30,8 +30,9 @@ def renamed(new_value, new_name: str, old_value, old_name: str = "--out"):
     return old_value
 
 
-INFLOW_HELP = ("Thrust against the advance speed: none (bollard, as before) or four-quadrant; "
-               "default: the vehicle file's inflow key.")
+INFLOW_HELP = ("Thrust against the water speed through the propeller: none (bollard thrust, "
+               "whatever the vehicle's speed) or four-quadrant (the propeller's map at each "
+               "thruster's advance speed); default: the vehicle file's inflow key.")
 
 
 def _check_inflow(value: str | None) -> str | None:
@@ -46,4 +47,5 @@ def _check_inflow(value: str | None) -> str | None:
 def inflow_option() -> typer.models.OptionInfo:
     """``--inflow none|four-quadrant`` (unset: the vehicle file's ``inflow`` key), checked at
     parse time so an error names the option."""
-    return typer.Option(None, "--inflow", help=INFLOW_HELP, callback=_check_inflow)
+    return typer.Option(None, "--inflow", help=INFLOW_HELP, callback=_check_inflow,
+                        metavar="none|four-quadrant")

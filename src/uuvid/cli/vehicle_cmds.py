@@ -221,29 +221,33 @@ def vehicle_envelope(
         _print_json(check.to_dict())
         return
     with_inflow = check.inflow != "none"
-    cols = ["direction", "force", "speed", "allocator_speed", "simulated_speed", "relative_difference",
-            "limit"]
-    if with_inflow:  # side by side: the allocator's force and speed with and without inflow
-        cols = ["direction", "allocator_force", "allocator_speed", "simulated_speed",
-                "relative_difference", "allocator_bollard_speed", "limit"]
-    rows = check.table_rows(cols)
-    if with_inflow:  # short headers; the title names the JSON keys behind them
-        heads = {"allocator_force": "force", "allocator_speed": "speed",
-                 "simulated_speed": "simulated", "relative_difference": "difference",
-                 "allocator_bollard_speed": "bollard speed"}
-        rows = [{heads.get(c, c): r[c] for c in cols} for r in rows]
-        cols = [heads.get(c, c) for c in cols]
-        title = (f"{v.name}: speed envelope, inflow {check.inflow} (force, speed: the allocator's "
-                 "with each thruster's limit at its advance speed; bollard speed: the same with "
-                 "bollard thrust; JSON allocator_force, allocator_speed, allocator_bollard_speed)")
-    else:
-        title = f"{v.name}: speed envelope"
-    out_console.print(_table(title, rows, cols, "{:.4g}"))
+    # the same columns, meaning the same, with and without inflow (inflow adds the bollard ones)
+    cols = ["direction", "force", "speed", "allocator_speed"]
+    cols += ["bollard_speed", "allocator_bollard_speed"] if with_inflow else []
+    cols += ["simulated_speed", "relative_difference"] if confirm else []
+    cols += ["limit"]
+    heads = {"allocator_speed": "allocator speed", "simulated_speed": "simulated",
+             "relative_difference": "simulated vs allocator", "bollard_speed": "speed (bollard)",
+             "allocator_bollard_speed": "allocator speed (bollard)"}
+    rows = [{heads.get(c, c): r[c] for c in cols} for r in check.table_rows(cols)]
+    title = f"{v.name}: speed envelope" + (f", inflow {check.inflow}" if with_inflow else "")
+    out_console.print(_table(title, rows, [heads.get(c, c) for c in cols], "{:.4g}"))
+    legend = ("force, speed: the largest force any thrust combination gives along the direction "
+              "and the steady speed it holds against the drag; allocator speed: the same with the "
+              "force the thrust allocator delivers (what a pilot gets, and what the simulation "
+              "flies)")
     if with_inflow:
-        out_console.print("inflow: each thruster's limit at its advance speed in that steady state; "
-                          "simulated_speed: the confirming flight takes each thruster's limit at "
-                          "its advance speed at every control step",
-                          highlight=False, soft_wrap=True, markup=False)
+        legend += (f"; inflow {check.inflow}: each thruster's limit at its advance speed in that "
+                   "steady state; (bollard): the same speeds with bollard thrust")
+    if confirm:
+        legend += ("; simulated: the steady speed of a full-command flight"
+                   + (" that takes each thruster's limit at its advance speed at every control "
+                      "step" if with_inflow else "") + ", its relative difference from the "
+                   "allocator speed beside")
+    out_console.print(legend + " (--json: keys force, speed, allocator_speed"
+                      + (", bollard_speed, allocator_bollard_speed" if with_inflow else "")
+                      + (", simulated_speed, relative_difference" if confirm else "") + ")",
+                      highlight=False, soft_wrap=True, markup=False)
     if any(r["tumbling_full_command"] for r in check.rows):
         out_console.print("simulated_speed —: the vehicle cannot stay level at that speed; flown at "
                           "full command it tumbles (its speed only in --json, tumbling_full_command)",

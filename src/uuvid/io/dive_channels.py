@@ -440,13 +440,16 @@ def rotor_speeds(dc: DiveChannels, thrust_model=None) -> tuple[np.ndarray, np.nd
                   for k in keys])
     if "battery_V" in dc.channels and dc.channels["battery_V"][0].size:
         volts = np.interp(t, *dc.channels["battery_V"])
+        at_v = "the logged battery voltage"
     else:
         volts = np.full(t.size, 16.0)
+        at_v = ("the nominal 16 V (no battery voltage logged: thrust and rotor speeds of a "
+                "full battery, which biases k_a beyond its σ; log battery_V)")
     on = np.isfinite(P) & (P > 0)
     P = np.where(on, P, 1500.0)
     if tm.has_speed:
         W = np.abs(np.stack([tm.speed(p, volts) for p in P]))
-        how = f"{tm.name}: steady rotor speed at the logged PWM and battery voltage"
+        how = f"{tm.name}: steady rotor speed at the logged PWM and {at_v}"
     else:
         T = np.stack([tm.thrust(p, volts) for p in P])
         pm = _physical_from_yaml(T200_MODEL_FILE)

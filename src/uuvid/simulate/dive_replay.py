@@ -349,6 +349,7 @@ class DiveReplay(Result):
     notes: list = field(default_factory=list)
     t_start: float | None = None
     t_end: float | None = None
+    warnings: list = field(default_factory=list)  # the log reader's (what it assumed)
 
     report_title = "Dive replay"
 
@@ -363,11 +364,13 @@ class DiveReplay(Result):
                          f"({c['n']} samples, {c['windows']} windows of {c['horizon']:g} s; "
                          f"model: {c['params_source']})")
         lines += [f"  note: {n}" for n in self.notes]
+        lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
         return {"log": self.log, "vehicle": self.vehicle, "t_start": self.t_start,
-                "t_end": self.t_end, "channels": self.channels, "notes": self.notes}
+                "t_end": self.t_end, "channels": self.channels, "notes": self.notes,
+                "warnings": self.warnings}
 
     def plot(self, path=None):
         from uuvid.core.plots import new_figure, save_figure
@@ -503,7 +506,19 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     if not chans:
         raise DiveDataError(f"{dc.name}: no armed window of the horizon to replay in the range "
                             "given; widen --t-start/--t-end or shorten --horizon")
-    return DiveReplay(dc.name, veh.name, hz, chans, traces, notes, t_start, t_end)
+    return DiveReplay(dc.name, _vehicle_label(veh), hz, chans, traces, notes, t_start, t_end,
+                      list(dc.warnings))
+
+
+def _vehicle_label(veh) -> str:
+    """The vehicle's name, with its file when it is not a preset (a written ``--out-vehicle`` file
+    keeps the base vehicle's name: the file says which one was replayed)."""
+    from uuvid.vehicle.definition import _is_preset_path
+
+    path = getattr(veh, "path", None)
+    if path is None or _is_preset_path(path):
+        return veh.name
+    return f"{veh.name} ({path})"
 
 
 def _thrust_model(dc, thruster_model):

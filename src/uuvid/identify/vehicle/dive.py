@@ -345,7 +345,7 @@ def _inflow_split(prob, values: dict, sigma: dict, dof: str) -> dict:
         _, V = prob.simulate(np.array([values[k] for k in PARAMS_INFLOW]), prob.y0_meas,
                              prob.v0_meas if prob.position else np.zeros(prob.W))
     return loss_as_drag(prob.Ch[:, ::2], V, values["inflow"], sigma["inflow"], values["linear"],
-                        UNITS_GAIN[dof])
+                        UNITS_GAIN[dof], UNITS_DRAG[dof])
 
 
 def inflow_warnings(values: dict, sigma: dict, corr) -> list:
@@ -673,7 +673,8 @@ def _inflow_setup(dc, veh, dofs, inflow, thruster_model, warnings):
         warnings.append("inflow: the drag identified is the hull's, without the thrust loss "
                         "(k_a goes to one_dof.<dof>.inflow_coefficient, which the dive replay "
                         f"flies); {veh.name} has inflow: none, so a 6-DOF simulation of a written "
-                        "file loses no thrust to the advance speed unless its inflow is set")
+                        "file loses no thrust to the advance speed until you add 'inflow: "
+                        "four-quadrant' to it")
     return speeds, starts
 
 

@@ -72,11 +72,11 @@ MIN_SECONDS_HORIZONTAL = 40.0  # of armed windows: twelve parameters need more t
 MIN_WINDOWS = 6
 _SVF_OMEGA = 2.5
 _LABEL = {"m_u": "surge mass m_u [kg]", "m_v": "sway mass m_v [kg]",
-          "I_r": "yaw inertia I_r [kg·m²]", "k_u": "surge linear drag [N·s/m]",
-          "kq_u": "surge quadratic drag [N·s²/m²]", "k_v": "sway linear drag [N·s/m]",
-          "kq_v": "sway quadratic drag [N·s²/m²]", "k_r": "yaw linear drag [N·m·s/rad]",
-          "kq_r": "yaw quadratic drag [N·m·s²/rad²]", "b_u": "surge force bias [N]",
-          "b_v": "sway force bias [N]", "b_r": "yaw moment bias [N·m]"}
+          "I_r": "yaw inertia I_r [kg·m²]", "k_u": "surge linear drag k_u [N·s/m]",
+          "kq_u": "surge quadratic drag kq_u [N·s²/m²]", "k_v": "sway linear drag k_v [N·s/m]",
+          "kq_v": "sway quadratic drag kq_v [N·s²/m²]", "k_r": "yaw linear drag k_r [N·m·s/rad]",
+          "kq_r": "yaw quadratic drag kq_r [N·m·s²/rad²]", "b_u": "surge force bias b_u [N]",
+          "b_v": "sway force bias b_v [N]", "b_r": "yaw moment bias b_r [N·m]"}
 _DOF_KEYS = {"surge": ("m_u", "k_u", "kq_u", "b_u"), "sway": ("m_v", "k_v", "kq_v", "b_v"),
              "yaw": ("I_r", "k_r", "kq_r", "b_r")}
 _DRAGS = ("k_u", "kq_u", "k_v", "kq_v", "k_r", "kq_r")
@@ -238,9 +238,10 @@ class HorizontalEstimate:
             b = self.base.get(k)
             ratio = (f"  ×{self.values[k] / b:.2f} of base {b:.4g}" if b else
                      f"  (base {b:.4g})" if b is not None else "")
-            lines.append(f"  {_LABEL[k]:34s} {self.values[k]:10.4g} ± {self.sigma[k]:.2g}{ratio}")
+            lines.append(f"  {_LABEL[k]:38s} {self.values[k]:10.4g} ± {self.sigma[k]:.2g}{ratio}")
         for dof, sp in (self.inflow_split or {}).items():
-            lines.append(f"  {dof}: {loss_as_drag_text(sp, UNITS_DRAG[dof])}")
+            lines.append(f"  {dof} (c(t): the {dof} diagonal of C(t)): "
+                         f"{loss_as_drag_text(sp, UNITS_DRAG[dof])}")
         lines.append("  in-sample replay: " + ", ".join(
             f"{c} rms {self.train[c]['rms']:.3g} {self.train[c]['unit']} (nrmse "
             f"{self.train[c]['nrmse']:.3f})" for c in H_CHANNELS))
@@ -280,7 +281,8 @@ def _horizontal_inflow_split(prob, th, x0, sigma_ka: float) -> dict:
     out = {}
     for j, (dof, (_, k, _, _)) in enumerate(_DOF_KEYS.items()):
         out[dof] = loss_as_drag(prob.Ch[j, j][:, ::2], nu[dof], float(th[-1]), sigma_ka,
-                                float(th[HORIZONTAL_NAMES.index(k)]), _UNITS_GAIN[dof])
+                                float(th[HORIZONTAL_NAMES.index(k)]), _UNITS_GAIN[dof],
+                                UNITS_DRAG[dof])
     return out
 
 
@@ -433,8 +435,9 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
     wd["enabled"] = bool(weighting and flags is not None)
     if gain is not None:
         notes.append("inflow: the thrust lost to the advance speed, k_a C(t) (u, v, r) with C(t) "
-                     "= Σ_i |Ω_i(t)| (1 − w_i) b_i b_iᵀ over the thrusters' (X, Y, N) columns "
-                     "b_i (uuvid.vehicle.inflow.horizontal_inflow_matrix), is fitted with the "
+                     "= Σ_i |Ω_i(t)| (1 − w_i) b_i b_iᵀ (Ω_i the rotor speed, w_i the wake "
+                     "fraction, b_i the (X, Y, N) column of thruster i; "
+                     "uuvid.vehicle.inflow.horizontal_inflow_matrix), is fitted with the "
                      "drags; the base-vehicle comparison uses "
                      + (f"the vehicle file's own k_a {ka_base:.4g}" if ka_base else
                         "bollard thrust (the vehicle file has no k_a)"))

@@ -263,20 +263,22 @@ def weighting_text(d: dict) -> str:
     return txt
 
 
-def loss_as_drag(gain, speed, ka: float, sigma_ka: float, linear: float, gain_unit: str) -> dict:
+def loss_as_drag(gain, speed, ka: float, sigma_ka: float, linear: float, gain_unit: str,
+                 drag_unit: str = "") -> dict:
     """How much of an apparent linear drag is thrust lost to the advance speed (issue 21).
 
     Over the fitted windows the loss ``k_a c(t) ν`` acts as the drag ``k_a c(t)``; its mean
     ``k_a c̄`` (``c̄`` weighted by ``|ν|``, where the term acts) beside the hull's linear drag
     ``k``: a bollard-thrust model books ``k + k_a c̄`` as its linear drag.  ``gain`` and
-    ``speed``: ``c(t)`` and ``ν(t)`` on the same samples (``gain_unit`` the unit of ``c``)."""
+    ``speed``: ``c(t)`` and ``ν(t)`` on the same samples (``gain_unit`` the unit of ``c``,
+    ``drag_unit`` that of the drags, kept in the result as ``unit``)."""
     gain = np.asarray(gain, float)
     w = np.abs(np.asarray(speed, float))
     w = np.where(np.isfinite(w), w, 0.0)
     c_bar = float(np.sum(gain * w) / np.sum(w)) if np.sum(w) > 0 else float(np.mean(gain))
     loss = ka * c_bar
     apparent = linear + loss
-    return {"c_mean": c_bar, "c_unit": gain_unit,
+    return {"unit": drag_unit, "c_mean": c_bar, "c_unit": gain_unit,
             "c_range": [float(np.min(gain)), float(np.max(gain))],
             "loss_as_drag": loss, "loss_as_drag_sigma": sigma_ka * c_bar,
             "apparent_linear": apparent,
@@ -287,7 +289,8 @@ def loss_as_drag_text(s: dict, unit: str) -> str:
     """One line of :func:`loss_as_drag` (``unit``: the drag's)."""
     cu = s.get("c_unit", "")
     return (f"thrust loss as drag k_a·c̄ = {s['loss_as_drag']:.3g} ± "
-            f"{s['loss_as_drag_sigma']:.2g} {unit} (c̄ = {s['c_mean']:.3g} {cu}, c(t) "
+            f"{s['loss_as_drag_sigma']:.2g} {unit} (c̄, the |speed|-weighted mean of the inflow "
+            f"gain c(t), = {s['c_mean']:.3g} {cu}; c(t) "
             f"{s['c_range'][0]:.3g}–{s['c_range'][1]:.3g} {cu}): "
             f"{100 * s['loss_fraction']:.0f} % of the apparent linear drag "
             f"{s['apparent_linear']:.3g} {unit} a bollard-thrust model would report")
