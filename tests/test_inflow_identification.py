@@ -151,6 +151,46 @@ def test_workflow_fits_inflow_with_plot_and_summary(tmp_path):
     assert (tmp_path / "rep" / "fit.png").exists()
 
 
+@pytest.mark.parametrize("suffix", [".yaml", ".toml"])
+def test_the_fitted_inflow_coefficients_are_written_to_the_model_file(tmp_path, suffix):
+    """The model file's blocks are the bollard map; its ``inflow`` section keeps what the flow
+    identified — k_a with its σ and unit, the flow levels — and reads back as the chain's
+    ``inflow`` (YAML and TOML), which takes no part in the dynamics or the chain's equality."""
+    from uuvid.thruster.modelfile import load_chain, save_chain
+
+    out = run_fit([_write(tmp_path / "flow.csv", _linear_bench(4))], "quadratic", OPTS)
+    sec = out.chain.inflow
+    assert sec["form"] == "linear" and "flow.csv" in sec["source"]
+    ka = out.parameters()["k_a"]
+    assert sec["parameters"]["k_a"]["estimate"] == ka["estimate"]
+    assert sec["parameters"]["k_a"]["sigma"] == ka["sigma"] > 0
+    back = load_chain(save_chain(out.chain, tmp_path / f"m{suffix}"))
+    assert back.inflow["parameters"]["k_a"]["estimate"] == pytest.approx(ka["estimate"],
+                                                                        rel=1e-12)
+    assert back.inflow["parameters"]["k_a"]["unit"] == sec["parameters"]["k_a"]["unit"]
+    assert back.inflow["flow_levels_m_s"] == pytest.approx(list(FLOWS))
+    assert back == out.chain  # metadata: equal chains with or without it
+    assert any("'inflow' section" in n for n in out.notes)
+
+
+def test_a_bad_inflow_section_names_the_key(tmp_path):
+    import yaml
+
+    from uuvid.thruster.modelfile import ModelFileError, chain_to_dict, load_chain
+
+    out = run_fit([_write(tmp_path / "flow.csv", _linear_bench(4))], "quadratic", OPTS)
+    doc = chain_to_dict(out.chain)
+    doc["inflow"]["form"] = "momentum"
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(ModelFileError, match=r"bad\.yaml: inflow\.form"):
+        load_chain(tmp_path / "bad.yaml")
+    doc["inflow"]["form"] = "linear"
+    doc["inflow"]["parameters"]["k_a"]["estimate"] = "fast"
+    (tmp_path / "bad2.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(ModelFileError, match=r"inflow\.parameters\.k_a\.estimate"):
+        load_chain(tmp_path / "bad2.yaml")
+
+
 @pytest.mark.slow
 def test_four_quadrant_model_through_the_workflow_and_cli(tmp_path):
     from typer.testing import CliRunner
@@ -164,6 +204,12 @@ def test_four_quadrant_model_through_the_workflow_and_cli(tmp_path):
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout[res.stdout.index("{"):])
     assert doc["parameters"]["b_1"]["estimate"] == pytest.approx(-0.55, abs=0.05)
+    from uuvid.thruster.modelfile import load_chain
+
+    sec = load_chain(tmp_path / "m.yaml").inflow  # the fitted C_T* terms are in the file
+    assert sec["form"] == "four-quadrant" and sec["beta_range_deg"]
+    assert sec["parameters"]["b_1"]["estimate"] == pytest.approx(
+        doc["parameters"]["b_1"]["estimate"], rel=1e-12)
     with pytest.raises(FitError, match="--diameter"):
         run_fit([f], "four-quadrant", OPTS)
 

@@ -103,11 +103,17 @@ class ThrusterChain:
         first signal the first block accepts.
     name
         A label for reports.
+    inflow
+        What a bench run in a flow identified about the thrust's loss with the water speed
+        (``{form, parameters: {name: {estimate, sigma, unit}}, flow_levels_m_s, ...}``, see
+        :func:`uuvid.identify.thruster.workflow`'s inflow fits); the blocks stay the bollard map.
+        Metadata: it takes no part in the chain's dynamics, equality or hash.
     """
 
     blocks: tuple[Block, ...]
     input_kind: str | None = None
     name: str = "thruster"
+    inflow: dict | None = field(default=None, compare=False, hash=False, repr=False)
     _kinds: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):

@@ -127,6 +127,25 @@ def _chain_schema():
     block_schema = typing.Annotated[typing.Union[tuple(_SCHEMAS.values())],  # noqa: UP007
                                     Field(discriminator="type")]
 
+    class InflowParameterSchema(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        estimate: float
+        sigma: float | None = None
+        unit: str = ""
+
+    class InflowSchema(BaseModel):
+        """What a bench run in a flow identified (the blocks stay the bollard map)."""
+
+        model_config = ConfigDict(extra="forbid")
+        form: Literal["linear", "four-quadrant"]
+        equation: str | None = None
+        diameter_m: float | None = None
+        parameters: dict[str, InflowParameterSchema]
+        flow_levels_m_s: list[float] = []
+        beta_range_deg: list[float] | None = None
+        correlation: dict | None = None
+        source: str | None = None
+
     class ChainSchema(BaseModel):
         """A thruster model file."""
 
@@ -136,6 +155,7 @@ def _chain_schema():
         description: str | None = None
         source: str | None = None
         blocks: list[block_schema]
+        inflow: InflowSchema | None = None
 
     return ChainSchema
 
@@ -212,8 +232,9 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
         except ParameterError as e:
             key = f"blocks[{i}].{e.param}" if e.param else f"blocks[{i}] ({type_name})"
             raise ModelFileError(f"{where}: {key}: {e}") from None
+    inflow = None if spec.inflow is None else spec.inflow.model_dump(exclude_none=True)
     try:
-        return ThrusterChain(tuple(blocks), input_kind=spec.input, name=spec.name)
+        return ThrusterChain(tuple(blocks), input_kind=spec.input, name=spec.name, inflow=inflow)
     except ParameterError as e:
         raise ModelFileError(f"{where}: {e}") from None
 
@@ -351,7 +372,10 @@ def chain_to_dict(chain: ThrusterChain) -> dict:
         if isinstance(d.get("motor"), dict):
             d["motor"] = {k: v for k, v in d["motor"].items() if v is not None}
         blocks.append(d)
-    return {"name": chain.name, "input": chain.input_kind, "blocks": blocks}
+    out = {"name": chain.name, "input": chain.input_kind, "blocks": blocks}
+    if chain.inflow is not None:
+        out["inflow"] = _clean(chain.inflow)
+    return out
 
 
 def save_chain(chain: ThrusterChain, path: str | Path) -> Path:
@@ -392,4 +416,20 @@ def _to_toml(data: dict) -> str:
             lines.append(f"[blocks.{k}]")
             lines.extend(f"{kk} = {_toml_value(vv)}" for kk, vv in sub.items())
         lines.append("")
+    if "inflow" in data:
+        _toml_table(lines, "inflow", data["inflow"])
     return "\n".join(lines)
+
+
+def _toml_table(lines: list, name: str, table: dict) -> None:
+    """``[name]`` with its scalar and list keys, then its sub-tables as ``[name.key]``."""
+    lines.append(f"[{name}]")
+    subs = {}
+    for k, v in table.items():
+        if isinstance(v, dict):
+            subs[k] = v
+        elif v is not None:  # TOML has no null: an absent key reads back as None
+            lines.append(f"{k} = {_toml_value(v)}")
+    lines.append("")
+    for k, v in subs.items():
+        _toml_table(lines, f'{name}."{k}"' if not k.isidentifier() else f"{name}.{k}", v)

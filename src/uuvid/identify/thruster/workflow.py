@@ -448,11 +448,17 @@ def _fit_inflow(data, name, model, diameter=None, order=None):
     if "beta_range_deg" in sf.info:
         extra["inflow"]["beta_range_deg"] = sf.info["beta_range_deg"]
     warn, notes = _steady_messages(sf)
-    notes.append("the model file holds the bollard map (u_a = 0) of the fit; the inflow "
-                 "coefficients are the fit's parameters (summary key 'inflow')")
+    notes.append("the model file's blocks are the bollard map (u_a = 0) of the fit; its 'inflow' "
+                 "section holds the fitted inflow coefficients with their σ (summary key "
+                 "'inflow')")
     text = sf.summary() + "\n=== correlation ===\n" + "\n".join(
         f"{a:>10s} " + " ".join(f"{c:+.3f}" for c in row) for a, row in zip(fit.names, corr))
-    return FitOutcome(model, _chain((sf.block,), "speed", name), dict(sf.fits), text, _rms(resid),
+    section = jsonable({**extra["inflow"], "equation": fit.model,
+                        "form": "four-quadrant" if model == "four-quadrant" else "linear",
+                        **({"diameter_m": float(diameter)} if model == "four-quadrant" else {}),
+                        "source": f"bench fit of {data.source or 'bench data'}"})
+    chain = replace(_chain((sf.block,), "speed", name), inflow=section)
+    return FitOutcome(model, chain, dict(sf.fits), text, _rms(resid),
                       "N", warn, extra,
                       [("fit", _inflow_figure(data, sf, name, title),
                         "Thrust against the water speed through the propeller: data and model "
