@@ -171,6 +171,12 @@ def test_the_fitted_inflow_coefficients_are_written_to_the_model_file(tmp_path, 
     assert back.inflow["flow_levels_m_s"] == pytest.approx(list(FLOWS))
     assert back == out.chain  # metadata: equal chains with or without it
     assert any("'inflow' section" in n for n in out.notes)
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    shown = CliRunner().invoke(app, ["thruster", "show", str(tmp_path / f"m{suffix}")])
+    assert shown.exit_code == 0 and "inflow (linear" in shown.output and "k_a = " in shown.output
 
 
 def test_a_bad_inflow_section_names_the_key(tmp_path):

@@ -54,6 +54,18 @@ def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) 
         d.pop("type")
         t.add_row(str(i), b.TYPE, ", ".join(f"{k}={v}" for k, v in d.items()))
     out_console.print(t)
+    if chain.inflow:
+        sec = chain.inflow
+        out_console.print(f"inflow ({sec['form']}: {sec.get('equation') or ''}; {sec.get('source') or ''})",
+                          highlight=False, markup=False, soft_wrap=True)
+        for name, p in sec["parameters"].items():
+            sig = p.get("sigma")
+            out_console.print(f"  {name} = {p['estimate']:.6g}"
+                              + (f" ± {sig:.2g}" if sig is not None else "")
+                              + (f" {p['unit']}" if p.get("unit") else ""),
+                              highlight=False, markup=False)
+        out_console.print("  (the blocks above are the bollard map; no vehicle simulation reads "
+                          "this section yet)", highlight=False, markup=False)
 
 
 def thruster_simulate(
