@@ -50,6 +50,7 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
             continue
         agree = np.sign(y[m]) == d[m]
         if agree.mean() >= _SIGN_AGREEMENT:
+            _check_direction_signs(data, name, unit, y, m, min_rows)
             continue
         k = int(np.argmax(np.abs(y[m])))
         cmd, val = float(data.command[m][k]), float(y[m][k])
@@ -61,6 +62,37 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
             f"{name} {val:+.4g} {unit}); expected: a command above neutral gives positive "
             f"{name} (forward). Fix: negate the {name} column (the load cell or sensor is "
             "mounted reversed), or give the right neutral command (--neutral)")
+
+
+#: readings below this fraction of the file's largest |value| are left out of the per-direction
+#: sign check (a dead band's noise may have either sign)
+_SIGN_NOISE = 0.05
+
+
+def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> None:
+    """One direction of the command with the other direction's sign in most of its clear rows
+    (e.g. reverse thrust logged as a magnitude) is an error: the fit would give that direction a
+    map through zero or one of the wrong sign."""
+    d = data.direction
+    big = m & (np.abs(y) > _SIGN_NOISE * np.max(np.abs(y[m])))
+    for sgn, side in ((1, "above"), (-1, "below")):
+        rows = big & (d == sgn)
+        n = int(rows.sum())
+        if n < min_rows:
+            continue
+        wrong = np.sign(y[rows]) != sgn
+        if wrong.mean() < 1 - _SIGN_AGREEMENT:
+            continue
+        k = int(np.argmax(np.abs(y[rows])))
+        cmd, val = float(data.command[rows][k]), float(y[rows][k])
+        src = f"{data.source}: " if data.source else ""
+        raise BenchDataError(
+            f"{src}{name} has the sign of the other direction in {int(wrong.sum())} of {n} rows "
+            f"with the command {side} neutral {data.neutral:g} (e.g. command {cmd:g} "
+            f"{data.command_unit} gives {name} {val:+.4g} {unit}); expected: "
+            f"{'positive' if sgn > 0 else 'negative'} {name} there. Fix: a sensor that logs the "
+            f"magnitude only needs its sign from the command (negate the {name} of those rows), "
+            "or give the right neutral command (--neutral)")
 
 
 # ------------------------------------------------------------------------------------------------

@@ -121,34 +121,197 @@ def _vehicle(vehicle):
     return load_vehicle(vehicle)
 
 
+#: beyond these an underwater vehicle's channel is in another unit (checked per dive table)
+MAX_DEPTH_RATE = 5.0  # m/s, the 90th percentile over 1 s
+MAX_YAW_RATE = 2 * np.pi  # rad/s (a turn per second), likewise
+MAX_SPEED = 5.0  # m/s, the 90th percentile of |u|, |v|
+BATTERY_RANGE_V = (6.0, 60.0)  # median
+MAX_ROW_STEP_S = 5.0  # median step between rows
+
+
+def _table_time(df, tcol: str, name: str) -> np.ndarray:
+    """The time column in seconds: every cell a number, never decreasing (rows with the same
+    stamp are merged by :func:`_finite`, conflicts refused by :func:`_check_same_stamps`)."""
+    import pandas as pd
+
+    raw = df[tcol]
+    t = pd.to_numeric(raw, errors="coerce").to_numpy(float)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        cell = raw.iloc[int(bad[0])]
+        hint = ("; it looks like a date and time: give seconds (e.g. since the log's start)"
+                if isinstance(cell, str) and len(cell) >= 10 and cell[4:5] == "-" else "")
+        what = "an empty cell" if pd.isna(cell) else repr(cell)
+        raise DiveDataError(f"{name}: column {tcol}, row {bad[0] + 2}: {what} is not a number; "
+                            f"every row needs a time stamp in seconds{hint}")
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise DiveDataError(
+            f"{name}: column {tcol}, row {i + 2}: {t[i]:.6g} s is before the previous row's "
+            f"{t[i - 1]:.6g} s; expected time stamps that never decrease (a logger restart, or two "
+            "logs joined? split the file at that row, or shift the later part's time)")
+    step = np.diff(t)
+    step = step[step > 0]
+    if step.size >= 10 and float(np.median(step)) > MAX_ROW_STEP_S:
+        raise DiveDataError(f"{name}: column {tcol}: the median step between rows is "
+                            f"{float(np.median(step)):.4g} s; expected seconds at the rate of "
+                            "the sensors (is the time in milliseconds? divide it by 1000)")
+    return t
+
+
+def _check_same_stamps(t, df, cols, name: str, warnings: list) -> None:
+    """Rows with the same time stamp are one sample if their values agree (a repeated row, or
+    two senders filling different columns); different values of one column at one stamp are an
+    error naming the column and the rows."""
+    same = np.flatnonzero(np.diff(t) == 0)
+    if not same.size:
+        return
+    for c in cols:
+        v = np.asarray(df[c], float)
+        ok = np.flatnonzero(np.isfinite(v))
+        if ok.size < 2:
+            continue
+        tv, vv = t[ok], v[ok]
+        clash = np.flatnonzero((np.diff(tv) == 0) & (np.diff(vv) != 0))
+        if clash.size:
+            a, b = int(ok[clash[0]]), int(ok[clash[0] + 1])
+            raise DiveDataError(
+                f"{name}: column {c}, rows {a + 2} and {b + 2}: two different values ({v[a]:.6g}, "
+                f"{v[b]:.6g}) at the same time stamp {t[a]:.6g} s; expected one value per time "
+                "(a second sensor writing into this column? give it a column of its own)")
+    warnings.append(f"{name}: {same.size} rows share the previous row's time stamp with no "
+                    "conflicting value: merged into one sample each")
+
+
+def _rate90(t, x, window: float = 1.0) -> float:
+    """90th percentile of ``|x(t + window) − x(t)| / window`` over a channel's samples."""
+    if t.size < 4:
+        return 0.0
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(window / dt))) if dt > 0 else 1
+    if t.size <= k:
+        return 0.0
+    span = t[k:] - t[:-k]
+    good = span > 0
+    if not good.any():
+        return 0.0
+    return float(np.percentile(np.abs(x[k:] - x[:-k])[good] / span[good], 90))
+
+
+def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
+    """A channel that cannot be in its column's unit for an underwater vehicle is an error saying
+    which unit it looks like (depth in cm, heading in degrees, speeds in cm/s, battery in mV, PWM
+    normalised); a PWM output at 0 µs throughout is said (off: no thrust)."""
+    if "depth_m" in chans and chans["depth_m"][0].size:
+        r = _rate90(*chans["depth_m"])
+        if r > MAX_DEPTH_RATE:
+            raise DiveDataError(f"{name}: column depth_m changes by {r:.3g} m/s or faster 10 % of "
+                                f"the time, beyond {MAX_DEPTH_RATE:g} m/s for an underwater "
+                                "vehicle: is it in cm or mm? expected metres (positive down)")
+    if "yaw_rad" in chans and chans["yaw_rad"][0].size:
+        r = _rate90(*chans["yaw_rad"])
+        if r > MAX_YAW_RATE:
+            raise DiveDataError(f"{name}: column yaw_rad turns at {r:.3g} rad/s or faster 10 % of "
+                                f"the time, beyond {MAX_YAW_RATE:.3g} rad/s (a turn per second): "
+                                "is it in degrees? expected radians")
+    for c in ("u_mps", "v_mps"):
+        if c in chans and chans[c][1].size:
+            r = float(np.percentile(np.abs(chans[c][1]), 90))
+            if r > MAX_SPEED:
+                raise DiveDataError(f"{name}: column {c} is {r:.3g} m/s or faster 10 % of the "
+                                    f"time, beyond {MAX_SPEED:g} m/s for an underwater vehicle: "
+                                    "is it in cm/s or mm/s? expected m/s")
+    if "battery_V" in chans and chans["battery_V"][1].size:
+        med = float(np.median(chans["battery_V"][1]))
+        lo, hi = BATTERY_RANGE_V
+        if not lo <= med <= hi:
+            raise DiveDataError(f"{name}: column battery_V has median {med:.4g}, outside "
+                                f"{lo:g}–{hi:g} V for a vehicle battery: is it in mV? expected "
+                                "volts")
+    from uuvid.thruster.chain import PWM_PLAUSIBLE_US
+
+    lo, hi = PWM_PLAUSIBLE_US
+    for k, (_, v) in pwm.items():
+        on = v[v != 0]
+        if v.size and not on.size:
+            warnings.append(f"{name}: pwm_{k} is 0 µs throughout: that output is off (no pulse) "
+                            "and its thruster gives no thrust")
+        elif on.size and np.mean((on >= lo) & (on <= hi)) < 0.5:
+            raise DiveDataError(f"{name}: column pwm_{k} holds {on.min():.4g}…{on.max():.4g}, not "
+                                f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
+
+
+#: the measured and force columns a dive table may have (SI units)
+TABLE_CHANNELS = ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "u_mps", "v_mps", "battery_V",
+                  "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
+
+
+def _numeric_column(df, c, name: str) -> np.ndarray:
+    """A column as floats (empty cells NaN); a cell that is not a number is an error naming it."""
+    import pandas as pd
+
+    try:
+        return np.asarray(df[c], float)
+    except (TypeError, ValueError):
+        num = pd.to_numeric(df[c], errors="coerce")
+        bad = np.flatnonzero(num.isna().to_numpy() & df[c].notna().to_numpy())
+        i = int(bad[0]) if bad.size else 0
+        raise DiveDataError(f"{name}: column {c}, row {i + 2}: {df[c].iloc[i]!r} is not a number; "
+                            "expected numbers (SI units) or empty cells") from None
+
+
+def _canonical_names(df, name: str, warnings: list):
+    """Columns that are a known one but for case or surrounding spaces ('Depth_m ') are read as
+    it, and said; a file of one column whose header holds ';' is refused (a semicolon CSV)."""
+    cols = [str(c) for c in df.columns]
+    if len(cols) == 1 and ";" in cols[0]:
+        raise DiveDataError(f"{name}: the columns are separated by ';' (a semicolon CSV, often "
+                            "with decimal commas); expected ',' between columns and '.' as the "
+                            "decimal point: re-save the file as such")
+    known = {k.lower(): k for k in (*TABLE_CHANNELS, "t_s", "armed", "mode")}
+    ren = {}
+    for c in cols:
+        k = c.strip().lower()
+        target = known.get(k) or (f"pwm_{k[4:]}" if k.startswith("pwm_") else None)
+        if target and target != c and target not in cols:
+            ren[c] = target
+    if ren:
+        warnings.append(f"{name}: column(s) " + ", ".join(f"{a!r} read as {b}" for a, b in
+                                                          ren.items())
+                        + " (names are case- and space-sensitive: rename them)")
+        df = df.rename(columns=ren)
+    return df
+
+
 def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
+    df = _canonical_names(df, name, warnings)
     cols = list(df.columns)
     tcol = "t_s" if "t_s" in cols else ("t" if "t" in cols else None)
     if tcol is None:
         raise DiveDataError(f"{name}: no time column: expected t_s (seconds); columns are "
                             f"{', '.join(map(str, cols[:12]))}")
-    t = np.asarray(df[tcol], float)
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise DiveDataError(f"{name}: column {tcol}, row {bad[0] + 2}: not a number; every row "
-                            "needs a time stamp in seconds")
+    if len(df) == 0:
+        raise DiveDataError(f"{name}: no data rows under the header")
+    t = _table_time(df, tcol, name)
     chans = {}
-    for c in ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "u_mps", "v_mps", "battery_V",
-              "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+    for c in TABLE_CHANNELS:
         if c in cols:
-            try:
-                v = np.asarray(df[c], float)
-            except (TypeError, ValueError):
-                raise DiveDataError(f"{name}: column {c}: not numeric; expected numbers (SI "
-                                    "units) or empty cells") from None
-            chans[c] = _finite(t, v)
+            chans[c] = _finite(t, _numeric_column(df, c, name))
     if "yaw_rad" in chans:  # headings may be logged wrapped to ±π
         ty, y = chans["yaw_rad"]
         chans["yaw_rad"] = (ty, np.unwrap(y))
     pwm = {}
     for c in cols:
         if str(c).startswith("pwm_"):
-            pwm[str(c)[4:]] = _finite(t, np.asarray(df[c], float))
+            try:
+                pwm[str(c)[4:]] = _finite(t, np.asarray(df[c], float))
+            except (TypeError, ValueError):
+                raise DiveDataError(f"{name}: column {c}: not numeric; expected pulse widths in "
+                                    "µs or empty cells") from None
+    _check_same_stamps(t, df, [c for c in cols if c in chans or str(c).startswith("pwm_")], name,
+                       warnings)
+    _check_units(chans, pwm, name, warnings)
     if veh is not None and pwm and len(pwm) != veh.B.shape[1]:
         raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(pwm)}) but vehicle "
                             f"{veh.name!r} has {veh.B.shape[1]} thrusters; pass the vehicle the "
@@ -179,8 +342,14 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
 
     keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
     t = pwm[keys[0]][0]
-    if any(pwm[k][0].size != t.size or not np.array_equal(pwm[k][0], t) for k in keys):
-        raise DiveDataError(f"{name}: the pwm_ columns do not share their rows; every pwm_<j> needs "
+    odd = [k for k in keys if pwm[k][0].size != t.size or not np.array_equal(pwm[k][0], t)]
+    if odd:
+        tk = pwm[odd[0]][0]
+        gone = np.setdiff1d(t, tk)
+        where = (f" (pwm_{odd[0]} has no value at t = {gone[0]:.6g} s, where pwm_{keys[0]} has one)"
+                 if gone.size else f" (pwm_{odd[0]} has values where pwm_{keys[0]} has none)")
+        raise DiveDataError(f"{name}: the pwm_ columns do not share their rows{where}; every "
+                            "pwm_<j> needs "
                             "a value on each servo-output row")
     at_v = "battery_V"
     if "battery_V" not in chans or chans["battery_V"][0].size == 0:
@@ -240,10 +409,24 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
     if p is None:
         return _from_table(log, "<table>", "table", veh, warnings)
     suf = p.suffix.lower()
+    if suf in (".csv", ".parquet") and p.is_dir():
+        raise DiveDataError(f"{p}: a folder, not a {suf[1:]} file")
     if suf == ".csv":
-        return _from_table(pd.read_csv(p), p.name, "csv", veh, warnings)
+        try:
+            df = pd.read_csv(p)
+        except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as e:
+            raise DiveDataError(f"{p.name}: not a readable CSV table ({type(e).__name__}: "
+                                f"{str(e).splitlines()[0][:160]}); expected comma-separated "
+                                "columns with a header row (t_s, depth_m, …) and '.' as the "
+                                "decimal point") from None
+        return _from_table(df, p.name, "csv", veh, warnings)
     if suf == ".parquet":
-        return _from_table(pd.read_parquet(p), p.name, "parquet", veh, warnings)
+        try:
+            df = pd.read_parquet(p)
+        except Exception as e:  # pyarrow raises several kinds for a file that is not Parquet
+            raise DiveDataError(f"{p.name}: not a readable Parquet file ({type(e).__name__}: "
+                                f"{str(e).splitlines()[0][:160] if str(e) else ''})") from None
+        return _from_table(df, p.name, "parquet", veh, warnings)
     if suf in (".tlog", ".bin", ".log"):
         from uuvid.io.ardusub import load_dive
 
