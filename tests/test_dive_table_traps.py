@@ -128,3 +128,18 @@ def test_pwm_columns_that_do_not_share_rows_name_the_column_and_time():
     with pytest.raises(DiveDataError, match=r"pwm_3 has no value at t = 5 s, where pwm_1 has "
                                             r"one"):
         _read(df)
+
+
+def test_an_armed_value_that_is_no_flag_and_too_few_samples_are_named():
+    df = _table()
+    df["armed"] = "true"
+    df.loc[30, "armed"] = "maybe"
+    with pytest.raises(DiveDataError, match=r"column armed, row 32: 'maybe'; expected "
+                                            r"true/false"):
+        _read(df)
+    df.loc[30, "armed"] = None  # empty: not armed
+    assert _read(df).armed
+    two = _table().iloc[:2]
+    with pytest.raises(DiveDataError, match=r"only 2 depth_m samples \(need at least 4\): heave "
+                                            r"needs .*; pass a log that has it"):
+        _read(two).require("heave")

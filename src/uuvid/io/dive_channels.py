@@ -65,11 +65,14 @@ class DiveChannels:
         """Raise :class:`DiveDataError` when the log lacks what ``dof`` needs."""
         meas, force, _ = DIVE_DOFS[dof]
         if meas not in self.channels or self.channels[meas][0].size < 4:
-            raise DiveDataError(f"{self.name}: no {meas} samples: {dof} needs "
-                                f"{_SOURCE_HINT[meas]}; pass --dof "
-                                + "|".join(d for d in DIVE_DOFS if DIVE_DOFS[d][0] in self.channels
-                                           and self.channels[DIVE_DOFS[d][0]][0].size >= 4)
-                                + " or a log that has it")
+            n = self.channels[meas][0].size if meas in self.channels else 0
+            have = [d for d in DIVE_DOFS if DIVE_DOFS[d][0] in self.channels
+                    and self.channels[DIVE_DOFS[d][0]][0].size >= 4]
+            raise DiveDataError(f"{self.name}: " + (f"only {n} {meas} samples (need at least 4)"
+                                                    if n else f"no {meas} samples")
+                                + f": {dof} needs {_SOURCE_HINT[meas]}; pass "
+                                + (f"--dof {'|'.join(have)} or " if have else "")
+                                + "a log that has it")
         if force not in self.channels or self.channels[force][0].size < 2:
             raise DiveDataError(f"{self.name}: no {force} samples (thruster forces): the log has no "
                                 "servo outputs / force column; pass an ArduSub log with "
@@ -242,6 +245,8 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
                                 f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
 
 
+_ARMED_WORDS = ("true", "false", "1", "0", "1.0", "0.0", "yes", "no", "nan", "")
+
 #: the measured and force columns a dive table may have (SI units)
 TABLE_CHANNELS = ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "u_mps", "v_mps", "battery_V",
                   "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
@@ -321,7 +326,12 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
         _forces_from_pwm(chans, pwm, veh, name, warnings)
     if "armed" in cols:
         a = df["armed"]
-        am = a.map(lambda x: str(x).strip().lower() in ("true", "1", "1.0", "yes")).to_numpy(bool)
+        word = a.map(lambda x: str(x).strip().lower())
+        odd = np.flatnonzero(~word.isin(_ARMED_WORDS).to_numpy() & a.notna().to_numpy())
+        if odd.size:
+            raise DiveDataError(f"{name}: column armed, row {odd[0] + 2}: {a.iloc[odd[0]]!r}; "
+                                "expected true/false, 1/0 or yes/no (empty: not armed)")
+        am = word.isin(("true", "1", "1.0", "yes")).to_numpy(bool)
         armed = _intervals(t, am)
     else:
         armed = [(float(t.min()), float(t.max()))]
