@@ -591,7 +591,14 @@ def _inflow_bench_section(out: Path, rep: Report) -> dict:
                     "σ": f"{p[k]['sigma']:.2g}", "truth": f"{truth[k]:.4g}"} for k in p],
                   caption="Identified against the truth of the example")
     rep.add_figure(fig, caption="Thrust against water speed per command: data and model")
-    return {"parameters": p, "truth": truth, "file": str(path)}
+    from uuvid.thruster.modelfile import load_chain, save_chain
+
+    model = save_chain(fit.chain, out / "thruster_flow" / "t200-flow.yaml")
+    kept = load_chain(model).inflow["parameters"]["k_a"]
+    rep.add_paragraph(f"--out-model writes {model.name}: the bollard map as its blocks, and an "
+                      f"inflow section with k_a = {kept['estimate']:.4g} ± {kept['sigma']:.2g} "
+                      f"{kept['unit']} (uuvid thruster show {model.name} prints it).")
+    return {"parameters": p, "truth": truth, "file": str(path), "model_file": str(model)}
 
 
 def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
