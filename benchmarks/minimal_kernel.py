@@ -180,6 +180,32 @@ def _pid_alloc(z, k, ref_pos, ref_vel, ref_yaw, ref_rate, gains, integ, e, ed, t
         wt[i] = min(max(w, wlim[i, 0]), wlim[i, 1])
 
 
+@njit(inline="always")
+def _lags(motor, dt):
+    """``exp(−h/τ_m)`` of each motor's first-order lag over half a step and a whole step."""
+    n = motor.shape[0]
+    ehalf = np.empty(n)
+    efull = np.empty(n)
+    for i in range(n):
+        ehalf[i] = math.exp(-0.5 * dt / motor[i, 1])
+        efull[i] = math.exp(-dt / motor[i, 1])
+    return ehalf, efull
+
+
+@njit(inline="always")
+def _end_step(z, k1, k2, k3, k4, wt, efull, dt):
+    """The RK4 update of the 13 vehicle states, the motors' exact lag to the step's end, and the
+    quaternion renormalised (sign kept with a non-negative scalar part)."""
+    for i in range(13):
+        z[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    for i in range(wt.shape[0]):
+        z[13 + i] = wt[i] + (z[13 + i] - wt[i]) * efull[i]
+    qn = math.sqrt(z[3] * z[3] + z[4] * z[4] + z[5] * z[5] + z[6] * z[6])
+    qs = 1.0 / qn if z[3] >= 0.0 else -1.0 / qn
+    for i in range(3, 7):
+        z[i] *= qs
+
+
 @njit
 def fly_minimal(z0, Minv, MRB, MA, DL, DQ, grav, B, T, lo, hi, eta_p, eta_n, kq, motor, wlim,
                 gains, ref_pos, ref_vel, ref_yaw, ref_rate, dt, Z, F):
@@ -202,11 +228,7 @@ def fly_minimal(z0, Minv, MRB, MA, DL, DQ, grav, B, T, lo, hi, eta_p, eta_n, kq,
     integ = np.zeros(4)
     e = np.empty(4)
     ed = np.empty(4)
-    ehalf = np.empty(n)
-    efull = np.empty(n)
-    for i in range(n):
-        ehalf[i] = math.exp(-0.5 * dt / motor[i, 1])
-        efull[i] = math.exp(-dt / motor[i, 1])
+    ehalf, efull = _lags(motor, dt)
     for k in range(ref_pos.shape[0]):
         _pid_alloc(z, k, ref_pos, ref_vel, ref_yaw, ref_rate, gains, integ, e, ed, tau_des, T, lo,
                    hi, fd, kq, wlim, wt, dt)
@@ -247,14 +269,7 @@ def fly_minimal(z0, Minv, MRB, MA, DL, DQ, grav, B, T, lo, hi, eta_p, eta_n, kq,
         for i in range(13):
             zt[i] = z[i] + dt * k3[i]
         _rhs(zt, tau, Minv, MRB, MA, DL, DQ, grav, f, k4)
-        for i in range(13):
-            z[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        for i in range(n):
-            z[13 + i] = wt[i] + (z[13 + i] - wt[i]) * efull[i]
-        qn = math.sqrt(z[3] * z[3] + z[4] * z[4] + z[5] * z[5] + z[6] * z[6])
-        qs = 1.0 / qn if z[3] >= 0.0 else -1.0 / qn
-        for i in range(3, 7):
-            z[i] *= qs
+        _end_step(z, k1, k2, k3, k4, wt, efull, dt)
 
 
 def fly(setup, Z=None, F=None):
@@ -341,11 +356,7 @@ def fly_minimal_inflow(z0, Minv, MRB, MA, DL, DQ, grav, B, T, lo, hi, eta_p, eta
     integ = np.zeros(4)
     e = np.empty(4)
     ed = np.empty(4)
-    ehalf = np.empty(n)
-    efull = np.empty(n)
-    for i in range(n):
-        ehalf[i] = math.exp(-0.5 * dt / motor[i, 1])
-        efull[i] = math.exp(-dt / motor[i, 1])
+    ehalf, efull = _lags(motor, dt)
     for k in range(ref_pos.shape[0]):
         _pid_alloc(z, k, ref_pos, ref_vel, ref_yaw, ref_rate, gains, integ, e, ed, tau_des, T, lo,
                    hi, fd, kq, wlim, wt, dt)
@@ -372,14 +383,7 @@ def fly_minimal_inflow(z0, Minv, MRB, MA, DL, DQ, grav, B, T, lo, hi, eta_p, eta
             zt[i] = z[i] + dt * k3[i]
         _stage_tau_inflow(zt, ws, 2, kq, eta_p, eta_n, M, vtc, prm, B, tau, thr)
         _rhs(zt, tau, Minv, MRB, MA, DL, DQ, grav, f, k4)
-        for i in range(13):
-            z[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        for i in range(n):
-            z[13 + i] = wt[i] + (z[13 + i] - wt[i]) * efull[i]
-        qn = math.sqrt(z[3] * z[3] + z[4] * z[4] + z[5] * z[5] + z[6] * z[6])
-        qs = 1.0 / qn if z[3] >= 0.0 else -1.0 / qn
-        for i in range(3, 7):
-            z[i] *= qs
+        _end_step(z, k1, k2, k3, k4, wt, efull, dt)
 
 
 def kernel_args(setup, Z=None, F=None) -> tuple:

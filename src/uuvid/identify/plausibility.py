@@ -52,9 +52,7 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
         if agree.mean() >= _SIGN_AGREEMENT:
             _check_direction_signs(data, name, unit, y, m, min_rows)
             continue
-        k = int(np.argmax(np.abs(y[m])))
-        cmd, val = float(data.command[m][k]), float(y[m][k])
-        src = f"{data.source}: " if data.source else ""
+        cmd, val, src = _largest_row(data, y, m)
         raise BenchDataError(
             f"{src}{name} has the opposite sign of the command in {n - int(agree.sum())} of {n} "
             f"measured rows (e.g. command {cmd:g} {data.command_unit}, "
@@ -62,6 +60,14 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
             f"{name} {val:+.4g} {unit}); expected: a command above neutral gives positive "
             f"{name} (forward). Fix: negate the {name} column (the load cell or sensor is "
             "mounted reversed), or give the right neutral command (--neutral)")
+
+
+def _largest_row(data, y, rows):
+    """The command and reading of the largest |reading| among ``rows`` (the example an error
+    quotes) and the file's prefix for messages."""
+    k = int(np.argmax(np.abs(y[rows])))
+    src = f"{data.source}: " if data.source else ""
+    return float(data.command[rows][k]), float(y[rows][k]), src
 
 
 #: readings below this fraction of the file's largest |value| are left out of the per-direction
@@ -83,9 +89,7 @@ def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> N
         wrong = np.sign(y[rows]) != sgn
         if wrong.mean() < 1 - _SIGN_AGREEMENT:
             continue
-        k = int(np.argmax(np.abs(y[rows])))
-        cmd, val = float(data.command[rows][k]), float(y[rows][k])
-        src = f"{data.source}: " if data.source else ""
+        cmd, val, src = _largest_row(data, y, rows)
         raise BenchDataError(
             f"{src}{name} has the sign of the other direction in {int(wrong.sum())} of {n} rows "
             f"with the command {side} neutral {data.neutral:g} (e.g. command {cmd:g} "
