@@ -1,9 +1,22 @@
 """Plausibility checks for identification inputs and results: a sign or unit mistake that would
-otherwise give a "valid" model (zero thrust, negative drag or inertia) is an error or a warning."""
+otherwise give a "valid" model (zero thrust, negative drag or inertia) is an error or a warning.
+
+Bench files (``uuvid thruster fit``) are checked before they are fitted:
+
+* commands outside their unit's range (:func:`check_bench_commands`);
+* thrust or speed with the opposite sign of the command (:func:`check_bench_signs`);
+* a unit the numbers cannot be in (:func:`check_bench_units`): a supply voltage above
+  :data:`MAX_PLAUSIBLE_VOLTAGE` (mV), a current above :data:`MAX_PLAUSIBLE_CURRENT` (mA), or a
+  still-water thrust above the momentum-theory bound of its electrical power (grams read as N);
+* warnings where big thrusters make a hard limit wrong (:func:`bench_unit_warnings`): a thrust
+  above :data:`MAX_PLAIN_THRUST` without electrical data to check it against, a speed above
+  :data:`MAX_PLAUSIBLE_SPEED` (rpm read as rad/s).
+"""
 from __future__ import annotations
 
 import numpy as np
 
+from uuvid.core import units as U
 from uuvid.io.bench import BenchDataError
 
 #: below this fraction of rows agreeing with the command's direction, the sign is reversed
@@ -35,10 +48,12 @@ def check_bench_commands(data) -> None:
 
 def check_bench_signs(data, *, min_rows: int = 3) -> None:
     """Raise :class:`BenchDataError` when a bench file's commands cannot be in their unit
-    (:func:`check_bench_commands`) or its thrust (or signed speed) has the opposite sign of the
+    (:func:`check_bench_commands`), its readings cannot be in theirs (:func:`check_bench_units`)
+    or its thrust (or signed speed) has the opposite sign of the
     command direction in most measured rows (a reversed load cell or column): identification
     would otherwise return a model with zero or negative thrust."""
     check_bench_commands(data)
+    check_bench_units(data, min_rows=min_rows)
     d = data.direction
     for name, unit in (("thrust", "N"), ("speed", "rad/s")):
         y = getattr(data, name)
@@ -97,6 +112,185 @@ def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> N
             f"{'positive' if sgn > 0 else 'negative'} {name} there. Fix: a sensor that logs the "
             f"magnitude only needs its sign from the command (negate the {name} of those rows), "
             "or give the right neutral command (--neutral)")
+
+
+# ------------------------------------------------------------------------------------------------
+# bench readings in their unit: volts, amperes, newtons, rad/s
+# ------------------------------------------------------------------------------------------------
+#: a median supply voltage above this [V] is in millivolts (no bench thruster runs on 1 kV)
+MAX_PLAUSIBLE_VOLTAGE = 1000.0
+#: a supply current above this [A] is in milliamperes
+MAX_PLAUSIBLE_CURRENT = 1000.0
+#: water density of the momentum bound [kg/m³]: sea water, the denser water (the looser bound);
+#: the project has no shared density constant (``uuvid.thruster.inflow.RHO_FRESH`` is 1000)
+BOUND_WATER_DENSITY = 1025.0
+#: actuator-disk area of the momentum bound [m²] (D ≈ 1.13 m: beyond any bench thruster)
+BOUND_DISK_AREA = 1.0
+#: the bound is tested on the rows above this fraction of the file's largest electrical power
+BOUND_POWER_FRACTION = 0.25
+#: without electrical data, a larger |thrust| [N] is questioned (a warning: big thrusters exist)
+MAX_PLAIN_THRUST = 2000.0
+#: a larger |speed| [rad/s] (≈ 14 300 rpm) looks like rpm read as rad/s (a warning)
+MAX_PLAUSIBLE_SPEED = 1500.0
+#: |flow_speed| below this [m/s] is still water (a bollard row)
+_STILL_WATER = 1e-9
+
+
+def momentum_thrust_bound(power, area: float = BOUND_DISK_AREA,
+                          rho: float = BOUND_WATER_DENSITY):
+    """The largest thrust [N] an ideal actuator disk of ``area`` [m²] can give in still water
+    with ``power`` [W] (momentum theory: ``P = T^{3/2} / √(2ρA)``, so ``T ≤ (2ρAP²)^{1/3}``).
+    The shaft power is at most the electrical power, so ``V·I`` bounds a bollard thrust."""
+    return np.cbrt(2.0 * rho * area * np.square(np.asarray(power, dtype=float)))
+
+
+def _prefix(data) -> str:
+    return f"{data.source}: " if data.source else ""
+
+
+def _near(values, target) -> int:
+    """The index of the value nearest ``target`` (the example row a message quotes)."""
+    return int(np.argmin(np.abs(np.asarray(values, dtype=float) - target)))
+
+
+def _power_rows(data, min_rows: int = 3):
+    """``(P, rows)``: the electrical power |V·I| [W] per sample and the rows the momentum bound
+    is tested on (measured, still water, finite, above :data:`BOUND_POWER_FRACTION` of the
+    largest such power), or ``None`` when the file has no thrust, current or voltage, or fewer
+    than ``min_rows`` such rows."""
+    if data.thrust is None or data.current is None or data.supply_voltage is None:
+        return None
+    p = np.abs(data.supply_voltage_array() * data.current)
+    rows = data.measured & np.isfinite(p) & np.isfinite(data.thrust) & (p > 0)
+    if data.flow_speed is not None:
+        rows &= np.abs(data.flow_speed) < _STILL_WATER
+    if int(rows.sum()) < min_rows:
+        return None
+    rows &= p >= BOUND_POWER_FRACTION * float(np.max(p[rows]))
+    if int(rows.sum()) < min_rows:
+        return None
+    return p, rows
+
+
+def thrust_power_ratios(data, min_rows: int = 3):
+    """``|thrust| / momentum_thrust_bound(V·I)`` on the rows :func:`check_bench_units` tests
+    (``None`` without thrust, current and voltage): a real thruster stays well below 1."""
+    pr = _power_rows(data, min_rows)
+    if pr is None:
+        return None
+    p, rows = pr
+    return np.abs(data.thrust[rows]) / momentum_thrust_bound(p[rows])
+
+
+def check_bench_units(data, *, min_rows: int = 3) -> None:
+    """Raise :class:`BenchDataError` when a bench file's readings cannot be in their unit:
+
+    * the supply voltage (column or scalar) has a median above :data:`MAX_PLAUSIBLE_VOLTAGE`
+      — millivolts read as V;
+    * the current reaches :data:`MAX_PLAUSIBLE_CURRENT` — milliamperes read as A;
+    * with thrust, current and voltage: on the measured still-water rows above
+      :data:`BOUND_POWER_FRACTION` of the largest electrical power, the median of
+      ``|thrust| / (2ρAP²)^{1/3}`` (:func:`momentum_thrust_bound`, a 1 m² disk in sea water,
+      ``P = V·I``) is above 1 — no propeller gives that thrust at that power: e.g. grams read
+      as N (a T200 sits near 0.08, its grams read as N near 8).
+    """
+    src = _prefix(data)
+    sv = data.supply_voltage
+    if sv is not None:
+        if np.ndim(sv) == 0:
+            if float(sv) > MAX_PLAUSIBLE_VOLTAGE:
+                raise BenchDataError(
+                    f"{src}the supply voltage given (--supply-voltage {float(sv):g}) is above "
+                    f"{MAX_PLAUSIBLE_VOLTAGE:g} V, beyond any bench thruster: it looks like "
+                    f"millivolts (mV). Fix: give it in volts: --supply-voltage "
+                    f"{float(sv) / 1000:g}")
+        else:
+            v = np.asarray(sv, dtype=float)
+            ok = np.flatnonzero(np.isfinite(v))
+            med = float(np.median(v[ok])) if ok.size else float("nan")
+            if med > MAX_PLAUSIBLE_VOLTAGE:
+                k = int(ok[_near(v[ok], med)])
+                raise BenchDataError(
+                    f"{src}the supply voltage column (--voltage-col, read in V) has a median of "
+                    f"{med:g} V (e.g. data row {k + 1}: {v[k]:g}), above "
+                    f"{MAX_PLAUSIBLE_VOLTAGE:g} V, beyond any bench thruster: it looks like "
+                    f"millivolts (mV), {v[k] / 1000:g} V. Fix: divide the voltage column by "
+                    "1000 (there is no voltage-unit option), or give --supply-voltage in V")
+    if data.current is not None:
+        a = np.abs(data.current)
+        ok = np.flatnonzero(np.isfinite(a))
+        if ok.size and float(np.max(a[ok])) > MAX_PLAUSIBLE_CURRENT:
+            k = int(ok[np.argmax(a[ok])])
+            raise BenchDataError(
+                f"{src}the supply current column (--current-col, read in A) reaches "
+                f"{a[k]:g} A (data row {k + 1}: {data.current[k]:g}), above "
+                f"{MAX_PLAUSIBLE_CURRENT:g} A, beyond any bench thruster: it looks like "
+                f"milliamperes (mA), {data.current[k] / 1000:g} A. Fix: divide the current "
+                "column by 1000 (there is no current-unit option)")
+    pr = _power_rows(data, min_rows)
+    if pr is None:
+        return
+    p, rows = pr
+    idx = np.flatnonzero(rows)
+    t = data.thrust[idx]
+    bound = momentum_thrust_bound(p[idx])
+    ratio = np.abs(t) / bound
+    med = float(np.median(ratio))
+    if med <= 1.0:
+        return
+    j = _near(ratio, med)
+    k = int(idx[j])
+    volts = data.supply_voltage_array()[k]
+    in_g = med * U.G0 / 1000.0  # the ratio were the numbers gram-force
+    if in_g <= 1.0:
+        hint = (f"it looks like grams (gram-force) read as N (in grams the median ratio would be "
+                f"{in_g:.2g}): give --thrust-unit g")
+        if med / U.KGF <= 1.0:
+            hint += (f" (or, if the column is in N and --thrust-unit kgf was given, which "
+                     f"multiplies it by 9.81, the ratio would be {med / U.KGF:.2g}: give "
+                     "--thrust-unit N)")
+    else:
+        hint = ("even in grams it would exceed the bound: check the thrust column and its unit "
+                "(--thrust-unit N | kgf | lbf | g), and that current and voltage are in A and V")
+    raise BenchDataError(
+        f"{src}the thrust is too large for its electrical power: e.g. data row {k + 1} has "
+        f"thrust {t[j]:+.4g} N at {p[k]:.4g} W ({volts:.4g} V × {data.current[k]:.4g} A), while "
+        f"momentum theory lets even a {BOUND_DISK_AREA:g} m² disk (D ≈ "
+        f"{2 * np.sqrt(BOUND_DISK_AREA / np.pi):.2f} m) in still water give at most "
+        f"(2ρAP²)^(1/3) = {bound[j]:.4g} N at that power; the median of |thrust| / bound is "
+        f"{med:.3g} over the {idx.size} still-water rows above "
+        f"{100 * BOUND_POWER_FRACTION:.0f} % of the largest power (a real thruster stays well "
+        f"below 1, a T200 at about 0.08). The thrust cannot be in N: {hint}")
+
+
+def bench_unit_warnings(data) -> list[str]:
+    """Readings that are probably in the wrong unit, where big thrusters make an error wrong:
+    a |thrust| above :data:`MAX_PLAIN_THRUST` when :func:`check_bench_units` has no electrical
+    power to test it against, and a |speed| above :data:`MAX_PLAUSIBLE_SPEED` (rpm read as
+    rad/s); one sentence each."""
+    src = _prefix(data)
+    out = []
+    m = data.measured
+    if data.thrust is not None and _power_rows(data) is None:
+        a = np.where(m & np.isfinite(data.thrust), np.abs(data.thrust), -np.inf)
+        k = int(np.argmax(a))
+        if a[k] > MAX_PLAIN_THRUST:
+            out.append(
+                f"{src}implausible thrust: |thrust| reaches {a[k]:.4g} N (data row {k + 1}: "
+                f"{data.thrust[k]:+.4g} N), above {MAX_PLAIN_THRUST:g} N for a bench thruster, "
+                "and without current and voltage columns it cannot be checked against the "
+                "electrical power — check the thrust unit (grams read as N?): give "
+                "--thrust-unit g, kgf or lbf for a column in that unit")
+    if data.speed is not None:
+        a = np.where(m & np.isfinite(data.speed), np.abs(data.speed), -np.inf)
+        k = int(np.argmax(a))
+        if a[k] > MAX_PLAUSIBLE_SPEED:
+            out.append(
+                f"{src}implausible propeller speed: |speed| reaches {a[k]:.4g} rad/s "
+                f"({a[k] / U.RPM:.4g} rpm; data row {k + 1}: {data.speed[k]:+.4g} rad/s), "
+                f"above {MAX_PLAUSIBLE_SPEED:g} rad/s (≈ {MAX_PLAUSIBLE_SPEED / U.RPM:.0f} rpm) "
+                "— the speed looks like rpm; give --speed-unit rpm")
+    return out
 
 
 # ------------------------------------------------------------------------------------------------

@@ -937,7 +937,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     dynamic families ``select`` compares (default: all); ``diameter``: the propeller diameter (m)
     of ``four-quadrant``, whose Fourier order is ``degree`` (default 1)."""
     from uuvid.identify.fit import IdentifiabilityWarning
-    from uuvid.identify.plausibility import check_bench_signs
+    from uuvid.identify.plausibility import bench_unit_warnings, check_bench_signs
 
     if select:
         if opts.fmt == "t200":
@@ -950,7 +950,24 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             for s in sets:
                 check_bench_signs(s)
             _check_flow_model(sets, "select")
-            return _fit_select(sets, name or "selected", True, families)
+            outcome = _fit_select(sets, name or "selected", True, families)
+    else:
+        sets, outcome = _run_model(paths, model, opts, degree=degree, criterion=criterion,
+                                   map_input=map_input, table_points=table_points,
+                                   linear_duty=linear_duty, start=start, resample=resample,
+                                   name=name, dead_band=dead_band, diameter=diameter)
+    # readings probably in a wrong unit (where big thrusters make an error wrong): said first
+    unit_warnings = [w for s in sets for w in bench_unit_warnings(s)]
+    outcome.warnings = unit_warnings + list(outcome.warnings)
+    return outcome
+
+
+def _run_model(paths, model: str, opts: ReadOptions, *, degree, criterion, map_input,
+               table_points, linear_duty, start, resample, name, dead_band, diameter):
+    """:func:`run_fit` of one ``model`` (not ``--select``): ``(sets read, outcome)``."""
+    from uuvid.identify.fit import IdentifiabilityWarning
+    from uuvid.identify.plausibility import check_bench_signs
+
     if model not in MODELS:
         raise FitError(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
     if not paths:
@@ -975,7 +992,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings
         if model in STRUCTURED and (dead_band or model in ("dc-motor", "healey")
                                     or any(s.thrust is not None for s in sets)):
-            return _fit_structured(sets, model, name, True)
+            return sets, _fit_structured(sets, model, name, True)
         fitters = {
             "quadratic": lambda: _fit_quadratic(sets, name),
             "four-quadrant": lambda: _fit_inflow(_stack(sets), name, model, diameter, degree),
@@ -989,12 +1006,12 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             "bessa": lambda: _fit_bessa(sets, name, resample),
         }
         if model in fitters:
-            return fitters[model]()
+            return sets, fitters[model]()
         if start is None:
             from uuvid.thruster.presets import auv2_rig_chain
 
             start = auv2_rig_chain()
-        return _fit_mclean(sets, name, start, resample)
+        return sets, _fit_mclean(sets, name, start, resample)
 
 
 def _check_flow_model(sets, model: str) -> None:

@@ -1,0 +1,198 @@
+"""Bench data in a wrong unit are not fitted silently: a supply voltage in mV or a current in mA
+is an error, a thrust beyond the momentum-theory bound of its electrical power (grams read as N)
+is an error, and a huge thrust without electrical data or a speed in rpm read as rad/s is a
+warning in the fit's outcome.  Small synthetic T200-like sweeps (steady fits only, no numba)."""
+
+from __future__ import annotations
+
+import csv
+import re
+
+import numpy as np
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from uuvid.cli.fit_cmd import register
+from uuvid.identify.plausibility import (
+    bench_unit_warnings,
+    check_bench_signs,
+    check_bench_units,
+    thrust_power_ratios,
+)
+from uuvid.identify.thruster.workflow import ReadOptions, run_fit
+from uuvid.io.bench import BenchData, BenchDataError, read_bench, read_t200
+
+G_PER_N = 1000 / 9.80665  # grams-force per newton
+PWM = np.arange(1100.0, 1901.0, 20.0)
+D = (PWM - 1500.0) / 400.0  # −1…1
+#: T200-like: up to 50 N forward / 40 N reverse, 25 A at 16 V, ≈ 400 rad/s (3800 rpm)
+THRUST = np.where(D >= 0, 50.0, 40.0) * D * np.abs(D)
+CURRENT = 0.2 + 24.8 * np.abs(D) ** 3
+VOLTS = np.full(PWM.size, 16.0)
+SPEED = 400.0 * D  # rad/s
+
+
+def _write(path, **columns):
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["pwm", *columns])
+        for i, c in enumerate(PWM):
+            w.writerow([repr(float(c))] + [repr(float(v[i])) for v in columns.values()])
+    return path
+
+
+def _read(path, **kw):
+    cols = {"thrust": "thrust_col", "current": "current_col", "voltage": "voltage_col",
+            "speed": "speed_col"}
+    with open(path) as fh:
+        header = next(csv.reader(fh))
+    args = {cols[c]: c for c in header if c in cols}
+    return read_bench(path, command_col="pwm", **args, **kw)
+
+
+def _bound(power):
+    """Actuator disk of 1 m² in sea water, by hand: T = (2ρAP²)^(1/3)."""
+    return (2 * 1025.0 * 1.0 * power**2) ** (1 / 3)
+
+
+# ------------------------------------------------------------------ a plausible file passes
+def test_a_plausible_bench_file_passes_without_unit_warnings(tmp_path):
+    f = _write(tmp_path / "t200like.csv", thrust=THRUST, current=CURRENT, voltage=VOLTS,
+               speed=SPEED)
+    d = _read(f)
+    check_bench_signs(d)  # no error
+    assert bench_unit_warnings(d) == []
+    # the ratio the check tests, against the bound computed by hand: ≈ 0.07 at full power
+    r = thrust_power_ratios(d)
+    top = np.abs(D) == 1
+    expected = np.abs(THRUST[top]) / _bound(16.0 * CURRENT[top])
+    assert 0.03 < np.median(r) < 0.15
+    assert np.median(r) == pytest.approx(np.median(expected), rel=0.3)
+    assert max(r) == pytest.approx(max(expected), rel=1e-9)
+    out = run_fit([f], "table", ReadOptions(command_col="pwm", thrust_col="thrust",
+                                             current_col="current", voltage_col="voltage"))
+    assert not [w for w in out.warnings if "implausible" in w]
+
+
+def test_the_real_t200_sheets_pass_well_below_the_bound(shared_data):
+    for volts in (12, 16):
+        d = read_t200(shared_data / "t200-bluerobotics-2019" / f"T200_{volts}V.csv")
+        check_bench_signs(d)
+        assert bench_unit_warnings(d) == []
+        assert 0.05 < float(np.median(thrust_power_ratios(d))) < 0.12
+
+
+# ------------------------------------------------------------------ mV, mA: errors
+def test_a_voltage_column_in_millivolts_is_refused_naming_it(tmp_path):
+    f = _write(tmp_path / "mv.csv", thrust=THRUST, current=CURRENT, voltage=1000 * VOLTS)
+    d = _read(f)
+    with pytest.raises(BenchDataError, match=r"^mv.csv: the supply voltage column .*median of "
+                                             r"16000 V .*data row \d+: 16000.*millivolts \(mV\)"
+                                             r".*divide the voltage column by 1000"):
+        check_bench_signs(d)
+    check_bench_signs(_read(_write(tmp_path / "v.csv", thrust=THRUST, current=CURRENT,
+                                   voltage=VOLTS)))
+
+
+def test_a_supply_voltage_given_in_millivolts_is_refused_with_the_fix():
+    d = BenchData(command=PWM, thrust=THRUST, supply_voltage=16000.0, source="s.csv")
+    with pytest.raises(BenchDataError, match=r"s.csv: .*--supply-voltage 16000.*mV.*"
+                                             r"--supply-voltage 16$"):
+        check_bench_units(d)
+    check_bench_units(BenchData(command=PWM, thrust=THRUST, supply_voltage=48.0))
+
+
+def test_a_current_column_in_milliamperes_is_refused(tmp_path):
+    f = _write(tmp_path / "ma.csv", thrust=THRUST, current=1000 * CURRENT, voltage=VOLTS)
+    with pytest.raises(BenchDataError, match=r"^ma.csv: the supply current column .*reaches "
+                                             r"25000 A .*milliamperes \(mA\).*by 1000"):
+        check_bench_signs(_read(f))
+
+
+# ------------------------------------------------------------------ grams read as N: error
+def test_grams_read_as_newtons_are_refused_against_the_electrical_power(tmp_path):
+    f = _write(tmp_path / "grams.csv", thrust=G_PER_N * THRUST, current=CURRENT, voltage=VOLTS)
+    with pytest.raises(BenchDataError) as exc:
+        check_bench_signs(_read(f))
+    msg = str(exc.value)
+    assert msg.startswith("grams.csv: the thrust is too large for its electrical power")
+    assert "grams" in msg and "give --thrust-unit g" in msg
+    # the numbers: a row's thrust, its power and the bound at that power, and the median ratio
+    m = re.search(r"thrust \+?(-?[\d.]+) N at ([\d.]+) W .* at most "
+                  r"\(2ρAP²\)\^\(1/3\) = ([\d.]+) N.* is ([\d.]+) over", msg)
+    t, p, b, med = map(float, m.groups())
+    assert b == pytest.approx(_bound(p), rel=1e-3)
+    assert 5 < med < 12 and abs(t) / b == pytest.approx(med, rel=0.2)
+    # the same file read in grams is a plausible T200
+    d = _read(f, thrust_unit="g")
+    check_bench_signs(d)
+    assert bench_unit_warnings(d) == []
+    assert np.max(np.abs(d.thrust)) == pytest.approx(50.0)
+
+
+def test_the_power_bound_uses_still_water_rows_only():
+    """A run in a flow is not bounded by the bollard formula: no error, but the warning of a
+    thrust with nothing to check it against."""
+    kw = dict(command=PWM, thrust=G_PER_N * THRUST, current=CURRENT, supply_voltage=16.0,
+              source="flow.csv")
+    with pytest.raises(BenchDataError, match="thrust is too large"):
+        check_bench_units(BenchData(**kw, flow_speed=np.zeros(PWM.size)))
+    flowing = BenchData(**kw, flow_speed=np.full(PWM.size, 1.5))
+    check_bench_units(flowing)
+    assert any("check the thrust unit (grams read as N?" in w
+               for w in bench_unit_warnings(flowing))
+
+
+# ------------------------------------------------------------------ warnings in the outcome
+def test_a_huge_thrust_without_electrical_data_is_warned_in_the_fit_outcome(tmp_path):
+    opts = ReadOptions(command_col="pwm", thrust_col="thrust")
+    big = run_fit([_write(tmp_path / "big.csv", thrust=100 * THRUST)], "table", opts)
+    said = [w for w in big.warnings if "check the thrust unit (grams read as N?)" in w]
+    assert len(said) == 1 and said[0].startswith("big.csv: ") and "5000 N" in said[0]
+    assert said[0] in big.to_dict()["warnings"]
+    ok = run_fit([_write(tmp_path / "ok.csv", thrust=30 * THRUST)], "table", opts)  # 1500 N
+    assert not [w for w in ok.warnings if "thrust unit" in w]
+
+
+def test_rpm_read_as_rad_per_s_is_warned_and_the_unit_silences_it(tmp_path):
+    rpm = 3800.0 * D
+    f = _write(tmp_path / "rpm.csv", thrust=THRUST, speed=rpm)
+    opts = dict(command_col="pwm", thrust_col="thrust", speed_col="speed")
+    out = run_fit([f], "quadratic", ReadOptions(**opts))
+    said = [w for w in out.warnings if "looks like rpm; give --speed-unit rpm" in w]
+    assert len(said) == 1 and "3800 rad/s" in said[0]
+    fixed = run_fit([f], "quadratic", ReadOptions(**opts, speed_unit="rpm"))
+    assert not [w for w in fixed.warnings if "rpm" in w]
+    # 1400 rad/s (≈ 13 400 rpm) is a fast motor, not a unit mistake
+    assert bench_unit_warnings(_read(_write(tmp_path / "fast.csv", speed=1400.0 * D))) == []
+
+
+# ------------------------------------------------------------------ through the CLI
+def _app() -> typer.Typer:
+    app = typer.Typer()
+    thruster = typer.Typer()
+    app.add_typer(thruster, name="thruster")
+    register(thruster)
+
+    @app.callback()
+    def _root():
+        pass
+
+    return app
+
+
+def test_the_cli_exits_2_with_the_fix_and_fits_with_it(tmp_path):
+    f = _write(tmp_path / "grams.csv", thrust=G_PER_N * THRUST, current=CURRENT, voltage=VOLTS)
+    args = ["thruster", "fit", str(f), "--model", "table", "--command-col", "pwm",
+            "--thrust-col", "thrust", "--current-col", "current", "--voltage-col", "voltage",
+            "--out-model", str(tmp_path / "m.yaml")]
+    runner, app = CliRunner(), _app()
+    res = runner.invoke(app, args)
+    assert res.exit_code == 2, res.output
+    msg = " ".join(res.stderr.split())
+    assert "grams.csv" in msg and "grams" in msg and "--thrust-unit g" in msg
+    assert not (tmp_path / "m.yaml").exists()
+    res = runner.invoke(app, [*args, "--thrust-unit", "g"])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "m.yaml").exists() and "implausible" not in res.stderr
