@@ -125,6 +125,13 @@ def test_missing_column_lists_available(tmp_path):
     assert "available columns: 'time', 'pwm', 'thrust_kgf', 'rpm', 'amps', 'volts'" in msg
 
 
+@pytest.mark.parametrize("sep, said", [(";", "';'"), ("\t", "a tab")])
+def test_a_file_separated_by_another_character_says_so(tmp_path, sep, said):
+    p = write(tmp_path, sep.join(["pwm", "thrust"]) + "\n1500" + sep + "0\n1600" + sep + "1,5\n")
+    with pytest.raises(BenchDataError, match=f"separated by {said}.*re-save"):
+        read_bench(p, command_col="pwm", thrust_col="thrust")
+
+
 def test_empty_cell(tmp_path):
     p = write(tmp_path, "pwm,f\n1600,1\n1700,\n")
     with pytest.raises(BenchDataError) as e:

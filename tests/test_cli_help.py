@@ -97,6 +97,11 @@ def test_out_is_a_folder_and_file_outputs_have_their_own_option(tmp_path):
     res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--out", str(old), "--out-file",
                               str(new)])
     assert res.exit_code == 2
+    # an old --out without a suffix meant a folder: an error that says so, nothing written
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--out",
+                              str(tmp_path / "results")])
+    assert res.exit_code == 2 and "has none" in res.stderr and "--out-file" in res.stderr
+    assert not (tmp_path / "results").exists()
     # every visible --out is documented as a folder
     import typer
 

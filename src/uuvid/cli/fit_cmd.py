@@ -152,7 +152,7 @@ def thruster_fit(
     from uuvid.thruster.blocks import ParameterError
     from uuvid.thruster.modelfile import ModelFileError, save_chain
 
-    out = renamed(out, "--out-model", old_out)
+    out = renamed(out, "--out-model", old_out, folder_option="--report")
     # the input first, then every missing option at once (not one per run)
     gone = [str(p) for p in data if not p.exists()]
     if gone:

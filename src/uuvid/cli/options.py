@@ -8,6 +8,8 @@ deprecation note, through :func:`renamed`.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
 
 
@@ -16,15 +18,23 @@ def deprecated_out(help_new: str) -> typer.models.OptionInfo:
     return typer.Option(None, "--out", hidden=True, help=f"Deprecated spelling of {help_new}.")
 
 
-def renamed(new_value, new_name: str, old_value, old_name: str = "--out"):
+def renamed(new_value, new_name: str, old_value, old_name: str = "--out",
+            folder_option: str | None = None):
     """The value of an option given under its new or (deprecated) old name; a note on stderr for
-    the old one, an error for both."""
+    the old one, an error for both.  An old value without a file suffix is an error: ``--out``
+    names a folder everywhere else, so ``--out results`` most likely meant one (the command's
+    ``folder_option``, when it has one) and not a file called ``results``."""
     from uuvid.cli.common import _fail, err_console
 
     if old_value is None:
         return new_value
     if new_value is not None:
         _fail(f"give {new_name} only ({old_name} is its deprecated spelling)")
+    if not Path(old_value).suffix:
+        folder = (f"; for a folder of plots and the report give {folder_option} {old_value}"
+                  if folder_option else "")
+        _fail(f"{old_name} {old_value}: here {old_name} is the old spelling of {new_name} FILE, "
+              f"a file with a suffix (see --help), and {old_value!s} has none{folder}")
     err_console.print(f"[yellow]note:[/] {old_name} FILE is deprecated here; use {new_name} FILE "
                       f"({old_name} always names a folder)", highlight=False, soft_wrap=True)
     return old_value

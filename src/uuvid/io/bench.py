@@ -299,6 +299,11 @@ def _read_csv(path: Path) -> _Table:
             raise BenchDataError(f"{path.name}: not a readable CSV file: {e}") from e
     if header is None:
         raise BenchDataError(f"{path.name}: the file is empty (no header line)")
+    if len(header) == 1 and any(sep in header[0] for sep in ";\t"):
+        sep = "';'" if ";" in header[0] else "a tab"
+        raise BenchDataError(f"{path.name}: the header {header[0]!r} is one column separated by "
+                             f"{sep}: uuvid reads comma-separated files; re-save the file with ',' "
+                             "between cells and '.' as the decimal point")
     return _table_from_rows(path.name, header, rows, lines, BenchDataError)
 
 
