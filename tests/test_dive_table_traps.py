@@ -1,9 +1,12 @@
 """A dive table (CSV, Parquet, DataFrame) with the traps real logs have — a logger restart,
-duplicated stamps, a second sensor in one column, a column in another unit, an unreadable file —
+duplicated stamps, a second sensor in one column, a column in another unit, an unreadable file, a
+folder or a file of unknown kind given as the log, a motor whose direction the table lacks —
 gives a clear error naming the file, column and row, or a warning saying what was assumed; never
 a traceback or a silently wrong channel."""
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pandas as pd
@@ -34,6 +37,7 @@ def _read(df, tmp_path=None, name="d.csv"):
 def test_a_plausible_table_reads_without_unit_complaints():
     dc = _read(_table())
     assert not any("merged" in w or "read as" in w or "0 µs" in w for w in dc.warnings)
+    assert not _reversed(dc)  # its motion is unrelated to its PWM: no evidence either way
     assert dc.channels["depth_m"][0].size == 1200
 
 
@@ -143,3 +147,230 @@ def test_an_armed_value_that_is_no_flag_and_too_few_samples_are_named():
     with pytest.raises(DiveDataError, match=r"only 2 depth_m samples \(need at least 4\): heave "
                                             r"needs .*; pass a log that has it"):
         _read(two).require("heave")
+
+
+# ---------------------------------------------------------------------------------------------
+# A folder, a missing path or a file of unknown kind given as the log
+# ---------------------------------------------------------------------------------------------
+KINDS = (r"expected a dive table \(\.csv or \.parquet\), an ArduSub log \(\.bin, \.tlog or "
+         r"\.log\), a ROS 1 \.bag file or a ROS 2 bag folder \(holding metadata\.yaml\)")
+
+
+def test_a_folder_given_as_the_log_says_what_it_holds(tmp_path):
+    dive = tmp_path / "mydive"
+    dive.mkdir()
+    with pytest.raises(DiveDataError, match=rf"mydive: a folder, not a dive log, and an empty "
+                                            rf"one; {KINDS}"):
+        read_dive_channels(dive, "bluerov2")
+    _table().to_csv(dive / "a.csv", index=False)
+    _table().to_csv(dive / "b.csv", index=False)
+    with pytest.raises(DiveDataError, match=r"mydive: a folder, not a dive log: it holds 2 "
+                                            r"possible dive logs \(a\.csv, b\.csv\); pass one of "
+                                            r"them, e\.g\. .*mydive/a\.csv"):
+        read_dive_channels(dive, "bluerov2")
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "readme.txt").write_text("dive 3")
+    with pytest.raises(DiveDataError, match=rf"notes: a folder, not a dive log, and nothing in "
+                                            rf"it is one \(1 entry: readme\.txt\); {KINDS}"):
+        read_dive_channels(other, "bluerov2")
+    half = tmp_path / "rosbag2_dive"  # a ROS 2 bag that lost its metadata.yaml
+    half.mkdir()
+    (half / "rosbag2_dive_0.db3").write_bytes(b"SQLite format 3\x00")
+    with pytest.raises(DiveDataError, match=r"rosbag2_dive: .*ROS 2 bag storage "
+                                            r"\(rosbag2_dive_0\.db3\) but no metadata\.yaml.*ros2 "
+                                            r"bag reindex"):
+        read_dive_channels(half, "bluerov2")
+    # with its metadata.yaml it is a ROS 2 bag again: the bag reader, not the folder error, answers
+    (half / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    with pytest.raises(DiveDataError) as e:
+        read_dive_channels(half, "bluerov2")
+    assert "a folder, not" not in str(e.value) and "rosbag2_dive" in str(e.value)
+
+
+def test_a_missing_path_or_a_file_of_unknown_kind_names_the_kinds(tmp_path):
+    _table().to_csv(tmp_path / "d.csv", index=False)
+    with pytest.raises(DiveDataError, match=rf"d: no such file or folder \(there is d\.csv beside "
+                                            rf"it\); {KINDS}"):
+        read_dive_channels(tmp_path / "d", "bluerov2")
+    with pytest.raises(DiveDataError, match=rf"nope\.csv: no such file or folder; {KINDS}"):
+        read_dive_channels(tmp_path / "nope.csv", "bluerov2")
+    _table().to_csv(tmp_path / "dive", index=False)
+    with pytest.raises(DiveDataError, match=rf"dive: no file suffix; it looks like a CSV table "
+                                            rf"\(first line 't_s,depth_m,.*name it \.csv; the "
+                                            rf"reader goes by the suffix: {KINDS}"):
+        read_dive_channels(tmp_path / "dive", "bluerov2")
+    _table().to_parquet(tmp_path / "dive.dat")
+    with pytest.raises(DiveDataError, match=r"dive\.dat: unknown dive log type '\.dat'; it looks "
+                                            r"like a Parquet table: name it \.parquet"):
+        read_dive_channels(tmp_path / "dive.dat", "bluerov2")
+    (tmp_path / "blank").write_bytes(b"")
+    with pytest.raises(DiveDataError, match=r"blank: no file suffix; it looks like nothing: the "
+                                            r"file is empty"):
+        read_dive_channels(tmp_path / "blank", "bluerov2")
+    (tmp_path / "x.bin").mkdir()  # a folder named like a log is still a folder
+    with pytest.raises(DiveDataError, match=r"x\.bin: a folder, not a bin file"):
+        read_dive_channels(tmp_path / "x.bin", "bluerov2")
+
+
+@pytest.mark.parametrize("command", [["vehicle", "identify", "dive"], ["vehicle", "replay"]])
+def test_the_dive_commands_refuse_a_folder_in_one_line(tmp_path, command):
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    dive = tmp_path / "mydive"
+    dive.mkdir()
+    _table().to_csv(dive / "dive.csv", index=False)
+    res = CliRunner().invoke(app, [*command, str(dive), "--vehicle", "bluerov2"])
+    assert res.exit_code == 2, res.output
+    assert "mydive: a folder, not a dive log: it holds 1 possible dive log (dive.csv)" in \
+        " ".join(res.output.split())
+    assert "Traceback" not in res.output
+
+
+# ---------------------------------------------------------------------------------------------
+# A motor whose direction the table lacks (its pwm_ column mirrored about 1500 µs)
+# ---------------------------------------------------------------------------------------------
+def _physical_table(seed: int = 0, duration: float = 240.0, rate: float = 20.0, *,
+                    gain: float = 1.0, astern: float = 1.0, lag: int = 0,
+                    noise: float = 0.005) -> pd.DataFrame:
+    """A dive table like :func:`_table` whose depth and heading obey the servo outputs: a
+    BlueROV2-like heave (m + Z_ẇ = 26.07 kg, linear + quadratic drag, 2 N of net buoyancy up) and
+    yaw (I_z + N_ṙ = 0.28 kg·m²), both thrusters of the vertical pair on one command, the four
+    horizontal ones mixing yaw and surge sticks; pilot sticks change every 2–6 s and keep the
+    vehicle 1.5–8 m down.  The true thrust is the T200 model's at 16 V times ``gain`` (astern
+    also times ``astern``), applied ``lag`` rows late: a model the reader's is not.  NumPy only."""
+    from uuvid.io.ardusub.thrust import default_t200
+
+    rng = np.random.default_rng(seed)
+    dt, sub = 1.0 / rate, 5
+    h = dt / sub
+    n = int(duration * rate)
+    grid = np.arange(1100.0, 1901.0)
+    thrust = default_t200().thrust(grid, np.full(grid.size, 16.0))
+    yaw_sign = np.array([1, -1, -1, 1])  # bluerov2: N = 0.189 (T1 − T2 − T3 + T4)
+    surge_sign = np.array([-1, -1, 1, 1])  # X = 0.707 (−T1 − T2 + T3 + T4)
+    z, w, psi, r = 3.0, 0.0, 0.0, 0.0
+    heave = yaw = surge = 0.0
+    t_next = 0.0
+    out = np.empty((n, 9))
+    for k in range(n):
+        t = k * dt
+        if t >= t_next:
+            heave, yaw, surge = (rng.uniform(-0.7, 0.7), rng.uniform(-0.7, 0.7),
+                                 rng.uniform(-0.5, 0.5))
+            t_next = t + rng.uniform(2.0, 6.0)
+        if z < 1.5:
+            heave = abs(heave) + 0.2
+        elif z > 8.0:
+            heave = -abs(heave) - 0.2
+        pv = np.rint(1500 + 250 * heave)
+        out[k, 3:] = np.concatenate([np.rint(1500 + 200 * yaw * yaw_sign
+                                             + 150 * surge * surge_sign), [pv, pv]])
+        T = gain * np.interp(out[max(k - lag, 0), 3:], grid, thrust)
+        T = np.where(T < 0, astern * T, T)
+        Z, N = T[4] + T[5], 0.189 * (T[0] - T[1] - T[2] + T[3])
+        for _ in range(sub):
+            w += h * (Z - 6.0 * w - 25.0 * w * abs(w) - 2.0) / 26.07
+            z += h * w
+            r += h * (N - 0.4 * r - 0.8 * r * abs(r)) / 0.28
+            psi += h * r
+        out[k, :3] = t, z, psi
+    df = pd.DataFrame(out, columns=["t_s", "depth_m", "yaw_rad",
+                                    *(f"pwm_{j}" for j in range(1, 7))])
+    df["depth_m"] += noise * rng.standard_normal(n)
+    df["yaw_rad"] = (df["yaw_rad"] + 0.003 * rng.standard_normal(n) + np.pi) % (2 * np.pi) - np.pi
+    df["battery_V"] = 16.0
+    return df
+
+
+def _reversed(dc) -> list:
+    return [w for w in dc.warnings if "reversed" in w and "no reversal applied" not in w]
+
+
+def _mirror(df, *cols):
+    out = df.copy()
+    for c in cols:
+        out[c] = 3000.0 - out[c]
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_direction_check_is_silent_on_a_dive_whose_motors_are_right(seed):
+    assert not _reversed(_read(_physical_table(seed)))
+
+
+@pytest.mark.parametrize("model", [dict(gain=0.6), dict(gain=1.5), dict(astern=0.6),
+                                   dict(lag=4), dict(noise=0.05),
+                                   dict(gain=0.5, astern=0.7, lag=6, noise=0.03)])
+def test_the_direction_check_is_silent_when_only_the_thrust_model_or_timing_is_off(model):
+    """Thrust 40 % weaker or 50 % stronger than the reader's model, astern weaker, 0.2–0.3 s of
+    actuator lag, 5 cm depth noise: none of these reverses a force, none is reported as such."""
+    for seed in range(3):
+        assert not _reversed(_read(_physical_table(seed, **model)))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_mirrored_vertical_motor_is_named_with_its_evidence_and_fix(seed):
+    df = _mirror(_physical_table(seed), "pwm_5")
+    ws = _reversed(_read(df))
+    assert len(ws) == 1, ws
+    w = ws[0]
+    assert w.startswith("<table>: pwm_5 is probably reversed: its thruster's heave force opposes "
+                        "the heave acceleration measured from depth_m (driven in step with pwm_6")
+    c, s = re.search(r"coefficient ([-+][\d.e-]+) ± ([\d.e-]+) m/s² per N", w).groups()
+    assert float(c) < -4 * float(s)
+    assert "the vehicle's 1/(m + Z_ẇ) is 0.0384" in w
+    assert w.endswith("the motor direction (SERVOn_REVERSED / MOT_n_DIRECTION) is not applied in "
+                      "this table: mirror that column (pwm_5) about 1500 µs (pwm → 3000 − pwm)")
+    fixed = _mirror(df, "pwm_5")  # doing what it says silences it
+    assert not _reversed(_read(fixed))
+
+
+def test_a_mirrored_horizontal_motor_is_named_from_the_yaw():
+    ws = _reversed(_read(_mirror(_physical_table(1), "pwm_2")))
+    assert len(ws) == 1 and ws[0].startswith("<table>: pwm_2 is probably reversed: its thruster's "
+                                             "yaw force opposes the yaw acceleration"), ws
+    assert "rad/s² per N·m" in ws[0]
+
+
+def test_a_channel_of_the_other_sign_is_said_as_such_not_as_one_motor():
+    df = _physical_table(2)
+    up = df.assign(depth_m=-df["depth_m"])  # a height, or depth logged positive up
+    ws = _reversed(_read(up))
+    assert len(ws) == 1 and "opposes the heave force computed from every thruster that gives " \
+        "one (pwm_5, pwm_6)" in ws[0] and "is depth_m positive up" in ws[0], ws
+    both = _reversed(_read(_mirror(df, "pwm_5", "pwm_6")))  # or the whole pair reversed
+    assert len(both) == 1 and "mirror those columns (pwm_5 and pwm_6)" in both[0], both
+    enu = df.assign(yaw_rad=-df["yaw_rad"])
+    ws = _reversed(_read(enu))
+    assert len(ws) == 1 and "is yaw_rad counter-clockwise (ENU" in ws[0], ws
+
+
+def test_the_direction_check_needs_forces_from_the_pwm_and_enough_data():
+    df = _mirror(_physical_table(0), "pwm_5")
+    given = df.assign(Z_N=0.0, N_Nm=0.0)  # the table's own forces: the PWM is not used for them
+    assert not _reversed(_read(given))
+    assert not _reversed(_read(df.iloc[:400]))  # 20 s: too short to tell
+
+
+@pytest.mark.slow
+def test_the_direction_check_on_the_projects_synthetic_dives():
+    """The project's simulated piloted dives (closed-loop ALT_HOLD/STABILIZE, tether drag,
+    sagging battery, surface contacts, depth at 3 Hz): silent as generated over several seeds;
+    with one vertical motor's column mirrored it names that column, never its partner."""
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    forces = ["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]
+    for seed in range(4):
+        df, _ = synthetic_dive(300.0, seed=seed, pwm_rate=10.0, surge=0.0)
+        df = df.drop(columns=forces)  # forces from the PWM, as in a table of servo outputs
+        assert not _reversed(_read(df)), seed
+        on = df["pwm_5"].notna()
+        bad = df.copy()
+        bad.loc[on, "pwm_5"] = 3000.0 - bad.loc[on, "pwm_5"]
+        ws = _reversed(_read(bad))
+        assert len(ws) == 1 and ws[0].startswith("<table>: pwm_5 is probably reversed"), (seed, ws)
+    df, _ = synthetic_dive(600.0, seed=7)  # the defaults: PWM at 2 Hz
+    assert not _reversed(_read(df.drop(columns=forces)))

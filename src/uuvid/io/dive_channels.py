@@ -11,6 +11,13 @@ battery, ``/mavros/state``; ``topics={role: "topic:field"}`` overrides a topic; 
 table's ``pwm_<j>`` columns, reversal from ``params``).  In a table each column keeps its *own*
 samples: a row where a column is empty is not a sample of it, so channels at different, irregular
 rates stay as logged (no resampling); a bag's topics keep theirs.
+
+Where forces come from servo outputs (a table's ``pwm_<j>``, a bag's ``/mavros/rc/out``) they are
+checked against the motion (:func:`uuvid.io.motor_direction.direction_check`): an output whose
+heave or yaw force pushes against the measured acceleration — a motor whose direction the table
+lacks — is named in a warning with the evidence and the fix.  A path that is no dive log (a
+folder that is not a ROS 2 bag, a missing path, a file of unknown kind) is a
+:class:`DiveDataError` naming it, what it holds or looks like, and the kinds accepted.
 """
 
 from __future__ import annotations
@@ -21,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.io.logs import LogDataError
+from uuvid.io.motor_direction import bag_fix, direction_check, table_fix
 
 __all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS", "ThrustRegions",
            "thrust_regions", "PwmFlags", "pwm_flags", "rotor_speeds", "inflow_gain",
@@ -322,8 +330,9 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
                             f"{veh.name!r} has {veh.B.shape[1]} thrusters; pass the vehicle the "
                             "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
     missing = [c for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm") if c not in chans]
+    thrust = None
     if missing and pwm and veh is not None:
-        _forces_from_pwm(chans, pwm, veh, name, warnings)
+        thrust = _forces_from_pwm(chans, pwm, veh, name, warnings)
     if "armed" in cols:
         a = df["armed"]
         word = a.map(lambda x: str(x).strip().lower())
@@ -336,13 +345,30 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
     else:
         armed = [(float(t.min()), float(t.max()))]
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
+    if thrust is not None:
+        direction_check(chans, thrust, veh, armed, name, warnings, table_fix)
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm)
 
 
+@dataclass
+class _PwmThrust:
+    """The per-thruster thrust :func:`_forces_from_pwm` computed (``T``, n × len(t), N) and the
+    thrust each would give with its output mirrored about 1500 µs (``mirrored``); ``computed``:
+    the force columns it filled (the others came from the table)."""
+
+    keys: list
+    t: np.ndarray
+    T: np.ndarray
+    mirrored: np.ndarray
+    computed: list
+    directions: dict
+
+
 def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
-                     directions: dict | None = None, thrust_model=None, label: str = "") -> None:
+                     directions: dict | None = None, thrust_model=None,
+                     label: str = "") -> _PwmThrust:
     """``X_N … N_Nm`` from ``pwm_<j>`` columns: the voltage-aware T200 model (or
     ``thrust_model``) at ``battery_V`` (linear between its own samples) and the vehicle's ``B``
     (thruster j = column j).  ``directions`` ``{j: ±1}``: ArduSub's ``MOT_j_DIRECTION`` (thrust
@@ -376,6 +402,7 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
     T = np.stack([np.where(pwm[k][1] > 0, tm.thrust(effective_pwm(pwm[k][1], d[k]), volts), 0.0)
                   for k in keys])
     W = np.asarray(veh.B, float) @ T
+    computed = [c for c in DOF_COLUMNS if c not in chans]
     for i, c in enumerate(DOF_COLUMNS):
         chans.setdefault(c, (t, W[i]))
     if directions is None:
@@ -388,6 +415,81 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
                         f"{at_v} and {veh.name}'s thruster geometry (motor j = thruster j; "
                         + (f"reversed (MOT_n_DIRECTION = -1): motor(s) {', '.join(rev)}"
                            if rev else "no motor reversed") + ")")
+    # what the direction check needs: the thrust with each output mirrored about 1500 µs
+    mirrored = np.stack([np.where(pwm[k][1] > 0, tm.thrust(effective_pwm(pwm[k][1], -d[k]), volts),
+                                  0.0) for k in keys])
+    return _PwmThrust(keys, t, T, mirrored, computed, d)
+
+
+#: what :func:`read_dive_channels` reads from a path, for the errors of one it cannot
+_DIVE_KINDS = ("expected a dive table (.csv or .parquet), an ArduSub log (.bin, .tlog or .log), a "
+               "ROS 1 .bag file or a ROS 2 bag folder (holding metadata.yaml)")
+_DIVE_SUFFIXES = (".csv", ".parquet", ".bin", ".BIN", ".tlog", ".log", ".bag")
+
+
+def _folder_message(p: Path) -> str:
+    """Why the folder ``p`` (not a ROS 2 bag) is no dive log, and what in it might be one."""
+    from itertools import islice
+
+    from uuvid.io.dive_rosbag import is_bag
+
+    kind = f"{p.suffix[1:]} file" if p.suffix.lower() in (".csv", ".parquet", ".bin", ".tlog",
+                                                          ".log", ".bag") else "dive log"
+    try:
+        entries = sorted(islice(p.iterdir(), 2000))
+    except OSError as e:
+        return f"{p}: a folder, not a {kind}, and it cannot be listed ({e.strerror}); {_DIVE_KINDS}"
+    if not entries:
+        return f"{p}: a folder, not a {kind}, and an empty one; {_DIVE_KINDS}"
+    storage = [q.name for q in entries if q.suffix in (".db3", ".mcap") and q.is_file()]
+    if storage:
+        return (f"{p}: a folder, not a {kind}: it holds ROS 2 bag storage "
+                f"({', '.join(storage[:3])}) but no metadata.yaml, so it is no readable ROS 2 bag: "
+                f"restore its metadata.yaml (`ros2 bag reindex {p}` rebuilds it) or pass the bag "
+                "folder that has it")
+    logs = [q for q in entries if (q.is_file() and q.suffix.lower() in
+                                   (".csv", ".parquet", ".bin", ".tlog", ".log", ".bag"))
+            or (q.is_dir() and is_bag(q))]
+    if logs:
+        shown = ", ".join(q.name for q in logs[:4]) + (", …" if len(logs) > 4 else "")
+        return (f"{p}: a folder, not a {kind}: it holds {len(logs)} possible dive log"
+                f"{'s' if len(logs) > 1 else ''} ({shown}); pass one of them, e.g. {logs[0]} "
+                "(one dive at a time)")
+    shown = ", ".join(q.name for q in entries[:3]) + (", …" if len(entries) > 3 else "")
+    return (f"{p}: a folder, not a {kind}, and nothing in it is one ({len(entries)} entr"
+            f"{'ies' if len(entries) > 1 else 'y'}: {shown}); {_DIVE_KINDS}")
+
+
+def _looks_like(p: Path) -> str:
+    """What the first bytes of a file without a known suffix say it is ('' when unsure)."""
+    if not p.is_file():
+        return ""
+    try:
+        with open(p, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return ""
+    if not head:
+        return "nothing: the file is empty"
+    magic = [(b"\xa3\x95", "an ArduSub dataflash log: name it .bin"),
+             (b"PAR1", "a Parquet table: name it .parquet"),
+             (b"#ROSBAG", "a ROS 1 bag: name it .bag"),
+             (b"\x89MCAP", "a ROS 2 bag's MCAP storage: pass the bag folder (with metadata.yaml)"),
+             (b"SQLite format 3\x00", "a ROS 2 bag's sqlite3 storage: pass the bag folder (with "
+                                     "metadata.yaml)")]
+    for m, what in magic:
+        if head.startswith(m):
+            return what
+    if len(head) > 9 and head[8] in (0xFE, 0xFD) and \
+            9.4e17 < int.from_bytes(head[:8], "big") < 4.2e18:  # µs stamp (2000–2100), MAVLink
+        return "a MAVLink telemetry log: name it .tlog"
+    try:
+        first = head.decode("utf-8").splitlines()[0]
+    except (UnicodeDecodeError, IndexError):
+        return ""
+    if "," in first or ";" in first:
+        return f"a CSV table (first line {first[:60]!r}): name it .csv"
+    return ""
 
 
 def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
@@ -404,7 +506,10 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
     veh = _vehicle(vehicle)
     p = None if isinstance(log, pd.DataFrame) else Path(log)
     if p is not None and not p.exists():
-        raise DiveDataError(f"{p}: no such file or bag")
+        near = [q.name for q in (p.with_name(p.name + s) for s in _DIVE_SUFFIXES) if q.exists()]
+        raise DiveDataError(f"{p}: no such file or folder"
+                            + (f" (there is {near[0]} beside it)" if near else "")
+                            + f"; {_DIVE_KINDS}")
     if p is not None and is_bag(p):
         try:
             return _from_bag(read_bag_dive(p, veh, topics=topics, params=params), veh,
@@ -419,8 +524,8 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
     if p is None:
         return _from_table(log, "<table>", "table", veh, warnings)
     suf = p.suffix.lower()
-    if suf in (".csv", ".parquet") and p.is_dir():
-        raise DiveDataError(f"{p}: a folder, not a {suf[1:]} file")
+    if p.is_dir():
+        raise DiveDataError(_folder_message(p))
     if suf == ".csv":
         try:
             df = pd.read_csv(p)
@@ -458,9 +563,12 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         return DiveChannels(p.name, dive.format, chans, armed,
                             _mode_runs(t, tb["mode"].astype(str).to_numpy()),
                             warnings + list(dive.warnings), src, pwm)
-    raise DiveDataError(f"{p.name}: unknown dive log type {p.suffix!r}; expected .tlog, .bin, "
-                        ".log (ArduSub), .csv or .parquet (table with force columns), a ROS 1 .bag "
-                        "or a ROS 2 bag directory (with metadata.yaml)")
+    what = f"unknown dive log type {p.suffix!r}" if p.suffix else "no file suffix"
+    if suf in (".db3", ".mcap"):
+        what = f"a ROS 2 bag's {suf} storage file without the bag's metadata.yaml beside it"
+    look = _looks_like(p)
+    raise DiveDataError(f"{p}: {what}" + (f"; it looks like {look}" if look else "")
+                        + f"; the reader goes by the suffix: {_DIVE_KINDS}")
 
 
 def _from_bag(bd, veh, thruster_model) -> DiveChannels:
@@ -472,8 +580,8 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
 
         tm = load_thrust_model(thruster_model)
     chans, warnings = dict(bd.channels), list(bd.warnings)
-    _forces_from_pwm(chans, bd.pwm, veh, bd.name, warnings, directions=bd.directions,
-                     thrust_model=tm, label=bd.pwm_label)
+    thrust = _forces_from_pwm(chans, bd.pwm, veh, bd.name, warnings, directions=bd.directions,
+                              thrust_model=tm, label=bd.pwm_label)
     if bd.armed is not None:
         ta, a = bd.armed
         armed = _intervals(ta, a > 0.5)
@@ -481,6 +589,7 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
             armed[-1] = (armed[-1][0], max(armed[-1][1], bd.t_end))
     else:
         armed = [(min(float(c[0][0]) for c in chans.values() if c[0].size), bd.t_end)]
+    direction_check(chans, thrust, veh, armed, bd.name, warnings, bag_fix(thrust.directions))
     modes = []
     if bd.modes is not None:
         modes = _mode_runs(*bd.modes)

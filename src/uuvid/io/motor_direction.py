@@ -1,0 +1,324 @@
+"""A reversed motor in a dive table or bag: do the forces computed from the servo outputs push
+the way the vehicle moves?
+
+A table's ``pwm_<j>`` columns (or a bag's ``/mavros/rc/out``) carry no motor direction; the reader
+assumes ArduSub's direction is already applied.  :func:`direction_check` tests that against the
+measured heave and yaw accelerations: per thruster group (thrusters whose forces correlate beyond
+:data:`DIRECTION_GROUP_CORR` share one coefficient) a least-squares fit of the acceleration on the
+groups' forces, a constant and the drag terms, with autocorrelation-robust (Newey–West) σ.  An
+output is named only when its coefficient is below −:data:`DIRECTION_Z` σ, at least
+:data:`DIRECTION_SHARE` × the vehicle's ``1/(m + added mass)`` in size, and mirroring it lets one
+shared coefficient explain :data:`DIRECTION_GAIN` more of the motion.  A warning, not an error: it
+is a statistical judgement (a snagged tether or a wrong vehicle file can push against the motion
+too).  Called by :mod:`uuvid.io.dive_channels`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: DOF → (row of B, measured channel, force column, force unit, acceleration unit, inertia)
+_DIRECTION_DOFS = {"heave": (2, "depth_m", "Z_N", "N", "m/s²", "m + Z_ẇ"),
+                   "yaw": (5, "yaw_rad", "N_Nm", "N·m", "rad/s²", "I_z + N_ṙ")}
+DIRECTION_GROUP_CORR = 0.95  # thrusters whose forces in a DOF correlate beyond ± this: one group
+DIRECTION_Z = 4.0  # a thruster's coefficient must be this many σ (autocorrelation-robust) below 0
+DIRECTION_SHARE = 0.1  # … and at least this × the vehicle's 1/(inertia + added) in size
+DIRECTION_GAIN = 0.05  # … and mirroring its column must explain this much more of the motion
+DIRECTION_MIN_S = 30.0  # armed, gap-free seconds the check needs
+DIRECTION_SURFACE_M = 0.3  # shallower than this the vehicle may be at the surface: left out
+
+
+def table_fix(keys) -> str:
+    cols = " and ".join(f"pwm_{k}" for k in keys)
+    return ("the motor direction (SERVOn_REVERSED / MOT_n_DIRECTION) is not applied in this "
+            f"table: mirror {'that column' if len(keys) == 1 else 'those columns'} ({cols}) about "
+            "1500 µs (pwm → 3000 − pwm)")
+
+
+def bag_fix(directions: dict):
+    def fix(keys) -> str:
+        want = ", ".join(f"MOT_{k}_DIRECTION = {-int(round(directions[k])):d}" for k in keys)
+        return ("the motor direction (SERVOn_REVERSED / MOT_n_DIRECTION) applied to the servo "
+                f"outputs does not match the vehicle: pass --params with {want}")
+    return fix
+
+
+def _smoothing_kernels(sig: float, h: float):
+    """Gaussian (σ ``sig``) smoothing, first- and second-derivative kernels on a step ``h``,
+    scaled so that they are exact on a constant, a ramp and a parabola (``np.convolve``)."""
+    m = int(np.ceil(4 * sig / h))
+    u = np.arange(-m, m + 1) * h
+    g = np.exp(-0.5 * (u / sig) ** 2)
+    g /= g.sum()
+    g1 = -u / sig ** 2 * g
+    g1 /= -np.sum(g1 * u)
+    g2 = (u ** 2 / sig ** 4 - 1 / sig ** 2) * g
+    g2 -= g2.mean()
+    g2 /= np.sum(g2 * u ** 2 / 2)
+    return m, g, g1, g2
+
+
+def _covered(grid, ts, sig: float) -> np.ndarray:
+    """Grid points between two samples of ``ts`` no further apart than 5 of its median steps
+    (at least ``sig``): not in a logging gap."""
+    gap = max(5 * float(np.median(np.diff(ts))), sig)
+    i = np.clip(np.searchsorted(ts, grid), 1, ts.size - 1)
+    return (ts[i] - ts[i - 1]) <= gap
+
+
+def _hac_var(U, rows, lags: int) -> np.ndarray:
+    """Variance of ``Σ_t U[t, j]`` per column with serially correlated terms (Newey–West,
+    Bartlett weights over ``lags`` grid steps); ``rows`` places the terms on the full grid so
+    that lags never bridge a gap."""
+    Z = np.zeros((rows.size, U.shape[1]))
+    Z[rows] = U
+    nf = 1 << int(np.ceil(np.log2(2 * rows.size)))
+    f = np.fft.rfft(Z, nf, axis=0)
+    ac = np.fft.irfft(f * np.conj(f), nf, axis=0)[:lags + 1]
+    w = 1.0 - np.arange(lags + 1) / (lags + 1)
+    return np.maximum(ac[0] + 2 * (w[1:, None] * ac[1:]).sum(axis=0), 0.0)
+
+
+def _inverse_inertia(veh, dof: str) -> float | None:
+    """The vehicle's ``1/(m + Z_ẇ)`` (heave) or ``1/(I_z + N_ṙ)`` (yaw), ``None`` without them."""
+    try:
+        p = veh.params
+        ma = np.asarray(p.added_mass, float)
+        if dof == "heave":
+            val = float(p.mass) + abs(float(ma[2, 2]))
+        else:
+            inertia = np.asarray(p.inertia, float)
+            val = float(inertia[2] if inertia.ndim == 1 else inertia[2, 2]) + abs(float(ma[5, 5]))
+    except (AttributeError, IndexError, TypeError, ValueError):
+        return None
+    return 1.0 / val if np.isfinite(val) and val > 0 else None
+
+
+def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list,
+                     fix) -> None:
+    """Warn about a servo output whose computed force pushes against the measured motion
+    (``pt``: the reader's thrust per servo output, logged and mirrored, ``dive_channels._PwmThrust``;
+    ``fix(keys)``: the sentence that says how to mend the named outputs in this kind of log).
+
+    For heave (``depth_m``) and yaw (``yaw_rad``), where that DOF's force column was computed from
+    the PWM, the measured acceleration — the second derivative of the Gaussian-smoothed depth or
+    heading (σ = max(0.5 s, 2 sample steps of it and of the PWM)), so no noisy differencing —
+    is fitted by least squares over the armed, gap-free samples deeper than
+    :data:`DIRECTION_SURFACE_M` with each thruster's force in that DOF, smoothed alike (its ``B``
+    entry × its thrust at the logged PWM; in heave turned to the vertical with the logged roll
+    and pitch), plus a constant (buoyancy), the smoothed rate and its square (drag), and in yaw
+    with a DVL the surge and sway accelerations and ``u·v`` (the couplings of the coupled
+    model).  Thrusters whose forces correlate beyond ±:data:`DIRECTION_GROUP_CORR` (driven
+    together, e.g. BlueROV2's vertical pair) get one coefficient, on their sum with each sign
+    aligned to the first's: their forces cannot be told apart, but one whose force runs
+    *against* its group's shows.
+
+    Physically every coefficient is ``1/(inertia + added)`` > 0.  A thruster is reported as
+    probably reversed when its coefficient (its group's, times its sign in the group) is below 0
+    by more than :data:`DIRECTION_Z` σ (Newey–West over 10 s: the residuals are serially
+    correlated), at least :data:`DIRECTION_SHARE` of the vehicle's ``1/(inertia + added)`` in
+    size, *and* the fit with one shared coefficient (the physics) explains at least
+    :data:`DIRECTION_GAIN` more of the acceleration with its column mirrored about 1500 µs than as
+    logged (a negative shared coefficient explains nothing), that coefficient positive by
+    :data:`DIRECTION_Z` σ.  One of several thrusters driven identically is therefore reported
+    only when mirroring it changes more than the scale of their sum (through the thrusters'
+    forward/astern asymmetry).  Every thruster of a DOF against the motion is reported as the
+    measured channel's sign convention or all of them reversed.  ``fix(keys)`` says what to do.
+    One pass of NumPy per DOF; it warns and never raises."""
+    B = np.asarray(veh.B, float)
+    keys = pt.keys
+    if pt.t.size < 20 or B.shape[1] != len(keys):
+        return
+    for dof, (_row, meas, force, funit, aunit, inertia) in _DIRECTION_DOFS.items():
+        if force not in pt.computed or meas not in chans or chans[meas][0].size < 20:
+            continue
+        try:
+            w = _direction_dof(chans, dof, pt, B, armed)
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            w = None
+        if w is None:
+            continue
+        k_exp = _inverse_inertia(veh, dof)
+        flagged = [(i, c, s) for i, c, s in w["members"]
+                   if c < 0 and -c >= DIRECTION_Z * s
+                   and (k_exp is None or -c >= DIRECTION_SHARE * k_exp)]
+        if not flagged:
+            continue
+
+        def confirmed(bad, w=w):
+            conf = w["confirm"](bad)
+            return conf if (conf is not None and conf[0] >= DIRECTION_Z * conf[1]
+                            and conf[2] - conf[3] >= DIRECTION_GAIN) else None
+
+        bad = [i for i, _, _ in flagged]
+        conf = confirmed(bad)
+        if conf is None and len(flagged) > 1:  # the clearest one alone
+            one = min(flagged, key=lambda f: f[1] / f[2])
+            flagged, bad = [one], [one[0]]
+            conf = confirmed(bad)
+        if conf is None:
+            continue
+        k_fix, s_fix, r2_fix, r2_log = conf
+        cols = [f"pwm_{keys[i]}" for i in bad]
+        exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
+        share = (f"as logged the computed forces explain {r2_log:.0%} of the {dof} acceleration, "
+                 f"with {' and '.join(cols)} mirrored {r2_fix:.0%}")
+        if len(bad) == len(w["live"]):  # every thruster of the DOF: the sign convention?
+            hint = {"heave": "is depth_m positive up (a height, or depth with the wrong sign)? "
+                             "expected metres, positive down",
+                    "yaw": "is yaw_rad counter-clockwise (ENU, east = 0)? expected the NED "
+                           "heading, clockwise from north"}[dof]
+            c, s = w["shared"]
+            warnings.append(
+                f"{name}: the {dof} acceleration measured from {meas} opposes the {dof} force "
+                f"computed from every thruster that gives one ({', '.join(cols)}): coefficient "
+                f"{c:+.3g} ± {s:.2g} {aunit} per {funit}, physically positive{exp}; {share}. "
+                f"{hint}; otherwise all these motors are reversed: {fix([keys[i] for i in bad])}")
+            continue
+        for i, c, s in flagged:
+            mates = [j for j in w["group_of"][i] if j != i]
+            together = ""
+            if mates:
+                together = (f" (driven in step with "
+                            f"{', '.join(f'pwm_{keys[j]}' for j in mates)}: their {dof} forces "
+                            f"correlate at {w['corr'][i]:+.2f}, so they share one coefficient "
+                            "and this one's sign in it is tested)")
+            warnings.append(
+                f"{name}: pwm_{keys[i]} is probably reversed: its thruster's {dof} force opposes "
+                f"the {dof} acceleration measured from {meas}{together}: coefficient {c:+.3g} ± "
+                f"{s:.2g} {aunit} per {funit} (fitted with the other thrusters' forces, a "
+                f"constant and drag), physically positive{exp}; {share}. {fix([keys[i]])}")
+
+
+def _direction_dof(chans: dict, dof: str, pt, B, armed):
+    """The fit behind :func:`direction_check` for one DOF (``None`` when the log cannot inform
+    it): ``members`` [(thruster, coefficient, σ)], ``live`` (thrusters with a force in the DOF),
+    ``group_of``, ``corr`` (of each member with its group's other first member), ``shared`` (one
+    coefficient for the forces as logged, σ) and ``confirm(mirrored)`` → (coefficient, σ, R²,
+    R² as logged) of the one-coefficient fit with those thrusters' outputs mirrored."""
+    row, meas = _DIRECTION_DOFS[dof][:2]
+    tm, xm = chans[meas]
+    tp = pt.t
+    brow = B[row]
+    scale = float(np.max(np.abs(brow)))
+    if scale <= 0:
+        return None
+    act = np.flatnonzero(np.abs(brow) > 1e-6 * scale)
+    sig = max(0.5, 2 * float(np.median(np.diff(tm))), 2 * float(np.median(np.diff(tp))))
+    if not np.isfinite(sig) or sig > 5.0:
+        return None
+    h = sig / 4
+    t0, t1 = max(tm[0], tp[0]), min(tm[-1], tp[-1])
+    if t1 - t0 < DIRECTION_MIN_S + 8 * sig:
+        return None
+    grid = t0 + h * np.arange(int((t1 - t0) / h) + 1)
+    m, g0, g1, g2 = _smoothing_kernels(sig, h)
+
+    def have(c):
+        return c in chans and chans[c][0].size >= 20
+
+    ok = _covered(grid, tm, sig) & _covered(grid, tp, sig)
+    tilt = dof == "heave" and have("roll_rad") and have("pitch_rad")
+    uv = dof == "yaw" and have("u_mps") and have("v_mps")
+    for c in (("roll_rad", "pitch_rad") if tilt else ()) + (("u_mps", "v_mps") if uv else ()):
+        ok &= _covered(grid, chans[c][0], sig)
+    if have("depth_m"):  # at the surface the water no longer holds the vehicle (|·|: a depth
+        ok &= _covered(grid, chans["depth_m"][0], sig)  # logged positive up is said, not skipped)
+        ok &= np.abs(np.interp(grid, *chans["depth_m"])) >= DIRECTION_SURFACE_M
+    rows = np.convolve((~ok).astype(float), np.ones(2 * m + 1), "same") < 0.5
+    rows[:m] = False
+    rows[-m:] = False
+    on = np.zeros(grid.size, bool)
+    for a, b in armed:
+        on |= (grid >= a) & (grid <= b)
+    rows &= on
+    n = int(rows.sum())
+    if n * h < DIRECTION_MIN_S:
+        return None
+
+    def smooth(sig_, k=g0):
+        return np.convolve(sig_, k, "same")[rows]
+
+    x = np.interp(grid, tm, xm)
+    y, rate = smooth(x, g2), smooth(x, g1)
+    if tilt:  # the force along the vertical: row 3 of the body-to-NED rotation
+        ph, th = (np.interp(grid, *chans[c]) for c in ("roll_rad", "pitch_rad"))
+        factor = (-np.sin(th)[None] * B[0][:, None] + (np.sin(ph) * np.cos(th))[None]
+                  * B[1][:, None] + (np.cos(ph) * np.cos(th))[None] * B[2][:, None])
+    else:
+        factor = np.broadcast_to(brow[:, None], (B.shape[1], grid.size))
+    T = np.stack([np.interp(grid, tp, pt.T[i]) for i in range(B.shape[1])])
+    Tm = np.stack([np.interp(grid, tp, pt.mirrored[i]) for i in act])
+    C = np.stack([smooth(factor[i] * T[i]) for i in act])
+    Cm = np.stack([smooth(factor[i] * Tm[j]) for j, i in enumerate(act)])
+    nuis = [np.ones(n), rate, rate * np.abs(rate)]
+    rest = [i for i in range(B.shape[1]) if i not in set(act.tolist())]
+    if tilt and rest:  # the other thrusters' share of the vertical force when pitched or rolled
+        nuis.append(smooth((factor[rest] * T[rest]).sum(axis=0)))
+    if uv:  # the coupled horizontal model's surge/sway accelerations and the Munk moment u·v
+        uu, vv = (np.interp(grid, *chans[c]) for c in ("u_mps", "v_mps"))
+        nuis += [smooth(uu, g1), smooth(vv, g1), smooth(uu * vv)]
+    nuis = np.column_stack(nuis)
+    lags = int(np.ceil(max(10.0, 5 * sig) / h))
+    sd = C.std(axis=1)
+    live = np.flatnonzero(sd > 1e-6 * max(float(sd.max()), 1e-300))
+    if live.size == 0:
+        return None
+    R = np.corrcoef(C[live]) if live.size > 1 else np.ones((1, 1))
+    groups, used = [], set()
+    for a in range(live.size):  # greedy: a group is its first member and those that track it
+        if a in used:
+            continue
+        grp = [(a, 1.0)]
+        used.add(a)
+        for b in range(a + 1, live.size):
+            if b not in used and abs(R[a, b]) > DIRECTION_GROUP_CORR:
+                grp.append((b, float(np.sign(R[a, b]))))
+                used.add(b)
+        groups.append(grp)
+    G = np.stack([sum(s * C[live[a]] for a, s in grp) for grp in groups])
+    syy = max(float(((y - y.mean()) ** 2).sum()), 1e-300)
+
+    def fit(X):
+        sc = np.abs(X).max(axis=0)
+        sc[sc == 0] = 1.0
+        Xs = X / sc
+        XtX = Xs.T @ Xs
+        if np.linalg.cond(XtX) > 1e12:
+            return None
+        inv = np.linalg.inv(XtX)
+        beta = inv @ (Xs.T @ y)
+        e = y - Xs @ beta
+        var = _hac_var((Xs @ inv) * e[:, None], rows, lags)
+        return beta / sc, np.sqrt(var) / sc, 1.0 - float(e @ e) / syy
+
+    full = fit(np.column_stack([G.T, nuis]))
+    if full is None:
+        return None
+    beta, sb, _ = full
+    members, group_of, corr = [], {}, {}
+    for gi, grp in enumerate(groups):
+        ids = [int(act[live[a]]) for a, _ in grp]
+        for a, s in grp:
+            i = int(act[live[a]])
+            members.append((i, s * beta[gi], sb[gi]))
+            group_of[i] = ids
+            other = grp[1][0] if a == grp[0][0] and len(grp) > 1 else grp[0][0]
+            corr[i] = float(R[a, other])
+
+    def one(F):  # one shared coefficient (the physics), the same other terms
+        r = fit(np.column_stack([F, nuis]))
+        return None if r is None else (r[0][0], r[1][0], r[2] if r[0][0] > 0 else 0.0)
+
+    logged = one(C.sum(axis=0))
+
+    def confirm(bad):
+        idx = [int(np.flatnonzero(act == i)[0]) for i in bad]
+        fixed = one(C.sum(axis=0) + sum(Cm[j] - C[j] for j in idx))
+        if fixed is None or logged is None:
+            return None
+        return fixed[0], fixed[1], fixed[2], logged[2]
+
+    return {"members": members, "live": [int(act[i]) for i in live], "group_of": group_of,
+            "corr": corr, "confirm": confirm,
+            "shared": (logged[0], logged[1]) if logged else (float("nan"), float("nan"))}
