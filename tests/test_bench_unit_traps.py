@@ -10,10 +10,9 @@ import re
 
 import numpy as np
 import pytest
-import typer
 from typer.testing import CliRunner
 
-from uuvid.cli.fit_cmd import register
+from uuvid.cli.app import app
 from uuvid.identify.plausibility import (
     bench_unit_warnings,
     check_bench_signs,
@@ -169,25 +168,12 @@ def test_rpm_read_as_rad_per_s_is_warned_and_the_unit_silences_it(tmp_path):
 
 
 # ------------------------------------------------------------------ through the CLI
-def _app() -> typer.Typer:
-    app = typer.Typer()
-    thruster = typer.Typer()
-    app.add_typer(thruster, name="thruster")
-    register(thruster)
-
-    @app.callback()
-    def _root():
-        pass
-
-    return app
-
-
 def test_the_cli_exits_2_with_the_fix_and_fits_with_it(tmp_path):
     f = _write(tmp_path / "grams.csv", thrust=G_PER_N * THRUST, current=CURRENT, voltage=VOLTS)
     args = ["thruster", "fit", str(f), "--model", "table", "--command-col", "pwm",
             "--thrust-col", "thrust", "--current-col", "current", "--voltage-col", "voltage",
             "--out-model", str(tmp_path / "m.yaml")]
-    runner, app = CliRunner(), _app()
+    runner = CliRunner()
     res = runner.invoke(app, args)
     assert res.exit_code == 2, res.output
     msg = " ".join(res.stderr.split())

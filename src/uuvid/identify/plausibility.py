@@ -270,24 +270,28 @@ def bench_unit_warnings(data) -> list[str]:
     rad/s); one sentence each."""
     src = _prefix(data)
     out = []
-    m = data.measured
-    if data.thrust is not None and _power_rows(data) is None:
-        a = np.where(m & np.isfinite(data.thrust), np.abs(data.thrust), -np.inf)
+
+    def largest(y):
+        """``(row, |value|)`` of the largest finite measured |reading|."""
+        a = np.where(data.measured & np.isfinite(y), np.abs(y), -np.inf)
         k = int(np.argmax(a))
-        if a[k] > MAX_PLAIN_THRUST:
+        return k, a[k]
+
+    if data.thrust is not None and _power_rows(data) is None:
+        k, big = largest(data.thrust)
+        if big > MAX_PLAIN_THRUST:
             out.append(
-                f"{src}implausible thrust: |thrust| reaches {a[k]:.4g} N (data row {k + 1}: "
+                f"{src}implausible thrust: |thrust| reaches {big:.4g} N (data row {k + 1}: "
                 f"{data.thrust[k]:+.4g} N), above {MAX_PLAIN_THRUST:g} N for a bench thruster, "
                 "and without current and voltage columns it cannot be checked against the "
                 "electrical power — check the thrust unit (grams read as N?): give "
                 "--thrust-unit g, kgf or lbf for a column in that unit")
     if data.speed is not None:
-        a = np.where(m & np.isfinite(data.speed), np.abs(data.speed), -np.inf)
-        k = int(np.argmax(a))
-        if a[k] > MAX_PLAUSIBLE_SPEED:
+        k, big = largest(data.speed)
+        if big > MAX_PLAUSIBLE_SPEED:
             out.append(
-                f"{src}implausible propeller speed: |speed| reaches {a[k]:.4g} rad/s "
-                f"({a[k] / U.RPM:.4g} rpm; data row {k + 1}: {data.speed[k]:+.4g} rad/s), "
+                f"{src}implausible propeller speed: |speed| reaches {big:.4g} rad/s "
+                f"({big / U.RPM:.4g} rpm; data row {k + 1}: {data.speed[k]:+.4g} rad/s), "
                 f"above {MAX_PLAUSIBLE_SPEED:g} rad/s (≈ {MAX_PLAUSIBLE_SPEED / U.RPM:.0f} rpm) "
                 "— the speed looks like rpm; give --speed-unit rpm")
     return out
