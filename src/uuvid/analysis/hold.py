@@ -302,8 +302,10 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     ``inflow`` (``None``: the vehicle file's; ``'none'``: bollard limits): each thruster's limit
     at the advance speed the current gives it while the vehicle holds still, level, heading
     north (``ν_r = −ν_c``; :mod:`uuvid.vehicle.inflow`).  The hold gains keep the bollard reach."""
+    from uuvid.core.checks import finite
     from uuvid.vehicle.inflow import inflow_limits
 
+    relative_deg = finite("relative_deg", relative_deg, "degrees off the bow")
     al = _allocator(vehicle, limits, modes)
     il = inflow_limits(vehicle, inflow)
     if il is not None and soc is not None:
@@ -510,6 +512,28 @@ class CapabilityResult(Result):
         return save_figure(fig, path) if path is not None else fig
 
 
+#: Most directions a capability plot takes (0.1° apart): each is a search of :func:`max_current`
+#: (tens of ms), and a polar plot resolves no finer.
+MAX_DIRECTIONS = 3600
+
+
+def _check_step(step_deg) -> float:
+    """The angle step of :func:`capability`: finite, in (0, 180]° (at least head-on and from
+    astern) and at most :data:`MAX_DIRECTIONS` directions."""
+    from uuvid.core.checks import positive
+
+    step = positive("step_deg", step_deg, "degrees")
+    if step > 180:
+        raise ValueError(f"step_deg = {step:g}°: expected a step of at most 180° (a capability "
+                         "plot needs at least two directions: head-on and from astern)")
+    if 360.0 / step > MAX_DIRECTIONS:
+        raise ValueError(f"step_deg = {step:g}° gives {360.0 / step:.3g} directions, more than the "
+                         f"{MAX_DIRECTIONS:,} ({360 / MAX_DIRECTIONS:g}° apart) a capability plot "
+                         f"resolves (each a search of tens of ms); give a step of at least "
+                         f"{360 / MAX_DIRECTIONS:g}°")
+    return step
+
+
 def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
                supply_voltage: float | None = None, soc: float | None = None, simulate_deg=(),
                progress: bool | None = None, inflow: str | None = None,
@@ -523,10 +547,13 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     (:mod:`uuvid.core.progress`; ``None``: automatic).  ``inflow`` (``None``: the vehicle file's,
     ``'none'``: bollard): with inflow the limits follow each thruster's advance speed in the
     current (:func:`max_current`) and the bollard-thrust capability is computed beside it."""
+    from uuvid.core.checks import finite
     from uuvid.core.progress import progress_task
     from uuvid.vehicle.inflow import resolve_inflow
     from uuvid.vehicle.power import limits_at
 
+    step_deg = _check_step(step_deg)
+    simulate_deg = tuple(finite("simulate_deg", d, "degrees off the bow") for d in simulate_deg)
     inflow = resolve_inflow(vehicle, inflow)
     if inflow != "none" and simulate_deg:
         raise ValueError("simulated confirmation does not take inflow yet (its flights follow the "
@@ -775,8 +802,13 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
     stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
     fails (interpolated between the last held and the first failed SOC by bisection).
     ``progress``: a bar on stderr, one stage per 10 % of charge (``None``: automatic)."""
+    from uuvid.core.checks import finite, non_negative
     from uuvid.core.progress import progress_task
 
+    speed = non_negative("speed", speed, "m/s")
+    relative_deg = finite("relative_deg", relative_deg, "degrees off the bow")
+    if not (math.isfinite(soc0) and 0 <= soc0 <= 1):
+        raise ValueError(f"soc0 = {soc0:g}: expected a state of charge within 0..1")
     task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),
                          eta=False, stages=max(1, math.ceil(soc0 * 10)),
                          disable=None if progress is None else not progress)

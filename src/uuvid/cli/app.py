@@ -166,8 +166,13 @@ def study(
         bws = tuple(float(x) for x in bandwidths.split(","))
     except ValueError:
         _fail(f"--bandwidths: expected comma-separated numbers, got {bandwidths!r}")
-    with progress_task("thruster-loop study", total=6 * len(bws)) as task:
-        result = st.run_study(bws, progress=task.advance)
+    try:
+        with progress_task("thruster-loop study", total=6 * len(bws)) as task:
+            result = st.run_study(bws, progress=task.advance)
+    except ValueError as e:
+        from uuvid.cli.common import _fail_flagged
+
+        _fail_flagged(e, {"bandwidths": "--bandwidths"})
     if out:
         result.report(out)
     if json_out:

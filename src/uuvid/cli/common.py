@@ -53,6 +53,26 @@ def _fail(msg: str) -> None:
     raise typer.Exit(code=2)
 
 
+def _flagged(msg: str, flags: dict[str, str]) -> str:
+    """A library message with the parameter it starts with (``name = value: …``, ``name must
+    …``, ``name: …``) or names in backticks (```name=```) spelled as this command's option:
+    ``flags`` maps library parameter names to options (``{"max_tilt_deg": "--max-tilt"}``)."""
+    import re
+
+    text = str(msg)
+    for name, flag in flags.items():
+        text = text.replace(f"`{name}=`", flag)
+        text = re.sub(rf"^{re.escape(name)}(?=\s*(=|must\b|:|is\b|and\b))", flag, text)
+    return text
+
+
+def _fail_flagged(err: BaseException | str, flags: dict[str, str], prefix: str = "") -> None:
+    """:func:`_fail` with a library error's parameter named as the command's option (see
+    :func:`_flagged`); a ``KeyError``'s message without its quotes."""
+    text = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
+    _fail(prefix + _flagged(text, flags))
+
+
 def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}") -> Table:
     t = Table(title=escape(title))
     for c in columns:

@@ -24,6 +24,15 @@ class Choice(StrEnum):
     robust = "robust"
 
 
+#: :func:`~uuvid.identify.vehicle.design.design_sine_experiment`'s parameters → options.
+DESIGN_FLAGS = {"k": "--k", "k_q": "--kq", "speed": "--speed", "w": "--w", "eta": "--eta",
+                "mass_air": "--mass-air", "n_periods": "--n-periods",
+                "sample_time": "--sample-time", "settle_tau": "--settle-tau",
+                "lead_in": "--lead-in", "max_distance": "--max-distance",
+                "force_limit": "--force-limit", "reversal_margin": "--reversal-margin",
+                "amplitude": "--amplitude", "speed_range": "--speed-range"}
+
+
 def _pair(text: str | None, opt: str) -> tuple[float, float] | None:
     if text is None:
         return None
@@ -130,7 +139,10 @@ def design_input(
             force_limit=force_limit, reversal_margin=reversal_margin, amplitude=amplitude,
             sample_time=sample_time, choice=choice.value, dof=dof or "")
     except ValueError as e:
-        fail(f"design-input: {e}")
+        from uuvid.cli.common import _fail_flagged
+
+        _fail_flagged(e, {**DESIGN_FLAGS, "mass": "--mass" if mass is not None else "--mass-air"},
+                      prefix="design-input: ")
     doc = {"command": "vehicle design-input", **des.as_dict()}
     u = _units(dof)
     doc["units"] = {"k": u["k"], "mass": u["m"], "k_L": u["k"], "offset": u["f"],
@@ -232,7 +244,8 @@ def design_input(
 # reproduce caccia2000
 # =============================================================================================
 def reproduce_caccia2000(
-    seed: int = typer.Option(0, "--seed", help="Random seed of the simulated experiments."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Random seed of the simulated experiments "
+                             "(an integer >= 0)."),
     fast: bool = typer.Option(False, "--fast",
                               help="Skip the two validation logs (Figs. 13, 15); the "
                                    "identification is identical."),

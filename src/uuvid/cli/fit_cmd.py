@@ -44,6 +44,10 @@ from uuvid.identify.thruster.workflow import (  # noqa: F401 - re-exported for c
 __all__ = ["thruster_fit", "register", "run_fit", "FitOutcome", "MODELS"]
 
 
+#: Largest ``--diameter`` [m]: the biggest ship propellers are about 10 m across.
+MAX_PROPELLER_DIAMETER = 20.0
+
+
 class ModelKind(StrEnum):
     quadratic = "quadratic"
     cv = "cv"
@@ -182,6 +186,11 @@ def thruster_fit(
                        flow_speed_col=None if flow_speed_col.lower() == "none" else flow_speed_col)
     if diameter is not None and not (math.isfinite(diameter) and diameter > 0):
         _fail(f"--diameter must be a positive length in m, got {diameter}")
+    if diameter is not None and diameter > MAX_PROPELLER_DIAMETER:
+        _fail(f"--diameter {diameter:g} m: larger than any ship's propeller (at most "
+              f"{MAX_PROPELLER_DIAMETER:g} m); expected the propeller diameter in m (in mm?)")
+    if neutral is not None and not math.isfinite(neutral):
+        _fail(f"--neutral {neutral:g}: expected a finite command (default 1500 µs, or 0)")
     if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
         _fail(f"--supply-voltage must be positive, got {supply_voltage}")
     try:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
@@ -20,11 +21,11 @@ def _parse_current(text: str | None):
         parts = [float(x) for x in text.split(",")]
     except ValueError:
         parts = []
-    if len(parts) not in (1, 2) or parts[0] < 0:
+    if len(parts) not in (1, 2) or not all(map(math.isfinite, parts)) or parts[0] < 0:
         from uuvid.cli.common import _fail
 
-        _fail(f"--current: expected SPEED[,DIR] (m/s, degrees off the bow it comes from), "
-              f"got {text!r}")
+        _fail(f"--current: expected SPEED[,DIR] (finite numbers: a speed >= 0 in m/s, degrees "
+              f"off the bow it comes from), got {text!r}")
     return parts[0], (parts[1] if len(parts) == 2 else 0.0)
 
 
@@ -50,7 +51,7 @@ def vehicle_hold(
     """Station-keeping capability (largest current held per direction, a polar "capability plot")
     and, with --current and --battery, the endurance on the battery."""
     from uuvid.analysis import hold
-    from uuvid.cli.common import _fail, _print_json, out_console
+    from uuvid.cli.common import _fail, _fail_flagged, _print_json, out_console
     from uuvid.cli.vehicle_cmds import _load_vehicle
     from uuvid.vehicle.power import limits_at
 
@@ -70,7 +71,8 @@ def vehicle_hold(
         cap = hold.capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
                               simulate_deg=sim, inflow=inflow)
     except ValueError as e:
-        _fail(str(e))
+        _fail_flagged(e, {"step_deg": "--step", "simulate_deg": "--simulate",
+                          "supply_voltage": "--voltage"})
     doc = {"capability": cap.to_dict()}
     endur = None
     if cur is not None:

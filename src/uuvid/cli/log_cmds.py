@@ -75,7 +75,9 @@ def export_cmd(
         if plot is not None:
             dive.plot(plot)
     except (ValueError, ImportError, FileNotFoundError, KeyError) as e:
-        _fail(str(e))
+        from uuvid.cli.common import _flagged
+
+        _fail(_flagged(str(e), {"dt": "--dt"}).replace(": dt = ", ": --dt "))
     if json_out:
         _print_json({**dive.to_dict(), "out": str(path)})
         return

@@ -115,7 +115,8 @@ def fail(msg: str):
 #: Library parameter names in messages (written in backticks) → this command line's flags.
 PARAM_FLAGS = {"`settle=`": "--settle", "`min_duration=`": "--min-duration",
                "`rel_tol=`": "--rel-tol", "`tol=`": "--tol", "`threshold=`": "--threshold",
-               "`open_loop_only=False`": "--all-modes"}
+               "`open_loop_only=False`": "--all-modes", "`hac_lags=`": "--hac-lags",
+               "`max_filled=`": "--max-filled"}
 
 
 def flags(text: str) -> str:

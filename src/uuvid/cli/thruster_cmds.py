@@ -12,7 +12,15 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from uuvid.cli.common import _fail, _load_model, _print_json, _table, err_console, out_console
+from uuvid.cli.common import (
+    _fail,
+    _fail_flagged,
+    _load_model,
+    _print_json,
+    _table,
+    err_console,
+    out_console,
+)
 from uuvid.cli.options import deprecated_out, renamed
 
 #: ``thruster simulate --out`` warns before writing a time series bigger than this [bytes].
@@ -213,13 +221,11 @@ def thruster_export(
             except ValueError:
                 _fail(f"--command-range: expected LOW:HIGH with LOW < HIGH, got {command_range!r}")
             rng = (lo, hi)
-        if table_points < 2:
-            _fail(f"--table-points: expected at least 2, got {table_points}")
         try:
             text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points,
                                     command_range=rng)
         except ExportError as e:
-            _fail(str(e))
+            _fail_flagged(e, {"thruster_id": "--thruster-id", "table_points": "--table-points"})
     elif to in ("yaml", "toml"):
         d = chain_to_dict(chain)
         text = _to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False)
@@ -232,20 +238,36 @@ def thruster_export(
         sys.stdout.write(text)
 
 
+#: Most inputs ``thruster predict`` evaluates: its table takes ≈ 1 kB of memory and ≈ 1 ms a row
+#: (100,000 rows ≈ 100 MB and 100 s; the JSON is lighter but no more readable).
+MAX_PREDICT_POINTS = 100_000
+
+
 def _parse_range(spec: str, name: str):
-    """``a:b:step`` (inclusive) or ``v1,v2,...`` → array."""
+    """``a:b:step`` (inclusive) or ``v1,v2,...`` → array of finite values, at most
+    :data:`MAX_PREDICT_POINTS` of them (counted before the grid is allocated)."""
     import numpy as np
 
     try:
         if ":" in spec:
             parts = [float(x) for x in spec.split(":")]
-            if len(parts) != 3 or parts[2] <= 0 or parts[1] < parts[0]:
+            if (len(parts) != 3 or not all(map(math.isfinite, parts)) or parts[2] <= 0
+                    or parts[1] < parts[0]):
                 raise ValueError
+            n = (parts[1] - parts[0]) / parts[2] + 1
+            if n > MAX_PREDICT_POINTS:
+                _fail(f"{name} {spec}: {n:.3g} inputs, more than the {MAX_PREDICT_POINTS:,} one "
+                      f"prediction prints (≈ {n * 1e3 / 1e9:.3g} GB as a table, ≈ 1 kB a row); "
+                      "give a larger step or a shorter range")
             n = int(round((parts[1] - parts[0]) / parts[2])) + 1
             return parts[0] + parts[2] * np.arange(n)
-        return np.array([float(x) for x in spec.split(",") if x.strip()])
+        x = np.array([float(x) for x in spec.split(",") if x.strip()])
+        if x.size == 0 or not np.all(np.isfinite(x)):
+            raise ValueError
+        return x
     except ValueError:
-        _fail(f"{name}: expected start:stop:step (stop >= start, step > 0) or a comma list, got {spec!r}")
+        _fail(f"{name}: expected start:stop:step (finite numbers, stop >= start, step > 0) or a "
+              f"comma list of finite numbers, got {spec!r}")
 
 
 def thruster_predict(
@@ -278,8 +300,12 @@ def thruster_predict(
     x = _parse_range(spec, "--" + key.split("_")[0])
     blocks = list(chain.blocks)
     if supply_voltage is not None:
-        if supply_voltage <= 0:
-            _fail(f"--supply-voltage must be positive, got {supply_voltage}")
+        from uuvid.core.checks import supply_voltage as check_supply
+
+        try:
+            supply_voltage = check_supply("supply_voltage", supply_voltage)
+        except ValueError as e:
+            _fail_flagged(e, {"supply_voltage": "--supply-voltage"})
         # a preset's own voltage law (the T200's speed is not ∝ V); its range is warned below
         law = supply_law(model, chain, quiet=True)
         if law is None:

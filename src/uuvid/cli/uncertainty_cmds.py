@@ -23,6 +23,7 @@ calls live in :mod:`uuvid.uncertainty.showcase`.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
@@ -83,6 +84,11 @@ def _show(summary: dict, title: str) -> None:
     out_console.print(_table(title, rows, ["quantity", "value"]))
 
 
+#: The study functions' keywords (named ```name=``` in their errors) → these commands' options.
+STUDY_FLAGS = {"runs": "--runs", "seed": "--seed", "max_draws": "--max-draws", "band": "--band",
+               "workers": "--workers", "chunk_size": "--chunk-size", "retries": "--retries"}
+
+
 def _run(fn, out: Path | None, json_out: bool, title: str, where: str = ""):
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
@@ -93,8 +99,11 @@ def _run(fn, out: Path | None, json_out: bool, title: str, where: str = ""):
     except ImportError as e:
         _fail(str(e))
     except _user_errors() as e:  # the file's name first, unless the message starts with it
-        text = str(e)
-        _fail(text if not where or text.startswith(where) else f"{where}: {text}")
+        from uuvid.cli.common import _flagged
+
+        text = _flagged(e.args[0] if isinstance(e, KeyError) and e.args else str(e), STUDY_FLAGS)
+        _fail(text if not where or text.startswith(where) or text.startswith("--")
+              else f"{where}: {text}")
     summary = dict(res.info)
     if out is not None:
         summary["out"] = str(out)
@@ -148,7 +157,10 @@ def _parse_requirement(text: str):
     if not m:
         raise ValueError(f"--requirement: expected METRIC<VALUE or METRIC>VALUE, got {text!r}")
     key = "below" if m.group(2) == "<" else "above"
-    return Requirement(metric=m.group(1), **{key: float(m.group(3))})
+    value = float(m.group(3))
+    if not math.isfinite(value):
+        raise ValueError(f"--requirement: the bound must be a finite number, got {text!r}")
+    return Requirement(metric=m.group(1), **{key: value})
 
 
 def montecarlo_cmd(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
@@ -146,9 +147,9 @@ def simulate(
             cur = [float(x) for x in current.split(",")]
         except ValueError:
             cur = []
-        if len(cur) != 3:
-            _fail(f"--current: expected N,E,D (m/s), the water velocity north, east, down (where it "
-                  f"flows to), e.g. 0.3,0,0; got {current!r}")
+        if len(cur) != 3 or not all(map(math.isfinite, cur)):
+            _fail(f"--current: expected N,E,D (m/s): three finite numbers, the water velocity "
+                  f"north, east, down (where it flows to), e.g. 0.3,0,0; got {current!r}")
         try:
             spec = scenario_from_dict(
                 {
@@ -162,8 +163,14 @@ def simulate(
                 },
                 where="command line",
             )
-        except ModelFileError as e:
-            _fail(str(e))
+        except ModelFileError as e:  # the scenario's key paths as this command's options
+            text = str(e)
+            for key, flag, value in (("mission.speed", "--speed", speed),
+                                     ("mission.depth", "--depth", depth),
+                                     ("mission.side", "--side", side), ("dt", "--dt", dt)):
+                if f"command line: {key}:" in text:
+                    text = text.replace(f"command line: {key}:", f"{flag} {value}:")
+            _fail(text)
         _fly(spec, None, out, json_out, f"{kind} with {vehicle}", "command line", inflow)
         return
     if kind is not None:
@@ -277,7 +284,9 @@ def vehicle_stability(
     try:
         res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
     except ValueError as e:
-        _fail(str(e))
+        from uuvid.cli.common import _fail_flagged
+
+        _fail_flagged(e, {"max_tilt_deg": "--max-tilt"})
     if out:
         from uuvid.core.atomic import atomic_write_json
 

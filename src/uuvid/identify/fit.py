@@ -301,9 +301,11 @@ def _sandwich(H: np.ndarray, r: np.ndarray, bread: np.ndarray, cov_type: str, la
         meat = (H * (r / np.clip(1 - h, 1e-12, None))[:, None] ** 2).T @ H
     elif cov_type == "HAC":  # Newey–West with Bartlett weights
         L = int(lags if lags is not None else math.floor(4 * (n / 100.0) ** (2.0 / 9.0)))
+        if L < 0:
+            raise ValueError(f"`hac_lags=` {L}: expected a bandwidth of >= 0 points")
         u = H * r[:, None]
         meat = u.T @ u
-        for lag in range(1, L + 1):
+        for lag in range(1, min(L, n - 1) + 1):  # a lag of n or more pairs no residuals
             w = 1.0 - lag / (L + 1.0)
             g = u[lag:].T @ u[:-lag]
             meat += w * (g + g.T)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from uuvid.core import units as U
+from uuvid.core.checks import MAX_PLAUSIBLE_VOLTAGE as _MAX_SUPPLY_V
 from uuvid.io.bench import BenchDataError
 
 #: below this fraction of rows agreeing with the command's direction, the sign is reversed
@@ -118,7 +119,7 @@ def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> N
 # bench readings in their unit: volts, amperes, newtons, rad/s
 # ------------------------------------------------------------------------------------------------
 #: a median supply voltage above this [V] is in millivolts (no bench thruster runs on 1 kV)
-MAX_PLAUSIBLE_VOLTAGE = 1000.0
+MAX_PLAUSIBLE_VOLTAGE = _MAX_SUPPLY_V
 #: a supply current above this [A] is in milliamperes
 MAX_PLAUSIBLE_CURRENT = 1000.0
 #: water density of the momentum bound [kg/m³]: sea water, the denser water (the looser bound);

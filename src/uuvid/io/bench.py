@@ -442,6 +442,9 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         raise BenchDataError(f"unknown speed_sign {speed_sign!r}; expected auto, signed or command")
     if voltage_col is not None and supply_voltage is not None:
         raise BenchDataError("give either voltage_col or supply_voltage, not both")
+    if neutral is not None and not math.isfinite(float(neutral)):
+        raise BenchDataError(f"neutral = {float(neutral):g} (--neutral): expected a finite "
+                             f"command in {command_unit}")
     t = _read_table(path)
     if t.n_rows == 0:
         raise BenchDataError(f"{t.name}: no data rows under the header")

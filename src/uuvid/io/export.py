@@ -41,6 +41,32 @@ class ExportError(ValueError):
     """The chain cannot be expressed in the target format."""
 
 
+#: Most bytes the LinearInterp table's XML text may take (≈ 25 bytes of text a point; building it
+#: takes ≈ 160 bytes of memory a point): 50 MB is 2 million points, far more than linear
+#: interpolation of a smooth thrust map needs.
+MAX_TABLE_BYTES = 50e6
+_TABLE_TEXT_BYTES, _TABLE_MEMORY_BYTES = 25, 160
+
+
+def check_export_options(thruster_id: int, table_points: int) -> None:
+    """``ExportError`` naming the parameter for a thruster id below 0 or a table of fewer than 2
+    points or more than :data:`MAX_TABLE_BYTES` of text — before anything is tabulated."""
+    if int(thruster_id) < 0:
+        raise ExportError(f"thruster_id = {thruster_id}: expected a thruster index >= 0 (the "
+                          "plugin's <thrusterID>)")
+    n = int(table_points)
+    if n < 2:
+        raise ExportError(f"table_points = {n}: expected at least 2")
+    if n * _TABLE_TEXT_BYTES > MAX_TABLE_BYTES:
+        raise ExportError(
+            f"table_points = {n:,} would write ≈ {n * _TABLE_TEXT_BYTES / 1e9:.3g} GB of XML "
+            f"(≈ {_TABLE_TEXT_BYTES} bytes a point) and need ≈ "
+            f"{n * _TABLE_MEMORY_BYTES / 1e9:.3g} GB of memory to build, more than the "
+            f"{MAX_TABLE_BYTES / 1e6:g} MB a table may take; give at most "
+            f"{int(MAX_TABLE_BYTES // _TABLE_TEXT_BYTES):,} points (a few hundred follow a "
+            "smooth thrust map)")
+
+
 def _fmt(v: float) -> str:
     return repr(float(v))
 
@@ -82,6 +108,7 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
                      joint_name: str | None = None, command_range: tuple[float, float] | None = None,
                      table_points: int = 101) -> str:
     """The ``<plugin>`` snippet (dynamics + conversion) for UUV Simulator's thruster plugin."""
+    check_export_options(thruster_id, table_points)
     blocks = list(chain.blocks)
     notes: list[str] = []
     dyn_idx = [i for i, b in enumerate(blocks) if b.n_states > 0 or isinstance(b, ZeroOrder)]

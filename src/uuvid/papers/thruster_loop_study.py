@@ -77,7 +77,12 @@ def _sustained_oscillation(y: np.ndarray, threshold: float) -> bool:
     return crossings >= 4 and np.ptp(y[half:]) >= 0.5 * np.ptp(y[:half])
 
 
-def run_case(vehicle, chain, kind: str, bandwidth: float, dt: float = 0.01, substeps: int = 2) -> dict:
+#: The control and integration step of the study's flights [s].
+CONTROL_DT = 0.01
+
+
+def run_case(vehicle, chain, kind: str, bandwidth: float, dt: float = CONTROL_DT,
+             substeps: int = 2) -> dict:
     g = default_gains(vehicle, omega=(bandwidth,) * 4)
     mission = _step_mission(kind)
     setup = setup_mission(vehicle, mission, dt=dt, substeps=substeps, gains=g, thruster_chain=chain)
@@ -135,7 +140,16 @@ class LoopStudy(PaperReproduction):
 
 def run_study(bandwidths=BANDWIDTHS, progress=None) -> LoopStudy:
     """Heading and depth steps of AUV II with each thruster model at each controller bandwidth:
-    the largest bandwidth without a limit cycle per model (McLean's conjecture)."""
+    the largest bandwidth without a limit cycle per model (McLean's conjecture).  ``ValueError``
+    before any flight for a bandwidth that is not finite, > 0 and below the Nyquist frequency
+    π/dt of the 0.01 s control step."""
+    bandwidths = tuple(float(b) for b in bandwidths)
+    nyquist = math.pi / CONTROL_DT
+    bad = [b for b in bandwidths if not (math.isfinite(b) and 0 < b < nyquist)]
+    if not bandwidths or bad:
+        raise ValueError(f"bandwidths: expected controller bandwidths > 0 and below {nyquist:.0f} "
+                         f"rad/s (π / the {CONTROL_DT:g} s control step), got "
+                         f"{', '.join(f'{b:g}' for b in bad) or 'none'}")
     vehicle = load_vehicle("auv2")
     models = thruster_models()
     rows = []

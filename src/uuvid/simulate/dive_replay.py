@@ -437,8 +437,10 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     :class:`~uuvid.io.dive_channels.DiveChannels`; ``params``, ``topics``: as for
     :func:`~uuvid.io.dive_channels.read_dive_channels` (ArduSub parameters; a ROS bag's topics).
     """
+    from uuvid.core.checks import time_window
     from uuvid.vehicle.definition import load_vehicle
 
+    time_window(t_start, t_end, horizon, error=DiveDataError)
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
                                     topics=topics)

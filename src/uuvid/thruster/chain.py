@@ -32,22 +32,44 @@ _STEADY_CACHE = "steady_maps"  # sub-folder of the kernel cache for swept steady
 _SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL = 1e-3, 8, 1e-9  # sweep() defaults (part of the cache key)
 MAX_SAMPLES = 2_000_000
 """Most output samples (× runs) one simulation holds in memory (≈ 0.2 kB each)."""
+MAX_SUBSTEPS = 10_000
+"""Most RK4 steps per output sample: finer than ``dt / 10⁴`` buys RK4 no accuracy, only time."""
+MAX_RUN_STEPS = 50_000_000
+"""Most RK4 steps one simulated run may take (≈ 100 s at the ≈ 0.5 M steps/s of a T200 chain)."""
 MAX_SWEEP_STEPS = 1e12
 """Most integration steps a sweep may take (levels × pass length / dt, all passes)."""
 
 
 def _n_samples(t_end, dt, substeps, runs: int = 1) -> int:
-    """Output samples of a simulation, checked before anything is allocated."""
-    if not (math.isfinite(t_end) and t_end > 0 and math.isfinite(dt) and dt > 0):
-        raise ValueError(f"t_end and dt must be finite and positive, got t_end={t_end}, dt={dt}")
+    """Output samples of a simulation, checked before anything is allocated: at least 3 (what a
+    response needs: a start, a middle and an end), at most :data:`MAX_SAMPLES` (× runs) in memory
+    and :data:`MAX_RUN_STEPS` RK4 steps per run."""
+    if not (math.isfinite(t_end) and t_end > 0):
+        raise ValueError(f"t_end = {t_end:g}: expected a finite simulated time > 0 s (--t-end)")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt = {dt:g}: expected a finite output step > 0 s (--dt)")
     if int(substeps) < 1:
-        raise ValueError(f"substeps must be >= 1, got {substeps}")
+        raise ValueError(f"substeps = {substeps}: expected RK4 steps per output sample >= 1 "
+                         "(--substeps)")
+    if int(substeps) > MAX_SUBSTEPS:
+        raise ValueError(f"substeps = {int(substeps):,} RK4 steps per output sample is more than "
+                         f"{MAX_SUBSTEPS:,} (a step of dt/{MAX_SUBSTEPS:,} buys no accuracy, only "
+                         "time); lower substeps (--substeps) or the output step dt (--dt)")
     n = t_end / dt + 1
+    if n < 2.5:  # round(t_end/dt) + 1 < 3
+        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s gives {int(round(n))} output "
+                         "sample(s); a response needs at least 3: give t_end >= 2 dt (--t-end, "
+                         "--dt)")
     if n * max(runs, 1) > MAX_SAMPLES:
         per = f" × {runs} runs" if runs > 1 else ""
         raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s is {n:.3g} samples{per}, more than "
                          f"the {MAX_SAMPLES:,} a simulation may hold in memory; shorten t_end "
                          "(--t-end) or raise dt (--dt)")
+    if n * int(substeps) > MAX_RUN_STEPS:
+        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s with substeps = {int(substeps)} is "
+                         f"{n * int(substeps):.3g} RK4 steps, more than the {MAX_RUN_STEPS:.0e} "
+                         "one run may take (minutes of compute); lower substeps (--substeps), "
+                         "shorten t_end (--t-end) or raise dt (--dt)")
     return int(round(t_end / dt)) + 1
 
 

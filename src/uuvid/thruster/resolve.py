@@ -130,17 +130,19 @@ def supply_voltage_warnings(ref, chain, supply_voltage: float, rel_tol: float = 
 def supply_law(ref, chain, quiet: bool = False):
     """``(f, text)``: ``f(V)`` is the chain at supply voltage ``V`` and ``text`` says how; ``None``
     when the chain cannot follow a supply voltage (no ESC block).  ``quiet``: no warning when a
-    preset extrapolates beyond its sheets (e.g. the T200 outside 12–16 V)."""
+    preset extrapolates beyond its sheets (e.g. the T200 outside 12–16 V).  ``f`` raises
+    ``ValueError`` for a voltage that is not finite and > 0."""
+    from uuvid.core.checks import positive
     from uuvid.thruster.presets import PRESETS
 
     v0 = supply_voltage_of(chain)
     if v0 is None:
         return None
     if str(ref) in PRESETS:
-        return (lambda v: _preset_at(str(ref), v, quiet),
+        return (lambda v: _preset_at(str(ref), positive("supply_voltage", v, "V"), quiet),
                 f"thruster preset {ref}'s own voltage law (preset_chain at each voltage; "
                 f"nominal {v0:g} V)")
-    return (lambda v: at_supply(chain, v),
+    return (lambda v: at_supply(chain, positive("supply_voltage", v, "V")),
             f"the chain's ESC (set for {v0:g} V) at each voltage (V = duty × supply)")
 
 

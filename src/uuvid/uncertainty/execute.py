@@ -66,6 +66,8 @@ BACKENDS = ("inprocess", "processes", "dask")
 #: Start-up of one local worker process, s (spawn, import uuvid, load the compiled kernels; the
 #: order measured on a 2-core machine with warm caches).
 PROCESS_STARTUP_S = 2.0
+#: Most retries of a failed chunk (a chunk that fails a hundred times will not succeed).
+MAX_RETRIES = 100
 #: Processes pay when each worker gets at least this many times its start-up in work.
 PROCESS_PAYOFF = 20.0
 ENV_SCHEDULER = "UUVID_DASK_SCHEDULER"
@@ -395,6 +397,16 @@ def run_study(study, out: str | Path | None = None, *, backend: str | None = Non
     process and Dask backends) — a hook for tests and instrumentation.  ``on_chunk(result,
     done_runs)`` is called in this process after every completed chunk.
     """
+    from uuvid.uncertainty.targets import check_workers
+
+    workers = check_workers(workers)
+    if chunk_size is not None and int(chunk_size) < 1:
+        raise ValueError(f"`chunk_size=` {chunk_size}: expected runs per task >= 1")
+    if retries is not None and not 0 <= int(retries) <= MAX_RETRIES:
+        raise ValueError(f"`retries=` {retries}: expected retries of a failed chunk within "
+                         f"0..{MAX_RETRIES}")
+    if hasattr(study, "check_memory"):
+        study.check_memory()
     choice = choose_backend(backend, scheduler, client=client, study=study, workers=workers,
                             threads=threads_per_task)
     backend, sched = choice.backend, choice.scheduler

@@ -362,7 +362,7 @@ class MonteCarloSpec(BaseModel):
     name: str = "montecarlo"
     model: UncertainModel
     runs: int = Field(1000, ge=1)
-    seed: int = 0
+    seed: int = Field(0, ge=0)
     bounds: Literal["reject", "truncate", "ignore"] = "reject"
     max_draws: int = Field(100, ge=1, le=100000)
     target: Target | None = None
@@ -547,9 +547,14 @@ def run_montecarlo(model: UncertainModel | str | Path, runs: int = 1000, out: st
 
     if not isinstance(model, UncertainModel):
         model = load_model(model)
-    spec = MonteCarloSpec(name=name or f"{model.name}-mc", model=model, runs=runs, seed=seed,
-                          bounds=bounds, max_draws=max_draws, target=target,
-                          requirement=requirement, band=band, chunk_size=chunk_size)
+    try:
+        spec = MonteCarloSpec(name=name or f"{model.name}-mc", model=model, runs=runs, seed=seed,
+                              bounds=bounds, max_draws=max_draws, target=target,
+                              requirement=requirement, band=band, chunk_size=chunk_size)
+    except ValidationError as e:  # one line naming the keyword (`runs=`, `seed=`, …)
+        err = e.errors()[0]
+        key = ".".join(str(x) for x in err["loc"])
+        raise ValueError(f"`{key}=` {err.get('input')!r}: {err['msg']}") from None
     study = MonteCarloStudy(spec)
     study.check()
     res = run_study(study, out, **kw)

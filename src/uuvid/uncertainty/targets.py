@@ -34,6 +34,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from uuvid.core.checks import memory_budget_bytes, physical_memory_bytes
 from uuvid.simulate.scenario import ScenarioSpec
 from uuvid.thruster.blocks import ParameterError
 from uuvid.uncertainty import params as PR
@@ -612,6 +613,33 @@ class ChunkResult:
     worker: str = ""
 
 
+#: Bytes one number of a run (a column of its row, a point of its series) holds until the study
+#: ends: the chunk tables and series are copied about three times (chunks, the concatenated
+#: result, the summary); measured ≈ 6 kB a run for the T200 Monte Carlo's 263 numbers.
+BYTES_PER_RUN_VALUE = 24
+#: Memory a local worker process takes (Python with NumPy, pandas and the compiled kernels).
+WORKER_PROCESS_BYTES = 250e6
+
+
+def check_workers(workers) -> int | None:
+    """``workers`` (``None``: one per CPU) as an int >= 1 whose processes fit in
+    :func:`memory_budget_bytes` (≈ :data:`WORKER_PROCESS_BYTES` each); ``ValueError`` naming
+    ```workers=``` otherwise."""
+    if workers is None:
+        return None
+    w = int(workers)
+    if w < 1:
+        raise ValueError(f"`workers=` {w}: expected a number of worker processes >= 1")
+    budget = memory_budget_bytes()
+    if w * WORKER_PROCESS_BYTES > budget:
+        raise ValueError(
+            f"`workers=` {w:,}: that many processes would take ≈ "
+            f"{w * WORKER_PROCESS_BYTES / 1e9:.3g} GB (≈ {WORKER_PROCESS_BYTES / 1e6:g} MB each), "
+            f"more than half this machine's {physical_memory_bytes() / 1e9:.3g} GB; give at most "
+            f"{int(budget // WORKER_PROCESS_BYTES):,} (default: one per CPU)")
+    return w
+
+
 class StudyBase:
     """What every study (sweep, Monte Carlo) shares for :func:`uuvid.uncertainty.execute.run_study`:
     a serialisable payload, a lazily built plan over its parameter names, the chunk-size rule.
@@ -638,6 +666,28 @@ class StudyBase:
     def estimated_work_s(self) -> float:
         """Single-core seconds the whole study needs, roughly (for the backend choice)."""
         return self.n_runs * run_cost_s(self.spec.target)
+
+    def run_bytes(self) -> int:
+        """Memory one run's results hold until the study ends: its row (parameters, metrics,
+        status) and series, × :data:`BYTES_PER_RUN_VALUE`."""
+        values = sum(int(np.size(ax)) for ax in series_axes(self.plan).values())
+        values += len(self.parameter_names()) + len(self.plan.metric_names) + 4
+        return values * BYTES_PER_RUN_VALUE
+
+    def check_memory(self) -> None:
+        """``ValueError`` before any run when the study's results would not fit in
+        :func:`memory_budget_bytes` (they are held in memory to the end): it says how much they
+        would take and how many runs fit."""
+        per = self.run_bytes()
+        need = float(self.n_runs) * per
+        budget = memory_budget_bytes()
+        if need > budget:
+            raise ValueError(
+                f"`runs=` {int(self.n_runs):,}: the results would take ≈ {need / 1e9:.3g} GB of "
+                f"memory (≈ {per / 1e3:.3g} kB a run, held to the end of the study), more than "
+                f"half this machine's {physical_memory_bytes() / 1e9:.3g} GB; give at most "
+                f"{int(budget // per):,} runs, or split the study into several (other seeds) "
+                "and pool their results")
 
 
 #: Single-core cost of one integration step, s (orders measured on a 2-core machine: a thruster

@@ -133,7 +133,11 @@ class Battery:
 
 def limits_at(vehicle, voltage: float) -> np.ndarray:
     """(n, 2) thrust limits of the vehicle's thrusters at a supply voltage (power model of the
-    vehicle's battery block, or the T200 model)."""
+    vehicle's battery block, or the T200 model); ``ValueError`` for a voltage that is not finite,
+    > 0 and at most 1 kV (:func:`uuvid.core.checks.supply_voltage`)."""
+    from uuvid.core.checks import supply_voltage
+
+    voltage = supply_voltage("supply_voltage", voltage)
     name = vehicle.battery.thruster_power_model if vehicle.battery is not None else "t200-physical"
     lo, hi = SupplyThruster(physical_model(name)).limits(voltage)
     return np.tile([lo, hi], (len(vehicle.layout), 1))

@@ -367,6 +367,9 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
     from uuvid.vehicle.inflow import inflow_limits
     from uuvid.vehicle.layout import dof_index
 
+    if not (math.isfinite(max_tilt_deg) and 0 < max_tilt_deg < 90):
+        raise ValueError(f"max_tilt_deg = {max_tilt_deg:g}°: expected a tilt angle between 0 and "
+                         f"90° (default {MAX_TILT_DEG:g}°)")
     env = speed_envelope(vehicle, modes, inflow=inflow) if envelope is None else envelope
     il = inflow_limits(vehicle, inflow)
     p = vehicle.params

@@ -735,9 +735,13 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     idx = np.arange(uc.size)
     if n_points is not None:
         if int(n_points) < 2:
-            raise BenchDataError(f"n_points must be >= 2, got {n_points}")
+            raise BenchDataError(f"n_points = {n_points} (--table-points): expected at least 2 "
+                                 "knots")
         if n_points < uc.size:
             idx = _greedy_knots(uc, vals, int(n_points))
+        elif n_points > uc.size:
+            notes.append(f"{int(n_points):,} knots asked for, but the data have {uc.size} distinct "
+                         f"commands: the table keeps all {uc.size}")
     xi, yi = uc[idx], vals[idx]
     block = TableMap(input_values=tuple(xi), output_values=tuple(yi))
     resid = t - np.interp(c, xi, yi)

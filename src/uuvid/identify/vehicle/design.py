@@ -312,6 +312,7 @@ class SineDesign:
         """``{"t", "force"}``: the generalized force sampled every ``sample_time`` s over the
         experiment (``offset`` during ``lead_in``, then the sine)."""
         dt = self.sample_time if sample_time is None else _pos("sample_time", sample_time)
+        _check_command_size(self.lead_in + self.duration, dt)
         n = int(math.floor((self.lead_in + self.duration) / dt + 1e-9)) + 1
         t = np.arange(n) * dt
         ts = t - self.lead_in
@@ -357,6 +358,27 @@ class SineDesign:
         return d
 
 
+#: Most samples a designed command may hold (:meth:`SineDesign.command`, the thruster commands
+#: and the CSV written from them take ≈ :data:`COMMAND_SAMPLE_BYTES` each): 2 million samples is
+#: 55 hours at the default 0.1 s.
+MAX_COMMAND_SAMPLES = 2_000_000
+COMMAND_SAMPLE_BYTES = 400
+
+
+def _check_command_size(length: float, sample_time: float) -> None:
+    """``ValueError`` before anything is allocated when an experiment of ``length`` seconds
+    sampled every ``sample_time`` s is more than :data:`MAX_COMMAND_SAMPLES` samples."""
+    n = length / sample_time + 1
+    if not math.isfinite(n) or n > MAX_COMMAND_SAMPLES:
+        raise ValueError(
+            f"the experiment lasts {length:.3g} s: sampled every {sample_time:g} s "
+            f"(`sample_time=`) its command is {n:.3g} samples (≈ "
+            f"{n * COMMAND_SAMPLE_BYTES / 1e9:.3g} GB with the thruster commands and the CSV), "
+            f"more than the {MAX_COMMAND_SAMPLES:,} a command may hold; raise `sample_time=` or "
+            "shorten the experiment (`n_periods=`, `settle_tau=`, `lead_in=`, or the inertia "
+            "and drag behind τ_c)")
+
+
 def design_sine_experiment(k: float, k_q: float = 0.0, *, mass: float, speed: float,
                            mass_range: tuple[float, float] | None = None,
                            mass_air: float | None = None,
@@ -378,13 +400,17 @@ def design_sine_experiment(k: float, k_q: float = 0.0, *, mass: float, speed: fl
     reversal) instead of the largest admissible one; ``max_distance``: maneuvering space (m) —
     the frequency is raised if ``settle + n_periods`` periods at ``|ξ*|`` would not fit.
     """
+    from uuvid.core.checks import finite, non_negative
+
     if choice not in ("nominal", "robust"):
         raise ValueError(f"choice must be 'nominal' or 'robust', got {choice!r}")
+    k, k_q = non_negative("k", k), non_negative("k_q", k_q)
+    speed, w = finite("speed", speed), finite("w", w)
     mass = _pos("mass", mass)
     n_periods = _pos("n_periods", n_periods)
     sample_time = _pos("sample_time", sample_time)
-    if settle_tau < 0 or lead_in < 0:
-        raise ValueError("settle_tau and lead_in must be >= 0")
+    settle_tau = non_negative("settle_tau", settle_tau, "multiples of τ_c")
+    lead_in = non_negative("lead_in", lead_in, "s")
     kL = linearised_drag(k, k_q, speed)
     tau = mass / kL
     a = 1.0 / tau
@@ -439,6 +465,11 @@ def design_sine_experiment(k: float, k_q: float = 0.0, *, mass: float, speed: fl
             msgs.append(f"imposed amplitude {amp:.4g} exceeds the admissible {lv['amplitude']:.4g} "
                         f"(limited by {lv['limited_by']})")
     duration = settle + n_periods * 2 * math.pi / omega
+    if sample_time > math.pi / omega:
+        raise ValueError(f"sample_time = {sample_time:g} s: more than half the sine's period "
+                         f"({2 * math.pi / omega:.4g} s), so the command cannot carry the sine "
+                         f"(Nyquist); expected at most {math.pi / omega:.4g} s")
+    _check_command_size(lead_in + duration, sample_time)
     return SineDesign(dof, mass, float(k), float(k_q), float(speed), kL, tau, w_opt, w_num, omega,
                       lv["offset"], amp, n_periods, settle, duration, sample_time,
                       float(d_efficiency(omega, a)), abs(speed) * (duration + lead_in), eta,

@@ -569,7 +569,7 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
         keep = nfill <= max_filled
         if keep.sum() < 10:
             raise ValueError("fewer than 10 regression rows have a filter window free of filled "
-                             "samples; raise max_filled")
+                             "samples; raise `max_filled=`")
     n_excluded = int((~keep).sum())
     Phi = _integrate_force(tp, phi, eta, ts, hold)
     Phi = Phi - Phi[0]

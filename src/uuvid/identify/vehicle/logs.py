@@ -108,8 +108,11 @@ class LogData:
 
     def between(self, t_start: float | None = None, t_end: float | None = None) -> LogData:
         """The samples with ``t_start <= t <= t_end`` (``None``: open)."""
+        from uuvid.core.checks import time_window
+
         if t_start is None and t_end is None:
             return self
+        time_window(t_start, t_end)
         lo = -math.inf if t_start is None else float(t_start)
         hi = math.inf if t_end is None else float(t_end)
         if not lo < hi:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.core.checks import time_window
 from uuvid.core.result import Result, jsonable
 from uuvid.identify.plausibility import drag_warnings, fit_quality_warnings, inertia_warnings
 from uuvid.identify.vehicle.logs import ANGULAR, LogData, LogSpec, read_vehicle_log
@@ -529,8 +530,17 @@ def run_inertia(data: LogData, dof: str, drag: dict, opt: InertiaOptions) -> dic
     if window % 2 == 0 or window <= opt.order:
         raise ValueError(f"--window must be an odd number of points > --order ({opt.order}), got "
                          f"{window}")
+    if int(opt.max_filled) < 0:
+        raise ValueError(f"--max-filled {opt.max_filled}: expected a count of samples >= 0")
+    if opt.hac_lags is not None and int(opt.hac_lags) < 0:
+        raise ValueError(f"--hac-lags {opt.hac_lags}: expected a bandwidth of >= 0 points")
     omega, amp = (opt.omega, math.nan) if opt.omega else detect_omega(data.t_cmd, data.command)
     dt_pos = float(np.median(np.diff(data.t_pos)))
+    if opt.omega and opt.omega * dt_pos > math.pi:
+        raise ValueError(f"--omega {opt.omega:g} rad/s is above the Nyquist frequency "
+                         f"π/Δt = {math.pi / dt_pos:.4g} rad/s of the position samples (Δt = "
+                         f"{dt_pos:.4g} s): the log cannot hold that sine; expected the sine's "
+                         "frequency in rad/s (2π / period)")
     hac = opt.hac_lags
     notes = []
     if opt.cov_type == "HAC" and hac is None and omega:
@@ -545,6 +555,10 @@ def run_inertia(data: LogData, dof: str, drag: dict, opt: InertiaOptions) -> dic
                       drag_cov=cov, velocity_noise_correction=opt.eiv,
                       max_filled=opt.max_filled)
     m = fit.mass
+    if opt.cov_type == "HAC" and hac is not None and hac >= np.size(fit.t):
+        notes.append(f"HAC bandwidth {hac:,} points is not shorter than the {np.size(fit.t)} "
+                     "regression rows: every pair of residuals is weighted, so σ is no HAC "
+                     "estimate; give a smaller --hac-lags (default a quarter of the sine period)")
     out = {"fit": fit, "window": window, "hac_lags": hac, "omega": omega, "notes": notes}
     # phase lag of the velocity behind the sine input vs atan(ω m / k_L)
     tr, vr = fit.t_raw, fit.velocity_raw
@@ -832,6 +846,21 @@ def _as_data(log, dof: str | None, read: dict) -> tuple[LogData, str, str]:
     return read_vehicle_log(spec), spec.dof, str(spec.path)
 
 
+def _check_steady_options(settle, min_duration, tol, rel_tol, threshold) -> None:
+    """The numbers of :func:`identify_steady`, before the log is read: ``ValueError`` naming the
+    parameter (```name=```, spelled as an option by the command line)."""
+    checks = (("settle", settle, lambda v: v >= 0, "a settling time >= 0 s"),
+              ("min_duration", min_duration, lambda v: v > 0, "a duration > 0 s"),
+              ("tol", tol, lambda v: v >= 0, "an absolute tolerance >= 0 (the command's unit)"),
+              ("rel_tol", rel_tol, lambda v: v >= 0, "a relative tolerance >= 0 (0.02 = 2 %)"),
+              ("threshold", threshold, lambda v: v > 0,
+               "an outlier threshold > 0 (robust σ; 3.5 by default)"))
+    for name, v, ok, what in checks:
+        v = float(v)
+        if not (math.isfinite(v) and ok(v)):
+            raise ValueError(f"`{name}=` {v:g}: expected {what}")
+
+
 def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
                     min_duration: float = 10.0, tol: float = 0.0, rel_tol: float = 0.02,
                     threshold: float = 3.5, eta_map: str | None = None,
@@ -846,11 +875,8 @@ def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
     ``topics=[...]``, ``fields=[...]``, ``vehicle=``, ``on_duplicate=``, ``time=``,
     ``t_start=``…), a :class:`LogSpec` or :class:`LogData`.  ``eta_map`` / ``open_water`` say
     which mapping mode works in open water (η = 1) — see :func:`build_eta_map`."""
+    _check_steady_options(settle, min_duration, tol, rel_tol, threshold)
     data, dof, name = _as_data(log, dof, read)
-    if not (math.isfinite(settle) and settle >= 0):
-        raise ValueError(f"settle must be >= 0 seconds, got {settle}")
-    if not (math.isfinite(min_duration) and min_duration > 0):
-        raise ValueError(f"min_duration must be > 0 seconds, got {min_duration}")
     if eta_map and open_water:
         raise ValueError("give eta_map (--eta-map) or open_water (--open-water-mode), not both")
     if data.ballast is not None and dof != "heave":
@@ -1024,6 +1050,7 @@ def identify_inertia(log, dof: str | None = None, *, drag=None, k: float | None 
         t_start = log.t_start if t_start is None else t_start
         t_end = log.t_end if t_end is None else t_end
         log = replace(log, t_start=None, t_end=None)
+    time_window(t_start, t_end)
     if omega is not None and not (math.isfinite(omega) and omega > 0):
         raise ValueError(f"--omega must be > 0 rad/s, got {omega}")
     d0 = dof or (log.dof if isinstance(log, LogSpec) else None)

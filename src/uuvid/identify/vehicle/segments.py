@@ -187,8 +187,9 @@ def find_segments(t, command, *, min_duration: float, settle: float = 0.0, tol: 
         raise ValueError(f"min_duration must be > 0, got {min_duration!r}")
     if not (math.isfinite(settle) and settle >= 0):
         raise ValueError(f"settle must be >= 0, got {settle!r}")
-    if tol < 0 or rel_tol < 0:
-        raise ValueError("tol and rel_tol must be >= 0")
+    for name, v in (("tol", tol), ("rel_tol", rel_tol)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"`{name}=` {v!r}: expected a finite tolerance >= 0")
     n = t.size
     if mode is None or isinstance(mode, str):
         modes = [mode] * n
@@ -329,8 +330,8 @@ def segment_velocity(t, x, t0: float | None = None, t1: float | None = None, *,
     if t.shape != x.shape:
         raise ValueError(f"t {t.shape} and x {x.shape} must have the same shape")
     _check_time(t)
-    if not (threshold > 0):
-        raise ValueError(f"threshold must be > 0, got {threshold!r}")
+    if not (math.isfinite(threshold) and threshold > 0):
+        raise ValueError(f"`threshold=` {threshold!r}: expected a finite threshold > 0")
     lo = -math.inf if t0 is None else t0
     hi = math.inf if t1 is None else t1
     if hi <= lo:

@@ -156,6 +156,26 @@ class DiveLog(Result):
         return plot_dive(self, path)
 
 
+def _check_grid(name: str, dt: float, spans, motors: int) -> None:
+    """``LogDataError`` before the grid is allocated: a step longer than every stretch of the
+    log (one row per stretch), or a table (rows × columns × 8 bytes) past
+    :func:`uuvid.core.checks.memory_budget_bytes`."""
+    from uuvid.core.checks import memory_budget_bytes, physical_memory_bytes
+
+    longest = max(hi - lo for _, lo, hi in spans)
+    if dt > longest:
+        raise LogDataError(f"{name}: dt = {dt:g} s is longer than the log's longest stretch "
+                           f"({longest:.4g} s): the table would hold one row per stretch; give a "
+                           "shorter step")
+    rows = sum((hi - lo) / dt + 1 for _, lo, hi in spans)
+    columns = 16 + 3 * motors  # time, depth, attitude, battery, mode, wrench + per motor
+    need = rows * columns * 8
+    if need > memory_budget_bytes():
+        raise LogDataError(f"{name}: dt = {dt:g} s makes {rows:.3g} rows × {columns} columns ≈ "
+                           f"{need / 1e9:.3g} GB of table, more than half this machine's "
+                           f"{physical_memory_bytes() / 1e9:.3g} GB; give a larger step")
+
+
 def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = None,
               params=None) -> DiveLog:
     """Read an ArduSub ``.BIN``/``.tlog`` into a :class:`DiveLog` (see the module doc).
@@ -184,6 +204,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
 
     from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
 
+    if dt is not None and not (math.isfinite(float(dt)) and float(dt) > 0):
+        raise LogDataError(f"dt = {float(dt):g}: expected a time step > 0 s (leave it out for the "
+                           "attitude interval)")
     raw = read_raw(path)
     name = raw.name
     warnings = list(raw.warnings)
@@ -230,7 +253,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         d = np.diff(att[0].t)
         d = d[(d > 0) & (np.diff(att[0].part) == 0)]
         dt = max(round(float(np.median(d)), 3), 0.001) if d.size else 0.1
-    grids, gparts = [], []
+    spans = []
     essentials = [c for c in (depth, *att, *pwms.values()) if c is not None]
     for k in sorted(set(np.unique(att[0].part).tolist())):
         lo = max((c.t[c.part == k].min() for c in essentials if np.any(c.part == k)),
@@ -240,11 +263,15 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         if not all(np.any(c.part == k) for c in essentials) or not hi > lo:
             warnings.append(f"part {k}: depth, attitude and PWM do not overlap; part left out")
             continue
+        spans.append((k, lo, hi))
+    if not spans:
+        raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
+    _check_grid(name, dt, spans, len(pwms))
+    grids, gparts = [], []
+    for k, lo, hi in spans:
         n = int(math.floor((hi - lo) / dt + 1e-9)) + 1
         grids.append(lo + dt * np.arange(n))
         gparts.append(np.full(n, k))
-    if not grids:
-        raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
     grid, gpart = np.concatenate(grids), np.concatenate(gparts)
     cols: dict = {"t_s": grid - grid[0]}
     stamp = "TimeUS" if raw.format == "dataflash" else "time_boot_ms"

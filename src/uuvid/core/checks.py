@@ -1,0 +1,87 @@
+"""Checks of single numbers a caller passes (an option's value, a keyword argument), before any
+work: ``ValueError`` whose message starts with the parameter's name (``name = value: expected
+…``), so a command line can name its option instead (:func:`uuvid.cli.common._flagged`)."""
+
+from __future__ import annotations
+
+import math
+
+
+def _num(name: str, value) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: expected a number") from None
+
+
+def finite(name: str, value, unit: str = "") -> float:
+    """``value`` as a float; ``ValueError`` for NaN or ±inf."""
+    v = _num(name, value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} = {v:g}: expected a finite number{f' ({unit})' if unit else ''}")
+    return v
+
+
+def positive(name: str, value, unit: str = "") -> float:
+    """``value`` as a finite float > 0."""
+    v = _num(name, value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} = {v:g}: expected a finite number > 0"
+                         + (f" ({unit})" if unit else ""))
+    return v
+
+
+def non_negative(name: str, value, unit: str = "") -> float:
+    """``value`` as a finite float >= 0."""
+    v = _num(name, value)
+    if not (math.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} = {v:g}: expected a finite number >= 0"
+                         + (f" ({unit})" if unit else ""))
+    return v
+
+
+#: a supply voltage above this [V] is in millivolts (no thruster runs on a kilovolt supply); the
+#: bound ``thruster fit`` applies to a bench file's voltage too (``uuvid.identify.plausibility``)
+MAX_PLAUSIBLE_VOLTAGE = 1000.0
+
+
+def supply_voltage(name: str, value) -> float:
+    """A supply voltage [V]: finite, > 0 and at most :data:`MAX_PLAUSIBLE_VOLTAGE` (above it
+    the number is in millivolts)."""
+    v = positive(name, value, "V")
+    if v > MAX_PLAUSIBLE_VOLTAGE:
+        raise ValueError(f"{name} = {v:g} V: above {MAX_PLAUSIBLE_VOLTAGE:g} V, beyond any "
+                         "thruster's supply (millivolts?); expected a battery voltage in V")
+    return v
+
+
+def time_window(t_start=None, t_end=None, horizon=None, *, error=ValueError) -> None:
+    """A log's time bounds and window length as given (``None``: not given): finite times, an
+    end after the start, a window > 0 s; ``error`` (a ``ValueError`` type) naming the options
+    ``--t-start``, ``--t-end``, ``--horizon`` as the dive commands spell them."""
+    for name, v in (("--t-start", t_start), ("--t-end", t_end)):
+        if v is not None and not math.isfinite(_num(name, v)):
+            raise error(f"{name} {float(v):g}: expected a finite time in s (leave it out for "
+                        "the log's " + ("start" if name == "--t-start" else "end") + ")")
+    if t_start is not None and t_end is not None and float(t_end) <= float(t_start):
+        raise error(f"--t-end {float(t_end):g} s must be after --t-start {float(t_start):g} s")
+    if horizon is not None and not (math.isfinite(_num("--horizon", horizon))
+                                    and float(horizon) > 0):
+        raise error(f"--horizon {float(horizon):g}: expected a window length > 0 s (leave it "
+                    "out for the default of each DOF)")
+
+
+def physical_memory_bytes() -> float:
+    """This machine's physical memory (4 GB when the system does not say)."""
+    import os
+
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        return 4e9
+
+
+def memory_budget_bytes() -> float:
+    """Most memory one result (a study's table, an exported log) may take: half of
+    :func:`physical_memory_bytes`, the rest left to the process and the machine."""
+    return 0.5 * physical_memory_bytes()
