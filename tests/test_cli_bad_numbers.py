@@ -146,6 +146,19 @@ def test_thruster_replay_neutral(examples, value):
     refused(res, "--neutral", "finite")
 
 
+def test_thruster_replay_neutral_a_command_model_would_ignore(tmp_path):
+    """A PWM-driven model's ESC holds its own neutral; another ``--neutral`` was ignored."""
+    run = tmp_path / "run.csv"
+    run.write_text("time,command,thrust\n" + "".join(
+        f"{0.01 * i:.2f},{1500 if i < 100 else 1700},{0 if i < 100 else 20}\n" for i in range(300)))
+    base = ["thruster", "replay", "t200", str(run), "--command-unit", "pwm_us", "--thrust-col",
+            "thrust"]
+    refused(invoke(base + ["--neutral", "1400"]), "--neutral 1400", "neutral command 1500")
+    for same in (["--neutral", "1500"], []):
+        res = invoke(base + same)
+        assert res.exit_code == 0, res.output
+
+
 # ------------------------------------------------------------------------- vehicle
 @pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "90", "1e12"])
 def test_vehicle_stability_max_tilt(value):
@@ -223,6 +236,16 @@ def test_identify_steady(examples, option, value, needle):
                   option, value])
     refused(res, option, needle)
     assert "segment 0:" not in res.output  # refused once, up front, not once per segment
+
+
+def test_identify_steady_bandwidth_without_hac_is_refused(examples):
+    """``--hac-lags`` with the default classical covariance was ignored without a word."""
+    res = invoke(["vehicle", "identify", "steady", str(examples / "yaw_steady.csv"), *STEADY,
+                  "--hac-lags", "3"])
+    refused(res, "--hac-lags 3", "--cov-type HAC")
+    ok = invoke(["vehicle", "identify", "steady", str(examples / "yaw_steady.csv"), *STEADY,
+                 "--hac-lags", "3", "--cov-type", "HAC"])
+    assert ok.exit_code == 0, ok.output
 
 
 INERTIA = ["--dof", "yaw", "--command-col", "torque", "--position-col", "heading_deg",

@@ -116,7 +116,7 @@ def fail(msg: str):
 PARAM_FLAGS = {"`settle=`": "--settle", "`min_duration=`": "--min-duration",
                "`rel_tol=`": "--rel-tol", "`tol=`": "--tol", "`threshold=`": "--threshold",
                "`open_loop_only=False`": "--all-modes", "`hac_lags=`": "--hac-lags",
-               "`max_filled=`": "--max-filled"}
+               "`max_filled=`": "--max-filled", "`cov_type=`": "--cov-type"}
 
 
 def flags(text: str) -> str:

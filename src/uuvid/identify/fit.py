@@ -358,6 +358,10 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
         raise ValueError(f"{len(names)} names for {p} regressor columns")
     if n < p:
         raise ValueError(f"too few samples: {n} for {p} parameters")
+    if hac_lags is not None and cov_type != "HAC":
+        raise ValueError(f"`hac_lags=` {hac_lags} is the bandwidth of the HAC (Newey–West) "
+                         f"covariance; with `cov_type=` {cov_type} it would be ignored: expected "
+                         "`cov_type=` HAC, or no bandwidth")
     bad = np.flatnonzero(~np.isfinite(y) | ~np.all(np.isfinite(H), axis=1))
     if bad.size:
         raise ValueError(f"row {bad[0]} of the regression has a non-finite value")

@@ -1186,7 +1186,14 @@ def replay_files(chain, paths, opts: ReadOptions) -> Replay:
     if chain.input_kind == "speed":
         raise FitError(f"{chain.name}: the model's input is the propeller speed; replay needs a "
                        "model driven by the command or the voltage")
-    sets = read_files(paths, opts)
+    sets = read_files(paths, opts)  # checks the options (a finite --neutral…) first
+    if chain.input_kind == "command" and opts.neutral is not None:
+        held = float(getattr(chain.blocks[0], "neutral", 0.0))
+        if abs(float(opts.neutral) - held) > 1e-9 * max(1.0, abs(held)):
+            raise FitError(f"--neutral {opts.neutral:g}: {chain.name} takes the raw command and "
+                           f"its first block holds the neutral command {held:g}, so the option "
+                           "would be ignored: expected no --neutral (or the model's own), or a "
+                           "model file whose driver has the neutral you mean")
     preds = []
     for s, e in zip(sets, experiments_from(sets, "replay")):
         u = _voltage_of(s) if chain.input_kind == "voltage" else s.command
