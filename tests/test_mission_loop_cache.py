@@ -114,3 +114,26 @@ def test_a_second_process_loads_the_loop_from_disk(tmp_path):
     assert runs[0]["misses"] >= 1 and runs[0]["hits"] == 0  # compiled in the first
     assert runs[1]["hits"] >= 1 and runs[1]["misses"] == 0  # loaded in the second
     assert runs[0]["end"] == runs[1]["end"]
+
+
+def test_the_loop_is_keyed_on_the_compiled_code_not_every_file(tmp_path, monkeypatch):
+    """A new version of uuvid's compiled code (a module that uses numba) names a new module; the
+    digest leaves out files no compiled loop can reach (an edit to the CLI recompiled every loop
+    in a checkout: 10–40 s each)."""
+    from uuvid.core import cache as disk
+    from uuvid.core.numba_cache import numba_sources_digest
+
+    assert disk.compiled_code_version().endswith("+" + numba_sources_digest())
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+    m = _module(tmp_path, monkeypatch, 1.0)
+    names = set()
+    for version in ("0.0.0+one", "0.0.0+one", "0.0.0+two"):
+        monkeypatch.setattr(disk, "compiled_code_version", lambda v=version: v)
+        monkeypatch.setattr(disk, "code_version", lambda v=version: v + "-whole-tree")
+        _disk_cached.cache_clear()
+        names.add(_disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force).py_func.__module__)
+    assert len(names) == 2
+    monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+an-edit-outside-numba-code")
+    _disk_cached.cache_clear()
+    assert _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force).py_func.__module__ in names
+    _disk_cached.cache_clear()

@@ -99,6 +99,17 @@ def code_version() -> str:
     return f"{uuvid.__version__}+{source_digest(Path(uuvid.__file__).resolve().parent)}"
 
 
+def compiled_code_version() -> str:
+    """``<uuvid version>+<digest of the modules that use numba>``
+    (:func:`uuvid.core.numba_cache.numba_sources_digest`): the key of generated, compiled modules
+    (mission loops, batch kernels), which can reach only that code.  An edit elsewhere (the CLI,
+    a report, the docs) keeps their machine code instead of compiling them again (10–40 s each)."""
+    import uuvid
+    from uuvid.core.numba_cache import numba_sources_digest
+
+    return f"{uuvid.__version__}+{numba_sources_digest()}"
+
+
 def tree_stamp(*subpackages: str) -> str:
     """Digest of the package version and the relative path, size and modification time of every
     ``.py``/``.yaml``/``.json``/``.csv`` file in the given subpackages of uuvid (``""``: the top

@@ -1182,10 +1182,10 @@ def _kernel(st: _Structure, pv_names, sh_names, ctrl_fn=None):
 
         src = _generate(st, pv_names, sh_names)
         # the generated module calls the package's compiled kernels, which numba's cache does not
-        # track: the code version (version + source hash) is part of the module's name
-        from uuvid.core.cache import code_version, digest
+        # track: the compiled code's version (version + digest of the numba modules) is in its name
+        from uuvid.core.cache import compiled_code_version, digest
 
-        modname = f"_uuvid_batch_{key}_{digest(code_version())[:12]}"
+        modname = f"_uuvid_batch_{key}_{digest(compiled_code_version())[:12]}"
         path = os.path.join(_cache_dir(), modname + ".py")
         try:
             if st.user:
