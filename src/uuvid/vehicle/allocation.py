@@ -637,7 +637,7 @@ def _qp_box(H, g, E, e, nE, lo, hi, x, fixed, maxit, wf, wi):
             gscale = max(gscale, abs(H[i, j]) * max(abs(lo[j]), abs(hi[j]), 1.0))
     tolmu = 1e-12 * max(gscale, 1e-300)
     for it in range(maxit):
-        nf = 0
+        nf = np.int64(0)  # not the literal 0: callees are typed for it once, not twice
         for i in range(n):
             if fixed[i] == 0:
                 idx[nf] = i
@@ -794,7 +794,7 @@ def _residual(Bp, q, m, n, x, target):
 def _exact(Bp, q, C, nC, m, n, W, lo, hi, target, x, fixed, E, e, g0, wf, wi):
     """Least weighted effort ``min ½ Σ w_i x_i²`` with ``B_c x = target``, ``C x = 0`` and the
     bounds, from a start ``x`` that (nearly) delivers ``target``; returns the residual."""
-    nE = 0
+    nE = np.int64(0)  # not the literal 0: _qp_box is compiled for it once, not twice
     for k in range(m):
         if q[k] > 0.0:
             for i in range(n):
