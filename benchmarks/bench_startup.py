@@ -17,6 +17,10 @@ Cases:
   the bytecode is cached.
 * **library mission process**: a plain ``fly_mission`` of the BlueROV2 square as a whole process
   (warm caches) against the same floor, interleaved pairs, CPU-time ratio (target ≤ 1.25).
+* **cold mission process**: the same library mission in a new process with empty caches (numba's
+  and uuvid's), against the minimal kernel's cold process (import numba, compile
+  ``minimal_kernel.fly_minimal`` into an empty cache, fly the same inputs), interleaved pairs, the
+  CPU-time ratio (target ≤ 4): a mission compiles only the loop specialised to its configuration.
 * **uuvid --help (whole process)**: the command line alone, against ``python -c "import numpy"``.
 * **setup_mission**: the BlueROV2 (T200 chains: ESC → first-order motor → map, closed-form steady
   map) and the AUV II (tunnel thrusters: simulated to rest, the table read from the disk cache),
@@ -27,6 +31,7 @@ Cases:
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import statistics
 import subprocess
@@ -179,6 +184,68 @@ def warm_mission_process(repeat: int = 9) -> dict:
             "target": "cpu_ours_over_floor <= 1.25", "pairs": repeat, "load_average_1min": load}
 
 
+#: The minimal kernel's cold process: numpy and numba imported, the kernel compiled (a fresh
+#: cache) and run on the BlueROV2 square's inputs, which the parent wrote to ``inputs.npz``
+#: (building them is uuvid's work, not the kernel's).
+MINIMAL_PROCESS = ("import sys\n"
+                   "import numpy as np\n"
+                   "sys.path.insert(0, sys.argv[1])\n"
+                   "import minimal_kernel as mk\n"
+                   "d = np.load(sys.argv[2])\n"
+                   "args = [d[f'a{i}'] for i in range(len(d.files))]\n"
+                   "mk.fly_minimal(*[a if a.ndim else a.item() for a in args])\n")
+
+
+def cold_mission_process(pairs: int = 3) -> dict:
+    """The BlueROV2 square flown by a new process with *empty* caches (numba's and uuvid's: what
+    a user's first mission after installing costs), against the minimal kernel's cold process
+    (:data:`MINIMAL_PROCESS`: import numba, compile the ~150-line kernel, fly), interleaved
+    pairs, each run with its own fresh cache folders; target ≤ 4 (issue 20 item 2)."""
+    import tempfile
+
+    import numpy as np
+
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    spec = importlib.util.spec_from_file_location("uuvid_benchmarks_minimal_kernel",
+                                                  os.path.join(here, "minimal_kernel.py"))
+    mk = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mk)
+    w, c, wr, cr = [], [], [], []
+    with tempfile.TemporaryDirectory(prefix="uuvid-cold-") as tmp:
+        inputs = os.path.join(tmp, "inputs.npz")
+        args = mk.kernel_args(setup_mission(load_vehicle("bluerov2"), square_mission()))
+        np.savez(inputs, **{f"a{i}": np.asarray(a) for i, a in enumerate(args)})
+        ours = [sys.executable, "-c", MISSION_PROCESS]
+        floor = [sys.executable, "-c", MINIMAL_PROCESS, here, inputs]
+        for k in range(pairs):
+            def fresh(tag, k=k):
+                d = tempfile.mkdtemp(prefix=f"{tag}{k}-", dir=tmp)
+                return {**_env(), "NUMBA_CACHE_DIR": os.path.join(d, "numba"),
+                        "UUVID_KERNEL_CACHE": os.path.join(d, "uuvid")}
+            order = [("ours", ours), ("floor", floor)]
+            for tag, argv in (order if k % 2 == 0 else order[::-1]):
+                t = _run_once(argv, fresh(tag), None)
+                (w if tag == "ours" else wr).append(t[0])
+                (c if tag == "ours" else cr).append(t[1])
+    ratio = [x / y for x, y in zip(c, cr)]
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return {"case": "library mission process (bluerov2 square, cold: empty caches) vs the minimal "
+                    "kernel's cold process",
+            "time_s": statistics.median(w), "cpu_time_s": statistics.median(c),
+            "reference": "python: import numba, compile and run benchmarks/minimal_kernel.py "
+                         "(empty cache) on the same inputs",
+            "reference_time_s": statistics.median(wr),
+            "reference_cpu_time_s": statistics.median(cr),
+            "ratio": statistics.median(wr) / statistics.median(w),
+            "cpu_ours_over_minimal": statistics.median(ratio),
+            "cpu_ours_over_minimal_min_max": [min(ratio), max(ratio)],
+            "target": "cpu_ours_over_minimal <= 4", "pairs": pairs, "load_average_1min": load}
+
+
 def setup_cases(repeat: int = 5) -> list[dict]:
     import numpy as np
 
@@ -218,7 +285,8 @@ def setup_cases(repeat: int = 5) -> list[dict]:
 
 
 def run_all(repeat: int = 5) -> dict:
-    return {"startup": whole_process_cases(repeat) + [warm_mission_process()]
+    return {"startup": whole_process_cases(repeat) + [warm_mission_process(),
+                                                        cold_mission_process()]
             + setup_cases(repeat)}
 
 

@@ -10,6 +10,7 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 
 from uuvid.simulate.disturbances import no_disturbance, sinusoidal_force
@@ -89,13 +90,14 @@ SCRIPT = textwrap.dedent("""
     import json, sys
     from uuvid.simulate.disturbances import sinusoidal
     from uuvid.simulate.reference import square_mission
-    from uuvid.simulate.vehicle_sim import compiled_loop, fly_mission, setup_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, mission_runner, setup_mission
     from uuvid.vehicle.definition import load_vehicle
 
     wave = sinusoidal(amplitude=(10.0, 0, 8.0, 0, 0, 0), period=5.0)
     s = setup_mission(load_vehicle("bluerov2"), square_mission(), t_end=5.0, disturbance=wave)
     r = fly_mission(s)
-    loop = s.blocks()[0]
+    loop = mission_runner(s)[0].loop
+    assert not loop.py_func.__module__.startswith("uuvid.")  # the generated, cached module
     print(json.dumps({"hits": sum(loop.stats.cache_hits.values()),
                       "misses": sum(loop.stats.cache_misses.values()),
                       "end": r.state[-1, :3].tolist()}))
@@ -137,3 +139,76 @@ def test_the_loop_is_keyed_on_the_compiled_code_not_every_file(tmp_path, monkeyp
     _disk_cached.cache_clear()
     assert _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force).py_func.__module__ in names
     _disk_cached.cache_clear()
+
+
+TEMPLATE = '''
+from numba import njit
+
+
+@njit(cache=False)
+def heavy(x):
+    return x * 2.0
+
+
+@njit(cache=False)
+def light(x):
+    return x + 1.0
+
+
+@njit(cache=False)
+def loop(x):
+    """A loop with a configuration line, as fly_quad's."""
+    flag = x > 0.0
+    if flag:
+        return heavy(x)
+    return light(x)
+'''
+
+
+def _template(tmp_path, monkeypatch):
+    d = tmp_path / "tpl"
+    d.mkdir(exist_ok=True)
+    (d / "loop_template_mod.py").write_text(TEMPLATE)
+    monkeypatch.syspath_prepend(str(d))
+    sys.modules.pop("loop_template_mod", None)
+    import importlib
+
+    return importlib.import_module("loop_template_mod")
+
+
+def test_a_specialised_loop_compiles_only_its_branch_and_refuses_other_inputs(tmp_path,
+                                                                           monkeypatch):
+    """The configuration line becomes a constant: numba drops the branch it rules out before
+    compiling (its callee is never compiled), and inputs that give the other configuration stop
+    the loop with an error instead of flying the wrong branch."""
+    from numba import njit
+
+    from uuvid.simulate.vehicle_sim import _fixed_source, _template_source
+
+    m = _template(tmp_path, monkeypatch)
+    src = _fixed_source(_template_source(m.loop), (("flag", False),))
+    assert "    flag = False" in src
+    g = dict(vars(m))
+    exec(compile(src, "<specialised>", "exec"), g)
+    special = njit(g["loop"])
+    assert special(-1.0) == 0.0
+    assert not m.heavy.signatures and m.light.signatures  # the pruned branch: never compiled
+    with pytest.raises(ValueError, match="specialised to flag = False"):
+        special(1.0)
+    with pytest.raises(SyntaxError):
+        _fixed_source(src, (("nothing", True),))
+
+
+def test_fly_quad_and_fly_loop_have_one_line_per_configuration_flag():
+    """Every flag the runners fix is one top-level line of the loop (else the specialisation
+    would silently fall back to compiling every branch)."""
+    from uuvid.simulate.vehicle_sim import _fixed_source, _template_source, loop_config, quad_config
+
+    quad = quad_config(np.zeros(3), np.zeros(0))
+    assert [n for n, _ in quad] == ["still", "inflow"]
+    _fixed_source(_template_source(fly_quad), quad)
+    cfg = loop_config(np.array([0, 0, 1, 1]), np.array([False, True, False]), np.zeros(0))
+    assert dict(cfg) == {"fast": True, "inflow": False}
+    assert dict(loop_config(np.array([0, 1, 2]), np.array([True, True]), np.ones(3))) == {
+        "fast": False, "inflow": True}  # two dynamic blocks: the general block dispatch
+    _fixed_source(_template_source(_fly_loop), cfg)

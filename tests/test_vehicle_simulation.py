@@ -311,3 +311,55 @@ def test_specialised_loop_is_the_general_loop_bit_for_bit(bluerov2, kw):
     run(setup.t.size)
     for got, ref in zip(out, _general_loop(setup)):
         assert np.array_equal(got, ref)
+
+
+def _general_loop_around(setup):
+    """The mission flown by the general loop compiled around the setup's controller and
+    disturbance (:func:`compiled_loop`: every branch compiled), battery and current series
+    included."""
+    from uuvid.simulate import vehicle_sim
+    from uuvid.simulate.control.blocks import compiled_form
+    from uuvid.simulate.control.pid import pid
+    from uuvid.simulate.disturbances import no_disturbance
+
+    s, b = setup, setup.bank
+    N, z0 = s.t.size, s.z0()
+    c = s.controller or pid(s.gains)
+    cfn, cpar = compiled_form(c)
+    d = s.disturbance
+    loop = vehicle_sim.compiled_loop(cfn, d.fn if d is not None else no_disturbance)[0]
+    VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
+    BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
+    out = (np.empty((N, z0.size)), np.empty((N, b.n)), np.empty((N, b.n)), np.empty((N, 6)),
+           np.empty(N), np.zeros((N if BAT.size else 0, 3 + b.n)))
+    loop(np.ascontiguousarray(cpar), c.state0.copy(), d.params if d is not None else np.zeros(0),
+         d is not None, c.output_code, z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds,
+         b.poff, b.params, b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command,
+         *[np.ascontiguousarray(a) for a in s.ref], s.current, s.dt, s.substeps, *out[:5], VCT,
+         DVCT, BAT, out[5], *vehicle_sim._inflow_or_empty(s.inflow_arrays))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kw", [{"battery": True},
+                                {"disturbance": "wave", "current": (0.2, -0.1, 0.0),
+                                 "inflow": "four-quadrant"}], ids=["battery", "wave-current-inflow"])
+def test_loop_specialised_to_its_configuration_is_the_general_loop_bit_for_bit(bluerov2, kw):
+    """A mission outside fly_quad's configuration flies _fly_loop specialised to its own
+    (battery or not, current, inflow, the closed-form path): the same numbers as the general loop
+    with every branch compiled, bit for bit — states, thrusts, controller output, allocation scale
+    and the battery's voltage, current and charge."""
+    from uuvid.simulate import vehicle_sim
+    from uuvid.simulate.disturbances import sinusoidal
+
+    kw = dict(kw)
+    if kw.get("disturbance") == "wave":
+        kw["disturbance"] = sinusoidal(amplitude=(10.0, 0, 8.0, 0, 0, 0), period=5.0)
+    setup = setup_mission(bluerov2, square_mission(), t_end=20.0, **kw)
+    run, _, out = vehicle_sim.mission_runner(setup)
+    assert run.loop is not vehicle_sim._fly_loop and run.loop is not vehicle_sim.fly_quad
+    run(setup.t.size)
+    ref = _general_loop_around(setup)
+    assert len(out) == len(ref)
+    for got, want in zip(out, ref):
+        assert np.array_equal(got, want)

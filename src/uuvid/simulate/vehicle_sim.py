@@ -393,6 +393,23 @@ _CTRL = pid_controller
 _DIST = no_disturbance
 
 
+def _dynamic_block(soff) -> int:
+    """The one block of a chain with states (``soff``: the blocks' state offsets); −1 when none
+    has, −2 when several have (no closed-form fast path)."""
+    nb = len(soff) - 1
+    dyn = -1
+    for b in range(nb):
+        if soff[b + 1] > soff[b]:
+            if dyn >= 0:
+                dyn = -2
+            elif dyn == -1:
+                dyn = b
+    return dyn
+
+
+_dynamic_block_nb = njit(cache=True, inline="always")(_dynamic_block)
+
+
 @njit(cache=True)
 def fly(z0, vp, B, alloc, eta_p, eta_n, dofs, kinds, poff, tparams, soff, outch, in_ch, exact,
         inv_t, inv_c, gains, ref_pos, ref_vel, ref_yaw, ref_rate, vc, dt, nsub,
@@ -473,16 +490,8 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
     # Fast path: one first-order block with a static front and back (e.g. ESC → first-order motor →
     # map, or a first-order thrust lag): under the held command its state is known exactly at every
     # instant, so the thrust at the RK4 stage times is evaluated in closed form.
-    fast = False
-    dyn = -1
-    for b in range(nb):
-        if soff[b + 1] > soff[b]:
-            if dyn >= 0:
-                dyn = -2
-            elif dyn == -1:
-                dyn = b
-    if dyn >= 0 and exact[dyn] and soff[nb] == 1:
-        fast = True
+    dyn = _dynamic_block_nb(soff)
+    fast = dyn >= 0 and exact[dyn] != 0 and soff[nb] == 1
     inflow = IPRM.size > 0
     ua = np.zeros(n)
     f0 = np.zeros(n)
@@ -847,20 +856,70 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
             normalise_state(z)
 
 
+# A loop specialised to one configuration (compiled_quad, specialised_loop) has the lines that
+# read the configuration from its inputs as constants: numba drops the branches that
+# configuration cannot take before it inlines and types anything, so a cold process compiles one
+# RK4 form instead of four (fly_quad: ≈ 40 s instead of ≈ 75 s on one core).
+def quad_config(vc, IPRM) -> tuple[tuple[str, bool], ...]:
+    """The configuration :func:`fly_quad` reads from its inputs, as :func:`compiled_quad` takes it:
+    still water (``vc`` zero) and inflow on (``IPRM`` not empty) — the same tests as the loop's."""
+    still = bool(vc[0] == 0.0 and vc[1] == 0.0 and vc[2] == 0.0)
+    return (("still", still), ("inflow", bool(IPRM.size > 0)))
+
+
+def _fixed_source(src: str, fixed) -> str:
+    """``src`` with each ``    name = <expression>`` line of ``fixed`` (``(name, bool)`` pairs)
+    replaced by the constant, and a check that the inputs give it (a ``ValueError`` in the loop,
+    never a silently wrong flight); a ``SyntaxError`` unless each name is assigned exactly once
+    at the loop's top level, on one line."""
+    lines = src.splitlines()
+    for name, value in fixed:
+        hits = [i for i, ln in enumerate(lines) if ln.startswith(f"    {name} = ")]
+        if len(hits) != 1:
+            raise SyntaxError(f"{name!r} is assigned {len(hits)} times at the loop's top level")
+        expr = lines[hits[0]].split("=", 1)[1].split("#", 1)[0].strip()
+        v = bool(value)
+        lines[hits[0]:hits[0] + 1] = [
+            f"    {name} = {v!r}  # fixed: a loop specialised to it",
+            f"    if bool({expr}) != {v!r}:",
+            f"        raise ValueError('this mission loop is specialised to {name} = {v!r}; its "
+            "inputs give the other')"]
+    return "\n".join(lines) + "\n"
+
+
+def _template_source(template) -> str:
+    """The loop's source without its decorator lines."""
+    import inspect
+
+    lines = inspect.getsource(template.py_func).splitlines()
+    while lines and lines[0].startswith("@"):
+        lines.pop(0)
+    return "\n".join(lines) + "\n"
+
+
 @functools.lru_cache(maxsize=32)
-def compiled_quad(ctrl_fn):
-    """:func:`fly_quad` compiled around a wrench controller's numba function (memoised; cached on
-    disk when the controller is importable by name, else compiled on first use in each process —
-    as :func:`compiled_loop`)."""
+def compiled_quad(ctrl_fn, fixed: tuple = ()):
+    """:func:`fly_quad` compiled around a wrench controller's numba function and, with ``fixed``
+    (:func:`quad_config`), specialised to one configuration (memoised; cached on disk when the
+    controller is importable by name, else compiled on first use in each process — as
+    :func:`compiled_loop`).  The built-in PID with no configuration is :func:`fly_quad` itself."""
     import types
 
-    cached = _disk_cached(fly_quad, ctrl_fn)
+    cached = _disk_cached(fly_quad, ctrl_fn, None, fixed)
     if cached is not None:
         return cached
-
+    if ctrl_fn is _CTRL and not fixed:
+        return fly_quad
     g = dict(fly_quad.py_func.__globals__)
     g["_CTRL"] = ctrl_fn
-    return njit(types.FunctionType(fly_quad.py_func.__code__, g, "fly_quad"))
+    if not fixed:
+        return njit(types.FunctionType(fly_quad.py_func.__code__, g, "fly_quad"))
+    try:
+        src = _fixed_source(_template_source(fly_quad), fixed)
+    except (OSError, SyntaxError):
+        return compiled_quad(ctrl_fn) if ctrl_fn is not _CTRL else fly_quad
+    exec(compile(src, f"<uuvid fly_quad {dict(fixed)}>", "exec"), g)
+    return njit(g["fly_quad"])
 
 
 def quad_chain(bank: ThrusterBank) -> bool:
@@ -959,6 +1018,40 @@ def _inflow_or_empty(inflow_arrays) -> tuple[np.ndarray, np.ndarray]:
             np.ascontiguousarray(IGEO, dtype=np.float64))
 
 
+def loop_config(soff, exact, IPRM) -> tuple[tuple[str, bool], ...]:
+    """The configuration :func:`_fly_loop` reads from its inputs that decides what it compiles,
+    as :func:`specialised_loop` takes it (the same tests as the loop's): the closed-form fast
+    path (one first-order block, exact, one state) or the general block dispatch, and inflow on
+    or off.  Current, battery and still water stay decided at run time: their code is small or
+    inlined into both paths, and every configuration fixed here is one more loop a process that
+    flies many kinds of mission compiles."""
+    nb = len(soff) - 1
+    dyn = _dynamic_block(soff)
+    fast = bool(dyn >= 0 and exact[dyn] and soff[nb] == 1)
+    return (("fast", fast), ("inflow", bool(IPRM.size > 0)))
+
+
+@functools.lru_cache(maxsize=64)
+def specialised_loop(ctrl_fn, dist_fn, fixed: tuple, cacheable: bool = True):
+    """:func:`_fly_loop` around a controller and a disturbance, specialised to one configuration
+    (:func:`loop_config`): numba drops the branches it cannot take before compiling, so a single
+    flight compiles one thruster path and one RK4 form instead of all of them.  Cached on disk as
+    :func:`compiled_loop`'s loop (``cacheable=False``: compiled in memory, for controllers that
+    call back into Python); memoised.  The batch kernels keep the general loop (their vehicles
+    may differ in current)."""
+    cached = _disk_cached(_fly_loop, ctrl_fn, dist_fn, fixed) if cacheable else None
+    if cached is not None:
+        return cached
+    g = dict(_fly_loop.py_func.__globals__)
+    g.update(_CTRL=ctrl_fn, _DIST=dist_fn)
+    try:
+        src = _fixed_source(_template_source(_fly_loop), fixed)
+    except (OSError, SyntaxError):
+        return compiled_loop(ctrl_fn, dist_fn, cacheable)[0]
+    exec(compile(src, f"<uuvid _fly_loop {dict(fixed)}>", "exec"), g)
+    return njit(g["_fly_loop"])
+
+
 @functools.lru_cache(maxsize=32)
 def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
     """``(loop, batch)``: :func:`_fly_loop` and a batch kernel compiled around a controller and a
@@ -999,18 +1092,19 @@ def _importable(fn) -> tuple[str, str, str] | None:
 
 
 @functools.lru_cache(maxsize=32)
-def _disk_cached(template, ctrl_fn, dist_fn=None):
+def _disk_cached(template, ctrl_fn, dist_fn=None, fixed: tuple = ()):
     """The mission loop ``template`` (:func:`_fly_loop`, :func:`fly_quad`) around
     ``ctrl_fn``/``dist_fn`` (``None``: the template calls no disturbance) from a generated module on disk
     (``~/.cache/uuvid/mission_loops``, ``UUVID_KERNEL_CACHE`` moves it) that numba caches: the
     module imports the two functions by name and holds a copy of the loop's source.  Its name is
     a digest of uuvid's compiled-code version (its version and the modules that use numba:
-    :func:`~uuvid.core.cache.compiled_code_version`), the loop's source and the bytes of the controller's and the
-    disturbance's own files, so an edit to any of them compiles a new module instead of running
-    stale machine code.  ``None`` when the functions are not importable by name or the cache
+    :func:`~uuvid.core.cache.compiled_code_version`), the loop's source and the bytes of the
+    controller's and the disturbance's own files, so an edit to any of them compiles a new module
+    instead of running stale machine code.  ``fixed``: ``(name, bool)`` pairs of the loop's
+    top-level configuration lines to make constants (:func:`quad_config`, :func:`loop_config`,
+    :func:`_fixed_source`).  ``None`` when the functions are not importable by name or the cache
     cannot be written (the caller compiles in memory)."""
     import importlib.util
-    import inspect
     import os
     import sys
 
@@ -1022,10 +1116,7 @@ def _disk_cached(template, ctrl_fn, dist_fn=None):
         return None
     fname = template.py_func.__name__
     try:
-        lines = inspect.getsource(template.py_func).splitlines()
-        while lines and lines[0].startswith("@"):
-            lines.pop(0)
-        src = "\n".join(lines) + "\n"
+        src = _fixed_source(_template_source(template), fixed)
         key = digest(compiled_code_version(), fname, src, [(m, n) for m, n, _ in refs],
                      [file_digest(f) for _, _, f in refs])[:20]
         modname = f"_uuvid_mission_loop_{key}"
@@ -1533,8 +1624,10 @@ def mission_runner(setup: MissionSetup):
     in this process.  The loop is :func:`fly_quad` for the configuration it is specialised to
     (a wrench controller — the built-in PID, cached, or the setup's, compiled around it by
     :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, inflow or
-    not, chains ESC → first-order motor → quadratic map), else the general :func:`fly` (built-in PID,
-    no disturbance) or the loop compiled around the setup's controller and disturbance."""
+    not, chains ESC → first-order motor → quadratic map), else :func:`_fly_loop` around the
+    setup's controller (the built-in PID by default) and disturbance, specialised to the setup's
+    configuration (:func:`specialised_loop`, :func:`loop_config`).  Either way only the branches
+    the configuration takes are compiled; ``run.loop`` is that loop."""
     s = setup
     N = s.t.size
     b = s.bank
@@ -1552,29 +1645,30 @@ def mission_runner(setup: MissionSetup):
     c = s.controller
     if (s.disturbance is None and (c is None or c.output_code == 0) and not BAT.size
             and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
-        loop, cpar, cstate0 = fly_quad, s.gains.to_array().ravel(), np.zeros(PID_STATE_SIZE)
+        cfn, cpar, cstate0 = _CTRL, s.gains.to_array().ravel(), np.zeros(PID_STATE_SIZE)
         if c is not None:  # a wrench controller: the same loop compiled around it
             cfn, cpar = compiled_form(c)
             cpar, cstate0 = np.ascontiguousarray(cpar), c.state0
-            if cfn is not _CTRL:
-                loop = compiled_quad(cfn)
         vc = np.asarray(s.current, dtype=float)
+        loop = compiled_quad(cfn, quad_config(vc, IPRM))
 
         def run(k):
             loop(cpar, cstate0.copy(), z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, b.poff, b.params,
                  b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
                  vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], IPRM, IGEO)
         compiled = bool(loop.signatures)
-    elif s.controller is None and s.disturbance is None:  # the cached default kernel
-        def run(k):
-            fly(z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n, s.dofs, b.kinds, b.poff, b.params,
-                b.soff, b.outch, b.in_ch, b.exact, b.inv_thrust, b.inv_command, s.gains.to_array(),
-                ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k], s.current, s.dt, s.substeps,
-                Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT, VOUT[:k] if BAT.size else VOUT,
-                IPRM, IGEO)
-        compiled = bool(fly.signatures)
-    else:  # the loop compiled around the setup's controller and disturbance
-        loop, _, cpar, cstate0, dpar, use_d, okind = s.blocks()
+    else:  # the loop compiled around the setup's controller and disturbance, specialised to it
+        from uuvid.simulate.control.blocks import python_controller
+
+        c = s.controller or pid(s.gains)
+        cfn, cpar = compiled_form(c)
+        cpar, cstate0 = np.ascontiguousarray(cpar), c.state0
+        d = s.disturbance
+        dpar, use_d, okind = (d.params if d is not None else np.zeros(0)), d is not None, \
+            c.output_code
+        loop = specialised_loop(cfn, d.fn if d is not None else no_disturbance,
+                                loop_config(b.soff, b.exact, IPRM),
+                                cfn is not python_controller)
 
         def run(k):
             loop(cpar, cstate0.copy(), dpar, use_d, okind, z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n,
@@ -1583,6 +1677,7 @@ def mission_runner(setup: MissionSetup):
                  s.current, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], VCT, DVCT, BAT,
                  VOUT[:k] if BAT.size else VOUT, IPRM, IGEO)
         compiled = bool(loop.signatures)
+    run.loop = loop  # the compiled loop it flies (its numba dispatcher: cache statistics…)
     return run, compiled, (Z, F, FD, TAU, SC, VOUT)
 
 
