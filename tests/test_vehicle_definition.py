@@ -8,7 +8,13 @@ import pytest
 import yaml
 
 from uuvid.core.units import G0
-from uuvid.vehicle import VehicleFileError, list_presets, load_vehicle, vehicle_from_dict
+from uuvid.vehicle import (
+    VehicleFileError,
+    VehicleFileWarning,
+    list_presets,
+    load_vehicle,
+    vehicle_from_dict,
+)
 
 BASE = {
     "name": "testbot",
@@ -266,3 +272,47 @@ def test_a_warm_mission_process_imports_no_pydantic(tmp_path):
     runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                            check=True).stdout.strip() for _ in range(2)]
     assert runs[1] == "[]", runs
+
+
+@pytest.mark.parametrize("change, factor", [
+    ({"mass": 10_000.0}, "0.00"),  # the mass in grams
+    ({"buoyancy": 10.0}, "0.102"),  # the buoyancy in kgf
+])
+def test_a_vehicle_far_from_neutral_is_named_with_the_likely_unit(change, factor):
+    raw = copy.deepcopy(BASE)
+    raw["rigid_body"].update(change)
+    with pytest.warns(VehicleFileWarning, match="no vehicle that holds depth") as rec:
+        vehicle_from_dict(raw, where="bot.yaml")
+    msg = str(rec[0].message)
+    assert msg.startswith("bot.yaml: rigid_body: the buoyancy") and factor in msg
+    assert "mass in grams" in msg
+
+
+def test_presets_and_a_trimmed_vehicle_load_without_a_warning():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VehicleFileWarning)
+        for name in list_presets():
+            load_vehicle(name)
+        raw = copy.deepcopy(BASE)
+        raw["rigid_body"].update(buoyancy=1.9 * 10 * G0)  # 1.9 × the weight: a float, not a unit
+        vehicle_from_dict(raw)
+
+
+def test_the_warning_is_repeated_when_the_file_is_read_from_the_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+    raw = copy.deepcopy(BASE)
+    raw["rigid_body"]["mass"] = 10_000.0
+    p = tmp_path / "grams.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    from uuvid.vehicle import definition
+
+    calls = []
+    real = definition.vehicle_from_dict
+    monkeypatch.setattr(definition, "vehicle_from_dict", lambda *a, **k: calls.append(1) or
+                        real(*a, **k))
+    for _ in range(2):  # parsed, then read back from the disk cache
+        with pytest.warns(VehicleFileWarning, match=f"{p}: rigid_body: the buoyancy"):
+            load_vehicle(p)
+    assert len(calls) == 1  # the second load came from the cache

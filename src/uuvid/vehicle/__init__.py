@@ -25,6 +25,7 @@ from uuvid.vehicle.allocation import (
 from uuvid.vehicle.definition import (
     Vehicle,
     VehicleFileError,
+    VehicleFileWarning,
     list_presets,
     load_vehicle,
     vehicle_from_dict,
@@ -65,6 +66,7 @@ __all__ = [
     "TrimError",
     "Vehicle",
     "VehicleFileError",
+    "VehicleFileWarning",
     "VehicleParams",
     "allocate_compiled",
     "constrained_allocation_matrix",

@@ -45,6 +45,7 @@ Errors name the file and the key path: ``bluerov2.yaml: thrusters[2].position: m
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,6 +81,28 @@ def _is_preset_path(path) -> bool:
 
 class VehicleFileError(ModelFileError):
     """A vehicle file is unreadable or invalid; the message names the file and the key path."""
+
+
+class VehicleFileWarning(UserWarning):
+    """A vehicle file value that is valid but cannot be what it claims (most often a unit)."""
+
+
+#: Buoyancy / weight beyond this factor either way cannot be a vehicle that holds depth: real
+#: ROVs and AUVs are trimmed within a few per cent (the presets within 2 %); a mass in grams, a
+#: buoyancy in kgf or a displaced volume in litres lands far outside.
+NEUTRAL_FACTOR = 2.0
+
+
+def rigid_body_warnings(params: VehicleParams) -> list[str]:
+    """One sentence when the buoyancy and the weight ``m g`` differ by more than
+    :data:`NEUTRAL_FACTOR` (a unit slip, e.g. the mass in grams)."""
+    w, b = float(params.weight), float(params.buoyancy)
+    if not (w > 0.0 and b > 0.0) or 1.0 / NEUTRAL_FACTOR <= b / w <= NEUTRAL_FACTOR:
+        return []
+    return [f"rigid_body: the buoyancy {b:.4g} N is {b / w:.3g} × the weight m·g = {w:.4g} N "
+            f"(mass {float(params.mass):.4g} kg): no vehicle that holds depth is that far from "
+            "neutral; expected the mass in kg, weight and buoyancy in N, displaced_volume in m³ "
+            "(a mass in grams weighs 1000× too much, a buoyancy in kgf floats 9.8× too little)"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -409,6 +432,8 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                                np.array(spec.environment.current), spec.quaternion_gain, spec.name)
     except ParameterError as e:
         raise VehicleFileError(f"{where}: {_PARAM_PATH.get(e.param, e.param or '')}: {e}") from None
+    for msg in rigid_body_warnings(params):
+        warnings.warn(f"{where}: {msg}", VehicleFileWarning, stacklevel=2)
     return Vehicle(spec.name, params, layout, modes,
                    tuple(dof_index(d) for d in al.dofs),
                    None if al.weights is None else np.asarray(al.weights, float),
@@ -465,6 +490,9 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
         key = None
     cached = load_object("vehicles", key) if key else None
     if isinstance(cached, Vehicle):
+        for msg in rigid_body_warnings(cached.params):  # said on every load, not only the first
+            warnings.warn(f"{p.name if p.parent == PRESET_DIR else p}: {msg}", VehicleFileWarning,
+                          stacklevel=2)
         return cached
     try:
         raw = read_model_text(p)
