@@ -355,7 +355,8 @@ def _static_block(kind, params, pb, sig):
 @njit(cache=True)
 def eval_chain(kinds, poff, params, soff, outch, in_ch, x, cmd, dx, ch, blk_in):
     """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels)."""
-    return eval_chain_at(kinds, poff, params, 0, soff, outch, in_ch, x, 0, cmd, dx, ch, blk_in, 0)
+    o = np.int64(0)  # not the literal 0: eval_chain_at is compiled once (as the loops call it)
+    return eval_chain_at(kinds, poff, params, o, soff, outch, in_ch, x, o, cmd, dx, ch, blk_in, o)
 
 
 @njit(cache=True)
@@ -479,7 +480,7 @@ def sweep_chain(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt
         u = np.full(nsamp, u_levels[r])
         X = np.empty((nsamp, nx))
         C = np.empty((nsamp, N_CHANNELS))
-        rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, X0[r], u, dt, 1, X, C)
+        rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, X0[r], u, dt, np.int64(1), X, C)
         for i in range(N_CHANNELS):
             finals[r, i] = C[nsamp - 1, i]
         for i in range(nx):
