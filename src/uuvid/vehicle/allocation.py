@@ -914,35 +914,50 @@ def _bounded(a, phi, tau, n, m, method, s0):
         if q[k] > 0.0:
             scale = max(scale, abs(phi[k]))
     frac = 1.0
-    if method == 3:  # weighted least error with DOF priorities
-        if not _try_scaled(1.0, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
-                           fixed, zero, E, e, g0, wf, wi, scale):
-            for i in range(n):  # not achievable: the phase-1 optimum (its εW term picks the
-                x[i] = x1[i]  # least effort among the thrusts giving the best wrench, to O(ε))
-            frac = -1.0  # computed below
-    else:  # largest s ≤ 1 with s·φ achievable (bisection on exact feasibility)
-        slo = max(s0, 0.0)
-        shi = 1.0
-        have = False
-        for it in range(40):
+    # method 3 (priority): one try at s = 1 — weighted least error with DOF priorities; the other
+    # methods: the largest s ≤ 1 with s·φ achievable (bisection on exact feasibility), then, if no
+    # try succeeded, the bracket's start s0 (uniform scaling).  One call site of _try_scaled
+    # (inlined: compiled once, not three times); phase 0: the priority try, 1: bisection,
+    # 2: the bracket's start, 3: done (priority), 4: done (bisection).
+    slo = max(s0, 0.0)
+    shi = 1.0
+    have = False
+    it = 0
+    phase = 0 if method == 3 else 1
+    while phase < 3:
+        if phase == 0:
+            s_try = 1.0
+        elif phase == 2:
+            s_try = slo
+        else:
             s_try = shi if it == 0 else 0.5 * (slo + shi)
-            if _try_scaled(s_try, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
-                           fixed, zero, E, e, g0, wf, wi, scale):
+        ok = _try_scaled(s_try, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1,
+                         fixed, zero, E, e, g0, wf, wi, scale)
+        if phase == 0:
+            if not ok:
+                for i in range(n):  # not achievable: the phase-1 optimum (its εW term picks the
+                    x[i] = x1[i]  # least effort among the thrusts giving the best wrench, to O(ε))
+                frac = -1.0  # computed below
+            phase = 3
+        elif phase == 2:
+            for i in range(n):
+                best[i] = x[i]
+            phase = 4
+        else:
+            done = False
+            if ok:
                 slo = s_try
                 have = True
                 for i in range(n):
                     best[i] = x[i]
-                if it == 0:
-                    break
+                done = it == 0
             else:
                 shi = s_try
-            if shi - slo <= 1e-10:
-                break
-        if not have and slo > 0.0:  # the bracket's start s0 (uniform scaling) was never solved
-            _try_scaled(slo, a, phi, target, g, Bp, q, C, nC, m, n, H, W, lo, hi, x, x1, fixed,
-                        zero, E, e, g0, wf, wi, scale)
-            for i in range(n):
-                best[i] = x[i]
+            it += 1
+            if done or shi - slo <= 1e-10 or it == 40:
+                # the bracket's start (uniform scaling) is solved when no try succeeded
+                phase = 2 if not have and slo > 0.0 else 4
+    if phase == 4:
         for i in range(n):
             x[i] = best[i]
         frac = slo
