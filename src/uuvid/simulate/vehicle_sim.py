@@ -903,23 +903,32 @@ def compiled_quad(ctrl_fn, fixed: tuple = ()):
     (:func:`quad_config`), specialised to one configuration (memoised; cached on disk when the
     controller is importable by name, else compiled on first use in each process — as
     :func:`compiled_loop`).  The built-in PID with no configuration is :func:`fly_quad` itself."""
+    cached = _disk_cached(fly_quad, ctrl_fn, None, fixed)
+    if cached is None and ctrl_fn is _CTRL and not fixed:
+        cached = fly_quad
+    if cached is None:
+        cached = _in_memory(fly_quad, fixed, _CTRL=ctrl_fn)
+    # a source that cannot be read: the general loop (the built-in PID's is numba-cached)
+    return cached if cached is not None else (fly_quad if ctrl_fn is _CTRL else compiled_quad(ctrl_fn))
+
+
+def _in_memory(template, fixed: tuple, **names):
+    """The loop ``template`` compiled in this process around ``names`` (``_CTRL=…``, ``_DIST=…``),
+    specialised to ``fixed`` (:func:`_fixed_source`; ``()``: the general loop); ``None`` when a
+    specialisation is asked for and the loop's source cannot be read."""
     import types
 
-    cached = _disk_cached(fly_quad, ctrl_fn, None, fixed)
-    if cached is not None:
-        return cached
-    if ctrl_fn is _CTRL and not fixed:
-        return fly_quad
-    g = dict(fly_quad.py_func.__globals__)
-    g["_CTRL"] = ctrl_fn
+    g = dict(template.py_func.__globals__)
+    g.update(names)
+    fname = template.py_func.__name__
     if not fixed:
-        return njit(types.FunctionType(fly_quad.py_func.__code__, g, "fly_quad"))
+        return njit(types.FunctionType(template.py_func.__code__, g, fname))
     try:
-        src = _fixed_source(_template_source(fly_quad), fixed)
+        src = _fixed_source(_template_source(template), fixed)
     except (OSError, SyntaxError):
-        return compiled_quad(ctrl_fn) if ctrl_fn is not _CTRL else fly_quad
-    exec(compile(src, f"<uuvid fly_quad {dict(fixed)}>", "exec"), g)
-    return njit(g["fly_quad"])
+        return None
+    exec(compile(src, f"<uuvid {fname} {dict(fixed)}>", "exec"), g)
+    return njit(g[fname])
 
 
 def quad_chain(bank: ThrusterBank) -> bool:
@@ -1027,7 +1036,7 @@ def loop_config(soff, exact, IPRM) -> tuple[tuple[str, bool], ...]:
     flies many kinds of mission compiles."""
     nb = len(soff) - 1
     dyn = _dynamic_block(soff)
-    fast = bool(dyn >= 0 and exact[dyn] and soff[nb] == 1)
+    fast = bool(dyn >= 0 and exact[dyn] != 0 and soff[nb] == 1)
     return (("fast", fast), ("inflow", bool(IPRM.size > 0)))
 
 
@@ -1040,16 +1049,9 @@ def specialised_loop(ctrl_fn, dist_fn, fixed: tuple, cacheable: bool = True):
     call back into Python); memoised.  The batch kernels keep the general loop (their vehicles
     may differ in current)."""
     cached = _disk_cached(_fly_loop, ctrl_fn, dist_fn, fixed) if cacheable else None
-    if cached is not None:
-        return cached
-    g = dict(_fly_loop.py_func.__globals__)
-    g.update(_CTRL=ctrl_fn, _DIST=dist_fn)
-    try:
-        src = _fixed_source(_template_source(_fly_loop), fixed)
-    except (OSError, SyntaxError):
-        return compiled_loop(ctrl_fn, dist_fn, cacheable)[0]
-    exec(compile(src, f"<uuvid _fly_loop {dict(fixed)}>", "exec"), g)
-    return njit(g["_fly_loop"])
+    if cached is None:
+        cached = _in_memory(_fly_loop, fixed, _CTRL=ctrl_fn, _DIST=dist_fn)
+    return cached if cached is not None else compiled_loop(ctrl_fn, dist_fn, cacheable)[0]
 
 
 @functools.lru_cache(maxsize=32)
@@ -1065,12 +1067,10 @@ def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
     Python); it is compiled in each process."""
     import types
 
-    g = dict(_fly_loop.py_func.__globals__)
-    g.update(_CTRL=ctrl_fn, _DIST=dist_fn)
     loop = (_disk_cached(_fly_loop, ctrl_fn, dist_fn) if parallel else None) \
-        or njit(types.FunctionType(_fly_loop.py_func.__code__, g, "_fly_loop"))
-    g2 = dict(g)
-    g2["_LOOP"] = loop
+        or _in_memory(_fly_loop, (), _CTRL=ctrl_fn, _DIST=dist_fn)
+    g2 = dict(_fly_loop.py_func.__globals__)
+    g2.update(_CTRL=ctrl_fn, _DIST=dist_fn, _LOOP=loop)
     batch = njit(parallel=parallel)(types.FunctionType(_batch_template.__code__, g2,
                                                        "_batch_template"))
     return loop, batch

@@ -266,6 +266,12 @@ _PARAM_PATH = {"mass": "rigid_body.mass", "inertia": "rigid_body.inertia",
                "current": "environment.current", "quaternion_gain": "quaternion_gain"}
 
 
+def _warn_rigid_body(params: VehicleParams, where: str) -> None:
+    """Each of :func:`rigid_body_warnings` as a :class:`VehicleFileWarning` naming the file."""
+    for msg in rigid_body_warnings(params):
+        warnings.warn(f"{where}: {msg}", VehicleFileWarning, stacklevel=3)
+
+
 def _validation_messages(e: ValidationError, where: str) -> list[str]:
     msgs = []
     for err in e.errors():
@@ -432,8 +438,7 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                                np.array(spec.environment.current), spec.quaternion_gain, spec.name)
     except ParameterError as e:
         raise VehicleFileError(f"{where}: {_PARAM_PATH.get(e.param, e.param or '')}: {e}") from None
-    for msg in rigid_body_warnings(params):
-        warnings.warn(f"{where}: {msg}", VehicleFileWarning, stacklevel=2)
+    _warn_rigid_body(params, where)
     return Vehicle(spec.name, params, layout, modes,
                    tuple(dof_index(d) for d in al.dofs),
                    None if al.weights is None else np.asarray(al.weights, float),
@@ -488,18 +493,16 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
                      p.read_bytes())
     except OSError:
         key = None
+    where = p.name if p.parent == PRESET_DIR else str(p)
     cached = load_object("vehicles", key) if key else None
     if isinstance(cached, Vehicle):
-        for msg in rigid_body_warnings(cached.params):  # said on every load, not only the first
-            warnings.warn(f"{p.name if p.parent == PRESET_DIR else p}: {msg}", VehicleFileWarning,
-                          stacklevel=2)
+        _warn_rigid_body(cached.params, where)  # said on every load, not only the first
         return cached
     try:
         raw = read_model_text(p)
     except ModelFileError as e:
         raise VehicleFileError(str(e)) from None
-    vehicle = vehicle_from_dict(raw, where=p.name if p.parent == PRESET_DIR else str(p),
-                                base_dir=p.parent, path=p.resolve())
+    vehicle = vehicle_from_dict(raw, where=where, base_dir=p.parent, path=p.resolve())
     if key:
         store_object("vehicles", key, vehicle)
     return vehicle
