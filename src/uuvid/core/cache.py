@@ -110,12 +110,14 @@ def compiled_code_version() -> str:
     return f"{uuvid.__version__}+{numba_sources_digest()}"
 
 
+@functools.lru_cache(maxsize=16)
 def tree_stamp(*subpackages: str) -> str:
     """Digest of the package version and the relative path, size and modification time of every
     ``.py``/``.yaml``/``.json``/``.csv`` file in the given subpackages of uuvid (``""``: the top
     ``__init__``): a cheap stamp (no file is read, as Python's own bytecode cache does it) for
     results that depend only on those layers' code — imports only run downhill, so a result of
-    layer ``k`` depends on layers ``0..k`` alone."""
+    layer ``k`` depends on layers ``0..k`` alone.  Taken once per process, as
+    :func:`code_version` (the code a process runs is the code it imported)."""
     import uuvid
 
     root = Path(uuvid.__file__).resolve().parent

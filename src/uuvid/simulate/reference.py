@@ -198,16 +198,18 @@ def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | No
 
     The scan takes ≈ 0.5 s, so its result (all six directions) is cached on disk
     (:mod:`uuvid.core.cache`) under a digest of everything it depends on: the vehicle's parameters,
-    thruster layout and limits, modes, allocation defaults and the code version of the whole
-    package (:func:`uuvid.core.cache.code_version`: the scan runs the stability, allocation, model
-    and hydrodynamics code, so a change to any of it is a new key)."""
+    thruster layout and limits, modes, allocation defaults and a stamp of the layers the scan's
+    code lives in (:func:`uuvid.core.cache.tree_stamp` of ``core``, ``thruster`` and ``vehicle``:
+    stability, allocation, model and hydrodynamics, and what they import — imports run downhill —
+    so a change to any of it is a new key, without reading every source file as
+    :func:`~uuvid.core.cache.code_version` does)."""
     from uuvid.core import cache as disk
     from uuvid.vehicle import stability
 
     names = ("forward", "backward", "starboard", "port", "diving", "climbing")
     key = None
     if hasattr(vehicle, "layout"):
-        key = disk.digest("level-speed-limit-v2", disk.code_version(),
+        key = disk.digest("level-speed-limit-v2", disk.tree_stamp("", "core", "thruster", "vehicle"),
                           vehicle.params.to_array(), np.asarray(vehicle.B, float),
                           np.asarray(vehicle.layout.limits, float), repr(sorted(vehicle.modes)),
                           repr([(m.name, m.constraints.tolist(), m.eta_pos.tolist(),
