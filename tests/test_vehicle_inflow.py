@@ -1,6 +1,7 @@
 """Vehicle-file inflow switch and the steady analyses with thrust at the advance speed (issue 21)."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -318,6 +319,19 @@ def test_demo_section_shows_both_vehicles_with_and_without_inflow(tmp_path):
     assert "advance speed" in (tmp_path / "index.html").read_text()
 
 
+def test_demo_flies_a_bluerov2_on_the_map_fitted_on_the_example_bench(tmp_path):
+    from uuvid.core.html import Report
+    from uuvid.demo import _fitted_map_vehicle
+    from uuvid.examples import write_example
+
+    bench = write_example("thruster-flow", tmp_path)[0]
+    row = _fitted_map_vehicle(bench, tmp_path, Report("inflow"))
+    own, pub = row["map fitted on the bench [m/s]"], row["published T200 map [m/s]"]
+    assert 0 < own < row["bollard [m/s]"] and 0 < pub < row["bollard [m/s]"] and own != pub
+    v = load_vehicle(tmp_path / "bluerov2-own-propeller.yaml")
+    assert inflow_limits(v).maps[0].beta_range_deg is not None  # the file's map, not the T200's
+
+
 # ------------------------------------------------------------------ the mission loop
 REF = __import__("pathlib").Path(__file__).parent / "data" / "square_mission_bluerov2.npz"
 
@@ -543,3 +557,121 @@ def test_minimal_inflow_kernel_flies_the_same_model():
     assert np.max(np.abs(Zi[:, :3] - r.state[:, :3])) < 3e-4
     assert np.max(np.abs(Zi[:, :3] - Zb[:, :3])) > 10 * np.max(np.abs(Zi[:, :3] - r.state[:, :3]))
     np.testing.assert_allclose(Fi[0], r.thrust[0], rtol=1e-12, atol=1e-12)  # at rest: bollard
+
+
+# ------------------------------------------------------------------ the user's own propeller
+def _bench_truth():
+    """A propeller unlike the T200's published map (C_T* of Fourier order 2, ahead and astern),
+    which a bench in a flow measures; D = 76 mm as the T200."""
+    from uuvid.thruster.inflow import FourQuadrantMap
+
+    return FourQuadrantMap("bench truth", 0.076, (0.05, 0.40, 0.02), (0.0, -1.0, 0.05),
+                           (0.0,) * 3, (0.0,) * 3)
+
+
+def _fitted_vehicle(tmp_path, *, reverse=True, form="four-quadrant", seed=0, section=True):
+    """A bench in a flow made by :func:`_bench_truth` (thrust noise 0.25 N) → ``thruster fit``
+    → model file ``fitted.yaml`` → the BlueROV2 with every thruster on it, inflow on."""
+    from dataclasses import replace
+
+    from uuvid.identify.thruster.workflow import ReadOptions, run_fit
+    from uuvid.thruster.modelfile import save_chain
+
+    w = np.array([120.0, 170.0, 220.0, 270.0, 320.0])
+    w = np.concatenate([w, -w]) if reverse else w
+    W, U = np.meshgrid(w, [0.0, 0.2, 0.4, 0.6, 0.8], indexing="ij")
+    W, U = np.repeat(W.ravel(), 3), np.repeat(U.ravel(), 3)
+    thrust = _bench_truth().thrust_torque(W / (2 * np.pi), U)[0]
+    thrust = thrust + np.random.default_rng(seed).normal(0.0, 0.25, thrust.size)
+    rows = ["command,speed,thrust,flow_speed"] + [
+        f"{1500 + a / 0.8:.17g},{a:.17g},{b:.17g},{c:.17g}" for a, b, c in zip(W, thrust, U)]
+    (tmp_path / "flow.csv").write_text("\n".join(rows) + "\n")
+    opts = ReadOptions(thrust_col="thrust", speed_col="speed")
+    out = (run_fit([tmp_path / "flow.csv"], "four-quadrant", opts, diameter=0.076)
+           if form == "four-quadrant" else run_fit([tmp_path / "flow.csv"], "quadratic", opts))
+    save_chain(out.chain if section else replace(out.chain, inflow=None), tmp_path / "fitted.yaml")
+    raw = _preset_raw("bluerov2")
+    raw["inflow"] = "four-quadrant"
+    for t in raw["thrusters"]:
+        t["model"] = "fitted.yaml"
+    (tmp_path / "v.yaml").write_text(yaml.safe_dump(raw))
+    return tmp_path / "v.yaml", out
+
+
+def test_a_vehicle_flies_the_propeller_map_fitted_on_its_own_bench(tmp_path):
+    """``inflow: four-quadrant`` with a thruster model file from a bench in a flow uses that file's
+    fitted C_T*(β) — not the T200's published map — in the limits, the envelope and the loop."""
+    import warnings
+
+    from uuvid.thruster.inflow import propeller_map
+    from uuvid.vehicle.inflow import loop_arrays
+
+    path, out = _fitted_vehicle(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # ahead and astern both fitted: nothing to warn about
+        v = load_vehicle(path)
+    fq = inflow_limits(v).maps[0]
+    p = out.parameters()
+    assert fq.ct_a == tuple(p[f"a_{k}"]["estimate"] for k in range(3))  # the file's numbers
+    assert fq.ct_b[1:] == tuple(p[f"b_{k}"]["estimate"] for k in (1, 2))
+    assert fq.diameter == 0.076 and fq.beta_range_deg is not None
+    truth, t200 = _bench_truth(), propeller_map("t200")
+    beta = np.radians(np.linspace(0.0, 14.0, 8))
+    np.testing.assert_allclose(fq.ct(beta), truth.ct(beta), rtol=0.03)
+    # the user's propeller loses thrust faster than the published T200 map says
+    n = inflow_limits(v).n_fwd[0]
+    assert fq.thrust_ratio(n, 1.0) < t200.thrust_ratio(t200.shaft_speed_for(51.485), 1.0) - 0.05
+    bollard = speed_envelope(v, dofs=["surge"], inflow="none")["forward"].speed
+    own = speed_envelope(v, dofs=["surge"])["forward"].speed
+    published = speed_envelope(_with("bluerov2"), dofs=["surge"])["forward"].speed
+    assert own < published < bollard
+    prm, _ = loop_arrays(v)  # the mission loop reads the same map
+    from uuvid.thruster.inflow import inflow_params
+
+    np.testing.assert_array_equal(prm, inflow_params(fq))
+
+
+def test_a_map_fitted_ahead_only_warns_that_astern_is_an_extrapolation(tmp_path):
+    from uuvid.vehicle import VehicleFileWarning
+
+    path, _ = _fitted_vehicle(tmp_path, reverse=False)
+    with pytest.warns(VehicleFileWarning) as got:  # one message for the six thrusters on the file
+        load_vehicle(path)
+    assert len(got) == 1
+    assert re.search(r"thrusters\[0, 1, 2, 3, 4, 5\]\.model 'fitted\.yaml'.*\[0°, 14°\].*astern",
+                     str(got[0].message))
+    with pytest.warns(VehicleFileWarning, match="astern"):  # a cached load says it again
+        load_vehicle(path)
+
+
+@pytest.mark.parametrize("form, section, expected", [
+    ("linear", True, r"thrusters\[0\]\.model: inflow 'four-quadrant': fitted\.yaml: inflow: form "
+                     r"'linear'.*--model four-quadrant"),
+    ("four-quadrant", False, r"thrusters\[0\]\.model: inflow 'four-quadrant' needs the propeller "
+                             r"of model 'fitted\.yaml'.*four-quadrant 'inflow' section"),
+])
+def test_a_model_file_without_a_four_quadrant_map_is_an_error_naming_the_thruster(
+        tmp_path, form, section, expected):
+    path, _ = _fitted_vehicle(tmp_path, form=form, section=section)
+    with pytest.raises(VehicleFileError, match=expected):
+        load_vehicle(path)
+
+
+@pytest.mark.parametrize("mutate, key", [
+    (lambda s: s.pop("diameter_m"), r"inflow\.diameter_m"),
+    (lambda s: s["parameters"].pop("b_1"), r"inflow\.parameters: expected exactly a_0, a_1, b_1"),
+    (lambda s: s["parameters"]["a_0"].update(estimate=float("nan")), r"parameters\.a_0"),
+    (lambda s: s.update(beta_range_deg=[30.0, 10.0]), r"beta_range_deg"),
+])
+def test_a_bad_four_quadrant_section_names_its_key(mutate, key):
+    from uuvid.thruster.inflow import map_from_section
+
+    sec = {"form": "four-quadrant", "diameter_m": 0.076, "beta_range_deg": [0.0, 15.0],
+           "parameters": {"a_0": {"estimate": 0.3}, "a_1": {"estimate": 0.1},
+                          "b_1": {"estimate": -0.5}}}
+    fq = map_from_section(sec, "m.yaml: inflow")
+    assert fq.ct_a == (0.3, 0.1) and fq.ct_b == (0.0, -0.5) and fq.covers(10.0)
+    assert not fq.covers(180.0) and not fq.covers(-40.0) and fq.covers(360.0)
+    mutate(sec)
+    with pytest.raises(ValueError, match=key):
+        map_from_section(sec, "m.yaml: inflow")

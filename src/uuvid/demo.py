@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uuvid.core.atomic import atomic_write_json
+from uuvid.core.atomic import atomic_write_json, atomic_write_text
 from uuvid.core.html import Report
 from uuvid.core.plots import new_figure, save_figure
 from uuvid.core.progress import progress_task
@@ -598,7 +598,40 @@ def _inflow_bench_section(out: Path, rep: Report) -> dict:
     rep.add_paragraph(f"--out-model writes {model.name}: the bollard map as its blocks, and an "
                       f"inflow section with k_a = {kept['estimate']:.4g} ± {kept['sigma']:.2g} "
                       f"{kept['unit']} (uuvid thruster show {model.name} prints it).")
-    return {"parameters": p, "truth": truth, "file": str(path), "model_file": str(model)}
+    flies = _fitted_map_vehicle(path, out / "thruster_flow", rep)
+    return {"parameters": p, "truth": truth, "file": str(path), "model_file": str(model),
+            "vehicle_on_fitted_map": flies}
+
+
+def _fitted_map_vehicle(bench: Path, folder: Path, rep: Report) -> dict:
+    """The same bench fitted as a four-quadrant map, and a BlueROV2 whose thrusters name that
+    model file flying it (``inflow: four-quadrant``): surge envelope against the published map."""
+    import yaml
+
+    from uuvid.identify.thruster.workflow import ReadOptions, run_fit
+    from uuvid.thruster.modelfile import save_chain
+    from uuvid.vehicle.definition import load_vehicle, preset_path
+    from uuvid.vehicle.envelope import speed_envelope
+
+    fit = run_fit([bench], "four-quadrant", ReadOptions(thrust_col="thrust", speed_col="speed"),
+                  diameter=0.076)
+    save_chain(fit.chain, folder / "t200-four-quadrant.yaml")
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw["inflow"] = "four-quadrant"
+    published = speed_envelope(load_vehicle("bluerov2"), dofs=["surge"], inflow="four-quadrant")
+    for t in raw["thrusters"]:
+        t["model"] = "t200-four-quadrant.yaml"
+    atomic_write_text(folder / "bluerov2-own-propeller.yaml", yaml.safe_dump(raw, sort_keys=False))
+    own = speed_envelope(load_vehicle(folder / "bluerov2-own-propeller.yaml"), dofs=["surge"])
+    row = {"bollard [m/s]": round(own["forward"].speed_bollard, 3),
+           "published T200 map [m/s]": round(published["forward"].speed, 3),
+           "map fitted on the bench [m/s]": round(own["forward"].speed, 3)}
+    rep.add_paragraph("The same file fitted as a four-quadrant map (--model four-quadrant "
+                      "--diameter 0.076) and a BlueROV2 whose thrusters name that model file, with "
+                      "inflow: four-quadrant, flies the map of the bench instead of the published "
+                      "one (bluerov2-own-propeller.yaml):")
+    rep.add_table([row], caption="BlueROV2 maximum surge speed, forward")
+    return row
 
 
 def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:

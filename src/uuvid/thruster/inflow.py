@@ -138,6 +138,9 @@ class FourQuadrantMap:
     cq_b: tuple[float, ...]
     source: str = ""
     assumption: str = ""
+    #: advance angles (deg, ``[lo, hi]``) a fitted map's coefficients hold over; ``None``: the
+    #: whole circle (a published four-quadrant series)
+    beta_range_deg: tuple[float, float] | None = None
 
     def __post_init__(self):
         if not (math.isfinite(self.diameter) and self.diameter > 0):
@@ -172,7 +175,15 @@ class FourQuadrantMap:
     def with_diameter(self, diameter: float) -> FourQuadrantMap:
         """The same non-dimensional map for a geometrically similar propeller of another size."""
         return FourQuadrantMap(self.name, diameter, self.ct_a, self.ct_b, self.cq_a, self.cq_b,
-                               self.source, self.assumption)
+                               self.source, self.assumption, self.beta_range_deg)
+
+    def covers(self, beta_deg: float, tol: float = 1.0) -> bool:
+        """Does the map hold at advance angle ``beta_deg`` (within ``tol`` degrees of the fitted
+        range, angles taken modulo 360°)?  Always for a map of the whole circle."""
+        if self.beta_range_deg is None:
+            return True
+        lo, hi = self.beta_range_deg
+        return any(lo - tol <= b <= hi + tol for b in (beta_deg - 360.0, beta_deg, beta_deg + 360.0))
 
     def _arrays(self):
         return (np.asarray(self.ct_a), np.asarray(self.ct_b), np.asarray(self.cq_a),
@@ -603,6 +614,58 @@ def t200_inflow(kt_fwd: float | None = None) -> T200Inflow:
     r07 = 0.35 * T200_DIAMETER
     return T200Inflow(T200_DIAMETER, T200_PITCH_RATIO, p, kt_fwd / (r07 * p),
                       wageningen_b4_70(T200_DIAMETER))
+
+
+def map_from_section(section, where: str = "inflow") -> FourQuadrantMap:
+    """The :class:`FourQuadrantMap` a thruster model file's ``inflow`` section holds — the
+    ``C_T*(β)`` Fourier terms ``a_0 … a_K``, ``b_1 … b_K`` and ``diameter_m`` a bench fit in a
+    flow writes (``uuvid thruster fit --model four-quadrant --diameter D``,
+    :func:`uuvid.identify.thruster.inflow.fit_four_quadrant`), valid over its ``beta_range_deg``.
+    ``C_Q*`` is zero (the fit has no torque).  ``ValueError`` naming ``where`` and the key for
+    anything else — the linear form ``T = K_T Ω|Ω| − k_a |Ω| u_a`` included: a line in one
+    quadrant per direction with no propeller diameter is no four-quadrant map."""
+    if not isinstance(section, dict):
+        raise ValueError(f"{where}: expected a mapping, got {type(section).__name__}")
+    form = section.get("form")
+    if form != "four-quadrant":
+        raise ValueError(
+            f"{where}: form {form!r}: a vehicle's four-quadrant inflow needs the C_T*(β) series of a "
+            "four-quadrant fit (thruster fit --model four-quadrant --diameter D on the same bench "
+            "file); the linear form T = K_T Ω|Ω| − k_a |Ω| u_a holds one quadrant per direction "
+            "and has no propeller diameter")
+    d = section.get("diameter_m")
+    if not isinstance(d, (int, float)) or isinstance(d, bool) or not (math.isfinite(d) and d > 0):
+        raise ValueError(f"{where}.diameter_m: expected the propeller diameter in m (> 0), got {d!r}")
+    prm = section.get("parameters")
+    if not isinstance(prm, dict) or "a_0" not in prm:
+        raise ValueError(f"{where}.parameters: expected the Fourier terms a_0 … a_K, b_1 … b_K "
+                         f"of C_T*(β), got {sorted(prm) if isinstance(prm, dict) else prm!r}")
+
+    def est(name):
+        v = prm[name]
+        v = v.get("estimate") if isinstance(v, dict) else v
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+            raise ValueError(f"{where}.parameters.{name}: expected a finite estimate, got {v!r}")
+        return float(v)
+
+    order = sum(1 for k in prm if k.startswith("a_")) - 1
+    want = [f"a_{k}" for k in range(order + 1)] + [f"b_{k}" for k in range(1, order + 1)]
+    if sorted(prm) != sorted(want):
+        raise ValueError(f"{where}.parameters: expected exactly {', '.join(want)} (C_T*(β) of "
+                         f"Fourier order {order}), got {', '.join(sorted(prm))}")
+    rng = section.get("beta_range_deg")
+    if rng is not None:
+        if not (isinstance(rng, (list, tuple)) and len(rng) == 2
+                and all(isinstance(x, (int, float)) and math.isfinite(x) for x in rng)
+                and rng[0] <= rng[1]):
+            raise ValueError(f"{where}.beta_range_deg: expected [lo, hi] in degrees, got {rng!r}")
+        rng = (float(rng[0]), float(rng[1]))
+    a = tuple(est(f"a_{k}") for k in range(order + 1))
+    b = (0.0,) + tuple(est(f"b_{k}") for k in range(1, order + 1))
+    zeros = (0.0,) * len(a)
+    return FourQuadrantMap(f"fitted ({where})", float(d), a, b, zeros, zeros,
+                           source=str(section.get("source") or where),
+                           assumption="C_Q* not identified (no torque fitted)", beta_range_deg=rng)
 
 
 #: Thruster model names with known propeller data → their four-quadrant map.

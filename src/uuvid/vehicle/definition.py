@@ -266,9 +266,27 @@ _PARAM_PATH = {"mass": "rigid_body.mass", "inertia": "rigid_body.inertia",
                "current": "environment.current", "quaternion_gain": "quaternion_gain"}
 
 
-def _warn_rigid_body(params: VehicleParams, where: str) -> None:
-    """Each of :func:`rigid_body_warnings` as a :class:`VehicleFileWarning` naming the file."""
-    for msg in rigid_body_warnings(params):
+def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
+    """What a valid file may still hold wrong, as :class:`VehicleFileWarning` naming the file — on
+    every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
+    whose fitted propeller map does not reach a direction it pushes
+    (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
+    msgs = rigid_body_warnings(vehicle.params)
+    if vehicle.inflow != "none":
+        from uuvid.vehicle.inflow import map_range_warnings, thruster_map
+
+        models: dict[str, list[int]] = {}
+        for i, t in enumerate(vehicle.layout):
+            models.setdefault(t.model, []).append(i)
+        for model, idx in models.items():  # one message per model file, naming its thrusters
+            try:
+                fq = thruster_map(model, base_dir)
+            except (KeyError, ValueError):  # an error when the file was read; at use if it changed
+                continue
+            lim = np.asarray(vehicle.layout.limits, float)[idx]
+            msgs += map_range_warnings(fq, (lim[:, 0].min(), lim[:, 1].max()),
+                                       f"thrusters[{', '.join(map(str, idx))}].model {model!r}")
+    for msg in msgs:
         warnings.warn(f"{where}: {msg}", VehicleFileWarning, stacklevel=3)
 
 
@@ -367,14 +385,16 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
         thrusters.append(Thruster(t.name, t.position, tuple(axis), t.model, (lo, hi),
                                   dict(t.installation)))
         if spec.inflow != "none":
-            from uuvid.thruster.inflow import propeller_map
+            from uuvid.vehicle.inflow import KNOWN_PROPELLERS, thruster_map
 
             try:
-                propeller_map(t.model)
+                thruster_map(t.model, base_dir)
             except KeyError:
                 err(f"{p}.model", f"inflow {spec.inflow!r} needs the propeller of model "
-                    f"{t.model!r}, which uuvid does not know (known: t200, t200-physical); "
+                    f"{t.model!r}, which uuvid does not know (known: {KNOWN_PROPELLERS}); "
                     "set inflow: none")
+            except ValueError as e:
+                err(f"{p}.model", f"inflow {spec.inflow!r}: {e}")
     layout = None
     if not errors:
         layout = ThrusterLayout(tuple(thrusters))
@@ -438,14 +458,15 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                                np.array(spec.environment.current), spec.quaternion_gain, spec.name)
     except ParameterError as e:
         raise VehicleFileError(f"{where}: {_PARAM_PATH.get(e.param, e.param or '')}: {e}") from None
-    _warn_rigid_body(params, where)
-    return Vehicle(spec.name, params, layout, modes,
-                   tuple(dof_index(d) for d in al.dofs),
-                   None if al.weights is None else np.asarray(al.weights, float),
-                   tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
-                   dict(spec.assumptions), spec.description, path,
-                   _battery(spec.battery, where) if spec.battery is not None else None,
-                   spec.inflow, tuple(float(t.wake) for t in spec.thrusters))
+    vehicle = Vehicle(spec.name, params, layout, modes,
+                      tuple(dof_index(d) for d in al.dofs),
+                      None if al.weights is None else np.asarray(al.weights, float),
+                      tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
+                      dict(spec.assumptions), spec.description, path,
+                      _battery(spec.battery, where) if spec.battery is not None else None,
+                      spec.inflow, tuple(float(t.wake) for t in spec.thrusters))
+    _warn_on_load(vehicle, where, base_dir)
+    return vehicle
 
 
 def _battery(b: BatterySchema, where: str):
@@ -496,7 +517,7 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
     where = p.name if p.parent == PRESET_DIR else str(p)
     cached = load_object("vehicles", key) if key else None
     if isinstance(cached, Vehicle):
-        _warn_rigid_body(cached.params, where)  # said on every load, not only the first
+        _warn_on_load(cached, where, p.parent)  # said on every load, not only the first
         return cached
     try:
         raw = read_model_text(p)

@@ -22,7 +22,58 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from uuvid.thruster.inflow import INFLOW_MODELS, FourQuadrantMap, advance_speeds, propeller_map
+from uuvid.thruster.inflow import (
+    INFLOW_MODELS,
+    FourQuadrantMap,
+    advance_speeds,
+    map_from_section,
+    propeller_map,
+)
+
+#: The propellers :func:`thruster_map` knows, for messages.
+KNOWN_PROPELLERS = ("t200, t200-physical, or a thruster model file with a four-quadrant 'inflow' "
+                    "section (uuvid thruster fit --model four-quadrant --diameter D on a bench in "
+                    "a flow)")
+
+
+def thruster_map(model: str, base=None) -> FourQuadrantMap:
+    """The four-quadrant map of a vehicle thruster's ``model``: a preset's published propeller
+    (:func:`uuvid.thruster.inflow.propeller_map`), else the ``inflow`` section of the model file
+    it names (relative to ``base``, the vehicle file's folder; :func:`uuvid.thruster.inflow.
+    map_from_section`) — the map fitted on the user's own bench in a flow.  ``KeyError`` when
+    the model has no propeller data, ``ValueError`` (naming the file's key) when its section
+    is not a four-quadrant map."""
+    try:
+        return propeller_map(model)
+    except KeyError:
+        pass
+    from uuvid.thruster.modelfile import ModelFileError
+    from uuvid.thruster.resolve import resolve_chain
+
+    try:
+        chain = resolve_chain(model, base)
+    except (FileNotFoundError, ModelFileError, ValueError):
+        raise KeyError(model) from None
+    if chain.inflow is None:
+        raise KeyError(model)
+    return map_from_section(chain.inflow, where=f"{model}: inflow")
+
+
+def map_range_warnings(fq: FourQuadrantMap, limits, where: str) -> list[str]:
+    """Why a fitted map (its ``beta_range_deg``) cannot hold where a thruster with bollard
+    ``limits`` ``[min, max]`` works: the bollard point of a direction it pushes (β = 0° ahead,
+    ±180° astern) outside the fitted advance angles means that direction's thrust — and the shaft
+    speed the loop infers from it — is an extrapolation of the series."""
+    out = []
+    lo, hi = float(limits[0]), float(limits[1])
+    for need, beta, what in ((hi > 0, 0.0, "ahead (β = 0°)"), (lo < 0, 180.0, "astern (β = ±180°)")):
+        if need and not fq.covers(beta):
+            r = fq.beta_range_deg
+            out.append(f"{where}: the propeller map was fitted over β ∈ [{r[0]:.0f}°, {r[1]:.0f}°], "
+                       f"but the thruster also pushes {what}: its thrust there is an "
+                       "extrapolation of the series (record bench runs that turn that way, or set "
+                       "inflow: none)")
+    return out
 
 
 def resolve_inflow(vehicle, inflow: str | None = None) -> str:
@@ -78,14 +129,16 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
     if mode == "none":
         return None
     lay = vehicle.layout
+    path = getattr(vehicle, "path", None)
+    base = path.parent if path is not None else None
     maps = []
     for t in lay:
         try:
-            maps.append(propeller_map(t.model))
+            maps.append(thruster_map(t.model, base))
         except KeyError:
             raise ValueError(f"{vehicle.name}: thrusters[{t.name}].model {t.model!r}: inflow "
                              f"{mode!r} needs its propeller, which uuvid does not know (known: "
-                             "t200, t200-physical); use inflow none") from None
+                             f"{KNOWN_PROPELLERS}); use inflow none") from None
     lim = np.asarray(lay.limits, float)
     for i, t in enumerate(lay):
         if not np.all(np.isfinite(lim[i])):

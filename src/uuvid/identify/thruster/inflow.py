@@ -183,7 +183,8 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
     b = (0.0,) + tuple(v[f"b_{k}"] for k in range(1, order + 1))
     fq = FourQuadrantMap(f"fitted {data.source}".strip(), diameter, a, b, (0.0,) * len(a),
                          (0.0,) * len(a), source=f"bench in a flow: {data.source}",
-                         assumption="C_Q* not identified (no torque fitted)")
+                         assumption="C_Q* not identified (no torque fitted)",
+                         beta_range_deg=tuple(fit.extra["beta_range_deg"]))
     # bollard map T = K_T ρ n² D⁴ as K_T Ω|Ω| (n = Ω/2π) per direction the data turn
     c = rho * diameter ** 4 / (2.0 * math.pi) ** 2
     dirs = dict(_directions(w))
