@@ -319,3 +319,24 @@ def test_numba_caches_of_uuvid_are_keyed_on_all_its_compiled_code(monkeypatch):
     monkeypatch.setattr(nc, "numba_sources_digest", lambda: "another-tree")
     assert loc.get_source_stamp() != stamp  # an edit anywhere in the compiled code: recompile
     assert not nc._ours(np.__file__)  # other packages keep numba's own locators
+
+
+def test_a_cache_folder_is_checked_writable_once_per_process(monkeypatch):
+    """numba writes a temporary file to check the cache folder for every ``cache=True`` function
+    it decorates; uuvid's locators check a folder once (≈ 130 functions on a mission's path)."""
+    import tempfile
+
+    from numba import njit
+
+    import uuvid.core.numba_cache as nc
+    from uuvid.simulate.control.pid import dp_control
+
+    folder = dp_control._cache._impl._locator.get_cache_path()
+    assert folder in nc._WRITABLE
+
+    def no_more(*a, **k):
+        raise AssertionError("the folder was checked again")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", no_more)
+    again = njit(cache=True)(dp_control.py_func)  # a new dispatcher of the same file
+    assert again._cache._impl._locator.get_cache_path() == folder
