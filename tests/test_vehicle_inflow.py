@@ -51,7 +51,7 @@ def test_inflow_needs_a_known_propeller():
     raw = _preset_raw("bluerov2")
     raw["inflow"] = "four-quadrant"
     raw["thrusters"][2]["model"] = "my_thruster.yaml"
-    with pytest.raises(VehicleFileError, match=r"thrusters\[2\]\.model: inflow"):
+    with pytest.raises(VehicleFileError, match=r"thrusters\[2\]\.model: 'my_thruster\.yaml': no such"):
         vehicle_from_dict(raw, where="b.yaml")
 
 
@@ -329,7 +329,7 @@ def test_demo_flies_a_bluerov2_on_the_map_fitted_on_the_example_bench(tmp_path):
     own, pub = row["map fitted on the bench [m/s]"], row["published T200 map [m/s]"]
     assert 0 < own < row["bollard [m/s]"] and 0 < pub < row["bollard [m/s]"] and own != pub
     v = load_vehicle(tmp_path / "bluerov2-own-propeller.yaml")
-    assert inflow_limits(v).maps[0].beta_range_deg is not None  # the file's map, not the T200's
+    assert inflow_limits(v).maps[0].beta_ranges_deg is not None  # the file's map, not the T200's
 
 
 # ------------------------------------------------------------------ the mission loop
@@ -569,13 +569,16 @@ def _bench_truth():
                            (0.0,) * 3, (0.0,) * 3)
 
 
-def _fitted_vehicle(tmp_path, *, reverse=True, form="four-quadrant", seed=0, section=True):
+def _fitted_vehicle(tmp_path, *, reverse=True, form="four-quadrant", seed=0, section=True,
+                    key="propeller", edit=None):
     """A bench in a flow made by :func:`_bench_truth` (thrust noise 0.25 N) → ``thruster fit``
-    → model file ``fitted.yaml`` → the BlueROV2 with every thruster on it, inflow on."""
+    → model file ``fitted.yaml`` (``edit``: a change to its ``inflow`` section) → the BlueROV2
+    with every thruster's ``key`` (``propeller``, the thruster staying a T200) naming it, inflow
+    on."""
     from dataclasses import replace
 
     from uuvid.identify.thruster.workflow import ReadOptions, run_fit
-    from uuvid.thruster.modelfile import save_chain
+    from uuvid.thruster.modelfile import chain_to_dict, save_chain
 
     w = np.array([120.0, 170.0, 220.0, 270.0, 320.0])
     w = np.concatenate([w, -w]) if reverse else w
@@ -590,31 +593,39 @@ def _fitted_vehicle(tmp_path, *, reverse=True, form="four-quadrant", seed=0, sec
     out = (run_fit([tmp_path / "flow.csv"], "four-quadrant", opts, diameter=0.076)
            if form == "four-quadrant" else run_fit([tmp_path / "flow.csv"], "quadratic", opts))
     save_chain(out.chain if section else replace(out.chain, inflow=None), tmp_path / "fitted.yaml")
+    if edit is not None:
+        doc = chain_to_dict(out.chain)
+        edit(doc["inflow"])
+        (tmp_path / "fitted.yaml").write_text(yaml.safe_dump(doc))
     raw = _preset_raw("bluerov2")
     raw["inflow"] = "four-quadrant"
     for t in raw["thrusters"]:
-        t["model"] = "fitted.yaml"
+        t[key] = "fitted.yaml"
     (tmp_path / "v.yaml").write_text(yaml.safe_dump(raw))
     return tmp_path / "v.yaml", out
 
 
 def test_a_vehicle_flies_the_propeller_map_fitted_on_its_own_bench(tmp_path):
-    """``inflow: four-quadrant`` with a thruster model file from a bench in a flow uses that file's
-    fitted C_T*(β) — not the T200's published map — in the limits, the envelope and the loop."""
+    """``inflow: four-quadrant`` with ``propeller:`` naming a model file from a bench in a flow
+    uses that file's fitted C_T*(β) — not the T200's published map — in the limits, the envelope
+    and the mission loop, while the thrusters stay T200s driven by command."""
     import warnings
 
-    from uuvid.thruster.inflow import propeller_map
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.thruster.inflow import inflow_params, propeller_map
     from uuvid.vehicle.inflow import loop_arrays
 
     path, out = _fitted_vehicle(tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # ahead and astern both fitted: nothing to warn about
         v = load_vehicle(path)
+    assert v.propeller(0) == "fitted.yaml" and v.layout[0].model == "t200"
     fq = inflow_limits(v).maps[0]
     p = out.parameters()
     assert fq.ct_a == tuple(p[f"a_{k}"]["estimate"] for k in range(3))  # the file's numbers
     assert fq.ct_b[1:] == tuple(p[f"b_{k}"]["estimate"] for k in (1, 2))
-    assert fq.diameter == 0.076 and fq.beta_range_deg is not None
+    assert fq.diameter == 0.076 and len(fq.beta_ranges_deg) == 2  # ahead and astern
     truth, t200 = _bench_truth(), propeller_map("t200")
     beta = np.radians(np.linspace(0.0, 14.0, 8))
     np.testing.assert_allclose(fq.ct(beta), truth.ct(beta), rtol=0.03)
@@ -626,9 +637,26 @@ def test_a_vehicle_flies_the_propeller_map_fitted_on_its_own_bench(tmp_path):
     published = speed_envelope(_with("bluerov2"), dofs=["surge"])["forward"].speed
     assert own < published < bollard
     prm, _ = loop_arrays(v)  # the mission loop reads the same map
-    from uuvid.thruster.inflow import inflow_params
-
     np.testing.assert_array_equal(prm, inflow_params(fq))
+    r = fly_mission(setup_mission(v, square_mission(), t_end=3.0))
+    pub = fly_mission(setup_mission(_with("bluerov2"), square_mission(), t_end=3.0))
+    assert np.max(np.abs(r.thrust)) > 1.0  # T200s commanded through their ESC
+    assert np.all(np.isfinite(r.state)) and np.max(np.abs(r.thrust - pub.thrust)) > 1e-3
+
+
+def test_a_thruster_driven_by_propeller_speed_cannot_fly_a_mission(tmp_path):
+    """The fit's own blocks (thrust against propeller speed) as a thruster's model: a mission
+    has no command range for it — an error naming the thruster, never a vehicle that sits still
+    (it flew ±1 rad/s: 0.03 N)."""
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+
+    path, _ = _fitted_vehicle(tmp_path, key="model")
+    v = load_vehicle(path)  # envelope and stability read the file's limits and map
+    assert inflow_limits(v).maps[0].beta_ranges_deg is not None
+    with pytest.raises(ValueError, match=r"thrusters\[0\] \(T1_front_right\): model 'fitted\.yaml' "
+                                         r"takes the propeller speed.*propeller:"):
+        setup_mission(v, square_mission(), inflow="none")
 
 
 def test_a_map_fitted_ahead_only_warns_that_astern_is_an_extrapolation(tmp_path):
@@ -638,35 +666,69 @@ def test_a_map_fitted_ahead_only_warns_that_astern_is_an_extrapolation(tmp_path)
     with pytest.warns(VehicleFileWarning) as got:  # one message for the six thrusters on the file
         load_vehicle(path)
     assert len(got) == 1
-    assert re.search(r"thrusters\[0, 1, 2, 3, 4, 5\]\.model 'fitted\.yaml'.*\[0°, 14°\].*astern",
+    assert re.search(r"thrusters\[0, 1, 2, 3, 4, 5\] propeller 'fitted\.yaml'.*\[0°, 14°\].*astern",
                      str(got[0].message))
     with pytest.warns(VehicleFileWarning, match="astern"):  # a cached load says it again
         load_vehicle(path)
 
 
-@pytest.mark.parametrize("form, section, expected", [
-    ("linear", True, r"thrusters\[0\]\.model: inflow 'four-quadrant': fitted\.yaml: inflow: form "
-                     r"'linear'.*--model four-quadrant"),
-    ("four-quadrant", False, r"thrusters\[0\]\.model: inflow 'four-quadrant' needs the propeller "
-                             r"of model 'fitted\.yaml'.*four-quadrant 'inflow' section"),
+def test_the_envelope_says_where_it_reads_a_fitted_map_outside_the_bench(tmp_path):
+    """The bench saw no flow from behind: thrusters that meet one in steady flight (the BlueROV2's
+    vectored thrusters going sideways) read the series outside its advance angles — noted."""
+    path, _ = _fitted_vehicle(tmp_path)
+    env = speed_envelope(load_vehicle(path), dofs=["surge", "sway"])
+    note = [n for n in env.notes if n.startswith("extrapolated")]
+    assert note and "[0°, 14°] and [166°, 180°]" in note[0] and "β = " in note[0]
+    assert not [n for n in speed_envelope(_with("bluerov2")).notes if n.startswith("extrapolated")]
+
+
+@pytest.mark.parametrize("kw, expected", [
+    ({"form": "linear"}, r"thrusters\[0, 1, 2, 3, 4, 5\]\.propeller: inflow 'four-quadrant': "
+                         r"fitted\.yaml: inflow: form 'linear'.*--model four-quadrant"),
+    ({"section": False}, r"thrusters\[0, 1, 2, 3, 4, 5\]\.propeller: inflow 'four-quadrant' needs "
+                         r"the propeller map of 'fitted\.yaml', which holds none"),
+    ({"edit": lambda s: s.update(diameter_m=76.0)}, r"diameter_m = 76 m.*in mm"),
+    ({"edit": lambda s: s["parameters"].pop("a_1")}, r"missing a_1"),
 ])
-def test_a_model_file_without_a_four_quadrant_map_is_an_error_naming_the_thruster(
-        tmp_path, form, section, expected):
-    path, _ = _fitted_vehicle(tmp_path, form=form, section=section)
-    with pytest.raises(VehicleFileError, match=expected):
+def test_a_propeller_file_without_a_usable_map_is_an_error_with_its_own_cause(tmp_path, kw, expected):
+    path, _ = _fitted_vehicle(tmp_path, **kw)
+    with pytest.raises(VehicleFileError, match=expected) as e:
         load_vehicle(path)
+    assert str(e.value).count("fitted.yaml") <= 2  # one message for the six thrusters
+
+
+def test_a_propeller_file_that_is_not_there_is_named(tmp_path):
+    raw = _preset_raw("bluerov2")
+    raw["inflow"] = "four-quadrant"
+    raw["thrusters"][3]["propeller"] = "nowhere.yaml"
+    with pytest.raises(VehicleFileError, match=r"thrusters\[3\]\.propeller: 'nowhere\.yaml': no "
+                                               r"such thruster model file"):
+        vehicle_from_dict(raw, where="b.yaml", base_dir=tmp_path)
+
+
+def test_identical_maps_under_two_names_fly_one_mission_loop(tmp_path):
+    from uuvid.vehicle.inflow import loop_arrays
+
+    path, _ = _fitted_vehicle(tmp_path)
+    (tmp_path / "copy.yaml").write_text((tmp_path / "fitted.yaml").read_text())
+    raw = yaml.safe_load(path.read_text())
+    raw["thrusters"][5]["propeller"] = "copy.yaml"
+    (tmp_path / "v2.yaml").write_text(yaml.safe_dump(raw))
+    assert loop_arrays(load_vehicle(tmp_path / "v2.yaml")) is not None
 
 
 @pytest.mark.parametrize("mutate, key", [
     (lambda s: s.pop("diameter_m"), r"inflow\.diameter_m"),
-    (lambda s: s["parameters"].pop("b_1"), r"inflow\.parameters: expected exactly a_0, a_1, b_1"),
+    (lambda s: s["parameters"].pop("b_1"), r"parameters: expected exactly a_0, a_1, b_1 .*; missing b_1"),
+    (lambda s: s["parameters"].pop("a_1"), r"missing a_1$"),
     (lambda s: s["parameters"]["a_0"].update(estimate=float("nan")), r"parameters\.a_0"),
     (lambda s: s.update(beta_range_deg=[30.0, 10.0]), r"beta_range_deg"),
+    (lambda s: s.update(beta_ranges_deg=[[0.0, 10.0], [170.0]]), r"beta_ranges_deg: expected \[\[lo"),
 ])
 def test_a_bad_four_quadrant_section_names_its_key(mutate, key):
     from uuvid.thruster.inflow import map_from_section
 
-    sec = {"form": "four-quadrant", "diameter_m": 0.076, "beta_range_deg": [0.0, 15.0],
+    sec = {"form": "four-quadrant", "diameter_m": 0.076, "beta_range_deg": [0.0, 15.0],  # older file
            "parameters": {"a_0": {"estimate": 0.3}, "a_1": {"estimate": 0.1},
                           "b_1": {"estimate": -0.5}}}
     fq = map_from_section(sec, "m.yaml: inflow")

@@ -605,7 +605,8 @@ def _inflow_bench_section(out: Path, rep: Report) -> dict:
 
 def _fitted_map_vehicle(bench: Path, folder: Path, rep: Report) -> dict:
     """The same bench fitted as a four-quadrant map, and a BlueROV2 whose thrusters name that
-    model file flying it (``inflow: four-quadrant``): surge envelope against the published map."""
+    model file as their ``propeller`` flying it (``inflow: four-quadrant``): surge envelope
+    against the published map."""
     import yaml
 
     from uuvid.identify.thruster.workflow import ReadOptions, run_fit
@@ -619,15 +620,16 @@ def _fitted_map_vehicle(bench: Path, folder: Path, rep: Report) -> dict:
     raw = yaml.safe_load(preset_path("bluerov2").read_text())
     raw["inflow"] = "four-quadrant"
     published = speed_envelope(load_vehicle("bluerov2"), dofs=["surge"], inflow="four-quadrant")
-    for t in raw["thrusters"]:
-        t["model"] = "t200-four-quadrant.yaml"
+    for t in raw["thrusters"]:  # the thrusters stay T200s; their propeller is the bench's
+        t["propeller"] = "t200-four-quadrant.yaml"
     atomic_write_text(folder / "bluerov2-own-propeller.yaml", yaml.safe_dump(raw, sort_keys=False))
     own = speed_envelope(load_vehicle(folder / "bluerov2-own-propeller.yaml"), dofs=["surge"])
     row = {"bollard [m/s]": round(own["forward"].speed_bollard, 3),
            "published T200 map [m/s]": round(published["forward"].speed, 3),
            "map fitted on the bench [m/s]": round(own["forward"].speed, 3)}
     rep.add_paragraph("The same file fitted as a four-quadrant map (--model four-quadrant "
-                      "--diameter 0.076) and a BlueROV2 whose thrusters name that model file, with "
+                      "--diameter 0.076) and a BlueROV2 whose thrusters name that model file as "
+                      "their propeller:, with "
                       "inflow: four-quadrant, flies the map of the bench instead of the published "
                       "one (bluerov2-own-propeller.yaml):")
     rep.add_table([row], caption="BlueROV2 maximum surge speed, forward")

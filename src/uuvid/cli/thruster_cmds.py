@@ -72,8 +72,13 @@ def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) 
                               + (f" ± {sig:.2g}" if sig is not None else "")
                               + (f" {p['unit']}" if p.get("unit") else ""),
                               highlight=False, markup=False)
-        out_console.print("  (the blocks above are the bollard map; no vehicle simulation reads "
-                          "this section yet)", highlight=False, markup=False)
+        out_console.print("  (the blocks above are the bollard map; "
+                          + ("a vehicle file flies this map with inflow: four-quadrant when a "
+                             "thruster names this file as its propeller:)"
+                             if sec.get("form") == "four-quadrant" else
+                             "vehicle simulations do not read the linear form: fit "
+                             "--model four-quadrant --diameter D for a map they fly)"),
+                          highlight=False, markup=False)
 
 
 def thruster_simulate(

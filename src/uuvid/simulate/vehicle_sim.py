@@ -100,6 +100,10 @@ def _command_range(chain: ThrusterChain) -> tuple[float, float, float]:
         v = getattr(getattr(first, "motor", first), "resistance", None)
         vmax = 24.0 if v is not None else 12.0
         return -vmax, vmax, 0.0
+    if chain.input_kind == "speed":
+        raise ValueError(f"thruster model {chain.name!r} takes the propeller speed (rad/s) as its "
+                         "input and holds no speed range: a mission commands a thruster through "
+                         "its command range (an ESC or a command-driven model)")
     return -1.0, 1.0, 0.0
 
 
@@ -1406,6 +1410,15 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
 
         thruster_chain = physical_model().to_chain(max(battery.ocv_voltage))
     chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
+    for i, ch in enumerate(chains):
+        if ch.input_kind == "speed":  # a bench fit of thrust against propeller speed
+            ref = vehicle.layout[i].model if thruster_chain is None else "--thruster-model"
+            raise ValueError(
+                f"{vehicle.name}: thrusters[{i}] ({vehicle.layout[i].name}): model {ref!r} takes the "
+                "propeller speed (rad/s) as its input, not a command, so a mission cannot drive it; "
+                "give a command-driven model (e.g. t200, or a fit against the command) as model, and "
+                "to fly a four-quadrant map fitted on a bench in a flow name that file as the "
+                "thruster's propeller: (vehicle file)")
     bank = ThrusterBank.from_chains(chains)
     al = vehicle.allocator(modes)
     alloc = al.to_array(allocation)

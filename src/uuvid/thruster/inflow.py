@@ -138,9 +138,9 @@ class FourQuadrantMap:
     cq_b: tuple[float, ...]
     source: str = ""
     assumption: str = ""
-    #: advance angles (deg, ``[lo, hi]``) a fitted map's coefficients hold over; ``None``: the
-    #: whole circle (a published four-quadrant series)
-    beta_range_deg: tuple[float, float] | None = None
+    #: advance-angle intervals (deg, ``(lo, hi)`` each, one per shaft direction the data turned)
+    #: a fitted map's coefficients hold over; ``None``: the whole circle (a published series)
+    beta_ranges_deg: tuple[tuple[float, float], ...] | None = None
 
     def __post_init__(self):
         if not (math.isfinite(self.diameter) and self.diameter > 0):
@@ -175,15 +175,21 @@ class FourQuadrantMap:
     def with_diameter(self, diameter: float) -> FourQuadrantMap:
         """The same non-dimensional map for a geometrically similar propeller of another size."""
         return FourQuadrantMap(self.name, diameter, self.ct_a, self.ct_b, self.cq_a, self.cq_b,
-                               self.source, self.assumption, self.beta_range_deg)
+                               self.source, self.assumption, self.beta_ranges_deg)
 
     def covers(self, beta_deg: float, tol: float = 1.0) -> bool:
-        """Does the map hold at advance angle ``beta_deg`` (within ``tol`` degrees of the fitted
-        range, angles taken modulo 360°)?  Always for a map of the whole circle."""
-        if self.beta_range_deg is None:
+        """Does the map hold at advance angle ``beta_deg`` (within ``tol`` degrees of a fitted
+        interval, angles taken modulo 360°)?  Always for a map of the whole circle."""
+        if self.beta_ranges_deg is None:
             return True
-        lo, hi = self.beta_range_deg
-        return any(lo - tol <= b <= hi + tol for b in (beta_deg - 360.0, beta_deg, beta_deg + 360.0))
+        return any(lo - tol <= b <= hi + tol for lo, hi in self.beta_ranges_deg
+                   for b in (beta_deg - 360.0, beta_deg, beta_deg + 360.0))
+
+    def ranges_text(self) -> str:
+        """The fitted advance-angle intervals, for messages (``"the whole circle"`` if none)."""
+        if self.beta_ranges_deg is None:
+            return "the whole circle"
+        return " and ".join(f"[{lo:.0f}°, {hi:.0f}°]" for lo, hi in self.beta_ranges_deg)
 
     def _arrays(self):
         return (np.asarray(self.ct_a), np.asarray(self.ct_b), np.asarray(self.cq_a),
@@ -620,7 +626,8 @@ def map_from_section(section, where: str = "inflow") -> FourQuadrantMap:
     """The :class:`FourQuadrantMap` a thruster model file's ``inflow`` section holds — the
     ``C_T*(β)`` Fourier terms ``a_0 … a_K``, ``b_1 … b_K`` and ``diameter_m`` a bench fit in a
     flow writes (``uuvid thruster fit --model four-quadrant --diameter D``,
-    :func:`uuvid.identify.thruster.inflow.fit_four_quadrant`), valid over its ``beta_range_deg``.
+    :func:`uuvid.identify.thruster.inflow.fit_four_quadrant`), valid over its ``beta_ranges_deg``
+    (one interval per shaft direction; an older file's single ``beta_range_deg``).
     ``C_Q*`` is zero (the fit has no torque).  ``ValueError`` naming ``where`` and the key for
     anything else — the linear form ``T = K_T Ω|Ω| − k_a |Ω| u_a`` included: a line in one
     quadrant per direction with no propeller diameter is no four-quadrant map."""
@@ -648,24 +655,35 @@ def map_from_section(section, where: str = "inflow") -> FourQuadrantMap:
             raise ValueError(f"{where}.parameters.{name}: expected a finite estimate, got {v!r}")
         return float(v)
 
-    order = sum(1 for k in prm if k.startswith("a_")) - 1
+    idx = [int(k[2:]) for k in prm if k[:2] in ("a_", "b_") and k[2:].isdigit()]
+    order = max(idx, default=0)
     want = [f"a_{k}" for k in range(order + 1)] + [f"b_{k}" for k in range(1, order + 1)]
     if sorted(prm) != sorted(want):
+        missing = [k for k in want if k not in prm]
+        extra = sorted(k for k in prm if k not in want)
         raise ValueError(f"{where}.parameters: expected exactly {', '.join(want)} (C_T*(β) of "
-                         f"Fourier order {order}), got {', '.join(sorted(prm))}")
-    rng = section.get("beta_range_deg")
-    if rng is not None:
-        if not (isinstance(rng, (list, tuple)) and len(rng) == 2
-                and all(isinstance(x, (int, float)) and math.isfinite(x) for x in rng)
-                and rng[0] <= rng[1]):
-            raise ValueError(f"{where}.beta_range_deg: expected [lo, hi] in degrees, got {rng!r}")
-        rng = (float(rng[0]), float(rng[1]))
+                         f"Fourier order {order})"
+                         + (f"; missing {', '.join(missing)}" if missing else "")
+                         + (f"; not a term: {', '.join(extra)}" if extra else ""))
+    key = "beta_ranges_deg" if "beta_ranges_deg" in section else "beta_range_deg"
+    rng = section.get(key)
+    if rng is not None:  # one interval per direction (older files: one overall [lo, hi])
+        ivs = [rng] if key == "beta_range_deg" else rng
+        ok = isinstance(ivs, (list, tuple)) and len(ivs) > 0 and all(
+            isinstance(r, (list, tuple)) and len(r) == 2
+            and all(isinstance(x, (int, float)) and math.isfinite(x) for x in r) and r[0] <= r[1]
+            for r in ivs)
+        if not ok:
+            raise ValueError(f"{where}.{key}: expected "
+                             + ("[lo, hi]" if key == "beta_range_deg" else "[[lo, hi], …]")
+                             + f" in degrees, got {rng!r}")
+        rng = tuple((float(a), float(b)) for a, b in ivs)
     a = tuple(est(f"a_{k}") for k in range(order + 1))
     b = (0.0,) + tuple(est(f"b_{k}") for k in range(1, order + 1))
     zeros = (0.0,) * len(a)
     return FourQuadrantMap(f"fitted ({where})", float(d), a, b, zeros, zeros,
                            source=str(section.get("source") or where),
-                           assumption="C_Q* not identified (no torque fitted)", beta_range_deg=rng)
+                           assumption="C_Q* not identified (no torque fitted)", beta_ranges_deg=rng)
 
 
 #: Thruster model names with known propeller data → their four-quadrant map.

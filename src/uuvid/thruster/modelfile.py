@@ -143,6 +143,7 @@ def _chain_schema():
         parameters: dict[str, InflowParameterSchema]
         flow_levels_m_s: list[float] = []
         beta_range_deg: list[float] | None = None
+        beta_ranges_deg: list[list[float]] | None = None
         correlation: dict | None = None
         source: str | None = None
 

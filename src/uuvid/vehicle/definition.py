@@ -30,6 +30,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
         limits: [-39.91, 51.49]              # [min, max] thrust, N
         installation: {surge_front: [1.0, 0.89]}   # η per mode: value or [η₊, η₋]
         wake: 0.0                            # wake fraction in [0, 1) (with inflow only)
+        propeller: my-prop.yaml              # inflow map (default: the model's; with inflow only)
     allocation: {dofs: [surge, sway, heave, yaw], weights: [...], default_modes: [...]}
     modes:                       # thrust-mapping modes (Caccia et al. 2000, Table I)
       surge_front:
@@ -127,6 +128,13 @@ class Vehicle:
     battery: Any = None  # uuvid.vehicle.power.Battery, from the file's ``battery`` block
     inflow: str = "none"  # thrust against advance speed: "none" (bollard) or "four-quadrant"
     wake: tuple[float, ...] = ()  # wake fraction per thruster (empty: all 0)
+    #: per thruster, what its inflow map comes from (``propeller:``, else its ``model``; empty:
+    #: the models)
+    propellers: tuple[str, ...] = ()
+
+    def propeller(self, thruster: int) -> str:
+        """The preset or model file a thruster's four-quadrant map comes from (with inflow)."""
+        return self.propellers[thruster] if self.propellers else self.layout[thruster].model
 
     @property
     def B(self) -> np.ndarray:
@@ -266,6 +274,39 @@ _PARAM_PATH = {"mass": "rigid_body.mass", "inertia": "rigid_body.inertia",
                "current": "environment.current", "quaternion_gain": "quaternion_gain"}
 
 
+def _by_propeller(refs) -> dict[str, list[int]]:
+    """Thruster indices per propeller reference (one message per file, naming its thrusters)."""
+    out: dict[str, list[int]] = {}
+    for i, r in enumerate(refs):
+        out.setdefault(r, []).append(i)
+    return out
+
+
+def _propeller_errors(spec, where: str, base_dir: Path | None) -> list[str]:
+    """Why the thrusters' four-quadrant maps (``propeller:``, else ``model``) cannot be read, one
+    message per reference with its own cause (no such file, a bad model file, no or a linear
+    ``inflow`` section, an unknown preset)."""
+    from uuvid.thruster.modelfile import ModelFileError
+    from uuvid.vehicle.inflow import KNOWN_PROPELLERS, thruster_map
+
+    out = []
+    refs = [t.propeller or t.model for t in spec.thrusters]
+    for ref, idx in _by_propeller(refs).items():
+        key = "propeller" if spec.thrusters[idx[0]].propeller else "model"
+        at = f"{where}: thrusters[{', '.join(map(str, idx))}].{key}"
+        try:
+            thruster_map(ref, base_dir)
+        except KeyError:
+            out.append(f"{at}: inflow {spec.inflow!r} needs the propeller map of {ref!r}, which "
+                       f"holds none (known: {KNOWN_PROPELLERS}); set inflow: none")
+        except FileNotFoundError:
+            out.append(f"{at}: {ref!r}: no such thruster model file (relative to the vehicle "
+                       "file's folder) and not a preset with a propeller map (t200, t200-physical)")
+        except (ModelFileError, ValueError) as e:
+            out.append(f"{at}: inflow {spec.inflow!r}: {e}")
+    return out
+
+
 def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     """What a valid file may still hold wrong, as :class:`VehicleFileWarning` naming the file — on
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
@@ -275,17 +316,15 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 
-        models: dict[str, list[int]] = {}
-        for i, t in enumerate(vehicle.layout):
-            models.setdefault(t.model, []).append(i)
-        for model, idx in models.items():  # one message per model file, naming its thrusters
+        refs = [vehicle.propeller(i) for i in range(vehicle.layout.n)]
+        for ref, idx in _by_propeller(refs).items():  # one message per file, naming its thrusters
             try:
-                fq = thruster_map(model, base_dir)
-            except (KeyError, ValueError):  # an error when the file was read; at use if it changed
+                fq = thruster_map(ref, base_dir)
+            except (KeyError, OSError, ValueError):  # an error at load; at use if it changed since
                 continue
             lim = np.asarray(vehicle.layout.limits, float)[idx]
             msgs += map_range_warnings(fq, (lim[:, 0].min(), lim[:, 1].max()),
-                                       f"thrusters[{', '.join(map(str, idx))}].model {model!r}")
+                                       f"thrusters[{', '.join(map(str, idx))}] propeller {ref!r}")
     for msg in msgs:
         warnings.warn(f"{where}: {msg}", VehicleFileWarning, stacklevel=3)
 
@@ -384,17 +423,8 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
             continue
         thrusters.append(Thruster(t.name, t.position, tuple(axis), t.model, (lo, hi),
                                   dict(t.installation)))
-        if spec.inflow != "none":
-            from uuvid.vehicle.inflow import KNOWN_PROPELLERS, thruster_map
-
-            try:
-                thruster_map(t.model, base_dir)
-            except KeyError:
-                err(f"{p}.model", f"inflow {spec.inflow!r} needs the propeller of model "
-                    f"{t.model!r}, which uuvid does not know (known: {KNOWN_PROPELLERS}); "
-                    "set inflow: none")
-            except ValueError as e:
-                err(f"{p}.model", f"inflow {spec.inflow!r}: {e}")
+    if spec.inflow != "none":
+        errors += _propeller_errors(spec, where, base_dir)
     layout = None
     if not errors:
         layout = ThrusterLayout(tuple(thrusters))
@@ -464,7 +494,8 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                       tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
                       dict(spec.assumptions), spec.description, path,
                       _battery(spec.battery, where) if spec.battery is not None else None,
-                      spec.inflow, tuple(float(t.wake) for t in spec.thrusters))
+                      spec.inflow, tuple(float(t.wake) for t in spec.thrusters),
+                      tuple(t.propeller or t.model for t in spec.thrusters))
     _warn_on_load(vehicle, where, base_dir)
     return vehicle
 

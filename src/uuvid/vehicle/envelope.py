@@ -200,6 +200,7 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
     inf_lim = inflow_limits(vehicle, inflow)
     wanted = controlled if dofs is None else tuple(dof_index(d) for d in dofs)
     rows = []
+    beyond: list[str] = []  # limits read outside a fitted propeller map's advance angles
     for d in wanted:
         for sign in (1, -1):
             F, Fa = _forces(alloc, B, lim, d, sign, controlled, ep, en, C)
@@ -225,6 +226,12 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
                 va = steady_speed_with_inflow(lambda f, s=sign: speed_of(s * f),
                                               lambda s: forces_at(s)[1], vab)
                 F, Fa = forces_at(v)[0], forces_at(va)[1]
+                if math.isfinite(v):
+                    nu = np.zeros(6)
+                    nu[d] = v
+                    for i, b in inf_lim.extrapolated(nu):
+                        beyond.append(f"{DOF_NAMES[d]} {DIRECTIONS[d][0 if sign > 0 else 1]}: "
+                                      f"{vehicle.layout[i].name} at β = {b:.0f}°")
             rows.append(EnvelopeRow(DOF_NAMES[d], DIRECTIONS[d][0 if sign > 0 else 1], sign,
                                     F, v, Fa, va, *UNITS[d], vb, vab))
     notes = [(f"drag: diagonal of D_L and D_Q; heave includes W - B = {p.net_weight:+.3g} N; "
@@ -234,6 +241,10 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
                      "state (propeller map " + inf_lim.maps[0].name + ", full-command shaft speed "
                      "held; wake " + ", ".join(f"{w:g}" for w in sorted(set(inf_lim.wake))) +
                      "); bollard-thrust speeds beside (speed_bollard)")
+    if beyond:
+        notes.append("extrapolated: the fitted propeller map (" + inf_lim.maps[0].ranges_text()
+                     + ") is read outside its advance angles — " + "; ".join(beyond)
+                     + " — those speeds rest on the series beyond the bench's data")
     unc = [DOF_NAMES[i] for i in range(6) if i not in controlled]
     if unc:
         notes.append(f"not controlled (left free): {', '.join(unc)}")

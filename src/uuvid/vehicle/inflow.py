@@ -41,26 +41,45 @@ def thruster_map(model: str, base=None) -> FourQuadrantMap:
     (:func:`uuvid.thruster.inflow.propeller_map`), else the ``inflow`` section of the model file
     it names (relative to ``base``, the vehicle file's folder; :func:`uuvid.thruster.inflow.
     map_from_section`) — the map fitted on the user's own bench in a flow.  ``KeyError`` when
-    the model has no propeller data, ``ValueError`` (naming the file's key) when its section
-    is not a four-quadrant map."""
+    the preset or file has no propeller data, ``FileNotFoundError`` / ``ModelFileError`` for a
+    missing or bad file, ``ValueError`` (naming the file's key) when its section is not a
+    four-quadrant map."""
     try:
         return propeller_map(model)
     except KeyError:
         pass
-    from uuvid.thruster.modelfile import ModelFileError
-    from uuvid.thruster.resolve import resolve_chain
+    from uuvid.thruster.resolve import is_preset, resolve_chain
 
-    try:
-        chain = resolve_chain(model, base)
-    except (FileNotFoundError, ModelFileError, ValueError):
-        raise KeyError(model) from None
+    if is_preset(model):  # a preset without propeller data
+        raise KeyError(model)
+    chain = resolve_chain(model, base)  # FileNotFoundError, ModelFileError: the file's own cause
     if chain.inflow is None:
         raise KeyError(model)
-    return map_from_section(chain.inflow, where=f"{model}: inflow")
+    fq = map_from_section(chain.inflow, where=f"{model}: inflow")
+    _check_against_bollard(fq, chain, model)
+    return fq
+
+
+def _check_against_bollard(fq: FourQuadrantMap, chain, model: str) -> None:
+    """A fit writes the map's bollard point as the file's block (``T = K_T Ω|Ω|``): a map that
+    disagrees with it by more than 2× has a wrong diameter (mm for m: 10¹² in ``D⁴``) or an
+    edited coefficient — an error, not a silently weaker or stronger thruster."""
+    from uuvid.thruster.blocks import QuadraticMap
+    from uuvid.thruster.inflow import RHO_FRESH
+
+    blk = chain.blocks[0] if len(chain.blocks) == 1 else None
+    if not (isinstance(blk, QuadraticMap) and chain.input_kind == "speed" and blk.k_pos > 0):
+        return
+    k_map = fq.bollard_kt(1) * RHO_FRESH * fq.diameter ** 4 / (2.0 * math.pi) ** 2
+    r = k_map / blk.k_pos
+    if not 0.5 < r < 2.0:
+        raise ValueError(f"{model}: inflow.diameter_m = {fq.diameter:g} m: the map's bollard thrust "
+                         f"coefficient is {r:.3g}× the file's own bollard map (its block, K_T = "
+                         f"{blk.k_pos:.4g} N·s²/rad²) — a diameter in mm, or an edited coefficient?")
 
 
 def map_range_warnings(fq: FourQuadrantMap, limits, where: str) -> list[str]:
-    """Why a fitted map (its ``beta_range_deg``) cannot hold where a thruster with bollard
+    """Why a fitted map (its ``beta_ranges_deg``) cannot hold where a thruster with bollard
     ``limits`` ``[min, max]`` works: the bollard point of a direction it pushes (β = 0° ahead,
     ±180° astern) outside the fitted advance angles means that direction's thrust — and the shaft
     speed the loop infers from it — is an extrapolation of the series."""
@@ -68,8 +87,7 @@ def map_range_warnings(fq: FourQuadrantMap, limits, where: str) -> list[str]:
     lo, hi = float(limits[0]), float(limits[1])
     for need, beta, what in ((hi > 0, 0.0, "ahead (β = 0°)"), (lo < 0, 180.0, "astern (β = ±180°)")):
         if need and not fq.covers(beta):
-            r = fq.beta_range_deg
-            out.append(f"{where}: the propeller map was fitted over β ∈ [{r[0]:.0f}°, {r[1]:.0f}°], "
+            out.append(f"{where}: the propeller map was fitted over β ∈ {fq.ranges_text()}, "
                        f"but the thruster also pushes {what}: its thrust there is an "
                        "extrapolation of the series (record bench runs that turn that way, or set "
                        "inflow: none)")
@@ -109,6 +127,19 @@ class InflowLimits:
         """Advance speed at each thruster (m/s) for body velocity ``ν_r`` relative to the water."""
         return advance_speeds(nu_r, self.positions, self.axes, self.wake)
 
+    def extrapolated(self, nu_r) -> list[tuple[int, float]]:
+        """``(thruster, β in deg)`` of each limit :meth:`limits_at` takes outside its map's fitted
+        advance angles at body velocity ``ν_r`` (empty for maps of the whole circle)."""
+        ua = self.advance(nu_r)
+        out = []
+        for i, m in enumerate(self.maps):
+            for n in (self.n_fwd[i], self.n_rev[i]):
+                if n != 0.0 and m.beta_ranges_deg is not None:
+                    b = math.degrees(math.atan2(ua[i], 0.7 * math.pi * n * m.diameter))
+                    if not m.covers(b):
+                        out.append((i, b))
+        return out
+
     def limits_at(self, nu_r) -> np.ndarray:
         """``(n, 2)`` thrust limits at steady body velocity ``ν_r`` (see the module text)."""
         ua = self.advance(nu_r)
@@ -132,13 +163,16 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
     path = getattr(vehicle, "path", None)
     base = path.parent if path is not None else None
     maps = []
-    for t in lay:
+    for i, t in enumerate(lay):
+        ref = vehicle.propeller(i) if hasattr(vehicle, "propeller") else t.model
         try:
-            maps.append(thruster_map(t.model, base))
-        except KeyError:
-            raise ValueError(f"{vehicle.name}: thrusters[{t.name}].model {t.model!r}: inflow "
-                             f"{mode!r} needs its propeller, which uuvid does not know (known: "
-                             f"{KNOWN_PROPELLERS}); use inflow none") from None
+            maps.append(thruster_map(ref, base))
+        except (KeyError, OSError) as e:
+            why = ("holds no propeller map" if isinstance(e, KeyError)
+                   else f"cannot be read ({e})")
+            raise ValueError(f"{vehicle.name}: thrusters[{t.name}]: inflow {mode!r} needs a "
+                             f"propeller map, and {ref!r} {why} (known: {KNOWN_PROPELLERS}); use "
+                             "inflow none") from None
     lim = np.asarray(lay.limits, float)
     for i, t in enumerate(lay):
         if not np.all(np.isfinite(lim[i])):
@@ -200,11 +234,11 @@ def loop_arrays(vehicle, inflow: str | None = None) -> tuple[np.ndarray, np.ndar
     il = inflow_limits(vehicle, inflow)
     if il is None:
         return None
-    names = {m.name for m in il.maps}
-    diam = {m.diameter for m in il.maps}
-    if len(names) > 1 or len(diam) > 1:
-        raise ValueError(f"{vehicle.name}: the mission loop takes one propeller map for all "
-                         f"thrusters, got {sorted(names)} at diameters {sorted(diam)}")
+    distinct = {(m.diameter, m.ct_a, m.ct_b): m.name for m in il.maps}  # by content, not name
+    if len(distinct) > 1:
+        raise ValueError(f"{vehicle.name}: the mission loops take one propeller map for all "
+                         f"thrusters, got {len(distinct)} different ones ({', '.join(distinct.values())}); "
+                         "vehicle envelope, stability and hold take one per thruster")
     return inflow_params(il.maps[0]), inflow_geometry(vehicle)
 
 

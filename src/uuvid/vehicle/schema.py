@@ -78,6 +78,9 @@ class ThrusterSchema(BaseModel):
     limits: tuple[float, float]
     installation: dict[str, float | tuple[float, float]] = {}
     wake: float = Field(0.0, ge=0, lt=1)  # wake fraction w: u_a = (1 − w) axisᵀ(v_r + ω × r)
+    # the propeller's four-quadrant map for inflow (default: the model's): a preset name or a
+    # thruster model file with a four-quadrant 'inflow' section (a bench fit in a flow)
+    propeller: str | None = Field(None, min_length=1)
     notes: str | None = None
 
 

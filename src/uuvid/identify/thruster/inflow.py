@@ -155,9 +155,10 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
     ``b_1 … b_order``), ``info["map"]`` the :class:`~uuvid.thruster.inflow.FourQuadrantMap`
     (thrust only: its ``C_Q*`` is zero, the bench gives no torque here) and the bollard
     :class:`~uuvid.thruster.blocks.QuadraticMap` of that map as the block.  The coefficients hold
-    over the advance angles in the data (``info["beta_range_deg"]``); outside them the series is
-    an extrapolation.  ``order`` (default): 1 for data turning one way (β near 0 or near ±π), 2
-    when they turn both ways (ahead and astern need their own level and slope)."""
+    over the advance angles in the data (``info["beta_ranges_deg"]``, one interval per shaft
+    direction: :func:`beta_ranges`); outside them the series is an extrapolation.  ``order``
+    (default): 1 for data turning one way (β near 0 or near ±π), 2 when they turn both ways
+    (ahead and astern need their own level and slope)."""
     if not (math.isfinite(diameter) and diameter > 0):
         raise BenchDataError(f"the four-quadrant fit needs the propeller diameter in m "
                              f"(--diameter), got {diameter!r}")
@@ -177,14 +178,15 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
                      emit_warnings=False,
                      extra={"flow_levels": flow_levels(u).tolist(), "diameter": diameter,
                             "rho": rho, "beta_range_deg": [float(np.degrees(beta.min())),
-                                                           float(np.degrees(beta.max()))]})
+                                                           float(np.degrees(beta.max()))],
+                            "beta_ranges_deg": beta_ranges(w, beta)})
     v = fit.values
     a = tuple(v[f"a_{k}"] for k in range(order + 1))
     b = (0.0,) + tuple(v[f"b_{k}"] for k in range(1, order + 1))
     fq = FourQuadrantMap(f"fitted {data.source}".strip(), diameter, a, b, (0.0,) * len(a),
                          (0.0,) * len(a), source=f"bench in a flow: {data.source}",
                          assumption="C_Q* not identified (no torque fitted)",
-                         beta_range_deg=tuple(fit.extra["beta_range_deg"]))
+                         beta_ranges_deg=tuple(map(tuple, fit.extra["beta_ranges_deg"])))
     # bollard map T = K_T ρ n² D⁴ as K_T Ω|Ω| (n = Ω/2π) per direction the data turn
     c = rho * diameter ** 4 / (2.0 * math.pi) ** 2
     dirs = dict(_directions(w))
@@ -194,7 +196,22 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
     return SteadyFit(f"{FOUR_QUADRANT_FORM}, C_T* Fourier order {order}", {"four-quadrant": fit},
                      QuadraticMap(k_pos=kf, k_neg=kr),
                      {"form": "four-quadrant", "map": fq, "notes": (),
-                      "beta_range_deg": fit.extra["beta_range_deg"]})
+                      "beta_range_deg": fit.extra["beta_range_deg"],
+                      "beta_ranges_deg": fit.extra["beta_ranges_deg"]})
+
+
+def beta_ranges(speed, beta) -> list[list[float]]:
+    """The advance angles (deg) a bench spans, one ``[lo, hi]`` per shaft direction it turned:
+    ahead (``Ω > 0``, β in (−90°, 90°)) and astern (``Ω < 0``, β taken in [90°, 270°) so that
+    flows from ahead and behind make one interval) — the min and max over both would claim the
+    whole half-circle between them."""
+    speed = np.asarray(speed, float)
+    deg = np.degrees(np.asarray(beta, float))
+    out = []
+    for m, b in ((speed > 0, deg), (speed < 0, np.mod(deg, 360.0))):
+        if np.any(m):
+            out.append([float(b[m].min()), float(b[m].max())])
+    return out
 
 
 def model_thrust(sf: SteadyFit, speed, flow) -> np.ndarray:

@@ -445,12 +445,20 @@ def _fit_inflow(data, name, model, diameter=None, order=None):
                         "parameters": {p.name: {"estimate": p.value, "sigma": p.stderr,
                                                 "unit": p.unit} for p in fit.parameters},
                         "correlation": {"names": fit.names, "matrix": np.asarray(corr).tolist()}}}
-    if "beta_range_deg" in sf.info:
-        extra["inflow"]["beta_range_deg"] = sf.info["beta_range_deg"]
+    for k in ("beta_range_deg", "beta_ranges_deg"):
+        if k in sf.info:
+            extra["inflow"][k] = sf.info[k]
     warn, notes = _steady_messages(sf)
     notes.append("the model file's blocks are the bollard map (u_a = 0) of the fit; its 'inflow' "
                  "section holds the fitted inflow coefficients with their σ (summary key "
                  "'inflow')")
+    turned = [n for n, s in (("ahead", 1), ("astern", -1)) if np.any(np.sign(data.speed[m]) == s)]
+    if len(turned) == 1:
+        other = "reverse" if turned[0] == "ahead" else "forward"
+        warn.append(f"the bench turned the propeller {turned[0]} only: the model file's {other} "
+                    f"bollard coefficient is the {turned[0]} one (assumed, not measured)"
+                    + (", and the map read the other way is an extrapolation"
+                       if model == "four-quadrant" else ""))
     text = sf.summary() + "\n=== correlation ===\n" + "\n".join(
         f"{a:>10s} " + " ".join(f"{c:+.3f}" for c in row) for a, row in zip(fit.names, corr))
     section = jsonable({**extra["inflow"], "equation": fit.model,
