@@ -374,3 +374,40 @@ def test_the_direction_check_on_the_projects_synthetic_dives():
         assert len(ws) == 1 and ws[0].startswith("<table>: pwm_5 is probably reversed"), (seed, ws)
     df, _ = synthetic_dive(600.0, seed=7)  # the defaults: PWM at 2 Hz
     assert not _reversed(_read(df.drop(columns=forces)))
+
+
+def test_a_pwm_spike_is_an_error_naming_the_cell_not_saturation(tmp_path):
+    """One 65535 (a logger's overflow) among pulse widths was counted as a saturated sample."""
+    df = _table()
+    df.loc[700, "pwm_2"] = 65535
+    with pytest.raises(DiveDataError, match=r"d\.csv: column pwm_2, row 702: 65535 is not a pulse "
+                                            r"width \(1 such cell"):
+        _read(df, tmp_path)
+
+
+def test_a_column_name_twice_is_an_error_not_one_sensor_dropped(tmp_path):
+    df = _table()
+    df.insert(2, "depth_m_2", df["depth_m"] + 2.0)
+    df.columns = [c if c != "depth_m_2" else "depth_m" for c in df.columns]  # two 'depth_m'
+    for source in (df, tmp_path):  # a DataFrame holds both; a CSV reads the second as depth_m.1
+        with pytest.raises(DiveDataError, match=r"column 'depth_m' appears twice \(columns 2 and 3\)"):
+            _read(df, None if source is df else tmp_path)
+    ok = _table()
+    ok["notes.1"] = 0.0  # a name with a dot that is no copy of a channel stays allowed
+    assert _read(ok).channels["depth_m"][0].size == 1200
+
+
+def test_an_infinite_cell_is_an_error_not_a_dropped_sample(tmp_path):
+    df = _table()
+    df.loc[300, "depth_m"] = np.inf
+    with pytest.raises(DiveDataError, match=r"column depth_m, row 302: inf is not a measurement"):
+        _read(df, tmp_path)
+
+
+def test_a_pause_in_the_log_is_named_with_its_row(tmp_path):
+    df = _table()
+    df.loc[600:, "t_s"] += 3600.0
+    dc = _read(df, tmp_path)
+    assert any(re.search(r"column t_s, row 602: the log stops for 3600 s \(from 29\.95 s\)", w)
+               for w in dc.warnings)
+    assert not any("the log stops" in w for w in _read(_table()).warnings)

@@ -22,6 +22,7 @@ folder that is not a ROS 2 bag, a missing path, a file of unknown kind) is a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -68,6 +69,16 @@ class DiveChannels:
     def t_range(self) -> tuple[float, float]:
         ts = [c[0] for c in self.channels.values() if c[0].size]
         return float(min(t[0] for t in ts)), float(max(t[-1] for t in ts))
+
+    def span_text(self, t_start=None, t_end=None) -> str:
+        """``"[a, b] s"``: the time window asked for, the log's own ends where none is given."""
+        try:
+            a, b = self.t_range
+        except ValueError:  # no samples at all
+            a = b = math.nan
+        a = a if t_start is None else t_start
+        b = b if t_end is None else t_end
+        return f"[{a:.6g}, {b:.6g}] s"
 
     def require(self, dof: str) -> None:
         """Raise :class:`DiveDataError` when the log lacks what ``dof`` needs."""
@@ -138,9 +149,14 @@ MAX_YAW_RATE = 2 * np.pi  # rad/s (a turn per second), likewise
 MAX_SPEED = 5.0  # m/s, the 90th percentile of |u|, |v|
 BATTERY_RANGE_V = (6.0, 60.0)  # median
 MAX_ROW_STEP_S = 5.0  # median step between rows
+#: no servo output holds a pulse this long (µs): a whole period at 50 Hz — 65535 (a uint16's
+#: overflow) and the like are logger faults, not commands
+PWM_SPIKE_US = 20000.0
+#: a pause in a dive table worth naming (s; or 50 median steps, the larger)
+GAP_S = 10.0
 
 
-def _table_time(df, tcol: str, name: str) -> np.ndarray:
+def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.ndarray:
     """The time column in seconds: every cell a number, never decreasing (rows with the same
     stamp are merged by :func:`_finite`, conflicts refused by :func:`_check_same_stamps`)."""
     import pandas as pd
@@ -168,6 +184,17 @@ def _table_time(df, tcol: str, name: str) -> np.ndarray:
         raise DiveDataError(f"{name}: column {tcol}: the median step between rows is "
                             f"{float(np.median(step)):.4g} s; expected seconds at the rate of "
                             "the sensors (is the time in milliseconds? divide it by 1000)")
+    if warnings is not None and step.size >= 10:
+        gap = max(GAP_S, 50.0 * float(np.median(step)))
+        big = np.flatnonzero(np.diff(t) > gap)
+        if big.size:
+            i = int(big[0]) + 1
+            warnings.append(f"{name}: column {tcol}, row {i + 2}: the log stops for "
+                            f"{t[i] - t[i - 1]:.4g} s (from {t[i - 1]:.6g} s)"
+                            + (f", and {big.size - 1} more gap(s) over {gap:.3g} s" if big.size > 1
+                               else "")
+                            + ": a logger pause or two logs joined; no sample spans it, so fit "
+                            "and replay each side on its own (--t-start/--t-end)")
     return t
 
 
@@ -253,6 +280,23 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
                                 f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
 
 
+def _check_pwm_cells(v, c: str, name: str) -> None:
+    """A column of pulse widths with a few cells no servo output can hold — longer than
+    :data:`PWM_SPIKE_US` (65535: a logger's overflow) — is an error naming the first; a
+    column mostly outside the ESC's range is a unit question (:func:`_check_units`), and values
+    just past it are clipped by the ESC (said by the thrust model)."""
+    from uuvid.thruster.chain import PWM_PLAUSIBLE_US
+
+    lo, hi = PWM_PLAUSIBLE_US
+    on = np.isfinite(v) & (v != 0)
+    out = on & (np.abs(v) > PWM_SPIKE_US)
+    if out.any() and np.sum(on & (v >= lo) & (v <= hi)) >= 0.5 * on.sum():
+        i = int(np.flatnonzero(out)[0])
+        raise DiveDataError(f"{name}: column {c}, row {i + 2}: {v[i]:.6g} is not a pulse width "
+                            f"({out.sum()} such cell(s)); expected µs (ESCs take about "
+                            f"{lo:g}–{hi:g}; 0 or an empty cell for an output that is off)")
+
+
 _ARMED_WORDS = ("true", "false", "1", "0", "1.0", "0.0", "yes", "no", "nan", "")
 
 #: the measured and force columns a dive table may have (SI units)
@@ -265,13 +309,18 @@ def _numeric_column(df, c, name: str) -> np.ndarray:
     import pandas as pd
 
     try:
-        return np.asarray(df[c], float)
+        v = np.asarray(df[c], float)
     except (TypeError, ValueError):
         num = pd.to_numeric(df[c], errors="coerce")
         bad = np.flatnonzero(num.isna().to_numpy() & df[c].notna().to_numpy())
         i = int(bad[0]) if bad.size else 0
         raise DiveDataError(f"{name}: column {c}, row {i + 2}: {df[c].iloc[i]!r} is not a number; "
                             "expected numbers (SI units) or empty cells") from None
+    inf = np.flatnonzero(np.isinf(v))
+    if inf.size:  # a logger's overflow, never a measurement: not dropped like an empty cell
+        raise DiveDataError(f"{name}: column {c}, row {inf[0] + 2}: {v[inf[0]]} is not a "
+                            "measurement; expected a finite number or an empty cell")
+    return v
 
 
 def _canonical_names(df, name: str, warnings: list):
@@ -297,7 +346,27 @@ def _canonical_names(df, name: str, warnings: list):
     return df
 
 
+def _check_duplicate_columns(df, name: str) -> None:
+    """Two columns of one name (pandas reads the second 'depth_m' as 'depth_m.1'; a DataFrame
+    may hold both) would leave one sensor silently unread: an error naming them."""
+    import re
+
+    cols = [str(c) for c in df.columns]
+    known = {*TABLE_CHANNELS, "t_s", "t", "armed", "mode"}
+    for i, c in enumerate(cols):
+        m = re.fullmatch(r"(.+)\.(\d+)", c)
+        base = m.group(1) if m else None
+        if c in cols[:i] or (base is not None and base in cols[:i]
+                             and (base in known or base.startswith("pwm_"))):
+            first = base if (base is not None and c not in cols[:i]) else c
+            raise DiveDataError(f"{name}: column {first!r} appears twice (columns "
+                                f"{cols.index(first) + 1} and {i + 1}): which sensor is it? give "
+                                "each column its own name (e.g. depth2_m), and keep the one "
+                                "uuvid should read as depth_m")
+
+
 def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
+    _check_duplicate_columns(df, name)
     df = _canonical_names(df, name, warnings)
     cols = list(df.columns)
     tcol = "t_s" if "t_s" in cols else ("t" if "t" in cols else None)
@@ -306,7 +375,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
                             f"{', '.join(map(str, cols[:12]))}")
     if len(df) == 0:
         raise DiveDataError(f"{name}: no data rows under the header")
-    t = _table_time(df, tcol, name)
+    t = _table_time(df, tcol, name, warnings)
     chans = {}
     for c in TABLE_CHANNELS:
         if c in cols:
@@ -317,11 +386,9 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
     pwm = {}
     for c in cols:
         if str(c).startswith("pwm_"):
-            try:
-                pwm[str(c)[4:]] = _finite(t, np.asarray(df[c], float))
-            except (TypeError, ValueError):
-                raise DiveDataError(f"{name}: column {c}: not numeric; expected pulse widths in "
-                                    "µs or empty cells") from None
+            v = _numeric_column(df, c, name)
+            _check_pwm_cells(v, str(c), name)
+            pwm[str(c)[4:]] = _finite(t, v)
     _check_same_stamps(t, df, [c for c in cols if c in chans or str(c).startswith("pwm_")], name,
                        warnings)
     _check_units(chans, pwm, name, warnings)

@@ -434,10 +434,10 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
     if len(windows) < need:
-        span = f"[{t_start if t_start is not None else 'start'}, {t_end if t_end is not None else 'end'}]"
+        span = dc.span_text(t_start, t_end)
         raise DiveDataError(
             f"{dc.name}: window too short to identify {dof}: {len(windows)} usable armed window(s) "
-            f"of {horizon:g} s in {span} s (need at least {need}, i.e. {need * horizon:g} s of "
+            f"of {horizon:g} s in {span} (need at least {need}, i.e. {need * horizon:g} s of "
             "armed, submerged data); widen --t-start/--t-end or pass a longer dive"
             + (f" ({'; '.join(notes)})" if notes else ""))
     prob = WindowProblem(dc, dof, windows, gain=gain)

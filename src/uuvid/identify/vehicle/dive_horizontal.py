@@ -314,10 +314,10 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
     windows, notes = horizontal_windows(dc, horizon, t_start, t_end)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS_HORIZONTAL / horizon - 1e-9))
     if len(windows) < need:
-        span = f"[{t_start if t_start is not None else 'start'}, {t_end if t_end is not None else 'end'}]"
+        span = dc.span_text(t_start, t_end)
         raise DiveDataError(
             f"{dc.name}: window too short to identify horizontal (surge, sway, yaw coupled): "
-            f"{len(windows)} usable armed window(s) of {horizon:g} s in {span} s (need at least "
+            f"{len(windows)} usable armed window(s) of {horizon:g} s in {span} (need at least "
             f"{need}, i.e. {need * horizon:g} s with u, v and heading samples); widen "
             "--t-start/--t-end or pass a longer dive" + (f" ({'; '.join(notes)})" if notes else ""))
     base, base_src = horizontal_from_vehicle(veh)
