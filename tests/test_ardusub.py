@@ -729,3 +729,19 @@ def test_parquet_export_without_pyarrow_names_the_extra_before_reading(tmp_path,
     assert res.exit_code == 2
     assert "pip install 'uuvid[logs]'" in res.output
     assert "not a log" not in res.output and not (tmp_path / "d.parquet").exists()
+
+
+@pytest.mark.realdata
+def test_a_damaged_byte_in_a_bin_log_does_not_cut_the_rest_silently(shared_data, tmp_path):
+    """One message of an unknown type halfway through small.BIN: pymavlink's index stops there,
+    and the filtered read it serves ended the log at 9.7 s of 23.7 s without a word.  The reader
+    now notices, reads past the damage and says so."""
+    data = bytearray((shared_data / REAL / "small.BIN").read_bytes())
+    i = data.index(b"\xa3\x95", 150000)
+    data[i + 2] = 0xEE  # the message type byte: a type the file never defined
+    (tmp_path / "damaged.BIN").write_bytes(bytes(data))
+    whole = load_dive(shared_data / REAL / "small.BIN")
+    d = load_dive(tmp_path / "damaged.BIN")
+    assert abs(len(d.table) - len(whole.table)) <= 2
+    assert any("damaged at byte" in w for w in d.warnings)
+    assert not any("damaged at byte" in w for w in whole.warnings)

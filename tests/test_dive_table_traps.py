@@ -411,3 +411,21 @@ def test_a_pause_in_the_log_is_named_with_its_row(tmp_path):
     assert any(re.search(r"column t_s, row 602: the log stops for 3600 s \(from 29\.95 s\)", w)
                for w in dc.warnings)
     assert not any("the log stops" in w for w in _read(_table()).warnings)
+
+
+def test_a_dead_output_while_armed_is_named_with_its_time_span():
+    """pwm_3 at 0 µs from 30 s on while the others are driven: read as 'no thrust', said."""
+    df = _table()
+    df.loc[df["t_s"] >= 30.0, "pwm_3"] = 0.0
+    w = [x for x in _read(df).warnings if "pwm_3 is 0 µs (no pulse)" in x]
+    assert len(w) == 1 and re.search(r"from 30 to 59\.95 s while armed", w[0])
+    short = _table()
+    short.loc[(short["t_s"] >= 30.0) & (short["t_s"] < 33.0), "pwm_3"] = 0.0  # 3 s: a glitch
+    assert not any("no pulse" in x for x in _read(short).warnings)
+
+
+def test_forces_and_pwm_in_one_table_say_which_is_used():
+    df = _table()
+    for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+        df[c] = 0.0
+    assert any("the forces are used and the pwm_ columns are not" in x for x in _read(df).warnings)

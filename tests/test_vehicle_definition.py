@@ -316,3 +316,23 @@ def test_the_warning_is_repeated_when_the_file_is_read_from_the_cache(tmp_path, 
         with pytest.warns(VehicleFileWarning, match=f"{p}: rigid_body: the buoyancy"):
             load_vehicle(p)
     assert len(calls) == 1  # the second load came from the cache
+
+
+def test_the_command_line_shows_a_vehicle_warning_as_a_line_not_a_source_location(tmp_path):
+    """`uuvid vehicle info grams.yaml`: 'warning: grams.yaml: rigid_body: …' on stderr — not the
+    Python file and line that raised it — and the vehicle's inflow setting in the summary."""
+    import os
+    import subprocess
+    import sys
+
+    raw = copy.deepcopy(BASE)
+    raw["rigid_body"]["mass"] = 10_000.0
+    p = tmp_path / "grams.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
+    r = subprocess.run([sys.executable, "-m", "uuvid.cli.app", "vehicle", "info", str(p)], env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "warning: " + str(p) + ": rigid_body: the buoyancy" in r.stderr
+    assert ".py:" not in r.stderr and "VehicleFileWarning" not in r.stderr
+    assert "inflow: none" in r.stdout

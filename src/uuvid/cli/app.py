@@ -287,8 +287,26 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def _user_warning(message, category, filename, lineno, line=None) -> str:
+    """uuvid's own warnings (a vehicle file, identifiability, the cache) as ``warning: …``: the
+    message names the file and key; the Python source line behind it is noise to a user.  Other
+    packages' warnings keep their location (a bug report needs it)."""
+    if category.__module__.split(".")[0] == "uuvid":
+        return f"warning: {message}\n"
+    return _default_format(message, category, filename, lineno, line)
+
+
+_default_format = None
+
+
 def main() -> None:  # console-script entry point
     """Run the command line, importing only the command module the arguments name."""
+    import warnings
+
+    global _default_format
+    if _default_format is None:
+        _default_format = warnings.formatwarning
+        warnings.formatwarning = _user_warning
     command = next((a for a in sys.argv[1:] if not a.startswith("-")), None)
     _register_subcommands(command)
     _app()

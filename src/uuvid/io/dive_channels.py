@@ -152,6 +152,8 @@ MAX_ROW_STEP_S = 5.0  # median step between rows
 #: no servo output holds a pulse this long (µs): a whole period at 50 Hz — 65535 (a uint16's
 #: overflow) and the like are logger faults, not commands
 PWM_SPIKE_US = 20000.0
+#: an output at 0 µs this long (s) while armed and the others are driven is worth naming
+DEAD_OUTPUT_S = 5.0
 #: a pause in a dive table worth naming (s; or 50 median steps, the larger)
 GAP_S = 10.0
 
@@ -278,6 +280,32 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
         elif on.size and np.mean((on >= lo) & (on <= hi)) < 0.5:
             raise DiveDataError(f"{name}: column pwm_{k} holds {on.min():.4g}…{on.max():.4g}, not "
                                 f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
+
+
+def _check_dead_outputs(pwm: dict, armed: list, name: str, warnings: list,
+                        min_s: float = DEAD_OUTPUT_S) -> None:
+    """An output at 0 µs (no pulse) for more than ``min_s`` while armed and the other outputs are
+    driven — a dead ESC, a loose connector — is said with its time span: its thruster is taken as
+    giving no thrust there, which the fit reads as the vehicle's own dynamics."""
+    for k, (t, v) in pwm.items():
+        if not v.size or not np.any(v != 0):
+            continue  # off throughout: said by the unit check
+        on = np.zeros(t.size, bool)
+        for a, b in armed:
+            on |= (t >= a) & (t <= b)
+        others = np.zeros(t.size, bool)
+        for j, (tj, vj) in pwm.items():
+            if j != k and tj.size:
+                i = np.clip(np.searchsorted(tj, t), 0, tj.size - 1)
+                others |= vj[i] != 0
+        runs = [(a, b) for a, b in _intervals(t, on & (v == 0) & others) if b - a > min_s]
+        if runs:
+            a, b = max(runs, key=lambda r: r[1] - r[0])
+            warnings.append(f"{name}: pwm_{k} is 0 µs (no pulse) from {a:.6g} to {b:.6g} s while "
+                            "armed and the other outputs are driven"
+                            + (f" (and {len(runs) - 1} more stretch(es))" if len(runs) > 1 else "")
+                            + ": a dead ESC or a loose connector? its thruster is taken as giving "
+                            "no thrust there; leave that time out (--t-start/--t-end) if it did")
 
 
 def _check_pwm_cells(v, c: str, name: str) -> None:
@@ -412,6 +440,11 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
     else:
         armed = [(float(t.min()), float(t.max()))]
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
+    if not missing and pwm:
+        warnings.append(f"{name}: the table has all six force columns (X_N … N_Nm) and pwm_ "
+                        "columns: the forces are used and the pwm_ columns are not (remove the "
+                        "force columns to have the thrust computed from the PWM)")
+    _check_dead_outputs(pwm, armed, name, warnings)
     if thrust is not None:
         direction_check(chans, thrust, veh, armed, name, warnings, table_fix)
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []

@@ -231,7 +231,10 @@ class Vehicle:
                       "linear_damping": ["N·s/m"] * 3 + ["N·m·s/rad"] * 3,
                       "quadratic_damping": ["N·s²/m²"] * 3 + ["N·m·s²/rad²"] * 3},
             "thrusters": [{"name": t.name, "model": t.model, "position_m": t.position,
-                           "axis": t.axis, "limits_N": t.limits} for t in self.layout],
+                           "axis": t.axis, "limits_N": t.limits,
+                           "wake": self.wake[i] if self.wake else 0.0,
+                           "propeller": self.propeller(i)} for i, t in enumerate(self.layout)],
+            "inflow": self.inflow,
             "modes": list(self.modes), "default_modes": list(self.default_modes),
             "assumptions": dict(self.assumptions),
             "battery": None if self.battery is None else {
@@ -250,6 +253,13 @@ class Vehicle:
                  f"  {self.layout.n} thrusters: " + ", ".join(
                      f"{t.name} ({t.model}, [{t.limits[0]:.4g}, {t.limits[1]:.4g}] N)"
                      for t in self.layout)]
+        if self.inflow != "none":
+            props = sorted(set(self.propeller(i) for i in range(self.layout.n)))
+            wakes = sorted(set(self.wake)) if self.wake else [0.0]
+            lines.append(f"  inflow: {self.inflow} (propeller map: {', '.join(props)}; wake "
+                         f"{', '.join(f'{w:g}' for w in wakes)})")
+        else:
+            lines.append("  inflow: none (bollard thrust at every speed)")
         if self.modes:
             lines.append(f"  modes: {', '.join(self.modes)}")
         if self.assumptions:

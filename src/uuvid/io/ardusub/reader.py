@@ -156,6 +156,13 @@ def read_raw(path) -> RawLog:
     # dataflash: pymavlink indexes the file, so reading only the kept types skips the rest
     # (IMU, EKF, ...) and the counts of every type come from its index
     want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
+    notes: list = []
+    stop = _index_stops_early(conn) if kind == "dataflash" else None
+    if stop is not None:  # pymavlink's index ends at a damaged message: read them one by one
+        want = None
+        notes.append(f"{p.name}: the log is damaged at byte {stop[0]:,} of {stop[1]:,}: pymavlink's "
+                     "index stops there, so every message was read in turn past the damage "
+                     "(slower; the bytes it could not decode are skipped — see BAD_DATA)")
     try:
         while True:
             try:
@@ -227,7 +234,7 @@ def read_raw(path) -> RawLog:
             conn.close()
         except Exception:
             pass
-    if kind == "dataflash":
+    if kind == "dataflash" and stop is None:  # (a damaged log's index counts too few)
         counts = getattr(conn, "counts", None)
         names = getattr(conn, "id_to_name", {})
         s0 = senders.setdefault((0, 0), Sender((0, 0)))
@@ -238,10 +245,26 @@ def read_raw(path) -> RawLog:
                 s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
-    raw = RawLog(p, kind, senders, series, params, None, [], bad_data=bad,
+    raw = RawLog(p, kind, senders, series, params, None, notes, bad_data=bad,
                  same_recv=int(same_recv))
     _finish(raw)
     return raw
+
+
+#: bytes after the last message pymavlink's index holds beyond which the index stopped early
+INDEX_SLACK_BYTES = 1024
+
+
+def _index_stops_early(conn) -> tuple[int, int] | None:
+    """``(offset, size)`` when a dataflash log's message index (built by pymavlink when it opens
+    the file; a filtered read uses it) ends well before the file does — it stops at the first
+    message of an unknown type, so one damaged byte would cut the rest of the log silently."""
+    try:
+        size = int(conn.data_len)
+        last = max((max(o) for o in conn.offsets if o), default=0)
+    except (AttributeError, TypeError, ValueError):
+        return None
+    return (int(last), size) if size - last > INDEX_SLACK_BYTES else None
 
 
 def _enum(name: str, value) -> str:
