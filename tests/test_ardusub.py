@@ -732,7 +732,7 @@ def test_parquet_export_without_pyarrow_names_the_extra_before_reading(tmp_path,
 
 
 @pytest.mark.realdata
-def test_a_damaged_byte_in_a_bin_log_does_not_cut_the_rest_silently(shared_data, tmp_path):
+def test_a_damaged_byte_in_a_bin_log_does_not_cut_the_rest_silently(shared_data, tmp_path, capfd):
     """One message of an unknown type halfway through small.BIN: pymavlink's index stops there,
     and the filtered read it serves ended the log at 9.7 s of 23.7 s without a word.  The reader
     now notices, reads past the damage and says so."""
@@ -745,3 +745,31 @@ def test_a_damaged_byte_in_a_bin_log_does_not_cut_the_rest_silently(shared_data,
     assert abs(len(d.table) - len(whole.table)) <= 2
     assert any("damaged at byte" in w for w in d.warnings)
     assert not any("damaged at byte" in w for w in whole.warnings)
+    # pymavlink's complaints (from Python and from C) are one warning, not lines on the terminal
+    assert any("pymavlink reported" in w for w in d.warnings)
+    out, err = capfd.readouterr()
+    assert "unknown msg type" not in out + err and "Skipped" not in out + err
+
+
+def test_a_telemetry_log_under_the_bin_suffix_is_one_error_not_a_flood(shared_data, tmp_path, capfd):
+    (tmp_path / "renamed.BIN").write_bytes((shared_data / REAL / "small.tlog").read_bytes())
+    with pytest.raises(LogDataError, match=r"renamed\.BIN: no messages.*complaints.*is it a \.tlog"):
+        inspect_log(tmp_path / "renamed.BIN")
+    out, err = capfd.readouterr()
+    assert "bad header" not in out + err
+
+
+@pytest.mark.realdata
+def test_read_ardusub_reads_past_a_damaged_byte_too(shared_data, tmp_path):
+    from uuvid.io.logs import LogWarning, read_ardusub
+
+    data = bytearray((shared_data / REAL / "small.BIN").read_bytes())
+    i = data.index(b"\xa3\x95", 150000)
+    data[i + 2] = 0xEE
+    (tmp_path / "damaged.BIN").write_bytes(bytes(data))
+    whole = read_ardusub(shared_data / REAL / "small.BIN")
+    with pytest.warns(LogWarning, match=r"damaged\.BIN: the log is damaged at byte"):
+        cut = read_ardusub(tmp_path / "damaged.BIN")
+    for ch in ("depth", "yaw"):
+        a, b = cut[ch].t, whole[ch].t
+        assert abs(a[-1] - b[-1]) < 0.5 and a.size >= 0.95 * b.size, ch

@@ -65,6 +65,26 @@ class LogDataError(ValueError):
     """A log is unreadable or invalid; the message names file, column/topic/message and row."""
 
 
+class LogWarning(UserWarning):
+    """A log was read, but not the way it should have been (damaged past a point, …)."""
+
+
+#: bytes after the last message pymavlink's index holds beyond which the index stopped early
+INDEX_SLACK_BYTES = 1024
+
+
+def _index_stops_early(conn) -> tuple[int, int] | None:
+    """``(offset, size)`` when a dataflash log's message index (built by pymavlink when it opens
+    the file; a filtered read uses it) ends well before the file does — it stops at the first
+    message of an unknown type, so one damaged byte would cut the rest of the log silently."""
+    try:
+        size = int(conn.data_len)
+        last = max((max(o) for o in conn.offsets if o), default=0)
+    except (AttributeError, TypeError, ValueError):
+        return None
+    return (int(last), size) if size - last > INDEX_SLACK_BYTES else None
+
+
 def _require(module: str, what: str):
     import importlib
 
@@ -1291,11 +1311,18 @@ def read_ardusub(path, fields: Mapping[str, str | Sequence[str]] | None = None, 
         read_types |= {"HEARTBEAT"}
         if time == "boot":  # messages that map receive times onto the boot clock
             read_types |= _TLOG_CLOCK_TYPES
+    damaged = _index_stops_early(conn) if kind == "dataflash" else None
+    if damaged is not None:  # the filtered read would end at the damage: read every message
+        import warnings
+
+        warnings.warn(f"{name}: the log is damaged at byte {damaged[0]:,} of {damaged[1]:,}: "
+                      "pymavlink's index stops there, so every message was read in turn past "
+                      "the damage (slower)", LogWarning, stacklevel=2)
     try:
         present = _present_types(conn, kind)
         while True:
             try:
-                m = conn.recv_match(type=read_types, blocking=False)
+                m = conn.recv_match(type=None if damaged else read_types, blocking=False)
             except Exception as e:
                 raise LogDataError(f"{name}: cannot decode the log: {type(e).__name__}: {e}") from e
             if m is None:
@@ -1317,6 +1344,8 @@ def read_ardusub(path, fields: Mapping[str, str | Sequence[str]] | None = None, 
                 if mt not in wanted_types:
                     continue
             else:
+                if damaged and mt not in read_types:
+                    continue
                 src = (0, 0)
                 log_t = math.nan
                 boot = _df_boot(m)

@@ -14,14 +14,17 @@ BlueOS, component 194) has its own ``time_boot_ms`` and is mapped through its ow
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from uuvid.io.logs import LogDataError, _boot_from_log, _require, _tlog_boot
+from uuvid.io.logs import LogDataError, _boot_from_log, _index_stops_early, _require, _tlog_boot
 
 #: messages kept (all numeric fields); everything else is only counted
 TLOG_KEEP = {"HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "VFR_HUD", "SYS_STATUS",
@@ -135,12 +138,73 @@ def _numeric_fields(m) -> dict:
 
 
 def read_raw(path) -> RawLog:
-    """Read ``path`` once (see the module doc).  Raises :class:`LogDataError` naming the file."""
+    """Read ``path`` once (see the module doc).  Raises :class:`LogDataError` naming the file.
+    pymavlink's own prints about bad bytes (one line per byte of a damaged stretch: 290,000 for
+    a telemetry log named .BIN) are collected and said once, as a warning of the log."""
     mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
     p = Path(path)
     if not p.is_file():
         raise LogDataError(f"{p}: no such log file")
     kind = _log_kind(p)
+    chatter: list = []
+    try:
+        with _captured_output(chatter):
+            raw = _read_messages(p, kind, mavutil)
+    except LogDataError as e:
+        lines = chatter
+        if lines and "no messages" in str(e):
+            other = ".tlog" if kind == "dataflash" else ".BIN"
+            raise LogDataError(f"{e} — pymavlink could not decode it ({len(lines):,} complaints, "
+                               f"first: {lines[0][:80]!r}); is it a {other} under another "
+                               "suffix?") from None
+        raise
+    lines = chatter
+    if lines:
+        raw.warnings.append(f"{p.name}: pymavlink reported {len(lines):,} decoding problem(s) "
+                            f"(first: {lines[0][:100]!r}); the messages it could decode are read")
+    return raw
+
+
+@contextlib.contextmanager
+def _captured_output(lines: list):
+    """Collect what is written to stdout and stderr — pymavlink prints from Python and from C —
+    into ``lines`` instead of the terminal: Python's ``sys.stdout``/``sys.stderr`` into a buffer,
+    and file descriptors 1 and 2 into a temporary file meanwhile (where they exist)."""
+    import io
+    import tempfile
+
+    py = io.StringIO()  # Python's prints: sys.stdout/stderr may not write to fd 1/2 (Jupyter)
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        saved = [os.dup(1), os.dup(2)]
+    except (OSError, ValueError, AttributeError):  # no real descriptors (an embedded interpreter)
+        with contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
+            yield
+        lines.extend(py.getvalue().splitlines())
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 1)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            with contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
+                yield
+        finally:
+            lines.extend(py.getvalue().splitlines())
+            try:
+                sys.stdout.flush()
+                sys.stderr.flush()
+            finally:
+                os.dup2(saved[0], 1)
+                os.dup2(saved[1], 2)
+                os.close(saved[0])
+                os.close(saved[1])
+            tmp.seek(0)
+            lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
+
+
+def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
+    """The body of :func:`read_raw` (pymavlink's prints captured by the caller)."""
     try:
         conn = mavutil.mavlink_connection(str(p))
     except Exception as e:
@@ -249,22 +313,6 @@ def read_raw(path) -> RawLog:
                  same_recv=int(same_recv))
     _finish(raw)
     return raw
-
-
-#: bytes after the last message pymavlink's index holds beyond which the index stopped early
-INDEX_SLACK_BYTES = 1024
-
-
-def _index_stops_early(conn) -> tuple[int, int] | None:
-    """``(offset, size)`` when a dataflash log's message index (built by pymavlink when it opens
-    the file; a filtered read uses it) ends well before the file does — it stops at the first
-    message of an unknown type, so one damaged byte would cut the rest of the log silently."""
-    try:
-        size = int(conn.data_len)
-        last = max((max(o) for o in conn.offsets if o), default=0)
-    except (AttributeError, TypeError, ValueError):
-        return None
-    return (int(last), size) if size - last > INDEX_SLACK_BYTES else None
 
 
 def _enum(name: str, value) -> str:
