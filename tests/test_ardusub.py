@@ -773,3 +773,48 @@ def test_read_ardusub_reads_past_a_damaged_byte_too(shared_data, tmp_path):
     for ch in ("depth", "yaw"):
         a, b = cut[ch].t, whole[ch].t
         assert abs(a[-1] - b[-1]) < 0.5 and a.size >= 0.95 * b.size, ch
+
+
+def _tlog_messages(path):
+    from pymavlink import mavutil
+
+    c = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
+    out = []
+    while (m := c.recv_msg()) is not None:
+        if m.get_type() != "BAD_DATA":
+            out.append((m._timestamp, m.get_type(), bytes(m.get_msgbuf())))
+    return out
+
+
+def _write_tlog_messages(path, msgs):
+    with open(path, "wb") as f:
+        for t, _, buf in msgs:
+            f.write(struct.pack(">Q", int(round(t * 1e6))))
+            f.write(buf)
+    return path
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("case", ["step back 100 s", "a day forward", "one corrupt stamp"])
+def test_a_jump_of_the_ground_stations_clock_leaves_the_dive_as_it_was(shared_data, tmp_path, case):
+    """The topside laptop's clock set back 100 s halfway (NTP): arming flickered, 2,258 rows were
+    added and PWM moved by up to 197 µs, because the receive clock overrode the autopilot's good
+    stamps.  The autopilot's clock runs on: the receive times after a jump are taken back."""
+    src = _tlog_messages(shared_data / REAL / "small.tlog")
+    base = _write_tlog_messages(tmp_path / "base.tlog", src)
+    h = len(src) // 2
+    if case == "one corrupt stamp":
+        k = [i for i, (_, ty, _) in enumerate(src) if ty == "ATTITUDE"][100]
+        msgs = src[:k] + [(0.0, src[k][1], src[k][2])] + src[k + 1:]
+    else:
+        d = -100.0 if case == "step back 100 s" else 86400.0
+        msgs = src[:h] + [(t + d, ty, b) for t, ty, b in src[h:]]
+    bad = _write_tlog_messages(tmp_path / "jump.tlog", msgs)
+    a, b = load_dive(base, vehicle="bluerov2-heavy"), load_dive(bad, vehicle="bluerov2-heavy")
+    assert len(a.table) == len(b.table)
+    for col in ("t_s", "depth_m", "pwm_1", "armed"):
+        np.testing.assert_allclose(b.table[col].to_numpy(float), a.table[col].to_numpy(float),
+                                   atol=1e-6, err_msg=col)
+    said = [w for w in b.warnings if "receive" in w and "autopilot's own clock runs on" in w]
+    assert len(said) == 1 and ("corrupt stamp" in said[0]) == (case == "one corrupt stamp")
+    assert not any("receive clock" in w for w in a.warnings)

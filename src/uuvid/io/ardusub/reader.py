@@ -203,6 +203,14 @@ def _captured_output(lines: list):
             lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
 
 
+#: a receive-clock step (s): the receive time of a sender's stamped message advanced by more than
+#: this apart from its own clock's advance ...
+CLOCK_STEP_S = 5.0
+#: ... over an advance of its own clock shorter than this (s; longer silences are link losses,
+#: reboots reset the sender's clock: neither is a step)
+CLOCK_STEP_WINDOW_S = 10.0
+
+
 def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     """The body of :func:`read_raw` (pymavlink's prints captured by the caller)."""
     try:
@@ -217,6 +225,7 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     bad = 0
     n = 0
     same_recv, last_recv = 0, math.nan
+    shift, steps, last_stamp = 0.0, [], {}  # receive-clock steps (tlog), see CLOCK_STEP_S
     # dataflash: pymavlink indexes the file, so reading only the kept types skips the rest
     # (IMU, EKF, ...) and the counts of every type come from its index
     want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
@@ -247,9 +256,22 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
                 recv = float(getattr(m, "_timestamp", math.nan))
                 same_recv += recv == last_recv
                 last_recv = recv
+                recv += shift  # the receive clock's steps so far, taken out
                 boot = None
                 if mt in keep or "time_boot_ms" in m.get_fieldnames():
                     boot = _tlog_boot(m, wraps)
+                if boot is not None and "time_boot_ms" in m.get_fieldnames():
+                    prev = last_stamp.get(src)
+                    if prev is not None:
+                        dr, db = recv - prev[0], boot - prev[1]
+                        # db > 0: a clock that runs (a ground station stamps 0 throughout)
+                        if 0.0 < db < CLOCK_STEP_WINDOW_S and abs(dr - db) > CLOCK_STEP_S:
+                            # the sender's own clock ran on; the ground station's jumped (an NTP
+                            # correction, a laptop's clock set by hand)
+                            shift += db - dr
+                            recv += db - dr
+                            steps.append((n, dr - db))
+                    last_stamp[src] = (recv, boot)
             else:
                 if mt in ("FMT", "FMTU", "UNIT", "MULT"):
                     continue
@@ -309,6 +331,18 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
                 s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
+    if len(steps) == 2 and abs(steps[0][1] + steps[1][1]) < CLOCK_STEP_S:  # out and back
+        (k, d), (k2, _) = steps
+        notes.append(f"{p.name}: the receive times of messages {k:,} to {k2 - 1:,} are off by "
+                     f"{d:+.4g} s (a corrupt stamp) while the autopilot's own clock runs on: "
+                     "taken back onto the clock around them")
+    elif steps:
+        k, d = steps[0]
+        notes.append(f"{p.name}: the ground station's receive clock jumps by {d:+.4g} s at message "
+                     f"{k:,} while the autopilot's own clock runs on"
+                     + (f" ({len(steps) - 1} more jump(s))" if len(steps) > 1 else "")
+                     + ": an NTP correction or a clock set by hand; the receive times after it are "
+                     "taken back onto the clock before (the autopilot's stamps are kept)")
     raw = RawLog(p, kind, senders, series, params, None, notes, bad_data=bad,
                  same_recv=int(same_recv))
     _finish(raw)
