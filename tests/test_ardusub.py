@@ -818,3 +818,17 @@ def test_a_jump_of_the_ground_stations_clock_leaves_the_dive_as_it_was(shared_da
     said = [w for w in b.warnings if "receive" in w and "autopilot's own clock runs on" in w]
     assert len(said) == 1 and ("corrupt stamp" in said[0]) == (case == "one corrupt stamp")
     assert not any("receive clock" in w for w in a.warnings)
+
+
+@pytest.mark.realdata
+def test_one_heartbeat_with_a_corrupt_receive_time_does_not_stretch_the_modes(shared_data, tmp_path):
+    """A HEARTBEAT (no on-board stamp) received '1e6 s later' made the last mode run to
+    1,000,025 s; a receive time far outside the log's is left out, and said."""
+    src = _tlog_messages(shared_data / REAL / "small.tlog")
+    k = [i for i, (_, ty, _) in enumerate(src) if ty == "HEARTBEAT"][100]
+    msgs = src[:k] + [(src[k][0] + 1e6, src[k][1], src[k][2])] + src[k + 1:]
+    ins = inspect_log(_write_tlog_messages(tmp_path / "hb.tlog", msgs))
+    assert max(m["end_s"] for m in ins.modes) < 300.0
+    assert any("1 HEARTBEAT message(s)" in w and "left out" in w for w in ins.warnings)
+    clean = inspect_log(shared_data / REAL / "small.tlog")
+    assert not any("left out" in w for w in clean.warnings)

@@ -203,6 +203,8 @@ def _captured_output(lines: list):
             lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
 
 
+#: receive times this far (s) outside a log part's stamped messages are corrupt, not late
+RECV_MARGIN_S = 60.0
 #: a receive-clock step (s): the receive time of a sender's stamped message advanced by more than
 #: this apart from its own clock's advance ...
 CLOCK_STEP_S = 5.0
@@ -485,6 +487,9 @@ def _finish_tlog(raw: RawLog) -> None:
         starts = np.asarray([pp[0] for pp in env[src]], dtype=float)
         return np.clip(np.searchsorted(starts, recv, side="right") - 1, 0, len(starts) - 1)
 
+    # the receive times of every sender's stamped messages (a corrupt stamp lies far outside)
+    span = (min(float(np.min(rr)) for ps in env.values() for _, rr, _ in ps),
+            max(float(np.max(rr)) for ps in env.values() for _, rr, _ in ps))
     for (mt, src), sr in raw.series.items():
         recv = np.asarray(sr.recv, dtype=float)
         boot = np.asarray(sr.boot, dtype=float)
@@ -500,11 +505,21 @@ def _finish_tlog(raw: RawLog) -> None:
             sel = part == k
             if sel.any():
                 mapped = _boot_from_log(recv[sel], rr, bb)
+                # a receive time outside the log's stamped messages by more than a minute is
+                # the suspect (a corrupt stamp): it maps nothing; an own stamp stays
+                off = (recv[sel] < span[0] - RECV_MARGIN_S) | (recv[sel] > span[1] + RECV_MARGIN_S)
                 # a stamp far from what its receive time says (a 32-bit time_usec whose wrap
                 # was mistaken for a reboot, a corrupt field) is replaced by the mapped value
-                far = ~np.isfinite(b[sel]) | (np.abs(b[sel] - mapped) > 60.0)
+                far = (~np.isfinite(b[sel]) | (np.abs(b[sel] - mapped) > 60.0)) & ~off
                 n_bad += int(np.count_nonzero(far & ~miss[sel]))
                 b[np.flatnonzero(sel)[far]] = mapped[far]
+                lost = off & miss[sel]
+                if lost.any():
+                    b[np.flatnonzero(sel)[lost]] = math.nan
+                    raw.warnings.append(
+                        f"{int(lost.sum())} {mt} message(s) from system {src[0]} component "
+                        f"{src[1]} carry receive times more than {RECV_MARGIN_S:g} s outside the "
+                        "log's (a corrupt stamp) and no time of their own: left out")
         if n_bad:
             raw.warnings.append(f"{n_bad} {mt} time stamps from system {src[0]} component "
                                 f"{src[1]} disagree with that sender's clock by more than 60 s; "
