@@ -737,3 +737,23 @@ def test_a_bad_four_quadrant_section_names_its_key(mutate, key):
     mutate(sec)
     with pytest.raises(ValueError, match=key):
         map_from_section(sec, "m.yaml: inflow")
+
+
+def test_hold_refusals_with_inflow_name_the_options_to_change(tmp_path):
+    """What hold cannot do with inflow yet is refused in the command's own words (the library's
+    parameter names became --simulate, --inflow none, --battery, --voltage)."""
+    from typer.testing import CliRunner
+
+    from uuvid.analysis import hold
+    from uuvid.cli.app import app
+
+    raw = _preset_raw("bluerov2")
+    raw["inflow"] = "four-quadrant"
+    (tmp_path / "v.yaml").write_text(yaml.safe_dump(raw))
+    r = CliRunner().invoke(app, ["vehicle", "hold", str(tmp_path / "v.yaml"), "--simulate", "0,90"])
+    assert r.exit_code == 2
+    text = " ".join(r.output.split())
+    assert "(--simulate) flies bollard thrusters only" in text and "(--inflow none)" in text
+    v = load_vehicle(tmp_path / "v.yaml")
+    with pytest.raises(ValueError, match=r"\(`soc=`\) is not computed yet.*`inflow=`none"):
+        hold.max_current(v, 0.0, soc=0.8)

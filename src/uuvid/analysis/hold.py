@@ -309,8 +309,9 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     al = _allocator(vehicle, limits, modes)
     il = inflow_limits(vehicle, inflow)
     if il is not None and soc is not None:
-        raise ValueError("max_current: inflow with battery-limited thrust (soc) is not supported "
-                         "yet; use inflow='none'")
+        raise ValueError("the held current with inflow at a battery's state of charge (`soc=`) "
+                         "is not computed yet: switch inflow off (`inflow=`none) or give a supply "
+                         "voltage instead (`supply_voltage=`)")
     if il is not None and limits is not None:
         il = il.with_limits(limits)
 
@@ -556,8 +557,9 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     simulate_deg = tuple(finite("simulate_deg", d, "degrees off the bow") for d in simulate_deg)
     inflow = resolve_inflow(vehicle, inflow)
     if inflow != "none" and simulate_deg:
-        raise ValueError("simulated confirmation does not take inflow yet (its flights follow the "
-                         "vehicle file, not this switch): use inflow='none' with simulate_deg")
+        raise ValueError("the confirmation by simulation (`simulate_deg=`) flies bollard thrusters "
+                         f"only, and inflow is on ({inflow}, from the vehicle file or the option): "
+                         "switch it off (`inflow=`none) to confirm by simulation")
 
     if supply_voltage is not None and limits is None:
         limits = limits_at(vehicle, supply_voltage)

@@ -9,6 +9,10 @@ import typer
 
 from uuvid.cli.options import inflow_option
 
+#: the library's parameter names as this command's options (error messages)
+HOLD_FLAGS = {"step_deg": "--step", "simulate_deg": "--simulate", "supply_voltage": "--voltage",
+              "soc": "--battery", "inflow": "--inflow "}
+
 
 def register(vehicle_app: typer.Typer) -> None:
     vehicle_app.command("hold")(vehicle_hold)
@@ -71,14 +75,16 @@ def vehicle_hold(
         cap = hold.capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
                               simulate_deg=sim, inflow=inflow)
     except ValueError as e:
-        _fail_flagged(e, {"step_deg": "--step", "simulate_deg": "--simulate",
-                          "supply_voltage": "--voltage"})
+        _fail_flagged(e, HOLD_FLAGS)
     doc = {"capability": cap.to_dict()}
     endur = None
     if cur is not None:
         speed, deg = cur
         lim = None if voltage is None else limits_at(v, voltage)
-        vmax = hold.max_current(v, deg, soc=battery, limits=lim, inflow=cap.inflow)[0]
+        try:
+            vmax = hold.max_current(v, deg, soc=battery, limits=lim, inflow=cap.inflow)[0]
+        except ValueError as e:
+            _fail_flagged(e, HOLD_FLAGS)
         doc["at_current"] = {"speed_m_s": speed, "from_deg": deg, "max_current_m_s": vmax,
                              "holds": bool(speed <= vmax), "margin": vmax / speed if speed else None}
         if battery is not None:
