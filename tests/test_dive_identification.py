@@ -237,3 +237,21 @@ def test_all_returns_what_the_log_can_inform_and_says_what_it_cannot(dive):
     assert any(w.startswith("yaw not identified") and "too short" in w for w in res.warnings)
     with pytest.raises(DiveDataError, match="too short to identify yaw"):
         identify_dive(cut, "bluerov2", ["heave", "yaw"])
+
+
+def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path):
+    """The example dive with one horizontal motor's PWM mirrored (driven with the others, so the
+    direction check cannot see it): yaw inertia ×11.5 of the base, said with what to check; the
+    intact dive's is near the base and says nothing of the kind."""
+    import pandas as pd
+
+    from uuvid.examples import write_example
+
+    df = pd.read_csv(write_example("dive", tmp_path)[0])
+    df = df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    intact = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
+    df["pwm_1"] = 3000.0 - df["pwm_1"]
+    mirrored = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
+    far = [w for w in mirrored.warnings if "beyond the ×8" in w]
+    assert far and far[0].startswith("yaw inertia ×") and "motor directions" in far[0]
+    assert not any("beyond the ×8" in w for w in intact.warnings)

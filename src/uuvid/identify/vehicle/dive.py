@@ -85,6 +85,9 @@ from uuvid.simulate.dive_replay import (
 
 __all__ = ["identify_dive", "DiveIdentification", "MIN_WINDOWS", "MIN_SECONDS"]
 
+#: identified inertia this many times the base vehicle's (or 1/this) is worth a warning: real
+#: vehicles differ from published sets by several times, a reversed motor by ten and more
+FAR_FROM_BASE = 8.0
 MIN_WINDOWS = 4
 MIN_SECONDS = 30.0  # of armed, submerged windows: fewer cannot separate four parameters
 PARAMS = ("mass", "linear", "quadratic", "bias")
@@ -583,6 +586,13 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     if math.isfinite(sigma["mass"]) and sigma["mass"] > 0.5 * values["mass"]:
         warns.append(f"mass poorly determined (σ {sigma['mass']:.2g}): the dive has little "
                      "acceleration")
+    r = values["mass"] / base.mass if base.mass > 0 else math.nan
+    if math.isfinite(r) and not 1.0 / FAR_FROM_BASE <= r <= FAR_FROM_BASE:
+        what = "inertia" if dof in ("roll", "pitch", "yaw") else "mass"
+        warns.append(f"{dof} {what} ×{r:.3g} of the base vehicle's {base.mass:.4g}: beyond the "
+                     f"×{FAR_FROM_BASE:g} a real vehicle differs from a published set by — check "
+                     "the motor directions (a reversed motor driven together with others escapes "
+                     "the direction check), the thruster model and the log's units before using it")
     if not sol["success"]:
         warns.append(f"optimiser stopped: {sol['message']}")
     # in-sample replay from the measured state, identified and base
