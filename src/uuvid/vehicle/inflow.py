@@ -16,6 +16,7 @@ thruster then cannot push that way at all).  At ``ν_r = 0`` the limits are exac
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -48,10 +49,27 @@ def thruster_map(model: str, base=None) -> FourQuadrantMap:
         return propeller_map(model)
     except KeyError:
         pass
-    from uuvid.thruster.resolve import is_preset, resolve_chain
+    from pathlib import Path
+
+    from uuvid.thruster.resolve import is_preset
 
     if is_preset(model):  # a preset without propeller data
         raise KeyError(model)
+    p = Path(model) if base is None or Path(model).is_absolute() else Path(base) / model
+    try:
+        st = p.stat()
+        stamp = (st.st_size, st.st_mtime_ns)
+    except OSError:
+        stamp = None
+    return _file_map(model, None if base is None else str(base), stamp)
+
+
+@functools.lru_cache(maxsize=64)
+def _file_map(model: str, base: str | None, stamp) -> FourQuadrantMap:
+    """:func:`thruster_map` of a model file, memoised on its size and modification time (the
+    analyses ask for it per heading and speed)."""
+    from uuvid.thruster.resolve import resolve_chain
+
     chain = resolve_chain(model, base)  # FileNotFoundError, ModelFileError: the file's own cause
     if chain.inflow is None:
         raise KeyError(model)
