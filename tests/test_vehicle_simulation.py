@@ -257,10 +257,11 @@ def test_level_speed_limit_is_cached_per_vehicle(tmp_path, monkeypatch, bluerov2
 
 
 @pytest.mark.slow
-def test_level_speed_limit_cache_is_keyed_on_the_whole_code_version(tmp_path, monkeypatch,
-                                                                      bluerov2):
+def test_level_speed_limit_cache_is_keyed_on_the_layers_it_runs(tmp_path, monkeypatch, bluerov2):
     """The scan depends on more than stability.py (allocation, model, hydrodynamics ...): a new
-    code version (package version + source hash) must scan again, not read the old entry."""
+    stamp of the core, thruster and vehicle layers must scan again, not read the old entry — and
+    an edit above them (the CLI, a report) must not (hashing every source file for the key cost
+    each tilted mission ≈ 37 ms)."""
     from uuvid.core import cache as disk
     from uuvid.simulate.reference import level_speed_limit
     from uuvid.vehicle import stability
@@ -270,7 +271,11 @@ def test_level_speed_limit_cache_is_keyed_on_the_whole_code_version(tmp_path, mo
     calls = []
     real = stability.static_stability
     monkeypatch.setattr(stability, "static_stability", lambda v, **k: calls.append(v) or real(v, **k))
-    monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+another-tree")
+    monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+an-edit-in-the-cli")
+    level_speed_limit(bluerov2)
+    assert calls == []  # the layers the scan runs did not change
+    stamp = disk.tree_stamp("", "core", "thruster", "vehicle")
+    monkeypatch.setattr(disk, "tree_stamp", lambda *subs: stamp + "-an-edit-in-vehicle")
     level_speed_limit(bluerov2)
     assert len(calls) == 1
 
