@@ -31,10 +31,12 @@ documented with each reader.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 import os
 import re
+import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -71,6 +73,50 @@ class LogWarning(UserWarning):
 
 #: bytes after the last message pymavlink's index holds beyond which the index stopped early
 INDEX_SLACK_BYTES = 1024
+
+
+def _damaged_index_note(name: str, stop: tuple[int, int]) -> str:
+    """What :func:`_index_stops_early` found, for a log's warnings."""
+    return (f"{name}: the log is damaged at byte {stop[0]:,} of {stop[1]:,}: pymavlink's index "
+            "stops there, so every message was read in turn past the damage (slower)")
+
+
+@contextlib.contextmanager
+def _captured_output(lines: list):
+    """Collect what is written to stdout and stderr — pymavlink prints from Python and from C —
+    into ``lines`` instead of the terminal: Python's ``sys.stdout``/``sys.stderr`` into a buffer,
+    and file descriptors 1 and 2 into a temporary file meanwhile (where they exist)."""
+    import io
+    import tempfile
+
+    py = io.StringIO()  # Python's prints: sys.stdout/stderr may not write to fd 1/2 (Jupyter)
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        saved = [os.dup(1), os.dup(2)]
+    except (OSError, ValueError, AttributeError):  # no real descriptors (an embedded interpreter)
+        with contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
+            yield
+        lines.extend(py.getvalue().splitlines())
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 1)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            with contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
+                yield
+        finally:
+            lines.extend(py.getvalue().splitlines())
+            try:
+                sys.stdout.flush()
+                sys.stderr.flush()
+            finally:
+                os.dup2(saved[0], 1)
+                os.dup2(saved[1], 2)
+                os.close(saved[0])
+                os.close(saved[1])
+            tmp.seek(0)
+            lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
 
 
 def _index_stops_early(conn) -> tuple[int, int] | None:
@@ -1315,9 +1361,7 @@ def read_ardusub(path, fields: Mapping[str, str | Sequence[str]] | None = None, 
     if damaged is not None:  # the filtered read would end at the damage: read every message
         import warnings
 
-        warnings.warn(f"{name}: the log is damaged at byte {damaged[0]:,} of {damaged[1]:,}: "
-                      "pymavlink's index stops there, so every message was read in turn past "
-                      "the damage (slower)", LogWarning, stacklevel=2)
+        warnings.warn(_damaged_index_note(name, damaged), LogWarning, stacklevel=2)
     try:
         present = _present_types(conn, kind)
         while True:

@@ -14,17 +14,22 @@ BlueOS, component 194) has its own ``time_boot_ms`` and is mapped through its ow
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import sys
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from uuvid.io.logs import LogDataError, _boot_from_log, _index_stops_early, _require, _tlog_boot
+from uuvid.io.logs import (
+    LogDataError,
+    _boot_from_log,
+    _captured_output,
+    _damaged_index_note,
+    _index_stops_early,
+    _require,
+    _tlog_boot,
+)
 
 #: messages kept (all numeric fields); everything else is only counted
 TLOG_KEEP = {"HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "VFR_HUD", "SYS_STATUS",
@@ -151,56 +156,16 @@ def read_raw(path) -> RawLog:
         with _captured_output(chatter):
             raw = _read_messages(p, kind, mavutil)
     except LogDataError as e:
-        lines = chatter
-        if lines and "no messages" in str(e):
+        if chatter and "no messages" in str(e):
             other = ".tlog" if kind == "dataflash" else ".BIN"
-            raise LogDataError(f"{e} — pymavlink could not decode it ({len(lines):,} complaints, "
-                               f"first: {lines[0][:80]!r}); is it a {other} under another "
+            raise LogDataError(f"{e} — pymavlink could not decode it ({len(chatter):,} complaints, "
+                               f"first: {chatter[0][:80]!r}); is it a {other} under another "
                                "suffix?") from None
         raise
-    lines = chatter
-    if lines:
-        raw.warnings.append(f"{p.name}: pymavlink reported {len(lines):,} decoding problem(s) "
-                            f"(first: {lines[0][:100]!r}); the messages it could decode are read")
+    if chatter:
+        raw.warnings.append(f"{p.name}: pymavlink reported {len(chatter):,} decoding problem(s) "
+                            f"(first: {chatter[0][:100]!r}); the messages it could decode are read")
     return raw
-
-
-@contextlib.contextmanager
-def _captured_output(lines: list):
-    """Collect what is written to stdout and stderr — pymavlink prints from Python and from C —
-    into ``lines`` instead of the terminal: Python's ``sys.stdout``/``sys.stderr`` into a buffer,
-    and file descriptors 1 and 2 into a temporary file meanwhile (where they exist)."""
-    import io
-    import tempfile
-
-    py = io.StringIO()  # Python's prints: sys.stdout/stderr may not write to fd 1/2 (Jupyter)
-    try:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        saved = [os.dup(1), os.dup(2)]
-    except (OSError, ValueError, AttributeError):  # no real descriptors (an embedded interpreter)
-        with contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
-            yield
-        lines.extend(py.getvalue().splitlines())
-        return
-    with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), 1)
-        os.dup2(tmp.fileno(), 2)
-        try:
-            with contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
-                yield
-        finally:
-            lines.extend(py.getvalue().splitlines())
-            try:
-                sys.stdout.flush()
-                sys.stderr.flush()
-            finally:
-                os.dup2(saved[0], 1)
-                os.dup2(saved[1], 2)
-                os.close(saved[0])
-                os.close(saved[1])
-            tmp.seek(0)
-            lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
 
 
 #: receive times this far (s) outside a log part's stamped messages are corrupt, not late
@@ -235,9 +200,8 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     stop = _index_stops_early(conn) if kind == "dataflash" else None
     if stop is not None:  # pymavlink's index ends at a damaged message: read them one by one
         want = None
-        notes.append(f"{p.name}: the log is damaged at byte {stop[0]:,} of {stop[1]:,}: pymavlink's "
-                     "index stops there, so every message was read in turn past the damage "
-                     "(slower; the bytes it could not decode are skipped — see BAD_DATA)")
+        notes.append(_damaged_index_note(p.name, stop) + " (the bytes it could not decode are "
+                     "skipped — see BAD_DATA)")
     try:
         while True:
             try:
