@@ -775,6 +775,29 @@ def test_read_ardusub_reads_past_a_damaged_byte_too(shared_data, tmp_path):
         assert abs(a[-1] - b[-1]) < 0.5 and a.size >= 0.95 * b.size, ch
 
 
+@pytest.mark.realdata
+def test_read_ardusub_says_pymavlinks_complaints_once_not_on_the_terminal(shared_data, tmp_path,
+                                                                           capfd):
+    """The library reader, like the dive reader: pymavlink's prints about undecodable bytes (from
+    Python and from C) become one LogWarning, or part of the error when nothing can be read."""
+    from uuvid.io.logs import LogWarning, read_ardusub
+
+    data = bytearray((shared_data / REAL / "small.BIN").read_bytes())
+    i = data.index(b"\xa3\x95", 150000)
+    data[i + 2] = 0xEE
+    (tmp_path / "damaged.BIN").write_bytes(bytes(data))
+    with pytest.warns(LogWarning) as rec:
+        read_ardusub(tmp_path / "damaged.BIN")
+    said = [str(w.message) for w in rec]
+    assert any("pymavlink reported" in m and "decoding problem" in m for m in said), said
+    (tmp_path / "renamed.BIN").write_bytes((shared_data / REAL / "small.tlog").read_bytes())
+    with pytest.raises(LogDataError, match=r"pymavlink could not decode parts of the log.*is it a \.tlog"):
+        read_ardusub(tmp_path / "renamed.BIN")
+    out, err = capfd.readouterr()
+    assert "unknown msg type" not in out + err and "bad header" not in out + err
+    assert "Skipped" not in out + err
+
+
 def _tlog_messages(path):
     from pymavlink import mavutil
 

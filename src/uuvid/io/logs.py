@@ -1285,7 +1285,40 @@ def read_ardusub(path, fields: Mapping[str, str | Sequence[str]] | None = None, 
     ``original_units``, ``original_names`` (the spec used), ``time_base`` (``boot``/``log``),
     ``time_mapped``, ``instances``, ``skipped`` (default channels not in the log),
     ``source_system``.
+
+    pymavlink's own prints about bytes it cannot decode (one line per bad byte, from Python and
+    from C) are collected and said once, as a :class:`LogWarning` (or in the error when nothing
+    could be read).
     """
+    chatter: list = []
+    try:
+        with _captured_output(chatter):
+            out = _read_ardusub(path, fields, units=units, resample=resample, interp=interp,
+                                span=span, time=time, source_system=source_system,
+                                source_component=source_component, on_duplicate=on_duplicate,
+                                allow_missing=allow_missing)
+    except LogDataError as e:
+        if chatter:
+            hint = ""
+            if "present: (none)" in str(e):  # nothing decoded: the other format under this name
+                other = ".tlog" if Path(path).suffix.lower() in (".bin", ".log") else ".BIN"
+                hint = f"; is it a {other} under another suffix?"
+            raise LogDataError(f"{e} — pymavlink could not decode parts of the log "
+                               f"({len(chatter):,} complaint(s), first: {chatter[0][:80]!r}){hint}"
+                               ) from None
+        raise
+    if chatter:
+        import warnings
+
+        warnings.warn(f"{Path(path).name}: pymavlink reported {len(chatter):,} decoding "
+                      f"problem(s) (first: {chatter[0][:100]!r}); the messages it could decode "
+                      "are read", LogWarning, stacklevel=2)
+    return out
+
+
+def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_system,
+                  source_component, on_duplicate, allow_missing):
+    """The body of :func:`read_ardusub` (pymavlink's prints captured by the caller)."""
     mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
     p = Path(path)
     if not p.exists():
@@ -1358,10 +1391,10 @@ def read_ardusub(path, fields: Mapping[str, str | Sequence[str]] | None = None, 
         if time == "boot":  # messages that map receive times onto the boot clock
             read_types |= _TLOG_CLOCK_TYPES
     damaged = _index_stops_early(conn) if kind == "dataflash" else None
-    if damaged is not None:  # the filtered read would end at the damage: read every message
+    if damaged is not None and damaged[0] > 0:  # the filtered read would end at the damage
         import warnings
 
-        warnings.warn(_damaged_index_note(name, damaged), LogWarning, stacklevel=2)
+        warnings.warn(_damaged_index_note(name, damaged), LogWarning, stacklevel=3)
     try:
         present = _present_types(conn, kind)
         while True:
