@@ -241,7 +241,7 @@ def test_all_returns_what_the_log_can_inform_and_says_what_it_cannot(dive):
 
 def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path):
     """The example dive with one horizontal motor's PWM mirrored (driven with the others, so the
-    direction check cannot see it): yaw inertia ×11.5 of the base, said with what to check; the
+    direction check names it too): yaw inertia ×11.5 of the base, said with what to check; the
     intact dive's is near the base and says nothing of the kind."""
     import pandas as pd
 

@@ -8,7 +8,8 @@ measured heave and yaw accelerations: per thruster group (thrusters whose forces
 groups' forces, a constant and the drag terms, with autocorrelation-robust (Newey–West) σ.  An
 output is named only when its coefficient is below −:data:`DIRECTION_Z` σ, at least
 :data:`DIRECTION_SHARE` × the vehicle's ``1/(m + added mass)`` in size, and mirroring it lets one
-shared coefficient explain :data:`DIRECTION_GAIN` more of the motion.  A warning, not an error: it
+shared coefficient explain :data:`DIRECTION_GAIN` more of the motion.  One motor reversed among
+several driven together (one group) is found by mirroring each member alone.  A warning, not an error: it
 is a statistical judgement (a snagged tether or a wrong vehicle file can push against the motion
 too).  Called by :mod:`uuvid.io.dive_channels`.
 """
@@ -24,6 +25,7 @@ DIRECTION_GROUP_CORR = 0.95  # thrusters whose forces in a DOF correlate beyond 
 DIRECTION_Z = 4.0  # a thruster's coefficient must be this many σ (autocorrelation-robust) below 0
 DIRECTION_SHARE = 0.1  # … and at least this × the vehicle's 1/(inertia + added) in size
 DIRECTION_GAIN = 0.05  # … and mirroring its column must explain this much more of the motion
+DIRECTION_RATIO = 2.0  # one of a group driven together: mirrored, this × the share explained
 DIRECTION_MIN_S = 30.0  # armed, gap-free seconds the check needs
 DIRECTION_SURFACE_M = 0.3  # shallower than this the vehicle may be at the surface: left out
 
@@ -120,11 +122,12 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
     size, *and* the fit with one shared coefficient (the physics) explains at least
     :data:`DIRECTION_GAIN` more of the acceleration with its column mirrored about 1500 µs than as
     logged (a negative shared coefficient explains nothing), that coefficient positive by
-    :data:`DIRECTION_Z` σ.  One of several thrusters driven identically is therefore reported
-    only when mirroring it changes more than the scale of their sum (through the thrusters'
-    forward/astern asymmetry).  Every thruster of a DOF against the motion is reported as the
-    measured channel's sign convention or all of them reversed.  ``fix(keys)`` says what to do.
-    One pass of NumPy per DOF; it warns and never raises."""
+    :data:`DIRECTION_Z` σ.  When no coefficient is negative, a reversed motor may hide inside a
+    group (its wrong sign only shrinks the group's coefficient): each member of a group is then
+    mirrored alone (:func:`_hidden_in_group`) and one is named when that alone explains the motion
+    several times better and no other mirror helps.  Every thruster of a DOF against the motion
+    is reported as the measured channel's sign convention or all of them reversed.
+    ``fix(keys)`` says what to do.  One pass of NumPy per DOF; it warns and never raises."""
     B = np.asarray(veh.B, float)
     keys = pt.keys
     if pt.t.size < 20 or B.shape[1] != len(keys):
@@ -143,6 +146,19 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                    if c < 0 and -c >= DIRECTION_Z * s
                    and (k_exp is None or -c >= DIRECTION_SHARE * k_exp)]
         if not flagged:
+            hidden = _hidden_in_group(w)
+            if hidden is not None:
+                i, (k_fix, s_fix, r2_fix, r2_log) = hidden
+                mates = ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
+                exp = f" (the vehicle's 1/({inertia}) is {k_exp:.3g})" if k_exp is not None else ""
+                warnings.append(
+                    f"{name}: pwm_{keys[i]} is probably reversed: it is driven in step with "
+                    f"{mates}, so its {dof} force cannot show against the motion on its own, but "
+                    f"with it mirrored the forces computed from the thrusters explain "
+                    f"{r2_fix:.0%} of the {dof} acceleration measured from {meas} instead of "
+                    f"{r2_log:.0%} as logged (one shared coefficient {k_fix:+.3g} ± {s_fix:.2g} "
+                    f"{aunit} per {funit}{exp}); mirroring any other output alone does not help. "
+                    f"{fix([keys[i]])}")
             continue
 
         def confirmed(bad, w=w):
@@ -188,6 +204,32 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                 f"the {dof} acceleration measured from {meas}{together}: coefficient {c:+.3g} ± "
                 f"{s:.2g} {aunit} per {funit} (fitted with the other thrusters' forces, a "
                 f"constant and drag), physically positive{exp}; {share}. {fix([keys[i]])}")
+
+
+def _hidden_in_group(w) -> tuple[int, tuple] | None:
+    """A reversed motor among thrusters driven together (:func:`direction_check`'s groups share one
+    coefficient, so its sign cannot show on its own): ``(thruster, confirm(...))`` when mirroring
+    that one output alone lets one shared coefficient explain at least :data:`DIRECTION_GAIN`
+    more of the acceleration and :data:`DIRECTION_RATIO` × as much as logged, that coefficient
+    positive by :data:`DIRECTION_Z` σ, and mirroring any other output alone gains less than
+    :data:`DIRECTION_GAIN` (a wrong thrust model or timing moves every mirror alike)."""
+    trials = []
+    for i in w["live"]:
+        if len(w["group_of"].get(i, ())) < 2:
+            continue
+        conf = w["confirm"]([i])
+        if conf is not None:
+            trials.append((conf[2] - conf[3], i, conf))
+    if not trials:
+        return None
+    trials.sort(key=lambda t: -t[0])
+    gain, i, conf = trials[0]
+    k_fix, s_fix, r2_fix, r2_log = conf
+    if (gain >= DIRECTION_GAIN and r2_fix >= DIRECTION_RATIO * r2_log
+            and k_fix >= DIRECTION_Z * s_fix
+            and all(t[0] < DIRECTION_GAIN for t in trials[1:])):
+        return i, conf
+    return None
 
 
 def _direction_dof(chans: dict, dof: str, pt, B, armed):
