@@ -855,3 +855,83 @@ def test_one_heartbeat_with_a_corrupt_receive_time_does_not_stretch_the_modes(sh
     assert any("1 HEARTBEAT message(s)" in w and "left out" in w for w in ins.warnings)
     clean = inspect_log(shared_data / REAL / "small.tlog")
     assert not any("left out" in w for w in clean.warnings)
+
+
+# ---------------------------------------------------------------------------------------------
+# Motor directions a log's parameters get wrong, and exports read back as tables
+# ---------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def piloted(tmp_path_factory):
+    """A 300 s piloted BlueROV2 dive (pure heave and yaw sticks) as the servo outputs ArduSub
+    writes (the real BlueROV2 directions applied), for .BIN files with chosen parameters."""
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    df, _ = synthetic_dive(300.0, seed=7, vehicle="bluerov2", surge=0.0, jitter=0.0,
+                           rates={"depth": 10, "yaw": 10, "pwm": 10, "battery": 10})
+    df = df.dropna(subset=["depth_m", "yaw_rad", "pwm_1", "battery_V"])
+    d = np.asarray(DIRECTIONS, float)
+    pwm = 1500 + d * (df[[f"pwm_{j}" for j in range(1, 7)]].to_numpy() - 1500)
+    sc = {"t": df["t_s"].to_numpy(), "pwm": pwm, "volts": df["battery_V"].to_numpy(),
+          "depth": df["depth_m"].to_numpy(), "psi": df["yaw_rad"].to_numpy(),
+          "armed": df["armed"].to_numpy(bool),
+          "mode": df["mode"].map({"MANUAL": 19, "STABILIZE": 0, "ALT_HOLD": 2}).to_numpy()}
+    return sc, tmp_path_factory.mktemp("piloted")
+
+
+def _reversed_said(dc):
+    return [w for w in dc.warnings if "probably reversed" in w]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("motor", [None, 1, 5])
+def test_a_direction_parameter_that_does_not_match_the_motor_is_named_in_a_bin_log(piloted, motor):
+    """MOT_n_DIRECTION in the log flipped for one motor (the motor on the vehicle pushes the other
+    way): the forces computed from the log oppose the measured motion, and the reader says which
+    motor and which parameter — for a horizontal motor driven with three others (yaw) and for
+    one of the vertical pair (heave).  The log as flown says nothing."""
+    from uuvid.io.dive_channels import read_dive_channels
+
+    sc, folder = piloted
+    dirs = list(DIRECTIONS)
+    if motor is not None:
+        dirs[motor - 1] = -dirs[motor - 1]
+    path = write_bin(folder / f"dir{motor}.BIN", sc, prm=params(directions=dirs))
+    said = _reversed_said(read_dive_channels(path, "bluerov2"))
+    if motor is None:
+        assert not said
+        return
+    assert len(said) == 1 and said[0].startswith(f"dir{motor}.BIN: pwm_{motor} is probably "
+                                                 "reversed"), said
+    assert f"MOT_{motor}_DIRECTION = {-dirs[motor - 1]:d}" in said[0]
+
+
+@pytest.mark.slow
+def test_an_export_without_a_vehicle_is_read_back_with_the_vehicles_forces(piloted):
+    """`uuvid log export` without --vehicle writes ArduSub's mixing sums (K/M/N in N per unit
+    mixing factor, not N·m).  Read back as a dive table, those columns are not taken as the
+    wrench: the forces are computed from the pwm_ columns with the export's motor directions —
+    the same forces as reading the log itself; without a vehicle it is an error."""
+    from uuvid.io.ardusub.export import export_dive
+    from uuvid.io.dive_channels import DiveDataError, read_dive_channels
+
+    sc, folder = piloted
+    path = write_bin(folder / "flown.BIN", sc)
+    out = export_dive(load_dive(path), folder / "flown.csv")
+    direct = read_dive_channels(path, "bluerov2")
+    back = read_dive_channels(out, "bluerov2")
+    assert any("mixing sums" in w and "not used" in w for w in back.warnings)
+    assert not _reversed_said(back)
+    for c in ("Z_N", "N_Nm"):
+        ta, a = direct.channels[c]
+        tb, b = back.channels[c]
+        assert np.allclose(np.interp(ta, tb, b), a, atol=1e-3 * np.abs(a).max()), c
+    import pandas as pd
+
+    raw = pd.read_csv(out)
+    assert not np.allclose(raw["N_Nm"].to_numpy(), np.interp(raw["t_s"], *direct.channels["N_Nm"]),
+                           atol=1e-3 * np.abs(direct.channels["N_Nm"][1]).max())
+    with pytest.raises(DiveDataError, match="exported without a vehicle"):
+        read_dive_channels(out)
+    other = export_dive(load_dive(path, vehicle="bluerov2"), folder / "flown_b2.csv")
+    again = read_dive_channels(other, "bluerov2")
+    assert not any("mixing sums" in w or "exported with vehicle" in w for w in again.warnings)

@@ -393,7 +393,45 @@ def _check_duplicate_columns(df, name: str) -> None:
                                 "uuvid should read as depth_m")
 
 
-def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
+def _export_meta(p: Path, df) -> dict | None:
+    """The provenance ``uuvid log export`` wrote with a table (the sidecar ``<file>.csv.json``, or
+    a Parquet file's ``uuvid`` metadata), or ``None`` (another table, or unreadable provenance)."""
+    import json
+
+    try:
+        if df is None:
+            side = p.with_name(p.name + ".json")
+            if not side.is_file():
+                return None
+            meta = json.loads(side.read_text())
+        else:
+            raw = (df.attrs or {}).get("uuvid")
+            if raw is None:
+                import pyarrow.parquet as pq
+
+                raw = (pq.read_schema(p).metadata or {}).get(b"uuvid")
+            if raw is None:
+                return None
+            meta = json.loads(raw)
+    except (OSError, ValueError, ImportError):
+        return None
+    if not isinstance(meta, dict) or "force_basis" not in meta or "config" not in meta:
+        return None
+    return meta
+
+
+def _export_directions(meta: dict, pwm: dict) -> dict | None:
+    """``{motor: MOT_n_DIRECTION}`` an export recorded for its ``pwm_<motor>`` columns."""
+    try:
+        d = {str(int(m["motor"])): float(m["direction"]) for m in meta["config"]["motors"]
+             if not m.get("disabled")}
+    except (KeyError, TypeError, ValueError):
+        return None
+    return d if set(pwm) <= set(d) else None
+
+
+def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
+                export: dict | None = None) -> DiveChannels:
     _check_duplicate_columns(df, name)
     df = _canonical_names(df, name, warnings)
     cols = list(df.columns)
@@ -424,10 +462,40 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
         raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(pwm)}) but vehicle "
                             f"{veh.name!r} has {veh.B.shape[1]} thrusters; pass the vehicle the "
                             "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
-    missing = [c for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm") if c not in chans]
+    forces = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
+    directions = None
+    if export is not None:  # written by `uuvid log export`: its forces' basis and motor directions
+        directions = _export_directions(export, pwm) if pwm else None
+        made_for = export.get("vehicle")
+        have = [c for c in forces if c in chans]
+        if have and made_for is None:
+            if not (pwm and veh is not None and directions is not None):
+                raise DiveDataError(
+                    f"{name}: exported without a vehicle (`uuvid log export` with no --vehicle): "
+                    "its X_N … N_Nm are ArduSub's mixing sums Σ f_i·T_i and K/M/N_Nm are N per "
+                    "unit mixing factor, not N·m; give --vehicle (its geometry turns the pwm_ "
+                    "columns into forces), or export again with --vehicle")
+            for c in have:
+                del chans[c]
+            warnings.append(f"{name}: the export's X_N … N_Nm are ArduSub's mixing sums (exported "
+                            "without --vehicle; K/M/N_Nm are not N·m), so they are not used: the "
+                            f"forces are computed from the pwm_ columns with {veh.name}'s geometry")
+        elif have and veh is not None and made_for not in (None, veh.name):
+            if pwm and directions is not None:
+                for c in have:
+                    del chans[c]
+                warnings.append(f"{name}: exported with vehicle {made_for!r}, read as "
+                                f"{veh.name!r}: the export's forces are not used, they are "
+                                f"computed from the pwm_ columns with {veh.name}'s geometry")
+            else:
+                warnings.append(f"{name}: exported with vehicle {made_for!r}, read as "
+                                f"{veh.name!r}: the export's forces are {made_for}'s")
+    missing = [c for c in forces if c not in chans]
     thrust = None
     if missing and pwm and veh is not None:
-        thrust = _forces_from_pwm(chans, pwm, veh, name, warnings)
+        thrust = _forces_from_pwm(chans, pwm, veh, name, warnings, directions=directions,
+                                  label=None if directions is None else
+                                  "the pwm_ columns (the log's motor directions, from the export)")
     if "armed" in cols:
         a = df["armed"]
         word = a.map(lambda x: str(x).strip().lower())
@@ -440,13 +508,14 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list) -> DiveChannels:
     else:
         armed = [(float(t.min()), float(t.max()))]
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
-    if not missing and pwm:
+    if not missing and pwm and export is None:
         warnings.append(f"{name}: the table has all six force columns (X_N … N_Nm) and pwm_ "
                         "columns: the forces are used and the pwm_ columns are not (remove the "
                         "force columns to have the thrust computed from the PWM)")
     _check_dead_outputs(pwm, armed, name, warnings)
     if thrust is not None:
-        direction_check(chans, thrust, veh, armed, name, warnings, table_fix)
+        direction_check(chans, thrust, veh, armed, name, warnings,
+                        table_fix if directions is None else bag_fix(directions))
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm)
@@ -634,14 +703,14 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
                                 f"{str(e).splitlines()[0][:160]}); expected comma-separated "
                                 "columns with a header row (t_s, depth_m, …) and '.' as the "
                                 "decimal point") from None
-        return _from_table(df, p.name, "csv", veh, warnings)
+        return _from_table(df, p.name, "csv", veh, warnings, export=_export_meta(p, None))
     if suf == ".parquet":
         try:
             df = pd.read_parquet(p)
         except Exception as e:  # pyarrow raises several kinds for a file that is not Parquet
             raise DiveDataError(f"{p.name}: not a readable Parquet file ({type(e).__name__}: "
                                 f"{str(e).splitlines()[0][:160] if str(e) else ''})") from None
-        return _from_table(df, p.name, "parquet", veh, warnings)
+        return _from_table(df, p.name, "parquet", veh, warnings, export=_export_meta(p, df))
     if suf in (".tlog", ".bin", ".log"):
         from uuvid.io.ardusub import load_dive
 
@@ -660,15 +729,41 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         armed = _intervals(t, armed_flag)
         pwm = {str(m): _finite(t, tb[f"pwm_{m}"].to_numpy(float)) for m in dive.motors}
         src = {c: (dive.provenance.get(c) or {}).get("source") for c in chans}
+        warnings += list(dive.warnings)
+        _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings, thruster_model)
         return DiveChannels(p.name, dive.format, chans, armed,
-                            _mode_runs(t, tb["mode"].astype(str).to_numpy()),
-                            warnings + list(dive.warnings), src, pwm)
+                            _mode_runs(t, tb["mode"].astype(str).to_numpy()), warnings, src, pwm)
     what = f"unknown dive log type {p.suffix!r}" if p.suffix else "no file suffix"
     if suf in (".db3", ".mcap"):
         what = f"a ROS 2 bag's {suf} storage file without the bag's metadata.yaml beside it"
     look = _looks_like(p)
     raise DiveDataError(f"{p}: {what}" + (f"; it looks like {look}" if look else "")
                         + f"; the reader goes by the suffix: {_DIVE_KINDS}")
+
+
+def _log_direction_check(chans: dict, pwm: dict, dive, veh, armed: list, name: str,
+                         warnings: list, thruster_model) -> None:
+    """The motion-based direction check (:func:`~uuvid.io.motor_direction.direction_check`) on an
+    ArduSub log: the log's ``MOT_n_DIRECTION`` applied, the forces of the log's thrust model
+    recomputed on a scratch copy (the dive's own columns are kept), so that a parameter that does
+    not match the motor on the vehicle is said, as for tables and bags."""
+    directions = {str(m.number): float(m.direction) for m in dive.config.active}
+    if not pwm or set(directions) != set(pwm):
+        return
+    tm = None
+    if thruster_model is not None:
+        from uuvid.io.ardusub.thrust import load_thrust_model
+
+        tm = load_thrust_model(thruster_model)
+    from uuvid.io.ardusub.frames import DOF_COLUMNS
+
+    scratch = {c: v for c, v in chans.items() if c not in DOF_COLUMNS}
+    try:
+        thrust = _forces_from_pwm(scratch, pwm, veh, name, [], directions=directions,
+                                  thrust_model=tm)
+    except (DiveDataError, LogDataError, ValueError):
+        return
+    direction_check(scratch, thrust, veh, armed, name, warnings, bag_fix(directions))
 
 
 def _from_bag(bd, veh, thruster_model) -> DiveChannels:

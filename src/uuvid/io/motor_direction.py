@@ -173,6 +173,20 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
             flagged, bad = [one], [one[0]]
             conf = confirmed(bad)
         if conf is None:
+            odd = _odd_one_out(w, flagged)
+            if odd is not None:
+                i, c, s = odd
+                mates = ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
+                exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
+                warnings.append(
+                    f"{name}: pwm_{keys[i]} is probably reversed: it is driven in step with "
+                    f"{mates} (their {dof} forces correlate at {w['corr'][i]:+.2f}), its {dof} "
+                    f"force runs against all of theirs and against the {dof} acceleration "
+                    f"measured from {meas}: coefficient {c:+.3g} ± {s:.2g} {aunit} per {funit}, "
+                    f"physically positive{exp}. In this log the group always moves together, so "
+                    f"mirroring it cannot be confirmed by the fit (it only rescales the group); "
+                    f"no mixer drives one of its thrusters against all the others. "
+                    f"{fix([keys[i]])}")
             continue
         k_fix, s_fix, r2_fix, r2_log = conf
         cols = [f"pwm_{keys[i]}" for i in bad]
@@ -204,6 +218,22 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                 f"the {dof} acceleration measured from {meas}{together}: coefficient {c:+.3g} ± "
                 f"{s:.2g} {aunit} per {funit} (fitted with the other thrusters' forces, a "
                 f"constant and drag), physically positive{exp}; {share}. {fix([keys[i]])}")
+
+
+def _odd_one_out(w, flagged) -> tuple | None:
+    """The one flagged thruster of a group of three or more whose other members all push with
+    the motion (coefficients positive): a mixer drives thrusters of one DOF together or in
+    opposing pairs, never one against all the others, so it is the reversed one even when
+    mirroring it cannot be confirmed (a group that always moves together: the mirror only
+    rescales the group's coefficient)."""
+    if len(flagged) != 1:
+        return None
+    i = flagged[0][0]
+    grp = w["group_of"].get(i, [])
+    if len(grp) < 3:
+        return None
+    coef = {j: c for j, c, _ in w["members"]}
+    return flagged[0] if all(coef[j] > 0 for j in grp if j != i) else None
 
 
 def _hidden_in_group(w) -> tuple[int, tuple] | None:
@@ -300,7 +330,7 @@ def _direction_dof(chans: dict, dof: str, pt, B, armed):
     if uv:  # the coupled horizontal model's surge/sway accelerations and the Munk moment u·v
         uu, vv = (np.interp(grid, *chans[c]) for c in ("u_mps", "v_mps"))
         nuis += [smooth(uu, g1), smooth(vv, g1), smooth(uu * vv)]
-    nuis = np.column_stack(nuis)
+    nuis = np.column_stack([c for c in nuis if np.any(c != 0.0)])  # no tilt logged: no share
     lags = int(np.ceil(max(10.0, 5 * sig) / h))
     sd = C.std(axis=1)
     live = np.flatnonzero(sd > 1e-6 * max(float(sd.max()), 1e-300))
