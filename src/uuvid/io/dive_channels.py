@@ -269,6 +269,15 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
             raise DiveDataError(f"{name}: column battery_V has median {med:.4g}, outside "
                                 f"{lo:g}–{hi:g} V for a vehicle battery: is it in mV? expected "
                                 "volts")
+        tb, vb = chans["battery_V"]
+        odd = (vb < lo) | (vb > hi)
+        if odd.any():  # single glitches (a 0 V sample): thrust at 0 V is no number
+            k = np.flatnonzero(odd)
+            chans["battery_V"] = (tb[~odd], vb[~odd])
+            warnings.append(f"{name}: battery_V is outside {lo:g}–{hi:g} V on {k.size} sample(s) "
+                            f"(first at t = {tb[k[0]]:.6g} s: {vb[k[0]]:.4g} V), not a battery "
+                            "voltage: those samples are left out and the voltage is interpolated "
+                            "across them")
     from uuvid.thruster.chain import PWM_PLAUSIBLE_US
 
     lo, hi = PWM_PLAUSIBLE_US
