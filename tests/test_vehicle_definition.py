@@ -336,3 +336,31 @@ def test_the_command_line_shows_a_vehicle_warning_as_a_line_not_a_source_locatio
     assert "warning: " + str(p) + ": rigid_body: the buoyancy" in r.stderr
     assert ".py:" not in r.stderr and "VehicleFileWarning" not in r.stderr
     assert "inflow: none" in r.stdout
+
+
+@pytest.mark.parametrize("change, said", [
+    ({"mass": 11_500.0, "weight": 112.8, "buoyancy": 114.8}, "the weight 112.8 N is 0.001 × m·g"),
+    ({"weight": 1.15, "buoyancy": 1.17}, "the weight 1.15 N is 0.0102 × m·g"),  # in kgf... of 11.5
+    ({"mass": 11_500.0, "weight": 112_800.0, "buoyancy": 114_800.0},
+     "is a radius of gyration of"),  # every mass in grams, the inertia left in kg·m²
+])
+def test_a_weight_or_inertia_that_cannot_go_with_the_mass_is_named(change, said):
+    """The buoyancy check compares buoyancy with the weight; a mass in grams with the weight left
+    in N (or every mass-like number ×1000 and the inertia not) passed it silently."""
+    raw = copy.deepcopy(BASE)
+    raw["rigid_body"].update(mass=11.5, inertia=[0.16, 0.16, 0.16])
+    raw["rigid_body"].pop("displaced_volume", None)
+    raw["rigid_body"].update(change)
+    with pytest.warns(VehicleFileWarning) as rec:
+        vehicle_from_dict(raw, where="bot.yaml")
+    msgs = [str(r.message) for r in rec]
+    assert any(said in m for m in msgs), msgs
+
+
+def test_positions_in_millimetres_are_named():
+    raw = copy.deepcopy(BASE)
+    for t in raw["thrusters"]:
+        t["position"] = [1000.0 * x for x in t["position"]]
+    with pytest.warns(VehicleFileWarning, match=r"position is [\d.]+ m from the body origin.*"
+                                                 r"are the lengths in mm or cm"):
+        vehicle_from_dict(raw, where="bot.yaml")

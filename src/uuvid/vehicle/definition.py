@@ -94,16 +94,56 @@ class VehicleFileWarning(UserWarning):
 NEUTRAL_FACTOR = 2.0
 
 
-def rigid_body_warnings(params: VehicleParams) -> list[str]:
-    """One sentence when the buoyancy and the weight ``m g`` differ by more than
-    :data:`NEUTRAL_FACTOR` (a unit slip, e.g. the mass in grams)."""
-    w, b = float(params.weight), float(params.buoyancy)
-    if not (w > 0.0 and b > 0.0) or 1.0 / NEUTRAL_FACTOR <= b / w <= NEUTRAL_FACTOR:
-        return []
-    return [f"rigid_body: the buoyancy {b:.4g} N is {b / w:.3g} × the weight m·g = {w:.4g} N "
-            f"(mass {float(params.mass):.4g} kg): no vehicle that holds depth is that far from "
-            "neutral; expected the mass in kg, weight and buoyancy in N, displaced_volume in m³ "
-            "(a mass in grams weighs 1000× too much, a buoyancy in kgf floats 9.8× too little)"]
+#: A given weight beyond this factor either way of ``m g`` (g = 9.81 m/s²) is a unit slip.
+WEIGHT_FACTOR = 1.5
+#: A thruster, the centre of gravity or of buoyancy further than this from the body origin (m):
+#: lengths in mm or cm (the largest AUVs are a few metres either side of their origin).
+MAX_EXTENT_M = 12.0
+#: A radius of gyration ``sqrt(I/m)`` below this (m) about any axis: the mass or the inertia is
+#: in another unit (a BlueROV2's is 12 cm, a compact 5 kg AUV's several cm).
+MIN_GYRATION_M = 0.01
+
+
+def rigid_body_warnings(params: VehicleParams, layout=None) -> list[str]:
+    """Sentences for valid numbers that cannot be what they claim (most often a unit slip): a
+    weight beyond :data:`WEIGHT_FACTOR` of ``m g`` (a mass in grams, a weight in kgf), a buoyancy
+    beyond :data:`NEUTRAL_FACTOR` of the weight, a radius of gyration below
+    :data:`MIN_GYRATION_M`, a position beyond :data:`MAX_EXTENT_M` (lengths in mm or cm)."""
+    out = []
+    m, w, b = float(params.mass), float(params.weight), float(params.buoyancy)
+    if (w > 0.0 and b > 0.0) and not 1.0 / NEUTRAL_FACTOR <= b / w <= NEUTRAL_FACTOR:
+        out.append(f"rigid_body: the buoyancy {b:.4g} N is {b / w:.3g} × the weight m·g = "
+                   f"{w:.4g} N (mass {m:.4g} kg): no vehicle that holds depth is that far from "
+                   "neutral; expected the mass in kg, weight and buoyancy in N, displaced_volume "
+                   "in m³ (a mass in grams weighs 1000× too much, a buoyancy in kgf floats 9.8× "
+                   "too little)")
+    mg = m * 9.81
+    if w > 0.0 and mg > 0.0 and not 1.0 / WEIGHT_FACTOR <= w / mg <= WEIGHT_FACTOR:
+        out.append(f"rigid_body: the weight {w:.4g} N is {w / mg:.3g} × m·g = {mg:.4g} N (mass "
+                   f"{m:.4g} kg): expected the mass in kg and the weight in N (a mass in grams "
+                   "is 1000× m·g, a weight in kgf 1/9.81 of it)")
+    inertia = np.diag(np.asarray(params.inertia, float))
+    if m > 0.0 and inertia.size == 3 and np.all(inertia > 0.0):
+        gyr = np.sqrt(inertia / m)  # radius of gyration: a vehicle's is centimetres to metres
+        if gyr.min() < MIN_GYRATION_M:
+            k = int(np.argmin(gyr))
+            out.append(f"rigid_body: inertia {inertia[k]:.4g} kg·m² about {'xyz'[k]} with mass "
+                       f"{m:.4g} kg is a radius of gyration of {1000 * gyr[k]:.3g} mm — no vehicle "
+                       "is that compact: expected the mass in kg and the inertia in kg·m² (a mass "
+                       "in grams, or an inertia in kg·cm²?)")
+    where = [("rigid_body.center_of_gravity", params.r_g),
+             ("rigid_body.center_of_buoyancy", params.r_b)]
+    if layout is not None:
+        where += [(f"thrusters[{i}] ({t.name}).position", t.position)
+                  for i, t in enumerate(layout.thrusters)]
+    far = [(k, float(np.linalg.norm(np.asarray(v, float)))) for k, v in where]
+    far = [(k, d) for k, d in far if d > MAX_EXTENT_M]
+    if far:
+        k, d = max(far, key=lambda x: x[1])
+        out.append(f"{k} is {d:.4g} m from the body origin"
+                   + (f" ({len(far)} positions beyond {MAX_EXTENT_M:g} m)" if len(far) > 1 else "")
+                   + ": are the lengths in mm or cm? expected metres")
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -322,7 +362,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
     whose fitted propeller map does not reach a direction it pushes
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
-    msgs = rigid_body_warnings(vehicle.params)
+    msgs = rigid_body_warnings(vehicle.params, vehicle.layout)
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 
