@@ -87,6 +87,11 @@ def test_written_vehicle_replays_as_identified(result, dive, tmp_path):
         assert ident.channels[ch]["rms"] < base.channels[ch]["rms"] / 2
         assert "one_dof" in ident.channels[ch]["params_source"]
     assert "W − B" in base.channels["depth"]["params_source"]
+    # the 6-DOF model takes the identified net weight: W − B of the written rigid body equals the
+    # heave bias (the weight kept), so an unpowered vehicle sinks or floats as the dive did
+    bias = result.estimates["heave"].values["bias"]
+    assert v.params.weight == pytest.approx(load_vehicle("bluerov2").params.weight)
+    assert v.params.weight - v.params.buoyancy == pytest.approx(bias, abs=1e-3)
 
 
 @pytest.mark.slow

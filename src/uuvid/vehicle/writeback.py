@@ -15,6 +15,8 @@ loads and ``uuvid simulate`` flies:
   (``yaw`` for both signs, ``yaw+``/``yaw-`` per sign) for modes the vehicle defines; the
   per-thruster ``installation`` coefficients (which the 6-DOF simulator applies) are left as they
   were — mapping DOF-level coefficients to thrusters is not unique;
+* ``rigid_body.buoyancy`` ← ``W − disturbance`` for heave (the identified net weight, the
+  weight kept), so the 6-DOF model sinks or floats as the dive did;
 * ``one_dof.<key>``: the eq. 3 model (``mass``, ``linear``, ``quadratic``, ``eta_pos``,
   ``eta_neg``, ``disturbance``, ``mode``), created or updated; ``inflow_coefficient`` (``k_a`` of
   the linear inflow form, identified from a dive: :func:`uuvid.identify.vehicle.dive.identify_dive`)
@@ -296,6 +298,21 @@ def identified_yaml(vehicle_file_or_preset, identified: Mapping[str, Mapping[str
             entry["eta_neg"] = _fmt(n) if n is not None else 1.0
         if dist is not None:
             entry["disturbance"] = _fmt(dist)
+            if i == 2:  # heave: the net weight W − B, which the 6-DOF model takes from rigid_body
+                rb = raw.setdefault("rigid_body", {})
+                w_n = float(base.params.weight)
+                b_old, b_new = float(base.params.buoyancy), w_n - dist
+                if b_new <= 0:
+                    raise WritebackError(
+                        f"identified heave disturbance (net weight W − B) {dist:.6g} N is not "
+                        f"below the weight {w_n:.6g} N of {src.name}: the buoyancy would be "
+                        f"{b_new:.4g} N; nothing was written")
+                rb.pop("displaced_volume", None)
+                rb.pop("water_density", None)
+                rb["buoyancy"] = _fmt(b_new)
+                notes.append(f"heave: rigid_body.buoyancy {b_old:.5g} → {b_new:.5g} N (the "
+                             f"identified net weight W − B = {dist:+.4g} N with the weight "
+                             f"{w_n:.5g} N kept), so the 6-DOF model sinks or floats as the dive did")
         if ka is not None:
             entry["inflow_coefficient"] = _fmt(ka)
         desc = _describe(dof, d, etas, added)

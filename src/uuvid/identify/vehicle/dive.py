@@ -273,9 +273,9 @@ class DiveIdentification(Result):
     def write_vehicle(self, out, base=None) -> object:
         """Write the base vehicle with the identified values and their provenance
         (:func:`uuvid.vehicle.writeback.write_identified`); returns the path.  Mass, added mass
-        and drag go into ``hydrodynamics`` (the 6-DOF model every command flies); the bias (in
-        heave the net weight) only into ``one_dof.<dof>.disturbance`` — ``rigid_body.weight`` and
-        ``buoyancy`` stay the base vehicle's."""
+        and drag go into ``hydrodynamics`` (the 6-DOF model every command flies); the bias into
+        ``one_dof.<dof>.disturbance``, and in heave (the net weight ``W − B``) also into
+        ``rigid_body.buoyancy`` (the weight kept) so that the 6-DOF model sinks as the dive did."""
         from uuvid.vehicle.writeback import write_identified
 
         base = base or self.vehicle_ref
