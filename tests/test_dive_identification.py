@@ -259,4 +259,23 @@ def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path)
     mirrored = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
     far = [w for w in mirrored.warnings if "beyond the ×8" in w]
     assert far and far[0].startswith("yaw inertia ×") and "motor directions" in far[0]
+    # the summary does not call it "better" without saying it is no model to use
+    assert mirrored.unusable and "inertia beyond ×8 of the base's" in mirrored.unusable[-1]
+    assert not intact.unusable
+    text = "\n".join(mirrored.summary_lines(None))
+    assert "not a model to use" in text and "× better" not in text
     assert not any("beyond the ×8" in w for w in intact.warnings)
+
+
+def test_the_command_fails_when_a_dof_came_out_not_finite():
+    """Printed for the record, but the exit status says no model was identified (it was 0 with
+    every parameter NaN)."""
+    from types import SimpleNamespace
+
+    from uuvid.cli.dive_cmds import _not_finite
+
+    ok = SimpleNamespace(values={"mass": 26.0, "linear": 1.0, "quadratic": 30.0, "bias": -2.0})
+    nan = SimpleNamespace(values={"mass": float("nan"), "linear": 1.0, "quadratic": 30.0,
+                                  "bias": -2.0})
+    assert _not_finite(SimpleNamespace(estimates={"heave": ok, "yaw": nan})) == ["yaw"]
+    assert _not_finite(SimpleNamespace(estimates={"heave": ok})) == []

@@ -48,9 +48,10 @@ def _print_json(obj) -> None:
     sys.stdout.flush()
 
 
-def _fail(msg: str) -> None:
+def _fail(msg: str, code: int = 2) -> None:
+    """Print ``error: msg`` and end the command (exit status 2: bad input; 1: the run failed)."""
     err_console.print(f"[bold red]error:[/] {escape(str(msg))}", highlight=False, soft_wrap=True)
-    raise typer.Exit(code=2)
+    raise typer.Exit(code=code)
 
 
 def _flagged(msg: str, flags: dict[str, str]) -> str:

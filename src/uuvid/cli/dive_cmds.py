@@ -152,11 +152,28 @@ def _run(compute, write, json_out: bool, write_error) -> None:
         _fail(write_error(e))
     if json_out:
         _print_json(doc)
-        return
-    out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
-    for k in ("out_vehicle", "report"):
-        if k in doc:
-            err_console.print(f"wrote {doc[k]}", highlight=False, markup=False)
+    else:
+        out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
+        for k in ("out_vehicle", "report"):
+            if k in doc:
+                err_console.print(f"wrote {doc[k]}", highlight=False, markup=False)
+    failed = _not_finite(res)
+    if failed:  # printed for the record, but no model: the exit status says so
+        _fail(f"{', '.join(failed)}: the identified parameters are not finite — no model was "
+              "identified for " + ("it" if len(failed) == 1 else "them") + " (see the warnings)",
+              code=1)
+
+
+def _not_finite(res) -> list:
+    """The DOFs of an identification result whose values are not all finite."""
+    import math
+
+    out = []
+    for dof, e in (getattr(res, "estimates", None) or {}).items():
+        vals = getattr(e, "values", {}) or {}
+        if any(isinstance(v, (int, float)) and not math.isfinite(v) for v in vals.values()):
+            out.append(str(dof))
+    return out
 
 
 def register(vehicle_app: typer.Typer, identify_app: typer.Typer) -> None:

@@ -178,6 +178,23 @@ class DofEstimate:
     def names(self) -> tuple:
         return PARAMS_INFLOW if "inflow" in self.values else PARAMS
 
+    @property
+    def unusable(self) -> list:
+        """Why this estimate is not a model to use (empty when nothing says so): parameters or σ
+        that are not finite, a mass or inertia beyond :data:`FAR_FROM_BASE` of the base's."""
+        why = []
+        bad = [k for k in self.names if not math.isfinite(float(self.values.get(k, math.nan)))]
+        if bad:
+            why.append(f"{', '.join(bad)} not finite")
+        loose = [k for k in self.names if k not in bad
+                 and not math.isfinite(float(self.sigma.get(k, math.nan)))]
+        if loose:
+            why.append(f"σ of {', '.join(loose)} not finite (not determined by this log)")
+        if any(f"beyond the ×{FAR_FROM_BASE:g}" in w for w in self.warnings):
+            why.append(f"{'inertia' if self.dof in ('roll', 'pitch', 'yaw') else 'mass'} beyond "
+                       f"×{FAR_FROM_BASE:g} of the base's")
+        return why
+
     def params(self) -> OneDofParams:
         v = self.values
         return OneDofParams(v["mass"], v["linear"], v["quadratic"], v["bias"],
@@ -191,7 +208,8 @@ class DofEstimate:
                 "start_value_svf": self.start, "base": self.base, "base_source": self.base_source,
                 "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
                 "train": self.train, "held_out": self.held_out, "warnings": self.warnings,
-                "notes": self.notes, "dead_band": self.weighting, "inflow": self.inflow}
+                "notes": self.notes, "dead_band": self.weighting, "inflow": self.inflow,
+                "unusable": self.unusable}
 
     def identified(self, log: str) -> dict:
         """``{dof: entry}`` for :func:`uuvid.vehicle.writeback.write_identified`."""
@@ -226,9 +244,16 @@ class DofEstimate:
                      f"nrmse {e.train['nrmse']:.3f}")
         if e.held_out and e.held_out["improvement"] is not None:
             h = e.held_out
+            verdict = f"{h['improvement']:.2f}× better"
+            if e.unusable:
+                verdict = (f"{h['improvement']:.3g}× lower rms than the base's, but not a model "
+                           f"to use: "
+                           f"{'; '.join(e.unusable)} — see the warnings")
             lines.append(f"  held-out (t > {t_end:g} s): {ch} rms identified "
                          f"{h['identified']['rms']:.3g} vs base {h['base']['rms']:.3g} "
-                         f"{UNITS[dof]} ({h['improvement']:.2f}× better)")
+                         f"{UNITS[dof]} ({verdict})")
+        elif e.unusable:
+            lines.append(f"  not a model to use: {'; '.join(e.unusable)} — see the warnings")
         if e.weighting:
             lines.append(f"  {weighting_text(e.weighting)}")
         lines += [f"  warning: {w}" for w in e.warnings]
