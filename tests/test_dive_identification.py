@@ -279,3 +279,27 @@ def test_the_command_fails_when_a_dof_came_out_not_finite():
                                   "bias": -2.0})
     assert _not_finite(SimpleNamespace(estimates={"heave": ok, "yaw": nan})) == ["yaw"]
     assert _not_finite(SimpleNamespace(estimates={"heave": ok})) == []
+
+
+def test_armed_time_on_deck_does_not_enter_the_yaw_fit(tmp_path):
+    """40 s armed on deck before the dive (depth 0, heading still, the horizontal motors pulsed as
+    in a motor test) made the yaw inertia tens of times the base's.  Yaw windows wholly shallower
+    than the surface limit are left out and said; the estimate is the dive's."""
+    import pandas as pd
+
+    from uuvid.examples import write_example
+
+    df = pd.read_csv(write_example("dive", tmp_path)[0])
+    df = df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    dive_only = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
+    t = np.arange(0.0, 40.0, 0.1)
+    pulse = np.where((t % 8.0) < 2.0, 150.0, 0.0)
+    deck = pd.DataFrame({"t_s": t, "depth_m": 0.0, "yaw_rad": float(df["yaw_rad"].iloc[0]),
+                         "roll_rad": 0.0, "pitch_rad": 0.0, "battery_V": 16.0,
+                         "pwm_1": 1500 + pulse, "pwm_2": 1500 - pulse, "pwm_3": 1500 - pulse,
+                         "pwm_4": 1500 + pulse, "pwm_5": 1500.0, "pwm_6": 1500.0,
+                         "mode": "MANUAL", "armed": True})
+    both = pd.concat([deck, df.assign(t_s=df["t_s"] + 40.05)], ignore_index=True)
+    est = identify_dive(both, "bluerov2", ["yaw"]).estimates["yaw"]
+    assert any("out of the water (armed on deck)" in n and "left out" in n for n in est.notes)
+    assert est.values["mass"] == pytest.approx(dive_only.values["mass"], rel=0.15)

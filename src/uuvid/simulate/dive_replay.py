@@ -19,7 +19,8 @@ slope, refined through the model on the window's first seconds, :func:`initial_s
 compared with the measurements after those seconds on their own stamps (cubic Hermite between
 steps).
 Heave windows that touch the surface (depth < ``SURFACE_M``) are left out: there the buoyancy
-changes and the model does not hold.  :func:`replay_dive` returns :class:`DiveReplay`.
+changes and the model does not hold; windows of the other DOFs wholly that shallow (floating, or
+armed on deck) are left out too.  :func:`replay_dive` returns :class:`DiveReplay`.
 """
 
 from __future__ import annotations
@@ -102,6 +103,9 @@ def dive_windows(dc, dof: str, horizon: float, t_start=None, t_end=None) -> tupl
     lo = max(tm[0], tf[0], -np.inf if t_start is None else t_start)
     hi = min(tm[-1], tf[-1], np.inf if t_end is None else t_end)
     out, surface, sparse = [], 0, 0
+    depth = dc.channels.get("depth_m") if dof != "heave" else None
+    if depth is not None and depth[0].size == 0:
+        depth = None
     for a, b in dc.armed:
         a, b = max(a, lo), min(b, hi)
         s = a
@@ -114,16 +118,32 @@ def dive_windows(dc, dof: str, horizon: float, t_start=None, t_end=None) -> tupl
                 sparse += 1
             elif dof == "heave" and np.min(ym[sel]) < SURFACE_M:
                 surface += 1
+            elif depth is not None and _on_top(depth, s, e):
+                surface += 1
             else:
                 out.append((s, e))
             s = e
     notes = []
     if surface:
-        notes.append(f"{surface} {dof} window(s) of {horizon:g} s at the surface (depth < "
+        where = ("at the surface" if dof == "heave" else
+                 "wholly at the surface or out of the water (armed on deck)")
+        notes.append(f"{surface} {dof} window(s) of {horizon:g} s {where} (depth < "
                      f"{SURFACE_M:g} m) left out")
     if sparse:
         notes.append(f"{sparse} {dof} window(s) with too few samples (or a gap in the force) left out")
     return out, notes
+
+
+def _on_top(depth, s: float, e: float) -> bool:
+    """The logged depth stays shallower than :data:`SURFACE_M` over ``[s, e]`` (its samples there,
+    or the nearest ones): the vehicle floats or sits on deck, where thrust does not turn or move
+    it as in the water (ventilating propellers, the hull partly out of the water)."""
+    td, yd = depth
+    sel = (td >= s) & (td <= e)
+    if not sel.any():
+        i = np.clip(np.searchsorted(td, [s, e]), 0, td.size - 1)
+        return bool(np.max(yd[i]) < SURFACE_M)
+    return bool(np.max(yd[sel]) < SURFACE_M)
 
 
 def _local_state(t, y, t0, half, position: bool):
