@@ -454,3 +454,17 @@ def test_table_without_repeats_says_sigma_unknown_not_insignificant(tmp_path):
     text = sf.fits["all"].summary()
     assert text.count("σ unknown") == 4 and text.count("not significant") == 0
     assert any("σ unknown (no repeats) for 4 of 5" in n for n in sf.info["notes"])
+
+
+def test_a_report_that_cannot_be_written_leaves_the_old_model_file(sheets, tmp_path):
+    """Every destination is checked before any is written: a --report folder under a file made
+    the command fail *after* it had replaced the model file."""
+    out = tmp_path / "keep.yaml"
+    out.write_text("old model\n")
+    (tmp_path / "afile").write_text("x")
+    res = runner.invoke(_app(), ["thruster", "fit", str(sheets[0]), *map(str, SHEET_COLS),
+                                 "--model", "quadratic", "--out-model", str(out),
+                                 "--report", str(tmp_path / "afile" / "rep")])
+    assert res.exit_code == 2, res.output
+    assert "nothing was written" in " ".join(res.output.split())
+    assert out.read_text() == "old model\n"

@@ -346,3 +346,36 @@ def test_atomic_dir_into_the_working_folder(tmp_path: Path, monkeypatch) -> None
             _report(work, {"x.txt": text})
     assert Path.cwd() == work_dir and (work_dir / "x.txt").read_text() == "new"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["w"]
+
+
+def test_check_writable_dir_creates_the_folder_and_names_a_file_in_the_way(tmp_path: Path) -> None:
+    from uuvid.core.atomic import check_writable_dir
+
+    d = check_writable_dir(tmp_path / "new" / "report")
+    assert d.is_dir() and not list(d.iterdir())  # the probe file is gone
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(NotADirectoryError) as e:
+        check_writable_dir(tmp_path / "afile" / "report")
+    assert e.value.filename == str(tmp_path / "afile")
+
+
+def test_sigterm_removes_the_half_written_file(tmp_path: Path) -> None:
+    """`kill` (SIGTERM) ends a command like Ctrl-C: the temporary file of a write in progress is
+    removed and the target left as it was (the default action left a 25 MB .tmp file)."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "response.csv"
+    target.write_text("old\n")
+    code = ("import os, signal\n"
+            "from uuvid.cli.app import _on_terminate_clean_up\n"
+            "from uuvid.core.atomic import atomic_path\n"
+            "_on_terminate_clean_up()\n"
+            f"with atomic_path({str(target)!r}) as tmp:\n"
+            "    tmp.write_text('new, half written')\n"
+            "    os.kill(os.getpid(), signal.SIGTERM)\n"
+            "    import time; time.sleep(5)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 128 + 15, r.stderr
+    assert target.read_text() == "old\n"
+    assert _leftovers(tmp_path, {"response.csv"}) == []

@@ -405,3 +405,20 @@ def test_stability_table_names_the_speed_unit():
 
     rows = static_stability(load_vehicle("bluerov2")).rows()
     assert all("max_speed_m_s" in r and all(k != "max_speed" for k in r) for r in rows)
+
+
+def test_an_output_folder_that_is_a_file_is_one_line_not_a_traceback(tmp_path):
+    """`uuvid thruster simulate t200 --out afile` with afile an ordinary file: one `error:` line
+    naming it, exit status 2 (it was a rich traceback ending in FileExistsError)."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "afile").write_text("x")
+    env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
+    r = subprocess.run([sys.executable, "-m", "uuvid.cli.app", "thruster", "simulate", "t200",
+                        "--t-end", "0.5", "--out", str(tmp_path / "afile")], cwd=tmp_path,
+                       env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2, r.stderr
+    assert "a file is there where a folder was expected" in r.stderr
+    assert "Traceback" not in r.stderr and (tmp_path / "afile").read_text() == "x"

@@ -6,6 +6,7 @@ stderr.  Errors in user input exit with status 2 and a one-line message naming w
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -309,7 +310,35 @@ def main() -> None:  # console-script entry point
         warnings.formatwarning = _user_warning
     command = next((a for a in sys.argv[1:] if not a.startswith("-")), None)
     _register_subcommands(command)
-    _app()
+    _on_terminate_clean_up()
+    try:
+        _app()
+    except OSError as e:  # the file system said no (a folder that is a file, no permission, full)
+        if os.environ.get("UUVID_DEBUG"):
+            raise
+        where = f"{e.filename}: " if e.filename else ""
+        what = e.strerror or str(e) or type(e).__name__
+        if isinstance(e, (FileExistsError, NotADirectoryError)) and e.filename \
+                and os.path.isfile(e.filename):
+            what = "a file is there where a folder was expected"
+        sys.stderr.write(f"error: {where}{what} ({type(e).__name__}); nothing more was written "
+                         "(UUVID_DEBUG=1 shows where)\n")
+        raise SystemExit(2) from None
+
+
+def _on_terminate_clean_up() -> None:
+    """SIGTERM (``kill``, a job scheduler's stop) ends the command like Ctrl-C does: as an
+    exception, so that half-written temporary files are removed on the way out (the default
+    action ends the process at once and leaves them)."""
+    import signal
+
+    def stop(signum, frame):
+        raise SystemExit(128 + signum)
+
+    try:
+        signal.signal(signal.SIGTERM, stop)
+    except (ValueError, OSError):  # not the main thread, or no such signal here
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -203,6 +203,16 @@ def thruster_fit(
         _fail(str(e))
     except ValueError as e:  # run validation in the dynamic fits (time grid, lengths, channels)
         _fail(f"{'--select' if select else '--model ' + kind}: {e}")
+    from uuvid.core.atomic import check_writable_dir
+
+    for opt, folder in (("--out-model", out.parent), ("--report", report)):
+        if folder is None:
+            continue
+        try:  # every destination before any is written: a failed run leaves the old files
+            check_writable_dir(folder)
+        except OSError as e:
+            _fail(f"{opt} {out if opt == '--out-model' else report}: cannot write in "
+                  f"{e.filename or folder} ({e.strerror or e}); nothing was written")
     try:
         save_chain(outcome.chain, out)
     except OSError as e:

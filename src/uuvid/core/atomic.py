@@ -31,6 +31,7 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import enum
+import errno
 import json
 import math
 import os
@@ -38,12 +39,14 @@ import re
 import secrets
 import shutil
 import sys
+import tempfile
 import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path, PurePath
 from typing import Any
 
 __all__ = [
+    "check_writable_dir",
     "atomic_dir",
     "atomic_path",
     "atomic_write_bytes",
@@ -66,6 +69,24 @@ _SWEPT: set[str] = set()
 # --------------------------------------------------------------------------------------------
 # low-level helpers
 # --------------------------------------------------------------------------------------------
+
+
+def check_writable_dir(path: str | os.PathLike[str]) -> Path:
+    """Create the folder ``path`` if needed and check that a file can be written in it (a file is
+    created and removed); raises :class:`OSError` (``NotADirectoryError`` when a parent is a
+    file).  For commands that write several outputs: check them all before writing any, so a
+    failure writes nothing."""
+    d = Path(path)
+    for parent in (d, *d.parents):
+        if parent.exists():
+            if not parent.is_dir():
+                raise NotADirectoryError(errno.ENOTDIR, "a file, not a folder", str(parent))
+            break
+    d.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=".uuvid-check-", dir=d)
+    os.close(fd)
+    os.unlink(name)
+    return d
 
 
 def _create_temp(target: Path) -> Path:
