@@ -296,3 +296,24 @@ def test_a_model_that_gives_zero_thrust_everywhere_is_warned(tmp_path):
     # a model that pushes is not warned
     assert not [w for w in _predict("t200", "--pwm", "1100:1900:100")["warnings"]
                 if "zero output" in w]
+
+
+@pytest.mark.parametrize("row, fit", [(150, "table"), (150, "deadzone"), (60, "table")])
+def test_one_reversed_row_in_still_water_is_an_error_naming_it(row, fit):
+    """One row of a clean sweep with its thrust negated (a sign slip): the table fit flattened it
+    away with a note, the dead-zone curve bent around it.  Now it is refused with the row."""
+    import numpy as np
+
+    from uuvid.identify.thruster.steady import fit_deadzone_curve, fit_table
+    from uuvid.io.bench import BenchData, BenchDataError
+
+    rng = np.random.default_rng(row)
+    pwm = np.arange(1100.0, 1901.0, 2.0)
+    w = pwm - 1500.0
+    t = 4e-4 * w * np.abs(w) + rng.normal(0, 0.05, w.size)
+    f = {"table": fit_table, "deadzone": fit_deadzone_curve}[fit]
+    f(BenchData(command=pwm, thrust=t, source="sweep.csv"))  # the clean sweep fits
+    t[row] = -t[row]
+    with pytest.raises(BenchDataError, match=rf"sweep\.csv: thrust reverses at row {row + 1} of "
+                                             rf"the data: command {pwm[row]:g} pwm_us"):
+        f(BenchData(command=pwm, thrust=t, source="sweep.csv"))

@@ -67,6 +67,7 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
         agree = np.sign(y[m]) == d[m]
         if agree.mean() >= _SIGN_AGREEMENT:
             _check_direction_signs(data, name, unit, y, m, min_rows)
+            _check_single_reversals(data, name, unit, y, m)
             continue
         cmd, val, src = _largest_row(data, y, m)
         raise BenchDataError(
@@ -113,6 +114,43 @@ def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> N
             f"{'positive' if sgn > 0 else 'negative'} {name} there. Fix: a sensor that logs the "
             f"magnitude only needs its sign from the command (negate the {name} of those rows), "
             "or give the right neutral command (--neutral)")
+
+
+#: a reading of the wrong sign must be this many times the row-to-row scatter to be a reversal
+_REVERSAL_SIGMAS = 6.0
+
+
+def _check_single_reversals(data, name: str, unit: str, y, m) -> None:
+    """A row whose reading has the other direction's sign, clear of the dead band's noise
+    (beyond :data:`_SIGN_NOISE` of the file's largest |reading| and :data:`_REVERSAL_SIGMAS` ×
+    the readings' row-to-row scatter), in still water: a thruster
+    does not push backwards at a forward command — a sign slip in that row (or a row of another
+    test).  Left unchecked, a table fit flattened it away and a polynomial bent around it.  In a
+    flow a propeller can (a forward command against a strong inflow from ahead), so rows with a
+    flow speed are not checked."""
+    d = data.direction
+    still = np.ones(y.shape, bool)
+    if data.flow_speed is not None:
+        still = np.abs(np.nan_to_num(data.flow_speed, nan=np.inf)) <= _STILL_WATER
+    big = m & still & (np.abs(y) > _SIGN_NOISE * np.max(np.abs(y[m])))
+    rows = np.flatnonzero(m & still)
+    if rows.size >= 5:  # and clear of the readings' own scatter (row to row, robust: MAD)
+        o = rows[np.argsort(data.command[rows], kind="stable")]
+        dy = np.diff(y[o])
+        sigma = 1.4826 * float(np.median(np.abs(dy - np.median(dy)))) / np.sqrt(2.0)
+        big &= np.abs(y) > _REVERSAL_SIGMAS * sigma
+    wrong = np.flatnonzero(big & (np.sign(y) != d))
+    if not wrong.size:
+        return
+    i = int(wrong[np.argmax(np.abs(y[wrong]))])
+    src = f"{data.source}: " if data.source else ""
+    more = f" (and {wrong.size - 1} more such row(s))" if wrong.size > 1 else ""
+    raise BenchDataError(
+        f"{src}{name} reverses at row {i + 1} of the data{more}: command {data.command[i]:g} "
+        f"{data.command_unit} ({'above' if d[i] > 0 else 'below'} neutral {data.neutral:g}) gives "
+        f"{name} {y[i]:+.4g} {unit}, while the other rows on that side give "
+        f"{'positive' if d[i] > 0 else 'negative'} {name}; a thruster in still water does not "
+        f"push against its command: fix the sign of that row (or leave it out)")
 
 
 # ------------------------------------------------------------------------------------------------
