@@ -260,6 +260,7 @@ def test_yoerger_on_pwm_steps_gets_a_neutral_shifting_esc(tmp_path):
     # what was done is a note, not a warning
     assert any(n.startswith("block 0 is a unit-gain ESC") for n in doc["notes"])
     assert not any("block 0" in w for w in doc["warnings"])
+    assert not any(w.startswith("only ") for w in doc["warnings"])  # both directions recorded
     err = " ".join(runner.invoke(APP, ["thruster", "fit", *map(str, files), "--time-col", "time",
                                        "--command-col", "pwm", "--speed-col", "w", "--model",
                                        "yoerger", "--out", str(out)]).stderr.split())
@@ -468,3 +469,58 @@ def test_a_report_that_cannot_be_written_leaves_the_old_model_file(sheets, tmp_p
     assert res.exit_code == 2, res.output
     assert "nothing was written" in " ".join(res.output.split())
     assert out.read_text() == "old model\n"
+
+
+def test_a_fit_with_no_more_rows_than_parameters_is_refused(tmp_path):
+    """One forward row for the quadratic map's forward coefficient: the fit passed through it
+    (RMSE 0, σ undefined) and a model was written.  Now an error saying how many are needed."""
+    p = tmp_path / "one.csv"
+    _write_csv(p, {"command": [1650.0], "speed": [120.0], "thrust": [5.1]})
+    out = tmp_path / "x.yaml"
+    res = _fit(p, "--speed-col", "speed", "--thrust-col", "thrust", "--model", "quadratic",
+               "--out-model", out)
+    assert res.exit_code == 2 and not out.exists(), res.output
+    assert "1 usable sample(s) for 1 free parameter(s)" in " ".join(res.output.split())
+    _write_csv(p, {"command": [1650.0, 1700.0], "speed": [120.0, 150.0], "thrust": [5.1, 8.0]})
+    assert _fit(p, "--speed-col", "speed", "--thrust-col", "thrust", "--model", "quadratic",
+                "--out-model", out).exit_code == 0
+
+
+def test_an_all_zero_thrust_column_and_a_mostly_censored_sheet_are_said(tmp_path):
+    p = tmp_path / "zero.csv"
+    _write_csv(p, {"command": [1600.0, 1700.0, 1800.0, 1300.0], "speed": [90.0, 180, 270, -180],
+                   "thrust": [0.0, 0.0, 0.0, 0.0]})
+    res = _fit(p, "--speed-col", "speed", "--thrust-col", "thrust", "--model", "quadratic",
+               "--out-model", tmp_path / "x.yaml")
+    assert res.exit_code == 2 and "thrust is 0 in every row" in " ".join(res.output.split())
+    # a sheet's rpm read as rad/s: most readings fall below the censoring speed
+    from uuvid.identify.plausibility import bench_unit_warnings
+    from uuvid.io.bench import BenchData
+
+    pwm = np.arange(1100.0, 1901.0, 10.0)
+    w = (pwm - 1500.0) * 0.9 * RPM  # rad/s numbers that were rpm
+    cens = np.abs(w) < 300 * RPM
+    sheet = BenchData(command=pwm, thrust=1e-4 * w * np.abs(w), speed=w, censored=cens,
+                      censor_speed=300 * RPM, source="t200.csv")
+    said = [m for m in bench_unit_warnings(sheet) if "are censored" in m]
+    assert len(said) == 1 and "another unit" in said[0], said
+    ok = BenchData(command=pwm, thrust=1e-4 * w * np.abs(w), speed=w / RPM,
+                   censored=np.abs(w / RPM) < 300 * RPM, censor_speed=300 * RPM)
+    assert not [m for m in bench_unit_warnings(ok) if "are censored" in m]
+
+
+
+@pytest.mark.slow
+def test_a_dynamic_fit_on_forward_runs_only_says_its_reverse_is_not_fitted(tmp_path):
+    """The example's forward voltage runs alone: the model file holds reverse parameters (a copy
+    of the forward thrust coefficient, a zero dead band) that nothing fitted — said as a
+    warning (the steady fits already said "no reverse samples")."""
+    from uuvid.examples import write_example
+
+    runs = [p for p in write_example("thruster-runs", tmp_path) if p.name.startswith("run_+")]
+    assert runs
+    doc = _json(_fit(*runs, "--time-col", "t", "--command-col", "V", "--command-unit", "volts",
+                     "--speed-col", "w", "--thrust-col", "T", "--model", "first-order",
+                     "--out-model", tmp_path / "x.yaml", "--json"))
+    said = [w for w in doc["warnings"] if w.startswith("only forward runs")]
+    assert len(said) == 1 and "not fitted" in said[0], doc["warnings"]

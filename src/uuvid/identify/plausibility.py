@@ -60,6 +60,13 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
         y = getattr(data, name)
         if y is None:
             continue
+        fin = np.isfinite(y)
+        if fin.sum() >= min_rows and np.all(y[fin] == 0) and np.any(d[fin] != 0):
+            src = f"{data.source}: " if data.source else ""
+            raise BenchDataError(f"{src}{name} is 0 in every row while the command moves "
+                                 f"({data.command[fin].min():g}…{data.command[fin].max():g} "
+                                 f"{data.command_unit}): an empty column or the wrong one "
+                                 f"(--{name}-col)?")
         m = data.measured & (d != 0) & np.isfinite(y) & (y != 0)
         n = int(m.sum())
         if n < min_rows:
@@ -169,6 +176,8 @@ BOUND_DISK_AREA = 1.0
 BOUND_POWER_FRACTION = 0.25
 #: without electrical data, a larger |thrust| [N] is questioned (a warning: big thrusters exist)
 MAX_PLAIN_THRUST = 2000.0
+#: more than this fraction of a file's rows censored (below the detection limit) is a unit slip
+MAX_CENSORED_FRACTION = 0.5
 #: a larger |speed| [rad/s] (≈ 14 300 rpm) looks like rpm read as rad/s (a warning)
 MAX_PLAUSIBLE_SPEED = 1500.0
 #: |flow_speed| below this [m/s] is still water (a bollard row)
@@ -333,6 +342,16 @@ def bench_unit_warnings(data) -> list[str]:
                 f"({big / U.RPM:.4g} rpm; data row {k + 1}: {data.speed[k]:+.4g} rad/s), "
                 f"above {MAX_PLAUSIBLE_SPEED:g} rad/s (≈ {MAX_PLAUSIBLE_SPEED / U.RPM:.0f} rpm) "
                 "— the speed looks like rpm; give --speed-unit rpm")
+    if data.censored is not None and data.censored.size >= 5:
+        frac = float(np.mean(data.censored))
+        if frac > MAX_CENSORED_FRACTION:
+            lim = (f" (below {data.censor_speed:g} rad/s)" if data.censor_speed is not None
+                   else "")
+            out.append(
+                f"{src}{int(data.censored.sum())} of {data.censored.size} rows ({frac:.0%}) are "
+                f"censored{lim} and left out of the fit: a sheet zeroes only the readings below "
+                "its detection limit, around neutral — is the speed column in another unit "
+                "(rad/s where rpm is expected: --speed-unit)?")
     return out
 
 

@@ -887,8 +887,16 @@ def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, te
     doc = {"runs": df.fit.extra["runs"], "noise": df.noise, "in_sample_nrmse": df.in_sample,
            "identifiable": df.identifiable or None}
     doc.update(extra or {})
+    warns = list(df.fit.warnings)
+    d = np.concatenate([np.sign(np.asarray(x.command, float) - x.neutral) for x in sets])
+    for sgn, side, other in ((1, "forward", "reverse"), (-1, "reverse", "forward")):
+        if np.any(d == sgn) and not np.any(d == -sgn):
+            warns.append(f"only {side} runs (every command on one side of neutral {s0.neutral:g}): "
+                         f"the {other} parameters written (dead band, thrust coefficient) are "
+                         f"copies of the {side} ones or 0, not fitted — the model holds {side} "
+                         f"only; record {other} runs to identify them")
     return FitOutcome(model, chain, {df.structure.name: df.fit}, df.summary() + text_extra, rmse,
-                      "rad/s" if main == "speed" else "N", list(df.fit.warnings), doc, figures,
+                      "rad/s" if main == "speed" else "N", warns, doc, figures,
                       notes=list(notes) + more)
 
 
@@ -964,10 +972,25 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
                                    map_input=map_input, table_points=table_points,
                                    linear_duty=linear_duty, start=start, resample=resample,
                                    name=name, dead_band=dead_band, diameter=diameter)
+    _require_residual_dof(outcome, model)
     # readings probably in a wrong unit (where big thrusters make an error wrong): said first
     unit_warnings = [w for s in sets for w in bench_unit_warnings(s)]
     outcome.warnings = unit_warnings + list(outcome.warnings)
     return outcome
+
+
+def _require_residual_dof(outcome, model: str) -> None:
+    """A fit with no more samples than free parameters is no identification: it passes through
+    its points, its σ is undefined and nothing in the data checks it (a one-row file gave a
+    model with RMSE 0).  A lookup table interpolates its points by design and is exempt."""
+    if model == "table":
+        return
+    for label, f in (outcome.fits or {}).items():
+        n, p = int(getattr(f, "n_samples", 0)), int(getattr(f, "n_free", 0))
+        if p > 0 and n <= p:
+            raise FitError(f"{label}: {n} usable sample(s) for {p} free parameter(s): the fit "
+                           "passes through its points and nothing checks it (σ undefined); "
+                           f"need at least {p + 1} — more rows, or a model with fewer parameters")
 
 
 def _run_model(paths, model: str, opts: ReadOptions, *, degree, criterion, map_input,
