@@ -279,7 +279,8 @@ def test_write_back_round_trip_and_the_new_vehicle_flies(steady, logs):
     assert v.params.linear_damping[0, 0] == load_vehicle("romeo").params.linear_damping[0, 0]
     assert "yaw_steady.csv" in json.dumps(v.source)
     r = _json("simulate", "mission", "square", "--vehicle", path)
-    assert r["completed"] is True and r["vehicle"] == "romeo"
+    # the written vehicle is named after its file, not the base's name (it is not the preset)
+    assert r["completed"] is True and r["vehicle"] == "romeo_identified"
 
 
 def test_write_back_refuses_a_negative_added_mass(tmp_path):

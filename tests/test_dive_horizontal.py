@@ -319,7 +319,7 @@ def test_joint_inflow_is_written_and_replayed(tmp_path):
     assert all(k == pytest.approx(e.values["inflow"], rel=1e-5) for k in kas.values())
     rep = replay_dive(df, v, ["horizontal"])
     assert any("thrust lost to the advance speed" in n for n in rep.notes)
-    assert rep.vehicle == f"bluerov2 ({out})"  # the written file, not only the base's name
+    assert rep.vehicle == f"mine ({out})"  # the written file, named after it (not the preset)
     # without a logged voltage the replay says what it assumed (reader warning and inflow note)
     nob = replay_dive(df.drop(columns=["battery_V"]), v, ["horizontal"])
     assert any("nominal 16 V" in w for w in nob.warnings)

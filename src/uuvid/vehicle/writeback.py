@@ -25,8 +25,11 @@ loads and ``uuvid simulate`` flies:
 * ``source.identified`` (a list of records: what was identified, from which log, when, with σ)
   when the schema has that key, else a sentence appended to ``source.notes``.
 
-Relative thruster-model paths are rewritten relative to the new file (absolute for a preset's
-thruster files, which live in the installed package) so the new file finds them.
+The new vehicle is named after its file (``mine.yaml`` → ``mine``; the base's name with
+``-identified`` if the file has the base's name), so that replays and simulations do not call it
+the base vehicle.  Relative thruster-model paths are rewritten relative to the new file
+(absolute for a preset's thruster files, which live in the installed package) so the new file
+finds them.
 Comments of the original file are not kept (the file is re-serialised).  The result is validated
 with the vehicle schema *before* anything is written; the write is atomic.
 """
@@ -397,6 +400,11 @@ def write_identified(vehicle_file_or_preset, identified: Mapping[str, Mapping[st
         raise WritebackError(f"{out}: {e}") from None
     raw, _ = identified_yaml(vehicle_file_or_preset, identified, out_dir=out.resolve().parent,
                              log=log, command=command, when=when)
+    # the new vehicle is named after its file: replays and simulations flying it no longer say
+    # the base's name (a written bluerov2 looked like the preset); the base is in source
+    base_name = str(raw.get("name") or src.stem)
+    raw = {"name": out.stem if out.stem != base_name else f"{base_name}-identified",
+           **{k: v for k, v in raw.items() if k != "name"}}
     try:
         vehicle_from_dict(raw, where=str(out), base_dir=out.resolve().parent, path=out.resolve())
     except VehicleFileError as e:
