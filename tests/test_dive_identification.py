@@ -195,6 +195,9 @@ def test_identify_dive_from_ardusub_logs_with_reversed_and_disabled_outputs(fmt,
             assert abs(e.values[k] - truth[dof][k]) <= 3 * e.sigma[k], (dof, k, e.values[k],
                                                                         e.sigma[k])
         assert e.held_out["improvement"] > 2
+    # the summary names where depth and heading came from (the water-pressure barometer)
+    assert "BARO[1]" in res.sources["depth_m"] if fmt == "bin" else res.sources["depth_m"]
+    assert "measured: depth_m from " in res.summary() and res.to_dict()["sources"]
 
 
 @pytest.mark.slow

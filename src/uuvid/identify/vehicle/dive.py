@@ -280,6 +280,8 @@ class DiveIdentification(Result):
     t_end: float | None
     seconds: float
     warnings: list = field(default_factory=list)
+    #: where each measured channel came from (``depth_m`` → ``-BARO[1].Alt``, a table column)
+    sources: dict = field(default_factory=dict)
 
     report_title = "Dive identification"
 
@@ -314,6 +316,8 @@ class DiveIdentification(Result):
                    f"{self.t_end if self.t_end is not None else 'end'}] s"
         lines = [f"dive identification of {self.log}{span}, base vehicle {self.vehicle} "
                  f"({self.seconds:.1f} s)"]
+        if self.sources:
+            lines.append("measured: " + ", ".join(f"{c} from {s}" for c, s in self.sources.items()))
         for e in self.estimates.values():
             lines += e.summary_lines(self.t_end)
         lines += [f"warning: {w}" for w in self.warnings]
@@ -323,7 +327,7 @@ class DiveIdentification(Result):
         return {"log": self.log, "vehicle": self.vehicle, "t_start": self.t_start,
                 "t_end": self.t_end, "seconds": self.seconds,
                 "dofs": {d: e.to_dict() for d, e in self.estimates.items()},
-                "warnings": self.warnings}
+                "warnings": self.warnings, "sources": self.sources}
 
     def plot(self, path=None):
         from uuvid.core.plots import new_figure, save_figure
@@ -836,6 +840,9 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             warnings.append(f"{dof} not identified: {e}")
     if not ests:
         raise failed[0]
+    measured = ("depth_m", "yaw_rad", "u_mps", "v_mps", "roll_rad", "pitch_rad")
+    used = {c: str(dc.sources.get(c)) for c in measured
+            if c in dc.channels and dc.sources.get(c)}
     return DiveIdentification(dc.name, veh.name, vehicle if not hasattr(vehicle, "B") else
                               (veh.path or veh.name), ests, t_start, t_end,
-                              time.perf_counter() - t0, warnings)
+                              time.perf_counter() - t0, warnings, used)
