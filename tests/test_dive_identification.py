@@ -297,7 +297,9 @@ def test_armed_time_on_deck_does_not_enter_the_yaw_fit(tmp_path):
     dive_only = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
     t = np.arange(0.0, 40.0, 0.1)
     pulse = np.where((t % 8.0) < 2.0, 150.0, 0.0)
-    deck = pd.DataFrame({"t_s": t, "depth_m": 0.0, "yaw_rad": float(df["yaw_rad"].iloc[0]),
+    rng = np.random.default_rng(0)  # a sensor on deck still reads its noise
+    deck = pd.DataFrame({"t_s": t, "depth_m": 0.01 * rng.standard_normal(t.size),
+                         "yaw_rad": float(df["yaw_rad"].iloc[0]) + 1e-3 * rng.standard_normal(t.size),
                          "roll_rad": 0.0, "pitch_rad": 0.0, "battery_V": 16.0,
                          "pwm_1": 1500 + pulse, "pwm_2": 1500 - pulse, "pwm_3": 1500 - pulse,
                          "pwm_4": 1500 + pulse, "pwm_5": 1500.0, "pwm_6": 1500.0,

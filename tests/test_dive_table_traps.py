@@ -473,3 +473,19 @@ def test_a_zero_volt_battery_sample_is_left_out_and_said():
     for c in ("Z_N", "N_Nm"):
         assert np.all(np.isfinite(dc.channels[c][1])), c
     assert not [w for w in _read(_physical_table(0)).warnings if "battery_V is outside" in w]
+
+
+@pytest.mark.parametrize("col", ["yaw_rad", "depth_m"])
+def test_a_channel_stuck_at_one_value_while_armed_is_left_out_and_said(col):
+    """A heading (or depth) that repeats one value exactly for a minute while the thrusters are
+    driven is a stuck sensor: fitted as a vehicle that did not move it biased drag and inertia.
+    The stretch is left out and said; the intact table says nothing of the kind."""
+    df = _physical_table(3)
+    assert not [w for w in _read(df).warnings if "stuck sensor" in w]
+    rows = (df["t_s"] >= 100.0) & (df["t_s"] < 160.0)
+    df.loc[rows, col] = 0.0 if col == "yaw_rad" else 4.0
+    dc = _read(df)
+    said = [w for w in dc.warnings if "stuck sensor" in w]
+    assert len(said) == 1 and said[0].startswith(f"<table>: {col} repeats "), said
+    t = dc.channels[col][0]
+    assert not np.any((t >= 100.5) & (t < 159.5)) and np.any(t > 160.0)

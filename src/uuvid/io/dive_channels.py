@@ -291,6 +291,45 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
                                 f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
 
 
+#: a measured channel repeating one value exactly for this long (s, ≥ 20 samples) while armed is
+#: a stuck sensor or a logger repeating its last reading, not a vehicle holding still (a real
+#: heading or depth moves by its noise)
+STUCK_S = 10.0
+
+
+def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
+    """Leave out (and say) the stretches where ``depth_m`` or ``yaw_rad`` repeats one value
+    exactly for :data:`STUCK_S` or longer while armed: fitted as a vehicle that did not move
+    under its thrust they bias drag and inertia (a heading stuck at 0 for 100 s gave yaw linear
+    drag ×10)."""
+    for c in ("depth_m", "yaw_rad"):
+        if c not in chans or chans[c][0].size < 20:
+            continue
+        t, v = chans[c]
+        change = np.flatnonzero(np.diff(v) != 0)
+        starts = np.concatenate(([0], change + 1))
+        ends = np.concatenate((change, [v.size - 1]))
+        drop = np.zeros(v.size, bool)
+        spans = []
+        for a, b in zip(starts, ends):
+            if b - a + 1 < 20 or t[b] - t[a] < STUCK_S:
+                continue
+            mid = 0.5 * (t[a] + t[b])
+            if not any(lo <= mid <= hi for lo, hi in armed):
+                continue
+            drop[a:b + 1] = True
+            spans.append((t[a], t[b], v[a]))
+        if spans:
+            chans[c] = (t[~drop], v[~drop])
+            a, b, val = spans[0]
+            if c == "yaw_rad":  # said as logged: wrapped (the reader unwraps headings)
+                val = (val + math.pi) % (2 * math.pi) - math.pi
+            more = f" and {len(spans) - 1} more stretch(es)" if len(spans) > 1 else ""
+            warnings.append(f"{name}: {c} repeats {val:.6g} exactly from t = {a:.6g} to {b:.6g} s"
+                            f"{more} while armed: a stuck sensor (or a logger repeating its last "
+                            f"value), not a vehicle holding still — those samples are left out")
+
+
 def _check_dead_outputs(pwm: dict, armed: list, name: str, warnings: list,
                         min_s: float = DEAD_OUTPUT_S) -> None:
     """An output at 0 µs (no pulse) for more than ``min_s`` while armed and the other outputs are
@@ -522,6 +561,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         "columns: the forces are used and the pwm_ columns are not (remove the "
                         "force columns to have the thrust computed from the PWM)")
     _check_dead_outputs(pwm, armed, name, warnings)
+    _drop_stuck(chans, armed, name, warnings)
     if thrust is not None:
         direction_check(chans, thrust, veh, armed, name, warnings,
                         table_fix if directions is None else bag_fix(directions))
@@ -739,6 +779,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         pwm = {str(m): _finite(t, tb[f"pwm_{m}"].to_numpy(float)) for m in dive.motors}
         src = {c: (dive.provenance.get(c) or {}).get("source") for c in chans}
         warnings += list(dive.warnings)
+        _drop_stuck(chans, armed, p.name, warnings)
         _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings, thruster_model)
         return DiveChannels(p.name, dive.format, chans, armed,
                             _mode_runs(t, tb["mode"].astype(str).to_numpy()), warnings, src, pwm)
