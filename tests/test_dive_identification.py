@@ -308,3 +308,17 @@ def test_armed_time_on_deck_does_not_enter_the_yaw_fit(tmp_path):
     est = identify_dive(both, "bluerov2", ["yaw"]).estimates["yaw"]
     assert any("out of the water (armed on deck)" in n and "left out" in n for n in est.notes)
     assert est.values["mass"] == pytest.approx(dive_only.values["mass"], rel=0.15)
+
+
+@pytest.mark.slow
+def test_surging_while_turning_is_said_in_the_yaw_estimate():
+    """A piloted dive with surge stick (no DVL): the uncoupled yaw model absorbs the sway
+    coupling (inertia several times the truth), so the yaw estimate says the pilot surged in
+    many of its windows; the dive without surge says nothing of the kind."""
+    said = {}
+    for surge in (0.0, 0.3):
+        df, _ = synthetic_dive(300.0, seed=31, pwm_rate=10.0, surge=surge)
+        est = identify_dive(df, "bluerov2", ["yaw"], t_end=220.0).estimates["yaw"]
+        said[surge] = [w for w in est.warnings if w.startswith("the pilot surged in ")]
+    assert not said[0.0]
+    assert len(said[0.3]) == 1 and "--dof horizontal" in said[0.3][0]

@@ -461,6 +461,50 @@ def _fmt_theta(th) -> str:
     return "(" + ", ".join(f"{v:.3g}" for v in th) + ")"
 
 
+#: yaw windows whose surge force would drive the vehicle faster than this (m/s, steady, at the
+#: base vehicle's surge drag) couple sway into yaw, which the 1-DOF yaw model cannot hold
+SURGE_COUPLING_MPS = 0.2
+#: ... in more than this fraction of the yaw windows: a warning
+SURGE_COUPLING_SHARE = 0.1
+
+
+def _surge_in_yaw_windows(dc, veh, horizon: float, t_start, t_end) -> str | None:
+    """A sentence when the pilot surged in many yaw windows: the steady surge speed the logged
+    surge force gives at the base vehicle's drag (``X = X_u u + X_uu u²``) above
+    :data:`SURGE_COUPLING_MPS` in more than :data:`SURGE_COUPLING_SHARE` of them.  Turning
+    while moving couples sway into yaw (Munk moment, Coriolis), which the uncoupled yaw model
+    absorbs into its inertia and drag (3–8× on synthetic dives); without a DVL nothing measures
+    it."""
+    if "X_N" not in dc.channels:
+        return None
+    try:
+        windows, _ = dive_windows(dc, "yaw", horizon, t_start, t_end)
+        xl = float(veh.params.linear_damping[0, 0])
+        xq = float(veh.params.quadratic_damping[0, 0])
+    except (KeyError, IndexError, AttributeError, TypeError, ValueError):
+        return None
+    if not windows or not (xl > 0 or xq > 0):
+        return None
+    tx, fx = dc.channels["X_N"]
+    fast, top = 0, 0.0
+    for a, b in windows:
+        sel = (tx >= a) & (tx <= b)
+        if not sel.any():
+            continue
+        f = float(np.median(np.abs(fx[sel])))
+        u = (f / xl if xq <= 0 else
+             (-xl + math.sqrt(xl * xl + 4.0 * xq * f)) / (2.0 * xq))
+        top = max(top, u)
+        fast += u > SURGE_COUPLING_MPS
+    if fast <= SURGE_COUPLING_SHARE * len(windows):
+        return None
+    return (f"the pilot surged in {fast} of {len(windows)} yaw windows (a surge force that drives "
+            f"{veh.name} at {SURGE_COUPLING_MPS:g}–{top:.2g} m/s): turning while moving couples "
+            "sway into yaw, which the 1-DOF yaw model absorbs into its inertia and drag — "
+            "identify yaw from turns without surge (--t-start/--t-end), or with a DVL (u_mps, "
+            "v_mps) the coupled model (--dof horizontal)")
+
+
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
              weighting: bool = True, gain=None, inflow_starts=None):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
@@ -826,6 +870,10 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         if dof == "heave":
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
+        if dof == "yaw" and "u_mps" not in dc.channels:
+            surged = _surge_in_yaw_windows(dc, veh, H, t_start, t_end)
+            if surged is not None:
+                warns.append(surged)
         return DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
                            base_src, len(windows), H, train, held, warns, notes, traces, wd,
                            split)
