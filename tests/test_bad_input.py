@@ -617,3 +617,39 @@ def test_batch_runners_refuse_thruster_parameters_their_blocks_refuse(short_setu
     with pytest.raises(ValueError, match=rf"thruster_params\[1, 3, {slot}\] = 0.0: .*"
                                          r"time_constant, which must be > 0"):
         (run_batch_fast if fast else run_batch)(s, np.tile(s.vp, (2, 1)), TP)
+
+
+@pytest.mark.parametrize("waypoints, said", [
+    ([[0, 0, 0, 0], [5, 0, -20, 0]], "20 m above the surface: down is positive"),
+    ([[0, 0, 2, 0], [5, 0, 2, 90]], "yaw 90: beyond ±2π rad — is it in degrees"),
+])
+def test_a_scenario_waypoint_above_the_surface_or_in_degrees_is_refused(waypoints, said):
+    """Both flew to "completed: true" (a vehicle that cannot climb 20 m out of the water, a yaw
+    of 90 rad); a battery at 0 % is refused too."""
+    from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+
+    doc = {"vehicle": "bluerov2", "mission": {"kind": "waypoints", "waypoints": waypoints}}
+    with pytest.raises(ScenarioError, match=said):
+        scenario_from_dict(doc, where="s.yaml")
+    ok = {"vehicle": "bluerov2", "mission": {"kind": "waypoints",
+                                             "waypoints": [[0, 0, 0, 0], [5, 0, 2, 1.5]]}}
+    scenario_from_dict(ok, where="s.yaml")
+    with pytest.raises(ScenarioError, match="battery_soc"):
+        scenario_from_dict({"vehicle": "bluerov2", "battery_soc": 0.0}, where="s.yaml")
+
+
+def test_a_mission_that_empties_the_battery_is_not_completed():
+    """The state of charge went below 0 and the mission still said "completed" with no warning:
+    the battery model kept delivering charge it did not hold."""
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    s = setup_mission(load_vehicle("bluerov2"), square_mission(speed=0.3), battery=True,
+                      soc0=1e-4)
+    r = fly_mission(s)
+    said = [w for w in r.summary["warnings"] if "is empty from t = " in w]
+    assert len(said) == 1 and r.summary["completed"] is False, r.summary["warnings"]
+    full = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(speed=0.3),
+                                     battery=True, soc0=1.0))
+    assert not [w for w in full.summary["warnings"] if "is empty" in w]

@@ -272,3 +272,20 @@ def test_limits_and_current_from_one_grid_are_the_two_calls(volts):
     assert (lo, hi) == st.limits(volts)
     assert np.array_equal(cur, st.current(np.clip(thrusts, lo, hi), volts))
     assert lo < 0 < hi and np.all(cur >= 0)
+
+
+def test_a_supply_voltage_far_outside_the_sheets_is_warned():
+    """`vehicle hold bluerov2 --voltage 1000` gave limits as if the thrusters ran on 1 kV, without
+    a word (thruster predict warned); a 4S battery's range stays silent."""
+    import warnings
+
+    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.vehicle.power import SupplyVoltageWarning, limits_at
+
+    v = load_vehicle("bluerov2")
+    with pytest.warns(SupplyVoltageWarning, match="1000 V is far outside the 12–16 V"):
+        limits_at(v, 1000.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SupplyVoltageWarning)
+        for volts in (12.0, 14.8, 16.8):
+            limits_at(v, volts)

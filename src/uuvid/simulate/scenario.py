@@ -30,6 +30,7 @@ Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
 
 from __future__ import annotations
 
+import math
 import reprlib
 from dataclasses import replace
 from pathlib import Path
@@ -52,6 +53,10 @@ class ScenarioError(ModelFileError):
     """A scenario file is invalid; the message names the file and the key path."""
 
 
+#: a waypoint may sit this far (m) above the surface (a vehicle floating high); higher is a sign slip
+MAX_ABOVE_SURFACE_M = 0.5
+
+
 class MissionSpec(BaseModel):
     model_config = _CFG
     kind: Literal["square", "waypoints"] = "square"
@@ -62,6 +67,20 @@ class MissionSpec(BaseModel):
     yaw: Literal["path", "fixed"] = "path"
     hold: float = Field(10.0, ge=0)
     waypoints: list[tuple[float, float, float, float]] | None = None
+
+    @field_validator("waypoints")
+    @classmethod
+    def _waypoints_in_water_and_radians(cls, v):
+        """A waypoint above the surface (down < −0.5 m: NED, down positive) or a yaw beyond
+        ±2π (degrees given) cannot be what the mission means."""
+        for k, (_n, _e, d, yaw) in enumerate(v or []):
+            if d < -MAX_ABOVE_SURFACE_M:
+                raise ValueError(f"waypoint {k} is at down = {d:g} m, {-d:g} m above the surface: "
+                                 "down is positive (NED; depth 5 m is down = 5)")
+            if abs(yaw) > 2 * math.pi + 1e-9:
+                raise ValueError(f"waypoint {k} has yaw {yaw:g}: beyond ±2π rad — is it in "
+                                 "degrees? expected radians")
+        return v
 
     def build(self, vehicle=None, current_speed: float = 0.0) -> WaypointMission:
         """The mission; without ``speed`` the cruising speed is :func:`cruise_speed` for
@@ -178,7 +197,7 @@ class ScenarioSpec(BaseModel):
     thruster_model: str | None = None
     current: tuple[float, float, float] | CurrentSpec = (0.0, 0.0, 0.0)
     allocation: Literal["priority", "maxscale", "scale", "clip", "none"] = "priority"
-    battery_soc: float | None = Field(None, ge=0, le=1)
+    battery_soc: float | None = Field(None, gt=0, le=1)  # 0: an empty battery flies nothing
     controller: ControllerSpec = ControllerSpec()
     dt: float = Field(0.01, gt=0, le=0.1)
     substeps: int = Field(1, ge=1, le=100)

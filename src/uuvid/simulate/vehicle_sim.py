@@ -1771,6 +1771,12 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                         "< 1 m and < 0.25 m at the end)")
     if not level:
         warnings.append(mission_tilt_warning(s, att))
+    if BAT.size and float(np.min(VOUT[:, 2])) <= 0.0:
+        k = int(np.argmax(VOUT[:, 2] <= 0.0))
+        warnings.append(f"the battery ({s.battery.name}) is empty from t = {float(res.t[k]):.4g} s "
+                        f"(state of charge {float(VOUT[k, 2]):.3g}): past that the mission flew "
+                        "on charge the battery does not hold — start fuller or fly shorter")
+        summary["completed"] = False
     summary["warnings"] = warnings
     if BAT.size:
         summary.update({"battery": s.battery.name, "supply_voltage_V": [float(VOUT[0, 0]),

@@ -131,6 +131,30 @@ class Battery:
         return v, i
 
 
+class SupplyVoltageWarning(UserWarning):
+    """A supply voltage outside the data a thruster power model was fitted on."""
+
+
+#: a supply voltage beyond this factor of the power model's data range is warned about
+SUPPLY_RANGE_SLACK = 1.25
+
+
+def _warn_voltage(name: str, voltage: float) -> None:
+    """Warn when ``voltage`` lies well outside the voltages the power model ``name`` rests on (the
+    T200 sheets' 12–16 V): its limits are then the voltage law extrapolated (1 kV gave thrust
+    limits as if the thrusters ran on it, silently)."""
+    import warnings
+
+    from uuvid.thruster.presets import T200_SHEET_VOLTS
+
+    lo, hi = T200_SHEET_VOLTS if str(name).startswith("t200") else (None, None)
+    if lo is None or lo / SUPPLY_RANGE_SLACK <= voltage <= hi * SUPPLY_RANGE_SLACK:
+        return
+    warnings.warn(f"supply voltage {voltage:g} V is far outside the {lo:g}–{hi:g} V the thruster "
+                  f"power model {name} was fitted on: its thrust limits are extrapolated — a 4S "
+                  "battery is 12–16.8 V", SupplyVoltageWarning, stacklevel=3)
+
+
 def limits_at(vehicle, voltage: float) -> np.ndarray:
     """(n, 2) thrust limits of the vehicle's thrusters at a supply voltage (power model of the
     vehicle's battery block, or the T200 model); ``ValueError`` for a voltage that is not finite,
@@ -139,5 +163,6 @@ def limits_at(vehicle, voltage: float) -> np.ndarray:
 
     voltage = supply_voltage("supply_voltage", voltage)
     name = vehicle.battery.thruster_power_model if vehicle.battery is not None else "t200-physical"
+    _warn_voltage(name, voltage)
     lo, hi = SupplyThruster(physical_model(name)).limits(voltage)
     return np.tile([lo, hi], (len(vehicle.layout), 1))
