@@ -363,3 +363,14 @@ def test_library_checks_name_the_parameter():
     with pytest.raises(ValueError, match=r"--horizon 0"):
         time_window(horizon=0)
     time_window(1.0, 2.0, 5.0)  # a valid window passes
+
+
+@pytest.mark.parametrize("args", [["simulate", "mission", "square", "--current", "100,0,0"],
+                                  ["vehicle", "hold", "bluerov2", "--current", "100"]])
+def test_a_current_faster_than_any_sea_is_refused_with_the_unit_hint(args):
+    """--current 100,0,0 flew until 'the simulation diverged … try a smaller dt'."""
+    res = runner.invoke(app, args)
+    assert res.exit_code == 2, res.output
+    text = " ".join(res.output.split())
+    assert "a current of 100 m/s is faster than any sea or river current" in text
+    assert "in cm/s" in text

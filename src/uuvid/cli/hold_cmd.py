@@ -30,6 +30,14 @@ def _parse_current(text: str | None):
 
         _fail(f"--current: expected SPEED[,DIR] (finite numbers: a speed >= 0 in m/s, degrees "
               f"off the bow it comes from), got {text!r}")
+    from uuvid.core.checks import current_speed
+
+    try:
+        current_speed("--current", parts[0])
+    except ValueError as e:
+        from uuvid.cli.common import _fail
+
+        _fail(str(e))
     return parts[0], (parts[1] if len(parts) == 2 else 0.0)
 
 

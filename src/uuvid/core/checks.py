@@ -43,6 +43,20 @@ def non_negative(name: str, value, unit: str = "") -> float:
 #: a supply voltage above this [V] is in millivolts (no thruster runs on a kilovolt supply); the
 #: bound ``thruster fit`` applies to a bench file's voltage too (``uuvid.identify.plausibility``)
 MAX_PLAUSIBLE_VOLTAGE = 1000.0
+#: a water current faster than this (m/s) is a unit slip (cm/s, knots ×2): the strongest tidal
+#: races run at about 5 m/s
+MAX_CURRENT_MPS = 6.0
+
+
+def current_speed(name: str, speed: float) -> float:
+    """``speed`` (m/s) of a water current, or ``ValueError`` naming ``name`` when it is faster than
+    :data:`MAX_CURRENT_MPS` (a simulation then only 'diverges', blamed on its step)."""
+    v = float(speed)
+    if v > MAX_CURRENT_MPS:
+        raise ValueError(f"{name}: a current of {v:g} m/s is faster than any sea or river current "
+                         f"(the strongest tidal races run at about 5 m/s; at most "
+                         f"{MAX_CURRENT_MPS:g} m/s): is it in cm/s? expected m/s")
+    return v
 
 
 def supply_voltage(name: str, value) -> float:

@@ -271,8 +271,10 @@ def build(spec: ScenarioSpec, base: Path | None = None):
             cur = cur.build(base)
         except (ValueError, OSError) as e:
             raise ScenarioError(f"current: {e}") from None
+    from uuvid.core.checks import current_speed
+
     try:
-        mission = spec.mission.build(vehicle, current_speed_bound(cur))
+        mission = spec.mission.build(vehicle, current_speed("current", current_speed_bound(cur)))
     except ValueError as e:
         raise ScenarioError(str(e)) from None
     try:
