@@ -290,3 +290,26 @@ def test_best_legend_is_searched_once_per_save_and_the_picture_is_unchanged(tmp_
     save_figure(make(), tmp_path / "once.png")
     assert len(searches) == 2 < plain  # one per legend
     assert (tmp_path / "once.png").read_bytes() == (tmp_path / "plain.png").read_bytes()
+
+
+def test_a_long_counted_task_off_a_terminal_says_how_far_it_is(monkeypatch: pytest.MonkeyPatch
+                                                               ) -> None:
+    """A million Monte Carlo runs in a pipe printed nothing for minutes: a counted task prints
+    its count, elapsed and remaining time at most every LINE_EVERY_S, and its end."""
+    import io
+
+    from uuvid.core import progress as P
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    clock = iter(np.arange(0.0, 10000.0, 1.0))  # each call 1 s later
+    monkeypatch.setattr(P.time, "perf_counter", lambda: float(next(clock)))
+    with progress_task("montecarlo", total=200) as task:
+        for _ in range(199):
+            task.advance()
+    lines = err.getvalue().splitlines()
+    counts = [ln for ln in lines if " of 200 (" in ln]
+    assert counts and counts[0].startswith("montecarlo: ") and "s left" in counts[0]
+    assert len(counts) <= 199 * 3 / P.LINE_EVERY_S + 1  # every 30 s at most, not every advance
+    assert lines[-1].startswith("montecarlo: done in ")

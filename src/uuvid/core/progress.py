@@ -38,6 +38,8 @@ __all__ = ["ProgressTask", "progress", "progress_disabled", "progress_task"]
 T = TypeVar("T")
 
 _ENV_VAR = "UUVID_NO_PROGRESS"
+#: off a terminal, a counted task prints its count at most this often (s)
+LINE_EVERY_S = 30.0
 _TRUTHY = {"1", "true", "yes", "on"}
 
 
@@ -94,11 +96,13 @@ class ProgressTask:
         self.n_stages = n_stages
         self.stages: list[str] = []
         self._t0 = time.perf_counter()
+        self._last_line = self._t0
+        self._counted = False  # a count line was printed (off a terminal)
         self._progress: Any = None
         self._task_id: Any = None
 
     def __enter__(self) -> Self:
-        self._t0 = time.perf_counter()
+        self._t0 = self._last_line = time.perf_counter()
         if not self.disabled:
             self._progress = _make_progress(self.eta)
             self._progress.start()
@@ -139,14 +143,25 @@ class ProgressTask:
             self._progress = None
             if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
                 self._line(f"interrupted after {self.elapsed:.1f} s")
-        elif self.lines and self.stages:
+        elif self.lines and (self.stages or self._counted):
             self._line(f"{_ending(exc_type)} {self.elapsed:.1f} s")
 
     def advance(self, n: float = 1) -> None:
-        """Mark *n* more units of work as done."""
+        """Mark *n* more units of work as done (off a terminal: a line ``done of total (%),
+        elapsed, ≈ remaining`` at most every :data:`LINE_EVERY_S`, so a long run in a pipe or a
+        CI log says how far it is)."""
         self.completed += n
         if self._progress is not None:
             self._progress.advance(self._task_id, n)
+        elif self.lines and self.total:
+            now = time.perf_counter()
+            if now - self._last_line >= LINE_EVERY_S and 0 < self.completed < self.total:
+                self._last_line = now
+                self._counted = True
+                frac = self.completed / self.total
+                left = self.elapsed * (1.0 - frac) / frac
+                self._line(f"{self.completed:,.0f} of {self.total:,.0f} ({frac:.1%}), "
+                           f"{self.elapsed:.0f} s, ≈ {left:.0f} s left")
 
     def update(
         self,
