@@ -364,3 +364,26 @@ def test_positions_in_millimetres_are_named():
     with pytest.warns(VehicleFileWarning, match=r"position is [\d.]+ m from the body origin.*"
                                                  r"are the lengths in mm or cm"):
         vehicle_from_dict(raw, where="bot.yaml")
+
+
+def test_a_thruster_model_that_resolves_to_nothing_is_said_on_load_with_the_nearest_preset():
+    """'t300' (a typo) loaded silently; the first mission then failed with "(a placeholder)"."""
+    raw = copy.deepcopy(BASE)
+    raw["thrusters"][0]["model"] = "t300"
+    with pytest.warns(VehicleFileWarning, match=r"thrusters A: model 't300' is neither a thruster "
+                                                r"preset .* did you mean 't200'\?"):
+        vehicle_from_dict(raw, where="bot.yaml")
+
+
+def test_an_inertia_matrix_written_as_three_rows_is_read_row_major():
+    """[[Ixx, Ixy, Ixz], …] gave 'inertia[0]: Input should be a valid number' three times."""
+    flat = copy.deepcopy(BASE)
+    flat["rigid_body"]["inertia"] = [0.2, 0.01, 0, 0.01, 0.2, 0, 0, 0, 0.3]
+    rows = copy.deepcopy(BASE)
+    rows["rigid_body"]["inertia"] = [[0.2, 0.01, 0], [0.01, 0.2, 0], [0, 0, 0.3]]
+    a, b = vehicle_from_dict(flat), vehicle_from_dict(rows)
+    assert np.array_equal(np.asarray(a.params.inertia), np.asarray(b.params.inertia))
+    bad = copy.deepcopy(BASE)
+    bad["rigid_body"]["inertia"] = [[0.2, 0.3, 0], [0.3, 0.2, 0], [0, 0, 0.3]]
+    with pytest.raises(VehicleFileError, match="positive definite"):
+        vehicle_from_dict(bad)

@@ -357,12 +357,42 @@ def _propeller_errors(spec, where: str, base_dir: Path | None) -> list[str]:
     return out
 
 
+def _model_warnings(vehicle: Vehicle) -> list[str]:
+    """One sentence naming the thrusters whose ``model`` is neither a thruster preset nor a file
+    beside the vehicle file (with the nearest preset name): such a vehicle allocates and gives
+    envelopes from its limits, but no simulation can fly it — said when it is loaded, not at the
+    first mission."""
+    import difflib
+
+    from uuvid.thruster.resolve import preset_names
+
+    bad = {}
+    for i, t in enumerate(vehicle.layout.thrusters):
+        if not t.model:
+            continue
+        try:
+            vehicle.thruster_chain(i)
+        except KeyError:
+            bad.setdefault(t.model, []).append(t.name)
+        except Exception:  # noqa: BLE001 - a broken model file is reported where it is read
+            continue
+    out = []
+    for ref, names in bad.items():
+        near = difflib.get_close_matches(str(ref), preset_names(), n=1)
+        out.append(f"thrusters {', '.join(names)}: model {ref!r} is neither a thruster preset "
+                   f"({', '.join(preset_names())}) nor a model file beside the vehicle file"
+                   + (f" — did you mean {near[0]!r}?" if near else "")
+                   + "; allocation and envelopes use the file's limits, but no simulation can "
+                     "fly these thrusters")
+    return out
+
+
 def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     """What a valid file may still hold wrong, as :class:`VehicleFileWarning` naming the file — on
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
     whose fitted propeller map does not reach a direction it pushes
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
-    msgs = rigid_body_warnings(vehicle.params, vehicle.layout)
+    msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle)
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 

@@ -48,6 +48,17 @@ class RigidBodySchema(BaseModel):
     inertia: list[float]
     inertia_about: Literal["cg", "origin"] = "cg"
 
+    @field_validator("inertia", mode="before")
+    @classmethod
+    def _inertia_matrix(cls, v):
+        """A 3×3 matrix written as three rows is the 9 values row-major."""
+        if isinstance(v, (list, tuple)) and len(v) == 3 and all(isinstance(r, (list, tuple))
+                                                                 for r in v):
+            if any(len(r) != 3 for r in v):
+                raise ValueError("a 3×3 inertia matrix needs three rows of three values")
+            return [x for r in v for x in r]
+        return v
+
     @field_validator("inertia")
     @classmethod
     def _inertia_len(cls, v):
