@@ -653,3 +653,28 @@ def test_a_mission_that_empties_the_battery_is_not_completed():
     full = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission(speed=0.3),
                                      battery=True, soc0=1.0))
     assert not [w for w in full.summary["warnings"] if "is empty" in w]
+
+
+def test_a_vehicle_without_thrusters_is_named_not_a_reshape_error():
+    """`simulate` with a vehicle file whose thrusters list is empty said "controller: cannot
+    reshape array of size 0 into shape (0)"."""
+    import copy
+
+    import yaml
+
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+    from uuvid.vehicle.definition import preset_path, vehicle_from_dict
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw = copy.deepcopy(raw)
+    raw["thrusters"] = []
+    raw.pop("modes", None)
+    raw.pop("allocation", None)
+    try:
+        v = vehicle_from_dict(raw, where="empty.yaml")
+    except Exception as e:  # the file itself may be refused: then it names the thrusters
+        assert "thruster" in str(e)
+        return
+    with pytest.raises(ValueError, match="has no thrusters: nothing can fly a mission"):
+        setup_mission(v, square_mission())

@@ -248,6 +248,9 @@ def build(spec: ScenarioSpec, base: Path | None = None):
     if vref not in list_presets() and base is not None and not Path(vref).is_absolute():
         vref = str(base / vref)
     vehicle = load_vehicle(vref)
+    if len(vehicle.layout) == 0:
+        raise ScenarioError(f"vehicle {vehicle.name!r} has no thrusters: nothing can fly a mission "
+                            "(add a thrusters list to its file)")
     chain = None
     if spec.thruster_model:
         from uuvid.thruster.resolve import resolve_chain

@@ -1390,6 +1390,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
 
     if not (dt > 0 and substeps >= 1):
         raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+    if hasattr(vehicle, "layout") and len(vehicle.layout) == 0:
+        raise ValueError(f"vehicle {vehicle.name!r} has no thrusters: nothing can fly a mission")
     if controller is not None and not isinstance(controller, Controller):
         raise TypeError("controller must be a uuvid.simulate.control.blocks.Controller(fn, params, "
                         f"state0), got {type(controller).__name__}")
