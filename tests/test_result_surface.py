@@ -481,3 +481,11 @@ def test_to_json_writes_a_file_atomically(tmp_path):
     p = f_fit(None).to_json(tmp_path / "fit.json")
     assert json.loads(p.read_text())["model"] == "linear"
     assert not list(tmp_path.glob(".tmp-*"))
+
+
+def test_a_huge_percentile_error_is_written_in_three_digits():
+    """A σ that only says 'not determined' printed as '2996043212469741568.0 %'."""
+    from uuvid.identify.fit import _pct
+
+    assert _pct(12.34) == "12.3" and _pct(2996043212469741568.0) == "3e+18"
+    assert _pct(float("inf")) == "inf"

@@ -34,6 +34,12 @@ CORRELATION_LIMIT = 0.995
 AT_BOUND = ": at its bound "
 
 
+def _pct(pe: float) -> str:
+    """A percentile error for text: one decimal up to 10 000 %, then three digits (1.2e+18 %, not
+    eighteen digits of a σ that only says 'not determined')."""
+    return f"{pe:.1f}" if abs(pe) < 1e4 else f"{pe:.3g}"
+
+
 class IdentifiabilityWarning(UserWarning):
     """A parameter cannot be trusted from these data (rank, conditioning, significance)."""
 
@@ -197,7 +203,7 @@ class Fit(Result):
             else:
                 flag = "" if p.significant else "  <-- not significant (>51.02 %)"
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} +/- {p.stderr:.3g} "
-                             f"({p.percentile_error:.1f} %) {p.unit}{flag}")
+                             f"({_pct(p.percentile_error)} %) {p.unit}{flag}")
         corr = self.correlation
         free = [i for i, p in enumerate(self.parameters) if not p.fixed]
         pairs = []
@@ -276,7 +282,7 @@ def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.
             continue
         pe = math.inf if v == 0 else 100 * sd[i] / abs(v)
         if pe > SIGNIFICANCE_PERCENT:
-            msgs.append(f"{n}: percentile error {pe:.1f} % > 51.02 % — not significantly "
+            msgs.append(f"{n}: percentile error {_pct(pe)} % > 51.02 % — not significantly "
                         "different from zero (95 %)")
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)

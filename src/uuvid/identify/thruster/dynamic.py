@@ -209,7 +209,7 @@ def validate_runs(
                 raise ValueError(
                     f"{label}: t is not uniformly sampled (mean step {dt:.6g} s, but "
                     f"t[{i + 1}] − t[{i}] = {d[i]:.6g} s); resample it first or pass "
-                    "resample=True to interpolate onto a uniform grid"
+                    "resample=True (command line: --resample) to interpolate onto a uniform grid"
                 )
             dt = float(np.median(d))
             t, u, y = _resample(t, u, y, dt)
