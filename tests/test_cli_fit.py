@@ -524,3 +524,26 @@ def test_a_dynamic_fit_on_forward_runs_only_says_its_reverse_is_not_fitted(tmp_p
                      "--out-model", tmp_path / "x.yaml", "--json"))
     said = [w for w in doc["warnings"] if w.startswith("only forward runs")]
     assert len(said) == 1 and "not fitted" in said[0], doc["warnings"]
+
+
+@pytest.mark.slow
+def test_a_time_column_in_ms_is_said_for_a_dynamic_fit(tmp_path):
+    """The example's runs with their time in ms (read as s): the fit made a 60 s thruster time
+    constant from 5 s samples without a word."""
+    import pandas as pd
+
+    from uuvid.examples import write_example
+
+    runs = sorted(p for p in write_example("thruster-runs", tmp_path) if p.name.startswith("run_"))
+    args = ["--time-col", "t", "--command-col", "V", "--command-unit", "volts", "--speed-col", "w",
+            "--thrust-col", "T", "--model", "first-order", "--json"]
+    doc = _json(_fit(*runs[:2], *args, "--out-model", tmp_path / "ok.yaml"))
+    assert not any("is the time column in ms" in w for w in doc["warnings"])
+    ms = []
+    for p in runs[:2]:
+        df = pd.read_csv(p)
+        df["t"] = df["t"] * 1000.0
+        ms.append(tmp_path / f"ms_{p.name}")
+        df.to_csv(ms[-1], index=False)
+    res = _fit(*ms, *args, "--out-model", tmp_path / "ms.yaml")
+    assert "is the time column in ms" in " ".join(res.output.split())

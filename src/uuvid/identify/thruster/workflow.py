@@ -975,8 +975,33 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     _require_residual_dof(outcome, model)
     # readings probably in a wrong unit (where big thrusters make an error wrong): said first
     unit_warnings = [w for s in sets for w in bench_unit_warnings(s)]
+    if select or model in DYNAMIC:  # a steady sweep may well be logged every few seconds
+        unit_warnings += _time_unit_warnings(sets)
     outcome.warnings = unit_warnings + list(outcome.warnings)
     return outcome
+
+
+#: a bench time series sampled coarser than this (s) cannot show a thruster's dynamics (tenths of
+#: a second): the time column is probably in ms
+MAX_BENCH_STEP_S = 0.5
+
+
+def _time_unit_warnings(sets) -> list[str]:
+    """One sentence per time series whose median step exceeds :data:`MAX_BENCH_STEP_S` (a time in
+    ms read as s made a 62.5 s thruster time constant from 5 s samples, silently)."""
+    out = []
+    for s in sets:
+        t = getattr(s, "time", None)
+        if t is None or np.size(t) < 3:
+            continue
+        d = np.diff(np.asarray(t, float))
+        d = d[np.isfinite(d) & (d > 0)]
+        if d.size and float(np.median(d)) > MAX_BENCH_STEP_S:
+            out.append(f"{s.source or 'bench data'}: samples {float(np.median(d)):.4g} s apart "
+                       f"(median step, over {MAX_BENCH_STEP_S:g} s): a thruster responds within "
+                       "tenths of a second, so its dynamics cannot show — is the time column in "
+                       "ms? (expected seconds: divide it by 1000)")
+    return out
 
 
 def _require_residual_dof(outcome, model: str) -> None:
