@@ -142,6 +142,11 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
         if w is None:
             continue
         k_exp = _inverse_inertia(veh, dof)
+        exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
+
+        def mates(i, w=w):
+            return ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
+
         flagged = [(i, c, s) for i, c, s in w["members"]
                    if c < 0 and -c >= DIRECTION_Z * s
                    and (k_exp is None or -c >= DIRECTION_SHARE * k_exp)]
@@ -149,12 +154,10 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
             hidden = _hidden_in_group(w)
             if hidden is not None:
                 i, (k_fix, s_fix, r2_fix, r2_log) = hidden
-                mates = ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
-                exp = f" (the vehicle's 1/({inertia}) is {k_exp:.3g})" if k_exp is not None else ""
                 warnings.append(
                     f"{name}: pwm_{keys[i]} is probably reversed: it is driven in step with "
-                    f"{mates}, so its {dof} force cannot show against the motion on its own, but "
-                    f"with it mirrored the forces computed from the thrusters explain "
+                    f"{mates(i)}, so its {dof} force cannot show against the motion on its own, "
+                    f"but with it mirrored the forces computed from the thrusters explain "
                     f"{r2_fix:.0%} of the {dof} acceleration measured from {meas} instead of "
                     f"{r2_log:.0%} as logged (one shared coefficient {k_fix:+.3g} ± {s_fix:.2g} "
                     f"{aunit} per {funit}{exp}); mirroring any other output alone does not help. "
@@ -176,11 +179,9 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
             odd = _odd_one_out(w, flagged)
             if odd is not None:
                 i, c, s = odd
-                mates = ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
-                exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
                 warnings.append(
                     f"{name}: pwm_{keys[i]} is probably reversed: it is driven in step with "
-                    f"{mates} (their {dof} forces correlate at {w['corr'][i]:+.2f}), its {dof} "
+                    f"{mates(i)} (their {dof} forces correlate at {w['corr'][i]:+.2f}), its {dof} "
                     f"force runs against all of theirs and against the {dof} acceleration "
                     f"measured from {meas}: coefficient {c:+.3g} ± {s:.2g} {aunit} per {funit}, "
                     f"physically positive{exp}. In this log the group always moves together, so "
@@ -190,7 +191,6 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
             continue
         k_fix, s_fix, r2_fix, r2_log = conf
         cols = [f"pwm_{keys[i]}" for i in bad]
-        exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
         share = (f"as logged the computed forces explain {r2_log:.0%} of the {dof} acceleration, "
                  f"with {' and '.join(cols)} mirrored {r2_fix:.0%}")
         if len(bad) == len(w["live"]):  # every thruster of the DOF: the sign convention?
@@ -206,11 +206,9 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                 f"{hint}; otherwise all these motors are reversed: {fix([keys[i] for i in bad])}")
             continue
         for i, c, s in flagged:
-            mates = [j for j in w["group_of"][i] if j != i]
             together = ""
-            if mates:
-                together = (f" (driven in step with "
-                            f"{', '.join(f'pwm_{keys[j]}' for j in mates)}: their {dof} forces "
+            if len(w["group_of"][i]) > 1:
+                together = (f" (driven in step with {mates(i)}: their {dof} forces "
                             f"correlate at {w['corr'][i]:+.2f}, so they share one coefficient "
                             "and this one's sign in it is tested)")
             warnings.append(
