@@ -935,3 +935,21 @@ def test_an_export_without_a_vehicle_is_read_back_with_the_vehicles_forces(pilot
     other = export_dive(load_dive(path, vehicle="bluerov2"), folder / "flown_b2.csv")
     again = read_dive_channels(other, "bluerov2")
     assert not any("mixing sums" in w or "exported with vehicle" in w for w in again.warnings)
+
+
+def test_a_warning_raised_inside_the_capture_is_not_taken_for_a_pymavlink_print(capfd):
+    """The capture of pymavlink's prints wraps the whole read; a warning raised meanwhile (the
+    damaged-index note) was printed into the capture and reported as a 'decoding problem'. It is
+    re-issued as a warning once the terminal is back."""
+    import warnings
+
+    from uuvid.io.logs import LogWarning, _captured_output
+
+    lines: list = []
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        with _captured_output(lines):
+            print("Skipped 3 bad bytes")
+            warnings.warn("a note of the reader", LogWarning, stacklevel=1)
+    assert lines == ["Skipped 3 bad bytes"]
+    assert [str(w.message) for w in rec] == ["a note of the reader"]

@@ -259,7 +259,14 @@ def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path)
     df = df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
     intact = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
     df["pwm_1"] = 3000.0 - df["pwm_1"]
-    mirrored = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
+    res = identify_dive(df, "bluerov2", ["yaw"])
+    mirrored = res.estimates["yaw"]
+    # and it is not written into a vehicle file (the summary calls it no model to use)
+    from uuvid.vehicle.writeback import WritebackError
+
+    with pytest.raises(WritebackError, match="not written — yaw is not a model to use"):
+        res.write_vehicle(tmp_path / "mine.yaml")
+    assert not (tmp_path / "mine.yaml").exists()
     far = [w for w in mirrored.warnings if "beyond the ×8" in w]
     assert far and far[0].startswith("yaw inertia ×") and "motor directions" in far[0]
     # the summary does not call it "better" without saying it is no model to use
@@ -306,7 +313,7 @@ def test_armed_time_on_deck_does_not_enter_the_yaw_fit(tmp_path):
                          "mode": "MANUAL", "armed": True})
     both = pd.concat([deck, df.assign(t_s=df["t_s"] + 40.05)], ignore_index=True)
     est = identify_dive(both, "bluerov2", ["yaw"]).estimates["yaw"]
-    assert any("out of the water (armed on deck)" in n and "left out" in n for n in est.notes)
+    assert any("out of the water, armed on deck" in n and "left out" in n for n in est.notes)
     assert est.values["mass"] == pytest.approx(dive_only.values["mass"], rel=0.15)
 
 

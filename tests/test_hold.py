@@ -279,9 +279,11 @@ def test_a_supply_voltage_far_outside_the_sheets_is_warned():
     a word (thruster predict warned); a 4S battery's range stays silent."""
     import warnings
 
+    from uuvid.vehicle import power
     from uuvid.vehicle.definition import load_vehicle
     from uuvid.vehicle.power import SupplyVoltageWarning, limits_at
 
+    power._WARNED.clear()  # once per model and side in a process
     v = load_vehicle("bluerov2")
     with pytest.warns(SupplyVoltageWarning, match="1000 V is far outside the 12–16 V"):
         limits_at(v, 1000.0)

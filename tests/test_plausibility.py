@@ -317,3 +317,22 @@ def test_one_reversed_row_in_still_water_is_an_error_naming_it(row, fit):
     with pytest.raises(BenchDataError, match=rf"sweep\.csv: thrust reverses at row {row + 1} of "
                                              rf"the data: command {pwm[row]:g} pwm_us"):
         f(BenchData(command=pwm, thrust=t, source="sweep.csv"))
+
+
+def test_a_step_response_is_not_a_reversal():
+    """Command steps 1700 ↔ 1300 µs with the thrust lagging 0.15 s: after each step the thrust
+    keeps its old sign for a moment — a thruster's lag, not a sign slip (the single-row check
+    refused this valid file: it applies to steady sweeps only)."""
+    import numpy as np
+
+    from uuvid.identify.plausibility import check_bench_signs
+    from uuvid.io.bench import BenchData
+
+    t = np.arange(0.0, 4.0, 0.005)
+    cmd = np.where((t // 1.0) % 2 == 0, 1700.0, 1300.0)
+    target = np.where(cmd > 1500, 20.0, -16.0)
+    thrust = np.empty_like(t)
+    thrust[0] = 0.0
+    for k in range(1, t.size):
+        thrust[k] = thrust[k - 1] + 0.005 / 0.15 * (target[k] - thrust[k - 1])
+    check_bench_signs(BenchData(command=cmd, thrust=thrust, time=t, source="steps.csv"))

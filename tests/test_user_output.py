@@ -420,5 +420,5 @@ def test_an_output_folder_that_is_a_file_is_one_line_not_a_traceback(tmp_path):
                         "--t-end", "0.5", "--out", str(tmp_path / "afile")], cwd=tmp_path,
                        env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 2, r.stderr
-    assert "a file is there where a folder was expected" in r.stderr
+    assert "a file of that name is in the way" in r.stderr
     assert "Traceback" not in r.stderr and (tmp_path / "afile").read_text() == "x"

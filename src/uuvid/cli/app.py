@@ -320,7 +320,7 @@ def main() -> None:  # console-script entry point
         what = e.strerror or str(e) or type(e).__name__
         if isinstance(e, (FileExistsError, NotADirectoryError)) and e.filename \
                 and os.path.isfile(e.filename):
-            what = "a file is there where a folder was expected"
+            what = "a file of that name is in the way (a folder, or a new name, was expected)"
         sys.stderr.write(f"error: {where}{what} ({type(e).__name__}); nothing more was written "
                          "(UUVID_DEBUG=1 shows where)\n")
         raise SystemExit(2) from None

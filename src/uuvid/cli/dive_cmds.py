@@ -145,11 +145,15 @@ def _run(compute, write, json_out: bool, write_error) -> None:
     try:
         res = compute()
         doc = res.to_dict()
-        write(res, doc)
     except _errors() as e:
         _fail(str(e).strip("'\""))
-    except OSError as e:
-        _fail(write_error(e))
+    try:
+        write(res, doc)
+    except (*_errors(), OSError) as e:  # the result first, then why nothing (more) was written
+        if not json_out:
+            out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
+        _fail(write_error(e) if isinstance(e, OSError) and not isinstance(e, _errors())
+              else str(e).strip("'\""))
     if json_out:
         _print_json(doc)
     else:

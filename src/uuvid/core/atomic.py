@@ -83,7 +83,10 @@ def check_writable_dir(path: str | os.PathLike[str]) -> Path:
                 raise NotADirectoryError(errno.ENOTDIR, "a file, not a folder", str(parent))
             break
     d.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=".uuvid-check-", dir=d)
+    try:
+        fd, name = tempfile.mkstemp(prefix=".uuvid-check-", dir=d)
+    except OSError as e:  # name the folder, not the probe file
+        raise type(e)(e.errno, e.strerror, str(d)) from None
     os.close(fd)
     os.unlink(name)
     return d

@@ -159,9 +159,10 @@ class ProgressTask:
                 self._last_line = now
                 self._counted = True
                 frac = self.completed / self.total
-                left = self.elapsed * (1.0 - frac) / frac
+                left = (f", ≈ {self.elapsed * (1.0 - frac) / frac:.0f} s left" if self.eta
+                        else "")  # eta=False: steps too uneven for an estimate
                 self._line(f"{self.completed:,.0f} of {self.total:,.0f} ({frac:.1%}), "
-                           f"{self.elapsed:.0f} s, ≈ {left:.0f} s left")
+                           f"{self.elapsed:.0f} s{left}")
 
     def update(
         self,

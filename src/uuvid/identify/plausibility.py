@@ -134,7 +134,9 @@ def _check_single_reversals(data, name: str, unit: str, y, m) -> None:
     does not push backwards at a forward command — a sign slip in that row (or a row of another
     test).  Left unchecked, a table fit flattened it away and a polynomial bent around it.  In a
     flow a propeller can (a forward command against a strong inflow from ahead), so rows with a
-    flow speed are not checked."""
+    flow speed are not checked, nor time series (a step's transient keeps the old sign)."""
+    if data.time is not None:  # a time series: after a command step the thrust keeps its old
+        return  # sign for a few tenths of a second (the thruster's lag), which is no reversal
     d = data.direction
     still = np.ones(y.shape, bool)
     if data.flow_speed is not None:

@@ -299,13 +299,16 @@ STUCK_S = 10.0
 
 def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
     """Leave out (and say) the stretches where ``depth_m`` or ``yaw_rad`` repeats one value
-    exactly for :data:`STUCK_S` or longer while armed: fitted as a vehicle that did not move
+    exactly for :data:`STUCK_S` or longer while armed and its DOF's force is driven (a vehicle at
+    rest on the bottom may repeat a quantised heading): fitted as a vehicle that did not move
     under its thrust they bias drag and inertia (a heading stuck at 0 for 100 s gave yaw linear
     drag ×10)."""
-    for c in ("depth_m", "yaw_rad"):
+    for c, force in (("depth_m", "Z_N"), ("yaw_rad", "N_Nm")):
         if c not in chans or chans[c][0].size < 20:
             continue
         t, v = chans[c]
+        tf, f = chans.get(force, (np.empty(0), np.empty(0)))
+        span = float(np.ptp(f)) if f.size else 0.0
         change = np.flatnonzero(np.diff(v) != 0)
         starts = np.concatenate(([0], change + 1))
         ends = np.concatenate((change, [v.size - 1]))
@@ -317,6 +320,10 @@ def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
             mid = 0.5 * (t[a] + t[b])
             if not any(lo <= mid <= hi for lo, hi in armed):
                 continue
+            if span > 0:  # only while its thrust was driven: a vehicle at rest may repeat a value
+                fr = f[(tf >= t[a]) & (tf <= t[b])]
+                if fr.size < 2 or float(np.ptp(fr)) < 0.1 * span:
+                    continue
             drop[a:b + 1] = True
             spans.append((t[a], t[b], v[a]))
         if spans:

@@ -87,9 +87,26 @@ def _captured_output(lines: list):
     into ``lines`` instead of the terminal: Python's ``sys.stdout``/``sys.stderr`` into a buffer,
     and file descriptors 1 and 2 into a temporary file meanwhile (where they exist)."""
     import io
-    import tempfile
+    import warnings
 
     py = io.StringIO()  # Python's prints: sys.stdout/stderr may not write to fd 1/2 (Jupyter)
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:  # warnings are not prints
+            warnings.simplefilter("always")
+            with _redirected(py, lines):
+                yield
+    finally:
+        for w in caught:  # re-issued once the terminal and the filters are back
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+
+
+@contextlib.contextmanager
+def _redirected(py, lines: list):
+    """The redirection of :func:`_captured_output` (stdout/stderr into ``py``, file descriptors
+    1 and 2 into a temporary file), collected into ``lines``."""
+    import tempfile
+
     try:
         sys.stdout.flush()
         sys.stderr.flush()

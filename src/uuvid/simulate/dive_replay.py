@@ -19,8 +19,8 @@ slope, refined through the model on the window's first seconds, :func:`initial_s
 compared with the measurements after those seconds on their own stamps (cubic Hermite between
 steps).
 Heave windows that touch the surface (depth < ``SURFACE_M``) are left out: there the buoyancy
-changes and the model does not hold; windows of the other DOFs wholly that shallow (floating, or
-armed on deck) are left out too.  :func:`replay_dive` returns :class:`DiveReplay`.
+changes and the model does not hold; windows of the other DOFs whose depth stays at zero (the
+sensor in air: armed on deck) are left out too.  :func:`replay_dive` returns :class:`DiveReplay`.
 """
 
 from __future__ import annotations
@@ -125,25 +125,33 @@ def dive_windows(dc, dof: str, horizon: float, t_start=None, t_end=None) -> tupl
             s = e
     notes = []
     if surface:
-        where = ("at the surface" if dof == "heave" else
-                 "wholly at the surface or out of the water (armed on deck)")
-        notes.append(f"{surface} {dof} window(s) of {horizon:g} s {where} (depth < "
-                     f"{SURFACE_M:g} m) left out")
+        where = (f"at the surface (depth < {SURFACE_M:g} m)" if dof == "heave" else
+                 f"out of the water, armed on deck (depth within {DECK_MIN_M:g}…{DECK_M:g} m "
+                 "throughout)")
+        notes.append(f"{surface} {dof} window(s) of {horizon:g} s {where} left out")
     if sparse:
         notes.append(f"{sparse} {dof} window(s) with too few samples (or a gap in the force) left out")
     return out, notes
 
 
+#: a logged depth within ±this (m) of zero over a whole window: the pressure sensor is in air (the
+#: vehicle on deck); a vehicle floating at the surface reads its sensor's draught (≈ 0.1–0.2 m)
+DECK_M = 0.05
+#: ... and not below this (m): a depth logged positive up reads metres below zero, not air
+DECK_MIN_M = -0.2
+
+
 def _on_top(depth, s: float, e: float) -> bool:
-    """The logged depth stays shallower than :data:`SURFACE_M` over ``[s, e]`` (its samples there,
-    or the nearest ones): the vehicle floats or sits on deck, where thrust does not turn or move
-    it as in the water (ventilating propellers, the hull partly out of the water)."""
+    """The logged depth stays within :data:`DECK_MIN_M`…:data:`DECK_M` over ``[s, e]`` (its
+    samples there, or the nearest ones): the sensor is in air, the vehicle on deck, where thrust
+    turns nothing.  A vehicle floating at the surface (its sensor a hand's breadth down) keeps its
+    yaw turns."""
     td, yd = depth
     sel = (td >= s) & (td <= e)
     if not sel.any():
-        i = np.clip(np.searchsorted(td, [s, e]), 0, td.size - 1)
-        return bool(np.max(yd[i]) < SURFACE_M)
-    return bool(np.max(yd[sel]) < SURFACE_M)
+        sel = np.zeros(td.size, bool)
+        sel[np.clip(np.searchsorted(td, [s, e]), 0, td.size - 1)] = True
+    return bool(np.max(yd[sel]) < DECK_M and np.min(yd[sel]) > DECK_MIN_M)
 
 
 def _local_state(t, y, t0, half, position: bool):

@@ -357,22 +357,23 @@ def _propeller_errors(spec, where: str, base_dir: Path | None) -> list[str]:
     return out
 
 
-def _model_warnings(vehicle: Vehicle) -> list[str]:
+def _model_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]:
     """One sentence naming the thrusters whose ``model`` is neither a thruster preset nor a file
     beside the vehicle file (with the nearest preset name): such a vehicle allocates and gives
     envelopes from its limits, but no simulation can fly it — said when it is loaded, not at the
     first mission."""
     import difflib
 
-    from uuvid.thruster.resolve import preset_names
+    from uuvid.thruster.resolve import preset_names, resolve_chain
 
+    base = vehicle.path.parent if vehicle.path is not None else (base_dir or Path.cwd())
     bad = {}
-    for i, t in enumerate(vehicle.layout.thrusters):
+    for t in vehicle.layout.thrusters:
         if not t.model:
             continue
         try:
-            vehicle.thruster_chain(i)
-        except KeyError:
+            resolve_chain(t.model, base)
+        except FileNotFoundError:
             bad.setdefault(t.model, []).append(t.name)
         except Exception:  # noqa: BLE001 - a broken model file is reported where it is read
             continue
@@ -392,7 +393,8 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
     whose fitted propeller map does not reach a direction it pushes
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
-    msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle)
+    msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
+                                                                                 base_dir)
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 

@@ -137,6 +137,7 @@ class SupplyVoltageWarning(UserWarning):
 
 #: a supply voltage beyond this factor of the power model's data range is warned about
 SUPPLY_RANGE_SLACK = 1.25
+_WARNED: set = set()  # (power model, "above"/"below") already warned about in this process
 
 
 def _warn_voltage(name: str, voltage: float) -> None:
@@ -150,6 +151,10 @@ def _warn_voltage(name: str, voltage: float) -> None:
     lo, hi = T200_SHEET_VOLTS if str(name).startswith("t200") else (None, None)
     if lo is None or lo / SUPPLY_RANGE_SLACK <= voltage <= hi * SUPPLY_RANGE_SLACK:
         return
+    side = "above" if voltage > hi else "below"
+    if (name, side) in _WARNED:  # once per model and side: a battery sweep calls this per step
+        return
+    _WARNED.add((name, side))
     warnings.warn(f"supply voltage {voltage:g} V is far outside the {lo:g}–{hi:g} V the thruster "
                   f"power model {name} was fitted on: its thrust limits are extrapolated — a 4S "
                   "battery is 12–16.8 V", SupplyVoltageWarning, stacklevel=3)

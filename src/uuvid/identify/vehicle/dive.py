@@ -302,9 +302,17 @@ class DiveIdentification(Result):
         (:func:`uuvid.vehicle.writeback.write_identified`); returns the path.  Mass, added mass
         and drag go into ``hydrodynamics`` (the 6-DOF model every command flies); the bias into
         ``one_dof.<dof>.disturbance``, and in heave (the net weight ``W − B``) also into
-        ``rigid_body.buoyancy`` (the weight kept) so that the 6-DOF model sinks as the dive did."""
-        from uuvid.vehicle.writeback import write_identified
+        ``rigid_body.buoyancy`` (the weight kept) so that the 6-DOF model sinks as the dive did.
+        An estimate that is not a model to use (:attr:`DofEstimate.unusable`) is refused
+        (:class:`~uuvid.vehicle.writeback.WritebackError`): nothing is written."""
+        from uuvid.vehicle.writeback import WritebackError, write_identified
 
+        bad = {d: e.unusable for d, e in self.estimates.items() if getattr(e, "unusable", None)}
+        if bad:
+            raise WritebackError(
+                f"{out}: not written — " + "; ".join(f"{d} is not a model to use ({', '.join(w)})"
+                                                     for d, w in bad.items())
+                + ": resolve the warnings, or identify only the DOFs that are (--dof)")
         base = base or self.vehicle_ref
         return write_identified(base, self.identified(), out, log=self.log,
                                 command="uuvid vehicle identify dive")
