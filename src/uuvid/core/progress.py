@@ -153,8 +153,8 @@ class ProgressTask:
         self.completed += n
         if self._progress is not None:
             self._progress.advance(self._task_id, n)
-        elif self.lines and self.total:
-            now = time.perf_counter()
+        elif self.lines and self.total and self.n_stages is None and not self.stages:
+            now = time.perf_counter()  # (a task with stages says each stage instead)
             if now - self._last_line >= LINE_EVERY_S and 0 < self.completed < self.total:
                 self._last_line = now
                 self._counted = True
