@@ -146,11 +146,12 @@ def _warn_voltage(name: str, voltage: float) -> None:
     limits as if the thrusters ran on it, silently)."""
     import warnings
 
-    from uuvid.thruster.presets import T200_SHEET_VOLTS
+    from uuvid.thruster.resolve import supply_data_range
 
-    lo, hi = T200_SHEET_VOLTS if str(name).startswith("t200") else (None, None)
-    if lo is None or lo / SUPPLY_RANGE_SLACK <= voltage <= hi * SUPPLY_RANGE_SLACK:
+    rng = supply_data_range(name)  # the voltages the preset's data were taken at
+    if rng is None or rng[0] / SUPPLY_RANGE_SLACK <= voltage <= rng[1] * SUPPLY_RANGE_SLACK:
         return
+    lo, hi = rng
     side = "above" if voltage > hi else "below"
     if (name, side) in _WARNED:  # once per model and side: a battery sweep calls this per step
         return

@@ -476,7 +476,7 @@ SURGE_COUPLING_MPS = 0.2
 SURGE_COUPLING_SHARE = 0.1
 
 
-def _surge_in_yaw_windows(dc, veh, horizon: float, t_start, t_end) -> str | None:
+def _surge_in_yaw_windows(dc, veh, windows) -> str | None:
     """A sentence when the pilot surged in many yaw windows: the steady surge speed the logged
     surge force gives at the base vehicle's drag (``X = X_u u + X_uu u²``) above
     :data:`SURGE_COUPLING_MPS` in more than :data:`SURGE_COUPLING_SHARE` of them.  Turning
@@ -485,8 +485,7 @@ def _surge_in_yaw_windows(dc, veh, horizon: float, t_start, t_end) -> str | None
     it."""
     if "X_N" not in dc.channels:
         return None
-    try:
-        windows, _ = dive_windows(dc, "yaw", horizon, t_start, t_end)
+    try:  # ``windows``: the yaw fit's own [(t0, t1)]
         xl = float(veh.params.linear_damping[0, 0])
         xq = float(veh.params.quadratic_damping[0, 0])
     except (KeyError, IndexError, AttributeError, TypeError, ValueError):
@@ -879,7 +878,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
         if dof == "yaw" and "u_mps" not in dc.channels:
-            surged = _surge_in_yaw_windows(dc, veh, H, t_start, t_end)
+            surged = _surge_in_yaw_windows(dc, veh, windows)
             if surged is not None:
                 warns.append(surged)
         return DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
