@@ -452,6 +452,46 @@ def test_a_mirrored_motor_among_several_driven_together_is_named(tmp_path, k):
     assert not _reversed(_read(_mirror(df, f"pwm_{k}", f"pwm_{k}")))
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("a, b", [(1, 2), (1, 3), (1, 4), (2, 3), (2, 4), (3, 4)])
+def test_two_mirrored_motors_among_several_driven_together_are_named(tmp_path, a, b):
+    """Two of the four horizontal motors mirrored: as logged their yaw forces cancel the other
+    two's, the groups re-form around the wrong signs and no coefficient is negative enough to
+    name one, and no single mirror gains enough — they escaped.  Mirroring each pair of grouped
+    outputs finds the one pair that explains the motion; both are named in one warning."""
+    from uuvid.examples import write_example
+
+    df = pd.read_csv(write_example("dive", tmp_path)[0])
+    df = df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    ws = _reversed(_read(_mirror(df, f"pwm_{a}", f"pwm_{b}")))
+    assert len(ws) == 1, ws
+    assert ws[0].startswith(f"<table>: pwm_{a} and pwm_{b} are probably both reversed"), ws[0]
+    r2 = re.search(r"explain (\d+)% of the yaw acceleration measured from yaw_rad instead of "
+                   r"(\d+)% as logged", ws[0])
+    assert r2 and int(r2.group(1)) >= 2 * int(r2.group(2)), ws[0]
+    assert ws[0].endswith(f"mirror those columns (pwm_{a} and pwm_{b}) about 1500 µs "
+                          "(pwm → 3000 − pwm)"), ws[0]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [40, 41, 42])
+def test_the_pair_search_is_silent_on_right_motors_with_a_wrong_thrust_model(seed):
+    """Synthetic piloted dives (seeds the thresholds never saw) with every motor right, read with
+    the thrust 25 % off (battery voltage) or the PWM three rows late: no pair (and no single
+    output) is named."""
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    df, _ = synthetic_dive(300.0, seed=seed)
+    df = df.drop(columns=[c for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm") if c in df])
+    volt = df.copy()
+    volt["battery_V"] = 0.75 * volt["battery_V"]
+    lag = df.copy()
+    pwm = [c for c in df if c.startswith("pwm_")]
+    lag[pwm] = lag[pwm].shift(3).bfill()
+    for table in (df, volt, lag):
+        assert not _reversed(_read(table))
+
+
 @pytest.mark.parametrize("seed", range(10, 13))
 @pytest.mark.parametrize("model", [dict(gain=0.6), dict(astern=0.6), dict(lag=4),
                                    dict(gain=0.5, astern=0.7, lag=6, noise=0.03)])

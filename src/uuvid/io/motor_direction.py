@@ -9,7 +9,8 @@ groups' forces, a constant and the drag terms, with autocorrelation-robust (Newe
 output is named only when its coefficient is below −:data:`DIRECTION_Z` σ, at least
 :data:`DIRECTION_SHARE` × the vehicle's ``1/(m + added mass)`` in size, and mirroring it lets one
 shared coefficient explain :data:`DIRECTION_GAIN` more of the motion.  One motor reversed among
-several driven together (one group) is found by mirroring each member alone.  A warning, not an error: it
+several driven together (one group) is found by mirroring each member alone, two by mirroring
+each pair of grouped outputs.  A warning, not an error: it
 is a statistical judgement (a snagged tether or a wrong vehicle file can push against the motion
 too).  Called by :mod:`uuvid.io.dive_channels`.
 """
@@ -125,7 +126,7 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
     :data:`DIRECTION_Z` σ.  When no coefficient is negative, a reversed motor may hide inside a
     group (its wrong sign only shrinks the group's coefficient): each member of a group is then
     mirrored alone (:func:`_hidden_in_group`) and one is named when that alone explains the motion
-    several times better and no other mirror helps.  Every thruster of a DOF against the motion
+    several times better and no other mirror helps (else a pair, alike).  Every thruster of a DOF against the motion
     is reported as the measured channel's sign convention or all of them reversed.
     ``fix(keys)`` says what to do.  One pass of NumPy per DOF; it warns and never raises."""
     B = np.asarray(veh.B, float)
@@ -144,8 +145,9 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
         k_exp = _inverse_inertia(veh, dof)
         exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
 
-        def mates(i, w=w):
-            return ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
+        def mates(i, skip=(), w=w):
+            return ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i]
+                             if j != i and j not in skip)
 
         flagged = [(i, c, s) for i, c, s in w["members"]
                    if c < 0 and -c >= DIRECTION_Z * s
@@ -153,15 +155,25 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
         if not flagged:
             hidden = _hidden_in_group(w)
             if hidden is not None:
-                i, (k_fix, s_fix, r2_fix, r2_log) = hidden
+                bad, (k_fix, s_fix, r2_fix, r2_log) = hidden
+                if len(bad) == 1:
+                    i = bad[0]
+                    who = (f"pwm_{keys[i]} is probably reversed: it is driven in step with "
+                           f"{mates(i)}, so its {dof} force cannot show against the motion on its "
+                           "own, but with it mirrored")
+                    other = "any other output alone"
+                else:
+                    cols = " and ".join(f"pwm_{keys[i]}" for i in bad)
+                    who = (f"{cols} are probably both reversed: each is driven in step with "
+                           f"another thruster, so their {dof} forces cannot show against the motion "
+                           "on their own, but with both mirrored")
+                    other = "one of them alone or any other pair"
                 warnings.append(
-                    f"{name}: pwm_{keys[i]} is probably reversed: it is driven in step with "
-                    f"{mates(i)}, so its {dof} force cannot show against the motion on its own, "
-                    f"but with it mirrored the forces computed from the thrusters explain "
+                    f"{name}: {who} the forces computed from the thrusters explain "
                     f"{r2_fix:.0%} of the {dof} acceleration measured from {meas} instead of "
                     f"{r2_log:.0%} as logged (one shared coefficient {k_fix:+.3g} ± {s_fix:.2g} "
-                    f"{aunit} per {funit}{exp}); mirroring any other output alone does not help. "
-                    f"{fix([keys[i]])}")
+                    f"{aunit} per {funit}{exp}); mirroring {other} does not help. "
+                    f"{fix([keys[i] for i in bad])}")
             continue
 
         def confirmed(bad, w=w):
@@ -234,30 +246,42 @@ def _odd_one_out(w, flagged) -> tuple | None:
     return flagged[0] if all(coef[j] > 0 for j in grp if j != i) else None
 
 
-def _hidden_in_group(w) -> tuple[int, tuple] | None:
-    """A reversed motor among thrusters driven together (:func:`direction_check`'s groups share one
-    coefficient, so its sign cannot show on its own): ``(thruster, confirm(...))`` when mirroring
-    that one output alone lets one shared coefficient explain at least :data:`DIRECTION_GAIN`
+def _hidden_in_group(w) -> tuple[tuple, tuple] | None:
+    """Reversed motors among thrusters driven together (:func:`direction_check`'s groups share one
+    coefficient, so their sign cannot show on its own): ``(thrusters, confirm(...))`` when
+    mirroring those outputs lets one shared coefficient explain at least :data:`DIRECTION_GAIN`
     more of the acceleration and :data:`DIRECTION_RATIO` × as much as logged, that coefficient
-    positive by :data:`DIRECTION_Z` σ, and mirroring any other output alone gains less than
-    :data:`DIRECTION_GAIN` (a wrong thrust model or timing moves every mirror alike)."""
-    trials = []
-    for i in w["live"]:
-        if len(w["group_of"].get(i, ())) < 2:
-            continue
-        conf = w["confirm"]([i])
-        if conf is not None:
-            trials.append((conf[2] - conf[3], i, conf))
-    if not trials:
-        return None
-    trials.sort(key=lambda t: -t[0])
-    gain, i, conf = trials[0]
-    k_fix, s_fix, r2_fix, r2_log = conf
-    if (gain >= DIRECTION_GAIN and r2_fix >= DIRECTION_RATIO * r2_log
-            and k_fix >= DIRECTION_Z * s_fix
-            and all(t[0] < DIRECTION_GAIN for t in trials[1:])):
-        return i, conf
-    return None
+    positive by :data:`DIRECTION_Z` σ, and no other mirror of as many outputs gains
+    :data:`DIRECTION_GAIN` (a wrong thrust model or timing moves every mirror alike).  Each member
+    is mirrored alone first; when none qualifies, each pair of grouped outputs (two reversed motors
+    of BlueROV2's four horizontal ones cancel each other's yaw force as logged, and the groups
+    re-form around the wrong signs), and a pair must also explain :data:`DIRECTION_GAIN` more
+    than its best single mirror."""
+    grouped = [i for i in w["live"] if len(w["group_of"].get(i, ())) >= 2]
+
+    def best(sets, floor):
+        trials = []
+        for bad in sets:
+            conf = w["confirm"](list(bad))
+            if conf is not None:
+                trials.append((conf[2] - conf[3], bad, conf))
+        if not trials:
+            return None
+        trials.sort(key=lambda t: -t[0])
+        gain, bad, conf = trials[0]
+        k_fix, s_fix, r2_fix, r2_log = conf
+        if (gain >= DIRECTION_GAIN and r2_fix >= DIRECTION_RATIO * r2_log
+                and k_fix >= DIRECTION_Z * s_fix and r2_fix - floor >= DIRECTION_GAIN
+                and all(t[0] < DIRECTION_GAIN for t in trials[1:])):
+            return bad, conf
+        return None, max(t[2][2] for t in trials)
+
+    one = best([(i,) for i in grouped], -1.0)
+    if one is None or one[0] is not None:
+        return one
+    pairs = [(a, b) for k, a in enumerate(grouped) for b in grouped[k + 1:]]
+    two = best(pairs, one[1]) if pairs else None
+    return two if two is not None and two[0] is not None else None
 
 
 def _direction_dof(chans: dict, dof: str, pt, B, armed):

@@ -671,7 +671,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         what = "inertia" if dof in ("roll", "pitch", "yaw") else "mass"
         warns.append(f"{dof} {what} ×{r:.3g} of the base vehicle's {base.mass:.4g}: beyond the "
                      f"×{FAR_FROM_BASE:g} a real vehicle differs from a published set by — check "
-                     "the motor directions (two reversed motors driven together can escape the "
+                     "the motor directions (reversed motors driven together can escape the "
                      "direction check), the thruster model and the log's units before using it")
     if not sol["success"]:
         warns.append(f"optimiser stopped: {sol['message']}")
