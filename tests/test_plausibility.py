@@ -53,7 +53,7 @@ def test_supply_voltage_of_a_model_file_is_checked_against_its_esc(tmp_path):
 
 
 # ------------------------------------------------------------------ vehicle identification
-def _pool_log(tmp_path, name, *, heading_sign=1.0, heading_scale=1.0):
+def _pool_log(tmp_path, name, *, heading_sign=1.0, heading_scale=1.0, time_scale=1.0):
     """Constant-torque yaw segments of ROMEO (Caccia et al. 2000), heading in rad × scale."""
     import csv
 
@@ -74,15 +74,15 @@ def _pool_log(tmp_path, name, *, heading_sign=1.0, heading_scale=1.0):
     with open(p, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["time", "torque", "heading"])
-        w.writerows([f"{a:.3f}", b, c] for a, b, c in zip(t, f, psi))
+        w.writerows([f"{a * time_scale:.3f}", b, c] for a, b, c in zip(t, f, psi))
     return p
 
 
 def _steady(p, **kw):
     from uuvid.identify.vehicle.procedures import identify_steady
 
-    return identify_steady(p, dof="yaw", command_col="torque", position_col="heading",
-                           settle=10, min_duration=10, **kw)
+    kw = {"settle": 10, "min_duration": 10, **kw}
+    return identify_steady(p, dof="yaw", command_col="torque", position_col="heading", **kw)
 
 
 def test_heading_reversed_gives_a_negative_drag_warning(tmp_path):
@@ -103,6 +103,20 @@ def test_degrees_read_as_radians_are_warned_and_the_unit_fixes_it(tmp_path):
     assert hits and "read in rad, the default" in hits[0] and "--angle-unit deg" in hits[0]
     fixed = _steady(p, angle_unit="deg")
     assert not [w for w in fixed.warnings if "implausible" in w]
+
+
+def test_time_in_milliseconds_read_as_seconds_is_warned_and_the_unit_fixes_it(tmp_path):
+    """A pool log's time column in ms read as s: every velocity ÷1000, so the drag came out
+    ×1000 and the rate check (a slow heading looks plausible) said nothing."""
+    p = _pool_log(tmp_path, "ms.csv", time_scale=1000.0)
+    res = _steady(p, settle=10_000, min_duration=10_000)
+    hits = [w for w in res.warnings if "s apart (median)" in w]
+    assert len(hits) == 1 and "100 s apart" in hits[0] and "--time-unit ms" in hits[0], res.warnings
+    fixed = _steady(p, time_unit="ms")
+    assert not [w for w in fixed.warnings if "apart" in w]
+    good = _steady(_pool_log(tmp_path, "s.csv"))
+    assert not [w for w in good.warnings if "apart" in w]
+    assert fixed.fit.k == pytest.approx(good.fit.k, rel=1e-6)
 
 
 def test_centimetres_read_as_metres_are_warned(tmp_path):

@@ -439,6 +439,26 @@ def rate_warnings(t, x, dof: str, unit: str, defaulted: bool, angular: bool,
             f"or faster 10 % of the time, beyond {lim} for an underwater vehicle — {fix}"]
 
 
+#: a vehicle log sampled coarser than this (median step, s) cannot show its motion settle: the
+#: time column is probably in ms or µs (a 10 Hz log in ms is 100 "s" a sample)
+MAX_LOG_STEP_S = 5.0
+
+
+def time_step_warnings(t, unit: str = "s") -> list[str]:
+    """Warn when a log's samples are more than :data:`MAX_LOG_STEP_S` apart (median): a time in ms
+    read as seconds made every drag coefficient ×1000 with nothing said (the velocities ÷1000)."""
+    t = np.asarray(t, float)
+    d = np.diff(t[np.isfinite(t)])
+    d = d[d > 0]
+    if d.size < 2 or float(np.median(d)) <= MAX_LOG_STEP_S:
+        return []
+    step, span = float(np.median(d)), float(d.sum())
+    return [f"samples {step:.4g} s apart (median) over {span / 3600:.3g} h, with time read in "
+            f"{unit}: a vehicle log samples its motion several times a second, and every "
+            f"velocity, drag and inertia follows the time unit — is the time column in ms "
+            f"(--time-unit ms) or µs (us)?"]
+
+
 def fit_quality_warnings(nrmse, dof: str, limit: float = 0.5) -> list[str]:
     """The identified model's velocity NRMSE on its own log above ``limit``: the model does not
     describe the log (often a reversed command or heading channel)."""

@@ -126,8 +126,9 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
     :data:`DIRECTION_Z` σ.  When no coefficient is negative, a reversed motor may hide inside a
     group (its wrong sign only shrinks the group's coefficient): each member of a group is then
     mirrored alone (:func:`_hidden_in_group`) and one is named when that alone explains the motion
-    several times better and no other mirror helps (else a pair, alike).  Every thruster of a DOF against the motion
-    is reported as the measured channel's sign convention or all of them reversed.
+    several times better and no other mirror helps (else a pair, alike).  Every thruster of a
+    DOF against the motion is reported as the measured channel's sign convention or all of them
+    reversed.
     ``fix(keys)`` says what to do.  One pass of NumPy per DOF; it warns and never raises."""
     B = np.asarray(veh.B, float)
     keys = pt.keys

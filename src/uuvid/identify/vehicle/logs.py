@@ -283,8 +283,9 @@ def _magnitude_warnings(data: LogData, spec: LogSpec, names: dict, servo: bool) 
         out.append(f"position {names.get('position')!r} is constant ({p[0]:g}) over the log: not "
                    "a measurement of the motion (ArduSub's VFR_HUD.alt stays 0 without an EKF "
                    "origin: use -GLOBAL_POSITION_INT.relative_alt)")
-    from uuvid.identify.plausibility import rate_warnings
+    from uuvid.identify.plausibility import rate_warnings, time_step_warnings
 
+    out += time_step_warnings(data.t_pos, spec.time_unit)
     out += rate_warnings(data.t_pos, data.position, spec.dof, _position_unit(spec) or "m",
                          defaulted=not (spec.angle_unit or spec.position_unit),
                          angular=spec.dof in ANGULAR)
