@@ -264,3 +264,45 @@ def test_summary_says_which_backend_ran_and_why(monkeypatch):
     assert res.info["backend"] == "inprocess"
     assert res.info["backend_reason"].startswith("auto: ")
     assert study().estimated_work_s() > 0
+
+
+def test_a_study_that_would_fill_the_disk_is_refused_before_any_run(tmp_path, monkeypatch):
+    """A million-run study wrote until the disk was full, then lost its consolidation: the disk it
+    needs (parts and results together) is checked against the free space first, and the refusal
+    says how many runs would fit."""
+    import shutil
+    from collections import namedtuple
+
+    s = study()
+    need = s.disk_bytes()
+    usage = namedtuple("usage", "total used free")
+    calls = []
+
+    def chunk(payload, start, stop, attempt=0, threads=None):
+        calls.append(start)
+        return evaluate_chunk(payload, start, stop, attempt, threads)
+
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10 * need, 9 * need, 0.5 * need))
+    with pytest.raises(OSError, match=r"would write ≈ .* GB .*are free there; give at most 9 runs"):
+        run_study(s, tmp_path / "out", backend="inprocess", chunk_size=5, progress=False,
+                  chunk_fn=chunk)
+    assert not calls and not (tmp_path / "out").exists()
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10 * need, 8 * need, 2 * need))
+    run_study(s, tmp_path / "out", backend="inprocess", chunk_size=5, progress=False)
+
+
+@pytest.mark.slow
+def test_the_disk_estimate_bounds_what_a_study_writes(tmp_path):
+    """The estimate covers the peak (the chunk parts and the consolidated results side by side)
+    and is not a wild over-estimate (within 4× of it)."""
+    s = study()
+    seen = []
+
+    def peak(res, done):
+        seen.append(sum(p.stat().st_size for p in (tmp_path / "parts").glob("*")))
+
+    run_study(s, tmp_path, backend="inprocess", chunk_size=5, progress=False, on_chunk=peak)
+    final = sum((tmp_path / f).stat().st_size for f in ("results.csv",) if (tmp_path / f).exists())
+    final += sum(p.stat().st_size for p in tmp_path.glob("series.npz"))
+    written = max(seen) + final
+    assert written <= s.disk_bytes() <= 4 * written, (written, s.disk_bytes())

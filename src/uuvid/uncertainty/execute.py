@@ -407,6 +407,8 @@ def run_study(study, out: str | Path | None = None, *, backend: str | None = Non
                          f"0..{MAX_RETRIES}")
     if hasattr(study, "check_memory"):
         study.check_memory()
+    if out is not None and hasattr(study, "check_disk"):
+        study.check_disk(out)
     choice = choose_backend(backend, scheduler, client=client, study=study, workers=workers,
                             threads=threads_per_task)
     backend, sched = choice.backend, choice.scheduler

@@ -617,6 +617,8 @@ class ChunkResult:
 #: ends: the chunk tables and series are copied about three times (chunks, the concatenated
 #: result, the summary); measured ≈ 6 kB a run for the T200 Monte Carlo's 263 numbers.
 BYTES_PER_RUN_VALUE = 24
+#: A value of a result row written as CSV text (a float with 17 significant digits and a comma).
+CSV_BYTES_PER_VALUE = 24
 #: Memory a local worker process takes (Python with NumPy, pandas and the compiled kernels).
 WORKER_PROCESS_BYTES = 250e6
 
@@ -688,6 +690,33 @@ class StudyBase:
                 f"half this machine's {physical_memory_bytes() / 1e9:.3g} GB; give at most "
                 f"{int(budget // per):,} runs, or split the study into several (other seeds) "
                 "and pool their results")
+
+    def disk_bytes(self) -> float:
+        """Disk the study's ``out`` folder needs at its peak, bytes: every run's row as CSV text
+        (≈ :data:`CSV_BYTES_PER_VALUE` a value) and its series as float64, twice — the chunk
+        parts and the consolidated ``results.csv``/``series.npz`` coexist until the parts are
+        removed at the end."""
+        series = sum(int(np.size(ax)) for ax in series_axes(self.plan).values())
+        row = len(self.parameter_names()) + len(self.plan.metric_names) + 4
+        return 2.0 * float(self.n_runs) * (series * 8 + row * CSV_BYTES_PER_VALUE)
+
+    def check_disk(self, out) -> None:
+        """``OSError`` before any run when :meth:`disk_bytes` exceeds the free space where
+        ``out`` is written (a study that fills the disk midway loses its consolidation)."""
+        import shutil
+
+        need = self.disk_bytes()
+        p = Path(out).absolute()
+        while not p.exists() and p != p.parent:
+            p = p.parent
+        free = shutil.disk_usage(p).free
+        if need > free:
+            per = need / max(float(self.n_runs), 1.0)
+            raise OSError(
+                f"{out}: `runs=` {int(self.n_runs):,} would write ≈ {need / 1e9:.3g} GB (≈ "
+                f"{per / 1e3:.3g} kB a run: the chunk parts and the consolidated results), and "
+                f"{free / 1e9:.3g} GB are free there; give at most {int(free // per):,} runs, "
+                "fewer series, or another output folder")
 
 
 #: Single-core cost of one integration step, s (orders measured on a 2-core machine: a thruster
