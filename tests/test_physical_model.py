@@ -292,3 +292,21 @@ def test_compiled_predict_is_the_numpy_form_bit_for_bit():
         for bad in (0.0, -3.0, np.nan, np.inf, np.array([12.0, np.nan])):
             with pytest.raises(ValueError, match="supply voltage"):
                 m.predict(1600.0, bad)
+
+
+def test_the_physical_thruster_kernel_is_compiled_once_for_read_only_inputs():
+    """A read-only command or voltage array compiled the steady-state kernel a second time (its
+    read-only signature); the inputs are copied writable instead."""
+    import numpy as np
+
+    from uuvid.thruster.physical import physical_model
+    from uuvid.thruster.physical_kernel import steady_state_nb
+
+    m = physical_model()
+    a = m.predict(np.linspace(1100, 1900, 5), 16.0).thrust
+    c = np.linspace(1100, 1900, 5)
+    v = np.full(5, 16.0)
+    c.flags.writeable = v.flags.writeable = False  # e.g. a column read from Arrow/Parquet
+    np.testing.assert_array_equal(m.predict(c, v).thrust, a)
+    np.testing.assert_array_equal(m.predict(c, 16.0).thrust, a)
+    assert len(steady_state_nb.signatures) == 1, steady_state_nb.signatures

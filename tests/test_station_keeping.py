@@ -91,3 +91,18 @@ def test_comparison_at_equal_peak_thrust(comparison):
     d = c.to_dict()
     assert d["pid"]["rms_position_error_m"] == pytest.approx(c.pid.rms_error)
     assert c.plot() is not None
+
+
+@pytest.mark.slow
+def test_the_lqi_step_gets_one_signature_from_station_keeping_and_missions(rov, comparison):
+    """The LQI step serves the station-keeping loop and the mission loop's LQR controller, whose
+    parameters (gain, trim, limits) are frozen, read-only: the station loop passes them read-only
+    too, so the step is compiled for one signature, not once per loop."""
+    from uuvid.simulate.control.lqr import lqr
+    from uuvid.simulate.station_keeping import station_loop
+
+    assert not lqr(rov).params.flags.writeable
+    (sig,) = station_loop.signatures
+    for i, name in ((4, "lo"), (5, "hi"), (9, "K"), (11, "f0")):
+        assert not sig[i].mutable, f"{name} reaches lqi_step writable: {sig[i]}"
+

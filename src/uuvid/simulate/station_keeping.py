@@ -77,6 +77,15 @@ def thrust_to_tau(Bthr, f, tau):
         tau[r] = s
 
 
+def _read_only(a) -> np.ndarray:
+    """A C-contiguous float copy that cannot be written: the LQI's ``K``, ``f₀`` and limits reach
+    :func:`~uuvid.simulate.control.lqr.lqi_step` read-only from the mission loop too (a
+    controller's parameters are frozen), so the one compiled signature serves both loops."""
+    out = np.array(a, dtype=float, order="C")
+    out.flags.writeable = False
+    return out
+
+
 @njit(cache=True)
 def station_loop(z0, vp, vc, Bthr, lo, hi, kind, alloc, gains, K, x_ref, f0, dt, nsub, Z, F):
     """Hold ``x_ref`` (13) for ``Z.shape[0]`` steps with the PID (``kind`` 0: ``alloc``,
@@ -237,12 +246,12 @@ def fly_station(vehicle, controller: str, *, x_ref, z0, current=(0.0, 0.0, 0.0),
     kind = {"pid": PID, "lqr": LQR}[controller]
     if kind == LQR and (K is None or f0 is None):
         raise ValueError("the LQR needs its gain K (n × 16) and trim thrust f0")
-    Kc = np.zeros((n, 16)) if K is None else np.ascontiguousarray(K, dtype=float)
-    f0c = np.zeros(n) if f0 is None else np.asarray(f0, dtype=float)
+    Kc = _read_only(np.zeros((n, 16)) if K is None else K)
+    f0c = _read_only(np.zeros(n) if f0 is None else f0)
     station_loop(np.asarray(z0, float), v.params.to_array(), np.asarray(current, float),
-                 np.ascontiguousarray(v.B), np.ascontiguousarray(lim[:, 0]),
-                 np.ascontiguousarray(lim[:, 1]), kind, alloc, gains.to_array(), Kc,
-                 np.asarray(x_ref, float), f0c, dt, int(substeps), Z, F)
+                 np.ascontiguousarray(v.B), _read_only(lim[:, 0]), _read_only(lim[:, 1]), kind,
+                 alloc, gains.to_array(), Kc, np.asarray(x_ref, float), f0c, dt, int(substeps),
+                 Z, F)
     if not np.all(np.isfinite(Z)):
         raise ValueError(f"{controller} station keeping diverged; try a smaller dt")
     return StationKeepingRun(controller, np.arange(nsteps) * dt, Z, F, np.asarray(x_ref, float))

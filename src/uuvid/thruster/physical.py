@@ -149,7 +149,10 @@ class PhysicalModel:
                 c, vs = np.broadcast_arrays(c, vs)
             vflat = np.ascontiguousarray(vs).ravel()
         out = np.empty((7, c.size))
-        if steady_state_nb(np.ascontiguousarray(c).ravel(), vflat, self._kernel_params(),
+        # writable C arrays always (a read-only input, e.g. from np.broadcast_to, would compile
+        # the kernel a second time for its read-only signature)
+        cflat = np.require(np.ascontiguousarray(c).ravel(), float, ["C", "W"])
+        if steady_state_nb(cflat, np.require(vflat, float, ["C", "W"]), self._kernel_params(),
                            out) >= 0:
             raise ValueError("supply voltage must be positive and finite")
         d, v, speed, thrust, im, cur, torque = (o.reshape(c.shape) for o in out)
