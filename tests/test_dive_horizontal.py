@@ -133,6 +133,8 @@ def test_bad_input_names_what_is_missing(dive):
         identify_dive(df.drop(columns=["v_mps"]), "bluerov2", ["horizontal"])
     with pytest.raises(DiveDataError, match="window too short to identify horizontal"):
         identify_dive(df, "bluerov2", ["horizontal"], t_end=25.0)
+    with pytest.raises(DiveDataError, match=r"--horizon 0.01 s is shorter than 4 samples of "):
+        identify_dive(df, "bluerov2", ["horizontal"], horizon=0.01)
     dc = read_dive_channels(df.drop(columns=["v_mps"]), "bluerov2")
     from uuvid.simulate.dive_replay import _dof_list
 

@@ -214,6 +214,24 @@ def test_truth_within_3_sigma_at_telemetry_rates_over_seeds(seed):
     assert any("logged every" in w for w in res.estimates["yaw"].warnings)
 
 
+@pytest.mark.parametrize("h", [0.001, 0.1])
+def test_a_horizon_shorter_than_four_samples_is_refused_before_any_window(h):
+    """``--horizon 1e-9`` cut a 5-minute dive into 3·10¹¹ windows and ran without end (0.001 s:
+    3·10⁵ windows, every one left out, then "window too short"): a window must hold four samples
+    of the measured channel, and the refusal says the floor (yaw at 20 Hz: 0.2 s)."""
+    from uuvid.simulate.dive_replay import replay_dive
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    df, _ = synthetic_dive(120.0, seed=3)
+    for call in (lambda: identify_dive(df, "bluerov2", ["yaw"], horizon=h),
+                 lambda: identify_dive(df, "bluerov2", ["heave"], horizon=h),
+                 lambda: replay_dive(df, "bluerov2", horizon=h)):
+        with pytest.raises(DiveDataError, match=rf"--horizon {h:g} s is shorter than 4 samples of "
+                                                r"(yaw_rad|depth_m) \(median step .* s\): .*give at "
+                                                r"least"):
+            call()
+
+
 @pytest.mark.slow
 @pytest.mark.realdata
 def test_real_logs_without_a_dive_give_clear_errors(shared_data):

@@ -123,12 +123,37 @@ def horizontal_inflow_of(veh) -> tuple[float, str]:
     return vals[key], src
 
 
+#: samples of the measured channel a window needs (fewer cannot fix its initial state and rate)
+WINDOW_SAMPLES = 4
+
+
+def check_horizon(dc, channels, horizon: float) -> None:
+    """``DiveDataError`` when windows of ``horizon`` s cannot hold :data:`WINDOW_SAMPLES` samples
+    of each measured channel at its median step — the windows would all be left out, and a tiny
+    horizon (``--horizon 1e-9``) cut the dive into 10¹¹ of them, running without end."""
+    from uuvid.io.dive_channels import DiveDataError
+
+    for c in channels:
+        t = dc.channels[c][0]
+        d = np.diff(t)
+        d = d[d > 0]
+        if not d.size:
+            continue
+        floor = WINDOW_SAMPLES * float(np.median(d))
+        if not horizon >= floor:
+            raise DiveDataError(
+                f"{dc.name}: --horizon {horizon:g} s is shorter than {WINDOW_SAMPLES} samples of "
+                f"{c} (median step {np.median(d):.3g} s): no window could hold the samples it "
+                f"needs; give at least {floor:.3g} s")
+
+
 def horizontal_windows(dc, horizon: float, t_start=None, t_end=None) -> tuple[list, list]:
     """Windows ``[(t0, t1)]`` of ``horizon`` s inside the armed intervals ∩ [t_start, t_end]
     where u, v and the heading have ≥ 4 samples each and X, Y, N no gap longer than
     ``max(3 s, horizon)``; notes on what was left out."""
     ms = [dc.channels[c][0] for c in H_MEAS]
     fs = [dc.channels[c][0] for c in H_FORCES]
+    check_horizon(dc, H_MEAS, horizon)
     lo = max([t[0] for t in ms + fs] + [-np.inf if t_start is None else t_start])
     hi = min([t[-1] for t in ms + fs] + [np.inf if t_end is None else t_end])
     out, sparse = [], 0

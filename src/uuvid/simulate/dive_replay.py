@@ -35,6 +35,7 @@ from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
 from uuvid.simulate.dive_horizontal import (
     H_FORCES,
     H_MEAS,
+    check_horizon,
     horizontal_from_vehicle,
     horizontal_inflow_of,
     replay_horizontal,
@@ -100,6 +101,7 @@ def dive_windows(dc, dof: str, horizon: float, t_start=None, t_end=None) -> tupl
     meas, force, _ = DIVE_DOFS[dof]
     tm, ym = dc.channels[meas]
     tf = dc.channels[force][0]
+    check_horizon(dc, [meas], horizon)
     lo = max(tm[0], tf[0], -np.inf if t_start is None else t_start)
     hi = min(tm[-1], tf[-1], np.inf if t_end is None else t_end)
     out, surface, sparse = [], 0, 0
