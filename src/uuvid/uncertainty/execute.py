@@ -40,7 +40,10 @@ is rewritten with ``"partial": true`` after each chunk; at the end ``results.csv
 and ``series.npz`` (per-run curves, if any) are written and the summary says
 ``"partial": false``.  Ctrl-C (KeyboardInterrupt) stops submitting, cancels what is queued, writes
 the consolidated partial result (``results.csv`` with the runs done so far, ``"partial": true``,
-``"interrupted": true``) and re-raises.  :func:`read_result` reads either form.
+``"interrupted": true``) and re-raises.  :func:`read_result` reads either form.  Before any run
+the study's results must fit: in memory (they are held to the end) and on the disk of ``out``
+(the parts and the consolidated files side by side at the end, ≈ twice the results) — a refusal
+says how many runs fit.
 """
 
 from __future__ import annotations
