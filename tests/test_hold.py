@@ -291,3 +291,60 @@ def test_a_supply_voltage_far_outside_the_sheets_is_warned():
         warnings.simplefilter("error", SupplyVoltageWarning)
         for volts in (12.0, 14.8, 16.8):
             limits_at(v, volts)
+
+
+def _preset_with(model: str, name="heavy-other"):
+    import yaml
+
+    from uuvid.vehicle.definition import preset_path
+
+    raw = yaml.safe_load(preset_path("bluerov2-heavy").read_text())
+    raw["name"] = name
+    for t in raw["thrusters"]:
+        t["model"] = model
+    return raw
+
+
+def test_limits_at_a_supply_voltage_follow_each_thrusters_own_model():
+    """`hold --voltage` put the T200's limits on every thruster: eight laidani-a2212s (≈ 12 N)
+    held a 16 V T200's current.  A thruster that is not a T200 takes its own chain's thrust at
+    full command with its ESC at that supply; T200 thrusters keep the power model's."""
+    import numpy as np
+
+    from uuvid.thruster.presets import preset_chain
+    from uuvid.vehicle.definition import vehicle_from_dict
+
+    v = vehicle_from_dict(_preset_with("laidani-a2212"), "a2212.yaml")
+    lim = limits_at(v, 12.0)
+    f = preset_chain("laidani-a2212", 12.0).steady_thrust(np.array([-1e9, 1e9]))
+    np.testing.assert_allclose(lim, np.tile([f.min(), f.max()], (8, 1)), rtol=1e-12)
+    assert lim[0, 1] < 0.4 * limits_at(load_vehicle("bluerov2-heavy"), 12.0)[0, 1]  # 12 N vs 37 N
+    mixed = _preset_with("t200")
+    mixed["thrusters"][0]["model"] = "laidani-a2212"
+    lim_m = limits_at(vehicle_from_dict(mixed, "mixed.yaml"), 12.0)
+    np.testing.assert_array_equal(lim_m[0], lim[0])
+    np.testing.assert_array_equal(lim_m[1:], limits_at(load_vehicle("bluerov2-heavy"), 12.0)[1:])
+
+
+def test_a_battery_hold_refuses_thrusters_its_power_model_does_not_describe():
+    from uuvid.analysis.hold import hold_on_battery
+    from uuvid.vehicle.definition import vehicle_from_dict
+
+    v = vehicle_from_dict(_preset_with("laidani-a2212"), "a2212.yaml")
+    with pytest.raises(ValueError, match=r"thruster power model t200-physical \(a T200\), and "
+                                         r"thrusters T1_front_right, .* \(laidani-a2212\) are not "
+                                         r"T200s.*--voltage V"):
+        hold_on_battery(v, [0.2, 0.0, 0.0], 0.5)
+
+
+def test_an_unknown_battery_power_model_is_refused_when_the_file_is_read():
+    """A fitted model file as `battery.thruster_power_model` loaded, then `hold --battery` died
+    with a KeyError traceback."""
+    from uuvid.vehicle.definition import VehicleFileError, vehicle_from_dict
+
+    raw = _preset_with("t200")
+    raw["battery"]["thruster_power_model"] = "m12_physical.yaml"
+    with pytest.raises(VehicleFileError, match=r"x\.yaml: battery\.thruster_power_model "
+                                               r"'m12_physical\.yaml': unknown; the thruster power "
+                                               r"models are t200-physical"):
+        vehicle_from_dict(raw, "x.yaml")

@@ -387,3 +387,34 @@ def test_an_inertia_matrix_written_as_three_rows_is_read_row_major():
     bad["rigid_body"]["inertia"] = [[0.2, 0.3, 0], [0.3, 0.2, 0], [0, 0, 0.3]]
     with pytest.raises(VehicleFileError, match="positive definite"):
         vehicle_from_dict(bad)
+
+
+def test_limits_beyond_what_the_thruster_model_gives_are_named(tmp_path):
+    """A T200 fitted at 12 V (≈ 37 N) kept the 16 V preset's 51.5 N limits: the envelope flew
+    ideal thrusters at the limits and "confirmed" the 16 V speed.  The file is named with the
+    model's thrust at full command and the limits to set; limits within it stay silent."""
+    import warnings
+
+    import yaml
+
+    from uuvid.thruster.modelfile import save_chain
+    from uuvid.thruster.presets import preset_chain
+
+    save_chain(preset_chain("t200", 12.0), tmp_path / "t200_12V.yaml")
+    raw = copy.deepcopy(BASE)
+    for t in raw["thrusters"]:
+        t["model"] = "t200_12V.yaml"
+        t["limits"] = [-39.913, 51.485]
+    p = tmp_path / "bot.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    with pytest.warns(VehicleFileWarning, match=r"thrusters A, B, C: limits \[-39\.913, 51\.485\] N "
+                                                r"exceed what their model 't200_12V\.yaml' gives at "
+                                                r"full command \(its ESC at 12 V\), \[-28\.\d+, "
+                                                r"36\.\d+\] N.*set limits: \[-28"):
+        load_vehicle(p)
+    for t in raw["thrusters"]:
+        t["limits"] = [-28.0, 36.0]
+    p.write_text(yaml.safe_dump(raw))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VehicleFileWarning)
+        load_vehicle(p)

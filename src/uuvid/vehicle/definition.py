@@ -388,6 +388,54 @@ def _model_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]
     return out
 
 
+#: a thruster's limit may exceed its model's steady thrust at full command by this fraction
+LIMIT_SLACK = 0.02
+
+
+def _limit_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]:
+    """One sentence per thruster model whose steady thrust at full command (its ESC at its own
+    supply voltage) falls short of the file's ``limits`` by more than :data:`LIMIT_SLACK`: the
+    allocation, envelopes and hold take the limits while a simulation flies the model, which
+    saturates below them (a 12 V fit kept the 16 V limits, and the envelope "confirmed" a 16 V
+    speed).  A chain without a closed-form steady state is simulated to rest at its two full
+    commands (≈ 20 ms; the steady map is cached on disk)."""
+    from uuvid.thruster.blocks import ESC
+    from uuvid.thruster.resolve import resolve_chain, supply_voltage_of
+
+    base = vehicle.path.parent if vehicle.path is not None else (base_dir or Path.cwd())
+    lim = np.asarray(vehicle.layout.limits, float)
+    short: dict = {}
+    for i, t in enumerate(vehicle.layout.thrusters):
+        if not t.model:
+            continue
+        try:
+            chain = resolve_chain(t.model, base)
+            esc = next((b for b in chain.blocks if isinstance(b, ESC)), None)
+            if esc is None:
+                continue
+            lo, hi = esc.saturation_low, esc.saturation_high
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                continue
+            f = chain.steady_thrust(np.array([lo, hi]))  # a chain's thrust is monotone in it
+        except Exception:  # noqa: BLE001 - a model that does not resolve is said elsewhere
+            continue
+        fmin, fmax = float(np.min(f)), float(np.max(f))
+        over_hi = lim[i, 1] > fmax * (1 + LIMIT_SLACK) + 0.05
+        over_lo = lim[i, 0] < fmin * (1 + LIMIT_SLACK) - 0.05
+        if over_hi or over_lo:
+            key = (str(t.model), tuple(lim[i]))
+            short.setdefault(key, [t.name, fmin, fmax, supply_voltage_of(chain), []])[4].append(t.name)
+    out = []
+    for (ref, (lo, hi)), (_, fmin, fmax, volts, names) in short.items():
+        at = f" (its ESC at {volts:g} V)" if volts else ""
+        out.append(f"thrusters {', '.join(names)}: limits [{lo:g}, {hi:g}] N exceed what their "
+                   f"model {ref!r} gives at full command{at}, [{fmin:.4g}, {fmax:.4g}] N: the "
+                   f"allocation, envelopes and hold use the limits while a simulation flies the "
+                   f"model, which saturates below them — set limits: [{fmin:.4g}, {fmax:.4g}] (or "
+                   "a model for this supply voltage)")
+    return out
+
+
 def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     """What a valid file may still hold wrong, as :class:`VehicleFileWarning` naming the file — on
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
@@ -395,6 +443,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
+    msgs += _limit_warnings(vehicle, base_dir)
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 
@@ -583,8 +632,14 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
 
 
 def _battery(b: BatterySchema, where: str):
-    from uuvid.vehicle.power import Battery
+    from uuvid.vehicle.power import POWER_MODELS, Battery
 
+    if b.thruster_power_model not in POWER_MODELS:
+        raise VehicleFileError(
+            f"{where}: battery.thruster_power_model {b.thruster_power_model!r}: unknown; the "
+            f"thruster power models are {', '.join(POWER_MODELS)} (the voltage-aware T200: "
+            "thrust limits and current at a supply voltage); a thruster's own model goes in "
+            "its thrusters[*].model")
     try:
         return Battery(b.name, b.capacity_ah, tuple(b.ocv_soc), tuple(b.ocv_voltage), b.resistance,
                        b.hotel_load_w, b.min_voltage, b.max_current, b.thruster_power_model,

@@ -162,13 +162,62 @@ def _warn_voltage(name: str, voltage: float) -> None:
 
 
 def limits_at(vehicle, voltage: float) -> np.ndarray:
-    """(n, 2) thrust limits of the vehicle's thrusters at a supply voltage (power model of the
-    vehicle's battery block, or the T200 model); ``ValueError`` for a voltage that is not finite,
-    > 0 and at most 1 kV (:func:`uuvid.core.checks.supply_voltage`)."""
+    """(n, 2) thrust limits of the vehicle's thrusters at a supply voltage: a T200 thruster (or one
+    without a model) from the power model of the vehicle's battery block, or the T200 model;
+    another thruster from its own chain with its ESC at that supply (:func:`_chain_limits`).
+    ``ValueError`` for a voltage that is not finite, > 0 and at most 1 kV
+    (:func:`uuvid.core.checks.supply_voltage`), or a thruster whose model cannot follow it."""
     from uuvid.core.checks import supply_voltage
 
     voltage = supply_voltage("supply_voltage", voltage)
     name = vehicle.battery.thruster_power_model if vehicle.battery is not None else "t200-physical"
-    _warn_voltage(name, voltage)
-    lo, hi = SupplyThruster(physical_model(name)).limits(voltage)
-    return np.tile([lo, hi], (len(vehicle.layout), 1))
+    out = np.empty((len(vehicle.layout), 2))
+    own = _own_models(vehicle)
+    if len(own) < len(vehicle.layout):
+        _warn_voltage(name, voltage)
+        out[:] = SupplyThruster(physical_model(name)).limits(voltage)
+    for i, (ref, chain) in own.items():
+        out[i] = _chain_limits(vehicle, i, ref, chain, voltage)
+    return out
+
+
+#: the battery block's thruster power models (:func:`uuvid.thruster.physical.physical_model`)
+POWER_MODELS = ("t200-physical",)
+#: thruster models the battery's T200 power model describes (the vehicle presets' thrusters)
+T200_MODELS = ("t200", "t200-physical")
+
+
+def _own_models(vehicle) -> dict:
+    """``{index: (model, chain)}`` of the thrusters whose ``model`` is not a T200
+    (:data:`T200_MODELS`): the T200 power model does not give their thrust at a supply voltage —
+    their own chain does (a vehicle of eight 12 N thrusters was given the T200's 50 N limits)."""
+    from uuvid.thruster.resolve import resolve_chain
+
+    base = vehicle.path.parent if getattr(vehicle, "path", None) is not None else None
+    out = {}
+    for i, t in enumerate(vehicle.layout.thrusters):
+        if t.model and str(t.model) not in T200_MODELS:
+            out[i] = (t.model, resolve_chain(t.model, base))
+    return out
+
+
+def _chain_limits(vehicle, i: int, ref, chain, voltage: float) -> tuple[float, float]:
+    """(reverse, forward) steady thrust of thruster ``i``'s own chain at ``voltage``: its ESC at
+    that supply (:func:`uuvid.thruster.resolve.supply_law`), over its full command range."""
+    from uuvid.thruster.blocks import ESC
+    from uuvid.thruster.resolve import supply_law
+
+    name = vehicle.layout.thrusters[i].name
+    law = supply_law(ref, chain, quiet=True)
+    if law is None:
+        raise ValueError(f"thruster {name}: model {ref!r} has no ESC block, so its thrust does "
+                         f"not follow the supply voltage; leave out the supply voltage (the "
+                         "vehicle file's limits are used) or give the thruster a model with an ESC")
+    at_v = law[0](voltage)
+    esc = next(b for b in at_v.blocks if isinstance(b, ESC))
+    lo, hi = esc.saturation_low, esc.saturation_high
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ValueError(f"thruster {name}: model {ref!r}'s ESC has no full-command range "
+                         "(saturation_low/high), so its limits at a supply voltage are unknown")
+    f = at_v.steady_thrust(np.array([lo, hi]))  # at full command, as SupplyThruster.limits
+    return float(np.min(f)), float(np.max(f))
