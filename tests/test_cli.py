@@ -110,6 +110,34 @@ def test_thruster_export_toml_round_trip(tmp_path):
     assert load_chain(p) == laidani_chain()
 
 
+def test_a_preset_exported_at_a_supply_voltage_follows_its_own_voltage_law(tmp_path):
+    """`export t200` wrote the 16 V preset; used at 12 V its file followed V = duty × supply and
+    gave 20 % less thrust than the preset (and the sheet), unsaid.  The export says the voltage,
+    warns how far the file's law lands from the preset's, and --supply-voltage writes the preset
+    at that supply by its own law."""
+    import numpy as np
+
+    from uuvid.thruster.modelfile import load_chain
+    from uuvid.thruster.presets import preset_chain
+    from uuvid.thruster.resolve import at_supply
+
+    full = np.array([1100.0, 1900.0])
+    p16, p12 = tmp_path / "t200.yaml", tmp_path / "t200_12V.yaml"
+    res = runner.invoke(app, ["thruster", "export", "t200", "--out-file", str(p16)])
+    assert res.exit_code == 0, res.output
+    assert "exported at 16 V (the preset's own; set --supply-voltage)" in res.output
+    m = re.search(r"at 12 V its full-command thrust is (\d+) % off the preset's", res.output)
+    at12 = at_supply(load_chain(p16), 12.0).steady_thrust(full)
+    own12 = preset_chain("t200", 12.0).steady_thrust(full)
+    assert m and int(m.group(1)) == round(100 * np.max(np.abs(at12 / own12 - 1))) >= 15
+    res = runner.invoke(app, ["thruster", "export", "t200", "--supply-voltage", "12",
+                              "--out-file", str(p12)])
+    assert res.exit_code == 0 and "exported at 12 V (--supply-voltage)" in res.output
+    np.testing.assert_allclose(load_chain(p12).steady_thrust(full), own12, rtol=1e-12)
+    res = runner.invoke(app, ["thruster", "export", "auv2-tunnel-thruster", "--supply-voltage", "12"])
+    assert res.exit_code == 2 and "no ESC block" in res.output
+
+
 def test_error_keeps_bracketed_column_names(tmp_path):
     """rich reads ``[s]`` as markup; the error must print the user's column names literally."""
     csv = tmp_path / "bench.csv"

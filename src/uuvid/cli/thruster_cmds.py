@@ -206,6 +206,11 @@ def thruster_export(
         None, "--command-range", help="uuv-simulator: LOW:HIGH input range over which a map "
         "without an exact conversion (e.g. a polynomial) is tabulated (default: the ESC's range)."
     ),
+    supply_voltage: float | None = typer.Option(
+        None, "--supply-voltage",
+        help="Battery voltage [V] to export a model with an ESC at (a preset by its own voltage "
+        "law, e.g. the T200's sheets); default: the model's own, printed.",
+    ),
 ):
     """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
     import yaml
@@ -213,9 +218,16 @@ def thruster_export(
     from uuvid.core.atomic import atomic_write_text
     from uuvid.io.export import ExportError, to_uuv_simulator
     from uuvid.thruster.modelfile import _to_toml, chain_to_dict
+    from uuvid.thruster.resolve import export_supply
 
     out = renamed(out, "--out-file", old_out)
     chain = _load_model(model)
+    try:
+        chain, said = export_supply(model, chain, supply_voltage)
+    except ValueError as e:
+        _fail_flagged(e, {"supply_voltage": "--supply-voltage"})
+    for line in said:
+        err_console.print(line, highlight=False, soft_wrap=True, markup=False)
     if to == "uuv-simulator":
         rng = None
         if command_range is not None:
