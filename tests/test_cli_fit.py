@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -547,3 +548,42 @@ def test_a_time_column_in_ms_is_said_for_a_dynamic_fit(tmp_path):
         df.to_csv(ms[-1], index=False)
     res = _fit(*ms, *args, "--out-model", tmp_path / "ms.yaml")
     assert "is the time column in ms" in " ".join(res.output.split())
+
+
+def _forward_only(path, tmp_path):
+    import pandas as pd
+
+    df = pd.read_csv(path)
+    p = tmp_path / "fwd.csv"
+    df[df["PWM"] >= 1500].to_csv(p, index=False)
+    return p
+
+
+@pytest.mark.parametrize("model", ["quadratic", "polynomial"])
+def test_a_one_direction_fit_warns_that_the_file_mirrors_it(sheets, tmp_path, model):
+    """A forward-only sheet wrote k_neg = k_pos (reverse thrust 27 % above a real T200's) with
+    only a note in the report text; it is a warning on stderr and in the JSON, saying the file
+    mirrors the forward map."""
+    res = _fit(_forward_only(sheets[0], tmp_path), *SHEET_COLS, "--model", model,
+               "--out", tmp_path / "m.yaml")
+    assert res.exit_code == 0, res.output
+    assert re.search(r"warning: no reverse samples: the reverse \w+ is not identified — the model "
+                     r"file copies the forward one, so reverse thrust mirrors forward", res.stderr)
+
+
+def test_a_table_of_one_direction_or_too_few_knots_is_warned(sheets, tmp_path):
+    """A forward-only table gave 0 N for every reverse command; a 2-knot table gave 5.8 N at
+    neutral (the sheet's dead band).  Both are warnings; a table of all the data is silent."""
+    doc = _json(_fit(_forward_only(sheets[0], tmp_path), *SHEET_COLS, "--model", "table",
+                     "--out", tmp_path / "f.yaml", "--json"))
+    assert any(re.search(r"the table's commands span 1500…1900 µs with thrust of one sign only: the "
+                         r"reverse thrust is not identified.*every reverse command gives -?0(\.\d+)? N", w)
+               for w in doc["warnings"]), doc["warnings"]
+    doc = _json(_fit(sheets[1], *SHEET_COLS, "--model", "table", "--table-points", "2",
+                     "--out", tmp_path / "t2.yaml", "--json"))
+    assert any(re.search(r"the table's 2 knots miss the data by up to .* N \(at \d+ µs\), \d+ % of "
+                         r"the largest thrust: give more --table-points", w)
+               for w in doc["warnings"]), doc["warnings"]
+    doc = _json(_fit(sheets[1], *SHEET_COLS, "--model", "table", "--out", tmp_path / "t.yaml",
+                     "--json"))
+    assert not [w for w in doc["warnings"] if "the table's" in w]

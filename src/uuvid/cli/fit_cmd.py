@@ -226,8 +226,8 @@ def thruster_fit(
     from rich.markup import escape
 
     shown = "" if json_out else outcome.report_text  # said once: not again what stdout says
-    for w in outcome.warnings:
-        if w not in shown and w.split(": ", 1)[-1] not in shown:
+    for w in outcome.warnings:  # a warning the report text shows only as a note is said again
+        if (w not in shown and w.split(": ", 1)[-1] not in shown) or f"note: {w}" in shown:
             err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     for n in outcome.notes:
         if n not in shown:

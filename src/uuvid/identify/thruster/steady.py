@@ -250,6 +250,16 @@ def detect_regions_bench(data: BenchData, neutral: float | None = None, *,
                         first_measured=first, signal=signal, notes=tuple(notes))
 
 
+def _one_direction_note(direction: str, what: str) -> str:
+    """What a fit without samples in ``direction`` writes: the other direction's map, mirrored —
+    said as a warning (a forward-only sheet gave reverse thrust 27 % above a real T200's)."""
+    other = "reverse" if direction == "forward" else "forward"
+    return (f"no {direction} samples: the {direction} {what} is not identified — the model file "
+            f"copies the {other} one, so {direction} thrust mirrors {other} (a propeller gives "
+            f"less astern than ahead); measure {direction} runs too, or command this thruster "
+            f"{other} only")
+
+
 # ------------------------------------------------------------------------------------------------
 # Quadratic maps
 # ------------------------------------------------------------------------------------------------
@@ -260,7 +270,7 @@ def _quadratic_per_direction(x, y, d, *, names: dict, unit: str, model: str, sou
         m = d == _SIGN[direction]
         n = int(m.sum())
         if n == 0:
-            notes.append(f"no {direction} samples: the {direction} coefficient is not identified")
+            notes.append(_one_direction_note(direction, "coefficient"))
             continue
         require_samples(n, 1, f"{source}{model} ({direction})")
         H = (x[m] * np.abs(x[m]))[:, None]
@@ -571,7 +581,7 @@ def fit_polynomial(data: BenchData, degree: int | None = None, *, criterion: str
         m = data.measured & (np.sign(data.speed) == _SIGN[direction])
         x, y = np.abs(data.speed[m]), np.abs(data.thrust[m])
         if x.size == 0:
-            info["notes"].append(f"no {direction} samples")
+            info["notes"].append(_one_direction_note(direction, "polynomial"))
             continue
         d = degree
         if d is None:
@@ -699,6 +709,34 @@ def _greedy_knots(x: np.ndarray, y: np.ndarray, n: int) -> np.ndarray:
     return np.array(sorted(keep))
 
 
+#: a lookup table whose knots miss the data by more than this fraction of the largest |thrust|
+TABLE_MISS = 0.05
+
+
+def _table_warnings(xi, yi, c, t, resid, unit: str) -> list[str]:
+    """Sentences (warnings) for a table that cannot be what the data say: it reaches only one
+    direction (beyond its commands it holds its end values: every reverse command gave 0 N), or
+    its knots miss the data by more than :data:`TABLE_MISS` of the largest thrust (2 knots gave
+    5.8 N at neutral, where the sheet has its dead band)."""
+    out = []
+    unit = {"pwm_us": "µs", "": ""}.get(unit, unit)
+    unit = f" {unit}" if unit else ""
+    tiny = 0.02 * float(np.max(np.abs(yi)))  # a sheet's noise about zero is no reverse thrust
+    if yi[0] >= -tiny or yi[-1] <= tiny:
+        side, end = ("reverse", yi[0]) if yi[0] >= -tiny else ("forward", yi[-1])
+        out.append(f"the table's commands span {xi[0]:g}…{xi[-1]:g}{unit} with thrust of one sign "
+                   f"only: the {side} thrust is not identified, and beyond its ends the table "
+                   f"holds its end values (every {side} command gives {end:.3g} N)")
+    scale = float(np.max(np.abs(t))) if t.size else 0.0
+    if scale > 0 and resid.size:
+        j = int(np.argmax(np.abs(resid)))
+        if abs(resid[j]) > TABLE_MISS * scale:
+            out.append(f"the table's {xi.size} knots miss the data by up to {abs(resid[j]):.3g} N "
+                       f"(at {c[j]:g}{unit}), {100 * abs(resid[j]) / scale:.0f} % of the largest "
+                       "thrust: give more --table-points (or all: leave it out)")
+    return out
+
+
 def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = True,
               censored: str = "zero") -> SteadyFit:
     """Lookup table command → thrust (UUV Simulator ``LinearInterp``) → :class:`TableMap`.
@@ -745,6 +783,7 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     xi, yi = uc[idx], vals[idx]
     block = TableMap(input_values=tuple(xi), output_values=tuple(yi))
     resid = t - np.interp(c, xi, yi)
+    notes += _table_warnings(xi, yi, c, t, resid, data.command_unit or "")
     params = tuple(Parameter(f"T({x:g})", float(y), float(s), "N")
                    for x, y, s in zip(xi, yi, se[idx]))
     cov = np.diag(se[idx] ** 2)
