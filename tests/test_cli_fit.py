@@ -587,3 +587,25 @@ def test_a_table_of_one_direction_or_too_few_knots_is_warned(sheets, tmp_path):
     doc = _json(_fit(sheets[1], *SHEET_COLS, "--model", "table", "--out", tmp_path / "t.yaml",
                      "--json"))
     assert not [w for w in doc["warnings"] if "the table's" in w]
+
+
+def test_a_polynomial_of_the_wrong_sign_below_the_data_is_warned():
+    """Readings under 300 rpm are zeroed in the T200 sheets, and the cross-validated cubic pushed
+    the wrong way from 0 to 15 rad/s (−0.13 N): said with where; a map that keeps its sign there
+    is silent."""
+    from uuvid.identify.thruster.steady import _below_data_sign
+
+    (w,) = _below_data_sign((1e-4, 3e-3, -0.02, -0.1), 36.0, 50.0, "forward")
+    assert re.match(r"wrong-sign thrust below the data: the forward polynomial gives -0\.13 N at "
+                    r"2\.86 rad/s \(negative from 0 to 8 rad/s, below the slowest measured 36 "
+                    r"rad/s\)", w), w
+    assert _below_data_sign((3.6e-4, 0.0, 0.0), 36.0, 50.0, "forward") == []  # K_T Ω²
+    assert _below_data_sign((3.6e-4, 1e-3, 0.0), 36.0, 50.0, "reverse") == []
+
+
+@pytest.mark.realdata
+def test_the_t200_sheet_polynomial_warns_of_its_sign_below_the_data(shared_data, tmp_path):
+    doc = _json(_fit(shared_data / "t200-bluerobotics-2019" / "T200_12V.csv", "--format", "t200",
+                     "--model", "polynomial", "--out", tmp_path / "p.yaml", "--json"))
+    assert any(w.startswith("wrong-sign thrust below the data: the forward polynomial")
+               for w in doc["warnings"]), doc["warnings"]
