@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -119,11 +120,12 @@ def _msg(ts, name, **given):
 
 
 def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3", pressure=None,
-              twist=None):
+              twist=None, mutate=None):
     """The dive ``df`` (a synthetic_dive table) as mavros would record it (see the module doc).
     ``pressure``: also ``/mavros/imu/static_pressure`` (sensor_msgs/FluidPressure), this surface
     pressure [Pa] + 1000 kg/m³ · g · depth; ``twist``: ``(topic, type)`` of a DVL velocity
-    (TwistStamped or Odometry) with linear = (0.1 t, 0.2, 0) and header stamps left at zero."""
+    (TwistStamped or Odometry) with linear = (0.1 t, 0.2, 0) and header stamps left at zero;
+    ``mutate(out, ts, hdr)``: a trap, applied to the ``[receive ns, topic, message]`` list."""
     ts = _store(ros)
     if ros == 1:
         from rosbags.rosbag1 import Writer
@@ -226,6 +228,8 @@ def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3", pr
              "/mavros/global_position/rel_alt": "rel_alt", "/mavros/battery": "battery",
              "/mavros/state": "state"}
     out = [m for m in out if short.get(m[1]) not in omit]
+    if mutate is not None:
+        mutate(out, ts, hdr)
     out.sort(key=lambda m: m[0])
     with writer as w:
         conns = {tp: w.add_connection(tp, mt, typestore=ts) for tp, mt in types.items()
@@ -448,3 +452,99 @@ def test_replay_reads_the_bag_like_the_table(bag1, dive, params_file):
     b = replay_dive(df.assign(t_s=df["t_s"] - df["t_s"].min()), "bluerov2", ["heave"],
                     t_start=150.0)
     assert a.channels["depth"]["rms"] == pytest.approx(b.channels["depth"]["rms"], rel=1e-6)
+
+
+# ------------------------------------------------------------------ traps a real bag holds
+def _every(topic, k):
+    def pick(out):
+        return [m for m in out if m[1] == topic][::k]
+    return pick
+
+
+def _short_rc(out, ts, hdr):
+    """Every 4th servo-output message with 4 channels (a publisher's short frame)."""
+    for m in _every("/mavros/rc/out", 4)(out):
+        m[2] = _msg(ts, "mavros_msgs/msg/RCOut", header=m[2].header,
+                    channels=np.asarray(m[2].channels[:4], np.uint16))
+
+
+def _cell_voltage(out, ts, hdr):
+    for m in _every("/mavros/battery", 1)(out):
+        m[2] = _msg(ts, "sensor_msgs/msg/BatteryState", header=m[2].header,
+                    voltage=m[2].voltage / 4.0)
+
+
+def _uninitialised_imu(out, ts, hdr):
+    Quat = ts.types["geometry_msgs/msg/Quaternion"]
+    for m in [m for m in out if m[1] == "/mavros/imu/data"][:30]:
+        m[2] = dataclasses.replace(m[2], orientation=Quat(x=0.0, y=0.0, z=0.0, w=0.0))
+
+
+def _reboot(out, ts, hdr):
+    """From 100 s on the IMU stamps time since its boot (the autopilot rebooted)."""
+    for m in out:
+        if m[1] == "/mavros/imu/data" and m[0] - OFFSET >= T0 + 100 * 10**9:
+            m[2] = dataclasses.replace(m[2], header=hdr(m[0] - OFFSET - T0 - 90 * 10**9))
+
+
+@pytest.mark.slow
+def test_short_servo_frames_are_left_out_not_read_as_no_thrust(dive, tmp_path, params_file):
+    """Every 4th /mavros/rc/out message with 4 channels: the missing outputs were NaN, then 0 µs
+    ("no thrust"), and heave mass came out −25 % with nothing said."""
+    _, truth = dive
+    bag = write_bag(tmp_path / "short.bag", 1, dive[0], mutate=_short_rc)
+    res = identify_dive(bag, "bluerov2", ["heave"], params=params_file)
+    assert any("/mavros/rc/out messages hold fewer than the 6 channels the motors use" in w
+               and "left out, not read as 0 µs" in w for w in res.warnings), res.warnings
+    e = res.estimates["heave"]
+    assert abs(e.values["mass"] / truth["heave"]["mass"] - 1) < 0.1, e.values
+
+
+@pytest.mark.slow
+def test_a_bag_gets_the_tables_unit_checks_naming_its_topic(dive, tmp_path):
+    bag = write_bag(tmp_path / "cells.bag", 1, _short(dive), mutate=_cell_voltage)
+    with pytest.raises(DiveDataError, match=r"battery_V has median [34]\.\d+, outside 6–60 V .*one "
+                                            r"cell's voltage.*\(read from /mavros/battery"):
+        read_dive_channels(bag, "bluerov2")
+
+
+@pytest.mark.slow
+def test_quaternions_of_an_uninitialised_imu_are_left_out(dive, tmp_path):
+    """Zeros from an IMU not yet initialised became NaN headings and a LinAlgError traceback."""
+    bag = write_bag(tmp_path / "q0.bag", 1, dive[0], mutate=_uninitialised_imu)
+    dc = read_dive_channels(bag, "bluerov2")
+    assert any("30 /mavros/imu/data quaternions are not rotations" in w for w in dc.warnings)
+    assert np.all(np.isfinite(dc.channels["yaw_rad"][1]))
+    identify_dive(bag, "bluerov2", ["yaw"])
+
+
+@pytest.mark.slow
+def test_a_sender_stamping_time_since_boot_is_refused_as_a_clock_jump(dive, tmp_path):
+    """An autopilot rebooted mid-bag and stamped time since boot: 10⁹ s of "dive" ran out of
+    memory in the direction check and would have cut 10⁸ windows."""
+    bag = write_bag(tmp_path / "boot.bag", 1, dive[0], mutate=_reboot)
+    with pytest.raises(DiveDataError, match=r"/mavros/imu/data \(attitude\) time stamps span "
+                                            r".* days, with a jump of .* a clock jump"):
+        read_dive_channels(bag, "bluerov2")
+
+
+def _pause(a, b, topics=None):
+    def drop(out, ts, hdr):
+        lo, hi = T0 + a * 10**9 + OFFSET, T0 + b * 10**9 + OFFSET
+        out[:] = [m for m in out if not (lo <= m[0] < hi and (topics is None or m[1] in topics))]
+    return drop
+
+
+@pytest.mark.slow
+def test_a_pause_in_a_bag_is_said_and_a_force_dropout_leaves_its_windows_out(dive, tmp_path):
+    """A 60 s recording pause was said for tables, not bags; an 8 s dropout of the servo outputs
+    inside a 10 s heave window was interpolated across (the linear drag's σ ×3)."""
+    bag = write_bag(tmp_path / "pause.bag", 1, dive[0], mutate=_pause(100, 160))
+    dc = read_dive_channels(bag, "bluerov2")
+    assert any(re.search(r"/mavros/rc/out \(pwm\) stops for 60\.\d+ s \(from t = 99\.\d+ s\)", w)
+               for w in dc.warnings), dc.warnings
+    bag = write_bag(tmp_path / "rc8.bag", 1, dive[0], mutate=_pause(100, 108, {"/mavros/rc/out"}))
+    from uuvid.simulate.dive_replay import dive_windows
+
+    windows, _ = dive_windows(read_dive_channels(bag, "bluerov2"), "heave", 10.0)
+    assert windows and not any(s < 108.0 and e > 100.0 for s, e in windows), windows

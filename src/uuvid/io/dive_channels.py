@@ -23,6 +23,7 @@ folder that is not a ROS 2 bag, a missing path, a file of unknown kind) is a
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -267,8 +268,8 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
         lo, hi = BATTERY_RANGE_V
         if not lo <= med <= hi:
             raise DiveDataError(f"{name}: column battery_V has median {med:.4g}, outside "
-                                f"{lo:g}–{hi:g} V for a vehicle battery: is it in mV? expected "
-                                "volts")
+                                f"{lo:g}–{hi:g} V for a vehicle battery: is it in mV, or one cell's "
+                                "voltage? expected the pack's volts")
         tb, vb = chans["battery_V"]
         odd = (vb < lo) | (vb > hi)
         if odd.any():  # single glitches (a 0 V sample): thrust at 0 V is no number
@@ -832,6 +833,12 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
 
         tm = load_thrust_model(thruster_model)
     chans, warnings = dict(bd.channels), list(bd.warnings)
+    try:  # the table's unit checks, on the bag's channels (named with their topics)
+        _check_units(chans, bd.pwm, bd.name, warnings)
+    except DiveDataError as e:
+        m = re.search(r"column (\w+)", str(e))
+        src = bd.sources.get(m.group(1)) if m else None
+        raise DiveDataError(f"{e} (read from {src.split(' ')[0]})" if src else str(e)) from None
     thrust = _forces_from_pwm(chans, bd.pwm, veh, bd.name, warnings, directions=bd.directions,
                               thrust_model=tm, label=bd.pwm_label)
     if bd.armed is not None:

@@ -349,6 +349,41 @@ class BagDive:
     t_end: float  # the last sample of any channel [s]
 
 
+#: a topic pausing longer than this (s, and 50 × its median step) is said, like a table's gap
+BAG_GAP_S = 10.0
+#: a topic whose stamps span more than this (s) holds a clock jump, not a dive: refused (an
+#: autopilot rebooted mid-bag and stamped time since boot: 10⁹ s of "dive", cut into 10⁸ windows)
+MAX_BAG_SPAN_S = 2 * 86400.0
+
+
+def _check_gaps(t, topic: str, role: str, name: str, warnings: list, fail) -> None:
+    """Say a pause in a topic (no sample spans it: fit each side on its own), refuse a span of
+    days (:data:`MAX_BAG_SPAN_S`); state topics (armed, mode) publish on change and are exempt."""
+    if t.size < 2 or role in ("armed", "mode"):
+        return
+    span = float(t[-1] - t[0])
+    if span > MAX_BAG_SPAN_S:
+        d = np.diff(t)
+        i = int(np.argmax(d))
+        fail(f"{name}: {topic} ({role}) time stamps span {span / 86400:.3g} days, with a jump of "
+             f"{d[i]:.6g} s after t = {t[i]:.6g} s: a clock jump (an autopilot reboot stamping "
+             "time since boot, or a sender's clock set mid-bag), not a dive; record the dive "
+             "again or cut the bag at the jump")
+    d = np.diff(t)
+    step = d[d > 0]
+    if step.size < 10:
+        return
+    gap = max(BAG_GAP_S, 50.0 * float(np.median(step)))
+    big = np.flatnonzero(d > gap)
+    if big.size:
+        i = int(big[0])
+        warnings.append(f"{name}: {topic} ({role}) stops for {d[i]:.4g} s (from t = {t[i]:.6g} s)"
+                        + (f", and {big.size - 1} more gap(s) over {gap:.3g} s" if big.size > 1
+                           else "")
+                        + ": a recording pause or a dropped link; no sample spans it, so fit and "
+                        "replay each side on its own (--t-start/--t-end)")
+
+
 def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     """Read a bag (see the module doc); raises :class:`~uuvid.io.logs.LogDataError` naming the bag,
     the topic looked for, the bag's topics and the option to pass."""
@@ -448,6 +483,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         tt, vv, nd = _merge(t[ok], arr[ok], role in _STEP_ROLES)
         if nd:
             dups[f"{tp} ({role})"] = nd
+        _check_gaps(tt, tp, role, name, warnings, fail)
         return tt, vv
 
     def src(role, how):
@@ -462,6 +498,14 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         sources["yaw_rad"] = src("yaw", "as given (rad, NED), unwrapped")
     else:
         tq, q = series("attitude")
+        nq = np.linalg.norm(q, axis=1) if q.size else np.zeros(0)
+        bad = ~(np.abs(nq - 1.0) < 0.1)  # all zeros: an IMU not yet initialised, not a rotation
+        if bad.any():
+            k = np.flatnonzero(bad)
+            warnings.append(f"{name}: {k.size} {specs['attitude'][0]} quaternions are not "
+                            f"rotations (norm {nq[k[0]]:.3g}, first at t = {tq[k[0]]:.6g} s; an "
+                            "IMU not yet initialised publishes zeros): left out")
+            tq, q = tq[~bad], q[~bad]
         roll, pitch, yaw = enu_flu_to_ned_frd(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
         chans["roll_rad"], chans["pitch_rad"] = (tq, roll), (tq, pitch)
         chans["yaw_rad"] = (tq, np.unwrap(yaw))
@@ -563,6 +607,18 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         warnings.append(f"{name}: outputs {', '.join(map(str, extra))} carry PWM but drive no "
                         f"thruster of {veh.name} (lights, gripper, camera tilt?): ignored")
     pwm, dirs = {}, {}
+    # a message with fewer channels than an active output holds no sample of it (its NaN was read
+    # as 0 µs, no thrust: heave mass −25 % with nothing said): such messages are left out
+    short = np.zeros(tp_.size, bool)
+    for m in config.active:
+        short |= ~np.isfinite(P[:, m.output - 1])
+    if short.any() and not short.all():
+        k = int(np.flatnonzero(short)[0])
+        need = max(m.output for m in config.active)
+        warnings.append(f"{name}: {int(short.sum())} of {short.size} {specs['pwm'][0]} messages "
+                        f"hold fewer than the {need} channels the motors use (first at t = "
+                        f"{tp_[k]:.6g} s): those messages are left out, not read as 0 µs")
+        tp_, P = tp_[~short], P[~short]
     for m in config.active:
         col = P[:, m.output - 1]
         pwm[str(m.number)] = (tp_, np.where(np.isfinite(col), col, 0.0))

@@ -28,6 +28,7 @@ DIRECTION_SHARE = 0.1  # … and at least this × the vehicle's 1/(inertia + add
 DIRECTION_GAIN = 0.05  # … and mirroring its column must explain this much more of the motion
 DIRECTION_RATIO = 2.0  # one of a group driven together: mirrored, this × the share explained
 DIRECTION_MIN_S = 30.0  # armed, gap-free seconds the check needs
+DIRECTION_MAX_GRID = 4_000_000  # grid points (≥ 0.125 s apart: ≥ 5.8 days); beyond, no check
 DIRECTION_SURFACE_M = 0.3  # shallower than this the vehicle may be at the surface: left out
 
 
@@ -305,6 +306,8 @@ def _direction_dof(chans: dict, dof: str, pt, B, armed):
     h = sig / 4
     t0, t1 = max(tm[0], tp[0]), min(tm[-1], tp[-1])
     if t1 - t0 < DIRECTION_MIN_S + 8 * sig:
+        return None
+    if (t1 - t0) / h > DIRECTION_MAX_GRID:  # days between stamps: a clock problem the reader says
         return None
     grid = t0 + h * np.arange(int((t1 - t0) / h) + 1)
     m, g0, g1, g2 = _smoothing_kernels(sig, h)

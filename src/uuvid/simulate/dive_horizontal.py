@@ -123,6 +123,10 @@ def horizontal_inflow_of(veh) -> tuple[float, str]:
     return vals[key], src
 
 
+#: a window whose force (servo outputs) has a gap longer than this (s) is left out: what the
+#: controllers did across it is unknown (an 8 s dropout inside a 10 s heave window was
+#: interpolated and tripled the linear drag's σ)
+MAX_FORCE_GAP_S = 3.0
 #: samples of the measured channel a window needs (fewer cannot fix its initial state and rate)
 WINDOW_SAMPLES = 4
 
@@ -150,7 +154,7 @@ def check_horizon(dc, channels, horizon: float) -> None:
 def horizontal_windows(dc, horizon: float, t_start=None, t_end=None) -> tuple[list, list]:
     """Windows ``[(t0, t1)]`` of ``horizon`` s inside the armed intervals ∩ [t_start, t_end]
     where u, v and the heading have ≥ 4 samples each and X, Y, N no gap longer than
-    ``max(3 s, horizon)``; notes on what was left out."""
+    :data:`MAX_FORCE_GAP_S`; notes on what was left out."""
     ms = [dc.channels[c][0] for c in H_MEAS]
     fs = [dc.channels[c][0] for c in H_FORCES]
     check_horizon(dc, H_MEAS, horizon)
@@ -166,7 +170,7 @@ def horizontal_windows(dc, horizon: float, t_start=None, t_end=None) -> tuple[li
             for tf in fs:
                 fsel = (tf >= s - 1.0) & (tf <= e + 1.0)
                 if np.count_nonzero(fsel) < 2 or np.max(np.diff(np.concatenate(
-                        ([s], tf[fsel], [e])))) > max(3.0, horizon):
+                        ([s], tf[fsel], [e])))) > MAX_FORCE_GAP_S:
                     ok = False
             if ok:
                 out.append((s, e))
