@@ -548,3 +548,25 @@ def test_a_pause_in_a_bag_is_said_and_a_force_dropout_leaves_its_windows_out(div
 
     windows, _ = dive_windows(read_dive_channels(bag, "bluerov2"), "heave", 10.0)
     assert windows and not any(s < 108.0 and e > 100.0 for s, e in windows), windows
+
+
+def _conflicting_rc(every):
+    def dup(out, ts, hdr):
+        for m in _every("/mavros/rc/out", every)(out):
+            ch = np.asarray(m[2].channels, np.uint16).copy()
+            ch[4] = 1500 + (int(ch[4]) - 1500) // 2  # another value at the same header stamp
+            out.append([m[0] + 2_000_000, m[1], _msg(ts, "mavros_msgs/msg/RCOut",
+                                                      header=m[2].header, channels=ch)])
+    return dup
+
+
+@pytest.mark.slow
+def test_conflicting_samples_at_one_stamp_are_said_and_refused_when_many(dive, tmp_path):
+    """A second publisher re-stamping servo outputs: merged silently, heave mass −7 σ."""
+    bag = write_bag(tmp_path / "few.bag", 1, _short(dive), mutate=_conflicting_rc(50))
+    dc = read_dive_channels(bag, "bluerov2")
+    assert any(re.search(r"/mavros/rc/out \(pwm\): \d+ of \d+ samples share a time stamp with "
+                         r"another of different value .*: merged", w) for w in dc.warnings)
+    bag = write_bag(tmp_path / "many.bag", 1, _short(dive), mutate=_conflicting_rc(5))
+    with pytest.raises(DiveDataError, match=r"share a time stamp .* expected one value per stamp"):
+        read_dive_channels(bag, "bluerov2")
