@@ -570,3 +570,14 @@ def test_conflicting_samples_at_one_stamp_are_said_and_refused_when_many(dive, t
     bag = write_bag(tmp_path / "many.bag", 1, _short(dive), mutate=_conflicting_rc(5))
     with pytest.raises(DiveDataError, match=r"share a time stamp .* expected one value per stamp"):
         read_dive_channels(bag, "bluerov2")
+
+
+@pytest.mark.slow
+def test_log_commands_point_a_bag_to_the_commands_that_read_it(bag1, dive, tmp_path):
+    """`uuvid log inspect` said "unknown log type '.bag'" of a bag and "no such log file" of a ROS 2
+    bag folder; both name the commands that read a dive's bag."""
+    r2 = write_bag(tmp_path / "r2", 2, _short(dive))
+    for bag in (bag1, r2):
+        res = CliRunner().invoke(app, ["log", "inspect", str(bag)])
+        assert res.exit_code != 0 and "a ROS bag; `uuvid log` reads ArduSub logs" in res.output
+        assert "uuvid vehicle identify dive" in res.output

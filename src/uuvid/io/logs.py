@@ -1340,6 +1340,9 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
     p = Path(path)
     if not p.exists():
         raise LogDataError(f"{p}: no such log file")
+    from uuvid.io.ardusub.reader import not_a_bag
+
+    not_a_bag(p)
     if not p.is_file():
         raise LogDataError(f"{p}: not a file")
     suffix = p.suffix.lower()
