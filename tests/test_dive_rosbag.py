@@ -581,3 +581,27 @@ def test_log_commands_point_a_bag_to_the_commands_that_read_it(bag1, dive, tmp_p
         res = CliRunner().invoke(app, ["log", "inspect", str(bag)])
         assert res.exit_code != 0 and "a ROS bag; `uuvid log` reads ArduSub logs" in res.output
         assert "uuvid vehicle identify dive" in res.output
+
+
+def _imu_clock(offset_s):
+    def shift(out, ts, hdr):
+        for m in out:
+            if m[1] == "/mavros/imu/data":
+                m[2] = dataclasses.replace(m[2], header=hdr(m[0] - OFFSET + int(offset_s * 1e9)))
+    return shift
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("offset", [0.3, -0.5])
+def test_a_sender_clock_off_by_a_fraction_of_a_second_is_moved_onto_the_servo_clock(
+        dive, tmp_path, offset):
+    """The IMU's clock 0.3 s off the autopilot's: left in place under a 1 s threshold, it gave yaw
+    inertia −60 % with nothing said.  Moved by its median receive − stamp, the heading's times
+    equal those of the same bag with one clock."""
+    clean = read_dive_channels(write_bag(tmp_path / "c.bag", 1, _short(dive)), "bluerov2")
+    off = read_dive_channels(write_bag(tmp_path / "o.bag", 1, _short(dive),
+                                       mutate=_imu_clock(offset)), "bluerov2")
+    np.testing.assert_allclose(off.channels["yaw_rad"][0], clean.channels["yaw_rad"][0], atol=2e-3)
+    moved = re.escape(f"/mavros/imu/data: header.stamp, moved by {-offset:+.3f} s onto the clock of "
+                      "/mavros/rc/out")
+    assert any(re.search(moved, w) for w in off.warnings), off.warnings

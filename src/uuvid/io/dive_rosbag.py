@@ -349,6 +349,11 @@ class BagDive:
     t_end: float  # the last sample of any channel [s]
 
 
+#: a topic whose median (receive − header stamp) differs from the servo outputs' by more than
+#: this [ns] is stamped by another clock and moved onto theirs (a 0.3 s offset of the IMU's clock,
+#: left in place under the former 1 s threshold, gave yaw inertia −60 %); below it the
+#: difference is the recorder's latency, said in the time-stamp note
+CLOCK_SHIFT_NS = 100_000_000
 #: a topic pausing longer than this (s, and 50 × its median step) is said, like a table's gap
 BAG_GAP_S = 10.0
 #: a topic whose stamps span more than this (s) holds a clock jump, not a dive: refused (an
@@ -476,12 +481,15 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     for tp, (st, off, how) in clocks.items():
         shift = 0.0
         same_kind = (how == "header.stamp") == ref_hdr
-        if not same_kind or abs(off - ref_off) > 1e9:
+        if not same_kind or abs(off - ref_off) > CLOCK_SHIFT_NS:
             shift = off - ref_off
         t_ns[tp] = st + int(round(shift))
         stamp_note[tp] = how + (f", moved by {shift / 1e9:+.3f} s onto the clock of {ref_topic} "
                                 f"(median receive − stamp: {off / 1e9:.3f} s here, "
-                                f"{ref_off / 1e9:.3f} s there)" if shift else "")
+                                f"{ref_off / 1e9:.3f} s there)" if shift else
+                                f" (its receive − stamp differs from {ref_topic}'s by "
+                                f"{(off - ref_off) / 1e9:+.3f} s: left in place)"
+                                if abs(off - ref_off) > 0.01e9 else "")
     t0 = min(int(t.min()) for t in t_ns.values())
     warnings.append(f"{name}: time stamps: " + "; ".join(f"{tp}: {stamp_note[tp]}"
                                                         for tp in sorted(stamp_note))
