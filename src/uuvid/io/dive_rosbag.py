@@ -311,6 +311,26 @@ def _stamps(tp: _Topic) -> tuple[np.ndarray, np.ndarray, str]:
                         f"{h.size} messages)")
 
 
+def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
+    """Refuse a topic whose receive time − header stamp changes by more than a second within the
+    bag (2nd to 98th percentile: a few corrupt stamps are not a jump): one of the two clocks
+    jumped mid-bag — an autopilot reboot restarting its stamps, or the recording computer's clock
+    set back — and the two halves interleaved (heave mass ×17, blamed on the motors)."""
+    if how != "header.stamp" or st.size < 50:
+        return
+    d = (rc - st).astype(float) / 1e9
+    lo, hi = np.percentile(d, [2, 98])
+    if hi - lo <= 1.0:
+        return
+    k = np.flatnonzero(np.abs(np.diff(d)) > 1.0)
+    at = (f" (first after {(rc[k[0]] - rc[0]) / 1e9:.6g} s of the topic's recording)"
+          if k.size else "")
+    fail(f"{name}: {topic}: receive time − header stamp changes by {hi - lo:.4g} s within the bag"
+         f"{at}: a clock jumped mid-bag — the sender's (an autopilot reboot restarts its stamps) "
+         "or the recording computer's; the two sides cannot be put on one clock: cut the bag "
+         "where it jumps")
+
+
 def _merge(t: np.ndarray, v: np.ndarray, last: bool) -> tuple[np.ndarray, np.ndarray, int]:
     """Sorted by time; samples sharing a stamp merged (mean, or the last one)."""
     o = np.argsort(t, kind="stable")
@@ -388,6 +408,27 @@ def _check_conflicts(t, v, topic: str, role: str, name: str, warnings: list, fai
     if clash.size > MAX_CONFLICT_SHARE * ts.size:
         fail(what + "; expected one value per stamp — record each sensor on a topic of its own")
     warnings.append(what + ": merged (mean; the last for servo outputs and state)")
+
+
+#: a sample stamped more than this (s) outside the 0.5–99.5 % range of its topic's stamps, with
+#: at most 1 % of them so: a corrupt stamp, left out (not a clock jump, not a day-long "gap")
+FAR_STAMP_S = 3600.0
+
+
+def _far_stamps(t, topic: str, role: str, name: str, warnings: list) -> np.ndarray:
+    """Mask of the samples to keep: those not stamped hours outside the rest of their topic."""
+    keep = np.isfinite(t)
+    if t.size < 50 or role in ("armed", "mode"):
+        return keep
+    lo, hi = np.percentile(t[keep], [0.5, 99.5])
+    far = keep & ((t < lo - FAR_STAMP_S) | (t > hi + FAR_STAMP_S))
+    if far.any() and far.sum() <= 0.01 * t.size:
+        k = int(np.flatnonzero(far)[0])
+        warnings.append(f"{name}: {int(far.sum())} {topic} ({role}) sample(s) stamped far outside "
+                        f"the rest (first: t = {t[k]:.6g} s, the others within {lo:.6g}…{hi:.6g} "
+                        "s): corrupt stamps, left out")
+        return keep & ~far
+    return keep
 
 
 def _check_gaps(t, topic: str, role: str, name: str, warnings: list, fail) -> None:
@@ -473,6 +514,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     for tp in data.values():
         if tp.recv:
             st, rc, how = _stamps(tp)
+            _check_clock_jump(st, rc, how, tp.topic, name, fail)
             clocks[tp.topic] = (st, float(np.median(rc - st)), how)
     ref_topic = specs["pwm"][0]
     ref_off = clocks[ref_topic][1]
@@ -517,6 +559,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
             arr = np.asarray(vals, float)
         ok = np.isfinite(t) & (np.all(np.isfinite(arr.reshape(len(vals), -1)), axis=1)
                                if role != "pwm" else True)
+        ok = ok & _far_stamps(t, tp, role, name, warnings)
         if role != "mode":
             _check_conflicts(t[ok], arr[ok], tp, role, name, warnings, fail)
         tt, vv, nd = _merge(t[ok], arr[ok], role in _STEP_ROLES)
