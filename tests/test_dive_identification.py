@@ -347,3 +347,22 @@ def test_surging_while_turning_is_said_in_the_yaw_estimate():
         said[surge] = [w for w in est.warnings if w.startswith("the pilot surged in ")]
     assert not said[0.0]
     assert len(said[0.3]) == 1 and "--dof horizontal" in said[0.3][0]
+
+
+@pytest.mark.slow
+def test_a_long_dive_is_fitted_on_windows_spread_evenly_and_says_so(monkeypatch):
+    """The fit's Jacobian is samples × (4 + 2 per window): a 1-hour yaw dive took ≈ 3 GB.  Beyond
+    MAX_FIT_WINDOWS, that many windows spread over the dive are fitted, first and last kept."""
+    from uuvid.simulate import dive_horizontal
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    notes = []
+    w = [(float(i), float(i + 1)) for i in range(1000)]
+    kept = dive_horizontal.spread_windows(w, notes, "yaw")
+    assert len(kept) == dive_horizontal.MAX_FIT_WINDOWS and kept[0] == w[0] and kept[-1] == w[-1]
+    assert notes and notes[0].startswith("1000 usable yaw windows: 250 spread evenly")
+    assert dive_horizontal.spread_windows(w[:10], [], "yaw") == w[:10]
+    monkeypatch.setattr(dive_horizontal, "MAX_FIT_WINDOWS", 40)
+    df, _ = synthetic_dive(300.0, seed=2)
+    e = identify_dive(df, "bluerov2", ["yaw"]).estimates["yaw"]
+    assert e.windows == 40

@@ -127,6 +127,23 @@ def horizontal_inflow_of(veh) -> tuple[float, str]:
 #: controllers did across it is unknown (an 8 s dropout inside a 10 s heave window was
 #: interpolated and tripled the linear drag's σ)
 MAX_FORCE_GAP_S = 3.0
+#: most windows one fit takes: its Jacobian holds every sample × (parameters + 2 per window), so
+#: memory grows with the square of the windows (a 1-hour yaw dive: ≈ 3 GB; 250: ≈ 0.5 GB); a longer dive is
+#: fitted on this many windows spread evenly over it, and that is said
+MAX_FIT_WINDOWS = 250
+
+
+def spread_windows(windows: list, notes: list, what: str) -> list:
+    """At most :data:`MAX_FIT_WINDOWS` of ``windows``, evenly spread (first and last kept)."""
+    if len(windows) <= MAX_FIT_WINDOWS:
+        return windows
+    idx = np.unique(np.round(np.linspace(0, len(windows) - 1, MAX_FIT_WINDOWS)).astype(int))
+    notes.append(f"{len(windows)} usable {what} windows: {idx.size} spread evenly over the dive "
+                 "are fitted (the fit's memory grows with the square of the windows); "
+                 "--t-start/--t-end fit a part in full")
+    return [windows[i] for i in idx]
+
+
 #: samples of the measured channel a window needs (fewer cannot fix its initial state and rate)
 WINDOW_SAMPLES = 4
 

@@ -66,6 +66,7 @@ from uuvid.identify.vehicle.output_error import (
     weighting_text,
 )
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, pwm_flags, read_dive_channels
+from uuvid.simulate.dive_horizontal import spread_windows
 from uuvid.simulate.dive_replay import (
     _STATE_SPAN,
     CHANNEL_NAMES,
@@ -515,6 +516,7 @@ def _surge_in_yaw_windows(dc, veh, windows) -> str | None:
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
              weighting: bool = True, gain=None, inflow_starts=None):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
+    windows = spread_windows(windows, notes, dof)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
     if len(windows) < need:
         span = dc.span_text(t_start, t_end)

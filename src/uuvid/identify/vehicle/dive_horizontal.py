@@ -63,6 +63,7 @@ from uuvid.simulate.dive_horizontal import (
     replay_horizontal,
     require_horizontal,
     score_horizontal,
+    spread_windows,
 )
 from uuvid.vehicle.horizontal import HORIZONTAL_NAMES, HorizontalParams
 
@@ -312,6 +313,7 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
     from the state-variable-filter regression (``inflow_start`` where it has none)."""
     require_horizontal(dc)
     windows, notes = horizontal_windows(dc, horizon, t_start, t_end)
+    windows = spread_windows(windows, notes, "horizontal")
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS_HORIZONTAL / horizon - 1e-9))
     if len(windows) < need:
         span = dc.span_text(t_start, t_end)
