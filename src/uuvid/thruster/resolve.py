@@ -122,6 +122,12 @@ def supply_voltage_warnings(ref, chain, supply_voltage: float, rel_tol: float = 
     if lo * (1 - rel_tol) <= v <= hi * (1 + rel_tol):
         return []
     span = f"{lo:g} V" if lo == hi else f"{lo:g}–{hi:g} V"
+    if not is_preset(ref):  # a file records its ESC's voltage, not the voltages of its data
+        return [f"supply voltage {v:g} V differs from the {span} this model file's ESC is set "
+                "for (the file does not record the voltages it was fitted at): the thrust follows "
+                "the model's voltage law (V = duty × supply), backed by measurements only if it "
+                "was fitted at that voltage too (e.g. both T200 sheets); check the value (a 4S "
+                "battery is 12–16.8 V)"]
     return [f"supply voltage {v:g} V is outside the data's {span} ({what}): the thrust is "
             "extrapolated by the model's voltage law and is not backed by measurements; check the "
             "value (a 4S battery is 12–16.8 V) or fit the model on data at that voltage"]
