@@ -393,7 +393,28 @@ def _t200_sheet_section(rep: Report) -> dict:
                       "(uuvid.identify.thruster.t200_preset); "
                       "the chain every fixed-supply BlueROV2 mission flies.")
     rep.add_table(rows)
-    return {"rows": rows, "max_abs_error_pct_of_max": max(abs(r["error_pct_of_max"]) for r in rows)}
+    # a file is one supply voltage: exported at 16 V and flown at 12 V it follows V = duty ×
+    # supply, not the sheets (uuvid thruster export t200 --supply-voltage 12)
+    import numpy as np
+
+    from uuvid.thruster.presets import preset_chain
+    from uuvid.thruster.resolve import at_supply, export_supply
+
+    full = np.array([1100.0, 1900.0])
+    f16, said = export_supply("t200", preset_chain("t200"))
+    f12, _ = export_supply("t200", preset_chain("t200"), 12.0)
+    export = [{"at 12 V": name, "full reverse [N]": round(float(f[0]), 2),
+               "full forward [N]": round(float(f[1]), 2)}
+              for name, f in (("the preset (its sheet law)", preset_chain("t200", 12.0).steady_thrust(full)),
+                              ("file exported at 16 V", at_supply(f16, 12.0).steady_thrust(full)),
+                              ("file exported with --supply-voltage 12", f12.steady_thrust(full)))]
+    rep.add_paragraph("A model file holds one supply voltage. Exported at 16 V and run at 12 V it "
+                      "follows V = duty × supply, not the sheets; `uuvid thruster export t200 "
+                      "--supply-voltage 12` writes the preset at 12 V by its own law. "
+                      + (said[-1].removeprefix("warning: ") if said else ""))
+    rep.add_table(export)
+    return {"rows": rows, "max_abs_error_pct_of_max": max(abs(r["error_pct_of_max"]) for r in rows),
+            "export_at_12V": export}
 
 
 def _log_identify_section(out: Path, rep: Report) -> dict:
