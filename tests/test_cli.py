@@ -140,6 +140,11 @@ def test_a_preset_exported_at_a_supply_voltage_follows_its_own_voltage_law(tmp_p
     np.testing.assert_allclose(load_chain(p12).steady_thrust(full), own12, rtol=1e-12)
     res = runner.invoke(app, ["thruster", "export", "auv2-tunnel-thruster", "--supply-voltage", "12"])
     assert res.exit_code == 2 and "no ESC block" in res.output
+    for extra in ([], ["--supply-voltage", "12"]):  # a KeyError traceback once
+        res = runner.invoke(app, ["thruster", "export", "t200-physical", *extra])
+        assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["thruster", "export", "t200-physical", "--to", "uuv-simulator"])
+    assert res.exit_code == 2 and "has no UUV Simulator dynamics model" in res.output
 
 
 def test_error_keeps_bracketed_column_names(tmp_path):

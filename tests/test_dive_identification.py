@@ -214,11 +214,20 @@ def test_truth_within_3_sigma_at_telemetry_rates_over_seeds(seed):
     assert any("logged every" in w for w in res.estimates["yaw"].warnings)
 
 
+def test_a_horizon_of_three_steps_holds_four_samples_and_is_not_refused():
+    """The floor is 3 median steps (4 samples span 3 steps): a heading thinned to ≈ 1 Hz with
+    jitter fitted with the default 4 s yaw horizon before the floor was added, and still does."""
+    from uuvid.simulate.dive_synth import synthetic_dive
+
+    df, _ = synthetic_dive(300.0, seed=3, rates={"yaw": 0.95})
+    identify_dive(df, "bluerov2", ["yaw"])  # median step ≈ 1.05 s: 4 s ≥ 3.2 s
+
+
 @pytest.mark.parametrize("h", [0.001, 0.1])
 def test_a_horizon_shorter_than_four_samples_is_refused_before_any_window(h):
     """``--horizon 1e-9`` cut a 5-minute dive into 3·10¹¹ windows and ran without end (0.001 s:
     3·10⁵ windows, every one left out, then "window too short"): a window must hold four samples
-    of the measured channel, and the refusal says the floor (yaw at 20 Hz: 0.2 s)."""
+    of the measured channel, and the refusal says the floor (yaw at 20 Hz: 3 steps, 0.15 s)."""
     from uuvid.simulate.dive_replay import replay_dive
     from uuvid.simulate.dive_synth import synthetic_dive
 

@@ -331,10 +331,33 @@ def test_a_battery_hold_refuses_thrusters_its_power_model_does_not_describe():
     from uuvid.vehicle.definition import vehicle_from_dict
 
     v = vehicle_from_dict(_preset_with("laidani-a2212"), "a2212.yaml")
-    with pytest.raises(ValueError, match=r"thruster power model t200-physical \(a T200\), and "
-                                         r"thrusters T1_front_right, .* \(laidani-a2212\) are not "
-                                         r"T200s.*--voltage V"):
+    with pytest.raises(ValueError, match=r"thruster power model t200-physical \(the T200 "
+                                         r"preset's\), and thrusters T1_front_right, .* "
+                                         r"\(laidani-a2212\) have another model.*--voltage V"):
         hold_on_battery(v, [0.2, 0.0, 0.0], 0.5)
+
+
+def test_a_t200_model_file_is_the_t200_and_a_model_without_esc_keeps_its_file_limits(tmp_path):
+    """A file `thruster export t200` wrote is the T200 the power model describes (it was refused
+    by name); a thruster without an ESC (ROMEO's c_V V|V|) keeps the vehicle file's limits at a
+    supply voltage, said — it was given the T200's, silently."""
+    import numpy as np
+
+    from uuvid.analysis.hold import hold_on_battery
+    from uuvid.thruster.modelfile import save_chain
+    from uuvid.thruster.presets import preset_chain
+    from uuvid.vehicle.definition import vehicle_from_dict
+    from uuvid.vehicle.power import SupplyVoltageWarning
+
+    save_chain(preset_chain("t200"), tmp_path / "t200_file.yaml")
+    raw = _preset_with(str(tmp_path / "t200_file.yaml"))
+    v = vehicle_from_dict(raw, "t200file.yaml")
+    np.testing.assert_array_equal(limits_at(v, 14.0), limits_at(load_vehicle("bluerov2-heavy"), 14.0))
+    hold_on_battery(v, [0.1, 0.0, 0.0], 0.8)  # not refused
+    romeo = load_vehicle("romeo")
+    with pytest.warns(SupplyVoltageWarning, match=r"their models have no ESC.*the vehicle file's "
+                                                  r"limits are used at 14 V"):
+        np.testing.assert_array_equal(limits_at(romeo, 14.0), np.asarray(romeo.layout.limits))
 
 
 def test_an_unknown_battery_power_model_is_refused_when_the_file_is_read():

@@ -702,21 +702,12 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
     ``V = OCV − R I`` → limits(V) → allocation).  Held when the allocation delivers τ_req within
     the limits at V, V stays above the battery's minimum and I below its maximum current."""
     from uuvid.thruster.physical import physical_model
-    from uuvid.vehicle.power import SupplyThruster, _own_models, limits_at
+    from uuvid.vehicle.power import SupplyThruster, check_battery_models, limits_at
 
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
-    own = _own_models(vehicle)
-    if own:
-        by = {}
-        for i, (ref, _) in own.items():
-            by.setdefault(str(ref), []).append(vehicle.layout.thrusters[i].name)
-        names = "; ".join(f"{', '.join(n)} ({ref})" for ref, n in by.items())
-        raise ValueError(f"{vehicle.name}: the battery's currents come from its thruster power model "
-                         f"{bat.thruster_power_model} (a T200), and thrusters {names} are not "
-                         "T200s: their current draw is not modelled; hold at a fixed supply "
-                         "voltage instead (--voltage V), which takes each thruster's own model")
+    check_battery_models(vehicle, bat)
     st = SupplyThruster(physical_model(bat.thruster_power_model))
     v = bat.ocv(soc)
     ok, roll, pitch, r, i = False, 0.0, 0.0, None, 0.0

@@ -73,6 +73,13 @@ def vehicle_hold(
         _fail(f"--battery: state of charge must be within 0..1, got {battery}")
     if battery is not None and v.battery is None:
         _fail(f"{v.name} has no battery block in its vehicle file; use --voltage")
+    if battery is not None:
+        from uuvid.vehicle.power import check_battery_models
+
+        try:
+            check_battery_models(v)
+        except ValueError as e:
+            _fail(str(e))
     try:
         sim = tuple(float(x) for x in simulate.split(",") if x.strip())
     except ValueError:

@@ -453,10 +453,11 @@ def time_step_warnings(t, unit: str = "s") -> list[str]:
     if d.size < 2 or float(np.median(d)) <= MAX_LOG_STEP_S:
         return []
     step, span = float(np.median(d)), float(d.sum())
+    fix = ("is the time column in ms (--time-unit ms) or µs (us)?" if unit == "s" else
+           f"is the time column in a smaller unit than {unit} (--time-unit)?")
     return [f"samples {step:.4g} s apart (median) over {span / 3600:.3g} h, with time read in "
             f"{unit}: a vehicle log samples its motion several times a second, and every "
-            f"velocity, drag and inertia follows the time unit — is the time column in ms "
-            f"(--time-unit ms) or µs (us)?"]
+            f"velocity, drag and inertia follows the time unit — {fix}"]
 
 
 def fit_quality_warnings(nrmse, dof: str, limit: float = 0.5) -> list[str]:

@@ -147,9 +147,8 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
         k_exp = _inverse_inertia(veh, dof)
         exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
 
-        def mates(i, skip=(), w=w):
-            return ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i]
-                             if j != i and j not in skip)
+        def mates(i, w=w):
+            return ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
 
         flagged = [(i, c, s) for i, c, s in w["members"]
                    if c < 0 and -c >= DIRECTION_Z * s

@@ -160,7 +160,7 @@ def check_horizon(dc, channels, horizon: float) -> None:
         d = d[d > 0]
         if not d.size:
             continue
-        floor = WINDOW_SAMPLES * float(np.median(d))
+        floor = (WINDOW_SAMPLES - 1) * float(np.median(d))  # 4 samples span 3 steps
         if not horizon >= floor:
             raise DiveDataError(
                 f"{dc.name}: --horizon {horizon:g} s is shorter than {WINDOW_SAMPLES} samples of "
@@ -183,7 +183,7 @@ def horizontal_windows(dc, horizon: float, t_start=None, t_end=None) -> tuple[li
         s = a
         while s + horizon <= b + 1e-9:
             e = s + horizon
-            ok = all(np.count_nonzero((t >= s) & (t <= e)) >= 4 for t in ms)
+            ok = all(np.count_nonzero((t >= s) & (t <= e)) >= WINDOW_SAMPLES for t in ms)
             for tf in fs:
                 fsel = (tf >= s - 1.0) & (tf <= e + 1.0)
                 if np.count_nonzero(fsel) < 2 or np.max(np.diff(np.concatenate(

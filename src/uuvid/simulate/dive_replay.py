@@ -36,6 +36,7 @@ from uuvid.simulate.dive_horizontal import (
     H_FORCES,
     H_MEAS,
     MAX_FORCE_GAP_S,
+    WINDOW_SAMPLES,
     check_horizon,
     horizontal_from_vehicle,
     horizontal_inflow_of,
@@ -116,7 +117,7 @@ def dive_windows(dc, dof: str, horizon: float, t_start=None, t_end=None) -> tupl
             e = s + horizon
             sel = (tm >= s) & (tm <= e)
             fsel = (tf >= s - 1.0) & (tf <= e + 1.0)
-            if np.count_nonzero(sel) < 4 or np.count_nonzero(fsel) < 2 \
+            if np.count_nonzero(sel) < WINDOW_SAMPLES or np.count_nonzero(fsel) < 2 \
                     or np.max(np.diff(np.concatenate(([s], tf[fsel], [e])))) > MAX_FORCE_GAP_S:
                 sparse += 1
             elif dof == "heave" and np.min(ym[sel]) < SURFACE_M:

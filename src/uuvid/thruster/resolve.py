@@ -205,8 +205,10 @@ def export_supply(ref, chain, supply_voltage: float | None = None) -> tuple:
     lines = [f"supply voltage: exported at {v0:g} V"
              + (" (--supply-voltage)" if supply_voltage is not None
                 else f" (the {'preset' if is_preset(ref) else 'model'}'s own; set --supply-voltage)")]
+    from uuvid.thruster.presets import PRESETS
+
     rng = supply_data_range(ref)
-    if rng is not None and rng[0] != rng[1]:
+    if rng is not None and rng[0] != rng[1] and str(ref) in PRESETS:
         other = rng[0] if abs(v0 - rng[0]) > abs(v0 - rng[1]) else rng[1]
         from uuvid.thruster.blocks import ESC
 
@@ -220,3 +222,17 @@ def export_supply(ref, chain, supply_voltage: float | None = None) -> tuple:
                      f"its full-command thrust is {100 * off:.0f} % off the preset's; export one "
                      "file per supply voltage (--supply-voltage)")
     return chain, lines
+
+
+def full_command_thrust(chain) -> tuple[float, float] | None:
+    """(min, max) steady thrust of ``chain`` at its ESC's full reverse and forward commands
+    (``saturation_low``/``high``), or ``None`` without an ESC or a finite command range."""
+    import numpy as np
+
+    from uuvid.thruster.blocks import ESC
+
+    esc = next((b for b in chain.blocks if isinstance(b, ESC)), None)
+    if esc is None or not (np.isfinite(esc.saturation_low) and np.isfinite(esc.saturation_high)):
+        return None
+    f = chain.steady_thrust(np.array([esc.saturation_low, esc.saturation_high]))
+    return float(np.min(f)), float(np.max(f))

@@ -710,6 +710,10 @@ class StudyBase:
         while not p.exists() and p != p.parent:
             p = p.parent
         free = shutil.disk_usage(p).free
+        o = Path(out)  # a rerun into the same folder: its old results are removed first
+        old = [o / "results.csv", o / "series.npz", *(o / "parts").glob("chunk-*")] \
+            if o.is_dir() else []
+        free += sum(f.stat().st_size for f in old if f.is_file())
         if need > free:
             per = need / max(float(self.n_runs), 1.0)
             raise OSError(

@@ -394,39 +394,34 @@ LIMIT_SLACK = 0.02
 
 def _limit_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]:
     """One sentence per thruster model whose steady thrust at full command (its ESC at its own
-    supply voltage) falls short of the file's ``limits`` by more than :data:`LIMIT_SLACK`: the
-    allocation, envelopes and hold take the limits while a simulation flies the model, which
-    saturates below them (a 12 V fit kept the 16 V limits, and the envelope "confirmed" a 16 V
-    speed).  A chain without a closed-form steady state is simulated to rest at its two full
-    commands (≈ 20 ms; the steady map is cached on disk)."""
-    from uuvid.thruster.blocks import ESC
-    from uuvid.thruster.resolve import resolve_chain, supply_voltage_of
+    supply voltage, :func:`uuvid.thruster.resolve.full_command_thrust`) falls short of the file's
+    ``limits`` by more than :data:`LIMIT_SLACK`: the allocation, envelopes and hold take the
+    limits while a simulation flies the model, which saturates below them (a 12 V fit kept the
+    16 V limits, and the envelope "confirmed" a 16 V speed).  A chain without a closed-form steady
+    state is simulated to rest at its two full commands (≈ 20 ms; cached on disk)."""
+    from uuvid.thruster.resolve import full_command_thrust, resolve_chain, supply_voltage_of
 
     base = vehicle.path.parent if vehicle.path is not None else (base_dir or Path.cwd())
     lim = np.asarray(vehicle.layout.limits, float)
+    reach: dict = {}
     short: dict = {}
     for i, t in enumerate(vehicle.layout.thrusters):
         if not t.model:
             continue
-        try:
-            chain = resolve_chain(t.model, base)
-            esc = next((b for b in chain.blocks if isinstance(b, ESC)), None)
-            if esc is None:
-                continue
-            lo, hi = esc.saturation_low, esc.saturation_high
-            if not (np.isfinite(lo) and np.isfinite(hi)):
-                continue
-            f = chain.steady_thrust(np.array([lo, hi]))  # a chain's thrust is monotone in it
-        except Exception:  # noqa: BLE001 - a model that does not resolve is said elsewhere
+        if t.model not in reach:
+            try:
+                chain = resolve_chain(t.model, base)
+                reach[t.model] = (full_command_thrust(chain), supply_voltage_of(chain))
+            except Exception:  # noqa: BLE001 - a model that does not resolve is said elsewhere
+                reach[t.model] = (None, None)
+        (fr, volts) = reach[t.model]
+        if fr is None:
             continue
-        fmin, fmax = float(np.min(f)), float(np.max(f))
-        over_hi = lim[i, 1] > fmax * (1 + LIMIT_SLACK) + 0.05
-        over_lo = lim[i, 0] < fmin * (1 + LIMIT_SLACK) - 0.05
-        if over_hi or over_lo:
-            key = (str(t.model), tuple(lim[i]))
-            short.setdefault(key, [t.name, fmin, fmax, supply_voltage_of(chain), []])[4].append(t.name)
+        fmin, fmax = fr
+        if lim[i, 1] > fmax * (1 + LIMIT_SLACK) + 0.05 or lim[i, 0] < fmin * (1 + LIMIT_SLACK) - 0.05:
+            short.setdefault((str(t.model), tuple(lim[i])), (fmin, fmax, volts, []))[3].append(t.name)
     out = []
-    for (ref, (lo, hi)), (_, fmin, fmax, volts, names) in short.items():
+    for (ref, (lo, hi)), (fmin, fmax, volts, names) in short.items():
         at = f" (its ESC at {volts:g} V)" if volts else ""
         out.append(f"thrusters {', '.join(names)}: limits [{lo:g}, {hi:g}] N exceed what their "
                    f"model {ref!r} gives at full command{at}, [{fmin:.4g}, {fmax:.4g}] N: the "

@@ -16,6 +16,7 @@ resistance R, capacity Q (Ah): ``V = OCV(SOC) − R I``, ``dSOC/dt = −I / (360
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -176,8 +177,18 @@ def limits_at(vehicle, voltage: float) -> np.ndarray:
     if len(own) < len(vehicle.layout):
         _warn_voltage(name, voltage)
         out[:] = SupplyThruster(physical_model(name)).limits(voltage)
+    fixed = []
     for i, (ref, chain) in own.items():
-        out[i] = _chain_limits(vehicle, i, ref, chain, voltage)
+        lim = _chain_limits(ref, chain, voltage)
+        if lim is None:  # no ESC: its thrust does not follow the supply; the file's limits hold
+            out[i] = np.asarray(vehicle.layout.limits, float)[i]
+            fixed.append(f"{vehicle.layout.thrusters[i].name} ({ref})")
+        else:
+            out[i] = lim
+    if fixed:
+        warnings.warn(f"{vehicle.name}: thrusters {', '.join(fixed)}: their models have no ESC, "
+                      f"so their thrust does not follow the supply voltage: the vehicle file's "
+                      f"limits are used at {voltage:g} V", SupplyVoltageWarning, stacklevel=2)
     return out
 
 
@@ -188,36 +199,60 @@ T200_MODELS = ("t200", "t200-physical")
 
 
 def _own_models(vehicle) -> dict:
-    """``{index: (model, chain)}`` of the thrusters whose ``model`` is not a T200
-    (:data:`T200_MODELS`): the T200 power model does not give their thrust at a supply voltage —
-    their own chain does (a vehicle of eight 12 N thrusters was given the T200's 50 N limits)."""
+    """``{index: (model, chain)}`` of the thrusters whose ``model`` is not the T200 preset the
+    battery's power model describes (:data:`T200_MODELS`): the power model does not give their
+    thrust at a supply voltage — their own chain does (a vehicle of eight 12 N thrusters was given
+    the T200's 50 N limits)."""
     from uuvid.thruster.resolve import resolve_chain
 
     base = vehicle.path.parent if getattr(vehicle, "path", None) is not None else None
-    out = {}
+    out, chains = {}, {}
     for i, t in enumerate(vehicle.layout.thrusters):
         if t.model and str(t.model) not in T200_MODELS:
-            out[i] = (t.model, resolve_chain(t.model, base))
+            if t.model not in chains:
+                chains[t.model] = resolve_chain(t.model, base)
+            if not _is_t200(chains[t.model]):
+                out[i] = (t.model, chains[t.model])
     return out
 
 
-def _chain_limits(vehicle, i: int, ref, chain, voltage: float) -> tuple[float, float]:
-    """(reverse, forward) steady thrust of thruster ``i``'s own chain at ``voltage``: its ESC at
-    that supply (:func:`uuvid.thruster.resolve.supply_law`), over its full command range."""
-    from uuvid.thruster.blocks import ESC
-    from uuvid.thruster.resolve import supply_law
+def _is_t200(chain) -> bool:
+    """The T200 preset's chain at its ESC's supply (a file `thruster export t200` wrote)."""
+    from uuvid.thruster.presets import preset_chain
+    from uuvid.thruster.resolve import supply_voltage_of
 
-    name = vehicle.layout.thrusters[i].name
+    v = supply_voltage_of(chain)
+    if v is None:
+        return False
+    try:
+        return chain.blocks == preset_chain("t200", v).blocks
+    except (KeyError, ValueError):
+        return False
+
+
+def check_battery_models(vehicle, battery=None) -> None:
+    """``ValueError`` when the battery's currents cannot be computed for every thruster: the power
+    model (a T200) gives a thruster's current draw, so a thruster whose model is not that preset
+    is refused — said before any hold is flown, not after the first heading."""
+    bat = battery if battery is not None else vehicle.battery
+    own = _own_models(vehicle)
+    if not own:
+        return
+    by: dict = {}
+    for i, (ref, _) in own.items():
+        by.setdefault(str(ref), []).append(vehicle.layout.thrusters[i].name)
+    names = "; ".join(f"{', '.join(n)} ({ref})" for ref, n in by.items())
+    raise ValueError(f"{vehicle.name}: the battery's currents come from its thruster power model "
+                     f"{bat.thruster_power_model} (the T200 preset's), and thrusters {names} have "
+                     "another model, whose current draw is not modelled; hold at a fixed supply "
+                     "voltage instead (--voltage V), which takes each thruster's own model")
+
+
+def _chain_limits(ref, chain, voltage: float) -> tuple[float, float] | None:
+    """(reverse, forward) steady thrust of a thruster's own chain at ``voltage``: its ESC at that
+    supply (:func:`uuvid.thruster.resolve.supply_law`) at full command
+    (:func:`uuvid.thruster.resolve.full_command_thrust`); ``None`` without an ESC."""
+    from uuvid.thruster.resolve import full_command_thrust, supply_law
+
     law = supply_law(ref, chain, quiet=True)
-    if law is None:
-        raise ValueError(f"thruster {name}: model {ref!r} has no ESC block, so its thrust does "
-                         f"not follow the supply voltage; leave out the supply voltage (the "
-                         "vehicle file's limits are used) or give the thruster a model with an ESC")
-    at_v = law[0](voltage)
-    esc = next(b for b in at_v.blocks if isinstance(b, ESC))
-    lo, hi = esc.saturation_low, esc.saturation_high
-    if not (np.isfinite(lo) and np.isfinite(hi)):
-        raise ValueError(f"thruster {name}: model {ref!r}'s ESC has no full-command range "
-                         "(saturation_low/high), so its limits at a supply voltage are unknown")
-    f = at_v.steady_thrust(np.array([lo, hi]))  # at full command, as SupplyThruster.limits
-    return float(np.min(f)), float(np.max(f))
+    return None if law is None else full_command_thrust(law[0](voltage))

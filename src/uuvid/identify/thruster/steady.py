@@ -734,8 +734,9 @@ TABLE_MISS = 0.05
 def _table_warnings(xi, yi, c, t, resid, unit: str) -> list[str]:
     """Sentences (warnings) for a table that cannot be what the data say: it reaches only one
     direction (beyond its commands it holds its end values: every reverse command gave 0 N), or
-    its knots miss the data by more than :data:`TABLE_MISS` of the largest thrust (2 knots gave
-    5.8 N at neutral, where the sheet has its dead band)."""
+    its knots (fewer than the commands) miss the mean thrust ``t`` at a command ``c`` by more than
+    :data:`TABLE_MISS` of the largest thrust (2 knots gave 5.8 N at neutral, where the sheet has
+    its dead band); ``resid``: those misses (empty when every command is a knot)."""
     out = []
     unit = {"pwm_us": "µs", "": ""}.get(unit, unit)
     unit = f" {unit}" if unit else ""
@@ -801,7 +802,9 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     xi, yi = uc[idx], vals[idx]
     block = TableMap(input_values=tuple(xi), output_values=tuple(yi))
     resid = t - np.interp(c, xi, yi)
-    notes += _table_warnings(xi, yi, c, t, resid, data.command_unit or "")
+    # the knots against the table of every command (its means): the scatter of repeats is no miss
+    miss = vals - np.interp(uc, xi, yi) if idx.size < uc.size else np.zeros(0)
+    notes += _table_warnings(xi, yi, uc, vals, miss, data.command_unit or "")
     params = tuple(Parameter(f"T({x:g})", float(y), float(s), "N")
                    for x, y, s in zip(xi, yi, se[idx]))
     cov = np.diag(se[idx] ** 2)
