@@ -669,12 +669,16 @@ class StudyBase:
         """Single-core seconds the whole study needs, roughly (for the backend choice)."""
         return self.n_runs * run_cost_s(self.spec.target)
 
+    def _run_values(self) -> tuple[int, int]:
+        """(series values, row values) of one run's results: its curves; its parameters,
+        metrics and status."""
+        series = sum(int(np.size(ax)) for ax in series_axes(self.plan).values())
+        return series, len(self.parameter_names()) + len(self.plan.metric_names) + 4
+
     def run_bytes(self) -> int:
-        """Memory one run's results hold until the study ends: its row (parameters, metrics,
-        status) and series, × :data:`BYTES_PER_RUN_VALUE`."""
-        values = sum(int(np.size(ax)) for ax in series_axes(self.plan).values())
-        values += len(self.parameter_names()) + len(self.plan.metric_names) + 4
-        return values * BYTES_PER_RUN_VALUE
+        """Memory one run's results hold until the study ends: its row and series, ×
+        :data:`BYTES_PER_RUN_VALUE`."""
+        return sum(self._run_values()) * BYTES_PER_RUN_VALUE
 
     def check_memory(self) -> None:
         """``ValueError`` before any run when the study's results would not fit in
@@ -696,8 +700,7 @@ class StudyBase:
         (≈ :data:`CSV_BYTES_PER_VALUE` a value) and its series as float64, twice — the chunk
         parts and the consolidated ``results.csv``/``series.npz`` coexist until the parts are
         removed at the end."""
-        series = sum(int(np.size(ax)) for ax in series_axes(self.plan).values())
-        row = len(self.parameter_names()) + len(self.plan.metric_names) + 4
+        series, row = self._run_values()
         return 2.0 * float(self.n_runs) * (series * 8 + row * CSV_BYTES_PER_VALUE)
 
     def check_disk(self, out) -> None:
