@@ -68,6 +68,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.io.bag_path import is_bag  # noqa: F401  (re-exported)
 from uuvid.io.logs import LogDataError
 
 __all__ = ["DEFAULT_TOPICS", "ROLES", "BagDive", "read_bag_dive", "enu_flu_to_ned_frd",
@@ -110,15 +111,6 @@ MAVROS_MSGS = {
                              "bool manual_input\nstring mode\nuint8 system_status\n",
 }
 _STEP_ROLES = ("pwm", "attitude", "armed", "mode")  # duplicated stamps: keep the last sample
-
-
-def is_bag(path) -> bool:
-    """A ROS 1 ``.bag`` file, a ROS 2 bag directory or a file inside one."""
-    from pathlib import Path
-
-    p = Path(path)
-    return (p.suffix == ".bag" and p.is_file()) or (p.is_dir() and (p / "metadata.yaml").exists()) \
-        or (p.is_file() and p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").exists())
 
 
 def parse_topic_options(items) -> dict:

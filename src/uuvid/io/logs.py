@@ -1340,9 +1340,10 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
     p = Path(path)
     if not p.exists():
         raise LogDataError(f"{p}: no such log file")
-    from uuvid.io.ardusub.reader import not_a_bag
+    from uuvid.io.bag_path import bag_instead
 
-    not_a_bag(p)
+    if bag_instead(p):
+        raise LogDataError(bag_instead(p))
     if not p.is_file():
         raise LogDataError(f"{p}: not a file")
     suffix = p.suffix.lower()

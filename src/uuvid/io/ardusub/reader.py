@@ -131,17 +131,6 @@ def _log_kind(p: Path) -> str:
                        "telemetry), .bin or .log (ArduSub dataflash)")
 
 
-def not_a_bag(p: Path) -> None:
-    """``LogDataError`` pointing a ROS bag (a .bag file, or a ROS 2 bag folder) to the commands
-    that read one: `uuvid log` reads ArduSub logs, and said "no such log file" of a bag folder."""
-    from uuvid.io.dive_rosbag import is_bag
-
-    if p.exists() and is_bag(p):
-        raise LogDataError(f"{p}: a ROS bag; `uuvid log` reads ArduSub logs (.tlog, .bin, .log) — "
-                           "a bag of a dive is read by `uuvid vehicle identify dive` and "
-                           "`uuvid vehicle replay` (--vehicle, --topic)")
-
-
 def _numeric_fields(m) -> dict:
     out = {}
     for f in m.get_fieldnames():
@@ -159,7 +148,10 @@ def read_raw(path) -> RawLog:
     a telemetry log named .BIN) are collected and said once, as a warning of the log."""
     mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
     p = Path(path)
-    not_a_bag(p)
+    from uuvid.io.bag_path import bag_instead
+
+    if bag_instead(p):
+        raise LogDataError(bag_instead(p))
     if not p.is_file():
         raise LogDataError(f"{p}: no such log file")
     kind = _log_kind(p)
