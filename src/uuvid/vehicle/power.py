@@ -205,6 +205,9 @@ def _own_models(vehicle) -> dict:
     the T200's 50 N limits)."""
     from uuvid.thruster.resolve import resolve_chain
 
+    memo = getattr(vehicle, "__dict__", {}).get("_own_models")
+    if memo is not None:  # limits_at runs inside the battery fixed point, per heading: once
+        return memo
     base = vehicle.path.parent if getattr(vehicle, "path", None) is not None else None
     out, chains = {}, {}
     for i, t in enumerate(vehicle.layout.thrusters):
@@ -213,6 +216,8 @@ def _own_models(vehicle) -> dict:
                 chains[t.model] = resolve_chain(t.model, base)
             if not _is_t200(chains[t.model]):
                 out[i] = (t.model, chains[t.model])
+    if hasattr(vehicle, "__dict__"):
+        vehicle.__dict__["_own_models"] = out  # the vehicle is frozen: its thrusters too
     return out
 
 
