@@ -89,6 +89,17 @@ def test_heading_from_a_mavros_quaternion():
 
 
 # ------------------------------------------------------------------------------ writing bags
+def _qos():
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    zero = QosTime(0, 0)
+    return Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE, zero, zero,
+               QosLiveliness.AUTOMATIC, zero, False)
+
+
+_QOS = _qos()
+
+
 def _store(ros):
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -231,11 +242,22 @@ def write_bag(path, ros, df, *, omit=(), depth_topic=None, storage="sqlite3", pr
     if mutate is not None:
         mutate(out, ts, hdr)
     out.sort(key=lambda m: m[0])
+    # a "topic#node" entry is a second publisher on the topic: its own connection (callerid) in
+    # ROS 1; in ROS 2 the same connection, whose metadata then lists two publishers
+    second = {m[1].partition("#")[0]: m[1].partition("#")[2] for m in out if "#" in m[1]}
     with writer as w:
-        conns = {tp: w.add_connection(tp, mt, typestore=ts) for tp, mt in types.items()
-                 if short.get(tp) not in omit}
+        if ros == 1:
+            conns = {tp: w.add_connection(tp, mt, typestore=ts, callerid="/mavros")
+                     for tp, mt in types.items() if short.get(tp) not in omit}
+            conns.update({f"{tp}#{node}": w.add_connection(tp, types[tp], typestore=ts, callerid=node)
+                          for tp, node in second.items()})
+        else:
+            conns = {tp: w.add_connection(tp, mt, typestore=ts,
+                                          offered_qos_profiles=[_QOS] * (2 if tp in second else 1))
+                     for tp, mt in types.items() if short.get(tp) not in omit}
+            conns.update({f"{tp}#{node}": conns[tp] for tp, node in second.items()})
         for recv, tp, m in out:
-            w.write(conns[tp], recv, ser(m, types[tp]))
+            w.write(conns[tp], recv, ser(m, types[tp.partition("#")[0]]))
     return path
 
 
@@ -624,3 +646,58 @@ def test_a_sender_clock_off_by_a_fraction_of_a_second_is_moved_onto_the_servo_cl
     moved = re.escape(f"/mavros/imu/data: header.stamp, moved by {-offset:+.3f} s onto the clock of "
                       "/mavros/rc/out")
     assert any(re.search(moved, w) for w in off.warnings), off.warnings
+
+
+def _second_imu(frame, yaw_offset=0.3, lag_ns=5_000_000):
+    """A second IMU on /mavros/imu/data (node /imu2, its own frame), its heading ``yaw_offset`` rad
+    off and its stamps ``lag_ns`` later (no stamp shared with the first: not a conflict)."""
+    def add(out, ts, hdr):
+        Quat = ts.types["geometry_msgs/msg/Quaternion"]
+        for m in [m for m in out if m[1] == "/mavros/imu/data"]:
+            q = m[2].orientation
+            c, s = math.cos(yaw_offset / 2), math.sin(yaw_offset / 2)  # about ENU up: NED +offset
+            w, x, y, z = _qmul((c, 0.0, 0.0, -s), (q.w, q.x, q.y, q.z))
+            st = m[2].header.stamp
+            ns = st.sec * 10**9 + st.nanosec + lag_ns
+            h = hdr(ns)
+            h = dataclasses.replace(h, frame_id=frame)
+            out.append([m[0] + lag_ns, "/mavros/imu/data#/imu2",
+                        dataclasses.replace(m[2], header=h, orientation=Quat(x=x, y=y, z=z, w=w))])
+    return add
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ros", [1, 2])
+def test_a_second_imu_on_the_topic_is_left_out_and_said(dive, tmp_path, ros):
+    """Two IMUs on /mavros/imu/data, headings 0.3 rad apart, stamps 5 ms apart: merged they made a
+    saw-tooth heading (yaw rate ±0.3 rad per 5 ms).  The one with the most messages is read — the
+    heading equals the one-IMU bag's — and the other is said; ``@SOURCE`` reads the other."""
+    ext = ".bag" if ros == 1 else ""  # a ROS 2 bag is a folder
+    one = read_dive_channels(write_bag(tmp_path / f"one{ext}", ros, _short(dive)), "bluerov2")
+    bag = write_bag(tmp_path / f"two{ext}", ros, _short(dive), mutate=_second_imu("imu2_link"))
+    dc = read_dive_channels(bag, "bluerov2")
+    said = [w for w in dc.warnings if "2 publishers" in w]
+    assert said and "imu2_link" in said[0] and "left out" in said[0], dc.warnings
+    assert ("node /mavros" in said[0]) == (ros == 1)
+    t1, y1 = one.channels["yaw_rad"]
+    t2, y2 = dc.channels["yaw_rad"]
+    np.testing.assert_array_equal(t2, t1)
+    np.testing.assert_array_equal(y2, y1)
+    for pick in (["imu2_link"] + (["/imu2"] if ros == 1 else [])):
+        other = read_dive_channels(bag, "bluerov2",
+                                   topics={"attitude": f"/mavros/imu/data@{pick}"})
+        t3, y3 = other.channels["yaw_rad"]
+        np.testing.assert_allclose(t3, t1 + 0.005, atol=1e-9)
+        np.testing.assert_allclose(np.angle(np.exp(1j * (y3 - y1 - 0.3))), 0.0, atol=1e-9)
+    with pytest.raises(DiveDataError, match=r"no publisher 'imu3'.*imu2_link' \(\d+ messages\)"):
+        read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@imu3"})
+
+
+@pytest.mark.slow
+def test_a_ros2_topic_with_two_publishers_of_one_frame_is_said(dive, tmp_path):
+    """ROS 2 records no node per message: two IMUs of one frame cannot be told apart, and the
+    metadata's two publishers are said instead of read silently as one series."""
+    bag = write_bag(tmp_path / "same", 2, _short(dive), mutate=_second_imu("base_link"))
+    dc = read_dive_channels(bag, "bluerov2")
+    assert any(re.search(r"/mavros/imu/data had 2 publishers .* do not say which sent each", w)
+               for w in dc.warnings), dc.warnings

@@ -37,7 +37,9 @@ TOPIC = typer.Option(None, "--topic", metavar="ROLE=TOPIC:FIELD",
                      help="ROS bags: ROLE=TOPIC:FIELD, or ROLE=TOPIC for the topic's usual "
                           "field, overriding a default mavros topic; roles "
                           "pwm, attitude, yaw, depth, altitude, pressure, battery, armed, mode, "
-                          "velocity, u, v (e.g. depth=/bar30/depth:data). Repeatable.")
+                          "velocity, u, v (e.g. depth=/bar30/depth:data). A topic two publish on "
+                          "(a second IMU) keeps the one with the most messages; ROLE=TOPIC@SOURCE "
+                          "picks another by its node or header frame_id. Repeatable.")
 VEHICLE = typer.Option(..., "--vehicle", help="Base vehicle: preset or vehicle file (its thruster "
                                               "geometry turns servo outputs into forces).")
 DOF = typer.Option("all", "--dof", help="heave, yaw, surge, sway, horizontal (surge, sway and yaw "

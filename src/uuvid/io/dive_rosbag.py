@@ -59,6 +59,11 @@ or a header clock seconds away) are moved onto the servo outputs' clock by the m
 of receive and stamp times, and a warning says by how much.  Samples are sorted; samples sharing
 a stamp are merged (mean; the last one for servo outputs, attitude and state), as in the ArduSub
 path.
+
+Publishers: a topic that several publish on (a second IMU, a driver started twice) keeps the
+messages of one — the node (ROS 1 records it) or header ``frame_id`` that ``topic@SOURCE`` names,
+else the one with the most messages — and the warning gives each one's count
+(:func:`_one_publisher`).
 """
 
 from __future__ import annotations
@@ -164,13 +169,85 @@ class _Topic:
     recv: list = field(default_factory=list)
     hdr: list | None = field(default_factory=list)
     values: dict = field(default_factory=dict)  # role → list of extracted objects
+    src: list = field(default_factory=list)  # per message: (publishing node, header frame)
+    publishers: int = 1  # publishers the bag's metadata lists for the topic (ROS 2 QoS profiles)
 
 
 def _split(role: str, spec: str) -> tuple[str, str]:
     """``"topic[:field]"`` → (topic, field); without a field, the role's usual one (std_msgs
-    scalars: ``data``; ``velocity``: found from the message type)."""
-    topic, sep, fld = spec.strip().partition(":")
+    scalars: ``data``; ``velocity``: found from the message type).  A ``@SOURCE`` suffix (the
+    publisher to read, :func:`_one_publisher`) is not part of either."""
+    topic, sep, fld = _publisher_pick(spec)[0].partition(":")
     return topic.strip(), (fld.strip() if sep else _DEFAULT_FIELD.get(role, "data"))
+
+
+def _publisher_pick(spec: str) -> tuple[str, str | None]:
+    """``"topic[:field][@SOURCE]"`` → (``"topic[:field]"``, SOURCE or None)."""
+    head, sep, pick = spec.strip().rpartition("@")
+    if not sep:
+        return spec.strip(), None
+    if not pick.strip() or not head.strip():
+        raise LogDataError(f"--topic ...={spec}: expected TOPIC[:FIELD]@SOURCE with SOURCE a "
+                           "publishing node or a header frame_id, e.g. /mavros/imu/data@/mavros")
+    return head.strip(), pick.strip()
+
+
+def _source_label(key) -> str:
+    node, frame = key
+    return ", ".join(([f"node {node}"] if node else []) + ([f"frame '{frame}'"] if frame else [])) \
+        or "no node or frame named"
+
+
+def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail) -> None:
+    """Keep the messages of one publisher of a topic that several publish on.
+
+    Two sensors or two nodes on one topic (a second IMU or depth sensor, a test publisher, a
+    driver started twice) read as one series interleave their samples: headings or depths a few
+    per cent apart become a saw-tooth the fit takes for motion.  Publishers are told apart by the
+    node that published (ROS 1 records it per connection) and the header's ``frame_id``.  The one
+    ``pick`` names (a node or a frame) is kept, else the one with the most messages; the choice,
+    the counts and how to choose another are said.  A ROS 2 bag records no node per message: when
+    its metadata lists several publishers and their messages carry one frame, that is said."""
+    keys = tp.src
+    uniq: dict = {}
+    for k in keys:
+        uniq[k] = uniq.get(k, 0) + 1
+    if pick is not None:
+        hit = [k for k in uniq if pick in k]
+        if not hit:
+            fail(f"{name}: {tp.topic}@{pick}: no publisher {pick!r} on the topic; its publishers: "
+                 + "; ".join(f"{_source_label(k)} ({n} messages)" for k, n in uniq.items()))
+        keep_keys = set(hit)
+    elif len(uniq) > 1:
+        keep_keys = {max(uniq, key=lambda k: uniq[k])}  # the first seen on a tie
+    else:
+        if tp.publishers > 1 and keys:
+            warnings.append(
+                f"{name}: {tp.topic} had {tp.publishers} publishers when the bag was recorded "
+                f"and its messages do not say which sent each ({_source_label(keys[0])} on all): "
+                f"read as one series ({roles}) — if two sensors published, their samples are "
+                "interleaved; record them on topics of their own")
+        return
+    if len(uniq) > 1:
+        k0 = next(iter(keep_keys))
+        others = {k: n for k, n in uniq.items() if k not in keep_keys}
+        tie = sorted(uniq.values())[-2:] == [uniq[k0]] * 2
+        by = (f"as --topic ...@{pick} asks" if pick is not None else
+              "as many messages as another: the first to publish" if tie else
+              "the one with the most messages")
+        warnings.append(
+            f"{name}: {tp.topic} has {len(uniq)} publishers ("
+            + "; ".join(f"{_source_label(k)}: {n} messages" for k, n in uniq.items())
+            + f"); two sources on one topic read as one series interleave their samples: "
+            f"{roles} read from {_source_label(k0)} ({by}), the {sum(others.values())} messages "
+            f"of the other{'s' if len(others) > 1 else ''} left out; choose with --topic "
+            f"ROLE={tp.topic}@SOURCE (a node or a frame)")
+    mask = [k in keep_keys for k in keys]
+    tp.recv = [x for x, m in zip(tp.recv, mask) if m]
+    if tp.hdr is not None:
+        tp.hdr = [x for x, m in zip(tp.hdr, mask) if m]
+    tp.values = {r: [x for x, m in zip(v, mask) if m] for r, v in tp.values.items()}
+    tp.src = [k for k, m in zip(keys, mask) if m]
 
 
 def _walk(msg, fld: str, where: str):
@@ -227,9 +304,11 @@ def _value(role: str, obj, where: str):
                        f"{getattr(obj, '__msgtype__', type(obj).__name__)}")
 
 
-def _read(bag_path, specs: dict, name: str, fail):
+def _read(bag_path, specs: dict, name: str, fail, picks=None, warnings=None):
     """``{topic: _Topic}`` of the topics that ``specs`` (role → (topic, field, given)) name and the
-    bag has, and the bag's topic listing.  ``fail(msg)`` raises the dive error."""
+    bag has, and the bag's topic listing; a topic several publish on keeps one publisher's messages
+    (``picks``: topic → the node or frame to keep, see :func:`_one_publisher`; what was done is
+    appended to ``warnings``).  ``fail(msg)`` raises the dive error."""
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -277,6 +356,12 @@ def _read(bag_path, specs: dict, name: str, fail):
             except Exception as e:
                 fail(f"{name}: topic {conn.topic} message {k}: cannot decode {mt}: {e}")
             tp.recv.append(int(t_ns))
+            frame = getattr(getattr(msg, "header", None), "frame_id", None)
+            tp.src.append((getattr(conn.ext, "callerid", None) or "",
+                           frame if isinstance(frame, str) else ""))
+            qos = getattr(conn.ext, "offered_qos_profiles", None)
+            if isinstance(qos, (list, tuple)):
+                tp.publishers = max(tp.publishers, len(qos))
             if tp.hdr is not None:
                 st = getattr(getattr(msg, "header", None), "stamp", None)
                 if st is None or not hasattr(st, "sec"):
@@ -288,6 +373,10 @@ def _read(bag_path, specs: dict, name: str, fail):
                 tp.values.setdefault(role, []).append(_value(role, _walk(msg, fld, where), where))
     finally:
         reader.close()
+    for topic, tp in want.items():
+        roles = ", ".join(r for r, _f in roles_of[topic])
+        _one_publisher(tp, (picks or {}).get(topic), roles, name,
+                       warnings if warnings is not None else [], fail)
     return want, listing
 
 
@@ -473,12 +562,25 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     given = parse_topic_options(topics)
     warnings: list = []
     specs = {}
+    picked = {}  # role → the publisher asked for (topic@SOURCE)
     for role in ROLES:
         if role in given:
             specs[role] = (*_split(role, given[role]), True)
+            pick = _publisher_pick(given[role])[1]
+            if pick is not None:
+                picked[role] = pick
         elif role in DEFAULT_TOPICS:
             specs[role] = (*_split(role, DEFAULT_TOPICS[role]), False)
-    data, listing = _read(p, specs, name, fail)
+    picks: dict = {}
+    for role, pick in picked.items():
+        topic = specs[role][0]
+        alt = topic if topic.startswith("/") else "/" + topic
+        for tpc in {topic, alt}:
+            if picks.get(tpc, pick) != pick:
+                fail(f"{name}: --topic asks for two publishers of {topic} ({picks[tpc]!r} and "
+                     f"{pick!r}): one topic is read from one publisher")
+            picks[tpc] = pick
+    data, listing = _read(p, specs, name, fail, picks, warnings)
 
     def have(role):
         return role in specs and specs[role][0] in data and data[specs[role][0]].recv
