@@ -424,6 +424,25 @@ def test_a_dead_output_while_armed_is_named_with_its_time_span():
     assert not any("no pulse" in x for x in _read(short).warnings)
 
 
+def test_an_output_at_neutral_while_its_parallel_partner_is_driven_is_named():
+    """pwm_5 at 1500 µs throughout while pwm_6 (the other vertical thruster) is driven: a motor
+    wired to another output read as idle; said with its partner.  Neutral alone (a horizontal
+    dive with both vertical outputs at 1500) is no evidence and stays silent."""
+    df = _table()
+    df["pwm_5"] = 1500.0
+    w = [x for x in _read(df).warnings if "(neutral)" in x]
+    assert len(w) == 1 and re.search(r"pwm_5 sits at 1500 µs \(neutral\) for 48\.4 s while armed "
+                                      r"and pwm_6 .* is driven", w[0]), w
+    both = _table()
+    both["pwm_5"] = both["pwm_6"] = 1500.0
+    assert not any("(neutral)" in x for x in _read(both).warnings)
+    assert not any("(neutral)" in x for x in _read(_table()).warnings)
+    near = _table()  # within 25 µs of neutral is the dead band: the partner is not driven
+    near["pwm_5"] = 1500.0
+    near["pwm_6"] = np.rint(1500 + 20 * np.sin(near["t_s"] / 3.0))
+    assert not any("(neutral)" in x for x in _read(near).warnings)
+
+
 def test_forces_and_pwm_in_one_table_say_which_is_used():
     df = _table()
     for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):

@@ -338,6 +338,58 @@ def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
                             f"value), not a vehicle holding still — those samples are left out")
 
 
+def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: list,
+                           min_s: float = DEAD_OUTPUT_S) -> None:
+    """An output that sits at one value near neutral (1450–1550 µs) for 95 % of the armed time in
+    which a thruster pushing along the same line (force direction within 18°: BlueROV2's vertical
+    pair) is driven beyond ±25 µs, for more than ``min_s`` s, is said: a mixer drives both
+    thrusters of such a pair together, so its motor is on another output (a SERVOn_FUNCTION or a
+    column that is not its output) or disabled — the fit reads it as giving no thrust (one
+    vertical thruster of two read as idle doubles the heave force attributed to the other)."""
+    keys = list(pwm)
+    if veh is None or len(keys) != veh.B.shape[1] or len(keys) < 2:
+        return
+    F = np.asarray(veh.B, float)[:3]
+    nrm = np.linalg.norm(F, axis=0)
+    said = []
+    for i, k in enumerate(keys):
+        t, v = pwm[k]
+        if nrm[i] == 0 or not t.size:
+            continue
+        on = np.zeros(t.size, bool)
+        for a, b in armed:
+            on |= (t >= a) & (t <= b)
+        partners = [j for j, kj in enumerate(keys) if j != i and nrm[j] > 0
+                    and abs(F[:, i] @ F[:, j]) / (nrm[i] * nrm[j]) > 0.95]
+        driven = np.zeros(t.size, bool)
+        who = []
+        for j in partners:
+            tj, vj = pwm[keys[j]]
+            if not tj.size:
+                continue
+            idx = np.clip(np.searchsorted(tj, t), 0, tj.size - 1)
+            d = np.abs(vj[idx] - 1500.0) > 25.0
+            if d.any():
+                who.append(keys[j])
+            driven |= d
+        sel = on & driven & (v != 0)
+        if sel.sum() < 20:
+            continue
+        dt = np.diff(t, append=t[-1])
+        if float(dt[sel].sum()) <= min_s:
+            continue
+        vals, counts = np.unique(v[sel], return_counts=True)
+        v0 = float(vals[np.argmax(counts)])
+        if 1450.0 <= v0 <= 1550.0 and counts.max() >= 0.95 * sel.sum():
+            said.append((k, v0, float(dt[sel].sum()), who))
+    for k, v0, dur, who in said:
+        warnings.append(f"{name}: pwm_{k} sits at {v0:.6g} µs (neutral) for {dur:.3g} s while "
+                        f"armed and pwm_{', pwm_'.join(who)} — pushing along the same line — is "
+                        "driven: a mixer drives both, so its motor is on another output (check "
+                        "SERVOn_FUNCTION, or which column is its output) or disabled; it is taken "
+                        "as giving no thrust there")
+
+
 def _check_dead_outputs(pwm: dict, armed: list, name: str, warnings: list,
                         min_s: float = DEAD_OUTPUT_S) -> None:
     """An output at 0 µs (no pulse) for more than ``min_s`` while armed and the other outputs are
@@ -569,6 +621,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         "columns: the forces are used and the pwm_ columns are not (remove the "
                         "force columns to have the thrust computed from the PWM)")
     _check_dead_outputs(pwm, armed, name, warnings)
+    _check_neutral_outputs(pwm, armed, veh, name, warnings)
     _drop_stuck(chans, armed, name, warnings)
     if thrust is not None:
         direction_check(chans, thrust, veh, armed, name, warnings,
@@ -787,6 +840,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         pwm = {str(m): _finite(t, tb[f"pwm_{m}"].to_numpy(float)) for m in dive.motors}
         src = {c: (dive.provenance.get(c) or {}).get("source") for c in chans}
         warnings += list(dive.warnings)
+        _check_neutral_outputs(pwm, armed, veh, p.name, warnings)
         _drop_stuck(chans, armed, p.name, warnings)
         _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings, thruster_model)
         return DiveChannels(p.name, dive.format, chans, armed,
@@ -848,6 +902,8 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
             armed[-1] = (armed[-1][0], max(armed[-1][1], bd.t_end))
     else:
         armed = [(min(float(c[0][0]) for c in chans.values() if c[0].size), bd.t_end)]
+    _check_dead_outputs(bd.pwm, armed, bd.name, warnings)
+    _check_neutral_outputs(bd.pwm, armed, veh, bd.name, warnings)
     direction_check(chans, thrust, veh, armed, bd.name, warnings, bag_fix(thrust.directions))
     modes = []
     if bd.modes is not None:
