@@ -443,6 +443,21 @@ def test_an_output_at_neutral_while_its_parallel_partner_is_driven_is_named():
     assert not any("(neutral)" in x for x in _read(near).warnings)
 
 
+@pytest.mark.parametrize("offset", [-0.5, -3.0])
+def test_a_depth_above_the_water_is_said_with_the_cut_off_it_misleads(offset):
+    """Depth read 0.5 m (or 3 m) too shallow — the surface pressure taken at depth — reads above
+    the water; the surface cut-off acts on it as logged, so it is said.  A clean table's surface
+    noise (a few cm above zero) is not."""
+    df = _table()
+    df["depth_m"] = df["depth_m"] + offset
+    w = [x for x in _read(df).warnings if "above the water" in x]
+    assert len(w) == 1 and re.search(rf"down to {offset:.3g} m, first at t = 0 s\).*surface "
+                                     r"cut-off \(depth < 0\.2 m\)", w[0]), w
+    noisy = _table()
+    noisy["depth_m"] = np.clip(noisy["depth_m"], 0.0, None) - 0.05 * (np.arange(len(noisy)) % 2)
+    assert not any("above the water" in x for x in _read(noisy).warnings)
+
+
 def test_forces_and_pwm_in_one_table_say_which_is_used():
     df = _table()
     for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):

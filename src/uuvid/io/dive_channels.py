@@ -250,6 +250,17 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
             raise DiveDataError(f"{name}: column depth_m changes by {r:.3g} m/s or faster 10 % of "
                                 f"the time, beyond {MAX_DEPTH_RATE:g} m/s for an underwater "
                                 "vehicle: is it in cm or mm? expected metres (positive down)")
+        td, d = chans["depth_m"]
+        above = d < -ABOVE_WATER_M
+        if np.mean(above) >= 0.05:
+            k = np.flatnonzero(above)[0]
+            warnings.append(
+                f"{name}: depth_m reads below −{ABOVE_WATER_M:g} m (above the water) on "
+                f"{100 * np.mean(above):.0f} % of its samples (down to {d.min():.3g} m, first at t = "
+                f"{td[k]:.6g} s): an offset (the surface pressure taken at depth, or for other "
+                "water) or an altitude (positive up)? The heave fit's surface cut-off (depth < "
+                f"{SURFACE_CUT_M:g} m) and the on-deck check act on the depth as logged: remove the "
+                "offset first (and give a depth positive down)")
     if "yaw_rad" in chans and chans["yaw_rad"][0].size:
         r = _rate90(*chans["yaw_rad"])
         if r > MAX_YAW_RATE:
@@ -290,6 +301,14 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
         elif on.size and np.mean((on >= lo) & (on <= hi)) < 0.5:
             raise DiveDataError(f"{name}: column pwm_{k} holds {on.min():.4g}…{on.max():.4g}, not "
                                 f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
+
+
+#: a depth this far above zero (m) cannot be a depth: waves and sensor noise at the surface stay
+#: within a few cm (5 % of the samples beyond it are said)
+ABOVE_WATER_M = 0.15
+#: heave windows shallower than this (m) touch the surface and are left out of the fit
+#: (:data:`uuvid.simulate.dive_replay.SURFACE_M`); defined here, where the depth checks name it
+SURFACE_CUT_M = 0.2
 
 
 #: a measured channel repeating one value exactly for this long (s, ≥ 20 samples) while armed is

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from uuvid.core.result import Result
-from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, read_dive_channels
+from uuvid.io.dive_channels import DIVE_DOFS, SURFACE_CUT_M, DiveDataError, read_dive_channels
 from uuvid.simulate.dive_horizontal import (
     H_FORCES,
     H_MEAS,
@@ -50,7 +50,7 @@ CHANNEL_NAMES = {"heave": "depth", "yaw": "heading", "surge": "u", "sway": "v"}
 UNITS = {"heave": "m", "yaw": "rad", "surge": "m/s", "sway": "m/s"}
 DEFAULT_HORIZON = {"heave": 10.0, "yaw": 4.0, "surge": 5.0, "sway": 5.0, "horizontal": 5.0}
 _FIT_HALF = {"heave": 1.0, "yaw": 0.25, "surge": 0.5, "sway": 0.5}  # local fit half-width [s]
-SURFACE_M = 0.2
+SURFACE_M = SURFACE_CUT_M  # (defined beside the reader's depth checks, which name it)
 _INDEX = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}
 
 
