@@ -650,10 +650,13 @@ def test_a_sender_clock_off_by_a_fraction_of_a_second_is_moved_onto_the_servo_cl
 
 def _second_imu(frame, yaw_offset=0.3, lag_ns=5_000_000):
     """A second IMU on /mavros/imu/data (node /imu2, its own frame), its heading ``yaw_offset`` rad
-    off and its stamps ``lag_ns`` later (no stamp shared with the first: not a conflict)."""
+    off and its stamps ``lag_ns`` later (no stamp shared with the first: not a conflict), every
+    tenth of its messages missing (fewer messages than the first)."""
     def add(out, ts, hdr):
         Quat = ts.types["geometry_msgs/msg/Quaternion"]
-        for m in [m for m in out if m[1] == "/mavros/imu/data"]:
+        for i, m in enumerate([m for m in out if m[1] == "/mavros/imu/data"]):
+            if i % 10 == 9:
+                continue
             q = m[2].orientation
             c, s = math.cos(yaw_offset / 2), math.sin(yaw_offset / 2)  # about ENU up: NED +offset
             w, x, y, z = _qmul((c, 0.0, 0.0, -s), (q.w, q.x, q.y, q.z))
@@ -683,13 +686,16 @@ def test_a_second_imu_on_the_topic_is_left_out_and_said(dive, tmp_path, ros):
     t2, y2 = dc.channels["yaw_rad"]
     np.testing.assert_array_equal(t2, t1)
     np.testing.assert_array_equal(y2, y1)
+    assert "(the one with the most messages)" in said[0]
     for pick in (["imu2_link"] + (["/imu2"] if ros == 1 else [])):
         other = read_dive_channels(bag, "bluerov2",
                                    topics={"attitude": f"/mavros/imu/data@{pick}"})
         t3, y3 = other.channels["yaw_rad"]
-        np.testing.assert_allclose(t3, t1 + 0.005, atol=1e-9)
-        np.testing.assert_allclose(np.angle(np.exp(1j * (y3 - y1 - 0.3))), 0.0, atol=1e-9)
-    with pytest.raises(DiveDataError, match=r"no publisher 'imu3'.*imu2_link' \(\d+ messages\)"):
+        j = np.searchsorted(t1, t3 - 0.005 - 1e-6)  # the second IMU's samples: 9 in 10 of them
+        assert t3.size == t1.size - t1.size // 10
+        np.testing.assert_allclose(t1[j], t3 - 0.005, atol=1e-9)
+        np.testing.assert_allclose(np.angle(np.exp(1j * (y3 - y1[j] - 0.3))), 0.0, atol=1e-9)
+    with pytest.raises(DiveDataError, match=r"no publisher 'imu3'.*imu2_link': 359 messages"):
         read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@imu3"})
 
 
@@ -701,3 +707,48 @@ def test_a_ros2_topic_with_two_publishers_of_one_frame_is_said(dive, tmp_path):
     dc = read_dive_channels(bag, "bluerov2")
     assert any(re.search(r"/mavros/imu/data had 2 publishers .* do not say which sent each", w)
                for w in dc.warnings), dc.warnings
+
+
+def _frame_set_late(out, ts, hdr):
+    """mavros' IMU with an empty frame_id for the first 8 s, then base_link: one publisher."""
+    for m in out:
+        if m[1] == "/mavros/imu/data" and m[0] < T0 + OFFSET + 8 * 10**9:
+            m[2] = dataclasses.replace(m[2], header=dataclasses.replace(m[2].header, frame_id=""))
+
+
+@pytest.mark.slow
+def test_sources_one_after_the_other_are_one_series_and_a_shared_frame_is_no_choice(dive, tmp_path):
+    """A frame_id set once the driver is up (two sources, never together) is read whole; a frame
+    that two IMUs publishing together share cannot pick one of them: refused, asking for a node."""
+    one = read_dive_channels(write_bag(tmp_path / "one.bag", 1, _short(dive)), "bluerov2")
+    late = read_dive_channels(write_bag(tmp_path / "late.bag", 1, _short(dive),
+                                        mutate=_frame_set_late), "bluerov2")
+    np.testing.assert_array_equal(late.channels["yaw_rad"][1], one.channels["yaw_rad"][1])
+    assert any("one after the other" in w and "all read" in w for w in late.warnings)
+    assert not any("left out" in w and "publishers" in w for w in late.warnings)
+    bag = write_bag(tmp_path / "shared.bag", 1, _short(dive), mutate=_second_imu("base_link"))
+    with pytest.raises(DiveDataError, match=r"'base_link' names 2 publishers that publish together"
+                                            r".*name one by its node"):
+        read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@base_link"})
+    dc = read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@/mavros"})
+    np.testing.assert_array_equal(dc.channels["yaw_rad"][1], one.channels["yaw_rad"][1])
+
+
+def _dead_output_3(out, ts, hdr):
+    for m in out:
+        if m[1] == "/mavros/rc/out" and T0 + OFFSET + 5 * 10**9 <= m[0] <= T0 + OFFSET + 15 * 10**9:
+            ch = np.array(m[2].channels, np.uint16)
+            ch[2] = 0
+            m[2] = dataclasses.replace(m[2], channels=ch)
+
+
+@pytest.mark.slow
+def test_a_dead_output_in_a_bag_is_named_as_in_a_table(dive, tmp_path):
+    """Output 3 at 0 µs (no pulse) from 5 to 15 s while the others are driven (armed from ≈ 8 s):
+    said for a bag too."""
+    dc = read_dive_channels(write_bag(tmp_path / "dead.bag", 1, _short(dive), mutate=_dead_output_3),
+                            "bluerov2")
+    assert any(re.search(r"pwm_3 is 0 µs \(no pulse\) from 7\.98\d* to 15\.04\d* s while armed", w)
+               for w in dc.warnings), dc.warnings
+    clean = read_dive_channels(write_bag(tmp_path / "clean.bag", 1, _short(dive)), "bluerov2")
+    assert not any("no pulse" in w or "(neutral)" in w for w in clean.warnings)

@@ -443,6 +443,40 @@ def test_an_output_at_neutral_while_its_parallel_partner_is_driven_is_named():
     assert not any("(neutral)" in x for x in _read(near).warnings)
 
 
+def test_the_neutral_check_pairs_outputs_as_the_forces_do_and_only_as_the_mixer_drives_them():
+    """No false alarm: (1) a surge dive with idle vertical outputs whose table lists pwm_5, pwm_6
+    first (columns are thrusters by number, not by position); (2) a dead ESC (0 µs) beside an idle
+    output: no pulse is not 'driven'; (3) a turning circle, surge = yaw command, which leaves the
+    diagonal horizontal thrusters 1 and 3 at neutral while 4 and 2, parallel to them, run — the
+    mixer drives them apart.  The pinned vertical output is still named when listed first."""
+    t = _table()["t_s"].to_numpy()
+
+    def neutral(df):
+        return [x for x in _read(df).warnings if "(neutral)" in x]
+
+    surge = _table()
+    f = np.rint(100 * np.sin(t / 6.0))
+    for j, sg in zip(range(1, 5), (-1, -1, 1, 1)):  # ArduSub's vectored forward factors
+        surge[f"pwm_{j}"] = 1500 + sg * f
+    surge["pwm_5"] = surge["pwm_6"] = 1500.0
+    first = ["t_s", "depth_m", "yaw_rad", "pwm_5", "pwm_6", "pwm_1", "pwm_2", "pwm_3", "pwm_4"]
+    assert not neutral(surge[first])
+    dead = _table()
+    dead["pwm_5"] = dead["pwm_6"] = 1500.0
+    dead.loc[(dead["t_s"] > 20) & (dead["t_s"] < 50), "pwm_6"] = 0.0
+    assert not neutral(dead)
+    circle = _table()
+    c = np.rint(150 * np.clip(t / 5.0, 0, 1))
+    for j, (fy, ff) in enumerate(((1, -1), (-1, -1), (-1, 1), (1, 1)), 1):  # yaw, forward factors
+        circle[f"pwm_{j}"] = 1500 + fy * c + ff * c
+    circle["pwm_5"] = circle["pwm_6"] = np.rint(1500 + 30 * np.sin(t / 4))
+    assert not neutral(circle)
+    pinned = _table()
+    pinned["pwm_5"] = 1500.0
+    w = neutral(pinned[first])
+    assert len(w) == 1 and "pwm_5 sits at 1500" in w[0] and "pwm_6" in w[0]
+
+
 @pytest.mark.parametrize("offset", [-0.5, -3.0])
 def test_a_depth_above_the_water_is_said_with_the_cut_off_it_misleads(offset):
     """Depth read 0.5 m (or 3 m) too shallow — the surface pressure taken at depth — reads above

@@ -360,15 +360,19 @@ def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
 def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: list,
                            min_s: float = DEAD_OUTPUT_S) -> None:
     """An output that sits at one value near neutral (1450–1550 µs) for 95 % of the armed time in
-    which a thruster pushing along the same line (force direction within 18°: BlueROV2's vertical
-    pair) is driven beyond ±25 µs, for more than ``min_s`` s, is said: a mixer drives both
-    thrusters of such a pair together, so its motor is on another output (a SERVOn_FUNCTION or a
-    column that is not its output) or disabled — the fit reads it as giving no thrust (one
-    vertical thruster of two read as idle doubles the heave force attributed to the other)."""
-    keys = list(pwm)
+    which a thruster the mixer drives alike is driven beyond ±25 µs (0 µs, no pulse, is not
+    driven), for more than ``min_s`` s, is said: its motor is on another output (a SERVOn_FUNCTION
+    or a column that is not its output) or disabled — the fit reads it as giving no thrust (one
+    vertical thruster of two read as idle doubles the heave force attributed to the other).
+    Driven alike: the columns of ``B`` in the DOFs a pilot commands (surge, sway, heave, yaw; roll
+    and pitch are held), each DOF scaled by its largest entry, parallel within 18° — BlueROV2's
+    vertical pair, not its diagonal horizontal thrusters, which a turn with surge drives apart."""
+    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))  # as _forces_from_pwm
     if veh is None or len(keys) != veh.B.shape[1] or len(keys) < 2:
         return
-    F = np.asarray(veh.B, float)[:3]
+    F = np.asarray(veh.B, float)[[0, 1, 2, 5]]
+    scale = np.abs(F).max(axis=1, keepdims=True)
+    F = F / np.where(scale > 0, scale, 1.0)
     nrm = np.linalg.norm(F, axis=0)
     said = []
     for i, k in enumerate(keys):
@@ -387,7 +391,7 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
             if not tj.size:
                 continue
             idx = np.clip(np.searchsorted(tj, t), 0, tj.size - 1)
-            d = np.abs(vj[idx] - 1500.0) > 25.0
+            d = (np.abs(vj[idx] - 1500.0) > 25.0) & (vj[idx] != 0)  # 0 µs: no pulse, not driven
             if d.any():
                 who.append(keys[j])
             driven |= d
@@ -403,8 +407,8 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
             said.append((k, v0, float(dt[sel].sum()), who))
     for k, v0, dur, who in said:
         warnings.append(f"{name}: pwm_{k} sits at {v0:.6g} µs (neutral) for {dur:.3g} s while "
-                        f"armed and pwm_{', pwm_'.join(who)} — pushing along the same line — is "
-                        "driven: a mixer drives both, so its motor is on another output (check "
+                        f"armed and pwm_{', pwm_'.join(who)} — which the mixer drives alike — is "
+                        "driven: its motor is on another output (check "
                         "SERVOn_FUNCTION, or which column is its output) or disabled; it is taken "
                         "as giving no thrust there")
 

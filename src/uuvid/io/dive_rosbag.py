@@ -198,28 +198,55 @@ def _source_label(key) -> str:
         or "no node or frame named"
 
 
+def _together(ra: np.ndarray, rb: np.ndarray) -> bool:
+    """Two sources publish together (not one after the other, as a node restarted under a new
+    name or a frame_id set once the driver is up): a fifth of either one's messages arrive within
+    the other's span."""
+    def inside(x, y):
+        return float(np.mean((x >= y.min()) & (x <= y.max())))
+    return max(inside(ra, rb), inside(rb, ra)) >= 0.2
+
+
 def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail) -> None:
-    """Keep the messages of one publisher of a topic that several publish on.
+    """Keep the messages of one publisher of a topic that several publish on at the same time.
 
     Two sensors or two nodes on one topic (a second IMU or depth sensor, a test publisher, a
     driver started twice) read as one series interleave their samples: headings or depths a few
     per cent apart become a saw-tooth the fit takes for motion.  Publishers are told apart by the
-    node that published (ROS 1 records it per connection) and the header's ``frame_id``.  The one
-    ``pick`` names (a node or a frame) is kept, else the one with the most messages; the choice,
-    the counts and how to choose another are said.  A ROS 2 bag records no node per message: when
-    its metadata lists several publishers and their messages carry one frame, that is said."""
+    node that published (ROS 1 records it per connection) and the header's ``frame_id``; sources
+    that follow one another (:func:`_together` false: a node restarted under a new name, a frame
+    set once the driver is up) are one series and all read.  Of sources publishing together, the
+    one ``pick`` names (a node or a frame) is kept, else the one with the most messages; the
+    choice, the counts and how to choose another are said.  A ROS 2 bag records no node per
+    message: when its metadata lists several publishers and their messages carry one frame, that
+    is said."""
     keys = tp.src
     uniq: dict = {}
     for k in keys:
         uniq[k] = uniq.get(k, 0) + 1
+    recv = np.asarray(tp.recv, np.int64)
+    times: dict = {}
+    if len(uniq) > 1:
+        code = {k: i for i, k in enumerate(uniq)}
+        idx = np.array([code[k] for k in keys])
+        times = {k: recv[idx == code[k]] for k in uniq}
+
+    def listing():
+        return "; ".join(f"{_source_label(k)}: {n} messages" for k, n in uniq.items())
+
     if pick is not None:
         hit = [k for k in uniq if pick in k]
         if not hit:
             fail(f"{name}: {tp.topic}@{pick}: no publisher {pick!r} on the topic; its publishers: "
-                 + "; ".join(f"{_source_label(k)} ({n} messages)" for k, n in uniq.items()))
+                 + listing())
+        if any(_together(times[a], times[b]) for i, a in enumerate(hit) for b in hit[i + 1:]):
+            fail(f"{name}: {tp.topic}@{pick}: {pick!r} names {len(hit)} publishers that publish "
+                 f"together ({listing()}): name one by its node")
         keep_keys = set(hit)
     elif len(uniq) > 1:
-        keep_keys = {max(uniq, key=lambda k: uniq[k])}  # the first seen on a tie
+        major = max(uniq, key=lambda k: uniq[k])  # the first seen on a tie
+        keep_keys = {major} | {k for k in uniq if k != major
+                               and not _together(times[k], times[major])}
     else:
         if tp.publishers > 1 and keys:
             warnings.append(
@@ -228,17 +255,21 @@ def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail
                 f"read as one series ({roles}) — if two sensors published, their samples are "
                 "interleaved; record them on topics of their own")
         return
+    if len(uniq) > 1 and len(keep_keys) == len(uniq):
+        if pick is None:
+            warnings.append(f"{name}: {tp.topic}'s messages come from {len(uniq)} sources one "
+                            f"after the other ({listing()}), not together: all read ({roles})")
+        return
     if len(uniq) > 1:
-        k0 = next(iter(keep_keys))
+        k0 = next(iter(keep_keys)) if pick is not None else major
         others = {k: n for k, n in uniq.items() if k not in keep_keys}
-        tie = sorted(uniq.values())[-2:] == [uniq[k0]] * 2
+        tie = pick is None and sum(n == uniq[k0] for n in uniq.values()) > 1
         by = (f"as --topic ...@{pick} asks" if pick is not None else
               "as many messages as another: the first to publish" if tie else
               "the one with the most messages")
         warnings.append(
-            f"{name}: {tp.topic} has {len(uniq)} publishers ("
-            + "; ".join(f"{_source_label(k)}: {n} messages" for k, n in uniq.items())
-            + f"); two sources on one topic read as one series interleave their samples: "
+            f"{name}: {tp.topic} has {len(uniq)} publishers ({listing()}); two sources "
+            f"publishing together on one topic read as one series interleave their samples: "
             f"{roles} read from {_source_label(k0)} ({by}), the {sum(others.values())} messages "
             f"of the other{'s' if len(others) > 1 else ''} left out; choose with --topic "
             f"ROLE={tp.topic}@SOURCE (a node or a frame)")
