@@ -531,9 +531,42 @@ def _dive_section(out: Path, rep: Report) -> dict:
     rep.add_paragraph(f"my-rov.yaml flying the square mission: completed "
                       f"{flight.metrics.get('completed')}, real-time factor "
                       f"{flight.metrics.get('real_time_factor', float('nan')):.0f}.")
+    traps = _dive_trap_rows(log)
+    rep.add_table([{"the log": k, "what the reader says": v} for k, v in traps.items()],
+                  caption="The same dive with a real log's traps put in (servo outputs only, no "
+                  "force columns): each is said, none read silently")
     return {"identify": ident.to_dict(), "replay": {k: r.to_dict() for k, r in replays.items()},
             "vehicle_file": str(mine), "mission": {k: v for k, v in flight.metrics.items()
-                                                  if not isinstance(v, list)}}
+                                                  if not isinstance(v, list)},
+            "traps": traps}
+
+
+def _dive_trap_rows(log: Path) -> dict:
+    """The example dive read with one trap each (:func:`uuvid.io.dive_channels.read_dive_channels`
+    on the table without its force columns, so the servo outputs give the thrust): a reversed
+    motor, a vertical motor wired to another output (its output idle at neutral), a depth 0.5 m
+    too shallow; ``{trap: the warning that names it}``."""
+    import pandas as pd
+
+    from uuvid.io.dive_channels import read_dive_channels
+
+    base = pd.read_csv(log).drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    traps = {"motor 1 reversed (its output mirrored about 1500 µs)": ("pwm_1", "reversed"),
+             "motor 5 on another output (pwm_5 idle at 1500 µs)": ("pwm_5", "(neutral)"),
+             "depth 0.5 m too shallow (surface pressure taken at depth)": ("depth_m", "above the water")}
+    out = {}
+    for what, (col, word) in traps.items():
+        df = base.copy()
+        if what.startswith("motor 1"):
+            df[col] = 3000.0 - df[col]
+        elif what.startswith("motor 5"):
+            df.loc[df[col].notna(), col] = 1500.0
+        else:
+            df[col] = df[col] - 0.5
+        said = [w for w in read_dive_channels(df, "bluerov2").warnings if word in w]
+        text = said[0].split(": ", 1)[-1] if said else "NOT SAID"
+        out[what] = text if len(text) <= 150 else text[:149] + "…"
+    return out
 
 
 def _horizontal_section(rep: Report) -> dict:

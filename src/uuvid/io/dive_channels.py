@@ -252,11 +252,11 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
                                 "vehicle: is it in cm or mm? expected metres (positive down)")
         td, d = chans["depth_m"]
         above = d < -ABOVE_WATER_M
-        if np.mean(above) >= 0.05:
+        if above.sum() >= 10 and np.mean(above) >= 0.01:
             k = np.flatnonzero(above)[0]
             warnings.append(
                 f"{name}: depth_m reads below −{ABOVE_WATER_M:g} m (above the water) on "
-                f"{100 * np.mean(above):.0f} % of its samples (down to {d.min():.3g} m, first at t = "
+                f"{above.sum()} samples, {100 * np.mean(above):.2g} % (down to {d.min():.3g} m, first at t = "
                 f"{td[k]:.6g} s): an offset (the surface pressure taken at depth, or for other "
                 "water) or an altitude (positive up)? The heave fit's surface cut-off (depth < "
                 f"{SURFACE_CUT_M:g} m) and the on-deck check act on the depth as logged: remove the "
@@ -304,7 +304,8 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
 
 
 #: a depth this far above zero (m) cannot be a depth: waves and sensor noise at the surface stay
-#: within a few cm (5 % of the samples beyond it are said)
+#: within a few cm (10 samples beyond it, 1 % of the log or more, are said: a dive spends little
+#: of its time at the surface)
 ABOVE_WATER_M = 0.15
 #: heave windows shallower than this (m) touch the surface and are left out of the fit
 #: (:data:`uuvid.simulate.dive_replay.SURFACE_M`); defined here, where the depth checks name it
