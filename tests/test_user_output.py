@@ -124,6 +124,23 @@ def test_predict_says_the_default_supply_voltage_it_used():
     assert doc["warnings"] == []
 
 
+def test_predict_names_a_command_that_is_no_pulse_width_by_the_models_unit(tmp_path):
+    """--pwm feeds the model's command: a driver-first model (fitted on a bench whose command is
+    in volts) printed it as pwm_us; its column is now 'command' and a warning says why."""
+    f = tmp_path / "fo.yaml"
+    f.write_text("name: fo\ninput: command\nblocks:\n- type: driver\n  deadband_fwd: 0.0\n"
+                 "  deadband_rev: 0.05\n  offset: 0.0\n  gain_fwd: 1.0\n  gain_rev: 1.0\n"
+                 "- type: first_order_motor\n  gain: 40.0\n  time_constant: 0.05\n"
+                 "- type: quadratic\n  k_pos: 0.00035\n  k_neg: 0.00026\n")
+    doc = json.loads(runner.invoke(app, ["thruster", "predict", str(f), "--pwm", "-4,2",
+                                         "--json"]).stdout)
+    assert "pwm_us" not in doc and doc["command"] == [-4.0, 2.0]
+    assert any("not a pulse width" in w and "the column is command" in w for w in doc["warnings"])
+    doc = json.loads(runner.invoke(app, ["thruster", "predict", "t200", "--pwm", "1700",
+                                         "--json"]).stdout)
+    assert doc["pwm_us"] == [1700.0] and doc["warnings"] == []
+
+
 def test_predict_warns_outside_the_presets_data_voltages():
     res = runner.invoke(app, ["thruster", "predict", "laidani-a2212", "--pwm", "1700:1900:100",
                               "--supply-voltage", "14", "--json"])

@@ -335,6 +335,16 @@ def thruster_predict(
     start = kinds.index(want)
     sub = ThrusterChain(tuple(blocks[start:]), input_kind=want, name=chain.name)
     thrust = sub.steady_thrust(x)
+    note = None
+    if key == "pwm_us":  # --pwm feeds the model's command: named in the model's own unit
+        unit = blocks[0].command_unit if isinstance(blocks[0], ESC) else None
+        key = {"pwm_us": "pwm_us", "volts": "command_V", "duty": "duty"}.get(unit, "command")
+        if key != "pwm_us":
+            note = (f"--pwm gives {chain.name}'s command input, which is not a pulse width here ("
+                    + (f"its {type(blocks[0]).__name__} takes {unit}" if unit else
+                       f"its first block, {type(blocks[0]).__name__}, takes the command in the "
+                       "unit of the data it was fitted on")
+                    + f"): the column is {key}")
     # the output is named after what the chain produces (a speed-output model gives speeds)
     out_key = {"thrust": "thrust_N", "measured_thrust": "measured_thrust_N", "speed": "speed_rad_s",
                "voltage": "voltage_V"}.get(sub.output_kind, sub.output_kind)
@@ -352,6 +362,8 @@ def thruster_predict(
         x, thrust, neutral)
     if isinstance(blocks[start], ESC):
         doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
+    if note:
+        doc["warnings"].append(note)
     doc["warnings"] += supply_warnings
     for w in doc["warnings"]:
         err_console.print(f"[yellow]warning:[/] {escape(str(w))}", highlight=False, soft_wrap=True)
