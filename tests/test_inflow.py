@@ -278,7 +278,7 @@ def test_the_diamond_angle_is_monotone_in_beta_and_inverts():
 
 @pytest.mark.slow
 def test_state_advance_speeds_match_the_geometric_form():
-    from uuvid.vehicle.inflow import state_advance_speeds_nb
+    from uuvid.vehicle.inflow import geometry_rows, state_advance_speeds_nb
     from uuvid.vehicle.kinematics import quat_to_rotmat
 
     rng = np.random.default_rng(7)
@@ -290,7 +290,7 @@ def test_state_advance_speeds_match_the_geometric_form():
     A = rng.normal(size=(4, 3))
     A /= np.linalg.norm(A, axis=1)[:, None]
     w = rng.uniform(0, 0.3, 4)
-    got = state_advance_speeds_nb(x, vc, np.column_stack([P, A, w]), np.empty(4))
+    got = state_advance_speeds_nb(x, vc, geometry_rows(P, A, w), np.empty(4))
     nu_r = x[7:13].copy()
     nu_r[:3] -= quat_to_rotmat(q).T @ vc
     np.testing.assert_allclose(got, advance_speeds(nu_r, P, A, w), rtol=0, atol=1e-13)

@@ -391,7 +391,7 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
         for k, (a, b) in enumerate(zip(inflow_series[0], inflow_series[1])):
             sh[f"inf_a{k}"], sh[f"inf_b{k}"] = float(a), float(b)
         for i in range(n):
-            for j in range(7):
+            for j in range(7, 13):  # the advance speed's row (1 − w)[axis, r × axis]
                 sh[f"inf_g{i}_{j}"] = float(IGEO[i, j])
     for t, ((xs_, ys_), g) in enumerate(zip(utab, grids)):
         sh[f"x0_{t}"], sh[f"y0_{t}"] = float(xs_[0]), float(ys_[0])
@@ -699,10 +699,10 @@ def _emit_inflow_thrusts(e: _Emitter, st: _Structure, x: list, bollard: list) ->
     p, q, r = x[10], x[11], x[12]
     out = []
     for i in range(st.n):
-        g = [f"inf_g{i}_{j}" for j in range(7)]
+        g = [f"inf_g{i}_{j}" for j in range(13)]
         ua, f = e.tmp("ua"), bollard[i]
-        e(f"{ua} = (1.0 - {g[6]}) * ({g[3]} * ({u} + {q} * {g[2]} - {r} * {g[1]}) + {g[4]} * "
-          f"({v} + {r} * {g[0]} - {p} * {g[2]}) + {g[5]} * ({w} + {p} * {g[1]} - {q} * {g[0]}))")
+        e(f"{ua} = {g[7]} * {u} + {g[8]} * {v} + {g[9]} * {w} + {g[10]} * {p} + {g[11]} * {q} + "
+          f"{g[12]} * {r}")
         vt, v2, ir, c1, s1 = (e.tmp(nm) for nm in ("vt", "v2", "iv", "c1", "s1"))
         e(f"{vt} = inf_p0 * math.copysign(math.sqrt(abs({f}) * (inf_p2 if {f} >= 0.0 else "
           f"inf_p3)), {f})")

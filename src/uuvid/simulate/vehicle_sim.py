@@ -725,10 +725,8 @@ def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
     u, v, w, p, q, r = x[7], x[8], x[9], x[10], x[11], x[12]
     t0 = t1 = t2 = t3 = t4 = t5 = 0.0
     for i in range(IGEO.shape[0]):
-        px, py, pz = IGEO[i, 0], IGEO[i, 1], IGEO[i, 2]
-        ua = (1.0 - IGEO[i, 6]) * (IGEO[i, 3] * (u + q * pz - r * py)
-                                   + IGEO[i, 4] * (v + r * px - p * pz)
-                                   + IGEO[i, 5] * (w + p * py - q * px))
+        ua = (IGEO[i, 7] * u + IGEO[i, 8] * v + IGEO[i, 9] * w + IGEO[i, 10] * p + IGEO[i, 11] * q
+              + IGEO[i, 12] * r)
         f = inflow_thrust_at_nb(th[st, i], vt[st, i], ua, IPRM)
         f = f * (eta_p[i] if f >= 0.0 else eta_n[i])
         thr[i] = f

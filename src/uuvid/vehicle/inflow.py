@@ -209,8 +209,9 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
 def state_advance_speeds_nb(x, vc_ned, G, out):
     """Advance speeds (in place) from the 13-state ``x = [η (3), q (4), ν (6)]`` of
     :func:`uuvid.vehicle.model.vehicle_rhs_into` and the NED current: ``ν_r = ν − [Rᵀ v_c; 0]``,
-    then ``u_a = (1 − w) axisᵀ(v_r + ω × r)`` (for a mission loop, per RK4 stage).  ``G`` (n, 7):
-    rows ``[r (3), unit axis (3), w]`` (:func:`inflow_geometry`)."""
+    then ``u_a = (1 − w) axisᵀ(v_r + ω × r) = (1 − w)(axisᵀ v_r + (r × axis)ᵀ ω)`` (for a mission
+    loop, per RK4 stage: six products, the row ``G[i, 7:13]``).  ``G`` (n, 13):
+    :func:`inflow_geometry`."""
     e, ex, ey, ez = x[3], x[4], x[5], x[6]
     r00 = 1.0 - 2.0 * (ey * ey + ez * ez)
     r01 = 2.0 * (ex * ey - ez * e)
@@ -225,22 +226,32 @@ def state_advance_speeds_nb(x, vc_ned, G, out):
     v = x[8] - (r01 * vc_ned[0] + r11 * vc_ned[1] + r21 * vc_ned[2])
     w = x[9] - (r02 * vc_ned[0] + r12 * vc_ned[1] + r22 * vc_ned[2])
     p, q, r = x[10], x[11], x[12]
-    for i in range(G.shape[0]):
-        px, py, pz = G[i, 0], G[i, 1], G[i, 2]
-        out[i] = (1.0 - G[i, 6]) * (G[i, 3] * (u + q * pz - r * py)
-                                    + G[i, 4] * (v + r * px - p * pz)
-                                    + G[i, 5] * (w + p * py - q * px))
+    if G.shape[1] < 13:
+        raise ValueError("inflow geometry: expected the 13 columns of inflow_geometry")
+    for i in range(G.shape[0]):  # (1 − w)(aᵀv_r + (r × a)ᵀω): the row G[i, 7:13]
+        out[i] = (G[i, 7] * u + G[i, 8] * v + G[i, 9] * w + G[i, 10] * p + G[i, 11] * q
+                  + G[i, 12] * r)
     return out
 
 
 def inflow_geometry(vehicle) -> np.ndarray:
-    """``(n, 7)`` rows ``[r (3), unit axis (3), wake]`` of a vehicle's thrusters."""
+    """``(n, 13)`` rows ``[r (3), unit axis (3), wake, (1 − w)[axis, r × axis] (6)]`` of a
+    vehicle's thrusters: the last six give the advance speed ``u_a = M_i ν_r`` (linear in the body
+    velocity, six products per thruster: :func:`state_advance_speeds_nb`)."""
     lay = vehicle.layout
     P = np.array([t.position for t in lay], float)
     A = np.array([t.axis for t in lay], float)
     A = A / np.linalg.norm(A, axis=1)[:, None]
     w = np.asarray(vehicle.wake if len(getattr(vehicle, "wake", ())) else np.zeros(lay.n), float)
-    return np.ascontiguousarray(np.column_stack([P, A, w]))
+    return geometry_rows(P, A, w)
+
+
+def geometry_rows(P, A, w) -> np.ndarray:
+    """The rows of :func:`inflow_geometry` from positions ``P`` (n, 3), unit axes ``A`` (n, 3)
+    and wake fractions ``w`` (n)."""
+    P, A, w = (np.asarray(a, float) for a in (P, A, w))
+    M = (1.0 - w)[:, None] * np.column_stack([A, np.cross(P, A)])
+    return np.ascontiguousarray(np.column_stack([P, A, w, M]))
 
 
 def loop_arrays(vehicle, inflow: str | None = None) -> tuple[np.ndarray, np.ndarray] | None:
