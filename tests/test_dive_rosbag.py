@@ -716,6 +716,13 @@ def _frame_set_late(out, ts, hdr):
             m[2] = dataclasses.replace(m[2], header=dataclasses.replace(m[2].header, frame_id=""))
 
 
+def _imus_overlapping(out, ts, hdr):
+    """mavros' IMU until 11 s, a second IMU (node /imu2, heading +0.3 rad) from 9 s."""
+    _second_imu("imu2_link")(out, ts, hdr)
+    out[:] = [m for m in out if not (m[1] == "/mavros/imu/data" and m[0] > T0 + OFFSET + 11 * 10**9)
+              and not (m[1].endswith("#/imu2") and m[0] < T0 + OFFSET + 9 * 10**9)]
+
+
 @pytest.mark.slow
 def test_sources_one_after_the_other_are_one_series_and_a_shared_frame_is_no_choice(dive, tmp_path):
     """A frame_id set once the driver is up (two sources, never together) is read whole; a frame
@@ -727,6 +734,9 @@ def test_sources_one_after_the_other_are_one_series_and_a_shared_frame_is_no_cho
     assert any("one after the other" in w and "all read" in w for w in late.warnings)
     assert not any("left out" in w and "publishers" in w for w in late.warnings)
     bag = write_bag(tmp_path / "shared.bag", 1, _short(dive), mutate=_second_imu("base_link"))
+    overlap = write_bag(tmp_path / "overlap.bag", 1, _short(dive), mutate=_imus_overlapping)
+    dc = read_dive_channels(overlap, "bluerov2")  # 2 s together in 20: not one after the other
+    assert any("2 publishers" in w and "left out" in w for w in dc.warnings), dc.warnings
     with pytest.raises(DiveDataError, match=r"'base_link' names 2 publishers that publish together"
                                             r".*name one by its node"):
         read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@base_link"})
@@ -752,3 +762,33 @@ def test_a_dead_output_in_a_bag_is_named_as_in_a_table(dive, tmp_path):
                for w in dc.warnings), dc.warnings
     clean = read_dive_channels(write_bag(tmp_path / "clean.bag", 1, _short(dive)), "bluerov2")
     assert not any("no pulse" in w or "(neutral)" in w for w in clean.warnings)
+
+
+def _stamps_step(seconds, after_s):
+    """Every header stamp moved by ``seconds`` from ``after_s`` on (the sender's clock re-synced)."""
+    def step(out, ts, hdr):
+        for m in out:
+            h = getattr(m[2], "header", None)
+            if h is not None and m[0] - OFFSET >= T0 + int(after_s * 1e9):
+                m[2] = dataclasses.replace(m[2], header=hdr(h.stamp.sec * 10**9 + h.stamp.nanosec
+                                                            + int(seconds * 1e9)))
+    return step
+
+
+def _recorder_stall(out, ts, hdr):
+    """The recorder stalls for a second: messages received 0.5 s late for 1 s (stamps intact)."""
+    for m in out:
+        if T0 + OFFSET + 12 * 10**9 <= m[0] < T0 + OFFSET + 13 * 10**9:
+            m[0] += 500_000_000
+
+
+@pytest.mark.slow
+def test_a_clock_step_under_a_second_is_refused_and_a_recorder_stall_is_not(dive, tmp_path):
+    """Header stamps stepping by 0.3 s mid-bag (a clock re-sync, no reboot) left the topics on
+    receive times 0.3 s off for half the bag, and each topic's median shift fell on either side
+    (yaw inertia ×0.46): refused with where to cut.  A one-second recorder stall is not a step."""
+    bag = write_bag(tmp_path / "step.bag", 1, _short(dive), mutate=_stamps_step(0.3, 10.0))
+    with pytest.raises(DiveDataError, match=r"steps by 0\.3 s and stays .* rosbag filter"):
+        read_dive_channels(bag, "bluerov2")
+    stall = write_bag(tmp_path / "stall.bag", 1, _short(dive), mutate=_recorder_stall)
+    assert read_dive_channels(stall, "bluerov2").channels["yaw_rad"][0].size > 300

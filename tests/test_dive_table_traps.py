@@ -475,6 +475,9 @@ def test_the_neutral_check_pairs_outputs_as_the_forces_do_and_only_as_the_mixer_
     pinned["pwm_5"] = 1500.0
     w = neutral(pinned[first])
     assert len(w) == 1 and "pwm_5 sits at 1500" in w[0] and "pwm_6" in w[0]
+    wobble = _table()  # PWM captured off the vehicle: ±1 µs around neutral is still pinned
+    wobble["pwm_5"] = 1500.0 + np.resize([-1.0, 0.0, 1.0], len(wobble))
+    assert len(neutral(wobble)) == 1
 
 
 @pytest.mark.parametrize("offset", [-0.5, -3.0])

@@ -360,11 +360,12 @@ def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
 
 def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: list,
                            min_s: float = DEAD_OUTPUT_S) -> None:
-    """An output that sits at one value near neutral (1450–1550 µs) for 95 % of the armed time in
-    which a thruster the mixer drives alike is driven beyond ±25 µs (0 µs, no pulse, is not
-    driven), for more than ``min_s`` s, is said: its motor is on another output (a SERVOn_FUNCTION
-    or a column that is not its output) or disabled — the fit reads it as giving no thrust (one
-    vertical thruster of two read as idle doubles the heave force attributed to the other).
+    """An output that sits within ±2 µs of one value near neutral (1450–1550 µs) for 95 % of the
+    armed time in which a thruster the mixer drives alike is driven beyond ±25 µs (0 µs, no
+    pulse, is not driven), for more than ``min_s`` s, is said: its motor is on another output
+    (a SERVOn_FUNCTION or a column that is not its output) or disabled — the fit reads it as
+    giving no thrust (one vertical thruster of two read as idle doubles the heave force
+    attributed to the other).
     Driven alike: the columns of ``B`` in the DOFs a pilot commands (surge, sway, heave, yaw; roll
     and pitch are held), each DOF scaled by its largest entry, parallel within 18° — BlueROV2's
     vertical pair, not its diagonal horizontal thrusters, which a turn with surge drives apart."""
@@ -402,9 +403,8 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
         dt = np.diff(t, append=t[-1])
         if float(dt[sel].sum()) <= min_s:
             continue
-        vals, counts = np.unique(v[sel], return_counts=True)
-        v0 = float(vals[np.argmax(counts)])
-        if 1450.0 <= v0 <= 1550.0 and counts.max() >= 0.95 * sel.sum():
+        v0 = float(np.median(v[sel]))  # within ±2 µs: PWM captured or resampled off the vehicle
+        if 1450.0 <= v0 <= 1550.0 and np.mean(np.abs(v[sel] - v0) <= 2.0) >= 0.95:
             said.append((k, v0, float(dt[sel].sum()), who))
     for k, v0, dur, who in said:
         warnings.append(f"{name}: pwm_{k} sits at {v0:.6g} µs (neutral) for {dur:.3g} s while "

@@ -200,11 +200,12 @@ def _source_label(key) -> str:
 
 def _together(ra: np.ndarray, rb: np.ndarray) -> bool:
     """Two sources publish together (not one after the other, as a node restarted under a new
-    name or a frame_id set once the driver is up): a fifth of either one's messages arrive within
-    the other's span."""
+    name or a frame_id set once the driver is up, where a message or two may cross): five of
+    either one's messages arrive within the other's span (a 20 s overlap of two IMUs in a 4-minute
+    bag is together: merged, it made a saw-tooth heading)."""
     def inside(x, y):
-        return float(np.mean((x >= y.min()) & (x <= y.max())))
-    return max(inside(ra, rb), inside(rb, ra)) >= 0.2
+        return int(np.count_nonzero((x >= y.min()) & (x <= y.max())))
+    return max(inside(ra, rb), inside(rb, ra)) >= 5
 
 
 def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail) -> None:
@@ -433,6 +434,7 @@ def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
     d = (rc - st).astype(float) / 1e9
     lo, hi = np.percentile(d, [2, 98])
     if hi - lo <= 1.0:
+        _check_clock_step(d, rc, topic, name, fail)
         return
     k = np.flatnonzero(np.abs(np.diff(d)) > 1.0)
     at = (f" (first after {(rc[k[0]] - rc[0]) / 1e9:.6g} s of the topic's recording)"
@@ -441,6 +443,38 @@ def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
          f"{at}: a clock jumped mid-bag — the sender's (an autopilot reboot restarts its stamps) "
          "or the recording computer's; the two sides cannot be put on one clock: cut the bag "
          "where it jumps")
+
+
+#: a topic's receive − stamp moving by more than this (s) and staying there is a clock step
+CLOCK_STEP_S = 0.1
+_STEP_BLOCK = 25  # messages per block median
+
+
+def _check_clock_step(d, rc, topic: str, name: str, fail) -> None:
+    """Refuse a topic whose receive time − header stamp ``d`` [s] moves by more than
+    :data:`CLOCK_STEP_S` mid-bag and stays there (medians of blocks of 25 messages: over 5 % of
+    the blocks, three at least, away from the bag's median; a recorder stalling for a second or
+    two is a few blocks and passes).  Under a second it is no reboot but a re-sync of the
+    sender's clock (mavros and the autopilot): the topics on header stamps move together, the ones
+    on receive times do not, and each topic's median shift lands on one side or the other — a
+    0.3 s step put the IMU 0.11 s early against the servo outputs (yaw inertia ×0.46)."""
+    nb = d.size // _STEP_BLOCK
+    if nb < 10:
+        return
+    b = np.median(d[:nb * _STEP_BLOCK].reshape(nb, _STEP_BLOCK), axis=1)
+    m = float(np.median(b))
+    off = np.abs(b - m) > CLOCK_STEP_S
+    if off.sum() < max(3, 0.05 * nb):
+        return
+    j = int(np.flatnonzero(off != off[0])[0]) if (off != off[0]).any() else 0
+    at = rc[j * _STEP_BLOCK] / 1e9
+    fail(f"{name}: {topic}: receive time − header stamp steps by {float(np.ptp(b)):.3g} s and stays "
+         f"(from {b[0]:+.3f} s to {b[-1]:+.3f} s, near receive time {at:.3f} s, "
+         f"{(rc[j * _STEP_BLOCK] - rc[0]) / 1e9:.4g} s into the topic): the sender's clock was "
+         "re-synced mid-bag, and the topics on header stamps and those on receive times cannot "
+         "be put on one clock across it; cut the bag there (ROS 1: rosbag filter IN OUT "
+         f"\"t.to_sec() < {at:.3f}\", or > it; ROS 2: ros2 bag convert with an end or start time) "
+         "— --t-start/--t-end do not help: the whole bag is put on one clock first")
 
 
 def _merge(t: np.ndarray, v: np.ndarray, last: bool) -> tuple[np.ndarray, np.ndarray, int]:
