@@ -390,17 +390,18 @@ def test_a_bag_without_a_needed_topic_says_what_is_missing(dive, tmp_path, omit,
 
 @pytest.mark.slow
 def test_depth_from_the_pressure_topic(dive, tmp_path):
-    """No rel_alt: depth from mavros' static_pressure, surface = the lowest pressure in the bag (a
+    """No rel_alt: depth from mavros' static_pressure, surface = the bag's 5th lowest pressure (a
     warning) or BARO1_GND_PRESS from the parameters; a pressure that does not vary is refused."""
     df = _short(dive)
     bag = write_bag(tmp_path / "p.bag", 1, df, omit=("rel_alt",), pressure=101325.0)
     rows = df["depth_m"].notna().to_numpy()
     depth = df.loc[rows, "depth_m"].to_numpy()
     dc = read_dive_channels(bag, "bluerov2")
-    np.testing.assert_allclose(dc.channels["depth_m"][1], depth - depth.min(), atol=1e-9)
+    np.testing.assert_allclose(dc.channels["depth_m"][1], depth - np.partition(depth, 4)[4],
+                               atol=1e-9)
     w = " ".join(dc.warnings)
     assert "depth from /mavros/imu/static_pressure (default)" in w
-    assert "the lowest pressure in the bag" in w and "ρ = 1000 kg/m³" in w
+    assert "the bag's lowest pressure" in w and "5th lowest" in w and "ρ = 1000 kg/m³" in w
     dc = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 101325.0})
     np.testing.assert_allclose(dc.channels["depth_m"][1], depth, atol=1e-9)
     sea = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 101325.0,
@@ -792,3 +793,37 @@ def test_a_clock_step_under_a_second_is_refused_and_a_recorder_stall_is_not(dive
         read_dive_channels(bag, "bluerov2")
     stall = write_bag(tmp_path / "stall.bag", 1, _short(dive), mutate=_recorder_stall)
     assert read_dive_channels(stall, "bluerov2").channels["yaw_rad"][0].size > 300
+
+
+def _pressure_glitches(out, ts, hdr):
+    """One static_pressure sample at 0 Pa (a sensor off its bus), one 3 kPa low (a spike)."""
+    ps = [m for m in out if m[1] == "/mavros/imu/static_pressure"]
+    for m, value in ((ps[40], 0.0), (ps[41], 98300.0)):
+        m[2] = dataclasses.replace(m[2], fluid_pressure=value)
+
+
+@pytest.mark.slow
+def test_pressure_glitches_do_not_move_the_surface_and_a_stale_ground_pressure_is_said(dive, tmp_path):
+    """The surface was the lowest pressure in the bag: one 0 Pa sample made every depth +10 m
+    (the surface cut-off never acted; heave mass 15.5 instead of 26.5), one 3 kPa spike +0.3 m.
+    0 Pa is no pressure of air or water (left out, said); the 5th lowest sample ignores a spike.
+    A BARO1_GND_PRESS 3 kPa below the bag's surface is said."""
+    df = _short(dive)
+    clean = read_dive_channels(write_bag(tmp_path / "p.bag", 1, df, omit=("rel_alt",),
+                                         pressure=101325.0), "bluerov2")
+    bag = write_bag(tmp_path / "glitch.bag", 1, df, omit=("rel_alt",), pressure=101325.0,
+                    mutate=_pressure_glitches)
+    dc = read_dive_channels(bag, "bluerov2")
+    assert any(re.search(r"1 /mavros/imu/static_pressure sample\(s\) outside 30 kPa–20 MPa.*: 0 Pa\)"
+                         r": left out", w) for w in dc.warnings), dc.warnings
+    t0, d0 = clean.channels["depth_m"]
+    t1, d1 = dc.channels["depth_m"]
+    keep = np.isin(t0, t1)
+    assert keep.sum() == t0.size - 1  # the 0 Pa sample
+    # the spike itself reads −0.3 m; the others within 5 mm of the clean bag's (the spike is one
+    # of the five lowest samples: the 5th lowest is then the clean bag's 4th)
+    np.testing.assert_allclose(np.delete(d1, np.flatnonzero(d1 < -0.2)), np.delete(
+        d0[keep], np.flatnonzero(d1 < -0.2)), atol=5e-3)
+    stale = read_dive_channels(bag, "bluerov2", params={"BARO1_GND_PRESS": 98325.0})
+    assert any("BARO1_GND_PRESS = 98325 Pa is 0.3" in w and "another day" in w
+               for w in stale.warnings), stale.warnings

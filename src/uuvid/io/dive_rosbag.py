@@ -34,7 +34,8 @@ role          default                                        becomes
 Depth: ``depth`` if given, else ``altitude`` (mavros' ``rel_alt`` is ArduSub's
 ``GLOBAL_POSITION_INT.relative_alt``, positive up), else ``pressure`` (mavros' ``static_pressure``
 is ``SCALED_PRESSURE``, barometer 0, which on some BlueROV2s is the enclosure sensor — check) with
-``p_surface`` = ``BARO1_GND_PRESS`` from ``params`` else the lowest pressure in the bag, ρ = 1000
+``p_surface`` = ``BARO1_GND_PRESS`` from ``params`` else the bag's 5th lowest pressure (samples
+outside 30 kPa–20 MPa, no pressure of air or water, left out and said), ρ = 1000
 kg/m³ (fresh water; × ``BARO_SPEC_GRAV`` from ``params``), g = 9.80665 m/s².
 
 Heading: mavros publishes ``imu/data`` orientation as the rotation from the FLU ``base_link`` to
@@ -445,6 +446,9 @@ def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
          "where it jumps")
 
 
+#: absolute pressures [Pa] of air (a mountain lake's surface ≈ 55 kPa) or water (2000 m): a
+#: sample outside is a glitch (0 Pa from a sensor off its bus) or another unit
+PRESSURE_PA = (30e3, 20e6)
 #: a topic's receive − stamp moving by more than this (s) and staying there is a clock step
 CLOCK_STEP_S = 0.1
 _STEP_BLOCK = 25  # messages per block median
@@ -768,12 +772,32 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         prm = merge_params({}, params, []) if params is not None else {}
         sg = float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0)))
         rho = RHO_FRESH * sg
+        odd = ~((d >= PRESSURE_PA[0]) & (d <= PRESSURE_PA[1]))
+        if odd.any():  # 0 Pa from a sensor that lost its bus, a value of another unit
+            k = np.flatnonzero(odd)
+            warnings.append(f"{name}: {k.size} {specs['pressure'][0]} sample(s) outside "
+                            f"{PRESSURE_PA[0] / 1e3:g} kPa–{PRESSURE_PA[1] / 1e6:g} MPa, no pressure of "
+                            f"air or water (first at t = {td[k[0]]:.6g} s: {d[k[0]]:.6g} Pa): left "
+                            "out")
+            td, d = td[~odd], d[~odd]
+            if not d.size:
+                fail(f"{name}: no {specs['pressure'][0]} sample is a pressure of air or water "
+                     f"({PRESSURE_PA[0] / 1e3:g} kPa–{PRESSURE_PA[1] / 1e6:g} MPa): is it in Pa?")
+        low = float(np.partition(d, min(4, d.size - 1))[min(4, d.size - 1)])  # 5th lowest
         gnd = prm.get("BARO1_GND_PRESS")
         if gnd is not None and math.isfinite(float(gnd)) and float(gnd) > 0:
             ps, ps_how = float(gnd), f"BARO1_GND_PRESS = {float(gnd):g} Pa (--params)"
+            if low - ps > rho * G * 0.1:
+                warnings.append(
+                    f"{name}: BARO1_GND_PRESS = {ps:g} Pa is {(low - ps) / (rho * G):.2g} m of water "
+                    f"below the bag's lowest pressure ({low:.0f} Pa): if the vehicle was at the "
+                    "surface in this bag, the depth reads that much too deep there and the heave "
+                    "fit's surface cut-off admits surface windows — a ground pressure from another "
+                    "day? without BARO1_GND_PRESS the surface is taken from the bag")
         else:
-            ps, ps_how = float(d.min()), (f"the lowest pressure in the bag ({float(d.min()):.0f} "
-                                          "Pa; default: no BARO1_GND_PRESS in --params)")
+            ps, ps_how = low, (f"the bag's lowest pressure ({low:.0f} Pa, its 5th lowest sample: a "
+                               "few glitches do not move it; default: no BARO1_GND_PRESS in "
+                               "--params)")
         if d.size > 1 and float(np.ptp(d)) < rho * G * 0.05:
             fail(f"{name}: pressure topic {specs['pressure'][0]} varies by only "
                  f"{float(np.ptp(d)):.0f} Pa (< 5 cm of water) over the bag: it is not the water "
