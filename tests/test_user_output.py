@@ -139,6 +139,15 @@ def test_predict_names_a_command_that_is_no_pulse_width_by_the_models_unit(tmp_p
     doc = json.loads(runner.invoke(app, ["thruster", "predict", "t200", "--pwm", "1700",
                                          "--json"]).stdout)
     assert doc["pwm_us"] == [1700.0] and doc["warnings"] == []
+    exported = tmp_path / "a2212.yaml"  # an exported PWM model whose command_unit line was lost
+    assert runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "yaml", "--out-file",
+                               str(exported)]).exit_code == 0
+    exported.write_text("".join(ln for ln in exported.read_text().splitlines(keepends=True)
+                                if "command_unit" not in ln))
+    doc = json.loads(runner.invoke(app, ["thruster", "predict", str(exported), "--pwm", "1700",
+                                         "--json"]).stdout)
+    assert doc["pwm_us"] == [1700.0]
+    assert any("neutral is 1500, a pulse width: read as µs" in w for w in doc["warnings"])
 
 
 def test_predict_warns_outside_the_presets_data_voltages():

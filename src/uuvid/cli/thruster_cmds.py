@@ -338,6 +338,11 @@ def thruster_predict(
     note = None
     if key == "pwm_us":  # --pwm feeds the model's command: named in the model's own unit
         unit = blocks[0].command_unit if isinstance(blocks[0], ESC) else None
+        if unit == "volts" and blocks[0].neutral >= 500.0:  # the default of a file without a unit
+            unit = "pwm_us"
+            note = (f"{chain.name}'s ESC says command_unit volts (what a file without command_unit "
+                    f"gets) but its neutral is {blocks[0].neutral:g}, a pulse width: read as µs; "
+                    "add command_unit: pwm_us to the file")
         key = {"pwm_us": "pwm_us", "volts": "command_V", "duty": "duty"}.get(unit, "command")
         if key != "pwm_us":
             note = (f"--pwm gives {chain.name}'s command input, which is not a pulse width here ("
