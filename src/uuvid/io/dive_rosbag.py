@@ -172,6 +172,7 @@ class _Topic:
     values: dict = field(default_factory=dict)  # role → list of extracted objects
     src: list = field(default_factory=list)  # per message: (publishing node, header frame)
     publishers: int = 1  # publishers the bag's metadata lists for the topic (ROS 2 QoS profiles)
+    chosen: str | None = None  # the publisher kept where several published together
 
 
 def _split(role: str, spec: str) -> tuple[str, str]:
@@ -275,6 +276,7 @@ def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail
             f"{roles} read from {_source_label(k0)} ({by}), the {sum(others.values())} messages "
             f"of the other{'s' if len(others) > 1 else ''} left out; choose with --topic "
             f"ROLE={tp.topic}@SOURCE (a node or a frame)")
+    tp.chosen = ", ".join(_source_label(k) for k in uniq if k in keep_keys)
     mask = [k in keep_keys for k in keys]
     tp.recv = [x for x, m in zip(tp.recv, mask) if m]
     if tp.hdr is not None:
@@ -733,8 +735,9 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
 
     def src(role, how):
         topic, fld, g = specs[role]
-        return (f"{topic}:{fld} ({data[topic].msgtype}) {how}; {stamp_note[topic].split(',')[0]}"
-                + ("" if g else "; default topic"))
+        pub = f" [publisher {data[topic].chosen}]" if data[topic].chosen else ""
+        return (f"{topic}:{fld}{pub} ({data[topic].msgtype}) {how}; "
+                f"{stamp_note[topic].split(',')[0]}" + ("" if g else "; default topic"))
 
     # ---- heading
     if have("yaw"):

@@ -212,15 +212,17 @@ class DofEstimate:
                 "notes": self.notes, "dead_band": self.weighting, "inflow": self.inflow,
                 "unusable": self.unusable}
 
-    def identified(self, log: str) -> dict:
-        """``{dof: entry}`` for :func:`uuvid.vehicle.writeback.write_identified`."""
+    def identified(self, log: str, measured: str = "") -> dict:
+        """``{dof: entry}`` for :func:`uuvid.vehicle.writeback.write_identified`; ``measured``:
+        where the DOF's channels came from (a bag's topics and publisher), kept in its notes."""
         v, s = self.values, self.sigma
         e = {"mass": v["mass"], "linear": max(v["linear"], 0.0),
              "quadratic": max(v["quadratic"], 0.0), "disturbance": v["bias"],
              "sigma": {"mass": s["mass"], "linear": s["linear"],
                        "quadratic": s["quadratic"], "disturbance": s["bias"]},
              "log": log, "method": "dive output-error" + (" with inflow" if "inflow" in v else ""),
-             "notes": f"{self.windows} windows of {self.horizon:g} s"}
+             "notes": f"{self.windows} windows of {self.horizon:g} s"
+                      + (f"; measured: {measured}" if measured else "")}
         if "inflow" in v:
             e["inflow_coefficient"] = max(v["inflow"], 0.0)
             e["sigma"]["inflow_coefficient"] = s["inflow"]
@@ -293,7 +295,10 @@ class DiveIdentification(Result):
         out = {}
         for e in self.estimates.values():
             if e.dof != "horizontal":
-                out.update(e.identified(self.log))
+                chans = DIVE_DOFS[e.dof][:2] if e.dof in DIVE_DOFS else ()
+                measured = "; ".join(f"{c} from {self.sources[c].split(' (')[0]}" for c in chans
+                                     if (self.sources or {}).get(c))
+                out.update(e.identified(self.log, measured))
         if "horizontal" in self.estimates:
             out.update(self.estimates["horizontal"].identified(self.log))
         return out
