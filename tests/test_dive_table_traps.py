@@ -490,6 +490,7 @@ def test_a_depth_above_the_water_is_said_with_the_cut_off_it_misleads(offset):
     w = [x for x in _read(df).warnings if "above the water" in x]
     assert len(w) == 1 and re.search(rf"down to {offset:.3g} m, first at t = 0 s\).*surface "
                                      r"cut-off \(depth < 0\.2 m\)", w[0]), w
+    assert (", 100 % (" in w[0]) == (offset == -3.0)  # the whole log: 100 %, not 1e+02 %
     noisy = _table()
     noisy["depth_m"] = np.clip(noisy["depth_m"], 0.0, None) - 0.05 * (np.arange(len(noisy)) % 2)
     assert not any("above the water" in x for x in _read(noisy).warnings)

@@ -294,3 +294,28 @@ def test_state_advance_speeds_match_the_geometric_form():
     nu_r = x[7:13].copy()
     nu_r[:3] -= quat_to_rotmat(q).T @ vc
     np.testing.assert_allclose(got, advance_speeds(nu_r, P, A, w), rtol=0, atol=1e-13)
+
+
+def test_a_geometry_without_the_advance_speed_row_is_refused_not_read_past_its_end():
+    """A hand-built 7-column geometry (before the advance speed's row was added) was read past
+    its end in still water (a wrong trajectory, no error) and gave tracebacks elsewhere."""
+    import dataclasses
+
+    import yaml
+
+    from uuvid.simulate.batch import perturb_batch, run_batch_fast
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+    from uuvid.vehicle.definition import preset_path, vehicle_from_dict
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw["inflow"] = "four-quadrant"
+    s = setup_mission(vehicle_from_dict(raw, where="bluerov2.yaml"), square_mission(), t_end=2.0)
+    prm, geo = s.inflow_arrays
+    assert geo.shape[1] == 13
+    old = dataclasses.replace(s, inflow_arrays=(prm, geo[:, :7]))
+    with pytest.raises(ValueError, match=r"shape \(6, 7\): expected \(thrusters, 13\)"):
+        fly_mission(old)
+    VP, TP, VC = perturb_batch(s, np.random.default_rng(0), 8)
+    with pytest.raises(ValueError, match=r"expected \(thrusters, 13\)"):
+        run_batch_fast(old, VP, TP, VC)

@@ -366,7 +366,8 @@ def thruster_predict(
     doc["warnings"] = zero_output_warnings(x, thrust, neutral) + monotonicity_warnings(
         x, thrust, neutral)
     if isinstance(blocks[start], ESC):
-        doc["warnings"] += command_range_warnings(x, blocks[start], "µs" if key == "pwm_us" else "")
+        doc["warnings"] += command_range_warnings(
+            x, blocks[start], {"pwm_us": "µs", "command_V": "V"}.get(key, ""))
     if note:
         doc["warnings"].append(note)
     doc["warnings"] += supply_warnings

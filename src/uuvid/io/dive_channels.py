@@ -256,7 +256,7 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
             k = np.flatnonzero(above)[0]
             warnings.append(
                 f"{name}: depth_m reads below −{ABOVE_WATER_M:g} m (above the water) on "
-                f"{above.sum()} samples, {100 * np.mean(above):.2g} % (down to {d.min():.3g} m, first at t = "
+                f"{above.sum()} samples, {100 * np.mean(above):.3g} % (down to {d.min():.3g} m, first at t = "
                 f"{td[k]:.6g} s): an offset (the surface pressure taken at depth, or for other "
                 "water) or an altitude (positive up)? The heave fit's surface cut-off (depth < "
                 f"{SURFACE_CUT_M:g} m) and the on-deck check act on the depth as logged: remove the "

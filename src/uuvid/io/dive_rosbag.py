@@ -203,11 +203,12 @@ def _source_label(key) -> str:
 def _together(ra: np.ndarray, rb: np.ndarray) -> bool:
     """Two sources publish together (not one after the other, as a node restarted under a new
     name or a frame_id set once the driver is up, where a message or two may cross): five of
-    either one's messages arrive within the other's span (a 20 s overlap of two IMUs in a 4-minute
-    bag is together: merged, it made a saw-tooth heading)."""
+    either one's messages (all of them, when it sent fewer: a stray `rostopic pub`) arrive within
+    the other's span (a 20 s overlap of two IMUs in a 4-minute bag is together: merged, it made a
+    saw-tooth heading)."""
     def inside(x, y):
-        return int(np.count_nonzero((x >= y.min()) & (x <= y.max())))
-    return max(inside(ra, rb), inside(rb, ra)) >= 5
+        return int(np.count_nonzero((x >= y.min()) & (x <= y.max()))) >= min(5, x.size)
+    return inside(ra, rb) or inside(rb, ra)
 
 
 def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail) -> None:
@@ -427,7 +428,7 @@ def _stamps(tp: _Topic) -> tuple[np.ndarray, np.ndarray, str]:
                         f"{h.size} messages)")
 
 
-def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
+def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail, warnings=None) -> None:
     """Refuse a topic whose receive time − header stamp changes by more than a second within the
     bag (2nd to 98th percentile: a few corrupt stamps are not a jump): one of the two clocks
     jumped mid-bag — an autopilot reboot restarting its stamps, or the recording computer's clock
@@ -437,7 +438,7 @@ def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
     d = (rc - st).astype(float) / 1e9
     lo, hi = np.percentile(d, [2, 98])
     if hi - lo <= 1.0:
-        _check_clock_step(d, rc, topic, name, fail)
+        _check_clock_step(d, rc, topic, name, fail, warnings)
         return
     k = np.flatnonzero(np.abs(np.diff(d)) > 1.0)
     at = (f" (first after {(rc[k[0]] - rc[0]) / 1e9:.6g} s of the topic's recording)"
@@ -451,36 +452,48 @@ def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail) -> None:
 #: absolute pressures [Pa] of air (a mountain lake's surface ≈ 55 kPa) or water (2000 m): a
 #: sample outside is a glitch (0 Pa from a sensor off its bus) or another unit
 PRESSURE_PA = (30e3, 20e6)
+GAUGE_LOW_PA = -20e3  # a gauge pressure (median below PRESSURE_PA[0]): 2 m above the water at most
 #: a topic's receive − stamp moving by more than this (s) and staying there is a clock step
 CLOCK_STEP_S = 0.1
 _STEP_BLOCK = 25  # messages per block median
 
 
-def _check_clock_step(d, rc, topic: str, name: str, fail) -> None:
-    """Refuse a topic whose receive time − header stamp ``d`` [s] moves by more than
-    :data:`CLOCK_STEP_S` mid-bag and stays there (medians of blocks of 25 messages: over 5 % of
-    the blocks, three at least, away from the bag's median; a recorder stalling for a second or
-    two is a few blocks and passes).  Under a second it is no reboot but a re-sync of the
-    sender's clock (mavros and the autopilot): the topics on header stamps move together, the ones
-    on receive times do not, and each topic's median shift lands on one side or the other — a
-    0.3 s step put the IMU 0.11 s early against the servo outputs (yaw inertia ×0.46)."""
+def _check_clock_step(d, rc, topic: str, name: str, fail, warnings=None) -> None:
+    """Refuse a topic whose receive time − header stamp ``d`` [s] steps by more than
+    :data:`CLOCK_STEP_S` mid-bag and stays there: the medians of its first and last fifths
+    (blocks of 25 messages) differ by more than that, most of it in one jump between two blocks.
+    Under a second it is no reboot but a re-sync of the sender's clock (mavros and the
+    autopilot): the topics on header stamps move together, the ones on receive times do not, and
+    each topic's median shift lands on one side or the other — a 0.3 s step put the IMU 0.11 s
+    early against the servo outputs (yaw inertia ×0.46).  A recorder stalling or lagging for a
+    while and catching up comes back to its level and passes; a lag that grows steadily (the
+    recording computer's clock running at another rate) is said in ``warnings``."""
     nb = d.size // _STEP_BLOCK
     if nb < 10:
         return
     b = np.median(d[:nb * _STEP_BLOCK].reshape(nb, _STEP_BLOCK), axis=1)
-    m = float(np.median(b))
-    off = np.abs(b - m) > CLOCK_STEP_S
-    if off.sum() < max(3, 0.05 * nb):
+    fifth = max(2, nb // 5)
+    first, last = float(np.median(b[:fifth])), float(np.median(b[-fifth:]))
+    total = last - first
+    if abs(total) <= CLOCK_STEP_S:
         return
-    j = int(np.flatnonzero(off != off[0])[0]) if (off != off[0]).any() else 0
-    at = rc[j * _STEP_BLOCK] / 1e9
-    fail(f"{name}: {topic}: receive time − header stamp steps by {float(np.ptp(b)):.3g} s and stays "
-         f"(from {b[0]:+.3f} s to {b[-1]:+.3f} s, near receive time {at:.3f} s, "
-         f"{(rc[j * _STEP_BLOCK] - rc[0]) / 1e9:.4g} s into the topic): the sender's clock was "
-         "re-synced mid-bag, and the topics on header stamps and those on receive times cannot "
-         "be put on one clock across it; cut the bag there (ROS 1: rosbag filter IN OUT "
-         f"\"t.to_sec() < {at:.3f}\", or > it; ROS 2: ros2 bag convert with an end or start time) "
-         "— --t-start/--t-end do not help: the whole bag is put on one clock first")
+    jumps = np.diff(b)
+    j = int(np.argmax(np.abs(jumps)))
+    if abs(jumps[j]) < 0.5 * abs(total):  # no one jump: a steady drift
+        if warnings is not None:
+            warnings.append(f"{name}: {topic}: receive time − header stamp drifts by {total:+.3g} s "
+                            "over the bag (the recording computer's clock and the sender's run at "
+                            "different rates): the topics on receive times are off by up to "
+                            f"{abs(total) / 2:.2g} s against those on header stamps at the bag's ends")
+        return
+    at = rc[(j + 1) * _STEP_BLOCK] / 1e9
+    fail(f"{name}: {topic}: receive time − header stamp steps from {first:+.3f} s to {last:+.3f} s "
+         f"and stays (near receive time {at:.3f} s, {(rc[(j + 1) * _STEP_BLOCK] - rc[0]) / 1e9:.4g} "
+         "s into the topic): the sender's clock was re-synced mid-bag, and the topics on header "
+         "stamps and those on receive times cannot be put on one clock across it; cut the bag "
+         f"there (ROS 1: rosbag filter IN OUT \"t.to_sec() < {at:.3f}\", or > it; ROS 2: a copy "
+         "of the part before or after, e.g. with the rosbags package) — --t-start/--t-end do not "
+         "help: the whole bag is put on one clock first")
 
 
 def _merge(t: np.ndarray, v: np.ndarray, last: bool) -> tuple[np.ndarray, np.ndarray, int]:
@@ -679,7 +692,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     for tp in data.values():
         if tp.recv:
             st, rc, how = _stamps(tp)
-            _check_clock_jump(st, rc, how, tp.topic, name, fail)
+            _check_clock_jump(st, rc, how, tp.topic, name, fail, warnings)
             clocks[tp.topic] = (st, float(np.median(rc - st)), how)
     ref_topic = specs["pwm"][0]
     ref_off = clocks[ref_topic][1]
@@ -775,7 +788,14 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         prm = merge_params({}, params, []) if params is not None else {}
         sg = float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0)))
         rho = RHO_FRESH * sg
-        odd = ~((d >= PRESSURE_PA[0]) & (d <= PRESSURE_PA[1]))
+        gauge = d.size > 0 and float(np.median(d)) < PRESSURE_PA[0]  # 0 at the surface
+        lo_pa = GAUGE_LOW_PA if gauge else PRESSURE_PA[0]
+        if gauge:
+            warnings.append(f"{name}: {specs['pressure'][0]} has median {float(np.median(d)):.0f} "
+                            f"Pa, below any absolute pressure of air ({PRESSURE_PA[0] / 1e3:g} kPa): "
+                            "read as a gauge pressure (0 at the surface; sensor_msgs/FluidPressure "
+                            "is absolute — check the driver)")
+        odd = ~((d >= lo_pa) & (d <= PRESSURE_PA[1]))
         if odd.any():  # 0 Pa from a sensor that lost its bus, a value of another unit
             k = np.flatnonzero(odd)
             warnings.append(f"{name}: {k.size} {specs['pressure'][0]} sample(s) outside "
@@ -786,20 +806,25 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
             if not d.size:
                 fail(f"{name}: no {specs['pressure'][0]} sample is a pressure of air or water "
                      f"({PRESSURE_PA[0] / 1e3:g} kPa–{PRESSURE_PA[1] / 1e6:g} MPa): is it in Pa?")
-        low = float(np.partition(d, min(4, d.size - 1))[min(4, d.size - 1)])  # 5th lowest
+        kth = min(4, d.size // 20)  # the 5th lowest (the lowest in a short bag)
+        low = float(np.partition(d, kth)[kth])
         gnd = prm.get("BARO1_GND_PRESS")
-        if gnd is not None and math.isfinite(float(gnd)) and float(gnd) > 0:
+        if gauge:
+            ps, ps_how = 0.0, "0 Pa (a gauge pressure)"
+        elif gnd is not None and math.isfinite(float(gnd)) and float(gnd) > 0:
             ps, ps_how = float(gnd), f"BARO1_GND_PRESS = {float(gnd):g} Pa (--params)"
             if low - ps > rho * G * 0.1:
                 warnings.append(
                     f"{name}: BARO1_GND_PRESS = {ps:g} Pa is {(low - ps) / (rho * G):.2g} m of water "
-                    f"below the bag's lowest pressure ({low:.0f} Pa): if the vehicle was at the "
-                    "surface in this bag, the depth reads that much too deep there and the heave "
-                    "fit's surface cut-off admits surface windows — a ground pressure from another "
-                    "day? without BARO1_GND_PRESS the surface is taken from the bag")
+                    f"below the bag's lowest pressure ({low:.0f} Pa): the vehicle is never "
+                    "shallower than that — fine if the bag starts under water; if the vehicle was "
+                    "at the surface in it, BARO1_GND_PRESS is from another day, the depth reads "
+                    "that much too deep and the heave fit's surface cut-off admits surface windows "
+                    "(then leave BARO1_GND_PRESS out: the surface is taken from the bag)")
         else:
-            ps, ps_how = low, (f"the bag's lowest pressure ({low:.0f} Pa, its 5th lowest sample: a "
-                               "few glitches do not move it; default: no BARO1_GND_PRESS in "
+            ps, ps_how = low, (f"the bag's lowest pressure ({low:.0f} Pa, its "
+                               + ("5th lowest sample: a few glitches do not move it" if kth == 4
+                                  else "lowest sample") + "; default: no BARO1_GND_PRESS in "
                                "--params)")
         if d.size > 1 and float(np.ptp(d)) < rho * G * 0.05:
             fail(f"{name}: pressure topic {specs['pressure'][0]} varies by only "

@@ -107,6 +107,7 @@ from uuvid.thruster.blocks import (
     K_ZERO_ORDER,
 )
 from uuvid.thruster.inflow import inflow_series as _inflow_series
+from uuvid.vehicle.inflow import check_geometry as _check_geometry
 from uuvid.vehicle.model import (
     LAYOUT_VERSION,
     N_PARAMS,
@@ -322,6 +323,8 @@ def _analyse(setup, VP, TP, VC, chunk, fastmath) -> _Prepared:
         raise _NoFastPath("inflow with a static thruster chain flies the per-vehicle loop "
                           "(vehicle_sim.fly_batch)")
     IPRM, IGEO = inflow if inflow is not None else (None, None)
+    if IGEO is not None:
+        IGEO = _check_geometry(IGEO)
     inflow_series = _inflow_series(IPRM) if inflow is not None else ((), ())
 
     struct = _Structure(n, int(s.substeps), int(chunk),

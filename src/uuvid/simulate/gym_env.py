@@ -47,7 +47,7 @@ except ImportError as e:  # pragma: no cover - depends on the environment
 from uuvid.simulate.station_keeping import rk4_held, thrust_to_tau
 from uuvid.thruster.inflow import inflow_thrust_nb
 from uuvid.vehicle.allocation import allocate_compiled
-from uuvid.vehicle.inflow import state_advance_speeds_nb
+from uuvid.vehicle.inflow import check_geometry, state_advance_speeds_nb
 from uuvid.vehicle.kinematics import normalise_state, quat_to_rotmat
 from uuvid.vehicle.model import vehicle_rhs_into
 
@@ -241,7 +241,8 @@ class _Config:
         self.max_distance = float(max_distance)
         self.w = np.asarray(weights, dtype=float).reshape(4)
         arrays = loop_arrays(v, inflow)
-        self.iprm, self.igeo = arrays if arrays is not None else (np.zeros(0), np.zeros((0, 7)))
+        self.iprm, self.igeo = arrays if arrays is not None else (np.zeros(0), np.zeros((0, 13)))
+        self.igeo = check_geometry(self.igeo)
 
     def initial_states(self, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``n`` random 13-states around the first waypoint and their currents."""

@@ -33,7 +33,7 @@ from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, ParameterError
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.thruster.inflow import inflow_thrust_at_nb, inflow_thrust_nb, tip_speed_nb
 from uuvid.vehicle.allocation import allocate_compiled
-from uuvid.vehicle.inflow import state_advance_speeds_nb
+from uuvid.vehicle.inflow import check_geometry, state_advance_speeds_nb
 from uuvid.vehicle.kinematics import normalise_state
 from uuvid.vehicle.model import vehicle_rhs_into, vehicle_rhs_still_into
 from uuvid.vehicle.stability import MAX_TILT_DEG
@@ -211,7 +211,7 @@ def _rhs(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch,
     """Derivative of the combined state z = [vehicle (13), thruster states (n·ns)] (no
     disturbance force; :func:`_rhs_d`)."""
     _rhs_d(z, sig0, start, vp, B, eta_p, eta_n, kinds, poff, tparams, soff, outch, in_ch, vc, dvc,
-           dz, thrust, tau, ch, blk, np.zeros(6), np.zeros(0), np.zeros((0, 7)), np.zeros(0))
+           dz, thrust, tau, ch, blk, np.zeros(6), np.zeros(0), np.zeros((0, 13)), np.zeros(0))
 
 
 @njit(cache=True)
@@ -1023,10 +1023,9 @@ def fly_batch(z0, VP, B, alloc, eta_p, eta_n, dofs, kinds, poff, TP, soff, outch
 def _inflow_or_empty(inflow_arrays) -> tuple[np.ndarray, np.ndarray]:
     """``(IPRM, IGEO)`` for the compiled loops: the setup's inflow arrays, or empty ones (off)."""
     if inflow_arrays is None:
-        return np.zeros(0), np.zeros((0, 7))
+        return np.zeros(0), np.zeros((0, 13))
     IPRM, IGEO = inflow_arrays
-    return (np.ascontiguousarray(IPRM, dtype=np.float64),
-            np.ascontiguousarray(IGEO, dtype=np.float64))
+    return np.ascontiguousarray(IPRM, dtype=np.float64), check_geometry(IGEO)
 
 
 def loop_config(soff, exact, IPRM) -> tuple[tuple[str, bool], ...]:

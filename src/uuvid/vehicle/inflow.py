@@ -246,6 +246,22 @@ def inflow_geometry(vehicle) -> np.ndarray:
     return geometry_rows(P, A, w)
 
 
+GEOMETRY_COLUMNS = 13
+
+
+def check_geometry(G) -> np.ndarray:
+    """``G`` as the compiled loops take it (float64, C order), or a ``ValueError`` saying what a
+    geometry is: :func:`inflow_geometry`'s 13 columns (an older 7-column one, without the advance
+    speed's row, would be read past its end)."""
+    G = np.ascontiguousarray(G, dtype=np.float64)
+    if G.ndim != 2 or (G.shape[0] and G.shape[1] != GEOMETRY_COLUMNS):
+        raise ValueError(f"inflow geometry of shape {G.shape}: expected (thrusters, "
+                         f"{GEOMETRY_COLUMNS}) rows [r (3), unit axis (3), wake, (1 − w)[axis, "
+                         "r × axis] (6)] — build it with uuvid.vehicle.inflow.inflow_geometry "
+                         "(or loop_arrays)")
+    return G
+
+
 def geometry_rows(P, A, w) -> np.ndarray:
     """The rows of :func:`inflow_geometry` from positions ``P`` (n, 3), unit axes ``A`` (n, 3)
     and wake fractions ``w`` (n)."""
