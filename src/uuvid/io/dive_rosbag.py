@@ -624,6 +624,63 @@ def _check_gaps(t, topic: str, role: str, name: str, warnings: list, fail) -> No
                         "replay each side on its own (--t-start/--t-end)")
 
 
+def _pressure_depth(td, p, prm: dict, topic: str, name: str, warnings: list, fail):
+    """``(t, depth, how)`` from absolute pressures ``p`` [Pa] (:data:`PRESSURE_PA`; samples
+    outside are glitches, left out and said; a median below it is a gauge pressure, read from
+    0 Pa): ``depth = (p − p_surface)/(ρ g)`` with ``p_surface`` = ``BARO1_GND_PRESS`` of ``prm``
+    (said when the bag's lowest pressure is 10 cm of water above it) else the bag's 5th lowest
+    sample (the lowest of a short bag: one 0 Pa sample as the surface made every depth 10 m too
+    deep), ρ = 1000 kg/m³ × ``BARO_SPEC_GRAV``."""
+    sg = float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0)))
+    rho = RHO_FRESH * sg
+    gauge = p.size > 0 and float(np.median(p)) < PRESSURE_PA[0]  # 0 at the surface
+    lo_pa = GAUGE_LOW_PA if gauge else PRESSURE_PA[0]
+    span = f"{lo_pa / 1e3:g} kPa–{PRESSURE_PA[1] / 1e6:g} MPa"
+    if gauge:
+        warnings.append(f"{name}: {topic} has median {float(np.median(p)):.0f} Pa, below any "
+                        f"absolute pressure of air ({PRESSURE_PA[0] / 1e3:g} kPa): read as a gauge "
+                        "pressure (0 at the surface; sensor_msgs/FluidPressure is absolute — check "
+                        "the driver)")
+    odd = ~((p >= lo_pa) & (p <= PRESSURE_PA[1]))
+    if odd.any():  # 0 Pa from a sensor that lost its bus, a value of another unit
+        k = np.flatnonzero(odd)
+        warnings.append(f"{name}: {k.size} {topic} sample(s) outside {span}, no pressure of air "
+                        f"or water (first at t = {td[k[0]]:.6g} s: {p[k[0]]:.6g} Pa): left out")
+        td, p = td[~odd], p[~odd]
+        if not p.size:
+            fail(f"{name}: no {topic} sample is a pressure of air or water ({span}): is it in Pa?")
+    kth = min(4, p.size // 20)  # the 5th lowest (a lower one in a short bag)
+    low = float(np.partition(p, kth)[kth])
+    gnd = prm.get("BARO1_GND_PRESS")
+    if gauge:
+        ps, ps_how = 0.0, "0 Pa (a gauge pressure)"
+    elif gnd is not None and math.isfinite(float(gnd)) and float(gnd) > 0:
+        ps, ps_how = float(gnd), f"BARO1_GND_PRESS = {float(gnd):g} Pa (--params)"
+        if low - ps > rho * G * 0.1:
+            warnings.append(
+                f"{name}: BARO1_GND_PRESS = {ps:g} Pa is {(low - ps) / (rho * G):.2g} m of water "
+                f"below the bag's lowest pressure ({low:.0f} Pa): the vehicle is never shallower "
+                "than that — fine if the bag starts under water; if the vehicle was at the "
+                "surface in it, BARO1_GND_PRESS is from another day, the depth reads that much "
+                "too deep and the heave fit's surface cut-off admits surface windows (then leave "
+                "BARO1_GND_PRESS out: the surface is taken from the bag)")
+    else:
+        nth = ("lowest", "2nd lowest", "3rd lowest", "4th lowest", "5th lowest")[kth]
+        ps, ps_how = low, (f"the bag's lowest pressure ({low:.0f} Pa, its {nth} sample"
+                           + (": a few glitches do not move it" if kth else "")
+                           + "; default: no BARO1_GND_PRESS in --params)")
+    if p.size > 1 and float(np.ptp(p)) < rho * G * 0.05:
+        fail(f"{name}: pressure topic {topic} varies by only {float(np.ptp(p)):.0f} Pa (< 5 cm of "
+             "water) over the bag: it is not the water pressure (mavros' static_pressure is "
+             "SCALED_PRESSURE, barometer 0, on some BlueROV2s the enclosure sensor); pass --topic "
+             "depth=TOPIC:FIELD or --topic altitude=TOPIC:FIELD")
+    how = (f"depth = (p − p_surface)/(ρ g), p_surface = {ps_how}, ρ = {rho:g} kg/m³ "
+           + ("(BARO_SPEC_GRAV from --params)" if sg != 1.0 else
+              "(fresh water, default; sea water ≈ 1025: give BARO_SPEC_GRAV in --params)")
+           + f", g = {G} m/s²")
+    return td, (p - ps) / (rho * G), how
+
+
 def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     """Read a bag (see the module doc); raises :class:`~uuvid.io.logs.LogDataError` naming the bag,
     the topic looked for, the bag's topics and the option to pass."""
@@ -786,57 +843,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
               "GLOBAL_POSITION_INT.relative_alt)"
     else:
         prm = merge_params({}, params, []) if params is not None else {}
-        sg = float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0)))
-        rho = RHO_FRESH * sg
-        gauge = d.size > 0 and float(np.median(d)) < PRESSURE_PA[0]  # 0 at the surface
-        lo_pa = GAUGE_LOW_PA if gauge else PRESSURE_PA[0]
-        if gauge:
-            warnings.append(f"{name}: {specs['pressure'][0]} has median {float(np.median(d)):.0f} "
-                            f"Pa, below any absolute pressure of air ({PRESSURE_PA[0] / 1e3:g} kPa): "
-                            "read as a gauge pressure (0 at the surface; sensor_msgs/FluidPressure "
-                            "is absolute — check the driver)")
-        odd = ~((d >= lo_pa) & (d <= PRESSURE_PA[1]))
-        if odd.any():  # 0 Pa from a sensor that lost its bus, a value of another unit
-            k = np.flatnonzero(odd)
-            warnings.append(f"{name}: {k.size} {specs['pressure'][0]} sample(s) outside "
-                            f"{PRESSURE_PA[0] / 1e3:g} kPa–{PRESSURE_PA[1] / 1e6:g} MPa, no pressure of "
-                            f"air or water (first at t = {td[k[0]]:.6g} s: {d[k[0]]:.6g} Pa): left "
-                            "out")
-            td, d = td[~odd], d[~odd]
-            if not d.size:
-                fail(f"{name}: no {specs['pressure'][0]} sample is a pressure of air or water "
-                     f"({PRESSURE_PA[0] / 1e3:g} kPa–{PRESSURE_PA[1] / 1e6:g} MPa): is it in Pa?")
-        kth = min(4, d.size // 20)  # the 5th lowest (the lowest in a short bag)
-        low = float(np.partition(d, kth)[kth])
-        gnd = prm.get("BARO1_GND_PRESS")
-        if gauge:
-            ps, ps_how = 0.0, "0 Pa (a gauge pressure)"
-        elif gnd is not None and math.isfinite(float(gnd)) and float(gnd) > 0:
-            ps, ps_how = float(gnd), f"BARO1_GND_PRESS = {float(gnd):g} Pa (--params)"
-            if low - ps > rho * G * 0.1:
-                warnings.append(
-                    f"{name}: BARO1_GND_PRESS = {ps:g} Pa is {(low - ps) / (rho * G):.2g} m of water "
-                    f"below the bag's lowest pressure ({low:.0f} Pa): the vehicle is never "
-                    "shallower than that — fine if the bag starts under water; if the vehicle was "
-                    "at the surface in it, BARO1_GND_PRESS is from another day, the depth reads "
-                    "that much too deep and the heave fit's surface cut-off admits surface windows "
-                    "(then leave BARO1_GND_PRESS out: the surface is taken from the bag)")
-        else:
-            ps, ps_how = low, (f"the bag's lowest pressure ({low:.0f} Pa, its "
-                               + ("5th lowest sample: a few glitches do not move it" if kth == 4
-                                  else "lowest sample") + "; default: no BARO1_GND_PRESS in "
-                               "--params)")
-        if d.size > 1 and float(np.ptp(d)) < rho * G * 0.05:
-            fail(f"{name}: pressure topic {specs['pressure'][0]} varies by only "
-                 f"{float(np.ptp(d)):.0f} Pa (< 5 cm of water) over the bag: it is not the water "
-                 "pressure (mavros' static_pressure is SCALED_PRESSURE, barometer 0, on some "
-                 "BlueROV2s the enclosure sensor); pass --topic depth=TOPIC:FIELD or "
-                 "--topic altitude=TOPIC:FIELD")
-        d = (d - ps) / (rho * G)
-        how = (f"depth = (p − p_surface)/(ρ g), p_surface = {ps_how}, ρ = {rho:g} kg/m³ "
-               + ("(BARO_SPEC_GRAV from --params)" if sg != 1.0 else
-                  "(fresh water, default; sea water ≈ 1025: give BARO_SPEC_GRAV in --params)")
-               + f", g = {G} m/s²")
+        td, d, how = _pressure_depth(td, d, prm, specs["pressure"][0], name, warnings, fail)
     chans["depth_m"] = (td, d)
     sources["depth_m"] = src(depth_role, how)
     if not specs[depth_role][2]:
