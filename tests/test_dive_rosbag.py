@@ -699,6 +699,12 @@ def test_a_second_imu_on_the_topic_is_left_out_and_said(dive, tmp_path, ros):
         assert f"[publisher {'node /imu2, ' if ros == 1 else ''}frame 'imu2_link']" in \
             other.sources["yaw_rad"]  # said in the source, kept in a written vehicle's notes
         np.testing.assert_allclose(np.angle(np.exp(1j * (y3 - y1[j] - 0.3))), 0.0, atol=1e-9)
+    with pytest.raises(DiveDataError, match=r"--topic attitude=/mavros/imu/data@/imu2:orientation: "
+                                            r"the field goes before the source: attitude="
+                                            r"/mavros/imu/data:orientation@/imu2"):
+        read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@/imu2:orientation"})
+    with pytest.raises(DiveDataError, match=r"--topic attitude=/mavros/imu/data@: expected"):
+        read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@"})
     with pytest.raises(DiveDataError, match=r"no publisher 'imu3'.*imu2_link': 359 messages"):
         read_dive_channels(bag, "bluerov2", topics={"attitude": "/mavros/imu/data@imu3"})
 

@@ -179,18 +179,22 @@ def _split(role: str, spec: str) -> tuple[str, str]:
     """``"topic[:field]"`` → (topic, field); without a field, the role's usual one (std_msgs
     scalars: ``data``; ``velocity``: found from the message type).  A ``@SOURCE`` suffix (the
     publisher to read, :func:`_one_publisher`) is not part of either."""
-    topic, sep, fld = _publisher_pick(spec)[0].partition(":")
+    topic, sep, fld = _publisher_pick(spec, role)[0].partition(":")
     return topic.strip(), (fld.strip() if sep else _DEFAULT_FIELD.get(role, "data"))
 
 
-def _publisher_pick(spec: str) -> tuple[str, str | None]:
+def _publisher_pick(spec: str, role: str = "ROLE") -> tuple[str, str | None]:
     """``"topic[:field][@SOURCE]"`` → (``"topic[:field]"``, SOURCE or None)."""
     head, sep, pick = spec.strip().rpartition("@")
     if not sep:
         return spec.strip(), None
     if not pick.strip() or not head.strip():
-        raise LogDataError(f"--topic ...={spec}: expected TOPIC[:FIELD]@SOURCE with SOURCE a "
+        raise LogDataError(f"--topic {role}={spec}: expected TOPIC[:FIELD]@SOURCE with SOURCE a "
                            "publishing node or a header frame_id, e.g. /mavros/imu/data@/mavros")
+    if ":" in pick and ":" not in head:
+        src, _, fld = pick.partition(":")
+        raise LogDataError(f"--topic {role}={spec}: the field goes before the source: "
+                           f"{role}={head.strip()}:{fld.strip()}@{src.strip()}")
     return head.strip(), pick.strip()
 
 
@@ -707,7 +711,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
     for role in ROLES:
         if role in given:
             specs[role] = (*_split(role, given[role]), True)
-            pick = _publisher_pick(given[role])[1]
+            pick = _publisher_pick(given[role], role)[1]
             if pick is not None:
                 picked[role] = pick
         elif role in DEFAULT_TOPICS:
