@@ -226,9 +226,8 @@ def state_advance_speeds_nb(x, vc_ned, G, out):
     v = x[8] - (r01 * vc_ned[0] + r11 * vc_ned[1] + r21 * vc_ned[2])
     w = x[9] - (r02 * vc_ned[0] + r12 * vc_ned[1] + r22 * vc_ned[2])
     p, q, r = x[10], x[11], x[12]
-    if G.shape[1] < 13:
-        raise ValueError("inflow geometry: expected the 13 columns of inflow_geometry")
-    for i in range(G.shape[0]):  # (1 − w)(aᵀv_r + (r × a)ᵀω): the row G[i, 7:13]
+    for i in range(G.shape[0]):  # (1 − w)(aᵀv_r + (r × a)ᵀω): the row G[i, 7:13]; G checked
+        # once where a loop takes it (check_geometry), not per RK4 stage
         out[i] = (G[i, 7] * u + G[i, 8] * v + G[i, 9] * w + G[i, 10] * p + G[i, 11] * q
                   + G[i, 12] * r)
     return out
