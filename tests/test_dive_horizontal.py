@@ -64,10 +64,11 @@ def _within(e, truth):
 @pytest.mark.slow
 def test_truth_within_3_sigma_over_seeds():
     """Eight seeds (every one, none picked): ≥ 90 % of the 96 estimates within 3σ of the truth;
-    the base vehicle (no tether, other added mass) is far outside."""
+    the base vehicle (no tether, other added mass) is far outside.  Two-minute dives: the
+    jackknife σ of a one-minute dive (11 windows for 12 parameters) errs wide, by about a third."""
     inside, base_out = [], 0
     for seed in range(8):
-        df, truth = synthetic_horizontal_dive(60.0, seed=seed)
+        df, truth = synthetic_horizontal_dive(120.0, seed=seed)
         e = identify_dive(df, "bluerov2", ["horizontal"]).estimates["horizontal"]
         inside.append(_within(e, truth))
         base_out += abs(e.base["k_u"] - truth["k_u"]) > 3 * e.sigma["k_u"]
@@ -266,7 +267,9 @@ def test_joint_inflow_fit_recovers_k_a_and_the_drags_over_seeds():
     ``k_a |Ω| u_a`` (k_a = 1.5× the T200 preset's): the joint fit (``inflow=True``) puts ≥ 90 %
     of the 6 × 13 estimates within 3σ of the truth, k_a in every seed within 3σ and 5 %; the
     bollard fit of the same dives (``inflow=False``) mistakes the loss for mass and drag — at
-    least three of its twelve estimates beyond 3σ in every seed."""
+    least three of its twelve estimates farther from the truth than 3σ of the joint fit (the
+    precision the dive allows) in every seed.  (Not its own σ: the jackknife σ of a model that
+    does not fit widens with the misfit, 1–10× the joint fit's here.)"""
     inside, ka_ok, bollard_out = [], 0, []
     names = HORIZONTAL_NAMES + ("inflow",)
     for seed in range(6):
@@ -279,7 +282,7 @@ def test_joint_inflow_fit_recovers_k_a_and_the_drags_over_seeds():
         ka_ok += abs(ka - KA_TRUE) <= 3 * s and abs(ka / KA_TRUE - 1) < 0.05
         b = identify_dive(df, "bluerov2", ["horizontal"], inflow=False).estimates["horizontal"]
         assert b.inflow is None
-        bollard_out.append(int(np.sum(~_within(b, truth))))
+        bollard_out.append(sum(abs(b.values[k] - truth[k]) > 3 * e.sigma[k] for k in HORIZONTAL_NAMES))
     inside = np.array(inside)
     assert inside.mean() >= 0.9, (inside.mean(), inside.mean(axis=0))
     assert ka_ok == 6

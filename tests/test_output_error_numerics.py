@@ -207,3 +207,35 @@ def test_loss_as_drag_weights_the_gain_by_the_speed():
     assert "= 150 rad/s" in loss_as_drag_text(s, "N·s/m") and "weighted mean" in \
         loss_as_drag_text(s, "N·s/m")
     assert loss_as_drag(c, v, 0.05, 0.001, 5.0, "rad/s", "N·s/m")["unit"] == "N·s/m"
+
+
+def test_cluster_sandwich_is_the_leave_one_window_out_jackknife():
+    """With per-window nuisance parameters (each window's own start) the plain cluster sandwich
+    under-states a window's error (its start fits part of it away).  The σ is the jackknife's:
+    refit with each window left out (its nuisance columns with it), σ² = (G − 1)/G Σ (θ₍g₎ − θ)²
+    — exact for a linear problem (Sherman–Morrison–Woodbury); here built so the sandwich exceeds
+    the classical σ (errors shared within a window), which the test asserts too."""
+    rng = np.random.default_rng(7)
+    G, n, K = 12, 15, 3
+    groups = np.repeat(np.arange(G), n)
+    X = rng.normal(size=(G * n, K)) + np.repeat(rng.normal(size=(G, K)), n, axis=0)
+    t = np.tile(np.linspace(0, 1, n), G)
+    nuis = np.zeros((G * n, 2 * G))  # each window's own offset and slope
+    nuis[np.arange(G * n), 2 * groups] = 1.0
+    nuis[np.arange(G * n), 2 * groups + 1] = t
+    J = np.hstack([X, nuis])
+    # a window's error: a shared part along its regressors (the sandwich's case) plus noise
+    err = (X * np.repeat(rng.normal(size=(G, K)), n, axis=0)).sum(1) + 0.1 * rng.normal(size=G * n)
+    theta, *_ = np.linalg.lstsq(J, err, rcond=None)
+    r = err - J @ theta
+    sd, _ = covariance(J, r, groups, K)
+    loo = []
+    for g in range(G):
+        keep = groups != g
+        cols = np.r_[np.arange(K), K + np.flatnonzero(np.arange(2 * G) // 2 != g)]
+        th_g, *_ = np.linalg.lstsq(J[np.ix_(keep, cols)], err[keep], rcond=None)
+        loo.append(th_g[:K])
+    jack = np.sqrt((G - 1) / G * np.sum((np.array(loo) - theta[:K]) ** 2, axis=0))
+    classical = np.sqrt(np.diag(r @ r / (G * n - J.shape[1]) * np.linalg.inv(J.T @ J))[:K])
+    assert np.all(jack > 1.5 * classical)
+    np.testing.assert_allclose(sd, jack, rtol=1e-8)

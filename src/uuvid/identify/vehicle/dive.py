@@ -17,10 +17,11 @@ identified in two steps:
 
 σ: the larger of the classical ``s²(JᵀJ)⁻¹`` and a cluster-robust sandwich with one cluster per
 window (residuals within a window are correlated when the model is not exact), the nuisance
-parameters included.  Warnings name parameters the dive cannot separate (|ρ| > 0.95), terms
-whose σ exceeds half their value, estimates at a bound.  With ``t_end`` before the end of the
-log, the rest is a held-out part: both the identified and the base vehicle's model replay it
-(:func:`uuvid.simulate.dive_replay.replay_windows`).
+parameters included, each window's residuals as if it were left out (the jackknife form,
+:func:`uuvid.identify.vehicle.output_error.covariance`).  Warnings name parameters the dive
+cannot separate (|ρ| > 0.95), terms whose σ exceeds half their value, estimates at a bound.
+With ``t_end`` before the end of the log, the rest is a held-out part: both the identified and
+the base vehicle's model replay it (:func:`uuvid.simulate.dive_replay.replay_windows`).
 
 Inflow (issue 21): the logged force is the *bollard* thrust; a moving propeller gives less.  With
 the linear inflow form per thruster ``T_i = T_i,bollard − k_a |Ω_i| u_a,i`` (Healey et al. 1995,

@@ -126,11 +126,28 @@ def blown_windows(delta, groups, n_windows: int):
     return out, per.any(axis=1)
 
 
+def _left_out_residuals(Jg, Ainv, rg):
+    """A window's residuals as if the fit had left it out, ``(I − H_gg)⁺ r_g`` with
+    ``H_gg = J_g (JᵀJ)⁺ J_gᵀ`` its block of the hat matrix (MacKinnon & White 1985, J. Econometrics
+    29, the jackknife "CR3" form; Bell & McCaffrey 2002).  A window's own start (position and
+    speed, nuisance parameters) fits part of its error away: the plain residuals under-state it,
+    most where a window's error looks like a start that is off (a force sampled between its
+    logged values).  The start's own directions (eigenvalue 0 of ``I − H_gg``: the residuals are
+    orthogonal to them) carry nothing."""
+    M = np.eye(Jg.shape[0]) - Jg @ Ainv @ Jg.T
+    w, V = np.linalg.eigh(0.5 * (M + M.T))
+    keep = w > LEVERAGE_FLOOR
+    return V[:, keep] @ ((V[:, keep].T @ rg) / w[keep])
+
+
 def covariance(J, r, groups, n_glob):
     """``(σ, correlation)`` of the first ``n_glob`` parameters (the nuisance initial states are in
     the fit, so their uncertainty is accounted for): per parameter the larger of the classical
-    ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich; correlations from the sandwich (the
-    classical matrix where the sandwich is degenerate).
+    ``s²(JᵀJ)⁻¹`` and the window-cluster-robust sandwich, each window's residuals taken as if it
+    had been left out (:func:`_left_out_residuals`, factor ``(G − 1)/G``: the leave-one-window-out
+    jackknife); correlations from the sandwich (the classical matrix where the sandwich is
+    degenerate).  On synthetic dives the plain sandwich under-covered yaw 1.5–2× (the windows'
+    own starts fitted away the error of a force sampled at 10 Hz); the jackknife form covers.
 
     A parameter the data cannot move the residuals with — its Jacobian column all zero (every
     window left out in its direction), or a direction of ``JᵀJ``'s null space it takes part in —
@@ -159,10 +176,10 @@ def covariance(J, r, groups, n_glob):
     meat = np.zeros((P, P))
     for g in np.unique(groups):
         sel = groups == g
-        gw = Js[sel].T @ r[sel]
+        gw = Js[sel].T @ _left_out_residuals(Js[sel], Ainv, r[sel])
         meat += np.outer(gw, gw)
     G = np.unique(groups).size
-    rb = (Ainv @ meat @ Ainv * (G / max(G - 1, 1)))[:n_glob, :n_glob]
+    rb = (Ainv @ meat @ Ainv * ((G - 1) / max(G, 1)))[:n_glob, :n_glob]
     # (a null direction's round-off can leave a diagonal entry at −1e-17: σ = ∞ there below)
     sd = np.sqrt(np.maximum(np.maximum(np.diag(c), np.diag(rb)), 0.0)) / scale[:n_glob]
     sd[unidentified] = np.inf
@@ -175,6 +192,7 @@ def covariance(J, r, groups, n_glob):
 
 
 NULL_RCOND = 1e-12  # eigenvalue of the column-scaled JᵀJ below this × the largest: a null direction
+LEVERAGE_FLOOR = 1e-9  # eigenvalue of a window's I − H_gg below which it is the window's own start
 NULL_SHARE = 1e-6   # a parameter's squared share of the null directions above which it is undetermined
 
 
