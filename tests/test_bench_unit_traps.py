@@ -182,3 +182,31 @@ def test_the_cli_exits_2_with_the_fix_and_fits_with_it(tmp_path):
     res = runner.invoke(app, [*args, "--thrust-unit", "g"])
     assert res.exit_code == 0, res.output
     assert (tmp_path / "m.yaml").exists() and "implausible" not in res.stderr
+
+
+def test_an_all_zero_current_column_is_refused(tmp_path):
+    """The physical fit read a current column of zeros as a motor drawing nothing: R = 432 Ω,
+    K_e = 98 V·s/rad, the model written with exit 0."""
+    f = _write(tmp_path / "zeros.csv", thrust=THRUST, current=0 * CURRENT, voltage=VOLTS,
+               speed=SPEED)
+    with pytest.raises(BenchDataError, match=r"zeros\.csv: current is 0 in every row while the "
+                                             r"command moves .*--current-col"):
+        check_bench_signs(_read(f))
+
+
+def test_one_file_at_several_supply_voltages_is_refused_for_a_map_of_the_command(tmp_path):
+    """Rows at 12 V and 16 V in one file (a voltage column): --model table averaged them (43.9 N
+    at 1900 µs, the mean of 36.4 and 51.4); two files at those voltages were already refused.
+    A battery sagging under load (one voltage per command) passes."""
+    from uuvid.identify.thruster.workflow import FitError
+
+    both = tmp_path / "both.csv"
+    a = _write(tmp_path / "a.csv", thrust=THRUST, voltage=VOLTS).read_text().splitlines()
+    b = _write(tmp_path / "b.csv", thrust=THRUST * 0.56, voltage=0.75 * VOLTS).read_text().splitlines()
+    both.write_text("\n".join(a + b[1:]) + "\n")
+    opts = ReadOptions(command_col="pwm", thrust_col="thrust", voltage_col="voltage")
+    with pytest.raises(FitError, match=r"--model table: both\.csv holds rows at several supply "
+                                       r"voltages for one command \(12 V and 16 V at 1100\)"):
+        run_fit([both], "table", opts)
+    sag = _write(tmp_path / "sag.csv", thrust=THRUST, voltage=16.0 - 1.5 * np.abs(D))
+    run_fit([sag], "table", opts)

@@ -61,6 +61,32 @@ def test_held_out_part_is_predicted_near_the_noise_floor_and_better_than_the_pre
 
 
 @pytest.mark.slow
+def test_a_model_that_predicts_the_held_out_part_worse_than_the_base_is_not_written(result,
+                                                                                  tmp_path):
+    """The summary called a model 3× worse than the preset on the held-out part "0.32× better"
+    and wrote it.  Worse by more than 10 %: "N× worse", not a model to use, the file refused;
+    within 10 % (chance): said "worse", still written."""
+    import dataclasses
+
+    from uuvid.vehicle.writeback import WritebackError
+
+    e = result.estimates["yaw"]
+    h = dict(e.held_out)
+    bad = dataclasses.replace(e, held_out={**h, "improvement": 1 / 3.1})
+    assert any("3.1× worse than the base vehicle" in w for w in bad.unusable)
+    res = dataclasses.replace(result, estimates={**result.estimates, "yaw": bad})
+    assert "(3.1× worse than the base: not a model to use — see the warnings)" in res.summary()
+    assert res.to_dict()["dofs"]["yaw"]["unusable"]
+    with pytest.raises(WritebackError, match="yaw is not a model to use .*3.1× worse"):
+        res.write_vehicle(tmp_path / "v.yaml")
+    near = dataclasses.replace(e, held_out={**h, "improvement": 0.95})
+    assert not near.unusable
+    res = dataclasses.replace(result, estimates={**result.estimates, "yaw": near})
+    assert "(1.05× worse)" in res.summary()
+    res.write_vehicle(tmp_path / "w.yaml")
+
+
+@pytest.mark.slow
 def test_result_surface_and_report(result, tmp_path):
     d = result.to_dict()
     json.dumps(d)

@@ -601,3 +601,120 @@ def test_a_channel_stuck_at_one_value_while_armed_is_left_out_and_said(col):
     assert len(said) == 1 and said[0].startswith(f"<table>: {col} repeats "), said
     t = dc.channels[col][0]
     assert not np.any((t >= 100.5) & (t < 159.5)) and np.any(t > 160.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# From a new user's trial (stop 36): outputs the frame does not have, a heartbeat-logged armed
+# state, columns under other names, a quiet stretch hiding degrees, a surface read too deep,
+# times outside the log
+# ---------------------------------------------------------------------------------------------
+def test_spare_outputs_off_throughout_are_left_out_and_other_extra_columns_named():
+    """An export of a 6-thruster frame carries outputs 7–8 at 0 µs: the error said "pass
+    bluerov2-heavy for 8", which read the log with the wrong geometry.  Off spare outputs beyond
+    the vehicle's count are left out (said); an off output among the first six is named."""
+    df = _table()
+    df["pwm_7"], df["pwm_8"] = 0.0, 0.0
+    dc = _read(df)
+    assert sorted(dc.pwm, key=int) == [str(j) for j in range(1, 7)]
+    assert any("pwm_7, pwm_8 are off throughout" in w and "left out" in w for w in dc.warnings)
+    assert not any("pwm_7 is 0 µs throughout" in w for w in dc.warnings)
+    mid = _table()
+    mid["pwm_3"], mid["pwm_7"] = 0.0, 1500.0 + 50 * np.sin(mid["t_s"].to_numpy())
+    with pytest.raises(DiveDataError, match=r"7 pwm_ columns .* has 6 thrusters; pwm_3 are off "
+                                            r"throughout .*drop those columns"):
+        _read(mid)
+
+
+def test_an_armed_state_logged_on_its_own_rows_holds_until_the_next():
+    """``armed`` filled only on 1 Hz heartbeat rows (empty between, as any channel's cells): every
+    other row was taken as disarmed — "0 usable armed windows"."""
+    df = _table()
+    hb = pd.DataFrame({"t_s": np.arange(0.525, 60.0, 1.0)})
+    hb["armed"] = hb["t_s"] > 10.0
+    both = pd.concat([df, hb], ignore_index=True).sort_values("t_s", kind="stable")
+    dc = _read(both.reset_index(drop=True))
+    assert len(dc.armed) == 1 and dc.armed[0][0] == pytest.approx(10.525)
+    assert dc.armed[0][1] == pytest.approx(df["t_s"].iloc[-1])
+    assert any("column armed is filled on 60 of" in w for w in dc.warnings)
+    only_true = df.assign(armed=np.where(df["t_s"] > 10.0, "true", ""))  # empty: not armed
+    dc = _read(only_true)
+    assert dc.armed[0][0] == pytest.approx(10.05)
+    assert not any("column armed is filled" in w for w in dc.warnings)
+
+
+def test_columns_under_other_names_are_said_not_dropped_silently():
+    """``heading_deg`` and ``servo1 …`` were ignored without a word (``--dof all`` skipped yaw,
+    and the missing-force error never named ``pwm_<n>``)."""
+    df = _table().rename(columns={"yaw_rad": "heading_deg"})
+    dc = _read(df)
+    assert "yaw_rad" not in dc.channels and dc.unread == ["heading_deg"]
+    assert any("column(s) heading_deg not read" in w and "yaw_rad [rad" in w for w in dc.warnings)
+    servo = _table().rename(columns={f"pwm_{j}": f"servo{j}" for j in range(1, 7)})
+    with pytest.raises(DiveDataError, match=r"no Z_N samples .* servo-output columns pwm_1 … "
+                                            r"pwm_n .* columns servo1, servo2.* are not read"):
+        _read(servo).require("heave")
+    plain = _read(_table().assign(notes="x", lat=1.0))  # other data: not named
+    assert plain.unread == []
+
+
+def test_a_heading_in_degrees_is_caught_behind_a_long_quiet_stretch():
+    """20 minutes disarmed with a still heading, then a dive turning in degrees: the 90th
+    percentile rate over the whole log passed; the check now looks at the armed samples."""
+    quiet = pd.DataFrame({"t_s": np.arange(0, 1200, 0.05)})
+    quiet["depth_m"], quiet["yaw_rad"], quiet["armed"] = 0.0, 0.5, False
+    dive = _table()
+    dive["t_s"] += 1200.0
+    dive["yaw_rad"] = np.degrees(dive["yaw_rad"]) * 5  # ±86° of turning
+    dive["armed"] = True
+    df = pd.concat([quiet, dive], ignore_index=True)
+    with pytest.raises(DiveDataError, match=r"column yaw_rad turns at .* is it in degrees"):
+        _read(df)
+    dive["yaw_rad"] = np.radians(dive["yaw_rad"])
+    _read(pd.concat([quiet, dive], ignore_index=True))  # radians: read
+
+
+def _deck_then_dive(offset: float) -> pd.DataFrame:
+    deck = pd.DataFrame({"t_s": np.arange(0, 120, 0.05)})
+    rng = np.random.default_rng(3)
+    deck["depth_m"] = 0.005 * rng.standard_normal(deck["t_s"].size)
+    deck["yaw_rad"], deck["armed"] = 0.2, False
+    dive = _table()
+    dive["t_s"] += 120.0
+    dive["armed"] = True
+    df = pd.concat([deck, dive], ignore_index=True)
+    df["depth_m"] += offset
+    return df
+
+
+def test_a_surface_read_too_deep_is_said_with_the_offset():
+    """A +0.3 m depth offset (the surface pressure of another place): on deck and at the surface
+    the depth read 0.3 m, past the 0.2 m surface cut-off, and windows on deck were fitted as water
+    (yaw inertia ×7.7) without a word."""
+    ws = [w for w in _read(_deck_then_dive(0.3)).warnings if "too deep" in w]
+    assert len(ws) == 1 and "reads 0.3 m" in ws[0] and "depth_m − 0.3" in ws[0], ws
+    assert not any("too deep" in w for w in _read(_deck_then_dive(0.0)).warnings)
+    # disarmed at 5 m (a log started under water, the vehicle rising later): no surface there
+    sub = _deck_then_dive(0.0)
+    sub.loc[sub["armed"] == False, "depth_m"] += 1.5  # noqa: E712
+    assert not any("too deep" in w for w in _read(sub).warnings)
+
+
+def test_times_outside_the_log_are_an_error_naming_its_span():
+    """A log stamped in epoch seconds with ``--t-end 180`` (meant from its start): the error said
+    "0 usable windows in [1.7e9, 180] s", and a replay with ``--t-start 180`` replayed it all."""
+    from uuvid.identify.vehicle.dive import identify_dive
+    from uuvid.simulate.dive_replay import replay_dive
+
+    df = _table()
+    df["t_s"] += 1.7e9
+    df["armed"] = True
+    with pytest.raises(DiveDataError, match=r"--t-end 180 s is outside the log, whose times run "
+                                            r"from 1700000000 to .*seconds since 1970.*e\.g\. "
+                                            r"1700000180"):
+        identify_dive(df, "bluerov2", ["heave"], t_end=180.0)
+    with pytest.raises(DiveDataError, match=r"--t-start 180 s is outside the log"):
+        replay_dive(df, "bluerov2", ["heave"], t_start=180.0)
+    rel = _table().assign(armed=True)
+    with pytest.raises(DiveDataError, match=r"--t-start 500 s is outside the log, whose times run "
+                                            r"from 0 to 59\.95 s: give"):
+        identify_dive(rel, "bluerov2", ["heave"], t_start=500.0)

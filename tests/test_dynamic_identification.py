@@ -318,3 +318,48 @@ def test_threaded_jacobian_columns_give_the_serial_fit_bit_for_bit(monkeypatch):
     assert threaded.fit.values == serial.fit.values
     assert np.array_equal(threaded.fit.covariance, serial.fit.covariance)
     assert threaded.fit.extra["nfev"] == serial.fit.extra["nfev"]
+
+
+def _between_samples_step(dt, K=40.0, tau=0.05, ts=0.2437):
+    """Exact first-order speed after a 2 V step at ``ts`` (between samples), sampled every dt."""
+    t = np.arange(round(1.0 / dt) + 1) * dt
+    return D.Run(t, np.where(t >= ts, 2.0, 0.0),
+                 np.where(t >= ts, 2 * K * (1 - np.exp(-(t - ts) / tau)), 0.0), "prop_speed")
+
+
+def test_a_time_constant_sampled_coarsely_is_said():
+    """The command is held between samples: a step between two of them is placed at one, and τ
+    fitted on exact data drifted with the logging rate (0.050 s at 1 kHz, 0.047 at 100 Hz —
+    27σ off — 0.025 at 10 Hz) without a word.  Under 10 samples per τ it is said, with the
+    bias bound; a τ shorter than the step is said unresolvable."""
+    fine = D.fit_first_order([_between_samples_step(1e-3)], emit_warnings=False).fit
+    assert fine["blocks[0].time_constant"].value == pytest.approx(0.05, rel=0.01)
+    assert not any("sample step" in w for w in fine.warnings)
+    with pytest.warns(IdentifiabilityWarning, match=r"time_constant = 0\.04\d* s spans only 4\.\d* "
+                                                   r"sample steps of 0\.01 s.*up to 0\.005 s"):
+        coarse = D.fit_first_order([_between_samples_step(0.01)]).fit
+    tau = coarse["blocks[0].time_constant"]
+    assert abs(tau.value - 0.05) > 3 * tau.stderr  # the bias the warning is about: beyond σ
+    slow = D.fit_first_order([_between_samples_step(0.1)], emit_warnings=False).fit
+    assert any("shorter than the sample step 0.1 s" in w for w in slow.warnings), slow.warnings
+
+
+def test_a_current_column_a_dynamic_fit_does_not_use_is_said(tmp_path):
+    """``--current-col`` with ``--model first-order``/``dc-motor`` was read and ignored: the
+    written resistance was a start value, never marked as one."""
+    import warnings as _w
+
+    from uuvid.identify.thruster.workflow import ReadOptions, run_fit
+
+    r = _between_samples_step(1e-3)
+    rows = ["t,V,w,I"] + [f"{a:.17g},{b:.17g},{c:.17g},{0.1 + 0.05 * b:.17g}"
+                          for a, b, c in zip(r.t, r.u, r.y)]
+    (tmp_path / "step.csv").write_text("\n".join(rows) + "\n")
+    opts = dict(time_col="t", command_col="V", command_unit="volts", speed_col="w")
+    with _w.catch_warnings():
+        _w.simplefilter("ignore")
+        out = run_fit([tmp_path / "step.csv"], "first-order", ReadOptions(**opts, current_col="I"))
+        plain = run_fit([tmp_path / "step.csv"], "first-order", ReadOptions(**opts))
+    assert any("the current column (--current-col) is read but not used by --model first-order"
+               in w for w in out.warnings), out.warnings
+    assert not any("current column" in w for w in plain.warnings)

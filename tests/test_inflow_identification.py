@@ -291,3 +291,19 @@ def test_four_quadrant_default_order_follows_the_directions_in_the_data():
     assert f.rmse == pytest.approx(NOISE_N, rel=0.25)
     for k, v in zip(f.names, (0.05, 0.30, -0.05, -0.55, 0.10)):
         assert _inside(f[k].value, f[k].stderr, v, z=4.0)
+
+
+def test_a_reversed_or_mis_scaled_flow_speed_is_said(tmp_path):
+    """flow_speed with its sign reversed gave k_a < 0 (thrust rising with the water from ahead)
+    and cm/s gave k_a 100× too small, both without a word."""
+    d = _linear_bench(11)
+    rev = BenchData(command=d.command, thrust=d.thrust, speed=d.speed, flow_speed=-d.flow_speed)
+    out = run_fit([_write(tmp_path / "rev.csv", rev)], "quadratic", OPTS)
+    assert out.parameters()["k_a"]["estimate"] < 0
+    assert any("k_a = -0.03" in w and "sign reversed" in w for w in out.warnings), out.warnings
+    ok = run_fit([_write(tmp_path / "ok.csv", d)], "quadratic", OPTS)
+    assert not any("sign reversed" in w for w in ok.warnings)
+    cms = BenchData(command=d.command, thrust=d.thrust, speed=d.speed, flow_speed=100 * d.flow_speed)
+    with pytest.raises(BenchDataError, match=r"cms\.csv: column 'flow_speed' reaches 80 m/s, "
+                                             r"beyond 10 m/s .* cm/s"):
+        run_fit([_write(tmp_path / "cms.csv", cms)], "quadratic", OPTS)

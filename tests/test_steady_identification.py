@@ -361,3 +361,30 @@ def test_a_parameter_at_its_bound_reports_no_sigma():
     line_b = next(ln for ln in fit.summary().splitlines() if ln.strip().startswith("b "))
     assert "at bound" in line_a and "+/-" not in line_a
     assert "+/-" in line_b
+
+
+def test_a_parameter_the_data_do_not_determine_gets_infinite_sigma_not_round_off():
+    """A parameter with no effect on the residuals, or two that trade off exactly, got σ ≈ 1e-16
+    from the pseudo-inverse — "significant" in the JSON — and correlations beyond ±1.  Now σ = ∞,
+    its covariances NaN, the summary says it, the determined parameter keeps its σ."""
+    import warnings as _w
+
+    from uuvid.identify.fit import linear_lsq, nonlinear_lsq
+
+    rng = np.random.default_rng(2)
+    x = np.linspace(0.0, 1.0, 50)
+    y = 2.0 * x + 0.01 * rng.standard_normal(50)
+    with _w.catch_warnings():
+        _w.simplefilter("ignore")
+        idle = nonlinear_lsq(lambda th: th[0] * x - y + 0.0 * th[1], [1.0, 0.5], ["a", "idle"])
+        pair = nonlinear_lsq(lambda th: (th[0] + th[1]) * x - y, [1.0, 0.5], ["a", "b"])
+        lin = linear_lsq(np.column_stack([x, x, np.ones(50)]), y, ["a", "b", "c"])
+    assert idle["idle"].stderr == np.inf and not idle["idle"].significant
+    assert 0 < idle["a"].stderr < 0.01
+    assert "idle" in idle.summary() and "not determined by these data (σ = ∞)" in idle.summary()
+    assert np.isnan(idle.correlation[0, 1])
+    assert pair["a"].stderr == np.inf and pair["b"].stderr == np.inf
+    assert any("trades off exactly" in w for w in pair.warnings)
+    c = pair.correlation
+    assert not np.any(np.abs(c[np.isfinite(c)]) > 1 + 1e-9)
+    assert lin["a"].stderr == lin["b"].stderr == np.inf and np.isfinite(lin["c"].stderr)

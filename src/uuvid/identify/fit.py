@@ -198,6 +198,9 @@ class Fit(Result):
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} (fixed) {p.unit}")
             elif p.name in bound:
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} at bound (no σ) {p.unit}")
+            elif p.stderr == math.inf:  # the data do not determine it
+                lines.append(f"    {p.name:<{w}} = {p.value:.6g} not determined by these data "
+                             f"(σ = ∞) {p.unit}")
             elif not math.isfinite(p.stderr):  # unknown, not "not significant"
                 lines.append(f"    {p.name:<{w}} = {p.value:.6g} (σ unknown) {p.unit}")
             else:
@@ -278,6 +281,9 @@ def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     for i, n in enumerate(names):
         v = values[i]
+        if sd[i] == np.inf and not zero[i]:
+            msgs.append(f"{n}: not identifiable — it trades off exactly with another parameter "
+                        "in these data (σ = ∞)")
         if not np.isfinite(sd[i]):
             continue
         pe = math.inf if v == 0 else 100 * sd[i] / abs(v)
@@ -385,6 +391,8 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
         cov = sigma2 * bread
     else:
         cov = _sandwich(Hw, r, bread, cov_type, hac_lags)
+    norms = np.linalg.norm(Hw, axis=0)
+    cov = _mark_undetermined(cov, undetermined(Hw / np.where(norms > 0, norms, 1.0)))
     cond, msgs = diagnose(names, theta, cov, Hw, emit=emit_warnings)
     if n == p:
         msgs.append("as many samples as parameters: no residual degrees of freedom, σ undefined")
@@ -395,6 +403,37 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     if extra:
         ex.update(extra)
     return Fit(model, params, cov, y - H @ theta, n, cond, tuple(msgs), ex)
+
+
+#: eigenvalue of a column-scaled ``JᵀJ`` below this × its largest: a direction the data do not
+#: determine; a parameter whose squared share of those directions exceeds ``NULL_SHARE`` is
+#: undetermined (σ = ∞, never the finite noise a pseudo-inverse gives it)
+NULL_RCOND = 1e-12
+NULL_SHARE = 1e-6
+
+
+def undetermined(Js: np.ndarray) -> np.ndarray:
+    """Mask of the parameters a column-scaled Jacobian ``Js`` does not determine: a zero column,
+    or a share of a null direction of ``JsᵀJs`` (two columns that trade off exactly)."""
+    A = Js.T @ Js
+    try:
+        w, V = np.linalg.eigh(A)
+    except np.linalg.LinAlgError:
+        return np.ones(A.shape[0], bool)
+    null = w <= max(float(w[-1]), 1e-300) * NULL_RCOND
+    return np.sum(V[:, null] ** 2, axis=1) > NULL_SHARE
+
+
+def _mark_undetermined(cov: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``cov`` with an undetermined parameter's variance ∞ and its covariances NaN (the
+    pseudo-inverse's numbers there are round-off: σ ≈ 1e-16 and correlations beyond ±1)."""
+    if not mask.any():
+        return cov
+    cov = np.array(cov, dtype=float)
+    cov[mask, :] = np.nan
+    cov[:, mask] = np.nan
+    cov[mask, mask] = np.inf
+    return cov
 
 
 def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Sequence[str], *,
@@ -419,7 +458,7 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     norms = np.linalg.norm(J, axis=0)
     sc = np.where(norms > 0, norms, 1.0)
     Js = J / sc
-    cov = sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc)
+    cov = _mark_undetermined(sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc), undetermined(Js))
     cond, msgs = diagnose(names, sol.x, cov, J, emit=emit_warnings)
     if not sol.success:
         msgs.append(f"optimiser did not converge: {sol.message}")

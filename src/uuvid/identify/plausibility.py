@@ -56,7 +56,7 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
     check_bench_commands(data)
     check_bench_units(data, min_rows=min_rows)
     d = data.direction
-    for name, unit in (("thrust", "N"), ("speed", "rad/s")):
+    for name, unit in (("thrust", "N"), ("speed", "rad/s"), ("current", "A")):
         y = getattr(data, name)
         if y is None:
             continue
@@ -67,6 +67,8 @@ def check_bench_signs(data, *, min_rows: int = 3) -> None:
                                  f"({data.command[fin].min():g}…{data.command[fin].max():g} "
                                  f"{data.command_unit}): an empty column or the wrong one "
                                  f"(--{name}-col)?")
+        if name == "current":  # unsigned (the supply's): only an empty column is checked
+            continue
         m = data.measured & (d != 0) & np.isfinite(y) & (y != 0)
         n = int(m.sum())
         if n < min_rows:

@@ -65,6 +65,7 @@ class DiveChannels:
     warnings: list = field(default_factory=list)
     sources: dict = field(default_factory=dict)
     pwm: dict = field(default_factory=dict)  # motor → (t, pwm) where logged
+    unread: list = field(default_factory=list)  # a table's columns that look like data, not read
 
     @property
     def t_range(self) -> tuple[float, float]:
@@ -81,6 +82,26 @@ class DiveChannels:
         b = b if t_end is None else t_end
         return f"[{a:.6g}, {b:.6g}] s"
 
+    def check_span(self, t_start=None, t_end=None) -> None:
+        """Raise :class:`DiveDataError` when ``--t-start``/``--t-end`` miss the log: an end
+        before its first stamp or a start after its last, or a time before the start of a log
+        stamped in epoch seconds (its first stamp beyond a day: ``--t-end 180`` meant from the
+        start replayed or fitted nothing, or everything)."""
+        try:
+            a, b = self.t_range
+        except ValueError:
+            return
+        for opt, v in (("--t-start", t_start), ("--t-end", t_end)):
+            if v is None:
+                continue
+            epoch = a > 86400.0 and v < a
+            if epoch or (opt == "--t-end" and v <= a) or (opt == "--t-start" and v >= b):
+                raise DiveDataError(
+                    f"{self.name}: {opt} {v:g} s is outside the log, whose times run from "
+                    f"{a:.10g} to {b:.10g} s" + (" (seconds since 1970?)" if a > 1e8 else "")
+                    + ": give the log's own times" + (f" (e.g. {a + v:.10g} for {v:g} s after "
+                                                      "its start)" if epoch else ""))
+
     def require(self, dof: str) -> None:
         """Raise :class:`DiveDataError` when the log lacks what ``dof`` needs."""
         meas, force, _ = DIVE_DOFS[dof]
@@ -92,11 +113,17 @@ class DiveChannels:
                                                     if n else f"no {meas} samples")
                                 + f": {dof} needs {_SOURCE_HINT[meas]}; pass "
                                 + (f"--dof {'|'.join(have)} or " if have else "")
-                                + "a log that has it")
+                                + "a log that has it" + self._unread_text())
         if force not in self.channels or self.channels[force][0].size < 2:
             raise DiveDataError(f"{self.name}: no {force} samples (thruster forces): the log has no "
                                 "servo outputs / force column; pass an ArduSub log with "
-                                "SERVO_OUTPUT_RAW/RCOU or a table with a " + force + " column")
+                                "SERVO_OUTPUT_RAW/RCOU or a table with a " + force + " column or "
+                                "servo-output columns pwm_1 … pwm_n [µs] (n the vehicle's "
+                                "thrusters)" + self._unread_text())
+
+    def _unread_text(self) -> str:
+        return (f" (the table's columns {', '.join(self.unread[:8])} are not read: "
+                f"{UNREAD_HINT})" if self.unread else "")
 
 
 def _finite(t, v):
@@ -240,12 +267,25 @@ def _rate90(t, x, window: float = 1.0) -> float:
     return float(np.percentile(np.abs(x[k:] - x[:-k])[good] / span[good], 90))
 
 
-def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
+def _armed_part(tx: tuple, armed) -> tuple:
+    """A channel's samples inside the armed intervals (all of it when those hold under 20): the
+    rate checks look where the vehicle moves, not at 20 minutes on deck."""
+    if not armed:
+        return tx
+    t, x = tx
+    on = np.zeros(t.size, bool)
+    for a, b in armed:
+        on |= (t >= a) & (t <= b)
+    return (t[on], x[on]) if on.sum() >= 20 else tx
+
+
+def _check_units(chans: dict, pwm: dict, name: str, warnings: list, armed=None) -> None:
     """A channel that cannot be in its column's unit for an underwater vehicle is an error saying
     which unit it looks like (depth in cm, heading in degrees, speeds in cm/s, battery in mV, PWM
-    normalised); a PWM output at 0 µs throughout is said (off: no thrust)."""
+    normalised); a PWM output at 0 µs throughout is said (off: no thrust).  ``armed``: the rates
+    are taken over the armed samples (a long quiet stretch let a heading in degrees through)."""
     if "depth_m" in chans and chans["depth_m"][0].size:
-        r = _rate90(*chans["depth_m"])
+        r = _rate90(*_armed_part(chans["depth_m"], armed))
         if r > MAX_DEPTH_RATE:
             raise DiveDataError(f"{name}: column depth_m changes by {r:.3g} m/s or faster 10 % of "
                                 f"the time, beyond {MAX_DEPTH_RATE:g} m/s for an underwater "
@@ -262,7 +302,7 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list) -> None:
                 f"{SURFACE_CUT_M:g} m) and the on-deck check act on the depth as logged: remove the "
                 "offset first (and give a depth positive down)")
     if "yaw_rad" in chans and chans["yaw_rad"][0].size:
-        r = _rate90(*chans["yaw_rad"])
+        r = _rate90(*_armed_part(chans["yaw_rad"], armed))
         if r > MAX_YAW_RATE:
             raise DiveDataError(f"{name}: column yaw_rad turns at {r:.3g} rad/s or faster 10 % of "
                                 f"the time, beyond {MAX_YAW_RATE:.3g} rad/s (a turn per second): "
@@ -310,6 +350,42 @@ ABOVE_WATER_M = 0.15
 #: heave windows shallower than this (m) touch the surface and are left out of the fit
 #: (:data:`uuvid.simulate.dive_replay.SURFACE_M`); defined here, where the depth checks name it
 SURFACE_CUT_M = 0.2
+
+
+#: a depth offset worth saying (m): a surface that reads deeper than the surface cut-off hides
+#: the surface from the checks that act on it; readings up to this deep while disarmed can be one
+SURFACE_OFFSET_MAX_M = 2.0
+
+
+def _check_surface_reading(chans: dict, armed: list, name: str, warnings: list) -> None:
+    """A depth reading steady at ``d₀`` > :data:`SURFACE_CUT_M` while disarmed (≥ 10 s, 20
+    samples, 10–90 % spread < 5 cm) that the armed dive never reads shallower than is a surface
+    (on deck, floating before the dive) read ``d₀`` too deep — a surface pressure taken for the
+    wrong place, a sensor offset.  The surface cut-off and the on-deck check act on the depth as
+    logged and then take the surface for water (a +0.3 m offset gave yaw inertia ×7.7 from
+    windows on deck): said, with the offset to subtract."""
+    if "depth_m" not in chans or chans["depth_m"][0].size < 20 or not armed:
+        return
+    td, d = chans["depth_m"]
+    on = np.zeros(td.size, bool)
+    for a, b in armed:
+        on |= (td >= a) & (td <= b)
+    off = ~on
+    if off.sum() < 20 or not on.any():
+        return
+    t_off = td[off]
+    if float(np.sum(np.diff(t_off)[np.diff(t_off) < 5.0])) < 10.0:
+        return
+    p10, d0, p90 = np.percentile(d[off], [10, 50, 90])
+    if not (SURFACE_CUT_M < d0 <= SURFACE_OFFSET_MAX_M and p90 - p10 < 0.05):
+        return
+    if float(np.percentile(d[on], 1)) < d0 - 0.05:
+        return  # the armed vehicle went above the disarmed reading: that was no surface
+    warnings.append(f"{name}: depth_m reads {d0:.3g} m (steady within {p90 - p10:.2g} m) while "
+                    f"disarmed and never shallower while armed: if the vehicle sat on deck or at "
+                    f"the surface then, every depth reads {d0:.3g} m too deep, and the surface "
+                    f"cut-off (depth < {SURFACE_CUT_M:g} m) and the on-deck check take the surface "
+                    f"for water; subtract the offset (depth_m − {d0:.3g}) if so")
 
 
 #: a measured channel repeating one value exactly for this long (s, ≥ 20 samples) while armed is
@@ -464,6 +540,21 @@ TABLE_CHANNELS = ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "u_mps", "v_mps
                   "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
 
 
+#: words in a column name that say it holds what a dive table's reader would want
+_DATA_WORDS = ("depth", "alt", "press", "baro", "head", "hdg", "yaw", "roll", "pitch", "servo",
+               "rcou", "pwm", "motor", "thrust", "batt", "volt", "surge", "sway", "vel", "dvl",
+               "arm", "time", "stamp")
+UNREAD_HINT = ("uuvid reads t_s [s], depth_m [m, down], yaw_rad [rad, clockwise from north], "
+               "roll_rad, pitch_rad, u_mps, v_mps, battery_V, pwm_1 … pwm_n [µs], X_N … N_Nm, "
+               "armed, mode: rename them, in those units, to have them used")
+
+
+def _unread_columns(cols, read) -> list:
+    """A table's columns that look like data a dive needs (by name) but that nothing reads."""
+    return [str(c) for c in cols if str(c) not in read
+            and any(w in str(c).lower() for w in _DATA_WORDS)]
+
+
 def _numeric_column(df, c, name: str) -> np.ndarray:
     """A column as floats (empty cells NaN); a cell that is not a number is an error naming it."""
     import pandas as pd
@@ -589,11 +680,21 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
             pwm[str(c)[4:]] = _finite(t, v)
     _check_same_stamps(t, df, [c for c in cols if c in chans or str(c).startswith("pwm_")], name,
                        warnings)
-    _check_units(chans, pwm, name, warnings)
     if veh is not None and pwm and len(pwm) != veh.B.shape[1]:
-        raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(pwm)}) but vehicle "
-                            f"{veh.name!r} has {veh.B.shape[1]} thrusters; pass the vehicle the "
-                            "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
+        _drop_spare_outputs(pwm, veh, name, warnings)
+    if "armed" in cols:
+        a = df["armed"]
+        word = a.map(lambda x: str(x).strip().lower())
+        odd = np.flatnonzero(~word.isin(_ARMED_WORDS).to_numpy() & a.notna().to_numpy())
+        if odd.size:
+            raise DiveDataError(f"{name}: column armed, row {odd[0] + 2}: {a.iloc[odd[0]]!r}; "
+                                "expected true/false, 1/0 or yes/no (empty: not armed)")
+        am = _armed_flags(word, a, name, warnings)
+        armed = _intervals(t, am)
+    else:
+        armed = [(float(t.min()), float(t.max()))]
+        warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
+    _check_units(chans, pwm, name, warnings, armed)
     forces = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
     directions = None
     if export is not None:  # written by `uuvid log export`: its forces' basis and motor directions
@@ -628,31 +729,64 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         thrust = _forces_from_pwm(chans, pwm, veh, name, warnings, directions=directions,
                                   label=None if directions is None else
                                   "the pwm_ columns (the log's motor directions, from the export)")
-    if "armed" in cols:
-        a = df["armed"]
-        word = a.map(lambda x: str(x).strip().lower())
-        odd = np.flatnonzero(~word.isin(_ARMED_WORDS).to_numpy() & a.notna().to_numpy())
-        if odd.size:
-            raise DiveDataError(f"{name}: column armed, row {odd[0] + 2}: {a.iloc[odd[0]]!r}; "
-                                "expected true/false, 1/0 or yes/no (empty: not armed)")
-        am = word.isin(("true", "1", "1.0", "yes")).to_numpy(bool)
-        armed = _intervals(t, am)
-    else:
-        armed = [(float(t.min()), float(t.max()))]
-        warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
     if not missing and pwm and export is None:
         warnings.append(f"{name}: the table has all six force columns (X_N … N_Nm) and pwm_ "
                         "columns: the forces are used and the pwm_ columns are not (remove the "
                         "force columns to have the thrust computed from the PWM)")
     _check_dead_outputs(pwm, armed, name, warnings)
     _check_neutral_outputs(pwm, armed, veh, name, warnings)
+    _check_surface_reading(chans, armed, name, warnings)
     _drop_stuck(chans, armed, name, warnings)
     if thrust is not None:
         direction_check(chans, thrust, veh, armed, name, warnings,
                         table_fix if directions is None else bag_fix(directions))
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
-    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm)
+    unread = _unread_columns(cols, {*TABLE_CHANNELS, tcol, "armed", "mode"}
+                             | {c for c in cols if str(c).startswith("pwm_")})
+    if unread:
+        warnings.append(f"{name}: column(s) {', '.join(unread[:8])} not read ({UNREAD_HINT})")
+    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread)
+
+
+def _armed_flags(word, a, name: str, warnings: list) -> np.ndarray:
+    """Each row's armed flag.  A column holding both true and false values with empty cells is a
+    state logged on its own rows (a HEARTBEAT among other messages): each value holds until the
+    next, rows before the first not armed — said.  Without a false value, empty means not armed."""
+    true = word.isin(("true", "1", "1.0", "yes")).to_numpy(bool)
+    empty = (a.isna() | word.isin(("", "nan"))).to_numpy(bool)
+    false = ~true & ~empty
+    if not (empty.any() and true.any() and false.any()):
+        return true
+    idx = np.where(~empty, np.arange(true.size), -1)
+    last = np.maximum.accumulate(idx)
+    held = np.where(last >= 0, true[np.maximum(last, 0)], False)
+    warnings.append(f"{name}: column armed is filled on {int((~empty).sum())} of {true.size} rows "
+                    "and holds both armed and disarmed values: read as a state logged on its own "
+                    "rows (each value holds until the next; rows before the first: not armed)")
+    return held
+
+
+def _drop_spare_outputs(pwm: dict, veh, name: str, warnings: list) -> None:
+    """More ``pwm_`` columns than the vehicle has thrusters: the highest-numbered beyond the
+    count left out when each is off throughout (0 µs or empty: an export of a 6-thruster frame
+    carrying outputs 7–8), said; otherwise an error naming the outputs that are off."""
+    n = veh.B.shape[1]
+    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    off = [k for k in keys if not np.any(pwm[k][1] != 0)]
+    spare = keys[n:]
+    if len(keys) > n and all(k in off for k in spare):
+        for k in spare:
+            del pwm[k]
+        warnings.append(f"{name}: pwm_{', pwm_'.join(spare)} are off throughout (0 µs or empty) and "
+                        f"{veh.name!r} has {n} thrusters: left out, pwm_1 … pwm_{keys[n - 1]} "
+                        "read as its thrusters 1 … " + str(n))
+        return
+    why = (f"; pwm_{', pwm_'.join(off)} are off throughout (0 µs or empty): if the frame has "
+           "fewer motors, drop those columns" if off else "")
+    raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(keys)}) but vehicle "
+                        f"{veh.name!r} has {n} thrusters{why}; otherwise pass the vehicle the "
+                        "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
 
 
 @dataclass
@@ -865,6 +999,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         src = {c: (dive.provenance.get(c) or {}).get("source") for c in chans}
         warnings += list(dive.warnings)
         _check_neutral_outputs(pwm, armed, veh, p.name, warnings)
+        _check_surface_reading(chans, armed, p.name, warnings)
         _drop_stuck(chans, armed, p.name, warnings)
         _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings, thruster_model)
         return DiveChannels(p.name, dive.format, chans, armed,
@@ -928,6 +1063,7 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
         armed = [(min(float(c[0][0]) for c in chans.values() if c[0].size), bd.t_end)]
     _check_dead_outputs(bd.pwm, armed, bd.name, warnings)
     _check_neutral_outputs(bd.pwm, armed, veh, bd.name, warnings)
+    _check_surface_reading(chans, armed, bd.name, warnings)
     direction_check(chans, thrust, veh, armed, bd.name, warnings, bag_fix(thrust.directions))
     modes = []
     if bd.modes is not None:

@@ -479,6 +479,7 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     if not dc.armed:
         raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
                             "pushed and there is nothing to replay; pass the log of a dive")
+    dc.check_span(t_start, t_end)
     dofs = _dof_list(dofs, dc)
     notes, chans, traces, hz = [], {}, {}, {}
     for dof in dofs:

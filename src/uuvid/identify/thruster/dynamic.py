@@ -54,7 +54,7 @@ import numpy as np
 
 from uuvid.core.response import TimeResponse
 from uuvid.core.result import Result, jsonable
-from uuvid.identify.fit import Fit, Parameter, nonlinear_lsq
+from uuvid.identify.fit import Fit, IdentifiabilityWarning, Parameter, nonlinear_lsq
 from uuvid.thruster import kernels
 from uuvid.thruster.blocks import (
     CH,
@@ -765,8 +765,39 @@ def fit_chain(
             "normalized": any(r.scale != 1.0 for r in prepared),
         }
     )
-    fit = dataclasses.replace(fit, extra=extra)
+    fit = dataclasses.replace(fit, extra=extra,
+                              warnings=fit.warnings + _sampling_warnings(fit, prepared, emit_warnings))
     return ChainFit(fit, chain, tuple(prepared), tuple(fps), max_step)
+
+
+#: samples per time constant below which a fitted τ is said to depend on the logging rate
+SAMPLES_PER_TAU = 10
+
+
+def _sampling_warnings(fit, prepared, emit: bool) -> tuple:
+    """A fitted time constant the log samples coarsely: the command is held between samples
+    (zero-order hold), so a step that fell between two samples is placed at one of them and τ is
+    biased by up to half a sample step, beyond σ (exact first-order data with steps between
+    samples: τ 0.050 s fitted as 0.047 at 100 Hz, 0.042 at 20 Hz, 0.025 at 10 Hz)."""
+    import warnings as _w
+
+    dt = float(np.median([r.dt for r in prepared])) if prepared else math.nan
+    out = []
+    for p in fit.parameters:
+        if not p.name.endswith("time_constant") or p.fixed or not dt > 0:
+            continue
+        if p.value < dt:
+            out.append(f"{p.name} = {p.value:.3g} s is shorter than the sample step {dt:.3g} s: "
+                       "the log cannot resolve it (log faster, or fit a zero-order model)")
+        elif p.value < SAMPLES_PER_TAU * dt:
+            out.append(f"{p.name} = {p.value:.3g} s spans only {p.value / dt:.3g} sample steps "
+                       f"of {dt:.3g} s: the command is held between samples, so a change between "
+                       f"two of them is placed at one, biasing τ by up to {dt / 2:.2g} s beyond σ; "
+                       f"log at least {SAMPLES_PER_TAU} samples per time constant")
+    if emit:
+        for m in out:
+            _w.warn(m, IdentifiabilityWarning, stacklevel=3)
+    return tuple(out)
 
 
 # ------------------------------------------------------------------------------------------------

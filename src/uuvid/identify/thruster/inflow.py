@@ -78,7 +78,16 @@ def _rows(data: BenchData, what: str) -> np.ndarray:
             f"{int(m.sum())} measured rows with the propeller turning; {what} needs at least "
             f"{MIN_FLOW_LEVELS} (two always fit a line in u_a, a third tests the form). Fix: "
             "record the runs at more carriage/tunnel speeds")
+    top = float(np.max(np.abs(data.flow_speed[m])))
+    if top > MAX_FLOW_SPEED:
+        raise BenchDataError(
+            f"{src}column 'flow_speed' reaches {top:.4g} m/s, beyond {MAX_FLOW_SPEED:g} m/s for a "
+            "thruster's tow tank or water tunnel: is it in cm/s or km/h? expected m/s")
     return m
+
+
+#: a water speed through a thruster on a bench beyond this (m/s) is no tunnel's or carriage's
+MAX_FLOW_SPEED = 10.0
 
 
 def _directions(speed) -> list[tuple[str, float]]:
@@ -121,6 +130,14 @@ def fit_inflow_linear(data: BenchData, *, cov_type: str = "classical") -> Steady
             raise BenchDataError(f"{src}{nm} = {p.value:.4g} < 0: the thrust opposes the propeller "
                                  "speed. Fix: check the sign of the thrust column against the "
                                  "speed column")
+    ka = fit["k_a"]
+    if ka.value < 0 and -ka.value > 2.0 * ka.stderr:
+        import dataclasses
+
+        fit = dataclasses.replace(fit, warnings=fit.warnings + (
+            f"k_a = {ka.value:.4g} ± {ka.stderr:.2g} < 0: the thrust rises with flow_speed, while "
+            "water meeting the propeller from ahead (flow_speed > 0 in forward thrust) takes "
+            "thrust away: is flow_speed's sign reversed (positive for water from behind)?",))
     v = fit.values
     kf = max(v.get("K_T_fwd", v.get("K_T_rev", 0.0)), 0.0)
     kr = max(v.get("K_T_rev", kf), 0.0)

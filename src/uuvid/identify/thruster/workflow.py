@@ -245,6 +245,7 @@ def _one_supply_voltage(sets, what: str, rel_tol: float = 0.02) -> None:
     for s in sets:
         if s.supply_voltage is not None:
             volts.append((s.source or "data", s.nominal_voltage()))
+            _one_voltage_per_command(s, what)
     if len(volts) < 2:
         return
     vs = [v for _, v in volts]
@@ -254,6 +255,28 @@ def _one_supply_voltage(sets, what: str, rel_tol: float = 0.02) -> None:
     raise FitError(f"{what}: the files are at different supply voltages ({listing}); a map of the "
                    "command would average them. Fix: fit one voltage at a time, or use --model "
                    "physical (it models the supply voltage), or a map of the propeller speed")
+
+
+def _one_voltage_per_command(s, what: str, rel_tol: float = 0.1) -> None:
+    """One file whose voltage column holds rows at one command more than ``rel_tol`` apart is
+    several sheets in one (12 V and 16 V rows: a table map averaged them silently); a battery's
+    sag under load gives one voltage per command and passes."""
+    if s.supply_voltage is None or np.ndim(s.supply_voltage) != 1:
+        return
+    v = np.asarray(s.supply_voltage, float)
+    cmd = np.round(np.asarray(s.command, float), 6)
+    order = np.lexsort((v, cmd))
+    c, vs = cmd[order], v[order]
+    starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+    lo, hi = np.minimum.reduceat(vs, starts), np.maximum.reduceat(vs, starts)
+    bad = np.flatnonzero(hi > (1 + rel_tol) * lo)
+    if bad.size:
+        k = starts[bad[0]]
+        raise FitError(f"{what}: {s.source or 'the data'} holds rows at several supply voltages for "
+                       f"one command ({lo[bad[0]]:g} V and {hi[bad[0]]:g} V at {c[k]:g}): "
+                       "several sheets in one file, which a map of the command would average. "
+                       "Fix: fit one voltage at a time (split the file), or use --model physical "
+                       "(it models the supply voltage)")
 
 
 def _stack(sets):
@@ -978,6 +1001,13 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
     unit_warnings = [w for s in sets for w in bench_unit_warnings(s)]
     if select or model in DYNAMIC:  # a steady sweep may well be logged every few seconds
         unit_warnings += _time_unit_warnings(sets)
+        if any(s.current is not None for s in sets):
+            unit_warnings.append(
+                f"the current column (--current-col) is read but not used by "
+                f"{'--select' if select else '--model ' + model}: its output error compares "
+                "speed and thrust, so no electrical parameter comes from the current (a "
+                "resistance written in the model is its start value); McLean's motor from speed "
+                "and current: uuvid.identify.thruster.dynamic.fit_dc_motor")
     outcome.warnings = unit_warnings + list(outcome.warnings)
     return outcome
 

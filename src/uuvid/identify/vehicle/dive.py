@@ -155,6 +155,12 @@ def _svf_start(dc, dof, windows, omega):
     return th
 
 
+#: a held-out rms this much above the base vehicle's (ratio base/identified below it) makes an
+#: estimate not a model to use: the preset predicts the rest of the dive better (10 % of slack:
+#: a base about as good may come out a little ahead by chance)
+HELD_OUT_WORSE = 0.9
+
+
 @dataclass
 class DofEstimate:
     """One DOF's estimate (plain object inside :class:`DiveIdentification`)."""
@@ -195,6 +201,10 @@ class DofEstimate:
         if any(f"beyond the ×{FAR_FROM_BASE:g}" in w for w in self.warnings):
             why.append(f"{'inertia' if self.dof in ('roll', 'pitch', 'yaw') else 'mass'} beyond "
                        f"×{FAR_FROM_BASE:g} of the base's")
+        h = self.held_out or {}
+        if h.get("improvement") is not None and h["improvement"] < HELD_OUT_WORSE:
+            why.append(f"it predicts the held-out part {1 / h['improvement']:.3g}× worse than the "
+                       f"base vehicle (rms {h['identified']['rms']:.3g} vs {h['base']['rms']:.3g})")
         return why
 
     def params(self) -> OneDofParams:
@@ -248,8 +258,13 @@ class DofEstimate:
                      f"nrmse {e.train['nrmse']:.3f}")
         if e.held_out and e.held_out["improvement"] is not None:
             h = e.held_out
-            verdict = f"{h['improvement']:.2f}× better"
-            if e.unusable:
+            imp = h["improvement"]
+            verdict = f"{imp:.2f}× better" if imp >= 1 else f"{1 / imp:.2f}× worse"
+            if e.unusable and imp < HELD_OUT_WORSE:
+                verdict = (f"{1 / imp:.3g}× worse than the base: not a model to use"
+                           + (f" ({'; '.join(e.unusable[:-1])})" if len(e.unusable) > 1 else "")
+                           + " — see the warnings")
+            elif e.unusable:
                 verdict = (f"{h['improvement']:.3g}× lower rms than the base's, but not a model "
                            f"to use: "
                            f"{'; '.join(e.unusable)} — see the warnings")
@@ -818,6 +833,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                             "in the water)")
     if t_start is not None and t_end is not None and t_end <= t_start:
         raise DiveDataError(f"--t-end {t_end:g} s must be after --t-start {t_start:g} s")
+    dc.check_span(t_start, t_end)
     # "all": every DOF the log can inform; one that cannot be identified (too few windows, …)
     # is said in the warnings and the others are returned
     every = isinstance(dofs, str) and dofs == "all" or dofs is None or \
