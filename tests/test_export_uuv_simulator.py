@@ -169,3 +169,37 @@ def test_t200_quadratic_fit_exports_from_the_cli(shared_data, tmp_path):
     w = np.linspace(-380, 380, 39)
     np.testing.assert_allclose(back.steady_thrust(w), load_chain(model).steady_thrust(w),
                                rtol=1e-12)
+
+
+def test_a_driver_offset_becomes_the_plugin_commands_zero():
+    """A dynamic model fitted on PWM (driver with offset 1500 µs → first-order motor → map)
+    was exported with the raw µs as the plugin command: the plugin's state starts at 0, i.e.
+    full reverse, so a vehicle at neutral pushed −5 N for 0.1 s.  The table's input is now
+    command − 1500 (its zero the rest command), as for an ESC's neutral."""
+    from uuvid.thruster.blocks import Driver, FirstOrderMotor
+
+    chain = ThrusterChain((Driver(deadband_fwd=0.06, offset=1500.0),
+                           FirstOrderMotor(gain=0.4, time_constant=0.05),
+                           QuadraticMap(k_pos=3.6e-4, k_neg=3.6e-4)), input_kind="command")
+    xml = to_uuv_simulator(chain, command_range=(1200.0, 1800.0))
+    assert "plugin command = command − 1500" in xml.splitlines()[0]
+    back = from_uuv_simulator(xml)
+    table = next(b for b in back.blocks if isinstance(b, TableMap))
+    x, y = np.array(table.input_values), np.array(table.output_values)
+    assert x[0] == pytest.approx(-300.0) and x[-1] == pytest.approx(300.0)
+    assert np.interp(0.0, x, y) == pytest.approx(0.0, abs=1e-9)  # at rest: no thrust
+    assert np.interp(250.0, x, y) == pytest.approx(float(chain.steady_thrust(np.array([1750.0]))[0]),
+                                                   rel=1e-3)
+
+
+def test_an_inflow_section_left_out_of_the_export_is_said(tmp_path):
+    """UUV Simulator's plugin has no water speed: a model fitted in a flow was exported as
+    "exact" with its inflow coefficients dropped silently."""
+    import dataclasses
+
+    chain = dataclasses.replace(ThrusterChain((QuadraticMap.basic(3.6e-4),), input_kind="speed"),
+                                inflow={"form": "linear", "parameters": {"k_a": {"estimate": 0.03}}})
+    head = to_uuv_simulator(chain).splitlines()[0]
+    assert "exact at bollard" in head and "inflow section" in head and "not exported" in head
+    assert "inflow" not in to_uuv_simulator(ThrusterChain((QuadraticMap.basic(3.6e-4),),
+                                                          input_kind="speed")).splitlines()[0]

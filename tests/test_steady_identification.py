@@ -388,3 +388,22 @@ def test_a_parameter_the_data_do_not_determine_gets_infinite_sigma_not_round_off
     c = pair.correlation
     assert not np.any(np.abs(c[np.isfinite(c)]) > 1 + 1e-9)
     assert lin["a"].stderr == lin["b"].stderr == np.inf and np.isfinite(lin["c"].stderr)
+
+
+def test_a_one_sided_table_gets_zero_thrust_at_neutral():
+    """Three forward rows (1700–1900 µs): the table held 17.9 N from 1700 µs down through
+    neutral and over the whole reverse range — a thruster pushing at rest.  The knot T(1500) = 0
+    is added (fixed, said); a table whose data cross neutral is unchanged."""
+    from uuvid.identify.thruster.steady import fit_table
+
+    fwd = BenchData(command=np.array([1700.0, 1800.0, 1900.0]),
+                    thrust=np.array([17.9, 33.5, 51.4]), source="three.csv")
+    sf = fit_table(fwd)
+    assert sf.block.input_values[0] == 1500.0 and sf.block.output_values[0] == 0.0
+    assert sf.fits["all"]["T(1500)"].fixed
+    assert float(sf.block.thrust(np.array([1500.0]))[0]) == 0.0
+    assert float(sf.block.thrust(np.array([1600.0]))[0]) == pytest.approx(17.9 / 2)
+    assert any("knot T(1500) = 0 is added" in n for n in sf.info["notes"])
+    both = BenchData(command=np.array([1300.0, 1500.0, 1700.0]),
+                     thrust=np.array([-15.0, 0.0, 17.9]), source="both.csv")
+    assert fit_table(both).block.input_values == (1300.0, 1500.0, 1700.0)

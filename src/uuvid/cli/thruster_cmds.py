@@ -216,7 +216,7 @@ def thruster_export(
     import yaml
 
     from uuvid.core.atomic import atomic_write_text
-    from uuvid.io.export import ExportError, to_uuv_simulator
+    from uuvid.io.export import ExportError, to_uuv_simulator, uuv_simulator_losses
     from uuvid.thruster.modelfile import _to_toml, chain_to_dict
     from uuvid.thruster.resolve import export_supply
 
@@ -243,6 +243,8 @@ def thruster_export(
                                     command_range=rng)
         except ExportError as e:
             _fail_flagged(e, {"thruster_id": "--thruster-id", "table_points": "--table-points"})
+        for w in uuv_simulator_losses(chain):
+            err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     elif to in ("yaml", "toml"):
         d = chain_to_dict(chain)
         text = _to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False)

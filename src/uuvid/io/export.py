@@ -104,13 +104,25 @@ def _table_element(x: np.ndarray, y: np.ndarray) -> ET.Element:
     return el
 
 
+def uuv_simulator_losses(chain: ThrusterChain) -> list[str]:
+    """What a UUV Simulator export of ``chain`` leaves out (said in the file and by the CLI):
+    the inflow section — the plugin's thrust knows no water speed."""
+    inflow = getattr(chain, "inflow", None)
+    if not inflow:
+        return []
+    form = inflow.get("form", "") if isinstance(inflow, dict) else ""
+    return [f"the model's inflow section ({form + ' ' if form else ''}thrust falling with the water "
+            "speed through the propeller) is not exported: UUV Simulator's thruster plugin gives "
+            "the bollard thrust (u_a = 0) at every speed"]
+
+
 def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: str | None = None,
                      joint_name: str | None = None, command_range: tuple[float, float] | None = None,
                      table_points: int = 101) -> str:
     """The ``<plugin>`` snippet (dynamics + conversion) for UUV Simulator's thruster plugin."""
     check_export_options(thruster_id, table_points)
     blocks = list(chain.blocks)
-    notes: list[str] = []
+    notes: list[str] = uuv_simulator_losses(chain)
     dyn_idx = [i for i, b in enumerate(blocks) if b.n_states > 0 or isinstance(b, ZeroOrder)]
     if len(dyn_idx) > 1:
         raise ExportError(f"{chain.name}: {len(dyn_idx)} dynamic blocks "
@@ -165,7 +177,9 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
         # the whole chain's steady map: exact whatever the blocks, and the table input is the
         # plugin command (the dynamics have unit gain: any motor gain lives in the table)
         y = chain.steady_thrust(x)
-        neutral = next((b.neutral for b in blocks if b.TYPE == "esc"), 0.0)
+        # the command at rest: an ESC's neutral, a driver's offset (a dynamic fit on PWM)
+        neutral = next((b.neutral if b.TYPE == "esc" else b.offset for b in blocks
+                        if b.TYPE in ("esc", "driver")), 0.0)
         if neutral:
             x = x - neutral
             notes.append(f"plugin command = command − {neutral:g} (neutral at 0, so the dynamic "
@@ -184,10 +198,10 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
     ET.indent(plugin)
     if chain.input_kind != "command":
         notes.append(f"the plugin command is the model's input, the {chain.input_kind}")
+    verdict = ("exact" if not chain.inflow else "exact at bollard") + ("; " if notes else "") \
+        if exact else "approximate: "
     header = (f"<!-- uuvid export of thruster model '{chain.name}' "
-              f"({' -> '.join(b.TYPE for b in blocks)}); "
-              f"{('exact' + ('; ' if notes else '')) if exact else 'approximate: '}"
-              f"{'; '.join(notes)} -->")
+              f"({' -> '.join(b.TYPE for b in blocks)}); {verdict}{'; '.join(notes)} -->")
     return header + "\n" + ET.tostring(plugin, encoding="unicode") + "\n"
 
 

@@ -799,24 +799,35 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
         elif n_points > uc.size:
             notes.append(f"{int(n_points):,} knots asked for, but the data have {uc.size} distinct "
                          f"commands: the table keeps all {uc.size}")
-    xi, yi = uc[idx], vals[idx]
-    block = TableMap(input_values=tuple(xi), output_values=tuple(yi))
-    resid = t - np.interp(c, xi, yi)
+    xi, yi, si = uc[idx], vals[idx], se[idx]
     # the knots against the table of every command (its means): the scatter of repeats is no miss
     miss = vals - np.interp(uc, xi, yi) if idx.size < uc.size else np.zeros(0)
+    nu = float(data.neutral)
+    added = not xi[0] <= nu <= xi[-1]
+    if added:  # one-sided data: the table held its first row's thrust down to neutral and beyond
+        at = 0 if nu < xi[0] else xi.size
+        xi, yi, si = np.insert(xi, at, nu), np.insert(yi, at, 0.0), np.insert(si, at, 0.0)
+        unit = {"pwm_us": " µs"}.get(data.command_unit or "", f" {data.command_unit or ''}".rstrip())
+        notes.append(f"the data hold no command at or across the neutral {nu:g}{unit}: the knot "
+                     f"T({nu:g}) = 0 is added (no thrust at neutral), so commands between it and "
+                     "the data interpolate from zero instead of holding the nearest row's thrust")
     notes += _table_warnings(xi, yi, uc, vals, miss, data.command_unit or "")
-    params = tuple(Parameter(f"T({x:g})", float(y), float(s), "N")
-                   for x, y, s in zip(xi, yi, se[idx]))
-    cov = np.diag(se[idx] ** 2)
+    block = TableMap(input_values=tuple(xi), output_values=tuple(yi))
+    resid = t - np.interp(c, xi, yi)
+    params = tuple(Parameter(f"T({x:g})", float(y), float(s), "N", fixed=added and x == nu)
+                   for x, y, s in zip(xi, yi, si))
+    cov = np.diag(si ** 2)
     n_cens = int(data.censored.sum())
     if n_cens and censored == "zero":
         notes.append(f"{n_cens} censored row(s) kept at zero thrust (below the detection limit)")
     once = int(np.sum(counts[idx] < 2))
+    counts_kept = counts[idx].tolist() if not added else \
+        np.insert(counts[idx], 0 if nu < xi[1] else counts[idx].size, 0).tolist()
     if once:
         notes.append(f"σ unknown (no repeats) for {once} of {idx.size} table entries: an entry's σ "
                      "comes from repeated measurements at its command")
     f = Fit(f"lookup table command → thrust ({xi.size} knots)", params, cov, resid, int(c.size),
-            math.nan, (), {"command_unit": data.command_unit, "counts": counts[idx].tolist()})
+            math.nan, (), {"command_unit": data.command_unit, "counts": counts_kept})
     return SteadyFit("lookup table (UUV Simulator LinearInterp)", {"all": f}, block,
                      {"notes": tuple(notes)})
 
