@@ -150,6 +150,10 @@ def test_bad_input_gives_clear_errors(dive):
         identify_dive(unarmed, "bluerov2")
     with pytest.raises(DiveDataError, match="window too short.*--t-start/--t-end"):
         identify_dive(df, "bluerov2", ["heave"], t_end=30.0)
+    # every DOF failing: each one's reason (only heave's was said)
+    with pytest.raises(DiveDataError, match=r"no DOF could be identified: heave: window too short"
+                                            r".*; yaw: window too short"):
+        identify_dive(df, "bluerov2", "all", t_end=30.0)
     with pytest.raises(DiveDataError, match="6 pwm_ columns.*8 thrusters"):
         identify_dive(df, "bluerov2-heavy")
     with pytest.raises(DiveDataError, match="surge velocity \\(DVL"):

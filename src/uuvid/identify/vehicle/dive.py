@@ -915,10 +915,14 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         except DiveDataError as e:
             if not every:  # DOFs the user named: each must be identified
                 raise
-            failed.append(e)
+            failed.append((dof, e))
             warnings.append(f"{dof} not identified: {e}")
     if not ests:
-        raise failed[0]
+        if len(failed) == 1:
+            raise failed[0][1]
+        raise DiveDataError("no DOF could be identified: " + "; ".join(
+            f"{dof}: {str(e).removeprefix(dc.name + ': ')}" for dof, e in failed)
+            + (f" (read from {dc.name})" if dc.name else ""))
     measured = ("depth_m", "yaw_rad", "u_mps", "v_mps", "roll_rad", "pitch_rad")
     used = {c: str(dc.sources.get(c)) for c in measured
             if c in dc.channels and dc.sources.get(c)}
