@@ -718,3 +718,20 @@ def test_times_outside_the_log_are_an_error_naming_its_span():
     with pytest.raises(DiveDataError, match=r"--t-start 500 s is outside the log, whose times run "
                                             r"from 0 to 59\.95 s: give"):
         identify_dive(rel, "bluerov2", ["heave"], t_start=500.0)
+
+
+@pytest.mark.parametrize("kind", ["datetime", "timedelta"])
+def test_a_parquet_time_column_of_dates_or_durations_is_read_in_seconds(tmp_path, kind):
+    """A Parquet ``t_s`` of datetime64/timedelta64 was read as its nanosecond integers ("median
+    step 3e7 s … is the time in milliseconds?": the advice did not help)."""
+    df = _table()
+    secs = df["t_s"].to_numpy()
+    df["t_s"] = (pd.Timestamp("2024-05-01 10:00") + pd.to_timedelta(secs + 5.0, unit="s")
+                 if kind == "datetime" else pd.to_timedelta(secs + 5.0, unit="s"))
+    p = tmp_path / "dt.parquet"
+    df.to_parquet(p)
+    dc = read_dive_channels(p, "bluerov2")
+    t = dc.channels["depth_m"][0]
+    np.testing.assert_allclose(t, secs, atol=1e-6)  # seconds from the first stamp
+    assert any("column t_s holds" in w and "read as seconds from its first stamp" in w
+               for w in dc.warnings)

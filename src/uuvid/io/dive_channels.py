@@ -192,6 +192,14 @@ def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.nd
     import pandas as pd
 
     raw = df[tcol]
+    if pd.api.types.is_datetime64_any_dtype(raw) or pd.api.types.is_timedelta64_dtype(raw):
+        # a Parquet time column of dates or durations: its integers are nanoseconds
+        kind = "dates and times" if pd.api.types.is_datetime64_any_dtype(raw) else "durations"
+        first = raw.dropna().iloc[0] if raw.notna().any() else None
+        raw = (raw - first).dt.total_seconds() if first is not None else raw.astype("float64")
+        if warnings is not None:
+            warnings.append(f"{name}: column {tcol} holds {kind}: read as seconds from its first "
+                            f"stamp ({first})")
     t = pd.to_numeric(raw, errors="coerce").to_numpy(float)
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
