@@ -210,3 +210,47 @@ def test_one_file_at_several_supply_voltages_is_refused_for_a_map_of_the_command
         run_fit([both], "table", opts)
     sag = _write(tmp_path / "sag.csv", thrust=THRUST, voltage=16.0 - 1.5 * np.abs(D))
     run_fit([sag], "table", opts)
+
+
+def test_percent_commands_declared_as_volts_are_refused(tmp_path):
+    """±100 "V" on a 16 V supply passed for the table and physical models."""
+    from uuvid.io.bench import read_bench
+
+    p = tmp_path / "pct.csv"
+    rows = ["pct,thrust,voltage"] + [f"{100 * d:.6g},{t:.6g},16" for d, t in zip(D, THRUST)]
+    p.write_text("\n".join(rows) + "\n")
+    data = read_bench(p, command_col="pct", thrust_col="thrust", voltage_col="voltage",
+                      command_unit="volts")
+    with pytest.raises(BenchDataError, match=r"pct\.csv: the commands hold -100…100 V, beyond the "
+                                             r"16 V supply.*look like percent"):
+        check_bench_signs(data)
+    volts = tmp_path / "volts.csv"
+    volts.write_text("\n".join(["v,thrust,voltage"] + [f"{16 * d:.6g},{t:.6g},16"
+                                                      for d, t in zip(D, THRUST)]) + "\n")
+    check_bench_signs(read_bench(volts, command_col="v", thrust_col="thrust",
+                                 voltage_col="voltage", command_unit="volts"))
+
+
+def test_a_t200_sheet_refuses_units_it_would_ignore(shared_data):
+    """``--format t200`` read its own units and dropped ``--thrust-unit lbf`` without a word."""
+    from uuvid.identify.thruster.workflow import FitError
+
+    f = shared_data / "t200-bluerobotics-2019" / "T200_16V.csv"
+    with pytest.raises(FitError, match=r"--format t200 reads the sheet's own columns and units.*"
+                                       r"--thrust-unit lbf would be ignored"):
+        run_fit([f], "quadratic", ReadOptions(fmt="t200", thrust_unit="lbf"))
+    run_fit([f], "quadratic", ReadOptions(fmt="t200"))
+
+
+def test_a_physical_fit_of_one_direction_names_the_file_and_the_fix(tmp_path):
+    f = _write(tmp_path / "fwd.csv", thrust=np.abs(THRUST), current=CURRENT, voltage=VOLTS,
+               speed=np.abs(SPEED))
+    opts = ReadOptions(command_col="pwm", thrust_col="thrust", current_col="current",
+                       voltage_col="voltage", speed_col="speed")
+    fwd_only = tmp_path / "fwd_only.csv"
+    lines = f.read_text().splitlines()
+    fwd_only.write_text("\n".join([lines[0]] + [r for r in lines[1:] if float(r.split(",")[0]) >= 1500])
+                        + "\n")
+    with pytest.raises(BenchDataError, match=r"fwd_only\.csv: no measured reverse samples .*--model "
+                                             r"quadratic/polynomial/table"):
+        run_fit([fwd_only], "physical", opts)

@@ -363,3 +363,26 @@ def test_a_current_column_a_dynamic_fit_does_not_use_is_said(tmp_path):
     assert any("the current column (--current-col) is read but not used by --model first-order"
                in w for w in out.warnings), out.warnings
     assert not any("current column" in w for w in plain.warnings)
+
+
+def test_resample_reaches_the_speed_and_thrust_fits(tmp_path):
+    """``--resample`` was ignored by the dynamic fits that take thrust too (the structured path):
+    the error on a jittered record said "pass --resample" with it passed."""
+    import warnings as _w
+
+    from uuvid.identify.thruster.workflow import ReadOptions, run_fit
+
+    r = _between_samples_step(2e-3)
+    t = r.t + np.random.default_rng(1).uniform(-2e-4, 2e-4, r.t.size)  # a jittered logger clock
+    rows = ["t,V,w,T"] + [f"{a:.17g},{b:.17g},{c:.17g},{3.6e-4 * c * abs(c):.17g}"
+                          for a, b, c in zip(t, r.u, r.y)]
+    (tmp_path / "jit.csv").write_text("\n".join(rows) + "\n")
+    opts = ReadOptions(time_col="t", command_col="V", command_unit="volts", speed_col="w",
+                       thrust_col="T")
+    with _w.catch_warnings():
+        _w.simplefilter("ignore")
+        with pytest.raises(ValueError, match="not uniformly sampled.*--resample"):
+            run_fit([tmp_path / "jit.csv"], "first-order", opts)
+        out = run_fit([tmp_path / "jit.csv"], "first-order", opts, resample=True)
+    tau = next(v for k, v in out.parameters().items() if k.endswith("time_constant"))
+    assert tau["estimate"] == pytest.approx(0.05, rel=0.05)

@@ -21,6 +21,8 @@ from uuvid.thruster.blocks import (
 from uuvid.thruster.chain import ThrusterChain
 from uuvid.thruster.presets import auv2_rig_chain, laidani_chain
 
+runner = CliRunner()
+
 
 @pytest.mark.parametrize("dyn", [ZeroOrder(), FirstOrder(0.05), Yoerger(0.5, 0.7),
                                  BessaDynamics(0.05, 0.1, 0.02, 0.1, 1.0)])
@@ -203,3 +205,17 @@ def test_an_inflow_section_left_out_of_the_export_is_said(tmp_path):
     assert "exact at bollard" in head and "inflow section" in head and "not exported" in head
     assert "inflow" not in to_uuv_simulator(ThrusterChain((QuadraticMap.basic(3.6e-4),),
                                                           input_kind="speed")).splitlines()[0]
+
+
+def test_the_cli_reads_back_its_own_uuv_simulator_export(tmp_path):
+    """``thruster show x.xml`` said "expected a mapping at the top level, got str": the export
+    could not be read back where a model is expected; a file that is no plugin names itself."""
+    xml = tmp_path / "lai.xml"
+    assert runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "uuv-simulator",
+                               "--out-file", str(xml)]).exit_code == 0
+    res = runner.invoke(app, ["thruster", "show", str(xml)])
+    assert res.exit_code == 0 and "lai" in res.output, res.output
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<plugin><dyn")
+    res = runner.invoke(app, ["thruster", "show", str(bad)])
+    assert res.exit_code == 2 and "not a UUV Simulator thruster plugin" in " ".join(res.output.split())

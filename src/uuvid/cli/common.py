@@ -87,9 +87,19 @@ def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}"
 
 def _load_model(model: str):
     """A preset name, ``t200-physical`` or a model file (:func:`uuvid.thruster.resolve.resolve_chain`)."""
+    from pathlib import Path
+
     from uuvid.thruster.modelfile import ModelFileError
     from uuvid.thruster.resolve import resolve_chain
 
+    p = Path(model)
+    if p.suffix.lower() == ".xml" and p.is_file():  # a UUV Simulator plugin (uuvid's export)
+        from uuvid.io.export import ExportError, from_uuv_simulator
+
+        try:
+            return from_uuv_simulator(p.read_text(), name=p.stem)
+        except (ExportError, ValueError, SyntaxError) as e:  # SyntaxError: XML ParseError
+            _fail(f"{p}: not a UUV Simulator thruster plugin ({e})")
     try:
         return resolve_chain(model)
     except FileNotFoundError as e:

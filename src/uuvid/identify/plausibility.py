@@ -45,6 +45,14 @@ def check_bench_commands(data) -> None:
         hint = (" — they look like pulse widths: give --command-unit pwm_us"
                 if np.mean((c >= 800) & (c <= 2200)) >= 0.5 else "")
         raise BenchDataError(f"{src}the commands hold {rng}: a duty is within −1…1{hint}")
+    elif data.command_unit == "volts" and data.supply_voltage is not None:
+        v = np.asarray(data.supply_voltage_array(), float)
+        top = float(np.nanmax(v)) if v.size else np.nan
+        if np.isfinite(top) and top > 0 and float(np.max(np.abs(c))) > 1.5 * top:
+            hint = (" — they look like percent: give duties (−1…1, --command-unit duty)"
+                    if float(np.max(np.abs(c))) <= 100.0 + 1e-9 else "")
+            raise BenchDataError(f"{src}the commands hold {rng} V, beyond the {top:g} V supply: "
+                                 f"a driver cannot apply more than its supply{hint}")
 
 
 def check_bench_signs(data, *, min_rows: int = 3) -> None:

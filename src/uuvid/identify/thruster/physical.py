@@ -194,8 +194,13 @@ def fit_physical(sheets: BenchData | Sequence[BenchData], *, duty_curvature: boo
             raise BenchDataError(f"{s.source}: command unit/neutral differ from {sets[0].source}")
     for direction, sgn in (("forward", 1), ("reverse", -1)):
         if not any(np.any(s.measured & (s.direction == sgn) & (s.speed != 0)) for s in sets):
-            raise BenchDataError(f"fit_physical: no measured {direction} samples; both "
-                                 "directions are needed")
+            names = ", ".join(s.source or "data" for s in sets)
+            raise BenchDataError(f"{names}: no measured {direction} samples (command "
+                                 f"{'above' if sgn > 0 else 'below'} neutral {neutral:g} with the "
+                                 "propeller turning): the physical model fits both directions "
+                                 "(one motor, two propeller coefficients). Fix: add the "
+                                 f"{direction} half of the sweep, or fit the one direction with "
+                                 "--model quadratic/polynomial/table (the other mirrored, said)")
     use_current = current_weight > 0 and all(s.current is not None for s in sets)
     cmin = min(float(s.command.min()) for s in sets)
     cmax = max(float(s.command.max()) for s in sets)

@@ -192,10 +192,22 @@ class ReadOptions:
     flow_speed_col: str | None = "auto"  # auto: the column 'flow_speed' when the file has one
 
 
+#: options a Blue Robotics T200 sheet does not take (its columns and units are fixed): defaults
+_T200_IGNORES = {"thrust_unit": "N", "speed_unit": "rad/s", "command_unit": "pwm_us",
+                 "time_col": None}
+
+
 def read_files(paths, opts: ReadOptions) -> list:
     """Read every file into :class:`~uuvid.io.bench.BenchData` (raises ``BenchDataError``)."""
     from uuvid.io.bench import read_bench, read_t200
 
+    if opts.fmt == "t200":
+        given = [f"--{k.replace('_', '-')} {getattr(opts, k)}" for k, d in _T200_IGNORES.items()
+                 if getattr(opts, k) != d]
+        if given:
+            raise FitError(f"--format t200 reads the sheet's own columns and units (µs, kgf → N, "
+                           f"rpm → rad/s, A, V): {', '.join(given)} would be ignored; drop it, or "
+                           "read the file as a plain table (--format csv with its columns)")
     sets = []
     for p in paths:
         if opts.fmt == "t200":
@@ -872,8 +884,12 @@ def _fit_mclean(sets, name, start, resample):
 # ------------------------------------------------------------------------------------------------
 # structured dynamic models: dead band, joint speed + thrust, selection by held-out level
 # ------------------------------------------------------------------------------------------------
-def experiments_from(sets, what: str) -> list:
-    """Bench records → :class:`~uuvid.identify.thruster.dynamic_select.Experiment` (command − neutral)."""
+def experiments_from(sets, what: str, resample: bool = False) -> list:
+    """Bench records → :class:`~uuvid.identify.thruster.dynamic_select.Experiment` (command − neutral).
+    ``resample``: a record not sampled uniformly is put on a grid of its median step first
+    (command held, speed and thrust linear: :func:`uuvid.identify.thruster.dynamic.validate_runs`'s
+    rule), as the other dynamic fits do with ``--resample``."""
+    from uuvid.identify.thruster.dynamic import UNIFORM_RTOL, _resample
     from uuvid.identify.thruster.dynamic_select import Experiment
 
     out = []
@@ -885,7 +901,14 @@ def experiments_from(sets, what: str) -> list:
         if not m.all():
             raise FitError(f"{s.source}: {int((~m).sum())} censored row(s) in a time series; "
                            f"{what} needs every sample")
-        out.append(Experiment(s.time, s.command - s.neutral, s.speed, s.thrust, name=s.source))
+        t, u, w, f = s.time, s.command - s.neutral, s.speed, s.thrust
+        d = np.diff(t)
+        if resample and d.size and np.max(np.abs(d - d.mean())) > UNIFORM_RTOL * d.mean():
+            dt = float(np.median(d))
+            tn, un, w = _resample(t, u, w, dt) if w is not None else (None, None, None)
+            tn, un, f = _resample(t, u, f, dt) if f is not None else (tn, un, None)
+            t, u = tn, un
+        out.append(Experiment(t, u, w, f, name=s.source))
     return out
 
 
@@ -924,10 +947,10 @@ def _structured_outcome(model, df, sets, name, figures, notes=(), extra=None, te
                       notes=list(notes) + more)
 
 
-def _fit_structured(sets, model, name, dead_band):
+def _fit_structured(sets, model, name, dead_band, resample=False):
     from uuvid.identify.thruster.dynamic_select import Structure, fit_dynamics, plot_predictions
 
-    exps = experiments_from(sets, f"--model {model}")
+    exps = experiments_from(sets, f"--model {model}", resample)
     df = fit_dynamics(exps, Structure(model, dead_band))
     fig = plot_predictions([df.predict(e) for e in exps], f"{name}: {df.structure.name} (in sample)")
     return _structured_outcome(model, df, sets, name,
@@ -935,7 +958,7 @@ def _fit_structured(sets, model, name, dead_band):
                                              "with the ±2σ band from the parameter covariance")])
 
 
-def _fit_select(sets, name, dead_band, families=None):
+def _fit_select(sets, name, dead_band, families=None, resample=False):
     from uuvid.identify.thruster.dynamic_select import (
         Structure,
         default_structures,
@@ -943,7 +966,7 @@ def _fit_select(sets, name, dead_band, families=None):
         select_structure,
     )
 
-    exps = experiments_from(sets, "--select")
+    exps = experiments_from(sets, "--select", resample)
     strs = default_structures(dead_band) if not families else [Structure(f, dead_band) for f in families]
     sel = select_structure(exps, strs)
     df = sel.best
@@ -990,7 +1013,7 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
             for s in sets:
                 check_bench_signs(s)
             _check_flow_model(sets, "select")
-            outcome = _fit_select(sets, name or "selected", True, families)
+            outcome = _fit_select(sets, name or "selected", True, families, resample)
     else:
         sets, outcome = _run_model(paths, model, opts, degree=degree, criterion=criterion,
                                    map_input=map_input, table_points=table_points,
@@ -1079,7 +1102,7 @@ def _run_model(paths, model: str, opts: ReadOptions, *, degree, criterion, map_i
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # they are in the fit's warnings
         if model in STRUCTURED and (dead_band or model in ("dc-motor", "healey")
                                     or any(s.thrust is not None for s in sets)):
-            return sets, _fit_structured(sets, model, name, True)
+            return sets, _fit_structured(sets, model, name, True, resample)
         fitters = {
             "quadratic": lambda: _fit_quadratic(sets, name),
             "four-quadrant": lambda: _fit_inflow(_stack(sets), name, model, diameter, degree),
