@@ -735,3 +735,17 @@ def test_a_parquet_time_column_of_dates_or_durations_is_read_in_seconds(tmp_path
     np.testing.assert_allclose(t, secs, atol=1e-6)  # seconds from the first stamp
     assert any("column t_s holds" in w and "read as seconds from its first stamp" in w
                for w in dc.warnings)
+
+
+def test_time_in_ms_behind_a_fast_stream_is_named_where_the_horizon_fails():
+    """Time in ms with a 400 Hz attitude stream among the rows: the median row step (2.5) passed
+    the ms check, and the error asked for a 1000-s horizon instead of naming the unit."""
+    from uuvid.identify.vehicle.dive import identify_dive
+
+    df = _table().assign(armed=True)
+    df["t_s"] *= 1000.0
+    fast = pd.DataFrame({"t_s": np.arange(0.0, 60000.0, 2.5) + 0.1, "roll_rad": 0.0,
+                         "armed": True})
+    both = pd.concat([df, fast], ignore_index=True).sort_values("t_s", kind="stable")
+    with pytest.raises(DiveDataError, match=r"median step 50 s\).*is the time in milliseconds"):
+        identify_dive(both.reset_index(drop=True), "bluerov2", ["heave"])

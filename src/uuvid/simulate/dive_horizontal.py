@@ -148,6 +148,11 @@ def spread_windows(windows: list, notes: list, what: str) -> list:
 WINDOW_SAMPLES = 4
 
 
+#: a measured channel (depth, heading, DVL) logging slower than this (s) is no sensor of a dive
+#: log: the time column is in another unit (ms read as s)
+SLOWEST_SENSOR_STEP_S = 30.0
+
+
 def check_horizon(dc, channels, horizon: float) -> None:
     """``DiveDataError`` when windows of ``horizon`` s cannot hold :data:`WINDOW_SAMPLES` samples
     of each measured channel at its median step — the windows would all be left out, and a tiny
@@ -162,10 +167,13 @@ def check_horizon(dc, channels, horizon: float) -> None:
             continue
         floor = (WINDOW_SAMPLES - 1) * float(np.median(d))  # 4 samples span 3 steps
         if not horizon >= floor:
+            slow = float(np.median(d)) > SLOWEST_SENSOR_STEP_S
             raise DiveDataError(
                 f"{dc.name}: --horizon {horizon:g} s is shorter than {WINDOW_SAMPLES} samples of "
                 f"{c} (median step {np.median(d):.3g} s): no window could hold the samples it "
-                f"needs; give at least {floor:.3g} s")
+                + (f"needs; a sensor logging every {np.median(d):.3g} s is no dive log: is the "
+                   "time in milliseconds? (divide t_s by 1000)" if slow else
+                   f"needs; give at least {floor:.3g} s"))
 
 
 def horizontal_windows(dc, horizon: float, t_start=None, t_end=None) -> tuple[list, list]:
