@@ -337,7 +337,10 @@ def fit_physical(sheets: BenchData | Sequence[BenchData], *, duty_curvature: boo
         msg = ("no current data (or current_weight 0): K_e and R are not separately "
                "identifiable — only K_e and R·K_Q/K_e are")
         notes.append(msg)
-        if not any("K_e" in w and "R" in w for w in fit.warnings):
+        said = any(("K_e" in w and "R" in w) or (w.startswith(("K_e:", "R:"))
+                                                   and "not identifiable" in w)
+                   for w in fit.warnings)
+        if not said:
             fit = replace(fit, warnings=fit.warnings + (msg,))
             if emit_warnings:
                 warnings.warn(msg, IdentifiabilityWarning, stacklevel=2)
