@@ -293,3 +293,20 @@ def test_t200_reader_accepts_micro_sign_and_rejects_other_layouts(tmp_path):
     assert d.speed[2] < 0
     with pytest.raises(BenchDataError, match="not a T200 performance sheet"):
         read_t200(write(tmp_path, "pwm,f\n1600,1\n", "x.csv"))
+
+
+def test_bench_data_built_in_python_with_a_nan_names_the_field_and_index():
+    """A NaN in a BenchData built in a notebook reached the fits, whose errors were cryptic
+    ("Initial guess is outside of provided bounds", "TableMap values must be finite")."""
+    import numpy as np
+    import pytest
+
+    from uuvid.io.bench import BenchData, BenchDataError
+
+    thrust = np.linspace(-5.0, 5.0, 9)
+    thrust[4] = np.nan
+    with pytest.raises(BenchDataError, match=r"sheet\.csv: thrust\[4\] is nan \(1 non-finite "
+                                             r"value\(s\)\): every sample must be a finite number"):
+        BenchData(command=np.linspace(1100, 1900, 9), thrust=thrust, source="sheet.csv")
+    with pytest.raises(BenchDataError, match=r"supply_voltage\[0\] is inf"):
+        BenchData(command=np.linspace(1100, 1900, 3), supply_voltage=[np.inf, 16.0, 16.0])

@@ -168,6 +168,17 @@ class BenchData:
             raise BenchDataError(f"{self._where()}censored mask has shape {cens.shape}; command "
                                  f"has {n} samples")
         object.__setattr__(self, "censored", cens)
+        for name in ("command", "thrust", "speed", "current", "time", "flow_speed",
+                     "supply_voltage"):
+            a = getattr(self, name)
+            if a is None or np.ndim(a) == 0:
+                continue
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:  # the fits' own errors about it were cryptic ("initial guess outside bounds")
+                raise BenchDataError(f"{self._where()}{name}[{bad[0]}] is {float(a[bad[0]])!r} "
+                                     f"({bad.size} non-finite value(s)): every sample must be a "
+                                     "finite number — leave the row out (or mark a reading below "
+                                     "the detection limit with `censored`)")
         if self.neutral is None:
             object.__setattr__(self, "neutral", DEFAULT_NEUTRAL[self.command_unit])
         else:
