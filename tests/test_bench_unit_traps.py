@@ -205,11 +205,17 @@ def test_one_file_at_several_supply_voltages_is_refused_for_a_map_of_the_command
     b = _write(tmp_path / "b.csv", thrust=THRUST * 0.56, voltage=0.75 * VOLTS).read_text().splitlines()
     both.write_text("\n".join(a + b[1:]) + "\n")
     opts = ReadOptions(command_col="pwm", thrust_col="thrust", voltage_col="voltage")
-    with pytest.raises(FitError, match=r"--model table: both\.csv holds rows at several supply "
-                                       r"voltages for one command \(12 V and 16 V at 1100\)"):
+    with pytest.raises(FitError, match=r"--model table: both\.csv holds rows at supply voltages "
+                                       r"33 % apart for one command \(12 V and 16 V at 1100\)"):
         run_fit([both], "table", opts)
     sag = _write(tmp_path / "sag.csv", thrust=THRUST, voltage=16.0 - 1.5 * np.abs(D))
     run_fit([sag], "table", opts)
+    # a 4S pack drained over the session (two sweeps at 16.4 and 14.8 V: 11 %) passes too
+    drain = tmp_path / "drain.csv"
+    c = _write(tmp_path / "c.csv", thrust=THRUST, voltage=16.4 + 0 * VOLTS).read_text().splitlines()
+    e = _write(tmp_path / "e.csv", thrust=0.9 * THRUST, voltage=14.8 + 0 * VOLTS).read_text().splitlines()
+    drain.write_text("\n".join(c + e[1:]) + "\n")
+    run_fit([drain], "table", opts)
 
 
 def test_percent_commands_declared_as_volts_are_refused(tmp_path):

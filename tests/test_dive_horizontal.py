@@ -350,3 +350,21 @@ def test_an_all_empty_column_is_an_empty_channel_not_a_traceback(dive):
     dc = read_dive_channels(df.assign(battery_V=np.nan), "bluerov2")
     assert dc.channels.get("battery_V", (np.zeros(0),))[0].size == 0
     assert dc.channels["X_N"][0].size > 0
+
+
+@pytest.mark.slow
+def test_a_coupled_model_worse_than_the_base_on_held_out_data_is_not_written(result, tmp_path):
+    """The 1-DOF rule for the coupled model too: it printed "0.32× better" and was written."""
+    import dataclasses
+
+    from uuvid.vehicle.writeback import WritebackError
+
+    e = result.estimates["horizontal"]
+    h = e.held_out
+    bad = dataclasses.replace(e, held_out={**h, "improvement": {**h["improvement"], "u": 1 / 3.1}})
+    assert any("held-out u 3.1× worse than the base vehicle" in w for w in bad.unusable)
+    res = dataclasses.replace(result, estimates={**result.estimates, "horizontal": bad})
+    assert "(3.1× worse)" in res.summary() and "not a model to use" in res.summary()
+    with pytest.raises(WritebackError, match="horizontal is not a model to use"):
+        res.write_vehicle(tmp_path / "v.yaml")
+    assert not e.unusable  # as identified: usable

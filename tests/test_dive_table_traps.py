@@ -636,7 +636,14 @@ def test_an_armed_state_logged_on_its_own_rows_holds_until_the_next():
     assert len(dc.armed) == 1 and dc.armed[0][0] == pytest.approx(10.525)
     assert dc.armed[0][1] == pytest.approx(df["t_s"].iloc[-1])
     assert any("column armed is filled on 60 of" in w for w in dc.warnings)
-    only_true = df.assign(armed=np.where(df["t_s"] > 10.0, "true", ""))  # empty: not armed
+    # all true (a log kept only while armed, LOG_DISARMED = 0): held too
+    hb["armed"] = True
+    dc = _read(pd.concat([df, hb], ignore_index=True).sort_values("t_s", kind="stable")
+               .reset_index(drop=True))
+    assert len(dc.armed) == 1 and dc.armed[0][0] == pytest.approx(0.525)
+    # a column filled in a block, empty elsewhere (even with one "0"): empty means not armed
+    only_true = df.assign(armed=np.where(df["t_s"] > 10.0, "true", ""))
+    only_true.loc[0, "armed"] = "0"
     dc = _read(only_true)
     assert dc.armed[0][0] == pytest.approx(10.05)
     assert not any("column armed is filled" in w for w in dc.warnings)
@@ -647,13 +654,17 @@ def test_columns_under_other_names_are_said_not_dropped_silently():
     and the missing-force error never named ``pwm_<n>``)."""
     df = _table().rename(columns={"yaw_rad": "heading_deg"})
     dc = _read(df)
-    assert "yaw_rad" not in dc.channels and dc.unread == ["heading_deg"]
-    assert any("column(s) heading_deg not read" in w and "yaw_rad [rad" in w for w in dc.warnings)
+    assert "yaw_rad" not in dc.channels and dc.unread == ["heading_deg (yaw_rad?)"]
+    assert any("column(s) heading_deg (yaw_rad?) not read" in w and "yaw_rad [rad" in w
+               for w in dc.warnings)
     servo = _table().rename(columns={f"pwm_{j}": f"servo{j}" for j in range(1, 7)})
     with pytest.raises(DiveDataError, match=r"no Z_N samples .* servo-output columns pwm_1 … "
-                                            r"pwm_n .* columns servo1, servo2.* are not read"):
+                                            r"pwm_n .* columns servo1 \(pwm_1\?\), servo2 "
+                                            r"\(pwm_2\?\).* are not read"):
         _read(servo).require("heave")
-    plain = _read(_table().assign(notes="x", lat=1.0))  # other data: not named
+    # columns uuvid reads nothing from (a second clock, a temperature, the current): not named
+    plain = _read(_table().assign(notes="x", lat=1.0, timestamp=0.0, altitude=1.0,
+                                  battery_current_A=3.0, thruster_temp=30.0, level=1.0))
     assert plain.unread == []
 
 
@@ -693,7 +704,7 @@ def test_a_surface_read_too_deep_is_said_with_the_offset():
     ws = [w for w in _read(_deck_then_dive(0.3)).warnings if "too deep" in w]
     assert len(ws) == 1 and "reads 0.3 m" in ws[0] and "depth_m − 0.3" in ws[0], ws
     assert not any("too deep" in w for w in _read(_deck_then_dive(0.0)).warnings)
-    # disarmed at 5 m (a log started under water, the vehicle rising later): no surface there
+    # disarmed at 1.5 m (a log started under water, the vehicle rising later): no surface there
     sub = _deck_then_dive(0.0)
     sub.loc[sub["armed"] == False, "depth_m"] += 1.5  # noqa: E712
     assert not any("too deep" in w for w in _read(sub).warnings)
@@ -732,9 +743,13 @@ def test_a_parquet_time_column_of_dates_or_durations_is_read_in_seconds(tmp_path
     df.to_parquet(p)
     dc = read_dive_channels(p, "bluerov2")
     t = dc.channels["depth_m"][0]
-    np.testing.assert_allclose(t, secs, atol=1e-6)  # seconds from the first stamp
-    assert any("column t_s holds" in w and "read as seconds from its first stamp" in w
-               for w in dc.warnings)
+    if kind == "datetime":  # seconds from the first stamp
+        np.testing.assert_allclose(t, secs, atol=1e-6)
+        assert any("holds dates and times: read as seconds from its first stamp" in w
+                   for w in dc.warnings)
+    else:  # a duration is a time already
+        np.testing.assert_allclose(t, secs + 5.0, atol=1e-6)
+        assert any("holds durations: read in seconds" in w for w in dc.warnings)
 
 
 def test_time_in_ms_behind_a_fast_stream_is_named_where_the_horizon_fails():

@@ -192,6 +192,10 @@ def test_a_driver_offset_becomes_the_plugin_commands_zero():
     assert np.interp(0.0, x, y) == pytest.approx(0.0, abs=1e-9)  # at rest: no thrust
     assert np.interp(250.0, x, y) == pytest.approx(float(chain.steady_thrust(np.array([1750.0]))[0]),
                                                    rel=1e-3)
+    # read back, the chain takes the command again (a driver takes the 1500 off)
+    assert isinstance(back.blocks[0], Driver) and back.blocks[0].offset == 1500.0
+    np.testing.assert_allclose(back.steady_thrust(np.array([1500.0, 1750.0])),
+                               chain.steady_thrust(np.array([1500.0, 1750.0])), rtol=1e-3, atol=1e-9)
 
 
 def test_an_inflow_section_left_out_of_the_export_is_said(tmp_path):

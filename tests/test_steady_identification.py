@@ -385,8 +385,8 @@ def test_a_parameter_the_data_do_not_determine_gets_infinite_sigma_not_round_off
     assert np.isnan(idle.correlation[0, 1])
     assert pair["a"].stderr == np.inf and pair["b"].stderr == np.inf
     assert any("trades off exactly" in w for w in pair.warnings)
-    c = pair.correlation
-    assert not np.any(np.abs(c[np.isfinite(c)]) > 1 + 1e-9)
+    assert np.isnan(pair.correlation[0, 1])  # the pseudo-inverse's said +1.0002
+    assert not any("correlated" in w for w in pair.warnings)
     assert lin["a"].stderr == lin["b"].stderr == np.inf and np.isfinite(lin["c"].stderr)
 
 
@@ -404,6 +404,32 @@ def test_a_one_sided_table_gets_zero_thrust_at_neutral():
     assert float(sf.block.thrust(np.array([1500.0]))[0]) == 0.0
     assert float(sf.block.thrust(np.array([1600.0]))[0]) == pytest.approx(17.9 / 2)
     assert any("knot T(1500) = 0 is added" in n for n in sf.info["notes"])
+    assert sf.fits["all"].extra["counts"] == [0, 1, 1, 1]
+    rev = BenchData(command=np.array([1100.0, 1200.0, 1200.0, 1300.0]),
+                    thrust=np.array([-40.0, -25.0, -25.2, 0.04]), source="rev.csv")  # +0.04: offset
+    sr = fit_table(rev)
+    assert sr.block.input_values == (1100.0, 1200.0, 1300.0, 1500.0)
+    assert sr.block.output_values[-2:] == (0.0, 0.0)  # the offset kept on the data's side
+    assert np.all(np.diff(sr.block.output_values) >= 0)  # still monotone
+    assert sr.fits["all"].extra["counts"] == [1, 2, 1, 0]
     both = BenchData(command=np.array([1300.0, 1500.0, 1700.0]),
                      thrust=np.array([-15.0, 0.0, 17.9]), source="both.csv")
     assert fit_table(both).block.input_values == (1300.0, 1500.0, 1700.0)
+
+
+def test_combinations_of_an_undetermined_parameter_get_infinite_variance_and_others_keep_theirs():
+    """G cov Gᵀ with a NaN covariance row gave NaN to every combination (0·NaN = NaN)."""
+    from uuvid.identify.fit import propagated_variance
+
+    cov = np.array([[4.0, 1.0, np.nan], [1.0, 9.0, np.nan], [np.nan, np.nan, np.inf]])
+    G = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 2.0], [1.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(propagated_variance(G, cov), [4 + 9 + 2, np.inf, 4.0])
+
+
+def test_a_monte_carlo_model_refuses_a_fit_with_an_undetermined_parameter():
+    from uuvid.uncertainty.montecarlo import ModelError, model_from_dict
+
+    raw = {"physical_model": {}, "parameters": {"K_e": {"estimate": 0.02, "sigma": None},
+                                                "K_T_fwd": {"estimate": 3e-4, "sigma": 1e-7}}}
+    with pytest.raises(ModelError, match=r"x\.json: the fit does not determine K_e \(σ = ∞"):
+        model_from_dict(raw, "x.json")

@@ -392,7 +392,8 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     else:
         cov = _sandwich(Hw, r, bread, cov_type, hac_lags)
     norms = np.linalg.norm(Hw, axis=0)
-    cov = _mark_undetermined(cov, undetermined(Hw / np.where(norms > 0, norms, 1.0)))
+    cov = _mark_undetermined(cov, undetermined(Hw / np.where(norms > 0, norms, 1.0),
+                                               max(n, p) * np.finfo(float).eps))
     cond, msgs = diagnose(names, theta, cov, Hw, emit=emit_warnings)
     if n == p:
         msgs.append("as many samples as parameters: no residual degrees of freedom, σ undefined")
@@ -405,23 +406,42 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     return Fit(model, params, cov, y - H @ theta, n, cond, tuple(msgs), ex)
 
 
-#: eigenvalue of a column-scaled ``JᵀJ`` below this × its largest: a direction the data do not
-#: determine; a parameter whose squared share of those directions exceeds ``NULL_SHARE`` is
-#: undetermined (σ = ∞, never the finite noise a pseudo-inverse gives it)
-NULL_RCOND = 1e-12
+#: a parameter whose squared share of the null directions exceeds this is undetermined
 NULL_SHARE = 1e-6
 
 
-def undetermined(Js: np.ndarray) -> np.ndarray:
+def undetermined(Js: np.ndarray, rtol: float) -> np.ndarray:
     """Mask of the parameters a column-scaled Jacobian ``Js`` does not determine: a zero column,
-    or a share of a null direction of ``JsᵀJs`` (two columns that trade off exactly)."""
-    A = Js.T @ Js
+    or a share of a direction whose singular value is below ``rtol`` × the largest (two columns
+    that trade off exactly).  ``rtol``: the rank tolerance ``max(n, p)·ε`` of an exact
+    regressor (:func:`linear_lsq`, the tolerance :func:`diagnose` reports rank with), or
+    ``1/CONDITION_LIMIT`` for a finite-difference Jacobian, whose columns carry errors of
+    ~1e-8 (:func:`nonlinear_lsq`: a null direction shows as a condition number of ~1e8)."""
+    if Js.size == 0:
+        return np.zeros(Js.shape[1], bool)
     try:
-        w, V = np.linalg.eigh(A)
+        _, sv, Vt = np.linalg.svd(Js, full_matrices=False)
     except np.linalg.LinAlgError:
-        return np.ones(A.shape[0], bool)
-    null = w <= max(float(w[-1]), 1e-300) * NULL_RCOND
-    return np.sum(V[:, null] ** 2, axis=1) > NULL_SHARE
+        return np.ones(Js.shape[1], bool)
+    null = sv <= max(float(sv[0]), 1e-300) * rtol
+    share = np.sum(Vt[null] ** 2, axis=0)
+    if Js.shape[0] < Js.shape[1]:  # fewer rows than columns: the missing directions are null
+        share = share + 1.0 - np.sum(Vt ** 2, axis=0)
+    return share > NULL_SHARE
+
+
+def propagated_variance(G: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``diag(G cov Gᵀ)``: the variances of combinations ``g(θ)`` with Jacobian ``G``, where an
+    undetermined parameter (σ = ∞, NaN covariances) gives ∞ to the combinations that involve it
+    and leaves the others their variance from the determined block (NaN·0 would spoil them all)."""
+    G = np.atleast_2d(np.asarray(G, dtype=float))
+    cov = np.asarray(cov, dtype=float)
+    bad = ~np.isfinite(np.diag(cov))
+    good = ~bad
+    Gd = G[:, good]
+    v = np.einsum("ij,jk,ik->i", Gd, cov[np.ix_(good, good)], Gd)
+    v[np.any(G[:, bad] != 0, axis=1)] = np.inf
+    return v
 
 
 def _mark_undetermined(cov: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -458,7 +478,8 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     norms = np.linalg.norm(J, axis=0)
     sc = np.where(norms > 0, norms, 1.0)
     Js = J / sc
-    cov = _mark_undetermined(sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc), undetermined(Js))
+    cov = _mark_undetermined(sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc),
+                             undetermined(Js, 1.0 / CONDITION_LIMIT))
     cond, msgs = diagnose(names, sol.x, cov, J, emit=emit_warnings)
     if not sol.success:
         msgs.append(f"optimiser did not converge: {sol.message}")

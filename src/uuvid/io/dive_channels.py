@@ -192,14 +192,16 @@ def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.nd
     import pandas as pd
 
     raw = df[tcol]
-    if pd.api.types.is_datetime64_any_dtype(raw) or pd.api.types.is_timedelta64_dtype(raw):
-        # a Parquet time column of dates or durations: its integers are nanoseconds
-        kind = "dates and times" if pd.api.types.is_datetime64_any_dtype(raw) else "durations"
+    if pd.api.types.is_timedelta64_dtype(raw):  # a Parquet duration: its integers are ns
+        raw = raw.dt.total_seconds()
+        if warnings is not None:
+            warnings.append(f"{name}: column {tcol} holds durations: read in seconds")
+    elif pd.api.types.is_datetime64_any_dtype(raw):
         first = raw.dropna().iloc[0] if raw.notna().any() else None
         raw = (raw - first).dt.total_seconds() if first is not None else raw.astype("float64")
         if warnings is not None:
-            warnings.append(f"{name}: column {tcol} holds {kind}: read as seconds from its first "
-                            f"stamp ({first})")
+            warnings.append(f"{name}: column {tcol} holds dates and times: read as seconds from "
+                            f"its first stamp ({first})")
     t = pd.to_numeric(raw, errors="coerce").to_numpy(float)
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
@@ -393,7 +395,8 @@ def _check_surface_reading(chans: dict, armed: list, name: str, warnings: list) 
                     f"disarmed and never shallower while armed: if the vehicle sat on deck or at "
                     f"the surface then, every depth reads {d0:.3g} m too deep, and the surface "
                     f"cut-off (depth < {SURFACE_CUT_M:g} m) and the on-deck check take the surface "
-                    f"for water; subtract the offset (depth_m − {d0:.3g}) if so")
+                    f"for water; subtract the offset (depth_m − {d0:.3g}) if so (not if the sensor "
+                    f"sits {d0:.3g} m below the waterline of a vehicle floating disarmed)")
 
 
 #: a measured channel repeating one value exactly for this long (s, ≥ 20 samples) while armed is
@@ -548,19 +551,40 @@ TABLE_CHANNELS = ("depth_m", "yaw_rad", "roll_rad", "pitch_rad", "u_mps", "v_mps
                   "X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
 
 
-#: words in a column name that say it holds what a dive table's reader would want
-_DATA_WORDS = ("depth", "alt", "press", "baro", "head", "hdg", "yaw", "roll", "pitch", "servo",
-               "rcou", "pwm", "motor", "thrust", "batt", "volt", "surge", "sway", "vel", "dvl",
-               "arm", "time", "stamp")
+#: column names that mean a channel uuvid reads under another name: (pattern, the channel)
+_SYNONYMS = ((r"(heading|hdg|yaw)(_?(deg|degrees|rad|radians))?", "yaw_rad"),
+             (r"depth(_?(cm|mm|ft|m))?|rel_?depth", "depth_m"),
+             (r"roll(_?(deg|rad))?", "roll_rad"), (r"pitch(_?(deg|rad))?", "pitch_rad"),
+             (r"(servo|rcou|pwm|motor|output|ch)_?(\d+)(_?(raw|us|pwm))?", "pwm_"),
+             (r"(batt(ery)?_?(volt(age)?s?|v)|volt(age)?s?|vbat(t)?)(_?v)?", "battery_V"),
+             (r"(surge|dvl_?u|vel_?x|vx)(_?(mps|m_s|ms))?", "u_mps"),
+             (r"(sway|dvl_?v|vel_?y|vy)(_?(mps|m_s|ms))?", "v_mps"),
+             (r"arm(ed)?(_?(state|flag))?|is_?armed", "armed"))
 UNREAD_HINT = ("uuvid reads t_s [s], depth_m [m, down], yaw_rad [rad, clockwise from north], "
                "roll_rad, pitch_rad, u_mps, v_mps, battery_V, pwm_1 … pwm_n [µs], X_N … N_Nm, "
                "armed, mode: rename them, in those units, to have them used")
 
 
 def _unread_columns(cols, read) -> list:
-    """A table's columns that look like data a dive needs (by name) but that nothing reads."""
-    return [str(c) for c in cols if str(c) not in read
-            and any(w in str(c).lower() for w in _DATA_WORDS)]
+    """``["heading_deg (yaw_rad?)", …]``: a table's columns whose name means a channel uuvid
+    reads under another name (a heading in degrees, ``servo1``, ``depth``) and that nothing
+    reads; other columns (a temperature, a second clock) are left alone."""
+    import re
+
+    out = []
+    for c in map(str, cols):
+        if c in read:
+            continue
+        k = c.strip().lower()
+        for pat, target in _SYNONYMS:
+            m = re.fullmatch(pat, k)
+            if m:
+                if target == "pwm_":
+                    target = f"pwm_{int(m.group(2))}"
+                if target not in read:
+                    out.append(f"{c} ({target}?)")
+                break
+    return out
 
 
 def _numeric_column(df, c, name: str) -> np.ndarray:
@@ -696,7 +720,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         odd = np.flatnonzero(~word.isin(_ARMED_WORDS).to_numpy() & a.notna().to_numpy())
         if odd.size:
             raise DiveDataError(f"{name}: column armed, row {odd[0] + 2}: {a.iloc[odd[0]]!r}; "
-                                "expected true/false, 1/0 or yes/no (empty: not armed)")
+                                "expected true/false, 1/0 or yes/no (empty: not armed, unless "
+                                "the column is a state on its own rows)")
         am = _armed_flags(word, a, name, warnings)
         armed = _intervals(t, am)
     else:
@@ -750,28 +775,34 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         table_fix if directions is None else bag_fix(directions))
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
-    unread = _unread_columns(cols, {*TABLE_CHANNELS, tcol, "armed", "mode"}
-                             | {c for c in cols if str(c).startswith("pwm_")})
+    unread = _unread_columns(cols, {c for c in map(str, cols) if c in TABLE_CHANNELS
+                                    or c in (tcol, "armed", "mode") or c.startswith("pwm_")})
     if unread:
         warnings.append(f"{name}: column(s) {', '.join(unread[:8])} not read ({UNREAD_HINT})")
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread)
 
 
 def _armed_flags(word, a, name: str, warnings: list) -> np.ndarray:
-    """Each row's armed flag.  A column holding both true and false values with empty cells is a
-    state logged on its own rows (a HEARTBEAT among other messages): each value holds until the
-    next, rows before the first not armed — said.  Without a false value, empty means not armed."""
+    """Each row's armed flag.  A column filled on a minority of rows, nearly each filled row among
+    empty ones, is a state logged on its own rows (a 1 Hz HEARTBEAT among other messages; all
+    true in a log kept only while armed): each value holds until the next, rows before the first
+    not armed — said.  Otherwise an empty cell means not armed (a column filled in blocks)."""
     true = word.isin(("true", "1", "1.0", "yes")).to_numpy(bool)
     empty = (a.isna() | word.isin(("", "nan"))).to_numpy(bool)
-    false = ~true & ~empty
-    if not (empty.any() and true.any() and false.any()):
+    filled = ~empty
+    if not (empty.any() and filled.any()):
         return true
-    idx = np.where(~empty, np.arange(true.size), -1)
-    last = np.maximum.accumulate(idx)
+    k = np.flatnonzero(filled)
+    prev_empty = np.r_[True, empty[:-1]][k]
+    next_empty = np.r_[empty[1:], True][k]
+    isolated = float(np.mean(prev_empty & next_empty))
+    if not (filled.mean() < 0.5 and isolated >= 0.9):
+        return true
+    last = np.maximum.accumulate(np.where(filled, np.arange(true.size), -1))
     held = np.where(last >= 0, true[np.maximum(last, 0)], False)
-    warnings.append(f"{name}: column armed is filled on {int((~empty).sum())} of {true.size} rows "
-                    "and holds both armed and disarmed values: read as a state logged on its own "
-                    "rows (each value holds until the next; rows before the first: not armed)")
+    warnings.append(f"{name}: column armed is filled on {k.size} of {true.size} rows, each among "
+                    "empty ones: read as a state logged on its own rows (each value holds until "
+                    "the next; rows before the first: not armed)")
     return held
 
 

@@ -18,6 +18,7 @@ comment:
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -220,7 +221,9 @@ def _default_range(chain: ThrusterChain) -> tuple[float, float]:
 
 
 def from_uuv_simulator(xml: str, name: str = "uuv-simulator") -> ThrusterChain:
-    """Read a UUV Simulator thruster ``<plugin>`` snippet back into a chain (command input)."""
+    """Read a UUV Simulator thruster ``<plugin>`` snippet back into a chain (command input).
+    uuvid's export of a model with a neutral (``plugin command = command − N`` in its header
+    comment) comes back with a driver in front taking ``N`` off, so it takes the command again."""
     text = xml[xml.index("<plugin"):] if "<plugin" in xml else xml
     root = ET.fromstring(text)
     dyn_el, conv_el = root.find("dynamics"), root.find("conversion")
@@ -257,4 +260,13 @@ def from_uuv_simulator(xml: str, name: str = "uuv-simulator") -> ThrusterChain:
         conv = TableMap(tuple(xs), tuple(ys))
     else:
         raise ExportError(f"unknown UUV Simulator conversion type {ckind!r}")
+    # uuvid's own export of a model whose rest command is not 0 says the plugin takes
+    # command − neutral: read back, the chain takes the command again (a driver shifting it)
+    m = re.search(r"plugin command = command − ([-+0-9.eE]+)", xml[:xml.index("<plugin")]
+                  if "<plugin" in xml else "")
+    if m:
+        from uuvid.thruster.blocks import Driver
+
+        return ThrusterChain((Driver(offset=float(m.group(1))), dyn, conv), input_kind="command",
+                             name=name)
     return ThrusterChain((dyn, conv), input_kind="command", name=name)

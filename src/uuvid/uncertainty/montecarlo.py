@@ -256,6 +256,13 @@ def _from_fit_summary(raw: dict, where: str) -> dict:
         raise ModelError(f"{where}: a fit summary without 'physical_model' (or 'kind' and 'base'); "
                          "only physical thruster fits carry a model Monte Carlo can rebuild")
     cov = raw.get("covariance")
+    loose = [n for n in names if params[n].get("sigma", 0.0) is None
+             or (isinstance(params[n].get("sigma"), float) and not math.isfinite(params[n]["sigma"]))]
+    if loose:
+        raise ModelError(f"{where}: the fit does not determine {', '.join(loose)} (σ = ∞, null in "
+                         "the JSON): no distribution to sample them from — refit with data that "
+                         "separate them (a physical fit: the current column), or write a model "
+                         "file with the parameters and σ you trust")
     plist = []
     for n in names:
         d = params[n]

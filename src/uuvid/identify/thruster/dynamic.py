@@ -54,7 +54,13 @@ import numpy as np
 
 from uuvid.core.response import TimeResponse
 from uuvid.core.result import Result, jsonable
-from uuvid.identify.fit import Fit, IdentifiabilityWarning, Parameter, nonlinear_lsq
+from uuvid.identify.fit import (
+    Fit,
+    IdentifiabilityWarning,
+    Parameter,
+    nonlinear_lsq,
+    propagated_variance,
+)
 from uuvid.thruster import kernels
 from uuvid.thruster.blocks import (
     CH,
@@ -949,9 +955,9 @@ def fit_bessa(
         th = dict(theta)
         th[f] += h
         G[:, j] = (combos(th) - g0) / h
-    cg = G @ cov @ G.T
+    var = propagated_variance(G, cov)
     ident = {
-        nm: {"estimate": float(v), "sigma": float(math.sqrt(max(cg[i, i], 0.0)))}
+        nm: {"estimate": float(v), "sigma": float(math.sqrt(max(var[i], 0.0)))}
         for i, (nm, v) in enumerate(zip(("Kt/(Rm Jmsp)", "Kv1/Jmsp", "Kv2/Jmsp"), g0))
     }
     extra = dict(res.fit.extra)

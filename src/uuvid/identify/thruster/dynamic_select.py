@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uuvid.core.result import Result, jsonable
+from uuvid.identify.fit import propagated_variance
 from uuvid.identify.thruster.dynamic import (
     ChainFit,
     Run,
@@ -458,8 +459,8 @@ def _delta(cf: ChainFit, combos: dict) -> dict:
         th[i] += h
         ci = set_parameter(chain, list(zip(cf.free, th)))
         G[:, i] = (np.array([f(ci) for f in combos.values()]) - g0) / h
-    cg = G @ np.asarray(cf.fit.covariance, dtype=float) @ G.T
-    return {k: {"estimate": float(g0[i]), "sigma": float(math.sqrt(max(cg[i, i], 0.0)))}
+    var = propagated_variance(G, cf.fit.covariance)
+    return {k: {"estimate": float(g0[i]), "sigma": float(math.sqrt(max(var[i], 0.0)))}
             for i, k in enumerate(combos)}
 
 

@@ -806,6 +806,9 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     added = not xi[0] <= nu <= xi[-1]
     if added:  # one-sided data: the table held its first row's thrust down to neutral and beyond
         at = 0 if nu < xi[0] else xi.size
+        # a load cell's offset in the dead band (−0.05 N next to the knot) would break the
+        # monotone table: the data side keeps its sign
+        yi = np.maximum(yi, 0.0) if at == 0 else np.minimum(yi, 0.0)
         xi, yi, si = np.insert(xi, at, nu), np.insert(yi, at, 0.0), np.insert(si, at, 0.0)
         unit = {"pwm_us": " µs"}.get(data.command_unit or "", f" {data.command_unit or ''}".rstrip())
         notes.append(f"the data hold no command at or across the neutral {nu:g}{unit}: the knot "
@@ -821,8 +824,7 @@ def fit_table(data: BenchData, n_points: int | None = None, *, monotone: bool = 
     if n_cens and censored == "zero":
         notes.append(f"{n_cens} censored row(s) kept at zero thrust (below the detection limit)")
     once = int(np.sum(counts[idx] < 2))
-    counts_kept = counts[idx].tolist() if not added else \
-        np.insert(counts[idx], 0 if nu < xi[1] else counts[idx].size, 0).tolist()
+    counts_kept = (np.insert(counts[idx], at, 0) if added else counts[idx]).tolist()
     if once:
         notes.append(f"σ unknown (no repeats) for {once} of {idx.size} table entries: an entry's σ "
                      "comes from repeated measurements at its command")

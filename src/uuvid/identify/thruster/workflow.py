@@ -194,7 +194,8 @@ class ReadOptions:
 
 #: options a Blue Robotics T200 sheet does not take (its columns and units are fixed): defaults
 _T200_IGNORES = {"thrust_unit": "N", "speed_unit": "rad/s", "command_unit": "pwm_us",
-                 "time_col": None}
+                 "time_col": None, "command_col": "command", "thrust_col": None,
+                 "speed_col": None, "current_col": None, "voltage_col": None, "neutral": None}
 
 
 def read_files(paths, opts: ReadOptions) -> list:
@@ -269,10 +270,11 @@ def _one_supply_voltage(sets, what: str, rel_tol: float = 0.02) -> None:
                    "physical (it models the supply voltage), or a map of the propeller speed")
 
 
-def _one_voltage_per_command(s, what: str, rel_tol: float = 0.1) -> None:
+def _one_voltage_per_command(s, what: str, rel_tol: float = 0.2) -> None:
     """One file whose voltage column holds rows at one command more than ``rel_tol`` apart is
-    several sheets in one (12 V and 16 V rows: a table map averaged them silently); a battery's
-    sag under load gives one voltage per command and passes."""
+    several sheets in one (12 V and 16 V rows: a table map averaged them silently) or a battery
+    drained far during the session; a battery's sag under load (one voltage per command) and a
+    4S pack's drain within a session (16.4 → 14.8 V, 11 %) pass."""
     if s.supply_voltage is None or np.ndim(s.supply_voltage) != 1:
         return
     v = np.asarray(s.supply_voltage, float)
@@ -284,11 +286,12 @@ def _one_voltage_per_command(s, what: str, rel_tol: float = 0.1) -> None:
     bad = np.flatnonzero(hi > (1 + rel_tol) * lo)
     if bad.size:
         k = starts[bad[0]]
-        raise FitError(f"{what}: {s.source or 'the data'} holds rows at several supply voltages for "
-                       f"one command ({lo[bad[0]]:g} V and {hi[bad[0]]:g} V at {c[k]:g}): "
-                       "several sheets in one file, which a map of the command would average. "
-                       "Fix: fit one voltage at a time (split the file), or use --model physical "
-                       "(it models the supply voltage)")
+        raise FitError(f"{what}: {s.source or 'the data'} holds rows at supply voltages "
+                       f"{100 * (hi[bad[0]] / lo[bad[0]] - 1):.0f} % apart for one command "
+                       f"({lo[bad[0]]:g} V and {hi[bad[0]]:g} V at {c[k]:g}): several sheets in "
+                       "one file, or a battery drained far, which a map of the command would "
+                       "average. Fix: fit one voltage at a time (split the file), or use --model "
+                       "physical (it models the supply voltage)")
 
 
 def _stack(sets):

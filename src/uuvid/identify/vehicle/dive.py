@@ -53,11 +53,13 @@ import numpy as np
 
 from uuvid.core.result import Result
 from uuvid.identify.vehicle.output_error import (
+    HELD_OUT_WORSE,
     best_starts,
     blown_windows,
     correlation_warnings,
     covariance,
     dead_band_weights,
+    held_out_verdict,
     levenberg_marquardt,
     loss_as_drag,
     loss_as_drag_text,
@@ -153,12 +155,6 @@ def _svf_start(dc, dof, windows, omega):
     H, r = np.vstack(rows), np.concatenate(rhs)
     th, *_ = np.linalg.lstsq(H, r, rcond=None)
     return th
-
-
-#: a held-out rms this much above the base vehicle's (ratio base/identified below it) makes an
-#: estimate not a model to use: the preset predicts the rest of the dive better (10 % of slack:
-#: a base about as good may come out a little ahead by chance)
-HELD_OUT_WORSE = 0.9
 
 
 @dataclass
@@ -259,11 +255,11 @@ class DofEstimate:
         if e.held_out and e.held_out["improvement"] is not None:
             h = e.held_out
             imp = h["improvement"]
-            verdict = f"{imp:.2f}× better" if imp >= 1 else f"{1 / imp:.2f}× worse"
+            verdict = held_out_verdict(imp)
             if e.unusable and imp < HELD_OUT_WORSE:
-                verdict = (f"{1 / imp:.3g}× worse than the base: not a model to use"
-                           + (f" ({'; '.join(e.unusable[:-1])})" if len(e.unusable) > 1 else "")
-                           + " — see the warnings")
+                verdict = (f"{verdict} than the base: not a model to use"
+                           + (f"; also {'; '.join(e.unusable[:-1])} — see the warnings"
+                              if len(e.unusable) > 1 else ""))
             elif e.unusable:
                 verdict = (f"{h['improvement']:.3g}× lower rms than the base's, but not a model "
                            f"to use: "

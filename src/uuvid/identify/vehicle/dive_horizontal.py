@@ -39,10 +39,12 @@ import numpy as np
 
 from uuvid.core.threads import small_blas
 from uuvid.identify.vehicle.output_error import (
+    HELD_OUT_WORSE,
     blown_windows,
     correlation_warnings,
     covariance,
     dead_band_weights,
+    held_out_verdict,
     levenberg_marquardt,
     loss_as_drag,
     loss_as_drag_text,
@@ -193,6 +195,28 @@ class HorizontalEstimate:
         """The inflow coefficient k_a when it was fitted jointly (else ``None``)."""
         return self.values.get("inflow")
 
+    @property
+    def unusable(self) -> list:
+        """Why this estimate is not a model to use (empty when nothing says so): a value or σ
+        that is not finite, a held-out channel the base vehicle predicts better than it by more
+        than 11 % (:data:`~uuvid.identify.vehicle.output_error.HELD_OUT_WORSE`)."""
+        why = []
+        bad = [k for k, v in self.values.items() if not math.isfinite(float(v))]
+        if bad:
+            why.append(f"{', '.join(bad)} not finite")
+        loose = [k for k in self.values if k not in bad
+                 and not math.isfinite(float(self.sigma.get(k, math.nan)))]
+        if loose:
+            why.append(f"σ of {', '.join(loose)} not finite (not determined by this log)")
+        h = self.held_out or {}
+        worse = [c for c in H_CHANNELS if (h.get("improvement") or {}).get(c) is not None
+                 and h["improvement"][c] < HELD_OUT_WORSE]
+        if worse:
+            why.append("it predicts the held-out " + ", ".join(
+                f"{c} {1 / h['improvement'][c]:.3g}× worse" for c in worse)
+                + " than the base vehicle")
+        return why
+
     def params(self) -> HorizontalParams:
         return HorizontalParams(**{k: self.values[k] for k in HORIZONTAL_NAMES})
 
@@ -208,7 +232,8 @@ class HorizontalEstimate:
                 "ratio_to_base": ratio, "windows": self.windows, "horizon_s": self.horizon,
                 "noise_sigma": self.noise, "train": self.train, "held_out": self.held_out,
                 "inflow_split": self.inflow_split,
-                "warnings": self.warnings, "notes": self.notes, "dead_band": self.weighting}
+                "warnings": self.warnings, "notes": self.notes, "dead_band": self.weighting,
+                "unusable": self.unusable}
 
     def identified(self, log: str) -> dict:
         """``{surge, sway, yaw: entry}`` for :func:`uuvid.vehicle.writeback.write_identified`."""
@@ -251,8 +276,11 @@ class HorizontalEstimate:
             lines.append(f"  held-out (t > {t_end:g} s): " + "; ".join(
                 f"{c} rms identified {h['identified'][c]['rms']:.3g} vs base "
                 f"{h['base'][c]['rms']:.3g} {h['identified'][c]['unit']}"
-                + (f" ({h['improvement'][c]:.2f}× better)" if h["improvement"].get(c) else "")
+                + (f" ({held_out_verdict(h['improvement'][c])})" if h["improvement"].get(c)
+                   else "")
                 for c in H_CHANNELS))
+        if self.unusable:
+            lines.append(f"  not a model to use: {'; '.join(self.unusable)}")
         if self.weighting:
             lines.append(f"  {weighting_text(self.weighting)}")
         lines += [f"  warning: {w}" for w in self.warnings]

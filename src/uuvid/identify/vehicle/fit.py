@@ -619,6 +619,12 @@ def fit_inertia(t, x, phi, *, k: float, k_q: float = 0.0, eta=1.0, t_phi=None,
         D = np.atleast_2d(np.asarray(drag_cov, dtype=float))
         if D.shape == (1, 1):
             D = np.array([[D[0, 0], 0.0], [0.0, 0.0]])
+        if D.shape == (2, 2) and np.any(np.isinf(np.diag(D))):
+            raise ValueError("drag_cov: the drag fit does not determine "
+                             + " and ".join(n for n, v in zip(("k", "k_q"), np.diag(D))
+                                            if np.isinf(v))
+                             + " (σ = ∞: its speeds do not separate linear and quadratic drag); "
+                             "fit the drag from runs at several speeds, or fix one term")
         if D.shape != (2, 2) or not np.all(np.isfinite(D)):
             raise ValueError("drag_cov must be the 2×2 covariance of (k, k_q) or a variance of k")
         J = -np.linalg.pinv(H) @ np.column_stack([xr_r, Iq_r])

@@ -126,18 +126,31 @@ def blown_windows(delta, groups, n_windows: int):
     return out, per.any(axis=1)
 
 
-def _left_out_residuals(Jg, Ainv, rg):
+def _left_out_residuals(Jg, Ainv, rg, floor: float):
     """A window's residuals as if the fit had left it out, ``(I − H_gg)⁺ r_g`` with
     ``H_gg = J_g (JᵀJ)⁺ J_gᵀ`` its block of the hat matrix (MacKinnon & White 1985, J. Econometrics
     29, the jackknife "CR3" form; Bell & McCaffrey 2002).  A window's own start (position and
     speed, nuisance parameters) fits part of its error away: the plain residuals under-state it,
     most where a window's error looks like a start that is off (a force sampled between its
     logged values).  The start's own directions (eigenvalue 0 of ``I − H_gg``: the residuals are
-    orthogonal to them) carry nothing."""
+    orthogonal to them) carry nothing: eigenvalues below ``floor`` (which grows with the
+    condition of ``JᵀJ``, whose round-off leaves a start's zero at ~ε·cond) are cut."""
     M = np.eye(Jg.shape[0]) - Jg @ Ainv @ Jg.T
     w, V = np.linalg.eigh(0.5 * (M + M.T))
-    keep = w > LEVERAGE_FLOOR
+    keep = w > floor
     return V[:, keep] @ ((V[:, keep].T @ rg) / w[keep])
+
+
+#: a held-out rms this much above the base vehicle's (ratio base/identified below it) makes an
+#: estimate not a model to use: the base predicts the rest of the dive better (more than 11 %
+#: worse; a base about as good may come out a little ahead by chance)
+HELD_OUT_WORSE = 0.9
+
+
+def held_out_verdict(improvement: float) -> str:
+    """``"2.52× better"`` or ``"3.1× worse"``: the held-out rms ratio base/identified in words."""
+    return (f"{improvement:.2f}× better" if improvement >= 1 else
+            f"{1 / improvement:.3g}× worse")
 
 
 def covariance(J, r, groups, n_glob):
@@ -174,9 +187,12 @@ def covariance(J, r, groups, n_glob):
     s2 = float(r @ r) / max(N - (P - int(null.sum())), 1)  # degrees of freedom: N − rank
     c = (s2 * Ainv)[:n_glob, :n_glob]  # in the scaled parameters: σ_i = σ_s,i / scale_i
     meat = np.zeros((P, P))
+    live = w[~null]
+    cond = float(live[-1] / live[0]) if live.size else 1.0
+    floor = max(LEVERAGE_FLOOR, 100.0 * np.finfo(float).eps * cond)
     for g in np.unique(groups):
         sel = groups == g
-        gw = Js[sel].T @ _left_out_residuals(Js[sel], Ainv, r[sel])
+        gw = Js[sel].T @ _left_out_residuals(Js[sel], Ainv, r[sel], floor)
         meat += np.outer(gw, gw)
     G = np.unique(groups).size
     rb = (Ainv @ meat @ Ainv * ((G - 1) / max(G, 1)))[:n_glob, :n_glob]
@@ -193,6 +209,7 @@ def covariance(J, r, groups, n_glob):
 
 NULL_RCOND = 1e-12  # eigenvalue of the column-scaled JᵀJ below this × the largest: a null direction
 LEVERAGE_FLOOR = 1e-9  # eigenvalue of a window's I − H_gg below which it is the window's own start
+#                       (raised to 100·ε·cond(JᵀJ) for an ill-conditioned fit)
 NULL_SHARE = 1e-6   # a parameter's squared share of the null directions above which it is undetermined
 
 
