@@ -64,6 +64,7 @@ from uuvid.identify.vehicle.output_error import (
     loss_as_drag,
     loss_as_drag_text,
     noise_sigma,
+    not_finite_reasons,
     not_identifiable,
     weighting_summary,
     weighting_text,
@@ -186,14 +187,7 @@ class DofEstimate:
     def unusable(self) -> list:
         """Why this estimate is not a model to use (empty when nothing says so): parameters or σ
         that are not finite, a mass or inertia beyond :data:`FAR_FROM_BASE` of the base's."""
-        why = []
-        bad = [k for k in self.names if not math.isfinite(float(self.values.get(k, math.nan)))]
-        if bad:
-            why.append(f"{', '.join(bad)} not finite")
-        loose = [k for k in self.names if k not in bad
-                 and not math.isfinite(float(self.sigma.get(k, math.nan)))]
-        if loose:
-            why.append(f"σ of {', '.join(loose)} not finite (not determined by this log)")
+        why = not_finite_reasons(self.names, self.values, self.sigma)
         if any(f"beyond the ×{FAR_FROM_BASE:g}" in w for w in self.warnings):
             why.append(f"{'inertia' if self.dof in ('roll', 'pitch', 'yaw') else 'mass'} beyond "
                        f"×{FAR_FROM_BASE:g} of the base's")

@@ -48,6 +48,7 @@ from uuvid.identify.vehicle.output_error import (
     levenberg_marquardt,
     loss_as_drag,
     loss_as_drag_text,
+    not_finite_reasons,
     not_identifiable,
     weighting_summary,
     weighting_text,
@@ -200,14 +201,7 @@ class HorizontalEstimate:
         """Why this estimate is not a model to use (empty when nothing says so): a value or σ
         that is not finite, a held-out channel the base vehicle predicts better than it by more
         than 11 % (:data:`~uuvid.identify.vehicle.output_error.HELD_OUT_WORSE`)."""
-        why = []
-        bad = [k for k, v in self.values.items() if not math.isfinite(float(v))]
-        if bad:
-            why.append(f"{', '.join(bad)} not finite")
-        loose = [k for k in self.values if k not in bad
-                 and not math.isfinite(float(self.sigma.get(k, math.nan)))]
-        if loose:
-            why.append(f"σ of {', '.join(loose)} not finite (not determined by this log)")
+        why = not_finite_reasons(list(self.values), self.values, self.sigma)
         h = self.held_out or {}
         worse = [c for c in H_CHANNELS if (h.get("improvement") or {}).get(c) is not None
                  and h["improvement"][c] < HELD_OUT_WORSE]

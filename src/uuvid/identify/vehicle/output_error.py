@@ -147,6 +147,19 @@ def _left_out_residuals(Jg, Ainv, rg, floor: float):
 HELD_OUT_WORSE = 0.9
 
 
+def not_finite_reasons(names, values: dict, sigma: dict) -> list:
+    """The reasons an estimate is no model to use that its numbers show: values that are not
+    finite, σ that are not (a parameter this log does not determine)."""
+    why = []
+    bad = [k for k in names if not math.isfinite(float(values.get(k, math.nan)))]
+    if bad:
+        why.append(f"{', '.join(bad)} not finite")
+    loose = [k for k in names if k not in bad and not math.isfinite(float(sigma.get(k, math.nan)))]
+    if loose:
+        why.append(f"σ of {', '.join(loose)} not finite (not determined by this log)")
+    return why
+
+
 def held_out_verdict(improvement: float) -> str:
     """``"2.52× better"`` or ``"3.1× worse"``: the held-out rms ratio base/identified in words."""
     return (f"{improvement:.2f}× better" if improvement >= 1 else
