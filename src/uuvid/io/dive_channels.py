@@ -775,6 +775,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         table_fix if directions is None else bag_fix(directions))
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
+    for c in (thrust.computed if thrust is not None else ()):
+        src[c] = f"{name}: computed from pwm_{thrust.keys[0]}…pwm_{thrust.keys[-1]}"
     unread = _unread_columns(cols, {c for c in map(str, cols) if c in TABLE_CHANNELS
                                     or c in (tcol, "armed", "mode") or c.startswith("pwm_")})
     if unread:

@@ -672,7 +672,9 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     tau = values["mass"] / max(values["linear"] + 2 * max(values["quadratic"], 0.0) * v_rms,
                                1e-12)
     if dt_f > 0.5 * tau:
-        warns.append(f"the force ({DIVE_DOFS[dof][1]}) is logged every {dt_f:.2g} s but {dof} "
+        fcol = DIVE_DOFS[dof][1]
+        via = ", from the servo outputs" if "computed from" in str(dc.sources.get(fcol, "")) else ""
+        warns.append(f"the force ({fcol}{via}) is logged every {dt_f:.2g} s but {dof} "
                      f"responds in about {tau:.2g} s: what the controllers did between samples is "
                      "unknown, so mass and drag may be biased beyond σ; log the servo outputs "
                      "faster (telemetry SERVO_OUTPUT_RAW stream rate, or the .BIN's RCOU)")
@@ -888,7 +890,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                                  "(too stiff for the replay's step, or unstable): do not use it")
                 if tr_b[0].size == tr_id[0].size:
                     traces["held_out"] = (tr_id[0], tr_id[1], tr_id[2], tr_b[2], tr_id[3])
-        if dof == "heave":
+        if dof == "heave" and not any("at the surface" in n for n in notes):
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
         if dof == "yaw" and "u_mps" not in dc.channels:
