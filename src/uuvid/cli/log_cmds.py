@@ -67,6 +67,13 @@ def export_cmd(
     out = renamed(out, "--out-file", old_out)
     if out is None:
         _fail("give --out-file FILE.csv or FILE.parquet: the table to write")
+    if plot is not None:  # before anything is written: a bad suffix left the table behind
+        from matplotlib.figure import Figure
+
+        kinds = Figure().canvas.get_supported_filetypes()
+        if plot.suffix.lstrip(".").lower() not in kinds:
+            _fail(f"--plot {plot}: {plot.suffix or 'no suffix'} is no figure format; expected one "
+                  f"of {', '.join('.' + k for k in sorted(kinds))}")
     try:
         check_export_path(out)  # before reading the log
         dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,

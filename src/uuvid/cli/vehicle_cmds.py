@@ -23,16 +23,22 @@ def _helpers():
     return _fail, _print_json, _table, err_console, out_console
 
 
-def _load_vehicle(name: str):
+def _load_vehicle(name: str, need: str = ""):
+    """The vehicle ``name`` (preset or file); ``need``: what the command does with its
+    thrusters — a vehicle without any is then refused saying so."""
     from uuvid.thruster.modelfile import ModelFileError
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     _fail = _helpers()[0]
     try:
-        return load_vehicle(name)
+        v = load_vehicle(name)
     except (ModelFileError, FileNotFoundError, KeyError) as e:
         msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
         _fail(msg if "preset" in msg else f"{msg} (presets: {', '.join(list_presets())})")
+    if need and len(v.layout) == 0:
+        _fail(f"{name}: vehicle {v.name!r} has no thrusters, so {need}: add a thrusters list to "
+              "its file")
+    return v
 
 
 def _fly(spec, base, out, json_out, label, where, inflow=None):
@@ -219,7 +225,7 @@ def vehicle_envelope(
     from uuvid.analysis.envelope_check import confirm_envelope
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
-    v = _load_vehicle(vehicle)
+    v = _load_vehicle(vehicle, "it has no speed envelope")
     try:
         check = confirm_envelope(v, simulate=confirm, inflow=inflow)
     except ValueError as e:
@@ -280,7 +286,7 @@ def vehicle_stability(
     from uuvid.vehicle.stability import static_stability
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
-    v = _load_vehicle(vehicle)
+    v = _load_vehicle(vehicle, "nothing holds its attitude")
     try:
         res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
     except ValueError as e:

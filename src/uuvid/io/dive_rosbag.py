@@ -635,7 +635,9 @@ def _pressure_depth(td, p, prm: dict, topic: str, name: str, warnings: list, fai
     (said when the bag's lowest pressure is 10 cm of water above it) else the bag's 5th lowest
     sample (the lowest of a short bag: one 0 Pa sample as the surface made every depth 10 m too
     deep), ρ = 1000 kg/m³ × ``BARO_SPEC_GRAV``."""
-    sg = float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0)))
+    from uuvid.io.ardusub.frames import check_spec_grav
+
+    sg = check_spec_grav(float(prm.get("BARO_SPEC_GRAV", prm.get("GND_SPEC_GRAV", 1.0))), name)
     rho = RHO_FRESH * sg
     gauge = p.size > 0 and float(np.median(p)) < PRESSURE_PA[0]  # 0 at the surface
     lo_pa = GAUGE_LOW_PA if gauge else PRESSURE_PA[0]

@@ -230,7 +230,11 @@ def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
 
 
 def load_scenario(path: str | Path) -> ScenarioSpec:
-    return scenario_from_dict(read_model_text(path), where=str(path))
+    raw = read_model_text(path)
+    if raw is None:  # an empty file: a scenario saved empty is a mistake, not "all defaults"
+        raise ScenarioError(f"{path}: the file is empty; expected a mapping (vehicle, mission, "
+                            "duration, …) — `uuvid simulate mission square` flies the defaults")
+    return scenario_from_dict(raw, where=str(path))
 
 
 def build(spec: ScenarioSpec, base: Path | None = None):

@@ -1153,6 +1153,15 @@ def _disk_cached(template, ctrl_fn, dist_fn=None, fixed: tuple = ()):
 # ---------------------------------------------------------------------------------------------
 # Python API
 # ---------------------------------------------------------------------------------------------
+def _path_end(mission) -> float | None:
+    """When a waypoint mission's reference reaches its last waypoint (its duration less the
+    final hold); ``None`` for a mission that does not say."""
+    try:
+        return float(mission.duration) - float(getattr(mission, "hold", 0.0))
+    except (AttributeError, TypeError, ValueError):
+        return None
+
+
 @dataclass(frozen=True)
 class MissionResult(DictSummaryResult):
     """Time series of a flown mission plus its ``metrics`` (tracking errors, thrust, timing…).
@@ -1718,6 +1727,14 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         k = int(np.flatnonzero(~np.all(np.isfinite(Z), axis=1))[0])
         raise ValueError(f"the simulation diverged at t = {s.t[k]:.3f} s; try a smaller dt or more "
                          "substeps")
+    for arr, what in ((TAU, "wrench"), (FD, "thrust command")):
+        bad = ~np.all(np.isfinite(arr), axis=1)
+        if bad.any():  # the allocator read NaN as no thrust: a silent stop of the vehicle
+            k = int(np.flatnonzero(bad)[0])
+            who = f"the controller ({s.controller.name})" if s.controller is not None else \
+                "the controller"
+            raise ValueError(f"{who} gave a non-finite {what} from t = {s.t[k]:.4g} s "
+                             f"({int(bad.sum())} steps): a controller must output finite numbers")
     lim = s.vehicle.layout.limits
     if BAT.size:  # the limits follow the supply voltage: those at the start, per step for checks
         lo_t, hi_t = battery_limits(BAT, VOUT[:, 0])
@@ -1770,6 +1787,12 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
                         "< 1 m and < 0.25 m at the end)")
     if not level:
         warnings.append(mission_tilt_warning(s, att))
+    path_end = _path_end(s.mission)
+    if path_end is not None and summary["sim_time_s"] < path_end - 1e-9:
+        warnings.append(f"the flight stops at t = {summary['sim_time_s']:.4g} s, before the path "
+                        f"ends (t = {path_end:.4g} s): the duration cuts the mission short, so it "
+                        "is not completed")
+        summary["completed"] = False
     if BAT.size and float(np.min(VOUT[:, 2])) <= 0.0:
         k = int(np.argmax(VOUT[:, 2] <= 0.0))
         warnings.append(f"the battery ({s.battery.name}) is empty from t = {float(res.t[k]):.4g} s "

@@ -89,6 +89,10 @@ class ModelError(ValueError):
     """An invalid uncertain-model file; the message names the file and the key."""
 
 
+#: the largest σ a parameter may carry: its square (the variance) stays far from overflow
+MAX_SIGMA = 1e150
+
+
 class UncertainParameter(BaseModel):
     model_config = _CFG
     name: str
@@ -102,7 +106,16 @@ class UncertainParameter(BaseModel):
     def _bounds(self):
         if self.lower is not None and self.upper is not None and not self.lower < self.upper:
             raise ValueError(f"{self.name}: lower must be < upper")
+        if self.sigma is not None and not (math.isfinite(self.sigma) and self.sigma <= MAX_SIGMA):
+            raise ValueError(f"{self.name}: sigma {self.sigma:g} is beyond {MAX_SIGMA:g} (its "
+                             "variance overflows): no distribution to draw from")
         return self
+
+    @property
+    def outside_bounds(self) -> bool:
+        """The estimate itself lies outside ``[lower, upper]`` (draws around it mostly fail)."""
+        return (self.lower is not None and self.estimate < self.lower
+                or self.upper is not None and self.estimate > self.upper)
 
 
 class UncertainModel(BaseModel):
@@ -440,8 +453,12 @@ class MonteCarloStudy(StudyBase):
         plan = self.plan
         metrics = {m: np.full(len(table), np.nan) for m in plan.metric_names}
         status = pre.copy()
+        outside = [q for q in self.spec.model.parameters if q.outside_bounds]
+        why = "; ".join(f"{q.name}'s estimate {q.estimate:g} is itself outside "
+                        f"[{q.lower if q.lower is not None else '-inf'}, "
+                        f"{q.upper if q.upper is not None else 'inf'}]" for q in outside)
         message = np.where(pre == REJECTED, f"no admissible draw in {self.spec.max_draws} "
-                           "attempts (bounds)", "").astype(object)
+                           f"attempts (bounds{': ' + why if why else ''})", "").astype(object)
         series: dict[str, np.ndarray] = {}
         if live.size:
             ev = plan.evaluate({n: table[n].to_numpy()[live] for n in names}, live.size)

@@ -19,6 +19,7 @@ pitch, yaw]`` (ArduSub's throttle is positive up; its roll, pitch and yaw follow
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -65,6 +66,24 @@ DOF_COLUMNS = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
 # what K_Nm/M_Nm/N_Nm hold when no vehicle geometry is given (the names are the export schema)
 MOMENT_FACTOR_UNIT = "N per unit mixing factor (not N·m; give --vehicle)"
 TRIM_PWM = 1500.0
+
+
+#: specific gravities of water a vehicle dives in: fresh 1.0, sea 1.025, the saltiest lakes 1.24
+SPEC_GRAV_RANGE = (0.9, 1.3)
+
+
+def check_spec_grav(sg: float, name: str, key: str = "BARO_SPEC_GRAV") -> float:
+    """``sg`` when it is a specific gravity of water (:data:`SPEC_GRAV_RANGE`); else a
+    :class:`LogDataError` naming it (1000: a density in kg/m³; 0 or −1: every depth 0 or of the
+    wrong sign)."""
+    lo, hi = SPEC_GRAV_RANGE
+    if not (math.isfinite(sg) and lo <= sg <= hi):
+        hint = " (a density in kg/m³? the parameter is relative to fresh water: 1.0 or 1.025)" \
+            if math.isfinite(sg) and 900 <= sg <= 1300 else ""
+        raise LogDataError(f"{name}: {key} = {sg:g} is no water's specific gravity ({lo:g}–{hi:g}: "
+                           f"fresh 1.0, sea 1.025){hint}; depth = pressure/(1000·{key}·g) would "
+                           "be wrong — fix the parameter (--params)")
+    return sg
 
 
 class MissingFrameError(LogDataError):
@@ -178,13 +197,17 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
         notes.append("MOT_PWM_MIN/MAX not in the log: ArduSub's defaults 1100/1900 µs assumed")
     for k in ("BARO_SPEC_GRAV", "GND_SPEC_GRAV"):
         if k in params:
-            used["BARO_SPEC_GRAV"] = float(params[k])
+            used["BARO_SPEC_GRAV"] = check_spec_grav(float(params[k]), name, k)
             break
     for k in (1, 2, 3):  # ground (surface) pressure each barometer was calibrated to [Pa]
         get(f"BARO{k}_GND_PRESS")
     baro = get("BARO_PRIMARY")
     if baro is None:
         notes.append("BARO_PRIMARY not in the log: barometer instance 0 assumed primary")
+        baro = 0.0
+    elif baro not in (0.0, 1.0, 2.0):
+        notes.append(f"BARO_PRIMARY = {baro:g} is no barometer instance (0, 1 or 2): instance 0 "
+                     "assumed primary — check the parameter")
         baro = 0.0
     # output → motor from SERVOn_FUNCTION
     motor_out: dict[int, list[int]] = {}

@@ -1,0 +1,118 @@
+"""Bad input that was accepted silently, ran unbounded or failed with a traceback (a new user's
+trial, stop 36): each is now a clear error or said — a mission cut short by its duration, a
+controller giving NaN, an empty scenario file, a water density read as a specific gravity, a
+vehicle without thrusters, a figure suffix no backend writes, a σ whose variance overflows."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.io.logs import LogDataError
+
+runner = CliRunner()
+
+NAN_CONTROLLER = '''
+from uuvid.simulate.control.blocks import Controller
+
+
+def _f(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    for j in range(6):
+        tau_out[j] = float("nan") if t > 1.0 else 0.0
+
+
+def make_controller(vehicle, context):
+    return Controller(_f, [0.0], [])
+'''
+
+
+def _said(res) -> str:
+    return " ".join(res.output.split())
+
+
+@pytest.mark.slow
+def test_a_mission_cut_short_by_its_duration_is_not_completed(tmp_path):
+    """A 10 km-deep square with ``duration: 5`` reported "completed True" after 5 s: the vehicle
+    had tracked the first seconds of the reference.  The path's end is now part of completed."""
+    from uuvid.simulate.scenario import build, scenario_from_dict
+    from uuvid.simulate.vehicle_sim import fly_mission
+
+    _, setup = build(scenario_from_dict({"mission": {"depth": 50, "speed": 0.5}, "duration": 5}))
+    res = fly_mission(setup)
+    s = res.metrics
+    assert s["completed"] is False
+    assert any("before the path ends" in w and "cuts the mission short" in w for w in s["warnings"])
+
+
+@pytest.mark.slow
+def test_a_controller_giving_nan_is_an_error_naming_it_and_the_time(tmp_path):
+    """NaN from a user controller reached the allocator as no thrust: "max thrust 0 N", exit 0."""
+    (tmp_path / "nanc.py").write_text(NAN_CONTROLLER)
+    sc = tmp_path / "sc.yaml"
+    sc.write_text("controller: {kind: python, file: nanc.py}\nduration: 3\n")
+    res = runner.invoke(app, ["simulate", str(sc)])
+    assert res.exit_code == 2
+    assert "the controller (_f) gave a non-finite wrench from t = 1.01 s" in _said(res), res.output
+
+
+def test_an_empty_scenario_file_is_refused_not_flown_as_the_defaults(tmp_path):
+    sc = tmp_path / "e.yaml"
+    sc.write_text("")
+    res = runner.invoke(app, ["simulate", str(sc)])
+    assert res.exit_code == 2 and "the file is empty; expected a mapping" in _said(res)
+
+
+@pytest.mark.parametrize("sg, hint", [(1000.0, "a density in kg/m³"), (-1.0, ""), (0.0, "")])
+def test_a_specific_gravity_no_water_has_is_refused(sg, hint):
+    """BARO_SPEC_GRAV 1000 made depth 1000× too small, −1 flipped its sign, 0 was taken as 1."""
+    from uuvid.io.ardusub.frames import check_spec_grav
+
+    with pytest.raises(LogDataError, match=rf"log\.tlog: BARO_SPEC_GRAV = {sg:g} is no water's "
+                                           rf"specific gravity.*{hint}"):
+        check_spec_grav(sg, "log.tlog")
+    assert check_spec_grav(1.025, "log.tlog") == 1.025
+
+
+@pytest.mark.parametrize("command", ["envelope", "stability", "hold"])
+def test_a_vehicle_without_thrusters_is_refused_saying_so(tmp_path, command):
+    """"cannot reshape array of size 0 into shape (0)" for envelope, stability and hold."""
+    import yaml
+
+    from uuvid.vehicle.definition import preset_path
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw["thrusters"] = []
+    f = tmp_path / "none.yaml"
+    f.write_text(yaml.safe_dump(raw, sort_keys=False))
+    res = runner.invoke(app, ["vehicle", command, str(f)])
+    assert res.exit_code == 2 and "has no thrusters" in _said(res), res.output
+
+
+def test_a_figure_suffix_no_backend_writes_is_refused_before_the_table(tmp_path, shared_data):
+    """``--plot p.xyz`` wrote the table and its sidecar, then failed in Matplotlib."""
+    out = tmp_path / "t.csv"
+    res = runner.invoke(app, ["log", "export", str(shared_data / "ardusub-bluerov2" / "small.BIN"),
+                              "--out-file", str(out), "--plot", str(tmp_path / "p.xyz")])
+    assert res.exit_code == 2 and "--plot" in _said(res) and "no figure format" in _said(res)
+    assert not out.exists() and not list(tmp_path.glob("t.csv*"))
+
+
+def test_a_monte_carlo_sigma_or_estimate_that_cannot_be_drawn_is_refused():
+    from uuvid.uncertainty.montecarlo import ModelError, model_from_dict
+
+    base = {"name": "m", "kind": "thruster_chain", "base": {"chain": "auv2-tunnel"}}
+    with pytest.raises(ModelError, match=r"tunnel_length: sigma 1e\+300 is beyond"):
+        model_from_dict({**base, "parameters": [{"name": "tunnel_length", "estimate": 0.27,
+                                                 "sigma": 1e300}]}, "m.yaml")
+
+    # an estimate outside its own bounds: every draw rejected, and the message says why
+    from uuvid.uncertainty.execute import run_study
+    from uuvid.uncertainty.montecarlo import MonteCarloSpec, MonteCarloStudy
+
+    m = model_from_dict({**base, "parameters": [{"name": "tunnel_length", "estimate": -5,
+                                                 "sigma": 0.1, "lower": 0}]}, "m.yaml")
+    res = run_study(MonteCarloStudy(MonteCarloSpec(model=m, runs=2, seed=0, max_draws=5)), None,
+                    backend="inprocess", progress=False)
+    assert res.table["message"].str.contains("tunnel_length's estimate -5 is itself outside "
+                                             r"\[0(\.0)?, inf\]").all()
