@@ -48,12 +48,15 @@ def test_laidani_chain_exports_with_exact_steady_map():
     chain = laidani_chain()
     xml = to_uuv_simulator(chain, table_points=251)
     assert "approximate" in xml.splitlines()[0]
-    back = from_uuv_simulator(xml)
+    back = from_uuv_simulator(xml)  # the plugin takes command − 1500; read back, the command
     pwm = np.linspace(1000, 2000, 401)
-    assert np.max(np.abs(back.steady_thrust(pwm - 1500) - chain.steady_thrust(pwm))) < 0.1
+    assert np.max(np.abs(back.steady_thrust(pwm) - chain.steady_thrust(pwm))) < 0.1
+    # the plugin's own view (no header): the table on command − 1500
+    bare = from_uuv_simulator(xml[xml.index("<plugin"):])
+    assert np.max(np.abs(bare.steady_thrust(pwm - 1500) - chain.steady_thrust(pwm))) < 0.1
     # dynamics close: a slow sine through both
     r1 = chain.simulate(lambda t: 1500 + 400 * np.sin(t), 4.0)
-    r2 = back.simulate(lambda t: 400 * np.sin(t), 4.0)
+    r2 = back.simulate(lambda t: 1500 + 400 * np.sin(t), 4.0)
     assert np.max(np.abs(r1["thrust"] - r2["thrust"])) < 0.3
 
 
