@@ -32,17 +32,21 @@ def _said(res) -> str:
 
 
 @pytest.mark.slow
-def test_a_mission_cut_short_by_its_duration_is_not_completed(tmp_path):
-    """A 10 km-deep square with ``duration: 5`` reported "completed True" after 5 s: the vehicle
-    had tracked the first seconds of the reference.  The path's end is now part of completed."""
+def test_a_mission_cut_short_by_its_duration_says_so(tmp_path):
+    """A 10 km-deep square with ``duration: 5`` reported "completed True" after 5 s and nothing
+    else: the vehicle had tracked the first seconds of the reference.  ``completed`` keeps its
+    meaning (the part flown, as the batch kernel's); ``path_finished`` and a warning say the
+    duration cut the path."""
     from uuvid.simulate.scenario import build, scenario_from_dict
     from uuvid.simulate.vehicle_sim import fly_mission
 
     _, setup = build(scenario_from_dict({"mission": {"depth": 50, "speed": 0.5}, "duration": 5}))
     res = fly_mission(setup)
     s = res.metrics
-    assert s["completed"] is False
+    assert s["path_finished"] is False
     assert any("before the path ends" in w and "cuts the mission short" in w for w in s["warnings"])
+    _, full = build(scenario_from_dict({"mission": {"depth": 2, "speed": 0.5}}))
+    assert fly_mission(full).metrics["path_finished"] is True
 
 
 @pytest.mark.slow

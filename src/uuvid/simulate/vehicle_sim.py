@@ -1788,11 +1788,12 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     if not level:
         warnings.append(mission_tilt_warning(s, att))
     path_end = _path_end(s.mission)
-    if path_end is not None and summary["sim_time_s"] < path_end - 1e-9:
+    summary["path_finished"] = bool(path_end is None or summary["sim_time_s"] >= path_end - 1e-9)
+    if not summary["path_finished"]:  # "completed" (as the batch's) covers the part flown
         warnings.append(f"the flight stops at t = {summary['sim_time_s']:.4g} s, before the path "
-                        f"ends (t = {path_end:.4g} s): the duration cuts the mission short, so it "
-                        "is not completed")
-        summary["completed"] = False
+                        f"ends (t = {path_end:.4g} s): the duration cuts the mission short — "
+                        "'completed' says how the part flown was tracked, not that the path was "
+                        "finished (path_finished: false)")
     if BAT.size and float(np.min(VOUT[:, 2])) <= 0.0:
         k = int(np.argmax(VOUT[:, 2] <= 0.0))
         warnings.append(f"the battery ({s.battery.name}) is empty from t = {float(res.t[k]):.4g} s "
