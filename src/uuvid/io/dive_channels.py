@@ -151,6 +151,19 @@ def _intervals(t, flag) -> list:
     return out
 
 
+def _inside(t, intervals) -> np.ndarray:
+    """Mask of the stamps ``t`` inside any of ``intervals`` ``[(t0, t1)]`` (ends included)."""
+    on = np.zeros(np.shape(t), bool)
+    for a, b in intervals:
+        on |= (t >= a) & (t <= b)
+    return on
+
+
+def _motor_order(pwm: dict) -> list:
+    """The keys of ``pwm`` in motor order (``"10"`` after ``"9"``)."""
+    return sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+
+
 def _mode_runs(t, modes) -> list:
     out = []
     modes = np.asarray(modes).astype(str)
@@ -283,9 +296,7 @@ def _armed_part(tx: tuple, armed) -> tuple:
     if not armed:
         return tx
     t, x = tx
-    on = np.zeros(t.size, bool)
-    for a, b in armed:
-        on |= (t >= a) & (t <= b)
+    on = _inside(t, armed)
     return (t[on], x[on]) if on.sum() >= 20 else tx
 
 
@@ -377,9 +388,7 @@ def _check_surface_reading(chans: dict, armed: list, name: str, warnings: list) 
     if "depth_m" not in chans or chans["depth_m"][0].size < 20 or not armed:
         return
     td, d = chans["depth_m"]
-    on = np.zeros(td.size, bool)
-    for a, b in armed:
-        on |= (td >= a) & (td <= b)
+    on = _inside(td, armed)
     off = ~on
     if off.sum() < 20 or not on.any():
         return
@@ -456,7 +465,7 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
     Driven alike: the columns of ``B`` in the DOFs a pilot commands (surge, sway, heave, yaw; roll
     and pitch are held), each DOF scaled by its largest entry, parallel within 18° — BlueROV2's
     vertical pair, not its diagonal horizontal thrusters, which a turn with surge drives apart."""
-    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))  # as _forces_from_pwm
+    keys = _motor_order(pwm)
     if veh is None or len(keys) != veh.B.shape[1] or len(keys) < 2:
         return
     F = np.asarray(veh.B, float)[[0, 1, 2, 5]]
@@ -468,9 +477,7 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
         t, v = pwm[k]
         if nrm[i] == 0 or not t.size:
             continue
-        on = np.zeros(t.size, bool)
-        for a, b in armed:
-            on |= (t >= a) & (t <= b)
+        on = _inside(t, armed)
         partners = [j for j, kj in enumerate(keys) if j != i and nrm[j] > 0
                     and abs(F[:, i] @ F[:, j]) / (nrm[i] * nrm[j]) > 0.95]
         driven = np.zeros(t.size, bool)
@@ -509,9 +516,7 @@ def _check_dead_outputs(pwm: dict, armed: list, name: str, warnings: list,
     for k, (t, v) in pwm.items():
         if not v.size or not np.any(v != 0):
             continue  # off throughout: said by the unit check
-        on = np.zeros(t.size, bool)
-        for a, b in armed:
-            on |= (t >= a) & (t <= b)
+        on = _inside(t, armed)
         others = np.zeros(t.size, bool)
         for j, (tj, vj) in pwm.items():
             if j != k and tj.size:
@@ -813,7 +818,7 @@ def _drop_spare_outputs(pwm: dict, veh, name: str, warnings: list) -> None:
     count left out when each is off throughout (0 µs or empty: an export of a 6-thruster frame
     carrying outputs 7–8), said; otherwise an error naming the outputs that are off."""
     n = veh.B.shape[1]
-    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    keys = _motor_order(pwm)
     off = [k for k in keys if not np.any(pwm[k][1] != 0)]
     spare = keys[n:]
     if len(keys) > n and all(k in off for k in spare):
@@ -854,7 +859,7 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
     from uuvid.io.ardusub.frames import DOF_COLUMNS, effective_pwm
     from uuvid.io.ardusub.thrust import default_t200
 
-    keys = sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    keys = _motor_order(pwm)
     t = pwm[keys[0]][0]
     odd = [k for k in keys if pwm[k][0].size != t.size or not np.array_equal(pwm[k][0], t)]
     if odd:
