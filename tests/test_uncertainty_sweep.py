@@ -177,6 +177,30 @@ def test_sweep_file_errors_name_the_key(tmp_path):
         load_sweep("no-such-sweep")
 
 
+
+def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_allocating():
+    """t_end = 1e9 s at 1 ms: the plan allocated its time grid first, a MemoryError of 7.3 TiB;
+    now the thruster simulate command's limit (MAX_SAMPLES) is checked, naming the file's keys."""
+    spec = sweep_from_dict({"target": {"kind": "thruster_step", "t_end": 1e9, "dt": 1e-3},
+                            "parameters": [{"name": "voltage", "values": [12, 24]}]})
+    with pytest.raises(ValueError, match=r"^target.t_end = 1e\+09 s at target.dt = 0.001 s is "
+                       r"1e\+12 samples \(≈ 2e\+05 GB\), more than the 2,000,000 a simulation may "
+                       r"hold in memory; shorten target.t_end or raise target.dt$"):
+        SweepStudy(spec).check()
+    spec = sweep_from_dict({"target": {"kind": "thruster_step", "t_end": 100.0, "dt": 1e-3,
+                                       "substeps": 1000},
+                            "parameters": [{"name": "voltage", "values": [12, 24]}]})
+    with pytest.raises(ValueError, match=r"RK4 steps, more than .* lower target.substeps"):
+        SweepStudy(spec).check()
+    spec = sweep_from_dict({"target": {"kind": "vehicle_mission",
+                                       "velocity_response": {"t_end": 1e9, "dt": 1e-3}},
+                            "parameters": [{"name": "current_speed", "values": [0, 0.1]}]})
+    with pytest.raises(ValueError, match=r"^target.velocity_response.t_end = 1e\+09 s at "
+                       r"target.velocity_response.dt = 0.001 s is 1e\+12 steps, more than the "
+                       r"2,000,000 one flight may hold in memory"):
+        SweepStudy(spec).check()
+
+
 def test_dotted_block_names_and_invalid_values_are_reported_per_run():
     spec = SweepSpec.model_validate({
         "target": {"kind": "thruster_step", "t_end": 0.3, "substeps": 1},

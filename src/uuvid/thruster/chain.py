@@ -31,7 +31,9 @@ _STATIC_STATES = 0
 _STEADY_CACHE = "steady_maps"  # sub-folder of the kernel cache for swept steady tables
 _SWEEP_DT, _SWEEP_PASSES, _SWEEP_RTOL = 1e-3, 8, 1e-9  # sweep() defaults (part of the cache key)
 MAX_SAMPLES = 2_000_000
-"""Most output samples (× runs) one simulation holds in memory (≈ 0.2 kB each)."""
+"""Most output samples (× runs) one simulation holds in memory (≈ :data:`SAMPLE_BYTES` each)."""
+SAMPLE_BYTES = 200
+"""Memory one output sample of a simulation takes, roughly: its time, input, states and channels."""
 MAX_SUBSTEPS = 10_000
 """Most RK4 steps per output sample: finer than ``dt / 10⁴`` buys RK4 no accuracy, only time."""
 MAX_RUN_STEPS = 50_000_000
@@ -40,36 +42,39 @@ MAX_SWEEP_STEPS = 1e12
 """Most integration steps a sweep may take (levels × pass length / dt, all passes)."""
 
 
-def _n_samples(t_end, dt, substeps, runs: int = 1) -> int:
+def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] | None = None) -> int:
     """Output samples of a simulation, checked before anything is allocated: at least 3 (what a
     response needs: a start, a middle and an end), at most :data:`MAX_SAMPLES` (× runs) in memory
-    and :data:`MAX_RUN_STEPS` RK4 steps per run."""
+    and :data:`MAX_RUN_STEPS` RK4 steps per run.  ``names``: what the messages call t_end, dt and
+    substeps (e.g. a file's keys), instead of the simulate options (``--t-end``…)."""
+    tn, dn, sn = names or ("t_end", "dt", "substeps")
+    tf, df, sf = ("", "", "") if names else (" (--t-end)", " (--dt)", " (--substeps)")
     if not (math.isfinite(t_end) and t_end > 0):
-        raise ValueError(f"t_end = {t_end:g}: expected a finite simulated time > 0 s (--t-end)")
+        raise ValueError(f"{tn} = {t_end:g}: expected a finite simulated time > 0 s{tf}")
     if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt = {dt:g}: expected a finite output step > 0 s (--dt)")
+        raise ValueError(f"{dn} = {dt:g}: expected a finite output step > 0 s{df}")
     if int(substeps) < 1:
-        raise ValueError(f"substeps = {substeps}: expected RK4 steps per output sample >= 1 "
-                         "(--substeps)")
+        raise ValueError(f"{sn} = {substeps}: expected RK4 steps per output sample >= 1{sf}")
     if int(substeps) > MAX_SUBSTEPS:
-        raise ValueError(f"substeps = {int(substeps):,} RK4 steps per output sample is more than "
+        raise ValueError(f"{sn} = {int(substeps):,} RK4 steps per output sample is more than "
                          f"{MAX_SUBSTEPS:,} (a step of dt/{MAX_SUBSTEPS:,} buys no accuracy, only "
-                         "time); lower substeps (--substeps) or the output step dt (--dt)")
+                         f"time); lower {sn}{sf} or the output step {dn}{df}")
     n = t_end / dt + 1
     if n < 2.5:  # round(t_end/dt) + 1 < 3
-        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s gives {int(round(n))} output "
-                         "sample(s); a response needs at least 3: give t_end >= 2 dt (--t-end, "
-                         "--dt)")
+        raise ValueError(f"{tn} = {t_end:g} s at {dn} = {dt:g} s gives {int(round(n))} output "
+                         f"sample(s); a response needs at least 3: give {tn} >= 2 {dn}"
+                         + (" (--t-end, --dt)" if not names else ""))
     if n * max(runs, 1) > MAX_SAMPLES:
         per = f" × {runs} runs" if runs > 1 else ""
-        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s is {n:.3g} samples{per}, more than "
-                         f"the {MAX_SAMPLES:,} a simulation may hold in memory; shorten t_end "
-                         "(--t-end) or raise dt (--dt)")
+        raise ValueError(f"{tn} = {t_end:g} s at {dn} = {dt:g} s is {n:.3g} samples{per} (≈ "
+                         f"{n * max(runs, 1) * SAMPLE_BYTES / 1e9:.3g} GB), more than the "
+                         f"{MAX_SAMPLES:,} a simulation may hold in memory; shorten {tn}{tf} or "
+                         f"raise {dn}{df}")
     if n * int(substeps) > MAX_RUN_STEPS:
-        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:g} s with substeps = {int(substeps)} is "
+        raise ValueError(f"{tn} = {t_end:g} s at {dn} = {dt:g} s with {sn} = {int(substeps)} is "
                          f"{n * int(substeps):.3g} RK4 steps, more than the {MAX_RUN_STEPS:.0e} "
-                         "one run may take (minutes of compute); lower substeps (--substeps), "
-                         "shorten t_end (--t-end) or raise dt (--dt)")
+                         f"one run may take (minutes of compute); lower {sn}{sf}, shorten {tn}{tf} "
+                         f"or raise {dn}{df}")
     return int(round(t_end / dt)) + 1
 
 

@@ -172,9 +172,14 @@ class ThrusterStepPlan:
 
         from uuvid.simulate.signals import signal_from_spec
         from uuvid.thruster import presets
+        from uuvid.thruster.chain import _n_samples
         from uuvid.thruster.modelfile import load_chain
         from uuvid.uncertainty._kernels import STEP_METRICS
 
+        # the simulate command's limits, before the time grid is allocated (a t_end of 1e9 s
+        # at 1 ms was a MemoryError of 7 TiB)
+        _n_samples(target.t_end, target.dt, target.substeps,
+                   names=("target.t_end", "target.dt", "target.substeps"))
         self.target = target
         self.factory = presets.PRESETS.get(target.chain)
         if self.factory is None:
@@ -466,7 +471,12 @@ def vehicle_simulator(kind: str = "auto"):
 class VehicleMissionPlan:
     def __init__(self, target: VehicleMissionTarget, names: list[str]):
         from uuvid.simulate.scenario import build
+        from uuvid.simulate.vehicle_sim import step_count
 
+        vr = target.velocity_response
+        if vr is not None:  # a flight's limit, checked before the scenario's slow build
+            n_vr = step_count(vr.t_end, vr.dt, name="target.velocity_response.t_end",
+                              dt_name="target.velocity_response.dt")
         self.target = target
         for n in names:
             PR.parse_vehicle_name(n)
@@ -490,7 +500,7 @@ class VehicleMissionPlan:
         self._tp: dict = {}
         vr = target.velocity_response
         if vr is not None:
-            self.vr_t = np.arange(int(round(vr.t_end / vr.dt)) + 1) * vr.dt
+            self.vr_t = np.arange(n_vr + 1) * vr.dt
 
     def _thruster_rows(self, values, nrun, msg):
         bank = self.setup.bank
