@@ -181,6 +181,30 @@ def test_sweep_with_unknown_or_bad_keywords(tmp_path, text, needle):
     clean_error(res, "sw.yaml", needle)
 
 
+
+BIG_GRID = """name: t
+target: {kind: thruster_step, t_end: 0.2, substeps: 1}
+parameters:
+""" + "".join(f"  - {{name: {n}, start: 0.1, stop: 1, num: 100000}}\n"
+              for n in ("voltage", "tunnel_length", "added_mass_coefficient", "effective_pitch"))
+
+
+@pytest.mark.parametrize("text, needles", [
+    # 10^20 runs: the count was wrapped (7.8e18) and the option named --runs (Monte Carlo's)
+    (BIG_GRID, ["grid of parameters", "100,000,000,000,000,000,000", "GB", "fewer values"]),
+    # a target of 1e12 samples: a raw MemoryError (7.28 TiB) traceback
+    (SWEEP.format(kw="{}").replace("t_end: 0.2", "t_end: 1e9"), ["target.t_end", "GB",
+                                                                 "shorten"]),
+    (SWEEP.format(kw="{}").replace("mode: grid", "mode: random\nsamples: 100000000000000"),
+     ["samples: 100,000,000,000,000", "GB", "or fewer"]),
+])
+def test_sweep_too_big_is_refused_naming_its_own_keys(tmp_path, text, needles):
+    p = tmp_path / "sw.yaml"
+    p.write_text(text)
+    res = runner.invoke(app, ["sweep", str(p), "--out", str(tmp_path / "out")])
+    clean_error(res, "sw.yaml", *needles)
+    assert "--runs" not in res.output and not (tmp_path / "out").exists()
+
 # ------------------------------------------------------------------------- logs and clocks
 def _dense_boot_from_log(log_t, ref_log, ref_boot, window=5.0):
     """The receive → boot clock mapping with a dense 1 s bin array (the former implementation:

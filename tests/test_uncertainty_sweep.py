@@ -178,6 +178,41 @@ def test_sweep_file_errors_name_the_key(tmp_path):
 
 
 
+def _axes(n_axes, num=100000):
+    names = ["voltage", "tunnel_length", "added_mass_coefficient", "effective_pitch"]
+    return [{"name": n, "start": 0.1, "stop": 1.0, "num": num} for n in names[:n_axes]]
+
+
+def test_sweep_size_is_exact_and_its_refusal_names_the_sweeps_own_keys():
+    """A 10^20-run grid read as 7.8e18 runs (np.prod wrapped past 2^63), and the memory refusal
+    named `runs=` (--runs, a Monte Carlo option): it gives the grid's shape and what to reduce."""
+    tgt = {"kind": "thruster_step", "t_end": 0.2, "substeps": 1}
+    study = SweepStudy(sweep_from_dict({"target": tgt, "parameters": _axes(4)}))
+    assert study.n_runs == 10**20
+    with pytest.raises(ValueError, match=r"^the grid of parameters \(voltage 100,000 × tunnel_length "
+                       r"100,000 × .*\) = 100,000,000,000,000,000,000 runs: the results would take "
+                       r"≈ .* GB .*give at most [\d,]+ runs: fewer values") as e:
+        study.check_memory()
+    assert "runs=" not in str(e.value)
+    rnd = SweepStudy(sweep_from_dict({"target": tgt, "mode": "random", "samples": 10**14,
+                                      "parameters": [{"name": "voltage", "start": 1, "stop": 24}]}))
+    with pytest.raises(ValueError, match=r"^samples: 100,000,000,000,000: .*give samples: [\d,]+ "
+                       r"or fewer, or split the sweep into several \(other seeds\)"):
+        rnd.check_memory()
+
+
+def test_sweep_disk_refusal_names_the_grid(tmp_path, monkeypatch):
+    import shutil
+    from collections import namedtuple
+
+    study = SweepStudy(sweep_from_dict({"target": {"kind": "thruster_step"}, "parameters": _axes(2, 100)}))
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(1e9, 1e9 - 1e5, 1e5))
+    with pytest.raises(OSError, match=r"out: the grid of parameters \(voltage 100 × tunnel_length "
+                       r"100\) = 10,000 runs would write .* give at most [\d,]+ runs: fewer values"):
+        study.check_disk(tmp_path / "out")
+
+
 def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_allocating():
     """t_end = 1e9 s at 1 ms: the plan allocated its time grid first, a MemoryError of 7.3 TiB;
     now the thruster simulate command's limit (MAX_SAMPLES) is checked, naming the file's keys."""

@@ -198,7 +198,7 @@ class SweepSpec(BaseModel):
     @property
     def n_runs(self) -> int:
         if self.mode == "grid":
-            return int(np.prod(self.shape)) if self.parameters else 1
+            return math.prod(self.shape)  # Python ints: np.prod wrapped past 2^63
         if self.mode == "list":
             return len(self.runs)
         return int(self.samples)
@@ -277,6 +277,31 @@ class SweepStudy(StudyBase):
             raise PR.ParameterNameError(f"requirement: unknown metric "
                                         f"{self.spec.requirement.metric!r}")
 
+    # the memory and disk refusals (StudyBase.check_memory/check_disk) name the sweep's own keys
+    @property
+    def split_advice(self) -> str:
+        if self.spec.mode == "random":
+            return "split the sweep into several (other seeds) and pool their results"
+        return "split the sweep into several (part of a parameter's values each)"
+
+    def size_text(self) -> str:
+        sp = self.spec
+        n = self.n_runs
+        if sp.mode == "grid":
+            axes = " × ".join(f"{a.name} {k:,}" for a, k in zip(sp.parameters, sp.shape))
+            return f"the grid of parameters ({axes}) = {n:,} runs"
+        if sp.mode == "random":
+            return f"samples: {n:,}"
+        return f"runs: {n:,} entries"
+
+    def size_advice(self, fit: int) -> str:
+        sp = self.spec
+        if sp.mode == "grid":
+            return (f"give at most {fit:,} runs: fewer values (values, or num of a start/stop "
+                    "axis) in parameters")
+        if sp.mode == "random":
+            return f"give samples: {fit:,} or fewer"
+        return f"give at most {fit:,} entries in runs"
 
     # ----------------------------------------------------------------- parameters of runs
     def parameter_table(self, start: int, stop: int) -> pd.DataFrame:

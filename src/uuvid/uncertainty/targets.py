@@ -690,6 +690,18 @@ class StudyBase:
         :data:`BYTES_PER_RUN_VALUE`."""
         return sum(self._run_values()) * BYTES_PER_RUN_VALUE
 
+    #: How to spread a study too big for memory over several (the memory refusal's last words).
+    split_advice = "split the study into several (other seeds) and pool their results"
+
+    def size_text(self) -> str:
+        """What sets the number of runs, and that number (the memory and disk refusals start
+        with it): a Monte Carlo's ```runs=```; a sweep names its own keys."""
+        return f"`runs=` {int(self.n_runs):,}"
+
+    def size_advice(self, fit: int) -> str:
+        """How to bring the study down to ``fit`` runs."""
+        return f"give at most {fit:,} runs"
+
     def check_memory(self) -> None:
         """``ValueError`` before any run when the study's results would not fit in
         :func:`memory_budget_bytes` (they are held in memory to the end): it says how much they
@@ -699,11 +711,10 @@ class StudyBase:
         budget = memory_budget_bytes()
         if need > budget:
             raise ValueError(
-                f"`runs=` {int(self.n_runs):,}: the results would take ≈ {need / 1e9:.3g} GB of "
+                f"{self.size_text()}: the results would take ≈ {need / 1e9:.3g} GB of "
                 f"memory (≈ {per / 1e3:.3g} kB a run, held to the end of the study), more than "
-                f"half this machine's {physical_memory_bytes() / 1e9:.3g} GB; give at most "
-                f"{int(budget // per):,} runs, or split the study into several (other seeds) "
-                "and pool their results")
+                f"half this machine's {physical_memory_bytes() / 1e9:.3g} GB; "
+                f"{self.size_advice(int(budget // per))}, or {self.split_advice}")
 
     def disk_bytes(self) -> float:
         """Disk the study's ``out`` folder needs at its peak, bytes: every run's row as CSV text
@@ -730,9 +741,9 @@ class StudyBase:
         if need > free:
             per = need / max(float(self.n_runs), 1.0)
             raise OSError(
-                f"{out}: `runs=` {int(self.n_runs):,} would write ≈ {need / 1e9:.3g} GB (≈ "
+                f"{out}: {self.size_text()} would write ≈ {need / 1e9:.3g} GB (≈ "
                 f"{per / 1e3:.3g} kB a run: the chunk parts and the consolidated results), and "
-                f"{free / 1e9:.3g} GB are free there; give at most {int(free // per):,} runs, "
+                f"{free / 1e9:.3g} GB are free there; {self.size_advice(int(free // per))}, "
                 "fewer series, or another output folder")
 
 
