@@ -236,6 +236,20 @@ def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_alloca
         SweepStudy(spec).check()
 
 
+@pytest.mark.parametrize("raw, needle", [
+    ({"parameters": []}, "mode grid needs parameters"),
+    ({"mode": "random", "samples": 3, "parameters": []}, "mode random needs parameters"),
+    ({"mode": "random", "samples": 3, "parameters": [{"name": "voltage", "start": 24, "stop": 1}]},
+     r"parameters\[0\] \(voltage\): start 24 > stop 1; .* give start <= stop"),
+    ({"parameters": [{"name": "voltage", "start": 1e308, "stop": -1e308, "num": 3}]},
+     r"parameters\[0\]: parameter 'voltage': start 1e\+308 … stop -1e\+308 gives non-finite"),
+])
+def test_sweep_grids_that_ran_silently_or_crashed_are_refused(raw, needle):
+    """An empty grid ran the baseline once (random: N identical runs); a reversed random range
+    said 'high - low < 0'; a range beyond the floats gave NaN values and an IndexError."""
+    with pytest.raises(SweepError, match=r"^s.yaml: " + needle):
+        sweep_from_dict({"target": {"kind": "thruster_step"}, **raw}, where="s.yaml")
+
 def test_dotted_block_names_and_invalid_values_are_reported_per_run():
     spec = SweepSpec.model_validate({
         "target": {"kind": "thruster_step", "t_end": 0.3, "substeps": 1},

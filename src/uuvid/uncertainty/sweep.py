@@ -76,6 +76,13 @@ class Axis(BaseModel):
             raise ValueError(f"parameter {self.name!r}: log spacing needs start, stop > 0")
         if self.unit is not None and self.unit not in PR.UNITS:
             raise ValueError(f"parameter {self.name!r}: unknown unit {self.unit!r}")
+        if self.start is not None:
+            with np.errstate(all="ignore"):
+                g = np.asarray(self.grid(), dtype=float)
+            if not np.all(np.isfinite(g)):  # linspace(1e308, -1e308): stop - start overflows
+                raise ValueError(f"parameter {self.name!r}: start {self.start:g} … stop "
+                                 f"{self.stop:g} gives non-finite grid values (the range is "
+                                 "beyond the floating-point numbers); give a narrower range")
         return self
 
     def grid(self) -> list[Any]:
@@ -183,6 +190,15 @@ class SweepSpec(BaseModel):
                 raise ValueError("mode random needs samples: N")
             if self.mode == "grid" and self.samples:
                 raise ValueError("samples is for mode random")
+            if not self.parameters:  # an empty grid silently ran the baseline alone
+                raise ValueError(f"mode {self.mode} needs parameters: [{{name: ..., values: [...]}} "
+                                 "or {name: ..., start: ..., stop: ...}, ...] (none given)")
+            if self.mode == "random":
+                for i, a in enumerate(self.parameters):
+                    if a.start is not None and a.start > a.stop:
+                        raise ValueError(f"parameters[{i}] ({a.name}): start {a.start:g} > stop "
+                                         f"{a.stop:g}; a random axis draws between start and "
+                                         "stop: give start <= stop")
         return self
 
     @property
@@ -218,7 +234,8 @@ def sweep_from_dict(raw, where: str = "<sweep>", base: Path | None = None) -> Sw
         msgs = []
         for err in e.errors():
             loc = _loc(err["loc"])
-            text = {"missing": "missing", "extra_forbidden": "unknown key"}.get(err["type"], err["msg"])
+            text = {"missing": "missing", "extra_forbidden": "unknown key"}.get(
+                err["type"], err["msg"].removeprefix("Value error, "))
             msgs.append(f"{where}: {loc}: {text}" if loc else f"{where}: {text}")
         raise SweepError("\n".join(msgs)) from None
     return spec.model_copy(update={"target": resolve_paths(spec.target, base)})
