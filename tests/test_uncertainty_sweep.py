@@ -250,6 +250,32 @@ def test_sweep_grids_that_ran_silently_or_crashed_are_refused(raw, needle):
     with pytest.raises(SweepError, match=r"^s.yaml: " + needle):
         sweep_from_dict({"target": {"kind": "thruster_step"}, **raw}, where="s.yaml")
 
+
+def test_a_chunk_of_long_runs_holds_a_bounded_input(monkeypatch):
+    """Every run with its own signal (a swept voltage) kept its whole input in the chunk's input
+    array and in the plan's cache: 2,500 runs of 2 M samples held 40 GB.  A chunk whose inputs
+    pass MAX_INPUT_SAMPLES is evaluated in parts, with the same results."""
+    from uuvid.uncertainty import _kernels
+    from uuvid.uncertainty import targets as TG
+
+    plan = plan_for(ThrusterStepTarget(t_end=0.2, substeps=1), ["voltage"])
+    volts = np.linspace(4.0, 24.0, 10)
+    whole = plan.evaluate({"voltage": volts}, 10)
+    rows, real = [], _kernels.step_metrics_batch
+
+    def spy(*a):
+        rows.append(a[8].shape[0])  # U: one row per distinct input
+        return real(*a)
+
+    monkeypatch.setattr(_kernels, "step_metrics_batch", spy)
+    monkeypatch.setattr(TG, "MAX_INPUT_SAMPLES", 3 * plan.t.size, raising=False)
+    plan._signals.clear()
+    parts = plan.evaluate({"voltage": volts + 0.0}, 10)
+    assert rows == [3, 3, 3, 1] and len(plan._signals) <= 3
+    assert list(parts.status) == list(whole.status) == ["ok"] * 10
+    for m in whole.metrics:
+        assert np.array_equal(parts.metrics[m], whole.metrics[m], equal_nan=True), m
+
 def test_dotted_block_names_and_invalid_values_are_reported_per_run():
     spec = SweepSpec.model_validate({
         "target": {"kind": "thruster_step", "t_end": 0.3, "substeps": 1},

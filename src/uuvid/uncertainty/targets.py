@@ -157,6 +157,12 @@ class Evaluation:
     series: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+#: Most input samples (8 bytes each: 128 MB) a ``thruster_step`` plan holds at once — the input
+#: of every run with its own signal, e.g. a swept voltage; a chunk whose runs would hold more is
+#: evaluated in parts (a 2,500-run chunk of 2 M-sample runs held 40 GB).
+MAX_INPUT_SAMPLES = 16_000_000
+
+
 def _values_at(values: dict[str, np.ndarray], r: int) -> dict[str, Any]:
     return {k: (v[r].item() if hasattr(v[r], "item") else v[r]) for k, v in values.items()}
 
@@ -293,10 +299,22 @@ class ThrusterStepPlan:
                 got = (u, "" if np.all(np.isfinite(u)) else "input signal is not finite")
             except (ValueError, TypeError) as e:
                 got = (None, f"signal: {e}")
+            if len(self._signals) * self.t.size >= MAX_INPUT_SAMPLES:
+                self._signals.clear()
             self._signals[sk] = got
         return got
 
     def evaluate(self, values: dict[str, np.ndarray], nrun: int) -> Evaluation:
+        part = max(1, MAX_INPUT_SAMPLES // self.t.size)  # runs whose inputs fit at once
+        if nrun <= part:
+            return self._evaluate(values, nrun)
+        parts = [self._evaluate({k: v[a:a + part] for k, v in values.items()}, min(part, nrun - a))
+                 for a in range(0, nrun, part)]
+        return Evaluation({m: np.concatenate([e.metrics[m] for e in parts]) for m in parts[0].metrics},
+                          np.concatenate([e.status for e in parts]),
+                          np.concatenate([e.message for e in parts]))
+
+    def _evaluate(self, values: dict[str, np.ndarray], nrun: int) -> Evaluation:
         from uuvid.uncertainty._kernels import N_METRICS, step_metrics_batch
 
         status = np.full(nrun, OK, dtype=object)
