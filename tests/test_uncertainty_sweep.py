@@ -243,12 +243,24 @@ def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_alloca
      r"parameters\[0\] \(voltage\): start 24 > stop 1; .* give start <= stop"),
     ({"parameters": [{"name": "voltage", "start": 1e308, "stop": -1e308, "num": 3}]},
      r"parameters\[0\]: parameter 'voltage': start 1e\+308 … stop -1e\+308 gives non-finite"),
+    ({"parameters": [{"name": "voltage", "start": 1, "stop": 24, "num": 1}]},
+     r"parameters\[0\]: parameter 'voltage': num 1 gives start 1 alone \(stop 24 unused\)"),
 ])
 def test_sweep_grids_that_ran_silently_or_crashed_are_refused(raw, needle):
     """An empty grid ran the baseline once (random: N identical runs); a reversed random range
     said 'high - low < 0'; a range beyond the floats gave NaN values and an IndexError."""
     with pytest.raises(SweepError, match=r"^s.yaml: " + needle):
         sweep_from_dict({"target": {"kind": "thruster_step"}, **raw}, where="s.yaml")
+
+
+def test_run_sweep_takes_a_dict_like_a_sweep_file():
+    """A notebook's dict went to Path(): 'TypeError: expected str, bytes or os.PathLike'."""
+    res = run_sweep({"target": {"kind": "thruster_step", "t_end": 0.2, "substeps": 1},
+                     "parameters": [{"name": "voltage", "values": [12, 24]}]}, None,
+                    backend="inprocess", progress=False)
+    assert res.info["succeeded"] == 2
+    with pytest.raises(SweepError, match="parameters"):
+        run_sweep({"target": {"kind": "thruster_step"}}, None, progress=False)
 
 
 def test_a_chunk_of_long_runs_holds_a_bounded_input(monkeypatch):

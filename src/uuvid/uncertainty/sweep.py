@@ -76,6 +76,9 @@ class Axis(BaseModel):
             raise ValueError(f"parameter {self.name!r}: log spacing needs start, stop > 0")
         if self.unit is not None and self.unit not in PR.UNITS:
             raise ValueError(f"parameter {self.name!r}: unknown unit {self.unit!r}")
+        if self.num == 1 and self.start is not None and self.start != self.stop:
+            raise ValueError(f"parameter {self.name!r}: num 1 gives start {self.start:g} alone (stop "
+                             f"{self.stop:g} unused); give num >= 2, or values: [{self.start:g}]")
         if self.start is not None:
             with np.errstate(all="ignore"):
                 g = np.asarray(self.grid(), dtype=float)
@@ -396,14 +399,16 @@ def _column(vals: list) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # running and reporting
 # ---------------------------------------------------------------------------------------------
-def run_sweep(spec: SweepSpec | str | Path, out: str | Path | None = None, *, report: bool = True,
+def run_sweep(spec: SweepSpec | dict | str | Path, out: str | Path | None = None, *, report: bool = True,
               **kw):
-    """Run a sweep (spec, file or built-in name); ``kw`` go to
+    """Run a sweep (spec, a dict like a sweep file, file or built-in name); ``kw`` go to
     :func:`~uuvid.uncertainty.execute.run_study` (``backend``, ``workers``, ``scheduler``, …).
     With ``out``: results, summary, plots and ``index.html`` there."""
     from uuvid.uncertainty.execute import run_study
 
-    if not isinstance(spec, SweepSpec):
+    if isinstance(spec, dict):  # a sweep file's contents
+        spec = sweep_from_dict(spec)
+    elif not isinstance(spec, SweepSpec):
         spec = load_sweep(spec)
     study = SweepStudy(spec)
     study.check()
