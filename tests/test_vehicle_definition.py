@@ -418,3 +418,37 @@ def test_limits_beyond_what_the_thruster_model_gives_are_named(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", VehicleFileWarning)
         load_vehicle(p)
+
+
+@pytest.mark.parametrize("dofs, expected", [
+    (["surge", "heave", "surge"],
+     "bot.yaml: allocation.dofs[2]: surge is named twice (also allocation.dofs[0])"),
+    (["surge", "sway", "heave"],  # A and B push along x, C along z: nothing pushes sideways
+     "bot.yaml: allocation.dofs[1]: sway: no thruster gives any force in sway"),
+    (["surge", "heave", "yaw", "pitch"],
+     "bot.yaml: allocation.dofs[3]: pitch: no thruster gives any moment in pitch"),
+])
+def test_allocation_dofs_the_thrusters_cannot_hold_are_refused(dofs, expected):
+    """A DOF named twice, or one no thruster acts on, was accepted: the allocation then met the
+    request in the least-squares sense (or kept one column of a repeated row) without a word."""
+    msg = errors_of(lambda r: r["allocation"].update(dofs=dofs))
+    assert expected in msg and "allocation.dofs" in msg
+
+
+def test_allocation_dofs_dependent_on_another_are_refused_with_the_ratio():
+    """The BlueROV2's horizontal thrusters sit 2 cm below the origin and its vertical pair at
+    x = 0: its pitch moment is always 0.02 m × the surge force, so it cannot hold both."""
+    raw = yaml.safe_load(open(load_vehicle("bluerov2").path))
+    raw["allocation"]["dofs"] = ["surge", "sway", "heave", "roll", "pitch", "yaw"]
+    with pytest.raises(VehicleFileError) as e:
+        vehicle_from_dict(raw, where="b.yaml")
+    assert str(e.value) == ("b.yaml: allocation.dofs[4]: pitch: the thrusters cannot hold it "
+                            "independently of surge: every thrust gives pitch = 0.02 × surge (its "
+                            "row of the thrust configuration matrix B is a combination of theirs), "
+                            "so the allocation cannot set them all; leave pitch (or one of those) "
+                            "out of allocation.dofs")
+    from uuvid.vehicle.allocation import Allocator
+
+    with pytest.raises(ValueError, match="named twice"):  # the library's own entry, too
+        Allocator(load_vehicle("bluerov2").B, ("surge", "heave", 0))
+

@@ -323,6 +323,8 @@ class Allocator:
             (dof_index(d) if not isinstance(d, (int, np.integer)) else int(d)) for d in self.dofs)
         if any(not 0 <= d < m for d in dofs):
             raise ValueError(f"dofs {dofs} out of range for B with {m} rows")
+        if len(set(dofs)) != len(dofs):  # T[:, rows] would keep one column of a repeated row
+            raise ValueError(f"dofs {dofs}: a DOF is named twice; name each controlled DOF once")
         object.__setattr__(self, "dofs", dofs)
         if self.mode is not None and self.mode.n != n:
             raise ValueError(f"mode {self.mode.name} is for {self.mode.n} thrusters, B has {n}")

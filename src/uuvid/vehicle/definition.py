@@ -589,6 +589,19 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
             f"{len(al.weights)}")
     elif al.weights is not None and any(w <= 0 for w in al.weights):
         err("allocation.weights", "weights must be > 0")
+    dof_seen: dict[str, int] = {}
+    for j, d in enumerate(al.dofs):
+        if d in dof_seen:
+            err(f"allocation.dofs[{j}]", f"{d} is named twice (also allocation.dofs"
+                f"[{dof_seen[d]}]): each controlled DOF is one equation of the allocation; name it "
+                "once")
+        dof_seen.setdefault(d, j)
+    # the DOFs the file names (the default, all six, is not checked: a file may leave out the
+    # allocation block, e.g. for drag identification without thrusters)
+    if layout is not None and layout.n and "dofs" in al.model_fields_set \
+            and len(dof_seen) == len(al.dofs):
+        for j, text in _uncontrollable_dofs(layout.B, [dof_index(d) for d in al.dofs]):
+            err(f"allocation.dofs[{j}]", text)
     for j, m in enumerate(al.default_modes):
         if m not in mode_names:
             err(f"allocation.default_modes[{j}]", f"unknown mode; modes: {sorted(mode_names)}")
@@ -624,6 +637,46 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                       tuple(t.propeller or t.model for t in spec.thrusters))
     _warn_on_load(vehicle, where, base_dir)
     return vehicle
+
+
+#: A row of ``B`` (or what is left of it beside the other controlled DOFs' rows) below this
+#: fraction of the largest row norm is no authority (rounding of the axes and positions only).
+AUTHORITY_RTOL = 1e-9
+
+
+def _uncontrollable_dofs(B, dofs: Sequence[int]) -> list[tuple[int, str]]:
+    """``(position in dofs, why)`` for each DOF of ``dofs`` the thrusters cannot hold: its row
+    of ``B`` is zero (no thruster pushes or turns it), or a combination of the rows of the DOFs
+    named before it (every thrust moves it in a fixed ratio to those: the allocation cannot set
+    them independently, and would silently meet the request in the least-squares sense)."""
+    B = np.asarray(B, float)
+    tol = AUTHORITY_RTOL * max(float(np.linalg.norm(B, axis=1).max(initial=0.0)), 1e-300)
+    out: list[tuple[int, str]] = []
+    kept: list[int] = []
+    for j, d in enumerate(dofs):
+        row = B[d]
+        name = DOF_NAMES[d]
+        if np.linalg.norm(row) <= tol:
+            out.append((j, f"{name}: no thruster gives any {'force' if d < 3 else 'moment'} in "
+                        f"{name} (its row of the thrust configuration matrix B is zero): the "
+                        f"thrusters cannot hold it; leave {name} out of allocation.dofs (it is then "
+                        "left to drag and the restoring forces)"))
+            continue
+        if kept:
+            A = B[kept]
+            c = np.linalg.lstsq(A.T, row, rcond=None)[0]
+            if np.linalg.norm(A.T @ c - row) <= tol:
+                big = np.abs(c) > 1e-6 * np.abs(c).max()
+                ratio = " + ".join(f"{c[k]:.4g} × {DOF_NAMES[kept[k]]}"
+                                   for k in np.flatnonzero(big))
+                out.append((j, f"{name}: the thrusters cannot hold it independently of "
+                            f"{', '.join(DOF_NAMES[kept[k]] for k in np.flatnonzero(big))}: every "
+                            f"thrust gives {name} = {ratio} (its row of the thrust configuration "
+                            "matrix B is a combination of theirs), so the allocation cannot set "
+                            f"them all; leave {name} (or one of those) out of allocation.dofs"))
+                continue
+        kept.append(d)
+    return out
 
 
 def _battery(b: BatterySchema, where: str):
