@@ -452,3 +452,16 @@ def test_allocation_dofs_dependent_on_another_are_refused_with_the_ratio():
     with pytest.raises(ValueError, match="named twice"):  # the library's own entry, too
         Allocator(load_vehicle("bluerov2").B, ("surge", "heave", 0))
 
+
+def test_a_current_in_the_vehicle_file_is_refused_naming_where_a_current_is_given():
+    """environment.current was accepted and ignored: missions, hold and the envelope take their
+    own current, so a vehicle 'in 0.5 m/s' flew in still water.  Zero stays accepted."""
+    msg = errors_of(lambda r: r.update(environment={"current": [0.5, 0, 0]}))
+    assert msg.startswith("bot.yaml: environment.current: [0.5, 0.0, 0.0] m/s: a vehicle file "
+                          "does not set the water")
+    for place in ("a scenario's current:", "uuvid simulate mission --current N,E,D",
+                  "uuvid vehicle hold --current", "setup_mission"):
+        assert place in msg
+    raw = copy.deepcopy(BASE)
+    raw["environment"] = {"current": [0, 0, 0]}
+    assert np.all(vehicle_from_dict(raw).params.current == 0)

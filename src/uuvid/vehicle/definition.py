@@ -9,7 +9,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
       transcribed_from: ...      # optional
     assumptions:                 # key path → why the value is assumed (not from the source)
       thrusters: positions approximate, from the frame drawing
-    environment: {current: [0, 0, 0]}        # constant current, NED, m/s (optional)
+    environment: {current: [0, 0, 0]}        # only 0: the current is the run's (scenario, CLI)
     inflow: none                 # or four-quadrant: thrust falls with the advance speed (issue 21)
     rigid_body:
       mass: 11.5
@@ -512,6 +512,15 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
     if rb.inertia_about == "origin":  # I_g = I_o + m S(r_g)²
         S = skew_ref(rb.center_of_gravity)
         inertia = inertia + rb.mass * S @ S
+
+    if any(c != 0.0 for c in spec.environment.current):
+        # no mission, hold, envelope or sweep reads it (each takes its own current): refused,
+        # not flown in still water while the file says otherwise
+        err("environment.current", f"{list(spec.environment.current)} m/s: a vehicle file does "
+            "not set the water; give the current where the run is set up — a scenario's "
+            "current: [N, E, D] (uuvid simulate SCENARIO.yaml), uuvid simulate mission --current "
+            "N,E,D, uuvid vehicle hold --current SPEED,DIR, or current= of "
+            "uuvid.simulate.vehicle_sim.setup_mission — and leave environment out of this file")
 
     # ------------------------------------------------------------ modes and thrusters
     names = [t.name for t in spec.thrusters]
