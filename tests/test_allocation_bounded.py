@@ -131,3 +131,45 @@ def test_shortfall_names_the_lost_dofs_and_priority_keeps_heave():
     assert not r.achievable and "surge" in r.shortfall
     assert abs(r.achieved[2] - 60.0) < 1e-6  # heave kept (priority 1000× surge)
     assert "lost: surge" in r.report()
+
+
+def _lp_reach(al, phi):
+    """max s >= 0 with s·φ achievable (HiGHS, s unbounded above)."""
+    n, ctl = al.n, list(al.controlled)
+    lo, hi = _planned_bounds(al)
+    C = al.mode.constraint_rows(al.B) if al.mode is not None else np.zeros((0, n))
+    Aeq = np.vstack([np.hstack([al.B[ctl], -phi[ctl, None]]), np.hstack([C, np.zeros((len(C), 1))])])
+    c = np.zeros(n + 1)
+    c[-1] = -1.0
+    r = linprog(c, A_eq=Aeq, b_eq=np.zeros(len(Aeq)), bounds=list(zip(lo, hi)) + [(0, None)],
+                method="highs", options={"primal_feasibility_tolerance": 1e-10})
+    assert r.status == 0
+    return float(r.x[-1])
+
+
+@pytest.mark.parametrize("name, modes, comp", CASES[:4])
+@pytest.mark.parametrize("one_way", [False, True])
+def test_reach_is_the_lp_largest_force_along_a_direction(name, modes, comp, one_way):
+    """Allocator.reach (the PID's output limits come from it) is the LP's largest s with s·φ
+    achievable — also with a thruster limited to one direction, where the uniform allocation's
+    max_along is 0 for every direction whose T φ needs that thruster the other way."""
+    from uuvid.vehicle.allocation import Allocator
+
+    v = load_vehicle(name)
+    lim = np.array(v.layout.limits, float)
+    if one_way:
+        lim[0, 0] = 0.0  # the first thruster cannot reverse
+    base = v.allocator(modes, compensate_eta=comp)
+    al = Allocator(v.B, base.dofs, base.weights, base.mode, lim, comp)
+    rng = np.random.default_rng(5)
+    ctl = list(al.controlled)
+    phis = [s * np.eye(6)[d] for d in ctl for s in (1.0, -1.0)]
+    phis += [np.where(np.isin(np.arange(6), ctl), rng.normal(size=6), 0.0) for _ in range(20)]
+    zero_uniform = 0
+    for phi in phis:
+        want = _lp_reach(al, phi)
+        got = al.reach(phi)
+        assert got == pytest.approx(want, rel=1e-6, abs=1e-6)
+        assert got >= al.max_along(phi) * (1 - 1e-9)
+        zero_uniform += al.max_along(phi) == 0.0 and want > 1.0
+    assert (zero_uniform > 0) == one_way

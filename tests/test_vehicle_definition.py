@@ -465,3 +465,19 @@ def test_a_current_in_the_vehicle_file_is_refused_naming_where_a_current_is_give
     raw = copy.deepcopy(BASE)
     raw["environment"] = {"current": [0, 0, 0]}
     assert np.all(vehicle_from_dict(raw).params.current == 0)
+
+
+def test_a_direction_no_thrust_gives_is_named_with_the_one_way_thrusters():
+    """Both vertical thrusters limited to [0, max] (pushing down only): heave cannot be pushed
+    up at all; said on load, naming the DOF, the direction and the thrusters."""
+    raw = yaml.safe_load(open(load_vehicle("bluerov2").path))
+    for t in raw["thrusters"][4:]:
+        t["limits"] = [0.0, 51.485]
+    with pytest.warns(VehicleFileWarning) as rec:
+        vehicle_from_dict(raw, where="noup.yaml", base_dir=load_vehicle("bluerov2").path.parent)
+    said = [str(w.message) for w in rec if "allocation.dofs" in str(w.message)]
+    assert len(said) == 1
+    assert said[0].startswith("noup.yaml: allocation.dofs: heave climbing: no thrust within the "
+                              "limits gives it (thrusters limited to one direction: "
+                              "T5_vertical_right [0, 51.48] N, T6_vertical_left [0, 51.48] N), "
+                              "only heave diving (up to 103 N)")

@@ -111,6 +111,35 @@ def test_square_mission_bluerov2_completes_within_half_a_metre(bluerov2):
     assert any("level-flight limit" in w for w in fast["warnings"])
 
 
+def test_a_thruster_that_cannot_reverse_keeps_the_pid_output_limits_and_flies(bluerov2):
+    """T1 limited to [0, 51.5] N: the uniform allocation's direction T φ for surge, sway and yaw
+    needs T1 reversed, so its max_along was 0 and the PID's output limits for those DOFs were
+    zeroed — the square mission stalled with only "did not follow the path".  The limits are
+    what the thrusters can give (either way, every thrust combination), and the mission flies."""
+    import warnings
+
+    import yaml
+
+    from uuvid.simulate.reference import cruise_speed
+    from uuvid.simulate.vehicle_sim import default_gains
+    from uuvid.vehicle.definition import VehicleFileWarning, vehicle_from_dict
+
+    raw = yaml.safe_load(open(bluerov2.path))
+    raw["thrusters"][0]["limits"] = [0.0, 51.485]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VehicleFileWarning)  # every direction is still reachable
+        v = vehicle_from_dict(raw, where="oneway.yaml", base_dir=bluerov2.path.parent)
+    al = v.allocator()
+    g = default_gains(v)
+    for j, d in enumerate((0, 1, 2, 5)):
+        e = np.eye(6)[d]
+        assert g.tau_max[j] == pytest.approx(max(al.reach(e), al.reach(-e)), rel=1e-9)
+        assert g.tau_max[j] > 30.0
+    assert min(al.reach(np.eye(6)[0]), al.reach(-np.eye(6)[0])) == pytest.approx(72.81, abs=0.01)
+    s = fly_mission(setup_mission(v, square_mission(speed=cruise_speed(v)[0]))).metrics
+    assert s["completed"] and s["max_tracking_error_m"] < 0.5 and not s["warnings"]
+
+
 def test_batch_equals_single_runs(bluerov2):
     setup = setup_mission(bluerov2, square_mission(), t_end=30.0)
     single = fly_mission(setup)

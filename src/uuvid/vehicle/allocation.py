@@ -465,6 +465,30 @@ class Allocator:
                          np.where(tau < 0, self.limits[:, 0] / tau, np.inf))
         return float(np.min(r)) if r.size else math.inf
 
+    def reach(self, phi) -> float:
+        """Largest ``s`` such that ``s φ`` is delivered exactly within the limits by the bounded
+        allocation (``maxscale``, the missions' default ``priority`` gives the same wrenches): what
+        the thrusters can give along φ, every thrust combination allowed (≥ :meth:`max_along`,
+        which keeps the least-effort direction ``T φ``: zero along a direction whose ``T φ``
+        needs a thruster the way it cannot push, although others can).  0 when no thrust
+        within the limits gives φ (and the mode's equalities); ``inf`` with unbounded limits."""
+        phi = self._check_wrench(phi)
+        ctl = list(self.controlled)
+        if not np.any(phi[ctl]):
+            return math.inf
+        ep, en = self.eta
+        amp = np.maximum(ep, en) if self.compensate_eta else np.ones(self.n)
+        most = np.abs(self.B[ctl]) @ (np.maximum(-self.limits[:, 0], self.limits[:, 1]) * amp)
+        nz = phi[ctl] != 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = float(np.min(most[nz] / np.abs(phi[ctl][nz])))
+        if not math.isfinite(bound):
+            return math.inf
+        if bound == 0.0:
+            return 0.0
+        big = 2.0 * bound  # beyond every thrust's reach: the bisection brackets the answer
+        return float(self.allocate(big * phi, "maxscale").fraction) * big
+
     def _array(self, method: str) -> np.ndarray:
         """:meth:`to_array`, built once per method (the allocator is frozen), not to be written."""
         a = self._arrays.get(method)

@@ -431,6 +431,41 @@ def _limit_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]
     return out
 
 
+def _one_way_warnings(vehicle: Vehicle) -> list[str]:
+    """A controlled DOF the thrusters can push one way and not the other: with a thruster
+    limited to one direction (``limits: [0, max]`` or ``[min, 0]``) no thrust within the limits
+    may give the other (the allocation's default modes, the other controlled DOFs held at 0).
+    A controller cannot push the vehicle that way: said, not left to stall a mission."""
+    lim = np.asarray(vehicle.layout.limits, float)
+    one = [i for i in range(vehicle.layout.n) if lim[i, 0] == 0.0 or lim[i, 1] == 0.0]
+    if not one:  # two-sided limits: every direction of a controllable DOF is some thrust's
+        return []
+    from uuvid.vehicle.envelope import DIRECTIONS
+
+    try:
+        al = vehicle.allocator()
+    except (KeyError, ValueError):  # a mode or weight problem is said where it is used
+        return []
+    out = []
+    for d in al.controlled:
+        e = np.zeros(6)
+        e[d] = 1.0
+        r = (al.reach(e), al.reach(-e))
+        for k in (0, 1):
+            if r[k] <= 1e-6 * r[1 - k]:
+                used = [i for i in one if vehicle.B[d, i] != 0.0]
+                names = ", ".join(f"{vehicle.layout[i].name} [{lim[i, 0]:.4g}, {lim[i, 1]:.4g}] N"
+                                  for i in used or one)
+                out.append(f"allocation.dofs: {DOF_NAMES[d]} {DIRECTIONS[d][k]}: no thrust within "
+                           f"the limits gives it (thrusters limited to one direction: {names}), "
+                           f"only {DOF_NAMES[d]} {DIRECTIONS[d][1 - k]} (up to {r[1 - k]:.4g} "
+                           f"{'N' if d < 3 else 'N·m'}): no controller can push the vehicle that "
+                           "way, and a mission that needs it will not follow its path — give "
+                           "those thrusters their reverse thrust (a negative min, N) if they have "
+                           f"it, or leave {DOF_NAMES[d]} out of allocation.dofs")
+    return out
+
+
 def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     """What a valid file may still hold wrong, as :class:`VehicleFileWarning` naming the file — on
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
@@ -438,7 +473,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
-    msgs += _limit_warnings(vehicle, base_dir)
+    msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 
