@@ -114,7 +114,7 @@ def test_square_mission_bluerov2_completes_within_half_a_metre(bluerov2):
 def test_a_thruster_that_cannot_reverse_keeps_the_pid_output_limits_and_flies(bluerov2):
     """T1 limited to [0, 51.5] N: the uniform allocation's direction T φ for surge, sway and yaw
     needs T1 reversed, so its max_along was 0 and the PID's output limits for those DOFs were
-    zeroed — the square mission stalled with only "did not follow the path".  The limits are
+    zeroed — the square mission stalled with only "did not follow the path".  Such a limit is
     what the thrusters can give (either way, every thrust combination), and the mission flies."""
     import warnings
 
@@ -131,10 +131,18 @@ def test_a_thruster_that_cannot_reverse_keeps_the_pid_output_limits_and_flies(bl
         v = vehicle_from_dict(raw, where="oneway.yaml", base_dir=bluerov2.path.parent)
     al = v.allocator()
     g = default_gains(v)
+    stalled = 0
     for j, d in enumerate((0, 1, 2, 5)):
         e = np.eye(6)[d]
-        assert g.tau_max[j] == pytest.approx(max(al.reach(e), al.reach(-e)), rel=1e-9)
+        if al.max_along(e) > 0:  # kept: the uniform allocation's limit, as for every preset
+            assert g.tau_max[j] == al.max_along(e)
+        else:
+            stalled += 1
+            assert g.tau_max[j] == pytest.approx(max(al.reach(e), al.reach(-e)), rel=1e-9)
         assert g.tau_max[j] > 30.0
+    assert stalled >= 1  # surge's went to 0
+    base = bluerov2.allocator()  # the preset's limits are the uniform allocation's, unchanged
+    assert list(default_gains(bluerov2).tau_max) == [base.max_along(np.eye(6)[d]) for d in (0, 1, 2, 5)]
     assert min(al.reach(np.eye(6)[0]), al.reach(-np.eye(6)[0])) == pytest.approx(72.81, abs=0.01)
     s = fly_mission(setup_mission(v, square_mission(speed=cruise_speed(v)[0]))).metrics
     assert s["completed"] and s["max_tracking_error_m"] < 0.5 and not s["warnings"]

@@ -1322,13 +1322,19 @@ def default_gains(vehicle, omega=(1.5, 1.5, 1.5, 2.0), max_lag: float = MAX_CRUI
         omega[j] = max(omega[j], math.sqrt(drag / (mass[j] * max_lag)))
     al = vehicle.allocator()
     tau_max = []
-    for i in idx:  # the largest force along each DOF the thrusters can give, either way (the
-        if i not in al.controlled:  # bounded allocation missions fly: with a thruster limited to
-            tau_max.append(0.0)  # one direction, T φ's own direction may give none, others do;
-            continue  # a direction no thrust gives is said when the vehicle is loaded)
+    for i in idx:  # the largest force along each DOF the thrusters give with uniform allocation
+        if i not in al.controlled:
+            tau_max.append(0.0)
+            continue
         phi = np.zeros(6)
         phi[i] = 1.0
-        tau_max.append(max(al.reach(phi), al.reach(-phi)))
+        most = float(al.max_along(phi))
+        if not most > 0.0:  # a thruster limited to one direction: T φ's own direction gives
+            # none (the PID's limit was 0 and the mission stalled), other thrust mixes do — what
+            # the bounded allocation missions fly can give, either way (a direction no thrust
+            # gives is said when the vehicle is loaded)
+            most = max(al.reach(phi), al.reach(-phi))
+        tau_max.append(most)
     g = gains_from_bandwidth(mass, damping, tau_max, omega=tuple(omega))
     if 3 in al.controlled and 4 in al.controlled:  # thrusters can level the vehicle: hold attitude
         import dataclasses
