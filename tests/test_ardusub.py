@@ -857,6 +857,53 @@ def test_one_heartbeat_with_a_corrupt_receive_time_does_not_stretch_the_modes(sh
     assert not any("left out" in w for w in clean.warnings)
 
 
+def _tlog_records(b: bytes):
+    """(offset, message id) of each record (8-byte receive stamp + frame) of a telemetry log."""
+    off, out = 0, []
+    while off < len(b) - 10 and b[off + 8] in (0xFD, 0xFE):
+        v2 = b[off + 8] == 0xFD
+        n = 12 + b[off + 9] + (13 if b[off + 10] & 1 else 0) if v2 else 8 + b[off + 9]
+        out.append((off, int.from_bytes(b[off + 15:off + 18], "little") if v2 else b[off + 13]))
+        off += 8 + n
+    return out
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("where", ["length", "payload"])
+def test_two_corrupt_bytes_in_a_tlog_lose_only_the_damaged_message_and_are_said(shared_data,
+                                                                                tmp_path, where):
+    """Two bytes flipped in one AHRS2 frame in the middle of a real .tlog: a corrupt length byte
+    made pymavlink swallow 265 bytes (the five valid messages after it, two ATTITUDEs among
+    them) and a corrupt payload byte dropped the frame, both silently; the .BIN reader says
+    what it skips.  Now the bytes are searched again for valid frames and the loss is said with
+    where it is."""
+    from uuvid.io.ardusub.reader import read_raw
+
+    src = (shared_data / REAL / "small.tlog").read_bytes()
+    recs = _tlog_records(src)
+    off = next(o for o, mid in recs[len(recs) // 2:] if mid == 178)  # AHRS2: not read for a dive
+    b = bytearray(src)
+    k = off + (9 if where == "length" else 20)
+    b[k] ^= 0xFF
+    b[k + 1] ^= 0xFF
+    whole = read_raw(shared_data / REAL / "small.tlog")
+    cut = read_raw(_write(tmp_path / "flip.tlog", bytes(b)))
+    n = [sum(sum(s.counts.values()) for s in r.senders.values()) for r in (whole, cut)]
+    assert n[1] == n[0] - 1  # the damaged AHRS2 only
+    for msg in ("ATTITUDE", "SERVO_OUTPUT_RAW", "SCALED_PRESSURE2", "HEARTBEAT"):
+        assert len(cut.get(msg).t) == len(whole.get(msg).t), msg
+    said = [w for w in cut.warnings if f"byte {off:,}" in w]
+    assert len(said) == 1, cut.warnings
+    assert ("damaged in 1 place" in said[0]) == (where == "length")
+    assert ("1 AHRS2 from system 1 component 1" in said[0]) == (where == "payload")
+    assert not any(f"byte {off:,}" in w for w in whole.warnings)
+
+
+def _write(path, data: bytes):
+    path.write_bytes(data)
+    return path
+
+
 # ---------------------------------------------------------------------------------------------
 # Motor directions a log's parameters get wrong, and exports read back as tables
 # ---------------------------------------------------------------------------------------------

@@ -128,7 +128,7 @@ def inspect_log(path, params=None) -> LogInspection:
         warnings.append(f"{raw.same_recv} messages share the receive stamp of the message before "
                         "them (the ground station stamps in batches): receive times only place "
                         "messages without an on-board stamp, through the sender's clock")
-    if raw.bad_data:
+    if raw.bad_data and raw.format != "tlog":  # the telemetry reader says how many and where
         warnings.append(f"{raw.bad_data} undecodable (BAD_DATA) messages skipped")
     params, changed = raw.param_values()
     params = merge_params(params, params_given, warnings)

@@ -201,6 +201,8 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     # (IMU, EKF, ...) and the counts of every type come from its index
     want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
     notes: list = []
+    skipped = _Skipped(conn) if kind == "tlog" else None
+    tlog = skipped.stream() if skipped is not None else None
     stop = _index_stops_early(conn) if kind == "dataflash" else None
     if stop is not None:  # pymavlink's index ends at a damaged message: read them one by one
         want = None
@@ -209,8 +211,8 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     try:
         while True:
             try:
-                m = conn.recv_msg() if want is None else conn.recv_match(type=want,
-                                                                         blocking=False)
+                m = (next(tlog, None) if tlog is not None else conn.recv_msg() if want is None
+                     else conn.recv_match(type=want, blocking=False))
             except Exception as e:
                 raise LogDataError(f"{p.name}: cannot decode the log after message {n}: "
                                    f"{type(e).__name__}: {e}") from e
@@ -301,6 +303,8 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
                 s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
+    if skipped is not None:
+        notes.extend(skipped.notes(p.name, mavutil))
     if len(steps) == 2 and abs(steps[0][1] + steps[1][1]) < CLOCK_STEP_S:  # out and back
         (k, d), (k2, _) = steps
         notes.append(f"{p.name}: the receive times of messages {k:,} to {k2 - 1:,} are off by "
@@ -317,6 +321,147 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
                  same_recv=int(same_recv))
     _finish(raw)
     return raw
+
+
+#: a receive stamp this close (s) to the last good one can start a frame (pymavlink's own scan)
+RESYNC_WINDOW_S = 3 * 24 * 3600.0
+#: a message type failing its checksum in at least this share of its frames from one sender is
+#: the sender's doing (another message definition), not damage to the file
+SENDER_CRC_SHARE = 0.1
+
+
+class _Skipped:
+    """The bytes a telemetry log's reader skips, said instead of lost silently.  pymavlink gives
+    a frame it cannot decode as a BAD_DATA message and resumes where its receive-stamp scan
+    finds a plausible stamp, which can be several frames on (a corrupt length byte swallowed
+    265 bytes, six good messages with it).  :meth:`stream` yields the decoded messages; between
+    two of them the bytes skipped are either one *whole frame* failing its checksum (a corrupt
+    payload byte, or a sender whose message definition differs from pymavlink's) or a *damaged
+    stretch*, which is searched again frame by frame so only the damaged messages are lost."""
+
+    def __init__(self, conn):
+        self.conn = conn
+        self.end = 0  # file position after the last decoded message
+        self.bads: list = []  # BAD_DATA messages since then
+        self.last_recv = math.nan
+        self.t0 = math.nan
+        self.n = 0  # messages yielded
+        self.frames: dict = {}  # (message id, system, component) → [count, first byte]
+        self.good: Counter = Counter()  # (message id, system, component) → decoded
+        self.stretches: list = []  # (first byte, bytes lost, message before, recv before)
+        self.recovered = 0
+
+    def stream(self):
+        conn = self.conn
+        while True:
+            m = conn.recv_msg()
+            if m is None:
+                return
+            if m.get_type() == "BAD_DATA":
+                self.bads.append(m)
+                yield m
+                continue
+            try:
+                pos = int(conn.f.tell())
+            except (AttributeError, OSError, ValueError):
+                pos = None
+            if self.bads and pos is not None:
+                yield from self._between(pos - 8 - len(m.get_msgbuf()))
+            self.bads = []
+            if pos is not None:
+                self.end = pos
+            self._seen(m)
+            yield m
+
+    def _seen(self, m) -> None:
+        self.n += 1
+        self.good[(m.get_msgId(), m.get_srcSystem(), m.get_srcComponent())] += 1
+        recv = float(getattr(m, "_timestamp", math.nan))
+        if recv == recv:
+            self.last_recv = recv
+            if self.t0 != self.t0:
+                self.t0 = recv
+
+    def _between(self, start: int):
+        """The bytes from the last decoded message to ``start`` (the next one's receive stamp)."""
+        size = start - self.end
+        data = bytes(getattr(self.bads[0], "data", b""))
+        if (len(self.bads) == 1 and len(data) == size - 8 and len(data) > 9
+                and "CRC" in str(getattr(self.bads[0], "reason", ""))):
+            v2 = data[0] == 0xFD
+            mid = int.from_bytes(data[7:10], "little") if v2 else data[5]
+            key = (mid, *((data[5], data[6]) if v2 else (data[3], data[4])))
+            self.frames.setdefault(key, [0, self.end])[0] += 1
+            return
+        before, lo, got = self.n, self.end, 0
+        for m, nbytes in self._search(self.end, start):
+            got += nbytes
+            self.recovered += 1
+            self._seen(m)
+            yield m
+        self.stretches.append((lo, size - got, before, self.last_recv if before else math.nan))
+
+    def _search(self, lo: int, hi: int):
+        """Valid frames (each behind a plausible receive stamp) in the file's bytes ``lo:hi``."""
+        buf = getattr(self.conn, "data_map", None)
+        ref = self.last_recv
+        if buf is None or hi <= lo or ref != ref:
+            return
+        buf = bytes(buf[lo:hi])
+        i = 0
+        while i + 8 + 12 <= len(buf):
+            t = int.from_bytes(buf[i:i + 8], "big") * 1e-6
+            stx = buf[i + 8]
+            if abs(t - ref) <= RESYNC_WINDOW_S and stx in (0xFD, 0xFE):
+                n = (12 + buf[i + 9] + (13 if buf[i + 10] & 1 else 0) if stx == 0xFD
+                     else 8 + buf[i + 9])
+                if i + 8 + n <= len(buf):
+                    try:
+                        m = self.conn.mav.decode(bytearray(buf[i + 8:i + 8 + n]))
+                    except Exception:  # noqa: BLE001 - any undecodable frame: search on
+                        m = None
+                    if m is not None:
+                        m._timestamp = t
+                        yield m, 8 + n
+                        i += 8 + n
+                        continue
+            i += 1
+
+    def notes(self, name: str, mavutil) -> list:
+        out = []
+        if self.stretches:
+            lost = sum(s[1] for s in self.stretches)
+            where = "; ".join(f"byte {b:,} ({k:,} bytes, after message {n:,}"
+                              + (f", {r - self.t0:.1f} s into the log" if r == r else "") + ")"
+                              for b, k, n, r in self.stretches[:3])
+            more = f"; {len(self.stretches) - 3} more" if len(self.stretches) > 3 else ""
+            back = (f"; {self.recovered:,} valid message(s) found again inside them"
+                    if self.recovered else "")
+            out.append(f"{name}: the log is damaged in {len(self.stretches)} place(s), {lost:,} "
+                       f"bytes skipped: {where}{more}{back}; the reader resumed at the next valid "
+                       "message, so only the messages in the damaged bytes are lost")
+        names = getattr(getattr(mavutil, "mavlink", None), "mavlink_map", None) or {}
+        damage, sender = [], []
+        for key, (c, first) in sorted(self.frames.items(), key=lambda kv: kv[1][1]):
+            nm = getattr(names.get(key[0]), "msgname", None) or f"message id {key[0]}"
+            who = f"{nm} from system {key[1]} component {key[2]}"
+            if c >= SENDER_CRC_SHARE * (c + self.good.get(key, 0)):
+                sender.append((c, who))
+            else:
+                damage.append((c, f"{who} at byte {first:,}"))
+        if damage:
+            out.append(f"{name}: {sum(c for c, _ in damage):,} message(s) fail their checksum (a "
+                       "corrupt byte) and are skipped: "
+                       + "; ".join(f"{c:,} {w}" for c, w in damage[:4])
+                       + (f"; {len(damage) - 4} more" if len(damage) > 4 else ""))
+        if sender:
+            sender.sort(key=lambda cw: -cw[0])
+            out.append(f"{name}: {sum(c for c, _ in sender):,} message(s) fail their checksum in "
+                       f"every copy or in over {SENDER_CRC_SHARE:.0%} of them — a sender whose "
+                       "message definition differs from pymavlink's, not damage; skipped: "
+                       + "; ".join(f"{c:,} {w}" for c, w in sender[:4])
+                       + (f"; {len(sender) - 4} more type(s)" if len(sender) > 4 else ""))
+        return out
 
 
 def _enum(name: str, value) -> str:
