@@ -120,3 +120,74 @@ def test_a_monte_carlo_sigma_or_estimate_that_cannot_be_drawn_is_refused():
                     backend="inprocess", progress=False)
     assert res.table["message"].str.contains("tunnel_length's estimate -5 is itself outside "
                                              r"\[0(\.0)?, inf\]").all()
+
+
+# ------------------------------------------------------------------ files that are no dive log
+#: internal names a user should never read in an error about a file
+INTERNAL = ("Traceback", "UnicodeDecodeError", "codec can't decode", "mmap", "NoneType",
+            "AnyReaderError", "EmptyDataError", "senders (0/0)", "no such log file")
+
+
+def _bad_file(tmp_path, name: str, what: str):
+    import numpy as np
+
+    p = tmp_path / name
+    if what == "folder":
+        p.mkdir()
+    elif name == "ros2":  # a ROS 2 bag folder whose metadata.yaml is no bag description
+        p.mkdir()
+        (p / "metadata.yaml").write_bytes(np.random.default_rng(0).bytes(3000) if what == "random"
+                                          else b"")
+    else:
+        p.write_bytes(np.random.default_rng(0).bytes(5000) if what == "random" else b"")
+    return p
+
+
+@pytest.mark.parametrize("name", ["dive.tlog", "dive.BIN", "dive.log"])
+@pytest.mark.parametrize("what", ["random", "empty", "folder"])
+def test_an_ardusub_log_that_is_none_is_a_clear_error_in_every_reader(tmp_path, name, what):
+    """Random bytes, an empty file or a folder under a log's name gave "'utf-8' codec can't
+    decode byte 0xfe" (a traceback in `identify dive`), "cannot mmap an empty file", "no
+    autopilot HEARTBEAT ... senders (0/0)" or "no such log file" of a folder.  Each reader and
+    command now names the file and what it expected."""
+    from uuvid.io.ardusub import inspect_log, load_dive
+    from uuvid.io.dive_channels import read_dive_channels
+    from uuvid.io.logs import read_ardusub
+
+    p = _bad_file(tmp_path, name, what)
+    readers = [inspect_log, load_dive, read_ardusub, lambda q: read_dive_channels(q, "bluerov2")]
+    for read in readers:
+        with pytest.raises(LogDataError) as e:
+            read(p)
+        msg = str(e.value)
+        assert name in msg and not any(s in msg for s in INTERNAL), msg
+        if what != "random" or name != "dive.BIN":  # (a random .BIN: pymavlink's complaint)
+            assert ".tlog" in msg and ".bin" in msg.lower(), msg
+    for cmd in (["log", "inspect"], ["vehicle", "identify", "dive", "--vehicle", "bluerov2-heavy"]):
+        res = runner.invoke(app, [*cmd, str(p)])
+        out = _said(res)
+        assert res.exit_code == 2 and name in out and not any(s in out for s in INTERNAL), out
+
+
+@pytest.mark.parametrize("name", ["dive.csv", "dive.parquet", "dive.bag", "ros2"])
+@pytest.mark.parametrize("what", ["random", "empty"])
+def test_a_table_or_bag_that_is_none_is_a_clear_error(tmp_path, name, what):
+    """A random or empty .bag said "cannot read the bag: UnicodeDecodeError" / "AnyReaderError",
+    a ROS 2 folder with an empty metadata.yaml "'NoneType' object is not subscriptable", an empty
+    CSV "EmptyDataError": each now says what the file is not and what was expected."""
+    pytest.importorskip("rosbags")
+    from uuvid.io.dive_channels import read_dive_channels
+
+    p = _bad_file(tmp_path, name, what)
+    with pytest.raises(LogDataError) as e:
+        read_dive_channels(p, "bluerov2")
+    msg = str(e.value)
+    assert name in msg and "expected" in msg and not any(s in msg for s in INTERNAL), msg
+    res = runner.invoke(app, ["vehicle", "identify", "dive", "--vehicle", "bluerov2-heavy", str(p)])
+    out = _said(res)
+    assert res.exit_code == 2 and name in out and not any(s in out for s in INTERNAL), out
+    if name in ("dive.bag", "ros2"):
+        from uuvid.io.logs import read_rosbag
+
+        with pytest.raises(LogDataError, match="not a ROS|empty"):
+            read_rosbag(p, {"depth": "/depth:data"})

@@ -99,7 +99,7 @@ def test_servo_outputs_in_another_unit_or_off(tmp_path):
 
 
 @pytest.mark.parametrize("content, expected", [
-    (b"", r"e\.csv: not a readable CSV table \(EmptyDataError"),
+    (b"", r"e\.csv: the file is empty \(0 bytes\)"),
     (bytes(range(256)) * 20, r"e\.csv: not a readable CSV table"),
     (b"t_s;depth_m\n0,0;1,5\n0,1;1,6\n", r"separated by ';'"),
     (b"t_s,depth_m\n", r"no data rows under the header"),

@@ -1009,21 +1009,28 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
     suf = p.suffix.lower()
     if p.is_dir():
         raise DiveDataError(_folder_message(p))
+    if suf in (".csv", ".parquet") and p.is_file() and p.stat().st_size == 0:
+        raise DiveDataError(f"{p.name}: the file is empty (0 bytes); expected a dive table with a "
+                            "header row (t_s, depth_m, …)")
     if suf == ".csv":
         try:
             df = pd.read_csv(p)
         except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as e:
-            raise DiveDataError(f"{p.name}: not a readable CSV table ({type(e).__name__}: "
-                                f"{str(e).splitlines()[0][:160]}); expected comma-separated "
-                                "columns with a header row (t_s, depth_m, …) and '.' as the "
-                                "decimal point") from None
+            why = (f"not text: byte 0x{e.object[e.start]:02x} at position {e.start:,} is not "
+                   "UTF-8 — a binary file?" if isinstance(e, UnicodeDecodeError)
+                   else f"{type(e).__name__}: {str(e).splitlines()[0][:160]}")
+            raise DiveDataError(f"{p.name}: not a readable CSV table ({why}); expected "
+                                "comma-separated columns with a header row (t_s, depth_m, …) and "
+                                "'.' as the decimal point") from None
         return _from_table(df, p.name, "csv", veh, warnings, export=_export_meta(p, None))
     if suf == ".parquet":
         try:
             df = pd.read_parquet(p)
         except Exception as e:  # pyarrow raises several kinds for a file that is not Parquet
             raise DiveDataError(f"{p.name}: not a readable Parquet file ({type(e).__name__}: "
-                                f"{str(e).splitlines()[0][:160] if str(e) else ''})") from None
+                                f"{str(e).splitlines()[0][:160] if str(e) else ''}); expected a "
+                                "table with t_s and the dive's columns, as `uuvid log export` "
+                                "writes it") from None
         return _from_table(df, p.name, "parquet", veh, warnings, export=_export_meta(p, df))
     if suf in (".tlog", ".bin", ".log"):
         from uuvid.io.ardusub import load_dive

@@ -148,6 +148,83 @@ def _index_stops_early(conn) -> tuple[int, int] | None:
     return (int(last), size) if size - last > INDEX_SLACK_BYTES else None
 
 
+#: what the ArduSub log readers read, for their errors
+ARDUSUB_KINDS = ("expected an ArduSub log file: .tlog (MAVLink telemetry, as QGroundControl or "
+                 "BlueOS save it), .bin or .log (dataflash, from the autopilot)")
+
+
+def _ardusub_kind(p: Path) -> str:
+    """``"tlog"`` or ``"dataflash"`` for an ArduSub log file, by its suffix; a clear
+    :class:`LogDataError` naming the file for anything else (no file, a folder, a ROS bag, an
+    empty file, another suffix, a ``.log`` that is no dataflash text log)."""
+    from uuvid.io.bag_path import bag_instead
+
+    if bag_instead(p):
+        raise LogDataError(bag_instead(p))
+    if p.is_dir():
+        raise LogDataError(f"{p}: a folder, not a log file; {ARDUSUB_KINDS}")
+    if not p.is_file():
+        raise LogDataError(f"{p}: no such log file")
+    suffix = p.suffix.lower()
+    if suffix not in (".tlog", ".bin", ".log"):
+        raise LogDataError(f"{p.name}: unknown log type {p.suffix!r}; expected .tlog (MAVLink "
+                           "telemetry), .bin or .log (ArduSub dataflash)")
+    try:
+        size = p.stat().st_size
+    except OSError as e:
+        raise LogDataError(f"{p}: cannot read the log ({e.strerror or e})") from None
+    if size == 0:
+        raise LogDataError(f"{p.name}: the file is empty (0 bytes); {ARDUSUB_KINDS}")
+    if suffix == ".tlog":
+        return "tlog"
+    if suffix == ".bin":
+        return "dataflash"
+    from pymavlink import DFReader
+
+    try:
+        text = DFReader.DFReader_is_text_log(str(p))
+    except (UnicodeDecodeError, ValueError):  # binary bytes: pymavlink reads the head as text
+        text = False
+    if not text:
+        raise LogDataError(f"{p.name}: a .log file that is not a dataflash text log (its first "
+                           "line is not an 'FMT, ...' record); a binary dataflash log ends in .bin, "
+                           "a MAVLink telemetry log in .tlog")
+    return "dataflash"
+
+
+def _not_a_tlog(p: Path, bad: int) -> str:
+    """The error for a ``.tlog`` in which no MAVLink message decodes (random bytes decode as a
+    stray UNKNOWN_n or nothing)."""
+    with open(p, "rb") as f:
+        head = f.read(2)
+    hint = ("; it starts like a dataflash log: is it a .BIN under another suffix?"
+            if head == b"\xa3\x95" else "")
+    return (f"{p.name}: no MAVLink message could be decoded ({bad:,} undecodable frame(s) in "
+            f"{p.stat().st_size:,} bytes): not a telemetry log{hint}; {ARDUSUB_KINDS}")
+
+
+#: undecodable frames at the head of a .tlog after which it is read anyway (a damaged start)
+TLOG_PROBE_FRAMES = 2000
+
+
+def _tlog_decodes(conn) -> tuple[bool, int]:
+    """Whether a known MAVLink message decodes near the head of a telemetry log, and how many
+    frames did not before it; the log is rewound.  (pymavlink's index of a telemetry log does not
+    check checksums: random bytes list nine message types.)"""
+    bad = 0
+    try:
+        for _ in range(TLOG_PROBE_FRAMES):
+            m = conn.recv_msg()
+            if m is None:
+                return False, bad
+            if m.get_type() != "BAD_DATA" and not m.get_type().startswith("UNKNOWN_"):
+                return True, bad
+            bad += 1
+        return True, bad  # a long damaged head: read what follows
+    finally:
+        conn.rewind()
+
+
 def _require(module: str, what: str):
     import importlib
 
@@ -921,15 +998,49 @@ def _bag_location(p: Path) -> tuple[Path, int]:
     if not p.exists():
         raise LogDataError(f"{p}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
     if p.is_file() and p.suffix == ".bag":
+        try:
+            with open(p, "rb") as f:
+                head = f.read(13)
+        except OSError as e:
+            raise LogDataError(f"{p}: cannot read the bag ({e.strerror or e})") from None
+        if not head:
+            raise LogDataError(f"{p.name}: the file is empty (0 bytes); expected a ROS 1 bag "
+                               "(as `rosbag record` writes it) or a ROS 2 bag directory")
+        if head != b"#ROSBAG V2.0\n":
+            raise LogDataError(f"{p.name}: not a ROS 1 bag: it does not start with '#ROSBAG V2.0'; "
+                               "expected a bag as `rosbag record` writes it (a ROS 2 bag is a "
+                               "directory holding metadata.yaml)")
         return p, 1
     if p.is_dir():
         if (p / "metadata.yaml").exists():
+            _check_bag_metadata(p / "metadata.yaml")
             return p, 2
         raise LogDataError(f"{p}: a directory without metadata.yaml is not a ROS 2 bag")
     if p.is_file() and (p.parent / "metadata.yaml").exists():
+        _check_bag_metadata(p.parent / "metadata.yaml")
         return p.parent, 2
     raise LogDataError(f"{p}: not a bag: expected a ROS 1 '.bag' file or a ROS 2 bag directory "
                        "(with metadata.yaml)")
+
+
+def _check_bag_metadata(meta: Path) -> None:
+    """A ROS 2 bag's metadata.yaml that is no bag description is said as such (rosbags said
+    "'NoneType' object is not subscriptable" of an empty one, a UnicodeDecodeError of bytes)."""
+    import yaml
+
+    what = ("expected the YAML mapping with rosbag2_bagfile_information that `ros2 bag record` "
+            "writes")
+    try:
+        doc = yaml.safe_load(meta.read_bytes().decode("utf-8"))
+    except (UnicodeDecodeError, yaml.YAMLError) as e:
+        why = "not text" if isinstance(e, UnicodeDecodeError) else "not YAML"
+        raise LogDataError(f"{meta}: {why}, not a ROS 2 bag's metadata; {what}") from None
+    except OSError as e:
+        raise LogDataError(f"{meta}: cannot read it ({e.strerror or e})") from None
+    if not (isinstance(doc, dict) and isinstance(doc.get("rosbag2_bagfile_information"), dict)):
+        got = "empty" if doc is None else f"a YAML {type(doc).__name__}" + (
+            f" with keys {', '.join(map(str, list(doc)[:5]))}" if isinstance(doc, dict) else "")
+        raise LogDataError(f"{meta}: {got}, not a ROS 2 bag's metadata; {what}")
 
 
 def read_rosbag(path, topics: Mapping[str, str], *, resample: str | float | None = None,
@@ -1338,28 +1449,7 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
     """The body of :func:`read_ardusub` (pymavlink's prints captured by the caller)."""
     mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
     p = Path(path)
-    if not p.exists():
-        raise LogDataError(f"{p}: no such log file")
-    from uuvid.io.bag_path import bag_instead
-
-    if bag_instead(p):
-        raise LogDataError(bag_instead(p))
-    if not p.is_file():
-        raise LogDataError(f"{p}: not a file")
-    suffix = p.suffix.lower()
-    if suffix == ".tlog":
-        kind = "tlog"
-    elif suffix == ".bin":
-        kind = "dataflash"
-    elif suffix == ".log":
-        from pymavlink import DFReader
-
-        if not DFReader.DFReader_is_text_log(str(p)):
-            raise LogDataError(f"{p.name}: a .log file that is not a dataflash text log")
-        kind = "dataflash"
-    else:
-        raise LogDataError(f"{p.name}: unknown log type {p.suffix!r}; expected .tlog (MAVLink "
-                           "telemetry), .bin or .log (dataflash)")
+    kind = _ardusub_kind(p)
     if time not in ("boot", "log"):
         raise LogDataError(f"unknown time {time!r}; expected 'boot' or 'log'")
     if time == "log" and kind == "dataflash":
@@ -1411,6 +1501,11 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
         read_types |= {"HEARTBEAT"}
         if time == "boot":  # messages that map receive times onto the boot clock
             read_types |= _TLOG_CLOCK_TYPES
+    if kind == "tlog":
+        ok, bad = _tlog_decodes(conn)
+        if not ok:
+            conn.close()
+            raise LogDataError(_not_a_tlog(p, bad))
     damaged = _index_stops_early(conn) if kind == "dataflash" else None
     if damaged is not None and damaged[0] > 0:  # the filtered read would end at the damage
         import warnings

@@ -23,10 +23,12 @@ import numpy as np
 
 from uuvid.io.logs import (
     LogDataError,
+    _ardusub_kind,
     _boot_from_log,
     _captured_output,
     _damaged_index_note,
     _index_stops_early,
+    _not_a_tlog,
     _require,
     _tlog_boot,
 )
@@ -115,22 +117,6 @@ class RawLog:
         return last, {n: h for n, h in hist.items() if len(h) > 1}
 
 
-def _log_kind(p: Path) -> str:
-    s = p.suffix.lower()
-    if s == ".tlog":
-        return "tlog"
-    if s == ".bin":
-        return "dataflash"
-    if s == ".log":
-        from pymavlink import DFReader
-
-        if DFReader.DFReader_is_text_log(str(p)):
-            return "dataflash"
-        raise LogDataError(f"{p.name}: a .log file that is not a dataflash text log")
-    raise LogDataError(f"{p.name}: unknown log type {p.suffix!r}; expected .tlog (MAVLink "
-                       "telemetry), .bin or .log (ArduSub dataflash)")
-
-
 def _numeric_fields(m) -> dict:
     out = {}
     for f in m.get_fieldnames():
@@ -148,13 +134,7 @@ def read_raw(path) -> RawLog:
     a telemetry log named .BIN) are collected and said once, as a warning of the log."""
     mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
     p = Path(path)
-    from uuvid.io.bag_path import bag_instead
-
-    if bag_instead(p):
-        raise LogDataError(bag_instead(p))
-    if not p.is_file():
-        raise LogDataError(f"{p}: no such log file")
-    kind = _log_kind(p)
+    kind = _ardusub_kind(p)
     chatter: list = []
     try:
         with _captured_output(chatter):
@@ -303,6 +283,9 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
                 s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
+    if kind == "tlog" and not any(not k.startswith("UNKNOWN_") for s in senders.values()
+                                  for k in s.counts):  # random bytes decode as a stray UNKNOWN_n
+        raise LogDataError(_not_a_tlog(p, bad))
     if skipped is not None:
         notes.extend(skipped.notes(p.name, mavutil))
     if len(steps) == 2 and abs(steps[0][1] + steps[1][1]) < CLOCK_STEP_S:  # out and back
