@@ -323,6 +323,29 @@ def test_all_returns_what_the_log_can_inform_and_says_what_it_cannot(dive):
         identify_dive(cut, "bluerov2", ["heave", "yaw"])
 
 
+@pytest.mark.slow
+def test_too_short_a_dive_error_says_the_readers_warning_behind_it(dive, tmp_path):
+    """A depth sensor stuck from t = 50 s: the reader warned that those samples are left out,
+    then heave failed with 'window too short' — and the command printed only the error.  The
+    error now carries the reader's warnings about the DOF's channel and samples left out."""
+    df, _ = dive
+    stuck = df.copy()
+    stuck.loc[(stuck["t_s"] > 50.0) & stuck["depth_m"].notna(), "depth_m"] = 2.5
+    p = tmp_path / "stuck.csv"
+    stuck.to_csv(p, index=False)
+    why = r"too short to identify heave.*the reader warned of this log: depth_m repeats 2\.5"
+    with pytest.raises(DiveDataError, match=why):
+        identify_dive(p, "bluerov2", ["heave"])
+    with pytest.raises(DiveDataError, match=why):  # "all": the only DOF it could have had
+        identify_dive(stuck.drop(columns=["yaw_rad"]), "bluerov2", "all")
+    res = runner.invoke(app, ["vehicle", "identify", "dive", str(p), "--vehicle", "bluerov2",
+                              "--dof", "heave"])
+    out = " ".join(res.output.split())
+    assert res.exit_code == 2 and "too short" in out and "a stuck sensor" in out, out
+    # a reader warning about another matter (the force columns used) is not added to heave's
+    assert "force columns" not in out
+
+
 def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path):
     """The example dive with one horizontal motor's PWM mirrored (driven with the others, so the
     direction check names it too): yaw inertia ×11.5 of the base, said with what to check; the

@@ -524,6 +524,26 @@ def _surge_in_yaw_windows(dc, veh, windows) -> str | None:
             "v_mps) the coupled model (--dof horizontal)")
 
 
+#: words of a reader's warning that bear on a DOF that could not be identified: its measured
+#: channels, and what removes or corrupts samples of any channel
+_DOF_WORDS = {"heave": ("depth",), "yaw": ("yaw", "heading"), "surge": ("u_mps", "surge"),
+              "sway": ("v_mps", "sway"), "horizontal": ("u_mps", "v_mps", "yaw", "heading")}
+_SAMPLE_WORDS = ("armed", "left out", "damaged", "skipped", "dropped", "lost")
+
+
+def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
+    """``e`` (a DOF not identified) with the reader's warnings about its channels or about
+    samples left out appended: a CLI user sees the error alone, not the warnings that explain it
+    (a stuck depth sensor whose samples were left out, then 'window too short')."""
+    words = _SAMPLE_WORDS + tuple(w for d in dofs for w in _DOF_WORDS.get(d, ()))
+    pre = f"{dc.name}: " if dc.name else ""
+    said = [w.removeprefix(pre) for w in dc.warnings if any(k in w.lower() for k in words)]
+    if not said:
+        return e
+    more = f" (and {len(said) - 3} more)" if len(said) > 3 else ""
+    return DiveDataError(f"{e} — the reader warned of this log: " + " | ".join(said[:3]) + more)
+
+
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
              weighting: bool = True, gain=None, inflow_starts=None):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
@@ -906,15 +926,15 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             ests[dof] = one(dof)
         except DiveDataError as e:
             if not every:  # DOFs the user named: each must be identified
-                raise
+                raise _with_reader_warnings(e, [dof], dc) from None
             failed.append((dof, e))
             warnings.append(f"{dof} not identified: {e}")
-    if not ests:
+    if not ests:  # (the reader's warnings are not printed with an error: said in it)
         if len(failed) == 1:
-            raise failed[0][1]
-        raise DiveDataError("no DOF could be identified: " + "; ".join(
+            raise _with_reader_warnings(failed[0][1], [failed[0][0]], dc) from None
+        raise _with_reader_warnings(DiveDataError("no DOF could be identified: " + "; ".join(
             f"{dof}: {str(e).removeprefix(dc.name + ': ')}" for dof, e in failed)
-            + (f" (read from {dc.name})" if dc.name else ""))
+            + (f" (read from {dc.name})" if dc.name else "")), [d for d, _ in failed], dc) from None
     measured = ("depth_m", "yaw_rad", "u_mps", "v_mps", "roll_rad", "pitch_rad")
     used = {c: str(dc.sources.get(c)) for c in measured
             if c in dc.channels and dc.sources.get(c)}
