@@ -899,6 +899,31 @@ def test_two_corrupt_bytes_in_a_tlog_lose_only_the_damaged_message_and_are_said(
     assert not any(f"byte {off:,}" in w for w in whole.warnings)
 
 
+@pytest.mark.realdata
+@pytest.mark.parametrize("where", ["length", "payload"])
+def test_read_ardusub_says_the_damaged_bytes_of_a_tlog_too(shared_data, tmp_path, where):
+    """The library reader goes by pymavlink's index, which steps over damaged bytes and drops a
+    frame failing its checksum silently: two flipped bytes in one ATTITUDE frame lost it (and
+    with a corrupt length byte two more) with nothing said.  Now a gap in the index reads the
+    log in turn (the damage searched again, as the dive reader does) and both are warned."""
+    from uuvid.io.logs import LogWarning, read_ardusub
+
+    src = (shared_data / REAL / "small.tlog").read_bytes()
+    recs = _tlog_records(src)
+    off = next(o for o, mid in recs[len(recs) // 2:] if mid == 30)  # ATTITUDE
+    b = bytearray(src)
+    k = off + (9 if where == "length" else 22)
+    b[k] ^= 0xFF
+    b[k + 1] ^= 0xFF
+    whole = read_ardusub(shared_data / REAL / "small.tlog", on_duplicate="mean")
+    with pytest.warns(LogWarning) as rec:
+        cut = read_ardusub(_write(tmp_path / "flip.tlog", bytes(b)), on_duplicate="mean")
+    said = [str(w.message) for w in rec if f"byte {off:,}" in str(w.message)]
+    assert len(said) == 1 and "flip.tlog" in said[0], [str(w.message) for w in rec]
+    assert cut["roll"].t.size == whole["roll"].t.size - 1  # the damaged ATTITUDE only
+    assert cut["servo_1"].t.size == whole["servo_1"].t.size
+
+
 def _write(path, data: bytes):
     path.write_bytes(data)
     return path

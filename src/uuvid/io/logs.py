@@ -37,6 +37,7 @@ import math
 import os
 import re
 import sys
+from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -223,6 +224,176 @@ def _tlog_decodes(conn) -> tuple[bool, int]:
         return True, bad  # a long damaged head: read what follows
     finally:
         conn.rewind()
+
+
+#: a receive stamp this close (s) to the last good one can start a frame (pymavlink's own scan)
+RESYNC_WINDOW_S = 3 * 24 * 3600.0
+#: a message type failing its checksum in at least this share of its frames from one sender is
+#: the sender's doing (another message definition), not damage to the file
+SENDER_CRC_SHARE = 0.1
+
+
+class _Skipped:
+    """The bytes a telemetry log's reader skips, said instead of lost silently.  pymavlink gives
+    a frame it cannot decode as a BAD_DATA message and resumes where its receive-stamp scan
+    finds a plausible stamp, which can be several frames on (a corrupt length byte swallowed
+    265 bytes, six good messages with it).  :meth:`stream` yields the decoded messages; between
+    two of them the bytes skipped are either one *whole frame* failing its checksum (a corrupt
+    payload byte, or a sender whose message definition differs from pymavlink's) or a *damaged
+    stretch*, which is searched again frame by frame so only the damaged messages are lost."""
+
+    def __init__(self, conn):
+        self.conn = conn
+        self.end = 0  # file position after the last decoded message
+        self.bads: list = []  # BAD_DATA messages since then
+        self.last_recv = math.nan
+        self.t0 = math.nan
+        self.n = 0  # messages yielded
+        self.frames: dict = {}  # (message id, system, component) → [count, first byte]
+        self.good: Counter = Counter()  # (message id, system, component) → decoded
+        self.stretches: list = []  # (first byte, bytes lost, message before, recv before)
+        self.recovered = 0
+
+    def stream(self):
+        conn = self.conn
+        while True:
+            m = conn.recv_msg()
+            if m is None:
+                return
+            if m.get_type() == "BAD_DATA":
+                self.bads.append(m)
+                yield m
+                continue
+            try:
+                pos = int(conn.f.tell())
+            except (AttributeError, OSError, ValueError):
+                pos = None
+            if self.bads and pos is not None:
+                yield from self._between(pos - 8 - len(m.get_msgbuf()))
+            self.bads = []
+            if pos is not None:
+                self.end = pos
+            self._seen(m)
+            yield m
+
+    def _seen(self, m) -> None:
+        self.n += 1
+        self.good[(m.get_msgId(), m.get_srcSystem(), m.get_srcComponent())] += 1
+        recv = float(getattr(m, "_timestamp", math.nan))
+        if recv == recv:
+            self.last_recv = recv
+            if self.t0 != self.t0:
+                self.t0 = recv
+
+    def _between(self, start: int):
+        """The bytes from the last decoded message to ``start`` (the next one's receive stamp)."""
+        size = start - self.end
+        datas = [bytes(getattr(b, "data", b"")) for b in self.bads]
+        if (sum(len(d) + 8 for d in datas) == size and all(len(d) > 9 for d in datas)
+                and all("CRC" in str(getattr(b, "reason", "")) for b in self.bads)):
+            at = self.end  # whole frames, each behind its receive stamp: their checksums failed
+            for data in datas:
+                v2 = data[0] == 0xFD
+                mid = int.from_bytes(data[7:10], "little") if v2 else data[5]
+                key = (mid, *((data[5], data[6]) if v2 else (data[3], data[4])))
+                self.frames.setdefault(key, [0, at])[0] += 1
+                at += len(data) + 8
+            return
+        before, lo, got = self.n, self.end, 0
+        for m, nbytes in self._search(self.end, start):
+            got += nbytes
+            self.recovered += 1
+            self._seen(m)
+            yield m
+        self.stretches.append((lo, size - got, before, self.last_recv if before else math.nan))
+
+    def _search(self, lo: int, hi: int):
+        """Valid frames (each behind a plausible receive stamp) in the file's bytes ``lo:hi``."""
+        buf = getattr(self.conn, "data_map", None)
+        ref = self.last_recv
+        if buf is None or hi <= lo or ref != ref:
+            return
+        buf = bytes(buf[lo:hi])
+        i = 0
+        while i + 8 + 12 <= len(buf):
+            t = int.from_bytes(buf[i:i + 8], "big") * 1e-6
+            stx = buf[i + 8]
+            if abs(t - ref) <= RESYNC_WINDOW_S and stx in (0xFD, 0xFE):
+                n = (12 + buf[i + 9] + (13 if buf[i + 10] & 1 else 0) if stx == 0xFD
+                     else 8 + buf[i + 9])
+                if i + 8 + n <= len(buf):
+                    try:
+                        m = self.conn.mav.decode(bytearray(buf[i + 8:i + 8 + n]))
+                    except Exception:  # noqa: BLE001 - any undecodable frame: search on
+                        m = None
+                    if m is not None:
+                        m._timestamp = t
+                        yield m, 8 + n
+                        i += 8 + n
+                        continue
+            i += 1
+
+    def notes(self, name: str, mavutil) -> list:
+        out = []
+        if self.stretches:
+            lost = sum(s[1] for s in self.stretches)
+            where = "; ".join(f"byte {b:,} ({k:,} bytes, after message {n:,}"
+                              + (f", {r - self.t0:.1f} s into the log" if r == r else "") + ")"
+                              for b, k, n, r in self.stretches[:3])
+            more = f"; {len(self.stretches) - 3} more" if len(self.stretches) > 3 else ""
+            back = (f"; {self.recovered:,} valid message(s) found again inside them"
+                    if self.recovered else "")
+            out.append(f"{name}: the log is damaged in {len(self.stretches)} place(s), {lost:,} "
+                       f"bytes skipped: {where}{more}{back}; the reader resumed at the next valid "
+                       "message, so only the messages in the damaged bytes are lost")
+        names = getattr(getattr(mavutil, "mavlink", None), "mavlink_map", None) or {}
+        damage, sender = [], []
+        for key, (c, first) in sorted(self.frames.items(), key=lambda kv: kv[1][1]):
+            nm = getattr(names.get(key[0]), "msgname", None) or f"message id {key[0]}"
+            who = f"{nm} from system {key[1]} component {key[2]}"
+            if c >= SENDER_CRC_SHARE * (c + self.good.get(key, 0)):
+                sender.append((c, who))
+            else:
+                damage.append((c, f"{who} at byte {first:,}"))
+        if damage:
+            out.append(f"{name}: {sum(c for c, _ in damage):,} message(s) fail their checksum (a "
+                       "corrupt byte) and are skipped: "
+                       + "; ".join(f"{c:,} {w}" for c, w in damage[:4])
+                       + (f"; {len(damage) - 4} more" if len(damage) > 4 else ""))
+        if sender:
+            sender.sort(key=lambda cw: -cw[0])
+            out.append(f"{name}: {sum(c for c, _ in sender):,} message(s) fail their checksum in "
+                       f"every copy or in over {SENDER_CRC_SHARE:.0%} of them — a sender whose "
+                       "message definition differs from pymavlink's, not damage; skipped: "
+                       + "; ".join(f"{c:,} {w}" for c, w in sender[:4])
+                       + (f"; {len(sender) - 4} more type(s)" if len(sender) > 4 else ""))
+        return out
+
+
+def _tlog_frame_end(data, o: int) -> int | None:
+    """The end of the telemetry-log record (receive stamp + frame) at byte ``o``, or ``None``."""
+    if o + 11 > len(data) or data[o + 8] not in (0xFD, 0xFE):
+        return None
+    if data[o + 8] == 0xFD:
+        return o + 8 + 12 + data[o + 9] + (13 if data[o + 10] & 1 else 0)
+    return o + 8 + 8 + data[o + 9]
+
+
+def _tlog_index_gaps(conn) -> bool:
+    """Whether pymavlink's index of a telemetry log has a gap: a record that does not end where
+    the next indexed one starts, with no chain of frames (of types it does not know) between."""
+    data = getattr(conn, "data_map", None)
+    offsets = getattr(conn, "offsets", None)
+    if data is None or not offsets:
+        return False
+    starts = sorted(o for lst in offsets.values() for o in lst)
+    for o, nxt in zip(starts, starts[1:] + [len(data)]):
+        q = _tlog_frame_end(data, o)
+        while q is not None and q < nxt:
+            q = _tlog_frame_end(data, q)
+        if q != nxt and not (nxt == len(data) and q is not None and q >= nxt):
+            return True
+    return False
 
 
 def _require(module: str, what: str):
@@ -1511,16 +1682,32 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
         import warnings
 
         warnings.warn(_damaged_index_note(name, damaged), LogWarning, stacklevel=3)
+    # telemetry: pymavlink's index skips damaged bytes silently; where it has gaps every message
+    # is read in turn (slower) so the damage is searched again and said (:class:`_Skipped`)
+    skips = _Skipped(conn) if kind == "tlog" and _tlog_index_gaps(conn) else None
+    stream = skips.stream() if skips is not None else None
+    crc_bad: list = []  # byte offsets of frames of the types read failing their checksum
     try:
         present = _present_types(conn, kind)
         while True:
             try:
-                m = conn.recv_match(type=None if damaged else read_types, blocking=False)
+                if stream is not None:
+                    m = next(stream, None)
+                elif kind == "tlog":  # recv_match drops BAD_DATA: the index's offsets read here
+                    conn.skip_to_type(read_types)
+                    at = conn.offset
+                    m = conn.recv_msg()
+                    if m is not None and m.get_type() == "BAD_DATA":
+                        crc_bad.append(at)
+                else:
+                    m = conn.recv_match(type=None if damaged else read_types, blocking=False)
             except Exception as e:
                 raise LogDataError(f"{name}: cannot decode the log: {type(e).__name__}: {e}") from e
             if m is None:
                 break
             mt = m.get_type()
+            if kind == "tlog" and mt not in read_types:
+                continue
             if kind == "tlog":
                 src = (m.get_srcSystem(), m.get_srcComponent())
                 if mt == "HEARTBEAT":
@@ -1572,6 +1759,14 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
         except Exception:
             pass
 
+    import warnings
+
+    for note in skips.notes(name, mavutil) if skips is not None else []:
+        warnings.warn(note, LogWarning, stacklevel=3)
+    if crc_bad:
+        warnings.warn(f"{name}: {len(crc_bad):,} message(s) of the types read fail their checksum "
+                      f"and are skipped (first at byte {crc_bad[0]:,}): a corrupt byte, or a sender "
+                      "whose message definition differs from pymavlink's", LogWarning, stacklevel=3)
     # --- the sender (telemetry) --------------------------------------------------------------
     chosen_src: tuple[int, int] | None = None
     if kind == "tlog":
