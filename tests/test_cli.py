@@ -1,6 +1,7 @@
 """The command line: JSON on stdout, reports written, clear errors with exit status 2."""
 
 import json
+import os
 import re
 
 import pytest
@@ -71,6 +72,18 @@ def test_demo_writes_report_folder(tmp_path):
     ex = {r["at 12 V"]: r["full forward [N]"] for r in doc["t200_sheets"]["export_at_12V"]}
     assert ex["file exported at 16 V"] < 0.85 * ex["the preset (its sheet law)"]
     assert ex["file exported with --supply-voltage 12"] == ex["the preset (its sheet law)"]
+    # the sections ran in worker processes (CI has two cores); the same numbers as in this process
+    from uuvid.core.atomic import to_jsonable
+    from uuvid.demo import _SECTIONS, _run_section
+
+    assert doc["workers"] >= 2 or os.cpu_count() == 1
+    assert set(doc["timings_s"]) == {t for t, _, _ in _SECTIONS}
+    i = next(k for k, (t, _, _) in enumerate(_SECTIONS) if t.startswith("Laidani"))
+    here, section, _ = _run_section(i, tmp_path / "here", True)
+    here = json.loads(json.dumps(to_jsonable(here["laidani"])))
+    assert {k: v for k, v in here.items() if isinstance(v, float)} == \
+        {k: v for k, v in doc["laidani"].items() if isinstance(v, float)} != {}
+    assert len(section) > 2 and all(b in html for b in section._blocks if "<img" not in b)
 
 
 @pytest.mark.slow

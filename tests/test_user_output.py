@@ -392,7 +392,7 @@ def test_demo_report_shows_all_it_holds(tmp_path, monkeypatch):
 
     monkeypatch.setattr(Figure, "savefig", savefig)
     out = tmp_path / "demo"
-    run_demo(out, quick=True)
+    run_demo(out, quick=True, workers=1)  # in this process, where savefig is watched
     assert len(seen) > 20 and problems == [], problems
     pages = sorted(out.rglob("index.html"))
     assert len(pages) > 5

@@ -707,17 +707,23 @@ def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
     return res
 
 
-def run_demo(out: Path, quick: bool = False) -> dict:
+def run_demo(out: Path, quick: bool = False, workers: int | None = None) -> dict:
     """All sections; ``quick``: a shorter run (no thruster-loop study or LQI flight; coarser hold
     polar, endurance and dynamics selection).  The folder is written as a whole
-    (:func:`uuvid.core.atomic.atomic_dir`)."""
+    (:func:`uuvid.core.atomic.atomic_dir`).
+
+    ``workers``: processes the sections run in (``None``: one per core, at most
+    :data:`MAX_WORKERS`; ``1``: one after another in this process).  The sections are independent
+    (each writes its own sub-folder and report blocks), so on two cores the demo takes about half
+    the time — most of a first run is compiling each section's kernels, which one process
+    does on one core.  The numbers are the same either way."""
     from uuvid.core.atomic import atomic_dir
 
     final = Path(out)
     # the whole folder is built next to its place and swapped in at the end: an interrupted demo
     # leaves the previous report intact (or nothing), never a folder without index.html
     with atomic_dir(final) as out:
-        return _run_demo_into(out, final, quick)
+        return _run_demo_into(out, final, quick, _workers(workers))
 
 
 def _rebase(doc, work: Path, final: Path):
@@ -739,98 +745,165 @@ def _rebase(doc, work: Path, final: Path):
     return walk(to_jsonable(doc))
 
 
-def _run_demo_into(out: Path, final: Path, quick: bool) -> dict:
-    from uuvid.papers import laidani, mclean1991
+def _mclean_section(out: Path, rep: Report, quick: bool) -> dict:
+    from uuvid.papers import mclean1991
+
+    mc = mclean1991.reproduce(out_dir=out / "mclean1991")
+    rep.add_heading("McLean (1991): tunnel thruster transients")
+    rep.add_links("Full page:", ["mclean1991/index.html"])
+    rep.add_table(
+        [{"case": r["case"], **{k: r[k] for k in mclean1991.TABLE1_FIELDS}} for r in mc["table1"]],
+        caption="Table I (ours; thesis values on the paper's page)",
+    )
+    rep.add_figure(out / "mclean1991" / "step_baseline.png", caption="Baseline 24 V step")
+    rep.add_paragraph(mc["pulsing"]["answer"])
+    return {"mclean1991": mc}
+
+
+def _laidani_section(out: Path, rep: Report, quick: bool) -> dict:
+    from uuvid.papers import laidani
+
+    la = laidani.reproduce(out_dir=out / "laidani")
+    rep.add_heading("Laidani et al.: PWM → ESC → A2212 → polynomial")
+    rep.add_links("Full page:", ["laidani/index.html"])
+    rep.add_figure(out / "laidani" / "laidani_steady_map.png")
+    rep.add_figure(out / "laidani" / "laidani_fig10_sine_response.png")
+    return {"laidani": la}
+
+
+def _thruster_maps_section(out: Path, rep: Report, quick: bool) -> dict:
+    return {"uuv_dynamics": _dynamics_gallery(out, rep), "steady_maps": _steady_map_section(rep),
+            "t200_sheets": _t200_sheet_section(rep)}
+
+
+def _study_unless_quick(out: Path, rep: Report, quick: bool) -> dict:
+    return {"study": _study_section(out, rep) if not quick else {"skipped": "quick demo"}}
+
+
+def _model_file_section(out: Path, rep: Report, quick: bool) -> dict:
+    """Model files round-trip: what a user writes is what the simulator runs."""
     from uuvid.thruster.modelfile import load_chain, save_chain
     from uuvid.thruster.presets import laidani_chain
 
-    with progress_task("uuvid demo", total=24, eta=False, stages=14) as task:
-        task.stage("McLean 1991: Table I step responses")
-        mc = mclean1991.reproduce(out_dir=out / "mclean1991", progress=task.advance)
-        task.stage("Laidani et al.: PWM → thrust")
-        la = laidani.reproduce(out_dir=out / "laidani")
-        task.advance()
+    path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
+    return {"model_file": {"path": str(path), "round_trip_equal": load_chain(path) == laidani_chain()}}
+
+
+#: The demo's sections in report order: (title, function ``(out, rep, quick) -> {key: result}``,
+#: its share of a first run in seconds on two cores — compiling included — by which the sections
+#: are handed to the worker processes, longest first).  Each writes only its own sub-folder.
+_SECTIONS = (
+    ("McLean 1991: Table I step responses", _mclean_section, 8),
+    ("Laidani et al.: PWM → thrust", _laidani_section, 7),
+    ("UUV Simulator thruster dynamics", _thruster_maps_section, 2),
+    ("vehicle mission and speed envelopes", lambda o, r, q: {"vehicle": _vehicle_section(o, r)}, 55),
+    ("controllers and disturbances as blocks",
+     lambda o, r, q: {"controller_blocks": _blocks_section(r, q)}, 30),
+    ("thruster-loop study", _study_unless_quick, 34),
+    ("Caccia et al. 2000: vehicle identification",
+     lambda o, r, q: {"caccia2000": _caccia_section(o, r, q)}, 11),
+    ("uncertainty: sweep and Monte Carlo", lambda o, r, q: {"uncertainty": _uncertainty_section(o, r)},
+     7),
+    ("thruster dynamics: dead band, Healey, selection by held-out level",
+     lambda o, r, q: {"dynamics_fit": _dynamics_fit_section(o, r, q)}, 7),
+    ("linearisation: LQR vs PID station keeping",
+     lambda o, r, q: {"linearize": _linearize_section(o, r)}, 5),
+    ("identification from logs, in Python",
+     lambda o, r, q: {"log_identify": _log_identify_section(o, r)}, 1),
+    ("a real ArduSub dive log: inspect and export", lambda o, r, q: {"ardusub": _ardusub_section(o, r)},
+     2),
+    ("a model from a piloted dive: identify, replay, fly", lambda o, r, q: {"dive": _dive_section(o, r)},
+     8),
+    ("the coupled horizontal model from a dive",
+     lambda o, r, q: {"dive_horizontal": _horizontal_section(r)}, 3),
+    ("a thruster in a flow: bench fit and the vehicle it flies",
+     lambda o, r, q: {"inflow_bench": _inflow_bench_section(o, r)}, 3),
+    ("station keeping: allocation, currents, battery", lambda o, r, q: {"hold": _hold_section(o, r, q)},
+     24),
+    ("model file round trip", _model_file_section, 0),
+)
+
+#: At most this many worker processes (the sections' shares make more than about three idle).
+MAX_WORKERS = 3
+
+
+def _workers(workers: int | None) -> int:
+    import os
+
+    if workers is None:
+        n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        return max(1, min(n, MAX_WORKERS))
+    if int(workers) < 1:
+        raise ValueError(f"workers must be 1 or more, got {workers}")
+    return int(workers)
+
+
+def _run_section(i: int, out: Path, quick: bool) -> tuple[dict, Report, float]:
+    """Section ``i`` of :data:`_SECTIONS` into its own report (blocks appended to the main page in
+    order); also the entry point of a worker process."""
+    import time
+
+    t0 = time.perf_counter()
+    rep = Report(_SECTIONS[i][0])
+    res = _SECTIONS[i][1](out, rep, quick)
+    return res, rep, time.perf_counter() - t0
+
+
+def _quiet_worker() -> None:
+    """A worker's own progress bars would interleave with the other's and the main one's."""
+    import os
+
+    os.environ["UUVID_NO_PROGRESS"] = "1"
+
+
+def _run_sections(out: Path, quick: bool, workers: int, task) -> list:
+    """Every section's ``(result, report, seconds)``, in report order; in ``workers`` processes
+    (spawned: a forked child would inherit the compiler's threads), longest section first."""
+    n = len(_SECTIONS)
+    titles = [t + (" (skipped: --quick)" if quick and f is _study_unless_quick else "")
+              for t, f, _ in _SECTIONS]
+    done: list = [None] * n
+    if workers == 1:
+        for i in range(n):
+            task.stage(titles[i])
+            done[i] = _run_section(i, out, quick)
+            task.advance()
+        return done
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    task.stage(f"{n} sections in {workers} processes")
+    order = sorted(range(n), key=lambda i: -_SECTIONS[i][2])
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_quiet_worker) as pool:
+        futures = {pool.submit(_run_section, i, out, quick): i for i in order}
+        try:
+            for f in as_completed(futures):
+                i = futures[f]
+                done[i] = f.result()
+                task.stage(f"{titles[i]}: done in {done[i][2]:.1f} s")
+                task.advance()
+        except BaseException:  # a section failed, or Ctrl-C: the ones not started never start
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+    return done
+
+
+def _run_demo_into(out: Path, final: Path, quick: bool, workers: int = 1) -> dict:
+    with progress_task("uuvid demo", total=len(_SECTIONS), eta=False,
+                       stages=len(_SECTIONS) + (workers > 1)) as task:
+        done = _run_sections(out, quick, workers, task)
         rep = Report("uuvid demo — thrusters and vehicles: models, simulation, identification, uncertainty")
         rep.add_paragraph(
             "Everything below was computed just now from built-in data. Each paper "
             "has its own page with all plots and tables."
         )
-        rep.add_heading("McLean (1991): tunnel thruster transients")
-        rep.add_links("Full page:", ["mclean1991/index.html"])
-        rep.add_table(
-            [{"case": r["case"], **{k: r[k] for k in mclean1991.TABLE1_FIELDS}} for r in mc["table1"]],
-            caption="Table I (ours; thesis values on the paper's page)",
-        )
-        rep.add_figure(out / "mclean1991" / "step_baseline.png", caption="Baseline 24 V step")
-        rep.add_paragraph(mc["pulsing"]["answer"])
-        rep.add_heading("Laidani et al.: PWM → ESC → A2212 → polynomial")
-        rep.add_links("Full page:", ["laidani/index.html"])
-        rep.add_figure(out / "laidani" / "laidani_steady_map.png")
-        rep.add_figure(out / "laidani" / "laidani_fig10_sine_response.png")
-        task.stage("UUV Simulator thruster dynamics")
-        gallery = _dynamics_gallery(out, rep)
-        steady_maps = _steady_map_section(rep)
-        t200_sheets = _t200_sheet_section(rep)
-        task.advance()
-        task.stage("vehicle mission and speed envelopes")
-        vehicle = _vehicle_section(out, rep)
-        blocks = _blocks_section(rep, quick)
-        task.advance()
-        task.stage("thruster-loop study" + (" (skipped: --quick)" if quick else ""))
-        study = _study_section(out, rep) if not quick else {"skipped": "quick demo"}
-        task.advance()
-        task.stage("Caccia et al. 2000: vehicle identification")
-        caccia = _caccia_section(out, rep, quick)
-        task.advance()
-        task.stage("uncertainty: sweep and Monte Carlo")
-        uncertainty = _uncertainty_section(out, rep)
-        task.advance()
-        task.stage("thruster dynamics: dead band, Healey, selection by held-out level")
-        dynamics_fit = _dynamics_fit_section(out, rep, quick)
-        task.advance()
-        task.stage("linearisation: LQR vs PID station keeping")
-        linear = _linearize_section(out, rep)
-        task.advance()
-        task.stage("identification from logs, in Python")
-        log_identify = _log_identify_section(out, rep)
-        task.advance()
-        task.stage("a real ArduSub dive log: inspect and export")
-        ardusub = _ardusub_section(out, rep)
-        task.advance()
-        task.stage("a model from a piloted dive: identify, replay, fly")
-        dive = _dive_section(out, rep)
-        horizontal = _horizontal_section(rep)
-        inflow_bench = _inflow_bench_section(out, rep)
-        task.advance()
-        task.stage("station keeping: allocation, currents, battery")
-        hold_ = _hold_section(out, rep, quick)
-        task.advance()
-        task.stage("model file round trip and report")
-        # model files round-trip: what a user writes is what the simulator runs
-        path = save_chain(laidani_chain(), out / "models" / "laidani-a2212.yaml")
-        same = load_chain(path) == laidani_chain()
-        task.advance()
-        result = {
-            "mclean1991": mc,
-            "laidani": la,
-            "uuv_dynamics": gallery,
-            "steady_maps": steady_maps,
-            "t200_sheets": t200_sheets,
-            "vehicle": vehicle,
-            "controller_blocks": blocks,
-            "study": study,
-            "caccia2000": caccia,
-            "uncertainty": uncertainty,
-            "log_identify": log_identify,
-            "dynamics_fit": dynamics_fit,
-            "linearize": linear,
-            "ardusub": ardusub,
-            "dive": dive,
-            "dive_horizontal": horizontal,
-            "inflow_bench": inflow_bench,
-            "hold": hold_,
-            "model_file": {"path": str(path), "round_trip_equal": same},
-        }
+        result: dict = {}
+        for res, section, _ in done:
+            rep.extend(section)
+            result.update(res)
+        result["timings_s"] = {t: round(s, 2) for (t, _, _), (_, _, s) in zip(_SECTIONS, done)}
+        result["workers"] = workers
         result = _rebase(result, out, final)
         atomic_write_json(out / "demo.json", result)
         rep.add_json({"model_file": result["model_file"]}, caption="Model file round trip")

@@ -232,11 +232,13 @@ def demo(
     json_out: bool = typer.Option(False, "--json", help="Print all numbers as one JSON document."),
     quick: bool = typer.Option(False, "--quick", help="A shorter run: no thruster-loop study or LQI "
                                "flight; coarser hold polar, endurance and dynamics selection."),
+    workers: int = typer.Option(None, "--workers", min=1, help="Processes the sections run in "
+                                "(default: one per core, at most 3; 1: all in this process)."),
 ):
     """Everything uuvid can do, on built-in data: reproduces the papers and writes a report."""
     from uuvid.demo import run_demo
 
-    result = run_demo(out, quick=quick)
+    result = run_demo(out, quick=quick, workers=workers)
     if json_out:
         _print_json(result)
         return

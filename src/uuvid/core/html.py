@@ -170,6 +170,12 @@ class Report:
         self._blocks.append(f"<pre>{_esc(text)}</pre>")
         return self
 
+    def extend(self, other: Report) -> Report:
+        """Append the blocks of *other* (a section built apart, e.g. in another process); its
+        title is not added."""
+        self._blocks.extend(other._blocks)
+        return self
+
     # ---------------------------------------------------------------- output
 
     def to_html(self) -> str:
