@@ -28,15 +28,15 @@ def _planned_bounds(al):
     return (lo * en, hi * ep) if al.compensate_eta else (lo, hi)
 
 
-def _lp_scale(al, phi):
-    """max s ∈ [0, 1] with s·φ achievable (HiGHS), and the margin test of the boundary."""
+def _lp_scale(al, phi, most=2.0):
+    """max s ∈ [0, ``most``] with s·φ achievable (HiGHS; ``most=None``: unbounded above)."""
     n, ctl = al.n, list(al.controlled)
     lo, hi = _planned_bounds(al)
     C = al.mode.constraint_rows(al.B) if al.mode is not None else np.zeros((0, n))
     Aeq = np.vstack([np.hstack([al.B[ctl], -phi[ctl, None]]), np.hstack([C, np.zeros((len(C), 1))])])
     c = np.zeros(n + 1)
     c[-1] = -1.0
-    r = linprog(c, A_eq=Aeq, b_eq=np.zeros(len(Aeq)), bounds=list(zip(lo, hi)) + [(0, 2)],
+    r = linprog(c, A_eq=Aeq, b_eq=np.zeros(len(Aeq)), bounds=list(zip(lo, hi)) + [(0, most)],
                 method="highs", options={"primal_feasibility_tolerance": 1e-10})
     assert r.status == 0
     return float(r.x[-1])
@@ -135,16 +135,7 @@ def test_shortfall_names_the_lost_dofs_and_priority_keeps_heave():
 
 def _lp_reach(al, phi):
     """max s >= 0 with s·φ achievable (HiGHS, s unbounded above)."""
-    n, ctl = al.n, list(al.controlled)
-    lo, hi = _planned_bounds(al)
-    C = al.mode.constraint_rows(al.B) if al.mode is not None else np.zeros((0, n))
-    Aeq = np.vstack([np.hstack([al.B[ctl], -phi[ctl, None]]), np.hstack([C, np.zeros((len(C), 1))])])
-    c = np.zeros(n + 1)
-    c[-1] = -1.0
-    r = linprog(c, A_eq=Aeq, b_eq=np.zeros(len(Aeq)), bounds=list(zip(lo, hi)) + [(0, None)],
-                method="highs", options={"primal_feasibility_tolerance": 1e-10})
-    assert r.status == 0
-    return float(r.x[-1])
+    return _lp_scale(al, phi, most=None)
 
 
 @pytest.mark.parametrize("name, modes, comp", CASES[:4])
