@@ -215,13 +215,20 @@ def test_sweep_disk_refusal_names_the_grid(tmp_path, monkeypatch):
 
 def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_allocating():
     """t_end = 1e9 s at 1 ms: the plan allocated its time grid first, a MemoryError of 7.3 TiB;
-    now the thruster simulate command's limit (MAX_SAMPLES) is checked, naming the file's keys."""
+    now a run's input must fit what a chunk holds (MAX_INPUT_SAMPLES, 8 bytes a sample: a sweep
+    keeps no channels), naming the file's keys.  An hour at 1 ms (3.6 M samples, 29 MB), which
+    ran before, still runs: the simulate command's 2 M-sample limit counts channels a sweep
+    does not keep."""
+    from uuvid.uncertainty.targets import MAX_INPUT_SAMPLES
+
     spec = sweep_from_dict({"target": {"kind": "thruster_step", "t_end": 1e9, "dt": 1e-3},
                             "parameters": [{"name": "voltage", "values": [12, 24]}]})
     with pytest.raises(ValueError, match=r"^target.t_end = 1e\+09 s at target.dt = 0.001 s is "
-                       r"1e\+12 samples \(≈ 2e\+05 GB\), more than the 2,000,000 a simulation may "
-                       r"hold in memory; shorten target.t_end or raise target.dt$"):
+                       r"1e\+12 samples \(≈ 8e\+03 GB\), more than the 16,000,000 a simulation "
+                       r"may hold in memory; shorten target.t_end or raise target.dt$"):
         SweepStudy(spec).check()
+    hour = plan_for(ThrusterStepTarget(t_end=3600.0, dt=1e-3, substeps=1), ["voltage"])
+    assert hour.t.size == 3_600_001 <= MAX_INPUT_SAMPLES
     spec = sweep_from_dict({"target": {"kind": "thruster_step", "t_end": 100.0, "dt": 1e-3,
                                        "substeps": 1000},
                             "parameters": [{"name": "voltage", "values": [12, 24]}]})
@@ -244,13 +251,20 @@ def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_alloca
     ({"parameters": [{"name": "voltage", "start": 1e308, "stop": -1e308, "num": 3}]},
      r"parameters\[0\]: parameter 'voltage': start 1e\+308 … stop -1e\+308 gives non-finite"),
     ({"parameters": [{"name": "voltage", "start": 1, "stop": 24, "num": 1}]},
-     r"parameters\[0\]: parameter 'voltage': num 1 gives start 1 alone \(stop 24 unused\)"),
+     r"parameters\[0\] \(voltage\): num 1 gives start 1 alone \(stop 24 unused\)"),
 ])
 def test_sweep_grids_that_ran_silently_or_crashed_are_refused(raw, needle):
     """An empty grid ran the baseline once (random: N identical runs); a reversed random range
     said 'high - low < 0'; a range beyond the floats gave NaN values and an IndexError."""
     with pytest.raises(SweepError, match=r"^s.yaml: " + needle):
         sweep_from_dict({"target": {"kind": "thruster_step"}, **raw}, where="s.yaml")
+
+
+def test_a_random_axis_takes_any_num():
+    """num is a grid's: a random axis draws between start and stop whatever num says."""
+    spec = sweep_from_dict({"target": {"kind": "thruster_step"}, "mode": "random", "samples": 4,
+                            "parameters": [{"name": "voltage", "start": 8, "stop": 24, "num": 1}]})
+    assert spec.n_runs == 4
 
 
 def test_run_sweep_takes_a_dict_like_a_sweep_file():

@@ -42,11 +42,14 @@ MAX_SWEEP_STEPS = 1e12
 """Most integration steps a sweep may take (levels × pass length / dt, all passes)."""
 
 
-def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] | None = None) -> int:
+def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] | None = None,
+               max_samples: int = MAX_SAMPLES, sample_bytes: int = SAMPLE_BYTES) -> int:
     """Output samples of a simulation, checked before anything is allocated: at least 3 (what a
     response needs: a start, a middle and an end), at most :data:`MAX_SAMPLES` (× runs) in memory
     and :data:`MAX_RUN_STEPS` RK4 steps per run.  ``names``: what the messages call t_end, dt and
-    substeps (e.g. a file's keys), instead of the simulate options (``--t-end``…)."""
+    substeps (e.g. a file's keys), instead of the simulate options (``--t-end``…);
+    ``max_samples``/``sample_bytes``: the limit and the size of a sample for a caller that keeps
+    less of each (a sweep keeps a run's input and metrics, not its channels)."""
     tn, dn, sn = names or ("t_end", "dt", "substeps")
     tf, df, sf = ("", "", "") if names else (" (--t-end)", " (--dt)", " (--substeps)")
     if not (math.isfinite(t_end) and t_end > 0):
@@ -64,11 +67,11 @@ def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] |
         raise ValueError(f"{tn} = {t_end:g} s at {dn} = {dt:g} s gives {int(round(n))} output "
                          f"sample(s); a response needs at least 3: give {tn} >= 2 {dn}"
                          + (" (--t-end, --dt)" if not names else ""))
-    if n * max(runs, 1) > MAX_SAMPLES:
+    if n * max(runs, 1) > max_samples:
         per = f" × {runs} runs" if runs > 1 else ""
         raise ValueError(f"{tn} = {t_end:g} s at {dn} = {dt:g} s is {n:.3g} samples{per} (≈ "
-                         f"{n * max(runs, 1) * SAMPLE_BYTES / 1e9:.3g} GB), more than the "
-                         f"{MAX_SAMPLES:,} a simulation may hold in memory; shorten {tn}{tf} or "
+                         f"{n * max(runs, 1) * sample_bytes / 1e9:.3g} GB), more than the "
+                         f"{max_samples:,} a simulation may hold in memory; shorten {tn}{tf} or "
                          f"raise {dn}{df}")
     if n * int(substeps) > MAX_RUN_STEPS:
         raise ValueError(f"{tn} = {t_end:g} s at {dn} = {dt:g} s with {sn} = {int(substeps)} is "

@@ -76,9 +76,6 @@ class Axis(BaseModel):
             raise ValueError(f"parameter {self.name!r}: log spacing needs start, stop > 0")
         if self.unit is not None and self.unit not in PR.UNITS:
             raise ValueError(f"parameter {self.name!r}: unknown unit {self.unit!r}")
-        if self.num == 1 and self.start is not None and self.start != self.stop:
-            raise ValueError(f"parameter {self.name!r}: num 1 gives start {self.start:g} alone (stop "
-                             f"{self.stop:g} unused); give num >= 2, or values: [{self.start:g}]")
         if self.start is not None:
             with np.errstate(all="ignore"):
                 g = np.asarray(self.grid(), dtype=float)
@@ -196,6 +193,12 @@ class SweepSpec(BaseModel):
             if not self.parameters:  # an empty grid silently ran the baseline alone
                 raise ValueError(f"mode {self.mode} needs parameters: [{{name: ..., values: [...]}} "
                                  "or {name: ..., start: ..., stop: ...}, ...] (none given)")
+            if self.mode == "grid":  # (random draws between start and stop: num unused)
+                for i, a in enumerate(self.parameters):
+                    if a.num == 1 and a.start is not None and a.start != a.stop:
+                        raise ValueError(f"parameters[{i}] ({a.name}): num 1 gives start {a.start:g} "
+                                         f"alone (stop {a.stop:g} unused); give num >= 2, or "
+                                         f"values: [{a.start:g}]")
             if self.mode == "random":
                 for i, a in enumerate(self.parameters):
                     if a.start is not None and a.start > a.stop:

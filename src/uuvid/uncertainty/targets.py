@@ -182,10 +182,12 @@ class ThrusterStepPlan:
         from uuvid.thruster.modelfile import load_chain
         from uuvid.uncertainty._kernels import STEP_METRICS
 
-        # the simulate command's limits, before the time grid is allocated (a t_end of 1e9 s
-        # at 1 ms was a MemoryError of 7 TiB)
-        _n_samples(target.t_end, target.dt, target.substeps,
-                   names=("target.t_end", "target.dt", "target.substeps"))
+        # the simulate command's RK4-step limit, and a run's input within what a chunk holds
+        # (:data:`MAX_INPUT_SAMPLES`, 8 bytes a sample: a run keeps no channels), before the time
+        # grid is allocated (a t_end of 1e9 s at 1 ms was a MemoryError of 7 TiB)
+        n_t = _n_samples(target.t_end, target.dt, target.substeps,
+                         names=("target.t_end", "target.dt", "target.substeps"),
+                         max_samples=MAX_INPUT_SAMPLES, sample_bytes=8)
         self.target = target
         self.factory = presets.PRESETS.get(target.chain)
         if self.factory is None:
@@ -239,8 +241,7 @@ class ThrusterStepPlan:
         probe = self.base.simulate(self.base_signal, 5 * target.dt, dt=target.dt, substeps=1)
         self.use_meas = "measured_thrust" in probe.channels
         self.use_speed = "prop_speed" in probe.channels
-        n = int(round(target.t_end / target.dt)) + 1
-        self.t = np.arange(n) * target.dt
+        self.t = np.arange(n_t) * target.dt
         start = self.t[-1] - target.steady_window * (self.t[-1] - self.t[0])
         self.k0 = int(np.flatnonzero(self.t >= start)[0])
         self.t_window = float(start)
