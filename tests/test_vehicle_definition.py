@@ -2,6 +2,7 @@
 
 import copy
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -453,18 +454,27 @@ def test_allocation_dofs_dependent_on_another_are_refused_with_the_ratio():
         Allocator(load_vehicle("bluerov2").B, ("surge", "heave", 0))
 
 
-def test_a_current_in_the_vehicle_file_is_refused_naming_where_a_current_is_given():
-    """environment.current was accepted and ignored: missions, hold and the envelope take their
-    own current, so a vehicle 'in 0.5 m/s' flew in still water.  Zero stays accepted."""
-    msg = errors_of(lambda r: r.update(environment={"current": [0.5, 0, 0]}))
-    assert msg.startswith("bot.yaml: environment.current: [0.5, 0.0, 0.0] m/s: a vehicle file "
-                          "does not set the water")
+def test_a_current_in_the_vehicle_file_is_said_naming_where_a_current_is_given():
+    """environment.current was accepted and ignored by missions, hold and the envelope (each
+    takes the current its run is given), so a vehicle 'in 0.5 m/s' flew in still water unsaid.
+    vehicle_rhs still reads it (the envelope's confirmation, synthetic dives): said, not refused.
+    Zero is silent."""
+    from uuvid.vehicle.definition import VehicleFileWarning
+
+    raw = copy.deepcopy(BASE)
+    raw["environment"] = {"current": [0.5, 0, 0]}
+    with pytest.warns(VehicleFileWarning) as rec:
+        v = vehicle_from_dict(raw, where="bot.yaml")
+    msg = next(str(w.message) for w in rec if "environment.current" in str(w.message))
+    assert msg.startswith("bot.yaml: environment.current: [0.5, 0.0, 0.0] m/s is read only where")
     for place in ("a scenario's current:", "uuvid simulate mission --current N,E,D",
                   "uuvid vehicle hold --current", "setup_mission"):
         assert place in msg
-    raw = copy.deepcopy(BASE)
+    assert np.all(v.params.current == [0.5, 0, 0])
     raw["environment"] = {"current": [0, 0, 0]}
-    assert np.all(vehicle_from_dict(raw).params.current == 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VehicleFileWarning)
+        assert np.all(vehicle_from_dict(raw).params.current == 0)
 
 
 def test_a_direction_no_thrust_gives_is_named_with_the_one_way_thrusters():

@@ -9,7 +9,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
       transcribed_from: ...      # optional
     assumptions:                 # key path → why the value is assumed (not from the source)
       thrusters: positions approximate, from the frame drawing
-    environment: {current: [0, 0, 0]}        # only 0: the current is the run's (scenario, CLI)
+    environment: {current: [0, 0, 0]}        # vehicle_rhs only: a run takes its own (scenario, CLI)
     inflow: none                 # or four-quadrant: thrust falls with the advance speed (issue 21)
     rigid_body:
       mass: 11.5
@@ -452,7 +452,7 @@ def _one_way_warnings(vehicle: Vehicle) -> list[str]:
         e[d] = 1.0
         r = (al.reach(e), al.reach(-e))
         for k in (0, 1):
-            if r[k] <= 1e-6 * r[1 - k]:
+            if r[1 - k] > 0.0 and r[k] <= 1e-6 * r[1 - k]:  # (neither way: no authority at all)
                 used = [i for i in one if vehicle.B[d, i] != 0.0]
                 names = ", ".join(f"{vehicle.layout[i].name} [{lim[i, 0]:.4g}, {lim[i, 1]:.4g}] N"
                                   for i in used or one)
@@ -460,9 +460,9 @@ def _one_way_warnings(vehicle: Vehicle) -> list[str]:
                            f"the limits gives it (thrusters limited to one direction: {names}), "
                            f"only {DOF_NAMES[d]} {DIRECTIONS[d][1 - k]} (up to {r[1 - k]:.4g} "
                            f"{'N' if d < 3 else 'N·m'}): no controller can push the vehicle that "
-                           "way, and a mission that needs it will not follow its path — give "
-                           "those thrusters their reverse thrust (a negative min, N) if they have "
-                           f"it, or leave {DOF_NAMES[d]} out of allocation.dofs")
+                           "way (drag and the restoring forces alone bring it back), and a "
+                           "mission that needs it will not follow its path — if those thrusters "
+                           "can reverse, give their reverse thrust (a negative min, N)")
     return out
 
 
@@ -474,6 +474,18 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
     msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
+    cur = np.asarray(vehicle.params.current, float)
+    if np.any(cur != 0.0):
+        # missions, hold, sweeps and the envelope take the current the run is given: a vehicle
+        # "in 0.5 m/s" flew in still water, unsaid
+        msgs.append(f"environment.current: {cur.tolist()} m/s is read only where the vehicle "
+                    "model's right-hand side is used directly (vehicle_rhs, the envelope's "
+                    "confirmation flights, synthetic dives); missions, hold, sweeps and the "
+                    "envelope fly in the current their run is given — a scenario's current: "
+                    "[N, E, D] (uuvid simulate SCENARIO.yaml), uuvid simulate mission --current "
+                    "N,E,D, uuvid vehicle hold --current SPEED,DIR, or current= of "
+                    "uuvid.simulate.vehicle_sim.setup_mission; give it there, and leave "
+                    "environment out of this file")
     if vehicle.inflow != "none":
         from uuvid.vehicle.inflow import map_range_warnings, thruster_map
 
@@ -547,15 +559,6 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
     if rb.inertia_about == "origin":  # I_g = I_o + m S(r_g)²
         S = skew_ref(rb.center_of_gravity)
         inertia = inertia + rb.mass * S @ S
-
-    if any(c != 0.0 for c in spec.environment.current):
-        # no mission, hold, envelope or sweep reads it (each takes its own current): refused,
-        # not flown in still water while the file says otherwise
-        err("environment.current", f"{list(spec.environment.current)} m/s: a vehicle file does "
-            "not set the water; give the current where the run is set up — a scenario's "
-            "current: [N, E, D] (uuvid simulate SCENARIO.yaml), uuvid simulate mission --current "
-            "N,E,D, uuvid vehicle hold --current SPEED,DIR, or current= of "
-            "uuvid.simulate.vehicle_sim.setup_mission — and leave environment out of this file")
 
     # ------------------------------------------------------------ modes and thrusters
     names = [t.name for t in spec.thrusters]
