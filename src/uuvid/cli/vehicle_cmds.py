@@ -106,7 +106,15 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
         err_console.print(f"report: {out / 'index.html'}", markup=False)
 
 
+#: ``uuvid simulate mission`` options a scenario file sets itself (option name, the file's key)
+_MISSION_ONLY = (("vehicle", "--vehicle", "vehicle"), ("speed", "--speed", "mission.speed"),
+                 ("depth", "--depth", "mission.depth"), ("side", "--side", "mission.side"),
+                 ("current", "--current", "current"),
+                 ("thruster_model", "--thruster-model", "thruster_model"), ("dt", "--dt", "dt"))
+
+
 def simulate(
+    ctx: typer.Context,
     target: str = typer.Argument(..., help="A scenario file (YAML/TOML), or the word `mission`."),
     kind: str | None = typer.Argument(None, help="With `mission`: the built-in mission (square)."),
     vehicle: str = typer.Option("bluerov2", "--vehicle", help="mission: vehicle preset or file."),
@@ -181,6 +189,12 @@ def simulate(
         return
     if kind is not None:
         _fail(f"unexpected argument {kind!r} after the scenario file")
+    given = [(flag, key) for name, flag, key in _MISSION_ONLY  # (typer vendors click: by name)
+             if getattr(ctx.get_parameter_source(name), "name", None) == "COMMANDLINE"]
+    if given:  # they were ignored: a flight in still water the user thought was in a current
+        _fail(f"{', '.join(f for f, _ in given)}: only for `uuvid simulate mission`; the scenario "
+              f"file {target} sets {', '.join(k for _, k in given)} itself (change "
+              f"{'it' if len(given) == 1 else 'them'} there)")
     scenario = Path(target)
     if not scenario.exists():
         _fail(f"{scenario}: no such scenario file (or use `uuvid simulate mission square`)")

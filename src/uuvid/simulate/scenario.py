@@ -82,6 +82,22 @@ class MissionSpec(BaseModel):
                                  "degrees? expected radians")
         return v
 
+    @model_validator(mode="after")
+    def _keys_of_kind(self):
+        """Keys of the other kind were ignored: waypoints under the default ``kind: square``
+        flew the square (and said "completed"); a square's depth or side beside waypoints did
+        nothing."""
+        if self.kind == "square" and self.waypoints is not None:
+            said = "" if "kind" in self.model_fields_set else " (the default)"
+            raise ValueError(f"waypoints: given, but kind is 'square'{said}, which flies the "
+                             "built-in square and would ignore them: add kind: waypoints")
+        if self.kind == "waypoints":
+            extra = [k for k in ("depth", "side", "yaw") if k in self.model_fields_set]
+            if extra:
+                raise ValueError(f"{', '.join(extra)}: only for kind square; a waypoint mission "
+                                 "flies its waypoints (north, east, down [m], yaw [rad]) as given")
+        return self
+
     def build(self, vehicle=None, current_speed: float = 0.0) -> WaypointMission:
         """The mission; without ``speed`` the cruising speed is :func:`cruise_speed` for
         ``vehicle`` in a current of ``current_speed`` (the nominal 0.5 m/s without a vehicle),
