@@ -68,6 +68,26 @@ class MissionSpec(BaseModel):
     hold: float = Field(10.0, ge=0)
     waypoints: list[tuple[float, float, float, float]] | None = None
 
+    @field_validator("waypoints", mode="before")
+    @classmethod
+    def _waypoints_rows_of_four(cls, v):
+        """Rows of four: a flat list or rows of three were answered one pydantic line per number
+        (``mission.waypoints[5]: Input should be a valid tuple``)."""
+        if v is None:
+            return v
+        if not isinstance(v, (list, tuple)):
+            raise ValueError(f"expected a list of waypoints [[north, east, down, yaw], ...] (m, m, "
+                             f"m, rad); got {reprlib.repr(v)}")
+        bad = [k for k, w in enumerate(v) if not isinstance(w, (list, tuple)) or len(w) != 4]
+        if bad:
+            k = bad[0]
+            flat = " (a flat list: give one row per waypoint)" if not isinstance(
+                v[k], (list, tuple, dict)) else ""
+            more = f"; {len(bad) - 1} more rows like it" if len(bad) > 1 else ""
+            raise ValueError(f"waypoint {k}: expected 4 numbers [north, east, down, yaw] (m, m, m, "
+                             f"rad; down positive), got {reprlib.repr(v[k])}{flat}{more}")
+        return v
+
     @field_validator("waypoints")
     @classmethod
     def _waypoints_in_water_and_radians(cls, v):
@@ -222,6 +242,34 @@ class ScenarioSpec(BaseModel):
     @field_validator("current", mode="before")
     @classmethod
     def _ned_triple(cls, v):
+        """A current is three numbers or a mapping of one kind; anything else was answered with
+        pydantic's attempts at every member of the union (``current.tuple[float, float,
+        float]: Input should be a valid tuple``, ``current.TimeSeriesCurrentSpec.file:
+        missing`` for a constant current with a typo'd key)."""
+        if isinstance(v, dict):
+            kinds = {"constant": ConstantCurrentSpec, "timeseries": TimeSeriesCurrentSpec,
+                     "gauss_markov": GaussMarkovCurrentSpec}
+            spec = kinds.get(v.get("kind")) if isinstance(v.get("kind"), str) else None
+            if spec is None:
+                raise ValueError(f"kind: {'missing' if 'kind' not in v else repr(v['kind'])}; "
+                                 f"expected one of {', '.join(kinds)} (or three numbers N,E,D "
+                                 "in m/s, e.g. [0.3, 0, 0])")
+            try:
+                return spec.model_validate(v)
+            except ValidationError as e:
+                errs = e.errors()
+                keys = (f" (a {v['kind']} current's keys: {', '.join(spec.model_fields)})"
+                        if any(err["type"] == "extra_forbidden" for err in errs) else "")
+                raise ValueError("; ".join(
+                    f"{format_loc(err['loc'])}: "
+                    + {"missing": "missing", "extra_forbidden": "unknown key"}.get(
+                        err["type"], err["msg"].removeprefix("Value error, "))
+                    for err in errs) + keys) from None
+        if not isinstance(v, (list, tuple, BaseModel)):
+            raise ValueError(f"expected N,E,D (m/s): a list of three numbers, the water velocity "
+                             f"north, east, down (where it flows to), e.g. [0.3, 0, 0], or a "
+                             f"mapping such as {{kind: constant, speed: 0.3, direction_deg: 90}}; "
+                             f"got {reprlib.repr(v)}")
         if isinstance(v, (list, tuple)):
             try:
                 ok = len(v) == 3 and all(float(x) == float(x) for x in v)

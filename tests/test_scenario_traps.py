@@ -1,0 +1,89 @@
+"""Scenario files and `uuvid simulate` as a new user writes them: what was silently ignored or
+answered with pydantic's union noise now ends in an error naming the key and what is expected."""
+
+import pytest
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+
+runner = CliRunner()
+
+
+def clean_error(res, *needles):
+    assert res.exit_code in (1, 2), (res.exit_code, res.output, res.exception)
+    assert isinstance(res.exception, SystemExit), repr(res.exception)
+    assert "Traceback" not in res.output
+    for n in needles:
+        assert n in res.output, (n, res.output)
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--current", "0.3,0,0"], "--current: only for `uuvid simulate mission`"),
+    (["--speed", "0.2", "--vehicle", "romeo"], "--vehicle, --speed: only for"),
+    (["--dt", "0.05", "--thruster-model", "t200"], "sets thruster_model, dt itself"),
+    (["--depth", "5", "--side", "20"], "sets mission.depth, mission.side itself"),
+])
+def test_mission_options_beside_a_scenario_file_are_refused_not_ignored(tmp_path, args, said):
+    """`uuvid simulate s.yaml --current 0.3,0,0` flew in still water and printed "completed":
+    the mission options were dropped without a word when a scenario file was given."""
+    p = tmp_path / "s.yaml"
+    p.write_text("duration: 0.05\ndt: 0.01\n")
+    clean_error(runner.invoke(app, ["simulate", str(p), *args]), said, "s.yaml")
+
+
+def test_waypoints_under_the_default_square_are_refused():
+    """`mission: {waypoints: [...]}` without `kind: waypoints` flew Laidani's square (kind's
+    default) and said "completed"; a square's depth/side/yaw beside waypoints did nothing."""
+    from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+
+    wps = [[0, 0, 0, 0], [0, 0, 3, 0], [8, 0, 3, 0]]
+    with pytest.raises(ScenarioError, match=r"s.yaml: mission: waypoints: given, but kind is "
+                                            r"'square' \(the default\).*add kind: waypoints"):
+        scenario_from_dict({"mission": {"waypoints": wps}}, where="s.yaml")
+    with pytest.raises(ScenarioError, match=r"kind is 'square', which flies"):
+        scenario_from_dict({"mission": {"kind": "square", "waypoints": wps}}, where="s.yaml")
+    with pytest.raises(ScenarioError, match=r"mission: depth, side: only for kind square"):
+        scenario_from_dict({"mission": {"kind": "waypoints", "depth": 5, "side": 20,
+                                        "waypoints": wps}}, where="s.yaml")
+    ok = scenario_from_dict({"mission": {"kind": "waypoints", "waypoints": wps, "speed": 0.3}})
+    assert ok.mission.build().waypoints[-1] == (8.0, 0.0, 3.0, 0.0)
+    assert scenario_from_dict({"mission": {"depth": 5}}).mission.build().name == "square 10 m at 5 m"
+
+
+@pytest.mark.parametrize("current, said", [
+    ("0.3,0,0", "current: expected N,E,D (m/s): a list of three numbers"),
+    (0.3, "or a mapping such as {kind: constant"),
+    ({"speed": 0.3}, "current: kind: missing; expected one of constant, timeseries, gauss_markov"),
+    ({"kind": "steady", "speed": 0.3}, "current: kind: 'steady'; expected one of constant"),
+    ({"kind": "constant", "speed": 0.3, "direction": 90},
+     "current: direction: unknown key (a constant current's keys: kind, speed, direction_deg"),
+])
+def test_a_current_of_the_wrong_form_says_what_is_expected(current, said):
+    """A string, a number or a mapping with a typo'd key was answered with one line per member of
+    the union (`current.tuple[float, float, float]: Input should be a valid tuple`,
+    `current.TimeSeriesCurrentSpec.file: missing` for a constant current)."""
+    from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+
+    with pytest.raises(ScenarioError) as e:
+        scenario_from_dict({"current": current}, where="s.yaml")
+    m = str(e.value)
+    assert said in m and m.startswith("s.yaml: current: ") and "\n" not in m, m
+    assert "Spec" not in m and "tuple[" not in m, m
+    spec = scenario_from_dict({"current": {"kind": "constant", "speed": 0.3, "direction_deg": 90}})
+    assert spec.current.speed == 0.3 and spec.current.direction_deg == 90
+
+
+@pytest.mark.parametrize("waypoints, said", [
+    ([0, 0, 2, 0, 5, 0, 2, 0], "waypoint 0: expected 4 numbers [north, east, down, yaw]"),
+    ([[0, 0, 2], [5, 0, 2]], "got [0, 0, 2]; 1 more rows like it"),
+    (3, "expected a list of waypoints [[north, east, down, yaw], ...]"),
+])
+def test_waypoints_of_the_wrong_shape_are_one_clear_line(waypoints, said):
+    """A flat list gave eight lines of `mission.waypoints[k]: Input should be a valid tuple`."""
+    from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+
+    with pytest.raises(ScenarioError) as e:
+        scenario_from_dict({"mission": {"kind": "waypoints", "waypoints": waypoints}},
+                           where="s.yaml")
+    m = str(e.value)
+    assert said in m and "\n" not in m and "valid tuple" not in m, m
