@@ -87,3 +87,32 @@ def test_waypoints_of_the_wrong_shape_are_one_clear_line(waypoints, said):
                            where="s.yaml")
     m = str(e.value)
     assert said in m and "\n" not in m and "valid tuple" not in m, m
+
+
+@pytest.mark.parametrize("value, warned", [(1.57, "π/2"), (-3.14, "−π"), (0.785, "π/4"),
+                                           (90.0, None), (1.0, None), (0.5, None), (400.0, None)])
+def test_a_direction_in_radians_is_warned_of(value, warned):
+    """`vehicle hold --current 0.3,1.57` (π/2 meant) held a current from 2° off the bow without a
+    word, as did a scenario's `direction_deg: 1.5708`."""
+    import warnings
+
+    from uuvid.core.checks import InputWarning, direction_deg
+    from uuvid.simulate.scenario import scenario_from_dict
+
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert direction_deg("x", value) == value
+        scenario_from_dict({"current": {"kind": "constant", "speed": 0.1, "direction_deg": value}})
+    said = [str(w.message) for w in got if issubclass(w.category, InputWarning)]
+    if warned is None:
+        assert not said, said
+    else:
+        assert len(said) == 2 and warned in said[0] and "is it in radians?" in said[0], said
+        assert said[1].startswith(f"current.direction_deg = {value:g}°"), said
+
+
+def test_hold_warns_of_a_current_direction_in_radians(monkeypatch):
+    from uuvid.cli import hold_cmd
+
+    with pytest.warns(UserWarning, match=r"--current direction = 1.57°: that is π/2 in radians"):
+        assert hold_cmd._parse_current("0.3,1.57") == (0.3, 1.57)

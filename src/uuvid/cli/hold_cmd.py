@@ -30,10 +30,12 @@ def _parse_current(text: str | None):
 
         _fail(f"--current: expected SPEED[,DIR] (finite numbers: a speed >= 0 in m/s, degrees "
               f"off the bow it comes from), got {text!r}")
-    from uuvid.core.checks import current_speed
+    from uuvid.core.checks import current_speed, direction_deg
 
     try:
         current_speed("--current", parts[0])
+        if len(parts) == 2:
+            direction_deg("--current direction", parts[1])
     except ValueError as e:
         from uuvid.cli.common import _fail
 

@@ -59,6 +59,26 @@ def current_speed(name: str, speed: float) -> float:
     return v
 
 
+class InputWarning(UserWarning):
+    """A value that is valid but most likely not what was meant (a unit slip)."""
+
+
+def direction_deg(name: str, value) -> float:
+    """A direction in degrees, finite; warns (:class:`InputWarning`) when it is a quarter,
+    half, … turn written in radians (1.57, 3.14, 0.785: degrees that small are nearly head-on, and
+    a direction in radians was flown as that)."""
+    import warnings
+
+    v = finite(name, value, "deg")
+    k = round(abs(v) / (math.pi / 4))
+    if v != round(v) and 1 <= k <= 8 and abs(abs(v) - k * math.pi / 4) < 0.01:
+        frac = {1: "π/4", 2: "π/2", 3: "3π/4", 4: "π", 5: "5π/4", 6: "3π/2", 7: "7π/4", 8: "2π"}[k]
+        warnings.warn(f"{name} = {v:g}°: that is {'−' if v < 0 else ''}{frac} in radians "
+                      f"({math.copysign(45 * k, v):g}°) — is it in radians? degrees are expected; "
+                      f"taken as {v:g}°", InputWarning, stacklevel=2)
+    return v
+
+
 def supply_voltage(name: str, value) -> float:
     """A supply voltage [V]: finite, > 0 and at most :data:`MAX_PLAUSIBLE_VOLTAGE` (above it
     the number is in millivolts)."""

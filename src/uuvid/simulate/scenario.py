@@ -38,6 +38,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from uuvid.core.checks import direction_deg
 from uuvid.simulate.reference import (
     WaypointMission,
     cruise_speed,
@@ -182,6 +183,11 @@ class ConstantCurrentSpec(BaseModel):
     direction_deg: float = 0.0
     down: float = 0.0
 
+    @field_validator("direction_deg")
+    @classmethod
+    def _degrees(cls, v):
+        return direction_deg("current.direction_deg", v)
+
     def build(self, base):
         from uuvid.simulate.currents import ConstantCurrent, ned
 
@@ -215,6 +221,11 @@ class GaussMarkovCurrentSpec(BaseModel):
     direction_sigma_deg: float = Field(0.0, ge=0)
     direction_mu: float = Field(0.05, gt=0)
     seed: int = 0
+
+    @field_validator("direction_deg")
+    @classmethod
+    def _degrees(cls, v):
+        return direction_deg("current.direction_deg", v)
 
     def build(self, base):
         from uuvid.simulate.currents import GaussMarkovCurrent
