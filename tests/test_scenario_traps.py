@@ -116,3 +116,19 @@ def test_hold_warns_of_a_current_direction_in_radians(monkeypatch):
 
     with pytest.warns(UserWarning, match=r"--current direction = 1.57°: that is π/2 in radians"):
         assert hold_cmd._parse_current("0.3,1.57") == (0.3, 1.57)
+
+
+@pytest.mark.parametrize("kw, said", [
+    ({"depth": -2}, "depth = -2 m: expected >= 0"),
+    ({"waypoints": ((0, 0, 0, 0), (5, 0, -5, 0))}, "waypoint 1 is at down = -5 m, 5 m above the surface"),
+    ({"waypoints": ((0, 0, 2, 0), (5, 0, 2, 90))}, "waypoint 1 has yaw 90: beyond ±2π rad"),
+])
+def test_a_library_mission_above_the_water_or_in_degrees_is_refused(kw, said):
+    """The scenario file refused these, the library did not: square_mission(depth=-2) flew 2 m
+    above the water and reported "completed" with no warning."""
+    from uuvid.simulate.reference import WaypointMission, square_mission
+
+    with pytest.raises(ValueError, match=said):
+        WaypointMission(**kw) if "waypoints" in kw else square_mission(**kw)
+    assert square_mission(depth=0.0).duration > 0
+    assert WaypointMission(((0, 0, -0.5, 0), (5, 0, 2, -6.28))).duration > 0

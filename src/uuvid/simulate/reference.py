@@ -27,6 +27,10 @@ class Leg:
     duration: float
 
 
+#: a waypoint may sit this far (m) above the surface (a vehicle floating high); higher is a sign slip
+MAX_ABOVE_SURFACE_M = 0.5
+
+
 @dataclass(frozen=True)
 class WaypointMission:
     """Straight legs between waypoints; ``duration`` includes a final hold."""
@@ -46,6 +50,14 @@ class WaypointMission:
         for i, w in enumerate(self.waypoints):
             if len(w) != 4 or not all(math.isfinite(float(v)) for v in w):
                 raise ValueError(f"waypoint {i} must be 4 finite numbers (north, east, down, yaw), got {w!r}")
+            # a mission above the water flew to "completed" (square_mission(depth=-2), a waypoint
+            # at down = -5 meant as 5 m deep)
+            if float(w[2]) < -MAX_ABOVE_SURFACE_M:
+                raise ValueError(f"waypoint {i} is at down = {float(w[2]):g} m, {-float(w[2]):g} m "
+                                 "above the surface: down is positive (NED; depth 5 m is down = 5)")
+            if abs(float(w[3])) > 2 * math.pi + 1e-9:
+                raise ValueError(f"waypoint {i} has yaw {float(w[3]):g}: beyond ±2π rad — is it in "
+                                 "degrees? expected radians")
         for name in ("speed", "vertical_speed", "yaw_rate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
@@ -133,6 +145,8 @@ def square_mission(depth: float = 2.0, side: float = 10.0, speed: float = 0.5,
     """
     if yaw not in ("path", "fixed"):
         raise ValueError(f"yaw must be 'path' or 'fixed', got {yaw!r}")
+    if not depth >= 0:  # NaN too
+        raise ValueError(f"depth = {depth:g} m: expected >= 0 (down positive; depth 2 m is 2)")
     corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side), (0.0, 0.0)]
     heads = [0.0, math.pi / 2, math.pi, -math.pi / 2]
     wps = [(0.0, 0.0, 0.0, 0.0), (0.0, 0.0, depth, 0.0)]

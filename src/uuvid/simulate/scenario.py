@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from uuvid.core.checks import direction_deg
 from uuvid.simulate.reference import (
+    MAX_ABOVE_SURFACE_M,
     WaypointMission,
     cruise_speed,
     current_speed_bound,
@@ -54,8 +55,6 @@ class ScenarioError(ModelFileError):
     """A scenario file is invalid; the message names the file and the key path."""
 
 
-#: a waypoint may sit this far (m) above the surface (a vehicle floating high); higher is a sign slip
-MAX_ABOVE_SURFACE_M = 0.5
 
 
 class MissionSpec(BaseModel):
