@@ -707,16 +707,18 @@ def _dynamics_fit_section(out: Path, rep: Report, quick: bool = False) -> dict:
     return res
 
 
-def run_demo(out: Path, quick: bool = False, workers: int | None = None) -> dict:
+def run_demo(out: Path, quick: bool = False, workers: int | None = 1) -> dict:
     """All sections; ``quick``: a shorter run (no thruster-loop study or LQI flight; coarser hold
     polar, endurance and dynamics selection).  The folder is written as a whole
     (:func:`uuvid.core.atomic.atomic_dir`).
 
-    ``workers``: processes the sections run in (``None``: one per core, at most
-    :data:`MAX_WORKERS`; ``1``: one after another in this process).  The sections are independent
-    (each writes its own sub-folder and report blocks), so on two cores the demo takes about half
-    the time — most of a first run is compiling each section's kernels, which one process
-    does on one core.  The numbers are the same either way."""
+    ``workers``: processes the sections run in — ``1`` (the default): one after another in this
+    process; ``None``: one per core, at most :data:`MAX_WORKERS` (``uuvid demo``'s default).  The
+    sections are independent (each writes its own sub-folder and report blocks), so on two cores
+    the demo takes about half the time — most of a first run is compiling each section's
+    kernels, which one process does on one core.  The numbers are the same either way.  Workers
+    are spawned: a script calling this with ``workers`` other than 1 needs the usual
+    ``if __name__ == "__main__":`` guard, and changes it made in its own process do not reach them."""
     from uuvid.core.atomic import atomic_dir
 
     final = Path(out)
@@ -734,8 +736,8 @@ def _rebase(doc, work: Path, final: Path):
     w, f = str(work), str(final)
 
     def walk(x):
-        if isinstance(x, str):
-            return f + x[len(w):] if x.startswith(w) else x
+        if isinstance(x, str):  # a path, or a text naming one ("my-rov (…/dive/my-rov.yaml)")
+            return x.replace(w, f)
         if isinstance(x, dict):
             return {k: walk(v) for k, v in x.items()}
         if isinstance(x, list):
@@ -827,12 +829,18 @@ _SECTIONS = (
 MAX_WORKERS = 3
 
 
-def _workers(workers: int | None) -> int:
+def _cores() -> int:
+    """Cores this process may run on (its affinity where the OS says, else the count)."""
     import os
 
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def _workers(workers: int | None) -> int:
     if workers is None:
-        n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        return max(1, min(n, MAX_WORKERS))
+        return min(_cores(), MAX_WORKERS)
     if int(workers) < 1:
         raise ValueError(f"workers must be 1 or more, got {workers}")
     return int(workers)
@@ -849,11 +857,18 @@ def _run_section(i: int, out: Path, quick: bool) -> tuple[dict, Report, float]:
     return res, rep, time.perf_counter() - t0
 
 
-def _quiet_worker() -> None:
-    """A worker's own progress bars would interleave with the other's and the main one's."""
+def _quiet_worker(threads: int) -> None:
+    """A worker's own progress bars would interleave with the other's and the main one's; its
+    compiled parallel loops share the cores with the other workers (``threads`` each, unless the
+    user set ``NUMBA_NUM_THREADS``).  Runs before the worker imports numba."""
     import os
 
     os.environ["UUVID_NO_PROGRESS"] = "1"
+    os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))
+
+
+class DemoSectionError(RuntimeError):
+    """A section of the demo failed in a worker process (its title, then the worker's error)."""
 
 
 def _run_sections(out: Path, quick: bool, workers: int, task) -> list:
@@ -874,18 +889,26 @@ def _run_sections(out: Path, quick: bool, workers: int, task) -> list:
 
     task.stage(f"{n} sections in {workers} processes")
     order = sorted(range(n), key=lambda i: -_SECTIONS[i][2])
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_quiet_worker) as pool:
-        futures = {pool.submit(_run_section, i, out, quick): i for i in order}
-        try:
-            for f in as_completed(futures):
-                i = futures[f]
-                done[i] = f.result()
-                task.stage(f"{titles[i]}: done in {done[i][2]:.1f} s")
-                task.advance()
-        except BaseException:  # a section failed, or Ctrl-C: the ones not started never start
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
+    threads = max(1, _cores() // workers)
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_quiet_worker, initargs=(threads,))
+    futures = {pool.submit(_run_section, i, out, quick): i for i in order}
+    i = order[0]
+    try:
+        for f in as_completed(futures):
+            i = futures[f]
+            done[i] = f.result()
+            task.stage(f"{titles[i]}: done in {done[i][2]:.1f} s")
+            task.advance()
+    except BaseException as e:  # a section failed, or Ctrl-C: stop the others now, not at their end
+        pool.shutdown(wait=False, cancel_futures=True)
+        for p in list(getattr(pool, "_processes", {}).values()):
+            p.terminate()
+        if isinstance(e, Exception):
+            raise DemoSectionError(f"demo section {_SECTIONS[i][0]!r} failed: "
+                                   f"{type(e).__name__}: {e}") from e
+        raise
+    pool.shutdown(wait=True)
     return done
 
 
