@@ -346,6 +346,29 @@ def test_too_short_a_dive_error_says_the_readers_warning_behind_it(dive, tmp_pat
     assert "force columns" not in out
 
 
+def test_a_dofs_error_carries_only_the_reader_warnings_naming_its_channels():
+    """The error matched the reader's warnings by generic words: a camera's checksum failures
+    ('skipped') and a 'disarmed' were added to every heave and yaw 'window too short' as if they
+    explained it.  Only the warnings naming the DOF's channels are added now."""
+    from types import SimpleNamespace
+
+    from uuvid.identify.vehicle.dive import _with_reader_warnings
+
+    dc = SimpleNamespace(name="d.tlog", warnings=[
+        "d.tlog: 4 message(s) fail their checksum in every copy; skipped: 1 CAMERA_INFORMATION",
+        "d.tlog: the vehicle disarmed at t = 12 s; samples dropped, data lost",
+        "d.tlog: depth_m repeats 2.5 exactly from t = 50 to 90 s — those samples are left out",
+        "d.tlog: yaw_rad repeats 0.1 exactly from t = 5 to 9 s — those samples are left out",
+        "d.tlog: the table has all six force columns (X_N … N_Nm) and pwm_ columns"])
+    e = DiveDataError("d.tlog: window too short to identify heave")
+    assert str(_with_reader_warnings(e, ["heave"], dc)) == (
+        "d.tlog: window too short to identify heave — the reader warned of this log: depth_m "
+        "repeats 2.5 exactly from t = 50 to 90 s — those samples are left out")
+    yaw = str(_with_reader_warnings(e, ["yaw"], dc))
+    assert "yaw_rad repeats" in yaw and "depth_m" not in yaw and "N_Nm" not in yaw
+    assert _with_reader_warnings(e, ["surge"], dc) is e
+
+
 def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path):
     """The example dive with one horizontal motor's PWM mirrored (driven with the others, so the
     direction check names it too): yaw inertia ×11.5 of the base, said with what to check; the

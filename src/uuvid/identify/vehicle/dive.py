@@ -46,6 +46,7 @@ jointly with the coupled model (:mod:`uuvid.identify.vehicle.dive_horizontal`).
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 
@@ -524,20 +525,23 @@ def _surge_in_yaw_windows(dc, veh, windows) -> str | None:
             "v_mps) the coupled model (--dof horizontal)")
 
 
-#: words of a reader's warning that bear on a DOF that could not be identified: its measured
-#: channels, and what removes or corrupts samples of any channel
-_DOF_WORDS = {"heave": ("depth",), "yaw": ("yaw", "heading"), "surge": ("u_mps", "surge"),
-              "sway": ("v_mps", "sway"), "horizontal": ("u_mps", "v_mps", "yaw", "heading")}
-_SAMPLE_WORDS = ("armed", "left out", "damaged", "skipped", "dropped", "lost")
+#: the measured channels of a DOF, by which a reader's warning is known to bear on it (a stuck
+#: depth sensor whose samples were left out, then 'window too short')
+_DOF_CHANNELS = {d: (ch,) for d, (ch, _, _) in DIVE_DOFS.items()}
+_DOF_CHANNELS["horizontal"] = ("u_mps", "v_mps", "yaw_rad")
 
 
 def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
-    """``e`` (a DOF not identified) with the reader's warnings about its channels or about
-    samples left out appended: a CLI user sees the error alone, not the warnings that explain it
-    (a stuck depth sensor whose samples were left out, then 'window too short')."""
-    words = _SAMPLE_WORDS + tuple(w for d in dofs for w in _DOF_WORDS.get(d, ()))
+    """``e`` (a DOF not identified) with the reader's warnings that name its channels appended
+    (the samples of them left out, a source missing): a CLI user sees the error alone, not the
+    warnings that explain it.  Warnings about other messages or channels are not added, even if
+    they speak of samples skipped or of the vehicle disarmed."""
+    names = sorted({c for d in dofs for c in _DOF_CHANNELS.get(d, ())})
+    if not names:
+        return e
+    pat = re.compile(r"(?<![A-Za-z0-9_])(" + "|".join(map(re.escape, names)) + r")(?![A-Za-z0-9_])")
     pre = f"{dc.name}: " if dc.name else ""
-    said = [w.removeprefix(pre) for w in dc.warnings if any(k in w.lower() for k in words)]
+    said = [w.removeprefix(pre) for w in dc.warnings if pat.search(w)]
     if not said:
         return e
     more = f" (and {len(said) - 3} more)" if len(said) > 3 else ""
