@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -922,6 +923,83 @@ def test_read_ardusub_says_the_damaged_bytes_of_a_tlog_too(shared_data, tmp_path
     assert len(said) == 1 and "flip.tlog" in said[0], [str(w.message) for w in rec]
     assert cut["roll"].t.size == whole["roll"].t.size - 1  # the damaged ATTITUDE only
     assert cut["servo_1"].t.size == whole["servo_1"].t.size
+
+
+def _bad_copy(src: bytes, mid: int, at: int = 30) -> bytes:
+    """The last record of message ``mid`` in a telemetry log, one payload byte flipped (its
+    checksum fails)."""
+    off = [o for o, m in _tlog_records(src) if m == mid][-1]
+    end = off + 8 + (12 + src[off + 9] if src[off + 8] == 0xFD else 8 + src[off + 9])
+    rec = bytearray(src[off:end])
+    rec[at] ^= 0xFF
+    return bytes(rec)
+
+
+@pytest.mark.realdata
+def test_a_dive_read_of_a_clean_tlog_says_nothing_of_camera_messages(shared_data):
+    """small.tlog's camera (system 1 component 100) sends four messages pymavlink cannot check:
+    every dive read said so, and identify repeated it under each 'window too short'.  A dive
+    reads none of them: only checksum failures of the types it reads from the autopilot are its
+    business; ``log inspect`` (the whole file) still lists them."""
+    from uuvid.io.dive_channels import read_dive_channels
+
+    dc = read_dive_channels(shared_data / REAL / "small.tlog", "bluerov2-heavy")
+    assert not any("checksum" in w for w in dc.warnings), dc.warnings
+    ins = inspect_log(shared_data / REAL / "small.tlog")
+    assert any("CAMERA_INFORMATION from system 1 component 100" in w for w in ins.warnings)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("extra", [5, 12, -7])
+def test_a_tlog_cut_off_while_written_is_read_fast_and_said_as_such(shared_data, tmp_path, extra):
+    """A log cut off mid-write (stray bytes after the last whole record, or its last record
+    cut): taken for damage, read_ardusub read it message by message (twice as slow) and said the
+    camera's checksums.  The partial record is the end of the log, said so."""
+    from uuvid.io.ardusub.reader import read_raw
+    from uuvid.io.logs import LogWarning, read_ardusub
+
+    src = (shared_data / REAL / "small.tlog").read_bytes()
+    p = _write(tmp_path / "cut.tlog", src + bytes(range(1, extra + 1)) if extra > 0 else src[:extra])
+    n = extra if extra > 0 else len(src) + extra - _tlog_records(src)[-1][0]  # the last, cut
+    said = f"cut.tlog: the log ends in a partial message ({n:,} bytes): cut off while written?"
+    with pytest.warns(LogWarning) as rec:
+        read_ardusub(p, on_duplicate="mean")
+    assert [str(w.message) for w in rec] == [said]
+    assert said in read_raw(p, whole_file=False).warnings
+
+
+@pytest.mark.realdata
+def test_frames_failing_their_checksum_at_the_end_of_a_tlog_are_said(shared_data, tmp_path):
+    """Two ATTITUDE frames with a corrupt byte appended to small.tlog (after a damaged stretch,
+    so the log is read message by message, and without it): failed frames were only said when a
+    good message followed, so inspect counted 4 of the 6 BAD_DATA.  Now all six are said."""
+    src = (shared_data / REAL / "small.tlog").read_bytes()
+    bad = _bad_copy(src, 30)
+    mid = next(o for o, m in _tlog_records(src)[len(_tlog_records(src)) // 2:] if m == 178)
+    flipped = bytearray(src)
+    flipped[mid + 9] ^= 0xFF  # a corrupt length byte: a damaged stretch
+    for name, body in (("end.tlog", src), ("gap.tlog", bytes(flipped))):
+        ins = inspect_log(_write(tmp_path / name, body + bad + bad))
+        said = " | ".join(ins.warnings)
+        assert f"2 ATTITUDE from system 1 component 1 at byte {len(src):,}" in said, said
+        assert "4 message(s) fail their checksum in every copy" in said, said
+
+
+@pytest.mark.realdata
+def test_read_ardusub_counts_checksum_failures_of_the_types_read_only(shared_data, tmp_path):
+    """Once pymavlink's index of the types read was used up, the rest of the log was read in
+    turn: a frame of any type failing its checksum there (an AHRS2, not read) was counted as
+    'of the types read', at the byte of the last indexed message."""
+    from uuvid.io.logs import LogWarning, read_ardusub
+
+    src = (shared_data / REAL / "small.tlog").read_bytes()
+    p = _write(tmp_path / "ahrs2.tlog", src + _bad_copy(src, 178))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LogWarning)
+        read_ardusub(p, on_duplicate="mean")
+    p = _write(tmp_path / "att.tlog", src + _bad_copy(src, 30))
+    with pytest.warns(LogWarning, match=f"1 ATTITUDE from system 1 component 1 at byte {len(src):,}"):
+        read_ardusub(p, on_duplicate="mean")
 
 
 def _write(path, data: bytes):

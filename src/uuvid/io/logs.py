@@ -226,6 +226,16 @@ def _tlog_decodes(conn) -> tuple[bool, int]:
         conn.rewind()
 
 
+def _check_tlog(conn, p: Path) -> None:
+    """The one test of both ArduSub readers that a ``.tlog`` is a telemetry log (a known MAVLink
+    message decodes near its head, :func:`_tlog_decodes`): else a clear error naming it, the
+    connection closed."""
+    ok, bad = _tlog_decodes(conn)
+    if not ok:
+        conn.close()
+        raise LogDataError(_not_a_tlog(p, bad))
+
+
 #: a receive stamp this close (s) to the last good one can start a frame (pymavlink's own scan)
 RESYNC_WINDOW_S = 3 * 24 * 3600.0
 #: a message type failing its checksum in at least this share of its frames from one sender is
@@ -240,9 +250,12 @@ class _Skipped:
     265 bytes, six good messages with it).  :meth:`stream` yields the decoded messages; between
     two of them the bytes skipped are either one *whole frame* failing its checksum (a corrupt
     payload byte, or a sender whose message definition differs from pymavlink's) or a *damaged
-    stretch*, which is searched again frame by frame so only the damaged messages are lost."""
+    stretch*, which is searched again frame by frame so only the damaged messages are lost.
+    A log whose index has no gap (:func:`_tlog_index_check`) is read without :meth:`stream`: its
+    BAD_DATA can only be whole frames, each given to :meth:`bad` with where it starts.
+    ``partial``: the bytes of a last record cut off while the log was written (not damage)."""
 
-    def __init__(self, conn):
+    def __init__(self, conn, partial: int = 0):
         self.conn = conn
         self.end = 0  # file position after the last decoded message
         self.bads: list = []  # BAD_DATA messages since then
@@ -253,12 +266,16 @@ class _Skipped:
         self.good: Counter = Counter()  # (message id, system, component) → decoded
         self.stretches: list = []  # (first byte, bytes lost, message before, recv before)
         self.recovered = 0
+        self.partial = partial
+        data = getattr(conn, "data_map", None)
+        self.size = len(data) if data is not None else 0
 
     def stream(self):
         conn = self.conn
         while True:
             m = conn.recv_msg()
-            if m is None:
+            if m is None:  # failed frames or bytes at the end: said as those between messages
+                yield from self._tail()
                 return
             if m.get_type() == "BAD_DATA":
                 self.bads.append(m)
@@ -276,6 +293,23 @@ class _Skipped:
             self._seen(m)
             yield m
 
+    def bad(self, m, at: int) -> None:
+        """A BAD_DATA message read from the record at byte ``at`` of a log whose index has no gap
+        (a whole frame failing its checksum; a record cut off at the end is the partial one)."""
+        if self.partial and at >= self.size - self.partial:
+            return
+        data = bytes(getattr(m, "data", b""))
+        if len(data) > 9 and "CRC" in str(getattr(m, "reason", "")):
+            self._frame(data, at)
+        else:
+            self.stretches.append((at, len(data) + 8, None, math.nan))
+
+    def _frame(self, data: bytes, at: int) -> None:
+        v2 = data[0] == 0xFD
+        mid = int.from_bytes(data[7:10], "little") if v2 else data[5]
+        key = (mid, *((data[5], data[6]) if v2 else (data[3], data[4])))
+        self.frames.setdefault(key, [0, at])[0] += 1
+
     def _seen(self, m) -> None:
         self.n += 1
         self.good[(m.get_msgId(), m.get_srcSystem(), m.get_srcComponent())] += 1
@@ -285,18 +319,34 @@ class _Skipped:
             if self.t0 != self.t0:
                 self.t0 = recv
 
+    def _tail(self):
+        """The bytes after the last decoded message: whole records (failing their checksum) or a
+        damaged stretch, then perhaps one record cut off while the log was written."""
+        data = getattr(self.conn, "data_map", None)
+        if data is None or self.end >= self.size:
+            return
+        o = self.end
+        while o < self.size and not _tlog_partial(data, o):
+            q = _tlog_frame_end(data, o)
+            if q is None:
+                break
+            o = q
+        hi = self.size
+        if o < self.size and _tlog_partial(data, o):
+            self.partial, hi = self.size - o, o
+        if hi > self.end:
+            yield from self._between(hi)
+        self.bads = []
+
     def _between(self, start: int):
         """The bytes from the last decoded message to ``start`` (the next one's receive stamp)."""
         size = start - self.end
         datas = [bytes(getattr(b, "data", b"")) for b in self.bads]
-        if (sum(len(d) + 8 for d in datas) == size and all(len(d) > 9 for d in datas)
+        if (datas and sum(len(d) + 8 for d in datas) == size and all(len(d) > 9 for d in datas)
                 and all("CRC" in str(getattr(b, "reason", "")) for b in self.bads)):
             at = self.end  # whole frames, each behind its receive stamp: their checksums failed
             for data in datas:
-                v2 = data[0] == 0xFD
-                mid = int.from_bytes(data[7:10], "little") if v2 else data[5]
-                key = (mid, *((data[5], data[6]) if v2 else (data[3], data[4])))
-                self.frames.setdefault(key, [0, at])[0] += 1
+                self._frame(data, at)
                 at += len(data) + 8
             return
         before, lo, got = self.n, self.end, 0
@@ -333,11 +383,16 @@ class _Skipped:
                         continue
             i += 1
 
-    def notes(self, name: str, mavutil) -> list:
+    def notes(self, name: str, mavutil, *, types=None, sender=None, good=None) -> list:
+        """What was skipped, said.  Frames failing their checksum are said only of the message
+        ``types`` (names) read and of the ``sender`` (system, component; component ``None``:
+        any) chosen, when given (``None``: the whole file).  ``good``: ``{(type name, system,
+        component): decoded}`` when the log was not read through :meth:`stream`."""
         out = []
         if self.stretches:
             lost = sum(s[1] for s in self.stretches)
-            where = "; ".join(f"byte {b:,} ({k:,} bytes, after message {n:,}"
+            where = "; ".join(f"byte {b:,} ({k:,} bytes"
+                              + (f", after message {n:,}" if n is not None else "")
                               + (f", {r - self.t0:.1f} s into the log" if r == r else "") + ")"
                               for b, k, n, r in self.stretches[:3])
             more = f"; {len(self.stretches) - 3} more" if len(self.stretches) > 3 else ""
@@ -347,12 +402,18 @@ class _Skipped:
                        f"bytes skipped: {where}{more}{back}; the reader resumed at the next valid "
                        "message, so only the messages in the damaged bytes are lost")
         names = getattr(getattr(mavutil, "mavlink", None), "mavlink_map", None) or {}
-        damage, sender = [], []
+        damage, senders = [], []
         for key, (c, first) in sorted(self.frames.items(), key=lambda kv: kv[1][1]):
             nm = getattr(names.get(key[0]), "msgname", None) or f"message id {key[0]}"
+            if types is not None and nm not in types:
+                continue
+            if sender is not None and (key[1] != sender[0]
+                                       or sender[1] is not None and key[2] != sender[1]):
+                continue
             who = f"{nm} from system {key[1]} component {key[2]}"
-            if c >= SENDER_CRC_SHARE * (c + self.good.get(key, 0)):
-                sender.append((c, who))
+            ok = good.get((nm, key[1], key[2]), 0) if good is not None else self.good.get(key, 0)
+            if c >= SENDER_CRC_SHARE * (c + ok):
+                senders.append((c, who))
             else:
                 damage.append((c, f"{who} at byte {first:,}"))
         if damage:
@@ -360,14 +421,21 @@ class _Skipped:
                        "corrupt byte) and are skipped: "
                        + "; ".join(f"{c:,} {w}" for c, w in damage[:4])
                        + (f"; {len(damage) - 4} more" if len(damage) > 4 else ""))
-        if sender:
-            sender.sort(key=lambda cw: -cw[0])
-            out.append(f"{name}: {sum(c for c, _ in sender):,} message(s) fail their checksum in "
+        if senders:
+            senders.sort(key=lambda cw: -cw[0])
+            out.append(f"{name}: {sum(c for c, _ in senders):,} message(s) fail their checksum in "
                        f"every copy or in over {SENDER_CRC_SHARE:.0%} of them — a sender whose "
                        "message definition differs from pymavlink's, not damage; skipped: "
-                       + "; ".join(f"{c:,} {w}" for c, w in sender[:4])
-                       + (f"; {len(sender) - 4} more type(s)" if len(sender) > 4 else ""))
+                       + "; ".join(f"{c:,} {w}" for c, w in senders[:4])
+                       + (f"; {len(senders) - 4} more type(s)" if len(senders) > 4 else ""))
+        if self.partial:
+            out.append(f"{name}: the log ends in a partial message ({self.partial:,} bytes): cut "
+                       "off while written?")
         return out
+
+
+#: the shortest whole record of a telemetry log: receive stamp + a MAVLink 1 frame, no payload
+TLOG_MIN_RECORD = 8 + 8
 
 
 def _tlog_frame_end(data, o: int) -> int | None:
@@ -379,21 +447,43 @@ def _tlog_frame_end(data, o: int) -> int | None:
     return o + 8 + 8 + data[o + 9]
 
 
-def _tlog_index_gaps(conn) -> bool:
-    """Whether pymavlink's index of a telemetry log has a gap: a record that does not end where
-    the next indexed one starts, with no chain of frames (of types it does not know) between."""
+def _tlog_partial(data, o: int) -> bool:
+    """Whether the bytes from ``o`` to the end of a telemetry log are one record cut off while it
+    was written: too few for any whole record, or a frame header asking for more than remain."""
+    rest = len(data) - o
+    if rest <= 0:
+        return False
+    if rest < TLOG_MIN_RECORD:
+        return True
+    q = _tlog_frame_end(data, o)
+    return q is not None and q > len(data)
+
+
+def _tlog_index_check(conn) -> tuple[bool, int]:
+    """Whether pymavlink's index of a telemetry log has a gap (a record that does not end where
+    the next indexed one starts, with no chain of frames of types it does not know between),
+    and the bytes of a last record cut off while the log was written (the end of the log, not
+    a gap)."""
     data = getattr(conn, "data_map", None)
     offsets = getattr(conn, "offsets", None)
     if data is None or not offsets:
-        return False
+        return False, 0
     starts = sorted(o for lst in offsets.values() for o in lst)
-    for o, nxt in zip(starts, starts[1:] + [len(data)]):
+    for o, nxt in zip(starts, starts[1:]):
         q = _tlog_frame_end(data, o)
         while q is not None and q < nxt:
             q = _tlog_frame_end(data, q)
-        if q != nxt and not (nxt == len(data) and q is not None and q >= nxt):
-            return True
-    return False
+        if q != nxt:
+            return True, 0
+    o = starts[-1]
+    while o < len(data):
+        if _tlog_partial(data, o):
+            return False, len(data) - o
+        q = _tlog_frame_end(data, o)
+        if q is None:
+            return True, 0
+        o = q
+    return False, 0
 
 
 def _require(module: str, what: str):
@@ -1673,32 +1763,39 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
         if time == "boot":  # messages that map receive times onto the boot clock
             read_types |= _TLOG_CLOCK_TYPES
     if kind == "tlog":
-        ok, bad = _tlog_decodes(conn)
-        if not ok:
-            conn.close()
-            raise LogDataError(_not_a_tlog(p, bad))
+        _check_tlog(conn, p)
     damaged = _index_stops_early(conn) if kind == "dataflash" else None
     if damaged is not None and damaged[0] > 0:  # the filtered read would end at the damage
         import warnings
 
         warnings.warn(_damaged_index_note(name, damaged), LogWarning, stacklevel=3)
     # telemetry: pymavlink's index skips damaged bytes silently; where it has gaps every message
-    # is read in turn (slower) so the damage is searched again and said (:class:`_Skipped`)
-    skips = _Skipped(conn) if kind == "tlog" and _tlog_index_gaps(conn) else None
-    stream = skips.stream() if skips is not None else None
-    crc_bad: list = []  # byte offsets of frames of the types read failing their checksum
+    # is read in turn (slower) so the damage is searched again and said (:class:`_Skipped`);
+    # else the index's records of the types read, in file order (recv_match drops BAD_DATA)
+    gaps, partial = _tlog_index_check(conn) if kind == "tlog" else (False, 0)
+    skips = _Skipped(conn, partial) if kind == "tlog" else None
+    stream = skips.stream() if gaps else None
+    order = None
+    if kind == "tlog" and not gaps:
+        ids = getattr(conn, "name_to_id", {})
+        order = iter(sorted(o for t in read_types if t in ids for o in conn.offsets[ids[t]]))
+    good: Counter = Counter()  # (type, system, component) → decoded (the indexed read)
     try:
         present = _present_types(conn, kind)
         while True:
             try:
                 if stream is not None:
                     m = next(stream, None)
-                elif kind == "tlog":  # recv_match drops BAD_DATA: the index's offsets read here
-                    conn.skip_to_type(read_types)
-                    at = conn.offset
-                    m = conn.recv_msg()
-                    if m is not None and m.get_type() == "BAD_DATA":
-                        crc_bad.append(at)
+                elif order is not None:
+                    at = next(order, None)
+                    m = None
+                    if at is not None:
+                        conn.f.seek(at)
+                        conn.offset = at
+                        m = conn.recv_msg()
+                        if m is not None and m.get_type() == "BAD_DATA":
+                            skips.bad(m, at)
+                            continue
                 else:
                     m = conn.recv_match(type=None if damaged else read_types, blocking=False)
             except Exception as e:
@@ -1710,6 +1807,8 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
                 continue
             if kind == "tlog":
                 src = (m.get_srcSystem(), m.get_srcComponent())
+                if order is not None:
+                    good[(mt, *src)] += 1
                 if mt == "HEARTBEAT":
                     if autopilot is None and getattr(m, "autopilot", 8) != 8:
                         autopilot = src
@@ -1759,14 +1858,6 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
         except Exception:
             pass
 
-    import warnings
-
-    for note in skips.notes(name, mavutil) if skips is not None else []:
-        warnings.warn(note, LogWarning, stacklevel=3)
-    if crc_bad:
-        warnings.warn(f"{name}: {len(crc_bad):,} message(s) of the types read fail their checksum "
-                      f"and are skipped (first at byte {crc_bad[0]:,}): a corrupt byte, or a sender "
-                      "whose message definition differs from pymavlink's", LogWarning, stacklevel=3)
     # --- the sender (telemetry) --------------------------------------------------------------
     chosen_src: tuple[int, int] | None = None
     if kind == "tlog":
@@ -1778,6 +1869,13 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
         elif autopilot is not None:
             chosen_src = (autopilot[0], source_component if source_component is not None
                           else autopilot[1])
+
+    import warnings
+
+    # frames failing their checksum: only those of the types read from the sender chosen
+    for note in (skips.notes(name, mavutil, types=read_types, sender=chosen_src,
+                             good=None if gaps else good) if skips is not None else []):
+        warnings.warn(note, LogWarning, stacklevel=3)
 
     def src_mask(st: _MsgStore, mt: str) -> np.ndarray:
         src = st.src

@@ -207,7 +207,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     if dt is not None and not (math.isfinite(float(dt)) and float(dt) > 0):
         raise LogDataError(f"dt = {float(dt):g}: expected a time step > 0 s (leave it out for the "
                            "attitude interval)")
-    raw = read_raw(path)
+    raw = read_raw(path, whole_file=False)  # checksum failures of the messages a dive reads
     name = raw.name
     warnings = list(raw.warnings)
     params_log, changed = raw.param_values()

@@ -26,12 +26,13 @@ from uuvid.io.logs import (
     _ardusub_kind,
     _boot_from_log,
     _captured_output,
+    _check_tlog,
     _damaged_index_note,
     _index_stops_early,
-    _not_a_tlog,
     _require,
     _Skipped,
     _tlog_boot,
+    _tlog_index_check,
 )
 
 #: messages kept (all numeric fields); everything else is only counted
@@ -129,17 +130,20 @@ def _numeric_fields(m) -> dict:
     return out
 
 
-def read_raw(path) -> RawLog:
+def read_raw(path, *, whole_file: bool = True) -> RawLog:
     """Read ``path`` once (see the module doc).  Raises :class:`LogDataError` naming the file.
     pymavlink's own prints about bad bytes (one line per byte of a damaged stretch: 290,000 for
-    a telemetry log named .BIN) are collected and said once, as a warning of the log."""
+    a telemetry log named .BIN) are collected and said once, as a warning of the log.
+    ``whole_file``: telemetry frames failing their checksum are said of every type and sender
+    (``log inspect``); else only of the types kept (:data:`TLOG_KEEP`) from the autopilot, as
+    the others play no part in a dive."""
     mavutil = _require("pymavlink.mavutil", "reading ArduSub logs")
     p = Path(path)
     kind = _ardusub_kind(p)
     chatter: list = []
     try:
         with _captured_output(chatter):
-            raw = _read_messages(p, kind, mavutil)
+            raw = _read_messages(p, kind, mavutil, whole_file)
     except LogDataError as e:
         if chatter and "no messages" in str(e):
             other = ".tlog" if kind == "dataflash" else ".BIN"
@@ -163,12 +167,14 @@ CLOCK_STEP_S = 5.0
 CLOCK_STEP_WINDOW_S = 10.0
 
 
-def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
+def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawLog:
     """The body of :func:`read_raw` (pymavlink's prints captured by the caller)."""
     try:
         conn = mavutil.mavlink_connection(str(p))
     except Exception as e:
         raise LogDataError(f"{p.name}: cannot open the log: {type(e).__name__}: {e}") from e
+    if kind == "tlog":  # random bytes decode as a stray UNKNOWN_n, or as nothing
+        _check_tlog(conn, p)
     senders: dict = {}
     series: dict = {}
     params: list = []
@@ -182,8 +188,12 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     # (IMU, EKF, ...) and the counts of every type come from its index
     want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
     notes: list = []
-    skipped = _Skipped(conn) if kind == "tlog" else None
-    tlog = skipped.stream() if skipped is not None else None
+    # telemetry: a log whose index has a gap is read through :class:`_Skipped` (every message's
+    # position, the damaged bytes searched again); else message by message as it comes, its
+    # BAD_DATA whole frames failing their checksum (where each starts read only for them)
+    gaps, partial = _tlog_index_check(conn) if kind == "tlog" else (False, 0)
+    skipped = _Skipped(conn, partial) if kind == "tlog" else None
+    tlog = skipped.stream() if gaps else None
     stop = _index_stops_early(conn) if kind == "dataflash" else None
     if stop is not None:  # pymavlink's index ends at a damaged message: read them one by one
         want = None
@@ -203,6 +213,8 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
             mt = m.get_type()
             if mt == "BAD_DATA":
                 bad += 1
+                if skipped is not None and tlog is None:
+                    skipped.bad(m, int(conn.f.tell()) - 8 - len(getattr(m, "data", b"")))
                 continue
             if kind == "tlog":
                 src = (m.get_srcSystem(), m.get_srcComponent())
@@ -284,11 +296,7 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
                 s0.counts[nm] = int(c)
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
-    if kind == "tlog" and not any(not k.startswith("UNKNOWN_") for s in senders.values()
-                                  for k in s.counts):  # random bytes decode as a stray UNKNOWN_n
-        raise LogDataError(_not_a_tlog(p, bad))
-    if skipped is not None:
-        notes.extend(skipped.notes(p.name, mavutil))
+    at = len(notes)  # the checksum notes go here once the autopilot is known
     if len(steps) == 2 and abs(steps[0][1] + steps[1][1]) < CLOCK_STEP_S:  # out and back
         (k, d), (k2, _) = steps
         notes.append(f"{p.name}: the receive times of messages {k:,} to {k2 - 1:,} are off by "
@@ -304,6 +312,11 @@ def _read_messages(p: Path, kind: str, mavutil) -> RawLog:
     raw = RawLog(p, kind, senders, series, params, None, notes, bad_data=bad,
                  same_recv=int(same_recv))
     _finish(raw)
+    if skipped is not None:
+        good = None if gaps else {(mt, *src): c for src, s in senders.items()
+                                  for mt, c in s.counts.items()}
+        keep = {} if whole_file else {"types": TLOG_KEEP | {"PARAM_VALUE"}, "sender": raw.autopilot}
+        raw.warnings[at:at] = skipped.notes(p.name, mavutil, good=good, **keep)
     return raw
 
 
