@@ -1214,7 +1214,7 @@ def pwm_flags(dc: DiveChannels, B, thrust_model, t_start=None, t_end=None) -> Pw
     """
     if not dc.pwm:
         return None
-    keys = sorted(dc.pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    keys = _motor_order(dc.pwm)
     t = dc.pwm[keys[0]][0]
     P = np.full((len(keys), t.size), np.nan)
     for j, k in enumerate(keys):
@@ -1264,7 +1264,7 @@ def rotor_speeds(dc: DiveChannels, thrust_model=None) -> tuple[np.ndarray, np.nd
     if not dc.pwm:
         return None
     tm = default_t200() if thrust_model is None else thrust_model
-    keys = sorted(dc.pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
+    keys = _motor_order(dc.pwm)
     t = dc.pwm[keys[0]][0]
     P = np.stack([np.interp(t, *dc.pwm[k]) if dc.pwm[k][0].size else np.full(t.size, 1500.0)
                   for k in keys])
