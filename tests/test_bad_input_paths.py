@@ -191,3 +191,21 @@ def test_a_table_or_bag_that_is_none_is_a_clear_error(tmp_path, name, what):
 
         with pytest.raises(LogDataError, match="not a ROS|empty"):
             read_rosbag(p, {"depth": "/depth:data"})
+
+
+def test_a_latin1_csv_names_the_true_byte_and_how_to_resave_it(tmp_path):
+    """A CSV saved by Excel in Latin-1 (an 'é' after 2 MB): the error said "byte 0xe9 at position
+    0 ... a binary file?" (the position within pandas' decode buffer).  It now names the byte
+    and line in the file and says to re-save it as UTF-8."""
+    from uuvid.io.dive_channels import DiveDataError, read_dive_channels
+
+    head = ("t_s,depth_m,yaw_rad\n" + "".join(f"{i * 0.1:.1f},1.0,0.0\n" for i in range(150_000)))
+    body = head.encode() + "1.0,1.0,0.0 # café\n".encode("latin-1")
+    p = tmp_path / "excel.csv"
+    p.write_bytes(body)
+    with pytest.raises(DiveDataError) as e:
+        read_dive_channels(p, "bluerov2")
+    at = body.index(b"\xe9")
+    msg = str(e.value)
+    assert f"byte 0xe9 at byte {at:,} (line 150,002)" in msg and "re-save it as UTF-8" in msg, msg
+    assert at > 2_000_000 and "binary file" not in msg

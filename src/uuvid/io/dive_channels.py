@@ -159,6 +159,31 @@ def _inside(t, intervals) -> np.ndarray:
     return on
 
 
+def _not_utf8(p: Path) -> str:
+    """Where the first byte of ``p`` that is not UTF-8 is (pandas' error counts within its own
+    decode buffer, not the file), and what to do."""
+    import codecs
+
+    dec = codecs.getincrementaldecoder("utf-8")()
+    at, line = 0, 1
+    with open(p, "rb") as f:
+        while True:
+            chunk = f.read(1 << 20)
+            try:
+                dec.decode(chunk, final=not chunk)
+            except UnicodeDecodeError as e:
+                k = max(e.start - len(e.object) + len(chunk), 0)  # the decoder may hold a few bytes
+                bad = (e.object[e.start:e.start + 1] or b"?")[0]
+                line += chunk[:k].count(b"\n")
+                return (f"byte 0x{bad:02x} at byte {at + k:,} (line {line:,}) is not UTF-8: a "
+                        "file saved in another encoding (Excel's 'CSV' is Latin-1/Windows-1252) — "
+                        "re-save it as UTF-8 ('CSV UTF-8'); or not a text file")
+            if not chunk:
+                return "not UTF-8 text: re-save it as UTF-8 ('CSV UTF-8')"
+            at += len(chunk)
+            line += chunk.count(b"\n")
+
+
 def _motor_order(pwm: dict) -> list:
     """The keys of ``pwm`` in motor order (``"10"`` after ``"9"``)."""
     return sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
@@ -1016,8 +1041,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         try:
             df = pd.read_csv(p)
         except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as e:
-            why = (f"not text: byte 0x{e.object[e.start]:02x} at position {e.start:,} is not "
-                   "UTF-8 — a binary file?" if isinstance(e, UnicodeDecodeError)
+            why = (_not_utf8(p) if isinstance(e, UnicodeDecodeError)
                    else f"{type(e).__name__}: {str(e).splitlines()[0][:160]}")
             raise DiveDataError(f"{p.name}: not a readable CSV table ({why}); expected "
                                 "comma-separated columns with a header row (t_s, depth_m, …) and "
