@@ -218,7 +218,6 @@ def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | No
     so a change to any of it is a new key, without reading every source file as
     :func:`~uuvid.core.cache.code_version` does)."""
     from uuvid.core import cache as disk
-    from uuvid.vehicle import stability
 
     names = ("forward", "backward", "starboard", "port", "diving", "climbing")
     key = None
@@ -235,6 +234,8 @@ def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | No
     else:
         got = None
     if got is None:  # −1: no limit in that direction (the cache stores finite values only)
+        from uuvid.vehicle import stability  # (only on a cache miss: a warm mission skips it)
+
         st = stability.static_stability(vehicle, inflow="none")  # trim only: the cache key holds
         got = np.full(len(names), -1.0)
         for c in st.cases:

@@ -35,8 +35,7 @@ from uuvid.thruster.inflow import inflow_thrust_at_nb, inflow_thrust_nb, tip_spe
 from uuvid.vehicle.allocation import allocate_compiled
 from uuvid.vehicle.inflow import check_geometry, state_advance_speeds_nb
 from uuvid.vehicle.kinematics import normalise_state
-from uuvid.vehicle.model import vehicle_rhs_into, vehicle_rhs_still_into
-from uuvid.vehicle.stability import MAX_TILT_DEG
+from uuvid.vehicle.model import MAX_TILT_DEG, vehicle_rhs_into, vehicle_rhs_still_into
 
 N_CH = len(CHANNELS)
 

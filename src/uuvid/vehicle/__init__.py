@@ -30,9 +30,7 @@ from uuvid.vehicle.definition import (
     load_vehicle,
     vehicle_from_dict,
 )
-from uuvid.vehicle.envelope import Envelope, speed_envelope
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, thrust_configuration_matrix
-from uuvid.vehicle.linearize import LinearModel, OperatingPoint, TrimError, linearize, trim
 from uuvid.vehicle.model import (
     DOF_NAMES,
     N_PARAMS,
@@ -48,7 +46,23 @@ from uuvid.vehicle.model import (
     vehicle_rhs_into,
     vehicle_rhs_reference,
 )
-from uuvid.vehicle.stability import StabilityResult, static_stability
+
+#: Names served on first use (PEP 562): a plain mission imports ``uuvid.vehicle`` for its model,
+#: layout and allocation, and need not load the envelope, linearisation and stability modules.
+_LAZY = {"Envelope": "envelope", "speed_envelope": "envelope", "LinearModel": "linearize",
+         "OperatingPoint": "linearize", "TrimError": "linearize", "linearize": "linearize",
+         "trim": "linearize", "StabilityResult": "stability", "static_stability": "stability"}
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f"{__name__}.{mod}"), name)
+    globals()[name] = value
+    return value
 
 __all__ = [
     "DOF_NAMES",

@@ -46,6 +46,11 @@ DOF_NAMES = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 STATE_NAMES = ("n", "e", "d", "qw", "qx", "qy", "qz", "u", "v", "w", "p", "q", "r")
 N_STATES = 13
 
+#: Largest trim tilt (deg, roll or pitch) counted as level: beyond it the vehicle no longer does
+#: useful work (camera, tools, a level DVL).  One limit for steady flight (:func:`static_stability`,
+#: the envelope check) and station keeping (:mod:`uuvid.analysis.hold`).
+MAX_TILT_DEG = 20.0
+
 # ---------------------------------------------------------------------------------------------
 # Flattened parameter array of the compiled right-hand side (layout version 1)
 # ---------------------------------------------------------------------------------------------

@@ -35,14 +35,10 @@ from uuvid.core.result import Result
 from uuvid.vehicle.allocation import apply_eta
 from uuvid.vehicle.hydrodynamics import added_mass_coriolis, damping_force, restoring_forces
 from uuvid.vehicle.kinematics import euler_to_rotmat
-from uuvid.vehicle.model import DOF_NAMES
+from uuvid.vehicle.model import DOF_NAMES, MAX_TILT_DEG  # noqa: F401  (the level limit)
 from uuvid.vehicle.rigid_body import rigid_body_coriolis
 
 ATTITUDE = (3, 4)  # roll, pitch: the DOFs with a righting moment
-#: Largest trim tilt (deg, roll or pitch) counted as level: beyond it the vehicle no longer does
-#: useful work (camera, tools, a level DVL).  One limit for steady flight (:func:`static_stability`,
-#: the envelope check) and station keeping (:mod:`uuvid.analysis.hold`).
-MAX_TILT_DEG = 20.0
 
 
 class _Balance:
