@@ -209,3 +209,9 @@ def test_a_latin1_csv_names_the_true_byte_and_how_to_resave_it(tmp_path):
     msg = str(e.value)
     assert f"byte 0xe9 at byte {at:,} (line 150,002)" in msg and "re-save it as UTF-8" in msg, msg
     assert at > 2_000_000 and "binary file" not in msg
+    from uuvid.io.dive_channels import _not_utf8  # a sequence cut by the end or by a 1 MiB read
+
+    p.write_bytes(b"t_s\n" * 5 + b"x\xc3")
+    assert "at byte 21 (line 6)" in _not_utf8(p)
+    p.write_bytes(b"a" * ((1 << 20) - 1) + b"\xc3\x28")
+    assert "byte 0xc3 at byte 1,048,575 (line 1)" in _not_utf8(p)

@@ -217,3 +217,22 @@ def test_current_of_the_wrong_length_says_what_is_expected():
     assert res.exit_code == 2
     assert "expected N,E,D (m/s)" in res.output and "0.3,0,0" in res.output
     assert "tuple[float" not in res.output
+
+
+@pytest.mark.slow  # two worker processes start (a few seconds)
+def test_a_failing_demo_section_is_named_and_stops_the_others(tmp_path):
+    """A section failing in a worker raised an AttributeError from the clean-up itself (the pool
+    drops its processes on shutdown) and waited for the sections still running: it is named, and
+    the others are stopped."""
+    import time
+
+    from uuvid.core.progress import progress_task
+    from uuvid.demo import DemoSectionError, _run_sections
+
+    bad = tmp_path / "a-file"  # every section that writes its folder fails
+    bad.write_text("not a folder")
+    t0 = time.perf_counter()
+    with progress_task("t", disable=True) as task, \
+            pytest.raises(DemoSectionError, match=r"^demo section '.+' failed: \w+Error: "):
+        _run_sections(bad, True, 2, task)
+    assert time.perf_counter() - t0 < 120

@@ -367,6 +367,12 @@ def test_a_dofs_error_carries_only_the_reader_warnings_naming_its_channels():
     yaw = str(_with_reader_warnings(e, ["yaw"], dc))
     assert "yaw_rad repeats" in yaw and "depth_m" not in yaw and "N_Nm" not in yaw
     assert _with_reader_warnings(e, ["surge"], dc) is e
+    # an ArduSub log's own words: the depth source, a part left out (every DOF's)
+    dc.warnings = ["d.tlog: depth from VFR_HUD.alt: it has no on-board stamp",
+                   "d.tlog: part 2: depth, attitude and PWM do not overlap; part left out"]
+    heave = str(_with_reader_warnings(e, ["heave"], dc))
+    assert "depth from VFR_HUD.alt" in heave and "part 2:" in heave
+    assert "VFR_HUD" not in str(_with_reader_warnings(e, ["surge"], dc))
 
 
 def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path):

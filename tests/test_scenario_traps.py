@@ -132,3 +132,4 @@ def test_a_library_mission_above_the_water_or_in_degrees_is_refused(kw, said):
         WaypointMission(**kw) if "waypoints" in kw else square_mission(**kw)
     assert square_mission(depth=0.0).duration > 0
     assert WaypointMission(((0, 0, -0.5, 0), (5, 0, 2, -6.28))).duration > 0
+    assert WaypointMission(((0, 0, 1, 0), (5, 0, 2, 6.2832))).duration > 0  # 2π to four decimals

@@ -901,8 +901,9 @@ def _run_sections(out: Path, quick: bool, workers: int, task) -> list:
             task.stage(f"{titles[i]}: done in {done[i][2]:.1f} s")
             task.advance()
     except BaseException as e:  # a section failed, or Ctrl-C: stop the others now, not at their end
+        procs = list((getattr(pool, "_processes", None) or {}).values())  # (shutdown drops them)
         pool.shutdown(wait=False, cancel_futures=True)
-        for p in list(getattr(pool, "_processes", {}).values()):
+        for p in procs:
             p.terminate()
         if isinstance(e, Exception):
             raise DemoSectionError(f"demo section {_SECTIONS[i][0]!r} failed: "

@@ -172,9 +172,10 @@ def _not_utf8(p: Path) -> str:
             try:
                 dec.decode(chunk, final=not chunk)
             except UnicodeDecodeError as e:
-                k = max(e.start - len(e.object) + len(chunk), 0)  # the decoder may hold a few bytes
+                # e.object: the bytes the decoder held back from the chunk before, then this one
+                k = e.start - len(e.object) + len(chunk)  # (< 0: inside the held-back bytes)
                 bad = (e.object[e.start:e.start + 1] or b"?")[0]
-                line += chunk[:k].count(b"\n")
+                line += chunk[:max(k, 0)].count(b"\n")
                 return (f"byte 0x{bad:02x} at byte {at + k:,} (line {line:,}) is not UTF-8: a "
                         "file saved in another encoding (Excel's 'CSV' is Latin-1/Windows-1252) — "
                         "re-save it as UTF-8 ('CSV UTF-8'); or not a text file")

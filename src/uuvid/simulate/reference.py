@@ -29,6 +29,20 @@ class Leg:
 
 #: a waypoint may sit this far (m) above the surface (a vehicle floating high); higher is a sign slip
 MAX_ABOVE_SURFACE_M = 0.5
+#: a waypoint's yaw may pass ±2π by this much (rad: 2π written to a few decimals, 6.2832)
+YAW_SLACK_RAD = 1e-3
+
+
+def waypoint_problem(k: int, down: float, yaw: float) -> str | None:
+    """Why waypoint ``k`` cannot be what a mission means, or None: above the surface (down <
+    −:data:`MAX_ABOVE_SURFACE_M`; NED, down positive) or a yaw beyond ±2π (degrees given).  One
+    rule for :class:`WaypointMission` and the scenario file."""
+    if down < -MAX_ABOVE_SURFACE_M:
+        return (f"waypoint {k} is at down = {down:g} m, {-down:g} m above the surface: down is "
+                "positive (NED; depth 5 m is down = 5)")
+    if abs(yaw) > 2 * math.pi + YAW_SLACK_RAD:
+        return f"waypoint {k} has yaw {yaw:g}: beyond ±2π rad — is it in degrees? expected radians"
+    return None
 
 
 @dataclass(frozen=True)
@@ -52,12 +66,9 @@ class WaypointMission:
                 raise ValueError(f"waypoint {i} must be 4 finite numbers (north, east, down, yaw), got {w!r}")
             # a mission above the water flew to "completed" (square_mission(depth=-2), a waypoint
             # at down = -5 meant as 5 m deep)
-            if float(w[2]) < -MAX_ABOVE_SURFACE_M:
-                raise ValueError(f"waypoint {i} is at down = {float(w[2]):g} m, {-float(w[2]):g} m "
-                                 "above the surface: down is positive (NED; depth 5 m is down = 5)")
-            if abs(float(w[3])) > 2 * math.pi + 1e-9:
-                raise ValueError(f"waypoint {i} has yaw {float(w[3]):g}: beyond ±2π rad — is it in "
-                                 "degrees? expected radians")
+            why = waypoint_problem(i, float(w[2]), float(w[3]))
+            if why:
+                raise ValueError(why)
         for name in ("speed", "vertical_speed", "yaw_rate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")

@@ -30,7 +30,6 @@ Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
 
 from __future__ import annotations
 
-import math
 import reprlib
 from dataclasses import replace
 from pathlib import Path
@@ -40,11 +39,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from uuvid.core.checks import direction_deg
 from uuvid.simulate.reference import (
-    MAX_ABOVE_SURFACE_M,
     WaypointMission,
     cruise_speed,
     current_speed_bound,
     square_mission,
+    waypoint_problem,
 )
 from uuvid.thruster.modelfile import ModelFileError, format_loc, read_model_text
 
@@ -94,12 +93,9 @@ class MissionSpec(BaseModel):
         """A waypoint above the surface (down < −0.5 m: NED, down positive) or a yaw beyond
         ±2π (degrees given) cannot be what the mission means."""
         for k, (_n, _e, d, yaw) in enumerate(v or []):
-            if d < -MAX_ABOVE_SURFACE_M:
-                raise ValueError(f"waypoint {k} is at down = {d:g} m, {-d:g} m above the surface: "
-                                 "down is positive (NED; depth 5 m is down = 5)")
-            if abs(yaw) > 2 * math.pi + 1e-9:
-                raise ValueError(f"waypoint {k} has yaw {yaw:g}: beyond ±2π rad — is it in "
-                                 "degrees? expected radians")
+            why = waypoint_problem(k, d, yaw)
+            if why:
+                raise ValueError(why)
         return v
 
     @model_validator(mode="after")

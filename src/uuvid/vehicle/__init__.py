@@ -31,6 +31,10 @@ from uuvid.vehicle.definition import (
     vehicle_from_dict,
 )
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, thrust_configuration_matrix
+
+# eager: the submodule's name is the function's (a lazy name would be shadowed by the module
+# once anything imports uuvid.vehicle.linearize)
+from uuvid.vehicle.linearize import LinearModel, OperatingPoint, TrimError, linearize, trim
 from uuvid.vehicle.model import (
     DOF_NAMES,
     N_PARAMS,
@@ -48,10 +52,9 @@ from uuvid.vehicle.model import (
 )
 
 #: Names served on first use (PEP 562): a plain mission imports ``uuvid.vehicle`` for its model,
-#: layout and allocation, and need not load the envelope, linearisation and stability modules.
-_LAZY = {"Envelope": "envelope", "speed_envelope": "envelope", "LinearModel": "linearize",
-         "OperatingPoint": "linearize", "TrimError": "linearize", "linearize": "linearize",
-         "trim": "linearize", "StabilityResult": "stability", "static_stability": "stability"}
+#: layout and allocation, and need not load the envelope and stability modules.
+_LAZY = {"Envelope": "envelope", "speed_envelope": "envelope", "StabilityResult": "stability",
+         "static_stability": "stability"}
 
 
 def __getattr__(name: str):
@@ -63,6 +66,11 @@ def __getattr__(name: str):
     value = getattr(importlib.import_module(f"{__name__}.{mod}"), name)
     globals()[name] = value
     return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "DOF_NAMES",

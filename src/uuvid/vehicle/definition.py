@@ -481,7 +481,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
         msgs.append(f"environment.current: {cur.tolist()} m/s is read only where the vehicle "
                     "model's right-hand side is used directly (vehicle_rhs, the envelope's "
                     "confirmation flights, synthetic dives); missions, hold, sweeps and the "
-                    "envelope fly in the current their run is given — a scenario's current: "
+                    "envelope's own speeds take the current their run is given — a scenario's current: "
                     "[N, E, D] (uuvid simulate SCENARIO.yaml), uuvid simulate mission --current "
                     "N,E,D, uuvid vehicle hold --current SPEED,DIR, or current= of "
                     "uuvid.simulate.vehicle_sim.setup_mission; give it there, and leave "

@@ -527,8 +527,12 @@ def _surge_in_yaw_windows(dc, veh, windows) -> str | None:
 
 #: the measured channels of a DOF, by which a reader's warning is known to bear on it (a stuck
 #: depth sensor whose samples were left out, then 'window too short')
-_DOF_CHANNELS = {d: (ch,) for d, (ch, _, _) in DIVE_DOFS.items()}
-_DOF_CHANNELS["horizontal"] = ("u_mps", "v_mps", "yaw_rad")
+_DOF_CHANNELS = {"heave": ("depth_m", "depth"), "yaw": ("yaw_rad", "yaw", "heading", "attitude"),
+                 "surge": ("u_mps",), "sway": ("v_mps",)}
+_DOF_CHANNELS["horizontal"] = ("u_mps", "v_mps") + _DOF_CHANNELS["yaw"]
+assert set(DIVE_DOFS) <= set(_DOF_CHANNELS)
+#: warnings that bear on every DOF: a part of the log left out (its channels do not overlap)
+_EVERY_DOF = re.compile(r"part \d+: .*left out|do not overlap")
 
 
 def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
@@ -539,9 +543,10 @@ def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
     names = sorted({c for d in dofs for c in _DOF_CHANNELS.get(d, ())})
     if not names:
         return e
-    pat = re.compile(r"(?<![A-Za-z0-9_])(" + "|".join(map(re.escape, names)) + r")(?![A-Za-z0-9_])")
+    pat = re.compile(r"(?<![A-Za-z0-9_])(" + "|".join(map(re.escape, names)) + r")(?![A-Za-z0-9_])",
+                     re.IGNORECASE)
     pre = f"{dc.name}: " if dc.name else ""
-    said = [w.removeprefix(pre) for w in dc.warnings if pat.search(w)]
+    said = [w.removeprefix(pre) for w in dc.warnings if pat.search(w) or _EVERY_DOF.search(w)]
     if not said:
         return e
     more = f" (and {len(said) - 3} more)" if len(said) > 3 else ""
