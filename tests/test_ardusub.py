@@ -964,7 +964,9 @@ def test_a_tlog_cut_off_while_written_is_read_fast_and_said_as_such(shared_data,
     said = f"cut.tlog: the log ends in a partial message ({n:,} bytes): cut off while written?"
     with pytest.warns(LogWarning) as rec:
         read_ardusub(p, on_duplicate="mean")
-    assert [str(w.message) for w in rec] == [said]
+    # (LogWarnings only: a ResourceWarning of a file another test left to the collector may land
+    # here, as it did once in CI)
+    assert [str(w.message) for w in rec if issubclass(w.category, LogWarning)] == [said]
     assert said in read_raw(p, whole_file=False).warnings
 
 
@@ -1102,4 +1104,4 @@ def test_a_warning_raised_inside_the_capture_is_not_taken_for_a_pymavlink_print(
             print("Skipped 3 bad bytes")
             warnings.warn("a note of the reader", LogWarning, stacklevel=1)
     assert lines == ["Skipped 3 bad bytes"]
-    assert [str(w.message) for w in rec] == ["a note of the reader"]
+    assert [str(w.message) for w in rec if issubclass(w.category, LogWarning)] == ["a note of the reader"]
