@@ -829,18 +829,11 @@ _SECTIONS = (
 MAX_WORKERS = 3
 
 
-def _cores() -> int:
-    """Cores this process may run on (its affinity where the OS says, else the count)."""
-    import os
-
-    if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return max(1, os.cpu_count() or 1)
-
-
 def _workers(workers: int | None) -> int:
+    from uuvid.uncertainty.execute import default_workers  # the studies' count of cores
+
     if workers is None:
-        return min(_cores(), MAX_WORKERS)
+        return min(default_workers(), MAX_WORKERS)
     if int(workers) < 1:
         raise ValueError(f"workers must be 1 or more, got {workers}")
     return int(workers)
@@ -889,7 +882,9 @@ def _run_sections(out: Path, quick: bool, workers: int, task) -> list:
 
     task.stage(f"{n} sections in {workers} processes")
     order = sorted(range(n), key=lambda i: -_SECTIONS[i][2])
-    threads = max(1, _cores() // workers)
+    from uuvid.uncertainty.execute import default_workers
+
+    threads = max(1, default_workers() // workers)
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_quiet_worker, initargs=(threads,))
     futures = {pool.submit(_run_section, i, out, quick): i for i in order}
