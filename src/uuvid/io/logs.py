@@ -367,13 +367,12 @@ class _Skipped:
         i = 0
         while i + 8 + 12 <= len(buf):
             t = int.from_bytes(buf[i:i + 8], "big") * 1e-6
-            stx = buf[i + 8]
-            if abs(t - ref) <= RESYNC_WINDOW_S and stx in (0xFD, 0xFE):
-                n = (12 + buf[i + 9] + (13 if buf[i + 10] & 1 else 0) if stx == 0xFD
-                     else 8 + buf[i + 9])
-                if i + 8 + n <= len(buf):
+            q = _tlog_frame_end(buf, i) if abs(t - ref) <= RESYNC_WINDOW_S else None
+            if q is not None:
+                n = q - i - 8
+                if q <= len(buf):
                     try:
-                        m = self.conn.mav.decode(bytearray(buf[i + 8:i + 8 + n]))
+                        m = self.conn.mav.decode(bytearray(buf[i + 8:q]))
                     except Exception:  # noqa: BLE001 - any undecodable frame: search on
                         m = None
                     if m is not None:
