@@ -694,27 +694,6 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
 
 
 @njit(cache=True, inline="always")
-def _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc):
-    """:func:`_vehicle_rk4` in still water without a disturbance force, its four stages written
-    out (the same arithmetic, so the same numbers)."""
-    _tau_from(th, 0, B, tau, fsc[6:12])
-    vehicle_rhs_still_into(z, tau, vp, fsc, k1)
-    _tau_from(th, 1, B, tau, fsc[6:12])
-    for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k1[i]
-    vehicle_rhs_still_into(zt, tau, vp, fsc, k2)
-    for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k2[i]
-    vehicle_rhs_still_into(zt, tau, vp, fsc, k3)
-    _tau_from(th, 2, B, tau, fsc[6:12])
-    for i in range(13):
-        zt[i] = z[i] + 1.0 * h * k3[i]
-    vehicle_rhs_still_into(zt, tau, vp, fsc, k4)
-    for i in range(13):
-        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-
-
-@njit(cache=True, inline="always")
 def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
     """:func:`_tau_inflow` in still water with no disturbance force, the advance speed, the map
     and the sum ``B T`` in one pass over the thrusters (the same arithmetic in the same order:
@@ -742,7 +721,7 @@ def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
 def _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, k1, k2, k3, k4, fsc, eta_p, eta_n, IPRM,
                       IGEO, f0, thr):
     """:func:`_vehicle_rk4_inflow` in still water without a disturbance force, its four stages
-    written out as :func:`_rk4_still`'s (the same arithmetic, so the same numbers); ``f0`` the
+    written out (the same arithmetic, so the same numbers); ``f0`` the
     delivered thrusts at the step's start."""
     _tau_inflow_still(th, vt, 0, z, B, tau, eta_p, eta_n, IPRM, IGEO, f0)
     vehicle_rhs_still_into(z, tau, vp, fsc, k1)
@@ -848,7 +827,7 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
                     for i in range(n):
                         F[k, i] = f0[i]
             elif still:
-                _rk4_still(z, h, th, B, vp, tau, zt, k1, k2, k3, k4, fsc)
+                _vehicle_rk4(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, K4, fsc[6:12], True, fsc)
             else:
                 _vehicle_rk4(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, K4, fsc[6:12], False, fsc)
             for i in range(n):
