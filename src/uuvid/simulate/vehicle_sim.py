@@ -718,27 +718,23 @@ def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
 
 
 @njit(cache=True, inline="always")
-def _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, k1, k2, k3, k4, fsc, eta_p, eta_n, IPRM,
-                      IGEO, f0, thr):
-    """:func:`_vehicle_rk4_inflow` in still water without a disturbance force, its four stages
-    written out (the same arithmetic, so the same numbers); ``f0`` the
-    delivered thrusts at the step's start."""
-    _tau_inflow_still(th, vt, 0, z, B, tau, eta_p, eta_n, IPRM, IGEO, f0)
-    vehicle_rhs_still_into(z, tau, vp, fsc, k1)
+def _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, K, fsc, eta_p, eta_n, IPRM, IGEO, f0, thr):
+    """:func:`_vehicle_rk4_inflow` in still water without a disturbance force, the advance speed,
+    map and ``B T`` of each stage in one pass (:func:`_tau_inflow_still`); the stages run in a
+    loop (``K`` their 4 × 13 slopes) so the right-hand side is compiled in once; ``f0`` receives
+    the delivered thrusts at the step's start."""
+    for st in range(4):
+        zs = z if st == 0 else zt
+        kk = K[st]
+        _tau_inflow_still(th, vt, 0 if st == 0 else (1 if st < 3 else 2), zs, B, tau, eta_p, eta_n,
+                          IPRM, IGEO, f0 if st == 0 else thr)
+        vehicle_rhs_still_into(zs, tau, vp, fsc, kk)
+        if st < 3:
+            c = 1.0 if st == 2 else 0.5
+            for i in range(13):
+                zt[i] = z[i] + c * h * kk[i]
     for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k1[i]
-    _tau_inflow_still(th, vt, 1, zt, B, tau, eta_p, eta_n, IPRM, IGEO, thr)
-    vehicle_rhs_still_into(zt, tau, vp, fsc, k2)
-    for i in range(13):
-        zt[i] = z[i] + 0.5 * h * k2[i]
-    _tau_inflow_still(th, vt, 1, zt, B, tau, eta_p, eta_n, IPRM, IGEO, thr)
-    vehicle_rhs_still_into(zt, tau, vp, fsc, k3)
-    for i in range(13):
-        zt[i] = z[i] + 1.0 * h * k3[i]
-    _tau_inflow_still(th, vt, 2, zt, B, tau, eta_p, eta_n, IPRM, IGEO, thr)
-    vehicle_rhs_still_into(zt, tau, vp, fsc, k4)
-    for i in range(13):
-        z[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        z[i] = z[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
 @njit(cache=True)
@@ -815,8 +811,8 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
                     F[k, i] = th[0, i]  # with inflow: set by the RK4 step below
                     FDES[k, i] = fdes[i]
             if inflow and still:
-                _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, k1, k2, k3, k4, fsc, eta_p,
-                                  eta_n, IPRM, IGEO, f0, ua)
+                _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, K4, fsc, eta_p, eta_n, IPRM, IGEO,
+                                  f0, ua)
                 if sub == 0:
                     for i in range(n):
                         F[k, i] = f0[i]
