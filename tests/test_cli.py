@@ -90,6 +90,13 @@ def test_demo_writes_report_folder(tmp_path):
         return json.loads(json.dumps(walk(d)).replace(str(root), "<out>"))
 
     assert one["workers"] == 1 and numbers(one, tmp_path / "one") == numbers(doc, out)
+    # the sections wrote into a temporary folder swapped in at the end: no file names it
+    # (a replay's summary named the model file it read there, a summary its figure)
+    for root in (out, tmp_path / "one"):
+        leaked = [str(p.relative_to(root)) for p in root.rglob("*") if p.is_file()
+                  and p.suffix in (".json", ".txt", ".html", ".md", ".csv", ".yaml")
+                  and ".tmp-" in p.read_text(errors="replace")]
+        assert not leaked, leaked
     assert (tmp_path / "one" / "index.html").read_text().replace(str(tmp_path / "one"), "") \
         .count("<img") == html.count("<img")
 
@@ -236,3 +243,25 @@ def test_a_failing_demo_section_is_named_and_stops_the_others(tmp_path):
             pytest.raises(DemoSectionError, match=r"^demo section '.+' failed: \w+Error: "):
         _run_sections(bad, True, 2, task)
     assert time.perf_counter() - t0 < 120
+
+
+def test_demo_rebases_paths_inside_the_files_its_sections_wrote(tmp_path):
+    """Paths under the demo's temporary folder, raw, JSON- or HTML-escaped, point at the final
+    folder once rewritten; other text and binary files are left as they were."""
+    from uuvid.demo import _rebase_files
+
+    work, final = tmp_path / ".tmp-1-ab-out & co", tmp_path / "out & co"
+    (work / "sub").mkdir(parents=True)
+    (work / "sub" / "summary.txt").write_text(f"replay with my-rov ({work}/dive/my-rov.yaml)\n")
+    (work / "sub" / "result.json").write_text(json.dumps({"figure": str(work / "a.png")}))
+    import html as _html
+    (work / "index.html").write_text(f"<p>{_html.escape(str(work))}/x.png</p>")
+    (work / "plain.csv").write_text("t,x\n0,1\n")
+    png = bytes(range(256)) + str(work).encode()
+    (work / "a.png").write_bytes(png)
+    changed = _rebase_files(work, final)
+    assert sorted(p.name for p in changed) == ["index.html", "result.json", "summary.txt"]
+    assert (work / "sub" / "summary.txt").read_text() == f"replay with my-rov ({final}/dive/my-rov.yaml)\n"
+    assert json.loads((work / "sub" / "result.json").read_text()) == {"figure": str(final / "a.png")}
+    assert (work / "index.html").read_text() == f"<p>{_html.escape(str(final))}/x.png</p>"
+    assert (work / "plain.csv").read_text() == "t,x\n0,1\n" and (work / "a.png").read_bytes() == png

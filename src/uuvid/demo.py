@@ -747,6 +747,39 @@ def _rebase(doc, work: Path, final: Path):
     return walk(to_jsonable(doc))
 
 
+#: Files whose text may name a path: the sections' summaries, JSON, pages, tables, model files.
+_TEXT_SUFFIXES = (".json", ".txt", ".html", ".md", ".csv", ".yaml", ".yml")
+
+
+def _rebase_files(work: Path, final: Path) -> list[Path]:
+    """Rewrite the text files under ``work`` so that paths under it (written by the sections: a
+    replay names the model file it read, a summary its figure) point at ``final``, where the
+    folder ends up — as written, JSON-escaped or HTML-escaped; returns the files changed."""
+    import html
+    import json
+
+    from uuvid.core.atomic import atomic_write_text
+
+    pairs = {str(work): str(final)}
+    pairs.update({json.dumps(a)[1:-1]: json.dumps(b)[1:-1] for a, b in list(pairs.items())})
+    pairs.update({html.escape(a): html.escape(b) for a, b in list(pairs.items())})
+    changed = []
+    for p in sorted(work.rglob("*")):
+        if p.suffix.lower() not in _TEXT_SUFFIXES or not p.is_file():
+            continue
+        try:
+            text = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            continue
+        new = text
+        for a, b in pairs.items():
+            new = new.replace(a, b)
+        if new != text:
+            atomic_write_text(p, new)
+            changed.append(p)
+    return changed
+
+
 def _mclean_section(out: Path, rep: Report, quick: bool) -> dict:
     from uuvid.papers import mclean1991
 
@@ -927,4 +960,5 @@ def _run_demo_into(out: Path, final: Path, quick: bool, workers: int = 1) -> dic
         atomic_write_json(out / "demo.json", result)
         rep.add_json({"model_file": result["model_file"]}, caption="Model file round trip")
         rep.write(out)
+        _rebase_files(out, final)
     return result
