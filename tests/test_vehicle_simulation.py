@@ -405,3 +405,30 @@ def test_loop_specialised_to_its_configuration_is_the_general_loop_bit_for_bit(b
     assert len(out) == len(ref)
     for got, want in zip(out, ref):
         assert np.array_equal(got, want)
+
+
+def test_a_mission_moving_in_an_unallocated_dof_is_named(tmp_path):
+    """A vehicle file whose allocation leaves out a DOF the mission moves in (a square turns in
+    yaw and moves ahead in surge) says which and from when, not only that the path was missed."""
+    import yaml
+
+    from uuvid.simulate.vehicle_sim import unallocated_motion_warning
+    from uuvid.vehicle.definition import preset_path, vehicle_from_dict
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+
+    def warning(dofs):
+        raw["allocation"] = {"dofs": dofs}
+        return unallocated_motion_warning(setup_mission(vehicle_from_dict(raw, where="v.yaml"),
+                                                        square_mission()))
+
+    w = warning(["surge", "heave"])
+    assert "yaw (up to 0.3 rad/s" in w and "surge," not in w.split("controls")[0], w
+    w = warning(["sway", "heave", "yaw"])
+    assert w.startswith("the mission moves in surge (up to 0.5 m/s") and "yaw (" not in w, w
+    assert warning(["surge", "sway", "heave", "yaw"]) == ""
+    r = fly_mission(setup_mission(load_vehicle("bluerov2"), square_mission()))
+    assert not any("not allocated" in x for x in r.metrics["warnings"])
+    raw["allocation"] = {"dofs": ["surge", "heave"]}
+    r = fly_mission(setup_mission(vehicle_from_dict(raw, where="v.yaml"), square_mission()))
+    assert not r.metrics["completed"] and "not allocated" in r.metrics["warnings"][0]

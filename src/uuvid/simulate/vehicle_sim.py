@@ -1621,6 +1621,40 @@ def mission_tilt_warning(setup: MissionSetup, att: dict) -> str:
     return msg
 
 
+#: Reference speeds (m/s, rad/s) below this count as "the mission does not ask for that motion".
+UNALLOCATED_MOTION_TOL = 1e-3
+
+
+def unallocated_motion_warning(setup: MissionSetup) -> str:
+    """Why the vehicle cannot follow the mission's reference when it moves in a DOF the thrusters
+    are not allocated to (``allocation.dofs`` of the vehicle file, the modes' zero DOFs): the
+    reference velocity in the body frame of the reference heading — surge, sway, heave — and
+    its yaw rate, each against :data:`UNALLOCATED_MOTION_TOL`; ``""`` when every motion asked for
+    is allocated."""
+    from uuvid.vehicle.model import DOF_NAMES
+
+    ctrl = {int(d) for d in setup.dofs}
+    _, ref_vel, ref_yaw, ref_rate = (np.asarray(a, float) for a in setup.ref)
+    c, sn = np.cos(ref_yaw), np.sin(ref_yaw)
+    body = {0: c * ref_vel[:, 0] + sn * ref_vel[:, 1], 1: -sn * ref_vel[:, 0] + c * ref_vel[:, 1],
+            2: ref_vel[:, 2], 5: ref_rate}
+    asked = []
+    for d, v in body.items():
+        big = np.abs(v) > UNALLOCATED_MOTION_TOL
+        if d not in ctrl and np.any(big):
+            k = int(np.argmax(big))
+            unit = "rad/s" if d == 5 else "m/s"
+            asked.append(f"{DOF_NAMES[d]} (up to {float(np.max(np.abs(v))):.2g} {unit}, from "
+                         f"t = {float(setup.t[k]):.4g} s)")
+    if not asked:
+        return ""
+    names = ", ".join(DOF_NAMES[d] for d in sorted(ctrl)) or "nothing"
+    return (f"the mission moves in {', '.join(asked)}, which the thrusters are not allocated to "
+            f"(the {setup.vehicle.name}'s allocation controls {names}): the vehicle cannot "
+            "follow that part of the path — add the DOF to allocation.dofs in the vehicle file, "
+            "or fly a mission that faces its path")
+
+
 def mission_runner(setup: MissionSetup):
     """``(run, compiled, outputs)``: ``run(k)`` flies the first ``k`` steps of the setup with the
     compiled loop :func:`fly_mission` uses, into ``outputs`` = ``(Z, F, FD, TAU, SC, VOUT)``
@@ -1760,7 +1794,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
     }
-    warnings = []
+    warnings = [w for w in (unallocated_motion_warning(s),) if w]
     if not tracked:
         warnings.append(f"the vehicle did not follow the path (max tracking error "
                         f"{float(np.max(err)):.2f} m, final {float(err[-1]):.2f} m; completed needs "
