@@ -432,3 +432,27 @@ def test_a_mission_moving_in_an_unallocated_dof_is_named(tmp_path):
     raw["allocation"] = {"dofs": ["surge", "heave"]}
     r = fly_mission(setup_mission(vehicle_from_dict(raw, where="v.yaml"), square_mission()))
     assert not r.metrics["completed"] and "not allocated" in r.metrics["warnings"][0]
+
+
+def test_timeseries_csv_columns_carry_their_units(bluerov2, tmp_path):
+    """``timeseries.csv`` said ``time, north, roll, u, thrust_T1…`` with no unit while the summary
+    gives degrees: every column now names its unit as uuvid's other tables do (values stay SI)."""
+    import pandas as pd
+
+    from uuvid.simulate.mission_report import write_mission_outputs
+
+    res = fly_mission(setup_mission(bluerov2, square_mission(), t_end=5.0))
+    write_mission_outputs(res, bluerov2, tmp_path)
+    df = pd.read_csv(tmp_path / "timeseries.csv")
+    units = ("_s", "_m", "_rad", "_mps", "_rad_s", "_N")
+    assert [c for c in df.columns if not c.endswith(units)] == ["allocation_scale"]
+    for c in ("t_s", "north_m", "ref_down_m", "roll_rad", "pitch_rad", "yaw_rad", "ref_yaw_rad",
+              "u_mps", "r_rad_s", "tracking_error_m", f"thrust_{res.thruster_names[0]}_N",
+              f"thrust_cmd_{res.thruster_names[0]}_N"):
+        assert c in df.columns, c
+    np.testing.assert_allclose(df["t_s"], res.t)
+    np.testing.assert_allclose(df["r_rad_s"], res.velocity[:, 5])
+    np.testing.assert_allclose(df["tracking_error_m"], res.tracking_error)
+    # radians, not the summary's degrees
+    assert np.max(np.abs(df["pitch_rad"])) == pytest.approx(np.radians(res.metrics["max_pitch_deg"]),
+                                                            rel=1e-6)

@@ -1188,24 +1188,32 @@ class MissionResult(DictSummaryResult):
         return np.linalg.norm(self.position - self.ref_pos, axis=1)
 
     def to_frame(self):
+        """The time series as a DataFrame (what ``uuvid simulate --out`` writes to
+        ``timeseries.csv``), SI values with the unit in every column name, as uuvid's other tables
+        (``t_s``, ``depth_m``, ``yaw_rad``): ``t_s``; ``north_m``, ``east_m``, ``down_m`` and their
+        ``ref_*_m``; ``roll_rad``, ``pitch_rad``, ``yaw_rad``, ``ref_yaw_rad`` (radians, the
+        summary's angles are degrees); ``u_mps``, ``v_mps``, ``w_mps``, ``p_rad_s``, ``q_rad_s``,
+        ``r_rad_s``; per thruster ``thrust_<name>_N`` (delivered) and ``thrust_cmd_<name>_N``
+        (allocated); ``tracking_error_m``; ``allocation_scale`` (dimensionless, 1 = achievable).
+        Before these units the columns were ``time``, ``north``, ``roll``, ``u``, ``thrust_<name>``…"""
         import pandas as pd
 
         from uuvid.vehicle.kinematics import quat_to_euler
 
         eul = quat_to_euler(self.state[:, 3:7])
-        cols = {"time": self.t}
+        cols = {"t_s": self.t}
         for j, nm in enumerate(("north", "east", "down")):
-            cols[nm] = self.state[:, j]
-            cols[f"ref_{nm}"] = self.ref_pos[:, j]
+            cols[f"{nm}_m"] = self.state[:, j]
+            cols[f"ref_{nm}_m"] = self.ref_pos[:, j]
         for j, nm in enumerate(("roll", "pitch", "yaw")):
-            cols[nm] = eul[:, j]
-        cols["ref_yaw"] = self.ref_yaw
-        for j, nm in enumerate(("u", "v", "w", "p", "q", "r")):
+            cols[f"{nm}_rad"] = eul[:, j]
+        cols["ref_yaw_rad"] = self.ref_yaw
+        for j, nm in enumerate(("u_mps", "v_mps", "w_mps", "p_rad_s", "q_rad_s", "r_rad_s")):
             cols[nm] = self.state[:, 7 + j]
         for i, nm in enumerate(self.thruster_names):
-            cols[f"thrust_{nm}"] = self.thrust[:, i]
-            cols[f"thrust_cmd_{nm}"] = self.thrust_cmd[:, i]
-        cols["tracking_error"] = self.tracking_error
+            cols[f"thrust_{nm}_N"] = self.thrust[:, i]
+            cols[f"thrust_cmd_{nm}_N"] = self.thrust_cmd[:, i]
+        cols["tracking_error_m"] = self.tracking_error
         cols["allocation_scale"] = self.scale
         return pd.DataFrame(cols)
 
