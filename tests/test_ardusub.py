@@ -345,6 +345,19 @@ def test_thruster_model_accepts_preset_names(tmp_path, name):
         load_thrust_model("no-such-thruster")
 
 
+def test_a_vehicle_file_as_the_thruster_model_is_said_once_to_be_not_one():
+    """``--thruster-model bluerov2.yaml`` said 'not a thruster model file' and then listed the
+    model schema's errors for every vehicle key; now it says what the file looks like, once."""
+    from uuvid.io.ardusub.thrust import load_thrust_model
+    from uuvid.vehicle.definition import preset_path
+
+    with pytest.raises(LogDataError) as e:
+        load_thrust_model(preset_path("bluerov2"))
+    said = str(e.value)
+    assert said.count("not a thruster model file") == 1 and "unknown key" not in said
+    assert "it looks like a vehicle file (it has rigid_body, hydrodynamics, thrusters)" in said
+
+
 def test_custom_frame_needs_the_vehicle_geometry(tmp_path):
     prm = {**params(), "FRAME_CONFIG": 7}
     p = write_bin(tmp_path / "d.BIN", scenario(n=60), prm=prm)

@@ -339,3 +339,30 @@ def test_unknown_preset_and_extra_keys_with_preset(tmp_path):
     p = write(tmp_path, "p.yaml", "preset: laidani-a2212\nblocks: []\n")
     with pytest.raises(ModelFileError, match="no other keys"):
         load_chain(p)
+
+
+def test_a_vehicle_or_scenario_file_given_as_a_model_says_it_is_not_one(tmp_path):
+    """A vehicle file named as a thruster model listed 'blocks: missing parameter', then
+    'rigid_body: unknown key', … for every key, and never said what was wrong."""
+    from uuvid.thruster.modelfile import NotAModelFileError
+    from uuvid.vehicle.definition import preset_path
+
+    with pytest.raises(NotAModelFileError) as e:
+        load_chain(preset_path("bluerov2"))
+    said = str(e.value)
+    assert said.startswith(f"{preset_path('bluerov2')}: not a thruster model file: it looks like "
+                           "a vehicle file (it has rigid_body, hydrodynamics, thrusters)")
+    assert "a thruster model file has blocks" in said and "preset: NAME" in said
+    assert "unknown key" not in said and "\n" not in said
+    sc = tmp_path / "sc.yaml"
+    sc.write_text("vehicle: bluerov2\nmission: {kind: square, side: 4}\n")
+    with pytest.raises(NotAModelFileError, match=r"sc\.yaml: not a thruster model file: it looks "
+                                                 r"like a scenario file \(it has mission, vehicle\)"):
+        load_chain(sc)
+    # a model file with a mistake stays a model file: its keys are named as before
+    bad = tmp_path / "m.yaml"
+    bad.write_text("name: m\nblock: []\n")
+    with pytest.raises(ModelFileError) as e:
+        load_chain(bad)
+    assert not isinstance(e.value, NotAModelFileError)
+    assert "blocks: missing parameter" in str(e.value) and "block: unknown key" in str(e.value)

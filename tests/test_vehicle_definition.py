@@ -491,3 +491,24 @@ def test_a_direction_no_thrust_gives_is_named_with_the_one_way_thrusters():
                               "limits gives it (thrusters limited to one direction: "
                               "T5_vertical_right [0, 51.48] N, T6_vertical_left [0, 51.48] N), "
                               "only heave diving (up to 103 N)")
+
+
+def test_a_thruster_model_that_is_a_vehicle_file_is_named_as_such(tmp_path):
+    """A thruster's ``model:`` naming a vehicle file failed the first mission with the model
+    schema's key errors ('blocks: missing parameter', 'rigid_body: unknown key', …)."""
+    from uuvid.thruster.modelfile import NotAModelFileError
+
+    other = tmp_path / "other.yaml"
+    other.write_text(yaml.safe_dump(BASE))
+    raw = copy.deepcopy(BASE)
+    raw["thrusters"][0]["model"] = "other.yaml"
+    p = tmp_path / "bot.yaml"
+    v = vehicle_from_dict(raw, where=str(p), base_dir=tmp_path, path=p)
+    with pytest.raises(NotAModelFileError) as e:
+        v.thruster_chain(0)
+    said = str(e.value)
+    assert said.startswith(f"testbot: thruster A refers to model 'other.yaml': {other}: not a "
+                           "thruster model file: it looks like a vehicle file (it has rigid_body, "
+                           "hydrodynamics, thrusters); a thruster model file has blocks")
+    assert "unknown key" not in said
+

@@ -54,6 +54,41 @@ class ModelFileError(ValueError):
     """A model file is unreadable or invalid; the message names the file and the key path."""
 
 
+class NotAModelFileError(ModelFileError):
+    """The file is another kind of uuvid file (a vehicle, a scenario…), not a thruster model."""
+
+
+#: Top-level keys only one kind of uuvid file has (:func:`other_kind`).
+KIND_KEYS = {
+    "a thruster model file": ("blocks", "preset"),
+    "a vehicle file": ("rigid_body", "hydrodynamics", "thrusters"),
+    "a scenario file": ("mission", "vehicle", "thruster_model", "current", "controller",
+                        "duration", "battery_soc"),
+}
+#: What the top level of a thruster model file holds (said when a file is not one).
+MODEL_FILE_KEYS = ("blocks (the chain in signal order, e.g. [{type: esc, ...}, {type: quadratic, "
+                   "...}]), optionally name, input, description, source, inflow; or preset: NAME")
+
+
+def other_kind(raw: Any, own: str) -> str | None:
+    """What other kind of uuvid file a document read by :func:`read_model_text` looks like, with
+    the keys that tell (``"a vehicle file (it has rigid_body, thrusters)"``), when it has none of
+    the keys of ``own`` (a key of :data:`KIND_KEYS`); else ``None``.  A file validated as the
+    wrong kind lists every key as unknown and never says what it is."""
+    if not isinstance(raw, dict) or any(k in raw for k in KIND_KEYS[own]):
+        return None
+    fmt = raw.get("format")
+    if isinstance(fmt, str) and fmt.startswith(("uuvid-sweep/", "uuvid-uncertain-model/")):
+        if fmt.startswith("uuvid-sweep/"):
+            return f"an uncertainty sweep file (format: {fmt})"
+        return f"an uncertain model file (format: {fmt}, kind: {raw.get('kind')})"
+    for kind, keys in KIND_KEYS.items():
+        hit = [k for k in keys if k in raw]
+        if hit:
+            return f"{kind} (it has {', '.join(hit)})"
+    return None
+
+
 def format_loc(loc) -> str:
     """pydantic error location → ``blocks[1].time_constant``."""
     out = ""
@@ -204,6 +239,10 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
     try:
         spec = _chain_schema().model_validate(raw)
     except ValidationError as e:
+        kind = other_kind(raw, "a thruster model file")
+        if kind:
+            raise NotAModelFileError(f"{where}: not a thruster model file: it looks like {kind}; a "
+                                     f"thruster model file has {MODEL_FILE_KEYS}") from None
         msgs = []
         for err in e.errors():
             loc = list(err["loc"])

@@ -55,7 +55,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from uuvid.thruster.blocks import ParameterError
-from uuvid.thruster.modelfile import ModelFileError, format_loc, read_model_text
+from uuvid.thruster.modelfile import (
+    ModelFileError,
+    NotAModelFileError,
+    format_loc,
+    read_model_text,
+)
 from uuvid.vehicle.allocation import Allocator, ThrustMode
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, axis_from_rpy, dof_index
 from uuvid.vehicle.model import DOF_NAMES, OneDofModel, VehicleParams
@@ -230,6 +235,9 @@ class Vehicle:
             raise KeyError(f"{self.name}: thruster {self.layout[thruster].name} refers to model "
                            f"{ref!r}, which is neither a thruster preset ({', '.join(preset_names())}) "
                            "nor a model file next to the vehicle file (a placeholder)") from None
+        except NotAModelFileError as e:  # say which vehicle and thruster point at it
+            raise NotAModelFileError(f"{self.name}: thruster {self.layout[thruster].name} refers "
+                                     f"to model {ref!r}: {e}") from None
 
     @property
     def citation(self) -> str:

@@ -104,7 +104,7 @@ def load_thrust_model(path) -> ThrustModel:
     voltage law, a file's ESC at the voltage); a chain without one
     cannot follow it and keeps its own (``voltage_aware`` False: the loader warns).
     """
-    from uuvid.thruster.modelfile import ModelFileError
+    from uuvid.thruster.modelfile import ModelFileError, NotAModelFileError
     from uuvid.thruster.resolve import (
         PHYSICAL_PRESETS,
         is_preset,
@@ -125,6 +125,8 @@ def load_thrust_model(path) -> ThrustModel:
             return _physical(pm, p.stem, str(p))
     try:
         chain = resolve_chain(path)
+    except NotAModelFileError as e:  # already says so, and what the file looks like
+        raise LogDataError(str(e)) from None
     except (ModelFileError, ValueError) as e:
         raise LogDataError(f"{p.name}: not a thruster model file: {e}") from None
     if chain.signal_kinds[0] != "command":
