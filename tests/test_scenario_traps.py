@@ -133,3 +133,16 @@ def test_a_library_mission_above_the_water_or_in_degrees_is_refused(kw, said):
     assert square_mission(depth=0.0).duration > 0
     assert WaypointMission(((0, 0, -0.5, 0), (5, 0, 2, -6.28))).duration > 0
     assert WaypointMission(((0, 0, 1, 0), (5, 0, 2, 6.2832))).duration > 0  # 2π to four decimals
+
+
+def test_a_vehicle_file_given_as_the_scenario_says_it_is_not_one(tmp_path):
+    """`uuvid simulate my-rov.yaml` listed 'rigid_body: unknown key', … for every key of the
+    vehicle file; the scenario names a vehicle file with `vehicle:`."""
+    from uuvid.vehicle.definition import preset_path
+
+    p = tmp_path / "my-rov.yaml"
+    p.write_text(preset_path("bluerov2").read_text())
+    res = runner.invoke(app, ["simulate", str(p)])
+    clean_error(res, "not a scenario file: it looks like a vehicle file (it has rigid_body, "
+                     "hydrodynamics, thrusters); a scenario file has name, vehicle, mission")
+    assert "unknown key" not in res.output

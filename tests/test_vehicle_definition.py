@@ -512,3 +512,14 @@ def test_a_thruster_model_that_is_a_vehicle_file_is_named_as_such(tmp_path):
                            "hydrodynamics, thrusters); a thruster model file has blocks")
     assert "unknown key" not in said
 
+
+def test_a_thruster_model_file_given_as_the_vehicle_is_named_as_such(tmp_path):
+    """A thruster model file given as a vehicle listed the vehicle schema's key errors."""
+    thr = tmp_path / "thr.yaml"
+    thr.write_text("name: q\ninput: voltage\nblocks:\n  - {type: quadratic, k_pos: 1.0}\n")
+    with pytest.raises(VehicleFileError) as e:
+        load_vehicle(str(thr))
+    said = str(e.value)
+    assert said.startswith(f"{thr}: not a vehicle file: it looks like a thruster model file (it "
+                           "has blocks); a vehicle file has name, source, rigid_body, hydrodynamics")
+    assert "unknown key" not in said and "missing" not in said

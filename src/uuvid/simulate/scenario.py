@@ -45,7 +45,7 @@ from uuvid.simulate.reference import (
     square_mission,
     waypoint_problem,
 )
-from uuvid.thruster.modelfile import ModelFileError, format_loc, read_model_text
+from uuvid.thruster.modelfile import ModelFileError, format_loc, other_kind, read_model_text
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -292,6 +292,11 @@ def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
     try:
         return ScenarioSpec.model_validate(raw if raw is not None else {})
     except ValidationError as e:
+        kind = other_kind(raw, "a scenario file")
+        if kind:
+            raise ScenarioError(f"{where}: not a scenario file: it looks like {kind}; a scenario "
+                                f"file has {', '.join(ScenarioSpec.model_fields)} (all optional: "
+                                "a vehicle flying its mission)") from None
         msgs = [f"{where}: {format_loc(err['loc'])}: "
                 + {"missing": "missing", "extra_forbidden": "unknown key"}.get(
                     err["type"], err["msg"].removeprefix("Value error, "))

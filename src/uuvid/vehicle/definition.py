@@ -59,6 +59,7 @@ from uuvid.thruster.modelfile import (
     ModelFileError,
     NotAModelFileError,
     format_loc,
+    other_kind,
     read_model_text,
 )
 from uuvid.vehicle.allocation import Allocator, ThrustMode
@@ -530,6 +531,12 @@ def _validation_messages(e: ValidationError, where: str) -> list[str]:
     return out
 
 
+#: What the top level of a vehicle file holds (said when a file is not one).
+VEHICLE_FILE_KEYS = ("name, source, rigid_body, hydrodynamics and usually thrusters (optionally "
+                     "description, assumptions, environment, inflow, allocation, modes, one_dof, "
+                     "battery)")
+
+
 def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None = None,
                       path: Path | None = None) -> Vehicle:
     """Validate a vehicle description (as loaded from YAML/TOML) and build a :class:`Vehicle`."""
@@ -543,6 +550,10 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
     try:
         spec = VehicleSchema.model_validate(raw)
     except ValidationError as e:
+        kind = other_kind(raw, "a vehicle file")
+        if kind:
+            raise VehicleFileError(f"{where}: not a vehicle file: it looks like {kind}; a vehicle "
+                                   f"file has {VEHICLE_FILE_KEYS}") from None
         raise VehicleFileError("\n".join(_validation_messages(e, where))) from None
     errors: list[str] = []
 
