@@ -5,6 +5,8 @@ vehicle without thrusters, a figure suffix no backend writes, a σ whose varianc
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from typer.testing import CliRunner
 
@@ -34,19 +36,49 @@ def _said(res) -> str:
 @pytest.mark.slow
 def test_a_mission_cut_short_by_its_duration_says_so(tmp_path):
     """A 10 km-deep square with ``duration: 5`` reported "completed True" after 5 s and nothing
-    else: the vehicle had tracked the first seconds of the reference.  ``completed`` keeps its
-    meaning (the part flown, as the batch kernel's); ``path_finished`` and a warning say the
-    duration cut the path."""
+    else: the vehicle had tracked the first seconds of the reference.  Then ``completed: true``
+    beside ``path_finished: false``: a mission stopped before its path's end is not completed,
+    and ``completed_reason`` says why (as the summary text and the batch's column)."""
+    from uuvid.simulate import batch
     from uuvid.simulate.scenario import build, scenario_from_dict
     from uuvid.simulate.vehicle_sim import fly_mission
 
     _, setup = build(scenario_from_dict({"mission": {"depth": 50, "speed": 0.5}, "duration": 5}))
     res = fly_mission(setup)
     s = res.metrics
-    assert s["path_finished"] is False
+    assert s["path_finished"] is False and s["completed"] is False
+    from uuvid.simulate.vehicle_sim import path_cut
+
+    end = path_cut(setup)
+    assert end is not None and end > 5
+    assert s["max_tracking_error_m"] < 1.0 and s["max_tilt_deg"] <= 20.0  # tracked, level
+    assert s["completed_reason"] == (f"the duration ends before the path (flight stops at 5 s, "
+                                     f"path ends at {end:.4g} s)")
     assert any("before the path ends" in w and "cuts the mission short" in w for w in s["warnings"])
+    assert "NOT completed (the duration ends before the path" in res.summary()
+    out = batch.run_batch_fast(setup, setup.vp[None, :])
+    assert out[0, 0] < 1.0 and out[0, 5] == 0.0  # the batch's column: the same meaning
     _, full = build(scenario_from_dict({"mission": {"depth": 2, "speed": 0.5}}))
-    assert fly_mission(full).metrics["path_finished"] is True
+    assert path_cut(full) is None
+    m = fly_mission(full).metrics  # 0.5 m/s tilts the BlueROV2: not completed, for that alone
+    assert m["path_finished"] is True and m["completed_reason"].startswith("tilted ")
+    assert "duration" not in m["completed_reason"]
+
+
+@pytest.mark.slow
+def test_simulate_cut_by_duration_prints_not_completed(tmp_path):
+    """``uuvid simulate s.yaml --json`` and its table said completed for a duration stopping
+    the flight at 5 s of a 13 km path."""
+    sc = tmp_path / "sc.yaml"
+    sc.write_text("mission: {depth: 50, speed: 0.5}\nduration: 5\n")
+    res = runner.invoke(app, ["simulate", str(sc), "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["completed"] is False and doc["path_finished"] is False
+    assert doc["completed_reason"].startswith("the duration ends before the path")
+    res = runner.invoke(app, ["simulate", str(sc)])
+    assert res.exit_code == 0, res.output
+    assert "completed_reason" in res.output and "the duration ends before the path" in _said(res)
 
 
 @pytest.mark.slow

@@ -133,6 +133,8 @@ def _hold_section(out: Path, rep: Report, quick: bool = False) -> dict:
     sq = {k: r.metrics[k] for k in ("completed", "max_tracking_error_m", "rms_tracking_error_m",
                                     "saturated_fraction")}
     sq["speed_m_s"] = speed
+    if not sq["completed"]:
+        sq["completed_reason"] = r.metrics["completed_reason"]
     rep.add_paragraph(f"BlueROV2 square mission in a 0.3 m/s current flowing north (from the "
                       f"south; {why}): "
                       + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
@@ -319,7 +321,8 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
                                       disturbance=dist))
         rows.append({"controller": r.metrics["controller"], "disturbance": name,
                      **{k: r.metrics[k] for k in ("max_tracking_error_m", "rms_tracking_error_m",
-                                                  "max_thrust_N", "max_tilt_deg", "completed")}})
+                                                  "max_thrust_N", "max_tilt_deg", "completed",
+                                                  "completed_reason")}})
     if not quick:
         from uuvid.simulate.scenario import build, scenario_from_dict
 
@@ -328,7 +331,7 @@ def _blocks_section(rep: Report, quick: bool = False) -> dict:
         rows.append({"controller": f"{r.metrics['controller']}, thrust output (scenario file)",
                      "disturbance": "none", **{k: r.metrics[k] for k in (
                          "max_tracking_error_m", "rms_tracking_error_m", "max_thrust_N",
-                         "max_tilt_deg", "completed")}})
+                         "max_tilt_deg", "completed", "completed_reason")}})
     rep.add_heading("Controllers and disturbances as blocks of the mission loop")
     rep.add_paragraph("The PID DP is one controller block (uuvid.simulate.control.blocks.Controller); "
                       "a disturbance block adds a generalized force at every integration step "
@@ -529,7 +532,10 @@ def _dive_section(out: Path, rep: Report) -> dict:
                    "vs measured")
     rep.add_preformatted(ident.summary())
     rep.add_paragraph(f"my-rov.yaml flying the square mission: completed "
-                      f"{flight.metrics.get('completed')}, real-time factor "
+                      f"{flight.metrics.get('completed')}"
+                      + (f" ({flight.metrics['completed_reason']})"
+                         if flight.metrics.get("completed_reason") else "")
+                      + ", real-time factor "
                       f"{flight.metrics.get('real_time_factor', float('nan')):.0f}.")
     traps = _dive_trap_rows(log)
     rep.add_table([{"the log": k, "what the reader says": v} for k, v in traps.items()],

@@ -93,7 +93,7 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
         _table(
             f"{summary['vehicle']}: {summary['mission']}",
             [{"quantity": k, "value": v} for k, v in summary.items()
-             if k not in ("warnings", "mission_note")],
+             if k not in ("warnings", "mission_note") and not (k == "completed_reason" and not v)],
             ["quantity", "value"],
             "{:.4g}",
         )

@@ -146,7 +146,7 @@ SUMMARY_COLUMNS = (
     "max_thrust_N",  # 2  max |delivered thrust| at the start of each step
     "final_position_error_m",  # 3  |p − p_ref| at the start of the last step
     "min_allocation_scale",  # 4  smallest uniform-scaling factor (1 = never saturated)
-    "completed",  # 5  1.0 if tracked and level (vehicle_sim.mission_completed, as fly_mission's)
+    "completed",  # 5  1.0 if tracked and level to the path's end (as fly_mission's: 0 when cut)
     "saturated_fraction",  # 6  fraction of steps with allocation scale < 1 (NaN on the fallback)
     "finite",  # 7  1.0 if the final state is finite (the run did not diverge)
     "max_tilt_deg",  # 8  largest tilt of the body z axis from the vertical (state at step starts)
@@ -1339,7 +1339,8 @@ def run_batch_fast(setup, vehicle_params, thruster_params=None, currents=None, *
     out[:, 3] = Wf[:, rows["dfin"]]
     out[:, 4] = Wf[:, rows["smin"]]
     out[:, 8] = np.degrees(np.arccos(np.clip(Wf[:, rows["cmin"]], -1.0, 1.0)))
-    out[:, 5] = vehicle_sim.mission_completed(out[:, 0], out[:, 3], out[:, 8]).astype(float)
+    out[:, 5] = (vehicle_sim.mission_completed(out[:, 0], out[:, 3], out[:, 8])
+                 & (vehicle_sim.path_cut(s) is None)).astype(float)
     out[:, 6] = Wf[:, rows["nsat"]] / nsteps
     out[:, 7] = np.all(np.isfinite(Wf[:, :13]), axis=1).astype(float)
     if vehicle_sim.allocation_method(s.alloc) != "scale":
@@ -1391,7 +1392,8 @@ def _fallback(s, VP, TP, VC) -> np.ndarray:
     out = np.full((R, N_SUMMARY), np.nan)
     out[:, :5] = o5[:, :5]
     out[:, 8] = o5[:, 5]
-    out[:, 5] = vehicle_sim.mission_completed(o5[:, 0], o5[:, 3], o5[:, 5]).astype(float)
+    out[:, 5] = (vehicle_sim.mission_completed(o5[:, 0], o5[:, 3], o5[:, 5])
+                 & (vehicle_sim.path_cut(s) is None)).astype(float)
     out[:, 7] = np.all(np.isfinite(o5), axis=1).astype(float)
     return out
 

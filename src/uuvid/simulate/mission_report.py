@@ -28,7 +28,8 @@ def mission_text(result) -> str:
     """A few lines on a :class:`~uuvid.simulate.vehicle_sim.MissionResult`'s metrics."""
     m = result.metrics
     lines = [f"{m.get('vehicle', '')}: {m.get('mission', '')} — "
-             + ("completed" if m.get("completed") else "NOT completed")
+             + ("completed" if m.get("completed") else "NOT completed"
+                + (f" ({m['completed_reason']})" if m.get("completed_reason") else ""))
              + f" ({m.get('controller', '?')}, disturbance {m.get('disturbance', 'none')}, "
              f"current {m.get('current', '?')})"]
     if m.get("mission_note"):

@@ -1136,6 +1136,14 @@ def _path_end(mission) -> float | None:
         return None
 
 
+def path_cut(setup) -> float | None:
+    """When the setup's path ends (s) if its flight stops before that (a ``t_end`` shorter than
+    the mission's path), else ``None``: such a flight is not ``completed``."""
+    end = _path_end(setup.mission)
+    stop = float(setup.t[-1] + setup.dt)
+    return end if end is not None and stop < end - 1e-9 else None
+
+
 @dataclass(frozen=True)
 class MissionResult(DictSummaryResult):
     """Time series of a flown mission plus its ``metrics`` (tracking errors, thrust, timing…).
@@ -1776,9 +1784,11 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "mission": s.mission.name,
         "speed_m_s": float(s.mission.speed),
         **({"mission_note": s.mission.note} if getattr(s.mission, "note", "") else {}),
-        # tracked the path *and* stayed level: a vehicle that follows the waypoints pitched 40°
-        # (or upside down) has not flown the mission a pilot asked for
+        # tracked the path *and* stayed level, to the path's end, on charge (set below): a vehicle
+        # that follows the waypoints pitched 40° (or upside down), or whose duration stops it
+        # half-way, has not flown the mission a pilot asked for
         "completed": tracked and level,
+        "completed_reason": "",  # why not, in short (the warnings say more)
         **att,
         "max_tracking_error_m": float(np.max(err)),
         "rms_tracking_error_m": float(np.sqrt(np.mean(err**2))),
@@ -1802,26 +1812,35 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
     }
-    warnings = [w for w in (unallocated_motion_warning(s),) if w]
+    warnings, why_not = [], []  # why_not: completed_reason's parts
+    unallocated = unallocated_motion_warning(s)
+    if unallocated:  # first: it explains the tracking error below
+        warnings.append(unallocated)
     if not tracked:
         warnings.append(f"the vehicle did not follow the path (max tracking error "
                         f"{float(np.max(err)):.2f} m, final {float(err[-1]):.2f} m; completed needs "
                         "< 1 m and < 0.25 m at the end)")
+        why_not.append("off the path")
     if not level:
         warnings.append(mission_tilt_warning(s, att))
-    path_end = _path_end(s.mission)
-    summary["path_finished"] = bool(path_end is None or summary["sim_time_s"] >= path_end - 1e-9)
-    if not summary["path_finished"]:  # "completed" (as the batch's) covers the part flown
+        why_not.append(f"tilted {att['max_tilt_deg']:.1f}° (level limit {MISSION_MAX_TILT_DEG:g}°)")
+    path_end = path_cut(s)
+    summary["path_finished"] = path_end is None
+    if path_end is not None:  # tracked over the part flown is not the mission flown
         warnings.append(f"the flight stops at t = {summary['sim_time_s']:.4g} s, before the path "
-                        f"ends (t = {path_end:.4g} s): the duration cuts the mission short — "
-                        "'completed' says how the part flown was tracked, not that the path was "
-                        "finished (path_finished: false)")
+                        f"ends (t = {path_end:.4g} s): the duration cuts the mission short, so it "
+                        "is not completed (path_finished: false) — give a duration of at least "
+                        f"{path_end:.4g} s, or none for the mission's own")
+        why_not.append(f"the duration ends before the path (flight stops at "
+                       f"{summary['sim_time_s']:.4g} s, path ends at {path_end:.4g} s)")
     if BAT.size and float(np.min(VOUT[:, 2])) <= 0.0:
         k = int(np.argmax(VOUT[:, 2] <= 0.0))
         warnings.append(f"the battery ({s.battery.name}) is empty from t = {float(res.t[k]):.4g} s "
                         f"(state of charge {float(VOUT[k, 2]):.3g}): past that the mission flew "
                         "on charge the battery does not hold — start fuller or fly shorter")
-        summary["completed"] = False
+        why_not.append(f"the battery is empty from t = {float(res.t[k]):.4g} s")
+    summary["completed"] = not why_not
+    summary["completed_reason"] = "; ".join(why_not)
     summary["warnings"] = warnings
     if BAT.size:
         summary.update({"battery": s.battery.name, "supply_voltage_V": [float(VOUT[0, 0]),
