@@ -1,6 +1,8 @@
 """Scenario files and `uuvid simulate` as a new user writes them: what was silently ignored or
 answered with pydantic's union noise now ends in an error naming the key and what is expected."""
 
+import re
+
 import pytest
 from typer.testing import CliRunner
 
@@ -146,3 +148,23 @@ def test_a_vehicle_file_given_as_the_scenario_says_it_is_not_one(tmp_path):
     clean_error(res, "not a scenario file: it looks like a vehicle file (it has rigid_body, "
                      "hydrodynamics, thrusters); a scenario file has name, vehicle, mission")
     assert "unknown key" not in res.output
+
+
+@pytest.mark.parametrize("field, value, said", [
+    ("hold", float("nan"), "hold = nan: expected a finite number >= 0 (s)"),
+    ("hold", -1.0, "hold = -1: expected a finite number >= 0 (s)"),
+    ("ramp_time", float("inf"), "ramp_time = inf: expected a finite number >= 0 (s)"),
+    ("speed", float("inf"), "speed = inf: expected a finite number > 0 (m/s)"),
+    ("speed", float("nan"), "speed = nan: expected a finite number > 0 (m/s)"),
+    ("vertical_speed", 0.0, "vertical_speed = 0: expected a finite number > 0 (m/s)"),
+    ("yaw_rate", float("nan"), "yaw_rate = nan: expected a finite number > 0 (rad/s)"),
+])
+def test_a_waypoint_mission_refuses_a_non_finite_or_negative_number(field, value, said):
+    """``WaypointMission(hold=nan)`` was built (duration NaN) and failed later in setup_mission as
+    "the mission's duration = nan s"; ``speed=inf`` flew legs of zero length.  Each field is
+    checked where it is given, naming it and its value."""
+    from uuvid.simulate.reference import WaypointMission
+
+    with pytest.raises(ValueError, match=re.escape(said)):
+        WaypointMission(((0, 0, 1, 0), (5, 0, 1, 0)), **{field: value})
+    assert WaypointMission(((0, 0, 1, 0), (5, 0, 1, 0)), hold=0.0, ramp_time=0.0).duration > 0

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from uuvid.core.checks import non_negative, positive
+
 
 @dataclass(frozen=True)
 class Leg:
@@ -69,11 +71,11 @@ class WaypointMission:
             why = waypoint_problem(i, float(w[2]), float(w[3]))
             if why:
                 raise ValueError(why)
-        for name in ("speed", "vertical_speed", "yaw_rate"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive")
-        if self.ramp_time < 0 or self.hold < 0:
-            raise ValueError("ramp_time and hold must be >= 0")
+        # a NaN passed these as comparisons and failed deep in the reference or the flight
+        for name, unit in (("speed", "m/s"), ("vertical_speed", "m/s"), ("yaw_rate", "rad/s")):
+            positive(name, getattr(self, name), unit)
+        for name in ("ramp_time", "hold"):
+            non_negative(name, getattr(self, name), "s")
 
     def legs(self) -> list[Leg]:
         legs, t = [], 0.0
