@@ -92,7 +92,7 @@ def test_waypoints_of_the_wrong_shape_are_one_clear_line(waypoints, said):
 
 
 @pytest.mark.parametrize("value, warned", [(1.57, "π/2"), (-3.14, "−π"), (0.785, "π/4"),
-                                           (90.0, None), (1.0, None), (0.5, None), (400.0, None)])
+                                           (90.0, None), (1.0, None), (0.5, None), (359.5, None)])
 def test_a_direction_in_radians_is_warned_of(value, warned):
     """`vehicle hold --current 0.3,1.57` (π/2 meant) held a current from 2° off the bow without a
     word, as did a scenario's `direction_deg: 1.5708`."""
@@ -103,7 +103,7 @@ def test_a_direction_in_radians_is_warned_of(value, warned):
 
     with warnings.catch_warnings(record=True) as got:
         warnings.simplefilter("always")
-        assert direction_deg("x", value) == value
+        assert direction_deg("x", value) == value % 360  # -3.14 is also outside [0, 360)
         scenario_from_dict({"current": {"kind": "constant", "speed": 0.1, "direction_deg": value}})
     said = [str(w.message) for w in got if issubclass(w.category, InputWarning)]
     if warned is None:
@@ -118,6 +118,62 @@ def test_hold_warns_of_a_current_direction_in_radians(monkeypatch):
 
     with pytest.warns(UserWarning, match=r"--current direction = 1.57°: that is π/2 in radians"):
         assert hold_cmd._parse_current("0.3,1.57") == (0.3, 1.57)
+
+
+@pytest.mark.parametrize("value, used", [(400.0, 40.0), (-90.0, 270.0), (360.0, 0.0),
+                                         (720.5, 0.5)])
+def test_a_direction_outside_one_turn_is_said_and_taken_within_it(value, used):
+    """`vehicle hold --current 0.3,400` printed "from 400°" for a current flown from 40°, without
+    a word; a scenario's direction_deg and GaussMarkovCurrent kept 400 too.  Each says the value
+    given and the one used, and uses it."""
+    import warnings
+
+    from uuvid.core.checks import InputWarning, direction_deg
+    from uuvid.simulate.currents import GaussMarkovCurrent
+    from uuvid.simulate.scenario import scenario_from_dict
+
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert direction_deg("x", value) == pytest.approx(used)
+        spec = scenario_from_dict({"current": {"kind": "constant", "speed": 0.1,
+                                               "direction_deg": value}})
+        gm = GaussMarkovCurrent(direction_deg=value)
+    assert spec.current.direction_deg == pytest.approx(used)
+    assert gm.direction_deg == pytest.approx(used)
+    said = [str(w.message) for w in got if issubclass(w.category, InputWarning)]
+    assert said == [f"{n} = {value:g}°: outside [0, 360°), the same direction modulo 360°; taken "
+                    f"as {used:g}°" for n in ("x", "current.direction_deg", "direction_deg")], said
+
+
+def test_hold_takes_a_current_direction_past_a_turn_within_it():
+    """`uuvid vehicle hold --current 0.3,400` printed "from 400°"; its --simulate angles and the
+    library's max_current the same."""
+    import json
+    import warnings
+
+    from uuvid.analysis import hold
+    from uuvid.cli import hold_cmd
+    from uuvid.core.checks import InputWarning
+    from uuvid.vehicle.definition import load_vehicle
+
+    with pytest.warns(InputWarning, match=r"^--current direction = 400°: outside \[0, 360°\), the "
+                      r"same direction modulo 360°; taken as 40°$"):
+        assert hold_cmd._parse_current("0.3,400") == (0.3, 40.0)
+    with pytest.warns(InputWarning, match=r"^--current direction = 400°: .*taken as 40°$"):
+        res = runner.invoke(app, ["vehicle", "hold", "bluerov2", "--current", "0.3,400", "--step",
+                                  "90", "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["at_current"]["from_deg"] == 40.0
+    with pytest.warns(InputWarning, match=r"^--simulate = 400°: .*taken as 40°$"):
+        res = runner.invoke(app, ["vehicle", "hold", "bluerov2", "--simulate", "0,400",
+                                  "--battery", "0.5"])  # refused after the angles are read
+    assert res.exit_code == 2, res.output
+    v = load_vehicle("bluerov2")
+    with pytest.warns(InputWarning, match=r"relative_deg = 400°: .*taken as 40°"):
+        far = hold.max_current(v, 400.0, stability=False)[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InputWarning)
+        assert far == hold.max_current(v, 40.0, stability=False)[0]
 
 
 @pytest.mark.parametrize("kw, said", [

@@ -302,10 +302,10 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     ``inflow`` (``None``: the vehicle file's; ``'none'``: bollard limits): each thruster's limit
     at the advance speed the current gives it while the vehicle holds still, level, heading
     north (``ν_r = −ν_c``; :mod:`uuvid.vehicle.inflow`).  The hold gains keep the bollard reach."""
-    from uuvid.core.checks import finite
+    from uuvid.core.checks import direction_deg
     from uuvid.vehicle.inflow import inflow_limits
 
-    relative_deg = finite("relative_deg", relative_deg, "degrees off the bow")
+    relative_deg = direction_deg("relative_deg", relative_deg)
     al = _allocator(vehicle, limits, modes)
     il = inflow_limits(vehicle, inflow)
     if il is not None and soc is not None:
@@ -548,13 +548,15 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     (:mod:`uuvid.core.progress`; ``None``: automatic).  ``inflow`` (``None``: the vehicle file's,
     ``'none'``: bollard): with inflow the limits follow each thruster's advance speed in the
     current (:func:`max_current`) and the bollard-thrust capability is computed beside it."""
-    from uuvid.core.checks import finite
+    import warnings
+
+    from uuvid.core.checks import InputWarning, direction_deg
     from uuvid.core.progress import progress_task
     from uuvid.vehicle.inflow import resolve_inflow
     from uuvid.vehicle.power import limits_at
 
     step_deg = _check_step(step_deg)
-    simulate_deg = tuple(finite("simulate_deg", d, "degrees off the bow") for d in simulate_deg)
+    simulate_deg = tuple(direction_deg("simulate_deg", d) for d in simulate_deg)
     inflow = resolve_inflow(vehicle, inflow)
     if inflow != "none" and simulate_deg:
         raise ValueError("the confirmation by simulation (`simulate_deg=`) flies bollard thrusters "
@@ -576,11 +578,13 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
         for d in degs:
             task.stage(f"current from {d:g}°" + (f" on the battery at SOC {soc:.0%}"
                                                  if soc is not None else ""))
-            v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth, soc=soc,
-                                  inflow=inflow)
-            if inflow != "none":
-                bollard.append(max_current(vehicle, d, limits=limits, modes=modes, depth=depth,
-                                           soc=soc, inflow="none")[0])
+            with warnings.catch_warnings():  # the grid's own angles (5.5° is no π/4 radians slip)
+                warnings.simplefilter("ignore", InputWarning)
+                v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth,
+                                      soc=soc, inflow=inflow)
+                if inflow != "none":
+                    bollard.append(max_current(vehicle, d, limits=limits, modes=modes,
+                                               depth=depth, soc=soc, inflow="none")[0])
             task.advance()
             vals.append(v)
             lim.append(tuple(info.get("limiting_thrusters", ())))
@@ -614,10 +618,12 @@ def holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=No
                         max_tilt_deg: float = MAX_TILT_DEG, gust: float = 0.03,
                         max_yaw_error_deg: float = 5.0):
     """Fly a station-keeping hold in a current ramping to ``speed``; returns (held, result)."""
+    from uuvid.core.checks import direction_deg
     from uuvid.simulate.currents import TimeSeriesCurrent
     from uuvid.simulate.reference import WaypointMission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 
+    relative_deg = direction_deg("relative_deg", relative_deg)
     if limits is not None:
         vehicle = _with_limits(vehicle, limits)
     c = current_ned(speed, relative_deg)
@@ -805,11 +811,11 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
     stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
     fails (interpolated between the last held and the first failed SOC by bisection).
     ``progress``: a bar on stderr, one stage per 10 % of charge (``None``: automatic)."""
-    from uuvid.core.checks import finite, non_negative
+    from uuvid.core.checks import direction_deg, non_negative
     from uuvid.core.progress import progress_task
 
     speed = non_negative("speed", speed, "m/s")
-    relative_deg = finite("relative_deg", relative_deg, "degrees off the bow")
+    relative_deg = direction_deg("relative_deg", relative_deg)
     if not (math.isfinite(soc0) and 0 <= soc0 <= 1):
         raise ValueError(f"soc0 = {soc0:g}: expected a state of charge within 0..1")
     task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),

@@ -34,13 +34,12 @@ def _parse_current(text: str | None):
 
     try:
         current_speed("--current", parts[0])
-        if len(parts) == 2:
-            direction_deg("--current direction", parts[1])
+        deg = direction_deg("--current direction", parts[1]) if len(parts) == 2 else 0.0
     except ValueError as e:
         from uuvid.cli.common import _fail
 
         _fail(str(e))
-    return parts[0], (parts[1] if len(parts) == 2 else 0.0)
+    return parts[0], deg
 
 
 def vehicle_hold(
@@ -86,6 +85,12 @@ def vehicle_hold(
         sim = tuple(float(x) for x in simulate.split(",") if x.strip())
     except ValueError:
         _fail(f"--simulate: expected comma-separated angles, got {simulate!r}")
+    from uuvid.core.checks import direction_deg
+
+    try:  # as --current's direction: 400 is said and taken as 40
+        sim = tuple(direction_deg("--simulate", d) for d in sim)
+    except ValueError as e:
+        _fail(str(e))
     if sim and battery is not None:
         _fail("--simulate confirms at fixed limits: give --voltage instead of --battery")
     try:

@@ -64,19 +64,29 @@ class InputWarning(UserWarning):
 
 
 def direction_deg(name: str, value) -> float:
-    """A direction in degrees, finite; warns (:class:`InputWarning`) when it is a quarter,
-    half, … turn written in radians (1.57, 3.14, 0.785: degrees that small are nearly head-on, and
-    a direction in radians was flown as that)."""
+    """A direction in degrees, finite, returned within [0, 360): one outside (400, −90) is the
+    same direction modulo 360° and is taken so, with an :class:`InputWarning` saying the value
+    given and the value used (400 was printed as 400° and flown as 40°); warns too when it is a
+    quarter, half, … turn written in radians (1.57, 3.14, 0.785: degrees that small are nearly
+    head-on, and a direction in radians was flown as that)."""
     import warnings
 
     v = finite(name, value, "deg")
+    used = v % 360.0
+    if used == 360.0:  # a tiny negative value rounds up to a full turn
+        used = 0.0
+    said = []
     k = round(abs(v) / (math.pi / 4))
     if v != round(v) and 1 <= k <= 8 and abs(abs(v) - k * math.pi / 4) < 0.01:
         frac = {1: "π/4", 2: "π/2", 3: "3π/4", 4: "π", 5: "5π/4", 6: "3π/2", 7: "7π/4", 8: "2π"}[k]
-        warnings.warn(f"{name} = {v:g}°: that is {'−' if v < 0 else ''}{frac} in radians "
-                      f"({math.copysign(45 * k, v):g}°) — is it in radians? degrees are expected; "
-                      f"taken as {v:g}°", InputWarning, stacklevel=2)
-    return v
+        said.append(f"that is {'−' if v < 0 else ''}{frac} in radians ({math.copysign(45 * k, v):g}°)"
+                    " — is it in radians? degrees are expected")
+    if used != v:
+        said.append("outside [0, 360°), the same direction modulo 360°")
+    if said:
+        warnings.warn(f"{name} = {v:g}°: {'; '.join(said)}; taken as {used:g}°", InputWarning,
+                      stacklevel=2)
+    return used
 
 
 def supply_voltage(name: str, value) -> float:

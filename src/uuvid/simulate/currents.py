@@ -110,8 +110,12 @@ class GaussMarkovCurrent:
     kind: str = "gauss_markov"
 
     def __post_init__(self):
+        from uuvid.core.checks import direction_deg
+
         if not (self.mu > 0 and self.sigma >= 0 and self.min <= self.mean <= self.max):
             raise ValueError("Gauss-Markov current: need mu > 0, sigma >= 0, min <= mean <= max")
+        # within [0, 360) as every current direction (400 is said and taken as 40)
+        object.__setattr__(self, "direction_deg", direction_deg("direction_deg", self.direction_deg))
 
     @staticmethod
     def _process(n, x0, mean, mu, sigma, dt, rng, lo=-math.inf, hi=math.inf):
