@@ -243,3 +243,21 @@ def test_controller_saturation_and_anti_windup_match_fly(bluerov2):
     VP, TP, VC = batch.perturb_batch(s, np.random.default_rng(3), 3)
     out = _check_against_fly(s, VP, TP, VC)
     assert np.all(out[:, 6] == 0.0)  # never an allocation saturation: the kernel's own numbers
+
+
+@pytest.mark.slow
+def test_completed_column_is_one_for_a_mission_flown_to_its_end(bluerov2):
+    """A short leg with no hold and no t_end: the flight stops within half a step of the path's
+    end (the step count is rounded), which is the path flown, not a cut — fly_mission and the
+    batch's column 5 both say completed (every other batch test flies a path cut by t_end)."""
+    from uuvid.simulate.reference import WaypointMission
+
+    setup = setup_mission(bluerov2, WaypointMission(((0, 0, 1, 0), (3, 0, 1, 0)), speed=0.33, hold=0.0))
+    assert path_cut(setup) is None
+    r = fly_mission(setup).metrics
+    assert r["completed"] and r["path_finished"] and r["completed_reason"] == "", r
+    out = batch.run_batch_fast(setup, np.tile(setup.vp, (2, 1)))
+    np.testing.assert_array_equal(out[:, 5], 1.0)
+    short = setup_mission(bluerov2, setup.mission, t_end=float(setup.t[-1]) - 1.0)
+    assert path_cut(short) is not None
+    np.testing.assert_array_equal(batch.run_batch_fast(short, np.tile(short.vp, (2, 1)))[:, 5], 0.0)

@@ -407,7 +407,7 @@ def test_loop_specialised_to_its_configuration_is_the_general_loop_bit_for_bit(b
         assert np.array_equal(got, want)
 
 
-def test_a_mission_moving_in_an_unallocated_dof_is_named(tmp_path):
+def test_a_mission_moving_in_an_unallocated_dof_is_named():
     """A vehicle file whose allocation leaves out a DOF the mission moves in (a square turns in
     yaw and moves ahead in surge) says which and from when, not only that the path was missed."""
     import yaml
@@ -432,6 +432,11 @@ def test_a_mission_moving_in_an_unallocated_dof_is_named(tmp_path):
     raw["allocation"] = {"dofs": ["surge", "heave"]}
     r = fly_mission(setup_mission(vehicle_from_dict(raw, where="v.yaml"), square_mission()))
     assert not r.metrics["completed"] and "not allocated" in r.metrics["warnings"][0]
+    # a controller that outputs each thruster's thrust bypasses the allocation: nothing to say
+    from uuvid.simulate.control.lqr import lqr
+
+    v = vehicle_from_dict(raw, where="v.yaml")
+    assert unallocated_motion_warning(setup_mission(v, square_mission(), controller=lqr(v))) == ""
 
 
 def test_timeseries_csv_columns_carry_their_units(bluerov2, tmp_path):

@@ -774,14 +774,15 @@ def _rebase_files(work: Path, final: Path) -> list[Path]:
         if p.suffix.lower() not in _TEXT_SUFFIXES or not p.is_file():
             continue
         try:
-            text = p.read_text(encoding="utf-8")
+            with open(p, encoding="utf-8", newline="") as fh:  # line endings kept as written
+                text = fh.read()
         except UnicodeDecodeError:
             continue
         new = text
         for a, b in pairs.items():
             new = new.replace(a, b)
         if new != text:
-            atomic_write_text(p, new)
+            atomic_write_text(p, new, newline="")
             changed.append(p)
     return changed
 

@@ -1141,7 +1141,9 @@ def path_cut(setup) -> float | None:
     the mission's path), else ``None``: such a flight is not ``completed``."""
     end = _path_end(setup.mission)
     stop = float(setup.t[-1] + setup.dt)
-    return end if end is not None and stop < end - 1e-9 else None
+    # a flight of the mission's own duration stops within half a step of it (the step count is
+    # rounded): that is the path flown to its end, not a cut
+    return end if end is not None and stop < end - 0.5 * setup.dt - 1e-9 else None
 
 
 @dataclass(frozen=True)
@@ -1646,8 +1648,12 @@ def unallocated_motion_warning(setup: MissionSetup) -> str:
     are not allocated to (``allocation.dofs`` of the vehicle file, the modes' zero DOFs): the
     reference velocity in the body frame of the reference heading — surge, sway, heave — and
     its yaw rate, each against :data:`UNALLOCATED_MOTION_TOL`; ``""`` when every motion asked for
-    is allocated."""
+    is allocated, or when the controller bypasses the allocation (it outputs each thruster's
+    thrust or command, as the LQI does)."""
     from uuvid.vehicle.model import DOF_NAMES
+
+    if setup.controller is not None and setup.controller.output_code != 0:
+        return ""
 
     ctrl = {int(d) for d in setup.dofs}
     _, ref_vel, ref_yaw, ref_rate = (np.asarray(a, float) for a in setup.ref)
@@ -1823,13 +1829,13 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         why_not.append("off the path")
     if not level:
         warnings.append(mission_tilt_warning(s, att))
-        why_not.append(f"tilted {att['max_tilt_deg']:.1f}° (level limit {MISSION_MAX_TILT_DEG:g}°)")
+        why_not.append(f"tilted {att['max_tilt_deg']:.2f}° (level limit {MISSION_MAX_TILT_DEG:g}°)")
     path_end = path_cut(s)
     summary["path_finished"] = path_end is None
     if path_end is not None:  # tracked over the part flown is not the mission flown
         warnings.append(f"the flight stops at t = {summary['sim_time_s']:.4g} s, before the path "
                         f"ends (t = {path_end:.4g} s): the duration cuts the mission short, so it "
-                        "is not completed (path_finished: false) — give a duration of at least "
+                        "is not completed (path_finished: false) — give a duration (t_end) of at least "
                         f"{path_end:.4g} s, or none for the mission's own")
         why_not.append(f"the duration ends before the path (flight stops at "
                        f"{summary['sim_time_s']:.4g} s, path ends at {path_end:.4g} s)")
