@@ -176,6 +176,118 @@ def test_hold_takes_a_current_direction_past_a_turn_within_it():
         assert far == hold.max_current(v, 40.0, stability=False)[0]
 
 
+def _radians_said(record):
+    """The InputWarnings of a π/2-in-radians slip among the recorded warnings."""
+    from uuvid.core.checks import InputWarning
+
+    return [str(w.message) for w in record
+            if issubclass(w.category, InputWarning) and "π/2 in radians" in str(w.message)]
+
+
+def _fly_held(monkeypatch):
+    """holds_in_simulation's flight replaced by one held still and level (no 150 s simulation)."""
+    import types
+
+    import numpy as np
+
+    from uuvid.simulate import vehicle_sim
+
+    def fly(setup):
+        t = np.arange(0.0, 151.0, 1.0)
+        state = np.zeros((t.size, 13))
+        state[:, 3] = 1.0
+        return types.SimpleNamespace(t=t, state=state, tracking_error=np.zeros(t.size))
+
+    monkeypatch.setattr(vehicle_sim, "setup_mission", lambda *a, **k: None)
+    monkeypatch.setattr(vehicle_sim, "fly_mission", fly)
+
+
+def test_hold_says_a_direction_in_radians_once_where_it_is_given(monkeypatch):
+    """`vehicle hold bluerov2 --current 0.3,1.57` printed the π/2 warning twice (`--current
+    direction`, then `relative_deg` from max_current), three times with --battery (endurance);
+    `--simulate 1.57` once per check: the option, capability(simulate_deg=) and each simulation
+    of the bisection.  The option is the value given: said there, once."""
+    import warnings
+
+    _fly_held(monkeypatch)
+    for args in (["--current", "0.3,1.57"], ["--current", "0.3,1.57", "--battery", "0.9"],
+                 ["--simulate", "1.57", "--voltage", "16", "--inflow", "none"]):
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            res = runner.invoke(app, ["vehicle", "hold", "bluerov2", "--step", "180", "--json",
+                                      *args])
+        assert res.exit_code == 0, (args, res.output)
+        said = _radians_said(got)
+        flag = args[0] + (" direction" if args[0] == "--current" else "")
+        assert len(said) == 1 and said[0].startswith(f"{flag} = 1.57°: that is π/2"), (args, said)
+
+
+def test_the_library_says_a_direction_in_radians_once(monkeypatch):
+    """Called directly, max_current(relative_deg=1.57) says it once; simulate_boundary and
+    capability(simulate_deg=) said it again at each simulation of their bisection."""
+    import warnings
+
+    from uuvid.analysis import hold
+    from uuvid.vehicle.definition import load_vehicle
+
+    _fly_held(monkeypatch)
+    v = load_vehicle("bluerov2")
+    calls = {"max_current": lambda: hold.max_current(v, 1.57, stability=False),
+             "simulate_boundary": lambda: hold.simulate_boundary(v, 1.57, 0.5, iterations=2),
+             "capability": lambda: hold.capability(v, step_deg=180, simulate_deg=(1.57,),
+                                                   supply_voltage=16, inflow="none",
+                                                   progress=False, iterations=2)}
+    for name, call in calls.items():
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            call()
+        said = _radians_said(got)
+        assert len(said) == 1, (name, said)
+
+
+def test_a_gauss_markov_current_says_a_direction_in_radians_once():
+    """A scenario's `current: {kind: gauss_markov, direction_deg: 1.57}` was warned of by the
+    scenario's check and again by GaussMarkovCurrent; built directly it says it once."""
+    import warnings
+
+    from uuvid.simulate.currents import GaussMarkovCurrent
+    from uuvid.simulate.scenario import build, scenario_from_dict
+
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        spec = scenario_from_dict({"duration": 1.0, "dt": 0.05,
+                                   "current": {"kind": "gauss_markov", "direction_deg": 1.57,
+                                               "mu": 0.1, "seed": 3}})
+        build(spec)
+        cur = spec.current.build(None)  # (its one warning said above, by scenario_from_dict)
+    assert isinstance(cur, GaussMarkovCurrent) and cur.direction_deg == 1.57
+    assert (cur.mu, cur.seed) == (0.1, 3)
+    said = _radians_said(got)
+    assert len(said) == 1 and said[0].startswith("current.direction_deg = 1.57°"), said
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert GaussMarkovCurrent(direction_deg=1.57).direction_deg == 1.57
+    said = _radians_said(got)
+    assert len(said) == 1 and said[0].startswith("direction_deg = 1.57°"), said
+    with pytest.raises(ValueError, match="need mu > 0"):  # the other parameters still checked
+        GaussMarkovCurrent._checked(direction_deg=1.57, mu=-1.0)
+
+
+def test_a_direction_a_hair_below_zero_is_taken_as_zero_not_a_full_turn():
+    """`direction_deg('x', -1e-9)` said "taken as 360°" (359.999999999 printed with :g) and
+    returned it: a hair below 0 is 0."""
+    import warnings
+
+    from uuvid.core.checks import InputWarning, direction_deg
+
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert direction_deg("x", -1e-9) == 0.0
+        assert direction_deg("x", -1e-4) == pytest.approx(359.9999)
+    said = [str(w.message) for w in got if issubclass(w.category, InputWarning)]
+    assert said[0].endswith("taken as 0°") and said[1].endswith("taken as 359.9999°"), said
+
+
 @pytest.mark.parametrize("kw, said", [
     ({"depth": -2}, "depth = -2 m: expected >= 0"),
     ({"waypoints": ((0, 0, 0, 0), (5, 0, -5, 0))}, "waypoint 1 is at down = -5 m, 5 m above the surface"),

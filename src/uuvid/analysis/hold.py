@@ -303,9 +303,19 @@ def max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth:
     at the advance speed the current gives it while the vehicle holds still, level, heading
     north (``ν_r = −ν_c``; :mod:`uuvid.vehicle.inflow`).  The hold gains keep the bollard reach."""
     from uuvid.core.checks import direction_deg
+
+    return _max_current(vehicle, direction_deg("relative_deg", relative_deg), limits=limits,
+                        modes=modes, depth=depth, v_cap=v_cap, tol=tol, soc=soc, battery=battery,
+                        stability=stability, gains=gains, inflow=inflow)
+
+
+def _max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth: float = 2.0,
+                 v_cap: float = 10.0, tol: float = 1e-4, soc: float | None = None, battery=None,
+                 stability: bool = True, gains=None, inflow: str | None = None):
+    """:func:`max_current` at a ``relative_deg`` already checked (the command line's, a
+    capability plot's grid): its warnings are not said again."""
     from uuvid.vehicle.inflow import inflow_limits
 
-    relative_deg = direction_deg("relative_deg", relative_deg)
     al = _allocator(vehicle, limits, modes)
     il = inflow_limits(vehicle, inflow)
     if il is not None and soc is not None:
@@ -548,15 +558,26 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
     (:mod:`uuvid.core.progress`; ``None``: automatic).  ``inflow`` (``None``: the vehicle file's,
     ``'none'``: bollard): with inflow the limits follow each thruster's advance speed in the
     current (:func:`max_current`) and the bollard-thrust capability is computed beside it."""
-    import warnings
+    from uuvid.core.checks import direction_deg
 
-    from uuvid.core.checks import InputWarning, direction_deg
+    return _capability(vehicle, step_deg=step_deg, limits=limits, modes=modes, depth=depth,
+                       supply_voltage=supply_voltage, soc=soc,
+                       simulate_deg=tuple(direction_deg("simulate_deg", d) for d in simulate_deg),
+                       progress=progress, inflow=inflow, **sim)
+
+
+def _capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, depth: float = 2.0,
+                supply_voltage: float | None = None, soc: float | None = None, simulate_deg=(),
+                progress: bool | None = None, inflow: str | None = None,
+                **sim) -> CapabilityResult:
+    """:func:`capability` with its ``simulate_deg`` already checked (the command line's
+    ``--simulate``): their warnings are not said again."""
     from uuvid.core.progress import progress_task
     from uuvid.vehicle.inflow import resolve_inflow
     from uuvid.vehicle.power import limits_at
 
     step_deg = _check_step(step_deg)
-    simulate_deg = tuple(direction_deg("simulate_deg", d) for d in simulate_deg)
+    simulate_deg = tuple(float(d) for d in simulate_deg)
     inflow = resolve_inflow(vehicle, inflow)
     if inflow != "none" and simulate_deg:
         raise ValueError("the confirmation by simulation (`simulate_deg=`) flies bollard thrusters "
@@ -578,13 +599,12 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
         for d in degs:
             task.stage(f"current from {d:g}°" + (f" on the battery at SOC {soc:.0%}"
                                                  if soc is not None else ""))
-            with warnings.catch_warnings():  # the grid's own angles (5.5° is no π/4 radians slip)
-                warnings.simplefilter("ignore", InputWarning)
-                v, info = max_current(vehicle, d, limits=limits, modes=modes, depth=depth,
-                                      soc=soc, inflow=inflow)
-                if inflow != "none":
-                    bollard.append(max_current(vehicle, d, limits=limits, modes=modes,
-                                               depth=depth, soc=soc, inflow="none")[0])
+            # the grid's own angles, not the user's (5.5° is no π/4 radians slip): not checked
+            v, info = _max_current(vehicle, float(d), limits=limits, modes=modes, depth=depth,
+                                   soc=soc, inflow=inflow)
+            if inflow != "none":
+                bollard.append(_max_current(vehicle, float(d), limits=limits, modes=modes,
+                                            depth=depth, soc=soc, inflow="none")[0])
             task.advance()
             vals.append(v)
             lim.append(tuple(info.get("limiting_thrusters", ())))
@@ -595,8 +615,8 @@ def capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dept
         for d in simulate_deg:
             task.stage(f"simulating the boundary at {d:g}°")
             guess = float(np.array(vals)[int(np.argmin(np.abs((degs - d + 180) % 360 - 180)))])
-            sv.append(simulate_boundary(vehicle, d, guess, limits=limits, modes=modes,
-                                        depth=depth, **sim))
+            sv.append(_simulate_boundary(vehicle, d, guess, limits=limits, modes=modes,
+                                         depth=depth, **sim))
             task.advance()
     res = CapabilityResult(vehicle.name, degs, np.array(vals), tuple(lim), supply_voltage,
                            tuple(why), tuple(words), tuple(sorted(drift)),
@@ -619,11 +639,25 @@ def holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=No
                         max_yaw_error_deg: float = 5.0):
     """Fly a station-keeping hold in a current ramping to ``speed``; returns (held, result)."""
     from uuvid.core.checks import direction_deg
+
+    return _holds_in_simulation(vehicle, direction_deg("relative_deg", relative_deg), speed,
+                                limits=limits, modes=modes, depth=depth, duration=duration, dt=dt,
+                                attitude_bandwidth=attitude_bandwidth, ramp=ramp,
+                                max_tilt_deg=max_tilt_deg, gust=gust,
+                                max_yaw_error_deg=max_yaw_error_deg)
+
+
+def _holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=None, modes=None,
+                         depth: float = 2.0, duration: float = 150.0, dt: float = 0.02,
+                         attitude_bandwidth: float = 6.0, ramp: float = 60.0,
+                         max_tilt_deg: float = MAX_TILT_DEG, gust: float = 0.03,
+                         max_yaw_error_deg: float = 5.0):
+    """:func:`holds_in_simulation` at a ``relative_deg`` already checked (each step of
+    :func:`simulate_boundary`'s bisection): its warnings are not said again."""
     from uuvid.simulate.currents import TimeSeriesCurrent
     from uuvid.simulate.reference import WaypointMission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 
-    relative_deg = direction_deg("relative_deg", relative_deg)
     if limits is not None:
         vehicle = _with_limits(vehicle, limits)
     c = current_ned(speed, relative_deg)
@@ -669,15 +703,27 @@ def simulate_boundary(vehicle, relative_deg: float, guess: float, *, limits=None
                       depth: float = 2.0, span: float = 0.25, iterations: int = 7,
                       duration: float = 150.0) -> float:
     """Largest current held in simulation, by bisection in ``[(1−span), (1+span)]·guess``."""
+    from uuvid.core.checks import direction_deg
+
+    return _simulate_boundary(vehicle, direction_deg("relative_deg", relative_deg), guess,
+                              limits=limits, modes=modes, depth=depth, span=span,
+                              iterations=iterations, duration=duration)
+
+
+def _simulate_boundary(vehicle, relative_deg: float, guess: float, *, limits=None, modes=None,
+                       depth: float = 2.0, span: float = 0.25, iterations: int = 7,
+                       duration: float = 150.0) -> float:
+    """:func:`simulate_boundary` at a ``relative_deg`` already checked (a capability plot's
+    ``simulate_deg``): checked once, not at each of its simulations."""
     lo, hi = (1 - span) * guess, (1 + span) * guess
     kw = dict(limits=limits, modes=modes, depth=depth, duration=duration)
-    if not holds_in_simulation(vehicle, relative_deg, lo, **kw)[0]:
+    if not _holds_in_simulation(vehicle, relative_deg, lo, **kw)[0]:
         return lo  # (below the bracket: reported as its lower end)
-    if holds_in_simulation(vehicle, relative_deg, hi, **kw)[0]:
+    if _holds_in_simulation(vehicle, relative_deg, hi, **kw)[0]:
         return hi
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        if holds_in_simulation(vehicle, relative_deg, mid, **kw)[0]:
+        if _holds_in_simulation(vehicle, relative_deg, mid, **kw)[0]:
             lo = mid
         else:
             hi = mid
@@ -811,21 +857,31 @@ def endurance(vehicle, speed: float, relative_deg: float = 0.0, *, soc0: float =
     stepping SOC down by ``dsoc`` from ``soc0`` and stopping where :func:`hold_on_battery`
     fails (interpolated between the last held and the first failed SOC by bisection).
     ``progress``: a bar on stderr, one stage per 10 % of charge (``None``: automatic)."""
-    from uuvid.core.checks import direction_deg, non_negative
+    from uuvid.core.checks import direction_deg
+
+    return _endurance(vehicle, speed, direction_deg("relative_deg", relative_deg), soc0=soc0,
+                      battery=battery, modes=modes, depth=depth, dsoc=dsoc, progress=progress)
+
+
+def _endurance(vehicle, speed: float, relative_deg: float, *, soc0: float = 1.0, battery=None,
+               modes=None, depth: float = 2.0, dsoc: float = 0.01,
+               progress: bool | None = None) -> EnduranceResult:
+    """:func:`endurance` at a ``relative_deg`` already checked (the command line's ``--current``
+    direction): its warnings are not said again."""
+    from uuvid.core.checks import non_negative
     from uuvid.core.progress import progress_task
 
     speed = non_negative("speed", speed, "m/s")
-    relative_deg = direction_deg("relative_deg", relative_deg)
     if not (math.isfinite(soc0) and 0 <= soc0 <= 1):
         raise ValueError(f"soc0 = {soc0:g}: expected a state of charge within 0..1")
     task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),
                          eta=False, stages=max(1, math.ceil(soc0 * 10)),
                          disable=None if progress is None else not progress)
     with task:
-        return _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task)
+        return _discharge(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task)
 
 
-def _endurance(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task):
+def _discharge(vehicle, speed, relative_deg, soc0, battery, modes, depth, dsoc, task):
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")

@@ -93,9 +93,11 @@ def vehicle_hold(
         _fail(str(e))
     if sim and battery is not None:
         _fail("--simulate confirms at fixed limits: give --voltage instead of --battery")
+    # the direction of --current and --simulate is checked (and warned of) above, once: the
+    # library's private paths take it as it is
     try:
-        cap = hold.capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
-                              simulate_deg=sim, inflow=inflow)
+        cap = hold._capability(v, step_deg=step, supply_voltage=voltage, soc=battery,
+                               simulate_deg=sim, inflow=inflow)
     except ValueError as e:
         _fail_flagged(e, HOLD_FLAGS)
     doc = {"capability": cap.to_dict()}
@@ -104,13 +106,13 @@ def vehicle_hold(
         speed, deg = cur
         lim = None if voltage is None else limits_at(v, voltage)
         try:
-            vmax = hold.max_current(v, deg, soc=battery, limits=lim, inflow=cap.inflow)[0]
+            vmax = hold._max_current(v, deg, soc=battery, limits=lim, inflow=cap.inflow)[0]
         except ValueError as e:
             _fail_flagged(e, HOLD_FLAGS)
         doc["at_current"] = {"speed_m_s": speed, "from_deg": deg, "max_current_m_s": vmax,
                              "holds": bool(speed <= vmax), "margin": vmax / speed if speed else None}
         if battery is not None:
-            endur = hold.endurance(v, speed, deg, soc0=battery)
+            endur = hold._endurance(v, speed, deg, soc0=battery)
             doc["endurance"] = endur.to_dict()
     if out is not None:
         hold.write_hold_report(out, cap, doc, cur, endur)

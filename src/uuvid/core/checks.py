@@ -68,12 +68,17 @@ def direction_deg(name: str, value) -> float:
     same direction modulo 360° and is taken so, with an :class:`InputWarning` saying the value
     given and the value used (400 was printed as 400° and flown as 40°); warns too when it is a
     quarter, half, … turn written in radians (1.57, 3.14, 0.785: degrees that small are nearly
-    head-on, and a direction in radians was flown as that)."""
+    head-on, and a direction in radians was flown as that).
+
+    Check a value once, where the user gives it: a function that receives one already checked
+    (from a command line option, a scenario file, a public function passing it on) takes a
+    private path that does not check it again (``hold._max_current`` beside ``hold.max_current``),
+    or the user reads the same warning two or three times."""
     import warnings
 
     v = finite(name, value, "deg")
     used = v % 360.0
-    if used == 360.0:  # a tiny negative value rounds up to a full turn
+    if used >= 360.0 - 1e-9:  # a tiny negative value (−1e-9) is a full turn short of 0: it is 0
         used = 0.0
     said = []
     k = round(abs(v) / (math.pi / 4))
@@ -84,7 +89,10 @@ def direction_deg(name: str, value) -> float:
     if used != v:
         said.append("outside [0, 360°), the same direction modulo 360°")
     if said:
-        warnings.warn(f"{name} = {v:g}°: {'; '.join(said)}; taken as {used:g}°", InputWarning,
+        shown = f"{used:g}"
+        if shown == "360":  # 359.9999 (from −1e-4) is not a full turn: said with its digits
+            shown = f"{used:.12g}"
+        warnings.warn(f"{name} = {v:g}°: {'; '.join(said)}; taken as {shown}°", InputWarning,
                       stacklevel=2)
     return used
 

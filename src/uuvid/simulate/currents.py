@@ -117,6 +117,14 @@ class GaussMarkovCurrent:
         # within [0, 360) as every current direction (400 is said and taken as 40)
         object.__setattr__(self, "direction_deg", direction_deg("direction_deg", self.direction_deg))
 
+    @classmethod
+    def _checked(cls, *, direction_deg: float = 0.0, **kw) -> GaussMarkovCurrent:
+        """Built with a ``direction_deg`` already checked (a scenario's, warned of where the
+        file gives it): its warning is not said a second time."""
+        c = cls(**kw)  # the other parameters checked as ever; direction 0 warns of nothing
+        object.__setattr__(c, "direction_deg", float(direction_deg))
+        return c
+
     @staticmethod
     def _process(n, x0, mean, mu, sigma, dt, rng, lo=-math.inf, hi=math.inf):
         a = math.exp(-mu * dt)

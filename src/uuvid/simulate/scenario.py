@@ -225,7 +225,8 @@ class GaussMarkovCurrentSpec(BaseModel):
     def build(self, base):
         from uuvid.simulate.currents import GaussMarkovCurrent
 
-        return GaussMarkovCurrent(**self.model_dump(exclude={"kind"}))
+        # direction_deg checked (and warned of) by this spec's validator, naming the file's key
+        return GaussMarkovCurrent._checked(**self.model_dump(exclude={"kind"}))
 
 
 CurrentSpec = ConstantCurrentSpec | TimeSeriesCurrentSpec | GaussMarkovCurrentSpec
