@@ -461,3 +461,22 @@ def test_timeseries_csv_columns_carry_their_units(bluerov2, tmp_path):
     # radians, not the summary's degrees
     assert np.max(np.abs(df["pitch_rad"])) == pytest.approx(np.radians(res.metrics["max_pitch_deg"]),
                                                             rel=1e-6)
+
+
+def test_the_mission_page_shows_its_warnings(bluerov2, tmp_path):
+    """`uuvid simulate --out`'s index.html listed completed and completed_reason in its table but
+    not the warnings the command line prints (they are a list, left out of the table)."""
+    import html
+
+    from uuvid.simulate.mission_report import write_mission_outputs
+
+    res = fly_mission(setup_mission(bluerov2, square_mission(), t_end=5.0))
+    assert res.metrics["warnings"] and not res.metrics["completed"]
+    page = write_mission_outputs(res, bluerov2, tmp_path).read_text()
+    for w in res.metrics["warnings"]:
+        assert html.escape(w, quote=False) in page or html.escape(w) in page, w
+    from uuvid.simulate.reference import cruise_speed
+
+    quiet = fly_mission(setup_mission(bluerov2, square_mission(speed=cruise_speed(bluerov2)[0])))
+    assert not quiet.metrics["warnings"]
+    assert "Warnings" not in write_mission_outputs(quiet, bluerov2, tmp_path / "q").read_text()

@@ -178,6 +178,10 @@ def write_mission_outputs(result, vehicle, out: str | Path, extra: dict | None =
         summary.update(extra)
     atomic_write_json(out / "summary.json", summary)
     rep = Report(f"uuvid simulate — {summary.get('vehicle', '')}: {summary.get('mission', '')}")
+    if summary.get("warnings"):  # what the command line prints under its table: here first
+        rep.add_heading("Warnings")
+        for w in summary["warnings"]:
+            rep.add_paragraph(f"⚠ {w}")
     rep.add_table([{"quantity": k, "value": v} for k, v in summary.items()
                    if not isinstance(v, (list, dict))], caption="Summary (SI)")
     for name, fig in mission_figures(result, vehicle).items():
