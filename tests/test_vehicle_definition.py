@@ -503,7 +503,10 @@ def test_a_thruster_model_that_is_a_vehicle_file_is_named_as_such(tmp_path):
     raw = copy.deepcopy(BASE)
     raw["thrusters"][0]["model"] = "other.yaml"
     p = tmp_path / "bot.yaml"
-    v = vehicle_from_dict(raw, where=str(p), base_dir=tmp_path, path=p)
+    # said when the vehicle is loaded (info and envelopes run on its limits), not only at a mission
+    with pytest.warns(VehicleFileWarning, match="thrusters A: model 'other.yaml': not a thruster "
+                      "model file: it looks like a vehicle file .* no simulation can fly"):
+        v = vehicle_from_dict(raw, where=str(p), base_dir=tmp_path, path=p)
     with pytest.raises(NotAModelFileError) as e:
         v.thruster_chain(0)
     said = str(e.value)

@@ -368,15 +368,17 @@ def _propeller_errors(spec, where: str, base_dir: Path | None) -> list[str]:
 
 def _model_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]:
     """One sentence naming the thrusters whose ``model`` is neither a thruster preset nor a file
-    beside the vehicle file (with the nearest preset name): such a vehicle allocates and gives
-    envelopes from its limits, but no simulation can fly it — said when it is loaded, not at the
-    first mission."""
+    beside the vehicle file (with the nearest preset name), and one per model file that is
+    another kind of uuvid file (a vehicle, a scenario: :class:`~uuvid.thruster.modelfile.
+    NotAModelFileError`): such a vehicle allocates and gives envelopes from its limits, but no
+    simulation can fly it — said when it is loaded, not at the first mission."""
     import difflib
 
+    from uuvid.thruster.modelfile import NotAModelFileError
     from uuvid.thruster.resolve import preset_names, resolve_chain
 
     base = vehicle.path.parent if vehicle.path is not None else (base_dir or Path.cwd())
-    bad = {}
+    bad, wrong = {}, {}
     for t in vehicle.layout.thrusters:
         if not t.model:
             continue
@@ -384,9 +386,13 @@ def _model_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]
             resolve_chain(t.model, base)
         except FileNotFoundError:
             bad.setdefault(t.model, []).append(t.name)
+        except NotAModelFileError as e:  # another kind of uuvid file (a vehicle, a scenario…)
+            wrong.setdefault((t.model, str(e)), []).append(t.name)
         except Exception:  # noqa: BLE001 - a broken model file is reported where it is read
             continue
-    out = []
+    out = [f"thrusters {', '.join(names)}: model {ref!r}: {why.split(': ', 1)[-1]} — allocation "
+           "and envelopes use the file's limits, but no simulation can fly these thrusters"
+           for (ref, why), names in wrong.items()]
     for ref, names in bad.items():
         near = difflib.get_close_matches(str(ref), preset_names(), n=1)
         out.append(f"thrusters {', '.join(names)}: model {ref!r} is neither a thruster preset "
