@@ -273,6 +273,23 @@ def test_a_gauss_markov_current_says_a_direction_in_radians_once():
         GaussMarkovCurrent._checked(direction_deg=1.57, mu=-1.0)
 
 
+@pytest.mark.slow
+def test_a_scenario_flown_with_another_controller_says_its_direction_once(tmp_path):
+    """`uuvid simulate scen.yaml --controller lqr` checked the scenario again to swap its
+    controller: a radians-looking direction was said twice."""
+    import warnings
+
+    p = tmp_path / "scen.yaml"
+    p.write_text("vehicle: bluerov2\nduration: 1.0\ncurrent: {kind: gauss_markov, direction_deg: 1.57, "
+                 "mu: 0.1, seed: 3}\n")
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        r = runner.invoke(app, ["simulate", str(p), "--controller", "lqr", "--json"])
+    assert r.exit_code == 0, r.output
+    said = _radians_said(got) + [ln for ln in r.output.splitlines() if "in radians" in ln]
+    assert len(said) == 1 and "current.direction_deg = 1.57°" in said[0], said
+
+
 def test_a_direction_a_hair_below_zero_is_taken_as_zero_not_a_full_turn():
     """`direction_deg('x', -1e-9)` said "taken as 360°" (359.999999999 printed with :g) and
     returned it: a hair below 0 is 0."""

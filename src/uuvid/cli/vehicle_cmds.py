@@ -202,9 +202,15 @@ def simulate(
         spec = load_scenario(scenario)
         if ctrl:  # the command line's controller (its file relative to the working folder)
             ctrl["file"] = str(Path(ctrl["file"]).resolve()) if "file" in ctrl else None
-            spec = scenario_from_dict({**spec.model_dump(exclude={"controller"}),
-                                       "controller": {k: v for k, v in ctrl.items() if v}},
-                                      where="--controller")
+            import warnings
+
+            from uuvid.core.checks import InputWarning
+
+            with warnings.catch_warnings():  # the file's values were checked (and said) above
+                warnings.simplefilter("ignore", InputWarning)
+                spec = scenario_from_dict({**spec.model_dump(exclude={"controller"}),
+                                           "controller": {k: v for k, v in ctrl.items() if v}},
+                                          where="--controller")
     except ModelFileError as e:
         _fail(str(e))
     _fly(spec, scenario.parent, out, json_out, spec.name, str(scenario), inflow)

@@ -86,7 +86,7 @@ def direction_deg(name: str, value) -> float:
         frac = {1: "π/4", 2: "π/2", 3: "3π/4", 4: "π", 5: "5π/4", 6: "3π/2", 7: "7π/4", 8: "2π"}[k]
         said.append(f"that is {'−' if v < 0 else ''}{frac} in radians ({math.copysign(45 * k, v):g}°)"
                     " — is it in radians? degrees are expected")
-    if used != v:
+    if not 0.0 <= v < 360.0:  # (within 1e-9 below 360 it is taken as 0, the same direction)
         said.append("outside [0, 360°), the same direction modulo 360°")
     if said:
         shown = f"{used:g}"
