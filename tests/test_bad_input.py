@@ -114,6 +114,7 @@ def test_absurd_vehicle_parameters_are_refused_by_name(field, value):
 @pytest.mark.slow
 @pytest.mark.parametrize("text, needle", [
     ("duration: 0.001\n", "shorter than one step"),
+    ("duration: 0.049\ndt: 0.1\n", "shorter than one step"),
     ("duration: 1.0e7\n", "shorten duration or raise dt"),
     ("mission: {kind: waypoints, waypoints: [[0, 0, 0, 0], [1.0e300, 0, 0, 0]]}\n",
      "duration not given"),
@@ -132,6 +133,9 @@ def test_step_count_budget():
 
     assert step_count(1.0, 0.01) == 100
     assert step_count(MAX_STEPS * 0.01, 0.01) == MAX_STEPS
+    # half a step is one step (round(0.5) is 0: a scenario's duration 0.05 at dt 0.1 crashed
+    # with an IndexError deep in setup_mission)
+    assert step_count(0.05, 0.1) == step_count(0.005, 0.01) == step_count(0.6, 1.0) == 1
     for T, dt in [(0.001, 0.01), (math.inf, 0.01), (math.nan, 0.01), (-1.0, 0.01),
                   (MAX_STEPS * 0.0101, 0.01), (1.0, 0.0), (1.0, math.nan)]:
         with pytest.raises(ValueError, match="t_end|dt"):

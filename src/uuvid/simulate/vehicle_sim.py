@@ -1365,7 +1365,8 @@ def step_count(duration: float, dt: float, name: str = "t_end", dt_name: str = "
         raise ValueError(f"{name} = {T:g} s at {dt_name} = {h:g} s is {n:.3g} steps, more than "
                          f"the {limit:,} one flight may hold in memory; shorten {name} or raise "
                          f"{dt_name}")
-    return int(round(n))
+    # half a step or more is one step: round() alone takes 0.5 to 0 (half to even) and left no step
+    return max(int(round(n)), 1)
 
 
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
