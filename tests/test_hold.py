@@ -371,3 +371,13 @@ def test_an_unknown_battery_power_model_is_refused_when_the_file_is_read():
                                                r"'m12_physical\.yaml': unknown; the thruster power "
                                                r"models are t200-physical"):
         vehicle_from_dict(raw, "x.yaml")
+
+
+def test_a_hold_on_an_empty_battery_is_refused_not_blamed_on_the_attitude():
+    """soc = 0 gave 'holds nothing … no statically stable roll/pitch balance' at every angle."""
+    from uuvid.analysis.hold import hold_on_battery
+
+    v = load_vehicle("bluerov2")
+    for soc in (0.0, -0.1, float("nan"), 1.5):
+        with pytest.raises(ValueError, match="expected a state of charge in"):
+            hold_on_battery(v, (0.3, 0.0, 0.0), soc)

@@ -759,6 +759,10 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
+    soc = float(soc)
+    if not (math.isfinite(soc) and 0.0 < soc <= 1.0):  # 0: every angle "held nothing" for a
+        raise ValueError(f"soc = {soc:g}: expected a state of charge in (0, 1] — at 0 the battery "
+                         "is empty and holds nothing")  # reason (its attitude) it did not have
     check_battery_models(vehicle, bat)
     st = SupplyThruster(physical_model(bat.thruster_power_model))
     v = bat.ocv(soc)
