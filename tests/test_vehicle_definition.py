@@ -526,3 +526,21 @@ def test_a_thruster_model_file_given_as_the_vehicle_is_named_as_such(tmp_path):
     assert said.startswith(f"{thr}: not a vehicle file: it looks like a thruster model file (it "
                            "has blocks); a vehicle file has name, source, rigid_body, hydrodynamics")
     assert "unknown key" not in said and "missing" not in said
+
+
+def test_two_thrusters_at_the_same_place_pushing_the_same_way_are_said():
+    """A copied thruster line (T6 at T5's position and axis) loaded without a word; the mission
+    then tilted. Said on load; a pair at one place pushing opposite ways is not said."""
+    from uuvid.vehicle.definition import preset_path
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    t5, t6 = raw["thrusters"][4], raw["thrusters"][5]
+    t6["position"], t6["axis"] = list(t5["position"]), list(t5["axis"])
+    with pytest.warns(VehicleFileWarning, match=f"thrusters {t5['name']} and {t6['name']} sit at the "
+                      "same position .* pushing the same way"):
+        vehicle_from_dict(copy.deepcopy(raw), where="dup.yaml")
+    t6["axis"] = [-a for a in t5["axis"]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VehicleFileWarning)
+        vehicle_from_dict(copy.deepcopy(raw), where="pair.yaml")
+        vehicle_from_dict(yaml.safe_load(preset_path("bluerov2-heavy").read_text()), where="h.yaml")

@@ -446,6 +446,30 @@ def _limit_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]
     return out
 
 
+#: Thrusters closer than this (m) with axes within ~2.6° of each other are one thruster twice.
+COINCIDENT_TOL_M = 1e-3
+
+
+def _coincident_warnings(vehicle: Vehicle) -> list[str]:
+    """Two thrusters at the same position (within :data:`COINCIDENT_TOL_M`) pushing the same way
+    (axes within ~2.6°): a line copied and not edited — they act as one thruster of twice the
+    thrust, with no moment between them, and the vehicle file's allocation loses a DOF it may
+    count on (a mission then tilts or drifts with nothing said)."""
+    th = vehicle.layout.thrusters
+    out = []
+    for i in range(len(th)):
+        for j in range(i + 1, len(th)):
+            pi, pj = np.asarray(th[i].position, float), np.asarray(th[j].position, float)
+            ai, aj = np.asarray(th[i].axis, float), np.asarray(th[j].axis, float)
+            cos = float(ai @ aj) / max(float(np.linalg.norm(ai) * np.linalg.norm(aj)), 1e-300)
+            if np.linalg.norm(pi - pj) <= COINCIDENT_TOL_M and cos > 0.999:
+                out.append(f"thrusters {th[i].name} and {th[j].name} sit at the same position "
+                           f"{[round(float(x), 6) for x in pi]} m pushing the same way "
+                           f"{[round(float(x), 6) for x in ai]}: a copied line? they act as one "
+                           "thruster (no moment between them) — check their position and axis")
+    return out
+
+
 def _one_way_warnings(vehicle: Vehicle) -> list[str]:
     """A controlled DOF the thrusters can push one way and not the other: with a thruster
     limited to one direction (``limits: [0, max]`` or ``[min, 0]``) no thrust within the limits
@@ -489,6 +513,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
     msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
+    msgs += _coincident_warnings(vehicle)
     cur = np.asarray(vehicle.params.current, float)
     if np.any(cur != 0.0):
         # missions, hold, sweeps and the envelope take the current the run is given: a vehicle
