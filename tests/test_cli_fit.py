@@ -609,3 +609,17 @@ def test_the_t200_sheet_polynomial_warns_of_its_sign_below_the_data(shared_data,
                      "--model", "polynomial", "--out", tmp_path / "p.yaml", "--json"))
     assert any(w.startswith("wrong-sign thrust below the data: the forward polynomial")
                for w in doc["warnings"]), doc["warnings"]
+
+
+def test_too_few_levels_to_choose_a_degree_say_where_and_what_to_do(tmp_path):
+    """Three rows (one level each way): the degree rule said 'degree 1 polynomial with 5-fold CV
+    (training samples per fold): 0 usable sample(s) for 3 parameter(s)' — no file, no direction,
+    and a degree-1 polynomial has 2 parameters."""
+    f = _write_csv(tmp_path / "three.csv", {"pwm": [1180, 1500, 1820], "thrust": [-21.0, 0.0, 26.6],
+                                           "rpm": [-2575.5, 0.0, 2584.6]})
+    res = _fit(f, "--command-col", "pwm", "--thrust-col", "thrust", "--speed-col", "rpm",
+               "--speed-unit", "rpm", "--model", "polynomial", "--out", tmp_path / "o.yaml")
+    said = " ".join(res.output.split())
+    assert res.exit_code != 0 and "three.csv: forward (1 sample(s) at non-zero speed)" in said, said
+    assert "degree 1 polynomial (2 parameters)" in said and "--degree" in said, said
+    assert not (tmp_path / "o.yaml").exists()

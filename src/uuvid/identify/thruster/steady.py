@@ -470,8 +470,9 @@ def polynomial_degree_table(x, y, degrees: Iterable[int] = range(1, 9), *, k: in
         n_train = int(min(np.sum(folds != j) for j in range(k)))
         if n_train < p + 1:
             if not rows and d == degrees[0]:
-                require_samples(n_train, p + 1, f"degree {d} polynomial with {k}-fold CV "
-                                                "(training samples per fold)")
+                raise BenchDataError(f"degree {d} polynomial ({p} parameters) with {k}-fold "
+                                     f"cross-validation: {n_train} training sample(s) per fold "
+                                     f"(of {n}); need at least {p + 1}")
             notes.append(f"degree {d} left out: {n_train} training samples per fold for {p} "
                          "parameters")
             continue
@@ -601,7 +602,13 @@ def fit_polynomial(data: BenchData, degree: int | None = None, *, criterion: str
             continue
         d = degree
         if d is None:
-            tab = polynomial_degree_table(x, y, degrees, k=k)
+            try:
+                tab = polynomial_degree_table(x, y, degrees, k=k)
+            except BenchDataError as e:  # too few levels to choose a degree: say where, and how
+                raise BenchDataError(f"{data.source or 'bench data'}: {direction} ({x.size} "
+                                     f"sample(s) at non-zero speed): choosing the degree: {e} — "
+                                     "record more levels in this direction, or give the degree "
+                                     "(degree=, --degree)") from None
             ch = select_degree(tab, criterion)
             info["tables"][direction] = tab
             info["choices"][direction] = ch
