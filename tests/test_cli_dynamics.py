@@ -103,3 +103,22 @@ def test_select_and_model_are_exclusive(files, tmp_path):
     res = runner.invoke(app, ["thruster", "fit", str(files["+2V"]), *COLS, "--select", "--model",
                               "healey", "--out", str(tmp_path / "x.yaml")])
     assert res.exit_code == 2 and "leave out --model" in res.output
+
+
+def test_a_volt_driven_model_given_pwm_widths_is_warned_before_it_runs():
+    """McLean's tunnel thruster takes its motor voltage: a step 'to 1500' (PWM thinking) pushed
+    825 N without a word, and 1e9 'diverged' with advice to shorten dt."""
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    r = CliRunner().invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.2", "--signal",
+                                 "kind=step,amplitude=1500"])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 0 and "above 100 V (e.g. 1500 V)" in said and "PWM pulse widths" in said, said
+    r = CliRunner().invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.2", "--signal",
+                                 "kind=step,amplitude=1e9"])
+    said = " ".join(r.output.split())
+    assert "above 100 V (e.g. 1e+09 V)" in said and "PWM" not in said, said
+    r = CliRunner().invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.2"])
+    assert r.exit_code == 0 and "above 100 V" not in r.output

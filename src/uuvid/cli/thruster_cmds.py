@@ -109,10 +109,19 @@ def thruster_simulate(
 
         return replay_from_spec(model, signal, out, json_out)
     chain = _load_model(model)
+    import numpy as np
+
     from uuvid.simulate.signals import default_step
-    from uuvid.thruster.chain import command_range_warnings
+    from uuvid.thruster.chain import command_range_warnings, voltage_range_warnings
 
     sig = _parse_signal(signal) if signal is not None else default_step(chain)
+    try:
+        u = sig(np.linspace(0.0, float(t_end), 1001)) if callable(sig) else None
+    except Exception:  # noqa: BLE001 - the simulation below says what is wrong with the signal
+        u = None
+    volt_warnings = voltage_range_warnings(u, chain) if u is not None else []
+    for w in volt_warnings:  # before the run: a wrong unit may make it diverge
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     try:
         resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
     except ValueError as e:
@@ -142,6 +151,8 @@ def thruster_simulate(
         summary["signal_note"] = (f"default input: step {sig.baseline:g} → {sig.amplitude:g} "
                                   f"{units['command']} at t = {sig.t0:g} s (--signal to change)")
         err_console.print(summary["signal_note"], highlight=False, markup=False, soft_wrap=True)
+    if volt_warnings:
+        summary.setdefault("warnings", []).extend(volt_warnings)
     if esc is not None:
         for w in command_range_warnings(resp["command"], esc, units["command"]):
             summary.setdefault("warnings", []).append(w)

@@ -483,6 +483,28 @@ def command_range_warnings(x, esc, unit: str = "") -> list[str]:
             f"ends{hint}"]
 
 
+#: Above this a motor voltage (V) is no small thruster's supply (a PWM width or a typo).
+VOLTAGE_PLAUSIBLE_V = 100.0
+
+
+def voltage_range_warnings(x, chain) -> list[str]:
+    """Inputs of a chain driven by its motor voltage (``input_kind == 'voltage'``, no ESC) above
+    :data:`VOLTAGE_PLAUSIBLE_V`: a pulse width in µs (800–2200) or a typo, simulated as volts —
+    McLean's 24 V motor given 1500 pushed 825 N, and 1e9 "diverged" with advice to shorten dt."""
+    if getattr(chain, "input_kind", None) != "voltage":
+        return []
+    x = np.asarray(x, float)
+    bad = x[np.abs(x) > VOLTAGE_PLAUSIBLE_V]
+    if not bad.size:
+        return []
+    lo, hi = PWM_PLAUSIBLE_US
+    hint = (" — these look like PWM pulse widths (µs): this model has no ESC and takes volts; "
+            "give volts, or a model with an ESC (e.g. t200)") if np.all((bad >= lo) & (bad <= hi)) \
+        else ""
+    return [f"{bad.size} input(s) above {VOLTAGE_PLAUSIBLE_V:g} V (e.g. {bad[0]:g} V) to "
+            f"{chain.name or 'a model'}, driven by its motor voltage — check the unit{hint}"]
+
+
 def zero_output_warnings(x, y, neutral: float = 0.0) -> list[str]:
     """One sentence when a steady map gives exactly zero at every input away from ``neutral``
     (e.g. a quadratic fit whose coefficients were clamped to 0): a model that cannot push."""
