@@ -464,3 +464,71 @@ def test_python_api_in_a_few_lines(tmp_path):
     assert inr.mass == pytest.approx(cli_i["mass"]["estimate"], rel=1e-9)
     assert inr.fit.mass_stderr == pytest.approx(cli_i["mass"]["sigma"], rel=1e-9)
     assert "inertia" in inr.summary()
+
+
+# ------------------------------------------------------------------- clock restarts vs swapped rows
+_STEADY = ("--dof", "yaw", "--command-col", "torque", "--position-col", "heading", "--settle",
+           "10", "--min-duration", "10")
+
+
+def test_csv_whose_time_restarts_is_refused_naming_the_row(tmp_path):
+    """A time column reset to 0 halfway (a reboot, two recordings appended) must not be sorted
+    and merged into one series: the reader stops at the row where the clock restarts."""
+    t, f, y = _yaw_steps()
+    k = t.size // 2 + 7
+    tt = np.concatenate([t[:k], t[k:] - t[k]])  # the clock starts again at 0 on row k
+    rows = [[f"{a:.3f}", b, c, "yaw"] for a, b, c in zip(tt, f, y)]
+    p = _write_csv(tmp_path / "restart.csv", ["time", "torque", "heading", "mode"], rows)
+    where = f"restart.csv: column 'time', data row {k + 1} (CSV line {k + 2})"
+    jump = f"{t[k - 1]:.9g} s → 0 s"
+    for extra in ((), ("--mode-col", "mode", "--open-water-mode", "yaw+"),
+                  ("--on-duplicate", "error")):
+        r = _run("vehicle", "identify", "steady", p, *_STEADY, *extra)
+        assert r.exit_code == 2, r.output
+        out = " ".join(r.output.split())
+        assert where in out and "time restarts" in out and jump in out, out
+        assert "--topic" not in out and "sorted" not in out.split("time restarts")[0]
+    with pytest.raises(LogDataError, match="time restarts"):
+        read_log_csv(p, time_col="time", columns=["heading"], on_duplicate="mean")
+    # the same file in milliseconds: the threshold follows the time step, not the unit
+    pm = _write_csv(tmp_path / "restart_ms.csv", ["time", "torque", "heading"],
+                    [[f"{a * 1e3:.0f}", b, c] for a, b, c in zip(tt, f, y)])
+    with pytest.raises(LogDataError, match=rf"data row {k + 1} .*time restarts"):
+        read_log_csv(pm, time_col="time", columns=["heading"], time_unit="ms", on_duplicate="mean")
+
+
+def test_csv_with_a_few_locally_swapped_rows_is_sorted_with_its_note(tmp_path):
+    """Rows a step or two out of order (two senders interleaved in an export) stay legitimate:
+    sorted into place and said in a note; a mode column cannot follow them and the error names
+    the row (and no ROS-bag option)."""
+    t, f, y = _yaw_steps()
+    rows = [[f"{a:.3f}", b, c, "yaw"] for a, b, c in zip(t, f, y)]
+    swapped = (100, 101, 905, 906, 1700, 1701)
+    for i in swapped[::2]:
+        rows[i], rows[i + 1] = rows[i + 1], rows[i]
+    rows[1500], rows[1503] = rows[1503], rows[1500]  # three steps late: still local
+    p = _write_csv(tmp_path / "swapped.csv", ["time", "torque", "heading", "mode"], rows)
+    lg = read_log_csv(p, time_col="time", columns=["heading"], on_duplicate="mean")
+    assert lg.meta["reordered"] > 0 and lg.meta["duplicates"] == 0
+    np.testing.assert_allclose(lg.t, np.round(t, 3), atol=1e-9)
+    np.testing.assert_allclose(lg["heading"], y, atol=1e-12)
+    data = read_vehicle_log(LogSpec(p, "yaw", command_col="torque", position_col="heading"))
+    assert any("rows out of time order sorted" in n for n in data.info["notes"])
+    r = _run("vehicle", "identify", "steady", p, *_STEADY, "--mode-col", "mode",
+             "--open-water-mode", "yaw+")
+    out = " ".join(r.output.split())
+    assert r.exit_code == 2 and "swapped.csv: column 'time', data row 102 (CSV line 103)" in out, out
+    assert "mode" in out and "--topic" not in out and "--field" not in out
+
+
+@pytest.mark.slow
+def test_csv_with_locally_swapped_rows_identifies_like_the_sorted_log(tmp_path):
+    t, f, y = _yaw_steps()
+    rows = [[f"{a:.3f}", b, c] for a, b, c in zip(t, f, y)]
+    for i in (100, 905, 1700):
+        rows[i], rows[i + 1] = rows[i + 1], rows[i]
+    p = _write_csv(tmp_path / "swapped.csv", ["time", "torque", "heading"], rows)
+    doc = _json("vehicle", "identify", "steady", p, *_STEADY)
+    assert any("rows out of time order sorted" in n for n in doc["notes"])
+    assert _within(doc["parameters"]["k"], YAW["k"]) and _within(doc["parameters"]["k_q"],
+                                                                 YAW["k_q"])

@@ -996,7 +996,11 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
     on_duplicate
         Rows with the same time stamp: ``"error"`` (default), ``"first"``, ``"last"`` or
         ``"mean"`` (per channel, over the finite cells of the group); rows out of order are
-        then sorted by time (``meta["reordered"]``, ``meta["duplicates"]`` count them).
+        then sorted by time (``meta["reordered"]``, ``meta["duplicates"]`` count them;
+        ``meta["first_unordered"]`` names the first such row).  Only rows a few steps out of
+        order are sorted: a time that jumps back by more than 20 typical steps (and 1 s) is a
+        clock restart (a reboot, two recordings in one file) and raises, whatever
+        ``on_duplicate``.
 
     A time column of ISO 8601 text (``2024-05-01 12:00:00.250``, as QGroundControl's CSV export
     writes) is recognised with the default ``time_unit="s"`` (``meta["time_detected"]``).  A CSV
@@ -1056,6 +1060,7 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
     else:
         time = _numeric(t, tcol, f"time, {tu}", False) * TIME_UNITS[tu]
     d = np.diff(time)
+    _check_restart(t, tcol, time, d, tu == "datetime")
     bad = np.flatnonzero(d <= 0)
     if bad.size and on_duplicate == "error":
         i = int(bad[0]) + 1
@@ -1080,9 +1085,54 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
             "original_units": orig_units, "original_names": orig_names, "time_column": tcol,
             "time_unit": tu, "time_detected": detected, "reordered": n_reordered,
             "duplicates": n_dup}
+    if bad.size:
+        i = int(bad[0]) + 1
+        meta["first_unordered"] = (f"{t.where(tcol, i)}: time stamp {_fmt_time(t, tcol, time, i, tu)} "
+                                   + ("repeats the previous row's" if d[i - 1] == 0 else
+                                      "is earlier than the previous row's")
+                                   + f" {_fmt_time(t, tcol, time, i - 1, tu)}")
     if getattr(t, "sections", None):
         meta["sections"] = t.sections
     return TimeResponse(time, channels, meta)
+
+
+#: a time column that jumps back by more than this many typical steps (and at least
+#: ``_RESTART_MIN_S``) restarts — a reboot, or a second recording appended — and is refused
+_RESTART_STEPS = 20
+_RESTART_MIN_S = 1.0
+
+
+def _fmt_time(t: _Table, col: str, time: np.ndarray, i: int, tu: str) -> str:
+    if tu == "datetime":
+        c = t.cells[col][i]
+        return repr(c.strip()) if isinstance(c, str) else f"{np.datetime64(int(round(time[i] * 1e3)), 'ms')}"
+    return f"{time[i]:.9g} s"
+
+
+def _check_restart(t: _Table, col: str, time: np.ndarray, d: np.ndarray, iso: bool) -> None:
+    """Refuse a time column that jumps back by much more than its typical step.
+
+    Rows a few steps out of order are ordinary (messages of several senders interleaved in an
+    export, a sample re-sent) and are sorted into place by ``on_duplicate``; a jump back by
+    tens of steps is a clock that restarted (a reboot, two recordings in one file): sorting
+    would interleave the two recordings into one nonsense series, so it stops here.
+    """
+    back = np.flatnonzero(d < 0)
+    if not back.size:
+        return
+    ahead = d[d > 0]
+    step = float(np.median(ahead)) if ahead.size else 0.0
+    limit = max(_RESTART_STEPS * step, _RESTART_MIN_S)
+    big = back[-d[back] > limit]
+    if not big.size:
+        return
+    i = int(big[0]) + 1
+    tu = "datetime" if iso else "s"
+    raise LogDataError(f"{t.where(col, i)}: time restarts, {_fmt_time(t, col, time, i - 1, tu)} → "
+                       f"{_fmt_time(t, col, time, i, tu)} (back {-d[i - 1]:.6g} s; the typical step "
+                       f"is {step:.3g} s) — a reboot, or two recordings in one file? split the file "
+                       f"before data row {i + 1} and read each part on its own (only rows a few "
+                       "steps out of order are sorted into place)")
 
 
 _ISO_RE = re.compile(r"^\s*\d{4}-\d{2}-\d{2}[T ]\d{1,2}:\d{2}")

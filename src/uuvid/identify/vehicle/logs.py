@@ -385,9 +385,10 @@ def _read_table_log(spec: LogSpec) -> LogData:
     modes = None
     if spec.mode_col:
         if r.meta.get("duplicates") or r.meta.get("reordered"):
-            raise LogDataError(f"{name}: a mode column with duplicated or unsorted time stamps "
-                               "cannot be matched to the merged rows; give one row per stamp "
-                               "(or map the mode as a number through --topic/--field)")
+            at = r.meta.get("first_unordered") or name
+            raise LogDataError(f"{at}: a mode column (--mode-col {spec.mode_col}) cannot be "
+                               "matched to merged or sorted rows; give one row per time stamp, "
+                               "in time order")
         tbl = _table(spec)
         col = _find_column(tbl, spec.mode_col, "the thrust-mapping mode")
         cells = tbl.cells[col]
