@@ -532,3 +532,19 @@ def test_csv_with_locally_swapped_rows_identifies_like_the_sorted_log(tmp_path):
     assert any("rows out of time order sorted" in n for n in doc["notes"])
     assert _within(doc["parameters"]["k"], YAW["k"]) and _within(doc["parameters"]["k_q"],
                                                                  YAW["k_q"])
+
+
+def test_decimal_commas_in_a_semicolon_table_are_named_as_such(tmp_path):
+    """A European spreadsheet export (';' between cells, ',' as the decimal point) said only
+    "'0,1' is not numeric"; `thruster fit` names the cause: so does the log reader now."""
+    from uuvid.io.logs import LogDataError, read_log_csv
+
+    p = tmp_path / "euro.csv"
+    p.write_text("time;torque;heading_deg\n0;0;16,8\n0,1;0;17,6\n0,2;0;18,4\n")
+    with pytest.raises(LogDataError, match=r"'0,1' is not numeric.* a decimal comma .*'\.' as the "
+                                           "decimal point"):
+        read_log_csv(p, time_col="time", columns=["torque", "heading_deg"])
+    p.write_text("time,torque\n0,0\n0.1,x1\n")
+    with pytest.raises(LogDataError, match="'x1' is not numeric") as e:
+        read_log_csv(p, time_col="time", columns=["torque"])
+    assert "decimal comma" not in str(e.value)

@@ -935,8 +935,11 @@ def _numeric(t: _Table, col: str, role: str, allow_missing: bool) -> np.ndarray:
             x = float(v.strip() if isinstance(v, str) else v)
         except (TypeError, ValueError):
             shown = v.strip() if isinstance(v, str) else v
+            comma = isinstance(shown, str) and re.fullmatch(r"[-+]?\d*,\d+([eE][-+]?\d+)?", shown)
             raise LogDataError(f"{t.where(col, i)}: {shown!r} is not numeric; expected a number "
-                               f"({role})") from None
+                               f"({role})" + (" — a decimal comma (a European spreadsheet export)? "
+                                             "re-save the file with '.' as the decimal point"
+                                             if comma else "")) from None
         if math.isnan(x) and not allow_missing:
             raise LogDataError(f"{t.where(col, i)}: NaN; expected a number ({role}); give "
                                "allow_missing=True to keep missing samples as NaN")
