@@ -20,7 +20,7 @@ from uuvid.identify.plausibility import (
     thrust_power_ratios,
 )
 from uuvid.identify.thruster.workflow import ReadOptions, run_fit
-from uuvid.io.bench import BenchData, BenchDataError, read_bench, read_t200
+from uuvid.io.bench import BenchData, BenchDataError, header_unit, read_bench, read_t200
 
 G_PER_N = 1000 / 9.80665  # grams-force per newton
 PWM = np.arange(1100.0, 1901.0, 20.0)
@@ -260,3 +260,81 @@ def test_a_physical_fit_of_one_direction_names_the_file_and_the_fix(tmp_path):
     with pytest.raises(BenchDataError, match=r"fwd_only\.csv: no measured reverse samples .*--model "
                                              r"quadratic/polynomial/table"):
         run_fit([fwd_only], "physical", opts)
+
+
+# ------------------------------------------------------------------ the unit in a column's header
+def _hdr_file(path, thrust_header, speed_header=None):
+    """A T200-like sweep with the thrust in the unit its header names (kgf, lbf, N)."""
+    unit = header_unit(thrust_header, "thrust") or "N"
+    per_n = {"N": 1.0, "kgf": 1 / 9.80665, "lbf": 1 / 4.4482216152605}[unit]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["PWM [us]", thrust_header] + ([speed_header] if speed_header else []))
+        for i, c in enumerate(PWM):
+            w.writerow([c, THRUST[i] * per_n] + ([abs(SPEED[i]) * 60 / (2 * np.pi)]
+                                                 if speed_header else []))
+    return path
+
+
+def test_a_thrust_header_in_kgf_is_read_in_kgf_and_said(tmp_path):
+    """`--thrust-col "Thrust [kgf]"` without --thrust-unit fitted kgf as N (9.8× too small), silently."""
+    f = _hdr_file(tmp_path / "kgf_hdr.csv", "Thrust [kgf]")
+    d = read_bench(f, command_col="PWM [us]", thrust_col="Thrust [kgf]")
+    np.testing.assert_allclose(d.thrust, THRUST, rtol=1e-9, atol=1e-12)
+    assert len(d.notes) == 1 and "'Thrust [kgf]'" in d.notes[0] and "kgf" in d.notes[0]
+    out = run_fit([f], "table", ReadOptions(command_col="PWM [us]", thrust_col="Thrust [kgf]"))
+    assert d.notes[0] in out.notes
+    # the same through the CLI: fitted in N, and the note on stderr
+    res = CliRunner().invoke(app, ["thruster", "fit", str(f), "--command-col", "PWM [us]",
+                                   "--thrust-col", "Thrust [kgf]", "--model", "table",
+                                   "--out-model", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 0, res.output
+    msg = " ".join(res.stderr.split())
+    assert "'Thrust [kgf]'" in msg and "read in kgf" in msg and "converted to N" in msg
+    assert "thrust -40 … 50 N" in res.stdout  # in kgf read as N: -4.079 … 5.099
+
+
+def test_a_unit_given_against_the_header_is_refused(tmp_path, shared_data):
+    sheet = shared_data / "t200-bluerobotics-2019" / "T200_16V.csv"
+    with pytest.raises(BenchDataError, match=r"T200_16V.csv: column 'Force \(Kg f\)' is in kgf by "
+                                             r"its header, but the thrust unit given is N .*"
+                                             r"leave out --thrust-unit .*--thrust-unit kgf"):
+        read_bench(sheet, command_col="PWM (us)", thrust_col="Force (Kg f)", thrust_unit="N")
+    res = CliRunner().invoke(app, ["thruster", "fit", str(sheet), "--command-col", "PWM (us)",
+                                   "--thrust-col", "Force (Kg f)", "--thrust-unit", "N",
+                                   "--model", "table", "--out-model", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "'Force (Kg f)'" in res.stderr
+    assert not (tmp_path / "o.yaml").exists()
+    # the unit the header says, given or not, reads the sheet as read_t200 does
+    ref = read_t200(sheet)
+    for kw in ({}, {"thrust_unit": "kgf", "speed_unit": "rpm"}):
+        d = read_bench(sheet, command_col="PWM (us)", thrust_col="Force (Kg f)", speed_col="RPM",
+                       speed_sign="command", **kw)
+        np.testing.assert_allclose(d.thrust, ref.thrust)
+        np.testing.assert_allclose(d.speed, ref.speed)
+        assert len(d.notes) == (2 if not kw else 0)
+    # a speed column in rpm by its header, read as rad/s: refused the same way
+    with pytest.raises(BenchDataError, match=r"column 'RPM' is in rpm by its header, but the "
+                                             r"speed unit given is rad/s .*--speed-unit rpm"):
+        read_bench(sheet, command_col="PWM (us)", speed_col="RPM", speed_unit="rad/s")
+
+
+def test_a_suffix_names_the_unit_and_a_plain_header_changes_nothing(tmp_path):
+    f = _hdr_file(tmp_path / "lbf.csv", "thrust_lbf")
+    d = read_bench(f, command_col="PWM [us]", thrust_col="thrust_lbf")
+    np.testing.assert_allclose(d.thrust, THRUST, rtol=1e-9, atol=1e-12)
+    assert "read in lbf" in d.notes[0]
+    plain = _hdr_file(tmp_path / "plain.csv", "thrust", "speed")
+    for kw in ({}, {"thrust_unit": "N"}, {"thrust_unit": "kgf"}):
+        d = read_bench(plain, command_col="PWM [us]", thrust_col="thrust", **kw)
+        np.testing.assert_allclose(d.thrust, THRUST * (9.80665 if kw.get("thrust_unit") == "kgf"
+                                                       else 1.0))
+        assert d.notes == ()
+    d = read_bench(plain, command_col="PWM [us]", speed_col="speed")  # no header unit: rad/s
+    assert d.notes == () and np.max(np.abs(d.speed)) == pytest.approx(400 * 60 / (2 * np.pi))
+    # a header that states N agrees with --thrust-unit N; a one-letter suffix says nothing
+    n = _hdr_file(tmp_path / "n.csv", "Thrust [N]")
+    assert read_bench(n, command_col="PWM [us]", thrust_col="Thrust [N]", thrust_unit="N").notes == ()
+    assert header_unit("thrust_g", "thrust") is None and header_unit("Thrust (g)", "thrust") == "g"
+    assert header_unit("Efficiency (g/W)", "thrust") is None
+    assert header_unit("RPM [rpm]", "speed") == "rpm" and header_unit("w [rad/s]", "speed") == "rad/s"

@@ -90,9 +90,15 @@ def thruster_fit(
                                    help="csv: columns by name (below) | t200: Blue Robotics sheet."),
     command_col: str = typer.Option("command", "--command-col", help="Command column."),
     thrust_col: str | None = typer.Option(None, "--thrust-col", help="Thrust column."),
-    thrust_unit: str = typer.Option("N", "--thrust-unit", help="N | kgf | lbf | g."),
+    thrust_unit: str | None = typer.Option(
+        None, "--thrust-unit",
+        help="N | kgf | lbf | g | mN | kN (default: the unit in the column's header, as in "
+             "'Thrust [kgf]', else N; a unit that disagrees with the header's is an error)."),
     speed_col: str | None = typer.Option(None, "--speed-col", help="Propeller speed column."),
-    speed_unit: str = typer.Option("rad/s", "--speed-unit", help="rad/s | rpm."),
+    speed_unit: str | None = typer.Option(
+        None, "--speed-unit",
+        help="rad/s | rpm (default: the unit in the column's header, as in 'RPM [rpm]', else "
+             "rad/s; a unit that disagrees with the header's is an error)."),
     current_col: str | None = typer.Option(None, "--current-col", help="Supply current column [A]."),
     voltage_col: str | None = typer.Option(None, "--voltage-col", help="Supply voltage column [V]."),
     time_col: str | None = typer.Option(None, "--time-col", help="Time column, in seconds (dynamic models)."),

@@ -66,8 +66,8 @@ def replay_from_spec(model: str, spec: str, out: Path | None, json_out: bool) ->
     opts = ReadOptions(command_col=d.get("command_col", "command"), time_col=d.get("time_col", "time"),
                        speed_col=d.get("speed_col"), thrust_col=d.get("thrust_col"),
                        command_unit=d.get("command_unit", "volts"),
-                       speed_unit=d.get("speed_unit", "rad/s"),
-                       thrust_unit=d.get("thrust_unit", "N"), neutral=neutral)
+                       speed_unit=d.get("speed_unit"),
+                       thrust_unit=d.get("thrust_unit"), neutral=neutral)
     _run(model, [Path(d["file"])], opts, out, json_out)
 
 
@@ -78,9 +78,11 @@ def thruster_replay(
     command_col: str = typer.Option("command", "--command-col", help="Command column."),
     command_unit: str = typer.Option("volts", "--command-unit", help="pwm_us | duty | volts."),
     speed_col: str | None = typer.Option(None, "--speed-col", help="Shaft speed column."),
-    speed_unit: str = typer.Option("rad/s", "--speed-unit", help="rad/s | rpm."),
+    speed_unit: str | None = typer.Option(
+        None, "--speed-unit", help="rad/s | rpm (default: the column header's, else rad/s)."),
     thrust_col: str | None = typer.Option(None, "--thrust-col", help="Thrust column."),
-    thrust_unit: str = typer.Option("N", "--thrust-unit", help="N | kgf | lbf | g."),
+    thrust_unit: str | None = typer.Option(
+        None, "--thrust-unit", help="N | kgf | lbf | g (default: the column header's, else N)."),
     neutral: float | None = typer.Option(None, "--neutral",
                                          help="Neutral command (default 1500 µs, or 0)."),
     out: Path | None = typer.Option(None, "--out",

@@ -54,9 +54,22 @@ FLOW_SIGN_TOLERANCE = 0.02
 COMMAND_UNIT_ALIASES = {"us": "pwm_us", "µs": "pwm_us", "pwm": "pwm_us", "v": "volts",
                         "volt": "volts"}
 #: thrust unit → N per unit
-THRUST_UNITS = {"N": 1.0, "kgf": U.KGF, "lbf": U.LBF, "g": U.G0 / 1000.0}
+THRUST_UNITS = {"N": 1.0, "kgf": U.KGF, "lbf": U.LBF, "g": U.G0 / 1000.0, "mN": 1e-3, "kN": 1e3}
 #: speed unit → rad/s per unit
 SPEED_UNITS = {"rad/s": 1.0, "rpm": U.RPM}
+#: a thrust or speed unit written in a column's header → the unit of THRUST_UNITS / SPEED_UNITS.
+#: Keys are the header's unit token lower-cased with spaces, dots, hyphens and ``·`` removed;
+#: ``N``, ``mN`` and ``kN`` are matched case-sensitively (``MN`` is not ``mN``).  Only clear
+#: unit tokens: a header whose token is not here says nothing about the unit.
+HEADER_THRUST_UNITS = {"kgf": "kgf", "kgforce": "kgf", "kilogramforce": "kgf", "kg": "kgf",
+                       "kp": "kgf", "lbf": "lbf", "lb": "lbf", "lbs": "lbf", "poundforce": "lbf",
+                       "gf": "g", "g": "g", "gramforce": "g", "grams": "g", "gram": "g",
+                       "newton": "N", "newtons": "N"}
+HEADER_THRUST_UNITS_CASED = {"N": "N", "mN": "mN", "kN": "kN"}
+HEADER_SPEED_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "1/min": "rpm",
+                      "min^-1": "rpm", "min-1": "rpm", "rad/s": "rad/s", "rad/sec": "rad/s",
+                      "rads^-1": "rad/s", "rads-1": "rad/s", "rads⁻¹": "rad/s", "rad_s": "rad/s",
+                      "radps": "rad/s", "rad_per_s": "rad/s"}
 #: the neutral command of each command unit
 DEFAULT_NEUTRAL = {"pwm_us": 1500.0, "duty": 0.0, "volts": 0.0}
 #: T200 performance sheets: readings below this speed were set to zero (SOURCE.md)
@@ -117,6 +130,9 @@ class BenchData:
         Water speed through the propeller [m/s] along its axis (forward positive: the water meets
         a forward-turning propeller from ahead, as the advance speed ``u_a`` of
         :mod:`uuvid.thruster.inflow`), or ``None`` for a bench in still water.
+    notes
+        Sentences on how the file was read that the user should see (the unit of a column taken
+        from its header when no unit was given).
     """
 
     command: np.ndarray
@@ -131,8 +147,11 @@ class BenchData:
     neutral: float | None = None
     censor_speed: float | None = None
     flow_speed: np.ndarray | None = None
+    #: how the file was read, said to the user (a unit taken from a column's header, …)
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
+        object.__setattr__(self, "notes", tuple(self.notes))
         if self.command_unit not in COMMAND_UNITS:
             raise BenchDataError(f"{self._where()}unknown command_unit {self.command_unit!r}; "
                                  f"expected one of {', '.join(COMMAND_UNITS)}")
@@ -379,6 +398,75 @@ def _looks_like_t200(t: _Table) -> bool:
             and {_norm("RPM"), _norm("Force (Kg f)")} <= have)
 
 
+_UNIT_IN_BRACKETS = re.compile(r"[\[(]([^\[\]()]+)[\])]\s*$")
+
+
+def _unit_key(token: str) -> str:
+    t = re.sub(r"[\s·*.]+", "", token.strip().lower())
+    return re.sub(r"-(?!\d)", "", t)  # kg-f, pound-force; not min-1
+
+
+def _lookup_unit(token: str, role: str) -> str | None:
+    if role == "thrust":
+        cased = re.sub(r"\s+", "", token.strip())
+        if cased in HEADER_THRUST_UNITS_CASED:
+            return HEADER_THRUST_UNITS_CASED[cased]
+        return HEADER_THRUST_UNITS.get(_unit_key(token))
+    return HEADER_SPEED_UNITS.get(_unit_key(token))
+
+
+def header_unit(column: str, role: str) -> str | None:
+    """The unit written in a column's header (``role`` ``thrust`` or ``speed``), or ``None``.
+
+    Read from a trailing bracket (``Thrust [kgf]``, ``Force (Kg f)``, ``RPM [rpm]``), else from a
+    suffix after ``_`` or a space (``thrust_lbf``, ``speed rpm``, ``omega_rad_s``), else from a
+    header that is the unit itself (``RPM``).  Conservative: only the clear unit tokens of
+    :data:`HEADER_THRUST_UNITS` / :data:`HEADER_SPEED_UNITS`; a one-letter suffix (``thrust_g``)
+    and a header that is only a thrust unit (``N``) say nothing.
+    """
+    name = column.strip()
+    m = _UNIT_IN_BRACKETS.search(name)
+    if m:
+        return _lookup_unit(m.group(1), role)
+    parts = [p for p in re.split(r"[_\s]+", name) if p]
+    for k in (3, 2, 1):
+        if len(parts) > k:
+            tail = "_".join(parts[-k:])
+            if k == 1 and len(tail) == 1 and tail != "N":
+                continue
+            u = _lookup_unit(tail, role)
+            if u is not None:
+                return u
+    if role == "speed" and len(parts) == 1:
+        return _lookup_unit(name, role)
+    return None
+
+
+#: the option that gives each channel's unit (for messages)
+_UNIT_OPTIONS = {"thrust": "--thrust-unit / thrust_unit=", "speed": "--speed-unit / speed_unit="}
+
+
+def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: str,
+                  notes: list[str]) -> str:
+    """The unit of a column: the one given, checked against its header's; else the header's
+    (said in ``notes``); else ``default``."""
+    found = header_unit(col, role)
+    opt = _UNIT_OPTIONS[role]
+    if found is None or found == given:
+        return default if given is None else given
+    if given is None:
+        if found != default:
+            notes.append(f"{t.name}: column {col!r}: the {role} is read in {found}, the unit in "
+                         f"its header, and converted to {default} (no {opt} given)")
+        return found
+    flag = opt.split(" / ")[0]
+    raise BenchDataError(
+        f"{t.name}: column {col!r} is in {found} by its header, but the {role} unit given is "
+        f"{given} ({opt}): they disagree, and reading it in {given} would scale every {role} by "
+        f"the ratio of the two. Fix: leave out {flag} (the header's {found} is read and converted) "
+        f"or give {flag} {found}; if the header is wrong, correct it in the file")
+
+
 def _numeric(t: _Table, col: str, role: str, unit: str = "") -> np.ndarray:
     vals = t.cells[col]
     out = np.empty(len(vals))
@@ -409,7 +497,8 @@ def _numeric(t: _Table, col: str, role: str, unit: str = "") -> np.ndarray:
 def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                speed_col: str | None = None, current_col: str | None = None,
                voltage_col: str | None = None, time_col: str | None = None,
-               command_unit: str = "pwm_us", thrust_unit: str = "N", speed_unit: str = "rad/s",
+               command_unit: str = "pwm_us", thrust_unit: str | None = None,
+               speed_unit: str | None = None,
                supply_voltage: float | None = None, neutral: float | None = None,
                speed_sign: str = "auto", censor_speed_below: float | None = None,
                flow_speed_col: str | None = "auto") -> BenchData:
@@ -422,9 +511,13 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     command_unit
         ``pwm_us``, ``duty`` or ``volts``.
     thrust_unit
-        ``N``, ``kgf``, ``lbf`` or ``g`` (gram-force).
+        ``N``, ``kgf``, ``lbf``, ``g`` (gram-force), ``mN`` or ``kN``.  ``None`` (default): the
+        unit written in the column's header (``Thrust [kgf]``, ``Force (Kg f)``, ``thrust_lbf``;
+        see :func:`header_unit`), said in :attr:`BenchData.notes`, else N.  A unit given that
+        disagrees with the header's is an error.
     speed_unit
-        ``rad/s`` or ``rpm``.
+        ``rad/s`` or ``rpm``; ``None`` (default): the header's (``RPM [rpm]``, ``RPM``), else
+        rad/s, as for ``thrust_unit``.
     supply_voltage
         A constant supply voltage [V] when the file has no voltage column.
     neutral
@@ -447,8 +540,10 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     if isinstance(command_unit, str):
         command_unit = COMMAND_UNIT_ALIASES.get(command_unit.strip().lower(), command_unit)
     command_unit = _check_unit("command_unit", command_unit, {u: 0 for u in COMMAND_UNITS})
-    thrust_unit = _check_unit("thrust_unit", thrust_unit, THRUST_UNITS)
-    speed_unit = _check_unit("speed_unit", speed_unit, SPEED_UNITS)
+    if thrust_unit is not None:
+        thrust_unit = _check_unit("thrust_unit", thrust_unit, THRUST_UNITS)
+    if speed_unit is not None:
+        speed_unit = _check_unit("speed_unit", speed_unit, SPEED_UNITS)
     if speed_sign not in ("auto", "signed", "command"):
         raise BenchDataError(f"unknown speed_sign {speed_sign!r}; expected auto, signed or command")
     if voltage_col is not None and supply_voltage is not None:
@@ -469,6 +564,15 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         c = _find_column(t, col, role)
         return c, _numeric(t, c, role, unit)
 
+    notes: list[str] = []
+    if thrust_col is not None:
+        thrust_unit = _resolve_unit(t, _find_column(t, thrust_col, "thrust"), "thrust",
+                                    thrust_unit, "N", notes)
+    if speed_col is not None:
+        speed_unit = _resolve_unit(t, _find_column(t, speed_col, "speed"), "speed", speed_unit,
+                                   "rad/s", notes)
+    thrust_unit = thrust_unit or "N"
+    speed_unit = speed_unit or "rad/s"
     tcol, thrust = opt(thrust_col, "thrust", thrust_unit)
     scol, speed_raw = opt(speed_col, "speed", speed_unit)
     _, current = opt(current_col, "current", "A")
@@ -525,7 +629,7 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     return BenchData(command=cmd, command_unit=command_unit, thrust=thrust, speed=speed,
                      current=current, supply_voltage=sv, time=time, source=t.name,
                      censored=censored, neutral=neutral_v, censor_speed=censor_speed,
-                     flow_speed=flow)
+                     flow_speed=flow, notes=tuple(notes))
 
 
 def _check_thrust_in_flow(t: _Table, tcol: str, fcol: str, direction, thrust, flow) -> None:
@@ -604,11 +708,12 @@ def concat(sets: Sequence[BenchData]) -> BenchData:
                      time=None, source="+".join(s.source for s in sets if s.source),
                      censored=np.concatenate([s.censored for s in sets]), neutral=neutral,
                      censor_speed=cs.pop() if len(cs) == 1 else None,
-                     flow_speed=cat("flow_speed"))
+                     flow_speed=cat("flow_speed"),
+                     notes=tuple(n for s in sets for n in s.notes))
 
 
 __all__ = ["BenchData", "BenchDataError", "read_bench", "read_t200", "require_samples", "concat",
-           "COMMAND_UNITS", "THRUST_UNITS", "SPEED_UNITS"]
+           "COMMAND_UNITS", "THRUST_UNITS", "SPEED_UNITS", "header_unit"]
 
 
 def default_t200_dir() -> Path | None:

@@ -185,15 +185,15 @@ class ReadOptions:
     voltage_col: str | None = None
     time_col: str | None = None
     command_unit: str = "pwm_us"
-    thrust_unit: str = "N"
-    speed_unit: str = "rad/s"
+    thrust_unit: str | None = None  # None: the unit in the column's header, else N
+    speed_unit: str | None = None  # None: the unit in the column's header, else rad/s
     supply_voltage: float | None = None
     neutral: float | None = None
     flow_speed_col: str | None = "auto"  # auto: the column 'flow_speed' when the file has one
 
 
 #: options a Blue Robotics T200 sheet does not take (its columns and units are fixed): defaults
-_T200_IGNORES = {"thrust_unit": "N", "speed_unit": "rad/s", "command_unit": "pwm_us",
+_T200_IGNORES = {"thrust_unit": None, "speed_unit": None, "command_unit": "pwm_us",
                  "time_col": None, "command_col": "command", "thrust_col": None,
                  "speed_col": None, "current_col": None, "voltage_col": None, "neutral": None}
 
@@ -1035,6 +1035,8 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
                 "resistance written in the model is its start value); McLean's motor from speed "
                 "and current: uuvid.identify.thruster.dynamic.fit_dc_motor")
     outcome.warnings = unit_warnings + list(outcome.warnings)
+    # how the files were read (a unit taken from a column's header): said first
+    outcome.notes = [n for s in sets for n in s.notes] + list(outcome.notes)
     return outcome
 
 
