@@ -344,6 +344,9 @@ def test_the_command_line_shows_a_vehicle_warning_as_a_line_not_a_source_locatio
     ({"weight": 1.15, "buoyancy": 1.17}, "the weight 1.15 N is 0.0102 × m·g"),  # in kgf... of 11.5
     ({"mass": 11_500.0, "weight": 112_800.0, "buoyancy": 114_800.0},
      "is a radius of gyration of"),  # every mass in grams, the inertia left in kg·m²
+    # I_xx + I_yy < I_zz: no body of positive mass (a value from another vehicle, a typo)
+    ({"inertia": [0.1, 0.1, 0.5]}, "principal moments 0.1, 0.1, 0.5 kg·m² — the largest exceeds"),
+    ({"inertia": [[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.5]]}, "principal moments 0.1, 0.1, 0.5"),
 ])
 def test_a_weight_or_inertia_that_cannot_go_with_the_mass_is_named(change, said):
     """The buoyancy check compares buoyancy with the weight; a mass in grams with the weight left
@@ -544,3 +547,13 @@ def test_two_thrusters_at_the_same_place_pushing_the_same_way_are_said():
         warnings.simplefilter("error", VehicleFileWarning)
         vehicle_from_dict(copy.deepcopy(raw), where="pair.yaml")
         vehicle_from_dict(yaml.safe_load(preset_path("bluerov2-heavy").read_text()), where="h.yaml")
+
+
+def test_inertias_a_body_can_have_are_not_warned_of():
+    """A thin disc (I_zz = I_xx + I_yy, the limit) and the BASE vehicle load without a word."""
+    for inertia in ([0.1, 0.1, 0.2], [0.2, 0.2, 0.3], [[0.2, 0.01, 0], [0.01, 0.2, 0], [0, 0, 0.3]]):
+        raw = copy.deepcopy(BASE)
+        raw["rigid_body"]["inertia"] = inertia
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", VehicleFileWarning)
+            vehicle_from_dict(raw, where="bot.yaml")

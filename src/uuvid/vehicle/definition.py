@@ -114,7 +114,8 @@ def rigid_body_warnings(params: VehicleParams, layout=None) -> list[str]:
     """Sentences for valid numbers that cannot be what they claim (most often a unit slip): a
     weight beyond :data:`WEIGHT_FACTOR` of ``m g`` (a mass in grams, a weight in kgf), a buoyancy
     beyond :data:`NEUTRAL_FACTOR` of the weight, a radius of gyration below
-    :data:`MIN_GYRATION_M`, a position beyond :data:`MAX_EXTENT_M` (lengths in mm or cm)."""
+    :data:`MIN_GYRATION_M`, principal moments of inertia no body has (the triangle inequality),
+    a position beyond :data:`MAX_EXTENT_M` (lengths in mm or cm)."""
     out = []
     m, w, b = float(params.mass), float(params.weight), float(params.buoyancy)
     if (w > 0.0 and b > 0.0) and not 1.0 / NEUTRAL_FACTOR <= b / w <= NEUTRAL_FACTOR:
@@ -137,6 +138,16 @@ def rigid_body_warnings(params: VehicleParams, layout=None) -> list[str]:
                        f"{m:.4g} kg is a radius of gyration of {1000 * gyr[k]:.3g} mm — no vehicle "
                        "is that compact: expected the mass in kg and the inertia in kg·m² (a mass "
                        "in grams, or an inertia in kg·cm²?)")
+    full = np.asarray(params.inertia, float)
+    full = np.diag(full) if full.ndim == 1 else full
+    if full.shape == (3, 3) and np.all(np.isfinite(full)):
+        pm = np.sort(np.linalg.eigvalsh(0.5 * (full + full.T)))
+        if pm[0] > 0.0 and pm[2] > (pm[0] + pm[1]) * (1.0 + 1e-6):
+            # I_xx + I_yy = ∫(x² + y² + 2z²) dm ≥ I_zz about any point, for any mass
+            out.append(f"rigid_body.inertia: principal moments {pm[0]:.4g}, {pm[1]:.4g}, "
+                       f"{pm[2]:.4g} kg·m² — the largest exceeds the sum of the other two, which "
+                       "no body of positive mass has (I_xx + I_yy ≥ I_zz): a typo or a moment "
+                       "from another vehicle?")
     where = [("rigid_body.center_of_gravity", params.r_g),
              ("rigid_body.center_of_buoyancy", params.r_b)]
     if layout is not None:
