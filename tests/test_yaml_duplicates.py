@@ -57,3 +57,18 @@ def test_deep_nesting_is_an_error_or_a_document_never_a_recursion_error():
         load_yaml_unique(text, "deep.yaml")
     except ModelFileError:
         pass
+
+
+def test_a_tab_in_the_indentation_is_named(tmp_path):
+    """PyYAML says "found character that cannot start any token" for a tab; the error says it is
+    a tab and that YAML indents with spaces; other syntax errors get no such hint."""
+    from uuvid.thruster.modelfile import ModelFileError, read_model_text
+
+    p = tmp_path / "tab.yaml"
+    p.write_text("name: x\nrigid_body:\n\tmass: 3\n")
+    with pytest.raises(ModelFileError, match="line 3 is indented with a tab: YAML indents with spaces"):
+        read_model_text(p)
+    p.write_text("name: [x\nrigid_body:\n  mass: 3\n")
+    with pytest.raises(ModelFileError) as e:
+        read_model_text(p)
+    assert "indented with a tab" not in str(e.value)

@@ -323,6 +323,22 @@ def load_yaml_unique(text: str, where: str):
         loader.dispose()
 
 
+def _tab_hint(text: str, error) -> str:
+    """A YAML error at a line that starts with a tab says so: PyYAML's "found character '\\t'
+    that cannot start any token" does not say that YAML indents with spaces only."""
+    mark = getattr(error, "problem_mark", None)
+    if mark is None:
+        return ""
+    lines = text.splitlines()
+    i = int(mark.line)
+    near = [k for k in (i, i - 1) if 0 <= k < len(lines) and "\t" in lines[k][:len(lines[k]) -
+                                                                             len(lines[k].lstrip())]]
+    if not near:
+        return ""
+    return (f" — line {near[0] + 1} is indented with a tab: YAML indents with spaces only "
+            "(replace the tab by spaces)")
+
+
 def read_model_text(path: str | Path) -> dict:
     path = Path(path)
     try:
@@ -339,7 +355,7 @@ def read_model_text(path: str | Path) -> dict:
         raw = load_yaml_unique(text, str(path))
     except (yaml.YAMLError, tomllib.TOMLDecodeError) as e:
         raise ModelFileError(f"{path}: not valid {'TOML' if path.suffix == '.toml' else 'YAML'}: "
-                             f"{e}") from None
+                             f"{e}{_tab_hint(text, e)}") from None
     check_expanded_size(raw, str(path))
     return raw
 
