@@ -433,3 +433,32 @@ def test_a_monte_carlo_model_refuses_a_fit_with_an_undetermined_parameter():
                                                 "K_T_fwd": {"estimate": 3e-4, "sigma": 1e-7}}}
     with pytest.raises(ModelError, match=r"x\.json: the fit does not determine K_e \(σ = ∞"):
         model_from_dict(raw, "x.json")
+
+
+def test_a_parameter_left_on_its_bound_is_the_bound_and_has_no_percentile_warning():
+    """A dead band pushed to its bound of 0 printed 'delta_l = -6.78e-16 at bound' and warned
+    'percentile error 3.89e+20 % > 51.02 %' for a σ the fit itself calls meaningless."""
+    import warnings
+
+    from uuvid.identify.fit import nonlinear_lsq
+
+    x = np.linspace(1.0, 2.0, 20)
+    y = -0.5 * x + 0.01 * np.sin(7 * x)  # wants a < 0; a ≥ 0 stops it at 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = nonlinear_lsq(lambda p: p[0] * x + p[1] - y, [1.0, 0.0], ["a", "b"],
+                          bounds=([0.0, -np.inf], [np.inf, np.inf]), extra={"residual_unit": "N"})
+    assert f.parameters[0].value == 0.0 and f.at_bound == ("a",)
+    assert not any(w.startswith("a: percentile error") for w in f.warnings), f.warnings
+    assert "RMSE = " in f.summary() and " N, ME = " in f.summary()
+
+
+def test_steady_fit_summaries_give_the_residuals_unit():
+    """'RMSE = 1.65509, ME = 1.38731' had no unit: a steady map's residuals are thrust, in N."""
+    rng = np.random.default_rng(0)
+    w = np.linspace(-300, 300, 41)
+    data = BenchData(command=1500 + w, speed=w, thrust=np.where(w >= 0, 4e-4, 3e-4) * w * np.abs(w)
+                     + rng.normal(0, 0.1, w.size))
+    fits = [*fit_quadratic_speed(data).fits.values(), *fit_polynomial(data, 2).fits.values()]
+    for fit in fits:
+        assert " N, ME = " in fit.summary(), fit.summary()

@@ -186,9 +186,11 @@ class Fit(Result):
 
     def summary(self) -> str:
         """A readable fit report (lmfit-style)."""
+        ru = self.extra.get("residual_unit") or ""
+        ru = f" {ru}" if ru else ""
         lines = [f"[[Fit]] {self.model}",
                  f"    samples = {self.n_samples}, free parameters = {self.n_free}, "
-                 f"RMSE = {self.rmse:.6g}, ME = {self.mean_abs_error:.6g}, "
+                 f"RMSE = {self.rmse:.6g}{ru}, ME = {self.mean_abs_error:.6g}{ru}, "
                  f"cond = {self.condition_number:.3g}",
                  "[[Parameters]]"]
         w = max([len(p.name) for p in self.parameters] + [4])
@@ -254,11 +256,13 @@ def residual_figure(fits: dict, title: str | None = None, unit: str | None = Non
 
 
 def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.ndarray,
-             emit: bool = True) -> tuple[float, list[str]]:
+             emit: bool = True, at_bound: Sequence[str] = ()) -> tuple[float, list[str]]:
     """Condition number of the column-scaled regressor/Jacobian and identifiability warnings.
 
     Warns (``IdentifiabilityWarning``) on rank deficiency, a condition number above
-    ``CONDITION_LIMIT``, a percentile error above 51.02 % and near-perfect correlations.
+    ``CONDITION_LIMIT``, a percentile error above 51.02 % and near-perfect correlations; not on
+    the percentile error of a parameter left on a bound (``at_bound``: its σ means nothing, and
+    at a bound of 0 it read "3.89e+20 %").
     """
     msgs: list[str] = []
     J = np.asarray(jac, dtype=float)
@@ -284,7 +288,7 @@ def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.
         if sd[i] == np.inf and not zero[i]:
             msgs.append(f"{n}: not identifiable — it trades off exactly with another parameter "
                         "in these data (σ = ∞)")
-        if not np.isfinite(sd[i]):
+        if not np.isfinite(sd[i]) or n in at_bound:
             continue
         pe = math.inf if v == 0 else 100 * sd[i] / abs(v)
         if pe > SIGNIFICANCE_PERCENT:
@@ -480,17 +484,23 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     Js = J / sc
     cov = _mark_undetermined(sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc),
                              undetermined(Js, 1.0 / CONDITION_LIMIT))
-    cond, msgs = diagnose(names, sol.x, cov, J, emit=emit_warnings)
+    lo, hi = np.broadcast_to(bounds[0], sol.x.shape), np.broadcast_to(bounds[1], sol.x.shape)
+    x = np.array(sol.x, dtype=float)
+    bound_msgs, on_bound = [], []
+    for i, nm in enumerate(names):
+        for b in (lo[i], hi[i]):
+            if np.isfinite(b) and abs(x[i] - b) <= 1e-9 * max(1.0, abs(b)):
+                x[i] = b  # the bound itself (the optimiser stops a rounding away: -6.8e-16 for 0)
+                on_bound.append(nm)
+                bound_msgs.append(f"{nm}{AT_BOUND}{x[i]:.6g}; its σ is not meaningful")
+                break
+    cond, msgs = diagnose(names, x, cov, J, emit=emit_warnings, at_bound=on_bound)
     if not sol.success:
         msgs.append(f"optimiser did not converge: {sol.message}")
-    lo, hi = np.broadcast_to(bounds[0], sol.x.shape), np.broadcast_to(bounds[1], sol.x.shape)
-    for i, nm in enumerate(names):
-        if np.isfinite(lo[i]) and abs(sol.x[i] - lo[i]) <= 1e-9 * max(1.0, abs(lo[i])) or (
-                np.isfinite(hi[i]) and abs(sol.x[i] - hi[i]) <= 1e-9 * max(1.0, abs(hi[i]))):
-            msgs.append(f"{nm}{AT_BOUND}{sol.x[i]:.6g}; its σ is not meaningful")
+    msgs += bound_msgs
     units = list(units) if units is not None else [""] * p
     params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
-                   for i, (nm, v) in enumerate(zip(names, sol.x)))
+                   for i, (nm, v) in enumerate(zip(names, x)))
     ex = {"nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
           "sigma2": sigma2}
     if extra:

@@ -277,7 +277,8 @@ def _quadratic_per_direction(x, y, d, *, names: dict, unit: str, model: str, sou
         fits[direction] = linear_lsq(H, y[m], [names[direction]], units=[unit],
                                      model=f"{model} ({direction}, {n} samples)",
                                      cov_type=cov_type,
-                                     extra={"direction": direction, "input": input_name})
+                                     extra={"direction": direction, "input": input_name,
+                                            "residual_unit": "N"})
     if not fits:
         raise BenchDataError(f"{source}{model}: no usable samples in either direction")
     return fits, notes
@@ -560,7 +561,7 @@ def _poly_fit_original(x: np.ndarray, y: np.ndarray, degree: int, direction: str
     params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
                    for i, (nm, v) in enumerate(zip(names, vals)))
     extra = dict(fs.extra)
-    extra.update({"direction": direction, "input": input_name, "x_scale": s,
+    extra.update({"direction": direction, "input": input_name, "x_scale": s, "residual_unit": "N",
                   "scaled_coefficients": [p.value for p in fs.parameters],
                   "note": "fitted in x/x_scale; condition number is that of the scaled design"})
     return Fit(f"|T| = Σ c_j |{input_name}|^j, degree {degree} ({direction}, {x.size} samples)",
@@ -689,7 +690,8 @@ def fit_deadzone_curve(data: BenchData, *, input: str = "command") -> SteadyFit:
                       x_scale=np.array([max(abs(cl0), 1e-12), max(abs(cr0), 1e-12), bs, bs]),
                       model="T = c(x|x| − δ) outside [δ_L, δ_R], x = "
                             + ("command − neutral" if input == "command" else "Ω"),
-                      extra={"input": input, "neutral": data.neutral if input == "command" else 0.0})
+                      extra={"input": input, "neutral": data.neutral if input == "command" else 0.0,
+                             "residual_unit": "N"})
     v = f.values
     block = DeadZoneMap(rotor_constant_l=v["rotor_constant_l"], rotor_constant_r=v["rotor_constant_r"],
                         delta_l=min(v["delta_l"], v["delta_r"]), delta_r=v["delta_r"])
