@@ -73,6 +73,8 @@ def test_joint_fit_recovers_the_truth_within_its_sigma(fit2):
     # the noise weights are estimated, and land on the true noise
     assert fit2.noise["speed"] == pytest.approx(NOISE[0], rel=0.1)
     assert fit2.noise["thrust"] == pytest.approx(NOISE[1], rel=0.1)
+    said = fit2.brief().splitlines()[0]  # with their units (they were bare numbers)
+    assert f"speed {fit2.noise['speed']:.3g} rad/s, thrust {fit2.noise['thrust']:.3g} N" in said, said
     ka = fit2.identifiable["k_a/m_f"]
     assert abs(ka["estimate"] - 0.05 / 1.0) < 4 * ka["sigma"]
 

@@ -422,8 +422,11 @@ class DynamicsFit(Result):
     def brief(self) -> str:
         """Structure, noise σ, in-sample NRMSE and identifiable combinations (no parameter
         table; :meth:`summary` adds it)."""
+        from uuvid.core.response import CHANNEL_UNITS
+
+        units = {**CHANNEL_UNITS, "speed": "rad/s"}
         lines = [f"{self.structure.name}: {self.n_params} parameters, noise σ "
-                 + ", ".join(f"{c} {v:.3g}" for c, v in self.noise.items())
+                 + ", ".join(f"{c} {v:.3g} {units.get(c, '')}".rstrip() for c, v in self.noise.items())
                  + f" (estimated, {self.iterations} reweighting passes)"]
         lines += [f"  in-sample NRMSE {r['record']} {r['channel']}: {r['nrmse_%']:.2f} %"
                   for r in self.in_sample]
