@@ -122,3 +122,15 @@ def test_a_volt_driven_model_given_pwm_widths_is_warned_before_it_runs():
     assert "above 100 V (e.g. 1e+09 V)" in said and "PWM" not in said, said
     r = CliRunner().invoke(app, ["thruster", "simulate", "auv2-tunnel", "--t-end", "0.2"])
     assert r.exit_code == 0 and "above 100 V" not in r.output
+
+
+def test_a_step_metric_the_response_lacks_is_said_not_printed_as_nan_seconds():
+    """A T200 step does not overshoot: the table printed 'time_constant_decay  nan  s'."""
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    r = CliRunner().invoke(app, ["thruster", "simulate", "t200", "--t-end", "1"])
+    assert r.exit_code == 0, r.output
+    row = next(ln for ln in r.output.splitlines() if "time_constant_decay" in ln)
+    assert "none in this response" in row and "nan" not in row, row

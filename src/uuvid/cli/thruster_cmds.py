@@ -193,8 +193,11 @@ def thruster_simulate(
         out_console.print(
             _table(
                 f"{chain.name} response (SI)",
-                [{"metric": k, "value": v if v is not None else float("nan"),
-                  "unit": STEP_METRIC_UNITS.get(k, "")} for k, v in metrics.items()],
+                # a metric the response does not have (no overshoot: nothing decays) is said so,
+                # not printed as "nan s"
+                [{"metric": k, "value": v if v is not None else "— (none in this response)",
+                  "unit": STEP_METRIC_UNITS.get(k, "") if v is not None else ""}
+                 for k, v in metrics.items()],
                 ["metric", "value", "unit"],
                 "{:.4g}",
             )
