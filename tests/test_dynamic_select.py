@@ -191,3 +191,13 @@ def test_t200_steady_part_dead_band(shared_data, volts):
         d = with_db.fit[f"blocks[0].{nm}"].value
         assert 0.0 < d <= zero + 4.0  # one PWM step (4 µs) of resolution
     assert with_db.in_sample_nrmse("speed") < without.in_sample_nrmse("speed")
+
+
+@pytest.mark.slow
+def test_first_order_and_yoerger_parameters_carry_units(records):
+    """'blocks[1].gain = 40.857' was printed with no unit."""
+    two = [e for e in records if e.level == 2.0]
+    units = {p.name: p.unit for p in fit_dynamics(two, "first-order").fit.parameters}
+    assert units["blocks[1].gain"] == "(rad/s)/cmd" and units["blocks[1].time_constant"] == "s"
+    units = {p.name: p.unit for p in fit_dynamics(two, "yoerger").fit.parameters}
+    assert units["blocks[1].alpha"] == "1/rad" and units["blocks[1].beta"] == "(rad/s²)/cmd"

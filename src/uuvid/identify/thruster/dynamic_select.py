@@ -243,11 +243,12 @@ def _template(s: Structure, g: _Guess, with_thrust: bool, offset: float, limit: 
     if s.family == "first-order":
         dyn = FirstOrderMotor(gain=W / V, time_constant=tau)
         free += ["blocks[1].gain", "blocks[1].time_constant"]
-        units["time_constant"] = "s"
+        units.update({"gain": "(rad/s)/cmd", "time_constant": "s"})  # Ω_ss = gain · u
     elif s.family == "yoerger":
         a = 1.0 / (2 * tau * W)
         dyn = Yoerger(alpha=a, beta=a * W * W / V)
         free += ["blocks[1].alpha", "blocks[1].beta"]
+        units.update({"alpha": "1/rad", "beta": "(rad/s²)/cmd"})  # Ω̇ = β u − α Ω|Ω|
     elif s.family == "bessa":
         dyn = BessaDynamics(jmsp=1.5 * V * tau / W, kv1=V / (2 * W), kv2=V / (2 * W * W))
         free += ["blocks[1].jmsp", "blocks[1].kv1", "blocks[1].kv2"]
