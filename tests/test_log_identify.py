@@ -548,3 +548,19 @@ def test_decimal_commas_in_a_semicolon_table_are_named_as_such(tmp_path):
     with pytest.raises(LogDataError, match="'x1' is not numeric") as e:
         read_log_csv(p, time_col="time", columns=["torque"])
     assert "decimal comma" not in str(e.value)
+
+
+def test_the_first_unordered_row_is_named_with_the_stamps_as_read(tmp_path):
+    """The note named the row from the file but read its stamps from the sorted, merged series:
+    a repeated last stamp raised an IndexError (the merged series is shorter) and a swap was
+    said backwards ("0.3 s is earlier than the previous row's 0.2 s")."""
+    p = tmp_path / "dupend.csv"
+    p.write_text("t,x\n0,1\n0.1,2\n0.2,3\n0.3,4\n0.3,5\n")
+    lg = read_log_csv(p, time_col="t", columns=["x"], on_duplicate="first")
+    np.testing.assert_array_equal(lg.t, [0.0, 0.1, 0.2, 0.3])
+    assert lg.meta["first_unordered"].endswith("time stamp 0.3 s repeats the previous row's 0.3 s")
+    p = tmp_path / "swap.csv"
+    p.write_text("t,x\n0,1\n0.1,2\n0.3,3\n0.2,4\n0.4,5\n0.5,6\n")
+    lg = read_log_csv(p, time_col="t", columns=["x"], on_duplicate="first")
+    assert lg.meta["first_unordered"].endswith("data row 4 (CSV line 5): time stamp 0.2 s is "
+                                               "earlier than the previous row's 0.3 s"), lg.meta

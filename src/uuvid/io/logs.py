@@ -1082,6 +1082,7 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
         orig_units[name] = units.get(name)
         orig_names[name] = col
     n_reordered = n_dup = 0
+    time_read = time  # the rows as read: the first unordered row is named from these
     if bad.size:
         time, channels, n_reordered, n_dup = _merge_rows(time, channels, on_duplicate)
     meta = {"source": t.name, "path": str(p), "format": t.kind.lower(), "units": si_units,
@@ -1090,10 +1091,11 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
             "duplicates": n_dup}
     if bad.size:
         i = int(bad[0]) + 1
-        meta["first_unordered"] = (f"{t.where(tcol, i)}: time stamp {_fmt_time(t, tcol, time, i, tu)} "
+        meta["first_unordered"] = (f"{t.where(tcol, i)}: time stamp "
+                                   f"{_fmt_time(t, tcol, time_read, i, tu)} "
                                    + ("repeats the previous row's" if d[i - 1] == 0 else
                                       "is earlier than the previous row's")
-                                   + f" {_fmt_time(t, tcol, time, i - 1, tu)}")
+                                   + f" {_fmt_time(t, tcol, time_read, i - 1, tu)}")
     if getattr(t, "sections", None):
         meta["sections"] = t.sections
     return TimeResponse(time, channels, meta)
