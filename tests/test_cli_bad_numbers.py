@@ -181,8 +181,7 @@ def test_vehicle_stability_max_tilt(value):
     (["--simulate", "inf"], ["--simulate", "finite"]),
     (["--voltage", "1e12"], ["--voltage", "1000 V"]),
     (["--voltage", "nan"], ["--voltage", "> 0"]),
-    # an empty battery said "holds nothing … no statically stable roll/pitch balance" everywhere
-    (["--battery", "0", "--current", "0.3,0"], ["--battery", "empty battery"]),
+    (["--battery", "1.5"], ["--battery", "within 0..1"]),
 ])
 def test_vehicle_hold(args, needles):
     refused(invoke(["vehicle", "hold", "bluerov2", *args]), *needles)

@@ -347,6 +347,10 @@ def _max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth
                                 start=a0)
             good, roll, pitch, r, a_ = h.held, h.roll, h.pitch, h.allocation, \
                 _allocator(vehicle, h.limits, modes)
+            if h.battery_limit:  # the battery's own limit, not the thrust or the attitude
+                why[v] = "battery"
+                detail[v] = f"the battery at SOC {soc:.0%}: {h.battery_limit}"
+                return False, (roll, pitch)
         else:
             a_ = al_at(v)
             good, roll, pitch, r = steady_hold(vehicle, cur, a_, depth, a0)
@@ -463,13 +467,15 @@ class CapabilityResult(Result):
                 lines.append(f"  {d:>10.0f}   {a:>22.3f}   {b:>25.3f}")
         if self.limit:
             c = {k: sum(1 for x in self.limit if x == k) for k in
-                 ("thrust", "attitude", "stability", "uncontrolled")}
+                 ("thrust", "attitude", "stability", "uncontrolled", "battery")}
             lines.append(f"  limited by thrust at {c['thrust']} of {len(self.limit)} angles, by "
                          f"the attitude (tilt beyond {MAX_TILT_DEG:g}° or statically unstable) at "
                          f"{c['attitude']}, by closed-loop stability (the DP loop oscillates) at "
                          f"{c['stability']}"
                          + (f", by an uncontrolled DOF at {c['uncontrolled']}"
-                            if c["uncontrolled"] else ""))
+                            if c["uncontrolled"] else "")
+                         + (f", by the battery (its minimum voltage or maximum current) at "
+                            f"{c['battery']}" if c["battery"] else ""))
         zero = sorted({r for v, r in zip(self.max_current, self.reasons) if v == 0 and r})
         for r in zero:
             n0 = sum(1 for v, x in zip(self.max_current, self.reasons) if v == 0 and x == r)
@@ -745,6 +751,7 @@ class BatteryHold:
     allocation: object
     reason: str = ""
     command: np.ndarray | None = None  # command per thruster giving its thrust at the voltage
+    battery_limit: str = ""  # the battery's own limit it broke (minimum voltage, maximum current)
 
 
 def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
@@ -760,9 +767,8 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
     soc = float(soc)
-    if not (math.isfinite(soc) and 0.0 < soc <= 1.0):  # 0: every angle "held nothing" for a
-        raise ValueError(f"soc = {soc:g}: expected a state of charge in (0, 1] — at 0 the battery "
-                         "is empty and holds nothing")  # reason (its attitude) it did not have
+    if not (math.isfinite(soc) and 0.0 <= soc <= 1.0):
+        raise ValueError(f"soc = {soc:g}: expected a state of charge within 0..1")
     check_battery_models(vehicle, bat)
     st = SupplyThruster(physical_model(bat.thruster_power_model))
     v = bat.ocv(soc)
@@ -777,13 +783,16 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
             break
         v = vn
     reason = "" if ok else "thrust limits at the loaded voltage (or attitude)"
+    limit = ""
     if v < bat.min_voltage:
-        ok, reason = False, f"loaded voltage {v:.2f} V below the minimum {bat.min_voltage:g} V"
+        ok = False
+        reason = limit = f"loaded voltage {v:.2f} V below the minimum {bat.min_voltage:g} V"
     if bat.max_current is not None and i > bat.max_current:
-        ok, reason = False, f"current {i:.1f} A above the battery's {bat.max_current:g} A"
+        ok = False
+        reason = limit = f"current {i:.1f} A above the battery's {bat.max_current:g} A"
     cmd = st.command_for(r.thrust, v)
     return BatteryHold(bool(ok), float(soc), float(v), float(i), limits_at(vehicle, v), roll,
-                       pitch, r, reason, cmd)
+                       pitch, r, reason, cmd, limit)
 
 
 @dataclass(frozen=True)

@@ -70,9 +70,8 @@ def vehicle_hold(
 
     v = _load_vehicle(vehicle, "it cannot hold station")
     cur = _parse_current(current)
-    if battery is not None and not 0 < battery <= 1:
-        _fail(f"--battery: state of charge must be within 0..1 and above 0 (0 is an empty battery, "
-              f"which holds nothing), got {battery}")
+    if battery is not None and not 0 <= battery <= 1:
+        _fail(f"--battery: state of charge must be within 0..1, got {battery}")
     if battery is not None and v.battery is None:
         _fail(f"{v.name} has no battery block in its vehicle file; use --voltage")
     if battery is not None:
