@@ -451,6 +451,13 @@ def test_a_parameter_left_on_its_bound_is_the_bound_and_has_no_percentile_warnin
     assert f.parameters[0].value == 0.0 and f.at_bound == ("a",)
     assert not any(w.startswith("a: percentile error") for w in f.warnings), f.warnings
     assert "RMSE = " in f.summary() and " N, ME = " in f.summary()
+    # "on the bound" is judged on the parameter's own scale: 5e-10 of a 1e-9 scale is not 0
+    y = 5e-10 * x * (1 + 0.01 * np.sin(7 * x))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = nonlinear_lsq(lambda p: (p[0] * x - y) / 1e-10, [1e-9], ["k"], bounds=([0.0], [np.inf]),
+                          x_scale=np.array([1e-9]))
+    assert f.at_bound == () and f.parameters[0].value == pytest.approx(5e-10, rel=0.05)
 
 
 def test_steady_fit_summaries_give_the_residuals_unit():

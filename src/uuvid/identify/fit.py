@@ -486,10 +486,15 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
                              undetermined(Js, 1.0 / CONDITION_LIMIT))
     lo, hi = np.broadcast_to(bounds[0], sol.x.shape), np.broadcast_to(bounds[1], sol.x.shape)
     x = np.array(sol.x, dtype=float)
+    # a parameter's own scale (x_scale when given, else its start; 1 when both are 0): a value
+    # within 1e-9 of it from a bound is on the bound — a parameter of 5e-10 is not "at 0"
+    typ = np.abs(np.broadcast_to(np.asarray(x_scale, float), x.shape)) if not isinstance(
+        x_scale, str) else np.abs(np.asarray(x0, float))
+    typ = np.where(typ > 0, typ, 1.0)
     bound_msgs, on_bound = [], []
     for i, nm in enumerate(names):
         for b in (lo[i], hi[i]):
-            if np.isfinite(b) and abs(x[i] - b) <= 1e-9 * max(1.0, abs(b)):
+            if np.isfinite(b) and abs(x[i] - b) <= 1e-9 * max(typ[i], abs(b)):
                 x[i] = b  # the bound itself (the optimiser stops a rounding away: -6.8e-16 for 0)
                 on_bound.append(nm)
                 bound_msgs.append(f"{nm}{AT_BOUND}{x[i]:.6g}; its σ is not meaningful")
