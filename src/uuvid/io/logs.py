@@ -937,8 +937,9 @@ def _numeric(t: _Table, col: str, role: str, allow_missing: bool) -> np.ndarray:
             shown = v.strip() if isinstance(v, str) else v
             comma = isinstance(shown, str) and re.fullmatch(r"[-+]?\d*,\d+([eE][-+]?\d+)?", shown)
             raise LogDataError(f"{t.where(col, i)}: {shown!r} is not numeric; expected a number "
-                               f"({role})" + (" — a decimal comma (a European spreadsheet export)? "
-                                             "re-save the file with '.' as the decimal point"
+                               f"({role})" + (" — a decimal comma (a European spreadsheet export) or a "
+                                             "thousands separator? re-save the file with '.' as the "
+                                             "decimal point and no separators"
                                              if comma else "")) from None
         if math.isnan(x) and not allow_missing:
             raise LogDataError(f"{t.where(col, i)}: NaN; expected a number ({role}); give "

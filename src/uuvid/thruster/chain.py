@@ -502,7 +502,8 @@ def voltage_range_warnings(x, chain) -> list[str]:
             "give volts, or a model with an ESC (e.g. t200)") if np.all((bad >= lo) & (bad <= hi)) \
         else ""
     return [f"{bad.size} input(s) above {VOLTAGE_PLAUSIBLE_V:g} V (e.g. {bad[0]:g} V) to "
-            f"{chain.name or 'a model'}, driven by its motor voltage — check the unit{hint}"]
+            f"{chain.name or 'a model'}, driven by its motor voltage — unusual for a small "
+            f"thruster: check the unit{hint}"]
 
 
 def zero_output_warnings(x, y, neutral: float = 0.0) -> list[str]:

@@ -331,8 +331,8 @@ def _tab_hint(text: str, error) -> str:
         return ""
     lines = text.splitlines()
     i = int(mark.line)
-    near = [k for k in (i, i - 1) if 0 <= k < len(lines) and "\t" in lines[k][:len(lines[k]) -
-                                                                             len(lines[k].lstrip())]]
+    near = [k for k in (i,) if 0 <= k < len(lines) and "\t" in lines[k][:len(lines[k]) -
+                                                                        len(lines[k].lstrip())]]
     if not near:
         return ""
     return (f" — line {near[0] + 1} is indented with a tab: YAML indents with spaces only "
