@@ -338,3 +338,20 @@ def test_a_suffix_names_the_unit_and_a_plain_header_changes_nothing(tmp_path):
     assert header_unit("thrust_g", "thrust") is None and header_unit("Thrust (g)", "thrust") == "g"
     assert header_unit("Efficiency (g/W)", "thrust") is None
     assert header_unit("RPM [rpm]", "speed") == "rpm" and header_unit("w [rad/s]", "speed") == "rad/s"
+
+
+def test_thruster_replay_says_which_unit_it_took_from_a_header(tmp_path):
+    """`thruster replay` read a `thrust [kgf]` column in kgf (the header's unit) but did not say so,
+    as `thruster fit` does."""
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    run = tmp_path / "run.csv"
+    run.write_text("time,command,thrust [kgf]\n" + "".join(
+        f"{0.01 * i:.2f},{1500 if i < 100 else 1700},{0 if i < 100 else 2.0}\n" for i in range(300)))
+    res = CliRunner().invoke(app, ["thruster", "replay", "t200", str(run), "--command-unit", "pwm_us",
+                                   "--thrust-col", "thrust [kgf]"])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0, said
+    assert "note:" in said and "kgf" in said and "unit in its header" in said, said

@@ -1239,6 +1239,7 @@ class Replay(Result):
 
     chain_name: str
     predictions: list  # dynamic_select.Prediction per record
+    notes: tuple = ()  # how the files were read (a unit taken from a column's header…)
 
     def rows(self) -> list[dict]:
         return [r for p in self.predictions for r in p.rows()]
@@ -1247,7 +1248,8 @@ class Replay(Result):
 
     def to_dict(self) -> dict:
         return jsonable({"model": self.chain_name, "records": self.rows(),
-                         "nrmse_definition": "RMSE / (max − min) of the measured channel"})
+                         "nrmse_definition": "RMSE / (max − min) of the measured channel",
+                         **({"notes": list(self.notes)} if self.notes else {})})
 
     def summary(self) -> str:
         return self.to_text()
@@ -1268,6 +1270,7 @@ class Replay(Result):
         lines = [f"{self.chain_name}: replayed logged commands (NRMSE = RMSE / measured range)"]
         lines += [f"  {r['record']:<30} {r['channel']:<7} NRMSE {r['nrmse_%']:7.2f} %"
                   for r in self.rows()]
+        lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
 
     def write(self, folder: Path) -> Path:
@@ -1313,4 +1316,5 @@ def replay_files(chain, paths, opts: ReadOptions) -> Replay:
     for s, e in zip(sets, experiments_from(sets, "replay")):
         u = _voltage_of(s) if chain.input_kind == "voltage" else s.command
         preds.append(predict_chain(chain, replace(e, u=u)))
-    return Replay(chain.name, preds)
+    notes = tuple(dict.fromkeys(n for s in sets for n in getattr(s, "notes", ())))
+    return Replay(chain.name, preds, notes)
