@@ -109,17 +109,11 @@ def thruster_simulate(
 
         return replay_from_spec(model, signal, out, json_out)
     chain = _load_model(model)
-    import numpy as np
-
     from uuvid.simulate.signals import default_step
-    from uuvid.thruster.chain import command_range_warnings, voltage_range_warnings
+    from uuvid.thruster.chain import command_range_warnings, signal_range_warnings
 
     sig = _parse_signal(signal) if signal is not None else default_step(chain)
-    try:
-        u = sig(np.linspace(0.0, float(t_end), 1001)) if callable(sig) else None
-    except Exception:  # noqa: BLE001 - the simulation below says what is wrong with the signal
-        u = None
-    volt_warnings = voltage_range_warnings(u, chain) if u is not None else []
+    volt_warnings = signal_range_warnings(chain, sig, t_end)
     for w in volt_warnings:  # before the run: a wrong unit may make it diverge
         err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     try:
@@ -135,16 +129,10 @@ def thruster_simulate(
         summary["metrics_note"] = ("step-response metrics apply to step inputs; this input is "
                                    + type(sig).__name__)
     from uuvid.core.metrics import STEP_METRIC_UNITS
-    from uuvid.core.response import CHANNEL_UNITS
     from uuvid.thruster.blocks import ESC
 
     esc = next((b for b in chain.blocks if isinstance(b, ESC)), None)
-    units = dict(CHANNEL_UNITS, time="s")
-    if esc is not None:
-        units["command"] = {"pwm_us": "µs", "volts": "V", "duty": "duty (−1..1)"}.get(
-            esc.command_unit, esc.command_unit)
-    elif chain.input_kind in ("voltage", "speed"):
-        units["command"] = units[{"voltage": "voltage", "speed": "prop_speed"}[chain.input_kind]]
+    units = chain.channel_units()
     summary["units"] = {"t_end": "s", "dt": "s", **{k: STEP_METRIC_UNITS.get(k, "") for k in metrics},
                         "channels": {k: units.get(k, "") for k in resp.channels}}
     if signal is None:

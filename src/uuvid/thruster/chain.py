@@ -368,6 +368,21 @@ class ThrusterChain:
             return {"pwm_us": "µs", "volts": "V"}.get(first.command_unit, first.command_unit)
         return {"voltage": "V", "speed": "rad/s"}.get(self.input_kind, "")
 
+    def channel_units(self) -> dict:
+        """Units of the simulated channels (SI, ``time`` in s) with the command's in the chain's
+        own unit: its ESC's (µs, V, duty), else the voltage or the propeller speed it takes."""
+        from uuvid.core.response import CHANNEL_UNITS
+        from uuvid.thruster.blocks import ESC
+
+        units = dict(CHANNEL_UNITS, time="s")
+        esc = next((b for b in self.blocks if isinstance(b, ESC)), None)
+        if esc is not None:
+            units["command"] = {"pwm_us": "µs", "volts": "V", "duty": "duty (−1..1)"}.get(
+                esc.command_unit, esc.command_unit)
+        elif self.input_kind in ("voltage", "speed"):
+            units["command"] = units[{"voltage": "voltage", "speed": "prop_speed"}[self.input_kind]]
+        return units
+
     def fastest_time_constant(self) -> float | None:
         """The shortest time constant we know of in the chain (for step-size advice)."""
         taus = []
@@ -504,6 +519,17 @@ def voltage_range_warnings(x, chain) -> list[str]:
     return [f"{bad.size} input(s) above {VOLTAGE_PLAUSIBLE_V:g} V (e.g. {bad[0]:g} V) to "
             f"{chain.name or 'a model'}, driven by its motor voltage — unusual for a small "
             f"thruster: check the unit{hint}"]
+
+
+def signal_range_warnings(chain, signal, t_end: float) -> list[str]:
+    """:func:`voltage_range_warnings` of ``signal`` (a callable of time) sampled over
+    ``[0, t_end]``, said before a simulation (a wrong unit may make it diverge); empty when the
+    signal cannot be sampled (the simulation then says what is wrong with it)."""
+    try:
+        u = signal(np.linspace(0.0, float(t_end), 1001)) if callable(signal) else None
+    except Exception:  # noqa: BLE001 - the simulation says what is wrong with the signal
+        return []
+    return voltage_range_warnings(u, chain) if u is not None else []
 
 
 def zero_output_warnings(x, y, neutral: float = 0.0) -> list[str]:
