@@ -370,17 +370,13 @@ class ThrusterChain:
 
     def channel_units(self) -> dict:
         """Units of the simulated channels (SI, ``time`` in s) with the command's in the chain's
-        own unit: its ESC's (µs, V, duty), else the voltage or the propeller speed it takes."""
+        own unit (:meth:`input_unit`: its ESC's µs, V or duty, else V or rad/s)."""
         from uuvid.core.response import CHANNEL_UNITS
-        from uuvid.thruster.blocks import ESC
 
         units = dict(CHANNEL_UNITS, time="s")
-        esc = next((b for b in self.blocks if isinstance(b, ESC)), None)
-        if esc is not None:
-            units["command"] = {"pwm_us": "µs", "volts": "V", "duty": "duty (−1..1)"}.get(
-                esc.command_unit, esc.command_unit)
-        elif self.input_kind in ("voltage", "speed"):
-            units["command"] = units[{"voltage": "voltage", "speed": "prop_speed"}[self.input_kind]]
+        u = self.input_unit()
+        if u:
+            units["command"] = "duty (−1..1)" if u == "duty" else u
         return units
 
     def fastest_time_constant(self) -> float | None:
