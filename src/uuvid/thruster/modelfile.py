@@ -331,11 +331,10 @@ def _tab_hint(text: str, error) -> str:
         return ""
     lines = text.splitlines()
     i = int(mark.line)
-    near = [k for k in (i,) if 0 <= k < len(lines) and "\t" in lines[k][:len(lines[k]) -
-                                                                        len(lines[k].lstrip())]]
-    if not near:
+    line = lines[i] if 0 <= i < len(lines) else ""
+    if "\t" not in line[:len(line) - len(line.lstrip())]:
         return ""
-    return (f" — line {near[0] + 1} is indented with a tab: YAML indents with spaces only "
+    return (f" — line {i + 1} is indented with a tab: YAML indents with spaces only "
             "(replace the tab by spaces)")
 
 
