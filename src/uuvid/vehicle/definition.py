@@ -385,7 +385,6 @@ def _model_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]
     simulation can fly it — said when it is loaded, not at the first mission."""
     import difflib
 
-    from uuvid.thruster.modelfile import NotAModelFileError
     from uuvid.thruster.resolve import preset_names, resolve_chain
 
     base = vehicle.path.parent if vehicle.path is not None else (base_dir or Path.cwd())
