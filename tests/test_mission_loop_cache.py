@@ -13,7 +13,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from uuvid.simulate.disturbances import no_disturbance, sinusoidal_force
+from uuvid.simulate.disturbances import no_disturbance
 from uuvid.simulate.vehicle_sim import _disk_cached, _fly_loop, _importable, fly_quad
 
 CTRL = """
@@ -39,37 +39,61 @@ def _module(tmp_path, monkeypatch, gain: float, name: str = "user_ctrl_mod"):
 
 
 def test_a_controller_in_a_file_gets_a_module_keyed_on_that_files_bytes(tmp_path, monkeypatch):
+    """fly_quad calls its controller directly: its module imports the controller by name and is
+    keyed on the controller file's bytes."""
     monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
     m = _module(tmp_path, monkeypatch, 1.0)
     assert _importable(m.my_ctrl)[:2] == ("user_ctrl_mod", "my_ctrl")
     _disk_cached.cache_clear()
-    loop = _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force)
+    loop = _disk_cached(fly_quad, m.my_ctrl)
     assert loop is not None
     made = sorted((tmp_path / "cache" / "mission_loops").glob("_uuvid_mission_loop_*.py"))
     assert len(made) == 1
     text = made[0].read_text()
-    assert "from user_ctrl_mod import my_ctrl as _CTRL" in text
-    assert "from uuvid.simulate.disturbances import sinusoidal_force as _DIST" in text
-    assert "def _fly_loop(" in text and "@njit" not in text.split("def _fly_loop(")[0]
-    # the same functions again: the same module
+    assert "from user_ctrl_mod import my_ctrl as _CTRL" in text and "_DIST" not in text
+    assert "def fly_quad(" in text and "@njit" not in text.split("def fly_quad(")[0]
+    # the same function again: the same module
     _disk_cached.cache_clear()
-    assert _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force) is not None
+    assert _disk_cached(fly_quad, m.my_ctrl) is not None
     assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 1
     # the controller's file edited: a new module, the old one is never loaded for it
     m2 = _module(tmp_path, monkeypatch, 2.0)
     _disk_cached.cache_clear()
-    assert _disk_cached(_fly_loop, m2.my_ctrl, sinusoidal_force) is not None
-    assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 2
-    # the loop specialised to wrench controllers (no disturbance) around the same controller
-    _disk_cached.cache_clear()
     assert _disk_cached(fly_quad, m2.my_ctrl) is not None
-    quad = [p for p in (tmp_path / "cache" / "mission_loops").glob("*.py")
-            if "def fly_quad(" in p.read_text()]
-    assert len(quad) == 1 and "_DIST" not in quad[0].read_text()
+    assert len(list((tmp_path / "cache" / "mission_loops").glob("*.py"))) == 2
+    _disk_cached.cache_clear()
 
 
-def test_functions_not_reachable_by_import_are_compiled_in_memory(tmp_path, monkeypatch):
+def test_the_general_loop_takes_controller_and_disturbance_as_arguments(tmp_path, monkeypatch):
+    """_fly_loop's module imports no controller: the controller and disturbance are its first
+    two arguments (function pointers), so one module serves every controller."""
+    from uuvid.simulate.vehicle_sim import _pointer_dispatcher, loop_config
+
+    monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
+    _disk_cached.cache_clear()
+    _pointer_dispatcher.cache_clear()
+    cfg = loop_config(np.array([0, 0, 1, 1]), np.array([False, True, False]), np.zeros(0))
+    disp = _pointer_dispatcher(cfg)
+    made = list((tmp_path / "cache" / "mission_loops").glob("_uuvid_mission_loop_*.py"))
+    assert len(made) == 1 and disp.py_func.__module__ == made[0].stem
+    text = made[0].read_text()
+    assert "def _fly_loop(ctrl, dist, cparams," in text
+    assert " import " not in text.split("def _fly_loop(")[0].split("globals().update")[1]
+    body = text.split("def _fly_loop(")[1].split('"""')[2]  # past the docstring
+    assert "_CTRL(" not in body and "_DIST(" not in body and "ctrl(k * dt" in body
+    assert body.count("dist(k * dt + sub * h") == 2
+    assert "    fast = True  # fixed" in text
+    _disk_cached.cache_clear()
+    _pointer_dispatcher.cache_clear()
+
+
+def test_functions_not_reachable_by_import_fly_the_cached_loop(tmp_path, monkeypatch):
+    """A controller defined in a function (a notebook cell) cannot be imported by a generated
+    module: fly_quad around it is compiled in memory, but the general loop takes it as an
+    argument and stays the one cached module."""
     from numba import njit
+
+    from uuvid.simulate.vehicle_sim import PointerLoop, _pointer_dispatcher, specialised_loop
 
     monkeypatch.setenv("UUVID_KERNEL_CACHE", str(tmp_path / "cache"))
 
@@ -82,8 +106,14 @@ def test_functions_not_reachable_by_import_are_compiled_in_memory(tmp_path, monk
     local = make()
     assert _importable(local) is None
     _disk_cached.cache_clear()
-    assert _disk_cached(_fly_loop, local, no_disturbance) is None
+    _pointer_dispatcher.cache_clear()
+    assert _disk_cached(fly_quad, local) is None
     assert not (tmp_path / "cache" / "mission_loops").exists()
+    loop = specialised_loop(local, no_disturbance, ())
+    assert isinstance(loop, PointerLoop) and loop.dispatcher is _pointer_dispatcher(())
+    assert list((tmp_path / "cache" / "mission_loops").glob("*.py"))
+    _disk_cached.cache_clear()
+    _pointer_dispatcher.cache_clear()
 
 
 SCRIPT = textwrap.dedent("""
@@ -118,6 +148,55 @@ def test_a_second_process_loads_the_loop_from_disk(tmp_path):
     assert runs[0]["end"] == runs[1]["end"]
 
 
+USER_SCRIPT = textwrap.dedent("""
+    import json, sys
+    import numpy as np
+    from numba import njit
+    from uuvid.simulate.control.blocks import Controller
+    from uuvid.simulate.disturbances import sinusoidal
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import fly_mission, mission_runner, setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    def make(gain):  # a controller no module can import (a notebook cell's)
+        @njit
+        def hold(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
+            for j in range(3):
+                out[j] = params[0] * (rp[j] - eta[j]) - params[1] * nu[j]
+            for j in range(3, 6):
+                out[j] = -params[1] * nu[j]
+        return hold
+
+    gain = float(sys.argv[1])
+    c = Controller(make(gain), params=np.array([gain, 40.0]), state0=np.zeros(0))
+    wave = sinusoidal(amplitude=(5.0, 0, 0, 0, 0, 0), period=4.0)  # the general loop
+    s = setup_mission(load_vehicle("bluerov2"), square_mission(), t_end=3.0, controller=c,
+                      disturbance=wave)
+    r = fly_mission(s)
+    loop = mission_runner(s)[0].loop
+    print(json.dumps({"hits": sum(loop.stats.cache_hits.values()),
+                      "misses": sum(loop.stats.cache_misses.values()),
+                      "end": r.state[-1, :3].tolist()}))
+""")
+
+
+@pytest.mark.slow
+def test_a_users_own_controller_flies_the_cached_loop_in_a_new_process(tmp_path):
+    """Issue 20 item 2 (user controllers included): a controller written in the script itself
+    (not importable) no longer compiles the mission loop in every process — a second process,
+    with another controller, loads the loop from disk and flies its own controller."""
+    env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
+    runs = []
+    for gain in (30.0, 60.0):
+        out = subprocess.run([sys.executable, "-c", USER_SCRIPT, str(gain)], env=env,
+                             capture_output=True, text=True, timeout=600)
+        assert out.returncode == 0, out.stderr[-2000:]
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    assert runs[0]["misses"] >= 1
+    assert runs[1]["hits"] >= 1 and runs[1]["misses"] == 0
+    assert runs[0]["end"] != runs[1]["end"]  # each flew its own gain
+
+
 def test_the_loop_is_keyed_on_the_compiled_code_not_every_file(tmp_path, monkeypatch):
     """A new version of uuvid's compiled code (a module that uses numba) names a new module; the
     digest leaves out files no compiled loop can reach (an edit to the CLI recompiled every loop
@@ -133,11 +212,11 @@ def test_the_loop_is_keyed_on_the_compiled_code_not_every_file(tmp_path, monkeyp
         monkeypatch.setattr(disk, "compiled_code_version", lambda v=version: v)
         monkeypatch.setattr(disk, "code_version", lambda v=version: v + "-whole-tree")
         _disk_cached.cache_clear()
-        names.add(_disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force).py_func.__module__)
+        names.add(_disk_cached(fly_quad, m.my_ctrl).py_func.__module__)
     assert len(names) == 2
     monkeypatch.setattr(disk, "code_version", lambda: "0.0.0+an-edit-outside-numba-code")
     _disk_cached.cache_clear()
-    assert _disk_cached(_fly_loop, m.my_ctrl, sinusoidal_force).py_func.__module__ in names
+    assert _disk_cached(fly_quad, m.my_ctrl).py_func.__module__ in names
     _disk_cached.cache_clear()
 
 

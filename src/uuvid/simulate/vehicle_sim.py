@@ -875,35 +875,42 @@ def _template_source(template) -> str:
 
 @functools.lru_cache(maxsize=32)
 def compiled_quad(ctrl_fn, fixed: tuple = ()):
-    """:func:`fly_quad` compiled around a wrench controller's numba function and, with ``fixed``
-    (:func:`quad_config`), specialised to one configuration (memoised; cached on disk when the
-    controller is importable by name, else compiled on first use in each process — as
-    :func:`compiled_loop`).  The built-in PID with no configuration is :func:`fly_quad` itself."""
-    cached = _disk_cached(fly_quad, ctrl_fn, None, fixed)
-    if cached is None and ctrl_fn is _CTRL and not fixed:
+    """:func:`fly_quad` for a wrench controller's numba function, specialised with ``fixed``
+    (:func:`quad_config`) to one configuration (memoised).  The built-in PID is called directly
+    (the benchmarked loop; :func:`fly_quad` itself with no configuration, else a module cached
+    on disk); any other controller through a pointer (:class:`PointerLoop`): one loop per
+    configuration, cached on disk, for every controller."""
+    if ctrl_fn is not _CTRL:
+        return PointerLoop(_pointer_dispatcher(tuple(fixed), "fly_quad"), ctrl_fn, no_disturbance,
+                           _QUAD_LAYOUT)
+    cached = _disk_cached(fly_quad, ctrl_fn, fixed)
+    if cached is None and not fixed:
         cached = fly_quad
     if cached is None:
         cached = _in_memory(fly_quad, fixed, _CTRL=ctrl_fn)
     # a source that cannot be read: the general loop (the built-in PID's is numba-cached)
-    return cached if cached is not None else (fly_quad if ctrl_fn is _CTRL else compiled_quad(ctrl_fn))
+    return cached if cached is not None else fly_quad
 
 
-def _in_memory(template, fixed: tuple, **names):
-    """The loop ``template`` compiled in this process around ``names`` (``_CTRL=…``, ``_DIST=…``),
-    specialised to ``fixed`` (:func:`_fixed_source`; ``()``: the general loop); ``None`` when a
-    specialisation is asked for and the loop's source cannot be read."""
+def _in_memory(template, fixed: tuple, pointer: bool = False, **names):
+    """The loop ``template`` compiled in this process around ``names`` (``_CTRL=…``), or taking
+    the controller and disturbance as arguments (``pointer``, :func:`_pointer_source`),
+    specialised to ``fixed`` (:func:`_fixed_source`; ``()``: the general loop); ``None`` when the
+    loop's source cannot be read and it has to be rewritten."""
     import types
 
     g = dict(template.py_func.__globals__)
     g.update(names)
     fname = template.py_func.__name__
-    if not fixed:
+    if not fixed and not pointer:
         return njit(types.FunctionType(template.py_func.__code__, g, fname))
     try:
         src = _fixed_source(_template_source(template), fixed)
+        if pointer:
+            src = _pointer_source(src, fname)
     except (OSError, SyntaxError):
         return None
-    exec(compile(src, f"<uuvid {fname} {dict(fixed)}>", "exec"), g)
+    exec(compile(src, f"<uuvid {fname} {dict(fixed)}{' (pointers)' if pointer else ''}>", "exec"), g)
     return njit(g[fname])
 
 
@@ -1016,39 +1023,56 @@ def loop_config(soff, exact, IPRM) -> tuple[tuple[str, bool], ...]:
 
 
 @functools.lru_cache(maxsize=64)
-def specialised_loop(ctrl_fn, dist_fn, fixed: tuple, cacheable: bool = True):
+def _pointer_dispatcher(fixed: tuple = (), name: str = "_fly_loop"):
+    """The loop ``name`` (:func:`_fly_loop` or :func:`fly_quad`) taking its controller and
+    disturbance as arguments (function pointers, :func:`_pointer_source`), specialised to
+    ``fixed`` (:func:`loop_config`, :func:`quad_config`; ``()``: general): cached on disk
+    (:func:`_disk_cached`), else compiled in this process; memoised."""
+    template = {"_fly_loop": _fly_loop, "fly_quad": fly_quad}[name]
+    loop = _disk_cached(template, None, fixed) or _in_memory(template, fixed, pointer=True)
+    if loop is None:
+        raise RuntimeError(f"uuvid's mission loop source (vehicle_sim.{name}) cannot be read: "
+                           "reinstall uuvid with its .py files")
+    return loop
+
+
+def specialised_loop(ctrl_fn, dist_fn, fixed: tuple):
     """:func:`_fly_loop` around a controller and a disturbance, specialised to one configuration
     (:func:`loop_config`): numba drops the branches it cannot take before compiling, so a single
-    flight compiles one thruster path and one RK4 form instead of all of them.  Cached on disk as
-    :func:`compiled_loop`'s loop (``cacheable=False``: compiled in memory, for controllers that
-    call back into Python); memoised.  The batch kernels keep the general loop (their vehicles
-    may differ in current)."""
-    cached = _disk_cached(_fly_loop, ctrl_fn, dist_fn, fixed) if cacheable else None
-    if cached is None:
-        cached = _in_memory(_fly_loop, fixed, _CTRL=ctrl_fn, _DIST=dist_fn)
-    return cached if cached is not None else compiled_loop(ctrl_fn, dist_fn, cacheable)[0]
+    flight compiles one thruster path and one RK4 form instead of all of them.
+
+    The loop takes the controller and the disturbance as function pointers
+    (:class:`PointerLoop`): it is compiled once per configuration and cached on disk, whatever the
+    controller — a user's own controller (in a file, a notebook cell or plain Python) compiles
+    only itself (≈ 0.1–1 s), not the loop (≈ 10–20 s).  Called as the loop without its first two
+    arguments."""
+    return PointerLoop(_pointer_dispatcher(tuple(fixed)), ctrl_fn, dist_fn)
+
+
+@functools.lru_cache(maxsize=4)
+def _pointer_batch(parallel: bool):
+    """:func:`_batch_template` taking the controller and disturbance as function pointers, flying
+    the general pointer loop (:func:`_pointer_dispatcher`); compiled once per process."""
+    g = dict(_batch_template.__globals__)
+    g["_LOOP"] = _pointer_dispatcher(())
+    src = _pointer_source(_template_source(njit(_batch_template)), "_batch_template", "_LOOP(")
+    exec(compile(src, "<uuvid _batch_template (pointers)>", "exec"), g)
+    return njit(parallel=parallel)(g["_batch_template"])
 
 
 @functools.lru_cache(maxsize=32)
 def compiled_loop(ctrl_fn, dist_fn, parallel: bool = True):
-    """``(loop, batch)``: :func:`_fly_loop` and a batch kernel compiled around a controller and a
-    disturbance function (numba functions, :class:`~uuvid.simulate.control.blocks.Controller`), memoised.
+    """``(loop, batch)``: :func:`_fly_loop` and a batch kernel around a controller and a
+    disturbance function (numba functions, :class:`~uuvid.simulate.control.blocks.Controller`),
+    both :class:`PointerLoop` s (called as :func:`_fly_loop` and :func:`_batch_template` without
+    their first two arguments), memoised.
 
-    Numba compiles the pair into the loop as direct calls (the same code as the built-in PID's).
-    When both are module-level numba functions of importable modules the loop is cached on disk
-    (:func:`_disk_cached`: a later process loads it instead of compiling, ~10–40 s), else it
-    is compiled on first use in each process.  The batch kernel flies one vehicle per thread
+    The loop is the general one (every branch), compiled once and cached on disk for any
+    controller (:func:`specialised_loop`).  The batch kernel flies one vehicle per thread
     (``prange``; ``parallel=False``: one after another, for controllers that call back into
-    Python); it is compiled in each process."""
-    import types
-
-    loop = (_disk_cached(_fly_loop, ctrl_fn, dist_fn) if parallel else None) \
-        or _in_memory(_fly_loop, (), _CTRL=ctrl_fn, _DIST=dist_fn)
-    g2 = dict(_fly_loop.py_func.__globals__)
-    g2.update(_CTRL=ctrl_fn, _DIST=dist_fn, _LOOP=loop)
-    batch = njit(parallel=parallel)(types.FunctionType(_batch_template.__code__, g2,
-                                                       "_batch_template"))
-    return loop, batch
+    Python); it is compiled once in each process."""
+    return (PointerLoop(_pointer_dispatcher(()), ctrl_fn, dist_fn),
+            PointerLoop(_pointer_batch(bool(parallel)), ctrl_fn, dist_fn))
 
 
 def _importable(fn) -> tuple[str, str, str] | None:
@@ -1066,19 +1090,36 @@ def _importable(fn) -> tuple[str, str, str] | None:
     return mod, name, f
 
 
+def _pointer_source(src: str, fname: str, call: str = "") -> str:
+    """``src`` (a loop's source, :func:`_template_source`) with the controller and disturbance
+    as its first two arguments (``ctrl``, ``dist``) instead of the module globals ``_CTRL`` and
+    ``_DIST`` (numba then calls them through a pointer: one compiled loop for every controller);
+    ``call`` (e.g. ``"_LOOP("``): a loop it calls, passed the two on.  ``SyntaxError`` when the
+    source does not have that shape."""
+    head = f"def {fname}("
+    if not src.startswith(head) or (call and call not in src) or "_CTRL(" not in src \
+            and not call:
+        raise SyntaxError(f"{fname}: not a loop calling _CTRL (or {call or '…'})")
+    src = src.replace(head, head + "ctrl, dist, ", 1)
+    if call:
+        return src.replace(call, call + "ctrl, dist, ")
+    return src.replace("_CTRL(", "ctrl(").replace("_DIST(", "dist(")
+
+
 @functools.lru_cache(maxsize=32)
-def _disk_cached(template, ctrl_fn, dist_fn=None, fixed: tuple = ()):
-    """The mission loop ``template`` (:func:`_fly_loop`, :func:`fly_quad`) around
-    ``ctrl_fn``/``dist_fn`` (``None``: the template calls no disturbance) from a generated module on disk
-    (``~/.cache/uuvid/mission_loops``, ``UUVID_KERNEL_CACHE`` moves it) that numba caches: the
-    module imports the two functions by name and holds a copy of the loop's source.  Its name is
-    a digest of uuvid's compiled-code version (its version and the modules that use numba:
-    :func:`~uuvid.core.cache.compiled_code_version`), the loop's name and configuration and the
-    bytes of the loop's, the controller's and the disturbance's files, so an edit to any of them
-    compiles a new module instead of running stale machine code; the loop's source is read only
-    to write a new module.  ``fixed``: ``(name, bool)``
-    pairs of the loop's top-level configuration lines to make constants (:func:`quad_config`,
-    :func:`loop_config`, :func:`_fixed_source`).  ``None`` when the functions are not importable
+def _disk_cached(template, ctrl_fn=None, fixed: tuple = ()):
+    """The mission loop ``template`` (:func:`_fly_loop`, :func:`fly_quad`) from a generated module
+    on disk (``~/.cache/uuvid/mission_loops``, ``UUVID_KERNEL_CACHE`` moves it) that numba
+    caches.  ``ctrl_fn`` given: the loop calls that controller directly (the module imports it by
+    name as ``_CTRL``; :func:`fly_quad`'s form); ``None``: the loop takes the controller and
+    disturbance as arguments (:func:`_pointer_source`; :func:`_fly_loop`'s form, one module for
+    every controller).  The module's name is a digest of uuvid's compiled-code version (its
+    version and the modules that use numba: :func:`~uuvid.core.cache.compiled_code_version`), the
+    loop's name, form and configuration and the bytes of the loop's and the controller's files,
+    so an edit to any of them compiles a new module instead of running stale machine code; the
+    loop's source is read only to write a new module.  ``fixed``: ``(name, bool)`` pairs of the
+    loop's top-level configuration lines to make constants (:func:`quad_config`,
+    :func:`loop_config`, :func:`_fixed_source`).  ``None`` when the controller is not importable
     by name or the cache cannot be written (the caller compiles in memory)."""
     import importlib.util
     import os
@@ -1086,8 +1127,7 @@ def _disk_cached(template, ctrl_fn, dist_fn=None, fixed: tuple = ()):
 
     from uuvid.core.cache import cache_dir, compiled_code_version, digest, file_digest
 
-    fns = [ctrl_fn] + ([dist_fn] if dist_fn is not None else [])
-    refs = [_importable(f) for f in fns]
+    refs = [] if ctrl_fn is None else [_importable(ctrl_fn)]
     if None in refs:
         return None
     fname = template.py_func.__name__
@@ -1095,18 +1135,21 @@ def _disk_cached(template, ctrl_fn, dist_fn=None, fixed: tuple = ()):
         # the bytes of the template's file stand for its source (inspect, ≈ 15 ms, reads the
         # source only to write a new module)
         key = digest(compiled_code_version(), fname, [(str(k), bool(v)) for k, v in fixed],
+                     "pointers" if ctrl_fn is None else "direct",
                      file_digest(template.py_func.__code__.co_filename),
                      [(m, n) for m, n, _ in refs], [file_digest(f) for _, _, f in refs])[:20]
         modname = f"_uuvid_mission_loop_{key}"
         d = cache_dir("mission_loops")
         path = d / f"{modname}.py"
         if not path.is_file():  # written whole (os.replace) or not at all
+            body = _fixed_source(_template_source(template), fixed)
+            if ctrl_fn is None:
+                body = _pointer_source(body, fname)
             text = ("# generated by uuvid.simulate.vehicle_sim._disk_cached — do not edit\n"
                     "import uuvid.simulate.vehicle_sim as _vs\n\n"
                     "globals().update({k: v for k, v in vars(_vs).items() if not k.startswith('__')})\n"
-                    + "".join(f"from {m} import {n} as {alias}  # noqa: E402\n"
-                              for (m, n, _), alias in zip(refs, ("_CTRL", "_DIST")))
-                    + "\n\n" + _fixed_source(_template_source(template), fixed))
+                    + "".join(f"from {m} import {n} as _CTRL  # noqa: E402\n" for m, n, _ in refs)
+                    + "\n\n" + body)
             d.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
             tmp.write_text(text)
@@ -1117,11 +1160,94 @@ def _disk_cached(template, ctrl_fn, dist_fn=None, fixed: tuple = ()):
             mod = importlib.util.module_from_spec(spec)
             sys.modules[modname] = mod
             spec.loader.exec_module(mod)
-        if mod._CTRL is not ctrl_fn or (dist_fn is not None and mod._DIST is not dist_fn):
+        if ctrl_fn is not None and mod._CTRL is not ctrl_fn:
             return None
         return njit(cache=True)(getattr(mod, fname))
     except (OSError, ImportError, SyntaxError, TypeError, AttributeError):
         return None
+
+
+#: How a loop's own arguments give the argument types of the controller it calls, ``(t, eta, nu,
+#: ref_pos[k], ref_vel[k], ref_yaw[k], ref_rate[k], params, state, dt, out)``, and of the
+#: disturbance, ``(t, eta, nu, params, tau_out)`` (``None``: a float; ``"slice"``: a C-contiguous
+#: state slice; ``"ro"``: read-only C-contiguous; ``("row", i)``: a row of loop argument ``i``;
+#: ``("elem", i)``: an element of it; ``i``: it; the controller's state is a writable C-contiguous
+#: array, as the batch's copy of it), and which loop arguments are the blocks' parameters (passed
+#: read-only, as a Controller's own).
+_LOOP_LAYOUT = {"ctrl": (None, "slice", "slice", ("row", 21), ("row", 22), ("elem", 23),
+                         ("elem", 24), 0, "slice", None, "slice"),
+                "dist": (None, "slice", "slice", 2, "slice"), "readonly": (0, 2)}
+#: :data:`_LOOP_LAYOUT` of :func:`fly_quad` (no disturbance: the pointer it is given is never called).
+_QUAD_LAYOUT = {"ctrl": (None, "slice", "slice", ("row", 12), ("row", 13), ("elem", 14),
+                         ("elem", 15), 0, "slice", None, "slice"),
+                "dist": (None, "slice", "slice", "ro", "slice"), "readonly": (0,)}
+
+
+class PointerLoop:
+    """A compiled loop (a numba dispatcher whose first two arguments are the controller and the
+    disturbance, :func:`_pointer_source`) with the pair it flies: calling it with the loop's
+    other arguments compiles (or loads from disk) the loop for their types with the pair as
+    function pointers — one machine code for every controller of the same types — and runs
+    it.  ``signatures``, ``stats`` and ``py_func`` are the dispatcher's."""
+
+    def __init__(self, dispatcher, ctrl_fn, dist_fn, layout=None):
+        self.dispatcher = dispatcher
+        self.ctrl_fn = ctrl_fn
+        self.dist_fn = dist_fn
+        self.layout = _LOOP_LAYOUT if layout is None else layout
+
+    signatures = property(lambda self: self.dispatcher.signatures)
+    stats = property(lambda self: self.dispatcher.stats)
+    py_func = property(lambda self: self.dispatcher.py_func)
+
+    def __call__(self, *args):
+        from numba import typeof
+
+        args = list(args)
+        for i in self.layout["readonly"]:  # the blocks' parameters: read-only, as a
+            a = np.asarray(args[i]).view()  # Controller's own (one loop for either)
+            a.flags.writeable = False
+            args[i] = a
+        types_ = tuple(typeof(a) for a in args)
+        full = (_function_type(self.ctrl_fn, self.layout["ctrl"], types_),
+                _function_type(self.dist_fn, self.layout["dist"], types_)) + types_
+        disp = self.dispatcher
+        if full not in disp.overloads:
+            import warnings
+
+            from numba.core.errors import NumbaExperimentalFeatureWarning
+
+            with warnings.catch_warnings():  # numba's first-class functions: used as documented
+                warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
+                disp.compile(full)
+        return disp.overloads[full].entry_point(self.ctrl_fn, self.dist_fn, *args)
+
+
+def _function_type(fn, spec, loop_types):
+    """The numba ``FunctionType`` the loop calls ``fn`` through: its argument types from the
+    loop's (``spec``: :data:`_CTRL_ARGS`), its return type what ``fn`` compiles to for them."""
+    from numba import types
+
+    c1 = types.Array(types.float64, 1, "C")
+    args = []
+    for s in spec:
+        if s is None:
+            args.append(types.float64)
+        elif s == "slice":
+            args.append(c1)
+        elif s == "ro":
+            args.append(types.Array(types.float64, 1, "C", readonly=True))
+        elif isinstance(s, tuple) and s[0] == "row":
+            t = loop_types[s[1]]
+            args.append(t.copy(ndim=1, layout="C" if t.layout == "C" else "A"))
+        elif isinstance(s, tuple):
+            args.append(loop_types[s[1]].dtype)
+        else:
+            args.append(loop_types[s])
+    args = tuple(args)
+    if args not in fn.overloads:
+        fn.compile(args)
+    return types.FunctionType(fn.overloads[args].signature)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1718,9 +1844,7 @@ def mission_runner(setup: MissionSetup):
                  b.inv_thrust, b.inv_command, ref_pos[:k], ref_vel[:k], ref_yaw[:k], ref_rate[:k],
                  vc, s.dt, s.substeps, Z[:k], F[:k], FD[:k], TAU[:k], SC[:k], IPRM, IGEO)
         compiled = bool(loop.signatures)
-    else:  # the loop compiled around the setup's controller and disturbance, specialised to it
-        from uuvid.simulate.control.blocks import python_controller
-
+    else:  # the loop compiled for the setup's configuration, its controller and disturbance passed
         c = s.controller or pid(s.gains)
         cfn, cpar = compiled_form(c)
         cpar, cstate0 = np.ascontiguousarray(cpar), c.state0
@@ -1728,8 +1852,7 @@ def mission_runner(setup: MissionSetup):
         dpar, use_d, okind = (d.params if d is not None else np.zeros(0)), d is not None, \
             c.output_code
         loop = specialised_loop(cfn, d.fn if d is not None else no_disturbance,
-                                loop_config(b.soff, b.exact, IPRM),
-                                cfn is not python_controller)
+                                loop_config(b.soff, b.exact, IPRM))
 
         def run(k):
             loop(cpar, cstate0.copy(), dpar, use_d, okind, z0, s.vp, s.B, s.alloc, s.eta_p, s.eta_n,
