@@ -355,3 +355,50 @@ def test_thruster_replay_says_which_unit_it_took_from_a_header(tmp_path):
     said = " ".join(res.output.split())
     assert res.exit_code == 0, said
     assert "note:" in said and "kgf" in said and "unit in its header" in said, said
+
+
+def test_rev_per_s_and_ounce_force_headers_are_read_in_their_units(tmp_path):
+    """`speed [rev/s]`, `n (rps)`, `speed_hz` were read as rad/s and `Thrust [ozf]`, `thrust (oz)`
+    as N, silently (rev/s as rpm would be 60× off, ounces as N 3.6× too large)."""
+    from uuvid.core import units as U
+    from uuvid.io.bench import SPEED_UNITS, THRUST_UNITS
+
+    assert THRUST_UNITS["ozf"] == U.OZF == pytest.approx(0.27801385095378125, rel=1e-15)
+    assert SPEED_UNITS["rev/s"] == U.REV_S == 2 * np.pi
+    assert SPEED_UNITS["rev/s"] == pytest.approx(60 * SPEED_UNITS["rpm"], rel=1e-15)
+    for h in ("speed [rev/s]", "n (rps)", "speed_hz", "Speed (Hz)", "omega (r/s)", "n_rev_s", "rps"):
+        assert header_unit(h, "speed") == "rev/s", h
+    for h in ("Thrust [ozf]", "thrust (oz)", "Thrust [oz-f]", "thrust_ozf", "thrust (ounce-force)"):
+        assert header_unit(h, "thrust") == "ozf", h
+    assert header_unit("Thrust (Hz)", "thrust") is None  # Hz is a shaft speed only
+    for speed_h, thrust_h in (("speed [rev/s]", "Thrust [ozf]"), ("n (rps)", "thrust (oz)"),
+                              ("speed_hz", "thrust_oz")):
+        f = tmp_path / "rev.csv"
+        with open(f, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["pwm", speed_h, thrust_h])
+            for i, c in enumerate(PWM):
+                w.writerow([c, repr(float(SPEED[i] / (2 * np.pi))), repr(float(THRUST[i] / 0.27801385095378125))])
+        d = read_bench(f, command_col="pwm", speed_col=speed_h, thrust_col=thrust_h)
+        np.testing.assert_allclose(d.speed, SPEED, rtol=1e-12)
+        np.testing.assert_allclose(d.thrust, THRUST, rtol=1e-12, atol=1e-12)
+        assert any("read in rev/s" in n for n in d.notes) and any("read in ozf" in n for n in d.notes)
+        # the header's unit given agrees; another one contradicts it and is refused
+        read_bench(f, command_col="pwm", speed_col=speed_h, speed_unit="rev/s")
+        with pytest.raises(BenchDataError, match=r"is in rev/s by its header, but the speed unit "
+                                                 r"given is rpm .*--speed-unit rev/s"):
+            read_bench(f, command_col="pwm", speed_col=speed_h, speed_unit="rpm")
+        with pytest.raises(BenchDataError, match=r"is in ozf by its header, but the thrust unit "
+                                                 r"given is N .*--thrust-unit ozf"):
+            read_bench(f, command_col="pwm", thrust_col=thrust_h, thrust_unit="N")
+    # the options name the new units on a plain header (library and CLI)
+    plain = _write(tmp_path / "plain.csv", thrust=THRUST / U.OZF, speed=SPEED / U.REV_S)
+    d = _read(plain, thrust_unit="ozf", speed_unit="rev/s")
+    np.testing.assert_allclose(d.thrust, THRUST, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(d.speed, SPEED, rtol=1e-12)
+    res = CliRunner().invoke(app, ["thruster", "fit", str(plain), "--command-col", "pwm",
+                                   "--thrust-col", "thrust", "--thrust-unit", "ozf", "--model", "table",
+                                   "--out-model", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 0, res.output
+    assert "thrust -40 … 50 N" in res.stdout
+

@@ -92,12 +92,12 @@ def thruster_fit(
     thrust_col: str | None = typer.Option(None, "--thrust-col", help="Thrust column."),
     thrust_unit: str | None = typer.Option(
         None, "--thrust-unit",
-        help="N | kgf | lbf | g | mN | kN (default: the unit in the column's header, as in "
+        help="N | kgf | lbf | ozf | g | mN | kN (default: the unit in the column's header, as in "
              "'Thrust [kgf]', else N; a unit that disagrees with the header's is an error)."),
     speed_col: str | None = typer.Option(None, "--speed-col", help="Propeller speed column."),
     speed_unit: str | None = typer.Option(
         None, "--speed-unit",
-        help="rad/s | rpm (default: the unit in the column's header, as in 'RPM [rpm]', else "
+        help="rad/s | rpm | rev/s (default: the unit in the column's header, as in 'RPM [rpm]', else "
              "rad/s; a unit that disagrees with the header's is an error)."),
     current_col: str | None = typer.Option(None, "--current-col", help="Supply current column [A]."),
     voltage_col: str | None = typer.Option(None, "--voltage-col", help="Supply voltage column [V]."),

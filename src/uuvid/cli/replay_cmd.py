@@ -79,10 +79,10 @@ def thruster_replay(
     command_unit: str = typer.Option("volts", "--command-unit", help="pwm_us | duty | volts."),
     speed_col: str | None = typer.Option(None, "--speed-col", help="Shaft speed column."),
     speed_unit: str | None = typer.Option(
-        None, "--speed-unit", help="rad/s | rpm (default: the column header's, else rad/s)."),
+        None, "--speed-unit", help="rad/s | rpm | rev/s (default: the column header's, else rad/s)."),
     thrust_col: str | None = typer.Option(None, "--thrust-col", help="Thrust column."),
     thrust_unit: str | None = typer.Option(
-        None, "--thrust-unit", help="N | kgf | lbf | g (default: the column header's, else N)."),
+        None, "--thrust-unit", help="N | kgf | lbf | ozf | g (default: the column header's, else N)."),
     neutral: float | None = typer.Option(None, "--neutral",
                                          help="Neutral command (default 1500 µs, or 0)."),
     out: Path | None = typer.Option(None, "--out",

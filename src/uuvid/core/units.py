@@ -18,7 +18,8 @@ SLUG = LBF / FT  # kg per slug (= 14.5939 kg)
 SLUG_PER_FT3 = SLUG / FT**3  # kg/m^3 per slug/ft^3
 FT2 = FT**2
 KGF = G0  # N per kgf
-RPM = 2.0 * math.pi / 60.0  # rad/s per rev/min
+REV_S = 2.0 * math.pi  # rad/s per rev/s (= 60 rpm)
+RPM = REV_S / 60.0  # rad/s per rev/min
 DEG = math.pi / 180.0
 
 
@@ -85,6 +86,16 @@ def rpm(x):
 def to_rpm(x):
     """rad/s → rev/min."""
     return x / RPM
+
+
+def rev_s(x):
+    """rev/s → rad/s."""
+    return x * REV_S
+
+
+def ozf(x):
+    """ozf (ounce-force) → N."""
+    return x * OZF
 
 
 def kgf(x):

@@ -311,7 +311,7 @@ def check_bench_units(data, *, min_rows: int = 3) -> None:
                      "--thrust-unit N)")
     else:
         hint = ("even in grams it would exceed the bound: check the thrust column and its unit "
-                "(--thrust-unit N | kgf | lbf | g), and that current and voltage are in A and V")
+                "(--thrust-unit N | kgf | lbf | ozf | g), and that current and voltage are in A and V")
     raise BenchDataError(
         f"{src}the thrust is too large for its electrical power: e.g. data row {k + 1} has "
         f"thrust {t[j]:+.4g} N at {p[k]:.4g} W ({volts:.4g} V × {data.current[k]:.4g} A), while "

@@ -4,9 +4,9 @@ A bench file is a table (CSV, or Parquet when ``pyarrow`` is installed) with one
 a command column and any of thrust, propeller speed, current, supply voltage, time and the water
 speed through the propeller (``flow_speed``, m/s: the carriage or tunnel speed of a bench run in a
 flow; read when the file has a column of that name, issue 21).
-:func:`read_bench` picks the columns by name, converts units at the edge (kgf, lbf, gram-force,
-rpm → N, rad/s) and validates every cell; :func:`read_t200` reads Blue Robotics' T200
-performance-sheet layout directly.
+:func:`read_bench` picks the columns by name, converts units at the edge (kgf, lbf, ozf,
+gram-force, rpm, rev/s → N, rad/s) and validates every cell; :func:`read_t200` reads Blue
+Robotics' T200 performance-sheet layout directly.
 
 Every problem raises :class:`BenchDataError` naming the file, the column and the row.  Rows are
 counted two ways and the message gives both: the *data row* (1-based, header excluded) and, for
@@ -54,22 +54,26 @@ FLOW_SIGN_TOLERANCE = 0.02
 COMMAND_UNIT_ALIASES = {"us": "pwm_us", "µs": "pwm_us", "pwm": "pwm_us", "v": "volts",
                         "volt": "volts"}
 #: thrust unit → N per unit
-THRUST_UNITS = {"N": 1.0, "kgf": U.KGF, "lbf": U.LBF, "g": U.G0 / 1000.0, "mN": 1e-3, "kN": 1e3}
+THRUST_UNITS = {"N": 1.0, "kgf": U.KGF, "lbf": U.LBF, "ozf": U.OZF, "g": U.G0 / 1000.0, "mN": 1e-3,
+                "kN": 1e3}
 #: speed unit → rad/s per unit
-SPEED_UNITS = {"rad/s": 1.0, "rpm": U.RPM}
+SPEED_UNITS = {"rad/s": 1.0, "rpm": U.RPM, "rev/s": U.REV_S}
 #: a thrust or speed unit written in a column's header → the unit of THRUST_UNITS / SPEED_UNITS.
 #: Keys are the header's unit token lower-cased with spaces, dots, hyphens and ``·`` removed;
 #: ``N``, ``mN`` and ``kN`` are matched case-sensitively (``MN`` is not ``mN``).  Only clear
 #: unit tokens: a header whose token is not here says nothing about the unit.
 HEADER_THRUST_UNITS = {"kgf": "kgf", "kgforce": "kgf", "kilogramforce": "kgf", "kg": "kgf",
                        "kp": "kgf", "lbf": "lbf", "lb": "lbf", "lbs": "lbf", "poundforce": "lbf",
-                       "gf": "g", "g": "g", "gramforce": "g", "grams": "g", "gram": "g",
-                       "newton": "N", "newtons": "N"}
+                       "ozf": "ozf", "oz": "ozf", "ounceforce": "ozf", "ounces": "ozf",
+                       "ounce": "ozf", "gf": "g", "g": "g", "gramforce": "g", "grams": "g",
+                       "gram": "g", "newton": "N", "newtons": "N"}
 HEADER_THRUST_UNITS_CASED = {"N": "N", "mN": "mN", "kN": "kN"}
 HEADER_SPEED_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "1/min": "rpm",
                       "min^-1": "rpm", "min-1": "rpm", "rad/s": "rad/s", "rad/sec": "rad/s",
                       "rads^-1": "rad/s", "rads-1": "rad/s", "rads⁻¹": "rad/s", "rad_s": "rad/s",
-                      "radps": "rad/s", "rad_per_s": "rad/s"}
+                      "radps": "rad/s", "rad_per_s": "rad/s", "rev/s": "rev/s", "rev/sec": "rev/s",
+                      "revs/s": "rev/s", "r/s": "rev/s", "rps": "rev/s", "rev_s": "rev/s",
+                      "rev_per_s": "rev/s", "revs^-1": "rev/s", "revs-1": "rev/s", "hz": "rev/s"}
 #: the neutral command of each command unit
 DEFAULT_NEUTRAL = {"pwm_us": 1500.0, "duty": 0.0, "volts": 0.0}
 #: T200 performance sheets: readings below this speed were set to zero (SOURCE.md)
@@ -422,7 +426,8 @@ def header_unit(column: str, role: str) -> str | None:
     suffix after ``_`` or a space (``thrust_lbf``, ``speed rpm``, ``omega_rad_s``), else from a
     header that is the unit itself (``RPM``).  Conservative: only the clear unit tokens of
     :data:`HEADER_THRUST_UNITS` / :data:`HEADER_SPEED_UNITS`; a one-letter suffix (``thrust_g``)
-    and a header that is only a thrust unit (``N``) say nothing.
+    and a header that is only a thrust unit (``N``) say nothing.  On a shaft-speed column ``Hz``
+    (``speed_hz``) is revolutions per second, as ``rps``, ``rev/s`` and ``r/s`` are.
     """
     name = column.strip()
     m = _UNIT_IN_BRACKETS.search(name)
@@ -511,13 +516,14 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     command_unit
         ``pwm_us``, ``duty`` or ``volts``.
     thrust_unit
-        ``N``, ``kgf``, ``lbf``, ``g`` (gram-force), ``mN`` or ``kN``.  ``None`` (default): the
-        unit written in the column's header (``Thrust [kgf]``, ``Force (Kg f)``, ``thrust_lbf``;
-        see :func:`header_unit`), said in :attr:`BenchData.notes`, else N.  A unit given that
-        disagrees with the header's is an error.
+        ``N``, ``kgf``, ``lbf``, ``ozf`` (ounce-force), ``g`` (gram-force), ``mN`` or ``kN``.
+        ``None`` (default): the unit written in the column's header (``Thrust [kgf]``,
+        ``Force (Kg f)``, ``thrust_lbf``, ``thrust (oz)``; see :func:`header_unit`), said in
+        :attr:`BenchData.notes`, else N.  A unit given that disagrees with the header's is an
+        error.
     speed_unit
-        ``rad/s`` or ``rpm``; ``None`` (default): the header's (``RPM [rpm]``, ``RPM``), else
-        rad/s, as for ``thrust_unit``.
+        ``rad/s``, ``rpm`` or ``rev/s``; ``None`` (default): the header's (``RPM [rpm]``, ``RPM``,
+        ``n (rps)``, ``speed_hz``), else rad/s, as for ``thrust_unit``.
     supply_voltage
         A constant supply voltage [V] when the file has no voltage column.
     neutral
