@@ -402,3 +402,17 @@ def test_rev_per_s_and_ounce_force_headers_are_read_in_their_units(tmp_path):
     assert res.exit_code == 0, res.output
     assert "thrust -40 … 50 N" in res.stdout
 
+
+def test_a_t200_sheet_says_a_unit_option_contradicts_its_header(shared_data):
+    """`--format t200 --thrust-unit N` (the result's unit, not the sheet's kgf) stays refused, and
+    the message says why: the option names the unit of the file's column, which is kgf."""
+    from uuvid.identify.thruster.workflow import FitError
+
+    f = shared_data / "t200-bluerobotics-2019" / "T200_16V.csv"
+    with pytest.raises(FitError, match=r"--thrust-unit N contradicts the sheet: its column "
+                                       r"'Force \(Kg f\)' is in kgf by its header \(read in kgf and "
+                                       r"converted to N; --thrust-unit names the unit of the "
+                                       r"file's column, not of the result\)"):
+        run_fit([f], "quadratic", ReadOptions(fmt="t200", thrust_unit="N"))
+    with pytest.raises(FitError, match=r"--speed-unit rpm is the sheet's own unit"):
+        run_fit([f], "quadratic", ReadOptions(fmt="t200", speed_unit="rpm"))

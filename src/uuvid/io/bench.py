@@ -78,6 +78,8 @@ HEADER_SPEED_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "1/min": "
 DEFAULT_NEUTRAL = {"pwm_us": 1500.0, "duty": 0.0, "volts": 0.0}
 #: T200 performance sheets: readings below this speed were set to zero (SOURCE.md)
 T200_CENSOR_RPM = 300.0
+#: the unit option → (column, its unit by its header, the SI unit it is converted to) of a T200 sheet
+T200_UNIT_COLUMNS = {"thrust_unit": ("Force (Kg f)", "kgf", "N"), "speed_unit": ("RPM", "rpm", "rad/s")}
 
 
 class BenchDataError(ValueError):
@@ -675,9 +677,10 @@ def read_t200(path) -> BenchData:
         raise BenchDataError(f"{t.name}: no column 'PWM (us)' or 'PWM (µs)' — not a T200 "
                              f"performance sheet? available columns: "
                              f"{', '.join(repr(c) for c in t.columns)}")
-    return read_bench(path, command_col=pwm, thrust_col="Force (Kg f)", speed_col="RPM",
+    (tcol, tunit, _), (scol, sunit, _) = T200_UNIT_COLUMNS["thrust_unit"], T200_UNIT_COLUMNS["speed_unit"]
+    return read_bench(path, command_col=pwm, thrust_col=tcol, speed_col=scol,
                       current_col="Current (A)", voltage_col="Voltage (V)",
-                      command_unit="pwm_us", thrust_unit="kgf", speed_unit="rpm",
+                      command_unit="pwm_us", thrust_unit=tunit, speed_unit=sunit,
                       neutral=1500.0, speed_sign="command", censor_speed_below=T200_CENSOR_RPM)
 
 

@@ -198,6 +198,27 @@ _T200_IGNORES = {"thrust_unit": None, "speed_unit": None, "command_unit": "pwm_u
                  "speed_col": None, "current_col": None, "voltage_col": None, "neutral": None}
 
 
+def _t200_unit_clash(opts: ReadOptions) -> str:
+    """What a unit option given with ``--format t200`` says against the sheet's headers: a unit
+    option names the unit of the file's column (the result is SI whatever it is), so
+    ``--thrust-unit N`` on the sheet's kgf column is a contradiction, not a request for N."""
+    from uuvid.io.bench import T200_UNIT_COLUMNS
+
+    out = []
+    for k, (col, unit, si) in T200_UNIT_COLUMNS.items():
+        v = getattr(opts, k)
+        if v is None:
+            continue
+        flag = f"--{k.replace('_', '-')} {v}"
+        if str(v).strip().lower() == unit.lower():
+            out.append(f" {flag} is the sheet's own unit: leaving it out reads the same.")
+        else:
+            out.append(f" {flag} contradicts the sheet: its column {col!r} is in {unit} by its "
+                       f"header (read in {unit} and converted to {si}; {flag.split()[0]} names the "
+                       f"unit of the file's column, not of the result).")
+    return "." + "".join(out) if out else ""
+
+
 def read_files(paths, opts: ReadOptions) -> list:
     """Read every file into :class:`~uuvid.io.bench.BenchData` (raises ``BenchDataError``)."""
     from uuvid.io.bench import read_bench, read_t200
@@ -208,7 +229,8 @@ def read_files(paths, opts: ReadOptions) -> list:
         if given:
             raise FitError(f"--format t200 reads the sheet's own columns and units (µs, kgf → N, "
                            f"rpm → rad/s, A, V): {', '.join(given)} would be ignored; drop it, or "
-                           "read the file as a plain table (--format csv with its columns)")
+                           "read the file as a plain table (--format csv with its columns)"
+                           + _t200_unit_clash(opts))
     sets = []
     for p in paths:
         if opts.fmt == "t200":
