@@ -557,3 +557,45 @@ def test_inertias_a_body_can_have_are_not_warned_of():
         with warnings.catch_warnings():
             warnings.simplefilter("error", VehicleFileWarning)
             vehicle_from_dict(raw, where="bot.yaml")
+
+
+@pytest.mark.parametrize("axis, said", [
+    ([0.5, 0.0, 0.05], r"thrusters\[0\]\.axis \(A\): \[0\.5, 0\.0, 0\.05\] has length 0\.5025, not 1 "
+                       r"\(beyond 1%\), and is used normalised as \[0\.995, 0\.0, 0\.0995\]"),
+    ([0.6, 0.7, 0.0], r"thrusters\[0\]\.axis \(A\): \[0\.6, 0\.7, 0\.0\] has length 0\.922, not 1 .*"
+                      r"used normalised as \[0\.6508, 0\.7593, 0\.0\]"),
+    ([1.0, 0.0, 0.2], r"length 1\.02, not 1"),
+])
+def test_an_axis_that_is_not_unit_length_nor_a_plain_direction_is_said(tmp_path, axis, said):
+    """`axis: [0.5, 0, 0.05]` (a unit vector with a typo?) was normalised in silence; the warning
+    names the key, the length and the axis used — on a cached load too."""
+    import yaml
+
+    raw = copy.deepcopy(BASE)
+    raw["thrusters"][0]["axis"] = axis
+    with pytest.warns(VehicleFileWarning, match=said):
+        v = vehicle_from_dict(raw, where="bot.yaml")
+    np.testing.assert_allclose(v.layout[0].axis, np.asarray(axis) / np.linalg.norm(axis))
+    p = tmp_path / "bot.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    for _ in range(2):  # the second load is the cached one
+        with pytest.warns(VehicleFileWarning, match=said):
+            load_vehicle(p)
+
+
+@pytest.mark.parametrize("axis", [[1, 1, 0], [2, 0, 0], [1, -2, 0], [0.5, -0.5, 0.0],
+                                  [0.7, 0.7, 0.0], [0.7071, 0.7071, 0.0], [0.6, 0.8, 0.0],
+                                  [0.71, 0.71, 0.0], [1.0, 0.0, 0.1], [0.87, 0.5, 0.0]])
+def test_a_plain_direction_or_a_rounded_unit_axis_loads_in_silence(axis):
+    """Integers ([1, 1, 0] for 45°, [2, 0, 0]), equal components (normalising cannot turn them), a unit
+    vector to two decimals (within 1 %), and rpy_deg (thruster C of BASE) say nothing."""
+    import warnings
+
+    raw = copy.deepcopy(BASE)
+    raw["thrusters"][0]["axis"] = axis
+    raw["thrusters"][1]["rpy_deg"] = [0, -30, 45]
+    del raw["thrusters"][1]["axis"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VehicleFileWarning)
+        v = vehicle_from_dict(raw, where="bot.yaml")
+    assert v.file_axes[1] is None and v.file_axes[2] is None

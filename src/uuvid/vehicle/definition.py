@@ -26,6 +26,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
       - name: T1
         position: [0.156, 0.111, 0.085]
         axis: [-0.7071, 0.7071, 0]           # or rpy_deg: [roll, pitch, yaw] of the thruster
+                                             # (normalised; [1, 1, 0] is fine, see _axis_warnings)
         model: t200                          # thruster preset name or model-file path
         limits: [-39.91, 51.49]              # [min, max] thrust, N
         installation: {surge_front: [1.0, 0.89]}   # η per mode: value or [η₊, η₋]
@@ -188,6 +189,9 @@ class Vehicle:
     #: per thruster, what its inflow map comes from (``propeller:``, else its ``model``; empty:
     #: the models)
     propellers: tuple[str, ...] = ()
+    #: per thruster, its ``axis`` as the file wrote it, before normalising (``None``: given as
+    #: ``rpy_deg``; empty: not from a file), for :func:`_axis_warnings` on every load
+    file_axes: tuple[tuple[float, float, float] | None, ...] = ()
 
     def propeller(self, thruster: int) -> str:
         """The preset or model file a thruster's four-quadrant map comes from (with inflow)."""
@@ -480,6 +484,37 @@ def _coincident_warnings(vehicle: Vehicle) -> list[str]:
     return out
 
 
+#: A thruster ``axis`` whose length differs from 1 by more than this fraction is said on load
+#: (unless it is a plain direction, see :func:`_axis_warnings`); rounding a unit vector to two
+#: decimals stays within it.
+AXIS_NORM_TOL = 0.01
+
+
+def _axis_warnings(vehicle: Vehicle) -> list[str]:
+    """A thruster ``axis`` of length beyond 1 ± :data:`AXIS_NORM_TOL` that is not a plain
+    direction: ``[0.5, 0, 0.05]`` or ``[0.6, 0.7, 0]`` look like a unit vector with a typo,
+    and are used normalised — said with the axis used.  A plain direction is used normalised in
+    silence: every component an integer (``[1, 1, 0]``, ``[0, 0, 2]``) or every non-zero
+    component of the same magnitude (``[0.5, -0.5, 0]``, whose direction normalising cannot
+    change).  An axis given as ``rpy_deg`` is a unit vector and never said."""
+    out = []
+    for i, (a, t) in enumerate(zip(vehicle.file_axes, vehicle.layout)):
+        if a is None:
+            continue
+        a = np.asarray(a, float)
+        n = float(np.linalg.norm(a))
+        mags = np.abs(a[a != 0.0])
+        if (not np.isfinite(n) or n == 0.0 or abs(n - 1.0) <= AXIS_NORM_TOL
+                or np.all(a == np.round(a)) or np.all(mags == mags[0])):
+            continue
+        used = [round(float(x), 4) + 0.0 for x in a / n]
+        out.append(f"thrusters[{i}].axis ({t.name}): {[float(x) for x in a]} has "
+                   f"length {n:.4g}, not 1 (beyond {AXIS_NORM_TOL:.0%}), and is used normalised "
+                   f"as {used}: a unit vector with a typo or a rounding? give the unit vector, or "
+                   "a plain direction (integers such as [1, 1, 0]), or rpy_deg")
+    return out
+
+
 def _one_way_warnings(vehicle: Vehicle) -> list[str]:
     """A controlled DOF the thrusters can push one way and not the other: with a thruster
     limited to one direction (``limits: [0, max]`` or ``[min, 0]``) no thrust within the limits
@@ -523,7 +558,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
     msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
-    msgs += _coincident_warnings(vehicle)
+    msgs += _coincident_warnings(vehicle) + _axis_warnings(vehicle)
     cur = np.asarray(vehicle.params.current, float)
     if np.any(cur != 0.0):
         # missions, hold, sweeps and the envelope take the current the run is given: a vehicle
@@ -741,7 +776,9 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                       dict(spec.assumptions), spec.description, path,
                       _battery(spec.battery, where) if spec.battery is not None else None,
                       spec.inflow, tuple(float(t.wake) for t in spec.thrusters),
-                      tuple(t.propeller or t.model for t in spec.thrusters))
+                      tuple(t.propeller or t.model for t in spec.thrusters),
+                      tuple(None if t.axis is None else tuple(float(x) for x in t.axis)
+                            for t in spec.thrusters))
     _warn_on_load(vehicle, where, base_dir)
     return vehicle
 
