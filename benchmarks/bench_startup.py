@@ -110,8 +110,10 @@ def whole_process_cases(repeat: int = 5) -> list[dict]:
     sim = _time_process(_uuvid(SIMULATE), repeat)
     helped = _time_process(_uuvid(["--help"]), repeat)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    from uuvid.core.threads import usable_cpus
+
     common = {"repeat": repeat, "load_average_1min": load, "cpus": os.cpu_count(),
-              "python_c_pass_s": bare["median_s"]}
+              "usable_cpus": usable_cpus(), "python_c_pass_s": bare["median_s"]}
     return [
         {"case": "uuvid simulate mission square --vehicle bluerov2 (whole process, warm)",
          "time_s": sim["median_s"], "min_time_s": sim["min_s"],

@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from uuvid.core import units as U
+from uuvid.core.threads import usable_cpus
 from uuvid.uncertainty.execute import run_study
 from uuvid.uncertainty.montecarlo import MonteCarloSpec, MonteCarloStudy, load_model
 from uuvid.uncertainty.sweep import SweepSpec, SweepStudy, load_sweep
@@ -98,7 +99,7 @@ def _local_cluster(workers: int):
 
 
 def run_all(sweep_runs: int = 2000, mc_runs: int = 200, workers: int | None = None) -> dict:
-    workers = workers or max(1, os.cpu_count() or 1)
+    workers = workers or usable_cpus()
     os.environ.setdefault("UUVID_NO_PROGRESS", "1")
     cluster, client = _local_cluster(workers)
     try:
@@ -159,7 +160,7 @@ def table1_check(table: pd.DataFrame) -> list[dict]:
 def full(workers: int | None = None) -> dict:
     """The issue's acceptance runs: 10⁴ McLean steps in-process (< 1 min) with Table I corners;
     10⁴ BlueROV2 missions in-process and through a local Dask cluster, identical."""
-    workers = workers or max(1, os.cpu_count() or 1)
+    workers = workers or usable_cpus()
     out: dict = {}
     spec = load_sweep("mclean-sensitivity")
     run_study(_sweep_slice(8), None, backend="inprocess", progress=False)

@@ -310,9 +310,9 @@ def test_threaded_jacobian_columns_give_the_serial_fit_bit_for_bit(monkeypatch):
         return real(*a, **k)
 
     monkeypatch.setattr(D, "_fd_jacobian", spy)
-    monkeypatch.setattr(D.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(D, "usable_cpus", lambda: 2)
     threaded = D.fit_chain(template, free, runs)
-    monkeypatch.setattr(D.os, "cpu_count", lambda: 1)
+    monkeypatch.setattr(D, "usable_cpus", lambda: 1)
     serial = D.fit_chain(template, free, runs)
     assert set(calls) == {1, 2}
     assert threaded.fit.values == serial.fit.values

@@ -51,8 +51,11 @@ def _load(name: str):
 
 
 def run_benchmarks() -> dict:
+    from uuvid.core.threads import usable_cpus
+
+    # the machine's cores and the ones this process may use (affinity, a container's quota)
     result = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
-                          "platform": platform.platform()}}
+                          "usable_cpus": usable_cpus(), "platform": platform.platform()}}
     result.update(_load("bench_thruster").run_all())
     result.update(_load("bench_identification").run_all())
     result.update(_load("bench_vehicle").run_all())

@@ -63,6 +63,7 @@ import numpy as np
 import pandas as pd
 
 from uuvid.core.result import DictSummaryResult, jsonable
+from uuvid.core.threads import usable_cpus
 from uuvid.uncertainty.targets import ChunkResult  # noqa: F401  (re-exported)
 
 BACKENDS = ("inprocess", "processes", "dask")
@@ -320,7 +321,9 @@ def chunk_ranges(n: int, size: int) -> list[tuple[int, int]]:
 
 
 def default_workers() -> int:
-    return max(1, os.cpu_count() or 1)
+    """The cores this process may use (its CPU affinity and a container's quota, not the
+    machine's count: :func:`uuvid.core.threads.usable_cpus`)."""
+    return usable_cpus()
 
 
 @dataclass(frozen=True)
@@ -556,7 +559,7 @@ def _run_processes(fn, payload, chunks, retries, workers, threads, sched, client
     from concurrent.futures.process import BrokenProcessPool
 
     workers = max(1, min(workers, len(chunks) or 1))
-    per = threads or max(1, (os.cpu_count() or 1) // workers)
+    per = threads or max(1, default_workers() // workers)
     ctx = mp.get_context("spawn")
 
     def new_pool():

@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -54,6 +53,7 @@ import numpy as np
 
 from uuvid.core.response import TimeResponse
 from uuvid.core.result import Result, jsonable
+from uuvid.core.threads import usable_cpus
 from uuvid.identify.fit import (
     Fit,
     IdentifiabilityWarning,
@@ -720,7 +720,7 @@ def fit_chain(
             k += e.size
         return out
 
-    workers = min(os.cpu_count() or 1, 4)
+    workers = min(usable_cpus(), 4)
 
     def jac(theta):
         f0 = last.get(theta.tobytes())
