@@ -584,14 +584,26 @@ def _check_conflicts(t, v, topic: str, role: str, name: str, warnings: list, fai
 FAR_STAMP_S = 3600.0
 
 
+def _far_mask(t) -> tuple[np.ndarray, float, float]:
+    """(mask of the samples stamped hours outside the rest of their topic, the 0.5 and 99.5 %
+    stamps): the samples more than :data:`FAR_STAMP_S` [s] outside that range, when they are at
+    most 1 % of 50 or more; none else."""
+    keep = np.isfinite(t)
+    none = np.zeros(t.size, bool)
+    if t.size < 50 or not keep.any():
+        return none, math.nan, math.nan
+    lo, hi = np.percentile(t[keep], [0.5, 99.5])
+    far = keep & ((t < lo - FAR_STAMP_S) | (t > hi + FAR_STAMP_S))
+    return (far if far.sum() <= 0.01 * t.size else none), float(lo), float(hi)
+
+
 def _far_stamps(t, topic: str, role: str, name: str, warnings: list) -> np.ndarray:
     """Mask of the samples to keep: those not stamped hours outside the rest of their topic."""
     keep = np.isfinite(t)
-    if t.size < 50 or role in ("armed", "mode"):
+    if role in ("armed", "mode"):
         return keep
-    lo, hi = np.percentile(t[keep], [0.5, 99.5])
-    far = keep & ((t < lo - FAR_STAMP_S) | (t > hi + FAR_STAMP_S))
-    if far.any() and far.sum() <= 0.01 * t.size:
+    far, lo, hi = _far_mask(t)
+    if far.any():
         k = int(np.flatnonzero(far)[0])
         warnings.append(f"{name}: {int(far.sum())} {topic} ({role}) sample(s) stamped far outside "
                         f"the rest (first: t = {t[k]:.6g} s, the others within {lo:.6g}…{hi:.6g} "
