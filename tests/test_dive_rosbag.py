@@ -543,14 +543,85 @@ def test_quaternions_of_an_uninitialised_imu_are_left_out(dive, tmp_path):
 
 
 @pytest.mark.slow
-def test_a_sender_stamping_time_since_boot_is_refused_as_a_clock_jump(dive, tmp_path):
+def test_a_sender_stamping_time_since_boot_is_refused_as_a_restart_and_a_clock_set_forward_as_a_jump(
+        dive, tmp_path):
     """An autopilot rebooted mid-bag and stamped time since boot: 10⁹ s of "dive" ran out of
-    memory in the direction check and would have cut 10⁸ windows."""
-    bag = write_bag(tmp_path / "boot.bag", 1, dive[0], mutate=_reboot)
-    with pytest.raises(DiveDataError, match=r"/mavros/imu/data: receive time − header stamp "
-                                            r"changes by 1\.7e\+09 s within the bag .*a clock "
-                                            r"jumped mid-bag"):
+    memory in the direction check and would have cut 10⁸ windows.  Its stamps go back: refused
+    naming the IMU's first message since the reboot (the clock check said only that receive time
+    − stamp changes).  Stamps that jump forward go back nowhere: the clock check says it."""
+    df = dive[0]
+    bag = write_bag(tmp_path / "boot.bag", 1, df, mutate=_reboot)
+    k = int((df.loc[df["yaw_rad"].notna(), "t_s"] < 100.0).sum()) + 1
+    with pytest.raises(DiveDataError, match=rf"/mavros/imu/data \(attitude\): header stamps go back "
+                                            rf"at message {k} \(.* stamped 10\.0\d+ s after "
+                                            r"1700000099\.9\d+ s, 1\.7e\+09 s back"):
         read_dive_channels(bag, "bluerov2")
+    ahead = write_bag(tmp_path / "ahead.bag", 1, _short(dive), mutate=_stamps_step(60.0, 10.0))
+    with pytest.raises(DiveDataError, match=r"/mavros/rc/out: receive time − header stamp "
+                                            r"changes by 60 s within the bag .*a clock jumped mid-bag"):
+        read_dive_channels(ahead, "bluerov2")
+
+
+def _restart(topic, at_s, back_s, seen):
+    """From receive time ``at_s`` [s] on, ``topic``'s header stamps are ``back_s`` s earlier (its
+    sender restarted, or a second recording was joined on); ``seen`` gets the topic's number of the
+    first such message and the receive times [ns] of it and of the message before it."""
+    def restart(out, ts, hdr):
+        mine = sorted((m for m in out if m[1] == topic), key=lambda m: m[0])
+        for k, m in enumerate(mine, 1):
+            if m[0] >= T0 + OFFSET + int(at_s * 1e9):
+                if not seen:
+                    seen.update(index=k, recv=m[0], recv_before=mine[k - 2][0])
+                st = m[2].header.stamp
+                m[2] = dataclasses.replace(m[2], header=hdr(st.sec * 10**9 + st.nanosec
+                                                            - int(back_s * 1e9)))
+    return restart
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("topic,role,at_s,back_s", [
+    ("/mavros/imu/data", "attitude", 19.8, 5.0),  # its last 1 %: the clock check let it through
+    ("/mavros/rc/out", "pwm", 10.0, 60.0),  # mid-bag: the clock check said no more than "changes"
+    ("/mavros/battery", "battery", 10.0, 30.0),  # 20 messages, too few for the clock check
+])
+def test_header_stamps_that_restart_are_refused_naming_the_message_and_where_to_cut(
+        dive, tmp_path, topic, role, at_s, back_s):
+    """Header stamps going back by much more than their step and staying back, as a table's time
+    column that restarts is refused: sorted, the two parts interleaved into one series (the last
+    1 % of the IMU's messages were sorted in silently, 5 s early)."""
+    seen: dict = {}
+    bag = write_bag(tmp_path / "restart.bag", 1, _short(dive), mutate=_restart(topic, at_s, back_s, seen))
+    with pytest.raises(DiveDataError) as e:
+        read_dive_channels(bag, "bluerov2")
+    msg = str(e.value)
+    assert msg.startswith(f"restart.bag: {topic} ({role}): header stamps go back at message "
+                          f"{seen['index']} (received at bag time {seen['recv'] / 1e9:.6f} s"), msg
+    m = re.search(r"stamped (\d+\.\d+) s after (\d+\.\d+) s, ([\d.]+) s back where the typical step "
+                  r"is ([\d.]+) s — the sender restarted", msg)
+    assert m, msg
+    back, step = float(m[3]), float(m[4])
+    assert float(m[2]) - float(m[1]) == pytest.approx(back, rel=1e-5)
+    assert back_s - 3 * step < back <= back_s and 20 * step < back
+    cut = re.search(r'rosbag filter IN OUT "t\.to_sec\(\) < (\d+\.\d+)", or >= it', msg)
+    assert cut and seen["recv_before"] / 1e9 < float(cut[1]) < seen["recv"] / 1e9, msg
+
+
+def _late_arrivals(out, ts, hdr):
+    """Every 40th IMU message received 0.7 s late (14 messages later; its stamp intact)."""
+    for m in [m for m in out if m[1] == "/mavros/imu/data"][5::40]:
+        m[0] += 700_000_000
+
+
+@pytest.mark.slow
+def test_stamps_a_few_steps_out_of_order_are_sorted_not_refused(dive, tmp_path):
+    """Late arrivals put the IMU's stamps up to 0.7 s (14 steps) back in receive order: under the
+    restart limit (20 steps and 1 s), sorted into place — the heading is the in-order bag's."""
+    one = read_dive_channels(write_bag(tmp_path / "one.bag", 1, _short(dive)), "bluerov2")
+    late = read_dive_channels(write_bag(tmp_path / "late.bag", 1, _short(dive),
+                                        mutate=_late_arrivals), "bluerov2")
+    for c in ("yaw_rad", "roll_rad", "pitch_rad"):
+        np.testing.assert_array_equal(late.channels[c][0], one.channels[c][0])
+        np.testing.assert_array_equal(late.channels[c][1], one.channels[c][1])
 
 
 def _one_stamp(days):
@@ -822,6 +893,22 @@ def test_a_clock_step_under_a_second_is_refused_and_a_recorder_stall_is_not(dive
     dc = read_dive_channels(drift, "bluerov2")
     assert any(re.search(r"/mavros/imu/data: receive time − header stamp drifts by \+0\.[12]\d* s", w)
                for w in dc.warnings), dc.warnings
+
+
+@pytest.mark.slow
+def test_a_clock_set_back_under_a_second_is_a_re_sync_and_over_it_a_restart(dive, tmp_path):
+    """Header stamps set back 0.9 s mid-bag (under the IMU's restart limit, 1 s) keep the clock
+    re-sync's message; set back 1.5 s they go back by more than it: a restart, naming the IMU's
+    message (the clock check said only that receive time − stamp changes by 1.5 s)."""
+    bag = write_bag(tmp_path / "back.bag", 1, _short(dive), mutate=_stamps_step(-0.9, 10.0))
+    with pytest.raises(DiveDataError, match=r"/mavros/imu/data: receive time − header stamp steps "
+                                            r"from \+0\.250 s to \+1\.150 s and stays .* rosbag filter"):
+        read_dive_channels(bag, "bluerov2")
+    bag = write_bag(tmp_path / "back15.bag", 1, _short(dive), mutate=_stamps_step(-1.5, 10.0))
+    with pytest.raises(DiveDataError, match=r"/mavros/imu/data \(attitude\): header stamps go back at "
+                                            r"message \d+ .* 1\.4\d* s back where the typical step is "
+                                            r"0\.04\d* s .* rosbag filter"):
+        read_dive_channels(bag, "bluerov2")
 
 
 def _recorder_lagging(t_from, t_to, lag_s=0.15):

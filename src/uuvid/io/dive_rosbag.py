@@ -75,7 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.io.bag_path import is_bag  # noqa: F401  (re-exported)
-from uuvid.io.logs import LogDataError
+from uuvid.io.logs import _RESTART_MIN_S, _RESTART_STEPS, LogDataError
 
 __all__ = ["DEFAULT_TOPICS", "ROLES", "BagDive", "read_bag_dive", "enu_flu_to_ned_frd",
            "parse_topic_options", "is_bag"]
@@ -171,6 +171,7 @@ class _Topic:
     hdr: list | None = field(default_factory=list)
     values: dict = field(default_factory=dict)  # role → list of extracted objects
     src: list = field(default_factory=list)  # per message: (publishing node, header frame)
+    index: list = field(default_factory=list)  # per message: its number on the topic (1, 2, …)
     publishers: int = 1  # publishers the bag's metadata lists for the topic (ROS 2 QoS profiles)
     chosen: str | None = None  # the publisher kept where several published together
 
@@ -288,6 +289,7 @@ def _one_publisher(tp: _Topic, pick, roles: str, name: str, warnings: list, fail
         tp.hdr = [x for x, m in zip(tp.hdr, mask) if m]
     tp.values = {r: [x for x, m in zip(v, mask) if m] for r, v in tp.values.items()}
     tp.src = [k for k, m in zip(keys, mask) if m]
+    tp.index = [x for x, m in zip(tp.index, mask) if m]
 
 
 def _walk(msg, fld: str, where: str):
@@ -396,6 +398,7 @@ def _read(bag_path, specs: dict, name: str, fail, picks=None, warnings=None):
             except Exception as e:
                 fail(f"{name}: topic {conn.topic} message {k}: cannot decode {mt}: {e}")
             tp.recv.append(int(t_ns))
+            tp.index.append(k)
             frame = getattr(getattr(msg, "header", None), "frame_id", None)
             tp.src.append((getattr(conn.ext, "callerid", None) or "",
                            frame if isinstance(frame, str) else ""))
@@ -432,11 +435,65 @@ def _stamps(tp: _Topic) -> tuple[np.ndarray, np.ndarray, str]:
                         f"{h.size} messages)")
 
 
+#: messages either side of a jump back whose stamps must stay apart for it to be a restart (two
+#: corrupt stamps ahead of the series, or behind it, are no restart)
+_RESTART_WINDOW = 5
+
+
+def _check_restart(st, rc, index, how: str, label: str, name: str, fail) -> None:
+    """Refuse a topic whose header stamps, in receive order, jump back by more than
+    max(``_RESTART_STEPS`` × the median forward step, ``_RESTART_MIN_S``) and stay back: the rule
+    of a table's time column (:func:`uuvid.io.logs._check_restart`).  The sender restarted (an
+    autopilot reboot stamps time since boot), a clock was set back, or two recordings were
+    joined: sorted, the two parts interleaved into one nonsense series.  Stamps a few steps out of
+    order (late arrivals) are sorted into place by :func:`_merge`; a jump back is a restart only
+    when the stamps of the next messages stay back against those before it (the lower median of
+    :data:`_RESTART_WINDOW` messages before, the upper median of as many after, two at least on
+    either side), so a corrupt stamp or two ahead of the series or behind it is none, and stamps
+    hours off the rest (:func:`_far_mask`) are left to :func:`_far_stamps`.  The jump is a second
+    at least: a clock re-synced by less is :func:`_check_clock_step`'s.  Run on every topic before
+    the clock checks, as its message names the message and the stamps where
+    :func:`_check_clock_jump`'s says only that receive time − stamp changes."""
+    if how != "header.stamp" or st.size < 4:
+        return
+    far, _lo, _hi = _far_mask((st - st[0]).astype(float) / 1e9)
+    keep = np.flatnonzero(~far)
+    t = st[keep]
+    d = np.diff(t)
+    ahead = d[d > 0]
+    step = float(np.median(ahead)) / 1e9 if ahead.size else 0.0
+    limit = max(_RESTART_STEPS * step, _RESTART_MIN_S) * 1e9
+    w = _RESTART_WINDOW
+    hits = []
+    for j in np.flatnonzero(-d > limit) + 1:
+        before, after = np.sort(t[max(0, j - w):j]), np.sort(t[j:j + w])
+        if before.size >= 2 and after.size >= 2 and \
+                before[(before.size - 1) // 2] - after[after.size // 2] > limit:
+            hits.append(int(j))
+    if not hits:
+        return
+    j = hits[0]
+    i0, i1 = keep[j - 1], keep[j]
+    cut = (int(rc[i0]) + int(rc[i1])) / 2e9
+    more = f"; {len(hits) - 1} more such jump(s) later" if len(hits) > 1 else ""
+    fail(f"{name}: {label}: header stamps go back at message {index[i1]} (received at bag time "
+         f"{rc[i1] / 1e9:.6f} s, {(rc[i1] - rc[0]) / 1e9:.6g} s into the topic): stamped "
+         f"{st[i1] / 1e9:.6f} s after {st[i0] / 1e9:.6f} s, {(st[i0] - st[i1]) / 1e9:.6g} s back "
+         f"where the typical step is {step:.3g} s{more} — the sender restarted (an autopilot reboot "
+         "stamps time since boot), a clock was set back, or two recordings were joined; sorted, "
+         "the two parts would interleave into one series: cut the bag there and read each part on "
+         f"its own (ROS 1: rosbag filter IN OUT \"t.to_sec() < {cut:.6f}\", or >= it; ROS 2: a copy "
+         "of the part before or after, e.g. with the rosbags package) — --t-start/--t-end do not "
+         "help: the whole bag is read first; only stamps a few steps out of order are sorted into "
+         "place")
+
+
 def _check_clock_jump(st, rc, how: str, topic: str, name: str, fail, warnings=None) -> None:
     """Refuse a topic whose receive time − header stamp changes by more than a second within the
     bag (2nd to 98th percentile: a few corrupt stamps are not a jump): one of the two clocks
     jumped mid-bag — an autopilot reboot restarting its stamps, or the recording computer's clock
-    set back — and the two halves interleaved (heave mass ×17, blamed on the motors)."""
+    set back — and the two halves interleaved (heave mass ×17, blamed on the motors).  Stamps
+    that go back (a restart) are refused before by :func:`_check_restart`, naming the message."""
     if how != "header.stamp" or st.size < 50:
         return
     d = (rc - st).astype(float) / 1e9
@@ -763,12 +820,15 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         fail(missing("altitude", "depth", f" (altitude, up) or --topic depth=TOPIC:FIELD (down) "
                      f"or --topic pressure=TOPIC:FIELD (Pa; default {DEFAULT_TOPICS['pressure']})"))
     # ---- one clock: the servo outputs'
+    # stamps that restart (every topic first: the most precise message), then the clocks
+    stamped = {tp.topic: _stamps(tp) for tp in data.values() if tp.recv}
+    for topic, (st, rc, how) in stamped.items():
+        roles = ", ".join(r for r, (tpc, _f, _g) in specs.items() if tpc == topic)
+        _check_restart(st, rc, np.asarray(data[topic].index), how, f"{topic} ({roles})", name, fail)
     clocks = {}
-    for tp in data.values():
-        if tp.recv:
-            st, rc, how = _stamps(tp)
-            _check_clock_jump(st, rc, how, tp.topic, name, fail, warnings)
-            clocks[tp.topic] = (st, float(np.median(rc - st)), how)
+    for topic, (st, rc, how) in stamped.items():
+        _check_clock_jump(st, rc, how, topic, name, fail, warnings)
+        clocks[topic] = (st, float(np.median(rc - st)), how)
     ref_topic = specs["pwm"][0]
     ref_off = clocks[ref_topic][1]
     ref_hdr = clocks[ref_topic][2] == "header.stamp"
