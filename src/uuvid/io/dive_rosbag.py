@@ -59,7 +59,9 @@ receive time; topics on another clock than the servo outputs (receive time again
 or a header clock seconds away) are moved onto the servo outputs' clock by the median difference
 of receive and stamp times, and a warning says by how much.  Samples are sorted; samples sharing
 a stamp are merged (mean; the last one for servo outputs, attitude and state), as in the ArduSub
-path.
+path.  Header stamps that go back in receive order by more than 20 typical steps (and 1 s) and stay
+back — a sender restarted, a clock set back, two recordings joined — are not sorted but refused,
+naming the message and where to cut the bag, as a table's restarting time column is.
 
 Publishers: a topic that several publish on (a second IMU, a driver started twice) keeps the
 messages of one — the node (ROS 1 records it) or header ``frame_id`` that ``topic@SOURCE`` names,
