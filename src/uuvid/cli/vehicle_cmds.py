@@ -34,7 +34,9 @@ def _load_vehicle(name: str, need: str = ""):
         v = load_vehicle(name)
     except (ModelFileError, FileNotFoundError, KeyError) as e:
         msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
-        _fail(msg if "preset" in msg else f"{msg} (presets: {', '.join(list_presets())})")
+        # the presets help where the name was not a vehicle file, not under a key's error
+        _fail(f"{msg} (presets: {', '.join(list_presets())})" if "not a vehicle file" in msg
+              and "preset" not in msg else msg)
     if need and len(v.layout) == 0:
         _fail(f"{name}: vehicle {v.name!r} has no thrusters, so {need}: add a thrusters list to "
               "its file")

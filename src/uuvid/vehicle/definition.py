@@ -30,7 +30,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
         model: t200                          # thruster preset name or model-file path
         limits: [-39.91, 51.49]              # [min, max] thrust, N
         installation: {surge_front: [1.0, 0.89]}   # η per mode: value or [η₊, η₋]
-        wake: 0.0                            # wake fraction in [0, 1) (with inflow only)
+        wake: 0.0                            # wake fraction in [0, 1) (with inflow only; > 0.5 warns)
         propeller: my-prop.yaml              # inflow map (default: the model's; with inflow only)
     allocation: {dofs: [surge, sway, heave, yaw], weights: [...], default_modes: [...]}
     modes:                       # thrust-mapping modes (Caccia et al. 2000, Table I)
@@ -417,6 +417,57 @@ def _model_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]
     return out
 
 
+#: A wake fraction above this is warned of (:func:`_inflow_key_warnings`): ship wake fractions are
+#: typically 0–0.4 (Carlton, *Marine Propellers and Propulsion*, ch. 5), the thrusters of an open-
+#: frame ROV ≈ 0–0.3; at ``w`` the advance speed is ``(1 − w)`` times the water's speed, so a wake
+#: near 1 switches the inflow off and an identified loss divided by ``(1 − w)`` grows without bound.
+WAKE_PLAUSIBLE_MAX = 0.5
+
+
+def _inflow_key_warnings(vehicle: Vehicle, base_dir: Path | None = None) -> list[str]:
+    """The thrusters' inflow keys that load but cannot be what they claim: a wake fraction above
+    :data:`WAKE_PLAUSIBLE_MAX`, and — with inflow off, when the maps are not read — a
+    ``propeller:`` that names no preset or model file with a map (as a missing ``model`` is said
+    by :func:`_model_warnings`; with inflow on it is an error)."""
+    from uuvid.thruster.modelfile import ModelFileError
+    from uuvid.vehicle.inflow import thruster_map
+
+    out = []
+    wakes: dict[float, list[str]] = {}
+    for t, w in zip(vehicle.layout, vehicle.wake):
+        if w > WAKE_PLAUSIBLE_MAX:
+            wakes.setdefault(w, []).append(t.name)
+    for w, names in wakes.items():
+        out.append(f"thrusters {', '.join(names)}: wake {w:g} is above {WAKE_PLAUSIBLE_MAX:g} "
+                   "(ship wake fractions are typically 0–0.4, ROV thrusters ≈ 0–0.3): the advance "
+                   f"speed is (1 − w) = {1 - w:.3g} times the water's speed along the thruster, so "
+                   "the propeller barely feels the vehicle's speed, and an inflow coefficient "
+                   f"fitted on a dive (vehicle identify dive --inflow) comes out {1 / (1 - w):.3g}× "
+                   "larger — a wake fraction this high is not a thruster in open water")
+    if vehicle.inflow != "none" or not vehicle.propellers:
+        return out
+    base = vehicle.path.parent if vehicle.path is not None else base_dir
+    explicit = [p if p != t.model else None for t, p in zip(vehicle.layout, vehicle.propellers)]
+    for ref, idx in _by_propeller(explicit).items():
+        if ref is None:
+            continue
+        try:
+            thruster_map(ref, base)
+            continue
+        except KeyError:
+            why = "holds no four-quadrant propeller map"
+        except FileNotFoundError:
+            why = ("is neither a preset with a propeller map (t200, t200-physical) nor a model file "
+                   "beside the vehicle file")
+        except (ModelFileError, ValueError) as e:
+            why = f"cannot be read as a propeller map ({e})"
+        names = ", ".join(vehicle.layout[i].name for i in idx)
+        out.append(f"thrusters {names}: propeller {ref!r} {why}; inflow is none, so it is not used "
+                   "now, but inflow: four-quadrant (or --inflow four-quadrant) cannot fly these "
+                   "thrusters")
+    return out
+
+
 #: a thruster's limit may exceed its model's steady thrust at full command by this fraction
 LIMIT_SLACK = 0.02
 
@@ -559,6 +610,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
                                                                                  base_dir)
     msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
     msgs += _coincident_warnings(vehicle) + _axis_warnings(vehicle)
+    msgs += _inflow_key_warnings(vehicle, base_dir)
     cur = np.asarray(vehicle.params.current, float)
     if np.any(cur != 0.0):
         # missions, hold, sweeps and the envelope take the current the run is given: a vehicle

@@ -94,6 +94,16 @@ class ThrusterSchema(BaseModel):
     propeller: str | None = Field(None, min_length=1)
     notes: str | None = None
 
+    @field_validator("wake", mode="before")
+    @classmethod
+    def _wake_fraction(cls, v):
+        """A wake fraction outside [0, 1) said as one (pydantic's "Input should be less than 1"
+        did not say what the number is)."""
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and not 0 <= v < 1:
+            raise ValueError(f"a wake fraction w in [0, 1) (the advance speed is (1 − w) times the "
+                             f"water's speed along the thruster; ROV thrusters ≈ 0–0.3), got {v:g}")
+        return v
+
 
 class ModeSchema(BaseModel):
     model_config = _CFG
@@ -158,3 +168,15 @@ class VehicleSchema(BaseModel):
     modes: dict[str, ModeSchema] = {}
     one_dof: dict[str, OneDofSchema] = {}
     battery: BatterySchema | None = None
+
+    @field_validator("inflow", mode="before")
+    @classmethod
+    def _inflow_null_is_none(cls, v):
+        """``inflow: null`` (or an empty ``inflow:``) is bollard thrust, as the key left out; a
+        YAML boolean (``off``, ``no``) is said to be written ``none``."""
+        if v is None:
+            return "none"
+        if isinstance(v, bool):
+            raise ValueError(f"got {v!r} (YAML reads on/off/yes/no as a boolean): write none or "
+                             "four-quadrant")
+        return v

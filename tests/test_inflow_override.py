@@ -1,0 +1,87 @@
+"""The inflow switch as a user meets it: ``--inflow`` (and a scenario's ``inflow:``) over the
+vehicle file's key, what a run says was in force, and the messages of the inflow keys."""
+
+import json
+import warnings
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.vehicle import VehicleFileError, VehicleFileWarning, load_vehicle
+from uuvid.vehicle.definition import preset_path
+
+
+def _raw(**top):
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw.update(top)
+    return raw
+
+
+def _write(path, raw):
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+@pytest.fixture
+def no_map_vehicle(tmp_path):
+    """``inflow: four-quadrant`` on thrusters whose model file (the voltage-aware T200 fit, as
+    ``uuvid thruster fit --model physical`` writes it) holds no propeller map."""
+    from uuvid.thruster.modelfile import save_chain
+    from uuvid.thruster.physical import physical_model
+
+    save_chain(physical_model().to_chain(16.0), tmp_path / "t200phys.yaml")
+    raw = _raw(inflow="four-quadrant")
+    for t in raw["thrusters"]:
+        t["model"] = "t200phys.yaml"
+    return _write(tmp_path / "v.yaml", raw)
+
+
+def _run(*args):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def _json(res):
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout[res.stdout.index("{"):])
+
+
+# ------------------------------------------------------------------ 4: the keys' own messages
+def test_a_propeller_that_is_not_there_warns_with_inflow_off(tmp_path):
+    raw = _raw()
+    raw["thrusters"][1]["propeller"] = "nosuch.yaml"
+    path = _write(tmp_path / "p.yaml", raw)
+    with pytest.warns(VehicleFileWarning, match=r"T2_front_left: propeller 'nosuch\.yaml' is "
+                                                r"neither a preset.*inflow is none"):
+        load_vehicle(path)
+
+
+def test_a_wake_error_says_what_a_wake_fraction_is_without_the_presets(tmp_path):
+    raw = _raw()
+    raw["thrusters"][0]["wake"] = 1.5
+    res = _run("vehicle", "info", _write(tmp_path / "w.yaml", raw))
+    text = " ".join(res.output.split())
+    assert res.exit_code == 2 and "thrusters[0].wake: a wake fraction w in [0, 1)" in text
+    assert "got 1.5" in text and "presets" not in text
+
+
+def test_inflow_null_is_none(tmp_path):
+    assert load_vehicle(_write(tmp_path / "n.yaml", _raw(inflow=None))).inflow == "none"
+    with pytest.raises(VehicleFileError, match="write none or four-quadrant"):
+        load_vehicle(_write(tmp_path / "b.yaml", _raw(inflow=False)))
+
+
+def test_an_implausible_wake_fraction_warns_naming_the_thruster(tmp_path):
+    from uuvid.vehicle.definition import WAKE_PLAUSIBLE_MAX
+
+    raw = _raw(inflow="four-quadrant")
+    raw["thrusters"][4]["wake"] = 0.999
+    raw["thrusters"][0]["wake"] = WAKE_PLAUSIBLE_MAX  # the bound itself is plausible
+    with pytest.warns(VehicleFileWarning) as got:
+        load_vehicle(_write(tmp_path / "w.yaml", raw))
+    msgs = [str(w.message) for w in got if "wake" in str(w.message)]
+    assert len(msgs) == 1 and "T5_vertical_right: wake 0.999 is above 0.5" in msgs[0]
+    assert "T1_front_right" not in msgs[0]
