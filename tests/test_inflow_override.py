@@ -49,6 +49,37 @@ def _json(res):
     return json.loads(res.stdout[res.stdout.index("{"):])
 
 
+# ------------------------------------------------------------------ 1: --inflow none overrides
+def test_inflow_none_flies_a_file_whose_models_hold_no_propeller_map(no_map_vehicle):
+    v = no_map_vehicle
+    for args in (["vehicle", "envelope", v, "--no-confirm", "--json"],
+                 ["vehicle", "stability", v, "--json"],
+                 ["vehicle", "hold", v, "--step", "90", "--json"],
+                 ["simulate", "mission", "square", "--vehicle", v, "--side", "1", "--json"]):
+        _json(_run(*args, "--inflow", "none"))
+    assert load_vehicle(v, inflow="none").inflow == "none"
+
+
+def test_without_the_option_the_missing_map_is_an_error_naming_key_and_option(no_map_vehicle):
+    res = _run("vehicle", "envelope", no_map_vehicle, "--no-confirm")
+    assert res.exit_code == 2
+    text = " ".join(res.output.split())
+    assert "holds none" in text and "set inflow: none in the vehicle file" in text
+    assert "--inflow none" in text and "(presets:" not in text
+    load_vehicle(no_map_vehicle, inflow="none")  # an override's load is not the file's (cache)
+    with pytest.raises(VehicleFileError, match="--inflow none"):
+        load_vehicle(no_map_vehicle)
+
+
+def test_inflow_four_quadrant_over_a_file_without_it_says_to_leave_the_option_out(no_map_vehicle):
+    raw = yaml.safe_load(no_map_vehicle.read_text())
+    raw["inflow"] = "none"
+    path = _write(no_map_vehicle.parent / "off.yaml", raw)
+    with pytest.raises(VehicleFileError, match=r"inflow four-quadrant was asked for on this run "
+                                               r"\(--inflow four-quadrant.*inflow: none: leave it out"):
+        load_vehicle(path, inflow="four-quadrant")
+
+
 # ------------------------------------------------------------------ 4: the keys' own messages
 def test_a_propeller_that_is_not_there_warns_with_inflow_off(tmp_path):
     raw = _raw()

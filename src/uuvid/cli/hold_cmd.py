@@ -68,7 +68,7 @@ def vehicle_hold(
     from uuvid.cli.vehicle_cmds import _load_vehicle
     from uuvid.vehicle.power import limits_at
 
-    v = _load_vehicle(vehicle, "it cannot hold station")
+    v = _load_vehicle(vehicle, "it cannot hold station", inflow)
     cur = _parse_current(current)
     if battery is not None and not 0 <= battery <= 1:
         _fail(f"--battery: state of charge must be within 0..1, got {battery}")

@@ -23,15 +23,15 @@ def _helpers():
     return _fail, _print_json, _table, err_console, out_console
 
 
-def _load_vehicle(name: str, need: str = ""):
-    """The vehicle ``name`` (preset or file); ``need``: what the command does with its
-    thrusters — a vehicle without any is then refused saying so."""
+def _load_vehicle(name: str, need: str = "", inflow: str | None = None):
+    """The vehicle ``name`` (preset or file), with ``--inflow`` over its file's key; ``need``:
+    what the command does with its thrusters — a vehicle without any is then refused saying so."""
     from uuvid.thruster.modelfile import ModelFileError
     from uuvid.vehicle.definition import list_presets, load_vehicle
 
     _fail = _helpers()[0]
     try:
-        v = load_vehicle(name)
+        v = load_vehicle(name, inflow=inflow)
     except (ModelFileError, FileNotFoundError, KeyError) as e:
         msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
         # the presets help where the name was not a vehicle file, not under a key's error
@@ -52,14 +52,7 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
-        vehicle, setup = build(spec, base)
-        if inflow is not None:  # --inflow overrides the vehicle file's key
-            import dataclasses
-
-            from uuvid.simulate.vehicle_sim import _inflow_arrays
-
-            setup = dataclasses.replace(setup, inflow_arrays=_inflow_arrays(
-                vehicle, inflow, None if not spec.thruster_model else True))
+        vehicle, setup = build(spec, base, inflow)  # --inflow over the vehicle file's key
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         _fail(f"{where}: {e}")
     err_console.print(f"controller: {describe(setup.controller)}")
@@ -247,7 +240,7 @@ def vehicle_envelope(
     from uuvid.analysis.envelope_check import confirm_envelope
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
-    v = _load_vehicle(vehicle, "it has no speed envelope")
+    v = _load_vehicle(vehicle, "it has no speed envelope", inflow)
     try:
         check = confirm_envelope(v, simulate=confirm, inflow=inflow)
     except ValueError as e:
@@ -308,7 +301,7 @@ def vehicle_stability(
     from uuvid.vehicle.stability import static_stability
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
-    v = _load_vehicle(vehicle, "nothing holds its attitude")
+    v = _load_vehicle(vehicle, "nothing holds its attitude", inflow)
     try:
         res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
     except ValueError as e:

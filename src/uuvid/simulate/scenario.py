@@ -313,8 +313,11 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
     return scenario_from_dict(raw, where=str(path))
 
 
-def build(spec: ScenarioSpec, base: Path | None = None):
-    """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`)."""
+def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = None):
+    """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`).
+
+    ``inflow`` (the command line's ``--inflow``) overrides the vehicle file's ``inflow`` key
+    (:func:`uuvid.vehicle.definition.load_vehicle`)."""
     from uuvid.simulate.control.files import (
         ControllerContext,
         ControllerFileError,
@@ -327,7 +330,7 @@ def build(spec: ScenarioSpec, base: Path | None = None):
     vref = spec.vehicle
     if vref not in list_presets() and base is not None and not Path(vref).is_absolute():
         vref = str(base / vref)
-    vehicle = load_vehicle(vref)
+    vehicle = load_vehicle(vref, inflow=inflow)
     if len(vehicle.layout) == 0:
         raise ScenarioError(f"vehicle {vehicle.name!r} has no thrusters: nothing can fly a mission "
                             "(add a thrusters list to its file)")
@@ -380,7 +383,7 @@ def build(spec: ScenarioSpec, base: Path | None = None):
                               allocation=spec.allocation,
                               battery=True if spec.battery_soc is not None else None,
                               soc0=1.0 if spec.battery_soc is None else spec.battery_soc,
-                              controller=controller)
+                              controller=controller, inflow=inflow)
     except ValueError as e:
         raise ScenarioError(f"{spec.name}: {e}") from None
     return vehicle, setup

@@ -356,13 +356,30 @@ def _by_propeller(refs) -> dict[str, list[int]]:
     return out
 
 
-def _propeller_errors(spec, where: str, base_dir: Path | None) -> list[str]:
+def _inflow_fix(spec, mode: str, given: bool) -> str:
+    """How to fly a vehicle whose thrusters have no usable propeller map: the file's key and the
+    commands' option that overrides it, or — when the override asked for inflow the file does
+    not have — leaving that out."""
+    if given:
+        return (f"inflow {mode} was asked for on this run (--inflow {mode}, or inflow= in "
+                f"Python) over the vehicle file's inflow: {spec.inflow}: leave it out, or name a "
+                "propeller: with a map for these thrusters")
+    return ("set inflow: none in the vehicle file, or switch it off for one run with --inflow "
+            "none (uuvid simulate, vehicle envelope, stability, hold; load_vehicle(..., "
+            "inflow='none') in Python)")
+
+
+def _propeller_errors(spec, where: str, base_dir: Path | None,
+                      mode: str | None = None) -> list[str]:
     """Why the thrusters' four-quadrant maps (``propeller:``, else ``model``) cannot be read, one
     message per reference with its own cause (no such file, a bad model file, no or a linear
-    ``inflow`` section, an unknown preset)."""
+    ``inflow`` section, an unknown preset).  ``mode``: the inflow in force (default: the file's
+    key; another is the caller's override, and the messages say so)."""
     from uuvid.thruster.modelfile import ModelFileError
     from uuvid.vehicle.inflow import KNOWN_PROPELLERS, thruster_map
 
+    given = mode is not None and mode != spec.inflow
+    mode = spec.inflow if mode is None else mode
     out = []
     refs = [t.propeller or t.model for t in spec.thrusters]
     for ref, idx in _by_propeller(refs).items():
@@ -371,13 +388,13 @@ def _propeller_errors(spec, where: str, base_dir: Path | None) -> list[str]:
         try:
             thruster_map(ref, base_dir)
         except KeyError:
-            out.append(f"{at}: inflow {spec.inflow!r} needs the propeller map of {ref!r}, which "
-                       f"holds none (known: {KNOWN_PROPELLERS}); set inflow: none")
+            out.append(f"{at}: inflow {mode!r} needs the propeller map of {ref!r}, which "
+                       f"holds none (known: {KNOWN_PROPELLERS}); {_inflow_fix(spec, mode, given)}")
         except FileNotFoundError:
             out.append(f"{at}: {ref!r}: no such thruster model file (relative to the vehicle "
                        "file's folder) and not a preset with a propeller map (t200, t200-physical)")
         except (ModelFileError, ValueError) as e:
-            out.append(f"{at}: inflow {spec.inflow!r}: {e}")
+            out.append(f"{at}: inflow {mode!r}: {e}")
     return out
 
 
@@ -666,8 +683,16 @@ VEHICLE_FILE_KEYS = ("name, source, rigid_body, hydrodynamics and usually thrust
 
 
 def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None = None,
-                      path: Path | None = None) -> Vehicle:
-    """Validate a vehicle description (as loaded from YAML/TOML) and build a :class:`Vehicle`."""
+                      path: Path | None = None, inflow: str | None = None) -> Vehicle:
+    """Validate a vehicle description (as loaded from YAML/TOML) and build a :class:`Vehicle`.
+
+    ``inflow`` (``None``: the file's ``inflow`` key) overrides that key — the commands'
+    ``--inflow``: the vehicle is built with the inflow in force, and the thrusters' propeller maps
+    are checked only when it is on (``'none'`` flies a file whose models hold no map)."""
+    if inflow is not None:
+        from uuvid.vehicle.inflow import resolve_inflow
+
+        resolve_inflow(None, inflow)  # ValueError naming the models
     if not isinstance(raw, dict):
         raise VehicleFileError(f"{where}: expected a mapping at the top level, got "
                                f"{type(raw).__name__}")
@@ -743,8 +768,9 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
             continue
         thrusters.append(Thruster(t.name, t.position, tuple(axis), t.model, (lo, hi),
                                   dict(t.installation)))
-    if spec.inflow != "none":
-        errors += _propeller_errors(spec, where, base_dir)
+    mode = spec.inflow if inflow is None else inflow
+    if mode != "none":  # the maps matter only with inflow on (--inflow none overrides the file)
+        errors += _propeller_errors(spec, where, base_dir, mode)
     layout = None
     if not errors:
         layout = ThrusterLayout(tuple(thrusters))
@@ -827,7 +853,7 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                       tuple(al.default_modes), one_dof, spec.source.model_dump(exclude_none=True),
                       dict(spec.assumptions), spec.description, path,
                       _battery(spec.battery, where) if spec.battery is not None else None,
-                      spec.inflow, tuple(float(t.wake) for t in spec.thrusters),
+                      mode, tuple(float(t.wake) for t in spec.thrusters),
                       tuple(t.propeller or t.model for t in spec.thrusters),
                       tuple(None if t.axis is None else tuple(float(x) for x in t.axis)
                             for t in spec.thrusters))
@@ -904,8 +930,11 @@ def preset_path(name: str) -> Path:
     return p
 
 
-def load_vehicle(path_or_name: str | Path) -> Vehicle:
+def load_vehicle(path_or_name: str | Path, inflow: str | None = None) -> Vehicle:
     """Load a vehicle from a YAML/TOML file or by preset name (``bluerov2``, ``romeo``, …).
+
+    ``inflow`` (``None``: the file's ``inflow`` key; ``'none'``, ``'four-quadrant'``) overrides
+    that key, as the commands' ``--inflow`` does (:func:`vehicle_from_dict`).
 
     A file validated once is kept in the disk cache (``vehicles`` beside the steady maps,
     :mod:`uuvid.core.cache`), keyed on its bytes, its path and a stamp of the code it depends
@@ -923,7 +952,7 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
 
     try:
         key = digest(tree_stamp("", "core", "thruster", "vehicle"), str(p.resolve()),
-                     p.read_bytes())
+                     p.read_bytes(), *(() if inflow is None else (f"inflow={inflow}",)))
     except OSError:
         key = None
     where = p.name if p.parent == PRESET_DIR else str(p)
@@ -935,7 +964,8 @@ def load_vehicle(path_or_name: str | Path) -> Vehicle:
         raw = read_model_text(p)
     except ModelFileError as e:
         raise VehicleFileError(str(e)) from None
-    vehicle = vehicle_from_dict(raw, where=where, base_dir=p.parent, path=p.resolve())
+    vehicle = vehicle_from_dict(raw, where=where, base_dir=p.parent, path=p.resolve(),
+                                inflow=inflow)
     if key:
         store_object("vehicles", key, vehicle)
     return vehicle
