@@ -56,7 +56,8 @@ def test_inflow_none_flies_a_file_whose_models_hold_no_propeller_map(no_map_vehi
                  ["vehicle", "stability", v, "--json"],
                  ["vehicle", "hold", v, "--step", "90", "--json"],
                  ["simulate", "mission", "square", "--vehicle", v, "--side", "1", "--json"]):
-        _json(_run(*args, "--inflow", "none"))
+        doc = _json(_run(*args, "--inflow", "none"))
+        assert doc.get("inflow", doc.get("capability", {}).get("inflow")) == "none", args
     assert load_vehicle(v, inflow="none").inflow == "none"
 
 
@@ -78,6 +79,36 @@ def test_inflow_four_quadrant_over_a_file_without_it_says_to_leave_the_option_ou
     with pytest.raises(VehicleFileError, match=r"inflow four-quadrant was asked for on this run "
                                                r"\(--inflow four-quadrant.*inflow: none: leave it out"):
         load_vehicle(path, inflow="four-quadrant")
+
+
+# ------------------------------------------------------------------ 2: a run says which inflow
+def test_simulate_says_the_inflow_in_force_and_where_it_came_from(tmp_path):
+    path = _write(tmp_path / "v4q.yaml", _raw(inflow="four-quadrant"))
+    base = ["simulate", "mission", "square", "--vehicle", path, "--side", "1", "--json"]
+    on, off = _json(_run(*base)), _json(_run(*base, "--inflow", "none"))
+    assert (on["inflow"], on["inflow_source"]) == ("four-quadrant", "vehicle file")
+    assert (off["inflow"], off["inflow_source"]) == ("none", "option")
+    assert on["rms_tracking_error_m"] != off["rms_tracking_error_m"]
+    res = _run(*base[:-1], "--out", tmp_path / "rep")
+    assert res.exit_code == 0, res.output
+    assert "inflow_source" in " ".join(res.output.split())  # the summary table
+    summary = json.loads((tmp_path / "rep" / "summary.json").read_text())
+    assert (summary["inflow"], summary["inflow_source"]) == ("four-quadrant", "vehicle file")
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "inflow</td><td>four-quadrant" in page and "inflow_source</td><td>vehicle file" in page
+
+
+def test_hold_and_stability_json_say_the_inflow_in_force(tmp_path):
+    path = _write(tmp_path / "v4q.yaml", _raw(inflow="four-quadrant"))
+    hold = _json(_run("vehicle", "hold", "bluerov2", "--step", "90", "--json"))
+    assert (hold["inflow"], hold["inflow_source"], hold["capability"]["inflow"]) == (
+        "none", "vehicle file", "none")
+    hold = _json(_run("vehicle", "hold", path, "--step", "90", "--json"))
+    assert (hold["inflow"], hold["inflow_source"]) == ("four-quadrant", "vehicle file")
+    st = _json(_run("vehicle", "stability", path, "--json", "--inflow", "none"))
+    assert (st["inflow"], st["inflow_source"]) == ("none", "option")
+    st = _json(_run("vehicle", "stability", path, "--json"))
+    assert (st["inflow"], st["inflow_source"]) == ("four-quadrant", "vehicle file")
 
 
 # ------------------------------------------------------------------ 4: the keys' own messages

@@ -481,7 +481,8 @@ def test_cli_simulate_inflow_none_is_today_and_four_quadrant_differs():
         return d
 
     plain, off, on = doc(), doc("--inflow", "none"), doc("--inflow", "four-quadrant")
-    assert off == plain
+    assert (plain["inflow_source"], off["inflow_source"]) == ("vehicle file", "option")
+    assert {**off, "inflow_source": ""} == {**plain, "inflow_source": ""}
     assert on["rms_tracking_error_m"] != plain["rms_tracking_error_m"]
 
 

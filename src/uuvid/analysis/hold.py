@@ -499,9 +499,9 @@ class CapabilityResult(Result):
              "supply_voltage_V": self.supply_voltage,
              "simulated_deg": self.simulated_deg.tolist(),
              "simulated_max_current_m_s": self.simulated.tolist(),
-             "simulated_over_analytic": self.agreement.tolist(), "note": self.note}
-        if self.inflow != "none":  # inflow off: the dict as before issue 21
-            d["inflow"] = self.inflow
+             "simulated_over_analytic": self.agreement.tolist(), "note": self.note,
+             "inflow": self.inflow}  # in force, on or off (a JSON without it said neither)
+        if self.inflow != "none":
             d["max_current_bollard_m_s"] = self.max_current_bollard.tolist()
         return d
 

@@ -100,7 +100,8 @@ def vehicle_hold(
                                simulate_deg=sim, inflow=inflow)
     except ValueError as e:
         _fail_flagged(e, HOLD_FLAGS)
-    doc = {"capability": cap.to_dict()}
+    doc = {"capability": cap.to_dict(), "inflow": cap.inflow,
+           "inflow_source": "option" if inflow else "vehicle file"}
     endur = None
     if cur is not None:
         speed, deg = cur

@@ -308,14 +308,15 @@ def vehicle_stability(
         from uuvid.cli.common import _fail_flagged
 
         _fail_flagged(e, {"max_tilt_deg": "--max-tilt"})
+    doc = {**res.to_dict(), "inflow_source": "option" if inflow else "vehicle file"}
     if out:
         from uuvid.core.atomic import atomic_write_json
 
         out.mkdir(parents=True, exist_ok=True)
         res.plot(out / "stability.png")
-        atomic_write_json(out / "stability.json", res.to_dict())
+        atomic_write_json(out / "stability.json", doc)
     if json_out:
-        _print_json(res.to_dict())
+        _print_json(doc)
         return
     rows = res.rows()
     cols = list(dict.fromkeys(k for r in rows for k in r))

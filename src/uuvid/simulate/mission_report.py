@@ -31,7 +31,9 @@ def mission_text(result) -> str:
              + ("completed" if m.get("completed") else "NOT completed"
                 + (f" ({m['completed_reason']})" if m.get("completed_reason") else ""))
              + f" ({m.get('controller', '?')}, disturbance {m.get('disturbance', 'none')}, "
-             f"current {m.get('current', '?')})"]
+             f"current {m.get('current', '?')}"
+             + (f", inflow {m['inflow']} from the {m.get('inflow_source', 'vehicle file')}"
+                if "inflow" in m else "") + ")"]
     if m.get("mission_note"):
         lines.append(f"  {m['mission_note']}")
     for k in ("speed_m_s", "max_tracking_error_m", "rms_tracking_error_m", "final_position_error_m",

@@ -1381,6 +1381,8 @@ class MissionSetup:
     controller: Controller | None = None  # None: the built-in PID DP with ``gains``
     disturbance: Disturbance | None = None
     inflow_arrays: tuple | None = None  # (map params, geometry) of the inflow model; None: off
+    inflow: str = "none"  # the inflow model in force (the metrics say it)
+    inflow_source: str = "vehicle file"  # where it came from: vehicle file, scenario file, option
 
     def blocks(self):
         """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist, out_kind)`` of a
@@ -1501,7 +1503,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                   allocation: str = "priority", battery=None, soc0: float = 1.0,
                   controller: Controller | None = None,
                   disturbance: Disturbance | None = None,
-                  max_steps: int | None = None, inflow: str | None = None) -> MissionSetup:
+                  max_steps: int | None = None, inflow: str | None = None,
+                  inflow_source: str | None = None) -> MissionSetup:
     """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
@@ -1515,7 +1518,8 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     ``max_steps`` (default :data:`MAX_STEPS`) bounds the time series held in memory.
     ``inflow`` (``None``: the vehicle file's ``inflow`` key; ``'none'``: bollard thrusters, as
     before issue 21; ``'four-quadrant'``): thrust at each thruster's advance speed
-    (:func:`uuvid.vehicle.inflow.loop_arrays`).
+    (:func:`uuvid.vehicle.inflow.loop_arrays`); ``inflow_source`` (default: ``'vehicle file'``
+    without ``inflow``, else ``'option'``) is what the metrics say it came from.
     """
     from uuvid.simulate.currents import as_current
 
@@ -1570,11 +1574,15 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
         series = (np.ascontiguousarray(vct), np.ascontiguousarray(dvct))
         const = np.asarray(vct[0], dtype=float)
     bat = battery_tables(bank, battery, soc0) if battery is not None else None
+    from uuvid.vehicle.inflow import resolve_inflow
+
     setup = MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt,
                          int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                          np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
                          const, t, ref, cm, series, allocation, battery, bat, controller,
-                         disturbance, _inflow_arrays(vehicle, inflow, own_chain))
+                         disturbance, _inflow_arrays(vehicle, inflow, own_chain),
+                         resolve_inflow(vehicle, inflow), inflow_source or (
+                             "vehicle file" if inflow is None else "option"))
     if controller is not None:
         _check_controller(setup)
     return setup
@@ -1939,6 +1947,8 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "controller": s.controller.name if s.controller is not None else "PID DP",
         "controller_output": s.controller.output if s.controller is not None else "wrench",
         "disturbance": s.disturbance.name if s.disturbance is not None else "none",
+        "inflow": s.inflow,  # thrust against the advance speed, and who switched it so
+        "inflow_source": s.inflow_source,
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
     }

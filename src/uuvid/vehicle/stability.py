@@ -223,6 +223,7 @@ class StabilityResult(Result):
     cases: tuple[StabilityCase, ...]
     max_tilt_deg: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    inflow: str = "none"  # the inflow model the envelope speeds and thrust fractions took
 
     def __getitem__(self, direction: str) -> StabilityCase:
         for c in self.cases:
@@ -264,7 +265,7 @@ class StabilityResult(Result):
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        return {"vehicle": self.vehicle, "max_tilt_deg": self.max_tilt_deg,
+        return {"vehicle": self.vehicle, "max_tilt_deg": self.max_tilt_deg, "inflow": self.inflow,
                 "cases": [c.to_dict() for c in self.cases], "notes": list(self.notes)}
 
     def plot(self, path=None):
@@ -410,4 +411,5 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
     if il is not None:
         notes.append(f"inflow {il.model}: envelope speeds and thrust fractions with each "
                      "thruster's limit at its advance speed (the trim angles do not depend on it)")
-    return StabilityResult(vehicle.name, tuple(cases), float(max_tilt_deg), tuple(notes))
+    return StabilityResult(vehicle.name, tuple(cases), float(max_tilt_deg), tuple(notes),
+                           "none" if il is None else il.model)
