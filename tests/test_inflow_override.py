@@ -111,6 +111,37 @@ def test_hold_and_stability_json_say_the_inflow_in_force(tmp_path):
     assert (st["inflow"], st["inflow_source"]) == ("four-quadrant", "vehicle file")
 
 
+# ------------------------------------------------------------------ 3: scenarios, thruster models
+def test_a_scenario_takes_an_inflow_key_and_a_thruster_model_with_a_map(tmp_path):
+    from uuvid.simulate.scenario import ScenarioError, build, scenario_from_dict
+
+    _write(tmp_path / "v4q.yaml", _raw(inflow="four-quadrant"))
+    own = build(scenario_from_dict({"vehicle": "v4q.yaml", "duration": 1.0}), tmp_path)[1]
+    # the vehicle's own model named as thruster_model: the same propeller map, not a refusal
+    t200 = build(scenario_from_dict({"vehicle": "v4q.yaml", "thruster_model": "t200",
+                                     "duration": 1.0}), tmp_path)[1]
+    assert t200.inflow_arrays is not None and (t200.inflow, t200.inflow_source) == (
+        "four-quadrant", "vehicle file")
+    for a, b in zip(own.inflow_arrays, t200.inflow_arrays):
+        assert (a == b).all()
+    off = build(scenario_from_dict({"vehicle": "v4q.yaml", "thruster_model": "laidani-a2212",
+                                    "inflow": "none", "duration": 1.0}), tmp_path)[1]
+    assert off.inflow_arrays is None and (off.inflow, off.inflow_source) == ("none", "scenario file")
+    spec = scenario_from_dict({"vehicle": "v4q.yaml", "thruster_model": "laidani-a2212",
+                               "duration": 1.0})
+    with pytest.raises(ScenarioError, match=r"'laidani-a2212' holds none.*set inflow: none in the "
+                                            r"scenario \(--inflow none on the command line\)") as e:
+        build(spec, tmp_path)
+    assert "inflow='none'" not in str(e.value)
+    assert build(spec, tmp_path, inflow="none")[1].inflow_source == "option"
+
+
+def test_cli_thruster_model_t200_flies_with_inflow_on():
+    doc = _json(_run("simulate", "mission", "square", "--vehicle", "bluerov2", "--thruster-model",
+                     "t200", "--inflow", "four-quadrant", "--side", "1", "--json"))
+    assert (doc["inflow"], doc["inflow_source"]) == ("four-quadrant", "option")
+
+
 # ------------------------------------------------------------------ 4: the keys' own messages
 def test_a_propeller_that_is_not_there_warns_with_inflow_off(tmp_path):
     raw = _raw()

@@ -530,7 +530,8 @@ def test_mission_on_a_battery_keeps_the_vehicle_files_inflow():
     assert np.array_equal(on.thrust[0], off.thrust[0])  # at rest: the bollard thrust exactly
     assert np.max(np.abs(on.thrust - off.thrust)) > 0.05  # moving: the loss acts
     assert on.metrics["soc"][1] < off.metrics["soc"][1]  # more thrust asked for the same square
-    with pytest.raises(ValueError, match="with another thruster model give inflow='none'"):
+    with pytest.raises(ValueError, match=r"thruster_chain= replaces the vehicle's models with a "
+                                         r"chain that names none: give propeller=.*or inflow='none'"):
         setup_mission(v, square_mission(), battery=True, thruster_chain=preset_chain("t200"),
                       t_end=5.0)
 

@@ -52,7 +52,7 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     try:
-        vehicle, setup = build(spec, base, inflow)  # --inflow over the vehicle file's key
+        vehicle, setup = build(spec, base, inflow)  # --inflow over the scenario's and file's key
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         _fail(f"{where}: {e}")
     err_console.print(f"controller: {describe(setup.controller)}")

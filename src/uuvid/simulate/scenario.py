@@ -9,7 +9,11 @@
       side: 10.0
       speed: 0.5                      # omit: 0.5, or slower for a vehicle that tilts past 20°
       # waypoints: [[0, 0, 0, 0], [0, 0, 2, 0], ...]   (north, east, down [m], yaw [rad])
-    thruster_model: null              # override every thruster's model (preset or file)
+    thruster_model: null              # override every thruster's model (preset or file; with
+                                      #   inflow, its propeller map too: t200, t200-physical, or
+                                      #   a model file with a four-quadrant inflow section)
+    inflow: null                      # none | four-quadrant: override the vehicle file's inflow
+                                      #   key (null: the vehicle file's; --inflow overrides both)
     current: [0.0, 0.0, 0.0]          # NED, m/s; or one of
     #   {kind: constant, speed: 0.3, direction_deg: 90}          (flowing towards, 0 = north)
     #   {kind: timeseries, file: current.csv}                     (columns time, north, east[, down])
@@ -238,6 +242,7 @@ class ScenarioSpec(BaseModel):
     vehicle: str = "bluerov2"
     mission: MissionSpec = MissionSpec()
     thruster_model: str | None = None
+    inflow: Literal["none", "four-quadrant"] | None = None  # None: the vehicle file's key
     current: tuple[float, float, float] | CurrentSpec = (0.0, 0.0, 0.0)
     allocation: Literal["priority", "maxscale", "scale", "clip", "none"] = "priority"
     battery_soc: float | None = Field(None, gt=0, le=1)  # 0: an empty battery flies nothing
@@ -313,11 +318,53 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
     return scenario_from_dict(raw, where=str(path))
 
 
+def _inflow_of(spec: ScenarioSpec, inflow: str | None) -> tuple[str | None, str]:
+    """The inflow override in force (``None``: the vehicle file's key) and where it comes from:
+    ``inflow`` (the command line's ``--inflow``), else the scenario's ``inflow`` key, else the
+    vehicle file."""
+    if inflow is not None:
+        return inflow, "option"
+    if spec.inflow is not None:
+        return spec.inflow, "scenario file"
+    return None, "vehicle file"
+
+
+def _thruster_model_propeller(spec: ScenarioSpec, base: Path | None, vehicle, source: str) -> str:
+    """The preset or (absolute) model file whose four-quadrant map the scenario's
+    ``thruster_model`` flies with inflow on: it replaces the vehicle's thrusters, propellers
+    included.  A model without a map is an error saying where inflow was switched on."""
+    from uuvid.thruster.resolve import is_preset
+    from uuvid.vehicle.inflow import KNOWN_PROPELLERS, thruster_map
+
+    ref = spec.thruster_model
+    if not is_preset(ref):
+        ref = str((Path(ref) if base is None or Path(ref).is_absolute() else base / ref).resolve())
+    try:
+        thruster_map(ref)
+    except KeyError:
+        off = {"option": "leave out --inflow four-quadrant",
+               "scenario file": "set the scenario's inflow: none",
+               "vehicle file": f"the vehicle file ({vehicle.name}) has inflow: {vehicle.inflow} — "
+                               "set inflow: none in the scenario (--inflow none on the command "
+                               "line)"}[source]
+        raise ScenarioError(f"thruster_model (--thruster-model) {spec.thruster_model!r}: inflow "
+                            f"{vehicle.inflow} flies the propeller map of the thruster model that "
+                            f"replaces the vehicle's, and {spec.thruster_model!r} holds none "
+                            f"(known: {KNOWN_PROPELLERS}); {off}, or give a thruster model with "
+                            "a map") from None
+    except (OSError, ModelFileError, ValueError) as e:
+        raise ScenarioError(f"thruster_model: {e}") from None
+    return ref
+
+
 def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = None):
     """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`).
 
-    ``inflow`` (the command line's ``--inflow``) overrides the vehicle file's ``inflow`` key
-    (:func:`uuvid.vehicle.definition.load_vehicle`)."""
+    ``inflow`` (the command line's ``--inflow``) overrides the scenario's ``inflow`` key, which
+    overrides the vehicle file's (:func:`uuvid.vehicle.definition.load_vehicle`); the flight's
+    metrics say which was in force and where it came from (``inflow``, ``inflow_source``).
+    With inflow on, a ``thruster_model`` flies its own propeller map (t200, t200-physical, or a
+    model file with a four-quadrant ``inflow`` section)."""
     from uuvid.simulate.control.files import (
         ControllerContext,
         ControllerFileError,
@@ -330,11 +377,12 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
     vref = spec.vehicle
     if vref not in list_presets() and base is not None and not Path(vref).is_absolute():
         vref = str(base / vref)
-    vehicle = load_vehicle(vref, inflow=inflow)
+    mode, source = _inflow_of(spec, inflow)
+    vehicle = load_vehicle(vref, inflow=mode)
     if len(vehicle.layout) == 0:
         raise ScenarioError(f"vehicle {vehicle.name!r} has no thrusters: nothing can fly a mission "
                             "(add a thrusters list to its file)")
-    chain = None
+    chain = propeller = None
     if spec.thruster_model:
         from uuvid.thruster.resolve import resolve_chain
 
@@ -342,6 +390,9 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
             chain = resolve_chain(spec.thruster_model, base)
         except FileNotFoundError as e:
             raise ScenarioError(f"thruster_model: {e}") from None
+        if vehicle.inflow != "none":  # the replacing model's map, for the mission's speed too
+            propeller = _thruster_model_propeller(spec, base, vehicle, source)
+            vehicle = replace(vehicle, propellers=(propeller,) * len(vehicle.layout))
     c = spec.controller
     try:
         if c.kp is not None:
@@ -383,7 +434,8 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
                               allocation=spec.allocation,
                               battery=True if spec.battery_soc is not None else None,
                               soc0=1.0 if spec.battery_soc is None else spec.battery_soc,
-                              controller=controller, inflow=inflow)
+                              controller=controller, inflow=vehicle.inflow,
+                              inflow_source=source, propeller=propeller)
     except ValueError as e:
         raise ScenarioError(f"{spec.name}: {e}") from None
     return vehicle, setup

@@ -1504,7 +1504,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                   controller: Controller | None = None,
                   disturbance: Disturbance | None = None,
                   max_steps: int | None = None, inflow: str | None = None,
-                  inflow_source: str | None = None) -> MissionSetup:
+                  inflow_source: str | None = None, propeller: str | None = None) -> MissionSetup:
     """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
@@ -1519,7 +1519,10 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     ``inflow`` (``None``: the vehicle file's ``inflow`` key; ``'none'``: bollard thrusters, as
     before issue 21; ``'four-quadrant'``): thrust at each thruster's advance speed
     (:func:`uuvid.vehicle.inflow.loop_arrays`); ``inflow_source`` (default: ``'vehicle file'``
-    without ``inflow``, else ``'option'``) is what the metrics say it came from.
+    without ``inflow``, else ``'option'``) is what the metrics say it came from.  With inflow on,
+    a ``thruster_chain`` in place of the vehicle's models flies the map of ``propeller`` (the
+    preset or model file it came from: t200, t200-physical, or a file with a four-quadrant
+    ``inflow`` section).
     """
     from uuvid.simulate.currents import as_current
 
@@ -1580,7 +1583,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                          int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                          np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
                          const, t, ref, cm, series, allocation, battery, bat, controller,
-                         disturbance, _inflow_arrays(vehicle, inflow, own_chain),
+                         disturbance, _inflow_arrays(vehicle, inflow, own_chain, propeller),
                          resolve_inflow(vehicle, inflow), inflow_source or (
                              "vehicle file" if inflow is None else "option"))
     if controller is not None:
@@ -1588,15 +1591,29 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     return setup
 
 
-def _inflow_arrays(vehicle, inflow, thruster_chain):
-    """The loop's inflow arrays; a chain the caller put in place of the vehicle's models has no
-    propeller map of its own (the voltage-aware T200 model :func:`setup_mission` picks itself on a
-    battery is the same thruster and keeps the vehicle's map)."""
+def _inflow_arrays(vehicle, inflow, thruster_chain, propeller=None):
+    """The loop's inflow arrays.  A chain the caller put in place of the vehicle's models flies
+    the map of ``propeller`` (the preset or model file it came from, relative to the working
+    folder); without one it has none of its own (the voltage-aware T200 model
+    :func:`setup_mission` picks itself on a battery is the same thruster and keeps the vehicle's
+    map)."""
+    import dataclasses
+
     from uuvid.vehicle.inflow import loop_arrays, resolve_inflow
 
-    if thruster_chain is not None and resolve_inflow(vehicle, inflow) != "none":
-        raise ValueError(f"inflow {resolve_inflow(vehicle, inflow)!r} takes the propeller of the "
-                         "vehicle's own thruster models; with another thruster model give "
+    mode = resolve_inflow(vehicle, inflow)
+    if mode != "none" and propeller is not None:
+        from pathlib import Path
+
+        from uuvid.thruster.resolve import is_preset
+
+        ref = str(propeller) if is_preset(propeller) else str(Path(propeller).resolve())
+        vehicle = dataclasses.replace(vehicle, propellers=(ref,) * len(vehicle.layout))
+    elif thruster_chain is not None and mode != "none":
+        raise ValueError(f"inflow {mode!r} flies each thruster's propeller map, and thruster_chain= "
+                         "replaces the vehicle's models with a chain that names none: give "
+                         "propeller= (the preset or model file it came from, with a map: t200, "
+                         "t200-physical, or a file with a four-quadrant inflow section) or "
                          "inflow='none'")
     return loop_arrays(vehicle, inflow)
 
