@@ -1213,14 +1213,39 @@ class PointerLoop:
                 _function_type(self.dist_fn, self.layout["dist"], types_)) + types_
         disp = self.dispatcher
         if full not in disp.overloads:
-            import warnings
-
-            from numba.core.errors import NumbaExperimentalFeatureWarning
-
-            with warnings.catch_warnings():  # numba's first-class functions: used as documented
-                warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-                disp.compile(full)
+            _compile_once(disp, full)
         return disp.overloads[full].entry_point(self.ctrl_fn, self.dist_fn, *args)
+
+
+def _compile_once(disp, sig) -> None:
+    """Compile (or load from numba's disk cache) ``disp`` for ``sig``.  A loop cached on disk is
+    compiled under a lock on its module: processes that need it at once (the demo's sections)
+    wait for the first, then load its machine code instead of compiling it again."""
+    import warnings
+
+    from numba.core.errors import NumbaExperimentalFeatureWarning
+
+    lock = None
+    mod = disp.py_func.__module__
+    if mod.startswith("_uuvid_mission_loop_"):
+        try:
+            import fcntl
+
+            from uuvid.core.cache import cache_dir
+
+            lock = open(cache_dir("mission_loops") / f"{mod}.lock", "a")  # noqa: SIM115
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        except (ImportError, OSError):  # no fcntl (Windows), or no lock there: compile anyway
+            if lock is not None:
+                lock.close()
+            lock = None
+    try:
+        with warnings.catch_warnings():  # numba's first-class functions: used as documented
+            warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
+            disp.compile(sig)
+    finally:
+        if lock is not None:
+            lock.close()  # closing the file releases the lock
 
 
 def _function_type(fn, spec, loop_types):
