@@ -291,3 +291,20 @@ def test_fly_quad_and_fly_loop_have_one_line_per_configuration_flag():
     assert dict(loop_config(np.array([0, 1, 2]), np.array([True, True]), np.ones(3))) == {
         "fast": False, "inflow": True}  # two dynamic blocks: the general block dispatch
     _fixed_source(_template_source(_fly_loop), cfg)
+
+
+@pytest.mark.slow
+def test_two_processes_needing_one_loop_compile_it_once(tmp_path):
+    """Processes that need the same uncached loop at once (the demo's sections) compile it once:
+    the others wait on its lock and load it from disk (before, each compiled it: 2 × 13 s)."""
+    env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
+    procs = [subprocess.Popen([sys.executable, "-c", USER_SCRIPT, str(g)], env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for g in (30.0, 60.0)]
+    runs = []
+    for p in procs:
+        out, err = p.communicate(timeout=600)
+        assert p.returncode == 0, err[-2000:]
+        runs.append(json.loads(out.strip().splitlines()[-1]))
+    assert sorted(r["misses"] for r in runs) == [0, 1]
+    assert sorted(r["hits"] for r in runs) == [0, 1]
