@@ -66,6 +66,8 @@ class DiveChannels:
     sources: dict = field(default_factory=dict)
     pwm: dict = field(default_factory=dict)  # motor → (t, pwm) where logged
     unread: list = field(default_factory=list)  # a table's columns that look like data, not read
+    #: channel → ``[(samples left out, why)]`` by the reader's checks (a stuck sensor, spikes)
+    left_out: dict = field(default_factory=dict)
 
     @property
     def t_range(self) -> tuple[float, float]:
@@ -434,13 +436,93 @@ def _check_surface_reading(chans: dict, armed: list, name: str, warnings: list) 
                     f"sits {d0:.3g} m below the waterline of a vehicle floating disarmed)")
 
 
+#: a depth step between consecutive samples faster than this (m/s) is no motion: an ROV climbs or
+#: dives at 1–1.5 m/s at most (BlueROV2: about 1), so 5 m/s leaves room for any vehicle uuvid flies
+DEPTH_RATE_MAX_MPS = 5.0
+#: ... beyond this many times the depth's own noise σ (a high-rate noisy sensor) and at least
+#: :data:`DEPTH_JUMP_MIN_M`
+DEPTH_JUMP_NOISE = 10.0
+DEPTH_JUMP_MIN_M = 0.05
+#: a departure that lasts longer than this many samples *and* seconds is a level change (a sensor
+#: re-zeroed), not a glitch: not left out by the spike test
+SPIKE_MAX_SAMPLES = 5
+SPIKE_MAX_S = 2.0
+
+
+def _jump_pass(t, d, tol) -> np.ndarray:
+    """Samples that jump from the last good one by more than ``DEPTH_RATE_MAX_MPS·Δt + tol`` and
+    back again (the next good sample's step from them beyond the bound too) within
+    :data:`SPIKE_MAX_SAMPLES` samples or :data:`SPIKE_MAX_S` s (one pass, in the order given).
+    A departure that stays (no jump back) is a new level: its first sample becomes the good one."""
+    def jump(i, j) -> bool:
+        return abs(d[i] - d[j]) > DEPTH_RATE_MAX_MPS * abs(t[i] - t[j]) + tol
+
+    bad = np.zeros(t.size, bool)
+    g, run, i = 0, [], 1
+    while i < t.size:
+        if jump(i, g):
+            run.append(i)
+            if len(run) <= SPIKE_MAX_SAMPLES or abs(t[run[-1]] - t[run[0]]) <= SPIKE_MAX_S:
+                i += 1
+                continue
+        elif not run or jump(i, run[-1]):  # in line with the last good sample: back from a spike
+            bad[run] = True
+            g, run, i = i, [], i + 1
+            continue
+        g, i, run = run[0], run[0] + 1, []  # a departure that stays: a new level from its start
+    if run and (len(run) <= SPIKE_MAX_SAMPLES or abs(t[run[-1]] - t[run[0]]) <= SPIKE_MAX_S):
+        bad[run] = True  # a glitch at the end of the log
+    return bad
+
+
+def _drop_depth_spikes(chans: dict, name: str, warnings: list, left_out: dict,
+                       rows=None) -> None:
+    """Leave out (and say, with time, value and — for a table, ``rows`` its per-row stamps — row)
+    the depth samples no vehicle can produce: a step from the last good sample beyond
+    :data:`DEPTH_RATE_MAX_MPS` × the time between them plus the larger of
+    :data:`DEPTH_JUMP_NOISE` × the depth's noise σ (median absolute deviation of each sample from
+    the line through its neighbours) and :data:`DEPTH_JUMP_MIN_M`, that comes back within
+    :data:`SPIKE_MAX_SAMPLES` samples or :data:`SPIKE_MAX_S` s.  Tested forward and backward (a
+    glitch on the first samples is found from the end).  One bad sample (1e6 m, or 20 m) fitted
+    as motion gave a heave model with mass σ ×10⁵ its value, written as if usable; the samples
+    are left out (the windows then see the neighbours), the rest of the dive kept.  A level
+    change that does not come back (a re-zeroed sensor) is not a spike and is kept."""
+    if "depth_m" not in chans or chans["depth_m"][0].size < 5:
+        return
+    t, d = chans["depth_m"]
+    a = (t[2:] - t[1:-1]) / (t[2:] - t[:-2])
+    e = (d[1:-1] - (a * d[:-2] + (1 - a) * d[2:])) / np.sqrt(1 + a * a + (1 - a) ** 2)
+    sigma = float(1.4826 * np.median(np.abs(e - np.median(e))))
+    tol = max(DEPTH_JUMP_NOISE * sigma, DEPTH_JUMP_MIN_M)
+    step = np.abs(np.diff(d)) - DEPTH_RATE_MAX_MPS * np.diff(t)
+    if not np.any(step > tol):  # the usual log: no step beyond the bound, nothing to search
+        return
+    bad = _jump_pass(t, d, tol) | _jump_pass(t[::-1], d[::-1], tol)[::-1]
+    if not bad.any():
+        return
+    chans["depth_m"] = (t[~bad], d[~bad])
+    left_out.setdefault("depth_m", []).append((int(bad.sum()), "depth spikes"))
+    k = np.flatnonzero(bad)
+
+    def at(i) -> str:
+        row = (f" (row {int(np.searchsorted(rows, t[i])) + 2})" if rows is not None else "")
+        return f"{d[i]:.6g} m at t = {t[i]:.6g} s{row}"
+
+    more = f" and {k.size - 3} more" if k.size > 3 else ""
+    warnings.append(f"{name}: {k.size} depth_m sample(s) jump away from their neighbours faster "
+                    f"than {DEPTH_RATE_MAX_MPS:g} m/s (beyond {tol:.3g} m of noise) and come "
+                    f"back: {', '.join(at(i) for i in k[:3])}{more} — a sensor or logging "
+                    "glitch, not motion: those samples are left out")
+
+
 #: a measured channel repeating one value exactly for this long (s, ≥ 20 samples) while armed is
 #: a stuck sensor or a logger repeating its last reading, not a vehicle holding still (a real
 #: heading or depth moves by its noise)
 STUCK_S = 10.0
 
 
-def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
+def _drop_stuck(chans: dict, armed: list, name: str, warnings: list,
+                left_out: dict | None = None) -> None:
     """Leave out (and say) the stretches where ``depth_m`` or ``yaw_rad`` repeats one value
     exactly for :data:`STUCK_S` or longer while armed and its DOF's force is driven (a vehicle at
     rest on the bottom may repeat a quantised heading): fitted as a vehicle that did not move
@@ -471,6 +553,8 @@ def _drop_stuck(chans: dict, armed: list, name: str, warnings: list) -> None:
             spans.append((t[a], t[b], v[a]))
         if spans:
             chans[c] = (t[~drop], v[~drop])
+            if left_out is not None:
+                left_out.setdefault(c, []).append((int(drop.sum()), "a stuck sensor"))
             a, b, val = spans[0]
             if c == "yaw_rad":  # said as logged: wrapped (the reader unwraps headings)
                 val = (val + math.pi) % (2 * math.pi) - math.pi
@@ -758,6 +842,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     else:
         armed = [(float(t.min()), float(t.max()))]
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
+    left_out: dict = {}
+    _drop_depth_spikes(chans, name, warnings, left_out, rows=t)
     _check_units(chans, pwm, name, warnings, armed)
     forces = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
     directions = None
@@ -800,7 +886,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     _check_dead_outputs(pwm, armed, name, warnings)
     _check_neutral_outputs(pwm, armed, veh, name, warnings)
     _check_surface_reading(chans, armed, name, warnings)
-    _drop_stuck(chans, armed, name, warnings)
+    _drop_stuck(chans, armed, name, warnings, left_out)
     if thrust is not None:
         direction_check(chans, thrust, veh, armed, name, warnings,
                         table_fix if directions is None else bag_fix(directions))
@@ -812,7 +898,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                                     or c in (tcol, "armed", "mode") or c.startswith("pwm_")})
     if unread:
         warnings.append(f"{name}: column(s) {', '.join(unread[:8])} not read ({UNREAD_HINT})")
-    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread)
+    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out)
 
 
 def _armed_flags(word, a, name: str, warnings: list) -> np.ndarray:
@@ -1076,12 +1162,15 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         pwm = {str(m): _finite(t, tb[f"pwm_{m}"].to_numpy(float)) for m in dive.motors}
         src = {c: (dive.provenance.get(c) or {}).get("source") for c in chans}
         warnings += list(dive.warnings)
+        left_out: dict = {}
+        _drop_depth_spikes(chans, p.name, warnings, left_out)
         _check_neutral_outputs(pwm, armed, veh, p.name, warnings)
         _check_surface_reading(chans, armed, p.name, warnings)
-        _drop_stuck(chans, armed, p.name, warnings)
+        _drop_stuck(chans, armed, p.name, warnings, left_out)
         _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings, thruster_model)
         return DiveChannels(p.name, dive.format, chans, armed,
-                            _mode_runs(t, tb["mode"].astype(str).to_numpy()), warnings, src, pwm)
+                            _mode_runs(t, tb["mode"].astype(str).to_numpy()), warnings, src, pwm,
+                            left_out=left_out)
     what = f"unknown dive log type {p.suffix!r}" if p.suffix else "no file suffix"
     if suf in (".db3", ".mcap"):
         what = f"a ROS 2 bag's {suf} storage file without the bag's metadata.yaml beside it"
@@ -1124,6 +1213,8 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
 
         tm = load_thrust_model(thruster_model)
     chans, warnings = dict(bd.channels), list(bd.warnings)
+    left_out: dict = {}
+    _drop_depth_spikes(chans, bd.name, warnings, left_out)
     try:  # the table's unit checks, on the bag's channels (named with their topics)
         _check_units(chans, bd.pwm, bd.name, warnings)
     except DiveDataError as e:
@@ -1149,7 +1240,7 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
         if modes:
             modes[-1] = (modes[-1][0], max(modes[-1][1], bd.t_end), modes[-1][2])
     return DiveChannels(bd.name, bd.format, chans, armed, modes, warnings, dict(bd.sources),
-                        dict(bd.pwm))
+                        dict(bd.pwm), left_out=left_out)
 
 
 # ---------------------------------------------------------------------------------------------
