@@ -65,8 +65,8 @@ from uuvid.identify.vehicle.output_error import (
     loss_as_drag,
     loss_as_drag_text,
     noise_sigma,
-    not_finite_reasons,
     not_identifiable,
+    unusable_reasons,
     weighting_summary,
     weighting_text,
 )
@@ -109,6 +109,8 @@ _LABEL = {"heave": {"mass": "mass [kg]", "linear": "linear drag [N·s/m]",
                   "quadratic": "quadratic drag [N·m·s²/rad²]", "bias": "moment bias [N·m]"}}
 for _lab in _LABEL.values():
     _lab["inflow"] = "inflow coefficient k_a [N·s²/(rad·m)]"
+#: the parameters' names without their units (``mass`` is the yaw inertia's key)
+_NAMES = {d: {k: v.split(" [")[0] for k, v in lab.items()} for d, lab in _LABEL.items()}
 #: |ρ| beyond which k_a and the linear drag are reported as not separated
 RHO_LIMIT = 0.95
 
@@ -187,8 +189,15 @@ class DofEstimate:
     @property
     def unusable(self) -> list:
         """Why this estimate is not a model to use (empty when nothing says so): parameters or σ
-        that are not finite, a mass or inertia beyond :data:`FAR_FROM_BASE` of the base's."""
-        why = not_finite_reasons(self.names, self.values, self.sigma)
+        that are not finite, a mass or inertia not determined (σ beyond its value) or beyond
+        :data:`FAR_FROM_BASE` of the base's, an in-sample replay that explains nothing of the
+        channel (:func:`~uuvid.identify.vehicle.output_error.unusable_reasons`), a held-out part
+        the base predicts better."""
+        rms, nrmse = self.train.get("rms", math.nan), self.train.get("nrmse", math.nan)
+        why = unusable_reasons(self.names, self.values, self.sigma, inertias=("mass",),
+                               nrmse={CHANNEL_NAMES.get(self.dof, self.dof):
+                                      nrmse if math.isfinite(rms) else math.inf},
+                               labels=_NAMES.get(self.dof))
         if any(f"beyond the ×{FAR_FROM_BASE:g}" in w for w in self.warnings):
             why.append(f"{'inertia' if self.dof in ('roll', 'pitch', 'yaw') else 'mass'} beyond "
                        f"×{FAR_FROM_BASE:g} of the base's")
@@ -323,7 +332,7 @@ class DiveIdentification(Result):
         bad = {d: e.unusable for d, e in self.estimates.items() if getattr(e, "unusable", None)}
         if bad:
             raise WritebackError(
-                f"{out}: not written — " + "; ".join(f"{d} is not a model to use ({', '.join(w)})"
+                f"{out}: not written — " + "; ".join(f"{d} is not a model to use ({'; '.join(w)})"
                                                      for d, w in bad.items())
                 + ": resolve the warnings, or identify only the DOFs that are (--dof)")
         base = base or self.vehicle_ref
@@ -708,8 +717,8 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
                      "unknown, so mass and drag may be biased beyond σ; log the servo outputs "
                      "faster (telemetry SERVO_OUTPUT_RAW stream rate, or the .BIN's RCOU)")
     if math.isfinite(sigma["mass"]) and sigma["mass"] > 0.5 * values["mass"]:
-        warns.append(f"mass poorly determined (σ {sigma['mass']:.2g}): the dive has little "
-                     "acceleration")
+        warns.append(f"{_NAMES[dof]['mass']} poorly determined (σ {sigma['mass']:.2g}): the dive "
+                     "has little acceleration")
     r = values["mass"] / base.mass if base.mass > 0 else math.nan
     if math.isfinite(r) and not 1.0 / FAR_FROM_BASE <= r <= FAR_FROM_BASE:
         what = "inertia" if dof in ("roll", "pitch", "yaw") else "mass"

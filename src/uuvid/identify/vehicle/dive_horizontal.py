@@ -48,8 +48,8 @@ from uuvid.identify.vehicle.output_error import (
     levenberg_marquardt,
     loss_as_drag,
     loss_as_drag_text,
-    not_finite_reasons,
     not_identifiable,
+    unusable_reasons,
     weighting_summary,
     weighting_text,
 )
@@ -199,9 +199,17 @@ class HorizontalEstimate:
     @property
     def unusable(self) -> list:
         """Why this estimate is not a model to use (empty when nothing says so): a value or σ
-        that is not finite, a held-out channel the base vehicle predicts better than it by more
-        than 11 % (:data:`~uuvid.identify.vehicle.output_error.HELD_OUT_WORSE`)."""
-        why = not_finite_reasons(list(self.values), self.values, self.sigma)
+        that is not finite, an inertia not determined (σ beyond its value), a channel the
+        in-sample replay explains nothing of
+        (:func:`~uuvid.identify.vehicle.output_error.unusable_reasons`), a held-out channel the
+        base vehicle predicts better than it by more than 11 %
+        (:data:`~uuvid.identify.vehicle.output_error.HELD_OUT_WORSE`)."""
+        tr = self.train or {}
+        nrmse = {c: (tr[c].get("nrmse") if math.isfinite(tr[c].get("rms", math.nan))
+                     else math.inf) for c in H_CHANNELS if isinstance(tr.get(c), dict)}
+        why = unusable_reasons(list(self.values), self.values, self.sigma, inertias=_MASSES,
+                               nrmse=nrmse, labels={k: v.split(" [")[0]
+                                                    for k, v in _LABEL.items()})
         h = self.held_out or {}
         worse = [c for c in H_CHANNELS if (h.get("improvement") or {}).get(c) is not None
                  and h["improvement"][c] < HELD_OUT_WORSE]

@@ -147,16 +147,55 @@ def _left_out_residuals(Jg, Ainv, rg, floor: float):
 HELD_OUT_WORSE = 0.9
 
 
-def not_finite_reasons(names, values: dict, sigma: dict) -> list:
+#: an inertia (mass, moment of inertia) whose σ exceeds this × its value is not determined: the
+#: dive cannot tell it from 0, and a model built on it is a guess (a depth spike gave σ ×10⁴)
+INERTIA_SIGMA_MAX = 1.0
+#: an in-sample replay whose error is this large a part of the channel's own spread (nrmse, rms
+#: error / std of the measured channel) explains nothing of it — under 10 % of its variance
+#: (1 − 0.95²); the replays restart every window from the measured state, so a usable model is
+#: far below (0.05–0.3 on the project's dives)
+NRMSE_USELESS = 0.95
+
+
+def not_finite_reasons(names, values: dict, sigma: dict, labels: dict | None = None) -> list:
     """The reasons an estimate is no model to use that its numbers show: values that are not
-    finite, σ that are not (a parameter this log does not determine)."""
+    finite, σ that are not (a parameter this log does not determine); ``labels`` name the
+    parameters (``{"mass": "inertia"}`` in yaw)."""
+    lab = labels or {}
     why = []
     bad = [k for k in names if not math.isfinite(float(values.get(k, math.nan)))]
     if bad:
-        why.append(f"{', '.join(bad)} not finite")
+        why.append(f"{', '.join(lab.get(k, k) for k in bad)} not finite")
     loose = [k for k in names if k not in bad and not math.isfinite(float(sigma.get(k, math.nan)))]
     if loose:
-        why.append(f"σ of {', '.join(loose)} not finite (not determined by this log)")
+        why.append(f"σ of {', '.join(lab.get(k, k) for k in loose)} not finite (not determined by "
+                   "this log)")
+    return why
+
+
+def unusable_reasons(names, values: dict, sigma: dict, *, inertias=(), nrmse=None,
+                     labels: dict | None = None) -> list:
+    """Why an estimate is no model to use, from its numbers: :func:`not_finite_reasons`; an
+    inertia among ``inertias`` whose σ exceeds :data:`INERTIA_SIGMA_MAX` × its value (not
+    determined); an in-sample replay (``nrmse``: ``{channel: nrmse}``) that does not stay
+    finite or whose nrmse reaches :data:`NRMSE_USELESS` (the model explains nothing of the
+    channel).  Drag terms and biases may be loose on their own (their σ is warned of): the
+    inertia and the replay say whether the model as a whole is one."""
+    lab = labels or {}
+    why = not_finite_reasons(names, values, sigma, labels)
+    for k in inertias:
+        v, s = float(values.get(k, math.nan)), float(sigma.get(k, math.nan))
+        if math.isfinite(v) and math.isfinite(s) and s > INERTIA_SIGMA_MAX * abs(v):
+            why.append(f"σ of {lab.get(k, k)} {s:.2g} is larger than its value {v:.3g}: not "
+                       "determined by this log")
+    for ch, n in (nrmse or {}).items():
+        if n is None or (isinstance(n, float) and math.isnan(n)):
+            continue  # a channel without spread: no nrmse (the rms is reported)
+        if not math.isfinite(n):
+            why.append(f"its in-sample replay of {ch} does not stay finite")
+        elif n >= NRMSE_USELESS:
+            why.append(f"its in-sample replay explains nothing of the {ch} (nrmse {n:.3g} ≥ "
+                       f"{NRMSE_USELESS:g}: the error is as large as the {ch}'s own spread)")
     return why
 
 
