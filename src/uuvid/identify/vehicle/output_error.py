@@ -300,7 +300,8 @@ def dead_band_weights(delta_y, sigma_y) -> np.ndarray:
     """
     d = np.asarray(delta_y, float)
     s = max(float(sigma_y), 1e-12) if math.isfinite(float(sigma_y)) else 1.0
-    w = 1.0 / np.sqrt(1.0 + (np.where(np.isfinite(d), d, 0.0) / s) ** 2)
+    with np.errstate(over="ignore"):  # a δy beyond 1e154 σ (a start that blew up): weight 0
+        w = 1.0 / np.hypot(1.0, np.where(np.isfinite(d), d, 0.0) / s)
     return w
 
 
