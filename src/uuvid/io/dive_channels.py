@@ -111,9 +111,16 @@ class DiveChannels:
             n = self.channels[meas][0].size if meas in self.channels else 0
             have = [d for d in DIVE_DOFS if DIVE_DOFS[d][0] in self.channels
                     and self.channels[DIVE_DOFS[d][0]][0].size >= 4]
-            raise DiveDataError(f"{self.name}: " + (f"only {n} {meas} samples (need at least 4)"
-                                                    if n else f"no {meas} samples")
-                                + f": {dof} needs {_SOURCE_HINT[meas]}; pass "
+            gone = self.left_out.get(meas, [])
+            if gone:  # the log had them: the reader's checks left them out (said in a warning)
+                what = (f"{'only ' + str(n) if n else 'no'} {meas} samples left: "
+                        f"{sum(k for k, _ in gone)} were left out as "
+                        f"{' and '.join(w for _, w in gone)}; {dof} needs at least 4 that "
+                        "follow the vehicle")
+            else:
+                what = ((f"only {n} {meas} samples (need at least 4)" if n else
+                         f"no {meas} samples") + f": {dof} needs {_SOURCE_HINT[meas]}")
+            raise DiveDataError(f"{self.name}: {what}; pass "
                                 + (f"--dof {'|'.join(have)} or " if have else "")
                                 + "a log that has it" + self._unread_text())
         if force not in self.channels or self.channels[force][0].size < 2:
