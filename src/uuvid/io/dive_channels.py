@@ -950,8 +950,9 @@ def _drop_spare_outputs(pwm: dict, veh, name: str, warnings: list) -> None:
     why = (f"; pwm_{', pwm_'.join(off)} are off throughout (0 µs or empty): if the frame has "
            "fewer motors, drop those columns" if off else "")
     raise DiveDataError(f"{name}: {len(pwm)} pwm_ columns (motors {', '.join(keys)}) but vehicle "
-                        f"{veh.name!r} has {n} thrusters{why}; otherwise pass the vehicle the "
-                        "log was flown with (e.g. bluerov2 for 6, bluerov2-heavy for 8)")
+                        f"{veh.name!r} has {n} thrusters{why}; {'otherwise ' if off else ''}"
+                        "pass the vehicle the log was flown with (e.g. bluerov2 for 6, "
+                        "bluerov2-heavy for 8)")
 
 
 @dataclass
