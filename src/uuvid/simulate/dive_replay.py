@@ -469,9 +469,10 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     :class:`~uuvid.io.dive_channels.DiveChannels`; ``params``, ``topics``: as for
     :func:`~uuvid.io.dive_channels.read_dive_channels` (ArduSub parameters; a ROS bag's topics).
     """
-    from uuvid.core.checks import time_window
+    from uuvid.core.checks import seconds_or_none, time_window
     from uuvid.vehicle.definition import load_vehicle
 
+    seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon)
     time_window(t_start, t_end, horizon, error=DiveDataError)
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
@@ -580,6 +581,13 @@ def _dof_list(dofs, dc) -> list:
         return out
     if isinstance(dofs, str):
         dofs = [dofs]
+    if not list(dofs):  # `--dof ''` or `--dof ,`: not "all" and not a name
+        have = [d for d in DIVE_DOFS if DIVE_DOFS[d][0] in dc.channels
+                and DIVE_DOFS[d][1] in dc.channels]
+        raise DiveDataError("the DOF list is empty: name one or more of heave, yaw, surge, sway, "
+                            "horizontal (a comma list), or all"
+                            + (f"; {dc.name} has the channels for {', '.join(have)}" if have
+                               else f"; {dc.name} has the channels of none"))
     bad = [d for d in dofs if d not in DIVE_DOFS and d != "horizontal"]
     if bad:
         raise DiveDataError(f"unknown DOF {bad[0]!r}; expected heave, yaw, surge, sway, "
