@@ -107,6 +107,18 @@ def supply_voltage(name: str, value) -> float:
     return v
 
 
+def seconds_or_none(**values) -> None:
+    """``TypeError`` naming the keyword argument when one of ``values`` is neither ``None`` nor a
+    real number (``t_start="10"`` from a script raised a bare comparison error deep in the
+    reader): ``t_start = '10': expected a number of seconds (int or float) or None, got str``."""
+    import numbers
+
+    for name, v in values.items():
+        if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Real)):
+            raise TypeError(f"{name} = {v!r}: expected a number of seconds (int or float) or "
+                            f"None, got {type(v).__name__}")
+
+
 def time_window(t_start=None, t_end=None, horizon=None, *, error=ValueError) -> None:
     """A log's time bounds and window length as given (``None``: not given): finite times, an
     end after the start, a window > 0 s; ``error`` (a ``ValueError`` type) naming the options

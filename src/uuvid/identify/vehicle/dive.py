@@ -848,10 +848,12 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     The coupled horizontal model fits one ``k_a`` for its three DOF, with the loss
     ``k_a C(t) (u, v, r)`` coupling them (:func:`uuvid.vehicle.inflow.horizontal_inflow_matrix`).
     """
-    from uuvid.core.checks import time_window
+    from uuvid.core.checks import seconds_or_none, time_window
     from uuvid.vehicle.definition import load_vehicle
 
     t0 = time.perf_counter()
+    seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon,
+                    held_out_horizon=held_out_horizon)
     time_window(t_start, t_end, horizon, error=DiveDataError)
     time_window(horizon=held_out_horizon, error=DiveDataError)
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
