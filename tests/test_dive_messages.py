@@ -1,0 +1,78 @@
+"""The dive commands' messages say what is wrong and what to do: a thruster count that does not
+match, an empty DOF list, a heading left out as a stuck sensor, a time given as text from Python."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.identify.vehicle.dive import identify_dive
+from uuvid.io.dive_channels import DiveDataError, read_dive_channels
+from uuvid.simulate.dive_replay import replay_dive
+
+runner = CliRunner()
+
+
+def _table(n_pwm: int = 6, n: int = 1200, rate: float = 20.0) -> pd.DataFrame:
+    """A 60 s dive table: depth 0–2 m, a slow turn, ``n_pwm`` driven servo outputs, 16 V."""
+    t = np.arange(n) / rate
+    df = pd.DataFrame({"t_s": t, "depth_m": 1.0 - np.cos(t / 10.0),
+                       "yaw_rad": 0.3 * np.sin(t / 7.0), "battery_V": 16.0 - 0.001 * t})
+    for j in range(1, n_pwm + 1):
+        df[f"pwm_{j}"] = np.rint(1500 + 100 * np.sin(t / (3.0 + j)))
+    return df
+
+
+@pytest.mark.parametrize("n_pwm", [3, 8])
+def test_a_thruster_count_that_does_not_match_says_what_to_pass(n_pwm):
+    """It read "…has 6 thrusters; otherwise pass the vehicle…" with nothing before "otherwise"."""
+    with pytest.raises(DiveDataError) as e:
+        read_dive_channels(_table(n_pwm), "bluerov2")
+    msg = str(e.value)
+    assert f"{n_pwm} pwm_ columns" in msg and "has 6 thrusters; pass the vehicle the log was " \
+                                              "flown with" in msg
+    assert "otherwise" not in msg
+
+
+def test_outputs_off_throughout_keep_their_otherwise():
+    df = _table(8)
+    df["pwm_7"] = 0.0
+    df["pwm_2"] = 0.0  # one of the six off too: the spares cannot simply be dropped
+    with pytest.raises(DiveDataError, match="drop those columns; otherwise pass the vehicle"):
+        read_dive_channels(df, "bluerov2")
+
+
+@pytest.mark.parametrize("command", [["vehicle", "identify", "dive"], ["vehicle", "replay"]])
+def test_an_empty_dof_list_says_so_and_names_the_dofs_the_log_has(tmp_path, command):
+    """`--dof ''` gave "no DOF could be identified:  (read from …)" with no reason."""
+    p = tmp_path / "d.csv"
+    _table().to_csv(p, index=False)
+    r = runner.invoke(app, [*command, str(p), "--vehicle", "bluerov2", "--dof", ""])
+    assert r.exit_code == 2
+    text = " ".join(r.output.split())
+    assert "the DOF list is empty" in text and "d.csv has the channels for heave, yaw" in text
+
+
+def test_a_heading_left_out_as_a_stuck_sensor_is_said_so_not_missing():
+    """A constant heading was left out as a stuck sensor, then the error said "no yaw_rad
+    samples" though the column had 1200."""
+    df = _table()
+    df["yaw_rad"] = 0.5
+    with pytest.raises(DiveDataError) as e:
+        identify_dive(df, "bluerov2", ["yaw"])
+    msg = str(e.value)
+    assert "no yaw_rad samples left: 1200 were left out as a stuck sensor" in msg, msg
+    assert "needs a heading source" not in msg
+
+
+@pytest.mark.parametrize("fn", [identify_dive, replay_dive])
+@pytest.mark.parametrize("kw", [{"t_start": "10"}, {"t_end": "250"}, {"horizon": [5]}])
+def test_a_time_given_as_text_from_python_names_the_parameter(fn, kw):
+    """`t_start='10'` raised a bare TypeError from a comparison deep in the reader."""
+    (name, value), = kw.items()
+    with pytest.raises(TypeError, match=rf"^{name} = {value!r}: expected a number of seconds"
+                                        .replace("[", r"\[").replace("]", r"\]")):
+        fn(_table(), "bluerov2", ["heave"], **kw)
