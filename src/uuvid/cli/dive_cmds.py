@@ -32,7 +32,9 @@ LOG_ARG = typer.Argument(..., help="ArduSub .tlog/.BIN; a ROS 1 .bag or ROS 2 ba
 PARAMS = typer.Option(None, "--params", help="ArduSub parameter file (QGroundControl / Mission "
                                              "Planner / BlueOS) for what the log lacks: a ROS bag "
                                              "has none, so SERVOn_FUNCTION and MOT_n_DIRECTION "
-                                             "(reversed motors) come from here.")
+                                             "(reversed motors) come from here; a CSV/Parquet "
+                                             "table's pwm_<n> columns (motor n) take its "
+                                             "MOT_n_DIRECTION.")
 TOPIC = typer.Option(None, "--topic", metavar="ROLE=TOPIC:FIELD",
                      help="ROS bags: ROLE=TOPIC:FIELD, or ROLE=TOPIC for the topic's usual "
                           "field, overriding a default mavros topic; roles "

@@ -808,7 +808,10 @@ def _export_directions(meta: dict, pwm: dict) -> dict | None:
 
 
 def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
-                export: dict | None = None) -> DiveChannels:
+                export: dict | None = None, params: tuple | None = None) -> DiveChannels:
+    """A table's channels; ``params``: ``({NAME: value}, where)`` of ``--params``, whose
+    ``MOT_n_DIRECTION`` the forces computed from the ``pwm_`` columns take
+    (:func:`_param_directions`)."""
     _check_duplicate_columns(df, name)
     df = _canonical_names(df, name, warnings)
     cols = list(df.columns)
@@ -881,11 +884,16 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                 warnings.append(f"{name}: exported with vehicle {made_for!r}, read as "
                                 f"{veh.name!r}: the export's forces are {made_for}'s")
     missing = [c for c in forces if c not in chans]
+    label = None if directions is None else \
+        "the pwm_ columns (the log's motor directions, from the export)"
+    if params is not None:
+        directions = _param_directions(params, pwm, directions, name, warnings,
+                                       used=bool(missing and pwm and veh is not None))
+        label = f"the pwm_ columns (MOT_n_DIRECTION from {params[1]})"
     thrust = None
     if missing and pwm and veh is not None:
         thrust = _forces_from_pwm(chans, pwm, veh, name, warnings, directions=directions,
-                                  label=None if directions is None else
-                                  "the pwm_ columns (the log's motor directions, from the export)")
+                                  label=label)
     if not missing and pwm and export is None:
         warnings.append(f"{name}: the table has all six force columns (X_N … N_Nm) and pwm_ "
                         "columns: the forces are used and the pwm_ columns are not (remove the "
@@ -906,6 +914,50 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     if unread:
         warnings.append(f"{name}: column(s) {', '.join(unread[:8])} not read ({UNREAD_HINT})")
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out)
+
+
+def _param_directions(params: tuple, pwm: dict, export_dirs: dict | None, name: str,
+                      warnings: list, used: bool) -> dict | None:
+    """``{motor: ±1}`` for a table's ``pwm_<n>`` columns (column n is motor n, as `uuvid log
+    export` writes them) from ``--params``' ``MOT_n_DIRECTION`` (a motor it does not name keeps
+    the export's direction, or +1), as the ArduSub and bag readers apply it
+    (:func:`~uuvid.io.ardusub.frames.effective_pwm`).  ``SERVOn_FUNCTION`` maps outputs to
+    motors; a table's columns are motors already, so a mapping other than n → n is said as not
+    applied.  Said too: a file that gives no direction, a table whose forces are its own columns
+    (``used`` false: nothing to apply the directions to)."""
+    from uuvid.io.ardusub.frames import MOTOR_FUNCTIONS
+
+    prm, where = params
+    if not used:
+        warnings.append(f"{name}: {where}: "
+                        + ("the table's force columns X_N … N_Nm are used as they are"
+                           if pwm else "the table has no pwm_ columns") +
+                        ", so its MOT_n_DIRECTION is not applied to anything")
+        return export_dirs
+    d = {k: float((export_dirs or {}).get(k, 1.0)) for k in pwm}
+    given = [k for k in _motor_order(pwm) if f"MOT_{k}_DIRECTION" in prm]
+    for k in given:
+        v = float(prm[f"MOT_{k}_DIRECTION"])
+        if v not in (1.0, -1.0):
+            warnings.append(f"{name}: MOT_{k}_DIRECTION = {v:g} in {where} is neither 1 nor -1; "
+                            "its sign is used")
+        d[k] = -1.0 if v < 0 else 1.0
+    if not given:
+        warnings.append(f"{name}: {where} gives no MOT_n_DIRECTION for motors "
+                        f"{', '.join(_motor_order(pwm))}: " + ("the export's directions kept"
+                                                               if export_dirs else
+                                                               "+1 (normal) assumed"))
+    moved = []
+    for key, v in prm.items():
+        out = key[5:-9] if key.startswith("SERVO") and key.endswith("_FUNCTION") else ""
+        mot = MOTOR_FUNCTIONS.get(int(round(float(v)))) if out.isdigit() else None
+        if out in pwm and mot is not None and str(mot) != out:
+            moved.append(f"SERVO{out}_FUNCTION → motor {mot}")
+    if moved:
+        warnings.append(f"{name}: {where}: {', '.join(moved[:4])} not applied — a table's pwm_<n> "
+                        "column is read as motor n (as `uuvid log export` writes it); put each "
+                        "motor's output in its pwm_<motor> column")
+    return d
 
 
 def _armed_flags(word, a, name: str, warnings: list) -> np.ndarray:
@@ -1099,7 +1151,9 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
                        topics=None) -> DiveChannels:
     """Read a dive (path or pandas DataFrame; see the module doc).  ``topics``: ROS bags only,
     ``{role: "topic:field"}`` or ``["role=topic:field", …]`` overriding the default topics
-    (:data:`uuvid.io.dive_rosbag.DEFAULT_TOPICS`).  Raises :class:`DiveDataError` /
+    (:data:`uuvid.io.dive_rosbag.DEFAULT_TOPICS`).  ``params``: ArduSub parameters (a file or
+    ``{NAME: value}``) the log lacks; a table's ``pwm_<n>`` columns take their
+    ``MOT_n_DIRECTION`` (a file that cannot be read is an error).  Raises :class:`DiveDataError` /
     :class:`~uuvid.io.logs.LogDataError` naming what is missing."""
     import pandas as pd
 
@@ -1124,8 +1178,14 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
     if topics:
         raise DiveDataError(f"{'<table>' if p is None else p.name}: --topic applies to ROS bags "
                             "only (a .bag file or a ROS 2 bag directory)")
+    table_params = None
+    if params is not None and (p is None or p.suffix.lower() in (".csv", ".parquet")):
+        from uuvid.io.ardusub.sources import merge_params  # a missing file: an error, first
+
+        table_params = (merge_params({}, params, []), "--params " + (
+            Path(params).name if isinstance(params, (str, Path)) else "(the given parameters)"))
     if p is None:
-        return _from_table(log, "<table>", "table", veh, warnings)
+        return _from_table(log, "<table>", "table", veh, warnings, params=table_params)
     suf = p.suffix.lower()
     if p.is_dir():
         raise DiveDataError(_folder_message(p))
@@ -1141,7 +1201,8 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
             raise DiveDataError(f"{p.name}: not a readable CSV table ({why}); expected "
                                 "comma-separated columns with a header row (t_s, depth_m, …) and "
                                 "'.' as the decimal point") from None
-        return _from_table(df, p.name, "csv", veh, warnings, export=_export_meta(p, None))
+        return _from_table(df, p.name, "csv", veh, warnings, export=_export_meta(p, None),
+                           params=table_params)
     if suf == ".parquet":
         try:
             df = pd.read_parquet(p)
@@ -1150,7 +1211,8 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
                                 f"{str(e).splitlines()[0][:160] if str(e) else ''}); expected a "
                                 "table with t_s and the dive's columns, as `uuvid log export` "
                                 "writes it") from None
-        return _from_table(df, p.name, "parquet", veh, warnings, export=_export_meta(p, df))
+        return _from_table(df, p.name, "parquet", veh, warnings, export=_export_meta(p, df),
+                           params=table_params)
     if suf in (".tlog", ".bin", ".log"):
         from uuvid.io.ardusub import load_dive
 
