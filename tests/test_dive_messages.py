@@ -76,3 +76,54 @@ def test_a_time_given_as_text_from_python_names_the_parameter(fn, kw):
     with pytest.raises(TypeError, match=rf"^{name} = {value!r}: expected a number of seconds"
                                         .replace("[", r"\[").replace("]", r"\]")):
         fn(_table(), "bluerov2", ["heave"], **kw)
+
+
+def _forces(dc) -> np.ndarray:
+    return np.vstack([dc.channels[c][1] for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")])
+
+
+def test_params_reverse_a_tables_motor_as_for_an_ardusub_log(tmp_path):
+    """`--params` was silently ignored for CSV/Parquet: MOT_1_DIRECTION,-1 changed nothing and
+    the run still said "no reversal applied"."""
+    df = _table()
+    p = tmp_path / "d.csv"
+    df.to_csv(p, index=False)
+    prm = tmp_path / "rev.params"
+    prm.write_text("MOT_1_DIRECTION,-1\n")
+    plain = read_dive_channels(p, "bluerov2")
+    rev = read_dive_channels(p, "bluerov2", params=prm)
+    assert any("reversed (MOT_n_DIRECTION = -1): motor(s) 1" in w and "rev.params" in w
+               for w in rev.warnings), rev.warnings
+    assert not any("no reversal applied" in w for w in rev.warnings)
+    # the same as mirroring pwm_1 about 1500 µs in the table
+    mirrored = df.copy()
+    mirrored["pwm_1"] = 3000 - mirrored["pwm_1"]
+    ref = read_dive_channels(mirrored, "bluerov2")
+    np.testing.assert_allclose(_forces(rev), _forces(ref), atol=1e-9)
+    assert not np.allclose(_forces(rev), _forces(plain))
+    # a DataFrame and a {NAME: value} mapping alike
+    np.testing.assert_allclose(_forces(read_dive_channels(df, "bluerov2",
+                                                          params={"MOT_1_DIRECTION": -1})),
+                               _forces(ref), atol=1e-9)
+
+
+def test_a_missing_params_file_is_an_error_for_a_table(tmp_path):
+    p = tmp_path / "d.csv"
+    _table().to_csv(p, index=False)
+    r = runner.invoke(app, ["vehicle", "identify", "dive", str(p), "--vehicle", "bluerov2",
+                            "--dof", "heave", "--params", str(tmp_path / "nosuch.params")])
+    assert r.exit_code == 2
+    assert "nosuch.params: cannot read the parameter file" in " ".join(r.output.split())
+
+
+def test_params_a_table_cannot_use_are_said(tmp_path):
+    df = _table()
+    df["Z_N"] = 0.0
+    for c in ("X_N", "Y_N", "K_Nm", "M_Nm", "N_Nm"):
+        df[c] = 0.0
+    dc = read_dive_channels(df, "bluerov2", params={"MOT_1_DIRECTION": -1})
+    assert any("force columns X_N … N_Nm are used as they are, so its MOT_n_DIRECTION is not "
+               "applied" in w for w in dc.warnings)
+    dc = read_dive_channels(_table(), "bluerov2", params={"SERVO1_FUNCTION": 34,
+                                                         "SERVO2_FUNCTION": 33})
+    assert any("SERVO1_FUNCTION → motor 2" in w and "not applied" in w for w in dc.warnings)
