@@ -86,7 +86,9 @@ def test_a_fit_that_determines_nothing_is_not_a_model_to_use(clean, tmp_path):
     (nrmse ≈ 1), made no reason: the estimate was written."""
     h = clean.estimates["heave"]
     loose = dataclasses.replace(h, sigma={**h.sigma, "mass": 2.1 * h.values["mass"]})
-    assert any("σ of mass" in w and "larger than its value" in w for w in loose.unusable)
+    assert any("σ of mass" in w and "more than 2× its value" in w for w in loose.unusable)
+    near = dataclasses.replace(h, sigma={**h.sigma, "mass": 1.5 * h.values["mass"]})
+    assert not near.unusable  # poorly determined (a warning), not undetermined
     flat = dataclasses.replace(h, train={**h.train, "nrmse": 1.001})
     assert any("explains nothing of the depth" in w for w in flat.unusable)
     blown = dataclasses.replace(h, train={**h.train, "rms": math.inf, "nrmse": math.nan})
