@@ -74,6 +74,33 @@ def _fail_flagged(err: BaseException | str, flags: dict[str, str], prefix: str =
     _fail(prefix + _flagged(text, flags))
 
 
+def check_outputs(*outputs) -> None:
+    """Every destination a command writes, checked before it computes or writes anything:
+    ``(option, path, kind)`` with ``kind`` ``"folder"`` (a report folder,
+    :func:`uuvid.core.atomic.check_writable_dir`) or ``"file"``
+    (:func:`~uuvid.core.atomic.check_writable_file`); ``path`` ``None``: not asked for.  One that
+    cannot be written ends the command naming the option (a file where a folder goes, no
+    permission), so a run either writes all its outputs or none; nothing is created here (the
+    writers make the folders), so a run that then fails on its input leaves no empty folder."""
+    from uuvid.core.atomic import check_writable_dir, check_writable_file
+
+    for opt, path, kind in outputs:
+        if path is None:
+            continue
+        try:
+            (check_writable_dir if kind == "folder" else check_writable_file)(path, create=False)
+        except OSError as e:
+            where = e.filename or path
+            if isinstance(e, (FileExistsError, NotADirectoryError)) and os.path.isfile(where):
+                what = (f"{where} is a file, not a folder" if str(where) != str(path) else
+                        "a file of that name is in the way (a folder was expected)")
+            elif isinstance(e, IsADirectoryError):
+                what = "a folder of that name is in the way (a file was expected)"
+            else:
+                what = f"cannot write in {where} ({e.strerror or e})"
+            _fail(f"{opt} {path}: {what}; nothing was written")
+
+
 def _table(title: str, rows: list[dict], columns: list[str], fmt: str = "{:.3g}") -> Table:
     t = Table(title=escape(title))
     for c in columns:

@@ -157,7 +157,14 @@ def thruster_fit(
     json_out: bool = typer.Option(False, "--json", help="Print a summary as one JSON document."),
 ):
     """Identify a thruster model from bench data; write the model file and a report."""
-    from uuvid.cli.common import _fail, _load_model, _print_json, err_console, out_console
+    from uuvid.cli.common import (
+        _fail,
+        _load_model,
+        _print_json,
+        check_outputs,
+        err_console,
+        out_console,
+    )
     from uuvid.io.bench import BenchDataError
     from uuvid.thruster.blocks import ParameterError
     from uuvid.thruster.modelfile import ModelFileError, save_chain
@@ -199,6 +206,8 @@ def thruster_fit(
         _fail(f"--neutral {neutral:g}: expected a finite command (default 1500 µs, or 0)")
     if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
         _fail(f"--supply-voltage must be positive, got {supply_voltage}")
+    # every destination before the fit and before any is written: a failed run leaves the old files
+    check_outputs(("--out-model", out, "file"), ("--report", report, "folder"))
     try:
         outcome = run_fit(data, kind, opts, degree=degree, criterion=criterion.value,
                           map_input=map_input.value, table_points=table_points,
@@ -209,16 +218,6 @@ def thruster_fit(
         _fail(str(e))
     except ValueError as e:  # run validation in the dynamic fits (time grid, lengths, channels)
         _fail(f"{'--select' if select else '--model ' + kind}: {e}")
-    from uuvid.core.atomic import check_writable_dir
-
-    for opt, folder in (("--out-model", out.parent), ("--report", report)):
-        if folder is None:
-            continue
-        try:  # every destination before any is written: a failed run leaves the old files
-            check_writable_dir(folder)
-        except OSError as e:
-            _fail(f"{opt} {out if opt == '--out-model' else report}: cannot write in "
-                  f"{e.filename or folder} ({e.strerror or e}); nothing was written")
     try:
         save_chain(outcome.chain, out)
     except OSError as e:

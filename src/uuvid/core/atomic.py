@@ -47,6 +47,7 @@ from typing import Any
 
 __all__ = [
     "check_writable_dir",
+    "check_writable_file",
     "atomic_dir",
     "atomic_path",
     "atomic_write_bytes",
@@ -71,18 +72,23 @@ _SWEPT: set[str] = set()
 # --------------------------------------------------------------------------------------------
 
 
-def check_writable_dir(path: str | os.PathLike[str]) -> Path:
+def check_writable_dir(path: str | os.PathLike[str], create: bool = True) -> Path:
     """Create the folder ``path`` if needed and check that a file can be written in it (a file is
     created and removed); raises :class:`OSError` (``NotADirectoryError`` when a parent is a
     file).  For commands that write several outputs: check them all before writing any, so a
-    failure writes nothing."""
+    failure writes nothing.  ``create=False``: nothing is created — the nearest folder of
+    ``path`` that exists is probed instead (the writers create the rest), so a run that then
+    fails on its input leaves no empty folder behind."""
     d = Path(path)
     for parent in (d, *d.parents):
         if parent.exists():
             if not parent.is_dir():
                 raise NotADirectoryError(errno.ENOTDIR, "a file, not a folder", str(parent))
             break
-    d.mkdir(parents=True, exist_ok=True)
+    if create:
+        d.mkdir(parents=True, exist_ok=True)
+    else:
+        d = parent if parent.exists() else Path.cwd()
     try:
         fd, name = tempfile.mkstemp(prefix=".uuvid-check-", dir=d)
     except OSError as e:  # name the folder, not the probe file
@@ -90,6 +96,17 @@ def check_writable_dir(path: str | os.PathLike[str]) -> Path:
     os.close(fd)
     os.unlink(name)
     return d
+
+
+def check_writable_file(path: str | os.PathLike[str], create: bool = True) -> Path:
+    """Check that the file ``path`` can be written: not a folder, and its folder writable
+    (:func:`check_writable_dir`; ``create``: as there); raises :class:`OSError`
+    (``IsADirectoryError`` when ``path`` is a folder)."""
+    p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "a folder, not a file", str(p))
+    check_writable_dir(p.parent, create=create)
+    return p
 
 
 def _create_temp(target: Path) -> Path:
