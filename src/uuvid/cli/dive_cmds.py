@@ -96,11 +96,13 @@ def identify_dive_cmd(
     """Identify per-DOF models (mass with added mass, drag, net buoyancy) from every armed sample
     of a piloted dive, closed-loop modes included; --dof horizontal identifies surge, sway and
     yaw jointly with the coupled model where a DVL logs u and v."""
-    from uuvid.cli.common import _fail
+    from uuvid.cli.common import _fail, check_outputs
     from uuvid.identify.vehicle.dive import identify_dive
 
     if out_vehicle is not None and out_vehicle.suffix.lower() not in (".yaml", ".yml"):
         _fail(f"--out-vehicle {out_vehicle}: the new vehicle file must end in .yaml or .yml")
+    # before the fit: a --report that is a file failed after --out-vehicle had been written
+    check_outputs(("--out-vehicle", out_vehicle, "file"), ("--report", report, "folder"))
 
     def write(res, doc):
         if out_vehicle is not None:
@@ -129,7 +131,10 @@ def replay_dive_cmd(
 ):
     """Drive the vehicle's model with the logged thruster forces (at the logged voltage),
     restarting every --horizon s from the measured state; compare depth, heading, velocities."""
+    from uuvid.cli.common import check_outputs
     from uuvid.simulate.dive_replay import replay_dive
+
+    check_outputs(("--out", out, "folder"))
 
     def write(res, doc):
         if out is not None:
@@ -156,8 +161,11 @@ def _run(compute, write, json_out: bool, write_error) -> None:
     except (*_errors(), OSError) as e:  # the result first, then why nothing (more) was written
         if not json_out:
             out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)
-        _fail(write_error(e) if isinstance(e, OSError) and not isinstance(e, _errors())
-              else str(e).strip("'\""))
+        done = [str(doc[k]) for k in ("out_vehicle", "report") if k in doc]
+        text = (write_error(e) if isinstance(e, OSError) and not isinstance(e, _errors())
+                else str(e).strip("'\""))
+        _fail(text + (f"; {' and '.join(done)} had been written before" if done else
+                      "" if "nothing was written" in text else "; nothing was written"))
     if json_out:
         _print_json(doc)
     else:
