@@ -167,6 +167,9 @@ def study(
         bws = tuple(float(x) for x in bandwidths.split(","))
     except ValueError:
         _fail(f"--bandwidths: expected comma-separated numbers, got {bandwidths!r}")
+    from uuvid.cli.common import check_outputs
+
+    check_outputs(("--out", out, "folder"))  # before the study, not after 35 s of it
     try:
         with progress_task("thruster-loop study", total=6 * len(bws)) as task:
             result = st.run_study(bws, progress=task.advance)

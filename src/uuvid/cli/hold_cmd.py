@@ -93,6 +93,9 @@ def vehicle_hold(
         _fail(str(e))
     if sim and battery is not None:
         _fail("--simulate confirms at fixed limits: give --voltage instead of --battery")
+    from uuvid.cli.common import check_outputs
+
+    check_outputs(("--out", out, "folder"))  # before the polar is computed, not after
     # the direction of --current and --simulate is checked (and warned of) above, once: the
     # library's private paths take it as it is
     try:

@@ -44,6 +44,7 @@ def _load_vehicle(name: str, need: str = "", inflow: str | None = None):
 
 
 def _fly(spec, base, out, json_out, label, where, inflow=None):
+    from uuvid.cli.common import check_outputs
     from uuvid.core.progress import progress_task
     from uuvid.simulate.control.files import describe
     from uuvid.simulate.scenario import build
@@ -51,6 +52,7 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
     from uuvid.thruster.modelfile import ModelFileError
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
+    check_outputs(("--out", out, "folder"))  # before the flight, not after it
     try:
         vehicle, setup = build(spec, base, inflow)  # --inflow over the scenario's and file's key
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
