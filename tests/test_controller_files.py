@@ -106,3 +106,30 @@ def test_cli_flies_the_chosen_controller(tmp_path, monkeypatch, which):
     assert doc["controller_output"] == ("thrust" if which == "lqr" else "wrench")
     assert doc["completed"]
     assert want in (tmp_path / "out" / "index.html").read_text(encoding="utf-8")
+
+
+@pytest.mark.slow
+def test_demo_flies_the_example_file_on_the_pid_blocks_loop(tmp_path):
+    """The demo's controller section writes the example controller file and flies it under the
+    PID block's disturbance: the same compiled loop (one per configuration, the controller a
+    function pointer), not one compiled around the file's controller."""
+    from uuvid.core.html import Report
+    from uuvid.demo import _blocks_section
+    from uuvid.simulate.disturbances import sinusoidal
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.scenario import build, scenario_from_dict
+    from uuvid.simulate.vehicle_sim import mission_runner, setup_mission
+    from uuvid.vehicle.definition import load_vehicle
+
+    rows = _blocks_section(tmp_path, Report("demo"), quick=False)["rows"]
+    assert (tmp_path / "my_controller.py").is_file()
+    own = [r for r in rows if "my_controller.py" in r["controller"]]
+    assert len(own) == 1 and own[0]["max_tracking_error_m"] < 1.0
+    v = load_vehicle("bluerov2")
+    wave = sinusoidal(amplitude=(10.0, 0, 8.0, 0, 0, 0), period=5.0)
+    _, s = build(scenario_from_dict({"vehicle": "bluerov2", "controller": {
+        "kind": "python", "file": str(tmp_path / "my_controller.py"), "factory": "make_controller"}}))
+    mine = mission_runner(setup_mission(v, square_mission(), controller=s.controller,
+                                        disturbance=wave))[0].loop
+    pid_block = mission_runner(setup_mission(v, square_mission(), disturbance=wave))[0].loop
+    assert mine.dispatcher is pid_block.dispatcher and mine.ctrl_fn is not pid_block.ctrl_fn
