@@ -159,16 +159,25 @@ def _on_top(depth, s: float, e: float) -> bool:
 
 
 def _local_state(t, y, t0, half, position: bool):
-    """Value and slope at ``t0`` from a quadratic (position) fit of the samples within ±half."""
+    """``(value, slope, slope weight)`` at ``t0`` from a quadratic (position) fit of the samples
+    within ±half.  The slope weight is ``1/sqrt([(XᵀX)⁻¹]₁₁)`` [s]: the slope measured as a
+    sample is, in the samples' units (σ_slope = σ_y / weight)."""
     sel = np.abs(t - t0) <= half
     while np.count_nonzero(sel) < 4 and half < 10:
         half *= 1.5
         sel = np.abs(t - t0) <= half
     tt, yy = t[sel] - t0, y[sel]
     if not position:
-        return float(np.mean(yy)), 0.0
-    c = np.polyfit(tt, yy, 2 if tt.size >= 5 else 1)
-    return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
+        return float(np.mean(yy)), 0.0, 0.0
+    deg = 2 if tt.size >= 5 else 1
+    c = np.polyfit(tt, yy, deg)
+    X = np.vander(tt, deg + 1)
+    try:
+        var = float(np.linalg.inv(X.T @ X)[deg - 1, deg - 1])
+    except np.linalg.LinAlgError:
+        var = np.inf
+    weight = 1.0 / np.sqrt(var) if var > 0 and np.isfinite(var) else 0.0
+    return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0)), weight
 
 
 @njit(cache=True)
@@ -234,7 +243,7 @@ class WindowProblem:
         self.s = u - self.k
         half = _FIT_HALF[dof]
         st = np.array([_local_state(tm, ym, a, half, position) for a, _ in self.windows])
-        self.y0_meas, self.v0_meas = st[:, 0], st[:, 1]
+        self.y0_meas, self.v0_meas, self.v0_weight = st[:, 0], st[:, 1], st[:, 2]
         self.W = W
 
     def simulate(self, theta, y0, v0):
@@ -268,27 +277,39 @@ class WindowProblem:
         the local rate ``−∂v̇/∂v``.  Beyond :data:`RK4_LIMIT` the fixed RK4 step amplifies instead
         of damping (the replay is then not the model's solution: its sensitivity to the
         parameters grows without bound, and ``predict`` may overflow)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            _, V = self.simulate(theta, y0, v0)
+        return self._stiffness_of(theta, V)
+
+    def _stiffness_of(self, theta, V) -> np.ndarray:
         m, k, kq = theta[0], theta[1], theta[2]
         ka = theta[4] if len(theta) > 4 else 0.0
         with np.errstate(over="ignore", invalid="ignore"):
-            _, V = self.simulate(theta, y0, v0)
             K = k + (ka * self.Ch[:, ::2] if ka != 0.0 and self.Ch is not None else 0.0)
             lam = self.h * (K + 2 * max(kq, 0.0) * np.abs(V)) / m
             lam = np.where(np.isfinite(lam), lam, np.inf)
         return lam.max(axis=1)
 
-    def predict(self, theta, y0, v0):
+    def predict(self, theta, y0, v0, stiff_limit: float | None = None):
         """The model's output at every measured sample's own stamp (NaN/inf where a window's
-        simulation blows up, e.g. under a trial step of the optimiser)."""
+        simulation blows up, e.g. under a trial step of the optimiser).  With ``stiff_limit``
+        (e.g. :data:`RK4_LIMIT`): NaN too in every window whose replay is stiffer than that
+        (:meth:`stiffness`) — there the fixed step's replay is not the model's solution, and a
+        fit must not take its numbers (it could find a cost there lower than any the model's
+        true solution gives)."""
         with np.errstate(over="ignore", invalid="ignore"):
             X, V = self.simulate(theta, y0, v0)
         w, k, s, h = self.w, self.k, self.s, self.h
         if not self.position:
-            return X[w, k] * (1 - s) + X[w, k + 1] * s
-        x0, x1, d0, d1 = X[w, k], X[w, k + 1], V[w, k] * h, V[w, k + 1] * h
-        s2, s3 = s * s, s * s * s
-        return ((2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * x1
-                + (s3 - s2) * d1)
+            out = X[w, k] * (1 - s) + X[w, k + 1] * s
+        else:
+            x0, x1, d0, d1 = X[w, k], X[w, k + 1], V[w, k] * h, V[w, k + 1] * h
+            s2, s3 = s * s, s * s * s
+            out = ((2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * x1
+                   + (s3 - s2) * d1)
+        if stiff_limit is not None:
+            out = np.where((self._stiffness_of(theta, V) > stiff_limit)[w], np.nan, out)
+        return out
 
 
 RK4_LIMIT = 2.785  # −z where RK4's amplification 1 + z + z²/2 + z³/6 + z⁴/24 reaches 1 (real axis)

@@ -606,15 +606,25 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             weights = dead_band_weights(delta, noise_sigma(*dc.channels[DIVE_DOFS[dof][0]]))
     wts = weights if weights is not None else 1.0
 
+    # The measured start rate of a position DOF's window counts as one more sample
+    # (wv (v0 − v0_meas), wv the local fit's slope weight): without it a window the model cannot
+    # follow (a force that changed between its samples) sends its v0 towards ±∞ — a strong drag
+    # turns any start rate into a step of the position within a time step — and the fit ends
+    # where RK4's fixed step gives out, in round-off.  A replay beyond RK4's stability limit is
+    # refused (NaN): it is not the model's solution, and can cost less than any solution does.
     def resid(z):
         th, y0, v0 = unpack(z)
-        return (prob.predict(th, y0, v0 if v0 is not None else np.zeros(W)) - prob.y) * wts
+        r = (prob.predict(th, y0, v0 if v0 is not None else np.zeros(W), stiff_limit=RK4_LIMIT)
+             - prob.y) * wts
+        return np.concatenate([r, prob.v0_weight * (v0 - prob.v0_meas)]) if pos else r
 
     th0_full = np.append(th0, inflow_starts[0] if gain is not None else [])
     z0 = np.concatenate([th0_full, prob.y0_meas] + ([prob.v0_meas] if pos else []))
     N = prob.y.size
     P = z0.size
-    rows = np.arange(N)
+    # each residual's window: the samples', then (position DOFs) each window's start-rate row
+    groups = np.concatenate([prob.w, np.arange(W)]) if pos else prob.w
+    rows = np.arange(groups.size)
 
     def jac(z):
         # globals by forward differences; each window's nuisance touches only its own rows, so
@@ -622,13 +632,13 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         # (a window whose perturbed replay blew up gives no information in that direction:
         # blown_windows zeroes it and the windows are reported with the fit)
         r0 = resid(z)
-        J = np.zeros((N, P))
+        J = np.zeros((rows.size, P))
         blown = np.zeros(W, bool)
         for i in range(NP):
             dz = 1e-6 * max(abs(z[i]), 1e-3)
             zz = z.copy()
             zz[i] += dz
-            dr, b = blown_windows(resid(zz) - r0, prob.w, W)
+            dr, b = blown_windows(resid(zz) - r0, groups, W)
             J[:, i] = dr / dz
             blown |= b
         for j in range(n_nuis):
@@ -636,16 +646,12 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             d = 1e-6 * np.maximum(np.abs(z[sl]), 1e-2)
             zz = z.copy()
             zz[sl] += d
-            dr, b = blown_windows(resid(zz) - r0, prob.w, W)
-            J[rows, NP + j * W + prob.w] = dr / d[prob.w]
+            dr, b = blown_windows(resid(zz) - r0, groups, W)
+            J[rows, NP + j * W + groups] = dr / d[groups]
             blown |= b
-        th, y0, v0 = unpack(z)
-        stiff = prob.stiffness(th, y0, v0 if v0 is not None else np.zeros(W))
-        unstable = stiff > RK4_LIMIT  # the replay there is not the model's solution
-        J[unstable[prob.w], :] = 0.0
         J[~np.isfinite(J)] = 0.0
         blown_at.clear()
-        blown_at[z.tobytes()] = (blown | unstable, stiff)
+        blown_at[z.tobytes()] = blown
         return J
 
     blown_at: dict = {}
@@ -666,10 +672,18 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             f"the {label} start {_fmt_theta(th)} (cost {c:.3g})" for c, (label, th) in starts)
             + f": kept the fit from the {kept} start (lowest cost)")
     th = sol["x"][:NP]
-    J = sol["jac"][:, free]
+    J = sol["jac"]
     if sol["x"].tobytes() not in blown_at:  # the last Jacobian was another start's
-        J = jac(sol["x"])[:, free]
-    blown, stiff = blown_at[sol["x"].tobytes()]
+        J = jac(sol["x"])
+    # the optimiser's Jacobian is the derivative of the cost it minimises (a window's rows are
+    # not zeroed while its residuals stay in the cost: that stalled the fit); resid refuses a
+    # replay beyond RK4's stability limit, so a window is so here only when no step left it: for
+    # σ its rows are left out (its replay is not the model's solution)
+    _, y0_s, v0_s = unpack(sol["x"])
+    stiff = prob.stiffness(th, y0_s, v0_s if v0_s is not None else np.zeros(W))
+    unstable = stiff > RK4_LIMIT
+    blown = blown_at[sol["x"].tobytes()] | unstable
+    J = np.where(unstable[groups][:, None], 0.0, J)[:, free]
     warns_pre = []
     if blown.any():
         ts = ", ".join(f"{windows[k][0]:.1f}" for k in np.flatnonzero(blown)[:6])
@@ -680,7 +694,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             f"h·(k + 2k_q|v|)/m up to {float(np.max(stiff[blown])):.3g}; RK4 is stable below "
             f"{RK4_LIMIT}) or blew up when a parameter moved by 1e-6 of its value: they are "
             "left out of the standard errors; replays there are not the model's solution")
-    sd_f, corr_f = covariance(J, sol["fun"], prob.w, int(np.count_nonzero(free[:NP])))
+    sd_f, corr_f = covariance(J, sol["fun"], groups, int(np.count_nonzero(free[:NP])))
     sd, corr = np.zeros(NP), np.eye(NP)
     fi = np.flatnonzero(free[:NP])
     sd[fi] = sd_f
@@ -741,7 +755,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     sd_y = float(np.std(prob.y[sc]))
     train = {"rms": float(np.sqrt(np.mean(err ** 2))),
              "nrmse": float(np.sqrt(np.mean(err ** 2)) / sd_y) if sd_y > 0 else float("nan"),
-             "rms_fit": float(np.sqrt(np.mean((sol["fun"] / wts) ** 2))),  # unweighted
+             "rms_fit": float(np.sqrt(np.mean((sol["fun"][:N] / wts) ** 2))),  # unweighted
              "iterations": sol["nit"],
              "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
              "n": int(np.count_nonzero(sc))}
