@@ -26,16 +26,39 @@ __all__ = ["levenberg_marquardt", "covariance", "not_identifiable", "correlation
 DOWN_WEIGHTED = 0.9
 
 
-def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,),
-                        nonneg=()) -> dict:
-    """Minimise ``|resid(z)|²`` over the ``free`` entries (Marquardt-scaled damping, normal
-    equations: small dense problems, no SVD of the tall Jacobian).  Converged when a step lowers
-    the cost by less than 0.1 % of one residual's variance (a step that small moves the
-    estimates by a tiny fraction of their σ).  A trial step that makes an entry of ``positive``
-    (indices: masses, inertias) ≤ 0 is refused; entries of ``nonneg`` (drag coefficients) are
-    projected onto ≥ 0 (a negative drag feeds energy in: a model that blows up on replay, or
-    that a vehicle file, which clips it to 0, would turn into another model)."""
+#: converged when the Gauss–Newton step still to go would lower the cost by less than this times
+#: the residual variance s²: the estimates are then within √1e-8 = 1e-4 σ of the minimum (the
+#: step's length in the metric of their covariance), whatever their units
+CONVERGED = 1e-8
+
+
+def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 100, positive=(0,),
+                        nonneg=(), tol: float = CONVERGED) -> dict:
+    """Minimise ``|resid(z)|²`` over the ``free`` entries: Levenberg–Marquardt (Marquardt-scaled
+    damping, normal equations: few parameters, no SVD of the tall Jacobian; ``jac(z)`` dense, or
+    SciPy sparse when each row touches few of them) on the Gauss–Newton matrix ``JᵀJ`` plus a
+    secant estimate ``S`` of the residuals' curvature ``Σ rᵢ ∇²rᵢ`` (Dennis, Gay & Welsch 1981,
+    ACM TOMS 7(3), NL2SOL's update and sizing; used when it predicted the last step's decrease
+    better than ``JᵀJ`` alone).  A dive's output error has large residuals (windows the model
+    cannot follow, a force logged at 2 Hz): there plain Gauss–Newton converges only linearly,
+    zig-zagging along the mass and the drags.
+
+    Converged when the Gauss–Newton step still to go would lower the cost by less than ``tol``
+    times the residual variance ``s² = cost/(N − free)`` (the estimates then sit within
+    ``√tol`` of their σ of the minimum: a test on the gradient, in the units of the estimates'
+    own uncertainty — not on how little one damped step happened to gain).  A trial step that
+    makes an entry of ``positive`` (indices: masses, inertias) ≤ 0, or whose residuals are not
+    finite, is refused; entries of ``nonneg`` (drag coefficients) are projected onto ≥ 0 (a
+    negative drag feeds energy in: a model that blows up on replay, or that a vehicle file, which
+    clips it to 0, would turn into another model), and one at 0 whose gradient points below it is
+    held there for the step (the active set: a projected step in its direction would only
+    shorten the others')."""
     z = np.array(z0, float)
+    free = np.asarray(free, bool)
+    nn = np.zeros(z.size, bool)
+    nn[list(nonneg)] = True
+    pos = list(positive)
+    n_free = int(np.count_nonzero(free))
 
     def cost_of(r):
         c = float(r @ r)
@@ -44,45 +67,84 @@ def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 40, positive=(0,),
     with np.errstate(over="ignore", invalid="ignore"):
         r = resid(z)
         cost = cost_of(r)
-        lam, msg, ok, it = 1e-3, "maximum iterations", False, 0
         J = jac(z)
+        g_all = J.T @ np.where(np.isfinite(r), r, 0.0)
+        JtJ = None
+        S = np.zeros((z.size, z.size))
+        use_s = False
+        lam, msg, ok, it = 1e-3, "maximum iterations", False, 0
         for it in range(1, max_iter + 1):  # noqa: B007  (returned as nit)
-            Jf = J[:, free]
-            A = Jf.T @ Jf
-            g = Jf.T @ r
-            D = np.maximum(np.diag(A), 1e-12)
+            act = free & ~(nn & (z <= 0) & (g_all > 0))
+            if JtJ is None:
+                JtJ = _gram(J)
+            A = JtJ[np.ix_(act, act)]
+            g = g_all[act]
+            D = np.maximum(np.diag(A), 1e-12 * max(float(np.max(np.diag(A), initial=0.0)), 1e-300))
+            s2 = cost / max(r.size - n_free, 1)
+            try:
+                gn = np.linalg.solve(A + 1e-12 * np.diag(D), -g)
+                to_go = float(-g @ gn)
+            except np.linalg.LinAlgError:
+                to_go = math.inf
+            if math.isfinite(cost) and to_go <= tol * s2:
+                msg, ok = "converged", True
+                break
+            B = A + S[np.ix_(act, act)] if use_s else A
             improved = False
             while lam < 1e12:
                 try:
-                    step = np.linalg.solve(A + lam * np.diag(D), -g)
-                except np.linalg.LinAlgError:
-                    lam *= 10
+                    L = np.linalg.cholesky(B + lam * np.diag(D))
+                    step = -np.linalg.solve(L.T, np.linalg.solve(L, g))
+                except np.linalg.LinAlgError:  # (B + λD not positive definite: more damping)
+                    lam = max(lam, 1e-6) * 4
                     continue
                 zn = z.copy()
-                zn[free] += step
-                if nonneg:
-                    nn = list(nonneg)
-                    zn[nn] = np.maximum(zn[nn], 0.0)
-                if np.any(zn[list(positive)] <= 0):
-                    lam *= 4
+                zn[act] += step
+                zn[nn] = np.maximum(zn[nn], 0.0)
+                if np.any(zn[pos] <= 0):
+                    lam = max(lam, 1e-6) * 4
                     continue
                 rn = resid(zn)
                 cn = cost_of(rn)
                 if cn < cost:
                     improved = True
                     break
-                lam *= 4
+                lam = max(lam, 1e-6) * 4
             if not improved:
-                msg, ok = "no further decrease", True
+                msg, ok = "no step lowers the cost", to_go <= 1e4 * tol * s2
+                if ok:
+                    msg = "no further decrease (at the optimiser's resolution)"
                 break
+            Jn = jac(zn)
+            gn_all = Jn.T @ rn
+            # the structured secant update of S (NL2SOL: y# = (J₊ − J)ᵀ r₊, sized, rank two), and
+            # which model — JᵀJ or JᵀJ + S — predicted this step's actual decrease better
+            sv = zn - z
+            Js = J @ sv
             drop = cost - cn
-            z, r, cost = zn, rn, cn
+            pred_gn = -(2 * float(g_all @ sv) + float(Js @ Js))
+            pred_s = pred_gn - float(sv @ S @ sv)
+            use_s = abs(pred_s - drop) < abs(pred_gn - drop)
+            y = gn_all - g_all
+            ys = float(y @ sv)
+            if ys > 0:
+                yh = (Jn - J).T @ rn
+                sSs = float(sv @ S @ sv)
+                if sSs != 0:
+                    S *= min(1.0, abs(float(sv @ yh)) / abs(sSs))
+                w = yh - S @ sv
+                S += (np.outer(w, y) + np.outer(y, w)) / ys - float(w @ sv) * np.outer(y, y) / ys ** 2
+            z, r, cost, J, g_all, JtJ = zn, rn, cn, Jn, gn_all, None
             lam = max(lam / 3, 1e-9)
-            J = jac(z)
-            if drop < 1e-3 * cost / r.size:  # moves every estimate by far less than its σ
-                msg, ok = "converged", True
-                break
     return {"x": z, "fun": r, "jac": J, "success": ok, "message": msg, "nit": it}
+
+
+def _gram(J) -> np.ndarray:
+    """``JᵀJ`` as a dense array; ``J`` dense or a SciPy sparse matrix (a dive's Jacobian: each
+    row touches the few global parameters and its own window's start — the product is then a
+    small fraction of the dense one's cost)."""
+    A = J.T @ J
+    return A.toarray() if hasattr(A, "toarray") else np.asarray(A)
 
 
 def best_starts(cost, candidates, keep: int = 2) -> list:
