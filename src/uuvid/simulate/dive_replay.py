@@ -160,8 +160,9 @@ def _on_top(depth, s: float, e: float) -> bool:
 
 def _local_state(t, y, t0, half, position: bool):
     """``(value, slope, slope weight)`` at ``t0`` from a quadratic (position) fit of the samples
-    within ±half.  The slope weight is ``1/sqrt([(XᵀX)⁻¹]₁₁)`` [s]: the slope measured as a
-    sample is, in the samples' units (σ_slope = σ_y / weight)."""
+    within ±half, on time and value relative to ``t0`` and the nearest sample (no absolute
+    stamp or heading enters the fit's arithmetic).  The slope weight is ``1/sqrt([(XᵀX)⁻¹]₁₁)``
+    [s]: the slope measured as a sample is, in the samples' units (σ_slope = σ_y / weight)."""
     sel = np.abs(t - t0) <= half
     while np.count_nonzero(sel) < 4 and half < 10:
         half *= 1.5
@@ -169,15 +170,16 @@ def _local_state(t, y, t0, half, position: bool):
     tt, yy = t[sel] - t0, y[sel]
     if not position:
         return float(np.mean(yy)), 0.0, 0.0
+    ref = yy[np.argmin(np.abs(tt))]
     deg = 2 if tt.size >= 5 else 1
-    c = np.polyfit(tt, yy, deg)
+    c = np.polyfit(tt, yy - ref, deg)
     X = np.vander(tt, deg + 1)
     try:
         var = float(np.linalg.inv(X.T @ X)[deg - 1, deg - 1])
     except np.linalg.LinAlgError:
         var = np.inf
     weight = 1.0 / np.sqrt(var) if var > 0 and np.isfinite(var) else 0.0
-    return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0)), weight
+    return float(ref + np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0)), weight
 
 
 @njit(cache=True)
@@ -226,9 +228,12 @@ class WindowProblem:
         self.h = horizon / self.n
         ta = np.array([w[0] for w in self.windows])
         self.ta = ta
-        th = ta[:, None] + 0.5 * self.h * np.arange(2 * self.n + 1)[None, :]
-        self.Fh = np.interp(th, tf, F)
-        self.Ch = None if gain is None else np.interp(th, gain[0], gain[1])
+        # times relative to the first window's start: a stamp of 1.7e9 s (Unix time) has a
+        # resolution of 2.4e-7 s, and half steps built on it would be rounded to that grid
+        self.t_ref = float(ta[0])
+        th = self.half_steps()
+        self.Fh = np.interp(th, tf - self.t_ref, F)
+        self.Ch = None if gain is None else np.interp(th, gain[0] - self.t_ref, gain[1])
         wi, ti, yi = [], [], []
         for k, (a, b) in enumerate(self.windows):
             sel = (tm >= a) & (tm <= b)
@@ -244,7 +249,16 @@ class WindowProblem:
         half = _FIT_HALF[dof]
         st = np.array([_local_state(tm, ym, a, half, position) for a, _ in self.windows])
         self.y0_meas, self.v0_meas, self.v0_weight = st[:, 0], st[:, 1], st[:, 2]
+        # a position (depth, heading) enters the model only through its change: each window's
+        # samples relative to its own measured start (a heading wrapped, unwrapped or offset by
+        # 2πk gives the same numbers), for fits that take the start as y0_meas + an offset
+        self.y_ref = self.y0_meas if position else np.zeros(W)
+        self.y_rel = self.y - self.y_ref[self.w]
         self.W = W
+
+    def half_steps(self) -> np.ndarray:
+        """The RK4 half-step times of every window (W × 2n+1), relative to :attr:`t_ref`."""
+        return (self.ta - self.t_ref)[:, None] + 0.5 * self.h * np.arange(2 * self.n + 1)[None, :]
 
     def simulate(self, theta, y0, v0):
         """``(X, V)`` (W × n+1): position (or velocity-only: V) over each window.  ``theta``:
@@ -326,7 +340,7 @@ def initial_state(prob, theta, span: float):
     is barely observable from the positions a moment later, and undamped Gauss–Newton steps can
     run to tens of m/s, after which the replay overflows."""
     y0, v0 = prob.y0_meas.copy(), prob.v0_meas.copy()
-    early = prob.t <= prob.ta[prob.w] + span
+    early = prob.t - prob.ta[prob.w] <= span
     w = prob.w[early]
     if not prob.position:
         return y0, v0, ~early

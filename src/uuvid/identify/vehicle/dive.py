@@ -138,14 +138,18 @@ def _svf_start(dc, dof, windows, omega):
     C = np.eye(2)
     D = np.zeros((2, 1))
     for a, b in runs:
-        g = np.arange(a, b, 0.05)
+        # time from the run's start and the measured channel from its value there: neither an
+        # absolute stamp (1.7e9 s) nor a heading's 2πk enters the filter's arithmetic
+        g = np.arange(0.0, b - a, 0.05)
         if g.size < 40:
             continue
-        y = np.interp(g, tm, ym)
-        f = np.interp(g, tf, F)
-        _, yf, _ = lsim((A, Bm, C, D), y, g - g[0], X0=[y[0], 0.0])
-        _, ff, _ = lsim((A, Bm, C, D), f, g - g[0], X0=[f[0], 0.0])
-        skip = g - g[0] > 3.0 / omega
+        y = np.interp(g, tm - a, ym)
+        if position:
+            y = y - y[0]
+        f = np.interp(g, tf - a, F)
+        _, yf, _ = lsim((A, Bm, C, D), y, g, X0=[y[0], 0.0])
+        _, ff, _ = lsim((A, Bm, C, D), f, g, X0=[f[0], 0.0])
+        skip = g > 3.0 / omega
         if position:
             p, d1 = yf[:, 0], yf[:, 1]
             d2 = omega ** 2 * (y - p) - 2 * z * omega * d1
@@ -443,9 +447,9 @@ def _dead_band_delta(prob, force_sigma, theta, y0, v0):
     import copy
 
     tF, sF = force_sigma
-    th = prob.ta[:, None] + 0.5 * prob.h * np.arange(2 * prob.n + 1)[None, :]
     pert = copy.copy(prob)
-    pert.Fh = prob.Fh + np.interp(th, tF, sF, left=0.0, right=0.0)
+    pert.Fh = prob.Fh + np.interp(prob.half_steps(), np.asarray(tF) - prob.t_ref, sF, left=0.0,
+                                  right=0.0)
     return pert.predict(theta, y0, v0) - prob.predict(theta, y0, v0)
 
 
@@ -606,20 +610,23 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             weights = dead_band_weights(delta, noise_sigma(*dc.channels[DIVE_DOFS[dof][0]]))
     wts = weights if weights is not None else 1.0
 
-    # The measured start rate of a position DOF's window counts as one more sample
-    # (wv (v0 − v0_meas), wv the local fit's slope weight): without it a window the model cannot
-    # follow (a force that changed between its samples) sends its v0 towards ±∞ — a strong drag
-    # turns any start rate into a step of the position within a time step — and the fit ends
-    # where RK4's fixed step gives out, in round-off.  A replay beyond RK4's stability limit is
-    # refused (NaN): it is not the model's solution, and can cost less than any solution does.
+    # A position DOF's windows start at the measured position plus an offset (the nuisance y0 is
+    # that offset, the samples are taken relative to it: prob.y_rel), so where the heading's
+    # zero lies (wrapped, unwrapped, 2πk) changes none of the fit's numbers.  The measured start
+    # rate counts as one more sample (wv (v0 − v0_meas), wv the local fit's slope weight):
+    # without it a window the model cannot follow (a force that changed between its samples)
+    # sends its v0 towards ±∞ — a strong drag turns any start rate into a step of the position
+    # within a time step — and the fit ends where RK4's fixed step gives out, in round-off.  A
+    # replay beyond RK4's stability limit is refused (NaN): it is not the model's solution, and
+    # can cost less than any solution does.
     def resid(z):
         th, y0, v0 = unpack(z)
         r = (prob.predict(th, y0, v0 if v0 is not None else np.zeros(W), stiff_limit=RK4_LIMIT)
-             - prob.y) * wts
+             - prob.y_rel) * wts
         return np.concatenate([r, prob.v0_weight * (v0 - prob.v0_meas)]) if pos else r
 
     th0_full = np.append(th0, inflow_starts[0] if gain is not None else [])
-    z0 = np.concatenate([th0_full, prob.y0_meas] + ([prob.v0_meas] if pos else []))
+    z0 = np.concatenate([th0_full, prob.y0_meas - prob.y_ref] + ([prob.v0_meas] if pos else []))
     N = prob.y.size
     P = z0.size
     # each residual's window: the samples', then (position DOFs) each window's start-rate row
