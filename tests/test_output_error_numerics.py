@@ -264,13 +264,17 @@ def _fd_jac(fun):
     return jac
 
 
+@pytest.mark.parametrize("sparse", [False, True])
 @pytest.mark.parametrize("seed", range(5))
-def test_optimiser_reaches_a_large_residual_minimum(seed):
+def test_optimiser_reaches_a_large_residual_minimum(seed, sparse):
     """A decay ``a exp(−t/τ) + c`` fitted to data it does not describe (a second, slower decay
     and outliers): large residuals, where Gauss–Newton converges only linearly.  The optimiser
     ends converged, at the minimum scipy's trust-region solver finds with tolerances of 1e-15,
     within its own tolerance (√CONVERGED of σ; a test on one damped step's gain stopped up to
-    1.5e-3 σ short here, and 0.1 σ short on a dive)."""
+    1.5e-3 σ short here, and 0.1 σ short on a dive).  A sparse Jacobian (a dive's) is taken as
+    the dense one."""
+    from scipy.sparse import csr_matrix
+
     rng = np.random.default_rng(seed)
     t = np.linspace(0, 10, 400)
     y = 2 * np.exp(-t / 1.5) + 1.5 * np.exp(-t / 6.0) + rng.normal(0, 0.05, t.size)
@@ -280,7 +284,9 @@ def test_optimiser_reaches_a_large_residual_minimum(seed):
         return z[0] * np.exp(-t / z[1]) + z[2] - y
 
     z0 = np.array([1.0, 0.5, 0.0])
-    sol = levenberg_marquardt(fun, _fd_jac(fun), z0, np.ones(3, bool), positive=(1,))
+    jac = _fd_jac(fun)
+    sol = levenberg_marquardt(fun, (lambda z: csr_matrix(jac(z))) if sparse else jac, z0,
+                              np.ones(3, bool), positive=(1,))
     assert sol["success"] and sol["message"] == "converged", sol["message"]
     best = _scipy_minimum(fun, z0, [-np.inf, 1e-9, -np.inf])
     J = _fd_jac(fun)(best)

@@ -631,22 +631,25 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     P = z0.size
     # each residual's window: the samples', then (position DOFs) each window's start-rate row
     groups = np.concatenate([prob.w, np.arange(W)]) if pos else prob.w
-    rows = np.arange(groups.size)
+    n_rows = groups.size
 
     def jac(z):
         # globals by forward differences; each window's nuisance touches only its own rows, so
-        # all windows' y0 (then v0) are perturbed at once
+        # all windows' y0 (then v0) are perturbed at once; sparse: a row has the globals and its
+        # window's start, and the optimiser's JᵀJ then costs a few entries per row
         # (a window whose perturbed replay blew up gives no information in that direction:
         # blown_windows zeroes it and the windows are reported with the fit)
+        from scipy.sparse import csr_matrix
+
         r0 = resid(z)
-        J = np.zeros((rows.size, P))
+        cols = [np.empty((n_rows, NP))]
         blown = np.zeros(W, bool)
         for i in range(NP):
             dz = 1e-6 * max(abs(z[i]), 1e-3)
             zz = z.copy()
             zz[i] += dz
             dr, b = blown_windows(resid(zz) - r0, groups, W)
-            J[:, i] = dr / dz
+            cols[0][:, i] = dr / dz
             blown |= b
         for j in range(n_nuis):
             sl = slice(NP + j * W, NP + (j + 1) * W)
@@ -654,9 +657,14 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             zz = z.copy()
             zz[sl] += d
             dr, b = blown_windows(resid(zz) - r0, groups, W)
-            J[rows, NP + j * W + groups] = dr / d[groups]
+            cols.append((dr / d[groups])[:, None])
             blown |= b
-        J[~np.isfinite(J)] = 0.0
+        vals = np.hstack(cols)
+        vals[~np.isfinite(vals)] = 0.0
+        idx = np.hstack([np.broadcast_to(np.arange(NP), (n_rows, NP))]
+                        + [(NP + j * W + groups)[:, None] for j in range(n_nuis)])
+        J = csr_matrix((vals.ravel(), idx.ravel(), np.arange(0, vals.size + 1, vals.shape[1])),
+                       shape=(n_rows, P))
         blown_at.clear()
         blown_at[z.tobytes()] = blown
         return J
@@ -690,7 +698,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     stiff = prob.stiffness(th, y0_s, v0_s if v0_s is not None else np.zeros(W))
     unstable = stiff > RK4_LIMIT
     blown = blown_at[sol["x"].tobytes()] | unstable
-    J = np.where(unstable[groups][:, None], 0.0, J)[:, free]
+    J = np.where(unstable[groups][:, None], 0.0, J.toarray())[:, free]
     warns_pre = []
     if blown.any():
         ts = ", ".join(f"{windows[k][0]:.1f}" for k in np.flatnonzero(blown)[:6])
