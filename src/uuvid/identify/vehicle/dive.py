@@ -13,7 +13,14 @@ identified in two steps:
 2. **output error over short horizons** (the estimate): the dive is cut into windows of
    ``horizon`` s; each window is simulated with the logged force (linear between its own samples)
    from its own initial position and velocity (nuisance parameters) and compared with the
-   measurements on *their own* stamps; ``scipy.optimize.least_squares`` minimises the error.
+   measurements on *their own* stamps;
+   :func:`~uuvid.identify.vehicle.output_error.levenberg_marquardt` minimises the error to
+   within 1e-4 σ of the minimum.  Each window works on time and position relative to its own
+   start (a heading wrapped, unwrapped or 2πk off and Unix-time stamps give the same fit); its
+   measured start rate counts as one more sample (a window the model cannot follow otherwise
+   sends its start rate to ±∞); a model whose replay of a window is beyond RK4's stability
+   limit is not taken (its replay is not the model's solution, and can cost less than any
+   solution does).
 
 σ: the larger of the classical ``s²(JᵀJ)⁻¹`` and a cluster-robust sandwich with one cluster per
 window (residuals within a window are correlated when the model is not exact), the nuisance
