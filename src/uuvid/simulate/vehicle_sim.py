@@ -389,9 +389,10 @@ def _thrusts_from_output(out_kind, cout, a, inv_t, inv_c, batt, vtt, vtc, jv, wv
     return s
 
 
-#: The controller and disturbance blocks :func:`_fly_loop` calls: module globals, so numba
-#: compiles them into the loop (direct, inlinable calls) and the default loop can be cached;
-#: :func:`compiled_loop` builds the loop anew around a user's pair.
+#: The controller and disturbance blocks the built-in loops call (:func:`fly`, :func:`fly_quad`,
+#: the PID batch): module globals, so numba compiles them into the loop (direct, inlinable calls)
+#: and those loops are cached; any other pair is passed to the loop as function pointers
+#: (:func:`_pointer_source`, :class:`PointerLoop`).
 _CTRL = pid_controller
 _DIST = no_disturbance
 
@@ -750,8 +751,8 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
     dispatch); the same arithmetic as :func:`_fly_loop`'s closed-form fast path in the same
     order, so the same numbers, bit for bit
     (``tparams``/``poff``: the bank's parameters, blocks ESC, motor, map; ``cparams``/``cstate``
-    the controller's, as :func:`_fly_loop`'s).  :func:`compiled_quad` builds it around a user's
-    wrench controller."""
+    the controller's, as :func:`_fly_loop`'s).  :func:`compiled_quad` gives it a user's wrench
+    controller as a function pointer."""
     nsteps = ref_pos.shape[0]
     n = tparams.shape[0]
     nz = z0.size
@@ -962,7 +963,7 @@ def _batch_template(cparams, cstate0, dparams, use_dist, out_kind, z0, VP, B, al
                     kinds, poff, TP, soff, outch, in_ch, exact, inv_t, inv_c, ref_pos, ref_vel,
                     ref_yaw, ref_rate, VC, dt, nsub, OUT, IPRM, IGEO):
     """Vehicles (rows of ``VP``, ``TP``, ``VC``) flying the mission in parallel through ``_LOOP``
-    (:func:`_fly_loop`, or the loop :func:`compiled_loop` builds around a user's controller);
+    (:func:`_fly_loop`; with a user's controller the pointer loop, :func:`compiled_loop`);
     each vehicle starts from its own copy of the controller state ``cstate0``; ``OUT[r]`` from
     :func:`_summarise_run`.  ``IPRM``/``IGEO``: the inflow arrays of :func:`_fly_loop` (empty:
     bollard thrusters), shared by every vehicle — each flies the loop's own per-stage advance
@@ -1859,11 +1860,11 @@ def mission_runner(setup: MissionSetup):
     compiled loop :func:`fly_mission` uses, into ``outputs`` = ``(Z, F, FD, TAU, SC, VOUT)``
     (preallocated for the whole mission); ``compiled``: that loop is already compiled or loaded
     in this process.  The loop is :func:`fly_quad` for the configuration it is specialised to
-    (a wrench controller — the built-in PID, cached, or the setup's, compiled around it by
-    :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, inflow or
-    not, chains ESC → first-order motor → quadratic map), else :func:`_fly_loop` around the
-    setup's controller (the built-in PID by default) and disturbance, specialised to the setup's
-    configuration (:func:`specialised_loop`, :func:`loop_config`).  Either way only the branches
+    (a wrench controller — the built-in PID, cached, or the setup's, passed as a function
+    pointer by :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, inflow or
+    not, chains ESC → first-order motor → quadratic map), else :func:`_fly_loop` with the
+    setup's controller (the built-in PID by default) and disturbance as function pointers,
+    specialised to the setup's configuration (:func:`specialised_loop`, :func:`loop_config`).  Either way only the branches
     the configuration takes are compiled; ``run.loop`` is that loop."""
     s = setup
     N = s.t.size
@@ -1883,7 +1884,7 @@ def mission_runner(setup: MissionSetup):
     if (s.disturbance is None and (c is None or c.output_code == 0) and not BAT.size
             and not VCT.shape[0] and quad_chain(b)):  # the specialised loop
         cfn, cpar, cstate0 = _CTRL, s.gains.to_array().ravel(), np.zeros(PID_STATE_SIZE)
-        if c is not None:  # a wrench controller: the same loop compiled around it
+        if c is not None:  # a wrench controller: the same loop, the controller a pointer
             cfn, cpar = compiled_form(c)
             cpar, cstate0 = np.ascontiguousarray(cpar), c.state0
         vc = np.asarray(s.current, dtype=float)
@@ -2046,8 +2047,8 @@ def run_batch(setup: MissionSetup, vehicle_params: np.ndarray, thruster_params: 
     ``[max err, rms err, max |thrust|, final err, min allocation scale, max tilt (deg)]``
     (:data:`RUN_COLUMNS`).
 
-    A setup with a user controller or a disturbance flies the loop compiled around them
-    (:func:`compiled_loop`: one vehicle per thread, each from its own copy of the controller
+    A setup with a user controller or a disturbance flies the loop that takes them as function
+    pointers (:func:`compiled_loop`: one vehicle per thread, each from its own copy of the controller
     state; a plain Python controller flies the vehicles one after another).
 
     Inflow (the setup's ``inflow``, issue 21): every vehicle flies :func:`_fly_loop` with the
