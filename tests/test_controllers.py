@@ -336,3 +336,40 @@ def test_blocks_are_named_after_their_function_by_default():
     assert Controller(body_pd, PD_GAINS, [0.0]).name == "body_pd"
     assert Controller(body_pd, PD_GAINS, [0.0], name="PD").name == "PD"
     assert Disturbance(sinusoidal_force, np.zeros(12)).name == "sinusoidal_force"
+
+
+@pytest.mark.slow
+def test_a_controller_declared_with_its_own_signature_flies_and_its_first_flight_is_timed_apart():
+    """A controller compiled with an explicit signature (``@njit(sig)``, "A"-layout arrays)
+    cannot be compiled for the loop's C-contiguous arrays: the loop calls the overload those
+    convert to (it crashed: "compilation disabled"). And a new controller on a loop already
+    compiled in this process has its first flight timed apart (compile_time_s > 0), not counted
+    as flying."""
+    from numba import types as nt
+
+    A = nt.Array(nt.float64, 1, "A")
+    RO = nt.Array(nt.float64, 1, "A", readonly=True)
+
+    @njit(nt.void(nt.float64, A, A, A, A, nt.float64, nt.float64, RO, A, nt.float64, A))
+    def hold(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
+        for j in range(3):
+            out[j] = params[0] * (rp[j] - eta[j]) - params[1] * nu[j]
+        for j in range(3, 6):
+            out[j] = -params[1] * nu[j]
+
+    @njit
+    def hold_c(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
+        for j in range(3):
+            out[j] = params[0] * (rp[j] - eta[j]) - params[1] * nu[j]
+        for j in range(3, 6):
+            out[j] = -params[1] * nu[j]
+
+    v = load_vehicle("bluerov2")
+    wave = sinusoidal(amplitude=(5.0, 0, 3.0, 0, 0, 0), period=4.0)
+    runs = []
+    for fn in (hold_c, hold):
+        c = Controller(fn, np.array([60.0, 40.0]), np.zeros(0))
+        runs.append(fly_mission(setup_mission(v, square_mission(), t_end=5.0, controller=c,
+                                              disturbance=wave)))
+    assert np.array_equal(runs[0].state, runs[1].state)  # the same arithmetic either way
+    assert runs[1].metrics["compile_time_s"] > 0.0  # the declared one's first flight, apart

@@ -355,10 +355,11 @@ def test_specialised_loop_is_the_general_loop_bit_for_bit(bluerov2, kw):
         assert np.array_equal(got, ref)
 
 
-def _general_loop_around(setup):
-    """The mission flown by the general loop compiled around the setup's controller and
-    disturbance (:func:`compiled_loop`: every branch compiled), battery and current series
-    included."""
+def _general_loop_around(setup, direct: bool = False):
+    """The mission flown by the general loop (every branch compiled) with the setup's controller
+    and disturbance, battery and current series included: as function pointers
+    (:func:`compiled_loop`), or with ``direct`` compiled into it (the loop as it was before the
+    pointers: ``_CTRL``/``_DIST`` module globals, direct calls)."""
     from uuvid.simulate import vehicle_sim
     from uuvid.simulate.control.blocks import compiled_form
     from uuvid.simulate.control.pid import pid
@@ -369,7 +370,9 @@ def _general_loop_around(setup):
     c = s.controller or pid(s.gains)
     cfn, cpar = compiled_form(c)
     d = s.disturbance
-    loop = vehicle_sim.compiled_loop(cfn, d.fn if d is not None else no_disturbance)[0]
+    dfn = d.fn if d is not None else no_disturbance
+    loop = (vehicle_sim._in_memory(vehicle_sim._fly_loop, (), _CTRL=cfn, _DIST=dfn) if direct
+            else vehicle_sim.compiled_loop(cfn, dfn)[0])
     VCT, DVCT = s.current_series if s.current_series is not None else (np.zeros((0, 3)),) * 2
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     out = (np.empty((N, z0.size)), np.empty((N, b.n)), np.empty((N, b.n)), np.empty((N, 6)),
@@ -405,6 +408,9 @@ def test_loop_specialised_to_its_configuration_is_the_general_loop_bit_for_bit(b
     assert len(out) == len(ref)
     for got, want in zip(out, ref):
         assert np.array_equal(got, want)
+    if "battery" not in kw:  # and the loop with the blocks compiled in (no pointers): the same
+        for got, want in zip(out, _general_loop_around(setup, direct=True)):
+            assert np.array_equal(got, want)
 
 
 def test_a_mission_moving_in_an_unallocated_dof_is_named():

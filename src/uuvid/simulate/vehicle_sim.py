@@ -1196,8 +1196,15 @@ class PointerLoop:
         self.ctrl_fn = ctrl_fn
         self.dist_fn = dist_fn
         self.layout = _LOOP_LAYOUT if layout is None else layout
+        self._flown: set = set()  # the full signatures this pair has flown
 
-    signatures = property(lambda self: self.dispatcher.signatures)
+    @property
+    def signatures(self) -> list:
+        """The signatures this controller/disturbance pair has flown (empty before its first
+        call: the shared loop may be compiled, but not yet for this pair's types, and the pair
+        itself not at all — so :func:`fly_mission` times that first call apart)."""
+        return sorted(self._flown, key=str)
+
     stats = property(lambda self: self.dispatcher.stats)
     py_func = property(lambda self: self.dispatcher.py_func)
 
@@ -1215,6 +1222,7 @@ class PointerLoop:
         disp = self.dispatcher
         if full not in disp.overloads:
             _compile_once(disp, full)
+        self._flown.add(full)
         return disp.overloads[full].entry_point(self.ctrl_fn, self.dist_fn, *args)
 
 
@@ -1251,7 +1259,9 @@ def _compile_once(disp, sig) -> None:
 
 def _function_type(fn, spec, loop_types):
     """The numba ``FunctionType`` the loop calls ``fn`` through: its argument types from the
-    loop's (``spec``: :data:`_CTRL_ARGS`), its return type what ``fn`` compiles to for them."""
+    loop's (``spec``: a layout's ``ctrl``/``dist``, :data:`_LOOP_LAYOUT`), its return type what
+    ``fn`` compiles to for them (a controller that returns a value, not ``None``, gets a loop
+    compiled for that type: once, cached on disk, but not the shared one)."""
     from numba import types
 
     c1 = types.Array(types.float64, 1, "C")
@@ -1271,9 +1281,22 @@ def _function_type(fn, spec, loop_types):
         else:
             args.append(loop_types[s])
     args = tuple(args)
-    if args not in fn.overloads:
+    if args in fn.overloads:
+        return types.FunctionType(fn.overloads[args].signature)
+    if getattr(fn, "_can_compile", True):
         fn.compile(args)
-    return types.FunctionType(fn.overloads[args].signature)
+        return types.FunctionType(fn.overloads[args].signature)
+    # declared with its own signature(s) (``@njit(sig)``): the one the loop's arguments convert to
+    # (e.g. C-contiguous arrays to an "A" layout), as a direct call would choose
+    from numba import typeof
+
+    sig = fn.typingctx.resolve_function_type(typeof(fn), args, {})
+    if sig is None or tuple(sig.args) not in fn.overloads:
+        name = getattr(fn, "__name__", "the controller")
+        raise TypeError(f"{name} is declared with the signatures {fn.signatures}, none of which "
+                        f"takes the mission loop's arguments {args}: leave out the signature "
+                        "(@njit) or declare one these convert to")
+    return types.FunctionType(fn.overloads[tuple(sig.args)].signature)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1864,8 +1887,9 @@ def mission_runner(setup: MissionSetup):
     pointer by :func:`compiled_quad` — no disturbance, a constant current, an ideal supply, inflow or
     not, chains ESC → first-order motor → quadratic map), else :func:`_fly_loop` with the
     setup's controller (the built-in PID by default) and disturbance as function pointers,
-    specialised to the setup's configuration (:func:`specialised_loop`, :func:`loop_config`).  Either way only the branches
-    the configuration takes are compiled; ``run.loop`` is that loop."""
+    specialised to the setup's configuration (:func:`specialised_loop`, :func:`loop_config`).
+    Either way only the branches the configuration takes are compiled; ``run.loop`` is that
+    loop."""
     s = setup
     N = s.t.size
     b = s.bank

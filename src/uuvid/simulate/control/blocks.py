@@ -49,7 +49,9 @@ class Controller:
       between its knots); ``scale`` is the allocation's, for ``"thrust"`` the smallest ratio
       clipped / requested (1: nothing clipped), for ``"command"`` 1.
 
-    ``fn`` either a numba ``@njit`` function (compiled into the loop; full speed) or a plain
+    ``fn`` either a numba ``@njit`` function (called by the compiled loop through a function
+    pointer at full speed: it compiles only itself, the loop is shared and cached; write
+    ``tau_out`` and return nothing) or a plain
     Python callable with the same signature (called from the compiled loop through
     ``numba.objmode`` each step; slower — see ``uuvid bench``, case ``controllers``).  Batches
     (:func:`uuvid.simulate.batch.run_batch_fast`) fly a compiled wrench controller inside the
