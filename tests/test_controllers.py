@@ -350,19 +350,12 @@ def test_a_controller_declared_with_its_own_signature_flies_and_its_first_flight
     A = nt.Array(nt.float64, 1, "A")
     RO = nt.Array(nt.float64, 1, "A", readonly=True)
 
-    @njit(nt.void(nt.float64, A, A, A, A, nt.float64, nt.float64, RO, A, nt.float64, A))
-    def hold(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
-        for j in range(3):
-            out[j] = params[0] * (rp[j] - eta[j]) - params[1] * nu[j]
-        for j in range(3, 6):
-            out[j] = -params[1] * nu[j]
+    def body(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
+        for j in range(6):
+            out[j] = (params[0] * (rp[j] - eta[j]) if j < 3 else 0.0) - params[1] * nu[j]
 
-    @njit
-    def hold_c(t, eta, nu, rp, rv, ryaw, rrate, params, state, dt, out):
-        for j in range(3):
-            out[j] = params[0] * (rp[j] - eta[j]) - params[1] * nu[j]
-        for j in range(3, 6):
-            out[j] = -params[1] * nu[j]
+    hold = njit(nt.void(nt.float64, A, A, A, A, nt.float64, nt.float64, RO, A, nt.float64, A))(body)
+    hold_c = njit(body)  # the same, compiled for the arguments it is given
 
     v = load_vehicle("bluerov2")
     wave = sinusoidal(amplitude=(5.0, 0, 3.0, 0, 0, 0), period=4.0)
