@@ -314,3 +314,21 @@ def test_optimiser_converges_with_a_drag_at_its_bound(seed):
     assert sol["x"][0] == 0.0
     best = _scipy_minimum(fun, z0, [0.0, 0.0])
     assert abs(sol["x"][1] - best[1]) < 1e-6 * best[1], (sol["x"], best)
+
+
+def test_a_start_whose_replay_is_refused_is_not_reported_converged():
+    """A residual that is not finite at the start (a window's replay refused) and that no step
+    changes: the cost is ∞, and "no step lowers the cost" must not be called converged (it was:
+    ∞ ≤ 1e4·tol·∞), so the caller's "optimiser stopped" warning is given."""
+    import numpy as np
+
+    from uuvid.identify.vehicle.output_error import levenberg_marquardt
+
+    def resid(z):
+        return np.array([z[0] - 1.0, np.nan])  # the second window: refused whatever z is
+
+    def jac(z):
+        return np.array([[1.0], [0.0]])
+
+    sol = levenberg_marquardt(resid, jac, np.array([3.0]), np.array([True]))
+    assert not sol["success"]

@@ -104,3 +104,18 @@ def test_a_folder_that_does_not_exist_yet_is_not_created_by_the_check(tmp_path, 
     r = runner.invoke(app, ["vehicle", "identify", "dive", str(tmp_path / "nosuch.csv"),
                             "--vehicle", "bluerov2", "--report", str(tmp_path / "new" / "rep")])
     assert r.exit_code == 2 and not (tmp_path / "new").exists()
+
+
+def test_vehicle_stability_checks_out_before_the_work(afile, monkeypatch):
+    """It made the folder and plotted into it after the analysis: a file in the way was a
+    traceback (FileExistsError), not a message naming --out."""
+    import uuvid.vehicle.stability as stab
+
+    def no_work(*a, **k):
+        raise AssertionError("analysed before --out was checked")
+
+    monkeypatch.setattr(stab, "static_stability", no_work)
+    r = runner.invoke(app, ["vehicle", "stability", "bluerov2", "--out", str(afile)])
+    assert r.exit_code == 2, r.output
+    assert f"--out {afile}: a file of that name is in the way" in _said(r)
+    assert afile.read_text() == "keep\n"

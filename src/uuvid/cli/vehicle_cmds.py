@@ -300,10 +300,12 @@ def vehicle_stability(
 
     The limit is the speed where the vehicle can no longer stay level: the righting moment BG·W
     against the thrust moment arms and the Munk moment of the added-mass difference."""
+    from uuvid.cli.common import check_outputs
     from uuvid.vehicle.stability import static_stability
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle, "nothing holds its attitude", inflow)
+    check_outputs(("--out", out, "folder"))  # before the work, not a traceback after it
     try:
         res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
     except ValueError as e:

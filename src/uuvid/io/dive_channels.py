@@ -445,7 +445,7 @@ def _check_surface_reading(chans: dict, armed: list, name: str, warnings: list) 
 
 #: a depth step between consecutive samples faster than this (m/s) is no motion: an ROV climbs or
 #: dives at 1–1.5 m/s at most (BlueROV2: about 1), so 5 m/s leaves room for any vehicle uuvid flies
-DEPTH_RATE_MAX_MPS = 5.0
+DEPTH_RATE_MAX_MPS = MAX_DEPTH_RATE
 #: ... beyond this many times the depth's own noise σ (a high-rate noisy sensor) and at least
 #: :data:`DEPTH_JUMP_MIN_M`
 DEPTH_JUMP_NOISE = 10.0
@@ -499,7 +499,8 @@ def _drop_depth_spikes(chans: dict, name: str, warnings: list, left_out: dict,
     t, d = chans["depth_m"]
     a = (t[2:] - t[1:-1]) / (t[2:] - t[:-2])
     e = (d[1:-1] - (a * d[:-2] + (1 - a) * d[2:])) / np.sqrt(1 + a * a + (1 - a) ** 2)
-    sigma = float(1.4826 * np.median(np.abs(e - np.median(e))))
+    sigma = float(1.4826 * np.nanmedian(np.abs(e - np.nanmedian(e))))  # (NaN: repeated stamps)
+    sigma = sigma if math.isfinite(sigma) else 0.0
     tol = max(DEPTH_JUMP_NOISE * sigma, DEPTH_JUMP_MIN_M)
     step = np.abs(np.diff(d)) - DEPTH_RATE_MAX_MPS * np.diff(t)
     if not np.any(step > tol):  # the usual log: no step beyond the bound, nothing to search
@@ -853,8 +854,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         armed = [(float(t.min()), float(t.max()))]
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
     left_out: dict = {}
+    _check_units(chans, pwm, name, warnings, armed)  # (a depth in cm is no run of spikes)
     _drop_depth_spikes(chans, name, warnings, left_out, rows=t)
-    _check_units(chans, pwm, name, warnings, armed)
     forces = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
     directions = None
     if export is not None:  # written by `uuvid log export`: its forces' basis and motor directions
@@ -1284,13 +1285,13 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
         tm = load_thrust_model(thruster_model)
     chans, warnings = dict(bd.channels), list(bd.warnings)
     left_out: dict = {}
-    _drop_depth_spikes(chans, bd.name, warnings, left_out)
     try:  # the table's unit checks, on the bag's channels (named with their topics)
         _check_units(chans, bd.pwm, bd.name, warnings)
     except DiveDataError as e:
         m = re.search(r"column (\w+)", str(e))
         src = bd.sources.get(m.group(1)) if m else None
         raise DiveDataError(f"{e} (read from {src.split(' ')[0]})" if src else str(e)) from None
+    _drop_depth_spikes(chans, bd.name, warnings, left_out)
     thrust = _forces_from_pwm(chans, bd.pwm, veh, bd.name, warnings, directions=bd.directions,
                               thrust_model=tm, label=bd.pwm_label)
     if bd.armed is not None:

@@ -614,9 +614,8 @@ def _dof_list(dofs, dc) -> list:
                 all(f in dc.channels for f in H_FORCES):
             out.append("horizontal")
         return out
-    if isinstance(dofs, str):
-        dofs = [dofs]
-    if not list(dofs):  # `--dof ''` or `--dof ,`: not "all" and not a name
+    dofs = [dofs] if isinstance(dofs, str) else list(dofs)  # (a generator read once)
+    if not dofs:  # `--dof ''` or `--dof ,`: not "all" and not a name
         have = [d for d in DIVE_DOFS if DIVE_DOFS[d][0] in dc.channels
                 and DIVE_DOFS[d][1] in dc.channels]
         raise DiveDataError("the DOF list is empty: name one or more of heave, yaw, surge, sway, "

@@ -1189,7 +1189,7 @@ class PointerLoop:
     disturbance, :func:`_pointer_source`) with the pair it flies: calling it with the loop's
     other arguments compiles (or loads from disk) the loop for their types with the pair as
     function pointers — one machine code for every controller of the same types — and runs
-    it.  ``signatures``, ``stats`` and ``py_func`` are the dispatcher's."""
+    it.  ``stats`` and ``py_func`` are the dispatcher's; ``signatures`` the pair's own flights."""
 
     def __init__(self, dispatcher, ctrl_fn, dist_fn, layout=None):
         self.dispatcher = dispatcher

@@ -200,7 +200,8 @@ class DofEstimate:
     @property
     def unusable(self) -> list:
         """Why this estimate is not a model to use (empty when nothing says so): parameters or σ
-        that are not finite, a mass or inertia not determined (σ beyond its value) or beyond
+        that are not finite, a mass or inertia not determined (σ beyond twice its value,
+        :data:`~uuvid.identify.vehicle.output_error.INERTIA_SIGMA_MAX`) or beyond
         :data:`FAR_FROM_BASE` of the base's, an in-sample replay that explains nothing of the
         channel (:func:`~uuvid.identify.vehicle.output_error.unusable_reasons`), a held-out part
         the base predicts better."""
@@ -490,6 +491,12 @@ def _start_candidates(th_svf, base: OneDofParams, inflow_starts=None) -> list:
     return out
 
 
+def _rms_kept(r, left_out) -> float:
+    """RMS of the residuals ``r`` outside the windows ``left_out`` (a replay refused there is NaN)."""
+    keep = ~np.asarray(left_out, bool)
+    return float(np.sqrt(np.mean(r[keep] ** 2))) if keep.any() else math.nan
+
+
 def _cost(resid, z0, th) -> float:
     z = z0.copy()
     z[:len(th)] = th
@@ -716,7 +723,9 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             f"h·(k + 2k_q|v|)/m up to {float(np.max(stiff[blown])):.3g}; RK4 is stable below "
             f"{RK4_LIMIT}) or blew up when a parameter moved by 1e-6 of its value: they are "
             "left out of the standard errors; replays there are not the model's solution")
-    sd_f, corr_f = covariance(J, sol["fun"], groups, int(np.count_nonzero(free[:NP])))
+    # the left-out windows' residuals too (NaN where a replay is refused): σ from the others
+    fun = np.where(unstable[groups], 0.0, sol["fun"])
+    sd_f, corr_f = covariance(J, fun, groups, int(np.count_nonzero(free[:NP])))
     sd, corr = np.zeros(NP), np.eye(NP)
     fi = np.flatnonzero(free[:NP])
     sd[fi] = sd_f
@@ -777,7 +786,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     sd_y = float(np.std(prob.y[sc]))
     train = {"rms": float(np.sqrt(np.mean(err ** 2))),
              "nrmse": float(np.sqrt(np.mean(err ** 2)) / sd_y) if sd_y > 0 else float("nan"),
-             "rms_fit": float(np.sqrt(np.mean((sol["fun"][:N] / wts) ** 2))),  # unweighted
+             "rms_fit": _rms_kept(sol["fun"][:N] / wts, unstable[groups][:N]),  # unweighted
              "iterations": sol["nit"],
              "rms_base": float(np.sqrt(np.mean(((pr_b - prob.y)[sc]) ** 2))),
              "n": int(np.count_nonzero(sc))}

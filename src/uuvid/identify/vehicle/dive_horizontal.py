@@ -199,7 +199,7 @@ class HorizontalEstimate:
     @property
     def unusable(self) -> list:
         """Why this estimate is not a model to use (empty when nothing says so): a value or σ
-        that is not finite, an inertia not determined (σ beyond its value), a channel the
+        that is not finite, an inertia not determined (σ beyond twice its value), a channel the
         in-sample replay explains nothing of
         (:func:`~uuvid.identify.vehicle.output_error.unusable_reasons`), a held-out channel the
         base vehicle predicts better than it by more than 11 %

@@ -111,7 +111,8 @@ def levenberg_marquardt(resid, jac, z0, free, max_iter: int = 100, positive=(0,)
                     break
                 lam = max(lam, 1e-6) * 4
             if not improved:
-                msg, ok = "no step lowers the cost", to_go <= 1e4 * tol * s2
+                # (an infinite cost — a replay refused at the start — is never "converged")
+                msg, ok = "no step lowers the cost", math.isfinite(cost) and to_go <= 1e4 * tol * s2
                 if ok:
                     msg = "no further decrease (at the optimiser's resolution)"
                 break
