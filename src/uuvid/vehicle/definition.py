@@ -361,9 +361,9 @@ def _inflow_fix(spec, mode: str, given: bool) -> str:
     commands' option that overrides it, or — when the override asked for inflow the file does
     not have — leaving that out."""
     if given:
-        return (f"inflow {mode} was asked for on this run (--inflow {mode}, or inflow= in "
-                f"Python) over the vehicle file's inflow: {spec.inflow}: leave it out, or name a "
-                "propeller: with a map for these thrusters")
+        return (f"inflow {mode} was asked for on this run (--inflow {mode}, a scenario file's "
+                f"inflow: {mode}, or inflow= in Python) over the vehicle file's inflow: "
+                f"{spec.inflow}: leave it out, or name a propeller: with a map for these thrusters")
     return ("set inflow: none in the vehicle file, or switch it off for one run with --inflow "
             "none (uuvid simulate, vehicle envelope, stability, hold; load_vehicle(..., "
             "inflow='none') in Python)")
