@@ -88,16 +88,6 @@ def to_rpm(x):
     return x / RPM
 
 
-def rev_s(x):
-    """rev/s → rad/s."""
-    return x * REV_S
-
-
-def ozf(x):
-    """ozf (ounce-force) → N."""
-    return x * OZF
-
-
 def kgf(x):
     """kgf → N."""
     return x * KGF
