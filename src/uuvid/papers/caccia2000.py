@@ -242,7 +242,8 @@ def _integrate(p, x0, tau, dt, nsub):
     n = tau.shape[0]
     X = np.empty((n + 1, 13))
     x = x0.copy()
-    X[0] = x
+    for j in range(13):  # rows element by element: a row assignment compiles numba's
+        X[0, j] = x[j]  # shape-mismatch message (≈ 2 s per process)
     h = dt / nsub
     vc = p[189:192].copy()
     dvc = np.zeros(3)
@@ -267,7 +268,8 @@ def _integrate(p, x0, tau, dt, nsub):
             for j in range(13):
                 x[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
         normalise_state(x)
-        X[i + 1] = x
+        for j in range(13):
+            X[i + 1, j] = x[j]
     return X
 
 

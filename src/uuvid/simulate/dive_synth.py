@@ -56,7 +56,8 @@ def _stage_point(x, ks, s, h, z):
     """RK4 stage ``s``'s state into ``z``: ``x``, ``x + h/2 k1``, ``x + h/2 k2``, ``x + h k3``
     (``ks[s - 1]`` the previous stage's derivative)."""
     if s == 0:
-        z[:] = x
+        for m in range(13):
+            z[m] = x[m]
     else:
         a = 0.5 * h if s < 3 else h
         for m in range(13):
@@ -128,8 +129,10 @@ def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_t
             T[j] = _table_at(TT, pwm[j], v_batt)
             if ka != 0.0:
                 Om[j] = _table_at(OO, pwm[j], v_batt)
-        X[i] = x
-        PWM[i] = pwm
+        for m in range(13):  # rows element by element: a row assignment compiles numba's
+            X[i, m] = x[m]  # shape-mismatch message (≈ 2 s per process)
+        for j in range(n_thr):
+            PWM[i, j] = pwm[j]
         V[i] = v_batt
         if i == n:
             break
@@ -140,7 +143,8 @@ def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_t
                 for j in range(n_thr):
                     Te[j] = T[j] - ka * Om[j] * ua[j]
             else:
-                Te[:] = T
+                for j in range(n_thr):
+                    Te[j] = T[j]
             for m in range(6):
                 acc = 0.0
                 for j in range(n_thr):
@@ -148,7 +152,9 @@ def _pilot_steps(i0, i1, x, t, mode, disarmed, duration, stick, depth_tgt, yaw_t
                 tau6[m] = acc
             tau6[2] -= tether[0] * z[9] + tether[1] * z[9] * abs(z[9])
             tau6[5] -= tether[2] * z[12] + tether[3] * z[12] * abs(z[12])
-            ks[s] = vehicle_rhs(z, tau6, p)
+            d = vehicle_rhs(z, tau6, p)
+            for m in range(13):
+                ks[s, m] = d[m]
         for m in range(13):
             x[m] = x[m] + h / 6 * (ks[0, m] + 2 * ks[1, m] + 2 * ks[2, m] + ks[3, m])
         normalise_state(x)
@@ -356,11 +362,14 @@ def _horizontal_inflow_steps(x, TAU, OM, ka, pos, axes, wake, B, p, h, X):
                     acc -= B[m, j] * ka * OM[i, j] * ua[j]
                 tau6[m] = acc
             tau6[2] = tau6[3] = tau6[4] = 0.0
-            ks[s] = vehicle_rhs(z, tau6, p)
+            d = vehicle_rhs(z, tau6, p)
+            for m in range(13):
+                ks[s, m] = d[m]
         for m in range(13):
             x[m] = x[m] + h / 6 * (ks[0, m] + 2 * ks[1, m] + 2 * ks[2, m] + ks[3, m])
         normalise_state(x)
-        X[i + 1] = x
+        for m in range(13):
+            X[i + 1, m] = x[m]
 
 
 def _edge_shifted(model, edges):

@@ -355,8 +355,9 @@ def _static_block(kind, params, pb, sig):
 @njit(cache=True)
 def eval_chain(kinds, poff, params, soff, outch, in_ch, x, cmd, dx, ch, blk_in):
     """Evaluate every block once: fills ``dx`` (state derivatives) and ``ch`` (channels)."""
-    o = np.int64(0)  # not the literal 0: eval_chain_at is compiled once (as the loops call it)
-    return eval_chain_at(kinds, poff, params, o, soff, outch, in_ch, x, o, cmd, dx, ch, blk_in, o)
+    o = np.int64(0)  # not the literal 0, and ``start`` given: eval_chain_at is compiled once, for
+    # the signature the loops call it with (an omitted ``start`` is a type of its own: ≈ 2 s)
+    return eval_chain_at(kinds, poff, params, o, soff, outch, in_ch, x, o, cmd, dx, ch, blk_in, o, o)
 
 
 @njit(cache=True)
