@@ -8,9 +8,10 @@
 Steady models (``quadratic``, ``cv``, ``polynomial``, ``deadzone``, ``table``, ``physical``) use
 every row of every file; dynamic models (``first-order``, ``yoerger``, ``bessa``, ``dc-motor``,
 ``healey``, ``mclean``) need a time column, one run per file.  ``--select`` picks the dynamic
-family by leave-one-level-out prediction.  A bench run in a flow (a ``flow_speed`` column, m/s)
-gives ``quadratic`` the inflow coefficient ``k_a`` of ``T = K_T Ω|Ω| − k_a|Ω|u_a`` and
-``four-quadrant`` (with ``--diameter``) the Fourier series of ``C_T*(β)``.  What each model
+family by leave-one-level-out prediction.  A bench run in a flow (a ``flow_speed`` column, m/s
+unless its header or ``--flow-speed-unit`` says another unit) gives ``quadratic`` the inflow
+coefficient ``k_a`` of ``T = K_T Ω|Ω| − k_a|Ω|u_a`` and ``four-quadrant`` (with ``--diameter``)
+the Fourier series of ``C_T*(β)``.  What each model
 reads and writes is tabulated in :mod:`uuvid.identify.thruster.workflow`, which does the work;
 this module only parses options.
 
@@ -104,9 +105,13 @@ def thruster_fit(
     time_col: str | None = typer.Option(None, "--time-col", help="Time column, in seconds (dynamic models)."),
     flow_speed_col: str = typer.Option(
         "auto", "--flow-speed-col",
-        help="Water speed through the propeller [m/s] (bench in a flow; quadratic and "
-             "four-quadrant fit the inflow coefficients): auto = the column 'flow_speed' if the "
-             "file has one | a column name | none."),
+        help="Water speed through the propeller (bench in a flow; quadratic and "
+             "four-quadrant fit the inflow coefficients): auto = the column 'flow_speed' (or "
+             "'flow_speed [kn]', …) if the file has one | a column name | none."),
+    flow_speed_unit: str | None = typer.Option(
+        None, "--flow-speed-unit",
+        help="m/s | cm/s | mm/s | km/h | kn | ft/s (default: the unit in the column's header, as "
+             "in 'flow [kn]', else m/s; a unit that disagrees with the header's is an error)."),
     diameter: float | None = typer.Option(None, "--diameter",
                                           help="four-quadrant: propeller diameter [m]."),
     command_unit: str = typer.Option("pwm_us", "--command-unit", help="pwm_us (or us) | duty | volts."),
@@ -196,7 +201,8 @@ def thruster_fit(
                        speed_col=speed_col, current_col=current_col, voltage_col=voltage_col,
                        time_col=time_col, command_unit=command_unit, thrust_unit=thrust_unit,
                        speed_unit=speed_unit, supply_voltage=supply_voltage, neutral=neutral,
-                       flow_speed_col=None if flow_speed_col.lower() == "none" else flow_speed_col)
+                       flow_speed_col=None if flow_speed_col.lower() == "none" else flow_speed_col,
+                       flow_speed_unit=flow_speed_unit)
     if diameter is not None and not (math.isfinite(diameter) and diameter > 0):
         _fail(f"--diameter must be a positive length in m, got {diameter}")
     if diameter is not None and diameter > MAX_PROPELLER_DIAMETER:

@@ -21,6 +21,8 @@ KGF = G0  # N per kgf
 REV_S = 2.0 * math.pi  # rad/s per rev/s (= 60 rpm)
 RPM = REV_S / 60.0  # rad/s per rev/min
 DEG = math.pi / 180.0
+KNOT = 1852.0 / 3600.0  # m/s per knot (international nautical mile per hour)
+KMH = 1.0 / 3.6  # m/s per km/h
 
 
 def ft(x):

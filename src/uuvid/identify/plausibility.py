@@ -18,7 +18,7 @@ import numpy as np
 
 from uuvid.core import units as U
 from uuvid.core.checks import MAX_PLAUSIBLE_VOLTAGE as _MAX_SUPPLY_V
-from uuvid.io.bench import BenchDataError
+from uuvid.io.bench import REVERSAL_SIGMAS, SIGN_NOISE, BenchDataError, reversal_tolerance
 
 #: below this fraction of rows agreeing with the command's direction, the sign is reversed
 _SIGN_AGREEMENT = 0.5
@@ -105,8 +105,8 @@ def _largest_row(data, y, rows):
 
 
 #: readings below this fraction of the file's largest |value| are left out of the per-direction
-#: sign check (a dead band's noise may have either sign)
-_SIGN_NOISE = 0.05
+#: sign check (a dead band's noise may have either sign); the rule of the check in a flow too
+_SIGN_NOISE = SIGN_NOISE
 
 
 def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> None:
@@ -134,30 +134,28 @@ def _check_direction_signs(data, name: str, unit: str, y, m, min_rows: int) -> N
 
 
 #: a reading of the wrong sign must be this many times the row-to-row scatter to be a reversal
-_REVERSAL_SIGMAS = 6.0
+_REVERSAL_SIGMAS = REVERSAL_SIGMAS
 
 
 def _check_single_reversals(data, name: str, unit: str, y, m) -> None:
     """A row whose reading has the other direction's sign, clear of the dead band's noise
     (beyond :data:`_SIGN_NOISE` of the file's largest |reading| and :data:`_REVERSAL_SIGMAS` ×
-    the readings' row-to-row scatter), in still water: a thruster
-    does not push backwards at a forward command — a sign slip in that row (or a row of another
-    test).  Left unchecked, a table fit flattened it away and a polynomial bent around it.  In a
-    flow a propeller can (a forward command against a strong inflow from ahead), so rows with a
-    flow speed are not checked, nor time series (a step's transient keeps the old sign)."""
+    the readings' row-to-row scatter: :func:`uuvid.io.bench.reversal_tolerance`), in still
+    water: a thruster does not push backwards at a forward command — a sign slip in that row (or
+    a row of another test).  Left unchecked, a table fit flattened it away and a polynomial bent
+    around it.  In a flow a propeller can (a forward command against a strong inflow from ahead),
+    so rows with a flow speed are not checked here (:func:`uuvid.io.bench.read_bench` checks those
+    with the water at rest or from behind, by the same rule), nor time series (a step's transient
+    keeps the old sign)."""
     if data.time is not None:  # a time series: after a command step the thrust keeps its old
         return  # sign for a few tenths of a second (the thruster's lag), which is no reversal
     d = data.direction
     still = np.ones(y.shape, bool)
     if data.flow_speed is not None:
         still = np.abs(np.nan_to_num(data.flow_speed, nan=np.inf)) <= _STILL_WATER
-    big = m & still & (np.abs(y) > _SIGN_NOISE * np.max(np.abs(y[m])))
-    rows = np.flatnonzero(m & still)
-    if rows.size >= 5:  # and clear of the readings' own scatter (row to row, robust: MAD)
-        o = rows[np.argsort(data.command[rows], kind="stable")]
-        dy = np.diff(y[o])
-        sigma = 1.4826 * float(np.median(np.abs(dy - np.median(dy)))) / np.sqrt(2.0)
-        big &= np.abs(y) > _REVERSAL_SIGMAS * sigma
+    # clear of the file's largest reading and of the readings' own scatter (the rule of the
+    # check in a flow, bench.reversal_tolerance)
+    big = m & still & (np.abs(y) > reversal_tolerance(y, data.command, m, m & still))
     wrong = np.flatnonzero(big & (np.sign(y) != d))
     if not wrong.size:
         return

@@ -45,11 +45,15 @@ CHANNEL_COLUMNS = {
     "time": "a time column (--time-col / time_col=)",
     "flow_speed": "a water speed column (--flow-speed-col / flow_speed_col=, default 'flow_speed')",
 }
-#: the column read as the water speed through the propeller when the file has it
+#: the column read as the water speed through the propeller when the file has it (also with its
+#: unit in a trailing bracket: ``flow_speed [cm/s]``)
 FLOW_SPEED_COLUMN = "flow_speed"
-#: a propeller turning one way in water at rest or flowing from behind it cannot push the other
-#: way; readings of the wrong sign up to this fraction of the file's largest |thrust| are noise
-FLOW_SIGN_TOLERANCE = 0.02
+#: readings of the wrong sign below this fraction of the file's largest |reading| are noise (a
+#: dead band's, or a thrust about zero at a small command), never a reversal
+SIGN_NOISE = 0.05
+#: a reading of the wrong sign must be this many times the readings' row-to-row scatter to be a
+#: reversal (:func:`reversal_tolerance`)
+REVERSAL_SIGMAS = 6.0
 #: other spellings of a command unit (``us`` as the time unit accepts it)
 COMMAND_UNIT_ALIASES = {"us": "pwm_us", "µs": "pwm_us", "pwm": "pwm_us", "v": "volts",
                         "volt": "volts"}
@@ -74,6 +78,17 @@ HEADER_SPEED_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "1/min": "
                       "radps": "rad/s", "rad_per_s": "rad/s", "rev/s": "rev/s", "rev/sec": "rev/s",
                       "revs/s": "rev/s", "r/s": "rev/s", "rps": "rev/s", "rev_s": "rev/s",
                       "rev_per_s": "rev/s", "revs^-1": "rev/s", "revs-1": "rev/s", "hz": "rev/s"}
+#: water speed unit → m/s per unit
+FLOW_UNITS = {"m/s": 1.0, "cm/s": 0.01, "mm/s": 1e-3, "km/h": U.KMH, "kn": U.KNOT, "ft/s": U.FT}
+#: a water speed unit written in a column's header (keyed as :data:`HEADER_THRUST_UNITS`) → the
+#: unit of :data:`FLOW_UNITS`; ``ms`` (milliseconds?) and ``cms`` say nothing
+HEADER_FLOW_UNITS = {
+    **{u[:-2] + s: u for u in ("m/s", "cm/s", "mm/s")  # m/s, m/sec, m_s, m s^-1, m_per_s, …
+       for s in ("/s", "/sec", "_s", "s^-1", "s-1", "s⁻¹", "_per_s")},
+    "mps": "m/s", "km/h": "km/h", "km/hr": "km/h", "kmh": "km/h", "km_h": "km/h", "kph": "km/h",
+    "kmh^-1": "km/h", "kmh-1": "km/h", "km_per_h": "km/h", "kn": "kn", "kt": "kn", "kts": "kn",
+    "knot": "kn", "knots": "kn", "ft/s": "ft/s", "ft/sec": "ft/s", "ft_s": "ft/s", "fps": "ft/s",
+    "fts^-1": "ft/s", "fts-1": "ft/s", "ft_per_s": "ft/s"}
 #: the neutral command of each command unit
 DEFAULT_NEUTRAL = {"pwm_us": 1500.0, "duty": 0.0, "volts": 0.0}
 #: T200 performance sheets: readings below this speed were set to zero (SOURCE.md)
@@ -136,6 +151,9 @@ class BenchData:
         Water speed through the propeller [m/s] along its axis (forward positive: the water meets
         a forward-turning propeller from ahead, as the advance speed ``u_a`` of
         :mod:`uuvid.thruster.inflow`), or ``None`` for a bench in still water.
+    flow_speed_column
+        The file's column the water speed was read from (``flow_speed``, ``flow [kn]``, …) for
+        messages; ``None`` when unknown (a :class:`BenchData` built in Python: ``flow_speed``).
     notes
         Sentences on how the file was read that the user should see (the unit of a column taken
         from its header when no unit was given).
@@ -153,6 +171,7 @@ class BenchData:
     neutral: float | None = None
     censor_speed: float | None = None
     flow_speed: np.ndarray | None = None
+    flow_speed_column: str | None = None
     #: how the file was read, said to the user (a unit taken from a column's header, …)
     notes: tuple[str, ...] = ()
 
@@ -211,6 +230,11 @@ class BenchData:
 
     def _where(self) -> str:
         return f"{self.source}: " if self.source else ""
+
+    @property
+    def flow_column(self) -> str:
+        """The name of the water speed's column in messages (``flow_speed`` when unknown)."""
+        return self.flow_speed_column or FLOW_SPEED_COLUMN
 
     # ---------------------------------------------------------------- views
     def __len__(self) -> int:
@@ -418,16 +442,20 @@ def _lookup_unit(token: str, role: str) -> str | None:
         if cased in HEADER_THRUST_UNITS_CASED:
             return HEADER_THRUST_UNITS_CASED[cased]
         return HEADER_THRUST_UNITS.get(_unit_key(token))
+    if role == "flow speed":
+        return HEADER_FLOW_UNITS.get(_unit_key(token))
     return HEADER_SPEED_UNITS.get(_unit_key(token))
 
 
 def header_unit(column: str, role: str) -> str | None:
-    """The unit written in a column's header (``role`` ``thrust`` or ``speed``), or ``None``.
+    """The unit written in a column's header (``role`` ``thrust``, ``speed`` or ``flow speed``, the
+    water speed through the propeller), or ``None``.
 
     Read from a trailing bracket (``Thrust [kgf]``, ``Force (Kg f)``, ``RPM [rpm]``), else from a
     suffix after ``_`` or a space (``thrust_lbf``, ``speed rpm``, ``omega_rad_s``), else from a
     header that is the unit itself (``RPM``).  Conservative: only the clear unit tokens of
-    :data:`HEADER_THRUST_UNITS` / :data:`HEADER_SPEED_UNITS`; a one-letter suffix (``thrust_g``)
+    :data:`HEADER_THRUST_UNITS` / :data:`HEADER_SPEED_UNITS` / :data:`HEADER_FLOW_UNITS` (``flow [kn]``,
+    ``flow_speed (cm/s)``, ``flow_m_s``); a one-letter suffix (``thrust_g``)
     and a header that is only a thrust unit (``N``) say nothing.  On a shaft-speed column ``Hz``
     (``speed_hz``) is revolutions per second, as ``rps``, ``rev/s`` and ``r/s`` are.
     """
@@ -450,15 +478,25 @@ def header_unit(column: str, role: str) -> str | None:
 
 
 #: the option that gives each channel's unit (for messages)
-_UNIT_OPTIONS = {"thrust": "--thrust-unit / thrust_unit=", "speed": "--speed-unit / speed_unit="}
+_UNIT_OPTIONS = {"thrust": "--thrust-unit / thrust_unit=", "speed": "--speed-unit / speed_unit=",
+                 "flow speed": "--flow-speed-unit / flow_speed_unit="}
 
 
 def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: str,
                   notes: list[str]) -> str:
     """The unit of a column: the one given, checked against its header's; else the header's
-    (said in ``notes``); else ``default``."""
+    (said in ``notes``); else ``default``.  A water speed column whose header brackets a unit
+    this reader does not know (``flow [furlong/h]``) is an error naming it, unless a unit is
+    given: read as m/s it would be scaled silently."""
     found = header_unit(col, role)
     opt = _UNIT_OPTIONS[role]
+    token = _UNIT_IN_BRACKETS.search(col.strip())
+    if role == "flow speed" and found is None and given is None and token:
+        raise BenchDataError(
+            f"{t.name}: column {col!r}: {token.group(1).strip()!r} in its header is no water speed "
+            f"unit known here ({', '.join(FLOW_UNITS)}): the {role} would be read in "
+            f"{default} whatever it is. Fix: give the column's unit ({opt.split(' / ')[0]} "
+            f"{'|'.join(FLOW_UNITS)}) or write one of those in its header")
     if found is None or found == given:
         return default if given is None else given
     if given is None:
@@ -508,7 +546,8 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                speed_unit: str | None = None,
                supply_voltage: float | None = None, neutral: float | None = None,
                speed_sign: str = "auto", censor_speed_below: float | None = None,
-               flow_speed_col: str | None = "auto") -> BenchData:
+               flow_speed_col: str | None = "auto",
+               flow_speed_unit: str | None = None) -> BenchData:
     """Read a bench file (CSV, or Parquet with pyarrow) into :class:`BenchData` (SI units).
 
     Parameters
@@ -537,13 +576,20 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         Detection limit in ``speed_unit``: rows whose |speed| is below it were zeroed by the
         logger and are marked censored.
     flow_speed_col
-        The water speed through the propeller [m/s] (a run in a flow: carriage or tunnel speed).
-        ``"auto"`` (default): the column :data:`FLOW_SPEED_COLUMN` when the file has one, else
-        none (a bench in still water: nothing changes); ``None``: never read.  With thrust, a
-        row whose thrust opposes the command while the water is at rest or comes from behind the
-        propeller (a forward command with ``flow_speed ≤ 0``, or the reverse) is an error: the
-        blades' angle of attack only grows there (Healey et al. 1995), beyond
-        :data:`FLOW_SIGN_TOLERANCE` × the largest |thrust| such a reading is not noise.
+        The water speed through the propeller (a run in a flow: carriage or tunnel speed).
+        ``"auto"`` (default): the column :data:`FLOW_SPEED_COLUMN` when the file has one (also
+        with a unit: ``flow_speed [cm/s]``), else none (a bench in still water: nothing
+        changes); ``None``: never read.  With thrust, a row whose thrust opposes the command
+        while the water is at rest or comes from behind the propeller (a forward command with
+        ``flow_speed ≤ 0``, or the reverse) is an error: the blades' angle of attack only grows
+        there (Healey et al. 1995).  Noise is no reversal, as in still water
+        (:func:`reversal_tolerance`), nor, in a time series, the thrust still of the old sign
+        after the command changed direction (the thruster's lag).
+    flow_speed_unit
+        ``m/s``, ``cm/s``, ``mm/s``, ``km/h``, ``kn`` or ``ft/s``; ``None`` (default): the
+        header's (``flow [kn]``, ``flow_speed (cm/s)``, ``flow_m_s``), said in
+        :attr:`BenchData.notes`, else m/s, as for ``thrust_unit``; a bracketed header unit not
+        in that list is an error naming the column.
     """
     if isinstance(command_unit, str):
         command_unit = COMMAND_UNIT_ALIASES.get(command_unit.strip().lower(), command_unit)
@@ -552,6 +598,9 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         thrust_unit = _check_unit("thrust_unit", thrust_unit, THRUST_UNITS)
     if speed_unit is not None:
         speed_unit = _check_unit("speed_unit", speed_unit, SPEED_UNITS)
+    if flow_speed_unit is not None:
+        flow_speed_unit = _check_unit("flow_speed_unit", HEADER_FLOW_UNITS.get(
+            _unit_key(str(flow_speed_unit)), flow_speed_unit), FLOW_UNITS)
     if speed_sign not in ("auto", "signed", "command"):
         raise BenchDataError(f"unknown speed_sign {speed_sign!r}; expected auto, signed or command")
     if voltage_col is not None and supply_voltage is not None:
@@ -587,14 +636,16 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     vcol, volts = opt(voltage_col, "supply voltage", "V")
     tmcol, time = opt(time_col, "time", "s")
     if flow_speed_col == "auto":
-        have = [c for c in t.columns if _norm(c) == _norm(FLOW_SPEED_COLUMN)]
-        flow_speed_col = have[0] if len(have) == 1 else None
-    fcol, flow = opt(flow_speed_col, "water speed through the propeller", "m/s")
+        flow_speed_col = _auto_flow_column(t)
+    if flow_speed_col is not None:
+        flow_speed_unit = _resolve_unit(t, _find_column(t, flow_speed_col, "water speed"),
+                                        "flow speed", flow_speed_unit, "m/s", notes)
+    fcol, flow = opt(flow_speed_col, "water speed through the propeller", flow_speed_unit or "m/s")
 
     if thrust is not None:
         thrust = thrust * THRUST_UNITS[thrust_unit]
-    if flow is not None and thrust is not None:
-        _check_thrust_in_flow(t, tcol, fcol, cmd - neutral_v, thrust, flow)
+    if flow is not None:
+        flow = flow * FLOW_UNITS[flow_speed_unit or "m/s"]
     censored = np.zeros(cmd.size, dtype=bool)
     speed = None
     censor_speed = None
@@ -614,6 +665,9 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         speed = speed * SPEED_UNITS[speed_unit]
     elif censor_speed_below is not None:
         raise BenchDataError("censor_speed_below needs a speed column (speed_col)")
+    if flow is not None and thrust is not None:
+        _check_thrust_in_flow(t, tcol, fcol, cmd - neutral_v, thrust, flow, ~censored,
+                              time is not None)
     if volts is not None:
         bad = np.flatnonzero(volts <= 0)
         if bad.size:
@@ -637,27 +691,86 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     return BenchData(command=cmd, command_unit=command_unit, thrust=thrust, speed=speed,
                      current=current, supply_voltage=sv, time=time, source=t.name,
                      censored=censored, neutral=neutral_v, censor_speed=censor_speed,
-                     flow_speed=flow, notes=tuple(notes))
+                     flow_speed=flow, flow_speed_column=fcol, notes=tuple(notes))
 
 
-def _check_thrust_in_flow(t: _Table, tcol: str, fcol: str, direction, thrust, flow) -> None:
+def _auto_flow_column(t: _Table) -> str | None:
+    """The column :data:`FLOW_SPEED_COLUMN`, else one that is it with a unit in a trailing
+    bracket (``flow_speed [cm/s]``), else ``None``; two candidates are an error."""
+    have = [c for c in t.columns if _norm(c) == _norm(FLOW_SPEED_COLUMN)]
+    if not have:
+        have = [c for c in t.columns
+                if _norm(_UNIT_IN_BRACKETS.sub("", c.strip())) == _norm(FLOW_SPEED_COLUMN)]
+    if len(have) > 1:
+        raise BenchDataError(f"{t.name}: columns {', '.join(map(repr, have))} could each be the water "
+                             "speed through the propeller: name one (--flow-speed-col / "
+                             "flow_speed_col=)")
+    return have[0] if have else None
+
+
+def reversal_tolerance(y, command, rows, scatter_rows=None, flow=None) -> float:
+    """How large a reading of the wrong sign may be and still be noise rather than a reversal:
+    :data:`SIGN_NOISE` × the largest |``y``| over ``rows``, or :data:`REVERSAL_SIGMAS` × the
+    readings' row-to-row scatter over ``scatter_rows`` (default ``rows``; robust: the MAD of
+    successive differences, rows ordered by command, and by water speed ``flow`` within one
+    command), whichever is larger; the scatter only with at least five such rows.  The still-water
+    check (:func:`uuvid.identify.plausibility.check_bench_signs`) and the check in a flow
+    (:func:`read_bench`) use this one rule."""
+    y = np.asarray(y, float)
+    rows = np.asarray(rows, bool)
+    tol = SIGN_NOISE * float(np.max(np.abs(y[rows]))) if rows.any() else 0.0
+    sr = np.flatnonzero(rows if scatter_rows is None else scatter_rows)
+    if sr.size >= 5:
+        c = np.asarray(command, float)[sr]
+        keys = (c,) if flow is None else (np.asarray(flow, float)[sr], c)
+        dy = np.diff(y[sr[np.lexsort(keys)]])  # lexsort: stable, the last key first
+        sigma = 1.4826 * float(np.median(np.abs(dy - np.median(dy)))) / np.sqrt(2.0)
+        tol = max(tol, REVERSAL_SIGMAS * sigma)
+    return tol
+
+
+def _thrust_reached(direction, thrust, tol: float) -> np.ndarray:
+    """Rows of a time series whose command has kept its direction since a row where the thrust
+    was clearly (beyond ``tol``) on that side: before it, after a step that reversed the command,
+    the thrust keeps the old sign for the thruster's lag, which is no reversal."""
+    d = np.sign(direction)
+    clear = (d != 0) & (d * thrust > tol)
+    before = np.cumsum(clear) - clear  # clear rows before each row
+    new = np.r_[True, d[1:] != d[:-1]]  # first row of each stretch of one direction
+    start = np.flatnonzero(new)[np.cumsum(new) - 1]
+    return before > before[start]
+
+
+def _check_thrust_in_flow(t: _Table, tcol: str, fcol: str, direction, thrust, flow, measured,
+                          series: bool) -> None:
     """A propeller turning forward in water at rest or flowing from behind it (``u_a ≤ 0``) has
     its blades at an angle of attack ``α = p − β ≥ p > 0`` (``β = atan2(u_a, 0.7RΩ) ≤ 0``,
     Healey et al. 1995), so its thrust is forward; the same holds astern.  A reading against
-    that by more than :data:`FLOW_SIGN_TOLERANCE` of the largest |thrust| is a wrong sign in
-    the thrust or flow column, named by file, column and row."""
-    tol = FLOW_SIGN_TOLERANCE * float(np.max(np.abs(thrust)))
-    bad = ((direction > 0) & (flow <= 0) & (thrust < -tol)) | \
-        ((direction < 0) & (flow >= 0) & (thrust > tol))
+    that beyond the noise (:func:`reversal_tolerance`, the rule of the still-water check: a
+    thrust about zero at a small command may have either sign) is a wrong sign in the thrust or
+    flow column, named by file, column and row.  In a time series (``series``) the rows after a
+    change of the command's direction count only once the thrust has reached the new side (the
+    thruster's lag)."""
+    d = np.sign(direction)
+    rows = measured & (d != 0) & (thrust != 0)
+    against = rows & (((d > 0) & (flow <= 0)) | ((d < 0) & (flow >= 0)))
+    if not against.any():
+        return
+    tol = reversal_tolerance(thrust, direction, rows, against, flow)
+    bad = against & (d * thrust < -tol)
+    if series:
+        bad &= _thrust_reached(direction, thrust, tol)
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
-        way = "forward" if direction[i] > 0 else "astern"
+        way = "forward" if d[i] > 0 else "astern"
         raise BenchDataError(
             f"{t.where(tcol, i)}: thrust {thrust[i]:+.4g} N with the propeller driven {way} and "
             f"{fcol!r} = {flow[i]:g} m/s (water at rest or from behind it): the thrust cannot "
-            f"oppose the command there (beyond {FLOW_SIGN_TOLERANCE:.0%} of the largest |thrust| "
-            "as noise). Fix: the sign of the thrust or of the flow-speed column (flow_speed > 0: "
-            "the water meets a forward-turning propeller from ahead)")
+            f"oppose the command there (beyond the noise, {tol:.3g} N here: the larger of "
+            f"{SIGN_NOISE:.0%} of the largest |thrust| and {REVERSAL_SIGMAS:g}× the readings' "
+            "row-to-row scatter). "
+            f"Fix: the sign of the thrust or of the flow-speed column ({fcol!r} > 0: the water "
+            "meets a forward-turning propeller from ahead)")
 
 
 def read_t200(path) -> BenchData:
@@ -718,11 +831,14 @@ def concat(sets: Sequence[BenchData]) -> BenchData:
                      censored=np.concatenate([s.censored for s in sets]), neutral=neutral,
                      censor_speed=cs.pop() if len(cs) == 1 else None,
                      flow_speed=cat("flow_speed"),
+                     flow_speed_column=" / ".join(dict.fromkeys(
+                         s.flow_speed_column for s in sets if s.flow_speed_column)) or None,
                      notes=tuple(n for s in sets for n in s.notes))
 
 
 __all__ = ["BenchData", "BenchDataError", "read_bench", "read_t200", "require_samples", "concat",
-           "COMMAND_UNITS", "THRUST_UNITS", "SPEED_UNITS", "header_unit"]
+           "COMMAND_UNITS", "THRUST_UNITS", "SPEED_UNITS", "FLOW_UNITS", "header_unit",
+           "reversal_tolerance"]
 
 
 def default_t200_dir() -> Path | None:

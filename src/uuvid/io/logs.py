@@ -502,7 +502,7 @@ def _require(module: str, what: str):
 #: time unit → seconds per unit (``datetime``: ISO 8601 text, see :func:`read_log_csv`)
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9, "min": 60.0}
 
-_KNOT = 1852.0 / 3600.0
+_KNOT = U.KNOT
 #: channel unit → (SI unit, SI per unit).  Units whose SI unit is themselves are kept as they are
 #: (``pwm_us`` is a command, not a duration).
 CHANNEL_UNITS: dict[str, tuple[str, float]] = {
@@ -516,7 +516,7 @@ CHANNEL_UNITS: dict[str, tuple[str, float]] = {
     "rad/s": ("rad/s", 1.0), "deg/s": ("rad/s", U.DEG), "°/s": ("rad/s", U.DEG),
     "rpm": ("rad/s", U.RPM), "rev/s": ("rad/s", 2.0 * math.pi),
     # speed, acceleration
-    "m/s": ("m/s", 1.0), "cm/s": ("m/s", 0.01), "mm/s": ("m/s", 1e-3), "km/h": ("m/s", 1 / 3.6),
+    "m/s": ("m/s", 1.0), "cm/s": ("m/s", 0.01), "mm/s": ("m/s", 1e-3), "km/h": ("m/s", U.KMH),
     "kn": ("m/s", _KNOT), "knot": ("m/s", _KNOT), "knots": ("m/s", _KNOT), "ft/s": ("m/s", U.FT),
     "m/s^2": ("m/s^2", 1.0), "m/s/s": ("m/s^2", 1.0), "m/s²": ("m/s^2", 1.0),
     # force, torque

@@ -70,19 +70,21 @@ def _rows(data: BenchData, what: str) -> np.ndarray:
     data.require("thrust", "speed", "flow_speed", what=what)
     m = data.measured & (data.speed != 0)
     src = f"{data.source}: " if data.source else ""
+    col = data.flow_column
     lv = flow_levels(data.flow_speed[m])
     if lv.size < MIN_FLOW_LEVELS:
         shown = ", ".join(f"{v:g}" for v in lv)
         raise BenchDataError(
-            f"{src}column 'flow_speed': {lv.size} distinct water speed(s) ({shown} m/s) in the "
+            f"{src}column {col!r}: {lv.size} distinct water speed(s) ({shown} m/s) in the "
             f"{int(m.sum())} measured rows with the propeller turning; {what} needs at least "
             f"{MIN_FLOW_LEVELS} (two always fit a line in u_a, a third tests the form). Fix: "
             "record the runs at more carriage/tunnel speeds")
     top = float(np.max(np.abs(data.flow_speed[m])))
     if top > MAX_FLOW_SPEED:
         raise BenchDataError(
-            f"{src}column 'flow_speed' reaches {top:.4g} m/s, beyond {MAX_FLOW_SPEED:g} m/s for a "
-            "thruster's tow tank or water tunnel: is it in cm/s or km/h? expected m/s")
+            f"{src}column {col!r} reaches {top:.4g} m/s, beyond {MAX_FLOW_SPEED:g} m/s for a "
+            "thruster's tow tank or water tunnel: is it in cm/s or km/h? expected m/s, or the "
+            "unit in the column's header ('flow_speed [cm/s]') or --flow-speed-unit")
     return m
 
 
@@ -131,13 +133,7 @@ def fit_inflow_linear(data: BenchData, *, cov_type: str = "classical") -> Steady
                                  "speed. Fix: check the sign of the thrust column against the "
                                  "speed column")
     ka = fit["k_a"]
-    if ka.value < 0 and -ka.value > 2.0 * ka.stderr:
-        import dataclasses
-
-        fit = dataclasses.replace(fit, warnings=fit.warnings + (
-            f"k_a = {ka.value:.4g} ± {ka.stderr:.2g} < 0: the thrust rises with flow_speed, while "
-            "water meeting the propeller from ahead (flow_speed > 0 in forward thrust) takes "
-            "thrust away: is flow_speed's sign reversed (positive for water from behind)?",))
+    fit = _warn_reversed_flow(fit, "k_a", ka.value, ka.stderr, data.flow_column)
     v = fit.values
     kf = max(v.get("K_T_fwd", v.get("K_T_rev", 0.0)), 0.0)
     kr = max(v.get("K_T_rev", kf), 0.0)
@@ -150,6 +146,21 @@ def fit_inflow_linear(data: BenchData, *, cov_type: str = "classical") -> Steady
 # ------------------------------------------------------------------------------------------------
 # four-quadrant map
 # ------------------------------------------------------------------------------------------------
+def _warn_reversed_flow(fit: Fit, what: str, ka: float, sigma: float, col: str) -> Fit:
+    """``fit`` with a warning when the inflow coefficient ``ka`` (``what``: ``k_a`` of the linear
+    form, or the map's equivalent, :func:`map_inflow_coefficient`) is negative beyond 2σ: the
+    thrust rises with the water from ahead, physically backwards — the water speed's sign is
+    probably reversed.  One sentence for both forms."""
+    if not (ka < 0 and -ka > 2.0 * sigma):
+        return fit
+    import dataclasses
+
+    return dataclasses.replace(fit, warnings=fit.warnings + (
+        f"{what} = {ka:.4g} ± {sigma:.2g} < 0: the thrust rises with {col}, while water meeting "
+        f"the propeller from ahead ({col} > 0 in forward thrust) takes thrust away: is {col}'s "
+        "sign reversed (positive for water from behind)?",))
+
+
 def advance_angle(speed, flow, diameter: float) -> np.ndarray:
     """``β = atan2(u_a, 0.7 π n D)`` (rad) with ``n = Ω/2π``."""
     return np.arctan2(np.asarray(flow, float), 0.7 * np.asarray(speed, float) / 2.0 * diameter)
@@ -163,6 +174,38 @@ def four_quadrant_regressors(speed, flow, diameter: float, order: int, rho: floa
     beta = np.arctan2(u, vt)
     k = np.arange(order + 1)
     return np.hstack([np.cos(np.outer(beta, k)), np.sin(np.outer(beta, k[1:]))]) * q[:, None]
+
+
+def four_quadrant_flow_slopes(speed, flow, diameter: float, order: int, rho: float) -> np.ndarray:
+    """``∂/∂u_a`` of the columns of :func:`four_quadrant_regressors` (per N of thrust per m/s):
+    with ``q = c (u² + v_t²)``, ``c = ½ρ(π/4)D²``, ``v_t = 0.7πnD`` and ``∂β/∂u = v_t/(u² + v_t²)``,
+    ``∂(q cos kβ)/∂u = c (2u cos kβ − k v_t sin kβ)`` and
+    ``∂(q sin kβ)/∂u = c (2u sin kβ + k v_t cos kβ)``."""
+    vt = 0.7 * np.asarray(speed, float) / 2.0 * diameter
+    u = np.asarray(flow, float)
+    c = 0.5 * rho * 0.25 * math.pi * diameter * diameter
+    beta = np.arctan2(u, vt)
+    k = np.arange(order + 1)
+    kb = np.outer(beta, k)
+    cos_cols = 2.0 * u[:, None] * np.cos(kb) - vt[:, None] * k * np.sin(kb)
+    sin_cols = (2.0 * u[:, None] * np.sin(kb) + vt[:, None] * k * np.cos(kb))[:, 1:]
+    return c * np.hstack([cos_cols, sin_cols])
+
+
+def map_inflow_coefficient(fit: Fit, speed, flow) -> tuple[float, float]:
+    """The inflow coefficient a fitted four-quadrant map implies over the bench's rows, with its
+    σ: ``−mean(∂T/∂u_a / |Ω|)`` — for the linear form ``T = K_T Ω|Ω| − k_a |Ω| u_a`` exactly
+    ``k_a``, so positive when water from ahead takes thrust away (either shaft direction).  A
+    linear function of the coefficients, so its σ is exact from their covariance."""
+    ex = fit.extra
+    order = (len(fit.parameters) - 1) // 2
+    w = np.asarray(speed, float)
+    g = -np.mean(four_quadrant_flow_slopes(w, flow, ex["diameter"], order, ex["rho"])
+                 / np.abs(w)[:, None], axis=0)
+    theta = np.array([p.value for p in fit.parameters])
+    cov = np.asarray(fit.covariance, float)
+    var = float(g @ cov @ g) if np.all(np.isfinite(cov)) else math.inf
+    return float(g @ theta), math.sqrt(max(var, 0.0))
 
 
 def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = None,
@@ -197,6 +240,9 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
                             "rho": rho, "beta_range_deg": [float(np.degrees(beta.min())),
                                                            float(np.degrees(beta.max()))],
                             "beta_ranges_deg": beta_ranges(w, beta)})
+    ka, ka_sigma = map_inflow_coefficient(fit, w, u)
+    fit = _warn_reversed_flow(fit, "k_a of the fitted map (−∂T/∂u_a / |Ω|, mean over the rows)",
+                              ka, ka_sigma, data.flow_column)
     v = fit.values
     a = tuple(v[f"a_{k}"] for k in range(order + 1))
     b = (0.0,) + tuple(v[f"b_{k}"] for k in range(1, order + 1))

@@ -51,12 +51,13 @@ With a PWM command (neutral ≠ 0) the ``deadzone`` (command input) and dynamic 
 unit-gain ESC in front that only subtracts the neutral command, so ``uuvid thruster predict --pwm``
 works on the written file; its "voltage" is then ``command − neutral``.
 
-Bench runs in a flow (a ``flow_speed`` column, m/s; :mod:`uuvid.identify.thruster.inflow`):
-``quadratic`` and ``four-quadrant`` identify how thrust falls with the water speed, with σ,
-correlations, residuals and a plot of thrust against the water speed per command.  A flow column
-that is zero throughout leaves the inflow coefficient unidentifiable (a warning; the bollard map is
-fitted); other models refuse data with water speeds they do not model.  Without a flow column
-nothing changes.
+Bench runs in a flow (a ``flow_speed`` column, m/s unless its header or ``flow_speed_unit`` says
+another unit; :mod:`uuvid.identify.thruster.inflow`): ``quadratic`` and ``four-quadrant`` identify
+how thrust falls with the water speed, with σ, correlations, residuals and a plot of thrust against
+the water speed per command, and warn when the fit says it rises (the column's sign reversed?).  A
+flow column that is zero throughout leaves the inflow coefficient unidentifiable (a warning; the
+bollard map is fitted) and changes nothing for the other models; they refuse data with water
+speeds they do not model.  Without a flow column nothing changes.
 
 Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
 status 2 and the :class:`~uuvid.io.bench.BenchDataError` message, which names the file, the column
@@ -190,12 +191,14 @@ class ReadOptions:
     supply_voltage: float | None = None
     neutral: float | None = None
     flow_speed_col: str | None = "auto"  # auto: the column 'flow_speed' when the file has one
+    flow_speed_unit: str | None = None  # None: the unit in the column's header, else m/s
 
 
 #: options a Blue Robotics T200 sheet does not take (its columns and units are fixed): defaults
 _T200_IGNORES = {"thrust_unit": None, "speed_unit": None, "command_unit": "pwm_us",
                  "time_col": None, "command_col": "command", "thrust_col": None,
-                 "speed_col": None, "current_col": None, "voltage_col": None, "neutral": None}
+                 "speed_col": None, "current_col": None, "voltage_col": None, "neutral": None,
+                 "flow_speed_unit": None}
 
 
 def _t200_unit_clash(opts: ReadOptions) -> str:
@@ -243,7 +246,8 @@ def read_files(paths, opts: ReadOptions) -> list:
                 command_unit=opts.command_unit, thrust_unit=opts.thrust_unit,
                 speed_unit=opts.speed_unit,
                 supply_voltage=opts.supply_voltage if opts.voltage_col is None else None,
-                neutral=opts.neutral, flow_speed_col=opts.flow_speed_col))
+                neutral=opts.neutral, flow_speed_col=opts.flow_speed_col,
+                flow_speed_unit=opts.flow_speed_unit))
     return sets
 
 
@@ -1163,7 +1167,7 @@ def _check_flow_model(sets, model: str) -> None:
     for s in sets:
         if s.flow_speed is not None and np.any(s.flow_speed != 0):
             i = int(np.flatnonzero(s.flow_speed != 0)[0])
-            raise FitError(f"{s.source}: column 'flow_speed', data row {i + 1}: water speed "
+            raise FitError(f"{s.source}: column {s.flow_column!r}, data row {i + 1}: water speed "
                            f"{s.flow_speed[i]:g} m/s, but "
                            f"{'--select' if model == 'select' else '--model ' + model} does not "
                            "model the "
