@@ -18,6 +18,13 @@ tumbles, and its (meaningless) velocity is kept only under ``tumbling_full_comma
 
 Rotational directions (yaw): the allocated torque is held open loop; roll and pitch rows have a
 restoring moment and no steady rate (their maximum moment is reported).
+
+A direction that full command makes no way in (``makes_way`` False: the allocator's speed along
+it is ≤ 0, e.g. a positively buoyant vehicle with weak vertical thrusters rises at full dive
+command) is still flown, but its ``limit`` and ``note`` say what it does ("cannot dive: rises at
+0.40 m/s at full dive command") and :meth:`EnvelopeCheck.warnings` lists it.  The speeds keep
+their sign (body axes, z down) in the rows; :meth:`EnvelopeCheck.table_rows` shows them along the
+direction named (negative: the other way).
 """
 
 from __future__ import annotations
@@ -38,7 +45,7 @@ from uuvid.vehicle.model import vehicle_rhs
 ROW_KEYS = ("dof", "direction", "sign", "force", "speed", "allocator_force", "allocator_speed",
             "bollard_speed", "allocator_bollard_speed", "force_unit", "speed_unit",
             "simulated_speed", "relative_difference", "final_roll_deg", "final_pitch_deg",
-            "method", "confirmed", "limit", "trim_check_speed", "trim_static_deg",
+            "method", "confirmed", "makes_way", "limit", "trim_check_speed", "trim_static_deg",
             "trim_simulated_deg", "tumbling_full_command", "note")
 TOLERANCE = 0.05  # relative difference accepted as confirmation
 
@@ -266,9 +273,11 @@ class EnvelopeCheck(Result):
     def table_rows(self, columns=("direction", "speed", "allocator_speed", "simulated_speed",
                                   "relative_difference", "limit", "note"),
                    units: bool = True) -> list[dict]:
-        """Rows for display: ``None`` as "—", speeds with their sign dropped (the direction
-        says it); with ``units`` the forces and speeds as text with the row's unit ("129.3 N",
-        "4.70 rad/s": rows mix translation and rotation) and the relative difference in %."""
+        """Rows for display: ``None`` as "—", speeds along the direction named (``sign ·
+        speed``: positive where the vehicle moves the way the direction says, negative where full
+        command moves it the other way — "diving −0.40 m/s" rises); with ``units`` the forces and
+        speeds as text with the row's unit ("129.3 N", "4.70 rad/s": rows mix translation and
+        rotation) and the relative difference in %."""
         out = []
         for r in self.rows:
             d = {}
@@ -278,7 +287,7 @@ class EnvelopeCheck(Result):
                     d[c] = "—"
                     continue
                 if isinstance(v, float) and c.endswith("speed"):
-                    v = abs(v)
+                    v = r["sign"] * v + 0.0  # along the direction named (+ 0.0: no "-0")
                 if units and isinstance(v, float):
                     if c.endswith("speed"):
                         v = f"{v:.4g} {r['speed_unit']}"
@@ -294,6 +303,11 @@ class EnvelopeCheck(Result):
     def all_confirmed(self) -> bool:
         return all(r["confirmed"] is not False for r in self.rows)
 
+    def warnings(self) -> list[str]:
+        """One line per direction that full command makes no way in ("diving: cannot dive: rises
+        at 0.40 m/s at full dive command")."""
+        return [f"{r['direction']}: {r['limit']}" for r in self.rows if r["makes_way"] is False]
+
     def summary(self) -> str:
         lines = [f"Speed envelope confirmed by simulation — {self.vehicle}"]
         for r in self.rows:
@@ -304,7 +318,7 @@ class EnvelopeCheck(Result):
 
     def to_dict(self) -> dict:
         return jsonable({"vehicle": self.vehicle, "inflow": self.inflow,
-                         "rows": [dict(r) for r in self.rows],
+                         "rows": [dict(r) for r in self.rows], "warnings": self.warnings(),
                          "stability": self.stability.to_dict() if self.stability is not None
                          else None})
 
@@ -315,16 +329,17 @@ class EnvelopeCheck(Result):
         fig, ax = new_figure(1, 1, figsize=(max(6.4, 0.9 * len(self.rows) + 2), 4))
         x = np.arange(len(self.rows))
 
-        def col(key):
-            return np.array([abs(r[key]) if r.get(key) is not None else np.nan
+        def col(key):  # along the direction named (negative: the other way)
+            return np.array([r["sign"] * r[key] if r.get(key) is not None else np.nan
                              for r in self.rows], dtype=float)
 
         ax.bar(x - 0.2, col("allocator_speed"), 0.4, label="allocator (static)")
         ax.bar(x + 0.2, col("simulated_speed"), 0.4, label="simulated")
+        ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xticks(x)
         ax.set_xticklabels([r["direction"] for r in self.rows], rotation=30, ha="right",
                            fontsize=8)
-        ax.set_ylabel("top speed (m/s or rad/s, per row)")
+        ax.set_ylabel("top speed along the direction\n(m/s or rad/s, per row; < 0: the other way)")
         ax.set_title(f"{self.vehicle}: speed envelope", fontsize=10)
         ax.legend(fontsize=8)
         return fig
@@ -379,17 +394,25 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                          f"{r.force_allocator:.3g} {r.force_unit} is reported")
             rows.append(d)
             continue
+        # full command moves the vehicle the other way (or not at all): say so, in the limit and
+        # the note; never a "stays level to" built on the size of a speed of the wrong sign
+        no_way = r.no_way()
+        d["makes_way"] = not no_way
         if r.force_allocator <= 0 or not math.isfinite(ref):
             d["confirmed"] = False
             d["note"] = "the allocator gives no force along this direction"
+            if no_way:
+                d["limit"] = no_way
+                d["note"] = f"{no_way} ({d['note']})"
             rows.append(d)
             continue
         case = stab.get(r.direction) if k < 3 else None
         if not simulate:
-            d["limit"] = case.limit_text() if case is not None else "—"
+            d["limit"] = no_way or (case.limit_text() if case is not None else "—")
             d["method"] = "analytic"
-            d["note"] = "not simulated"
-            if case is not None and case.limited and case.limit_speed < abs(ref):
+            d["note"] = f"{no_way}; not simulated" if no_way else "not simulated"
+            if not no_way and case is not None and case.limited and \
+                    case.limit_speed < r.along_allocator:
                 d["confirmed"] = False
                 d["limit"] = _level_limit(case)
                 d["note"] = (f"cannot stay level above {case.limit_speed:.2f} m/s "
@@ -409,7 +432,13 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
         d["relative_difference"] = rel
         d["confirmed"] = bool(rel <= tolerance)
         d["limit"] = case.limit_text() if case is not None else "—"
-        if case is not None and case.limited and case.limit_speed < abs(ref):
+        if no_way:
+            d["limit"] = no_way
+            agree = ("" if math.isnan(rel) else f", within {rel:.1%} of the analysis"
+                     if d["confirmed"] else f", {rel:.0%} off the analysis")
+            d["note"] = (f"{no_way} (the simulation flies {d['simulated_speed']:+.3g} "
+                         f"{r.speed_unit} in body axes{agree})")
+        elif case is not None and case.limited and case.limit_speed < r.along_allocator:
             # the full-command flight tumbles: its speed is no check of the analytic one
             d["tumbling_full_command"] = {
                 "speed": d["simulated_speed"], "relative_difference": rel,

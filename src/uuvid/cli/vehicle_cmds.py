@@ -247,6 +247,8 @@ def vehicle_envelope(
         check = confirm_envelope(v, simulate=confirm, inflow=inflow)
     except ValueError as e:
         _fail(str(e))
+    for w in check.warnings():  # on stderr: --json's stdout stays the document (its "warnings")
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if json_out:
         _print_json(check.to_dict())
         return
@@ -263,7 +265,8 @@ def vehicle_envelope(
     title = f"{v.name}: speed envelope" + (f", inflow {check.inflow}" if with_inflow else "")
     out_console.print(_table(title, rows, [heads.get(c, c) for c in cols], "{:.4g}"))
     legend = ("force, speed: the largest force any thrust combination gives along the direction "
-              "and the steady speed it holds against the drag; allocator speed: the same with the "
+              "and the steady speed it holds against the drag (speeds along the direction named; "
+              "negative: full command moves the vehicle the other way); allocator speed: the same with the "
               "force the thrust allocator delivers (what a pilot gets, and what the simulation "
               "flies)")
     if with_inflow:
@@ -313,6 +316,8 @@ def vehicle_stability(
 
         _fail_flagged(e, {"max_tilt_deg": "--max-tilt"})
     doc = {**res.to_dict(), "inflow_source": "option" if inflow else "vehicle file"}
+    for w in res.warnings():  # on stderr: --json's stdout stays the document (its "warnings")
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if out:
         from uuvid.core.atomic import atomic_write_json
 

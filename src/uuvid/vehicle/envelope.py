@@ -16,6 +16,12 @@ BlueROV2, are left free).  Two values of ``F_max`` are given:
   the delivered force points along ±ξ, uniformly scaled until the first thruster saturates): the
   number a DP controller using it will see.
 
+The speeds keep their sign (body axes, z down).  In heave ``ν`` can outweigh the thrust: a
+positively buoyant vehicle whose vertical thrusters push less than its buoyancy rises at full dive
+command.  Such a row does not make way in its direction (:attr:`EnvelopeRow.along` ≤ 0, the speed
+along the direction named); :meth:`EnvelopeRow.no_way` says so ("cannot dive: rises at 0.40 m/s
+at full dive command").
+
 The drag coefficients are the diagonal of ``D_L``, ``D_Q`` (off-diagonal coupling ignored);
 roll and pitch have restoring moments and no steady rate, so only their force is reported.
 Confirmation by 6-DOF simulation is a separate step.
@@ -44,6 +50,32 @@ DIRECTIONS = {
 }
 UNITS = {0: ("N", "m/s"), 1: ("N", "m/s"), 2: ("N", "m/s"), 3: ("N·m", "rad/s"),
          4: ("N·m", "rad/s"), 5: ("N·m", "rad/s")}
+#: per direction: what making way in it is, what the vehicle does instead when it moves the other
+#: way, and the command's name (:func:`no_way_text`)
+MOTION = {
+    "forward": ("go forward", "goes backward", "forward"),
+    "backward": ("go backward", "goes forward", "backward"),
+    "starboard": ("move to starboard", "moves to port", "starboard"),
+    "port": ("move to port", "moves to starboard", "port"),
+    "diving": ("dive", "rises", "dive"),
+    "climbing": ("climb", "sinks", "climb"),
+    "yaw + (clockwise)": ("turn clockwise", "turns counter-clockwise", "clockwise yaw"),
+    "yaw - (counter-clockwise)": ("turn counter-clockwise", "turns clockwise", "counter-clockwise yaw"),
+}
+#: speed (m/s or rad/s) along a direction below which full command is said to make no way
+WAY_TOL = 1e-9
+
+
+def no_way_text(direction: str, along: float, unit: str) -> str:
+    """The sentence for a direction in which full command makes no way, ``along`` (≤ 0) the
+    steady speed along the direction named: "cannot dive: rises at 0.40 m/s at full dive
+    command" (a positively buoyant vehicle whose vertical thrusters are weaker than its buoyancy),
+    "cannot go forward: does not move at full forward command"."""
+    can, other, cmd = MOTION.get(direction, (f"go {direction}", "moves the other way", direction))
+    if along < -WAY_TOL:
+        a = f"{-along:.2f}" if -along >= 0.005 else f"{-along:.1g}"
+        return f"cannot {can}: {other} at {a} {unit} at full {cmd} command"
+    return f"cannot {can}: does not move at full {cmd} command"
 
 
 def max_force_lp(B, lower, upper, dof: int, sign: float, controlled: Sequence[int],
@@ -80,13 +112,45 @@ class EnvelopeRow:
     direction: str
     sign: int
     force: float  # LP maximum, N or N·m
-    speed: float  # steady speed with the LP force (signed), m/s or rad/s; nan for roll/pitch
+    speed: float  # steady speed with the LP force, signed in body axes (z down); nan for roll/pitch
     force_allocator: float
     speed_allocator: float
     force_unit: str
     speed_unit: str
     speed_bollard: float = math.nan  # the same speed with bollard thrust limits (inflow off)
     speed_allocator_bollard: float = math.nan
+
+    @property
+    def along(self) -> float:
+        """``speed`` along the direction named (``sign · speed``): negative where full command
+        moves the vehicle the other way (e.g. a positively buoyant vehicle at full dive command
+        with vertical thrusters weaker than its buoyancy rises)."""
+        return self.sign * self.speed
+
+    @property
+    def along_allocator(self) -> float:
+        """``speed_allocator`` along the direction named (see :attr:`along`)."""
+        return self.sign * self.speed_allocator
+
+    @property
+    def makes_way(self) -> bool | None:
+        """Whether full command (the allocator's force, what a pilot gets) moves the vehicle the
+        way the direction names; ``None`` for roll and pitch (no steady rate)."""
+        if math.isnan(self.speed_allocator):
+            return None
+        return bool(self.along_allocator > WAY_TOL)
+
+    def no_way(self) -> str:
+        """"" where the vehicle makes way; else what it does at full command ("cannot dive: rises
+        at 0.40 m/s at full dive command"), and the LP's speed where that one would make way."""
+        if self.makes_way is not False:
+            return ""
+        text = no_way_text(self.direction, self.along_allocator, self.speed_unit)
+        if self.along > WAY_TOL:
+            can = MOTION.get(self.direction, (f"go {self.direction}",))[0]
+            text += (f" (the largest force any thrust combination gives, {self.force:.3g} "
+                     f"{self.force_unit}, would {can} at {self.along:.2f} {self.speed_unit})")
+        return text
 
 
 @dataclass(frozen=True)
@@ -107,7 +171,8 @@ class Envelope(Result):
 
     def as_dict(self) -> dict:
         d = {"vehicle": self.vehicle, "mode": self.mode,
-             "rows": [r.__dict__.copy() for r in self.rows], "notes": list(self.notes)}
+             "rows": [{**r.__dict__, "makes_way": r.makes_way, "no_way": r.no_way()}
+                      for r in self.rows], "notes": list(self.notes)}
         if self.inflow != "none":
             d["inflow"] = self.inflow
         else:  # inflow off: the rows as before issue 21
@@ -131,9 +196,10 @@ class Envelope(Result):
         ax[0].bar(x - 0.2, [abs(r.force) for r in self.rows], 0.4, label="LP maximum")
         ax[0].bar(x + 0.2, [abs(r.force_allocator) for r in self.rows], 0.4, label="allocator")
         ax[0].set_ylabel("force [N] / moment [N·m]")
-        ax[1].bar(x - 0.2, [abs(r.speed) for r in self.rows], 0.4, label="LP maximum")
-        ax[1].bar(x + 0.2, [abs(r.speed_allocator) for r in self.rows], 0.4, label="allocator")
-        ax[1].set_ylabel("steady speed [m/s] / [rad/s]")
+        ax[1].bar(x - 0.2, [r.along for r in self.rows], 0.4, label="LP maximum")
+        ax[1].bar(x + 0.2, [r.along_allocator for r in self.rows], 0.4, label="allocator")
+        ax[1].axhline(0.0, color="k", lw=0.6)
+        ax[1].set_ylabel("steady speed along the direction [m/s] / [rad/s]\n(< 0: the other way)")
         for a in ax:
             a.set_xticks(x)
             a.set_xticklabels(labels, rotation=30, ha="right", fontsize=7)
@@ -147,13 +213,17 @@ class Envelope(Result):
         lines = [title, (f"{'DOF':<6} {'direction':<26} {'max force':>12} {'steady speed':>14}"
                          f" {'allocator force':>16} {'allocator speed':>16}")]
         for r in self.rows:
-            sp = "—" if math.isnan(r.speed) else f"{abs(r.speed):.3g} {r.speed_unit}"
+            # along the direction named: negative where full command moves the vehicle the other way
+            sp = "—" if math.isnan(r.speed) else f"{r.along:.3g} {r.speed_unit}"
             spa = "—" if math.isnan(r.speed_allocator) else \
-                f"{abs(r.speed_allocator):.3g} {r.speed_unit}"
+                f"{r.along_allocator:.3g} {r.speed_unit}"
             lines.append(f"{r.dof:<6} {r.direction:<26} {r.force:>8.4g} {r.force_unit:<3} "
                          f"{sp:>14} {r.force_allocator:>10.4g} {r.force_unit:<5} {spa:>16}"
                          + ("" if self.inflow == "none" or math.isnan(r.speed_bollard) else
-                            f"   (bollard thrust: {abs(r.speed_bollard):.3g} {r.speed_unit})"))
+                            f"   (bollard thrust: {r.sign * r.speed_bollard:.3g} {r.speed_unit})"))
+        lines.append("speeds along the direction named (negative: full command moves the vehicle "
+                     "the other way)")
+        lines.extend(f"warning: {r.direction}: {r.no_way()}" for r in self.rows if r.no_way())
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
 

@@ -186,16 +186,25 @@ class StabilityCase:
     thrust_moment: dict  # free DOF → moment of the thrust at level, N·m
     munk_stiffness: dict  # free DOF → ∂M_Munk/∂angle at level, N·m/rad (destabilising if > 0)
     thrust_fraction: np.ndarray  # largest |thrust|/limit needed for the trim
-    max_speed: float  # the envelope's analytic speed for this direction
+    max_speed: float  # the envelope's analytic speed along this direction (< 0: the other way)
     limit_speed: float  # first speed where the vehicle cannot stay level (inf: none ≤ max)
     limit_dof: str | None
     limit_reason: str
+    no_way: str = ""  # full command makes no way in this direction: what it does instead
 
     @property
     def limited(self) -> bool:
         return math.isfinite(self.limit_speed)
 
+    @property
+    def makes_way(self) -> bool:
+        """Whether full command moves the vehicle the way the direction names (if not, only the
+        trim at rest is scanned and :meth:`limit_text` says what it does instead)."""
+        return not self.no_way
+
     def limit_text(self) -> str:
+        if self.no_way:
+            return self.no_way
         if not self.free:
             return "attitude held by thrusters"
         if not self.limited:
@@ -204,7 +213,7 @@ class StabilityCase:
 
     def to_dict(self) -> dict:
         d = {k: getattr(self, k) for k in ("dof", "direction", "sign", "max_speed", "limit_speed",
-                                           "limit_dof", "limit_reason")}
+                                           "limit_dof", "limit_reason", "makes_way")}
         d["free"] = list(self.free)
         d["limit"] = self.limit_text()
         d["speeds"] = self.speeds.tolist()
@@ -237,6 +246,11 @@ class StabilityResult(Result):
         except KeyError:
             return None
 
+    def warnings(self) -> list[str]:
+        """One line per direction that full command makes no way in ("diving: cannot dive: rises
+        at 0.40 m/s at full dive command")."""
+        return [f"{c.direction}: {c.no_way}" for c in self.cases if c.no_way]
+
     def rows(self) -> list[dict]:
         out = []
         for c in self.cases:
@@ -266,7 +280,8 @@ class StabilityResult(Result):
 
     def to_dict(self) -> dict:
         return {"vehicle": self.vehicle, "max_tilt_deg": self.max_tilt_deg, "inflow": self.inflow,
-                "cases": [c.to_dict() for c in self.cases], "notes": list(self.notes)}
+                "cases": [c.to_dict() for c in self.cases], "notes": list(self.notes),
+                "warnings": self.warnings()}
 
     def plot(self, path=None):
         """Trim angle against speed per direction (lines: nonlinear, dotted: small-angle)."""
@@ -355,12 +370,16 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
                      envelope=None, inflow: str | None = None) -> StabilityResult:
     """Trim angle against speed and the speed where the vehicle can no longer stay level, for
     every controlled translational direction up to its envelope speed (see the module text).
+    A direction that full command makes no way in (the envelope's speed along it ≤ 0: e.g. a
+    positively buoyant vehicle whose vertical thrusters cannot out-push its buoyancy rises at full
+    dive command) gets only its trim at rest, ``max_speed`` ≤ 0 and ``no_way`` saying what it does
+    instead — never a "stays level to" a speed it cannot reach.
 
     ``inflow`` (``None``: the vehicle file's; ``'none'``: bollard): the envelope speed scanned to
     and the thrust fraction use each thruster's limit at the advance speed of the trim state
     (:mod:`uuvid.vehicle.inflow`); the trim itself does not depend on the limits."""
 
-    from uuvid.vehicle.envelope import speed_envelope
+    from uuvid.vehicle.envelope import WAY_TOL, no_way_text, speed_envelope
     from uuvid.vehicle.inflow import inflow_limits
     from uuvid.vehicle.layout import dof_index
 
@@ -377,9 +396,14 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
         d = dof_index(r.dof)
         if d > 2 or not math.isfinite(r.speed):
             continue
-        vmax = max(abs(r.speed), abs(r.speed_allocator))
+        # the speed along the direction named: a vehicle that full command moves the other way
+        # (positively buoyant, weak vertical thrusters: it rises at full dive command) has no
+        # speed to scan in this direction, only its trim at rest
+        vmax = max(r.along, r.along_allocator)
+        no_way = "" if vmax > WAY_TOL else r.no_way() or no_way_text(r.direction, vmax, r.speed_unit)
         bal = _Balance(vehicle, d, r.sign, modes, il)
-        speeds, sols, limit, ldof, reason = _scan(bal, vmax, n_speeds, max_tilt_deg)
+        speeds, sols, limit, ldof, reason = _scan(bal, max(vmax, 0.0), 1 if no_way else n_speeds,
+                                                  max_tilt_deg)
         free = tuple(DOF_NAMES[k] for k in bal.free_att)
         tilt = {k: np.full(len(speeds), np.nan) for k in free}
         small = {k: np.full(len(speeds), np.nan) for k in free}
@@ -403,7 +427,7 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
             frac[i] = s["thrust_fraction"] if s is not None else f0
         cases.append(StabilityCase(r.dof, r.direction, r.sign, free, speeds, tilt, small,
                                    {k: bgw[k] for k in free}, tm, mk, frac, vmax, limit,
-                                   ldof, reason))
+                                   ldof, reason, no_way))
     notes = [f"steady straight flight along each direction at heading 0; controlled DOFs "
              f"(translations and held attitude) take what the balance needs; free: roll/pitch "
              f"angles settle on the righting moment BG·W = W z_G − B z_B = "
