@@ -706,3 +706,73 @@ def test_a_vehicle_without_thrusters_is_named_not_a_reshape_error():
         return
     with pytest.raises(ValueError, match="has no thrusters: nothing can fly a mission"):
         setup_mission(v, square_mission())
+
+
+# ------------------------------------------------------------------- a flight's footprint
+def _long_scenario(**kw):
+    from uuvid.simulate.scenario import scenario_from_dict
+
+    return scenario_from_dict({"vehicle": "bluerov2", "duration": 199999, "dt": 0.1,
+                               "substeps": 100, **kw})
+
+
+def test_a_flight_whose_outputs_overflow_memory_is_refused_before_it_flies(tmp_path):
+    """duration 199999 s, dt 0.1 s, substeps 100 passed the step cap (1,999,990 < 2,000,000):
+    `uuvid simulate --out` flew 177 s, took 3.9 GB of memory and wrote a 1.17 GB
+    timeseries.csv without a word.  The cap now counts rows × columns and the output files:
+    refused up front, saying how much and what fits."""
+    from uuvid.simulate.scenario import ScenarioError, build
+
+    with pytest.raises(ScenarioError) as got:
+        build(_long_scenario(), out=tmp_path / "out")
+    msg = str(got.value)
+    assert msg.startswith("duration = 199999 s at dt = 0.1 s is 1,999,990 control steps"), msg
+    assert "31 columns written: the flight would take ≈ 5 GB of memory" in msg
+    assert "timeseries.csv ≈ 1.2 GB" in msg and "more than the 2 GB one flight may take" in msg
+    assert "shorten duration to ≤ 79668" in msg
+    assert "(dt = 0.1 s is at its largest, 0.1 s)" in msg and "raise dt" not in msg
+    assert "fly without the output folder (--out: the summary only, ≈ 1.1 GB" in msg
+    p = tmp_path / "big.yaml"
+    p.write_text("duration: 19999\ndt: 0.01\n")
+    res = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o")])
+    clean_error(res, "big.yaml: duration = 19999 s at dt = 0.01 s is 1,999,900 control steps",
+                "raise dt to ≥ 0.025 s")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_long_flight_without_outputs_is_said_before_it_flies():
+    """The same flight without outputs holds ≈ 1.1 GB: it flies (a legitimate long mission), with
+    warnings saying its size and its 2e8 RK4 steps first."""
+    from uuvid.core.checks import InputWarning
+    from uuvid.simulate.scenario import build
+
+    with pytest.warns(InputWarning) as got:
+        _, setup = build(_long_scenario())
+    said = [str(w.message) for w in got]
+    assert setup.t.size == 1_999_990
+    assert any(s.startswith("a large flight: duration = 199999 s") and "≈ 1.1 GB of memory" in s
+               for s in said), said
+    assert any("1,999,990 control steps × 100 substeps = 2e+08 RK4 steps" in s for s in said), said
+
+
+def test_an_ordinary_flight_says_nothing_of_its_size(tmp_path):
+    import warnings
+
+    from uuvid.simulate.footprint import flight_footprint
+    from uuvid.simulate.scenario import build, scenario_from_dict
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, setup = build(scenario_from_dict({"vehicle": "bluerov2"}), out=tmp_path / "o")
+    fp = flight_footprint(setup, outputs=True)
+    assert fp.output_columns == 31 and fp.columns == 47 and fp.memory < 1e8
+
+
+def test_outputs_larger_than_the_free_disk_are_refused(tmp_path, monkeypatch):
+    import uuvid.simulate.footprint as fpm
+    from uuvid.simulate.scenario import ScenarioError, build, scenario_from_dict
+
+    monkeypatch.setattr(fpm, "_free_space", lambda folder: 1e6)
+    with pytest.raises(ScenarioError, match=r"its outputs would take ≈ \d+ MB on disk "
+                                            r"\(timeseries\.csv ≈ .*has 1 MB free; shorten"):
+        build(scenario_from_dict({"vehicle": "bluerov2", "duration": 2000}), out=tmp_path / "o")

@@ -133,3 +133,107 @@ def test_demo_flies_the_example_file_on_the_pid_blocks_loop(tmp_path):
                                         disturbance=wave))[0].loop
     pid_block = mission_runner(setup_mission(v, square_mission(), disturbance=wave))[0].loop
     assert mine.dispatcher is pid_block.dispatcher and mine.ctrl_fn is not pid_block.ctrl_fn
+
+
+LATE_CONTROLLER = '''
+import numpy as np
+
+from uuvid.simulate.control.blocks import Controller
+
+
+def make_controller(vehicle, context):
+    g = context.gains
+    params = np.array([*g.kp[:3], *g.kd[:3], g.kp[3], g.kd[3]], dtype=float)
+
+    def late(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+        if t > 3.0:
+            raise ValueError("fails at t>3")
+        for j in range(6):
+            tau_out[j] = 0.0
+        for i in range(3):
+            tau_out[i] = params[i] * (ref_pos[i] - eta[i]) - params[3 + i] * nu[i]
+
+    return Controller(late, params, np.zeros(0))
+'''
+
+#: The line of LATE_CONTROLLER that raises.
+LATE_LINE = LATE_CONTROLLER.splitlines().index('            raise ValueError("fails at t>3")') + 1
+
+RAISED = ("make_controller(vehicle, context) returned the controller 'late', which raised ValueError "
+          f"at t = 3.01 s of the flight: fails at t>3 (c_late.py line {LATE_LINE}, in late)")
+
+
+@pytest.mark.slow
+def test_a_controller_raising_mid_flight_names_its_file_function_error_and_time(tmp_path, monkeypatch):
+    """A plain Python controller raising at t > 3 s ended `uuvid simulate` with "error: command
+    line: fails at t>3": no file, no function, no exception type, no time.  Now as the factory
+    raising is said: the file, the factory and the controller, the exception and the simulated
+    time (and the line that raised); the library raises a ControllerRaised carrying them."""
+    from uuvid.simulate.control.blocks import ControllerRaised
+    from uuvid.simulate.vehicle_sim import fly_mission
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c_late.py").write_text(LATE_CONTROLLER)
+    r = CliRunner().invoke(app, ["simulate", "mission", "square", "--controller",
+                                 "c_late.py:make_controller"])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert f"error: command line: controller file c_late.py: {RAISED}" in said, said
+    (tmp_path / "late.yaml").write_text("controller: {kind: python, file: c_late.py}\nduration: 5\n")
+    r = CliRunner().invoke(app, ["simulate", "late.yaml"])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 2 and f"error: late.yaml: controller file c_late.py: {RAISED}" in said, said
+    _, setup = build(_spec({"kind": "python", "file": "c_late.py"}, duration=5), base=tmp_path)
+    with pytest.raises(ControllerRaised) as got:
+        fly_mission(setup)
+    assert got.value.t == pytest.approx(3.01) and isinstance(got.value.error, ValueError)
+    assert got.value.__cause__ is got.value.error and isinstance(got.value, ValueError)
+
+
+NAN_OUTPUT = '''
+from uuvid.simulate.control.blocks import Controller
+
+
+def _f(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
+    for j in range(tau_out.shape[0]):
+        tau_out[j] = float("nan") if t > 1.0 else params[0]
+
+
+def make_controller(vehicle, context):
+    return Controller(_f, [0.0 if context.options["output"] == "thrust" else 1500.0], [],
+                      output=context.options["output"])
+'''
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("output", ["thrust", "command"])
+def test_nan_from_a_thrust_or_command_controller_is_said_as_such(tmp_path, output):
+    """NaN thrusts or commands were reported as "a non-finite wrench" (the wrench the loop
+    derives from them): the author looked for a wrench their controller never writes."""
+    from uuvid.simulate.vehicle_sim import fly_mission
+
+    (tmp_path / "nanc.py").write_text(NAN_OUTPUT)
+    _, setup = build(_spec({"kind": "python", "file": "nanc.py", "options": {"output": output}},
+                           duration=3), base=tmp_path)
+    with pytest.raises(ValueError, match=rf"the controller \(_f\) gave a non-finite {output} "
+                                         rf"\(output='{output}', one per thruster\) from t = 1.01 s"):
+        fly_mission(setup)
+
+
+@pytest.mark.slow
+def test_a_compiled_controller_raising_mid_flight_is_said_with_its_time(tmp_path):
+    """The same for a numba controller (its exception came out bare, "fails at t>3"): the loop
+    writes each step's state once its control is computed, so the step that raised is known."""
+    from uuvid.simulate.control.blocks import ControllerRaised
+    from uuvid.simulate.vehicle_sim import fly_mission
+
+    (tmp_path / "c_jit.py").write_text(LATE_CONTROLLER.replace(
+        "    def late(", "    @njit\n    def late(").replace(
+        "import numpy as np\n", "import numpy as np\nfrom numba import njit\n"))
+    _, setup = build(_spec({"kind": "python", "file": "c_jit.py"}, duration=5), base=tmp_path)
+    assert setup.controller.compiled
+    with pytest.raises(ControllerRaised, match=r"^controller file .*c_jit\.py: make_controller\("
+                                               r"vehicle, context\) returned the controller 'late', "
+                                               r"which raised ValueError at t = 3\.01 s of the "
+                                               r"flight: fails at t>3"):
+        fly_mission(setup)

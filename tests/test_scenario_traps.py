@@ -353,3 +353,95 @@ def test_a_waypoint_mission_refuses_a_non_finite_or_negative_number(field, value
     with pytest.raises(ValueError, match=re.escape(said)):
         WaypointMission(((0, 0, 1, 0), (5, 0, 1, 0)), **{field: value})
     assert WaypointMission(((0, 0, 1, 0), (5, 0, 1, 0)), hold=0.0, ramp_time=0.0).duration > 0
+
+
+SPEED_MODEL = """name: four-quadrant
+input: speed
+blocks:
+- type: quadratic
+  k_pos: 0.00037
+  k_neg: 0.00029
+  torque_pos: 0.0
+  torque_neg: 0.0
+"""
+
+
+def test_a_thruster_model_driven_by_propeller_speed_names_the_scenario_key_and_file(tmp_path):
+    """`thruster_model: ../q_base.yaml` (a fit against propeller speed) was refused as "bluerov2:
+    thrusters[0] (T1_front_right): model '--thruster-model' takes the propeller speed …
+    (vehicle file)": neither the key nor the file, and the vehicle file blamed.  Now the
+    scenario file, its thruster_model key and the model file; on the command line
+    --thruster-model."""
+    (tmp_path / "q_base.yaml").write_text(SPEED_MODEL)
+    (tmp_path / "sub").mkdir()
+    sc = tmp_path / "sub" / "s.yaml"
+    sc.write_text("vehicle: bluerov2\nthruster_model: ../q_base.yaml\nduration: 1\n")
+    res = runner.invoke(app, ["simulate", str(sc)])
+    said = " ".join(res.output.split())
+    clean_error(res)
+    model = (tmp_path / "q_base.yaml").resolve()
+    assert f"s.yaml: thruster_model: '../q_base.yaml' (model file {model}) takes the propeller " \
+           "speed (rad/s) as its input, not a command" in said, said
+    assert "vehicle file)" not in said.split("propeller: in the vehicle file")[0]
+    assert "'--thruster-model'" not in said and "T1_front_right" not in said
+    res = runner.invoke(app, ["simulate", "mission", "square", "--thruster-model",
+                              str(tmp_path / "q_base.yaml")])
+    said = " ".join(res.output.split())
+    clean_error(res)
+    assert f"error: --thruster-model '{tmp_path / 'q_base.yaml'}' (model file {model}) takes the " \
+           "propeller speed" in said, said
+
+
+def test_a_thruster_chain_driven_by_propeller_speed_is_named_as_the_callers():
+    """The library's own message named '--thruster-model' and the vehicle file for a chain the
+    caller passed."""
+    import yaml
+
+    from uuvid.simulate.reference import square_mission
+    from uuvid.simulate.vehicle_sim import setup_mission
+    from uuvid.thruster.modelfile import chain_from_dict
+    from uuvid.vehicle.definition import load_vehicle
+
+    chain = chain_from_dict(yaml.safe_load(SPEED_MODEL))
+    with pytest.raises(ValueError, match=r"^thruster_chain \(four-quadrant\) takes the propeller "
+                                         r"speed") as got:
+        setup_mission(load_vehicle("bluerov2"), square_mission(), thruster_chain=chain, t_end=1.0)
+    assert "--thruster-model" not in str(got.value) and "vehicle file" not in str(got.value)
+
+
+@pytest.mark.parametrize("text, said", [
+    ("- vehicle: bluerov2\n", "got a list (1 item) — drop the leading '- '"),
+    ("bluerov2\n", "got the text 'bluerov2'"),
+    ("3\n", "got the number 3"),
+    ("true\n", "got true (a yes/no value)"),
+    ("- 1\n- 2\n", "got a list (2 items)"),
+])
+def test_a_scenario_file_that_is_no_mapping_says_so(tmp_path, text, said):
+    """A top-level list gave "s9.yaml: : Input should be a valid dictionary or instance of
+    ScenarioSpec": an empty key path and a class name."""
+    p = tmp_path / "s9.yaml"
+    p.write_text(text)
+    res = runner.invoke(app, ["simulate", str(p)])
+    clean_error(res, f"s9.yaml: a scenario file is a mapping of keys (vehicle:, mission:, "
+                     f"duration:, …), {said}")
+    assert "ScenarioSpec" not in res.output and ": :" not in res.output
+
+
+@pytest.mark.parametrize("text, said", [
+    ("mission: square\n", "mission: expected a mapping of keys (kind:, depth:, side:, speed: …), "
+                          "got the text 'square'; for that mission, write mission: {kind: square}"),
+    ("controller: 3\n", "controller: expected a mapping of keys (kind:, bandwidth:, kp:, ki: …), "
+                        "got the number 3"),
+    ("controller: {kind: lqr, weights: 5}\n", "controller.weights: expected a mapping of keys "
+                                              "(position:, yaw:, tilt:, speed: …)"),
+])
+def test_a_section_given_as_a_word_says_what_it_takes(tmp_path, text, said):
+    """`mission: square` gave "mission: Input should be a valid dictionary or instance of
+    MissionSpec" (a class name the file never shows)."""
+    from uuvid.simulate.scenario import ScenarioError, load_scenario
+
+    p = tmp_path / "s.yaml"
+    p.write_text(text)
+    with pytest.raises(ScenarioError) as got:
+        load_scenario(p)
+    assert said in str(got.value) and "Spec" not in str(got.value), str(got.value)

@@ -54,9 +54,13 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
     _fail, _print_json, _table, err_console, out_console = _helpers()
     check_outputs(("--out", out, "folder"))  # before the flight, not after it
     try:
-        vehicle, setup = build(spec, base, inflow)  # --inflow over the scenario's and file's key
+        # --inflow over the scenario's and file's key; out: its files counted before the flight
+        vehicle, setup = build(spec, base, inflow, out)
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
-        _fail(f"{where}: {e}")
+        text = f"{where}: {e}"
+        if where == "command line":  # the scenario's keys as `uuvid simulate mission`'s options
+            text = text.replace("command line: thruster_model: ", "--thruster-model ")
+        _fail(text)
     err_console.print(f"controller: {describe(setup.controller)}")
     with progress_task(f"flying {label}", total=2) as task:
         try:

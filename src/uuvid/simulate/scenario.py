@@ -29,12 +29,15 @@
     substeps: 1
     duration: null                    # default: the mission's length
 
-Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).
+Errors name the file and the key path (``scenario.yaml: mission.speed: ...``).  A flight whose
+time series and output files would take too much memory or disk is refused before it flies, a
+large or long one said first (:func:`build`, :mod:`uuvid.simulate.footprint`).
 """
 
 from __future__ import annotations
 
 import reprlib
+import typing
 from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Literal
@@ -294,7 +297,46 @@ class ScenarioSpec(BaseModel):
         return v
 
 
+def _a_value(v) -> str:
+    """``a list (1 item)``, ``the text 'square'``, ``the number 3``: a value as a message names
+    it (the YAML kinds, not Python's class names)."""
+    if isinstance(v, bool):
+        return f"{str(v).lower()} (a yes/no value)"
+    if isinstance(v, (int, float)):
+        return f"the number {v!r}"
+    if isinstance(v, str):
+        return f"the text {reprlib.repr(v)}"
+    if isinstance(v, (list, tuple)):
+        return f"a list ({len(v)} item{'s' if len(v) != 1 else ''})"
+    return f"a {type(v).__name__}"
+
+
+def _not_a_mapping(err) -> str:
+    """pydantic's ``Input should be a valid dictionary or instance of MissionSpec`` for a
+    section given as something else: which keys it takes, and for a word that is one of its
+    kinds (``mission: square``) how to write it."""
+    spec = ScenarioSpec
+    for part in err["loc"]:
+        field = spec.model_fields.get(part) if isinstance(part, str) else None
+        ann = field.annotation if field is not None else None
+        models = [a for a in (ann, *typing.get_args(ann))  # LqrWeightsSpec | None
+                  if isinstance(a, type) and issubclass(a, BaseModel)]
+        spec = models[0] if models else spec
+    key, v = format_loc(err["loc"]), err["input"]
+    keys = ", ".join(f"{k}:" for k in list(spec.model_fields)[:4])
+    kind = spec.model_fields.get("kind")
+    hint = ""
+    if kind is not None and isinstance(v, str) and v in getattr(kind.annotation, "__args__", ()):
+        hint = f"; for that {key}, write {key}: {{kind: {v}}}"
+    return f"expected a mapping of keys ({keys} …), got {_a_value(v)}{hint}"
+
+
 def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
+    if raw is not None and not isinstance(raw, (dict, BaseModel)):  # pydantic: "ScenarioSpec"
+        hint = (" — drop the leading '- ' (a YAML list item) and write its keys at the top level"
+                if isinstance(raw, list) and raw and isinstance(raw[0], dict) else "")
+        raise ScenarioError(f"{where}: a scenario file is a mapping of keys (vehicle:, mission:, "
+                            f"duration:, …), got {_a_value(raw)}{hint}")
     try:
         return ScenarioSpec.model_validate(raw if raw is not None else {})
     except ValidationError as e:
@@ -304,8 +346,9 @@ def scenario_from_dict(raw, where: str = "<scenario>") -> ScenarioSpec:
                                 f"file has {', '.join(ScenarioSpec.model_fields)} (all optional: "
                                 "a vehicle flying its mission)") from None
         msgs = [f"{where}: {format_loc(err['loc'])}: "
-                + {"missing": "missing", "extra_forbidden": "unknown key"}.get(
-                    err["type"], err["msg"].removeprefix("Value error, "))
+                + (_not_a_mapping(err) if err["type"] == "model_type" else
+                   {"missing": "missing", "extra_forbidden": "unknown key"}.get(
+                       err["type"], err["msg"].removeprefix("Value error, ")))
                 for err in e.errors()]
         raise ScenarioError("\n".join(msgs)) from None
 
@@ -357,8 +400,33 @@ def _thruster_model_propeller(spec: ScenarioSpec, base: Path | None, vehicle, so
     return ref
 
 
-def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = None):
+def _largest(model, key: str) -> float | None:
+    """The ``le`` bound of a field (``dt``: 0.1 s), or ``None``."""
+    return next((float(m.le) for m in model.model_fields[key].metadata
+                 if getattr(m, "le", None) is not None), None)
+
+
+def _model_ref(ref: str, base: Path | None) -> str:
+    """``'../q.yaml' (model file /abs/q.yaml)`` for a model file (relative to ``base``, the
+    scenario's folder), ``'t200' (preset)`` for a preset."""
+    from uuvid.thruster.resolve import is_preset
+
+    if is_preset(ref):
+        return f"{ref!r} (preset)"
+    p = Path(ref) if base is None or Path(ref).is_absolute() else base / ref
+    return f"{ref!r} (model file {p.resolve()})"
+
+
+def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = None,
+          out: str | Path | None = None, time_series: bool = True):
     """Vehicle, mission setup (see :func:`uuvid.simulate.vehicle_sim.setup_mission`).
+
+    ``out``: the folder the flight's outputs will be written to
+    (:func:`uuvid.simulate.mission_report.write_mission_outputs`), or ``None``.  A flight whose
+    time series (and outputs) would take more memory than one flight may, or more disk than
+    ``out`` has free, is refused here, before it flies; a large or long one is said with an
+    :class:`~uuvid.core.checks.InputWarning` (:func:`uuvid.simulate.footprint.check_footprint`);
+    ``time_series=False`` for a setup that flies batches (their runs keep summary rows only).
 
     ``inflow`` (the command line's ``--inflow``) overrides the scenario's ``inflow`` key, which
     overrides the vehicle file's (:func:`uuvid.vehicle.definition.load_vehicle`); the flight's
@@ -390,6 +458,15 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
             chain = resolve_chain(spec.thruster_model, base)
         except FileNotFoundError as e:
             raise ScenarioError(f"thruster_model: {e}") from None
+        if chain.input_kind == "speed":  # here, not in setup_mission: it named neither this key
+            # nor the file, and blamed the vehicle file
+            raise ScenarioError(
+                f"thruster_model: {_model_ref(spec.thruster_model, base)} takes the propeller speed "
+                "(rad/s) as its input, not a command, so a mission cannot drive the thrusters with "
+                "it (a fit of thrust against propeller speed, e.g. a four-quadrant map fitted on a "
+                "bench in a flow); give a command-driven model instead (e.g. t200, or a "
+                "fit against the command), and to fly this file's four-quadrant map name it as "
+                "each thruster's propeller: in the vehicle file (with inflow: four-quadrant)")
         if vehicle.inflow != "none":  # the replacing model's map, for the mission's speed too
             propeller = _thruster_model_propeller(spec, base, vehicle, source)
             vehicle = replace(vehicle, propellers=(propeller,) * len(vehicle.layout))
@@ -438,4 +515,19 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
                               inflow_source=source, propeller=propeller)
     except ValueError as e:
         raise ScenarioError(f"{spec.name}: {e}") from None
+    if not time_series:
+        return vehicle, setup
+    import warnings
+
+    from uuvid.core.checks import InputWarning
+    from uuvid.simulate.footprint import check_footprint
+
+    try:  # rows × columns and the output files, not the step count alone
+        said = check_footprint(setup, out, duration_name="duration" if spec.duration is not None
+                               else "the mission's length",
+                               max_dt=_largest(ScenarioSpec, "dt"))
+    except ValueError as e:
+        raise ScenarioError(str(e)) from None
+    for w in said:
+        warnings.warn(w, InputWarning, stacklevel=2)
     return vehicle, setup

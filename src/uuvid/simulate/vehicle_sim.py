@@ -1604,8 +1604,13 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
         thruster_chain = physical_model().to_chain(max(battery.ocv_voltage))
     chains = [thruster_chain or vehicle.thruster_chain(i) for i in range(n)]
     for i, ch in enumerate(chains):
+        if ch.input_kind == "speed" and own_chain is not None:  # the caller's, not the file's
+            raise ValueError(f"thruster_chain ({ch.name}) takes the propeller speed (rad/s) as its "
+                             "input, not a command, so a mission cannot drive the thrusters with it; "
+                             "give a command-driven chain (e.g. the t200 preset, or a fit against "
+                             "the command)")
         if ch.input_kind == "speed":  # a bench fit of thrust against propeller speed
-            ref = vehicle.layout[i].model if thruster_chain is None else "--thruster-model"
+            ref = vehicle.layout[i].model
             raise ValueError(
                 f"{vehicle.name}: thrusters[{i}] ({vehicle.layout[i].name}): model {ref!r} takes the "
                 "propeller speed (rad/s) as its input, not a command, so a mission cannot drive it; "
@@ -1944,6 +1949,35 @@ def mission_runner(setup: MissionSetup):
     return run, compiled, (Z, F, FD, TAU, SC, VOUT)
 
 
+def _fly_steps(run, k: int, setup: MissionSetup, Z: np.ndarray) -> None:
+    """``run(k)`` (:func:`mission_runner`); an exception a compiled user controller or a
+    disturbance raised (the loop itself raises none) comes out as a
+    :class:`~uuvid.simulate.control.blocks.ControllerRaised` naming it and the time of the step
+    it raised at, as a plain Python controller's does: the loop writes a step's state row once
+    the step's control is computed, so the first row left unwritten is that step's."""
+    from uuvid.simulate.control.blocks import ControllerRaised, _raised_where, describe_origin
+
+    c, d = setup.controller, setup.disturbance
+    if c is None and d is None:
+        run(k)
+        return
+    Z[:k, 0] = np.nan  # every row is written in full by a flight that ends
+    try:
+        run(k)
+    except ControllerRaised:  # a Python controller's: it says its own time
+        raise
+    except Exception as e:
+        left = np.flatnonzero(np.isnan(Z[:k, 0]))
+        step = int(left[0]) if left.size else k - 1
+        if d is None:
+            who = describe_origin(c)
+        else:
+            who = (f"the controller ({c.name if c is not None else 'PID DP'}) or the disturbance "
+                   f"({d.name})")
+        raise ControllerRaised(who, float(setup.t[step]), e,
+                               _raised_where(e, c.fn if c is not None else None)) from e
+
+
 def fly_mission(setup: MissionSetup) -> MissionResult:
     """Fly the mission once; returns the time series and the summary."""
     s = setup
@@ -1957,16 +1991,21 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     if not compiled:  # first flight in this process: compile (or load) the kernel on one
         # step, timed apart, so the real-time factor measures flying, not compiling
         t0 = time.perf_counter()
-        run(min(N, 1))
+        _fly_steps(run, min(N, 1), s, Z)
         compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    run(N)
+    _fly_steps(run, N, s, Z)
     wall = time.perf_counter() - t0
     if not np.all(np.isfinite(Z)):
         k = int(np.flatnonzero(~np.all(np.isfinite(Z), axis=1))[0])
         raise ValueError(f"the simulation diverged at t = {s.t[k]:.3f} s; try a smaller dt or more "
                          "substeps")
-    for arr, what in ((TAU, "wrench"), (FD, "thrust command")):
+    out = s.controller.output if s.controller is not None else "wrench"
+    # what the controller outputs is what it gave non-finite: a thrust or command controller's
+    # NaN reaches the wrench only through B (η ∘ f), and "wrench" sent its author to the wrong code
+    checks = ((TAU, "wrench"), (FD, "thrust command")) if out == "wrench" else (
+        (FD, f"{out} (output={out!r}, one per thruster)"), (TAU, "wrench"))
+    for arr, what in checks:
         bad = ~np.all(np.isfinite(arr), axis=1)
         if bad.any():  # the allocator read NaN as no thrust: a silent stop of the vehicle
             k = int(np.flatnonzero(bad)[0])

@@ -504,7 +504,7 @@ class VehicleMissionPlan:
         if key not in _SETUPS:  # the thrusters' inverse tables take seconds: once per process
             if len(_SETUPS) > 4:
                 _SETUPS.clear()
-            _SETUPS[key] = build(target.scenario)
+            _SETUPS[key] = build(target.scenario, time_series=False)  # batches: summary rows
         self.vehicle, self.setup = _SETUPS[key]
         self.sim_name, self.sim = vehicle_simulator(target.simulator)
         self.metric_names = list(MISSION_METRICS)

@@ -9,6 +9,7 @@ The built-in controllers live beside it: :mod:`uuvid.simulate.control.pid` (PID 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numba import njit, objmode
@@ -58,6 +59,12 @@ class Controller:
     SIMD kernel, one call per vehicle and step; the others one compiled loop per vehicle.
     :func:`~uuvid.simulate.vehicle_sim.setup_mission` calls it once at the start state (on a
     copy of ``state0``) to check it writes exactly the entries ``output`` asks for.
+
+    An ``fn`` that raises during a flight ends it with a :class:`ControllerRaised` (a
+    ``ValueError``) naming the controller (``origin``: where it came from, e.g. the controller
+    file and factory :func:`uuvid.simulate.control.files.from_file` loaded it with), the
+    exception and the simulated time of the step it raised at (a plain Python ``fn`` wherever it
+    flies; a numba one in :func:`~uuvid.simulate.vehicle_sim.fly_mission`).
     """
 
     fn: object
@@ -65,6 +72,7 @@ class Controller:
     state0: np.ndarray
     name: str = ""  # default: the function's name
     output: str = "wrench"
+    origin: str = ""  # who made it, for messages: "controller file f.py: make_controller(vehicle, context)"
 
     def __post_init__(self):
         p = np.ascontiguousarray(np.ravel(np.asarray(self.params, dtype=np.float64)))
@@ -99,11 +107,67 @@ class Controller:
 
 #: Plain Python controllers, by slot (``params[0]`` of :func:`python_controller`).
 _PY_CONTROLLERS: dict[int, object] = {}
+#: What messages call the controller of each slot (:func:`describe_origin`).
+_PY_LABELS: dict[int, str] = {}
+
+
+def describe_origin(controller: Controller) -> str:
+    """The controller as the subject of a message (a verb follows): where it came from
+    (``origin``) and its function, e.g. ``controller file c.py: make_controller(vehicle,
+    context) returned the controller 'late', which`` or ``controller 'late' (function late in
+    /path/c.py)``."""
+    fn = getattr(controller.fn, "py_func", controller.fn)
+    fname = getattr(fn, "__qualname__", None) or getattr(fn, "__name__", None) or type(fn).__name__
+    if controller.origin:
+        also = f" (function {fname})" if getattr(fn, "__name__", "") != controller.name else ""
+        return f"{controller.origin} returned the controller {controller.name!r}{also}, which"
+    code = getattr(fn, "__code__", None)
+    where = f" in {code.co_filename}" if code is not None else ""
+    return f"controller {controller.name!r} (function {fname}{where})"
+
+
+class ControllerRaised(ValueError):
+    """A controller raised during a flight: ``controller`` (its :func:`describe_origin`), ``t``
+    (the simulated time of the control step it raised at, s), ``error`` (the exception, also
+    the ``__cause__``) and ``where`` (`` (file.py line 11, in fn)``, or empty)."""
+
+    def __init__(self, controller: str, t: float, error: BaseException, where: str = ""):
+        self.controller, self.t, self.error, self.where = controller, float(t), error, where
+        super().__init__(f"{controller} raised {type(error).__name__} at t = {self.t:.4g} s of "
+                         f"the flight: {error}{where}")
+
+    def __reduce__(self):  # picklable (worker processes hand it back)
+        return type(self), (self.controller, self.t, self.error, self.where)
+
+
+_UUVID = str(Path(__file__).resolve().parents[2])  # this package's folder
+
+
+def _raised_where(error: BaseException, fn=None) -> str:
+    """`` (file.py line 11, in late)``: the frame of ``error``'s traceback that raised it in the
+    file of ``fn`` (the controller's function), else the innermost one outside uuvid and numba;
+    nothing without one."""
+    import os
+    import traceback
+
+    frames = traceback.extract_tb(error.__traceback__) if error.__traceback__ else []
+    code = getattr(getattr(fn, "py_func", fn), "__code__", None)
+    own = [f for f in frames if code is not None and f.filename == code.co_filename] or [
+        f for f in frames if not os.path.abspath(f.filename).startswith(_UUVID + os.sep)
+        and "numba" not in Path(f.filename).parts]
+    if not own:
+        return ""
+    f = own[-1]
+    return f" ({Path(f.filename).name} line {f.lineno}, in {f.name})"
 
 
 def _call_python(slot, t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out):
-    _PY_CONTROLLERS[int(slot)](t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt,
-                               tau_out)
+    fn = _PY_CONTROLLERS[int(slot)]
+    try:
+        fn(t, eta, nu, ref_pos, ref_vel, ref_yaw, ref_rate, params, state, dt, tau_out)
+    except Exception as e:  # the loop's objmode hands it on: say who raised it and when
+        raise ControllerRaised(_PY_LABELS.get(int(slot), "the controller"), t, e,
+                               _raised_where(e, fn)) from e
 
 
 @njit
@@ -123,6 +187,7 @@ def compiled_form(controller: Controller) -> tuple:
         return controller.fn, controller.params
     slot = next((k for k, f in _PY_CONTROLLERS.items() if f is controller.fn), len(_PY_CONTROLLERS))
     _PY_CONTROLLERS[slot] = controller.fn
+    _PY_LABELS[slot] = describe_origin(controller)
     return python_controller, np.concatenate([[float(slot)], controller.params])
 
 
@@ -147,8 +212,8 @@ def check_output(controller: Controller, n_thrusters: int, z0, ref, dt: float) -
         raise ValueError(f"{what}; its first call wrote past them ({e})"
                          + _hint(controller, n_thrusters)) from None
     except Exception as e:
-        raise ValueError(f"controller {controller.name!r} failed on its first call "
-                         f"(t = 0, start state): {type(e).__name__}: {e}") from e
+        raise ValueError(f"{describe_origin(controller)} failed on its first call (t = 0, start "
+                         f"state): {type(e).__name__}: {e}{_raised_where(e, controller.fn)}") from e
     past = int(np.count_nonzero(~np.isnan(buf[m:])))
     if past:
         raise ValueError(f"{what}; its first call wrote {past} more" + _hint(controller, n_thrusters))

@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from uuvid.simulate.control.blocks import Controller
@@ -87,7 +87,8 @@ def from_file(path: str | Path, factory: str, vehicle, context: ControllerContex
     if not isinstance(c, Controller):
         raise ControllerFileError(f"controller file {path}: {factory}(vehicle, context) returned "
                                   f"{type(c).__name__}, not a uuvid.simulate.control.blocks.Controller")
-    return c
+    # what a message names it by when it raises in flight (blocks.describe_origin)
+    return replace(c, origin=f"controller file {path}: {factory}(vehicle, context)")
 
 
 def make_controller(kind: str, vehicle, context: ControllerContext, *, file: str | Path | None = None,
