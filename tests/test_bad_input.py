@@ -716,19 +716,23 @@ def _long_scenario(**kw):
                                "substeps": 100, **kw})
 
 
-def test_a_flight_whose_outputs_overflow_memory_is_refused_before_it_flies(tmp_path):
+def test_a_flight_whose_outputs_overflow_memory_is_refused_before_it_flies(tmp_path, monkeypatch):
     """duration 199999 s, dt 0.1 s, substeps 100 passed the step cap (1,999,990 < 2,000,000):
     `uuvid simulate --out` flew 177 s, took 3.9 GB of memory and wrote a 1.17 GB
     timeseries.csv without a word.  The cap now counts rows × columns and the output files:
-    refused up front, saying how much and what fits."""
+    refused up front, saying how much and what fits (on a machine of 8 GB: a quarter of it is
+    the 2 GB floor)."""
+    import uuvid.simulate.footprint as fpm
     from uuvid.simulate.scenario import ScenarioError, build
+
+    monkeypatch.setattr(fpm, "_physical_memory", lambda: 8e9)
 
     with pytest.raises(ScenarioError) as got:
         build(_long_scenario(), out=tmp_path / "out")
     msg = str(got.value)
     assert msg.startswith("duration = 199999 s at dt = 0.1 s is 1,999,990 control steps"), msg
     assert "31 columns written: the flight would take ≈ 5 GB of memory" in msg
-    assert "timeseries.csv ≈ 1.2 GB" in msg and "more than the 2 GB one flight may take" in msg
+    assert "timeseries.csv ≈ 1.2 GB" in msg and "more than the 2 GB one flight may take on this machine" in msg
     assert "shorten duration to ≤ 79668" in msg
     assert "(dt = 0.1 s is at its largest, 0.1 s)" in msg and "raise dt" not in msg
     assert "fly without the output folder (--out: the summary only, ≈ 1.1 GB" in msg
@@ -776,3 +780,15 @@ def test_outputs_larger_than_the_free_disk_are_refused(tmp_path, monkeypatch):
     with pytest.raises(ScenarioError, match=r"its outputs would take ≈ \d+ MB on disk "
                                             r"\(timeseries\.csv ≈ .*has 1 MB free; shorten"):
         build(scenario_from_dict({"vehicle": "bluerov2", "duration": 2000}), out=tmp_path / "o")
+
+
+def test_the_flight_memory_limit_is_a_quarter_of_a_larger_machine(monkeypatch):
+    """The 2 GB floor on a small machine; a quarter of a larger one's physical memory (the same
+    on every run: not the memory free at the moment); the floor where the OS does not say."""
+    import uuvid.simulate.footprint as fpm
+
+    for mem, want in ((4e9, 2e9), (8e9, 2e9), (64e9, 16e9), (None, 2e9)):
+        monkeypatch.setattr(fpm, "_physical_memory", lambda m=mem: m)
+        assert fpm.flight_memory_limit() == want
+    monkeypatch.undo()
+    assert fpm.flight_memory_limit() >= 2e9

@@ -10,7 +10,7 @@ outputs took 3.9 GB of memory and wrote a 1.17 GB ``timeseries.csv`` without a w
 :func:`flight_footprint` estimates both from a :class:`~uuvid.simulate.vehicle_sim.MissionSetup`
 (rows × columns, with the per-row costs measured on a BlueROV2 flight: :data:`FLIGHT_OVERHEAD`,
 :data:`WRITE_OVERHEAD`, :data:`CSV_BYTES_PER_VALUE`, :data:`PARQUET_BYTES_PER_VALUE`);
-:func:`check_footprint` refuses a flight past :data:`MAX_FLIGHT_BYTES` of memory or the free space
+:func:`check_footprint` refuses a flight past :func:`flight_memory_limit` of memory or the free space
 of its output folder, saying how much it would take and how to lower it, and returns warnings for
 a large or long one.  The time series are stored once per control step ``dt``: substeps add
 integration time, not rows.
@@ -23,10 +23,14 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-#: Most memory (bytes) one flight may take: its time series, and writing them when it has an
-#: output folder.  (A BlueROV2 flight takes ≈ 0.5 kB per control step, ≈ 2.4 kB with outputs:
-#: ≈ 4 M steps without, ≈ 0.9 M with — 24 h at dt = 0.1 s, 2.4 h at dt = 0.01 s.)
+#: Most memory (bytes) one flight may take on any machine: its time series, and writing them
+#: when it has an output folder (:func:`flight_memory_limit` allows a quarter of a larger
+#: machine's memory).  (A BlueROV2 flight takes ≈ 0.5 kB per control step, ≈ 2.4 kB with
+#: outputs: at 2 GB ≈ 4 M steps without, ≈ 0.9 M with — 24 h at dt = 0.1 s, 2.4 h at dt = 0.01 s.)
 MAX_FLIGHT_BYTES = 2e9
+#: Share of the machine's physical memory one flight may take when that is more than
+#: :data:`MAX_FLIGHT_BYTES`.
+MEMORY_SHARE = 0.25
 #: A flight past these is said before it flies (memory, disk, RK4 integration steps).
 WARN_MEMORY_BYTES = 5e8
 WARN_DISK_BYTES = 2.5e8
@@ -122,17 +126,35 @@ def _lower(fp: FlightFootprint, dt: float, fit: float | None, duration_name: str
     return ", ".join(ways[:-1]) + " or " + ways[-1] if len(ways) > 1 else ways[0]
 
 
+def _physical_memory() -> float | None:
+    """Bytes of physical memory of this machine, or ``None`` where the OS does not say."""
+    import os
+
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def flight_memory_limit() -> float:
+    """Most memory one flight may take here: :data:`MAX_FLIGHT_BYTES`, or :data:`MEMORY_SHARE` of
+    the machine's physical memory when that is more (the same on every run on one machine: not
+    the memory free at the moment)."""
+    mem = _physical_memory()
+    return max(MAX_FLIGHT_BYTES, MEMORY_SHARE * mem) if mem else MAX_FLIGHT_BYTES
+
+
 def check_footprint(setup, out: str | Path | None = None, *, duration_name: str = "duration",
                     dt_name: str = "dt", max_dt: float | None = None,
                     max_bytes: float | None = None) -> list[str]:
     """Refuse (``ValueError``) a flight of ``setup`` whose time series — with its outputs
     written to the folder ``out``, if given — would take more than ``max_bytes`` (default
-    :data:`MAX_FLIGHT_BYTES`) of memory, or more disk than ``out`` has free; the message says how
+    :func:`flight_memory_limit`) of memory, or more disk than ``out`` has free; the message says how
     much and how to lower it (``duration_name``/``dt_name``: what the caller calls them;
     ``max_dt``: the largest step it accepts).  Returns warnings (to say before the flight) for a
     flight past :data:`WARN_MEMORY_BYTES`, :data:`WARN_DISK_BYTES` or
     :data:`WARN_INTEGRATION_STEPS`."""
-    limit = MAX_FLIGHT_BYTES if max_bytes is None else float(max_bytes)
+    limit = flight_memory_limit() if max_bytes is None else float(max_bytes)
     fp = flight_footprint(setup, outputs=out is not None)
     dt = float(setup.dt)
     rows = (f"{duration_name} = {fp.steps * dt:.6g} s at {dt_name} = {dt:g} s is {fp.steps:,} "
@@ -145,7 +167,7 @@ def check_footprint(setup, out: str | Path | None = None, *, duration_name: str 
         raise ValueError(
             f"{rows}: the flight would take ≈ {size_text(fp.memory)} of memory"
             + (f" with its outputs ({files} on disk)" if out is not None else "")
-            + f", more than the {size_text(limit)} one flight may take; "
+            + f", more than the {size_text(limit)} one flight may take on this machine; "
             + _lower(fp, dt, fp.steps * limit / fp.memory, duration_name, dt_name, max_dt, out))
     if out is not None:
         free = _free_space(Path(out))
