@@ -56,6 +56,18 @@ def test_an_empty_dof_list_says_so_and_names_the_dofs_the_log_has(tmp_path, comm
     assert "the DOF list is empty" in text and "d.csv has the channels for heave, yaw" in text
 
 
+def test_no_dof_identified_names_the_file_first(tmp_path):
+    """A 3-row armed table (every DOF): "error: no DOF could be identified: heave: only 3 depth_m
+    samples…" named the file only at the very end, "(read from d.csv)"."""
+    p = tmp_path / "d.csv"
+    _table(n=3).assign(armed=True).to_csv(p, index=False)
+    r = runner.invoke(app, ["vehicle", "identify", "dive", str(p), "--vehicle", "bluerov2"])
+    assert r.exit_code == 2
+    text = " ".join(r.output.split())
+    assert "error: d.csv: no DOF could be identified: heave: only 3 depth_m samples" in text, text
+    assert "read from" not in text
+
+
 def test_a_heading_left_out_as_a_stuck_sensor_is_said_so_not_missing():
     """A constant heading was left out as a stuck sensor, then the error said "no yaw_rad
     samples" though the column had 1200."""

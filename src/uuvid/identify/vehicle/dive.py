@@ -997,9 +997,10 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     if not ests:  # (the reader's warnings are not printed with an error: said in it)
         if len(failed) == 1:
             raise _with_reader_warnings(failed[0][1], [failed[0][0]], dc) from None
-        raise _with_reader_warnings(DiveDataError("no DOF could be identified: " + "; ".join(
-            f"{dof}: {str(e).removeprefix(dc.name + ': ')}" for dof, e in failed)
-            + (f" (read from {dc.name})" if dc.name else "")), [d for d, _ in failed], dc) from None
+        raise _with_reader_warnings(DiveDataError(
+            (f"{dc.name}: " if dc.name else "") + "no DOF could be identified: " + "; ".join(
+                f"{dof}: {str(e).removeprefix(dc.name + ': ')}" for dof, e in failed)),
+            [d for d, _ in failed], dc) from None
     measured = ("depth_m", "yaw_rad", "u_mps", "v_mps", "roll_rad", "pitch_rad")
     used = {c: str(dc.sources.get(c)) for c in measured
             if c in dc.channels and dc.sources.get(c)}
