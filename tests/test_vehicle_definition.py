@@ -361,6 +361,39 @@ def test_a_weight_or_inertia_that_cannot_go_with_the_mass_is_named(change, said)
     assert any(said in m for m in msgs), msgs
 
 
+def test_an_inertia_too_large_for_the_vehicles_size_is_named(tmp_path):
+    """`inertia: [160, 160, 160]` for an 11.5 kg BlueROV2 (a radius of gyration of 3.7 m, its
+    thrusters within 0.19 m of the centre of gravity) loaded silently; too small an inertia was
+    already said.  Its own 0.16 kg·m² and ten times that (0.37 m: heavy fittings far out) stay
+    silent."""
+    from uuvid.vehicle.definition import preset_path
+
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    raw["rigid_body"]["inertia"] = [160.0, 160.0, 160.0]
+    p = tmp_path / "bluerov2-big.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    with pytest.warns(VehicleFileWarning, match=r"bluerov2-big\.yaml: rigid_body: inertia 160 kg·m² "
+                                                r"about x with mass 11\.5 kg is a radius of "
+                                                r"gyration of 3\.73 m — more than a vehicle of "
+                                                r"11\.5 kg whose thrusters sit within 0\.19 m"):
+        load_vehicle(p)
+    for inertia in ([0.16, 0.16, 0.16], [1.6, 1.6, 1.6]):
+        raw["rigid_body"]["inertia"] = inertia
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", VehicleFileWarning)
+            vehicle_from_dict(copy.deepcopy(raw), where="ok.yaml")
+
+
+def test_an_inertia_too_large_for_the_mass_is_named():
+    """Thrusters close in (0.22 m) leave the bound to the mass: a 10 kg vehicle about as dense as
+    water spreads its mass no further than 3 × (0.01 m³)^(1/3) = 0.65 m."""
+    raw = copy.deepcopy(BASE)
+    raw["rigid_body"]["inertia"] = [0.2, 50.0, 50.0]  # 10 kg: 2.2 m
+    with pytest.warns(VehicleFileWarning, match=r"radius of gyration of 2\.24 m .*at most about "
+                                                r"0\.65 m"):
+        vehicle_from_dict(raw, where="bot.yaml")
+
+
 def test_positions_in_millimetres_are_named():
     raw = copy.deepcopy(BASE)
     for t in raw["thrusters"]:

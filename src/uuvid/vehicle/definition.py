@@ -109,14 +109,24 @@ MAX_EXTENT_M = 12.0
 #: A radius of gyration ``sqrt(I/m)`` below this (m) about any axis: the mass or the inertia is
 #: in another unit (a BlueROV2's is 12 cm, a compact 5 kg AUV's several cm).
 MIN_GYRATION_M = 0.01
+#: A radius of gyration above both of these is more than the vehicle's size allows: this × the
+#: largest distance of a thruster (or the centre of buoyancy) from the centre of gravity — the
+#: thrusters sit on the hull, and little mass lies beyond it (a BlueROV2's 12 cm against its
+#: thrusters' 19 cm; a REMUS 100's 0.31 m in pitch against its tail thruster's 0.8 m) …
+MAX_GYRATION_EXTENT = 2.0
+#: … and this × the side ``(m/ρ)^(1/3)`` of a cube of water of the vehicle's mass (m): a vehicle
+#: about as dense as water, however slender (a rod 20× as long as it is wide has 2.3×), cannot
+#: spread its mass further (BlueROV2: at most 0.68 m, REMUS 100: 1 m)
+MAX_GYRATION_VOLUME = 3.0
 
 
 def rigid_body_warnings(params: VehicleParams, layout=None) -> list[str]:
     """Sentences for valid numbers that cannot be what they claim (most often a unit slip): a
     weight beyond :data:`WEIGHT_FACTOR` of ``m g`` (a mass in grams, a weight in kgf), a buoyancy
     beyond :data:`NEUTRAL_FACTOR` of the weight, a radius of gyration below
-    :data:`MIN_GYRATION_M`, principal moments of inertia no body has (the triangle inequality),
-    a position beyond :data:`MAX_EXTENT_M` (lengths in mm or cm)."""
+    :data:`MIN_GYRATION_M` or beyond what the vehicle's size allows (:func:`max_gyration`: an
+    inertia in g·m² or kg·cm²), principal moments of inertia no body has (the triangle
+    inequality), a position beyond :data:`MAX_EXTENT_M` (lengths in mm or cm)."""
     out = []
     m, w, b = float(params.mass), float(params.weight), float(params.buoyancy)
     if (w > 0.0 and b > 0.0) and not 1.0 / NEUTRAL_FACTOR <= b / w <= NEUTRAL_FACTOR:
@@ -139,6 +149,14 @@ def rigid_body_warnings(params: VehicleParams, layout=None) -> list[str]:
                        f"{m:.4g} kg is a radius of gyration of {1000 * gyr[k]:.3g} mm — no vehicle "
                        "is that compact: expected the mass in kg and the inertia in kg·m² (a mass "
                        "in grams, or an inertia in kg·cm²?)")
+        top, why = max_gyration(params, layout)
+        if gyr.max() > top:
+            k = int(np.argmax(gyr))
+            out.append(f"rigid_body: inertia {inertia[k]:.4g} kg·m² about {'xyz'[k]} with mass "
+                       f"{m:.4g} kg is a radius of gyration of {gyr[k]:.3g} m — more than a "
+                       f"vehicle {why} can have (at most about {top:.2g} m): expected the "
+                       "inertia in kg·m² about the centre of gravity and the mass in kg (an "
+                       "inertia in g·m² or kg·cm², or a value from a larger vehicle?)")
     full = np.asarray(params.inertia, float)
     full = np.diag(full) if full.ndim == 1 else full
     if full.shape == (3, 3) and np.all(np.isfinite(full)):
@@ -162,6 +180,24 @@ def rigid_body_warnings(params: VehicleParams, layout=None) -> list[str]:
                    + (f" ({len(far)} positions beyond {MAX_EXTENT_M:g} m)" if len(far) > 1 else "")
                    + ": are the lengths in mm or cm? expected metres")
     return out
+
+
+def max_gyration(params: VehicleParams, layout=None) -> tuple[float, str]:
+    """``(bound, why)``: the largest radius of gyration ``sqrt(I/m)`` (m) a vehicle of this mass
+    and these thruster positions can have — the larger of :data:`MAX_GYRATION_EXTENT` × the
+    furthest thruster (or the centre of buoyancy) from the centre of gravity and
+    :data:`MAX_GYRATION_VOLUME` × ``(m / 1000 kg/m³)^(1/3)`` — and the words for it."""
+    m = float(params.mass)
+    r_g = np.asarray(params.r_g, float)
+    pts = [np.asarray(params.r_b, float)]
+    if layout is not None:
+        pts += [np.asarray(t.position, float) for t in layout.thrusters]
+    reach = max(float(np.linalg.norm(p - r_g)) for p in pts)
+    by_size = MAX_GYRATION_EXTENT * reach
+    by_mass = MAX_GYRATION_VOLUME * (max(m, 0.0) / 1000.0) ** (1.0 / 3.0)
+    what = "thrusters sit" if layout is not None and layout.n else "centre of buoyancy sits"
+    return max(by_size, by_mass), (f"of {m:.4g} kg whose {what} within {reach:.2g} m of its "
+                                   "centre of gravity")
 
 
 # ---------------------------------------------------------------------------------------------
