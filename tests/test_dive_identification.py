@@ -405,6 +405,28 @@ def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path)
     assert not any("beyond the ×8" in w for w in intact.warnings)
 
 
+@pytest.mark.parametrize("forces", [True, False])
+def test_a_depth_positive_up_is_said_as_such_with_or_without_force_columns(tmp_path, forces):
+    """The example dive with depth_m = 15 − depth_m (a height above the bottom): with the force
+    columns kept the mass came out ×1.17e6 with only "check the motor directions … the thruster
+    model and the log's units"; with pwm_ columns only, the reader asked "is depth_m positive
+    up?".  Both paths now ask it, and the far-from-base warning points at it too."""
+    import pandas as pd
+
+    from uuvid.examples import write_example
+
+    df = pd.read_csv(write_example("dive", tmp_path)[0])
+    df["depth_m"] = 15.0 - df["depth_m"]
+    if not forces:
+        df = df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    res = identify_dive(df, "bluerov2", ["heave"], t_end=220.0)
+    said = [w for w in res.warnings if "opposes the heave force" in w]
+    assert len(said) == 1 and "is depth_m positive up" in said[0], res.warnings
+    assert ("logged in Z_N" in said[0]) == forces
+    far = [w for w in res.estimates["heave"].warnings if "beyond the ×8" in w]
+    assert far and "is depth_m positive up" in far[0] and "motor directions" not in far[0], far
+
+
 def test_the_command_fails_when_a_dof_came_out_not_finite():
     """Printed for the record, but the exit status says no model was identified (it was 0 with
     every parameter NaN)."""

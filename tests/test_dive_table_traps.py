@@ -348,6 +348,39 @@ def test_a_channel_of_the_other_sign_is_said_as_such_not_as_one_motor():
     assert len(ws) == 1 and "is yaw_rad counter-clockwise (ENU" in ws[0], ws
 
 
+def _with_forces(df) -> pd.DataFrame:
+    """``df`` with the six force columns the reader computes from its PWM (kept beside them)."""
+    dc = _read(df)
+    out = df.copy()
+    for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+        t, v = dc.channels[c]
+        out[c] = np.interp(df["t_s"], t, v)
+    return out
+
+
+def test_a_depth_positive_up_is_asked_about_with_force_columns_too():
+    """The sign check ran only on forces computed from the PWM: with the table's own Z_N a height
+    (depth positive up) was said as nothing but a mass ×10⁶ off and 'check the motor directions'.
+    The force columns go through the same fit: the same question, the column's sign the other
+    suspect; the right signs stay silent."""
+    df = _with_forces(_physical_table(2))
+    assert not [w for w in _read(df).warnings if "opposes" in w]
+    up = _read(df.assign(depth_m=-df["depth_m"]))
+    ws = [w for w in up.warnings if "opposes" in w]
+    assert len(ws) == 1 and ws[0].startswith("<table>: the heave acceleration measured from "
+                                             "depth_m opposes the heave force logged in Z_N: "
+                                             "coefficient -"), ws
+    assert "is depth_m positive up (a height, or depth with the wrong sign)?" in ws[0]
+    assert "the vehicle's 1/(m + Z_ẇ) is 0.0384" in ws[0]
+    assert ws[0].endswith("otherwise Z_N has the wrong sign: expected the body-frame force, z "
+                          "down (a positive Z_N pushes the vehicle deeper)")
+    assert up.opposed == ["heave"]
+    assert _read(df.assign(Z_N=-df["Z_N"])).opposed == ["heave"]  # or the force's own sign
+    enu = _read(df.assign(yaw_rad=-df["yaw_rad"]))
+    assert enu.opposed == ["yaw"] and any("opposes the yaw force logged in N_Nm" in w and
+                                          "is yaw_rad counter-clockwise" in w for w in enu.warnings)
+
+
 def test_the_direction_check_needs_forces_from_the_pwm_and_enough_data():
     df = _mirror(_physical_table(0), "pwm_5")
     given = df.assign(Z_N=0.0, N_Nm=0.0)  # the table's own forces: the PWM is not used for them

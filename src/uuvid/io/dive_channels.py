@@ -15,7 +15,9 @@ rates stay as logged (no resampling); a bag's topics keep theirs.
 Where forces come from servo outputs (a table's ``pwm_<j>``, a bag's ``/mavros/rc/out``) they are
 checked against the motion (:func:`uuvid.io.motor_direction.direction_check`): an output whose
 heave or yaw force pushes against the measured acceleration — a motor whose direction the table
-lacks — is named in a warning with the evidence and the fix.  A path that is no dive log (a
+lacks — is named in a warning with the evidence and the fix; a table's own ``Z_N``/``N_Nm`` go
+through the same fit (:func:`~uuvid.io.motor_direction.force_sign_check`), so a depth logged
+positive up is asked about on either path.  A path that is no dive log (a
 folder that is not a ROS 2 bag, a missing path, a file of unknown kind) is a
 :class:`DiveDataError` naming it, what it holds or looks like, and the kinds accepted.
 """
@@ -30,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.io.logs import LogDataError
-from uuvid.io.motor_direction import bag_fix, direction_check, table_fix
+from uuvid.io.motor_direction import bag_fix, direction_check, force_sign_check, table_fix
 
 __all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS", "ThrustRegions",
            "thrust_regions", "PwmFlags", "pwm_flags", "rotor_speeds", "inflow_gain",
@@ -68,6 +70,9 @@ class DiveChannels:
     unread: list = field(default_factory=list)  # a table's columns that look like data, not read
     #: channel → ``[(samples left out, why)]`` by the reader's checks (a stuck sensor, spikes)
     left_out: dict = field(default_factory=dict)
+    #: DOFs whose measured channel opposes every force in them (the direction check asked about
+    #: its sign: a depth logged positive up), :mod:`uuvid.io.motor_direction`
+    opposed: list = field(default_factory=list)
 
     @property
     def t_range(self) -> tuple[float, float]:
@@ -903,9 +908,14 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     _check_neutral_outputs(pwm, armed, veh, name, warnings)
     _check_surface_reading(chans, armed, name, warnings)
     _drop_stuck(chans, armed, name, warnings, left_out)
+    opposed = []
     if thrust is not None:
-        direction_check(chans, thrust, veh, armed, name, warnings,
-                        table_fix if directions is None else bag_fix(directions))
+        opposed += direction_check(chans, thrust, veh, armed, name, warnings,
+                                   table_fix if directions is None else bag_fix(directions))
+    own = [c for c in ("Z_N", "N_Nm") if c in chans and c not in (thrust.computed if thrust
+                                                                   is not None else ())]
+    if own:  # the table's own force columns: the same check of the measured channels' sign
+        opposed += force_sign_check(chans, veh, armed, name, warnings, own)
     modes = _mode_runs(t, df["mode"].to_numpy()) if "mode" in cols else []
     src = {c: f"{name}:{c}" for c in chans}
     for c in (thrust.computed if thrust is not None else ()):
@@ -914,7 +924,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                                     or c in (tcol, "armed", "mode") or c.startswith("pwm_")})
     if unread:
         warnings.append(f"{name}: column(s) {', '.join(unread[:8])} not read ({UNREAD_HINT})")
-    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out)
+    return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out,
+                        opposed)
 
 
 def _param_directions(params: tuple, pwm: dict, export_dirs: dict | None, name: str,
@@ -1238,10 +1249,11 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         _check_neutral_outputs(pwm, armed, veh, p.name, warnings)
         _check_surface_reading(chans, armed, p.name, warnings)
         _drop_stuck(chans, armed, p.name, warnings, left_out)
-        _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings, thruster_model)
+        opposed = _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings,
+                                       thruster_model)
         return DiveChannels(p.name, dive.format, chans, armed,
                             _mode_runs(t, tb["mode"].astype(str).to_numpy()), warnings, src, pwm,
-                            left_out=left_out)
+                            left_out=left_out, opposed=opposed)
     what = f"unknown dive log type {p.suffix!r}" if p.suffix else "no file suffix"
     if suf in (".db3", ".mcap"):
         what = f"a ROS 2 bag's {suf} storage file without the bag's metadata.yaml beside it"
@@ -1251,14 +1263,14 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
 
 
 def _log_direction_check(chans: dict, pwm: dict, dive, veh, armed: list, name: str,
-                         warnings: list, thruster_model) -> None:
+                         warnings: list, thruster_model) -> list:
     """The motion-based direction check (:func:`~uuvid.io.motor_direction.direction_check`) on an
     ArduSub log: the log's ``MOT_n_DIRECTION`` applied, the forces of the log's thrust model
     recomputed on a scratch copy (the dive's own columns are kept), so that a parameter that does
     not match the motor on the vehicle is said, as for tables and bags."""
     directions = {str(m.number): float(m.direction) for m in dive.config.active}
     if not pwm or set(directions) != set(pwm):
-        return
+        return []
     tm = None
     if thruster_model is not None:
         from uuvid.io.ardusub.thrust import load_thrust_model
@@ -1271,8 +1283,8 @@ def _log_direction_check(chans: dict, pwm: dict, dive, veh, armed: list, name: s
         thrust = _forces_from_pwm(scratch, pwm, veh, name, [], directions=directions,
                                   thrust_model=tm)
     except (DiveDataError, LogDataError, ValueError):
-        return
-    direction_check(scratch, thrust, veh, armed, name, warnings, bag_fix(directions))
+        return []
+    return direction_check(scratch, thrust, veh, armed, name, warnings, bag_fix(directions))
 
 
 def _from_bag(bd, veh, thruster_model) -> DiveChannels:
@@ -1304,14 +1316,15 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
     _check_dead_outputs(bd.pwm, armed, bd.name, warnings)
     _check_neutral_outputs(bd.pwm, armed, veh, bd.name, warnings)
     _check_surface_reading(chans, armed, bd.name, warnings)
-    direction_check(chans, thrust, veh, armed, bd.name, warnings, bag_fix(thrust.directions))
+    opposed = direction_check(chans, thrust, veh, armed, bd.name, warnings,
+                              bag_fix(thrust.directions))
     modes = []
     if bd.modes is not None:
         modes = _mode_runs(*bd.modes)
         if modes:
             modes[-1] = (modes[-1][0], max(modes[-1][1], bd.t_end), modes[-1][2])
     return DiveChannels(bd.name, bd.format, chans, armed, modes, warnings, dict(bd.sources),
-                        dict(bd.pwm), left_out=left_out)
+                        dict(bd.pwm), left_out=left_out, opposed=opposed)
 
 
 # ---------------------------------------------------------------------------------------------

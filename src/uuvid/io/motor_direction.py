@@ -13,9 +13,15 @@ several driven together (one group) is found by mirroring each member alone, two
 each pair of grouped outputs.  A warning, not an error: it
 is a statistical judgement (a snagged tether or a wrong vehicle file can push against the motion
 too).  Called by :mod:`uuvid.io.dive_channels`.
+
+A table's own force columns (``Z_N``, ``N_Nm``) go through the same fit
+(:func:`force_sign_check`: each column one "thruster" of an identity ``B``), so a depth logged
+positive up is said alike whether the forces were computed from the PWM or logged.
 """
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -30,6 +36,18 @@ DIRECTION_RATIO = 2.0  # one of a group driven together: mirrored, this × the s
 DIRECTION_MIN_S = 30.0  # armed, gap-free seconds the check needs
 DIRECTION_MAX_GRID = 4_000_000  # grid points (≥ 0.125 s apart: ≥ 5.8 days); beyond, no check
 DIRECTION_SURFACE_M = 0.3  # shallower than this the vehicle may be at the surface: left out
+
+#: DOF → the question to ask when its measured channel opposes every force in it (the channel's
+#: sign convention, before a motor or a force column)
+SIGN_HINT = {"heave": "is depth_m positive up (a height, or depth with the wrong sign)? expected "
+                      "metres, positive down",
+             "yaw": "is yaw_rad counter-clockwise (ENU, east = 0)? expected the NED heading, "
+                    "clockwise from north"}
+#: the force columns of a table, and what their sign means (for :func:`force_sign_check`)
+_FORCE_COLUMNS = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
+_FORCE_SIGN = {"Z_N": "the body-frame force, z down (a positive Z_N pushes the vehicle deeper)",
+               "N_Nm": "the body-frame moment about z down (a positive N_Nm turns the vehicle "
+                       "clockwise seen from above)"}
 
 
 def table_fix(keys) -> str:
@@ -98,11 +116,45 @@ def _inverse_inertia(veh, dof: str) -> float | None:
     return 1.0 / val if np.isfinite(val) and val > 0 else None
 
 
+def force_sign_check(chans: dict, veh, armed: list, name: str, warnings: list,
+                     columns) -> list[str]:
+    """:func:`direction_check` for a table's own force ``columns`` (among ``Z_N`` and ``N_Nm``;
+    the others of ``X_N … N_Nm`` it has only tilt the heave force to the vertical): each column is
+    one "thruster" of an identity ``B`` whose mirror is its negative, so a measured channel that
+    opposes the logged force — a depth logged positive up, a heading counter-clockwise — is said
+    with the same evidence and question as for forces computed from the PWM, the force column's
+    own sign as the other suspect.  Returns the DOFs said so (``veh`` only gives the expected
+    ``1/(inertia + added)``; ``None`` leaves it out)."""
+    have = [c for c in _FORCE_COLUMNS if c in chans and chans[c][0].size >= 2]
+    if not any(c in have for c in columns):
+        return []
+    t = np.unique(np.concatenate([chans[c][0] for c in have]))
+    T = np.zeros((len(_FORCE_COLUMNS), t.size))
+    for i, c in enumerate(_FORCE_COLUMNS):
+        if c in have:
+            T[i] = np.interp(t, *chans[c])
+    # what direction_check reads of the reader's thrust per output (dive_channels._PwmThrust)
+    pt = SimpleNamespace(keys=list(_FORCE_COLUMNS), t=t, T=T, mirrored=-T,
+                         computed=[c for c in columns if c in have])
+
+    def fix(keys):
+        return "; ".join(f"otherwise {k} has the wrong sign: expected {_FORCE_SIGN.get(k, k)}"
+                         for k in keys)
+
+    return direction_check(chans, pt, veh, armed, name, warnings, fix, B=np.eye(6),
+                           col=str, source="logged in", every=fix)
+
+
 def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list,
-                     fix) -> None:
+                    fix, *, B=None, col=None, source: str = "", every=None) -> list[str]:
     """Warn about a servo output whose computed force pushes against the measured motion
     (``pt``: the reader's thrust per servo output, logged and mirrored, ``dive_channels._PwmThrust``;
     ``fix(keys)``: the sentence that says how to mend the named outputs in this kind of log).
+    Returns the DOFs whose measured channel opposes every force in them (its sign convention is
+    asked about, :data:`SIGN_HINT`).  ``B`` (default ``veh.B``), ``col(key)`` (the column of an
+    output, default ``pwm_<key>``), ``source`` and ``every(keys)`` (the words for where the forces
+    come from and for the other suspect when every one opposes the motion) let
+    :func:`force_sign_check` run the same fit on a table's force columns.
 
     For heave (``depth_m``) and yaw (``yaw_rad``), where that DOF's force column was computed from
     the PWM, the measured acceleration — the second derivative of the Gaussian-smoothed depth or
@@ -131,10 +183,12 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
     DOF against the motion is reported as the measured channel's sign convention or all of them
     reversed.
     ``fix(keys)`` says what to do.  One pass of NumPy per DOF; it warns and never raises."""
-    B = np.asarray(veh.B, float)
+    B = np.asarray(veh.B if B is None else B, float)
     keys = pt.keys
+    col = col or (lambda k: f"pwm_{k}")
+    opposed: list[str] = []
     if pt.t.size < 20 or B.shape[1] != len(keys):
-        return
+        return opposed
     for dof, (_row, meas, force, funit, aunit, inertia) in _DIRECTION_DOFS.items():
         if force not in pt.computed or meas not in chans or chans[meas][0].size < 20:
             continue
@@ -148,7 +202,7 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
         exp = f"; the vehicle's 1/({inertia}) is {k_exp:.3g}" if k_exp is not None else ""
 
         def mates(i, w=w):
-            return ", ".join(f"pwm_{keys[j]}" for j in w["group_of"][i] if j != i)
+            return ", ".join(col(keys[j]) for j in w["group_of"][i] if j != i)
 
         flagged = [(i, c, s) for i, c, s in w["members"]
                    if c < 0 and -c >= DIRECTION_Z * s
@@ -159,12 +213,12 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                 bad, (k_fix, s_fix, r2_fix, r2_log) = hidden
                 if len(bad) == 1:
                     i = bad[0]
-                    who = (f"pwm_{keys[i]} is probably reversed: it is driven in step with "
+                    who = (f"{col(keys[i])} is probably reversed: it is driven in step with "
                            f"{mates(i)}, so its {dof} force cannot show against the motion on its "
                            "own, but with it mirrored")
                     other = "any other output alone"
                 else:
-                    cols = " and ".join(f"pwm_{keys[i]}" for i in bad)
+                    cols = " and ".join(col(keys[i]) for i in bad)
                     who = (f"{cols} are probably both reversed: each is driven in step with "
                            f"another thruster, so their {dof} forces cannot show against the motion "
                            "on their own, but with both mirrored")
@@ -193,7 +247,7 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
             if odd is not None:
                 i, c, s = odd
                 warnings.append(
-                    f"{name}: pwm_{keys[i]} is probably reversed: it is driven in step with "
+                    f"{name}: {col(keys[i])} is probably reversed: it is driven in step with "
                     f"{mates(i)} (their {dof} forces correlate at {w['corr'][i]:+.2f}), its {dof} "
                     f"force runs against all of theirs and against the {dof} acceleration "
                     f"measured from {meas}: coefficient {c:+.3g} ± {s:.2g} {aunit} per {funit}, "
@@ -203,20 +257,21 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                     f"{fix([keys[i]])}")
             continue
         k_fix, s_fix, r2_fix, r2_log = conf
-        cols = [f"pwm_{keys[i]}" for i in bad]
-        share = (f"as logged the computed forces explain {r2_log:.0%} of the {dof} acceleration, "
-                 f"with {' and '.join(cols)} mirrored {r2_fix:.0%}")
+        cols = [col(keys[i]) for i in bad]
+        share = (f"as logged the {'computed forces explain' if not source else 'force explains'} "
+                 f"{r2_log:.0%} of the {dof} acceleration, with {' and '.join(cols)} mirrored "
+                 f"{r2_fix:.0%}")
         if len(bad) == len(w["live"]):  # every thruster of the DOF: the sign convention?
-            hint = {"heave": "is depth_m positive up (a height, or depth with the wrong sign)? "
-                             "expected metres, positive down",
-                    "yaw": "is yaw_rad counter-clockwise (ENU, east = 0)? expected the NED "
-                           "heading, clockwise from north"}[dof]
             c, s = w["shared"]
+            whence = (f"{source} {', '.join(cols)}" if source else
+                      f"computed from every thruster that gives one ({', '.join(cols)})")
+            other = (every([keys[i] for i in bad]) if every is not None else
+                     f"otherwise all these motors are reversed: {fix([keys[i] for i in bad])}")
             warnings.append(
                 f"{name}: the {dof} acceleration measured from {meas} opposes the {dof} force "
-                f"computed from every thruster that gives one ({', '.join(cols)}): coefficient "
-                f"{c:+.3g} ± {s:.2g} {aunit} per {funit}, physically positive{exp}; {share}. "
-                f"{hint}; otherwise all these motors are reversed: {fix([keys[i] for i in bad])}")
+                f"{whence}: coefficient {c:+.3g} ± {s:.2g} {aunit} per {funit}, physically "
+                f"positive{exp}; {share}. {SIGN_HINT[dof]}; {other}")
+            opposed.append(dof)
             continue
         for i, c, s in flagged:
             together = ""
@@ -225,10 +280,11 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                             f"correlate at {w['corr'][i]:+.2f}, so they share one coefficient "
                             "and this one's sign in it is tested)")
             warnings.append(
-                f"{name}: pwm_{keys[i]} is probably reversed: its thruster's {dof} force opposes "
+                f"{name}: {col(keys[i])} is probably reversed: its thruster's {dof} force opposes "
                 f"the {dof} acceleration measured from {meas}{together}: coefficient {c:+.3g} ± "
                 f"{s:.2g} {aunit} per {funit} (fitted with the other thrusters' forces, a "
                 f"constant and drag), physically positive{exp}; {share}. {fix([keys[i]])}")
+    return opposed
 
 
 def _odd_one_out(w, flagged) -> tuple | None:

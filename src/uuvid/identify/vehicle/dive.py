@@ -78,6 +78,7 @@ from uuvid.identify.vehicle.output_error import (
     weighting_text,
 )
 from uuvid.io.dive_channels import DIVE_DOFS, DiveDataError, pwm_flags, read_dive_channels
+from uuvid.io.motor_direction import SIGN_HINT
 from uuvid.simulate.dive_horizontal import spread_windows
 from uuvid.simulate.dive_replay import (
     _STATE_SPAN,
@@ -767,10 +768,14 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     r = values["mass"] / base.mass if base.mass > 0 else math.nan
     if math.isfinite(r) and not 1.0 / FAR_FROM_BASE <= r <= FAR_FROM_BASE:
         what = "inertia" if dof in ("roll", "pitch", "yaw") else "mass"
+        meas = DIVE_DOFS[dof][0]
+        why = ((f"{meas} opposes the {dof} force throughout the log (the reader's warning): "
+                f"{SIGN_HINT[dof]} — fix its sign before using it")
+               if dof in getattr(dc, "opposed", ()) and dof in SIGN_HINT else
+               "check the motor directions (reversed motors driven together can escape the "
+               "direction check), the thruster model and the log's units before using it")
         warns.append(f"{dof} {what} ×{r:.3g} of the base vehicle's {base.mass:.4g}: beyond the "
-                     f"×{FAR_FROM_BASE:g} a real vehicle differs from a published set by — check "
-                     "the motor directions (reversed motors driven together can escape the "
-                     "direction check), the thruster model and the log's units before using it")
+                     f"×{FAR_FROM_BASE:g} a real vehicle differs from a published set by — {why}")
     if not sol["success"]:
         warns.append(f"optimiser stopped: {sol['message']}")
     # in-sample replay from the measured state, identified and base
