@@ -139,3 +139,101 @@ def test_params_a_table_cannot_use_are_said(tmp_path):
     dc = read_dive_channels(_table(), "bluerov2", params={"SERVO1_FUNCTION": 34,
                                                          "SERVO2_FUNCTION": 33})
     assert any("SERVO1_FUNCTION → motor 2" in w and "not applied" in w for w in dc.warnings)
+
+
+# ---------------------------------------------------------------------------------------------
+# Servo outputs that never leave the dead band while armed
+# ---------------------------------------------------------------------------------------------
+def _neutral(df, *cols):
+    out = df.copy()
+    for c in cols or [c for c in df.columns if c.startswith("pwm_")]:
+        out[c] = 1500.0
+    return out
+
+
+def _idle_said(dc) -> list:
+    return [w for w in dc.warnings if "dead band" in w and "never leave" in w or
+            "every servo output" in w]
+
+
+def test_every_output_at_neutral_is_said_and_no_model_is_reported(tmp_path):
+    """Every pwm_ at 1500 µs for the whole armed log while the depth moved: the heave fit printed
+    "mass 183 ± inf … not identifiable" and exited 0, nothing said that the thrusters sat at
+    neutral.  The reader names the outputs; the identification refuses each DOF, naming the
+    outputs that give its force, and reports no model."""
+    df = _neutral(_table())
+    said = _idle_said(read_dive_channels(df, "bluerov2"))
+    assert len(said) == 1 and said[0].startswith(
+        "<table>: every servo output (pwm_1, pwm_2, pwm_3, pwm_4, pwm_5, pwm_6) stays within the "
+        "dead band 1482–1518 µs of t200-physical (at 1500 µs throughout)"), said
+    with pytest.raises(DiveDataError) as e:
+        identify_dive(df, "bluerov2", ["heave"])
+    msg = str(e.value)
+    assert msg.startswith("<table>: no heave thrust to identify from: Z_N stays 0 N"), msg
+    assert "pwm_5, pwm_6, every output that gives it, never leave the dead band 1482–1518 µs" in msg
+    assert "the thrusters sat at neutral" in msg and "no model can be identified" in msg
+    p = tmp_path / "neutral.csv"
+    df.to_csv(p, index=False)
+    r = runner.invoke(app, ["vehicle", "identify", "dive", str(p), "--vehicle", "bluerov2"])
+    text = " ".join(r.output.split())
+    assert r.exit_code == 2, text
+    assert "neutral.csv: no DOF could be identified: heave: no heave thrust" in text
+    assert "yaw: no yaw thrust to identify from: N_Nm stays 0 N·m" in text
+    assert "pwm_1, pwm_2, pwm_3, pwm_4, every output that gives it" in text
+    assert "mass [kg]" not in text
+
+
+def test_a_force_column_that_never_moves_is_no_thrust_to_identify_from():
+    """The same with the table's own forces: Z_N 0 throughout the part fitted."""
+    df = _table()
+    for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"):
+        df[c] = 0.0
+    with pytest.raises(DiveDataError, match=r"^<table>: no heave thrust to identify from: Z_N stays "
+                                            r"0 N over the armed samples in \[10, 50\] s\. With no "
+                                            r"force"):
+        identify_dive(df, "bluerov2", ["heave"], t_start=10.0, t_end=50.0)
+
+
+def test_one_output_at_neutral_while_those_sharing_its_dofs_are_driven_is_named():
+    """pwm_1 (front right, surge/sway/yaw) at 1500 µs throughout while the other three
+    horizontal thrusters were driven: read as 'no thrust' silently (the partner check knew only
+    thrusters pushing along one line, the vertical pair)."""
+    said = _idle_said(read_dive_channels(_neutral(_table(), "pwm_1"), "bluerov2"))
+    assert len(said) == 1, said
+    assert said[0].startswith("<table>: pwm_1 never leaves the dead band 1482–1518 µs of "
+                              "t200-physical (at 1500 µs throughout) in the 60 s armed while "
+                              "pwm_2, pwm_3, pwm_4, pwm_5, pwm_6 are driven"), said
+    assert "pwm_1 gives surge, sway and yaw with pwm_2, pwm_3, pwm_4, which are driven" in said[0]
+    assert "SERVOn_FUNCTION" in said[0]
+
+
+def test_the_vertical_pair_at_neutral_is_said_and_heave_refused():
+    """pwm_5 and pwm_6 at neutral, the horizontal ones driven: no thruster gives heave, said (a
+    DOF the pilot may not have commanded), and heave is refused, not fitted to σ = ∞."""
+    df = _neutral(_table(), "pwm_5", "pwm_6")
+    said = _idle_said(read_dive_channels(df, "bluerov2"))
+    assert len(said) == 1 and said[0].startswith("<table>: pwm_5, pwm_6 never leave the dead band")
+    assert "no other thruster gives heave, so heave has no thrust to identify from" in said[0]
+    with pytest.raises(DiveDataError, match="no heave thrust to identify from.*pwm_5, pwm_6, every "
+                                            "output that gives it"):
+        identify_dive(df, "bluerov2", ["heave"])
+
+
+def test_an_output_said_beside_its_driven_partner_is_said_once_and_driven_outputs_not_at_all():
+    dc = read_dive_channels(_neutral(_table(), "pwm_5"), "bluerov2")
+    about = [w for w in dc.warnings if "pwm_5" in w and "neutral" in w or "never leave" in w]
+    assert len(about) == 1 and "pwm_5 sits at 1500 µs (neutral)" in about[0], about
+    assert not _idle_said(read_dive_channels(_table(), "bluerov2"))
+
+
+def test_the_coupled_horizontal_model_is_refused_when_its_thrusters_sat_at_neutral():
+    from uuvid.simulate.dive_synth import synthetic_horizontal_dive
+
+    df, _ = synthetic_horizontal_dive(100.0, seed=21)
+    for c in ("pwm_1", "pwm_2", "pwm_3", "pwm_4"):
+        df.loc[df[c].notna(), c] = 1500.0
+    with pytest.raises(DiveDataError, match=r"^<table>: no horizontal thrust to identify from: X_N "
+                                            r"stays 0 N, Y_N stays 0 N and N_Nm stays 0 N·m .*"
+                                            r"pwm_1, pwm_2, pwm_3, pwm_4, every output that gives "
+                                            r"it, never leave the dead band"):
+        identify_dive(df, "bluerov2", ["horizontal"])

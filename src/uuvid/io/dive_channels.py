@@ -135,6 +135,21 @@ class DiveChannels:
                                 "servo-output columns pwm_1 … pwm_n [µs] (n the vehicle's "
                                 "thrusters)" + self._unread_text())
 
+    def require_thrust(self, dof: str, forces, B=None, flags=None, t_start=None,
+                       t_end=None) -> None:
+        """Raise :class:`DiveDataError` when the log gives ``dof`` no thrust to identify from:
+        each of ``forces`` takes one value over the armed samples in ``[t_start, t_end]``
+        (:func:`uuvid.io.idle_outputs.idle_force`; the outputs of ``B`` that give it are named
+        when they sat in the dead band of the thruster model of ``flags``, :class:`PwmFlags`).
+        A model of a vehicle its thrusters never pushed is not determined — mass, drag and bias
+        trade off exactly — so none is reported."""
+        from uuvid.io.idle_outputs import idle_force
+
+        idle = idle_force(self, forces, B, flags.regions if flags is not None else None,
+                          t_start, t_end)
+        if idle is not None:
+            raise DiveDataError(f"{self.name}: no {dof} thrust to identify from: {idle}")
+
     def _unread_text(self) -> str:
         return (f" (the table's columns {', '.join(self.unread[:8])} are not read: "
                 f"{UNREAD_HINT})" if self.unread else "")
@@ -578,7 +593,7 @@ def _drop_stuck(chans: dict, armed: list, name: str, warnings: list,
 
 
 def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: list,
-                           min_s: float = DEAD_OUTPUT_S) -> None:
+                           min_s: float = DEAD_OUTPUT_S) -> list:
     """An output that sits within ±2 µs of one value near neutral (1450–1550 µs) for 95 % of the
     armed time in which a thruster the mixer drives alike is driven beyond ±25 µs (0 µs, no
     pulse, is not driven), for more than ``min_s`` s, is said: its motor is on another output
@@ -587,10 +602,11 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
     attributed to the other).
     Driven alike: the columns of ``B`` in the DOFs a pilot commands (surge, sway, heave, yaw; roll
     and pitch are held), each DOF scaled by its largest entry, parallel within 18° — BlueROV2's
-    vertical pair, not its diagonal horizontal thrusters, which a turn with surge drives apart."""
+    vertical pair, not its diagonal horizontal thrusters, which a turn with surge drives apart.
+    Returns the outputs said."""
     keys = _motor_order(pwm)
     if veh is None or len(keys) != veh.B.shape[1] or len(keys) < 2:
-        return
+        return []
     F = np.asarray(veh.B, float)[[0, 1, 2, 5]]
     scale = np.abs(F).max(axis=1, keepdims=True)
     F = F / np.where(scale > 0, scale, 1.0)
@@ -629,6 +645,33 @@ def _check_neutral_outputs(pwm: dict, armed: list, veh, name: str, warnings: lis
                         "driven: its motor is on another output (check "
                         "SERVOn_FUNCTION, or which column is its output) or disabled; it is taken "
                         "as giving no thrust there")
+    return [k for k, *_ in said]
+
+
+def _check_idle(pwm: dict, armed: list, veh, name: str, warnings: list, thrust_model=None, *,
+                idle: bool = True) -> None:
+    """The outputs said at neutral beside a driven partner (:func:`_check_neutral_outputs`), then
+    (``idle``: the forces come from them) those that never leave the dead band of the thrust
+    model (a file or preset; default the T200's) while armed
+    (:func:`uuvid.io.idle_outputs.idle_output_check`: every output, or some while others push)."""
+    said = _check_neutral_outputs(pwm, armed, veh, name, warnings)
+    if not (pwm and idle):
+        return
+    from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
+    from uuvid.io.idle_outputs import idle_output_check
+
+    tm = thrust_model
+    if isinstance(tm, (str, Path)):
+        import warnings as _w
+
+        with _w.catch_warnings():  # loaded (and said) by the reader already
+            _w.simplefilter("ignore")
+            try:
+                tm = load_thrust_model(tm)
+            except (LogDataError, OSError, ValueError):
+                return
+    regions = thrust_regions(tm if tm is not None else default_t200())
+    idle_output_check(pwm, armed, veh, name, warnings, regions, skip=said)
 
 
 def _check_dead_outputs(pwm: dict, armed: list, name: str, warnings: list,
@@ -905,7 +948,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         "columns: the forces are used and the pwm_ columns are not (remove the "
                         "force columns to have the thrust computed from the PWM)")
     _check_dead_outputs(pwm, armed, name, warnings)
-    _check_neutral_outputs(pwm, armed, veh, name, warnings)
+    _check_idle(pwm, armed, veh, name, warnings, idle=thrust is not None)  # (forces from pwm)
     _check_surface_reading(chans, armed, name, warnings)
     _drop_stuck(chans, armed, name, warnings, left_out)
     opposed = []
@@ -1246,7 +1289,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         warnings += list(dive.warnings)
         left_out: dict = {}
         _drop_depth_spikes(chans, p.name, warnings, left_out)
-        _check_neutral_outputs(pwm, armed, veh, p.name, warnings)
+        _check_idle(pwm, armed, veh, p.name, warnings, thruster_model)
         _check_surface_reading(chans, armed, p.name, warnings)
         _drop_stuck(chans, armed, p.name, warnings, left_out)
         opposed = _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings,
@@ -1314,7 +1357,7 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
     else:
         armed = [(min(float(c[0][0]) for c in chans.values() if c[0].size), bd.t_end)]
     _check_dead_outputs(bd.pwm, armed, bd.name, warnings)
-    _check_neutral_outputs(bd.pwm, armed, veh, bd.name, warnings)
+    _check_idle(bd.pwm, armed, veh, bd.name, warnings, tm)
     _check_surface_reading(chans, armed, bd.name, warnings)
     opposed = direction_check(chans, thrust, veh, armed, bd.name, warnings,
                               bag_fix(thrust.directions))

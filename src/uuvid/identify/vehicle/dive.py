@@ -48,6 +48,11 @@ residuals weighted by ``1/sqrt(1 + (δy/σ_y)²)``
 (:func:`uuvid.identify.vehicle.output_error.dead_band_weights`); saturated samples are counted,
 not down-weighted (their thrust is known).  ``dofs="horizontal"`` identifies surge, sway and yaw
 jointly with the coupled model (:mod:`uuvid.identify.vehicle.dive_horizontal`).
+
+A DOF whose force takes one value over the armed part fitted (every thruster that gives it in
+the dead band: the thrusters sat at neutral) is refused, naming those outputs
+(:meth:`~uuvid.io.dive_channels.DiveChannels.require_thrust`): with no force to scale them by,
+mass, drag and the bias trade off exactly.
 """
 
 from __future__ import annotations
@@ -582,7 +587,7 @@ def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
 
 
 def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
-             weighting: bool = True, gain=None, inflow_starts=None):
+             weighting: bool = True, gain=None, inflow_starts=None, B=None):
     windows, notes = dive_windows(dc, dof, horizon, t_start, t_end)
     windows = spread_windows(windows, notes, dof)
     need = max(MIN_WINDOWS, math.ceil(MIN_SECONDS / horizon - 1e-9))
@@ -593,6 +598,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
             f"of {horizon:g} s in {span} (need at least {need}, i.e. {need * horizon:g} s of "
             "armed, submerged data); widen --t-start/--t-end or pass a longer dive"
             + (f" ({'; '.join(notes)})" if notes else ""))
+    dc.require_thrust(dof, [DIVE_DOFS[dof][1]], B, flags, t_start, t_end)
     prob = WindowProblem(dc, dof, windows, gain=gain)
     W = prob.W
     names = PARAMS_INFLOW if gain is not None else PARAMS
@@ -958,7 +964,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
             base = OneDofParams(*base.as_array()[:4])
             base_src += " (its inflow coefficient not used: inflow off)"
         values, sigma, corr, start, windows, notes, warns, train, traces, wd, split = _fit_dof(
-            dc, dof, H, t_start, t_end, base, flags, dead_band_weighting, gain, ka_starts)
+            dc, dof, H, t_start, t_end, base, flags, dead_band_weighting, gain, ka_starts,
+            B=veh.B)
         if speeds is not None:
             notes.append(f"inflow: rotor speeds from {speeds[2]}; k_a started at "
                          + " and ".join(f"{k:.3g}" for k in ka_starts) + " N·s²/(rad·m)")

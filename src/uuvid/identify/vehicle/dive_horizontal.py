@@ -335,8 +335,8 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
                    inflow_start: float | None = None) -> HorizontalEstimate:
     """Identify the coupled model (see the module doc) from the armed windows of ``dc`` within
     ``[t_start, t_end]``; the part after ``t_end`` is replayed as held out.  Raises
-    :class:`~uuvid.io.dive_channels.DiveDataError` naming a missing channel or too short a
-    range.
+    :class:`~uuvid.io.dive_channels.DiveDataError` naming a missing channel, too short a range,
+    or forces that never move (no thrust to identify from, ``DiveChannels.require_thrust``).
 
     ``gain``: ``(t, C)`` of :func:`uuvid.io.dive_channels.horizontal_inflow_gain` — the inflow
     coefficient ``k_a`` is then a 13th parameter (thrust less ``k_a C(t) (u, v, r)``), started
@@ -352,6 +352,7 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
             f"{len(windows)} usable armed window(s) of {horizon:g} s in {span} (need at least "
             f"{need}, i.e. {need * horizon:g} s with u, v and heading samples); widen "
             "--t-start/--t-end or pass a longer dive" + (f" ({'; '.join(notes)})" if notes else ""))
+    dc.require_thrust("horizontal", H_FORCES, veh.B, flags, t_start, t_end)
     base, base_src = horizontal_from_vehicle(veh)
     names = HORIZONTAL_NAMES + (("inflow",) if gain is not None else ())
     npar = len(names)
