@@ -9,7 +9,10 @@ to their limits, in a constant NED current (optionally randomised per episode).
   for ``a · f_max``, ``a < 0`` for ``|a| · f_min`` of the thruster's ``limits``.  With
   ``action="force"``: one value per allocated DOF (``allocation.dofs`` of the vehicle file) in
   ``[−1, 1]`` of the largest force the thrusters give along it, allocated by the vehicle's
-  allocator (:func:`uuvid.vehicle.allocation.allocate_compiled`).
+  allocator (:func:`uuvid.vehicle.allocation.allocate_compiled`).  Values outside ``[−1, 1]``
+  (``±inf`` included) are clipped to the bound, as many Gymnasium environments do; a NaN is
+  refused (``ValueError`` naming its index), and so is an action of another shape than the
+  action space's (no reshaping: a transposed batch would send actions to the wrong thrusters).
 * **Observation** (12, float32): target position error in body axes ``R(q)ᵀ(p_t − p)`` (m),
   roll, pitch and the wrapped yaw error ``ψ_t − ψ`` (rad), body velocities ``ν`` (m/s, rad/s).
 * **Reward**: ``−(w_p |e_p| + w_a |[φ, θ, e_ψ]| + w_v |ν| + w_u |a|²/n_a) · dt`` (weights
@@ -17,7 +20,15 @@ to their limits, in a constant NED current (optionally randomised per episode).
 * **Episode**: starts at rest at a uniformly random offset (``offset_range`` = ±[n, e, d, ψ]) from
   the first target; with ``waypoints`` (rows ``[n, e, d, ψ]``) the target moves on when the
   position error is below ``acceptance_radius``, and the last one is held.  Terminated when the
-  position error exceeds ``max_distance`` (lost); truncated after ``max_steps``.
+  position error exceeds ``max_distance`` (lost) or the state is no longer finite; truncated after
+  ``max_steps``.  ``step()`` before ``reset()`` raises :class:`gymnasium.error.ResetNeeded`; a step
+  after the episode ended warns (once) that ``reset()`` is needed, as Gymnasium's own
+  environments do.  ``reset(options=...)`` takes ``None`` or ``{}`` (there are no reset options).
+* **Options** are checked when the environment is made (``ValueError`` naming the option):
+  ``dt`` > 0 with the RK4 step ``dt / substeps`` within the vehicle's stability bound
+  (:func:`rk4_step_limit`), ``substeps``, ``max_steps`` positive integers, ``offset_range``,
+  ``current_range``, ``acceptance_radius``, ``weights`` finite and ≥ 0, ``current`` finite,
+  ``max_distance`` > 0 (``inf``: never lost).
 
 :class:`StationKeepingEnv` is one vehicle (passes ``gymnasium.utils.env_checker.check_env``);
 :class:`StationKeepingVectorEnv` steps ``num_envs`` vehicles in one parallel compiled call
@@ -31,6 +42,8 @@ issue 21); the action still scales the bollard limits.
 from __future__ import annotations
 
 import math
+import numbers
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +52,7 @@ from numba import njit, prange
 try:
     import gymnasium as gym
     from gymnasium import spaces
+    from gymnasium.error import ResetNeeded
     from gymnasium.vector import VectorEnv
     from gymnasium.vector.utils import batch_space
 except ImportError as e:  # pragma: no cover - depends on the environment
@@ -188,6 +202,101 @@ def _step_batch(Z, A, wps, WIDX, active, mode, alloc, dofs, fscale, lo, hi, Bthr
 
 
 # ---------------------------------------------------------------------------------------------
+# Option and action checks (in Python, before the compiled calls)
+# ---------------------------------------------------------------------------------------------
+#: −z where RK4's amplification 1 + z + z²/2 + z³/6 + z⁴/24 reaches 1 on the real axis
+#: (:data:`uuvid.simulate.dive_replay.RK4_LIMIT`)
+_RK4_LIMIT = 2.785
+
+
+def _real_array(name: str, value, shape: tuple[int, ...], what: str, *, minimum=None,
+                allow_inf=False) -> np.ndarray:
+    """``value`` as a float array broadcast to ``shape``; ``ValueError`` naming ``name`` unless it is
+    numeric, finite (or ``+inf`` with ``allow_inf``) and ``≥ minimum``."""
+    try:
+        if isinstance(value, (str, bytes)) or np.asarray(value).dtype == bool:
+            raise TypeError
+        a = np.asarray(value, dtype=float)
+        a = np.broadcast_to(a, shape).copy()
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {what}, got {value!r}") from None
+    bad = np.isnan(a) | (np.isinf(a) & ~(allow_inf & (a > 0)))
+    if minimum is not None:
+        bad |= a < minimum
+    if bad.any():
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return a
+
+
+def _positive(name: str, value, what: str, **kw) -> float:
+    v = float(_real_array(name, value, (), what, **kw))
+    if not v > 0:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return v
+
+
+def _count(name: str, value) -> int:
+    """A positive integer (an integral float such as ``4.0`` too); ``ValueError`` else."""
+    ok = (isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))) or (
+        isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+        and math.isfinite(value) and float(value).is_integer())
+    if not ok or int(value) < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def rk4_step_limit(vehicle, current_speed: float = 0.0) -> tuple[float, int, float]:
+    """``(h_max, dof, rate)``: the largest RK4 step (s) that keeps the vehicle's fastest damped
+    mode stable, estimated per DOF from the diagonal mass and damping: the damping rate
+    ``(D_l + 2 D_q |ν|) / M`` at the terminal speed ``|ν|`` the thrusters (``|B| · max |limit|``)
+    can drive against that damping (plus ``current_speed`` in translation), and
+    ``h_max = 2.785 / rate`` (RK4's real-axis stability limit).  ``dof``: the DOF that sets it.
+    An estimate (coupling is ignored): steps near it may still grow at full thrust."""
+    p = vehicle.params
+    M = np.diag(np.asarray(p.mass_matrix, float))
+    Dl = np.asarray(p.linear_damping, float)
+    Dq = np.asarray(p.quadratic_damping, float)
+    Dl = np.abs(np.diag(Dl) if Dl.ndim == 2 else Dl)
+    Dq = np.abs(np.diag(Dq) if Dq.ndim == 2 else Dq)
+    F = np.abs(np.asarray(vehicle.B, float)) @ np.max(np.abs(vehicle.layout.limits), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.where(Dq > 0, (-Dl + np.sqrt(Dl * Dl + 4 * Dq * F)) / (2 * np.where(Dq > 0, Dq, 1)),
+                     0.0)
+        v[:3] += current_speed
+        rate = np.where(M > 0, (Dl + 2 * Dq * v) / np.where(M > 0, M, 1), 0.0)
+    k = int(np.argmax(rate))
+    return (_RK4_LIMIT / rate[k] if rate[k] > 0 else math.inf), k, float(rate[k])
+
+
+def _check_reset_options(env, options) -> None:
+    if options is None:
+        return
+    if not isinstance(options, dict):
+        raise TypeError(f"{type(env).__name__}.reset: options must be None or a dict (accepted keys: "
+                        f"none), got {type(options).__name__} {options!r}")
+    if options:
+        raise ValueError(f"{type(env).__name__}.reset: unknown options {sorted(map(str, options))}; "
+                         "accepted keys: none (give None or {})")
+
+
+def _check_action(action, shape: tuple[int, ...], what: str = "action") -> np.ndarray:
+    """``action`` as a C-contiguous float64 array of exactly ``shape``; ``ValueError`` for another
+    shape or a NaN (``±inf`` passes: the step clips it to ``[−1, 1]``)."""
+    try:
+        a = np.ascontiguousarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be numbers of shape {shape}, got {action!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"{what} shape {a.shape}, expected {shape}")
+    nan = np.isnan(a)
+    if nan.any():
+        idx = [int(i[0]) if len(i) == 1 else tuple(int(j) for j in i) for i in np.argwhere(nan)]
+        at = ", ".join(map(str, idx[:4])) + (f" … ({len(idx)} in all)" if len(idx) > 4 else "")
+        raise ValueError(f"{what} contains NaN at index {at}")
+    return a
+
+
+# ---------------------------------------------------------------------------------------------
 # Shared configuration
 # ---------------------------------------------------------------------------------------------
 class _Config:
@@ -207,9 +316,9 @@ class _Config:
             bad = [t.name for t, row in zip(v.layout, lim) if not np.all(np.isfinite(row))]
             raise ValueError(f"{v.name}: thrusters {bad} have no finite limits; actions are "
                              "normalised to the limits")
-        if not (dt > 0 and int(substeps) >= 1 and int(max_steps) >= 1):
-            raise ValueError("need dt > 0, substeps >= 1 and max_steps >= 1")
-        self.dt, self.nsub, self.max_steps = float(dt), int(substeps), int(max_steps)
+        self.dt = _positive("dt", dt, "a finite number > 0 (s)")
+        self.nsub = _count("substeps", substeps)
+        self.max_steps = _count("max_steps", max_steps)
         self.lo = np.ascontiguousarray(lim[:, 0])
         self.hi = np.ascontiguousarray(lim[:, 1])
         self.B = np.ascontiguousarray(v.B, dtype=float)
@@ -230,16 +339,35 @@ class _Config:
             self.fscale = np.array(fs, dtype=float)
         else:
             raise ValueError(f"action must be 'thrust' or 'force', got {action!r}")
-        self.offset_range = np.broadcast_to(np.asarray(offset_range, float), (4,)).copy()
-        self.current = np.asarray(current, dtype=float).reshape(3)
-        self.current_range = float(current_range)
+        self.offset_range = _real_array("offset_range", offset_range, (4,),
+                                        "finite numbers >= 0 (one, or [n, e, d, yaw])", minimum=0.0)
+        what = "3 finite numbers [n, e, d] (m/s)"
+        if np.shape(current) != (3,):
+            raise ValueError(f"current must be {what}, got {current!r}")
+        self.current = _real_array("current", current, (3,), what)
+        self.current_range = float(_real_array("current_range", current_range, (),
+                                               "a finite number >= 0 (m/s)", minimum=0.0))
         wps = np.zeros((1, 4)) if waypoints is None else np.asarray(waypoints, dtype=float)
         if wps.ndim != 2 or wps.shape[1] != 4 or len(wps) == 0 or not np.all(np.isfinite(wps)):
             raise ValueError("waypoints must be rows of [north, east, down, yaw] (m, rad)")
         self.wps = np.ascontiguousarray(wps)
-        self.accept = float(acceptance_radius)
-        self.max_distance = float(max_distance)
-        self.w = np.asarray(weights, dtype=float).reshape(4)
+        self.accept = float(_real_array("acceptance_radius", acceptance_radius, (),
+                                        "a finite number >= 0 (m)", minimum=0.0))
+        self.max_distance = _positive("max_distance", max_distance,
+                                      "a number > 0 (m; inf: never lost)", allow_inf=True)
+        if np.ndim(weights) != 1 or np.size(weights) != 4:
+            raise ValueError(f"weights must be 4 finite numbers >= 0 (w_p, w_a, w_v, w_u), "
+                             f"got {weights!r}")
+        self.w = _real_array("weights", weights, (4,), "4 finite numbers >= 0 (w_p, w_a, w_v, w_u)",
+                             minimum=0.0)
+        speed = float(np.linalg.norm(self.current)) + math.sqrt(2.0) * self.current_range
+        hmax, dof, rate = rk4_step_limit(v, speed)
+        if self.dt / self.nsub > hmax:
+            need = math.ceil(self.dt / hmax)
+            raise ValueError(
+                f"dt / substeps = {self.dt:g} / {self.nsub} = {self.dt / self.nsub:.4g} s is beyond "
+                f"{v.name}'s RK4 stability bound {hmax:.4g} s (DOF {dof} damps at {rate:.3g}/s at "
+                f"full thrust): need dt <= {hmax * self.nsub:.4g} s, or substeps >= {need}")
         arrays = loop_arrays(v, inflow)
         self.iprm, self.igeo = arrays if arrays is not None else (np.zeros(0), np.zeros((0, 13)))
         self.igeo = check_geometry(self.igeo)
@@ -289,6 +417,9 @@ class StationKeepingEnv(gym.Env):
         self._obs = np.zeros(N_OBS)
         self._work = np.zeros(work_size(self.cfg.B.shape[1]))
         self._steps = 0
+        self._reset_done = False  # step() needs a reset() first
+        self._ended = False  # the episode returned terminated or truncated
+        self._warned_ended = False
 
     @property
     def state(self) -> np.ndarray:
@@ -296,24 +427,37 @@ class StationKeepingEnv(gym.Env):
         return self._z.copy()
 
     def reset(self, *, seed=None, options=None):
+        _check_reset_options(self, options)
         super().reset(seed=seed)
         Z, VC = self.cfg.initial_states(self.np_random, 1)
         self._z = Z[0].copy()
         self._vc = VC[0].copy()
         self._widx[0] = 0
         self._steps = 0
+        self._reset_done, self._ended, self._warned_ended = True, False, False
         _observe(self._z, self.cfg.wps[0], self._obs)
         return self._obs.astype(np.float32), {"waypoint": 0}
 
     def step(self, action):
+        """One control step.  ``action``: shape ``(n_act,)``, clipped to ``[−1, 1]`` (``±inf`` to
+        the bound); a NaN or another shape is a ``ValueError``.  Before ``reset()``:
+        :class:`gymnasium.error.ResetNeeded`; after the episode ended: a warning (once)."""
         c = self.cfg
-        a = np.asarray(action, dtype=np.float64).reshape(c.n_act)
+        if not self._reset_done:
+            raise ResetNeeded("StationKeepingEnv: call reset() before step()")
+        a = _check_action(action, (c.n_act,))
+        if self._ended and not self._warned_ended:
+            warnings.warn("StationKeepingEnv.step() after the episode ended (terminated or truncated "
+                          "was returned): call reset() to start a new episode", UserWarning,
+                          stacklevel=2)
+            self._warned_ended = True
         rew, dist = _step_one(self._z, a, c.wps, self._widx, c.mode, c.alloc, c.dofs, c.fscale,
                               c.lo, c.hi, c.B, c.vp, self._vc, c.dt, c.nsub, c.w, c.accept,
                               self._obs, self._work, c.iprm, c.igeo)
         self._steps += 1
         terminated = bool(dist > c.max_distance or not np.all(np.isfinite(self._z)))
         truncated = bool(self._steps >= c.max_steps)
+        self._ended = self._ended or terminated or truncated
         return (self._obs.astype(np.float32), float(rew), terminated, truncated,
                 {"waypoint": int(self._widx[0]), "position_error": float(dist)})
 
@@ -331,10 +475,8 @@ class StationKeepingVectorEnv(VectorEnv):
         unknown = set(kw) - set(_DEFAULTS)
         if unknown:
             raise TypeError(f"unknown options {sorted(unknown)}; known: {sorted(_DEFAULTS)}")
-        if int(num_envs) < 1:
-            raise ValueError("num_envs must be >= 1")
+        self.num_envs = _count("num_envs", num_envs)
         self.cfg = _Config(vehicle, **{**_DEFAULTS, **kw})
-        self.num_envs = int(num_envs)
         self.single_observation_space, self.single_action_space = self.cfg.spaces()
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -348,6 +490,7 @@ class StationKeepingVectorEnv(VectorEnv):
         self._dist = np.zeros(n)
         self._needs_reset = np.zeros(n, dtype=bool)
         self._work = np.zeros((n, work_size(self.cfg.B.shape[1])))
+        self._reset_done = False  # step() needs a reset() first
 
     @property
     def states(self) -> np.ndarray:
@@ -363,9 +506,11 @@ class StationKeepingVectorEnv(VectorEnv):
         self._steps[mask] = 0
 
     def reset(self, *, seed=None, options=None):
+        _check_reset_options(self, options)
         super().reset(seed=seed)
         self._reset_rows(np.ones(self.num_envs, dtype=bool))
         self._needs_reset[:] = False
+        self._reset_done = True
         self._run(np.zeros((self.num_envs, self.cfg.n_act)), np.zeros(self.num_envs, dtype=bool))
         return self._obs.astype(np.float32), {}
 
@@ -376,8 +521,13 @@ class StationKeepingVectorEnv(VectorEnv):
                     self._obs, self._rew, self._dist, self._work, c.iprm, c.igeo)
 
     def step(self, actions):
+        """One control step of every copy.  ``actions``: shape ``(num_envs, n_act)`` exactly (no
+        reshaping), clipped to ``[−1, 1]``; a NaN is a ``ValueError`` naming ``(env, index)``.
+        Before ``reset()``: :class:`gymnasium.error.ResetNeeded`."""
         c = self.cfg
-        a = np.ascontiguousarray(actions, dtype=np.float64).reshape(self.num_envs, c.n_act)
+        if not self._reset_done:
+            raise ResetNeeded("StationKeepingVectorEnv: call reset() before step()")
+        a = _check_action(actions, (self.num_envs, c.n_act), "actions")
         resetting = self._needs_reset
         if resetting.any():
             self._reset_rows(resetting)
