@@ -480,7 +480,8 @@ def test_bin_missing_messages_and_repeated_parameters(tmp_path):
     assert d.provenance["thrust_3_N"]["source"].endswith("at the nominal 16 V (no voltage logged)")
     np.testing.assert_allclose(
         d.table["thrust_3_N"], default_t200().thrust(d.table["pwm_3"], np.full(len(d.table), 16.0)))
-    # a parameter written twice with another value: the last one wins, and it is said
+    # a parameter written again with another value after the last sample (t = 50 s, the log
+    # ends at 12 s): the value in force over the rows is used, and the change is said
     p2 = write_bin(tmp_path / "e.BIN", sc, prm={**prm, "MOT_3_DIRECTION": -1.0})
     raw = p2.read_bytes()
     extra = _DF()
@@ -488,8 +489,8 @@ def test_bin_missing_messages_and_repeated_parameters(tmp_path):
     extra.msg("PARM", int((BOOT0 + 50) * 1e6), "MOT_3_DIRECTION", 1.0)
     p2.write_bytes(raw + b"".join(extra.out[2:]))
     d2 = load_dive(p2)
-    assert d2.config.motors[2].direction == 1.0
-    assert any("MOT_3_DIRECTION changed" in w for w in d2.warnings)
+    assert d2.config.motors[2].direction == -1.0
+    assert any("MOT_3_DIRECTION changed" in w and "outside this table" in w for w in d2.warnings)
 
 
 # ============================================================================ telemetry traps

@@ -307,6 +307,7 @@ _default_format = None
 
 def main() -> None:  # console-script entry point
     """Run the command line, importing only the command module the arguments name."""
+    import re
     import warnings
 
     global _default_format
@@ -321,7 +322,9 @@ def main() -> None:  # console-script entry point
     except OSError as e:  # the file system said no (a folder that is a file, no permission, full)
         if os.environ.get("UUVID_DEBUG"):
             raise
-        where = f"{e.filename}: " if e.filename else ""
+        # an atomic write's temporary file is named as the file it was to become
+        name = re.sub(r"(^|[\\/])\.tmp-\d+-[0-9a-f]{8}-([^\\/]+)$", r"\1\2", str(e.filename or ""))
+        where = f"{name}: " if name else ""
         what = e.strerror or str(e) or type(e).__name__
         if isinstance(e, (FileExistsError, NotADirectoryError)) and e.filename \
                 and os.path.isfile(e.filename):

@@ -58,10 +58,14 @@ def export_cmd(
     plot: Path | None = typer.Option(None, "--plot", help="Also save the overview figure here."),
     params: Path | None = typer.Option(None, "--params", help="Parameter file (QGroundControl/"
                                        "BlueOS) completing or overriding the log's parameters."),
+    t_start: float | None = typer.Option(None, "--t-start", help="Rows from here [s, t_s of the "
+                                         "whole log] (e.g. after a parameter change)."),
+    t_end: float | None = typer.Option(None, "--t-end", help="Rows up to here [s, t_s of the "
+                                       "whole log]."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document."),
 ):
     """One tidy table on one time base: depth, attitude, battery, mode, PWM, thrust, forces."""
-    from uuvid.cli.common import _print_json, err_console, out_console
+    from uuvid.cli.common import _print_json, check_outputs, err_console, out_console
     from uuvid.io.ardusub import check_export_path, load_dive, sidecar_path
 
     out = renamed(out, "--out-file", old_out)
@@ -76,15 +80,22 @@ def export_cmd(
                   f"of {', '.join('.' + k for k in sorted(kinds))}")
     try:
         check_export_path(out)  # before reading the log
+    except (ValueError, ImportError) as e:
+        _fail(str(e))
+    side = sidecar_path(out)  # every output checked before the log is read: all or none
+    check_outputs(("--out-file", out, "file"),
+                  (f"--out-file {out}: its provenance file", side, "file"), ("--plot", plot, "file"))
+    try:
         dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,
-                         params=params)
-        path = dive.export(out)
-        if plot is not None:
-            dive.plot(plot)
+                         params=params, t_start=t_start, t_end=t_end)
+        if plot is not None:  # the figure first: a figure that fails leaves no table behind
+            _write(dive.plot, plot, "--plot")
+        path = _write(dive.export, out, "--out-file", undo=plot)
     except (ValueError, ImportError, FileNotFoundError, KeyError) as e:
         from uuvid.cli.common import _flagged
 
-        _fail(_flagged(str(e), {"dt": "--dt"}).replace(": dt = ", ": --dt "))
+        _fail(_flagged(str(e), {"dt": "--dt", "t_start": "--t-start", "t_end": "--t-end"})
+              .replace(": dt = ", ": --dt "))
     if json_out:
         _print_json({**dive.to_dict(), "out": str(path)})
         return
@@ -93,6 +104,18 @@ def export_cmd(
     err_console.print(f"wrote {path}" + (f" and {side}" if side else "")
                       + (f"; figure {plot}" if plot is not None else ""), highlight=False,
                       soft_wrap=True, markup=False)
+
+
+def _write(fn, path: Path, option: str, undo: Path | None = None):
+    """``fn(path)``; a write the file system refuses ends the command naming the option and
+    the path given (not the temporary file the write went through), after removing ``undo``
+    (an output this run already wrote)."""
+    try:
+        return fn(path)
+    except OSError as e:
+        if undo is not None:
+            undo.unlink(missing_ok=True)
+        _fail(f"{option} {path}: cannot write it ({e.strerror or e}); nothing was written")
 
 
 def register(app: typer.Typer) -> None:

@@ -18,6 +18,7 @@ from uuvid.cli.common import (
     _load_model,
     _print_json,
     _table,
+    check_outputs,
     err_console,
     out_console,
 )
@@ -223,6 +224,7 @@ def thruster_export(
     from uuvid.thruster.resolve import export_supply
 
     out = renamed(out, "--out-file", old_out)
+    check_outputs(("--out-file", out, "file"))  # before the work; named as given, not a temp file
     chain = _load_model(model)
     try:
         chain, said = export_supply(model, chain, supply_voltage)

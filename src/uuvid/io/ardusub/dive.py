@@ -29,6 +29,7 @@ from uuvid.io.ardusub.frames import (
     check_vehicle,
     config_from_params,
     effective_pwm,
+    read_param_file,
 )
 from uuvid.io.ardusub.reader import read_raw
 from uuvid.io.ardusub.sources import (
@@ -177,7 +178,7 @@ def _check_grid(name: str, dt: float, spans, motors: int) -> None:
 
 
 def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = None,
-              params=None) -> DiveLog:
+              params=None, t_start: float | None = None, t_end: float | None = None) -> DiveLog:
     """Read an ArduSub ``.BIN``/``.tlog`` into a :class:`DiveLog` (see the module doc).
 
     Parameters
@@ -198,7 +199,13 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     params
         Parameters the log lacks or that should override it: ``{NAME: value}`` or a parameter
         file (QGroundControl / Mission Planner / BlueOS format); used when a telemetry log was
-        recorded without the parameter download.
+        recorded without the parameter download.  A parameter given here holds for the whole
+        log, also where the log changes it.
+    t_start, t_end
+        Only the rows from/up to these times [s, on ``t_s`` of the whole log].  A parameter the
+        configuration depends on (frame, outputs, motor directions, primary barometer, PWM
+        range) that changes inside the rows read is an error naming it, its values and when
+        (one table holds one configuration): read each side of the change with these.
     """
     import pandas as pd
 
@@ -210,62 +217,52 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     raw = read_raw(path, whole_file=False)  # checksum failures of the messages a dive reads
     name = raw.name
     warnings = list(raw.warnings)
-    params_log, changed = raw.param_values()
+    params_log, _ = raw.param_values()
+    given = set(read_param_file(params) if isinstance(params, (str, Path)) else params or {})
+    history = {n: h for n, h in raw.param_history().items()
+               if relevant_param(n) and len(h) > 1 and n not in given}
     params = merge_params(params_log, params, warnings)
-    for n, h in changed.items():
-        if relevant_param(n):
-            warnings.append(f"parameter {n} changed during the log ({' → '.join(map(str, h))}); "
-                            "the last value is used")
     veh = None
     if vehicle is not None:
         from uuvid.vehicle.definition import load_vehicle
 
         veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
-    config = config_from_params(params, name=name, outputs_seen=_outputs_seen(raw),
-                                custom_B=None if veh is None else np.asarray(veh.B, float))
-    if veh is not None:
-        check_vehicle(config, veh, name=name)
-    for m in config.motors:
-        if m.disabled:
-            warnings.append(f"motor {m.number} ignored: {m.disabled}")
-    try:
-        depth, dsrc = _depth(raw, config, warnings)
-    except LogDataError as e:  # a surface or bench log: everything else is still worth reading
-        depth, dsrc = None, {"source": None, "why": str(e)}
-        warnings.append(f"depth_m is empty (NaN): {e}")
     att, att_src = _attitude(raw)
     att[2] = _unwrap(att[2])
     bat = _battery(raw)
     mode_ch, arm_ch = _mode_events(raw, warnings)
-    pwms = {}
-    for m in config.active:
-        ch = _pwm(raw, m.output)
-        if ch is None or ch.v.size == 0:
-            raise LogDataError(f"{name}: motor {m.number} is driven by SERVO{m.output}, but the log "
-                               f"has no {'RCOU.C' if raw.format == 'dataflash' else 'SERVO_OUTPUT_RAW.servo'}"
-                               f"{m.output}{'' if raw.format == 'dataflash' else '_raw'} samples")
-        pwms[m.number] = ch
-    for ch, label in ((depth, "depth"), *((a, a.source) for a in att)):
-        if ch is not None and _constant(ch):
-            warnings.append(f"{label} ({ch.source}) is constant over the whole log")
-    # ---- the grid: per part, over the interval depth, attitude and PWM all cover
+    # the configuration in force at the start of the table (a parameter changed during the log
+    # is taken at the value it had there; a change inside the table is an error, below)
+    setup = _setup(raw, {**params, **_in_force(history, -math.inf)}, veh, att)
+    config, depth, dsrc, pwms, spans, g0, mine = setup
     if dt is None:
         d = np.diff(att[0].t)
         d = d[(d > 0) & (np.diff(att[0].part) == 0)]
         dt = max(round(float(np.median(d)), 3), 0.001) if d.size else 0.1
-    spans = []
-    essentials = [c for c in (depth, *att, *pwms.values()) if c is not None]
-    for k in sorted(set(np.unique(att[0].part).tolist())):
-        lo = max((c.t[c.part == k].min() for c in essentials if np.any(c.part == k)),
-                 default=np.nan)
-        hi = min((c.t[c.part == k].max() for c in essentials if np.any(c.part == k)),
-                 default=np.nan)
-        if not all(np.any(c.part == k) for c in essentials) or not hi > lo:
-            warnings.append(f"part {k}: depth, attitude and PWM do not overlap; part left out")
-            continue
-        spans.append((k, lo, hi))
+    lo_w = g0 + (t_start if t_start is not None else 0.0)
+    hi_w = g0 + t_end if t_end is not None else math.inf
+    if _in_force(history, lo_w) != _in_force(history, -math.inf):  # changed before the rows
+        config, depth, dsrc, pwms, spans, _, mine = _setup(
+            raw, {**params, **_in_force(history, lo_w)}, veh, att)
+    warnings.extend(mine)
+    # cut on the whole log's rows (a part's first row + whole steps)
+    spans = [(k, lo + max(math.ceil((lo_w - lo) / dt - 1e-9), 0) * dt, min(hi, hi_w))
+             for k, lo, hi in spans]
+    spans = [(k, lo, hi) for k, lo, hi in spans if hi >= lo]
     if not spans:
-        raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
+        raise LogDataError(f"{name}: t_start = {t_start} … t_end = {t_end} s holds no row of the "
+                           f"table (it runs from 0 to {max(h for _, _, h in setup[4]) - g0:.6g} s)")
+    _check_changes(name, history, spans, g0)
+    for n, h in history.items():
+        warnings.append(f"parameter {n} changed during the log ("
+                        + ", ".join(f"{v:g} from t = {t - g0:.6g} s" for t, v in h[1:])
+                        + f"); outside this table: its value here is {_in_force(history, lo_w)[n]:g}")
+    for m in config.motors:
+        if m.disabled:
+            warnings.append(f"motor {m.number} ignored: {m.disabled}")
+    for ch, label in ((depth, "depth"), *((a, a.source) for a in att)):
+        if ch is not None and _constant(ch):
+            warnings.append(f"{label} ({ch.source}) is constant over the whole log")
     _check_grid(name, dt, spans, len(pwms))
     grids, gparts = [], []
     for k, lo, hi in spans:
@@ -273,11 +270,12 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         grids.append(lo + dt * np.arange(n))
         gparts.append(np.full(n, k))
     grid, gpart = np.concatenate(grids), np.concatenate(gparts)
-    cols: dict = {"t_s": grid - grid[0]}
+    cols: dict = {"t_s": grid - g0}
     stamp = "TimeUS" if raw.format == "dataflash" else "time_boot_ms"
     prov: dict = {"t_s": {"source": f"autopilot clock ({stamp}), continued across reboots, "
-                                    "from the first row",
-                          "unit": "s", "t0_boot_s": float(grid[0]), "dt_s": dt}}
+                                    "from the first row of the whole log (--t-start/--t-end "
+                                    "keep it)",
+                          "unit": "s", "t0_boot_s": float(g0), "dt_s": dt}}
     cols["depth_m"] = _on_grid(depth, grid, gpart) if depth is not None else np.full(grid.size, np.nan)
     prov["depth_m"] = {"source": None if depth is None else depth.source, "unit": "m",
                        "why": dsrc["why"]}
@@ -329,6 +327,83 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     dsrc = {**dsrc, "source": None if depth is None else depth.source}
     return DiveLog(raw.path, raw.format, df, config, dsrc, warnings, segs, prov, tm.to_dict(),
                    basis, factor_df, None if veh is None else veh.name)
+
+
+def _in_force(history: dict, t: float) -> dict:
+    """``{name: value}`` in force at ``t`` (the first value before its first message)."""
+    out = {}
+    for n, h in history.items():
+        v = h[0][1]
+        for tt, vv in h[1:]:
+            if tt <= t:
+                v = vv
+        out[n] = v
+    return out
+
+
+def _check_changes(name: str, history: dict, spans, g0: float) -> None:
+    """A parameter change inside the rows of the table: an error naming the parameter, its
+    values, when it changed and how to read each side (never a value applied where it was not
+    in force)."""
+    bad = []
+    for n, h in history.items():
+        inside = [(t, v) for t, v in h[1:] if any(lo < t <= hi for _, lo, hi in spans)]
+        if inside:
+            bad.append((n, h, inside))
+    if not bad:
+        return
+    lo, hi = spans[0][1] - g0, spans[-1][2] - g0
+    texts = []
+    for n, h, inside in bad:
+        steps = [f"{_in_force({n: h}, inside[0][0] - 1e-9)[n]:g}"]
+        steps += [f"{v:g} from t = {t - g0:.6g} s" for t, v in inside]
+        texts.append(f"{n}: " + ", then ".join(steps))
+    first = min(t for _, _, inside in bad for t, _ in inside) - g0
+    end, start = math.floor(first * 1000) / 1000 - 0.001, math.ceil(first * 1000 + 1e-6) / 1000
+    raise LogDataError(
+        f"{name}: parameters the thrust/depth configuration depends on changed during the rows "
+        f"read ({lo:.6g}–{hi:.6g} s): " + "; ".join(texts) + ". One table holds one "
+        f"configuration: read each side apart (--t-end {end:.3f}, then --t-start {start:.3f}), "
+        "or give --params with the value that held throughout if the log's is wrong")
+
+
+def _setup(raw, params: dict, veh, att):
+    """Configuration, depth, PWM channels and the spans (part, first, last time) that depth,
+    attitude and PWM all cover, for ``params``; the first time of those spans and the messages
+    (warnings) of this choice."""
+    name = raw.name
+    config = config_from_params(params, name=name, outputs_seen=_outputs_seen(raw),
+                                custom_B=None if veh is None else np.asarray(veh.B, float))
+    if veh is not None:
+        check_vehicle(config, veh, name=name)
+    mine: list = []
+    try:
+        depth, dsrc = _depth(raw, config, mine)
+    except LogDataError as e:  # a surface or bench log: everything else is still worth reading
+        depth, dsrc = None, {"source": None, "why": str(e)}
+        mine.append(f"depth_m is empty (NaN): {e}")
+    pwms = {}
+    for m in config.active:
+        ch = _pwm(raw, m.output)
+        if ch is None or ch.v.size == 0:
+            raise LogDataError(f"{name}: motor {m.number} is driven by SERVO{m.output}, but the log "
+                               f"has no {'RCOU.C' if raw.format == 'dataflash' else 'SERVO_OUTPUT_RAW.servo'}"
+                               f"{m.output}{'' if raw.format == 'dataflash' else '_raw'} samples")
+        pwms[m.number] = ch
+    spans = []
+    essentials = [c for c in (depth, *att, *pwms.values()) if c is not None]
+    for k in sorted(set(np.unique(att[0].part).tolist())):
+        lo = max((c.t[c.part == k].min() for c in essentials if np.any(c.part == k)),
+                 default=np.nan)
+        hi = min((c.t[c.part == k].max() for c in essentials if np.any(c.part == k)),
+                 default=np.nan)
+        if not all(np.any(c.part == k) for c in essentials) or not hi > lo:
+            mine.append(f"part {k}: depth, attitude and PWM do not overlap; part left out")
+            continue
+        spans.append((k, lo, hi))
+    if not spans:
+        raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
+    return config, depth, dsrc, pwms, spans, spans[0][1], mine
 
 
 _ARMED_TEXT = {True: " armed", False: " disarmed", None: ""}

@@ -74,7 +74,11 @@ def export_dive(dive, out) -> Path:
     if suf == ".csv":
         with atomic_path(out) as tmp:
             tb.to_csv(tmp, index=False, float_format="%.9g")
-        atomic_write_json(sidecar_path(out), _meta(dive))
+        try:
+            atomic_write_json(sidecar_path(out), _meta(dive))
+        except OSError:  # a table without its provenance is not left behind
+            out.unlink(missing_ok=True)
+            raise
         return out
     if suf == ".parquet":
         pa, pq = _pyarrow(out)

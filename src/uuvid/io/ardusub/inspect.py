@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.core.result import Result
-from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params
+from uuvid.io.ardusub.frames import MODE_NAMES, VehicleConfig, config_from_params, read_param_file
 from uuvid.io.ardusub.reader import read_raw
 from uuvid.io.ardusub.sources import (
     _HB_ARMED,
@@ -130,7 +130,14 @@ def inspect_log(path, params=None) -> LogInspection:
                         "messages without an on-board stamp, through the sender's clock")
     if raw.bad_data and raw.format != "tlog":  # the telemetry reader says how many and where
         warnings.append(f"{raw.bad_data} undecodable (BAD_DATA) messages skipped")
-    params, changed = raw.param_values()
+    params, _ = raw.param_values()
+    given = set(read_param_file(params_given) if isinstance(params_given, (str, Path))
+                else params_given or {})
+    history = {n: h for n, h in raw.param_history().items()
+               if relevant_param(n) and len(h) > 1 and n not in given}
+    # a parameter changed during the log: the configuration at its start (never a later value
+    # applied to the messages before it); the change is said with its time
+    params = {**params, **{n: h[0][1] for n, h in history.items()}}
     params = merge_params(params, params_given, warnings)
     config, err, dsrc = None, None, None
     used: set = set()  # the channels this inspection reads: only their merged stamps matter
@@ -139,10 +146,12 @@ def inspect_log(path, params=None) -> LogInspection:
     except LogDataError as e:
         err = str(e)
         warnings.append(err)
-    for n, h in changed.items():
-        if relevant_param(n):
-            warnings.append(f"parameter {n} changed during the log: {' → '.join(map(str, h))}; "
-                            "the last value is used")
+    for n, h in history.items():
+        warnings.append(f"parameter {n} changed during the log: {h[0][1]:g} at the start, then "
+                        + ", ".join(f"{v:g} from t = {t - t0:.4g} s" for t, v in h[1:])
+                        + "; the configuration and depth source shown are the start's, valid "
+                        f"up to t = {h[1][0] - t0:.4g} s only — `log export` refuses rows on both "
+                        "sides of the change: read each side with --t-start/--t-end")
     try:
         ch, dsrc = _depth(raw, config, warnings)
         dsrc = {**dsrc, "source": ch.source}

@@ -88,7 +88,7 @@ class RawLog:
     format: str  # "tlog" | "dataflash"
     senders: dict
     series: dict  # (msg, src) → Series
-    params: list  # (name, value, t, sender)
+    params: list  # (name, value, t, sender, message number)
     autopilot: tuple[int, int] | None
     warnings: list
     parts: int = 1
@@ -109,7 +109,7 @@ class RawLog:
         parameters (other components' PARAM_VALUEs are not the vehicle's)."""
         last: dict = {}
         hist: dict = {}
-        for n, v, _, src in self.params:
+        for n, v, _, src, _ in self.params:
             if src != self.autopilot:
                 continue
             last[n] = v
@@ -117,6 +117,38 @@ class RawLog:
             if not h or h[-1] != v:
                 h.append(v)
         return last, {n: h for n, h in hist.items() if len(h) > 1}
+
+    def param_times(self) -> list[tuple[str, float, float]]:
+        """The autopilot's parameters as ``(name, value, t)``, ``t`` on the time base: where
+        the message sits among the attitude messages (dataflash: its own stamp on the clock of
+        the part the next attitude message is in; telemetry: between its neighbours' times)."""
+        ref = self.get("ATT") or self.get("ATTITUDE")
+        rows = [(n, v, b, q) for n, v, b, src, q in self.params if src == self.autopilot]
+        if ref is None or ref.t is None or not len(ref.seq):
+            return [(n, v, -math.inf) for n, v, _, _ in rows]
+        rs = np.asarray(ref.seq, dtype=float)
+        rt = np.asarray(ref.t, dtype=float)
+        q = np.asarray([r[3] for r in rows], dtype=float)
+        if self.format == "dataflash":
+            i = np.clip(np.searchsorted(rs, q), 0, rs.size - 1)  # the next attitude message
+            off = rt - np.asarray(ref.boot, dtype=float)
+            b = np.asarray([r[2] if r[2] is not None else math.nan for r in rows], dtype=float)
+            t = np.where(np.isfinite(b), b + off[i], rt[i])
+        else:
+            ok = np.isfinite(rt)
+            t = np.interp(q, rs[ok], rt[ok]) if ok.any() else np.full(q.size, -math.inf)
+        return [(n, v, float(tt)) for (n, v, _, _), tt in zip(rows, t)]
+
+    def param_history(self) -> dict[str, list[tuple[float, float]]]:
+        """``{name: [(t, value), ...]}``: the first value of each parameter and every change
+        after it, on the time base (:meth:`param_times`); a value is in force from its time to
+        the next change, the first one from the start of the log."""
+        hist: dict = {}
+        for n, v, t in sorted(self.param_times(), key=lambda r: r[2]):
+            h = hist.setdefault(n, [])
+            if not h or h[-1][1] != v:
+                h.append((t, v))
+        return hist
 
 
 def _numeric_fields(m) -> dict:
@@ -257,10 +289,10 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
                 s.stamped_recv.append(recv)
                 s.stamped_boot.append(boot)
             if mt == "PARM":
-                params.append((str(m.Name), float(m.Value), boot, src))
+                params.append((str(m.Name), float(m.Value), boot, src, n))
                 continue
             if mt == "PARAM_VALUE":
-                params.append((str(m.param_id).rstrip("\x00"), float(m.param_value), recv, src))
+                params.append((str(m.param_id).rstrip("\x00"), float(m.param_value), recv, src, n))
                 continue
             if mt not in keep:
                 continue

@@ -1,0 +1,183 @@
+"""Traps a new user found in ``uuvid log`` (ArduSub logs): a parameter changed mid-log applied
+to the whole log, outputs written by an export that then fails, a truncated .BIN read as whole,
+and replay's reason for a log with no usable window.  Synthetic logs from test_ardusub's writers
+reproduce each trap; the real small.BIN/.tlog checks skip when ../shared/data is absent."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pymavlink")
+
+from test_ardusub import (  # noqa: E402
+    _DF,
+    BOOT0,
+    UNIX0,
+    _tlog_messages,
+    _write_tlog_messages,
+    params,
+    scenario,
+    write_bin,
+    write_tlog,
+)
+from typer.testing import CliRunner  # noqa: E402
+
+from uuvid.cli.app import app  # noqa: E402
+from uuvid.io.ardusub import inspect_log, load_dive  # noqa: E402
+from uuvid.io.logs import LogDataError  # noqa: E402
+
+
+def _bin_with_change(path: Path, sc, name: str, value: float, at_s: float) -> Path:
+    """The scenario's .BIN with ``name`` set to ``value`` at ``at_s`` s of the dive (a PARM
+    record stamped then, as ArduSub writes one when a parameter is set)."""
+    write_bin(path, sc)
+    extra = _DF()
+    extra.fmt(20, "PARM", "QNf", "TimeUS,Name,Value")
+    extra.msg("PARM", int((BOOT0 + at_s) * 1e6), name, float(value))
+    path.write_bytes(path.read_bytes() + b"".join(extra.out[2:]))
+    return path
+
+
+def _tlog_with_change(path: Path, sc, name: str, value: float, at_s: float) -> Path:
+    """The scenario's .tlog with a PARAM_VALUE of ``name`` received at ``at_s`` s."""
+    from pymavlink.dialects.v20 import ardupilotmega as mv
+
+    write_tlog(path, sc, companion=False)
+    msgs = _tlog_messages(path)
+    ap = mv.MAVLink(None, srcSystem=1, srcComponent=1)
+    buf = bytes(ap.param_value_encode(name.encode(), float(value), 9, 1, 0).pack(ap))
+    t = UNIX0 + at_s
+    k = next(i for i, m in enumerate(msgs) if m[0] > t)
+    return _write_tlog_messages(path, msgs[:k] + [(t, "PARAM_VALUE", buf)] + msgs[k:])
+
+
+@pytest.mark.parametrize("fmt", ["bin", "tlog"])
+def test_a_direction_changed_mid_log_is_not_applied_to_the_rows_before_it(tmp_path, fmt):
+    """MOT_1_DIRECTION −1 → +1 at 6 s: the export flipped the sign of thrust_1_N over the whole
+    log ("the last value is used").  Now an error names the parameter, its values and when; each
+    side read with --t-end/--t-start gets the value in force there."""
+    sc = scenario(n=120)
+    make = _bin_with_change if fmt == "bin" else _tlog_with_change
+    p = make(tmp_path / f"d.{'BIN' if fmt == 'bin' else 'tlog'}", sc, "MOT_1_DIRECTION", 1.0, 6.0)
+    with pytest.raises(LogDataError, match=r"MOT_1_DIRECTION: -1, then 1 from t = ") as e:
+        load_dive(p)
+    assert "--t-end" in str(e.value) and "--t-start" in str(e.value)
+    before = load_dive(p, t_end=5.0)
+    after = load_dive(p, t_start=7.0)
+    assert before.config.motors[0].direction == -1.0 and after.config.motors[0].direction == 1.0
+    assert before.table["t_s"].iloc[-1] <= 5.0 + 1e-9 and after.table["t_s"].iloc[0] >= 7.0 - 1e-9
+    whole = load_dive(write_bin(tmp_path / "w.BIN", sc) if fmt == "bin"
+                      else write_tlog(tmp_path / "w.tlog", sc, companion=False))
+    # the rows before the change are the unchanged log's, on the same time
+    w = whole.table.set_index("t_s")
+    b = before.table.set_index("t_s")
+    common = b.index.intersection(w.index)
+    assert len(common) > 20
+    np.testing.assert_allclose(b.loc[common, "thrust_1_N"], w.loc[common, "thrust_1_N"])
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "x.csv")])
+    assert r.exit_code == 2 and "MOT_1_DIRECTION" in r.output, r.output
+    assert not (tmp_path / "x.csv").exists()
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "y.csv"),
+                                 "--t-start", "7"])
+    assert r.exit_code == 0, r.output
+
+
+def test_a_primary_barometer_changed_mid_log_is_an_error_and_inspect_says_when(tmp_path):
+    """BARO_PRIMARY 1 → 0 at 5 s: depth came from the enclosure sensor (≈ 9 m) for the whole
+    log and inspect called BARO[0] the water-pressure sensor.  Now export refuses the mixed
+    table, and inspect shows the start's configuration and says when it changed."""
+    sc = scenario(n=120)
+    p = _bin_with_change(tmp_path / "d.BIN", sc, "BARO_PRIMARY", 0.0, 5.0)
+    with pytest.raises(LogDataError, match=r"BARO_PRIMARY: 1, then 0 from t = "):
+        load_dive(p)
+    d = load_dive(p, t_end=4.0)
+    np.testing.assert_allclose(d.table["depth_m"].iloc[0], sc["depth"][0], atol=0.05)
+    ins = inspect_log(p)
+    assert ins.depth_source["instance"] == 1, ins.depth_source
+    assert any("BARO_PRIMARY" in w and "t = 5" in w for w in ins.warnings), ins.warnings
+
+
+def test_a_parameter_given_with_params_holds_for_the_whole_log(tmp_path):
+    sc = scenario(n=120)
+    p = _bin_with_change(tmp_path / "d.BIN", sc, "MOT_1_DIRECTION", 1.0, 6.0)
+    d = load_dive(p, params={"MOT_1_DIRECTION": -1.0})
+    assert d.config.motors[0].direction == -1.0
+
+
+def test_unchanged_parameters_repeated_after_the_dump_are_no_change(tmp_path):
+    sc = scenario(n=80)
+    p = _bin_with_change(tmp_path / "d.BIN", sc, "MOT_1_DIRECTION", params()["MOT_1_DIRECTION"], 3.0)
+    d = load_dive(p)
+    assert not any("MOT_1_DIRECTION" in w for w in d.warnings)
+
+
+# ------------------------------------------------------------------- outputs: all or none
+def test_export_with_a_figure_that_cannot_be_written_writes_nothing(tmp_path, monkeypatch):
+    """--plot /proc/x.png: the table and its provenance were written, then the command failed
+    naming the temporary file (/proc/.tmp-…-x.png).  Now every output is checked before the log
+    is read, and the message names the option and the path given."""
+    monkeypatch.chdir(tmp_path)
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", "g1.csv", "--plot",
+                                 "/proc/x.png"])
+    assert r.exit_code == 2
+    out = " ".join(r.output.split())
+    assert "--plot /proc/x.png" in out and ".tmp-" not in out, out
+    assert not (tmp_path / "g1.csv").exists() and not (tmp_path / "g1.csv.json").exists()
+
+
+def test_export_with_a_folder_where_the_provenance_goes_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    (tmp_path / "g5.csv.json").mkdir()
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", "g5.csv"])
+    assert r.exit_code == 2
+    out = " ".join(r.output.split())
+    assert "--out-file g5.csv" in out and "g5.csv.json" in out and "folder" in out, out
+    assert not (tmp_path / "g5.csv").exists()
+
+
+def test_export_whose_table_fails_after_the_figure_leaves_no_figure(tmp_path, monkeypatch):
+    """A write that fails after the checks (disk full): the figure already written is removed
+    and the option is named, not the temporary file."""
+    from uuvid.io.ardusub import dive as dive_mod
+
+    def full(self, out):
+        raise OSError(28, "No space left on device", str(Path(out).parent / ".tmp-1-abcdef12-x.csv"))
+
+    monkeypatch.setattr(dive_mod.DiveLog, "export", full)
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "x.csv"),
+                                 "--plot", str(tmp_path / "x.png")])
+    assert r.exit_code == 2 and "--out-file" in r.output and ".tmp-" not in r.output, r.output
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_thruster_export_to_an_unwritable_place_names_the_option(tmp_path):
+    (tmp_path / "d.xml").mkdir()
+    for target, said in (("/proc/x.xml", "cannot write in /proc"), (str(tmp_path / "d.xml"), "folder")):
+        r = CliRunner().invoke(app, ["thruster", "export", "t200", "--to", "uuv-simulator",
+                                     "--out-file", target])
+        out = " ".join(r.output.split())
+        assert r.exit_code == 2 and f"--out-file {target}" in out and said in out, out
+        assert ".tmp-" not in out
+
+
+def test_the_entry_point_names_an_atomic_writes_target_not_its_temporary_file(monkeypatch, capsys):
+    import sys
+
+    from uuvid.cli import app as app_mod
+
+    def boom():
+        raise FileNotFoundError(2, "No such file or directory", "/proc/.tmp-1012-0a1b2c3d-x.png")
+
+    monkeypatch.setattr(app_mod, "_app", boom)
+    monkeypatch.setattr(app_mod, "_register_subcommands", lambda c: None)
+    monkeypatch.setattr(sys, "argv", ["uuvid", "log"])
+    with pytest.raises(SystemExit):
+        app_mod.main()
+    err = capsys.readouterr().err
+    assert "/proc/x.png" in err and ".tmp-" not in err, err
