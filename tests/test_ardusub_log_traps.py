@@ -181,3 +181,37 @@ def test_the_entry_point_names_an_atomic_writes_target_not_its_temporary_file(mo
         app_mod.main()
     err = capsys.readouterr().err
     assert "/proc/x.png" in err and ".tmp-" not in err, err
+
+
+# ---------------------------------------------------------------------------- a cut-off .BIN
+def _cut_off_said(warnings_) -> list[str]:
+    return [w for w in warnings_ if "cut off" in w]
+
+
+@pytest.mark.parametrize("keep", [17, 5])
+def test_a_bin_cut_off_mid_record_is_said_with_the_last_complete_time(tmp_path, keep):
+    """A .BIN cut inside its last record was read without a word (a cut .tlog is said)."""
+    from uuvid.io.ardusub.reader import read_raw
+    from uuvid.io.logs import LogWarning, read_ardusub
+
+    whole = write_bin(tmp_path / "w.BIN", scenario(n=60)).read_bytes()
+    rcou = 3 + 8 + 8 * 2  # the last record written: RCOU (header, TimeUS, C1…C8)
+    p = tmp_path / "cut.BIN"
+    p.write_bytes(whole[:len(whole) - rcou + keep])  # `keep` bytes of the last record
+    said = _cut_off_said(read_raw(p).warnings)
+    assert len(said) == 1 and "last complete record is at t = " in said[0], said
+    assert _cut_off_said(inspect_log(p).warnings) == said
+    assert _cut_off_said(load_dive(p).warnings) == said
+    with pytest.warns(LogWarning, match="cut off"):
+        read_ardusub(p, on_duplicate="mean")
+    assert not _cut_off_said(read_raw(tmp_path / "w.BIN").warnings)
+
+
+@pytest.mark.realdata
+def test_real_small_bin_cut_at_half_is_said(shared_data, tmp_path):
+    src = (shared_data / "ardusub-bluerov2" / "small.BIN").read_bytes()
+    p = tmp_path / "cut.BIN"
+    p.write_bytes(src[:len(src) // 2 + 17])
+    said = _cut_off_said(inspect_log(p).warnings)
+    assert len(said) == 1 and "t = 9.3" in said[0], said
+    assert not _cut_off_said(inspect_log(shared_data / "ardusub-bluerov2" / "small.BIN").warnings)

@@ -149,6 +149,19 @@ def _index_stops_early(conn) -> tuple[int, int] | None:
     return (int(last), size) if size - last > INDEX_SLACK_BYTES else None
 
 
+def _dataflash_cut(conn) -> tuple[str, int, int] | None:
+    """``(type, bytes present, record length)`` when a dataflash file ends inside its last
+    record (pymavlink indexes it but cannot decode it, and says nothing)."""
+    try:
+        size = int(conn.data_len)
+        last, i = max((max(o), i) for i, o in enumerate(conn.offsets) if o)
+        fmt = conn.formats[i]
+        need = int(fmt.len)
+    except (AttributeError, TypeError, ValueError, KeyError, IndexError):
+        return None
+    return (str(fmt.name), size - int(last), need) if last + need > size else None
+
+
 #: what the ArduSub log readers read, for their errors
 ARDUSUB_KINDS = ("expected an ArduSub log file: .tlog (MAVLink telemetry, as QGroundControl or "
                  "BlueOS save it), .bin or .log (dataflash, from the autopilot)")
@@ -1820,6 +1833,13 @@ def _read_ardusub(path, fields, *, units, resample, interp, span, time, source_s
     if kind == "tlog":
         _check_tlog(conn, p)
     damaged = _index_stops_early(conn) if kind == "dataflash" else None
+    cut = _dataflash_cut(conn) if kind == "dataflash" else None
+    if cut is not None:
+        import warnings
+
+        warnings.warn(f"{name}: the log is cut off — its last record ({cut[0]}, {cut[1]} of "
+                      f"{cut[2]} bytes) is incomplete (copied while being written, or the card was "
+                      "full); the records before it are read", LogWarning, stacklevel=3)
     if damaged is not None and damaged[0] > 0:  # the filtered read would end at the damage
         import warnings
 

@@ -28,6 +28,7 @@ from uuvid.io.logs import (
     _captured_output,
     _check_tlog,
     _damaged_index_note,
+    _dataflash_cut,
     _index_stops_early,
     _require,
     _Skipped,
@@ -227,6 +228,7 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
     skipped = _Skipped(conn, partial) if kind == "tlog" else None
     tlog = skipped.stream() if gaps else None
     stop = _index_stops_early(conn) if kind == "dataflash" else None
+    cut = _dataflash_cut(conn) if kind == "dataflash" else None
     if stop is not None:  # pymavlink's index ends at a damaged message: read them one by one
         want = None
         notes.append(_damaged_index_note(p.name, stop) + " (the bytes it could not decode are "
@@ -344,6 +346,14 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
     raw = RawLog(p, kind, senders, series, params, None, notes, bad_data=bad,
                  same_recv=int(same_recv))
     _finish(raw)
+    if cut is not None:
+        ts = [sr.t[np.isfinite(sr.t)] for sr in raw.series.values() if sr.t is not None]
+        ts = np.concatenate(ts) if ts else np.zeros(0)
+        when = (f"t = {float(ts.max() - ts.min()):.6g} s from the log's start (autopilot clock "
+                f"{float(ts.max()):.6g} s)" if ts.size else "an unknown time")
+        raw.warnings.append(f"{p.name}: the log is cut off — its last record ({cut[0]}, {cut[1]} "
+                            f"of {cut[2]} bytes) is incomplete (copied while being written, or "
+                            f"the card was full); the last complete record is at {when}")
     if skipped is not None:
         good = None if gaps else {(mt, *src): c for src, s in senders.items()
                                   for mt, c in s.counts.items()}
