@@ -215,3 +215,39 @@ def test_real_small_bin_cut_at_half_is_said(shared_data, tmp_path):
     said = _cut_off_said(inspect_log(p).warnings)
     assert len(said) == 1 and "t = 9.3" in said[0], said
     assert not _cut_off_said(inspect_log(shared_data / "ardusub-bluerov2" / "small.BIN").warnings)
+
+
+# ------------------------------------------------------------- replay of a log armed on deck
+def _deck_table(seconds: float = 16.0):
+    """Armed on deck: depth ≈ 0 (the sensor in air), heading still, yaw motors pulsed."""
+    import pandas as pd
+
+    t = np.arange(0.0, seconds, 0.1)
+    pulse = np.where((t % 8.0) < 2.0, 150.0, 0.0)
+    rng = np.random.default_rng(0)
+    return pd.DataFrame({"t_s": t, "depth_m": 0.01 * rng.standard_normal(t.size),
+                         "yaw_rad": 1.0 + 1e-3 * rng.standard_normal(t.size),
+                         "roll_rad": 0.0, "pitch_rad": 0.0, "battery_V": 16.0,
+                         "pwm_1": 1500 + pulse, "pwm_2": 1500 - pulse, "pwm_3": 1500 - pulse,
+                         "pwm_4": 1500 + pulse, "pwm_5": 1500.0, "pwm_6": 1500.0,
+                         "mode": "MANUAL", "armed": True})
+
+
+def test_replay_of_a_log_armed_only_on_deck_says_so(tmp_path):
+    """16 s armed on deck: replay said "no armed window of the horizon", hiding the reason
+    identify gives (the windows were out of the water, armed on deck)."""
+    from uuvid.io.dive_channels import DiveDataError
+    from uuvid.simulate.dive_replay import replay_dive
+
+    with pytest.raises(DiveDataError, match=r"out of the water, armed on deck .* left out") as e:
+        replay_dive(_deck_table(), "bluerov2", ["yaw"], horizon=3.0)
+    assert "in the water" in str(e.value)
+
+
+@pytest.mark.realdata
+def test_replay_of_the_real_small_tlog_says_it_was_on_deck(shared_data):
+    r = CliRunner().invoke(app, ["vehicle", "replay", str(shared_data / "ardusub-bluerov2" /
+                                                          "small.tlog"),
+                                 "--vehicle", "bluerov2-heavy", "--dof", "yaw", "--horizon", "3"])
+    out = " ".join(r.output.split())
+    assert r.exit_code == 2 and "armed on deck" in out, out

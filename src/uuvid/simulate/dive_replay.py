@@ -574,9 +574,14 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         chans[name] = {**met, "unit": UNITS[dof], "dof": dof, "horizon": H,
                        "params": p.to_dict(), "params_source": src}
         traces[name] = trace
-    if not chans:
-        raise DiveDataError(f"{dc.name}: no armed window of the horizon to replay in the range "
-                            "given; widen --t-start/--t-end or shorten --horizon")
+    if not chans:  # why the armed windows were left out (on deck, at the surface, sparse), as
+        # identify says it: "no armed window" alone hid a log armed for 16 s on deck
+        why = [n for n in notes if "left out" in n]
+        raise DiveDataError(f"{dc.name}: no usable armed window of the horizon to replay in the "
+                            "range given" + (f" ({'; '.join(why)})" if why else "")
+                            + "; widen --t-start/--t-end or shorten --horizon"
+                            + (", or pass a dive in the water" if any("deck" in n or "surface" in n
+                                                                       for n in why) else ""))
     return DiveReplay(dc.name, _vehicle_label(veh), hz, chans, traces, notes, t_start, t_end,
                       list(dc.warnings))
 
