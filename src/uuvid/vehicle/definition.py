@@ -13,7 +13,7 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
     inflow: none                 # or four-quadrant: thrust falls with the advance speed (issue 21)
     rigid_body:
       mass: 11.5
-      weight: 112.8              # optional, default m·g
+      weight: 112.8              # optional, default m·g (more than 1 % from m·g warns)
       buoyancy: 114.8            # or displaced_volume + water_density (+ gravity)
       center_of_gravity: [0, 0, 0.02]
       center_of_buoyancy: [0, 0, 0]
@@ -38,8 +38,14 @@ and added-mass magnitudes, see :mod:`uuvid.vehicle.hydrodynamics`)::
         constraints: [{RL: 1, RR: 1}]        # τ_RL + τ_RR = 0
         zero_dofs: [sway]
         open_water: forward surge
-    one_dof:                     # Caccia et al. (2000) eq. 3 models identified per DOF
+    one_dof:                     # Caccia et al. (2000) eq. 3 models identified per DOF; a key
+                                 # that is, or starts with, a DOF name must match its dof
       yaw: {dof: yaw, mass: 84, linear: 20.5, quadratic: 49.5, eta_neg: 0.60}
+    battery:                     # uuvid.vehicle.power.Battery
+      capacity_ah: 18.0          # Ah (over 500 Wh per kg of vehicle warns: mAh?)
+      ocv_soc: [0.0, 0.5, 1.0]   # state of charge, a fraction 0…1 (not %)
+      ocv_voltage: [12.0, 14.9, 16.8]
+      resistance: 0.03           # ohm
 
 Errors name the file and the key path: ``bluerov2.yaml: thrusters[2].position: missing``.
 :func:`load_vehicle` takes a path or a preset name (:func:`list_presets`).
@@ -228,6 +234,9 @@ class Vehicle:
     #: per thruster, its ``axis`` as the file wrote it, before normalising (``None``: given as
     #: ``rpy_deg``; empty: not from a file), for :func:`_axis_warnings` on every load
     file_axes: tuple[tuple[float, float, float] | None, ...] = ()
+    #: the file's ``rigid_body.gravity`` when it gives ``weight`` beside ``mass`` (``None``: the
+    #: weight is m·g), for :func:`_weight_mass_warnings` on every load
+    weight_given_g: float | None = None
 
     def propeller(self, thruster: int) -> str:
         """The preset or model file a thruster's four-quadrant map comes from (with inflow)."""
@@ -342,6 +351,7 @@ class Vehicle:
                 "resistance_ohm": self.battery.resistance,
                 "hotel_load_W": self.battery.hotel_load_w},
             "file": None if self.path is None else str(self.path),
+            "one_dof": _one_dof_dicts(self.one_dof),
         }
         return to_jsonable(d)
 
@@ -364,6 +374,7 @@ class Vehicle:
             lines.append(f"  modes: {', '.join(self.modes)}")
         if self.assumptions:
             lines.append(f"  assumed: {', '.join(self.assumptions)}")
+        lines += _one_dof_lines(self.one_dof)
         return "\n".join(lines)
 
 
@@ -654,6 +665,93 @@ def _one_way_warnings(vehicle: Vehicle) -> list[str]:
     return out
 
 
+#: A ``weight`` given beside ``mass`` further than this (relative) from ``m g`` (the file's
+#: ``gravity``): one of the two was edited without the other (Earth's g varies by 0.5 %).
+WEIGHT_MASS_RTOL = 0.01
+#: Battery energy (capacity × the highest open-circuit voltage) per kg of the vehicle's mass
+#: beyond this (Wh/kg) is no battery: cells in service store at most ~300 Wh/kg, and a battery
+#: weighs less than the vehicle that carries it (a BlueROV2's 18 Ah pack is 26 Wh/kg of it).
+MAX_BATTERY_WH_PER_KG = 500.0
+
+
+def _one_dof_key_error(key: str, dof: str) -> str | None:
+    """Why a ``one_dof`` entry's key disagrees with its ``dof`` (a key that is, or starts with, a
+    DOF name — ``heave``, ``surge_forward`` — names that DOF), else ``None``."""
+    head = key.replace("-", "_").split("_", 1)[0]
+    if head in DOF_NAMES and head != dof:
+        names = "" if head == key else f" (which names {head})"
+        return (f"{dof!r} disagrees with its key {key!r}{names}: the model would "
+                f"be used as the {dof} model under the name one_dof.{key}; set dof: {head}, or "
+                f"rename the entry")
+    return None
+
+
+def _one_dof_dicts(one_dof: Mapping[str, OneDofModel]) -> dict:
+    """``one_dof`` as JSON-safe data, the units in the keys (angular DOFs in rad)."""
+    out = {}
+    for key, m in one_dof.items():
+        ang = m.dof in ("roll", "pitch", "yaw")
+        out[key] = {"dof": m.dof, ("inertia_kg_m2" if ang else "mass_kg"): m.mass,
+                    ("linear_N_m_s_per_rad" if ang else "linear_N_s_per_m"): m.linear,
+                    ("quadratic_N_m_s2_per_rad2" if ang else "quadratic_N_s2_per_m2"): m.quadratic,
+                    "eta_pos": m.eta_pos, "eta_neg": m.eta_neg,
+                    ("disturbance_N_m" if ang else "disturbance_N"): m.disturbance,
+                    "inflow_coefficient_N_s2_per_rad_m": m.inflow_coefficient}
+    return out
+
+
+def _one_dof_lines(one_dof: Mapping[str, OneDofModel]) -> list[str]:
+    """The ``one_dof`` models for :meth:`Vehicle.summary`, one line each with units."""
+    if not one_dof:
+        return []
+    lines = [f"  one_dof ({len(one_dof)} one-DOF models, Caccia et al. 2000 eq. 3):"]
+    for key, m in one_dof.items():
+        ang = m.dof in ("roll", "pitch", "yaw")
+        u = ("kg·m²", "N·m·s/rad", "N·m·s²/rad²", "N·m") if ang else ("kg", "N·s/m", "N·s²/m²", "N")
+        line = (f"    {key}: {m.dof}, {'inertia' if ang else 'mass'} {m.mass:.4g} {u[0]}, linear "
+                f"{m.linear:.4g} {u[1]}, quadratic {m.quadratic:.4g} {u[2]}, disturbance "
+                f"{m.disturbance:.4g} {u[3]}")
+        if m.eta_pos != 1.0 or m.eta_neg != 1.0:
+            line += f", η+ {m.eta_pos:.3g}, η− {m.eta_neg:.3g}"
+        if m.inflow_coefficient:
+            line += f", inflow coefficient {m.inflow_coefficient:.4g} N·s²/(rad·m)"
+        lines.append(line)
+    return lines
+
+
+def _weight_mass_warnings(vehicle: Vehicle) -> list[str]:
+    """A ``weight`` given beside ``mass`` more than :data:`WEIGHT_MASS_RTOL` from ``m g`` (a
+    file that gives only the mass has ``W = m g``).  Far slips (a unit) are
+    :func:`rigid_body_warnings`' :data:`WEIGHT_FACTOR` message, not repeated here."""
+    g = vehicle.weight_given_g
+    m, w = float(vehicle.params.mass), float(vehicle.params.weight)
+    if g is None or not (m > 0.0 and w > 0.0):
+        return []
+    mg = m * g
+    if abs(w - mg) <= WEIGHT_MASS_RTOL * mg or not 1.0 / WEIGHT_FACTOR <= w / (m * 9.81) <= WEIGHT_FACTOR:
+        return []
+    return [f"rigid_body.weight {w:.4g} N differs by {100 * (w / mg - 1):+.1f} % from "
+            f"rigid_body.mass {m:.4g} kg × g {g:.5g} m/s² = {mg:.4g} N: was one edited without the "
+            "other? Give the weight that matches the mass (or leave weight out: it is then m·g)"]
+
+
+def _battery_warnings(vehicle: Vehicle) -> list[str]:
+    """A battery storing more than :data:`MAX_BATTERY_WH_PER_KG` per kg of the vehicle: the
+    capacity is in another unit (mAh typed as Ah)."""
+    b, m = vehicle.battery, float(vehicle.params.mass)
+    if b is None or not m > 0.0:
+        return []
+    wh = float(b.capacity_ah) * float(max(b.ocv_voltage))
+    if wh / m <= MAX_BATTERY_WH_PER_KG:
+        return []
+    hint = (f"is it in mAh? ({b.capacity_ah / 1000:.4g} Ah)" if wh / 1000 / m <= MAX_BATTERY_WH_PER_KG
+            else "expected amp-hours")
+    return [f"battery.capacity_ah: {b.capacity_ah:.6g} Ah at up to {max(b.ocv_voltage):.4g} V stores "
+            f"{wh / 1000:.4g} kWh, {wh / m:.4g} Wh per kg of the vehicle's {m:.4g} kg — no battery "
+            f"stores more than ~300 Wh/kg, and it weighs less than the vehicle (bound "
+            f"{MAX_BATTERY_WH_PER_KG:g} Wh/kg of vehicle): {hint}"]
+
+
 def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     """What a valid file may still hold wrong, as :class:`VehicleFileWarning` naming the file — on
     every load, a cached one too: :func:`rigid_body_warnings`, and with inflow on a thruster
@@ -664,6 +762,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
     msgs += _coincident_warnings(vehicle) + _axis_warnings(vehicle)
     msgs += _inflow_key_warnings(vehicle, base_dir)
+    msgs += _weight_mass_warnings(vehicle) + _battery_warnings(vehicle)
     cur = np.asarray(vehicle.params.current, float)
     if np.any(cur != 0.0):
         # missions, hold, sweeps and the envelope take the current the run is given: a vehicle
@@ -863,6 +962,9 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
             err(f"allocation.default_modes[{j}]", f"unknown mode; modes: {sorted(mode_names)}")
     one_dof = {}
     for key, od in spec.one_dof.items():
+        if (text := _one_dof_key_error(key, od.dof)) is not None:
+            err(f"one_dof.{key}.dof", text)
+            continue
         if od.mode is not None and od.mode not in mode_names:
             err(f"one_dof.{key}.mode", f"unknown mode; modes: {sorted(mode_names)}")
             continue
@@ -892,7 +994,8 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
                       mode, tuple(float(t.wake) for t in spec.thrusters),
                       tuple(t.propeller or t.model for t in spec.thrusters),
                       tuple(None if t.axis is None else tuple(float(x) for x in t.axis)
-                            for t in spec.thrusters))
+                            for t in spec.thrusters),
+                      None if rb.weight is None else float(rb.gravity))
     _warn_on_load(vehicle, where, base_dir)
     return vehicle
 

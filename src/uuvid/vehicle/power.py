@@ -8,7 +8,8 @@ supply voltage V it gives the thrust limits ``[T(c_rev, V), T(c_fwd, V)]``, the 
 wanted thrust (inverse of the monotone steady map over a command grid), and the supply current
 ``|d|·I_m``.
 
-**Battery** (:class:`Battery`): open-circuit voltage vs state of charge (table, linear), internal
+**Battery** (:class:`Battery`): open-circuit voltage vs state of charge (table, linear; SOC a
+fraction 0…1, an axis beyond 1 — in % — is refused), internal
 resistance R, capacity Q (Ah): ``V = OCV(SOC) − R I``, ``dSOC/dt = −I / (3600 Q)``, with
 ``I = Σ I_thruster(V) + P_hotel / V`` solved as a fixed point (the thruster currents depend on V).
 """
@@ -94,6 +95,9 @@ class Battery:
 
     def __post_init__(self):
         s, v = np.asarray(self.ocv_soc, float), np.asarray(self.ocv_voltage, float)
+        if s.size and s[-1] > 1.0:  # a % axis passes "from <= 0 to >= 1": 0.8 would be 0.8 %
+            raise ValueError(f"ocv_soc ends at {s[-1]:g}: state of charge is a fraction 0…1; is it "
+                             "in %? (divide the ocv_soc values by 100)")
         if s.shape != v.shape or np.any(np.diff(s) <= 0) or s[0] > 0 or s[-1] < 1:
             raise ValueError("ocv_soc must increase strictly from <= 0 to >= 1, one voltage each")
         if np.any(np.diff(v) < 0) or np.any(v <= 0):
