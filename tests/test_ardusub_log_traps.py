@@ -251,3 +251,27 @@ def test_replay_of_the_real_small_tlog_says_it_was_on_deck(shared_data):
                                  "--vehicle", "bluerov2-heavy", "--dof", "yaw", "--horizon", "3"])
     out = " ".join(r.output.split())
     assert r.exit_code == 2 and "armed on deck" in out, out
+
+
+def test_identify_and_replay_read_a_log_changed_mid_way_on_the_part_they_use(tmp_path):
+    """identify dive / vehicle replay read a whole ArduSub log before cutting it to --t-start /
+    --t-end, so a motor direction changed mid-log stopped them even when the part asked for lies
+    on one side of the change: that part is now read in the configuration in force there; with
+    no window, or one across the change, the error names the change and the options."""
+    from uuvid.io.dive_channels import read_dive_channels
+
+    sc = scenario(n=120)
+    p = _bin_with_change(tmp_path / "d.BIN", sc, "MOT_1_DIRECTION", 1.0, 6.0)
+    with pytest.raises(LogDataError, match=r"MOT_1_DIRECTION: -1, then 1 from t = .*--t-end"):
+        read_dive_channels(p, "bluerov2")
+    with pytest.raises(LogDataError, match="MOT_1_DIRECTION"):
+        read_dive_channels(p, "bluerov2", t_start=2.0, t_end=9.0)
+    before = read_dive_channels(p, "bluerov2", t_end=5.0)
+    after = read_dive_channels(p, "bluerov2", t_start=7.0)
+    whole = read_dive_channels(write_bin(tmp_path / "w.BIN", sc), "bluerov2")
+    t_b, z_b = before.channels["Z_N"] if "Z_N" in before.channels else before.channels["X_N"]
+    t_w, z_w = whole.channels["Z_N"] if "Z_N" in whole.channels else whole.channels["X_N"]
+    common = np.intersect1d(t_b, t_w)
+    assert common.size > 20
+    np.testing.assert_allclose(z_b[np.isin(t_b, common)], z_w[np.isin(t_w, common)])
+    assert after.channels["depth_m"][0][0] >= 7.0 - 1e-9

@@ -1203,13 +1203,17 @@ def _looks_like(p: Path) -> str:
 
 
 def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
-                       topics=None) -> DiveChannels:
+                       topics=None, t_start: float | None = None,
+                       t_end: float | None = None) -> DiveChannels:
     """Read a dive (path or pandas DataFrame; see the module doc).  ``topics``: ROS bags only,
     ``{role: "topic:field"}`` or ``["role=topic:field", …]`` overriding the default topics
     (:data:`uuvid.io.dive_rosbag.DEFAULT_TOPICS`).  ``params``: ArduSub parameters (a file or
     ``{NAME: value}``) the log lacks; a table's ``pwm_<n>`` columns take their
-    ``MOT_n_DIRECTION`` (a file that cannot be read is an error).  Raises :class:`DiveDataError` /
-    :class:`~uuvid.io.logs.LogDataError` naming what is missing."""
+    ``MOT_n_DIRECTION`` (a file that cannot be read is an error).  ``t_start``/``t_end``: the
+    part of the dive the caller uses — an ArduSub log whose configuration (motor directions,
+    outputs, primary barometer) changes mid-log is read on that part alone when the change lies
+    outside it (the whole log otherwise: an error naming the change and these options).  Raises
+    :class:`DiveDataError` / :class:`~uuvid.io.logs.LogDataError` naming what is missing."""
     import pandas as pd
 
     from uuvid.io.dive_rosbag import is_bag, read_bag_dive
@@ -1274,7 +1278,16 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         if veh is None:
             raise DiveDataError(f"{p.name}: an ArduSub log needs --vehicle (its thruster geometry "
                                 "turns the servo outputs into forces and moments)")
-        dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model)
+        from uuvid.io.ardusub.dive import ConfigurationChanged
+
+        try:
+            dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model)
+        except ConfigurationChanged:
+            if t_start is None and t_end is None:
+                raise
+            # the part asked for, in one configuration (still an error if the change is in it)
+            dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model,
+                             t_start=t_start, t_end=t_end)
         tb = dive.table
         t = tb["t_s"].to_numpy(float)
         chans = {}

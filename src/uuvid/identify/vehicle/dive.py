@@ -914,7 +914,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     time_window(horizon=held_out_horizon, error=DiveDataError)
     veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
-                                    topics=topics)
+                                    topics=topics, t_start=t_start, t_end=t_end)
     if not dc.armed:
         raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
                             "pushed and nothing can be identified; pass the log of a dive (armed "

@@ -341,6 +341,11 @@ def _in_force(history: dict, t: float) -> dict:
     return out
 
 
+class ConfigurationChanged(LogDataError):
+    """A parameter the table's configuration depends on changed inside the rows read
+    (:func:`load_dive`): read each side of the change apart (``t_start``/``t_end``)."""
+
+
 def _check_changes(name: str, history: dict, spans, g0: float) -> None:
     """A parameter change inside the rows of the table: an error naming the parameter, its
     values, when it changed and how to read each side (never a value applied where it was not
@@ -360,7 +365,7 @@ def _check_changes(name: str, history: dict, spans, g0: float) -> None:
         texts.append(f"{n}: " + ", then ".join(steps))
     first = min(t for _, _, inside in bad for t, _ in inside) - g0
     end, start = math.floor(first * 1000) / 1000 - 0.001, math.ceil(first * 1000 + 1e-6) / 1000
-    raise LogDataError(
+    raise ConfigurationChanged(
         f"{name}: parameters the thrust/depth configuration depends on changed during the rows "
         f"read ({lo:.6g}–{hi:.6g} s): " + "; ".join(texts) + ". One table holds one "
         f"configuration: read each side apart (--t-end {end:.3f}, then --t-start {start:.3f}), "
