@@ -275,3 +275,51 @@ def test_identify_and_replay_read_a_log_changed_mid_way_on_the_part_they_use(tmp
     assert common.size > 20
     np.testing.assert_allclose(z_b[np.isin(t_b, common)], z_w[np.isin(t_w, common)])
     assert after.channels["depth_m"][0][0] >= 7.0 - 1e-9
+    # identify's --t-end ends its training part: the rows after it (held out) are kept when the
+    # change lies before --t-start, and said to be lost when only --t-end avoids it
+    held = read_dive_channels(p, "bluerov2", t_start=7.0, t_end=9.0)
+    assert held.channels["depth_m"][0][-1] > 10.0
+    assert any("no held-out part" in w for w in before.warnings)
+    assert not any("no held-out part" in w for w in held.warnings)
+
+
+def test_a_direction_set_on_deck_before_the_dive_is_the_dives_configuration(tmp_path):
+    """The usual set-up: MOT_1_DIRECTION changed while disarmed (the scenario arms at 2 s), then
+    the dive. Every armed row is in one configuration, so the table is read in it (a disarmed
+    row's thrust is zero either way), with a warning saying so — not refused."""
+    sc = scenario(n=120)
+    p = _bin_with_change(tmp_path / "d.BIN", sc, "MOT_1_DIRECTION", 1.0, 1.0)
+    d = load_dive(p)
+    assert d.config.motors[0].direction == 1.0
+    said = [w for w in d.warnings if "MOT_1_DIRECTION" in w]
+    assert said and "while disarmed" in said[0] and "its value here is 1" in said[0], d.warnings
+    # the armed rows equal a log that had +1 throughout
+    prm = params()
+    prm["MOT_1_DIRECTION"] = 1.0
+    w = load_dive(write_bin(tmp_path / "w.BIN", sc, prm=prm)).table.set_index("t_s")
+    b = d.table.set_index("t_s")
+    armed = b.index[b["armed"].fillna(False).to_numpy(bool)]
+    assert len(armed) > 50
+    np.testing.assert_allclose(b.loc[armed, "thrust_1_N"], w.loc[armed, "thrust_1_N"])
+
+
+def test_a_direction_changed_across_a_reboot_is_an_error(tmp_path):
+    """A changed MOT_1_DIRECTION in the parameter dump after a reboot (a change, then a
+    restart) fell between the log's two parts and was applied nowhere: every row read with the
+    first value, with a warning saying the change was outside the table.  Now the change is
+    found between the first and the last row: an error, unless every armed row is on one side."""
+    import test_ardusub as ta
+
+    sc = scenario(n=120)
+    p1 = params()
+    p2 = dict(p1, MOT_1_DIRECTION=-p1["MOT_1_DIRECTION"])
+    calls = {"n": 0}
+
+    class Dump(dict):  # write_bin writes the dump at the start and after the reboot
+        def items(self):
+            calls["n"] += 1
+            return (p1 if calls["n"] == 1 else p2).items()
+
+    path = ta.write_bin(tmp_path / "r.BIN", sc, prm=Dump(p1), reboot_at=60)
+    with pytest.raises(LogDataError, match=r"MOT_1_DIRECTION: "):
+        load_dive(path)

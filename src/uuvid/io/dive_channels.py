@@ -1285,9 +1285,21 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         except ConfigurationChanged:
             if t_start is None and t_end is None:
                 raise
-            # the part asked for, in one configuration (still an error if the change is in it)
-            dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model,
-                             t_start=t_start, t_end=t_end)
+            # the part asked for, in one configuration (still an error if the change is in it):
+            # from t_start on first — identify's rows after --t-end are its held-out part
+            dive = None
+            if t_start is not None:
+                try:
+                    dive = load_dive(p, vehicle=veh, params=params,
+                                     thruster_model=thruster_model, t_start=t_start)
+                except ConfigurationChanged:
+                    if t_end is None:
+                        raise
+            if dive is None:
+                dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model,
+                                 t_start=t_start, t_end=t_end)
+                warnings.append(f"{p.name}: read up to t = {t_end:g} s only (the configuration "
+                                "changes after it): no rows after --t-end, so no held-out part")
         tb = dive.table
         t = tb["t_s"].to_numpy(float)
         chans = {}

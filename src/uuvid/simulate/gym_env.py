@@ -26,7 +26,8 @@ to their limits, in a constant NED current (optionally randomised per episode).
   environments do.  ``reset(options=...)`` takes ``None`` or ``{}`` (there are no reset options).
 * **Options** are checked when the environment is made (``ValueError`` naming the option):
   ``dt`` > 0 with the RK4 step ``dt / substeps`` within the vehicle's stability bound
-  (:func:`rk4_step_limit`), ``substeps``, ``max_steps`` positive integers, ``offset_range``,
+  (:func:`rk4_step_limit`, an estimate: past it a warning, past twice it refused),
+  ``substeps``, ``max_steps`` positive integers, ``offset_range``,
   ``current_range``, ``acceptance_radius``, ``weights`` finite and ≥ 0, ``current`` finite,
   ``max_distance`` > 0 (``inf``: never lost).
 
@@ -58,6 +59,7 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError("uuvid.simulate.gym_env needs gymnasium: pip install 'uuvid[gym]'") from e
 
+from uuvid.core.checks import InputWarning
 from uuvid.simulate.station_keeping import rk4_held, thrust_to_tau
 from uuvid.thruster.inflow import inflow_thrust_nb
 from uuvid.vehicle.allocation import allocate_compiled
@@ -363,11 +365,19 @@ class _Config:
         speed = float(np.linalg.norm(self.current)) + math.sqrt(2.0) * self.current_range
         hmax, dof, rate = rk4_step_limit(v, speed)
         if self.dt / self.nsub > hmax:
+            # the bound is an estimate (uncoupled DOFs at their top speed): past twice it the
+            # plant diverges, refused; just past it (a vehicle file whose identified inertia or
+            # drag moves the bound under the default step) is said, and a diverging episode
+            # ends on its non-finite state
             need = math.ceil(self.dt / hmax)
-            raise ValueError(
-                f"dt / substeps = {self.dt:g} / {self.nsub} = {self.dt / self.nsub:.4g} s is beyond "
-                f"{v.name}'s RK4 stability bound {hmax:.4g} s (DOF {dof} damps at {rate:.3g}/s at "
-                f"full thrust): need dt <= {hmax * self.nsub:.4g} s, or substeps >= {need}")
+            msg = (f"dt / substeps = {self.dt:g} / {self.nsub} = {self.dt / self.nsub:.4g} s is "
+                   f"beyond {v.name}'s RK4 stability bound {hmax:.4g} s (DOF {dof} damps at "
+                   f"{rate:.3g}/s at full thrust): need dt <= {hmax * self.nsub:.4g} s, or "
+                   f"substeps >= {need}")
+            if self.dt / self.nsub > 2.0 * hmax:
+                raise ValueError(msg)
+            warnings.warn(msg + " (an estimate: episodes may diverge and end)", InputWarning,
+                          stacklevel=3)
         arrays = loop_arrays(v, inflow)
         self.iprm, self.igeo = arrays if arrays is not None else (np.zeros(0), np.zeros((0, 13)))
         self.igeo = check_geometry(self.igeo)

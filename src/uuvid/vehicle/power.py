@@ -99,7 +99,8 @@ class Battery:
             raise ValueError(f"ocv_soc ends at {s[-1]:g}: state of charge is a fraction 0…1; is it "
                              "in %? (divide the ocv_soc values by 100)")
         if s.shape != v.shape or np.any(np.diff(s) <= 0) or s[0] > 0 or s[-1] < 1:
-            raise ValueError("ocv_soc must increase strictly from <= 0 to >= 1, one voltage each")
+            raise ValueError("ocv_soc must increase strictly from 0 (or below) to exactly 1, one "
+                             "voltage each")
         if np.any(np.diff(v) < 0) or np.any(v <= 0):
             raise ValueError("ocv_voltage must be positive and non-decreasing with SOC")
 

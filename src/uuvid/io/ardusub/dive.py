@@ -241,9 +241,15 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         dt = max(round(float(np.median(d)), 3), 0.001) if d.size else 0.1
     lo_w = g0 + (t_start if t_start is not None else 0.0)
     hi_w = g0 + t_end if t_end is not None else math.inf
-    if _in_force(history, lo_w) != _in_force(history, -math.inf):  # changed before the rows
+    # the configuration is the one in force at the first row read, or — when every change in the
+    # rows was made while disarmed (motor directions set on deck, then the dive) — the one in
+    # force while armed: a disarmed row's thrust is zero either way
+    t_ref, on_deck = lo_w, _changes_on_deck(history, spans, lo_w, hi_w, dt, arm_ch)
+    if on_deck is not None:
+        t_ref = on_deck[0]
+    if _in_force(history, t_ref) != _in_force(history, -math.inf):  # changed before the rows
         config, depth, dsrc, pwms, spans, _, mine = _setup(
-            raw, {**params, **_in_force(history, lo_w)}, veh, att)
+            raw, {**params, **_in_force(history, t_ref)}, veh, att)
     warnings.extend(mine)
     # cut on the whole log's rows (a part's first row + whole steps)
     spans = [(k, lo + max(math.ceil((lo_w - lo) / dt - 1e-9), 0) * dt, min(hi, hi_w))
@@ -252,11 +258,15 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     if not spans:
         raise LogDataError(f"{name}: t_start = {t_start} … t_end = {t_end} s holds no row of the "
                            f"table (it runs from 0 to {max(h for _, _, h in setup[4]) - g0:.6g} s)")
-    _check_changes(name, history, spans, g0)
+    if on_deck is None:
+        _check_changes(name, history, spans, g0)
     for n, h in history.items():
+        where = ("while disarmed (armed rows from t = "
+                 f"{on_deck[0] - g0:.6g} to {on_deck[1] - g0:.6g} s, all in one configuration)"
+                 if on_deck is not None else "outside this table")
         warnings.append(f"parameter {n} changed during the log ("
                         + ", ".join(f"{v:g} from t = {t - g0:.6g} s" for t, v in h[1:])
-                        + f"); outside this table: its value here is {_in_force(history, lo_w)[n]:g}")
+                        + f"); {where}: its value here is {_in_force(history, t_ref)[n]:g}")
     for m in config.motors:
         if m.disabled:
             warnings.append(f"motor {m.number} ignored: {m.disabled}")
@@ -346,13 +356,48 @@ class ConfigurationChanged(LogDataError):
     (:func:`load_dive`): read each side of the change apart (``t_start``/``t_end``)."""
 
 
+def _changes_on_deck(history: dict, spans, lo_w: float, hi_w: float, dt: float, arm_ch):
+    """``(first, last)`` armed row times (log clock) when parameters change between the table's
+    first and last rows but only while disarmed — every change before the first armed row or
+    after the last (the usual set-up on deck, then the dive); ``None`` when no change falls in
+    the rows, arming is unknown, nothing is armed, or a change falls while armed."""
+    from uuvid.io.ardusub.sources import _initial_armed, _on_grid
+
+    first = max(spans[0][1], lo_w) if spans else math.inf
+    last = min(spans[-1][2], hi_w) if spans else -math.inf
+    changes = [t for h in history.values() for t, _ in h[1:] if first < t <= last]
+    if not changes or arm_ch is None:
+        return None
+    grids, parts = [], []
+    for k, lo, hi in spans:
+        lo, hi = max(lo, lo_w), min(hi, hi_w)
+        if hi >= lo:
+            g = lo + dt * np.arange(int(math.floor((hi - lo) / dt + 1e-9)) + 1)
+            grids.append(g)
+            parts.append(np.full(g.size, k))
+    if not grids:
+        return None
+    grid, gpart = np.concatenate(grids), np.concatenate(parts)
+    events = arm_ch.source != _HB_ARMED
+    arm = _on_grid(arm_ch, grid, gpart, initial=_initial_armed(arm_ch) if events else None)
+    on = grid[np.nan_to_num(arm) > 0.5]
+    if on.size == 0 or not np.all(np.isfinite(arm)):
+        return None
+    a, b = float(on[0]), float(on[-1])
+    if any(a - dt < t <= b for t in changes):  # a change while armed (or at its first row)
+        return None
+    return a, b
+
+
 def _check_changes(name: str, history: dict, spans, g0: float) -> None:
-    """A parameter change inside the rows of the table: an error naming the parameter, its
-    values, when it changed and how to read each side (never a value applied where it was not
-    in force)."""
+    """A parameter change between the first and the last row of the table (inside a part, or
+    between two parts: a reboot after a configuration change): an error naming the parameter,
+    its values, when it changed and how to read each side (never a value applied where it was
+    not in force)."""
     bad = []
+    first, last = spans[0][1], spans[-1][2]
     for n, h in history.items():
-        inside = [(t, v) for t, v in h[1:] if any(lo < t <= hi for _, lo, hi in spans)]
+        inside = [(t, v) for t, v in h[1:] if first < t <= last]
         if inside:
             bad.append((n, h, inside))
     if not bad:
