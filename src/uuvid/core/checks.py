@@ -119,6 +119,24 @@ def seconds_or_none(**values) -> None:
                             f"None, got {type(v).__name__}")
 
 
+def real(name: str, value, what: str = "a number", *, integer: bool = False):
+    """``value`` unchanged, or ``TypeError`` naming ``name`` when it is not a real number (a string
+    ``"0.3"``, ``None``, a bool): a keyword argument of the Python API given as text was stored
+    as given and failed far from the call (``square_mission(speed="0.3")`` raised ``unsupported
+    operand type(s) for /: 'float' and 'str'`` when the mission was set up).  ``what`` says what is
+    expected (``"a finite number of seconds"``); ``integer``: an integral number is expected
+    (a float with a fractional part is a ``ValueError``)."""
+    import numbers
+
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} = {value!r}: expected {what} (an int or float), got "
+                        f"{type(value).__name__}")
+    if integer and not isinstance(value, numbers.Integral) and not (
+            math.isfinite(value) and value == int(value)):
+        raise ValueError(f"{name} = {value!r}: expected {what}, a whole number")
+    return value
+
+
 def time_window(t_start=None, t_end=None, horizon=None, *, error=ValueError) -> None:
     """A log's time bounds and window length as given (``None``: not given): finite times, an
     end after the start, a window > 0 s; ``error`` (a ``ValueError`` type) naming the options

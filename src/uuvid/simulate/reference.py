@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uuvid.core.checks import non_negative, positive
+from uuvid.core.checks import finite, non_negative, positive, real
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,8 @@ class WaypointMission:
         if len(self.waypoints) < 2:
             raise ValueError("a mission needs at least two waypoints")
         for i, w in enumerate(self.waypoints):
+            for j, v in enumerate(w):  # text ("2") passed float() and was flown as given
+                real(f"waypoints[{i}][{j}]", v, "a finite number: north, east, down [m], yaw [rad]")
             if len(w) != 4 or not all(math.isfinite(float(v)) for v in w):
                 raise ValueError(f"waypoint {i} must be 4 finite numbers (north, east, down, yaw), got {w!r}")
             # a mission above the water flew to "completed" (square_mission(depth=-2), a waypoint
@@ -71,11 +73,12 @@ class WaypointMission:
             why = waypoint_problem(i, float(w[2]), float(w[3]))
             if why:
                 raise ValueError(why)
-        # a NaN passed these as comparisons and failed deep in the reference or the flight
+        # a NaN passed these as comparisons and failed deep in the reference or the flight; text
+        # ("0.3") passed float() and was stored as given, failing when the mission was set up
         for name, unit in (("speed", "m/s"), ("vertical_speed", "m/s"), ("yaw_rate", "rad/s")):
-            positive(name, getattr(self, name), unit)
+            positive(name, real(name, getattr(self, name), f"a finite number > 0 in {unit}"), unit)
         for name in ("ramp_time", "hold"):
-            non_negative(name, getattr(self, name), "s")
+            non_negative(name, real(name, getattr(self, name), "a finite number of seconds >= 0"), "s")
 
     def legs(self) -> list[Leg]:
         legs, t = [], 0.0
@@ -158,8 +161,16 @@ def square_mission(depth: float = 2.0, side: float = 10.0, speed: float = 0.5,
     """
     if yaw not in ("path", "fixed"):
         raise ValueError(f"yaw must be 'path' or 'fixed', got {yaw!r}")
-    if not depth >= 0:  # NaN too
-        raise ValueError(f"depth = {depth:g} m: expected >= 0 (down positive; depth 2 m is 2)")
+    # every number checked here, at the call (text "2" failed in a comparison, "0.3" when the
+    # mission was set up; WaypointMission checks speed, vertical_speed and hold again, the same way)
+    real("depth", depth, "a finite depth >= 0 in m")
+    finite("side", real("side", side, "a finite side length in m"), "m")
+    real("speed", speed, "a finite number > 0 in m/s")
+    real("vertical_speed", vertical_speed, "a finite number > 0 in m/s")
+    real("hold", hold, "a finite number of seconds >= 0")
+    if not (depth >= 0 and math.isfinite(depth)):  # NaN too
+        raise ValueError(f"depth = {depth:g} m: expected >= 0 and finite (down positive; depth 2 m "
+                         "is 2)")
     corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side), (0.0, 0.0)]
     heads = [0.0, math.pi / 2, math.pi, -math.pi / 2]
     wps = [(0.0, 0.0, 0.0, 0.0), (0.0, 0.0, depth, 0.0)]

@@ -52,6 +52,13 @@ def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] |
     less of each (a sweep keeps a run's input and metrics, not its channels)."""
     tn, dn, sn = names or ("t_end", "dt", "substeps")
     tf, df, sf = ("", "", "") if names else (" (--t-end)", " (--dt)", " (--substeps)")
+    from uuvid.core.checks import real
+
+    # text from a script ("1.3") failed in math.isfinite with "must be real number, not str",
+    # naming no argument
+    real(tn, t_end, "a finite simulated time > 0 in s")
+    real(dn, dt, "a finite output step > 0 in s")
+    real(sn, substeps, "a number of RK4 steps per output sample >= 1", integer=True)
     if not (math.isfinite(t_end) and t_end > 0):
         raise ValueError(f"{tn} = {t_end:g}: expected a finite simulated time > 0 s{tf}")
     if not (math.isfinite(dt) and dt > 0):
