@@ -188,23 +188,29 @@ def export_supply(ref, chain, supply_voltage: float | None = None) -> tuple:
     preset by its own voltage law), and what to say: the voltage exported at, and — for a preset
     whose voltage law is its own (the T200's sheets) — that the file follows ``V = duty × supply``
     at another supply instead, with how far that lands from the preset's law at the other end of
-    its data (the T200 exported at 16 V and used at 12 V gave 20 % less thrust, unsaid)."""
+    its data (the T200 exported at 16 V and used at 12 V gave 20 % less thrust, unsaid), and a
+    warning (a line starting ``warning:``) when ``supply_voltage`` lies outside the voltages the
+    model's data cover (:func:`supply_voltage_warnings`, as ``thruster predict`` says it)."""
     import numpy as np
 
     from uuvid.core.checks import supply_voltage as check_supply
 
     v0 = supply_voltage_of(chain)
+    outside = []
     if supply_voltage is not None:
         supply_voltage = check_supply("supply_voltage", supply_voltage)
         law = supply_law(ref, chain, quiet=True)
         if law is None:
             raise ValueError(f"{chain.name} has no ESC block: --supply-voltage does not apply")
+        # the range check of `thruster predict` (160 V for 16 was exported with only "87 % off")
+        outside = [f"warning: {w}" for w in supply_voltage_warnings(ref, chain, supply_voltage)]
         chain, v0 = law[0](supply_voltage), supply_voltage
     if v0 is None:
         return chain, []
     lines = [f"supply voltage: exported at {v0:g} V"
              + (" (--supply-voltage)" if supply_voltage is not None
                 else f" (the {'preset' if is_preset(ref) else 'model'}'s own; set --supply-voltage)")]
+    lines += outside
     from uuvid.thruster.presets import PRESETS
 
     rng = supply_data_range(ref)
