@@ -948,12 +948,23 @@ def write_hold_report(folder, cap: CapabilityResult, doc: dict, current=None,
                       endur: EnduranceResult | None = None) -> Path:
     """``uuvid vehicle hold --out``: capability.png (the requested ``current`` = (speed, from
     deg) marked), endurance.png when there is an endurance, hold.json and an index.html linking
-    them all.  Returns the index."""
+    them all, as a whole (:func:`uuvid.core.atomic.atomic_dir`: built beside ``folder`` and
+    swapped in, so an interrupted run — Ctrl-C while the figure is drawn — leaves no empty or
+    partial folder, and an old report intact).  Returns the index."""
+    from uuvid.core.atomic import atomic_dir
+
+    final = Path(folder)
+    with atomic_dir(final) as work:
+        index = _hold_report_into(work, cap, doc, current, endur)
+    return final / Path(index).relative_to(work)
+
+
+def _hold_report_into(folder: Path, cap: CapabilityResult, doc: dict, current,
+                      endur: EnduranceResult | None) -> Path:
+    """:func:`write_hold_report`'s content, written into ``folder``; returns the index."""
     from uuvid.core.atomic import atomic_write_json
     from uuvid.core.html import Report
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
     a = doc.get("at_current")
     mark = None if current is None else (*current[:2], a["holds"]) if a else current
     cap.plot(folder / "capability.png", mark=mark)

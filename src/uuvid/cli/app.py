@@ -319,6 +319,12 @@ def main() -> None:  # console-script entry point
     _on_terminate_clean_up()
     try:
         _app()
+    except SystemExit as e:  # Ctrl-C as the command returned (outside the root group's invoke)
+        if e.code == 130 and _after_ctrl_c(e):
+            from uuvid.core.progress import say_interrupted
+
+            say_interrupted()
+        raise
     except OSError as e:  # the file system said no (a folder that is a file, no permission, full)
         if os.environ.get("UUVID_DEBUG"):
             raise
@@ -332,6 +338,18 @@ def main() -> None:  # console-script entry point
         sys.stderr.write(f"error: {where}{what} ({type(e).__name__}); nothing more was written "
                          "(UUVID_DEBUG=1 shows where)\n")
         raise SystemExit(2) from None
+
+
+def _after_ctrl_c(e: BaseException) -> bool:
+    """Whether ``e`` ends a chain of exceptions that began with a KeyboardInterrupt (``raise …
+    from None`` ends the chain: a command that said its own "interrupted: …")."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ if e.__cause__ is not None or e.__suppress_context__ else e.__context__
+    return False
 
 
 def _on_terminate_clean_up() -> None:

@@ -63,3 +63,16 @@ class TidyHelpGroup(TyperGroup):
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         tidy_command(self)
+
+    def invoke(self, ctx):
+        """Run the command; Ctrl-C always ends with "interrupted" on stderr (once: a progress
+        line may have said it) — after a task's "done" it ended silently (the command line ends
+        with status 130 either way).  What a run was writing is removed by its writer
+        (:func:`uuvid.core.atomic.atomic_dir`, :func:`~uuvid.core.atomic.atomic_path`)."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            from uuvid.core.progress import say_interrupted
+
+            say_interrupted()
+            raise

@@ -38,6 +38,27 @@ __all__ = ["ProgressTask", "progress", "progress_disabled", "progress_task"]
 T = TypeVar("T")
 
 _ENV_VAR = "UUVID_NO_PROGRESS"
+#: whether a task has said "interrupted after …" in this process (the command line then does not
+#: say "interrupted" again: :class:`uuvid.cli.helptext.TidyHelpGroup`)
+_INTERRUPT_SAID = [False]
+
+
+def interrupt_said() -> bool:
+    """True once a task (or the command line) has printed that it was interrupted (Ctrl-C) in
+    this process."""
+    return _INTERRUPT_SAID[0]
+
+
+def say_interrupted(text: str = "interrupted") -> None:
+    """Print ``text`` on stderr unless an interruption was already said (:func:`interrupt_said`)."""
+    if _INTERRUPT_SAID[0]:
+        return
+    _INTERRUPT_SAID[0] = True
+    try:
+        sys.stderr.write(text + "\n")
+        sys.stderr.flush()
+    except (AttributeError, ValueError, OSError):  # closed or missing stderr: stay quiet
+        pass
 #: off a terminal, a counted task prints its count at most this often (s)
 LINE_EVERY_S = 30.0
 _TRUTHY = {"1", "true", "yes", "on"}
@@ -143,8 +164,11 @@ class ProgressTask:
             self._progress = None
             if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
                 self._line(f"interrupted after {self.elapsed:.1f} s")
+                _INTERRUPT_SAID[0] = True
         elif self.lines and (self.stages or self._counted):
             self._line(f"{_ending(exc_type)} {self.elapsed:.1f} s")
+            if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
+                _INTERRUPT_SAID[0] = True
 
     def advance(self, n: float = 1) -> None:
         """Mark *n* more units of work as done (off a terminal: a line ``done of total (%),

@@ -1,0 +1,91 @@
+"""Ctrl-C never leaves an empty or partial output folder a run created, and always says
+"interrupted": ``vehicle hold --out`` interrupted after the capability was "done" (while its
+figure was drawn) left an empty folder and said nothing."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from uuvid.analysis import hold
+from uuvid.cli.app import app
+from uuvid.core import progress
+
+
+@pytest.fixture(autouse=True)
+def _fresh_interrupt_flag(monkeypatch):
+    monkeypatch.setattr(progress, "_INTERRUPT_SAID", [False])
+
+
+def _interrupt_while_plotting(monkeypatch):
+    def plot(self, path=None, mark=None):
+        path.write_bytes(b"half a png")  # the folder exists and holds a partial file
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(hold.CapabilityResult, "plot", plot)
+
+
+def test_hold_interrupted_while_writing_leaves_no_folder_and_says_so(tmp_path, monkeypatch):
+    _interrupt_while_plotting(monkeypatch)
+    out = tmp_path / "hold_15"
+    res = CliRunner().invoke(app, ["vehicle", "hold", "bluerov2", "--step", "90", "--voltage", "14",
+                                   "--current", "0.3,0", "--out", str(out)])
+    assert res.exit_code == 130, res.output
+    assert "interrupted" in res.output
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []  # no temporary folder either
+
+
+def test_hold_interrupted_keeps_an_old_report_whole(tmp_path, monkeypatch):
+    out = tmp_path / "hold"
+    res = CliRunner().invoke(app, ["vehicle", "hold", "bluerov2", "--step", "90", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    _interrupt_while_plotting(monkeypatch)
+    res = CliRunner().invoke(app, ["vehicle", "hold", "bluerov2", "--step", "90", "--out", str(out)])
+    assert res.exit_code == 130 and "interrupted" in res.output
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_interrupted_is_said_once_when_a_progress_line_said_it(monkeypatch, capsys):
+    from uuvid.cli.helptext import TidyHelpGroup
+
+    group = TidyHelpGroup()
+    monkeypatch.setattr(TidyHelpGroup.__mro__[1], "invoke",
+                        lambda self, ctx: (_ for _ in ()).throw(KeyboardInterrupt()))
+    with pytest.raises(KeyboardInterrupt):
+        group.invoke(None)
+    with pytest.raises(KeyboardInterrupt):
+        group.invoke(None)
+    assert capsys.readouterr().err == "interrupted\n"
+
+
+def test_main_says_interrupted_for_a_ctrl_c_outside_the_command(monkeypatch, capsys):
+    import uuvid.cli.app as cli
+
+    def app_():  # as typer ends a Ctrl-C: Exit(130) from the KeyboardInterrupt, then sys.exit
+        try:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as e:
+                raise RuntimeError("exit") from e
+        except RuntimeError:
+            raise SystemExit(130)  # noqa: B904 - chained implicitly, as sys.exit() in typer
+
+    monkeypatch.setattr(cli, "_app", app_)
+    monkeypatch.setattr(cli, "_register_subcommands", lambda command=None: None)
+    with pytest.raises(SystemExit):
+        cli.main()
+    assert "interrupted" in capsys.readouterr().err
+
+    def exits_on_its_own():  # a command that said its own "interrupted: …" (raise … from None)
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise SystemExit(130) from None
+
+    monkeypatch.setattr(progress, "_INTERRUPT_SAID", [False])
+    monkeypatch.setattr(cli, "_app", exits_on_its_own)
+    with pytest.raises(SystemExit):
+        cli.main()
+    assert capsys.readouterr().err == ""
