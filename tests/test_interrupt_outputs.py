@@ -89,3 +89,47 @@ def test_main_says_interrupted_for_a_ctrl_c_outside_the_command(monkeypatch, cap
     with pytest.raises(SystemExit):
         cli.main()
     assert capsys.readouterr().err == ""
+
+
+def _interrupt(*args, **kwargs):
+    for a in args:  # write half a file where the figure goes, then Ctrl-C
+        if hasattr(a, "write_bytes"):
+            a.write_bytes(b"half a png")
+    raise KeyboardInterrupt
+
+
+def test_thruster_simulate_interrupted_while_writing_leaves_no_folder(tmp_path, monkeypatch):
+    import uuvid.core.plots as plots
+
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path, *a, **k: _interrupt(path))
+    out = tmp_path / "sim"
+    res = CliRunner().invoke(app, ["thruster", "simulate", "t200", "--t-end", "0.2", "--out", str(out)])
+    assert res.exit_code == 130 and "interrupted" in res.output, res.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_vehicle_stability_interrupted_while_writing_leaves_no_folder(tmp_path, monkeypatch):
+    from uuvid.vehicle.stability import StabilityResult
+
+    monkeypatch.setattr(StabilityResult, "plot", lambda self, path=None: _interrupt(path))
+    out = tmp_path / "stab"
+    res = CliRunner().invoke(app, ["vehicle", "stability", "bluerov2", "--out", str(out)])
+    assert res.exit_code == 130 and "interrupted" in res.output, res.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_mission_outputs_interrupted_while_writing_leave_no_folder(tmp_path, monkeypatch):
+    import pandas as pd
+
+    from uuvid.simulate import mission_report
+
+    class Flight:
+        metrics = {"vehicle": "v", "mission": "m"}
+
+        def to_frame(self):
+            return pd.DataFrame({"t_s": [0.0, 0.1]})
+
+    monkeypatch.setattr(mission_report, "mission_figures", _interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        mission_report.write_mission_outputs(Flight(), None, tmp_path / "flight")
+    assert list(tmp_path.iterdir()) == []

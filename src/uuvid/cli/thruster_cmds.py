@@ -147,27 +147,27 @@ def thruster_simulate(
             summary.setdefault("warnings", []).append(w)
             err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if out:
-        from uuvid.core.atomic import atomic_write_json
+        from uuvid.core.atomic import atomic_dir, atomic_write_json
         from uuvid.core.html import Report
         from uuvid.core.plots import save_figure
 
-        out.mkdir(parents=True, exist_ok=True)
-        size = resp.csv_bytes_estimate()
-        rows = f"{len(resp.t):,} rows × {len(resp.channels) + 1} columns ≈ {size / 1e6:.3g} MB"
-        summary["csv_size"] = rows
-        big = size > CSV_WARN_BYTES
-        err_console.print(("[yellow]warning:[/] " if big else "") + escape(
-            f"writing {out / 'response.csv'}: {rows}"
-            + (f" (over {CSV_WARN_BYTES / 1e6:g} MB: a larger --dt, the output sample time, "
-               "writes fewer rows; --substeps keeps the integration step)" if big else "")),
-            highlight=False, soft_wrap=True)
-        resp.to_csv(out / "response.csv")
-        png = save_figure(resp.plot(title=chain.name), out / "response.png")
-        atomic_write_json(out / "summary.json", summary)
-        rep = Report(f"uuvid thruster simulate — {chain.name}")
-        rep.add_json(summary, caption="Summary (SI)")
-        rep.add_figure(png)
-        rep.write(out)
+        with atomic_dir(out) as work:  # whole or not at all: Ctrl-C leaves no empty folder
+            size = resp.csv_bytes_estimate()
+            rows = f"{len(resp.t):,} rows × {len(resp.channels) + 1} columns ≈ {size / 1e6:.3g} MB"
+            summary["csv_size"] = rows
+            big = size > CSV_WARN_BYTES
+            err_console.print(("[yellow]warning:[/] " if big else "") + escape(
+                f"writing {out / 'response.csv'}: {rows}"
+                + (f" (over {CSV_WARN_BYTES / 1e6:g} MB: a larger --dt, the output sample time, "
+                   "writes fewer rows; --substeps keeps the integration step)" if big else "")),
+                highlight=False, soft_wrap=True)
+            resp.to_csv(work / "response.csv")
+            png = save_figure(resp.plot(title=chain.name), work / "response.png")
+            atomic_write_json(work / "summary.json", summary)
+            rep = Report(f"uuvid thruster simulate — {chain.name}")
+            rep.add_json(summary, caption="Summary (SI)")
+            rep.add_figure(png)
+            rep.write(work)
         summary["out"] = str(out)
     if json_out:
         _print_json(summary)

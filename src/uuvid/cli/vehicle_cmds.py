@@ -323,11 +323,11 @@ def vehicle_stability(
     for w in res.warnings():  # on stderr: --json's stdout stays the document (its "warnings")
         err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if out:
-        from uuvid.core.atomic import atomic_write_json
+        from uuvid.core.atomic import atomic_dir, atomic_write_json
 
-        out.mkdir(parents=True, exist_ok=True)
-        res.plot(out / "stability.png")
-        atomic_write_json(out / "stability.json", doc)
+        with atomic_dir(out) as work:  # whole or not at all: Ctrl-C leaves no empty folder
+            res.plot(work / "stability.png")
+            atomic_write_json(work / "stability.json", doc)
     if json_out:
         _print_json(doc)
         return

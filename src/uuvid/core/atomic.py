@@ -327,7 +327,9 @@ def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
     if target == target.parent:
         raise ValueError(f"cannot write a report folder over the file-system root {target}")
     if target.exists() and not target.is_dir():
-        raise NotADirectoryError(f"{target} exists and is not a folder; choose another --out")
+        # with its file name, so the command line says "a file of that name is in the way"
+        raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder; choose another --out",
+                                 str(target))
     cwd = Path(os.path.abspath(os.getcwd()))
     holds_cwd = cwd == target or target in cwd.parents  # never swap the working folder away
     target.parent.mkdir(parents=True, exist_ok=True)

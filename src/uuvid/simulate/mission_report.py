@@ -162,9 +162,18 @@ def mission_figures(result, vehicle) -> dict:
 
 
 def write_mission_outputs(result, vehicle, out: str | Path, extra: dict | None = None) -> Path:
-    """Time series (CSV, and Parquet when pyarrow is installed), figures, summary JSON, index.html."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    """Time series (CSV, and Parquet when pyarrow is installed), figures, summary JSON, index.html,
+    as a whole (:func:`uuvid.core.atomic.atomic_dir`: an interrupted run leaves no empty or
+    partial folder, and an old one intact).  Returns the index."""
+    from uuvid.core.atomic import atomic_dir
+
+    final = Path(out)
+    with atomic_dir(final) as work:
+        index = _mission_outputs_into(result, vehicle, work, extra)
+    return final / Path(index).relative_to(work)
+
+
+def _mission_outputs_into(result, vehicle, out: Path, extra: dict | None) -> Path:
     df = result.to_frame()
     with atomic_path(out / "timeseries.csv") as tmp:
         df.to_csv(tmp, index=False)
