@@ -51,13 +51,17 @@ def test_interrupted_is_said_once_when_a_progress_line_said_it(monkeypatch, caps
     from uuvid.cli.helptext import TidyHelpGroup
 
     group = TidyHelpGroup()
-    monkeypatch.setattr(TidyHelpGroup.__mro__[1], "invoke",
-                        lambda self, ctx: (_ for _ in ()).throw(KeyboardInterrupt()))
-    with pytest.raises(KeyboardInterrupt):
-        group.invoke(None)
-    with pytest.raises(KeyboardInterrupt):
-        group.invoke(None)
-    assert capsys.readouterr().err == "interrupted\n"
+
+    def command(self, ctx):  # a task that reports its own interruption, then Ctrl-C reaches us
+        if ctx == "task":
+            progress.say_interrupted("task: interrupted after 1.0 s")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(TidyHelpGroup.__mro__[1], "invoke", command)
+    for ctx in ("task", None):  # each command says it once
+        with pytest.raises(KeyboardInterrupt):
+            group.invoke(ctx)
+    assert capsys.readouterr().err == "task: interrupted after 1.0 s\ninterrupted\n"
 
 
 def test_main_says_interrupted_for_a_ctrl_c_outside_the_command(monkeypatch, capsys):

@@ -69,10 +69,11 @@ class TidyHelpGroup(TyperGroup):
         line may have said it) — after a task's "done" it ended silently (the command line ends
         with status 130 either way).  What a run was writing is removed by its writer
         (:func:`uuvid.core.atomic.atomic_dir`, :func:`~uuvid.core.atomic.atomic_path`)."""
+        from uuvid.core import progress
+
+        progress._INTERRUPT_SAID[0] = False  # a new command (a CliRunner runs many in a process)
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:
-            from uuvid.core.progress import say_interrupted
-
-            say_interrupted()
+            progress.say_interrupted()
             raise
