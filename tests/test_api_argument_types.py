@@ -77,3 +77,20 @@ def test_real_helper():
     with pytest.raises(ValueError, match="whole number"):
         real("n", math.nan, "a count", integer=True)
     assert real("n", 4.0, "a count", integer=True) == 4.0
+
+
+def test_open_loop_min_duration_is_checked(tmp_path):
+    """``dive.open_loop(min_duration="5")`` raised a bare TypeError from a comparison, and NaN
+    was taken silently (every stretch kept)."""
+    pytest.importorskip("pymavlink")
+    from test_ardusub import scenario, write_bin
+
+    from uuvid.io.ardusub import load_dive
+
+    d = load_dive(write_bin(tmp_path / "a.BIN", scenario(n=120)))
+    with pytest.raises(TypeError, match=r"min_duration = '5': expected a finite number of seconds"):
+        d.open_loop(min_duration="5")
+    for bad in (math.nan, -1.0):
+        with pytest.raises(ValueError, match="min_duration"):
+            d.open_loop(min_duration=bad)
+    assert d.open_loop(min_duration=2.0)[0].sum() > 0

@@ -78,6 +78,10 @@ class DiveLog(Result):
     def open_loop(self, min_duration: float = 0.0) -> tuple[np.ndarray, str]:
         """Mask of the table rows in open-loop (MANUAL) *armed* stretches at least
         ``min_duration`` s long, and a sentence saying what was left out and why."""
+        from uuvid.core.checks import non_negative, real
+
+        min_duration = non_negative("min_duration", real("min_duration", min_duration,
+                                                          "a finite number of seconds >= 0"), "s")
         tb = self.table
         mask = (tb["mode"].isin(OPEN_LOOP_MODES) & tb["armed"].fillna(False)).to_numpy(bool)
         t = tb["t_s"].to_numpy(float)
