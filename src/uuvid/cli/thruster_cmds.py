@@ -230,9 +230,8 @@ def thruster_export(
         chain, said = export_supply(model, chain, supply_voltage)
     except ValueError as e:
         _fail_flagged(e, {"supply_voltage": "--supply-voltage"})
-    for line in said:  # a warning (a supply outside the model's data) in yellow, as elsewhere
-        err_console.print(f"[yellow]warning:[/] {escape(line[9:])}" if line.startswith("warning: ")
-                          else escape(line), highlight=False, soft_wrap=True)
+    for line in said:  # notes and warnings (a supply outside the model's data), as written
+        err_console.print(line, highlight=False, soft_wrap=True, markup=False)
     if to == "uuv-simulator":
         rng = None
         if command_range is not None:

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.io.idle_outputs import _inside, _motor_order  # shared with the idle-output check
 from uuvid.io.logs import LogDataError
 from uuvid.io.motor_direction import bag_fix, direction_check, force_sign_check, table_fix
 
@@ -180,14 +181,6 @@ def _intervals(t, flag) -> list:
     return out
 
 
-def _inside(t, intervals) -> np.ndarray:
-    """Mask of the stamps ``t`` inside any of ``intervals`` ``[(t0, t1)]`` (ends included)."""
-    on = np.zeros(np.shape(t), bool)
-    for a, b in intervals:
-        on |= (t >= a) & (t <= b)
-    return on
-
-
 def _not_utf8(p: Path) -> str:
     """Where the first byte of ``p`` that is not UTF-8 is (pandas' error counts within its own
     decode buffer, not the file), and what to do."""
@@ -212,11 +205,6 @@ def _not_utf8(p: Path) -> str:
                 return "not UTF-8 text: re-save it as UTF-8 ('CSV UTF-8')"
             at += len(chunk)
             line += chunk.count(b"\n")
-
-
-def _motor_order(pwm: dict) -> list:
-    """The keys of ``pwm`` in motor order (``"10"`` after ``"9"``)."""
-    return sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
 
 
 def _mode_runs(t, modes) -> list:

@@ -32,7 +32,8 @@ _UNIT = {"X_N": "N", "Y_N": "N", "Z_N": "N", "K_Nm": "N·m", "M_Nm": "N·m", "N_
 
 
 def _inside(t, intervals) -> np.ndarray:
-    """Mask of the stamps ``t`` inside any of ``intervals`` (ends included; as the reader's)."""
+    """Mask of the stamps ``t`` inside any of ``intervals`` ``[(t0, t1)]`` (ends included; the
+    dive reader's too, :mod:`uuvid.io.dive_channels`)."""
     on = np.zeros(np.shape(t), bool)
     for a, b in intervals:
         on |= (t >= a) & (t <= b)
@@ -40,7 +41,7 @@ def _inside(t, intervals) -> np.ndarray:
 
 
 def _motor_order(pwm: dict) -> list:
-    """The keys of ``pwm`` in motor order (``"10"`` after ``"9"``; as the reader's)."""
+    """The keys of ``pwm`` in motor order (``"10"`` after ``"9"``; the dive reader's too)."""
     return sorted(pwm, key=lambda k: int(k) if str(k).isdigit() else str(k))
 
 
