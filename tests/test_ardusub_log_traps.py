@@ -323,3 +323,25 @@ def test_a_direction_changed_across_a_reboot_is_an_error(tmp_path):
     path = ta.write_bin(tmp_path / "r.BIN", sc, prm=Dump(p1), reboot_at=60)
     with pytest.raises(LogDataError, match=r"MOT_1_DIRECTION: "):
         load_dive(path)
+
+
+def test_a_re_export_whose_provenance_cannot_be_written_keeps_the_earlier_export(tmp_path,
+                                                                                monkeypatch):
+    """The table replaced an earlier export of the same name, then the provenance failed and
+    the new table was deleted: the earlier good CSV was lost and its stale .json stayed.  The
+    provenance is now written before the table replaces anything."""
+    from uuvid.io.ardusub import export as export_mod
+
+    d = load_dive(write_bin(tmp_path / "d.BIN", scenario(n=60)))
+    out = tmp_path / "x.csv"
+    d.export(out)
+    before = (out.read_bytes(), (tmp_path / "x.csv.json").read_bytes())
+
+    def full(path, obj, *a, **k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(export_mod, "atomic_write_json", full)
+    d2 = load_dive(write_bin(tmp_path / "e.BIN", scenario(n=80)))
+    with pytest.raises(OSError):
+        d2.export(out)
+    assert (out.read_bytes(), (tmp_path / "x.csv.json").read_bytes()) == before

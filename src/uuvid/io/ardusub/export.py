@@ -72,13 +72,11 @@ def export_dive(dive, out) -> Path:
     num = tb.select_dtypes("float").columns
     tb[num] = tb[num] + 0.0  # -0.0 written as 0
     if suf == ".csv":
+        # the provenance is written while the table is still a temporary file: if it cannot
+        # be, neither replaces anything (an earlier export of the same name stays whole)
         with atomic_path(out) as tmp:
             tb.to_csv(tmp, index=False, float_format="%.9g")
-        try:
             atomic_write_json(sidecar_path(out), _meta(dive))
-        except OSError:  # a table without its provenance is not left behind
-            out.unlink(missing_ok=True)
-            raise
         return out
     if suf == ".parquet":
         pa, pq = _pyarrow(out)
