@@ -725,7 +725,7 @@ def test_a_flight_whose_outputs_overflow_memory_is_refused_before_it_flies(tmp_p
     import uuvid.simulate.footprint as fpm
     from uuvid.simulate.scenario import ScenarioError, build
 
-    monkeypatch.setattr(fpm, "_physical_memory", lambda: 8e9)
+    monkeypatch.setattr(fpm, "physical_memory_bytes", lambda: 8e9)
 
     with pytest.raises(ScenarioError) as got:
         build(_long_scenario(), out=tmp_path / "out")
@@ -784,11 +784,12 @@ def test_outputs_larger_than_the_free_disk_are_refused(tmp_path, monkeypatch):
 
 def test_the_flight_memory_limit_is_a_quarter_of_a_larger_machine(monkeypatch):
     """The 2 GB floor on a small machine; a quarter of a larger one's physical memory (the same
-    on every run: not the memory free at the moment); the floor where the OS does not say."""
+    on every run: not the memory free at the moment; a machine that does not say counts as 4 GB,
+    core.checks.physical_memory_bytes: the floor)."""
     import uuvid.simulate.footprint as fpm
 
-    for mem, want in ((4e9, 2e9), (8e9, 2e9), (64e9, 16e9), (None, 2e9)):
-        monkeypatch.setattr(fpm, "_physical_memory", lambda m=mem: m)
+    for mem, want in ((4e9, 2e9), (8e9, 2e9), (64e9, 16e9)):
+        monkeypatch.setattr(fpm, "physical_memory_bytes", lambda m=mem: m)
         assert fpm.flight_memory_limit() == want
     monkeypatch.undo()
     assert fpm.flight_memory_limit() >= 2e9

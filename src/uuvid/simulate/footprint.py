@@ -23,6 +23,8 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from uuvid.core.checks import physical_memory_bytes
+
 #: Most memory (bytes) one flight may take on any machine: its time series, and writing them
 #: when it has an output folder (:func:`flight_memory_limit` allows a quarter of a larger
 #: machine's memory).  (A BlueROV2 flight takes ≈ 0.5 kB per control step, ≈ 2.4 kB with
@@ -126,22 +128,11 @@ def _lower(fp: FlightFootprint, dt: float, fit: float | None, duration_name: str
     return ", ".join(ways[:-1]) + " or " + ways[-1] if len(ways) > 1 else ways[0]
 
 
-def _physical_memory() -> float | None:
-    """Bytes of physical memory of this machine, or ``None`` where the OS does not say."""
-    import os
-
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))
-    except (AttributeError, ValueError, OSError):
-        return None
-
-
 def flight_memory_limit() -> float:
     """Most memory one flight may take here: :data:`MAX_FLIGHT_BYTES`, or :data:`MEMORY_SHARE` of
     the machine's physical memory when that is more (the same on every run on one machine: not
     the memory free at the moment)."""
-    mem = _physical_memory()
-    return max(MAX_FLIGHT_BYTES, MEMORY_SHARE * mem) if mem else MAX_FLIGHT_BYTES
+    return max(MAX_FLIGHT_BYTES, MEMORY_SHARE * physical_memory_bytes())
 
 
 def check_footprint(setup, out: str | Path | None = None, *, duration_name: str = "duration",
