@@ -43,6 +43,17 @@ UNITS = {
     "": 1.0, "si": 1.0, "m": 1.0, "in": U.INCH, "inch": U.INCH, "ft": U.FT, "ft/rad": U.FT,
     "m/rad": 1.0, "deg": U.DEG, "rad": 1.0, "rpm": U.RPM, "lbf": U.LBF, "N": 1.0, "kgf": U.KGF,
     "V": 1.0, "kg": 1.0, "%": 0.01, "cm": 0.01, "mm": 1e-3, "us": 1.0, "s": 1.0, "ms": 1e-3,
+    "m/s": 1.0, "cm/s": 0.01, "mm/s": 1e-3, "kn": U.KNOT, "knot": U.KNOT, "knots": U.KNOT,
+    "km/h": U.KMH, "ft/s": U.FT, "rad/s": 1.0, "rev/s": U.REV_S,
+}
+
+#: the units of each dimension (keys of :data:`UNITS`), by the SI unit a parameter is in
+#: (:func:`si_unit`); a parameter whose SI unit is unknown takes any unit
+UNITS_OF = {
+    "m": ("m", "in", "inch", "ft", "cm", "mm"), "m/s": ("m/s", "cm/s", "mm/s", "kn", "knot", "knots",
+                                                        "km/h", "ft/s"),
+    "°": ("deg", "rad"), "rad/s": ("rad/s", "rpm", "rev/s"), "N": ("N", "lbf", "kgf"),
+    "V": ("V",), "kg": ("kg",), "s": ("s", "ms"),
 }
 
 DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
@@ -82,14 +93,36 @@ def si_unit(name: str) -> str:
     return _NAME_UNITS.get(name.rsplit(".", 1)[-1], "")
 
 
-def to_si(value, unit: str | None):
+def units_for(name: str) -> tuple[str, ...] | None:
+    """The units a parameter's values may be given in (``None``: any of :data:`UNITS`, its
+    dimension being unknown)."""
+    return UNITS_OF.get(si_unit(name))
+
+
+def unit_factor(name: str, unit: str | None) -> float:
+    """value in ``unit`` × factor = the value ``name`` takes (SI, or degrees for an angle the
+    model takes in degrees); ``ValueError`` naming the parameter and the units it accepts when
+    ``unit`` is unknown or of another dimension (rpm for a current speed)."""
+    if unit is None or unit in ("", "si"):
+        return 1.0
+    if unit not in UNITS:
+        ok = units_for(name)
+        raise ValueError(f"parameter {name!r}: unknown unit {unit!r}; "
+                         + (f"{name} takes {', '.join(ok)}" if ok else
+                            f"known: {', '.join(sorted(k for k in UNITS if k))}"))
+    ok = units_for(name)
+    if ok is not None and unit not in ok:
+        raise ValueError(f"parameter {name!r}: unit {unit!r} is not a unit of {name} "
+                         f"({si_unit(name)}); {name} takes {', '.join(ok)}")
+    f = UNITS[unit]
+    return f / U.DEG if si_unit(name) == "°" else f  # current_direction is taken in degrees
+
+
+def to_si(value, unit: str | None, name: str = ""):
+    """``value`` in ``unit`` as the value parameter ``name`` takes (:func:`unit_factor`)."""
     if unit is None:
         return value
-    try:
-        f = UNITS[unit]
-    except KeyError:
-        raise ValueError(f"unknown unit {unit!r}; known: {', '.join(sorted(k for k in UNITS if k))}"
-                         ) from None
+    f = unit_factor(name, unit)
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         return value
     return float(value) * f

@@ -74,8 +74,7 @@ class Axis(BaseModel):
             raise ValueError(f"parameter {self.name!r}: values is empty")
         if self.log and self.start is not None and not (self.start > 0 and self.stop > 0):
             raise ValueError(f"parameter {self.name!r}: log spacing needs start, stop > 0")
-        if self.unit is not None and self.unit not in PR.UNITS:
-            raise ValueError(f"parameter {self.name!r}: unknown unit {self.unit!r}")
+        PR.unit_factor(self.name, self.unit)  # a unit of the parameter's dimension (not rpm for m/s)
         if self.start is not None:
             with np.errstate(all="ignore"):
                 g = np.asarray(self.grid(), dtype=float)
@@ -94,7 +93,7 @@ class Axis(BaseModel):
             g = (np.geomspace(self.start, self.stop, n) if self.log
                  else np.linspace(self.start, self.stop, n))
             vals = sorted(set(float(v) for v in g) | set(float(v) for v in self.include))
-        return [PR.to_si(v, self.unit) for v in vals]
+        return [PR.to_si(v, self.unit, self.name) for v in vals]
 
     def sample(self, rng: np.random.Generator) -> float:
         if self.start is None:
@@ -104,7 +103,7 @@ class Axis(BaseModel):
             v = math.exp(rng.uniform(math.log(self.start), math.log(self.stop)))
         else:
             v = rng.uniform(self.start, self.stop)
-        return PR.to_si(v, self.unit)
+        return PR.to_si(v, self.unit, self.name)
 
 
 class Requirement(BaseModel):
@@ -244,7 +243,72 @@ def sweep_from_dict(raw, where: str = "<sweep>", base: Path | None = None) -> Sw
                 err["type"], err["msg"].removeprefix("Value error, "))
             msgs.append(f"{where}: {loc}: {text}" if loc else f"{where}: {text}")
         raise SweepError("\n".join(msgs)) from None
+    check_values(spec, where)
     return spec.model_copy(update={"target": resolve_paths(spec.target, base)})
+
+
+def _given_values(spec: SweepSpec) -> list[tuple[str, str, list, str | None]]:
+    """(where in the file, parameter name, values as given, unit) of every parameter."""
+    if spec.mode == "list":
+        return [(f"runs[{r}].{n}", n, [v], None) for r, run in enumerate(spec.runs)
+                for n, v in run.items()]
+    return [(f"parameters[{i}] ({a.name})", a.name,
+             list(a.values) + list(a.include) if a.values is not None else [a.start, a.stop], a.unit)
+            for i, a in enumerate(spec.parameters)]
+
+
+def _expects_number(kind: str, name: str) -> bool:
+    """Whether parameter ``name`` of a ``kind`` target takes numbers only (known without its
+    plan; :meth:`SweepStudy.check` looks at the chain's block fields)."""
+    if kind == "thruster_steady":
+        return True
+    if kind == "vehicle_mission":
+        return not name.startswith("thruster.")
+    return (name in ("voltage", "command", "amplitude") or PR.si_unit(name) != ""
+            or (name.startswith("signal.") and name != "signal.kind"))
+
+
+def _is_number(v) -> bool:
+    if isinstance(v, (bool, int, float)):
+        return True
+    if isinstance(v, str):
+        try:
+            float(v)
+            return True
+        except ValueError:
+            return False
+    return False
+
+
+def _number_error(where: str, loc: str, name: str, vals: list) -> None:
+    """``SweepError`` naming the file (``where``; none: the caller names it), the parameter and
+    the first value that is not a number."""
+    for v in vals:
+        if not _is_number(v):
+            u = PR.si_unit(name)
+            raise SweepError((f"{where}: " if where else "")
+                             + f"{loc}: value {v!r} is not a number; {name} takes numbers"
+                             + (f" (in {u} unless the parameter gives a unit)" if u else ""))
+
+
+def check_values(spec: SweepSpec, where: str = "<sweep>") -> None:
+    """Refuse, when the file is read, a value no run could use: text for a numeric parameter
+    (it failed every run of its chunk, the good ones too), a current faster than any sea's
+    (:func:`uuvid.core.checks.current_speed`, the bound ``uuvid simulate`` applies)."""
+    from uuvid.core.checks import current_speed
+
+    kind = spec.target.kind
+    for loc, name, vals, unit in _given_values(spec):
+        if _expects_number(kind, name):
+            _number_error(where, loc, name, vals)
+        if kind == "vehicle_mission" and (name == "current_speed" or name.startswith("current[")):
+            for v in vals:
+                try:
+                    si = PR.to_si(float(v), unit, name)
+                    current_speed(f"{where}: {loc}: value {v!r}"
+                                  + (f" {unit}" if unit else ""), abs(si))
+                except ValueError as e:
+                    raise SweepError(str(e)) from None
 
 
 def builtin_sweeps() -> list[str]:
@@ -290,8 +354,18 @@ class SweepStudy(StudyBase):
         return list(self.spec.names)
 
     def check(self) -> None:
-        """Build the plan once (raises on unknown parameter or metric names)."""
+        """Build the plan once (raises on unknown parameter or metric names, and on text given
+        for a numeric field of a chain block)."""
         plan = self.plan
+        kinds = getattr(plan, "kind_of", {})
+        for loc, name, vals, _unit in _given_values(self.spec):
+            if kinds.get(name, ("",))[0] == "block":
+                i, path = PR.parse_block_name(name)
+                from uuvid.uncertainty.targets import _current
+
+                cur = _current(plan.base.blocks[i], path)
+                if isinstance(cur, (int, float)) and not isinstance(cur, bool):
+                    _number_error("", loc, name, vals)
         for m in (self.spec.metrics or []):
             if m not in plan.metric_names:
                 raise PR.ParameterNameError(f"unknown metric {m!r}; the {self.spec.target.kind} "
@@ -475,7 +549,7 @@ def write_sweep_report(res, spec: SweepSpec, out: Path) -> list[str]:
 
     def shown(name, v):
         u = units.get(name)
-        return np.asarray(v, float) / PR.UNITS[u] if u else np.asarray(v, float)
+        return np.asarray(v, float) / PR.unit_factor(name, u) if u else np.asarray(v, float)
 
     def label(name):
         u = units.get(name) or PR.si_unit(name)  # values are SI unless the file gives a unit
