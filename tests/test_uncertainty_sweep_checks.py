@@ -2,8 +2,15 @@
 has, runs that all fail, a PWM thruster stepped with a voltage."""
 
 import pytest
+import typer
+from typer.testing import CliRunner
 
+from uuvid.cli.uncertainty_cmds import register
 from uuvid.uncertainty.sweep import SweepError, load_sweep, sweep_from_dict
+
+app = typer.Typer()
+register(app)
+runner = CliRunner()
 
 VEHICLE = {"kind": "vehicle_mission"}
 
@@ -52,3 +59,13 @@ def test_sweep_current_faster_than_any_sea_refused_when_read():
     with pytest.raises(SweepError, match=r"value 20 kn.*10\.2889 m/s"):
         sweep_from_dict(_axis(unit="kn", values=[20]))
 
+
+def test_sweep_exit_1_when_every_run_fails_and_says_why(tmp_path):
+    f = tmp_path / "t.yaml"
+    f.write_text("target: {kind: thruster_step, chain: auv2-tunnel, t_end: 0.05, substeps: 1}\n"
+                 "parameters: [{name: 'blocks[0].motor.resistance', values: [-0.1]}]\n")
+    res = runner.invoke(app, ["sweep", str(f), "--out", str(tmp_path / "o"), "--backend",
+                              "inprocess"])
+    assert res.exit_code == 1, res.output
+    assert "none of the runs succeeded" in res.output and "invalid" in res.output
+    assert "-0.1" in res.output and str(f) in res.output

@@ -113,7 +113,32 @@ def _run(fn, out: Path | None, json_out: bool, title: str, where: str = ""):
         _show(summary, title)
         if out is not None:
             err_console.print(f"report: {out / 'index.html'}  (table: {out / 'results.csv'})", markup=False)
+    _outcome(res, summary, where)
     return res
+
+
+def _outcome(res, summary: dict, where: str) -> None:
+    """Say how many runs did not succeed and why (the first message of each status); exit 1
+    when none succeeded (a study whose every run failed is not a result)."""
+    _fail, _print_json, _table, err_console, out_console = _helpers()
+    n, ok = int(summary.get("runs", 0)), int(summary.get("succeeded", 0))
+    if not n or ok == n:
+        return
+    counts = ", ".join(f"{k}: {v}" for k, v in summary["status_counts"].items() if k != "ok")
+    why = []
+    table = getattr(res, "table", None)
+    if table is not None and "status" in table and "message" in table:
+        bad = table[table["status"] != "ok"]
+        for st, g in bad.groupby("status", sort=False):
+            row = g.iloc[0]
+            why.append(f"{st}, e.g. run {row['run']}: {row['message']}")
+    text = (f"{n - ok} of {n} runs did not succeed ({counts})" + ("; " if why else "")
+            + "; ".join(why) + (f"; see {summary['out']}/results.csv" if summary.get("out") else ""))
+    if ok == 0:
+        _fail(f"{where + ': ' if where else ''}none of the runs succeeded: {text}", code=1)
+    from rich.markup import escape
+
+    err_console.print(f"[yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
 def sweep_cmd(
