@@ -69,3 +69,57 @@ def test_sweep_exit_1_when_every_run_fails_and_says_why(tmp_path):
     assert res.exit_code == 1, res.output
     assert "none of the runs succeeded" in res.output and "invalid" in res.output
     assert "-0.1" in res.output and str(f) in res.output
+
+
+T200 = {"kind": "thruster_step", "chain": "t200", "t_end": 0.5, "dt": 0.001}
+
+
+def test_sweep_thruster_step_default_signal_follows_the_chains_input():
+    import warnings
+
+    from uuvid.uncertainty.sweep import SweepStudy, run_sweep
+
+    spec = sweep_from_dict({"target": T200, "metrics": ["steady_thrust"],
+                            "parameters": [{"name": "blocks[1].time_constant", "values": [0.1]}]})
+    study = SweepStudy(spec)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning for the chain's own step
+        study.check()
+    assert study.plan.signal_spec["baseline"] == 1500 and study.plan.signal_spec["amplitude"] == 1900
+    res = run_sweep(spec, backend="inprocess")
+    assert res.table["steady_thrust"].iloc[0] > 0  # full forward, not the ESC's full reverse
+    mcl = SweepStudy(sweep_from_dict({"target": {"kind": "thruster_step"},
+                                      "parameters": [{"name": "voltage", "values": [12]}]}))
+    mcl.check()
+    assert mcl.plan.signal_spec["amplitude"] == 24.0  # a voltage input: 0 → 24 V as before
+
+
+def test_sweep_signal_outside_the_escs_range_warns_as_thruster_simulate():
+    from uuvid.core.checks import InputWarning
+    from uuvid.uncertainty.sweep import SweepStudy
+
+    spec = sweep_from_dict({"target": {**T200, "signal": {"kind": "step", "amplitude": 24.0}},
+                            "parameters": [{"name": "blocks[1].time_constant", "values": [0.1]}]})
+    with pytest.warns(InputWarning, match=r"target\.signal: .*outside 800–2200 µs.*24 µs"):
+        SweepStudy(spec).check()
+    spec = sweep_from_dict({"target": T200, "parameters": [{"name": "command",
+                                                             "values": [1600, 24]}]})
+    with pytest.warns(InputWarning, match=r"e\.g\. 24 µs"):
+        SweepStudy(spec).check()
+
+
+def test_sweep_cli_shows_the_signal_warning(tmp_path):
+    f = tmp_path / "t.yaml"
+    f.write_text("target: {kind: thruster_step, chain: t200, t_end: 0.05, dt: 0.001,\n"
+                 "         signal: {kind: step, amplitude: 24.0}}\n"
+                 "parameters: [{name: 'blocks[1].time_constant', values: [0.1]}]\n")
+    from uuvid.core.checks import InputWarning
+
+    with pytest.warns(InputWarning):
+        res = runner.invoke(app, ["sweep", str(f), "--out", str(tmp_path / "o"), "--backend",
+                                  "inprocess", "--json"])
+    assert res.exit_code == 0, res.output
+    import json
+
+    doc = json.loads(res.stdout)
+    assert any("24 µs" in w for w in doc["warnings"])

@@ -373,6 +373,17 @@ class SweepStudy(StudyBase):
         if self.spec.requirement and self.spec.requirement.metric not in plan.metric_names:
             raise PR.ParameterNameError(f"requirement: unknown metric "
                                         f"{self.spec.requirement.metric!r}")
+        if hasattr(plan, "input_warnings"):  # said before the runs, as thruster simulate does
+            import warnings
+
+            from uuvid.core.checks import InputWarning
+
+            given = {}
+            for _loc, name, vals, unit in _given_values(self.spec):
+                given.setdefault(name, []).extend(PR.to_si(v, unit, name) for v in vals)
+            self.warnings = plan.input_warnings(given)
+            for w in self.warnings:
+                warnings.warn(f"target.signal: {w}", InputWarning, stacklevel=2)
 
     # the memory and disk refusals (StudyBase.check_memory/check_disk) name the sweep's own keys
     @property
@@ -461,6 +472,8 @@ class SweepStudy(StudyBase):
                                          "mean": float(x.mean()), "unit": metric_unit(m)}
         if self.spec.requirement and len(table):
             out["requirement"] = probability_summary(table, self.spec.requirement)
+        if getattr(self, "warnings", None):
+            out["warnings"] = [f"target.signal: {w}" for w in self.warnings]
         return out
 
 

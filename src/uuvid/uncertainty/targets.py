@@ -54,7 +54,9 @@ class ThrusterStepTarget(BaseModel):
     kind: Literal["thruster_step"] = "thruster_step"
     chain: str = "auv2-tunnel"
     preset_kwargs: dict[str, Any] = Field(default_factory=dict)
-    signal: dict[str, Any] = Field(default_factory=lambda: {"kind": "step", "amplitude": 24.0})
+    #: default: the chain's own step, as ``thruster simulate`` takes (neutral → full forward µs
+    #: for a PWM ESC, 0 → 24 V for a voltage input; :func:`uuvid.simulate.signals.default_step`)
+    signal: dict[str, Any] | None = None
     t_end: float = Field(1.333, gt=0)
     dt: float = Field(1e-3, gt=0)
     substeps: int = Field(4, ge=1, le=1000)
@@ -210,7 +212,14 @@ class ThrusterStepPlan:
             self.base = self.factory(**target.preset_kwargs)
         except ParameterError as e:
             raise ValueError(f"target.preset_kwargs{'.' + e.param if e.param else ''}: {e}") from None
-        self.signal_spec = dict(target.signal)
+        if target.signal is None:  # a 24 V step was a 24 µs command (full reverse) to an ESC
+            from uuvid.simulate.signals import default_step
+
+            d = default_step(self.base)
+            self.signal_spec = {"kind": "step", "amplitude": d.amplitude, "t0": d.t0,
+                                "baseline": d.baseline}
+        else:
+            self.signal_spec = dict(target.signal)
         self.base_signal = signal_from_spec(self.signal_spec)
         self.kind_of: dict[str, tuple[str, str]] = {}
         for n in names:
@@ -248,6 +257,35 @@ class ThrusterStepPlan:
         self.metric_names = list(STEP_METRICS)
         self._chains: dict = {}
         self._signals: dict = {}
+
+    def input_warnings(self, values: dict[str, list]) -> list[str]:
+        """What ``thruster simulate`` warns of the input (a command outside the pulse widths an
+        ESC takes, a voltage no small thruster runs on), for the base signal and every swept
+        signal value (``values``: parameter name → its values)."""
+        from uuvid.simulate.signals import signal_from_spec
+        from uuvid.thruster.blocks import ESC
+        from uuvid.thruster.chain import command_range_warnings, voltage_range_warnings
+
+        t = np.linspace(0.0, float(self.t[-1]), 1001)
+        specs = [self.signal_spec]
+        for n, vals in values.items():
+            kind, key = self.kind_of.get(n, ("", ""))
+            if kind == "signal":
+                specs += [{**self.signal_spec, key: v} for v in vals]
+        u = []
+        for spec in specs:
+            try:
+                u.append(np.asarray(signal_from_spec(spec)(t), float))
+            except Exception:  # noqa: BLE001 - the run says what is wrong with its signal
+                continue
+        if not u:
+            return []
+        u = np.concatenate(u)
+        esc = next((b for b in self.base.blocks if isinstance(b, ESC)), None)
+        out = voltage_range_warnings(u, self.base)
+        if esc is not None:
+            out += command_range_warnings(u, esc, self.base.channel_units().get("command", ""))
+        return out
 
     def _factory_kwargs(self, inspect) -> set[str] | None:
         from uuvid.thruster import presets
@@ -367,6 +405,7 @@ class ThrusterStepPlan:
 
     def info(self) -> dict:
         return {"chain": self.base.name, "signals": list(self.base.signal_kinds),
+                "input": self.base_signal.describe(),
                 "parameters_of_base": self.base.compile().params.size,
                 "output_metric_of": "measured_thrust" if self.use_meas else "thrust",
                 "simulator": "uuvid.uncertainty._kernels.step_metrics_batch (chain RK4)"}
