@@ -123,3 +123,21 @@ def test_sweep_cli_shows_the_signal_warning(tmp_path):
 
     doc = json.loads(res.stdout)
     assert any("24 µs" in w for w in doc["warnings"])
+
+
+def test_montecarlo_says_a_thruster_model_file_is_not_an_uncertain_model(tmp_path):
+    from uuvid.thruster.modelfile import save_chain
+    from uuvid.thruster.presets import PRESETS
+
+    f = save_chain(PRESETS["t200"](), tmp_path / "o.yaml")
+    res = runner.invoke(app, ["montecarlo", str(f), "--runs", "5"])
+    assert res.exit_code == 2, res.output
+    out = " ".join(res.output.split())
+    assert "this is a thruster model file (uuvid thruster fit --out-model" in out
+    assert "uuvid-uncertain-model/1" in out and "kind: thruster_chain" in out
+    assert "unknown key" not in out and "kind: missing" not in out
+    s = tmp_path / "s.yaml"
+    s.write_text("format: uuvid-sweep/1\ntarget: {kind: thruster_step}\n"
+                 "parameters: [{name: voltage, values: [1]}]\n")
+    res = runner.invoke(app, ["montecarlo", str(s), "--runs", "5"])
+    assert res.exit_code == 2 and "this is a sweep file" in " ".join(res.output.split())

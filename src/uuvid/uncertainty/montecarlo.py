@@ -234,6 +234,9 @@ def model_from_dict(raw: Any, where: str = "<model>", base_dir: Path | None = No
         raise ModelError(f"{where}: expected a mapping")
     if "format" not in raw and isinstance(raw.get("parameters"), dict):
         raw = _from_fit_summary(raw, where)
+    other = _other_file(raw, where)
+    if other:
+        raise ModelError(other)
     try:
         m = UncertainModel.model_validate(raw)
     except ValidationError as e:
@@ -253,6 +256,37 @@ def model_from_dict(raw: Any, where: str = "<model>", base_dir: Path | None = No
                 b[key] = str((base_dir / v).resolve())
         m = m.model_copy(update={"base": b})
     return m
+
+
+#: What ``uuvid montecarlo`` reads (said when it is given another kind of uuvid file).
+TAKES = ("montecarlo takes an uncertain-model file (format: uuvid-uncertain-model/1: kind, base, "
+         "parameters with estimate and sigma or a covariance), the summary.json of `uuvid thruster "
+         f"fit --model physical`, or a built-in model ({', '.join(BUILTIN_MODELS)})")
+
+
+def _other_file(raw: dict, where: str) -> str | None:
+    """The message for another kind of uuvid file (a thruster model, a vehicle, a scenario, a
+    sweep), naming what it is and what Monte Carlo takes; ``None`` for a model document."""
+    from uuvid.thruster.modelfile import KIND_KEYS
+
+    fmt = raw.get("format")
+    if isinstance(fmt, str) and fmt.startswith("uuvid-sweep/"):
+        return f"{where}: this is a sweep file (format: {fmt}): run it with `uuvid sweep`; {TAKES}"
+    if fmt is not None or "kind" in raw or "base" in raw:
+        return None
+    for kind, keys in KIND_KEYS.items():
+        hit = [k for k in keys if k in raw]
+        if not hit:
+            continue
+        if kind == "a thruster model file":
+            chain = Path(where).name
+            return (f"{where}: this is a thruster model file (uuvid thruster fit --out-model; it has "
+                    f"{', '.join(hit)}): estimates without their uncertainty. {TAKES}. To propagate "
+                    f"this model's uncertainty write an uncertain-model file: kind: thruster_chain, "
+                    f"base: {{chain: {chain}}}, parameters: [{{name: 'blocks[0].<field>', estimate: "
+                    f"..., sigma: ...}}] (σ from the fit's summary.json)")
+        return f"{where}: this is {kind} (it has {', '.join(hit)}); {TAKES}"
+    return None
 
 
 def _from_fit_summary(raw: dict, where: str) -> dict:
