@@ -63,6 +63,17 @@ def test_version():
     assert res.stdout.strip() == f"uuvid {__version__}"
 
 
+def test_python_dash_m_runs_the_same_command_line():
+    """``python -m uuvid`` (no console script on PATH, a notebook's ``!python -m``) is the CLI."""
+    import subprocess
+    import sys
+
+    res = subprocess.run([sys.executable, "-m", "uuvid", "--version"], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == f"uuvid {__version__}"
+
+
 def test_console_tables_wrap_instead_of_cutting():
     import io
 

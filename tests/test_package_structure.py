@@ -28,7 +28,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("uuvid.uncertainty",),
     ("uuvid.papers", "uuvid.examples"),
     ("uuvid.demo",),
-    ("uuvid.cli",),
+    ("uuvid.cli", "uuvid.__main__"),
 ]
 
 #: Rooms inside one layer that must not import each other (each may use the layer's shared modules).
