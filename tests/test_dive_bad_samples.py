@@ -67,6 +67,31 @@ def test_a_depth_spike_is_named_left_out_and_the_fit_kept(pwm6, clean, tmp_path,
     assert any("depth_m sample(s) jump" in w for w in res.warnings)
 
 
+def test_a_run_of_impossible_depths_that_comes_back_is_left_out(pwm6, clean, tmp_path):
+    """10 neighbouring depth samples set to 50 m (3 s of a dive at a few metres) left and came
+    back faster than any ROV moves, but were more than SPIKE_MAX_SAMPLES: taken as a level change
+    and fitted (heave mass 2.2e7 ± inf, the diagnosis blaming motor directions)."""
+    df = pwm6.copy()
+    idx = df.index[df["depth_m"].notna()]
+    run = idx[len(idx) // 3:len(idx) // 3 + 10]
+    df.loc[run, "depth_m"] = 50.0
+    p = tmp_path / "spikes.csv"
+    df.to_csv(p, index=False)
+    dc = read_dive_channels(p, "bluerov2")
+    said = [w for w in dc.warnings if "10 depth_m sample(s) jump" in w]
+    assert len(said) == 1, dc.warnings
+    first, last = run[0], run[-1]
+    assert f"50 m at t = {df.loc[first, 't_s']:.6g} s (row {first + 2})" in said[0]
+    assert f"the last 50 m at t = {df.loc[last, 't_s']:.6g} s (row {last + 2})" in said[0]
+    assert "spikes.csv" in said[0] and "left out" in said[0]
+    assert dc.channels["depth_m"][0].size == idx.size - 10
+    assert dc.channels["depth_m"][1].max() < 40.0
+    res = identify_dive(p, "bluerov2", ["heave"])
+    e, c = res.estimates["heave"], clean.estimates["heave"]
+    assert not e.unusable
+    assert e.values["mass"] == pytest.approx(c.values["mass"], rel=0.05)
+
+
 def test_the_clean_dive_has_no_spike_said(pwm6):
     dc = read_dive_channels(pwm6, "bluerov2")
     assert not any("jump" in w for w in dc.warnings)

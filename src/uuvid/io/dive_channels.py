@@ -462,6 +462,26 @@ DEPTH_JUMP_MIN_M = 0.05
 #: re-zeroed), not a glitch: not left out by the spike test
 SPIKE_MAX_SAMPLES = 5
 SPIKE_MAX_S = 2.0
+#: ... unless it comes back: a departure that both leaves and returns faster than
+#: :data:`DEPTH_RATE_MAX_MPS` between neighbouring samples, back in line with the depth before it,
+#: within this many seconds is a glitch of any length (10 samples at 50 m over 3 s in a dive at
+#: 5 m were kept as a level change and fitted: heave mass 2.2e7 ± inf)
+SPIKE_RETURN_S = 60.0
+
+
+def _comes_back(t, d, g: int, start: int, tol) -> int | None:
+    """The first sample after ``start`` (within :data:`SPIKE_RETURN_S`) that steps from its
+    neighbour back towards the good sample ``g`` faster than :data:`DEPTH_RATE_MAX_MPS` (plus
+    ``tol``) and lands in line with it: the end of a departure no vehicle makes; ``None``."""
+    away = np.sign(d[start] - d[g])
+    for j in range(start + 1, t.size):
+        if abs(t[j] - t[start]) > SPIKE_RETURN_S:
+            break
+        step = d[j] - d[j - 1]
+        if abs(step) > DEPTH_RATE_MAX_MPS * abs(t[j] - t[j - 1]) + tol and np.sign(step) == -away \
+                and abs(d[j] - d[g]) <= DEPTH_RATE_MAX_MPS * abs(t[j] - t[g]) + tol:
+            return j
+    return None
 
 
 def _jump_pass(t, d, tol) -> np.ndarray:
@@ -483,6 +503,11 @@ def _jump_pass(t, d, tol) -> np.ndarray:
         elif not run or jump(i, run[-1]):  # in line with the last good sample: back from a spike
             bad[run] = True
             g, run, i = i, [], i + 1
+            continue
+        back = _comes_back(t, d, g, run[0], tol) if run else None
+        if back is not None:  # a long departure that returns at an impossible rate: a glitch
+            bad[run[0]:back] = True
+            g, run, i = back, [], back + 1
             continue
         g, i, run = run[0], run[0] + 1, []  # a departure that stays: a new level from its start
     if run and (len(run) <= SPIKE_MAX_SAMPLES or abs(t[run[-1]] - t[run[0]]) <= SPIKE_MAX_S):
@@ -524,7 +549,7 @@ def _drop_depth_spikes(chans: dict, name: str, warnings: list, left_out: dict,
         row = (f" (row {int(np.searchsorted(rows, t[i])) + 2})" if rows is not None else "")
         return f"{d[i]:.6g} m at t = {t[i]:.6g} s{row}"
 
-    more = f" and {k.size - 3} more" if k.size > 3 else ""
+    more = f" and {k.size - 3} more, the last {at(k[-1])}" if k.size > 3 else ""
     warnings.append(f"{name}: {k.size} depth_m sample(s) jump away from their neighbours faster "
                     f"than {DEPTH_RATE_MAX_MPS:g} m/s (beyond {tol:.3g} m of noise) and come "
                     f"back: {', '.join(at(i) for i in k[:3])}{more} — a sensor or logging "
