@@ -118,6 +118,20 @@ def test_unreadable_files_are_errors_naming_the_file(tmp_path, content, expected
         read_dive_channels(tmp_path / "dir.csv", "bluerov2")
 
 
+def test_a_semicolon_csv_with_decimal_commas_gets_the_semicolon_message(tmp_path):
+    """Rows of "0,03;;-2,6;…" split into more fields than the header's one: pandas' "ParserError:
+    Error tokenizing data. C error: Expected 5 fields in line 14, saw 14" was shown."""
+    p = tmp_path / "dc.csv"
+    p.write_text("t_s;depth_m;yaw_rad;mode;armed\n0,03;;-2,6;MANUAL;False\n"
+                 + "".join(f"{i},5;1,{i};0,{i};MANUAL;True\n" for i in range(1, 20)))
+    with pytest.raises(DiveDataError) as e:
+        read_dive_channels(p, "bluerov2")
+    msg = str(e.value)
+    assert msg.startswith("dc.csv: the columns are separated by ';'"), msg
+    assert "decimal commas" in msg and "row 2, column t_s ('0,03')" in msg
+    assert "'.' as the decimal point" in msg and "ParserError" not in msg
+
+
 def test_a_known_column_with_other_case_or_spaces_is_read_and_said():
     df = _table().rename(columns={"depth_m": "Depth_m ", "pwm_3": "PWM_3"})
     dc = _read(df)

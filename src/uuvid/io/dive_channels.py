@@ -790,14 +790,43 @@ def _numeric_column(df, c, name: str) -> np.ndarray:
     return v
 
 
+def _semicolon_message(name: str, decimal_comma: str | None = None) -> str:
+    """A semicolon CSV refused; ``decimal_comma``: where its numbers have decimal commas."""
+    return (f"{name}: the columns are separated by ';' (a semicolon CSV, often with decimal "
+            "commas" + (f"; this one has them: {decimal_comma}" if decimal_comma else "") + "); expected "
+            "',' between columns and '.' as the decimal point: re-save the file as such")
+
+
+def _refuse_semicolons(p: Path) -> None:
+    """A CSV pandas cannot split whose header holds ';' (a semicolon CSV with decimal commas:
+    its header one column, its rows "0,03;…;-2,6" several): the semicolon message, with the first
+    decimal comma's row and column, instead of pandas' "Expected 5 fields in line 14, saw 14"."""
+    import re
+
+    with open(p, encoding="utf-8", errors="replace") as f:
+        lines = [f.readline() for _ in range(200)]
+    head = lines[0].rstrip("\r\n").split(";")
+    if len(head) < 2:
+        return
+    where = None
+    for r, line in enumerate(lines[1:], start=2):
+        for c, cell in enumerate(line.rstrip("\r\n").split(";")):
+            if re.fullmatch(r"\s*[-+]?\d*,\d+\s*", cell):
+                col = head[c] if c < len(head) else f"field {c + 1}"
+                where = f"row {r}, column {col.strip()} ({cell.strip()!r})"
+                break
+        if where:
+            break
+    raise DiveDataError(_semicolon_message(p.name, where))
+
+
 def _canonical_names(df, name: str, warnings: list):
     """Columns that are a known one but for case or surrounding spaces ('Depth_m ') are read as
     it, and said; a file of one column whose header holds ';' is refused (a semicolon CSV)."""
     cols = [str(c) for c in df.columns]
     if len(cols) == 1 and ";" in cols[0]:
-        raise DiveDataError(f"{name}: the columns are separated by ';' (a semicolon CSV, often "
-                            "with decimal commas); expected ',' between columns and '.' as the "
-                            "decimal point: re-save the file as such")
+        raise DiveDataError(_semicolon_message(name))
+
     known = {k.lower(): k for k in (*TABLE_CHANNELS, "t_s", "armed", "mode")}
     ren = {}
     for c in cols:
@@ -1268,6 +1297,8 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         try:
             df = pd.read_csv(p)
         except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as e:
+            if isinstance(e, pd.errors.ParserError):
+                _refuse_semicolons(p)
             why = (_not_utf8(p) if isinstance(e, UnicodeDecodeError)
                    else f"{type(e).__name__}: {str(e).splitlines()[0][:160]}")
             raise DiveDataError(f"{p.name}: not a readable CSV table ({why}); expected "
