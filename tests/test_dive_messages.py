@@ -90,6 +90,17 @@ def test_a_time_given_as_text_from_python_names_the_parameter(fn, kw):
         fn(_table(), "bluerov2", ["heave"], **kw)
 
 
+@pytest.mark.parametrize("fn", [identify_dive, replay_dive])
+@pytest.mark.parametrize("vehicle", [None, 3])
+def test_a_missing_vehicle_from_python_names_the_argument(fn, vehicle):
+    """`identify_dive(log, None)` raised a bare "expected str, bytes or os.PathLike object, not
+    NoneType" from deep in the vehicle loader."""
+    with pytest.raises(TypeError, match=rf"^{fn.__name__}: vehicle = {vehicle!r}: expected the base "
+                                        r"vehicle, a preset name \(e\.g\. 'bluerov2'\), a vehicle "
+                                        rf"file's path or a Vehicle, got {type(vehicle).__name__}$"):
+        fn(_table(), vehicle, ["heave"])
+
+
 def _forces(dc) -> np.ndarray:
     return np.vstack([dc.channels[c][1] for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")])
 

@@ -505,11 +505,10 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     :func:`~uuvid.io.dive_channels.read_dive_channels` (ArduSub parameters; a ROS bag's topics).
     """
     from uuvid.core.checks import seconds_or_none, time_window
-    from uuvid.vehicle.definition import load_vehicle
 
     seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon)
     time_window(t_start, t_end, horizon, error=DiveDataError)
-    veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
+    veh = base_vehicle(vehicle, "replay_dive")
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
                                     topics=topics, t_start=t_start, t_end=t_end)
     if not dc.armed:
@@ -584,6 +583,24 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
                                                                        for n in why) else ""))
     return DiveReplay(dc.name, _vehicle_label(veh), hz, chans, traces, notes, t_start, t_end,
                       list(dc.warnings))
+
+
+def base_vehicle(vehicle, func: str):
+    """The base vehicle of :func:`replay_dive`/``identify_dive`` (``func``): a
+    :class:`~uuvid.vehicle.definition.Vehicle` as given, a preset name or a vehicle file loaded;
+    anything else (``None``) a ``TypeError`` naming the argument (it was "expected str, bytes or
+    os.PathLike object, not NoneType")."""
+    import os
+
+    if hasattr(vehicle, "B"):
+        return vehicle
+    if not isinstance(vehicle, (str, os.PathLike)):
+        raise TypeError(f"{func}: vehicle = {vehicle!r}: expected the base vehicle, a preset name "
+                        "(e.g. 'bluerov2'), a vehicle file's path or a Vehicle, got "
+                        f"{type(vehicle).__name__}")
+    from uuvid.vehicle.definition import load_vehicle
+
+    return load_vehicle(vehicle)
 
 
 def _vehicle_label(veh) -> str:

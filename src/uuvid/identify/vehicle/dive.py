@@ -905,14 +905,14 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     ``k_a C(t) (u, v, r)`` coupling them (:func:`uuvid.vehicle.inflow.horizontal_inflow_matrix`).
     """
     from uuvid.core.checks import seconds_or_none, time_window
-    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.simulate.dive_replay import base_vehicle
 
     t0 = time.perf_counter()
     seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon,
                     held_out_horizon=held_out_horizon)
     time_window(t_start, t_end, horizon, error=DiveDataError)
     time_window(horizon=held_out_horizon, error=DiveDataError)
-    veh = vehicle if hasattr(vehicle, "B") else load_vehicle(vehicle)
+    veh = base_vehicle(vehicle, "identify_dive")
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
                                     topics=topics, t_start=t_start, t_end=t_end)
     if not dc.armed:
