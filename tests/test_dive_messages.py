@@ -101,6 +101,26 @@ def test_a_missing_vehicle_from_python_names_the_argument(fn, vehicle):
         fn(_table(), vehicle, ["heave"])
 
 
+def test_all_dofs_drop_a_stuck_depth_in_replay_as_in_identify():
+    """`--dof all` with a depth at 0 throughout (left out as a stuck sensor): identify dropped
+    heave with a warning and went on, replay stopped with an error; heave named stays an error."""
+    df = _table().assign(depth_m=0.0)
+    res = replay_dive(df, "bluerov2", "all")
+    assert "heading" in res.channels and "depth" not in res.channels
+    said = [w for w in res.warnings if w.startswith("heave not replayed: <table>: no depth_m "
+                                                     "samples left")]
+    assert len(said) == 1 and "left out as a stuck sensor" in said[0], res.warnings
+    assert any("depth_m repeats 0 exactly" in w for w in res.warnings)
+    ident = identify_dive(df, "bluerov2", "all")
+    assert "heave" not in ident.estimates
+    assert any(w.startswith("heave not identified: <table>: no depth_m samples left")
+               for w in ident.warnings)
+    for fn in (replay_dive, identify_dive):
+        with pytest.raises(DiveDataError, match=r"^<table>: no depth_m samples left: 1200 were left "
+                                                r"out as a stuck sensor"):
+            fn(df, "bluerov2", ["heave", "yaw"])
+
+
 def _forces(dc) -> np.ndarray:
     return np.vstack([dc.channels[c][1] for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")])
 

@@ -515,8 +515,10 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         raise DiveDataError(f"{dc.name}: unarmed log: no armed sample, so the thrusters never "
                             "pushed and there is nothing to replay; pass the log of a dive")
     dc.check_span(t_start, t_end)
+    every = _is_all(dofs)
     dofs = _dof_list(dofs, dc)
     notes, chans, traces, hz = [], {}, {}, {}
+    warnings, failed = list(dc.warnings), []
     for dof in dofs:
         H = float(horizon or DEFAULT_HORIZON[dof])
         hz[dof] = H
@@ -548,7 +550,14 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
                               "params": ph.to_dict(), "params_source": src}
                 traces[key] = trs[name]
             continue
-        dc.require(dof)
+        try:
+            dc.require(dof)
+        except DiveDataError as e:
+            if not every:  # a DOF named: it must be replayed
+                raise
+            failed.append(e)  # "all": left out, said, the others replayed (as identify does)
+            warnings.append(f"{dof} not replayed: {e}")
+            continue
         p, src = params_from_vehicle(veh, dof)
         gain = None
         if p.inflow:
@@ -573,6 +582,8 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         chans[name] = {**met, "unit": UNITS[dof], "dof": dof, "horizon": H,
                        "params": p.to_dict(), "params_source": src}
         traces[name] = trace
+    if not chans and failed and len(failed) == len(dofs):
+        raise failed[0]
     if not chans:  # why the armed windows were left out (on deck, at the surface, sparse), as
         # identify says it: "no armed window" alone hid a log armed for 16 s on deck
         why = [n for n in notes if "left out" in n]
@@ -582,7 +593,14 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
                             + (", or pass a dive in the water" if any("deck" in n or "surface" in n
                                                                        for n in why) else ""))
     return DiveReplay(dc.name, _vehicle_label(veh), hz, chans, traces, notes, t_start, t_end,
-                      list(dc.warnings))
+                      warnings)
+
+
+def _is_all(dofs) -> bool:
+    """``dofs`` asks for every DOF the log has channels for (``"all"``, ``None``, ``["all"]``; a
+    generator is not read here: :func:`_dof_list` reads it)."""
+    return dofs is None or (isinstance(dofs, str) and dofs == "all") or \
+        (isinstance(dofs, (list, tuple)) and list(dofs) == ["all"])
 
 
 def base_vehicle(vehicle, func: str):

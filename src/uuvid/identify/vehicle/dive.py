@@ -95,6 +95,7 @@ from uuvid.simulate.dive_replay import (
     OneDofParams,
     WindowProblem,
     _dof_list,
+    _is_all,
     dive_windows,
     initial_state,
     params_from_vehicle,
@@ -924,8 +925,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     dc.check_span(t_start, t_end)
     # "all": every DOF the log can inform; one that cannot be identified (too few windows, …)
     # is said in the warnings and the others are returned
-    every = isinstance(dofs, str) and dofs == "all" or dofs is None or \
-        (not isinstance(dofs, str) and list(dofs) == ["all"])
+    every = _is_all(dofs)
     dofs = _dof_list(dofs, dc)
     ests = {}
     flags = _flags(dc, veh, thruster_model)
