@@ -225,6 +225,35 @@ def test_a_force_column_that_never_moves_is_no_thrust_to_identify_from():
         identify_dive(df, "bluerov2", ["heave"], t_start=10.0, t_end=50.0)
 
 
+def test_zero_force_columns_are_said_by_replay_too_and_contradict_driven_pwm(tmp_path):
+    """All six force columns at 0: identify refused ("Z_N stays 0 N"), replay said nothing; with
+    pwm_ columns that show the thrusters driven, neither said the columns contradict them."""
+    zero = _table().assign(**{c: 0.0 for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")})
+    p = tmp_path / "zero.csv"
+    zero.drop(columns=[f"pwm_{j}" for j in range(1, 7)]).to_csv(p, index=False)
+    res = replay_dive(p, "bluerov2", ["heave", "yaw"])
+    said = [w for w in res.warnings if w.startswith("zero.csv: no heave thrust in the replay: Z_N "
+                                                     "stays 0 N over the armed samples in [0, 59.95] s")]
+    assert len(said) == 1 and "pass a dive in which the thrusters drove it" in said[0], res.warnings
+    assert "contradict" not in said[0]
+    assert any(w.startswith("zero.csv: no yaw thrust in the replay: N_Nm stays 0 N·m")
+               for w in res.warnings)
+    zero.to_csv(p, index=False)  # with the servo outputs, driven ±100 µs
+    res = replay_dive(p, "bluerov2", ["heave"])
+    said = [w for w in res.warnings if "no heave thrust in the replay" in w]
+    assert len(said) == 1, res.warnings
+    clash = ("Yet pwm_5, pwm_6, which give Z_N, leave the dead band 1482–1518 µs of t200-physical "
+             "for ")
+    assert clash in said[0] and "the force column Z_N contradicts the PWM" in said[0], said
+    assert "remove the force columns X_N … N_Nm" in said[0]
+    with pytest.raises(DiveDataError) as e:
+        identify_dive(p, "bluerov2", ["heave"])
+    assert str(e.value).startswith("zero.csv: no heave thrust to identify from: Z_N stays 0 N")
+    assert clash in str(e.value) and "the force column Z_N contradicts the PWM" in str(e.value)
+    moving = replay_dive(_table(), "bluerov2", ["heave", "yaw"])  # thrust computed from the PWM
+    assert not any("thrust in the replay" in w for w in moving.warnings)
+
+
 def test_one_output_at_neutral_while_those_sharing_its_dofs_are_driven_is_named():
     """pwm_1 (front right, surge/sway/yaw) at 1500 µs throughout while the other three
     horizontal thrusters were driven: read as 'no thrust' silently (the partner check knew only

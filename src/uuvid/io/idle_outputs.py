@@ -151,12 +151,16 @@ def idle_output_check(pwm: dict, armed: list, veh, name: str, warnings: list, re
     warnings.append(text)
 
 
-def idle_force(dc, forces, B=None, regions=None, t_start=None, t_end=None) -> str | None:
+def idle_force(dc, forces, B=None, regions=None, t_start=None, t_end=None, *,
+               replay: bool = False) -> str | None:
     """Why the dive ``dc`` has no thrust to identify a DOF from — each of ``forces`` (force
     columns, e.g. ``["Z_N"]``) takes one value over the armed samples in ``[t_start, t_end]``
     (spanning no more than :data:`IDLE_FORCE_TOL` or 10⁻⁶ of its size) — or ``None``.  With the
     vehicle's ``B`` and the thruster model's dead band ``regions``, the outputs that give those
-    forces are named with what they held when none of them left the dead band."""
+    forces are named with what they held when none of them left the dead band, or — the
+    table's own force columns at one value while those outputs were driven beyond it — the
+    contradiction is said (zero forces logged for a dive the PWM shows thrust in).  ``replay``:
+    the text says what that means for a replay (the model coasting), not for a fit."""
     said = []
     for c in forces:
         if c not in dc.channels:
@@ -179,6 +183,7 @@ def idle_force(dc, forces, B=None, regions=None, t_start=None, t_end=None) -> st
         return None
     text = f"{_and(said)} over the armed samples in {dc.span_text(t_start, t_end)}"
     keys = _motor_order(dc.pwm) if dc.pwm else []
+    clash = ""  # the table's forces at one value while the PWM shows thrust
     if B is not None and regions is not None and keys and np.shape(B)[1] == len(keys):
         B = np.asarray(B, float)
         rows = [_ROWS[c] for c in forces if c in _ROWS]
@@ -195,8 +200,23 @@ def idle_force(dc, forces, B=None, regions=None, t_start=None, t_end=None) -> st
             text += (f": {_cols(givers)}, every output that gives it, never "
                      f"{'leaves' if len(givers) == 1 else 'leave'} {_dead_band(regions)} while "
                      f"armed{held} — the thrusters sat at neutral")
+        own = [c for c in forces if "computed from" not in str(dc.sources.get(c, ""))]
+        driven = [k for k in givers if stats.get(k, (None, 0.0, 0.0))[2] >= 1.0]
+        if own and driven:  # the table's forces say no thrust, its servo outputs say thrust
+            s = sum(stats[k][2] for k in driven) / len(driven)
+            clash = (f". Yet {_cols(driven)}, which give {_and(own)}, "
+                     f"{'leaves' if len(driven) == 1 else 'leave'} {_dead_band(regions)} for "
+                     f"{s:.3g} s{' on average' if len(driven) > 1 else ''} while armed: the "
+                     f"thrusters were driven, so the force column{'s' if len(own) > 1 else ''} "
+                     f"{_and(own)} contradict{'s' if len(own) == 1 else ''} the PWM (zeros "
+                     "logged where thrust was given?): remove the force columns X_N … N_Nm to "
+                     "have the thrust computed from the pwm_ columns")
+    around = (" (or --t-start/--t-end around such a part)" if t_start is not None
+              or t_end is not None else "")
+    if replay:
+        return (text + ". A replay driven by no force shows the model coasting, not how it "
+                "answers thrust: it tests neither its mass nor its drag; pass a dive in which the "
+                f"thrusters drove it{around}{clash}")
     return (text + ". With no force to scale them by, the inertia (mass with added mass), drag "
             "and bias trade off exactly (σ = ∞): no model can be identified; pass a dive in which "
-            "the thrusters drove it"
-            + (" (or --t-start/--t-end around such a part)" if t_start is not None
-               or t_end is not None else ""))
+            f"the thrusters drove it{around}{clash}")

@@ -523,6 +523,9 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         H = float(horizon or DEFAULT_HORIZON[dof])
         hz[dof] = H
         if dof == "horizontal":
+            idle = _idle_thrust(dc, dof, veh, thruster_model, t_start, t_end)
+            if idle is not None:
+                warnings.append(f"{dc.name}: no horizontal thrust in the replay: {idle}")
             ph, src = horizontal_from_vehicle(veh)
             ka, ka_src = horizontal_inflow_of(veh)
             hgain = None
@@ -558,6 +561,9 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
             failed.append(e)  # "all": left out, said, the others replayed (as identify does)
             warnings.append(f"{dof} not replayed: {e}")
             continue
+        idle = _idle_thrust(dc, dof, veh, thruster_model, t_start, t_end)
+        if idle is not None:  # as identify refuses it (a model coasting, said, still replayed)
+            warnings.append(f"{dc.name}: no {dof} thrust in the replay: {idle}")
         p, src = params_from_vehicle(veh, dof)
         gain = None
         if p.inflow:
@@ -594,6 +600,17 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
                                                                        for n in why) else ""))
     return DiveReplay(dc.name, _vehicle_label(veh), hz, chans, traces, notes, t_start, t_end,
                       warnings)
+
+
+def _idle_thrust(dc, dof, veh, thruster_model, t_start, t_end) -> str | None:
+    """Why ``dof``'s force gives the replay nothing to answer (it stays at one value over the
+    armed samples; :func:`uuvid.io.idle_outputs.idle_force`, identify's check), or ``None``."""
+    from uuvid.io.dive_channels import thrust_regions
+    from uuvid.io.idle_outputs import idle_force
+
+    forces = list(H_FORCES) if dof == "horizontal" else [DIVE_DOFS[dof][1]]
+    regions = thrust_regions(_thrust_model(dc, thruster_model)) if dc.pwm else None
+    return idle_force(dc, forces, veh.B, regions, t_start, t_end, replay=True)
 
 
 def _is_all(dofs) -> bool:
