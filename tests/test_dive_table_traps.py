@@ -715,6 +715,38 @@ def test_columns_under_other_names_are_said_not_dropped_silently():
     assert plain.unread == []
 
 
+def test_a_column_with_a_unit_in_its_name_and_other_columns_are_said_not_read(tmp_path):
+    """``depth [cm]`` (values ×100) and ``temp [C]`` were ignored without a word: identify
+    `--dof all` gave yaw only, exit 0, and said neither that the depth was not read nor that heave
+    was left out (``depth_cm`` did get the "not read" warning)."""
+    from uuvid.identify.vehicle.dive import identify_dive
+    from uuvid.simulate.dive_replay import replay_dive
+
+    df = _table().drop(columns=["u_mps", "v_mps"])
+    df = df.rename(columns={"depth_m": "depth [cm]"}).assign(**{"temp [C]": 20.0, "foo bar": 1})
+    df["depth [cm]"] *= 100.0
+    dc = _read(df, tmp_path, "unit.csv")
+    assert "depth_m" not in dc.channels and dc.unread == ["depth [cm] (depth_m? in m, not cm)"]
+    said = [w for w in dc.warnings if "not read" in w]
+    assert said[0].startswith("unit.csv: column(s) depth [cm] (depth_m? in m, not cm) not read "
+                              "(uuvid reads t_s [s], depth_m [m, down]"), said
+    assert said[1].startswith("unit.csv: column(s) temp [C], foo bar not read: not a channel uuvid "
+                              "uses (uuvid reads t_s [s]"), said
+    assert len(said) == 2
+    same = _read(_table().rename(columns={"depth_m": "Depth (m)", "yaw_rad": "heading [rad]"}))
+    assert same.unread == ["Depth (m) (depth_m?)", "heading [rad] (yaw_rad?)"]
+    left = ("unit.csv: dofs='all' (--dof all) left out heave (no depth_m), surge (no u_mps), sway "
+            "(no v_mps): the log has no such channel; its columns depth [cm] (depth_m? in m, not "
+            "cm) are not read")
+    res = identify_dive(tmp_path / "unit.csv", "bluerov2", "all")
+    assert list(res.estimates) == ["yaw"]
+    assert any(w.startswith(left) for w in res.warnings), res.warnings
+    rep = replay_dive(tmp_path / "unit.csv", "bluerov2", "all")
+    assert any(n.startswith(left) for n in rep.notes), rep.notes
+    named = identify_dive(tmp_path / "unit.csv", "bluerov2", ["yaw"])  # DOFs named: nothing left out
+    assert not any("left out heave" in w for w in named.warnings)
+
+
 def test_a_heading_in_degrees_is_caught_behind_a_long_quiet_stretch():
     """20 minutes disarmed with a still heading, then a dive turning in degrees: the 90th
     percentile rate over the whole log passed; the check now looks at the armed samples."""

@@ -749,10 +749,16 @@ UNREAD_HINT = ("uuvid reads t_s [s], depth_m [m, down], yaw_rad [rad, clockwise 
                "armed, mode: rename them, in those units, to have them used")
 
 
+#: the unit each channel is read in, for a column whose name gives another (``depth [cm]``)
+_CHANNEL_UNIT = {"depth_m": "m", "yaw_rad": "rad", "roll_rad": "rad", "pitch_rad": "rad",
+                 "u_mps": "m/s", "v_mps": "m/s", "battery_V": "V", "pwm_": "µs"}
+
+
 def _unread_columns(cols, read) -> list:
-    """``["heading_deg (yaw_rad?)", …]``: a table's columns whose name means a channel uuvid
-    reads under another name (a heading in degrees, ``servo1``, ``depth``) and that nothing
-    reads; other columns (a temperature, a second clock) are left alone."""
+    """``["heading_deg (yaw_rad?)", "depth [cm] (depth_m? in m, not cm)", …]``: a table's
+    columns whose name means a channel uuvid reads under another name (a heading in degrees,
+    ``servo1``, ``depth``, a unit in brackets) and that nothing reads; the others (a temperature,
+    a second clock) are :func:`_other_columns`."""
     import re
 
     out = []
@@ -760,15 +766,29 @@ def _unread_columns(cols, read) -> list:
         if c in read:
             continue
         k = c.strip().lower()
+        unit = re.fullmatch(r"(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]", k)  # "depth [cm]", "depth (m)"
+        if unit:
+            k = f"{unit.group(1)}_{unit.group(2)}" if unit.group(2) else unit.group(1)
+        k = re.sub(r"\s+", "_", k)
         for pat, target in _SYNONYMS:
             m = re.fullmatch(pat, k)
             if m:
+                want = _CHANNEL_UNIT.get(target)
                 if target == "pwm_":
                     target = f"pwm_{int(m.group(2))}"
                 if target not in read:
-                    out.append(f"{c} ({target}?)")
+                    given = unit.group(2).strip() if unit else ""
+                    hint = (f" in {want}, not {given}" if want and given and given != want.lower()
+                            else "")
+                    out.append(f"{c} ({target}?{hint})")
                 break
     return out
+
+
+def _other_columns(cols, read, unread) -> list:
+    """A table's columns nothing reads and that do not look like a channel (``temp [C]``)."""
+    named = {u.rsplit(" (", 1)[0] for u in unread}
+    return [c for c in map(str, cols) if c not in read and c not in named]
 
 
 def _numeric_column(df, c, name: str) -> np.ndarray:
@@ -1005,10 +1025,16 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     src = {c: f"{name}:{c}" for c in chans}
     for c in (thrust.computed if thrust is not None else ()):
         src[c] = f"{name}: computed from pwm_{thrust.keys[0]}…pwm_{thrust.keys[-1]}"
-    unread = _unread_columns(cols, {c for c in map(str, cols) if c in TABLE_CHANNELS
-                                    or c in (tcol, "armed", "mode") or c.startswith("pwm_")})
+    read = {c for c in map(str, cols) if c in TABLE_CHANNELS or c in (tcol, "armed", "mode")
+            or c.startswith("pwm_")}
+    unread = _unread_columns(cols, read)
     if unread:
         warnings.append(f"{name}: column(s) {', '.join(unread[:8])} not read ({UNREAD_HINT})")
+    other = _other_columns(cols, read, unread)
+    if other:  # said too: a channel under a name uuvid does not know is not read either
+        more = f" and {len(other) - 8} more" if len(other) > 8 else ""
+        warnings.append(f"{name}: column(s) {', '.join(other[:8])}{more} not read: not a channel "
+                        f"uuvid uses ({UNREAD_HINT})")
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out,
                         opposed)
 

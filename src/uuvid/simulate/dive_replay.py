@@ -519,6 +519,8 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     dofs = _dof_list(dofs, dc)
     notes, chans, traces, hz = [], {}, {}, {}
     warnings, failed = list(dc.warnings), []
+    if every and all_left_out(dc):
+        notes.append(all_left_out(dc))
     for dof in dofs:
         H = float(horizon or DEFAULT_HORIZON[dof])
         hz[dof] = H
@@ -611,6 +613,23 @@ def _idle_thrust(dc, dof, veh, thruster_model, t_start, t_end) -> str | None:
     forces = list(H_FORCES) if dof == "horizontal" else [DIVE_DOFS[dof][1]]
     regions = thrust_regions(_thrust_model(dc, thruster_model)) if dc.pwm else None
     return idle_force(dc, forces, veh.B, regions, t_start, t_end, replay=True)
+
+
+def all_left_out(dc) -> str | None:
+    """What ``--dof all`` (``dofs="all"``) leaves out for want of a channel in the log — a DOF
+    without its measured or force channel was skipped without a word (a depth logged as
+    ``depth [cm]`` left heave out silently) — with the table's columns not read that look like
+    one; ``None`` when it leaves none out."""
+    gone = []
+    for d, (meas, force, _) in DIVE_DOFS.items():
+        miss = [c for c in (meas, force) if c not in dc.channels]
+        if miss:
+            gone.append(f"{d} (no {' or '.join(miss)})")
+    if not gone:
+        return None
+    return (f"{dc.name}: dofs='all' (--dof all) left out {', '.join(gone)}: the log has no such "
+            "channel" + (f"; its columns {', '.join(dc.unread[:8])} are not read (renamed they "
+                         "would be)" if dc.unread else ""))
 
 
 def _is_all(dofs) -> bool:

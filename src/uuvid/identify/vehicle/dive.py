@@ -96,6 +96,7 @@ from uuvid.simulate.dive_replay import (
     WindowProblem,
     _dof_list,
     _is_all,
+    all_left_out,
     dive_windows,
     initial_state,
     params_from_vehicle,
@@ -930,6 +931,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     ests = {}
     flags = _flags(dc, veh, thruster_model)
     warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end, flags)
+    if every and all_left_out(dc):
+        warnings.append(all_left_out(dc))
     speeds, ka_starts = _inflow_setup(dc, veh, dofs, inflow, thruster_model, warnings)
     if "horizontal" in dofs and {"surge", "sway", "yaw"} & set(dofs):
         warnings.append("both the coupled horizontal model and 1-DOF "
