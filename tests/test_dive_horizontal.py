@@ -130,11 +130,11 @@ def test_result_surface_report_and_write_back(result, dive, tmp_path):
 @pytest.mark.slow
 def test_bad_input_names_what_is_missing(dive):
     df, _ = dive
-    with pytest.raises(DiveDataError, match="no v_mps samples: --dof horizontal.*sway velocity"):
+    with pytest.raises(DiveDataError, match="no v_mps samples: dofs=horizontal.*sway velocity"):
         identify_dive(df.drop(columns=["v_mps"]), "bluerov2", ["horizontal"])
     with pytest.raises(DiveDataError, match="window too short to identify horizontal"):
         identify_dive(df, "bluerov2", ["horizontal"], t_end=25.0)
-    with pytest.raises(DiveDataError, match=r"--horizon 0.01 s is shorter than 4 samples of "):
+    with pytest.raises(DiveDataError, match=r"horizon=0.01 s is shorter than 4 samples of "):
         identify_dive(df, "bluerov2", ["horizontal"], horizon=0.01)
     dc = read_dive_channels(df.drop(columns=["v_mps"]), "bluerov2")
     from uuvid.simulate.dive_replay import _dof_list
@@ -345,7 +345,7 @@ def test_an_all_empty_column_is_an_empty_channel_not_a_traceback(dive):
     one does (it crashed the reader with an IndexError before)."""
     df, _ = dive
     empty_v = df.assign(v_mps=np.nan)
-    with pytest.raises(DiveDataError, match="no v_mps samples: --dof horizontal"):
+    with pytest.raises(DiveDataError, match="no v_mps samples: dofs=horizontal"):
         identify_dive(empty_v, "bluerov2", ["horizontal"])
     dc = read_dive_channels(df.assign(battery_V=np.nan), "bluerov2")
     assert dc.channels.get("battery_V", (np.zeros(0),))[0].size == 0

@@ -148,7 +148,7 @@ def test_bad_input_gives_clear_errors(dive):
     unarmed = df.assign(armed=False)
     with pytest.raises(DiveDataError, match="unarmed log"):
         identify_dive(unarmed, "bluerov2")
-    with pytest.raises(DiveDataError, match="window too short.*--t-start/--t-end"):
+    with pytest.raises(DiveDataError, match="window too short.*widen t_start/t_end"):
         identify_dive(df, "bluerov2", ["heave"], t_end=30.0)
     # every DOF failing: each one's reason (only heave's was said)
     with pytest.raises(DiveDataError, match=r"no DOF could be identified: heave: window too short"
@@ -284,7 +284,7 @@ def test_a_horizon_shorter_than_four_samples_is_refused_before_any_window(h):
     for call in (lambda: identify_dive(df, "bluerov2", ["yaw"], horizon=h),
                  lambda: identify_dive(df, "bluerov2", ["heave"], horizon=h),
                  lambda: replay_dive(df, "bluerov2", horizon=h)):
-        with pytest.raises(DiveDataError, match=rf"--horizon {h:g} s is shorter than 4 samples of "
+        with pytest.raises(DiveDataError, match=rf"horizon={h:g} s is shorter than 4 samples of "
                                                 r"(yaw_rad|depth_m) \(median step .* s\): .*give at "
                                                 r"least"):
             call()

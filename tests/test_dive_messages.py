@@ -121,6 +121,38 @@ def test_all_dofs_drop_a_stuck_depth_in_replay_as_in_identify():
             fn(df, "bluerov2", ["heave", "yaw"])
 
 
+def test_messages_name_the_argument_for_python_and_the_option_for_the_command(tmp_path):
+    """`identify_dive(t_end=…)`/`replay_dive(horizon=…)` were told "--t-end", "--horizon": the
+    options of a command they did not run."""
+    df = _table()
+    with pytest.raises(DiveDataError, match=r"^<table>: t_start=1e\+06 s is outside the log, whose "
+                                            r"times run from 0 to 59\.95 s"):
+        identify_dive(df, "bluerov2", ["heave"], t_start=1e6)
+    with pytest.raises(DiveDataError, match=r"^t_end=5 s must be after t_start=10 s$"):
+        replay_dive(df, "bluerov2", ["heave"], t_start=10.0, t_end=5.0)
+    with pytest.raises(DiveDataError, match=r"^horizon=-1: expected a window length > 0 s"):
+        replay_dive(df, "bluerov2", ["heave"], horizon=-1.0)
+    with pytest.raises(DiveDataError, match=r"window too short to identify heave: .* widen "
+                                            r"t_start/t_end or pass a longer dive"):
+        identify_dive(df, "bluerov2", ["heave"], t_end=15.0)
+    with pytest.raises(DiveDataError, match=r"no usable armed window .* widen t_start/t_end or "
+                                            r"shorten horizon"):
+        replay_dive(df, "bluerov2", ["heave"], horizon=100.0)
+    p = tmp_path / "d.csv"
+    df.to_csv(p, index=False)
+    for args, said in (
+            (["identify", "dive", "--t-start", "1e6"], "d.csv: --t-start 1e+06 s is outside the log"),
+            (["identify", "dive", "--dof", "heave", "--t-end", "15"], "widen --t-start/--t-end or "
+                                                                       "pass a longer dive"),
+            (["replay", "--dof", "heave", "--horizon", "100"], "widen --t-start/--t-end or shorten "
+                                                               "--horizon")):
+        r = runner.invoke(app, ["vehicle", *args, str(p), "--vehicle", "bluerov2"])
+        text = " ".join(r.output.split())
+        assert r.exit_code == 2 and said in text, text
+    with pytest.raises(DiveDataError, match=r"t_start=1e\+06 s is outside"):  # after a command
+        identify_dive(df, "bluerov2", ["heave"], t_start=1e6)
+
+
 def _forces(dc) -> np.ndarray:
     return np.vstack([dc.channels[c][1] for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")])
 

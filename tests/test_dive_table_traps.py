@@ -735,7 +735,7 @@ def test_a_column_with_a_unit_in_its_name_and_other_columns_are_said_not_read(tm
     assert len(said) == 2
     same = _read(_table().rename(columns={"depth_m": "Depth (m)", "yaw_rad": "heading [rad]"}))
     assert same.unread == ["Depth (m) (depth_m?)", "heading [rad] (yaw_rad?)"]
-    left = ("unit.csv: dofs='all' (--dof all) left out heave (no depth_m), surge (no u_mps), sway "
+    left = ("unit.csv: dofs=all left out heave (no depth_m), surge (no u_mps), sway "
             "(no v_mps): the log has no such channel; its columns depth [cm] (depth_m? in m, not "
             "cm) are not read")
     res = identify_dive(tmp_path / "unit.csv", "bluerov2", "all")
@@ -798,14 +798,14 @@ def test_times_outside_the_log_are_an_error_naming_its_span():
     df = _table()
     df["t_s"] += 1.7e9
     df["armed"] = True
-    with pytest.raises(DiveDataError, match=r"--t-end 180 s is outside the log, whose times run "
+    with pytest.raises(DiveDataError, match=r"t_end=180 s is outside the log, whose times run "
                                             r"from 1700000000 to .*seconds since 1970.*e\.g\. "
                                             r"1700000180"):
         identify_dive(df, "bluerov2", ["heave"], t_end=180.0)
-    with pytest.raises(DiveDataError, match=r"--t-start 180 s is outside the log"):
+    with pytest.raises(DiveDataError, match=r"t_start=180 s is outside the log"):
         replay_dive(df, "bluerov2", ["heave"], t_start=180.0)
     rel = _table().assign(armed=True)
-    with pytest.raises(DiveDataError, match=r"--t-start 500 s is outside the log, whose times run "
+    with pytest.raises(DiveDataError, match=r"t_start=500 s is outside the log, whose times run "
                                             r"from 0 to 59\.95 s: give"):
         identify_dive(rel, "bluerov2", ["heave"], t_start=500.0)
 

@@ -150,14 +150,17 @@ def _run(compute, write, json_out: bool, write_error) -> None:
     doc)`` records their paths in ``doc``), then print the JSON or the summary and what was
     written; bad input and unwritable outputs end in one line, not a traceback."""
     from uuvid.cli.common import _fail, _print_json, err_console, out_console
+    from uuvid.core.checks import as_options
 
     try:
-        res = compute()
+        with as_options():  # the library's messages name --t-end, not t_end
+            res = compute()
         doc = res.to_dict()
     except _errors() as e:
         _fail(str(e).strip("'\""))
     try:
-        write(res, doc)
+        with as_options():
+            write(res, doc)
     except (*_errors(), OSError) as e:  # the result first, then why nothing (more) was written
         if not json_out:
             out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)

@@ -5,6 +5,8 @@ work: ``ValueError`` whose message starts with the parameter's name (``name = va
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 
 def _num(name: str, value) -> float:
@@ -137,19 +139,50 @@ def real(name: str, value, what: str = "a number", *, integer: bool = False):
     return value
 
 
-def time_window(t_start=None, t_end=None, horizon=None, *, error=ValueError) -> None:
+_AS_OPTIONS: ContextVar[bool] = ContextVar("uuvid_messages_name_options", default=False)
+
+
+@contextmanager
+def as_options():
+    """Inside a command: the messages of :func:`arg`/:func:`arg_is` name its options
+    (``--t-end``), as the user typed them; outside, a Python caller's keyword arguments
+    (``t_end``) — ``identify_dive(t_end=30)`` was told to "widen --t-start/--t-end"."""
+    token = _AS_OPTIONS.set(True)
+    try:
+        yield
+    finally:
+        _AS_OPTIONS.reset(token)
+
+
+def arg(name: str, option: str | None = None) -> str:
+    """``--t-end`` inside :func:`as_options` (a command; ``option`` where it is not the name's
+    spelling: ``dofs`` → ``--dof``), ``t_end`` for a Python caller."""
+    return (option or "--" + name.replace("_", "-")) if _AS_OPTIONS.get() else name
+
+
+def arg_is(name: str, value: str, option: str | None = None) -> str:
+    """``--t-end 30`` inside :func:`as_options` (a command), ``t_end=30`` for a Python caller."""
+    return f"{arg(name, option)} {value}" if _AS_OPTIONS.get() else f"{name}={value}"
+
+
+def time_window(t_start=None, t_end=None, horizon=None, *, error=ValueError,
+                named: bool = False) -> None:
     """A log's time bounds and window length as given (``None``: not given): finite times, an
     end after the start, a window > 0 s; ``error`` (a ``ValueError`` type) naming the options
-    ``--t-start``, ``--t-end``, ``--horizon`` as the dive commands spell them."""
-    for name, v in (("--t-start", t_start), ("--t-end", t_end)):
-        if v is not None and not math.isfinite(_num(name, v)):
-            raise error(f"{name} {float(v):g}: expected a finite time in s (leave it out for "
-                        "the log's " + ("start" if name == "--t-start" else "end") + ")")
+    ``--t-start``, ``--t-end``, ``--horizon`` as the dive commands spell them, or with
+    ``named`` as the caller gave them (:func:`arg_is`: ``t_end=`` from Python)."""
+    def say(name: str, v) -> str:
+        return arg_is(name, f"{float(v):g}") if named else f"--{name.replace('_', '-')} {float(v):g}"
+
+    for name, v in (("t_start", t_start), ("t_end", t_end)):
+        if v is not None and not math.isfinite(_num("--" + name.replace("_", "-"), v)):
+            raise error(f"{say(name, v)}: expected a finite time in s (leave it out for "
+                        "the log's " + ("start" if name == "t_start" else "end") + ")")
     if t_start is not None and t_end is not None and float(t_end) <= float(t_start):
-        raise error(f"--t-end {float(t_end):g} s must be after --t-start {float(t_start):g} s")
+        raise error(f"{say('t_end', t_end)} s must be after {say('t_start', t_start)} s")
     if horizon is not None and not (math.isfinite(_num("--horizon", horizon))
                                     and float(horizon) > 0):
-        raise error(f"--horizon {float(horizon):g}: expected a window length > 0 s (leave it "
+        raise error(f"{say('horizon', horizon)}: expected a window length > 0 s (leave it "
                     "out for the default of each DOF)")
 
 

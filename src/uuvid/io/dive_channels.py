@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.core.checks import arg, arg_is
 from uuvid.io.idle_outputs import _inside, _motor_order  # shared with the idle-output check
 from uuvid.io.logs import LogDataError
 from uuvid.io.motor_direction import bag_fix, direction_check, force_sign_check, table_fix
@@ -99,13 +100,13 @@ class DiveChannels:
             a, b = self.t_range
         except ValueError:
             return
-        for opt, v in (("--t-start", t_start), ("--t-end", t_end)):
+        for opt, v in (("t_start", t_start), ("t_end", t_end)):
             if v is None:
                 continue
             epoch = a > 86400.0 and v < a
-            if epoch or (opt == "--t-end" and v <= a) or (opt == "--t-start" and v >= b):
+            if epoch or (opt == "t_end" and v <= a) or (opt == "t_start" and v >= b):
                 raise DiveDataError(
-                    f"{self.name}: {opt} {v:g} s is outside the log, whose times run from "
+                    f"{self.name}: {arg_is(opt, f'{v:g}')} s is outside the log, whose times run from "
                     f"{a:.10g} to {b:.10g} s" + (" (seconds since 1970?)" if a > 1e8 else "")
                     + ": give the log's own times" + (f" (e.g. {a + v:.10g} for {v:g} s after "
                                                       "its start)" if epoch else ""))
@@ -127,7 +128,7 @@ class DiveChannels:
                 what = ((f"only {n} {meas} samples (need at least 4)" if n else
                          f"no {meas} samples") + f": {dof} needs {_SOURCE_HINT[meas]}")
             raise DiveDataError(f"{self.name}: {what}; pass "
-                                + (f"--dof {'|'.join(have)} or " if have else "")
+                                + (f"{arg_is('dofs', '|'.join(have), '--dof')} or " if have else "")
                                 + "a log that has it" + self._unread_text())
         if force not in self.channels or self.channels[force][0].size < 2:
             raise DiveDataError(f"{self.name}: no {force} samples (thruster forces): the log has no "
@@ -290,7 +291,7 @@ def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.nd
                             + (f", and {big.size - 1} more gap(s) over {gap:.3g} s" if big.size > 1
                                else "")
                             + ": a logger pause or two logs joined; no sample spans it, so fit "
-                            "and replay each side on its own (--t-start/--t-end)")
+                            f"and replay each side on its own ({arg('t_start')}/{arg('t_end')})")
     return t
 
 
@@ -708,7 +709,8 @@ def _check_dead_outputs(pwm: dict, armed: list, name: str, warnings: list,
                             "armed and the other outputs are driven"
                             + (f" (and {len(runs) - 1} more stretch(es))" if len(runs) > 1 else "")
                             + ": a dead ESC or a loose connector? its thruster is taken as giving "
-                            "no thrust there; leave that time out (--t-start/--t-end) if it did")
+                            f"no thrust there; leave that time out ({arg('t_start')}/"
+                            f"{arg('t_end')}) if it did")
 
 
 def _check_pwm_cells(v, c: str, name: str) -> None:
@@ -1369,7 +1371,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
                 dive = load_dive(p, vehicle=veh, params=params, thruster_model=thruster_model,
                                  t_start=t_start, t_end=t_end)
                 warnings.append(f"{p.name}: read up to t = {t_end:g} s only (the configuration "
-                                "changes after it): no rows after --t-end, so no held-out part")
+                                f"changes after it): no rows after {arg('t_end')}, so no held-out part")
         tb = dive.table
         t = tb["t_s"].to_numpy(float)
         chans = {}

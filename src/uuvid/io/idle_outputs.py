@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from uuvid.core.checks import arg
+
 #: an output in the dead band for at least this long (s) while armed, and another driven beyond
 #: it for as long, is worth naming (as :data:`uuvid.io.dive_channels.DEAD_OUTPUT_S`)
 IDLE_MIN_S = 5.0
@@ -211,7 +213,7 @@ def idle_force(dc, forces, B=None, regions=None, t_start=None, t_end=None, *,
                      f"{_and(own)} contradict{'s' if len(own) == 1 else ''} the PWM (zeros "
                      "logged where thrust was given?): remove the force columns X_N … N_Nm to "
                      "have the thrust computed from the pwm_ columns")
-    around = (" (or --t-start/--t-end around such a part)" if t_start is not None
+    around = (f" (or {arg('t_start')}/{arg('t_end')} around such a part)" if t_start is not None
               or t_end is not None else "")
     if replay:
         return (text + ". A replay driven by no force shows the model coasting, not how it "

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from uuvid.core.checks import arg, arg_is
 from uuvid.io.dive_channels import DiveDataError
 from uuvid.vehicle.horizontal import HorizontalParams, horizontal_params, horizontal_rhs
 
@@ -64,12 +65,14 @@ def require_horizontal(dc) -> None:
             have = [d for d, m in (("heave", "depth_m"), ("yaw", "yaw_rad"), ("surge", "u_mps"),
                                    ("sway", "v_mps")) if m in dc.channels
                     and dc.channels[m][0].size >= 4]
-            raise DiveDataError(f"{dc.name}: no {c} samples: --dof horizontal (surge, sway and yaw "
+            raise DiveDataError(f"{dc.name}: no {c} samples: "
+                                f"{arg_is('dofs', 'horizontal', '--dof')} (surge, sway and yaw "
                                 f"coupled) needs u_mps, v_mps and yaw_rad, i.e. {_HINT[c]}; pass "
-                                f"--dof {'|'.join(have) or 'heave'} or a log that has it")
+                                f"{arg_is('dofs', '|'.join(have) or 'heave', '--dof')} or a log that has it")
     for f in H_FORCES:
         if f not in dc.channels or dc.channels[f][0].size < 2:
-            raise DiveDataError(f"{dc.name}: no {f} samples (thruster forces): --dof horizontal "
+            raise DiveDataError(f"{dc.name}: no {f} samples (thruster forces): "
+                                f"{arg_is('dofs', 'horizontal', '--dof')} "
                                 "needs X_N, Y_N and N_Nm; pass an ArduSub log with "
                                 "SERVO_OUTPUT_RAW/RCOU or a table with force or pwm_ columns")
 
@@ -140,7 +143,7 @@ def spread_windows(windows: list, notes: list, what: str) -> list:
     idx = np.unique(np.round(np.linspace(0, len(windows) - 1, MAX_FIT_WINDOWS)).astype(int))
     notes.append(f"{len(windows)} usable {what} windows: {idx.size} spread evenly over the dive "
                  "are fitted (the fit's memory grows with the square of the windows); "
-                 "--t-start/--t-end fit a part in full")
+                 f"{arg('t_start')}/{arg('t_end')} fit a part in full")
     return [windows[i] for i in idx]
 
 
@@ -169,7 +172,8 @@ def check_horizon(dc, channels, horizon: float) -> None:
         if not horizon >= floor:
             slow = float(np.median(d)) > SLOWEST_SENSOR_STEP_S
             raise DiveDataError(
-                f"{dc.name}: --horizon {horizon:g} s is shorter than {WINDOW_SAMPLES} samples of "
+                f"{dc.name}: {arg_is('horizon', f'{horizon:g}')} s is shorter than "
+                f"{WINDOW_SAMPLES} samples of "
                 f"{c} (median step {np.median(d):.3g} s): no window could hold the samples it "
                 + (f"needs; a sensor logging every {np.median(d):.3g} s is no dive log: is the "
                    "time in milliseconds? (divide t_s by 1000)" if slow else

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from uuvid.core.checks import arg, arg_is
 from uuvid.core.result import Result
 from uuvid.io.dive_channels import DIVE_DOFS, SURFACE_CUT_M, DiveDataError, read_dive_channels
 from uuvid.simulate.dive_horizontal import (
@@ -507,7 +508,7 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     from uuvid.core.checks import seconds_or_none, time_window
 
     seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon)
-    time_window(t_start, t_end, horizon, error=DiveDataError)
+    time_window(t_start, t_end, horizon, error=DiveDataError, named=True)
     veh = base_vehicle(vehicle, "replay_dive")
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
                                     topics=topics, t_start=t_start, t_end=t_end)
@@ -597,7 +598,7 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
         why = [n for n in notes if "left out" in n]
         raise DiveDataError(f"{dc.name}: no usable armed window of the horizon to replay in the "
                             "range given" + (f" ({'; '.join(why)})" if why else "")
-                            + "; widen --t-start/--t-end or shorten --horizon"
+                            + f"; widen {arg('t_start')}/{arg('t_end')} or shorten {arg('horizon')}"
                             + (", or pass a dive in the water" if any("deck" in n or "surface" in n
                                                                        for n in why) else ""))
     return DiveReplay(dc.name, _vehicle_label(veh), hz, chans, traces, notes, t_start, t_end,
@@ -627,7 +628,7 @@ def all_left_out(dc) -> str | None:
             gone.append(f"{d} (no {' or '.join(miss)})")
     if not gone:
         return None
-    return (f"{dc.name}: dofs='all' (--dof all) left out {', '.join(gone)}: the log has no such "
+    return (f"{dc.name}: {arg_is('dofs', 'all', '--dof')} left out {', '.join(gone)}: the log has no such "
             "channel" + (f"; its columns {', '.join(dc.unread[:8])} are not read (renamed they "
                          "would be)" if dc.unread else ""))
 

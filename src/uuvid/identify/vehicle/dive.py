@@ -64,6 +64,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.core.checks import arg, arg_is
 from uuvid.core.result import Result
 from uuvid.identify.vehicle.output_error import (
     HELD_OUT_WORSE,
@@ -354,7 +355,7 @@ class DiveIdentification(Result):
             raise WritebackError(
                 f"{out}: not written — " + "; ".join(f"{d} is not a model to use ({'; '.join(w)})"
                                                      for d, w in bad.items())
-                + ": resolve the warnings, or identify only the DOFs that are (--dof)")
+                + f": resolve the warnings, or identify only the DOFs that are ({arg('dofs', '--dof')})")
         base = base or self.vehicle_ref
         return write_identified(base, self.identified(), out, log=self.log,
                                 command="uuvid vehicle identify dive")
@@ -556,8 +557,8 @@ def _surge_in_yaw_windows(dc, veh, windows) -> str | None:
     return (f"the pilot surged in {fast} of {len(windows)} yaw windows (a surge force that drives "
             f"{veh.name} at {SURGE_COUPLING_MPS:g}–{top:.2g} m/s): turning while moving couples "
             "sway into yaw, which the 1-DOF yaw model absorbs into its inertia and drag — "
-            "identify yaw from turns without surge (--t-start/--t-end), or with a DVL (u_mps, "
-            "v_mps) the coupled model (--dof horizontal)")
+            f"identify yaw from turns without surge ({arg('t_start')}/{arg('t_end')}), or with "
+            f"a DVL (u_mps, v_mps) the coupled model ({arg_is('dofs', 'horizontal', '--dof')})")
 
 
 #: the measured channels of a DOF, by which a reader's warning is known to bear on it (a stuck
@@ -598,7 +599,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
         raise DiveDataError(
             f"{dc.name}: window too short to identify {dof}: {len(windows)} usable armed window(s) "
             f"of {horizon:g} s in {span} (need at least {need}, i.e. {need * horizon:g} s of "
-            "armed, submerged data); widen --t-start/--t-end or pass a longer dive"
+            f"armed, submerged data); widen {arg('t_start')}/{arg('t_end')} or pass a longer dive"
             + (f" ({'; '.join(notes)})" if notes else ""))
     dc.require_thrust(dof, [DIVE_DOFS[dof][1]], B, flags, t_start, t_end)
     prob = WindowProblem(dc, dof, windows, gain=gain)
@@ -912,7 +913,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     t0 = time.perf_counter()
     seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon,
                     held_out_horizon=held_out_horizon)
-    time_window(t_start, t_end, horizon, error=DiveDataError)
+    time_window(t_start, t_end, horizon, error=DiveDataError, named=True)
     time_window(horizon=held_out_horizon, error=DiveDataError)
     veh = base_vehicle(vehicle, "identify_dive")
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
@@ -922,7 +923,8 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                             "pushed and nothing can be identified; pass the log of a dive (armed "
                             "in the water)")
     if t_start is not None and t_end is not None and t_end <= t_start:
-        raise DiveDataError(f"--t-end {t_end:g} s must be after --t-start {t_start:g} s")
+        raise DiveDataError(f"{arg_is('t_end', f'{t_end:g}')} s must be after "
+                            f"{arg_is('t_start', f'{t_start:g}')} s")
     dc.check_span(t_start, t_end)
     # "all": every DOF the log can inform; one that cannot be identified (too few windows, …)
     # is said in the warnings and the others are returned
@@ -979,7 +981,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                                              gain=gain)
             m_b, tr_b, _ = replay_windows(dc, dof, base, Hh, t_end, gain=gain)
             if m_id is None:
-                notes.append(f"no armed {Hh:g} s window after --t-end {t_end:g} s: no held-out "
+                notes.append(f"no armed {Hh:g} s window after {arg_is('t_end', f'{t_end:g}')} s: no held-out "
                              "score" + (f" ({'; '.join(nt)})" if nt else ""))
             else:
                 ratio = m_b["rms"] / m_id["rms"] if m_id["rms"] > 0 else math.nan

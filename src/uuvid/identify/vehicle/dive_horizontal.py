@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.core.checks import arg, arg_is
 from uuvid.core.threads import small_blas
 from uuvid.identify.vehicle.output_error import (
     HELD_OUT_WORSE,
@@ -351,7 +352,8 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
             f"{dc.name}: window too short to identify horizontal (surge, sway, yaw coupled): "
             f"{len(windows)} usable armed window(s) of {horizon:g} s in {span} (need at least "
             f"{need}, i.e. {need * horizon:g} s with u, v and heading samples); widen "
-            "--t-start/--t-end or pass a longer dive" + (f" ({'; '.join(notes)})" if notes else ""))
+            f"{arg('t_start')}/{arg('t_end')} or pass a longer dive"
+            + (f" ({'; '.join(notes)})" if notes else ""))
     dc.require_thrust("horizontal", H_FORCES, veh.B, flags, t_start, t_end)
     base, base_src = horizontal_from_vehicle(veh)
     names = HORIZONTAL_NAMES + (("inflow",) if gain is not None else ())
@@ -453,7 +455,8 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
         h_b, ht_b, _ = replay_horizontal(dc, base, Hh, t_end, gain=gain if ka_base else None,
                                          inflow=ka_base)
         if h_id is None:
-            notes.append(f"no armed {Hh:g} s window after --t-end {t_end:g} s: no held-out score"
+            notes.append(f"no armed {Hh:g} s window after {arg_is('t_end', f'{t_end:g}')} s: "
+                         "no held-out score"
                          + (f" ({'; '.join(nt)})" if nt else ""))
         else:
             imp = {c: (h_b[c]["rms"] / h_id[c]["rms"] if h_id[c]["rms"] > 0 and
