@@ -153,6 +153,13 @@ def test_messages_name_the_argument_for_python_and_the_option_for_the_command(tm
         identify_dive(df, "bluerov2", ["heave"], t_start=1e6)
 
 
+def test_dofs_given_as_a_generator_are_read_once():
+    """identify_dive read a generator of DOF names to test it for ["all"], then found the list
+    empty ("the DOF list is empty")."""
+    res = identify_dive(_table(), "bluerov2", (d for d in ["yaw"]))
+    assert list(res.estimates) == ["yaw"]
+
+
 def _forces(dc) -> np.ndarray:
     return np.vstack([dc.channels[c][1] for c in ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")])
 
