@@ -107,6 +107,13 @@ class VehicleFileWarning(UserWarning):
 NEUTRAL_FACTOR = 2.0
 
 
+#: A thrust limit beyond this (N) either way is refused on load: no thruster of an underwater
+#: vehicle gives it (a T200 51 N, work-class ROV thrusters a few kN, the largest tunnel thrusters
+#: of ships ~ 100 kN at the surface); ``1e300`` or ``1e9`` standing for "no limit" would otherwise
+#: give speeds of 1e149 m/s and force-times-thrust overflows in the envelope and stability.
+MAX_THRUST_N = 1e5
+
+
 #: A given weight beyond this factor either way of ``m g`` (g = 9.81 m/s²) is a unit slip.
 WEIGHT_FACTOR = 1.5
 #: A thruster, the centre of gravity or of buoyancy further than this from the body origin (m):
@@ -890,6 +897,12 @@ def vehicle_from_dict(raw: Any, where: str = "<vehicle>", base_dir: Path | None 
         lo, hi = t.limits
         if not lo <= 0.0 <= hi:
             err(f"{p}.limits", f"must be [min, max] with min <= 0 <= max, got [{lo}, {hi}]")
+            continue
+        if (big := max(abs(lo), abs(hi))) > MAX_THRUST_N:
+            err(f"{p}.limits", f"{t.name}: [{lo:g}, {hi:g}] N: {big:g} N is beyond what any "
+                f"thruster gives (at most {MAX_THRUST_N:g} N, MAX_THRUST_N; a BlueROV2's T200 "
+                "gives 51 N, work-class ROV thrusters a few kN): expected the thrust limits in "
+                "newtons (a placeholder for 'no limit'? give the thruster's data-sheet thrust)")
             continue
         bad = False
         for m, eta in t.installation.items():
