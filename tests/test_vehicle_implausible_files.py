@@ -1,6 +1,7 @@
 """Vehicle files a new user wrote that load but cannot be flown as written: thrust limits no
 thruster has, no drag in a DOF, a dead or one-way thruster (new-user test, items 5–7)."""
 
+import copy
 import warnings
 
 import pytest
@@ -35,3 +36,45 @@ def test_thrust_limits_of_a_real_thruster_load():
     raw = bluerov2_raw()
     raw["thrusters"][0]["limits"] = [-5e4, 5e4]
     build(raw)  # large, but a thruster can give it
+
+
+def _envelope(raw):
+    from uuvid.vehicle.envelope import speed_envelope
+
+    return speed_envelope(build(raw))
+
+
+def test_a_dead_thruster_is_left_out_of_the_allocation_and_said_on_load():
+    raw = bluerov2_raw()
+    raw["thrusters"][0]["limits"] = [0.0, 0.0]
+    with pytest.warns(UserWarning, match=r"dead\.yaml: thrusters\[0\] \(T1_front_right\): limits "
+                      r"\[0, 0\] N: gives no thrust either way; the allocation leaves it out"):
+        vehicle_from_dict(copy.deepcopy(raw), where="dead.yaml")
+    env = _envelope(raw)
+    for r in env.rows:  # the allocator gives what any thrust combination gives (it was 0 N)
+        assert r.force > 0.0
+        assert r.force_allocator == pytest.approx(r.force, rel=1e-6), r.direction
+        assert r.makes_way, r.direction
+    assert env["forward"].force_allocator == pytest.approx(72.81, abs=0.01)
+
+
+@pytest.mark.parametrize("limits", [[-39.913, 0.0], [0.0, 51.485]])
+def test_a_one_way_thruster_leaves_the_allocator_the_directions_other_mixes_give(limits):
+    raw = bluerov2_raw()
+    raw["thrusters"][0]["limits"] = limits
+    env = _envelope(raw)
+    for r in env.rows:  # uniform scaling of T φ gave 0 in half of these
+        assert r.force_allocator == pytest.approx(r.force, rel=1e-6), r.direction
+        assert r.makes_way, r.direction
+    assert any("T1_front_right" in n and "bounded allocation" in n for n in env.notes)
+
+
+def test_the_allocation_of_a_vehicle_without_dead_thrusters_is_unchanged():
+    import numpy as np
+
+    from uuvid.vehicle.allocation import constrained_allocation_matrix
+
+    v = build(bluerov2_raw())
+    al = v.allocator()
+    T = constrained_allocation_matrix(v.B, al.controlled, None, np.zeros((0, v.layout.n)))
+    assert np.array_equal(al.T, T)

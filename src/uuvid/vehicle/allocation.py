@@ -339,6 +339,11 @@ class Allocator:
             raise ValueError("thrust limits must satisfy min <= 0 <= max for every thruster")
         object.__setattr__(self, "limits", lim)
         C = self.mode.constraint_rows(B) if self.mode is not None else np.zeros((0, n))
+        dead = np.flatnonzero((lim[:, 0] == 0.0) & (lim[:, 1] == 0.0))
+        if dead.size:  # a thruster that gives no thrust either way (limits [0, 0]) is left out
+            # of T: T φ would ask it for thrust it cannot give, and uniform scaling would then
+            # scale every request to 0 (normal vehicles: no such thruster, T as before)
+            C = np.vstack([C, np.eye(n)[dead]])
         object.__setattr__(self, "T", constrained_allocation_matrix(B, controlled, self.weights, C))
         q = np.asarray(DEFAULT_PRIORITY if self.priority is None and m == 6 else
                        (np.ones(m) if self.priority is None else self.priority), dtype=float)

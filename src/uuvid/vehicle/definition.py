@@ -672,6 +672,30 @@ def _one_way_warnings(vehicle: Vehicle) -> list[str]:
     return out
 
 
+def _dead_thruster_warnings(vehicle: Vehicle) -> list[str]:
+    """Thrusters with ``limits: [0, 0]`` (switched off, or a placeholder): they give no thrust,
+    the allocation leaves them out (:class:`~uuvid.vehicle.allocation.Allocator`) and the other
+    thrusters carry their share — said, with the DOFs that are then left without authority."""
+    lim = np.asarray(vehicle.layout.limits, float)
+    dead = [i for i in range(vehicle.layout.n) if lim[i, 0] == 0.0 and lim[i, 1] == 0.0]
+    if not dead:
+        return []
+    live = [i for i in range(vehicle.layout.n) if i not in dead]
+    B = np.asarray(vehicle.B, float)
+    lost = [] if not live else [DOF_NAMES[d] for j, d in
+                                enumerate(vehicle.allocation_dofs)
+                                if any(k == j for k, _ in
+                                       _uncontrollable_dofs(B[:, live], vehicle.allocation_dofs))]
+    names = ", ".join(f"thrusters[{i}] ({vehicle.layout[i].name})" for i in dead)
+    one = len(dead) == 1
+    return [f"{names}: limits [0, 0] N: {'gives' if one else 'give'} no thrust either way; the "
+            f"allocation leaves {'it' if one else 'them'} out and the other thrusters carry "
+            f"{'its' if one else 'their'} share"
+            + (f" — but without it the thrusters cannot hold {', '.join(lost)} (the allocation "
+               "meets those in the least-squares sense)" if lost else "")
+            + "; if it does push, give its data-sheet limits [min, max] in N"]
+
+
 #: A ``weight`` given beside ``mass`` further than this (relative) from ``m g`` (the file's
 #: ``gravity``): one of the two was edited without the other (Earth's g varies by 0.5 %).
 WEIGHT_MASS_RTOL = 0.01
@@ -766,7 +790,8 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
-    msgs += _limit_warnings(vehicle, base_dir) + _one_way_warnings(vehicle)
+    msgs += _limit_warnings(vehicle, base_dir) + _dead_thruster_warnings(vehicle)
+    msgs += _one_way_warnings(vehicle)
     msgs += _coincident_warnings(vehicle) + _axis_warnings(vehicle)
     msgs += _inflow_key_warnings(vehicle, base_dir)
     msgs += _weight_mass_warnings(vehicle) + _battery_warnings(vehicle)

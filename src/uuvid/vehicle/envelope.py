@@ -228,6 +228,14 @@ class Envelope(Result):
         return "\n".join(lines)
 
 
+def one_way_thrusters(lim) -> list[int]:
+    """Thrusters limited to one direction (``[0, max]`` or ``[min, 0]``, not ``[0, 0]``): the
+    allocator's least-effort direction ``T φ`` may need them the other way, so uniform scaling
+    gives nothing there while the bounded allocation (missions' ``priority``) finds another mix."""
+    lim = np.asarray(lim, float)
+    return [int(i) for i in np.flatnonzero((lim[:, 0] == 0.0) ^ (lim[:, 1] == 0.0))]
+
+
 def _forces(alloc, B, lim, d, sign, controlled, ep, en, C) -> tuple[float, float]:
     """``(LP maximum, allocator force)`` along ``sign·e_d`` with thrust limits ``lim`` (n, 2)."""
     F = max_force_lp(B, lim[:, 0], lim[:, 1], d, sign, controlled, ep, en, C)
@@ -237,6 +245,13 @@ def _forces(alloc, B, lim, d, sign, controlled, ep, en, C) -> tuple[float, float
     with np.errstate(divide="ignore", invalid="ignore"):  # Allocator.max_along at these limits
         r = np.where(tau > 0, lim[:, 1] / tau, np.where(tau < 0, lim[:, 0] / tau, np.inf))
     s = float(np.min(r)) if r.size else math.inf
+    if one_way_thrusters(lim):  # T φ may need a thruster the way it cannot push (s = 0): what
+        # the bounded allocation missions fly (priority) delivers along the direction instead
+        import dataclasses
+
+        same = np.array_equal(np.asarray(alloc.limits, float), np.asarray(lim, float))
+        al = alloc if same else dataclasses.replace(alloc, limits=lim)
+        return F, float(al.reach(e))
     if not np.any(tau):  # the allocator does not act on this DOF
         Fa = 0.0
     elif math.isfinite(s):
@@ -315,6 +330,12 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
         notes.append("extrapolated: the fitted propeller map (" + inf_lim.maps[0].ranges_text()
                      + ") is read outside its advance angles — " + "; ".join(beyond)
                      + " — those speeds rest on the series beyond the bench's data")
+    if (one := one_way_thrusters(lim)):
+        notes.append("allocator: thrusters limited to one direction ("
+                     + ", ".join(vehicle.layout[i].name for i in one) + "): the allocator column "
+                     "is what the bounded allocation (priority, as missions fly) delivers; uniform "
+                     "scaling of the least-effort thrusts (allocation scale) can give less, or "
+                     "nothing in a direction that needs them the other way")
     unc = [DOF_NAMES[i] for i in range(6) if i not in controlled]
     if unc:
         notes.append(f"not controlled (left free): {', '.join(unc)}")
