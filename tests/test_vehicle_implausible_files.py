@@ -78,3 +78,48 @@ def test_the_allocation_of_a_vehicle_without_dead_thrusters_is_unchanged():
     al = v.allocator()
     T = constrained_allocation_matrix(v.B, al.controlled, None, np.zeros((0, v.layout.n)))
     assert np.array_equal(al.T, T)
+
+
+def _no_drag_raw():
+    raw = bluerov2_raw()
+    raw["hydrodynamics"]["linear_damping"] = [0.0] * 6
+    raw["hydrodynamics"]["quadratic_damping"] = [0.0] * 6
+    return raw
+
+
+def test_a_dof_without_drag_is_said_on_load():
+    import re
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        vehicle_from_dict(_no_drag_raw(), where="zero_damp.yaml")
+    said = [str(w.message) for w in caught]
+    assert any(re.search(r"zero_damp\.yaml: hydrodynamics: no drag in surge, sway, heave, yaw "
+                         r"\(linear_damping and quadratic_damping both 0 there\): the steady speed "
+                         r"is unbounded.*expected positive damping", m) for m in said), said
+    assert any("no drag in roll, pitch" in m for m in said), said
+
+
+def test_without_drag_the_envelope_says_unbounded_not_inf_nor_the_other_way():
+    from uuvid.analysis.envelope_check import confirm_envelope
+
+    v = build(_no_drag_raw())
+    check = confirm_envelope(v, simulate=False)
+    env_rows = {r["direction"]: r for r in check.table_rows(("direction", "speed", "allocator_speed",
+                                                             "limit", "note"))}
+    for direction, r in env_rows.items():
+        if direction.startswith(("roll", "nose")):
+            continue
+        assert r["speed"] == r["allocator_speed"] == "unbounded (no drag)", r
+        assert "inf" not in r["limit"] and "cannot" not in r["limit"], r
+        assert "no drag" in r["limit"] and "damping" in r["note"], r
+    assert not check.warnings()  # no "cannot go backward: goes forward at inf m/s"
+
+
+def test_without_drag_stability_says_why_it_has_no_case():
+    from uuvid.vehicle.stability import static_stability
+
+    res = static_stability(build(_no_drag_raw()))
+    assert not res.cases
+    assert any("no stability case for forward, backward" in n and "no drag" in n
+               for n in res.notes)

@@ -286,6 +286,11 @@ class EnvelopeCheck(Result):
                 if v is None or (isinstance(v, float) and math.isnan(v)):
                     d[c] = "—"
                     continue
+                if isinstance(v, float) and c.endswith("speed") and math.isinf(v) and units:
+                    from uuvid.vehicle.envelope import UNBOUNDED_TEXT
+
+                    d[c] = UNBOUNDED_TEXT  # no drag in the DOF: never "inf m/s"
+                    continue
                 if isinstance(v, float) and c.endswith("speed"):
                     v = r["sign"] * v + 0.0  # along the direction named (+ 0.0: no "-0")
                 if units and isinstance(v, float):
@@ -398,6 +403,16 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
         # the note; never a "stays level to" built on the size of a speed of the wrong sign
         no_way = r.no_way()
         d["makes_way"] = not no_way
+        if math.isinf(ref):  # no drag in this DOF: nothing bounds the speed, nothing to fly to
+            from uuvid.vehicle.envelope import UNBOUNDED_TEXT
+
+            d["confirmed"] = False
+            d["limit"] = f"speed {UNBOUNDED_TEXT}"
+            d["note"] = (f"{UNBOUNDED_TEXT}: the vehicle file gives {r.dof} neither linear nor "
+                         f"quadratic damping, so {r.force_allocator:.4g} {r.force_unit} "
+                         "accelerates it for ever; expected positive damping")
+            rows.append(d)
+            continue
         if r.force_allocator <= 0 or not math.isfinite(ref):
             d["confirmed"] = False
             d["note"] = "the allocator gives no force along this direction"

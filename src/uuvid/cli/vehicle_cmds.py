@@ -333,7 +333,12 @@ def vehicle_stability(
         return
     rows = res.rows()
     cols = list(dict.fromkeys(k for r in rows for k in r))
-    out_console.print(_table(f"{v.name}: static stability (tilt limit {max_tilt:g}°)", rows, cols, "{:.3g}"))
+    if rows:
+        out_console.print(_table(f"{v.name}: static stability (tilt limit {max_tilt:g}°)", rows, cols,
+                                 "{:.3g}"))
+    else:  # never an empty table: the notes below say why no direction was scanned
+        out_console.print(f"{v.name}: no direction to scan for static stability (see the notes)",
+                          highlight=False, soft_wrap=True, markup=False)
     out_console.print(res.summary(), highlight=False, soft_wrap=True, markup=False)
     if out:
         err_console.print(f"wrote {out / 'stability.png'}, {out / 'stability.json'}", markup=False)

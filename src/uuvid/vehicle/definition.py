@@ -672,6 +672,35 @@ def _one_way_warnings(vehicle: Vehicle) -> list[str]:
     return out
 
 
+def no_drag_dofs(params: VehicleParams) -> list[int]:
+    """DOFs with neither linear nor quadratic damping (their diagonal entries both 0)."""
+    dl, dq = _diag(params.linear_damping), _diag(params.quadratic_damping)
+    return [d for d in range(6) if dl[d] == 0.0 and dq[d] == 0.0]
+
+
+def _no_drag_warnings(vehicle: Vehicle) -> list[str]:
+    """A DOF with neither linear nor quadratic damping: nothing bounds its steady speed (surge,
+    sway, heave, yaw) or damps its oscillation about level (roll, pitch) — a placeholder left at
+    0, or damping not identified yet; the envelope says "unbounded (no drag)" there."""
+    none = no_drag_dofs(vehicle.params)
+    if not none:
+        return []
+    out = []
+    moving = [DOF_NAMES[d] for d in none if d not in (3, 4)]
+    if moving:
+        out.append(f"hydrodynamics: no drag in {', '.join(moving)} (linear_damping and "
+                   "quadratic_damping both 0 there): the steady speed is unbounded — any thrust "
+                   "accelerates the vehicle for ever, and the envelope, stability and missions "
+                   "have no top speed to give; expected positive damping (N·s/m and N·s²/m², "
+                   "N·m·s/rad and N·m·s²/rad² for yaw)")
+    tilting = [DOF_NAMES[d] for d in none if d in (3, 4)]
+    if tilting:
+        out.append(f"hydrodynamics: no drag in {', '.join(tilting)} (linear_damping and "
+                   "quadratic_damping both 0 there): an oscillation about level never dies out; "
+                   "expected positive damping (N·m·s/rad, N·m·s²/rad²)")
+    return out
+
+
 def _dead_thruster_warnings(vehicle: Vehicle) -> list[str]:
     """Thrusters with ``limits: [0, 0]`` (switched off, or a placeholder): they give no thrust,
     the allocation leaves them out (:class:`~uuvid.vehicle.allocation.Allocator`) and the other
@@ -790,6 +819,7 @@ def _warn_on_load(vehicle: Vehicle, where: str, base_dir: Path | None) -> None:
     (:func:`uuvid.vehicle.inflow.map_range_warnings`)."""
     msgs = rigid_body_warnings(vehicle.params, vehicle.layout) + _model_warnings(vehicle,
                                                                                  base_dir)
+    msgs += _no_drag_warnings(vehicle)
     msgs += _limit_warnings(vehicle, base_dir) + _dead_thruster_warnings(vehicle)
     msgs += _one_way_warnings(vehicle)
     msgs += _coincident_warnings(vehicle) + _axis_warnings(vehicle)

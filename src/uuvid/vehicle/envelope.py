@@ -214,9 +214,10 @@ class Envelope(Result):
                          f" {'allocator force':>16} {'allocator speed':>16}")]
         for r in self.rows:
             # along the direction named: negative where full command moves the vehicle the other way
-            sp = "—" if math.isnan(r.speed) else f"{r.along:.3g} {r.speed_unit}"
-            spa = "—" if math.isnan(r.speed_allocator) else \
-                f"{r.along_allocator:.3g} {r.speed_unit}"
+            sp = "—" if math.isnan(r.speed) else UNBOUNDED_TEXT if math.isinf(r.speed) else \
+                f"{r.along:.3g} {r.speed_unit}"
+            spa = "—" if math.isnan(r.speed_allocator) else UNBOUNDED_TEXT \
+                if math.isinf(r.speed_allocator) else f"{r.along_allocator:.3g} {r.speed_unit}"
             lines.append(f"{r.dof:<6} {r.direction:<26} {r.force:>8.4g} {r.force_unit:<3} "
                          f"{sp:>14} {r.force_allocator:>10.4g} {r.force_unit:<5} {spa:>16}"
                          + ("" if self.inflow == "none" or math.isnan(r.speed_bollard) else
@@ -261,6 +262,16 @@ def _forces(alloc, B, lim, d, sign, controlled, ep, en, C) -> tuple[float, float
     return F, Fa
 
 
+def _no_drag_speed(force: float) -> float:
+    """The steady speed without drag: unbounded the way the force pushes (±inf; 0 without
+    force) — signed, so a direction is not said to go "the other way at inf m/s"."""
+    return math.copysign(math.inf, force) if force != 0.0 else 0.0
+
+
+#: How an unbounded speed (no drag in the DOF) is shown, never "inf m/s".
+UNBOUNDED_TEXT = "unbounded (no drag)"
+
+
 def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
                    inflow: str | None = None) -> Envelope:
     """Envelope of a :class:`~uuvid.vehicle.definition.Vehicle` (default: its allocation DOFs
@@ -293,9 +304,10 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
                 v = va = math.nan
             else:
                 bias = p.net_weight if d == 2 else 0.0
-                v = steady_speed(kL[d], kQ[d], sign * F + bias) if (kL[d] or kQ[d]) else math.inf
+                v = steady_speed(kL[d], kQ[d], sign * F + bias) if (kL[d] or kQ[d]) else \
+                    _no_drag_speed(sign * F + bias)
                 va = steady_speed(kL[d], kQ[d], sign * Fa + bias) if (kL[d] or kQ[d]) else \
-                    math.inf
+                    _no_drag_speed(sign * Fa + bias)
             vb, vab = v, va
             if inf_lim is not None and d not in (3, 4) and (kL[d] or kQ[d]):
                 def forces_at(s, d=d, sign=sign):
@@ -336,6 +348,10 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
                      "is what the bounded allocation (priority, as missions fly) delivers; uniform "
                      "scaling of the least-effort thrusts (allocation scale) can give less, or "
                      "nothing in a direction that needs them the other way")
+    free_run = [DOF_NAMES[d] for d in wanted if d not in (3, 4) and not (kL[d] or kQ[d])]
+    if free_run:
+        notes.append(f"no drag in {', '.join(free_run)} (linear and quadratic damping 0): the "
+                     f"steady speed there is {UNBOUNDED_TEXT} — give the vehicle's damping")
     unc = [DOF_NAMES[i] for i in range(6) if i not in controlled]
     if unc:
         notes.append(f"not controlled (left free): {', '.join(unc)}")

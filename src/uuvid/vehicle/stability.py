@@ -392,8 +392,11 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
     bgw = {"roll": p.weight * p.r_g[2] - p.buoyancy * p.r_b[2],
            "pitch": p.weight * p.r_g[2] - p.buoyancy * p.r_b[2]}
     cases = []
+    unbounded = []
     for r in env.rows:
         d = dof_index(r.dof)
+        if d <= 2 and math.isinf(r.speed):
+            unbounded.append(r.direction)
         if d > 2 or not math.isfinite(r.speed):
             continue
         # the speed along the direction named: a vehicle that full command moves the other way
@@ -432,6 +435,10 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
              f"(translations and held attitude) take what the balance needs; free: roll/pitch "
              f"angles settle on the righting moment BG·W = W z_G − B z_B = "
              f"{bgw['pitch']:.3g} N·m/rad"]
+    if unbounded:  # said, not an empty table: the file gives no drag in these DOFs
+        notes.append(f"no stability case for {', '.join(unbounded)}: no drag there (linear and "
+                     "quadratic damping 0 in the vehicle file), so the steady speed is unbounded "
+                     "and there is no speed range to scan — give the vehicle's damping")
     if il is not None:
         notes.append(f"inflow {il.model}: envelope speeds and thrust fractions with each "
                      "thruster's limit at its advance speed (the trim angles do not depend on it)")
