@@ -123,3 +123,11 @@ def test_without_drag_stability_says_why_it_has_no_case():
     assert not res.cases
     assert any("no stability case for forward, backward" in n and "no drag" in n
                for n in res.notes)
+
+
+def test_without_drag_a_mission_does_not_say_the_vehicle_stays_level():
+    from uuvid.simulate.reference import cruise_speed
+
+    speed, note = cruise_speed(build(_no_drag_raw()))
+    assert "stays level there" not in note
+    assert "no drag in surge" in note and "not known" in note

@@ -209,6 +209,16 @@ def cruise_speed(vehicle, facing_path: bool = True, current_speed: float = 0.0) 
     dirs = ("forward", "backward") if facing_path else ("forward", "backward", "starboard", "port")
     lim = level_speed_limit(vehicle, dirs)
     cur = float(current_speed)
+    if lim is None and hasattr(vehicle, "params"):
+        from uuvid.vehicle.definition import no_drag_dofs
+
+        free = [("surge", "sway")[d] for d in no_drag_dofs(vehicle.params) if d < (1 if facing_path
+                                                                                    else 2)]
+        if free:  # no drag: stability has no speed range to scan, "stays level" is not known
+            return NOMINAL_SPEED, (f"speed {NOMINAL_SPEED:g} m/s (nominal; whether the vehicle "
+                                   f"stays level is not known: the vehicle file gives no drag in "
+                                   f"{', '.join(free)}, so it has no steady speed and no level-"
+                                   "flight limit — give its damping)")
     if lim is None or LEVEL_MARGIN * lim - cur >= NOMINAL_SPEED:
         return NOMINAL_SPEED, f"speed {NOMINAL_SPEED:g} m/s (nominal; the vehicle stays level there)"
     v = max(round(LEVEL_MARGIN * lim - cur, 2), MIN_SPEED)
