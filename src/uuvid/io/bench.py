@@ -48,6 +48,9 @@ CHANNEL_COLUMNS = {
 #: the column read as the water speed through the propeller when the file has it (also with its
 #: unit in a trailing bracket: ``flow_speed [cm/s]``)
 FLOW_SPEED_COLUMN = "flow_speed"
+#: the headers read as the water speed when no column is named (compared with a trailing unit
+#: bracket stripped, case folded, spaces and hyphens as ``_``: ``flow [kn]``, ``Flow Speed``)
+FLOW_SPEED_NAMES = ("flow_speed", "flow")
 #: readings of the wrong sign below this fraction of the file's largest |reading| are noise (a
 #: dead band's, or a thrust about zero at a small command), never a reversal
 SIGN_NOISE = 0.05
@@ -89,6 +92,17 @@ HEADER_FLOW_UNITS = {
     "kmh^-1": "km/h", "kmh-1": "km/h", "km_per_h": "km/h", "kn": "kn", "kt": "kn", "kts": "kn",
     "knot": "kn", "knots": "kn", "ft/s": "ft/s", "ft/sec": "ft/s", "ft_s": "ft/s", "fps": "ft/s",
     "fts^-1": "ft/s", "fts-1": "ft/s", "ft_per_s": "ft/s"}
+#: The largest pulse width [µs] a command can be: one frame of a 50 Hz servo signal (20 ms).  A
+#: negative command or one above this in a ``pwm_us`` file is no pulse width (row named).
+MAX_PULSE_US = 20_000.0
+#: Readings no bench can produce, refused per row (file, column, row) before any fit: beyond them
+#: a fit overflows (1e300² = inf) and writes a model of nonsense.  In SI: thrust [N] (10 MN, above
+#: the largest ship propeller's ≈ 4 MN bollard thrust), propeller speed [rad/s] (≈ 955 000 rpm, ten
+#: times a dental turbine), water speed [m/s] (five times the fastest cavitation tunnel), and a
+#: command in volts (:data:`uuvid.core.checks.MAX_PLAUSIBLE_VOLTAGE`: no thruster runs on 1 kV).
+MAX_BENCH_THRUST = 1e7
+MAX_BENCH_SPEED = 1e5
+MAX_BENCH_FLOW = 100.0
 #: the neutral command of each command unit
 DEFAULT_NEUTRAL = {"pwm_us": 1500.0, "duty": 0.0, "volts": 0.0}
 #: T200 performance sheets: readings below this speed were set to zero (SOURCE.md)
@@ -406,12 +420,31 @@ def _read_table(path) -> _Table:
     return _read_csv(p)
 
 
-def _find_column(t: _Table, name: str, role: str) -> str:
+def _strip_unit(name: str) -> str:
+    """A header without its unit in a trailing bracket (``t [s]`` → ``t``, ``flow_speed []`` →
+    ``flow_speed``)."""
+    return _ANY_BRACKET.sub("", name.strip()).strip()
+
+
+def _find_column(t: _Table, name: str, role: str, taken: Sequence[str] = ()) -> str:
+    """The column named ``name``: exactly, else by its name with a bracketed unit stripped
+    (``t [s]`` for ``t``), else ignoring case, spacing and µ/u when that is unambiguous: one
+    candidate, ``name`` longer than one letter (``t`` time and ``T`` thrust are different
+    symbols) and not a column given exactly for another channel (``taken``)."""
     if name in t.cells:
         return name
-    matches = [c for c in t.columns if _norm(c) == _norm(name)]
+    matches = [c for c in t.columns if _strip_unit(c) == name.strip()]
     if len(matches) == 1:
         return matches[0]
+    if len(name.strip()) > 1:
+        for key in (_norm, lambda c: _norm(_strip_unit(c))):
+            matches = [c for c in t.columns if key(c) == _norm(name) and c not in taken]
+            if len(matches) == 1:
+                return matches[0]
+            if matches:
+                raise BenchDataError(f"{t.name}: no column {name!r} for the {role}; "
+                                     f"{', '.join(map(repr, matches))} match it ignoring case: "
+                                     "name one exactly")
     hint = ("; this looks like a Blue Robotics T200 sheet: read it with --format t200"
             if _looks_like_t200(t) else "")
     raise BenchDataError(f"{t.name}: no column {name!r} for the {role}; available columns: "
@@ -429,6 +462,7 @@ def _looks_like_t200(t: _Table) -> bool:
 
 
 _UNIT_IN_BRACKETS = re.compile(r"[\[(]([^\[\]()]+)[\])]\s*$")
+_ANY_BRACKET = re.compile(r"\s*[\[(][^\[\]()]*[\])]\s*$")
 
 
 def _unit_key(token: str) -> str:
@@ -611,22 +645,30 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     t = _read_table(path)
     if t.n_rows == 0:
         raise BenchDataError(f"{t.name}: no data rows under the header")
-    ccol = _find_column(t, command_col, "command")
+    # columns given exactly for a channel are no other channel's by a case-insensitive match
+    taken = [c for c in (command_col, thrust_col, speed_col, current_col, voltage_col, time_col,
+                         flow_speed_col) if c is not None and c in t.cells]
+
+    def column(name, role):
+        return _find_column(t, name, role, taken)
+
+    ccol = column(command_col, "command")
     cmd = _numeric(t, ccol, "command", command_unit)
+    _check_command(t, ccol, cmd, command_unit)  # first: a bad command makes every later check lie
     neutral_v = DEFAULT_NEUTRAL[command_unit] if neutral is None else float(neutral)
 
     def opt(col, role, unit=""):
         if col is None:
             return None, None
-        c = _find_column(t, col, role)
+        c = column(col, role)
         return c, _numeric(t, c, role, unit)
 
     notes: list[str] = []
     if thrust_col is not None:
-        thrust_unit = _resolve_unit(t, _find_column(t, thrust_col, "thrust"), "thrust",
+        thrust_unit = _resolve_unit(t, column(thrust_col, "thrust"), "thrust",
                                     thrust_unit, "N", notes)
     if speed_col is not None:
-        speed_unit = _resolve_unit(t, _find_column(t, speed_col, "speed"), "speed", speed_unit,
+        speed_unit = _resolve_unit(t, column(speed_col, "speed"), "speed", speed_unit,
                                    "rad/s", notes)
     thrust_unit = thrust_unit or "N"
     speed_unit = speed_unit or "rad/s"
@@ -636,9 +678,9 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     vcol, volts = opt(voltage_col, "supply voltage", "V")
     tmcol, time = opt(time_col, "time", "s")
     if flow_speed_col == "auto":
-        flow_speed_col = _auto_flow_column(t)
+        flow_speed_col = _auto_flow_column(t, notes)
     if flow_speed_col is not None:
-        flow_speed_unit = _resolve_unit(t, _find_column(t, flow_speed_col, "water speed"),
+        flow_speed_unit = _resolve_unit(t, column(flow_speed_col, "water speed"),
                                         "flow speed", flow_speed_unit, "m/s", notes)
     fcol, flow = opt(flow_speed_col, "water speed through the propeller", flow_speed_unit or "m/s")
 
@@ -665,6 +707,10 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         speed = speed * SPEED_UNITS[speed_unit]
     elif censor_speed_below is not None:
         raise BenchDataError("censor_speed_below needs a speed column (speed_col)")
+    for col, vals, role, unit, bound in ((tcol, thrust, "thrust", "N", MAX_BENCH_THRUST),
+                                         (scol, speed, "propeller speed", "rad/s", MAX_BENCH_SPEED),
+                                         (fcol, flow, "water speed", "m/s", MAX_BENCH_FLOW)):
+        _check_bound(t, col, vals, role, unit, bound)
     if flow is not None and thrust is not None:
         _check_thrust_in_flow(t, tcol, fcol, cmd - neutral_v, thrust, flow, ~censored,
                               time is not None)
@@ -694,13 +740,67 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                      flow_speed=flow, flow_speed_column=fcol, notes=tuple(notes))
 
 
-def _auto_flow_column(t: _Table) -> str | None:
-    """The column :data:`FLOW_SPEED_COLUMN`, else one that is it with a unit in a trailing
-    bracket (``flow_speed [cm/s]``), else ``None``; two candidates are an error."""
+def _check_command(t: _Table, col: str, cmd: np.ndarray, unit: str) -> None:
+    """A command that no command of ``unit`` can be, per row: a negative or longer-than-a-frame
+    pulse width (:data:`MAX_PULSE_US`), a voltage beyond any thruster's supply."""
+    from uuvid.core.checks import MAX_PLAUSIBLE_VOLTAGE
+
+    if unit == "pwm_us":
+        bad = np.flatnonzero((cmd < 0) | (cmd > MAX_PULSE_US))
+        if bad.size:
+            i = int(bad[0])
+            hint = ("the commands look like duties: give --command-unit duty"
+                    if np.all(np.abs(cmd) <= 1.0) else
+                    "a signed command is a duty or a voltage: give --command-unit duty or "
+                    "--command-unit volts")
+            raise BenchDataError(
+                f"{t.where(col, i)}: command {cmd[i]:g} µs is not a pulse width: command unit "
+                f"pwm_us (the default) expects 0…{MAX_PULSE_US:g} µs (an ESC's 1100–1900 µs "
+                f"about 1500); {hint}")
+    elif unit == "volts":
+        bad = np.flatnonzero(np.abs(cmd) > MAX_PLAUSIBLE_VOLTAGE)
+        if bad.size:
+            i = int(bad[0])
+            raise BenchDataError(
+                f"{t.where(col, i)}: command {cmd[i]:g} V: no thruster runs on more than "
+                f"{MAX_PLAUSIBLE_VOLTAGE:g} V; expected a motor voltage (in mV? a corrupt cell?)")
+
+
+def _check_bound(t: _Table, col: str | None, vals: np.ndarray | None, role: str, unit: str,
+                 bound: float) -> None:
+    """A reading (SI) beyond what any bench can measure (:data:`MAX_BENCH_THRUST`, …) is an
+    error naming the row: a fit would overflow on it and write a model of nonsense."""
+    if vals is None:
+        return
+    bad = np.flatnonzero(np.abs(vals) > bound)
+    if bad.size:
+        i = int(bad[0])
+        raise BenchDataError(
+            f"{t.where(col, i)}: {role} {vals[i]:.4g} {unit} (after unit conversion) is beyond "
+            f"what any bench measures (|{role}| ≤ {bound:g} {unit}); expected a reading — a "
+            "corrupt cell or a wrong unit? Fix or leave out the row")
+
+
+def _flow_key(column: str) -> str:
+    """A header as the water speed's names are compared: unit bracket stripped, case folded,
+    spaces, hyphens and underscores as one ``_`` (``Flow Speed [kn]`` → ``flow_speed``)."""
+    return re.sub(r"[\s_\-]+", "_", _norm(_strip_unit(column))).strip("_")
+
+
+def _auto_flow_column(t: _Table, notes: list[str] | None = None) -> str | None:
+    """The column :data:`FLOW_SPEED_COLUMN`, else one of :data:`FLOW_SPEED_NAMES` with any
+    spacing and case and a unit in a trailing bracket (``flow_speed [cm/s]``, ``flow [kn]``,
+    ``flow speed``), else ``None``; two candidates are an error.  A column that mentions a flow
+    but is none of these is said in ``notes`` (it is not read: still water is assumed)."""
     have = [c for c in t.columns if _norm(c) == _norm(FLOW_SPEED_COLUMN)]
     if not have:
-        have = [c for c in t.columns
-                if _norm(_UNIT_IN_BRACKETS.sub("", c.strip())) == _norm(FLOW_SPEED_COLUMN)]
+        have = [c for c in t.columns if _flow_key(c) in FLOW_SPEED_NAMES]
+    if not have and notes is not None:
+        like = [c for c in t.columns if "flow" in _flow_key(c) or "water_speed" in _flow_key(c)]
+        if like:
+            notes.append(f"{t.name}: column(s) {', '.join(map(repr, like))} look like a water "
+                         "speed but are not read as one (still water is assumed); to fit the "
+                         "inflow, name it: --flow-speed-col / flow_speed_col=")
     if len(have) > 1:
         raise BenchDataError(f"{t.name}: columns {', '.join(map(repr, have))} could each be the water "
                              "speed through the propeller: name one (--flow-speed-col / "
