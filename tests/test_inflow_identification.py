@@ -307,3 +307,35 @@ def test_a_reversed_or_mis_scaled_flow_speed_is_said(tmp_path):
     with pytest.raises(BenchDataError, match=r"cms\.csv: column 'flow_speed' reaches 80 m/s, "
                                              r"beyond 10 m/s .* cm/s"):
         run_fit([_write(tmp_path / "cms.csv", cms)], "quadratic", OPTS)
+
+
+def _both_ways_bench():
+    truth = FourQuadrantMap("both", 0.076, (0.05, 0.30, -0.05), (0.0, -0.55, 0.10), (0.05,) * 3,
+                            (0.0,) * 3)
+    cmd, w, u = _design(reverse=True, flows=np.array([0.0, 0.3, 0.6, 0.9]))
+    t = truth.thrust_torque(w / (2 * np.pi), u)[0] + np.random.default_rng(3).normal(0, NOISE_N,
+                                                                                     w.size)
+    return BenchData(command=cmd, thrust=t, speed=w, flow_speed=u, source="both.csv")
+
+
+def test_four_quadrant_refuses_a_diameter_no_propeller_has():
+    """--diameter 1e-9 gave a rank-deficient fit with NaN correlations (76 m was refused)."""
+    with pytest.raises(BenchDataError, match=r"--diameter 1e-09 m: smaller than any thruster"):
+        fit_four_quadrant(_both_ways_bench(), 1e-9)
+
+
+def test_four_quadrant_order_0_refused_when_the_propeller_turns_both_ways():
+    """Order 0 (one constant C_T*) wrote a model with k_pos 0.0 and only a 'not significant'."""
+    with pytest.raises(BenchDataError, match=r"both.csv: Fourier order 0 .* turns both ways"):
+        fit_four_quadrant(_both_ways_bench(), 0.076, order=0)
+    # one way, a constant C_T* is a model
+    sf = fit_four_quadrant(_fq_bench(0), 0.076, order=0)
+    assert sf.block.k_pos > 0
+
+
+def test_four_quadrant_without_thrust_the_way_the_propeller_turns_is_no_model():
+    """A map whose bollard K_T opposes a direction the data turn was clipped to k = 0 and written."""
+    d = _fq_bench(0)
+    with pytest.raises(BenchDataError, match=r"gives no forward bollard thrust"):
+        fit_four_quadrant(BenchData(command=d.command, thrust=-d.thrust, speed=d.speed,
+                                    flow_speed=d.flow_speed, source="neg.csv"), 0.076, order=1)

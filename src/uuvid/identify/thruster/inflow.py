@@ -208,6 +208,11 @@ def map_inflow_coefficient(fit: Fit, speed, flow) -> tuple[float, float]:
     return float(g @ theta), math.sqrt(max(var, 0.0))
 
 
+#: Smallest propeller diameter [m] the four-quadrant fit takes: 5 mm, below any thruster's
+#: propeller (micro-ROV propellers are ≈ 20 mm); a smaller one is a unit slip (km?) or a typo.
+MIN_PROPELLER_DIAMETER = 0.005
+
+
 def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = None,
                       rho: float = RHO_FRESH, cov_type: str = "classical") -> SteadyFit:
     """The Fourier coefficients of ``C_T*(β)`` (:data:`FOUR_QUADRANT_FORM`) by linear least
@@ -222,12 +227,21 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
     if not (math.isfinite(diameter) and diameter > 0):
         raise BenchDataError(f"the four-quadrant fit needs the propeller diameter in m "
                              f"(--diameter), got {diameter!r}")
+    if diameter < MIN_PROPELLER_DIAMETER:
+        raise BenchDataError(f"--diameter {diameter:g} m: smaller than any thruster's propeller "
+                             f"(at least {MIN_PROPELLER_DIAMETER:g} m); expected the propeller "
+                             "diameter in m (the T200's is 0.076 m)")
+    both = data.speed is not None and np.any(data.speed > 0) and np.any(data.speed < 0)
     if order is None:
-        order = 2 if data.speed is not None and np.any(data.speed > 0) and np.any(data.speed < 0) \
-            else 1
+        order = 2 if both else 1
     if not (isinstance(order, int) and 0 <= order <= 8):
         raise BenchDataError(f"the four-quadrant Fourier order must be an integer in [0, 8], got "
                              f"{order!r}")
+    if order == 0 and both:
+        raise BenchDataError(f"{data.source or 'the data'}: Fourier order 0 (--degree 0: one "
+                             "constant C_T*) gives thrust of one sign ahead and astern, but the "
+                             "propeller turns both ways here: give order ≥ 1 (default 2 for such "
+                             "data)")
     what = f"the four-quadrant fit ({FOUR_QUADRANT_FORM})"
     m = _rows(data, what)
     w, u, y = data.speed[m], data.flow_speed[m], data.thrust[m]
@@ -253,6 +267,13 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
     # bollard map T = K_T ρ n² D⁴ as K_T Ω|Ω| (n = Ω/2π) per direction the data turn
     c = rho * diameter ** 4 / (2.0 * math.pi) ** 2
     dirs = dict(_directions(w))
+    for sgn, way in ((1, "forward"), (-1, "reverse")):
+        if way in dirs and sgn * fq.bollard_kt(sgn) <= 0:  # the map would be written as 0 thrust
+            raise BenchDataError(
+                f"{data.source or 'the data'}: the fitted C_T*(β) (order {order}, D = "
+                f"{diameter:g} m) gives no {way} bollard thrust (K_T = {fq.bollard_kt(sgn):+.3g}) "
+                f"though the propeller turns {way} in the data: not a model of this thruster. "
+                "Check --diameter and the signs of the columns, or give another --degree")
     kf = max(fq.bollard_kt(1) * c, 0.0) if "forward" in dirs else None
     kr = max(-fq.bollard_kt(-1) * c, 0.0) if "reverse" in dirs else None
     kf = kr if kf is None else kf
