@@ -100,3 +100,26 @@ def test_negative_pulse_width_is_said_before_the_thrust_sign(tmp_path):
                                              r"command -1500 µs is not a pulse width"):
         read_bench(write(tmp_path, text), command_col="command", speed_col="speed",
                    thrust_col="thrust")
+
+
+def test_flow_speed_unit_without_a_flow_column_is_refused(tmp_path):
+    """``--flow-speed-col none --flow-speed-unit cm/s`` dropped the unit silently."""
+    p = write(tmp_path, FLOW.format(h="flow_speed"))
+    with pytest.raises(BenchDataError, match=r"bench.csv: a water speed unit was given .*cm/s.* "
+                                             r"\(--flow-speed-col none\).*no effect"):
+        read_bench(p, command_col="command", thrust_col="thrust", flow_speed_col=None,
+                   flow_speed_unit="cm/s")
+    q = write(tmp_path, "command,thrust\n1600,3.0\n1400,-2.5\n", "still.csv")
+    with pytest.raises(BenchDataError, match=r"still.csv: a water speed unit was given .*kn"):
+        read_bench(q, command_col="command", thrust_col="thrust", flow_speed_unit="kn")
+
+
+def test_t200_sheet_refuses_a_flow_column_it_would_ignore(shared_data):
+    """``--format t200 --flow-speed-col RPM`` was accepted with no effect."""
+    from uuvid.identify.thruster.workflow import FitError, ReadOptions, run_fit
+
+    f = shared_data / "t200-bluerobotics-2019" / "T200_16V.csv"
+    with pytest.raises(FitError, match=r"--flow-speed-col RPM would be ignored"):
+        run_fit([f], "quadratic", ReadOptions(fmt="t200", flow_speed_col="RPM"))
+    with pytest.raises(FitError, match=r"--flow-speed-col none would be ignored"):
+        run_fit([f], "quadratic", ReadOptions(fmt="t200", flow_speed_col=None))

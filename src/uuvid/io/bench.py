@@ -677,11 +677,19 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     _, current = opt(current_col, "current", "A")
     vcol, volts = opt(voltage_col, "supply voltage", "V")
     tmcol, time = opt(time_col, "time", "s")
+    given_flow_col = flow_speed_col
     if flow_speed_col == "auto":
         flow_speed_col = _auto_flow_column(t, notes)
     if flow_speed_col is not None:
         flow_speed_unit = _resolve_unit(t, column(flow_speed_col, "water speed"),
                                         "flow speed", flow_speed_unit, "m/s", notes)
+    if flow_speed_col is None and flow_speed_unit is not None:  # it was dropped silently
+        raise BenchDataError(
+            f"{t.name}: a water speed unit was given (--flow-speed-unit / flow_speed_unit= "
+            f"{flow_speed_unit}) but no water speed column is read ("
+            + ("--flow-speed-col none" if given_flow_col is None else "the file has no column "
+               f"{FLOW_SPEED_COLUMN!r}, 'flow [unit]' or 'flow speed'")
+            + "): it has no effect. Fix: drop the unit, or name the column (--flow-speed-col)")
     fcol, flow = opt(flow_speed_col, "water speed through the propeller", flow_speed_unit or "m/s")
 
     if thrust is not None:

@@ -198,7 +198,7 @@ class ReadOptions:
 _T200_IGNORES = {"thrust_unit": None, "speed_unit": None, "command_unit": "pwm_us",
                  "time_col": None, "command_col": "command", "thrust_col": None,
                  "speed_col": None, "current_col": None, "voltage_col": None, "neutral": None,
-                 "flow_speed_unit": None}
+                 "flow_speed_unit": None, "flow_speed_col": "auto"}
 
 
 def _t200_unit_clash(opts: ReadOptions) -> str:
@@ -227,8 +227,8 @@ def read_files(paths, opts: ReadOptions) -> list:
     from uuvid.io.bench import read_bench, read_t200
 
     if opts.fmt == "t200":
-        given = [f"--{k.replace('_', '-')} {getattr(opts, k)}" for k, d in _T200_IGNORES.items()
-                 if getattr(opts, k) != d]
+        given = [f"--{k.replace('_', '-')} {'none' if getattr(opts, k) is None else getattr(opts, k)}"
+                 for k, d in _T200_IGNORES.items() if getattr(opts, k) != d]
         if given:
             raise FitError(f"--format t200 reads the sheet's own columns and units (µs, kgf → N, "
                            f"rpm → rad/s, A, V): {', '.join(given)} would be ignored; drop it, or "
