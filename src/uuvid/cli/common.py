@@ -74,19 +74,27 @@ def _fail_flagged(err: BaseException | str, flags: dict[str, str], prefix: str =
     _fail(prefix + _flagged(text, flags))
 
 
-def check_outputs(*outputs) -> None:
+def check_outputs(*outputs, new_folders: bool = True) -> None:
     """Every destination a command writes, checked before it computes or writes anything:
     ``(option, path, kind)`` with ``kind`` ``"folder"`` (a report folder,
     :func:`uuvid.core.atomic.check_writable_dir`) or ``"file"``
     (:func:`~uuvid.core.atomic.check_writable_file`); ``path`` ``None``: not asked for.  One that
     cannot be written ends the command naming the option (a file where a folder goes, no
     permission), so a run either writes all its outputs or none; nothing is created here (the
-    writers make the folders), so a run that then fails on its input leaves no empty folder."""
+    writers make the folders), so a run that then fails on its input leaves no empty folder.
+    ``new_folders=False``: a file's folder must exist (a mistyped path is an error, not a tree of
+    new folders at the filesystem's root)."""
+    from pathlib import Path
+
     from uuvid.core.atomic import check_writable_dir, check_writable_file
 
     for opt, path, kind in outputs:
         if path is None:
             continue
+        parent = Path(path).parent
+        if kind == "file" and not new_folders and not parent.exists():
+            _fail(f"{opt} {path}: the folder {parent} does not exist; create it first or correct "
+                  "the path; nothing was written")
         try:
             (check_writable_dir if kind == "folder" else check_writable_file)(path, create=False)
         except OSError as e:

@@ -224,7 +224,7 @@ def thruster_export(
     from uuvid.thruster.resolve import export_supply
 
     out = renamed(out, "--out-file", old_out)
-    check_outputs(("--out-file", out, "file"))  # before the work; named as given, not a temp file
+    check_outputs(("--out-file", out, "file"), new_folders=False)  # before the work, as given
     chain = _load_model(model)
     try:
         chain, said = export_supply(model, chain, supply_voltage)

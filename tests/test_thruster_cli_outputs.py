@@ -1,0 +1,46 @@
+"""``thruster export --out-file`` and ``thruster fit --out-model`` into a folder that does not
+exist: an error naming it, nothing created (``/nonexistent/dir`` was created at the root)."""
+
+from __future__ import annotations
+
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+
+runner = CliRunner()
+
+BENCH = "command,thrust\n" + "".join(f"{c},{(c - 1500) * abs(c - 1500) * 1e-4:.6g}\n"
+                                     for c in range(1100, 1901, 50))
+
+
+def test_export_refuses_a_missing_folder(tmp_path):
+    target = tmp_path / "no" / "such" / "x.yaml"
+    res = runner.invoke(app, ["thruster", "export", "t200", "--out-file", str(target)])
+    assert res.exit_code == 2
+    assert f"the folder {target.parent} does not exist" in res.stderr
+    assert not (tmp_path / "no").exists()
+    ok = runner.invoke(app, ["thruster", "export", "t200", "--out-file", str(tmp_path / "x.yaml")])
+    assert ok.exit_code == 0 and (tmp_path / "x.yaml").is_file()
+
+
+def test_fit_refuses_a_missing_folder_for_the_model(tmp_path):
+    f = tmp_path / "b.csv"
+    f.write_text(BENCH)
+    target = tmp_path / "no" / "o.yaml"
+    res = runner.invoke(app, ["thruster", "fit", str(f), "--thrust-col", "thrust", "--model",
+                              "cv", "--out-model", str(target)])
+    assert res.exit_code == 2, res.stderr
+    assert f"--out-model {target}: the folder {target.parent} does not exist" in res.stderr
+    assert not (tmp_path / "no").exists()
+
+
+def test_fit_with_an_absurd_thrust_writes_nothing_and_leaks_no_warning(tmp_path):
+    f = tmp_path / "huge.csv"
+    f.write_text(BENCH.replace("1700,4", "1700,1e300").replace("1800,9", "1800,1e300"))
+    assert "1e300" in f.read_text()
+    res = runner.invoke(app, ["thruster", "fit", str(f), "--thrust-col", "thrust", "--model",
+                              "cv", "--out-model", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2
+    assert "huge.csv: column 'thrust', data row" in res.stderr
+    assert "RuntimeWarning" not in res.stderr and "overflow" not in res.stderr
+    assert not (tmp_path / "o.yaml").exists()
