@@ -8,7 +8,8 @@ flow; read when the file has a column of that name, issue 21).
 gram-force, rpm, rev/s → N, rad/s) and validates every cell; :func:`read_t200` reads Blue
 Robotics' T200 performance-sheet layout directly.
 
-Every problem raises :class:`BenchDataError` naming the file, the column and the row.  Rows are
+Every problem raises :class:`BenchDataError` naming the file, the column and the row; a reading
+no bench can produce (a thrust above :data:`MAX_BENCH_THRUST`, a negative pulse width, …) is one.  Rows are
 counted two ways and the message gives both: the *data row* (1-based, header excluded) and, for
 CSV, the *CSV line* (1-based line of the file, header = line 1).
 
@@ -587,7 +588,11 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     Parameters
     ----------
     command_col, thrust_col, speed_col, current_col, voltage_col, time_col
-        Column names (matched exactly, then ignoring case, spacing and µ/u).
+        Column names: matched exactly, then by the header without a unit in a trailing bracket
+        (``t`` finds ``t [s]``), then ignoring case, spacing and µ/u when that is unambiguous —
+        never for a one-letter name (``t`` time is not ``T`` thrust) nor onto a column named
+        exactly for another channel (:func:`_find_column`).  Every reading is checked against
+        what a bench can produce (:data:`MAX_PULSE_US`, :data:`MAX_BENCH_THRUST`, …), per row.
     command_unit
         ``pwm_us``, ``duty`` or ``volts``.
     thrust_unit
