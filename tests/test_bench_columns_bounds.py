@@ -123,3 +123,14 @@ def test_t200_sheet_refuses_a_flow_column_it_would_ignore(shared_data):
         run_fit([f], "quadratic", ReadOptions(fmt="t200", flow_speed_col="RPM"))
     with pytest.raises(FitError, match=r"--flow-speed-col none would be ignored"):
         run_fit([f], "quadratic", ReadOptions(fmt="t200", flow_speed_col=None))
+
+
+def test_two_water_speed_columns_are_an_error_not_a_silent_choice(tmp_path):
+    text = FLOW.format(h="flow_speed,flow [kn]").replace("\n", ",0\n").replace(
+        "flow [kn],0", "flow [kn]")
+    with pytest.raises(BenchDataError, match=r"columns 'flow_speed', 'flow \[kn\]' could each be "
+                                             r"the water speed"):
+        read_bench(write(tmp_path, text), command_col="command", thrust_col="thrust")
+    d = read_bench(write(tmp_path, text), command_col="command", thrust_col="thrust",
+                   flow_speed_col="flow_speed")
+    assert d.flow_speed_column == "flow_speed"
