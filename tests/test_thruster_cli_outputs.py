@@ -44,3 +44,24 @@ def test_fit_with_an_absurd_thrust_writes_nothing_and_leaks_no_warning(tmp_path)
     assert "huge.csv: column 'thrust', data row" in res.stderr
     assert "RuntimeWarning" not in res.stderr and "overflow" not in res.stderr
     assert not (tmp_path / "o.yaml").exists()
+
+
+def test_simulate_and_fit_report_refuse_a_missing_parent_folder(tmp_path):
+    out = tmp_path / "no" / "sim"
+    res = runner.invoke(app, ["thruster", "simulate", "t200", "--out", str(out)])
+    assert res.exit_code == 2 and f"the folder {out.parent} does not exist" in res.stderr
+    f = tmp_path / "b.csv"
+    f.write_text(BENCH)
+    rep = tmp_path / "no" / "rep"
+    res = runner.invoke(app, ["thruster", "fit", str(f), "--thrust-col", "thrust", "--model", "cv",
+                              "--out-model", str(tmp_path / "o.yaml"), "--report", str(rep)])
+    assert res.exit_code == 2 and f"--report {rep}: the folder" in res.stderr
+    assert not (tmp_path / "no").exists() and not (tmp_path / "o.yaml").exists()
+    # the report folder itself is made
+    v = tmp_path / "v.csv"
+    v.write_text("command,thrust\n" + "".join(f"{c},{c * abs(c) * 0.1:.6g}\n" for c in range(-12, 13)))
+    res = runner.invoke(app, ["thruster", "fit", str(v), "--thrust-col", "thrust", "--model", "cv",
+                              "--command-unit", "volts", "--out-model", str(tmp_path / "o.yaml"),
+                              "--report", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.stderr
+    assert (tmp_path / "rep" / "index.html").is_file()

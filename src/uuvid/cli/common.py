@@ -82,8 +82,8 @@ def check_outputs(*outputs, new_folders: bool = True) -> None:
     cannot be written ends the command naming the option (a file where a folder goes, no
     permission), so a run either writes all its outputs or none; nothing is created here (the
     writers make the folders), so a run that then fails on its input leaves no empty folder.
-    ``new_folders=False``: a file's folder must exist (a mistyped path is an error, not a tree of
-    new folders at the filesystem's root)."""
+    ``new_folders=False``: a file's folder, or a report folder's parent, must exist (a mistyped
+    path is an error, not a tree of new folders at the filesystem's root)."""
     from pathlib import Path
 
     from uuvid.core.atomic import check_writable_dir, check_writable_file
@@ -91,8 +91,8 @@ def check_outputs(*outputs, new_folders: bool = True) -> None:
     for opt, path, kind in outputs:
         if path is None:
             continue
-        parent = Path(path).parent
-        if kind == "file" and not new_folders and not parent.exists():
+        parent = Path(path).parent  # a report folder itself is made, never its parents
+        if not new_folders and not parent.exists() and not (kind != "file" and Path(path).is_dir()):
             _fail(f"{opt} {path}: the folder {parent} does not exist; create it first or correct "
                   "the path; nothing was written")
         try:

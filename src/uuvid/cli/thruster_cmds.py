@@ -109,8 +109,9 @@ def thruster_simulate(
         from uuvid.cli.replay_cmd import replay_from_spec
 
         return replay_from_spec(model, signal, out, json_out)
+    check_outputs(("--out", out, "folder"), new_folders=False)  # a mistyped path makes no folders
     chain = _load_model(model)
-    from uuvid.simulate.signals import default_step
+    from uuvid.simulate.signals import Constant, Step, default_step
     from uuvid.thruster.chain import command_range_warnings, signal_range_warnings
 
     sig = _parse_signal(signal) if signal is not None else default_step(chain)
@@ -121,8 +122,6 @@ def thruster_simulate(
         resp = chain.simulate(sig, t_end, dt=dt, substeps=substeps)
     except ValueError as e:
         _fail(str(e))
-    from uuvid.simulate.signals import Constant, Step
-
     is_step = isinstance(sig, (Step, Constant))  # step metrics (peak, τ) mean nothing for a square
     metrics = resp.metrics().as_dict(nan_as_none=True) if "thrust" in resp and is_step else {}
     summary = {"model": chain.name, "signal": sig.describe(), "t_end": t_end, "dt": dt, "metrics_SI": metrics}
