@@ -183,7 +183,7 @@ def test_error_keeps_bracketed_column_names(tmp_path):
     csv = tmp_path / "bench.csv"
     csv.write_text("time [s],pwm [us],thrust [N]\n0,1500,0\n1,1600,1\n2,1700,3\n")
     res = runner.invoke(app, ["thruster", "fit", str(csv), "--model", "quadratic", "--out-model",
-                              str(tmp_path / "m.yaml"), "--command-col", "pwm",
+                              str(tmp_path / "m.yaml"), "--command-col", "throttle",
                               "--thrust-col", "thrust [N]"])
     assert res.exit_code == 2
     assert "'time [s]', 'pwm [us]', 'thrust [N]'" in res.output
