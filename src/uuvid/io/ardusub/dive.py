@@ -161,18 +161,38 @@ class DiveLog(Result):
         return plot_dive(self, path)
 
 
-def _check_grid(name: str, dt: float, spans, motors: int) -> None:
+#: a table may hold at most this many rows per sample of the log's densest channel (a step
+#: far below every sample interval only repeats interpolated values)
+MAX_ROWS_PER_SAMPLE = 100
+
+
+def _fmt_bound(v, default: float) -> str:
+    return f"{float(default if v is None else v):g}"
+
+
+def _check_grid(name: str, dt: float, spans, motors: int, *, dt_given: bool = True,
+                densest: tuple[int, str] | None = None) -> None:
     """``LogDataError`` before the grid is allocated: a step longer than every stretch of the
-    log (one row per stretch), or a table (rows × columns × 8 bytes) past
-    :func:`uuvid.core.checks.memory_budget_bytes`."""
+    log (one row per stretch), more than :data:`MAX_ROWS_PER_SAMPLE` rows per sample of the
+    densest channel (``densest``: its sample count and name), or a table (rows × columns ×
+    8 bytes) past :func:`uuvid.core.checks.memory_budget_bytes`."""
     from uuvid.core.checks import memory_budget_bytes, physical_memory_bytes
 
     longest = max(hi - lo for _, lo, hi in spans)
     if dt > longest:
+        if not dt_given:  # the range asked for is shorter than one attitude interval
+            raise LogDataError(f"{name}: the range read (--t-start/--t-end) holds {longest:.4g} s "
+                               f"of the log, less than one step of the table (the attitude "
+                               f"interval, {dt:g} s): give a longer range")
         raise LogDataError(f"{name}: dt = {dt:g} s is longer than the log's longest stretch "
                            f"({longest:.4g} s): the table would hold one row per stretch; give a "
                            "shorter step")
     rows = sum((hi - lo) / dt + 1 for _, lo, hi in spans)
+    if densest is not None and rows > MAX_ROWS_PER_SAMPLE * max(densest[0], 1):
+        raise LogDataError(f"{name}: dt = {dt:g} s makes {rows:.4g} rows, more than "
+                           f"{MAX_ROWS_PER_SAMPLE}× the {densest[0]} samples of the log's densest "
+                           f"channel ({densest[1]}): the rows would only repeat interpolated "
+                           "values; give a larger step")
     columns = 16 + 3 * motors  # time, depth, attitude, battery, mode, wrench + per motor
     need = rows * columns * 8
     if need > memory_budget_bytes():
@@ -213,8 +233,11 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     """
     import pandas as pd
 
+    from uuvid.core.checks import seconds_or_none, time_window
     from uuvid.io.ardusub.thrust import default_t200, load_thrust_model
 
+    seconds_or_none(t_start=t_start, t_end=t_end)
+    time_window(t_start, t_end, error=LogDataError)  # NaN/inf, an empty range: before reading
     if dt is not None and not (math.isfinite(float(dt)) and float(dt) > 0):
         raise LogDataError(f"dt = {float(dt):g}: expected a time step > 0 s (leave it out for the "
                            "attitude interval)")
@@ -239,6 +262,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     # is taken at the value it had there; a change inside the table is an error, below)
     setup = _setup(raw, {**params, **_in_force(history, -math.inf)}, veh, att)
     config, depth, dsrc, pwms, spans, g0, mine = setup
+    dt_given = dt is not None
     if dt is None:
         d = np.diff(att[0].t)
         d = d[(d > 0) & (np.diff(att[0].part) == 0)]
@@ -260,8 +284,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
              for k, lo, hi in spans]
     spans = [(k, lo, hi) for k, lo, hi in spans if hi >= lo]
     if not spans:
-        raise LogDataError(f"{name}: t_start = {t_start} … t_end = {t_end} s holds no row of the "
-                           f"table (it runs from 0 to {max(h for _, _, h in setup[4]) - g0:.6g} s)")
+        asked = (f"[{_fmt_bound(t_start, 0.0)}, {_fmt_bound(t_end, math.inf)}] s")
+        raise LogDataError(f"{name}: the range {asked} (--t-start/--t-end) is outside the log "
+                           f"(0–{max(h for _, _, h in setup[4]) - g0:.4g} s): no row to export")
     if on_deck is None:
         _check_changes(name, history, spans, g0)
     for n, h in history.items():
@@ -277,7 +302,9 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     for ch, label in ((depth, "depth"), *((a, a.source) for a in att)):
         if ch is not None and _constant(ch):
             warnings.append(f"{label} ({ch.source}) is constant over the whole log")
-    _check_grid(name, dt, spans, len(pwms))
+    _check_grid(name, dt, spans, len(pwms), dt_given=dt_given,
+                densest=max([(c.t.size, c.source) for c in (depth, *att, *pwms.values())
+                             if c is not None]))
     grids, gparts = [], []
     for k, lo, hi in spans:
         n = int(math.floor((hi - lo) / dt + 1e-9)) + 1
