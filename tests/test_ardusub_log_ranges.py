@@ -13,7 +13,7 @@ pytest.importorskip("pymavlink")
 from typer.testing import CliRunner  # noqa: E402
 
 from uuvid.cli.app import app  # noqa: E402
-from uuvid.io.ardusub import load_dive  # noqa: E402
+from uuvid.io.ardusub import inspect_log, load_dive  # noqa: E402
 from uuvid.io.logs import LogDataError  # noqa: E402
 
 
@@ -55,3 +55,41 @@ def test_an_empty_or_outside_range_is_said_without_dt_or_none(logs, tmp_path):
     assert "outside the log (0–23.6 s)" in r.output
     r = _export(logs / "small.BIN", tmp_path, "--t-start", "5", "--t-end", "5.01")
     assert r.exit_code != 0 and "--dt" not in r.output and "longer range" in r.output
+
+
+def test_two_telemetry_logs_joined_with_cat_are_said_not_a_pymavlink_error(logs, tmp_path):
+    """``cat small.tlog 2023-….tlog``: "cannot open the log: AttributeError: 'NoneType' object
+    has no attribute '_instance_field'" from inside pymavlink."""
+    a = (logs / "small.tlog").read_bytes()
+    p = tmp_path / "two.tlog"
+    p.write_bytes(a + (logs / "2023-04-18_11-03-34.tlog").read_bytes())
+    r = CliRunner().invoke(app, ["log", "inspect", str(p)])
+    assert r.exit_code != 0
+    assert "AttributeError" not in r.output and "_instance_field" not in r.output
+    assert "two.tlog" in r.output and "goes back" in r.output and f"byte {len(a):,}" in r.output
+
+
+@pytest.mark.parametrize("name,cut,says", [
+    ("small.BIN", 33086, "ends after 33,086 bytes holding only format and parameter records"),
+    ("small.BIN", 5000, "ends after 5,000 bytes holding only its format (FMT) records"),
+    ("small.tlog", 1000, "ends after 1,000 bytes (25 messages over 0.352 s) without an "
+                         "autopilot HEARTBEAT: cut off"),
+])
+def test_a_cut_off_log_is_said_to_end_early(logs, tmp_path, name, cut, says):
+    """A log cut after its format/parameter records said "none of ARM, ATT, … is in the log",
+    "no messages in the log" or "no autopilot HEARTBEAT … senders (1/1)"."""
+    p = tmp_path / f"cut_{name}"
+    p.write_bytes((logs / name).read_bytes()[:cut])
+    with pytest.raises(LogDataError, match="cut off") as e:
+        inspect_log(p)
+    assert says in str(e.value) and p.name in str(e.value)
+
+
+def test_a_text_file_named_tlog_is_not_a_telemetry_log(tmp_path):
+    """A CSV renamed .tlog: "no autopilot HEARTBEAT, so the vehicle among the senders () is
+    unknown"."""
+    p = tmp_path / "table.tlog"
+    p.write_text("t,depth,roll\n" + "".join(f"{i * 0.1:.1f},{i * 0.01:.3f},0.0\n"
+                                              for i in range(20000)))
+    with pytest.raises(LogDataError, match="not a telemetry log"):
+        inspect_log(p)

@@ -459,6 +459,25 @@ def _tlog_frame_end(data, o: int) -> int | None:
     return o + 8 + 8 + data[o + 9]
 
 
+def tlog_clock_back(p: Path) -> tuple[int, float, float] | None:
+    """The first place a telemetry log's receive clock goes back by more than a second —
+    ``(byte offset, stamp before, stamp after)`` in UNIX s — as when several logs are joined
+    with ``cat``; ``None`` when it never does (read along the chain of whole records)."""
+    import struct
+
+    data = p.read_bytes()
+    o, last = 0, None
+    while True:
+        q = _tlog_frame_end(data, o)
+        if q is None or q > len(data):
+            return None
+        t = struct.unpack(">Q", data[o:o + 8])[0] * 1e-6
+        if last is not None and t < last - 1.0:
+            return o, last, t
+        last = t if last is None else max(last, t)
+        o = q
+
+
 def _tlog_partial(data, o: int) -> bool:
     """Whether the bytes from ``o`` to the end of a telemetry log are one record cut off while it
     was written: too few for any whole record, or a frame header asking for more than remain."""

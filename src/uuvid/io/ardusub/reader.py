@@ -30,10 +30,12 @@ from uuvid.io.logs import (
     _damaged_index_note,
     _dataflash_cut,
     _index_stops_early,
+    _not_a_tlog,
     _require,
     _Skipped,
     _tlog_boot,
     _tlog_index_check,
+    tlog_clock_back,
 )
 
 #: messages kept (all numeric fields); everything else is only counted
@@ -204,8 +206,8 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
     """The body of :func:`read_raw` (pymavlink's prints captured by the caller)."""
     try:
         conn = mavutil.mavlink_connection(str(p))
-    except Exception as e:
-        raise LogDataError(f"{p.name}: cannot open the log: {type(e).__name__}: {e}") from e
+    except Exception as e:  # pymavlink's own error text says nothing about the log
+        raise LogDataError(_cannot_read(p, kind, "open")) from e
     if kind == "tlog":  # random bytes decode as a stray UNKNOWN_n, or as nothing
         _check_tlog(conn, p)
     senders: dict = {}
@@ -239,8 +241,7 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
                 m = (next(tlog, None) if tlog is not None else conn.recv_msg() if want is None
                      else conn.recv_match(type=want, blocking=False))
             except Exception as e:
-                raise LogDataError(f"{p.name}: cannot decode the log after message {n}: "
-                                   f"{type(e).__name__}: {e}") from e
+                raise LogDataError(_cannot_read(p, kind, f"decode after message {n:,} of")) from e
             if m is None:
                 break
             n += 1
@@ -328,8 +329,15 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
             nm = names.get(i)
             if c and nm and nm not in ("FMT", "FMTU", "UNIT", "MULT"):
                 s0.counts[nm] = int(c)
+    size = p.stat().st_size
+    if n == 0 and kind == "dataflash" and size and p.read_bytes()[:2] == b"\xa3\x95":
+        raise LogDataError(f"{p.name}: the log ends after {size:,} bytes holding only its format "
+                           "(FMT) records, no message: cut off (copied while being written, or "
+                           "the card was full)?")
     if n == 0:
         raise LogDataError(f"{p.name}: no messages in the log (empty or not an ArduSub log)")
+    if kind == "tlog" and not senders:  # every frame failed: text or other bytes
+        raise LogDataError(_not_a_tlog(p, bad))
     at = len(notes)  # the checksum notes go here once the autopilot is known
     if len(steps) == 2 and abs(steps[0][1] + steps[1][1]) < CLOCK_STEP_S:  # out and back
         (k, d), (k2, _) = steps
@@ -362,6 +370,21 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
     return raw
 
 
+def _cannot_read(p: Path, kind: str, what: str) -> str:
+    """Why pymavlink failed on ``p`` in words about the log (never its internal error text):
+    a telemetry log whose receive clock goes back holds several sessions (``cat a.tlog b.tlog``),
+    which pymavlink cannot index."""
+    if kind == "tlog":
+        back = tlog_clock_back(p)
+        if back is not None:
+            at, t0, t1 = back
+            return (f"{p.name}: its receive clock goes back by {t0 - t1:,.1f} s at byte {at:,} "
+                    "(several telemetry logs joined into one, e.g. with cat?): pymavlink cannot "
+                    f"read such a file; split it at byte {at:,} and read each log apart")
+    return (f"{p.name}: pymavlink cannot {what} the log (an error inside its reader): the file is "
+            f"damaged or not an ArduSub {'telemetry' if kind == 'tlog' else 'dataflash'} log")
+
+
 def _enum(name: str, value) -> str:
     try:
         from pymavlink.dialects.v20 import ardupilotmega as d
@@ -391,6 +414,14 @@ def _pick_autopilot(raw: RawLog) -> tuple[int, int] | None:
         raw.warnings.append(f"no autopilot HEARTBEAT in the log; system {cands[0].src[0]} "
                             "component 1 (the only one sending ATTITUDE) taken as the autopilot")
         return cands[0].src
+    n = sum(sum(s.counts.values()) for s in raw.senders.values())
+    recv = [t for s in raw.senders.values() for t in (s.first_recv, s.last_recv) if t == t]
+    span = max(recv) - min(recv) if recv else 0.0
+    if n < 1000 or span < 10.0:  # a log cut off before the vehicle said what it is
+        raise LogDataError(f"{raw.name}: the log ends after {raw.path.stat().st_size:,} bytes "
+                           f"({n:,} messages over {span:.3g} s) without an autopilot HEARTBEAT: "
+                           "cut off (copied while being written)? The vehicle among the senders "
+                           f"({', '.join(f'{a}/{b}' for a, b in raw.senders)}) is unknown")
     raise LogDataError(f"{raw.name}: no autopilot HEARTBEAT, so the vehicle among the senders "
                        f"({', '.join(f'{a}/{b}' for a, b in raw.senders)}) is unknown")
 
@@ -424,7 +455,11 @@ def _finish_dataflash(raw: RawLog) -> None:
     # the ATT series (or the longest one) and each series is split the same way
     ref = raw.get("ATT") or max(raw.series.values(), key=lambda s: len(s.boot), default=None)
     if ref is None:
-        raise LogDataError(f"{raw.name}: none of {', '.join(sorted(DF_KEEP))} is in the log")
+        np_ = sum(1 for q in raw.params if q[3] == (0, 0))
+        raise LogDataError(f"{raw.name}: the log ends after {raw.path.stat().st_size:,} bytes "
+                           f"holding only format and parameter records ({np_:,} PARM), none of "
+                           f"{', '.join(sorted(DF_KEEP))}: cut off (copied while being written, "
+                           "or the card was full)?")
     rb = np.asarray(ref.boot, dtype=float)
     rp = _part_index(rb)
     raw.parts = int(rp.max()) + 1 if rp.size else 1
