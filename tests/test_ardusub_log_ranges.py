@@ -93,3 +93,21 @@ def test_a_text_file_named_tlog_is_not_a_telemetry_log(tmp_path):
                                               for i in range(20000)))
     with pytest.raises(LogDataError, match="not a telemetry log"):
         inspect_log(p)
+
+
+def test_inspect_reads_modes_and_arming_per_part_as_export_does(logs, tmp_path):
+    """``cat small.BIN small.BIN``: inspect said "8.8–48.3 s MANUAL, disarmed" across the reboot
+    while export (right) has the vehicle armed again in part 1."""
+    p = tmp_path / "twice.BIN"
+    p.write_bytes((logs / "small.BIN").read_bytes() * 2)
+    ins = inspect_log(p)
+    assert ins.parts == 2
+    exp = [(s["mode"], s["armed"], s["part"]) for s in load_dive(p).modes]
+    got = [(s["mode"], s["armed"], s["part"]) for s in ins.modes]
+    assert got == exp == [("MANUAL", True, 0), ("MANUAL", False, 0), ("MANUAL", True, 1),
+                          ("MANUAL", False, 1)]
+    armed1 = next(s for s in ins.modes if s["part"] == 1 and s["armed"])
+    seg = next(s for s in load_dive(p).modes if s["part"] == 1 and s["armed"])
+    assert abs(armed1["start_s"] - seg["start_s"]) < 0.2 and abs(armed1["end_s"] - seg["end_s"]) < 0.3
+    r = CliRunner().invoke(app, ["log", "inspect", str(p)])
+    assert "MANUAL, armed (part 1)" in r.output

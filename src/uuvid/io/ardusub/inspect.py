@@ -58,7 +58,8 @@ class LogInspection(Result):
         L.append("modes and arming:")
         for m in self.modes:
             arm = {True: "armed", False: "disarmed", None: "arming unknown"}[m["armed"]]
-            L.append(f"  {m['start_s']:8.1f} – {m['end_s']:8.1f} s  {m['mode']}, {arm}")
+            L.append(f"  {m['start_s']:8.1f} – {m['end_s']:8.1f} s  {m['mode']}, {arm}"
+                     + (f" (part {m['part']})" if self.parts > 1 else ""))
         L += [f"warning: {w}" for w in self.warnings]
         return "\n".join(L)
 
@@ -161,7 +162,14 @@ def inspect_log(path, params=None) -> LogInspection:
     except LogDataError as e:
         warnings.append(str(e))
     mode_ch, arm_ch = _mode_events(raw, warnings)
-    modes = _intervals(mode_ch, arm_ch, t0, (tt.max() - t0) if tt.size else 0.0)
+    starts = {}  # the first time of each part (a reboot): modes and arming start afresh there
+    for sr in raw.series.values():
+        if sr.src == ap and sr.t is not None and sr.part is not None:
+            for k in np.unique(sr.part):
+                tk = sr.t[(sr.part == k) & np.isfinite(sr.t)]
+                if tk.size:
+                    starts[int(k)] = min(starts.get(int(k), math.inf), float(tk.min()) - t0)
+    modes = _intervals(mode_ch, arm_ch, t0, (tt.max() - t0) if tt.size else 0.0, starts)
     used |= {c.source for c in (mode_ch, arm_ch) if c is not None}
     dups = {k: v for k, v in raw.duplicates.items() if k in used}
     if dups:
@@ -171,8 +179,12 @@ def inspect_log(path, params=None) -> LogInspection:
                          warnings, raw.parts)
 
 
-def _intervals(mode_ch, arm_ch, t0: float, t_end: float) -> list[dict]:
-    ev = []
+def _intervals(mode_ch, arm_ch, t0: float, t_end: float, starts: dict | None = None
+               ) -> list[dict]:
+    """Segments ``{start_s, end_s, mode, armed, part}``; each part after a reboot (``starts``:
+    part → its first time) starts with the mode unknown and the arming before its first event,
+    as ``log export`` reads them (the state before the reboot does not carry over)."""
+    ev = [(t, "part", k) for k, t in sorted((starts or {}).items()) if k > 0]
     if mode_ch is not None:
         ev += [(float(t) - t0, "mode", MODE_NAMES.get(int(v), f"MODE{int(v)}"))
                for t, v in zip(mode_ch.t, mode_ch.v)]
@@ -180,21 +192,25 @@ def _intervals(mode_ch, arm_ch, t0: float, t_end: float) -> list[dict]:
     if arm_ch is not None:
         ev += [(float(t) - t0, "armed", bool(v)) for t, v in zip(arm_ch.t, arm_ch.v)]
     ev.sort(key=lambda e: e[0])
-    mode, armed = "UNKNOWN", None
-    if init_arm:
-        a0 = init_arm.get(0)
-        armed = None if a0 is None or not np.isfinite(a0) else bool(a0)
+    def first_armed(k):
+        a0 = init_arm.get(k)
+        return None if a0 is None or not np.isfinite(a0) else bool(a0)
+
+    mode, armed, part = "UNKNOWN", first_armed(0), 0
     out: list[dict] = []
     start = 0.0
     for t, kind, v in ev + [(t_end, "end", None)]:
-        new_mode = v if kind == "mode" else mode
-        new_armed = v if kind == "armed" else armed
-        if kind == "end" or (new_mode, new_armed) != (mode, armed):
+        new_mode = v if kind == "mode" else "UNKNOWN" if kind == "part" else mode
+        new_armed = (v if kind == "armed" else first_armed(v) if kind == "part" else armed)
+        if kind in ("end", "part") or (new_mode, new_armed) != (mode, armed):
             if t > start or kind == "end":
-                if out and (out[-1]["mode"], out[-1]["armed"]) == (mode, armed):
+                if out and (out[-1]["mode"], out[-1]["armed"], out[-1]["part"]) == (mode, armed,
+                                                                                  part):
                     out[-1]["end_s"] = t
                 else:
-                    out.append({"start_s": start, "end_s": t, "mode": mode, "armed": armed})
+                    out.append({"start_s": start, "end_s": t, "mode": mode, "armed": armed,
+                                "part": part})
             start = t
         mode, armed = new_mode, new_armed
+        part = v if kind == "part" else part
     return out
