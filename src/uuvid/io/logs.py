@@ -315,7 +315,7 @@ class _Skipped:
         if len(data) > 9 and "CRC" in str(getattr(m, "reason", "")):
             self._frame(data, at)
         else:
-            self.stretches.append((at, len(data) + 8, None, math.nan))
+            self.stretches.append((at, len(data) + 8, None, math.nan, math.nan))
 
     def _frame(self, data: bytes, at: int) -> None:
         v2 = data[0] == 0xFD
@@ -362,13 +362,16 @@ class _Skipped:
                 self._frame(data, at)
                 at += len(data) + 8
             return
-        before, lo, got = self.n, self.end, 0
+        before, lo, got, prev = self.n, self.end, 0, self.last_recv
         for m, nbytes in self._search(self.end, start):
             got += nbytes
             self.recovered += 1
             self._seen(m)
             yield m
-        self.stretches.append((lo, size - got, before, self.last_recv if before else math.nan))
+        data = getattr(self.conn, "data_map", None)
+        after = (int.from_bytes(bytes(data[start:start + 8]), "big") * 1e-6
+                 if data is not None and start + 8 <= self.size else math.nan)
+        self.stretches.append((lo, size - got, before, prev if before else math.nan, after))
 
     def _search(self, lo: int, hi: int):
         """Valid frames (each behind a plausible receive stamp) in the file's bytes ``lo:hi``."""
@@ -403,16 +406,24 @@ class _Skipped:
         out = []
         if self.stretches:
             lost = sum(s[1] for s in self.stretches)
+            # the receive clock across a stretch: a long jump is time lost, not a few bytes
+            gaps = [a - r for _, _, _, r, a in self.stretches if a - r > TLOG_GAP_S]
             where = "; ".join(f"byte {b:,} ({k:,} bytes"
                               + (f", after message {n:,}" if n is not None else "")
-                              + (f", {r - self.t0:.1f} s into the log" if r == r else "") + ")"
-                              for b, k, n, r in self.stretches[:3])
+                              + (f", {r - self.t0:.1f} s into the log" if r == r else "")
+                              + (f"; the receive clock jumps {a - r:.1f} s across them, to "
+                                 f"{a - self.t0:.1f} s" if a - r > TLOG_GAP_S else "") + ")"
+                              for b, k, n, r, a in self.stretches[:3])
             more = f"; {len(self.stretches) - 3} more" if len(self.stretches) > 3 else ""
             back = (f"; {self.recovered:,} valid message(s) found again inside them"
                     if self.recovered else "")
             out.append(f"{name}: the log is damaged in {len(self.stretches)} place(s), {lost:,} "
                        f"bytes skipped: {where}{more}{back}; the reader resumed at the next valid "
-                       "message, so only the messages in the damaged bytes are lost")
+                       "message, "
+                       + (f"but {sum(gaps):.1f} s of the log are lost there (the messages "
+                          "received in that time are missing, not just those in the damaged "
+                          "bytes)" if gaps else "so only the messages in the damaged bytes are "
+                          "lost"))
         names = getattr(getattr(mavutil, "mavlink", None), "mavlink_map", None) or {}
         damage, senders = [], []
         for key, (c, first) in sorted(self.frames.items(), key=lambda kv: kv[1][1]):
@@ -446,6 +457,8 @@ class _Skipped:
         return out
 
 
+#: damaged bytes across which the receive clock jumps more than this (s) lost that much time
+TLOG_GAP_S = 2.0
 #: the shortest whole record of a telemetry log: receive stamp + a MAVLink 1 frame, no payload
 TLOG_MIN_RECORD = 8 + 8
 

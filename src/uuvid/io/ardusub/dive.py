@@ -188,17 +188,17 @@ def _check_grid(name: str, dt: float, spans, motors: int, *, dt_given: bool = Tr
                            f"({longest:.4g} s): the table would hold one row per stretch; give a "
                            "shorter step")
     rows = sum((hi - lo) / dt + 1 for _, lo, hi in spans)
-    if densest is not None and rows > MAX_ROWS_PER_SAMPLE * max(densest[0], 1):
-        raise LogDataError(f"{name}: dt = {dt:g} s makes {rows:.4g} rows, more than "
-                           f"{MAX_ROWS_PER_SAMPLE}× the {densest[0]} samples of the log's densest "
-                           f"channel ({densest[1]}): the rows would only repeat interpolated "
-                           "values; give a larger step")
     columns = 16 + 3 * motors  # time, depth, attitude, battery, mode, wrench + per motor
     need = rows * columns * 8
     if need > memory_budget_bytes():
         raise LogDataError(f"{name}: dt = {dt:g} s makes {rows:.3g} rows × {columns} columns ≈ "
                            f"{need / 1e9:.3g} GB of table, more than half this machine's "
                            f"{physical_memory_bytes() / 1e9:.3g} GB; give a larger step")
+    if densest is not None and rows > MAX_ROWS_PER_SAMPLE * max(densest[0], 1):
+        raise LogDataError(f"{name}: dt = {dt:g} s makes {rows:.4g} rows, more than "
+                           f"{MAX_ROWS_PER_SAMPLE}× the {densest[0]} samples of the log's densest "
+                           f"channel ({densest[1]}): the rows would only repeat interpolated "
+                           "values; give a larger step")
 
 
 def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = None,
@@ -317,17 +317,18 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
                                     "from the first row of the whole log (--t-start/--t-end "
                                     "keep it)",
                           "unit": "s", "t0_boot_s": float(g0), "dt_s": dt}}
-    cols["depth_m"] = _on_grid(depth, grid, gpart) if depth is not None else np.full(grid.size, np.nan)
+    cols["depth_m"] = (_on_grid(depth, grid, gpart, gaps=True) if depth is not None
+                       else np.full(grid.size, np.nan))
     prov["depth_m"] = {"source": None if depth is None else depth.source, "unit": "m",
                        "why": dsrc["why"]}
     for c, ch in zip(("roll_rad", "pitch_rad", "yaw_rad"), att):
-        cols[c] = _on_grid(ch, grid, gpart)
+        cols[c] = _on_grid(ch, grid, gpart, gaps=True)
         prov[c] = {"source": ch.source, "unit": "rad"}
     prov["yaw_rad"]["note"] = "unwrapped (continuous) before resampling"
     for c in ("roll_rad", "pitch_rad", "yaw_rad"):
         prov[c]["as_logged"] = att_src
     if bat is not None:
-        cols["battery_V"] = _on_grid(bat, grid, gpart, hold_ends=True)
+        cols["battery_V"] = _on_grid(bat, grid, gpart, hold_ends=True, gaps=True)
         prov["battery_V"] = {"source": bat.source, "unit": "V"}
     else:
         cols["battery_V"] = np.full(grid.size, np.nan)
@@ -355,6 +356,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         prov[c] = {"source": "Σ over motors " + ("B[dof, j]" if veh is not None else "f[dof, i]")
                              + " × thrust_i_N", "basis": basis, "unit": unit}
     df = pd.DataFrame(cols)
+    gap_rows = _say_gaps(name, warnings, grid, gpart, g0, depth, att, bat, pwms)
     used = {v.get("source") for v in prov.values()}
     dups = {k: v for k, v in raw.duplicates.items() if k in used}
     if dups:
@@ -364,10 +366,41 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
     if raw.parts > 1:
         df.insert(1, "part", gpart)
         prov["part"] = {"source": "boot (reboot) number within the log"}
+    if gap_rows.any():  # rows where no essential channel has a sample: left out
+        df = df[~gap_rows].reset_index(drop=True)
+        factor_df = factor_df[~gap_rows].reset_index(drop=True)
     segs = _segments(df)
     dsrc = {**dsrc, "source": None if depth is None else depth.source}
     return DiveLog(raw.path, raw.format, df, config, dsrc, warnings, segs, prov, tm.to_dict(),
                    basis, factor_df, None if veh is None else veh.name)
+
+
+def _say_gaps(name, warnings, grid, gpart, g0, depth, att, bat, pwms) -> np.ndarray:
+    """A warning per gap of each message read (its start, end and length on ``t_s``; the columns
+    left NaN there); returns the rows inside a gap of depth, attitude and every PWM channel at
+    once (a hole in the log: left out of the table)."""
+    from uuvid.io.ardusub.sources import _gaps, _in_gaps
+
+    said: dict = {}
+    for ch in (depth, *att, bat, *pwms.values()):
+        if ch is None:
+            continue
+        for k, a, b, med in _gaps(ch):
+            key = (ch.source.split(".")[0], k, round(a, 1), round(b, 1))
+            said.setdefault(key, [a, b, med, []])[3].append(ch.source)
+    for (msg, k, _, _), (a, b, med, srcs) in said.items():
+        warnings.append(f"{name}: {msg} has no sample from t = {a - g0:.6g} to {b - g0:.6g} s (a gap "
+                        f"of {b - a:.4g} s; its samples are normally {med:.3g} s apart"
+                        + (f", part {k}" if k else "") + f"): {', '.join(srcs)} left NaN there, "
+                        "not interpolated or held across the gap")
+    every = [c for c in (depth, *att, *pwms.values()) if c is not None]
+    rows = np.ones(grid.size, bool)
+    for c in every:
+        rows &= _in_gaps(_gaps(c), grid, gpart)
+    if rows.any():
+        warnings.append(f"{name}: {int(rows.sum())} rows inside a gap of depth, attitude and "
+                        "every PWM channel at once (a hole in the log) are left out of the table")
+    return rows
 
 
 def _in_force(history: dict, t: float) -> dict:
@@ -495,7 +528,7 @@ def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
     import pandas as pd
 
     if mode_ch is not None:
-        mnum = _on_grid(mode_ch, grid, gpart)
+        mnum = _on_grid(mode_ch, grid, gpart, gaps=mode_ch.source.startswith("HEARTBEAT"))
         names = {x: MODE_NAMES.get(int(x), f"MODE{int(x)}") for x in np.unique(mnum[np.isfinite(mnum)])}
         mode = pd.Series(mnum).map(names).fillna("UNKNOWN").to_numpy(object)
         prov["mode"] = {"source": mode_ch.source, "names": "ArduSub Mode::Number"}
@@ -506,7 +539,8 @@ def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
     cols["mode"] = mode
     if arm_ch is not None:
         events = arm_ch.source != _HB_ARMED  # dataflash: events; telemetry: a state per HEARTBEAT
-        arm = _on_grid(arm_ch, grid, gpart, initial=_initial_armed(arm_ch) if events else None)
+        arm = _on_grid(arm_ch, grid, gpart, initial=_initial_armed(arm_ch) if events else None,
+                       gaps=not events)  # telemetry: a state per HEARTBEAT, not held across gaps
         prov["armed"] = {"source": arm_ch.source}
         if events:
             prov["armed"]["note"] = "before the first event of a part: the opposite of that event"
@@ -535,7 +569,7 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
         volts = np.where(np.isfinite(volts), volts, fill)
     T = np.empty((len(config.active), grid.size))
     for j, m in enumerate(config.active):
-        pwm = _on_grid(pwms[m.number], grid, gpart)
+        pwm = _on_grid(pwms[m.number], grid, gpart, gaps=True)
         cols[f"pwm_{m.number}"] = pwm
         prov[f"pwm_{m.number}"] = {"source": pwms[m.number].source, "unit": "µs",
                                    "output": m.output}
@@ -544,7 +578,8 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
             warnings.append(f"pwm_{m.number}: {out} rows outside MOT_PWM_MIN/MAX "
                             f"({config.pwm_min:g}–{config.pwm_max:g} µs)")
         # 0 µs is "no pulse" (output off), not full reverse
-        T[j] = np.where(pwm > 0, tm.thrust(effective_pwm(pwm, m.direction), volts), 0.0)
+        T[j] = np.where(pwm > 0, tm.thrust(effective_pwm(pwm, m.direction), volts),
+                        np.where(np.isfinite(pwm), 0.0, np.nan))  # NaN: a gap in the PWM
     for j, m in enumerate(config.active):
         cols[f"thrust_{m.number}_N"] = T[j]
         prov[f"thrust_{m.number}_N"] = {

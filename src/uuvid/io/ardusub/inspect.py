@@ -39,7 +39,7 @@ class LogInspection(Result):
 
     def summary(self) -> str:
         L = [f"{self.path.name}: {self.format}, {self.duration_s:.1f} s"
-             + (f", {self.parts} parts (reboots)" if self.parts > 1 else "")]
+             + (f", {self.parts} parts (reboots or sessions)" if self.parts > 1 else "")]
         L.append("senders:")
         for s in self.senders:
             off = ("" if s["clock_offset_s"] is None else
@@ -104,7 +104,7 @@ def inspect_log(path, params=None) -> LogInspection:
     tt = np.concatenate(ts) if ts else np.zeros(0)
     tt = tt[np.isfinite(tt)]
     t0 = float(tt.min()) if tt.size else 0.0
-    if raw.format == "tlog":
+    if raw.format == "tlog" and not raw.sessions:
         r = [s.first_recv for s in raw.senders.values()] + [s.last_recv for s in raw.senders.values()]
         duration = float(np.nanmax(r) - np.nanmin(r))
     else:

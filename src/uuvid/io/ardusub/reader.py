@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass, field
+from datetime import UTC
 from pathlib import Path
 
 import numpy as np
@@ -98,6 +99,7 @@ class RawLog:
     duplicates: dict = field(default_factory=dict)
     bad_data: int = 0
     same_recv: int = 0  # telemetry messages sharing the previous one's receive stamp
+    sessions: list = field(default_factory=list)  # parts of the autopilot starting a new session
 
     @property
     def name(self) -> str:
@@ -192,6 +194,9 @@ def read_raw(path, *, whole_file: bool = True) -> RawLog:
     return raw
 
 
+#: a sender's receive clock running on this much (s) more than its own clock between two of its
+#: messages starts a new part: another recording session (telemetry logs joined with cat)
+SESSION_JUMP_S = 600.0
 #: receive times this far (s) outside a log part's stamped messages are corrupt, not late
 RECV_MARGIN_S = 60.0
 #: a receive-clock step (s): the receive time of a sender's stamped message advanced by more than
@@ -385,6 +390,13 @@ def _cannot_read(p: Path, kind: str, what: str) -> str:
             f"damaged or not an ArduSub {'telemetry' if kind == 'tlog' else 'dataflash'} log")
 
 
+def _utc(t: float) -> str:
+    """A receive time (UNIX s) as UTC date and time."""
+    from datetime import datetime
+
+    return datetime.fromtimestamp(t, UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
 def _enum(name: str, value) -> str:
     try:
         from pymavlink.dialects.v20 import ardupilotmega as d
@@ -502,6 +514,12 @@ def _finish_tlog(raw: RawLog) -> None:
         if r.size == 0:
             continue
         cuts = np.flatnonzero(np.diff(_part_index(b))) + 1
+        # another session (logs joined with cat): the receive clock runs on far more than the
+        # sender's own clock between two of its messages (a link loss advances both)
+        sess = np.flatnonzero(np.diff(r) - np.diff(b) > SESSION_JUMP_S) + 1
+        cuts = np.union1d(cuts, sess).astype(int)
+        if src == raw.autopilot:
+            raw.sessions = [int(np.searchsorted(cuts, i)) + 1 for i in sess]
         bounds = [0, *cuts.tolist(), r.size]
         parts = []
         for a, z in zip(bounds[:-1], bounds[1:]):
@@ -516,8 +534,21 @@ def _finish_tlog(raw: RawLog) -> None:
     raw.parts = len(ap_parts)
     off0 = [float(np.min(rr - bb)) for _, rr, bb in ap_parts]
     C = [o - off0[0] for o in off0]
-    if raw.parts > 1:
-        raw.warnings.append(f"the autopilot rebooted {raw.parts - 1} time(s) during the log: it is "
+    for k in range(1, raw.parts):  # a new session: 1 s after the previous part (as dataflash)
+        if k in raw.sessions:
+            C[k] = float(np.max(ap_parts[k - 1][2])) + C[k - 1] + 1.0 - float(np.min(ap_parts[k][2]))
+    if raw.sessions:
+        raw.warnings.append(
+            "the ground station's receive clock jumps ahead of the autopilot's by more than "
+            f"{SESSION_JUMP_S:g} s at "
+            + ", ".join(f"{_utc(ap_parts[k][0])} (after a gap of "
+                        f"{ap_parts[k][0] - float(np.max(ap_parts[k - 1][1])):.6g} s)"
+                        for k in raw.sessions)
+            + ": another recording session (logs joined with cat?); each session is a part of "
+              "its own, placed 1 s after the previous one on the time base")
+    if raw.parts - len(raw.sessions) > 1:
+        raw.warnings.append(f"the autopilot rebooted {raw.parts - 1 - len(raw.sessions)} time(s) "
+                            "during the log: it is "
                             "split into parts, each on the autopilot's clock, joined by the "
                             "ground station's receive clock")
     # other senders: offset of their boot clock to the autopilot's

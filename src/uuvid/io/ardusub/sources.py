@@ -381,8 +381,47 @@ def _mode_events(raw: RawLog, warnings: list) -> tuple[_Channel | None, _Channel
 
 
 # ------------------------------------------------------------------------------------ gridding
+#: samples of a channel further apart than this many times its median interval (and at least
+#: :data:`GAP_MIN_S`) leave a gap in it: never bridged by interpolation or hold
+GAP_FACTOR = 10.0
+GAP_MIN_S = 1.0
+
+
+def _gaps(ch: _Channel) -> list[tuple[int, float, float, float]]:
+    """``(part, last sample before, first sample after, median interval)`` of each gap in
+    ``ch`` (see :data:`GAP_FACTOR`)."""
+    out = []
+    for k in np.unique(ch.part):
+        t = ch.t[ch.part == k]
+        if t.size < 3:
+            continue
+        d = np.diff(t)
+        med = float(np.median(d))
+        for i in np.flatnonzero(d > max(GAP_FACTOR * med, GAP_MIN_S)):
+            out.append((int(k), float(t[i]), float(t[i + 1]), med))
+    return out
+
+
+def _in_gaps(gaps, grid: np.ndarray, gpart: np.ndarray) -> np.ndarray:
+    """Rows of the grid strictly inside one of ``gaps`` (:func:`_gaps`)."""
+    m = np.zeros(grid.size, bool)
+    for k, a, b, _ in gaps:
+        m |= (gpart == k) & (grid > a) & (grid < b)
+    return m
+
+
 def _on_grid(ch: _Channel, grid: np.ndarray, gpart: np.ndarray, *, hold_ends=False,
-             initial=None) -> np.ndarray:
+             initial=None, gaps: bool = False) -> np.ndarray:
+    """``ch`` on the grid (per part); ``gaps``: NaN inside the channel's gaps (:func:`_gaps`)
+    rather than a straight line or a held value across them."""
+    out = _on_grid_all(ch, grid, gpart, hold_ends=hold_ends, initial=initial)
+    if gaps:
+        out[_in_gaps(_gaps(ch), grid, gpart)] = np.nan
+    return out
+
+
+def _on_grid_all(ch: _Channel, grid: np.ndarray, gpart: np.ndarray, *, hold_ends=False,
+                 initial=None) -> np.ndarray:
     out = np.full(grid.size, np.nan)
     for k in np.unique(gpart):
         g = gpart == k
