@@ -458,6 +458,10 @@ def test_a_pause_in_the_log_is_named_with_its_row(tmp_path):
     assert any(re.search(r"column t_s, row 602: the log stops for 3600 s \(from 29\.95 s\)", w)
                for w in dc.warnings)
     assert not any("the log stops" in w for w in _read(_table()).warnings)
+    # the armed time is two runs, one on each side: none spans the hour with no data
+    assert len(dc.armed) == len(_read(_table()).armed) + 1
+    assert not any(a < 30.0 and b > 3600.0 for a, b in dc.armed)
+    assert any(abs(b - 29.95) < 1e-9 for _, b in dc.armed)
 
 
 def test_a_dead_output_while_armed_is_named_with_its_time_span():

@@ -170,15 +170,30 @@ def _finite(t, v):
     return t[keep], v[keep]
 
 
-def _intervals(t, flag) -> list:
-    """``[(t0, t1)]`` runs where ``flag`` is true (a run ends at the next false stamp)."""
+def _intervals(t, flag, holes: bool = True) -> list:
+    """``[(t0, t1)]`` runs where ``flag`` is true (a run ends at the next false stamp, or, with
+    ``holes``, at the last stamp before a hole in the rows: a step more than 10× the median and
+    over 1 s, where a log has no data — no run, so no fit window, spans it; ``holes=False`` for
+    the stamps of a state topic, which may be sparse)."""
     out = []
+    t = np.asarray(t, float)
     flag = np.asarray(flag, bool)
     if not flag.any():
         return out
     edges = np.flatnonzero(np.diff(np.concatenate(([0], flag.astype(int), [0]))))
+    dt = np.diff(t)
+    hole = np.zeros(t.size, bool)  # hole[i]: rows i and i + 1 straddle a hole
+    if holes and dt.size:
+        med = float(np.median(dt))
+        hole[:-1] = dt > max(1.0, 10.0 * med)
     for a, b in zip(edges[::2], edges[1::2]):
-        out.append((float(t[a]), float(t[min(b, t.size - 1)])))
+        cuts = np.flatnonzero(hole[a:b - 1]) + a  # last row before each hole inside the run
+        start = a
+        for c in cuts:
+            out.append((float(t[start]), float(t[c])))
+            start = c + 1
+        end = b - 1 if hole[b - 1] else min(b, t.size - 1)  # the next stamp is past a hole
+        out.append((float(t[start]), float(t[end])))
     return out
 
 
@@ -963,7 +978,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         am = _armed_flags(word, a, name, warnings)
         armed = _intervals(t, am)
     else:
-        armed = [(float(t.min()), float(t.max()))]
+        armed = _intervals(t, np.ones(t.size, bool))  # all of it, a run each side of a pause
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
     left_out: dict = {}
     _check_units(chans, pwm, name, warnings, armed)  # (a depth in cm is no run of spikes)
@@ -1448,7 +1463,7 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
                               thrust_model=tm, label=bd.pwm_label)
     if bd.armed is not None:
         ta, a = bd.armed
-        armed = _intervals(ta, a > 0.5)
+        armed = _intervals(ta, a > 0.5, holes=False)
         if armed and a[-1] > 0.5:
             armed[-1] = (armed[-1][0], max(armed[-1][1], bd.t_end))
     else:
