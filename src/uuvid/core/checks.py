@@ -200,3 +200,27 @@ def memory_budget_bytes() -> float:
     """Most memory one result (a study's table, an exported log) may take: half of
     :func:`physical_memory_bytes`, the rest left to the process and the machine."""
     return 0.5 * physical_memory_bytes()
+
+
+def count(name: str, value, what: str = "a whole number", *, minimum: int = 1,
+          maximum: int | None = None, hint: str = "") -> int:
+    """``value`` as an int: ``TypeError`` naming ``name`` when it is not a real number (``"2"``,
+    ``None``), ``ValueError`` for a fractional one (``2.5`` was truncated to 2 without a word) or
+    one outside ``[minimum, maximum]`` (``hint``: what to do about a too large one)."""
+    real(name, value, what, integer=True)
+    n = int(value)
+    if n < minimum:
+        raise ValueError(f"{name} = {value!r}: expected {what} >= {minimum}")
+    if maximum is not None and n > maximum:
+        raise ValueError(f"{name} = {n:,}: expected {what} of at most {maximum:,}"
+                         + (f"; {hint}" if hint else ""))
+    return n
+
+
+def of_type(name: str, value, types, expected: str):
+    """``value`` unchanged, or ``TypeError`` naming ``name`` and ``expected`` when it is not an
+    instance of ``types`` (an object of another type failed later with an ``AttributeError``
+    that named neither)."""
+    if not isinstance(value, types):
+        raise TypeError(f"{name}: expected {expected}, got {type(value).__name__} {value!r:.80}")
+    return value

@@ -1550,6 +1550,58 @@ def step_count(duration: float, dt: float, name: str = "t_end", dt_name: str = "
     return max(int(round(n)), 1)
 
 
+#: Most RK4 substeps per control step (as :data:`uuvid.thruster.chain.MAX_SUBSTEPS`: a step of
+#: ``dt / 10⁴`` buys RK4 no accuracy, only time).
+MAX_SUBSTEPS = 10_000
+#: Most RK4 steps (control steps × substeps) one flight may take: ≈ 1 µs each on a BlueROV2, so a
+#: few minutes of a compiled loop no keyboard interrupt stops.
+MAX_INTEGRATION_STEPS = 200_000_000
+
+
+def _mission_inputs(vehicle, mission):
+    """The vehicle (a preset name or vehicle file loaded, as the Gym environment takes it) and the
+    mission, or ``TypeError`` naming the argument (a string, ``None`` or a list failed later with
+    an ``AttributeError`` naming neither)."""
+    from pathlib import Path
+
+    if isinstance(vehicle, (str, Path)):
+        from uuvid.vehicle.definition import load_vehicle
+
+        vehicle = load_vehicle(vehicle)
+    if not all(hasattr(vehicle, a) for a in ("layout", "params", "allocator", "B")):
+        raise TypeError(f"vehicle: expected a Vehicle (uuvid.vehicle.definition.load_vehicle), a preset "
+                        f"name or a vehicle file, got {type(vehicle).__name__} {vehicle!r:.80}")
+    if not (callable(mission) and hasattr(mission, "duration")):
+        raise TypeError(f"mission: expected a WaypointMission (uuvid.simulate.reference, e.g. "
+                        f"square_mission()), got {type(mission).__name__} {mission!r:.80}")
+    return vehicle, mission
+
+
+def _check_numbers(dt, substeps, t_end, max_steps, gains, current) -> None:
+    """:func:`setup_mission`'s numbers and gains, each named in its error."""
+    from uuvid.core import checks
+
+    checks.real("dt", dt, "a control step in s")
+    checks.positive("dt", dt, "s")
+    checks.count("substeps", substeps, "a number of RK4 steps per control step", maximum=MAX_SUBSTEPS,
+                  hint="a step of dt/10,000 buys RK4 no accuracy, only time")
+    if t_end is not None:
+        checks.real("t_end", t_end, "a duration in s (or None: the mission's)")
+    if max_steps is not None:
+        checks.count("max_steps", max_steps, "a number of control steps")
+    if gains is not None:
+        checks.of_type("gains", gains, DPGains, "uuvid.simulate.control.pid.DPGains (e.g. "
+                       "default_gains(vehicle)) or None")
+    if not hasattr(current, "sample"):
+        try:
+            if current is None or isinstance(current, (str, bytes)):
+                raise TypeError
+            np.asarray(current, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"current = {current!r}: expected three NED components in m/s (numbers) "
+                            "or a current model of uuvid.simulate.currents") from None
+
+
 def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, substeps: int = 1,
                   gains: DPGains | None = None, thruster_chain: ThrusterChain | None = None,
                   current=(0.0, 0.0, 0.0), modes=None, t_end: float | None = None,
@@ -1579,9 +1631,9 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     """
     from uuvid.simulate.currents import as_current
 
-    if not (dt > 0 and substeps >= 1):
-        raise ValueError(f"dt must be > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
-    if hasattr(vehicle, "layout") and len(vehicle.layout) == 0:
+    vehicle, mission = _mission_inputs(vehicle, mission)
+    _check_numbers(dt, substeps, t_end, max_steps, gains, current)
+    if len(vehicle.layout) == 0:
         raise ValueError(f"vehicle {vehicle.name!r} has no thrusters: nothing can fly a mission")
     if controller is not None and not isinstance(controller, Controller):
         raise TypeError("controller must be a uuvid.simulate.control.blocks.Controller(fn, params, "
@@ -1623,8 +1675,14 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
     dofs = np.array(al.controlled, dtype=np.int64)
     ep, en = al.eta
     T = t_end if t_end is not None else mission.duration
-    t = np.arange(step_count(T, dt, "t_end" if t_end is not None else "the mission's duration",
-                             max_steps=max_steps)) * dt
+    n_steps = step_count(T, dt, "t_end" if t_end is not None else "the mission's duration",
+                         max_steps=max_steps)
+    if n_steps * int(substeps) > MAX_INTEGRATION_STEPS:  # before the loop, which cannot be stopped
+        raise ValueError(f"substeps = {int(substeps):,}: {n_steps:,} control steps × {int(substeps):,} "
+                         f"substeps is {n_steps * int(substeps):,} RK4 steps, more than the "
+                         f"{MAX_INTEGRATION_STEPS:,} one flight may take (minutes of a compiled loop "
+                         "that cannot be interrupted); lower substeps or shorten the flight")
+    t = np.arange(n_steps) * dt
     ref = mission(t)
     cm = as_current(current)
     series = None
@@ -1980,11 +2038,14 @@ def _fly_steps(run, k: int, setup: MissionSetup, Z: np.ndarray) -> None:
 
 def fly_mission(setup: MissionSetup) -> MissionResult:
     """Fly the mission once; returns the time series and the summary."""
-    s = setup
+    from uuvid.core.checks import of_type
+
+    s = of_type("setup", setup, MissionSetup, "a MissionSetup (setup_mission(vehicle, mission))")
     b = s.bank
     run, compiled, (Z, F, FD, TAU, SC, VOUT) = mission_runner(s)
     N = s.t.size
-    ref_pos, ref_yaw = np.ascontiguousarray(s.ref[0]), np.ascontiguousarray(s.ref[2])
+    # copies: the setup is flown again, and a result's arrays are the caller's to change
+    ref_pos, ref_yaw = (np.array(s.ref[k], dtype=float, order="C") for k in (0, 2))
     VCT = s.current_series[0] if s.current_series is not None else np.zeros((0, 3))
     BAT = s.battery_array if s.battery_array is not None else np.zeros(0)
     compile_s = 0.0
@@ -2017,7 +2078,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     if BAT.size:  # the limits follow the supply voltage: those at the start, per step for checks
         lo_t, hi_t = battery_limits(BAT, VOUT[:, 0])
         lim = np.column_stack([np.full(b.n, lo_t[0]), np.full(b.n, hi_t[0])])
-    res = MissionResult(s.t, Z, F, FD, TAU, SC, ref_pos, ref_yaw,
+    res = MissionResult(s.t.copy(), Z, F, FD, TAU, SC, ref_pos, ref_yaw,
                         tuple(th.name for th in s.vehicle.layout), lim)
     err = res.tracking_error
     if BAT.size:
