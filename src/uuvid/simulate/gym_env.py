@@ -298,6 +298,23 @@ def _check_action(action, shape: tuple[int, ...], what: str = "action") -> np.nd
     return a
 
 
+#: Shortest control step (s): a thruster's command is updated at most every few ms (a 400 Hz ESC)
+MIN_DT = 1e-4
+#: Most RK4 steps per control step (as :data:`uuvid.simulate.vehicle_sim.MAX_SUBSTEPS`)
+MAX_SUBSTEPS = 10_000
+
+
+def env_bytes(n_act: int, n_thrusters: int) -> int:
+    """Memory one copy of :class:`StationKeepingVectorEnv` takes (bytes, an upper estimate): its
+    share of the batched spaces (float32 bounds and their flags), of the state, current, counter,
+    observation and scratch arrays, and of a step's temporaries (actions, the float32
+    observation, rewards, flags, a reset's new states)."""
+    spaces_ = 2 * (5 * N_OBS + 5 * n_act)
+    state = 8 * (13 + 3 + 2 + N_OBS + 2 + work_size(n_thrusters)) + 1
+    step = 8 * 2 * n_act + 4 * N_OBS + 8 * 2 + 3 + 8 * 16
+    return 2 * (spaces_ + state + step)  # twice: numpy's temporaries in step() and reset()
+
+
 # ---------------------------------------------------------------------------------------------
 # Shared configuration
 # ---------------------------------------------------------------------------------------------
@@ -310,6 +327,10 @@ class _Config:
         from uuvid.vehicle.inflow import loop_arrays
 
         v = load_vehicle(vehicle) if isinstance(vehicle, (str, Path)) else vehicle
+        if not all(hasattr(v, a) for a in ("layout", "params", "allocator", "B")):
+            raise TypeError(f"vehicle: expected a preset name, a vehicle file or a Vehicle "
+                            f"(uuvid.vehicle.definition.load_vehicle), got {type(v).__name__} "
+                            f"{v!r:.80}")
         self.vehicle = v
         lim = v.layout.limits
         if v.layout.n == 0:
@@ -319,7 +340,13 @@ class _Config:
             raise ValueError(f"{v.name}: thrusters {bad} have no finite limits; actions are "
                              "normalised to the limits")
         self.dt = _positive("dt", dt, "a finite number > 0 (s)")
+        if self.dt < MIN_DT:
+            raise ValueError(f"dt must be at least {MIN_DT:g} s (a control step shorter than any "
+                             f"thruster's command update: is it in ms?), got {dt!r}")
         self.nsub = _count("substeps", substeps)
+        if self.nsub > MAX_SUBSTEPS:  # every step() would run minutes in an uninterruptible loop
+            raise ValueError(f"substeps must be at most {MAX_SUBSTEPS:,} (a step of dt/{MAX_SUBSTEPS:,} "
+                             f"buys RK4 no accuracy, only time), got {substeps!r}")
         self.max_steps = _count("max_steps", max_steps)
         self.lo = np.ascontiguousarray(lim[:, 0])
         self.hi = np.ascontiguousarray(lim[:, 1])
@@ -487,6 +514,14 @@ class StationKeepingVectorEnv(VectorEnv):
             raise TypeError(f"unknown options {sorted(unknown)}; known: {sorted(_DEFAULTS)}")
         self.num_envs = _count("num_envs", num_envs)
         self.cfg = _Config(vehicle, **{**_DEFAULTS, **kw})
+        from uuvid.simulate.footprint import flight_memory_limit, size_text
+
+        need, limit = self.num_envs * env_bytes(self.cfg.n_act, self.cfg.B.shape[1]), flight_memory_limit()
+        if need > limit:  # before gymnasium's batch_space allocates its bounds
+            most = int(limit // env_bytes(self.cfg.n_act, self.cfg.B.shape[1]))
+            raise ValueError(f"num_envs = {self.num_envs:,} copies would take about {size_text(need)} "
+                             f"of memory, more than the {size_text(limit)} one environment may take "
+                             f"here: at most {most:,} copies")
         self.single_observation_space, self.single_action_space = self.cfg.spaces()
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
