@@ -244,9 +244,12 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     exception propagates, leaving an existing *path* untouched.
     """
     target = Path(os.fspath(path))
-    target.parent.mkdir(parents=True, exist_ok=True)
-    _sweep_once(target.parent)
-    tmp = _create_temp(target)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        _sweep_once(target.parent)
+        tmp = _create_temp(target)
+    except OSError as e:  # name the file asked for, not the hidden temporary one
+        raise type(e)(e.errno, e.strerror, str(target)) from None
     try:
         yield tmp
         if not tmp.exists():
@@ -296,6 +299,76 @@ def _is_report_folder(d: Path) -> bool:
         return False
 
 
+#: The files a report wrote, recorded at the end of its ``index.html`` (:func:`_record_outputs`), so
+#: the next report into that folder replaces those and keeps the rest (the user's notes).
+_OUTPUTS = re.compile(r"<!-- uuvid-outputs: (\[.*?\]) -->", re.S)
+
+
+def _files_under(d: Path) -> list[str]:
+    """Relative POSIX paths of the files (and symbolic links) under ``d``, sorted."""
+    out = []
+    for root, dirs, files in os.walk(d):
+        r = Path(root)
+        out += [(r / f).relative_to(d).as_posix() for f in files]
+        out += [(r / x).relative_to(d).as_posix() for x in dirs if (r / x).is_symlink()]
+    return sorted(out)
+
+
+def _record_outputs(d: Path) -> None:
+    """Append the list of ``d``'s files to its ``index.html`` when uuvid wrote that page."""
+    index = d / "index.html"
+    try:
+        with open(index, encoding="utf-8", errors="replace") as fh:
+            if GENERATOR_TAG not in fh.read(4096):
+                return
+    except OSError:
+        return
+    names = json.dumps(_files_under(d), ensure_ascii=True).replace("--", "-\\u002d")
+    with open(index, "a", encoding="utf-8") as fh:
+        fh.write(f"\n<!-- uuvid-outputs: {names} -->\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _recorded_outputs(d: Path) -> set[str] | None:
+    """The files the report in ``d`` wrote (:func:`_record_outputs`); ``None`` when its page
+    does not say (a report of an earlier version)."""
+    try:
+        m = _OUTPUTS.findall((d / "index.html").read_text(encoding="utf-8", errors="replace"))
+        return set(json.loads(m[-1])) if m else None
+    except (OSError, ValueError):
+        return None
+
+
+def _carry_foreign(old: Path, new: Path) -> bool:
+    """Link (or copy, where links are not possible) into ``new`` every file of the report folder
+    ``old`` the report there did not write (:func:`_recorded_outputs`) and ``new`` does not hold,
+    so they survive the exchange; ``False`` when ``old`` does not say what it wrote (nothing
+    done: the caller merges instead of replacing)."""
+    if not any(old.iterdir()):
+        return True
+    ours = _recorded_outputs(old)
+    if ours is None:
+        return False
+    for rel in _files_under(old):
+        if rel in ours or rel == "index.html":
+            continue
+        src, dst = old / rel, new / rel
+        if dst.exists() or dst.is_symlink():  # the new report writes that name: its output
+            continue
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            os.link(src, dst, follow_symlinks=False)
+        except OSError:
+            shutil.copy2(src, dst, follow_symlinks=False)
+    for root, dirs, _ in os.walk(old):  # the user's empty folders too
+        for x in dirs:
+            rel = (Path(root) / x).relative_to(old)
+            if not (new / rel).exists() and not (Path(root) / x).is_symlink():
+                (new / rel).mkdir(parents=True)
+    return True
+
+
 def _merge_into(src: Path, dst: Path) -> None:
     """Move ``src``'s entries into the existing folder ``dst``, one atomic rename each, folders
     merged recursively (nothing of ``dst`` is removed but files of the same name), ``index.html``
@@ -319,29 +392,39 @@ def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
     *path* absent: the folder is renamed into place.  *path* a report folder (empty, or its
     ``index.html`` written by uuvid): the two are exchanged atomically (Linux; elsewhere two
     renames a moment apart) and the old one removed — files of the old report the new one does
-    not write go with it.  *path* a folder holding other files (not a report of ours): they are
-    kept and the new entries moved in one by one, ``index.html`` last.  Nested use (a report
-    inside a report folder) works: the inner folder is swapped inside the outer temporary one.
+    not write go with it, while files the old report did not write (the user's notes, listed
+    as not its own at the end of its ``index.html``) are linked into the new folder before the
+    exchange and so kept.  *path* a folder holding other files (not a report of ours, or one
+    of an earlier version that does not list its files): they are kept and the new entries
+    moved in one by one, ``index.html`` last.  Nested use (a report inside a report folder)
+    works: the inner folder is swapped inside the outer temporary one.
     """
     target = Path(os.path.abspath(os.fspath(path)))  # "." and ".." get a name and a parent
     if target == target.parent:
         raise ValueError(f"cannot write a report folder over the file-system root {target}")
     if target.exists() and not target.is_dir():
         # with its file name, so the command line says "a file of that name is in the way"
-        raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder; choose another --out",
-                                 str(target))
+        raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder (a file of that name "
+                                 "is in the way)", str(target))
     cwd = Path(os.path.abspath(os.getcwd()))
-    holds_cwd = cwd == target or target in cwd.parents  # never swap the working folder away
-    target.parent.mkdir(parents=True, exist_ok=True)
-    _sweep_once(target.parent)
+    merge = cwd == target or target in cwd.parents  # never swap the working folder away
     tmp = target.with_name(_temp_name(target))
-    tmp.mkdir()
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        _sweep_once(target.parent)
+        tmp.mkdir()
+    except OSError as e:  # name the folder asked for, not the hidden temporary one
+        raise type(e)(e.errno, e.strerror, str(target)) from None
     try:
         yield tmp
+        _record_outputs(tmp)
+        if (target.exists() and not merge and _is_report_folder(target)
+                and not _carry_foreign(target, tmp)):
+            merge = True  # a report that does not list its files: merged, nothing removed
         _fsync_dir(tmp)
         if not target.exists():
             os.rename(tmp, target)
-        elif not holds_cwd and _is_report_folder(target):
+        elif not merge and _is_report_folder(target):
             if _exchange(tmp, target):
                 shutil.rmtree(tmp, ignore_errors=True)  # now holds the old report
             else:
