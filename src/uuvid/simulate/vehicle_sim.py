@@ -1610,7 +1610,11 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
                   disturbance: Disturbance | None = None,
                   max_steps: int | None = None, inflow: str | None = None,
                   inflow_source: str | None = None, propeller: str | None = None) -> MissionSetup:
-    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`) for a mission.
+    """Prepare a vehicle (from :func:`uuvid.vehicle.definition.load_vehicle`, or a preset name or
+    vehicle file, loaded) for a mission.
+
+    ``substeps``: RK4 steps per control step ``dt``, a whole number from 1 to :data:`MAX_SUBSTEPS`,
+    and at most :data:`MAX_INTEGRATION_STEPS` in all (the compiled loop cannot be interrupted).
 
     ``current``: a constant NED vector or a model of :mod:`uuvid.simulate.currents`;
     ``allocation``: the saturation method of :meth:`uuvid.vehicle.allocation.Allocator.allocate`
