@@ -60,8 +60,37 @@ def _accel(vehicle, current, depth, roll, pitch, tau) -> np.ndarray:
 def required_wrench(vehicle, current, depth: float = 2.0, roll: float = 0.0,
                     pitch: float = 0.0) -> np.ndarray:
     """Steady wrench (6) the thrusters must give to hold the vehicle at rest (heading north, at
-    the given attitude) in the NED ``current``: ``τ_req = −M ν̇(ν = 0, τ = 0)``."""
+    the given attitude) in the NED ``current``: ``τ_req = −M ν̇(ν = 0, τ = 0)``.  ``current``:
+    3 finite NED components (m/s); ``depth`` finite, >= 0 m (down positive); ``roll``, ``pitch``
+    finite (rad)."""
+    from uuvid.core.checks import finite
+
+    current = _check_current(current)
+    depth = _check_depth(depth)
+    return _required_wrench(vehicle, current, depth, finite("roll", roll, "rad"),
+                            finite("pitch", pitch, "rad"))
+
+
+def _required_wrench(vehicle, current, depth: float = 2.0, roll: float = 0.0,
+                     pitch: float = 0.0) -> np.ndarray:
+    """:func:`required_wrench` of arguments already checked (the inner loops of a search)."""
     return -vehicle.params.mass_matrix @ _accel(vehicle, current, depth, roll, pitch, np.zeros(6))
+
+
+def _check_current(current) -> np.ndarray:
+    """A NED current as given by a caller: 3 finite components (m/s); a 2-component current was
+    taken as is and failed (or not) far from the call, a NaN gave an all-NaN wrench."""
+    from uuvid.core.checks import finite_values
+
+    return finite_values("current", current, (3,), "a NED current of 3 finite components (m/s)")
+
+
+def _check_depth(depth) -> float:
+    """A holding depth (m, down positive): finite and >= 0, as a mission's (``square_mission``);
+    a NaN depth raised a LinAlgError deep in the allocation."""
+    from uuvid.core.checks import non_negative
+
+    return non_negative("depth", depth, "m, down positive")
 
 
 #: Largest roll or pitch (deg) counted as holding station: the same level limit as steady flight
@@ -82,11 +111,11 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     ang = np.array(start, dtype=float)
     drift = uncontrolled_push(vehicle, current, al, depth)
     if drift:
-        r = al.allocate(required_wrench(vehicle, current, depth), "priority")
+        r = al.allocate(_required_wrench(vehicle, current, depth), "priority")
         return False, 0.0, 0.0, r
 
     def resid(a):
-        tau = required_wrench(vehicle, current, depth, a[0], a[1])
+        tau = _required_wrench(vehicle, current, depth, a[0], a[1])
         r = al.allocate(tau, "priority")
         acc = _accel(vehicle, current, depth, a[0], a[1], r.achieved)
         return np.array([acc[k] for k in free]), r
@@ -124,7 +153,7 @@ def uncontrolled_push(vehicle, current, al: Allocator, depth: float = 2.0) -> li
     it).  Roll and pitch are not listed: they settle at a balance (:func:`steady_hold`)."""
     from uuvid.vehicle.layout import DOF_NAMES
 
-    tau = required_wrench(vehicle, current, depth)
+    tau = _required_wrench(vehicle, current, depth)
     tol = 1e-9 + 1e-6 * float(np.max(np.abs(tau)))
     return [DOF_NAMES[k] for k in (0, 1, 2, 5) if k not in al.controlled and abs(tau[k]) > tol]
 
@@ -167,7 +196,7 @@ def _loop_point(vehicle, current, gains, depth, roll, pitch):
     G = gains.to_array()
     P = vehicle.params.to_array()
     cur = np.asarray(current, float)
-    tau_req = required_wrench(vehicle, cur, depth, roll, pitch)
+    tau_req = _required_wrench(vehicle, cur, depth, roll, pitch)
     integ0 = np.array([tau_req[k] / G[1, j] if G[1, j] > 0 else 0.0
                        for j, k in enumerate(DP_DOFS)])
     s0 = np.zeros(16)
@@ -313,8 +342,15 @@ def _max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth
                  v_cap: float = 10.0, tol: float = 1e-4, soc: float | None = None, battery=None,
                  stability: bool = True, gains=None, inflow: str | None = None):
     """:func:`max_current` at a ``relative_deg`` already checked (the command line's, a
-    capability plot's grid): its warnings are not said again."""
+    capability plot's grid): its warnings are not said again.  The other numbers are checked
+    here (no warnings, cheap): ``tol`` and ``v_cap`` finite and > 0 (``tol=0`` bisected for
+    ever, ``v_cap=0`` returned ∞), ``depth`` finite and >= 0."""
+    from uuvid.core.checks import positive
     from uuvid.vehicle.inflow import inflow_limits
+
+    tol = positive("tol", tol, "m/s, the bisection's resolution")
+    v_cap = positive("v_cap", v_cap, "m/s, the fastest current searched")
+    depth = _check_depth(depth)
 
     al = _allocator(vehicle, limits, modes)
     il = inflow_limits(vehicle, inflow)
@@ -399,6 +435,8 @@ def _max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth
             hi = v
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
+        if not lo < mid < hi:  # a tol below the float spacing at lo (1e-20): as fine as it gets
+            break
         good, a = ok(mid, ang)
         if good:
             lo, ang = mid, a
@@ -444,6 +482,11 @@ class CapabilityResult(Result):
     max_current_bollard: np.ndarray = field(default_factory=lambda: np.zeros(0))  # inflow off
 
     def analytic_at(self, deg: float) -> float:
+        """The analytic boundary (m/s) at the computed direction nearest to ``deg`` (finite,
+        degrees off the bow, modulo 360°)."""
+        from uuvid.core.checks import finite
+
+        deg = finite("deg", deg, "degrees off the bow")
         i = int(np.argmin(np.abs((self.relative_deg - deg + 180) % 360 - 180)))
         return float(self.max_current[i])
 

@@ -224,3 +224,27 @@ def of_type(name: str, value, types, expected: str):
     if not isinstance(value, types):
         raise TypeError(f"{name}: expected {expected}, got {type(value).__name__} {value!r:.80}")
     return value
+
+
+def finite_values(name: str, value, shape: tuple | None = None, what: str = "finite numbers"):
+    """``value`` as a float array of ``shape`` (``None``: any) whose entries are all finite, or
+    ``ValueError`` naming the first that is not (``current[0] = nan: expected finite numbers``)
+    or the shape it should have."""
+    import numpy as np
+
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: expected {what}") from None
+    if shape is not None and a.shape != tuple(shape):
+        want = " × ".join(str(k) for k in shape) if len(shape) != 1 else f"{shape[0]} component(s)"
+        raise ValueError(f"{name} has shape {a.shape}: expected {want} ({what})")
+    if a.ndim == 0:
+        if not np.isfinite(a):
+            raise ValueError(f"{name} = {float(a):g}: expected {what}")
+        return a
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        i = tuple(int(k) for k in bad[0])
+        raise ValueError(f"{name}[{', '.join(map(str, i))}] = {float(a[i]):g}: expected {what}")
+    return a

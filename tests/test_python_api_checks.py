@@ -1,0 +1,85 @@
+"""Arguments of the Python API a notebook user passes: a bad one is a ValueError naming it,
+before any work (not a hang, an infinity, a NaN result or an error from deep inside)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from uuvid.analysis import hold
+from uuvid.vehicle.definition import load_vehicle
+
+_ROV: list = []
+
+
+def _rov():
+    if not _ROV:
+        _ROV.append(load_vehicle("bluerov2"))
+    return _ROV[0]
+
+
+# ------------------------------------------------------------------ hold (items 1, 9, 10)
+@pytest.mark.parametrize("tol", [math.nan, 0.0, -1.0, math.inf])
+def test_hold_max_current_refuses_a_bad_tol(tol):
+    """tol = 0 or < 0 bisected for ever; NaN stopped after the first step (0.35 m/s, not 0.384)."""
+    with pytest.raises(ValueError, match=r"^tol = .*expected a finite number > 0"):
+        hold.max_current(_rov(), 0.0, tol=tol)
+
+
+@pytest.mark.parametrize("v_cap", [0.0, -1.0, math.nan, math.inf])
+def test_hold_max_current_refuses_a_bad_v_cap(v_cap):
+    """v_cap = 0 or −1 returned ∞ (held 'beyond'), NaN was ignored."""
+    with pytest.raises(ValueError, match=r"^v_cap = .*expected a finite number > 0"):
+        hold.max_current(_rov(), 0.0, v_cap=v_cap)
+
+
+@pytest.mark.parametrize("depth", [-5.0, math.nan, math.inf])
+def test_hold_max_current_refuses_a_bad_depth(depth):
+    """depth = −5 was accepted (a mission refuses it), NaN raised a LinAlgError 8 frames deep."""
+    with pytest.raises(ValueError, match=r"^depth = .*expected a finite number >= 0"):
+        hold.max_current(_rov(), 0.0, depth=depth)
+
+
+def test_hold_max_current_valid_numbers_unchanged():
+    v, info = hold.max_current(_rov(), 0.0)
+    assert v == pytest.approx(0.38427734375, abs=1e-12)
+    assert hold.max_current(_rov(), 0.0, tol=1e-3, depth=0.0)[0] > 0.37
+
+
+def test_hold_max_current_tol_below_float_spacing_ends():
+    """A tol below the spacing of floats at the boundary stops where bisection can go no finer."""
+    v = hold.max_current(_rov(), 0.0, tol=1e-30)[0]
+    assert v == pytest.approx(0.3843, abs=1e-3)
+
+
+@pytest.mark.parametrize("current, match", [([0.1, 0.0], r"^current has shape \(2,\)"),
+                                            ([math.nan, 0.0, 0.0], r"^current\[0\] = nan"),
+                                            ([0.0, 0.0, math.inf], r"^current\[2\] = inf"),
+                                            ("0.3", r"^current")])
+def test_hold_required_wrench_refuses_a_bad_current(current, match):
+    with pytest.raises(ValueError, match=match):
+        hold.required_wrench(_rov(), current)
+
+
+@pytest.mark.parametrize("kw", [{"depth": -5.0}, {"depth": math.nan}, {"roll": math.nan}])
+def test_hold_required_wrench_refuses_a_bad_depth_or_attitude(kw):
+    with pytest.raises(ValueError, match=f"^{next(iter(kw))} = "):
+        hold.required_wrench(_rov(), [0.1, 0.0, 0.0], **kw)
+
+
+def test_hold_required_wrench_valid_numbers_unchanged():
+    v = _rov()
+    c = hold.current_ned(0.3, 20.0)
+    np.testing.assert_array_equal(hold.required_wrench(v, c, 3.0),
+                                  -v.params.mass_matrix @ hold._accel(v, c, 3.0, 0.0, 0.0,
+                                                                      np.zeros(6)))
+
+
+def test_hold_capability_analytic_at_refuses_nan():
+    cap = hold.CapabilityResult("x", np.array([0.0, 90.0, 180.0, 270.0]),
+                                np.array([0.4, 0.3, 0.35, 0.3]))
+    with pytest.raises(ValueError, match=r"^deg = nan"):
+        cap.analytic_at(math.nan)
+    assert cap.analytic_at(359.0) == 0.4 and cap.analytic_at(95) == 0.3
