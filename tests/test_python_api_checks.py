@@ -83,3 +83,49 @@ def test_hold_capability_analytic_at_refuses_nan():
     with pytest.raises(ValueError, match=r"^deg = nan"):
         cap.analytic_at(math.nan)
     assert cap.analytic_at(359.0) == 0.4 and cap.analytic_at(95) == 0.3
+
+
+# ------------------------------------------------------------------ thruster chain (items 5, 11)
+def test_chain_sweep_refuses_a_step_of_hours():
+    """dt = 1e-7 was within the old 1e12-step limit: hours of compute."""
+    from uuvid.thruster.chain import MAX_RUN_STEPS
+    from uuvid.thruster.presets import auv2_tunnel_chain
+
+    with pytest.raises(ValueError, match=rf"^sweep: .*dt = 1e-07.*{MAX_RUN_STEPS:.0e}".replace("+", r"\+")):
+        auv2_tunnel_chain().sweep(np.linspace(1, 12, 100), dt=1e-7)
+
+
+@pytest.mark.parametrize("max_passes", [10**6, 60])
+def test_chain_sweep_refuses_too_many_passes_naming_max_passes(max_passes):
+    """max_passes = 10**6 raised a bare OverflowError (2.0 ** 999999)."""
+    from uuvid.thruster.presets import auv2_tunnel_chain
+
+    with pytest.raises(ValueError, match=r"^sweep: .*max_passes = "):
+        auv2_tunnel_chain().sweep([4.0, 8.0], max_passes=max_passes)
+
+
+def test_chain_sweep_refuses_a_fractional_max_passes():
+    from uuvid.thruster.presets import auv2_tunnel_chain
+
+    with pytest.raises(ValueError, match=r"^sweep: max_passes = 2.5"):
+        auv2_tunnel_chain().sweep([4.0, 8.0], max_passes=2.5)
+
+
+@pytest.mark.parametrize("u, at", [([math.nan, 1600.0], r"u\[0\] = nan"),
+                                   ([1600.0, math.inf], r"u\[1\] = inf"),
+                                   (math.nan, r"u = nan")])
+def test_chain_steady_thrust_refuses_non_finite_levels(u, at):
+    """A closed-form chain (the T200) gave a thrust of 0 for NaN."""
+    from uuvid.thruster.presets import t200_chain
+
+    with pytest.raises(ValueError, match=f"^{at}: expected finite input levels"):
+        t200_chain().steady_thrust(u)
+
+
+def test_chain_steady_thrust_valid_numbers_unchanged():
+    from uuvid.thruster.presets import t200_chain
+
+    c = t200_chain()
+    y = c.steady_thrust([1600.0, 1400.0])
+    assert y[0] == pytest.approx(5.127, abs=1e-3) and y.shape == (2,)
+    assert c.steady_thrust(1600.0).shape == (1,)

@@ -38,8 +38,11 @@ MAX_SUBSTEPS = 10_000
 """Most RK4 steps per output sample: finer than ``dt / 10⁴`` buys RK4 no accuracy, only time."""
 MAX_RUN_STEPS = 50_000_000
 """Most RK4 steps one simulated run may take (≈ 100 s at the ≈ 0.5 M steps/s of a T200 chain)."""
-MAX_SWEEP_STEPS = 1e12
-"""Most integration steps a sweep may take (levels × pass length / dt, all passes)."""
+MAX_SWEEP_STEPS = 20 * MAX_RUN_STEPS
+"""Most integration steps a sweep may take (levels × pass length / dt, all passes, were no level
+to settle early): minutes of compute, ≈ 20 at the very worst (it was 1e12: hours); 2,600 levels
+at the defaults of a 3 s settling chain.  Each level's own passes are one run, held to
+:data:`MAX_RUN_STEPS` like a simulation's."""
 
 
 def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] | None = None,
@@ -86,6 +89,11 @@ def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] |
                          f"one run may take (minutes of compute); lower {sn}{sf}, shorten {tn}{tf} "
                          f"or raise {dn}{df}")
     return int(round(t_end / dt)) + 1
+
+
+def _pow2(log2: float) -> str:
+    """``2**log2`` for a message, as ``3.84e+09`` — or ``10^301030`` beyond a float's range."""
+    return f"{2.0 ** log2:.3g}" if log2 < 1000 else f"10^{log2 * math.log10(2):.0f}"
 
 
 def _kernel_code_digest() -> str:
@@ -250,7 +258,10 @@ class ThrusterChain:
         (:meth:`sweep`); that table is cached on disk (:mod:`uuvid.core.cache`, ``steady_maps``)
         under a hash of the chain's parameters, the levels and the kernel code, unless
         ``cache=False``.  Levels the sweep could not bring to rest are never cached."""
-        u = np.atleast_1d(np.asarray(u, dtype=float))
+        from uuvid.core.checks import finite_values
+
+        # a NaN level went through the closed-form maps as a thrust of 0 (a T200's dead band)
+        u = np.atleast_1d(finite_values("u", u, what="finite input levels"))
         y = u
         for b in self.blocks:
             y = b.steady_output(y)
@@ -303,15 +314,28 @@ class ThrusterChain:
             raise ValueError(f"sweep: dt must be a finite step > 0 s, got {dt!r}")
         if not (math.isfinite(settle) and settle > 0):
             raise ValueError(f"sweep: settle_time must be a finite time > 0 s, got {settle!r}")
-        if int(max_passes) < 1 or not (rtol > 0):
-            raise ValueError(f"sweep: max_passes must be >= 1 and rtol > 0, got {max_passes!r}, "
-                             f"{rtol!r}")
-        steps = u.size * settle / dt * 2.0 ** max(int(max_passes) - 1, 0)
-        if steps > MAX_SWEEP_STEPS:
-            raise ValueError(f"sweep: {u.size} levels × {settle:g} s / dt {dt:g} s over up to "
-                             f"{max_passes} passes is up to {steps:.3g} steps, more than "
-                             f"{MAX_SWEEP_STEPS:.0e}; raise dt, shorten settle_time or use fewer "
-                             "levels or passes")
+        from uuvid.core.checks import count
+
+        max_passes = count("sweep: max_passes", max_passes, 1)
+        if not rtol > 0:
+            raise ValueError(f"sweep: rtol = {rtol!r}: expected a relative tolerance > 0")
+        # pass lengths settle, settle, 2·settle, … : a level's passes last settle · 2^(P−1) in all
+        # (taken in logarithms: 2.0 ** (10**6) overflowed, a bare OverflowError)
+        # (a chain without states runs one pass whatever max_passes says)
+        log2_run = math.log2(settle / dt) + (max_passes - 1 if self.n_states else 0)
+        if log2_run > math.log2(MAX_RUN_STEPS):
+            raise ValueError(
+                f"sweep: settle_time {settle:g} s at dt = {dt:g} s over up to max_passes = "
+                f"{max_passes} passes (each doubling the last) is up to "
+                f"{_pow2(log2_run)} steps per level, more than the {MAX_RUN_STEPS:.0e} one run may "
+                "take (minutes of compute); lower max_passes, raise dt or shorten settle_time")
+        log2_all = log2_run + math.log2(max(u.size, 1))
+        if log2_all > math.log2(MAX_SWEEP_STEPS):
+            raise ValueError(
+                f"sweep: {u.size} levels × {settle:g} s / dt {dt:g} s over up to max_passes = "
+                f"{max_passes} passes is up to {_pow2(log2_all)} steps, more than the "
+                f"{MAX_SWEEP_STEPS:.0e} a sweep may take (minutes of compute); raise dt, shorten "
+                "settle_time or use fewer levels or passes")
         nsamp = int(math.ceil(settle / dt)) + 1
         c = self.compile()
         nx = self.n_states
