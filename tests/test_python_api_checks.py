@@ -129,3 +129,47 @@ def test_chain_steady_thrust_valid_numbers_unchanged():
     y = c.steady_thrust([1600.0, 1400.0])
     assert y[0] == pytest.approx(5.127, abs=1e-3) and y.shape == (2,)
     assert c.steady_thrust(1600.0).shape == (1,)
+
+
+# ------------------------------------------------------------------ least squares (items 12, 13)
+def _regression():
+    rng = np.random.default_rng(0)
+    H = np.column_stack([np.ones(20), np.linspace(0, 1, 20)])
+    y = H @ [1.0, 2.0] + 0.01 * rng.standard_normal(20)
+    return H, y
+
+
+def test_nonlinear_lsq_refuses_names_not_matching_x0():
+    from uuvid.identify.fit import nonlinear_lsq
+
+    H, y = _regression()
+    with pytest.raises(ValueError, match="1 names for 2 parameters"):
+        nonlinear_lsq(lambda th: H @ th - y, [0.0, 0.0], ["a"])
+    f = nonlinear_lsq(lambda th: H @ th - y, [0.0, 0.0], ["a", "b"])
+    assert len(f.parameters) == 2 and f.covariance.shape == (2, 2)
+
+
+@pytest.mark.parametrize("w, match", [(np.r_[1.0, -1.0, np.ones(18)], r"^weights\[1\] = -1"),
+                                      (np.r_[np.ones(5), np.nan, np.ones(14)],
+                                       r"^weights\[5\] = nan"),
+                                      (np.ones(19), r"^weights has shape \(19,\).*20")])
+def test_linear_lsq_refuses_bad_weights(w, match, capfd):
+    """A negative or NaN weight made LAPACK print 'On entry to DLASCL …' and raise a
+    LinAlgError; a wrong length, a bare broadcasting error."""
+    from uuvid.identify.fit import linear_lsq
+
+    H, y = _regression()
+    with pytest.raises(ValueError, match=match):
+        linear_lsq(H, y, ["a", "b"], weights=w)
+    assert "DLASCL" not in capfd.readouterr().err
+
+
+def test_linear_lsq_valid_weights_unchanged():
+    from uuvid.identify.fit import linear_lsq
+
+    H, y = _regression()
+    w = np.linspace(0.0, 2.0, 20)
+    f = linear_lsq(H, y, ["a", "b"], weights=w)
+    sw = np.sqrt(w)
+    theta = np.linalg.lstsq(H * sw[:, None], y * sw, rcond=None)[0]
+    np.testing.assert_allclose([p.value for p in f.parameters], theta, rtol=1e-10)

@@ -382,7 +382,7 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     if bad.size:
         raise ValueError(f"row {bad[0]} of the regression has a non-finite value")
     if weights is not None:
-        w = np.sqrt(np.asarray(weights, dtype=float))
+        w = np.sqrt(_check_weights(weights, n))
         Hw, yw = H * w[:, None], y * w
     else:
         Hw, yw = H, y
@@ -408,6 +408,23 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     if extra:
         ex.update(extra)
     return Fit(model, params, cov, y - H @ theta, n, cond, tuple(msgs), ex)
+
+
+def _check_weights(weights, n: int) -> np.ndarray:
+    """:func:`linear_lsq`'s ``weights``: one per row, finite and >= 0 (a negative or NaN weight
+    reached LAPACK, which printed "On entry to DLASCL parameter number 4 had an illegal value"
+    and raised a LinAlgError; a wrong length, a bare broadcasting error)."""
+    from uuvid.core.checks import finite_values
+
+    w = np.asarray(weights, dtype=float)
+    if w.shape != (n,):
+        raise ValueError(f"weights has shape {w.shape}: expected one weight per row of H ({n})")
+    w = finite_values("weights", w, what="a finite weight >= 0 per row")
+    neg = np.flatnonzero(w < 0)
+    if neg.size:
+        raise ValueError(f"weights[{neg[0]}] = {w[neg[0]]:g}: expected a finite weight >= 0 per "
+                         "row")
+    return w
 
 
 #: a parameter whose squared share of the null directions exceeds this is undetermined
@@ -471,6 +488,11 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     from scipy.optimize import least_squares
 
     x0 = np.asarray(x0, dtype=float)
+    if x0.ndim > 1 or len(names) != x0.size:
+        # checked before the solve, as linear_lsq does: a Fit of 1 parameter with a 2×2
+        # covariance came back
+        raise ValueError(f"{len(names)} names for {x0.size} parameters (x0 has shape {x0.shape}): "
+                         "expected one name per parameter, x0 a 1-D start")
     with small_blas(x0.size):  # a few parameters: threaded SVDs of the Jacobian only cost
         sol = least_squares(residual, x0, bounds=bounds, x_scale=x_scale, jac=jac, **kwargs)
     J = np.asarray(sol.jac, dtype=float)
