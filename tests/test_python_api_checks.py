@@ -173,3 +173,49 @@ def test_linear_lsq_valid_weights_unchanged():
     sw = np.sqrt(w)
     theta = np.linalg.lstsq(H * sw[:, None], y * sw, rcond=None)[0]
     np.testing.assert_allclose([p.value for p in f.parameters], theta, rtol=1e-10)
+
+
+# ------------------------------------------------------------------ bootstrap (item 6)
+@pytest.mark.parametrize("n_boot, exc, match", [(10**9, ValueError, r"^n_boot = 1,000,000,000"),
+                                                (-5, ValueError, r"^n_boot = -5"),
+                                                (0, ValueError, r"^n_boot = 0"),
+                                                (1, ValueError, r"^n_boot = 1"),
+                                                (2.5, ValueError, r"^n_boot = 2.5"),
+                                                ("10", TypeError, r"^n_boot = '10'")])
+def test_bootstrap_linear_refuses_a_bad_n_boot(n_boot, exc, match):
+    from uuvid.uncertainty.bootstrap import bootstrap_linear
+
+    H, y = _regression()
+    with pytest.raises(exc, match=match):
+        bootstrap_linear(H, y, ["a", "b"], n_boot=n_boot)
+
+
+def test_bootstrap_linear_refuses_replicates_beyond_memory(monkeypatch):
+    from uuvid.core import checks
+    from uuvid.uncertainty.bootstrap import bootstrap_linear
+
+    monkeypatch.setattr(checks, "memory_budget_bytes", lambda: 1e5)
+    H, y = _regression()
+    with pytest.raises(ValueError, match=r"^n_boot = 1,000: .*GB"):
+        bootstrap_linear(H, y, ["a", "b"], n_boot=1000)
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, "a"])
+def test_bootstrap_linear_refuses_a_bad_seed(seed):
+    from uuvid.uncertainty.bootstrap import bootstrap_linear
+
+    H, y = _regression()
+    with pytest.raises((ValueError, TypeError), match=r"^seed = "):
+        bootstrap_linear(H, y, ["a", "b"], n_boot=10, seed=seed)
+
+
+def test_bootstrap_linear_seed_none_is_a_fresh_recorded_seed():
+    from uuvid.uncertainty.bootstrap import bootstrap_linear
+
+    H, y = _regression()
+    r = bootstrap_linear(H, y, ["a", "b"], n_boot=20, seed=None)
+    assert isinstance(r.seed, int) and r.seed >= 0
+    again = bootstrap_linear(H, y, ["a", "b"], n_boot=20, seed=r.seed)
+    np.testing.assert_array_equal(r.replicates, again.replicates)
+    fixed = bootstrap_linear(H, y, ["a", "b"], n_boot=20, seed=3)
+    assert fixed.seed == 3 and np.all(np.isfinite(fixed.boot_sigma))

@@ -47,6 +47,9 @@ import pandas as pd
 from uuvid.core.result import Result, jsonable
 
 KINDS = ("residual", "wild", "pairs", "segment", "block")
+#: most replicates a bootstrap draws: a standard error is known to ~0.1 % after 10⁶ (1/√(2n)),
+#: and each replicate costs at least a random draw and a solve
+MAX_REPLICATES = 1_000_000
 
 
 def _IdentifiabilityWarning():
@@ -201,12 +204,38 @@ def bootstrap(fit_fn: Callable, data, resample: Callable, *, n_boot: int = 200, 
 # ---------------------------------------------------------------------------------------------
 # linear LS (identify.fit.linear_lsq)
 # ---------------------------------------------------------------------------------------------
+def _check_replicates(n_boot, seed, sample_bytes: float) -> tuple[int, int]:
+    """``(n_boot, seed)`` of a bootstrap, checked before any work: ``n_boot`` a whole number from
+    2 (a spread needs two replicates; 0 gave σ = NaN silently) to :data:`MAX_REPLICATES`, whose
+    replicates (``sample_bytes`` each) fit in :func:`~uuvid.core.checks.memory_budget_bytes`
+    (n_boot = 10⁹ tried to allocate 373 GiB); ``seed`` a whole number >= 0, or ``None`` for a
+    fresh random one (returned, and kept in the result's ``seed`` to repeat the run)."""
+    from uuvid.core.checks import count, memory_budget_bytes
+
+    n = count("n_boot", n_boot, 2, MAX_REPLICATES, "(a standard error is known to 0.1 % after "
+              "10⁶ replicates)")
+    budget = memory_budget_bytes()
+    if n * sample_bytes > budget:
+        raise ValueError(f"n_boot = {n:,}: the replicates would take ≈ {n * sample_bytes / 1e9:.3g}"
+                         f" GB, more than the {budget / 1e9:.3g} GB (half this machine's memory) "
+                         f"one result may take; expected at most {int(budget // sample_bytes):,}")
+    if seed is None:
+        import secrets
+
+        return n, secrets.randbits(63)
+    return n, count("seed", seed, 0)
+
+
 @_quiet
 def bootstrap_linear(H, y, names: Sequence[str], *, n_boot: int = 1000, seed: int = 0,
                      kind: str = "residual", cov_type: str = "classical", block: int = 10,
                      procedure: str = "linear LS") -> BootstrapResult:
     """Bootstrap ``y ≈ Hθ`` solved by :func:`~uuvid.identify.fit.linear_lsq` (``kind``: residual,
-    wild, pairs, block).  Residual/wild/block replicates keep ``H`` and are solved together."""
+    wild, pairs, block).  Residual/wild/block replicates keep ``H`` and are solved together.
+
+    ``n_boot``: 2 … :data:`MAX_REPLICATES` replicates, within the memory one result may take;
+    ``seed``: a whole number >= 0 (replicate ``b`` draws from ``default_rng([seed, b])``), or
+    ``None`` for a fresh random seed, kept in the result's ``seed``."""
     from uuvid.identify.fit import linear_lsq
 
     if kind not in ("residual", "wild", "pairs", "block"):
@@ -216,6 +245,8 @@ def bootstrap_linear(H, y, names: Sequence[str], *, n_boot: int = 1000, seed: in
     if H.ndim == 1:
         H = H[:, None]
     y = np.asarray(y, dtype=float)
+    # a replicate holds a resampled y (n) and its estimate (p), 8 bytes each
+    n_boot, seed = _check_replicates(n_boot, seed, 8.0 * (H.shape[0] + H.shape[1]))
     fit = linear_lsq(H, y, names, cov_type=cov_type, emit_warnings=False)
     nm, est, sd = _values(fit)
     n, p = H.shape
