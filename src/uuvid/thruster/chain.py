@@ -316,7 +316,7 @@ class ThrusterChain:
             raise ValueError(f"sweep: settle_time must be a finite time > 0 s, got {settle!r}")
         from uuvid.core.checks import count
 
-        max_passes = count("sweep: max_passes", max_passes, 1)
+        max_passes = count("sweep: max_passes", max_passes, minimum=1)
         if not rtol > 0:
             raise ValueError(f"sweep: rtol = {rtol!r}: expected a relative tolerance > 0")
         # pass lengths settle, settle, 2·settle, … : a level's passes last settle · 2^(P−1) in all

@@ -212,8 +212,8 @@ def _check_replicates(n_boot, seed, sample_bytes: float) -> tuple[int, int]:
     fresh random one (returned, and kept in the result's ``seed`` to repeat the run)."""
     from uuvid.core.checks import count, memory_budget_bytes
 
-    n = count("n_boot", n_boot, 2, MAX_REPLICATES, "(a standard error is known to 0.1 % after "
-              "10⁶ replicates)")
+    n = count("n_boot", n_boot, minimum=2, maximum=MAX_REPLICATES,
+              hint="a standard error is known to 0.1 % after 10⁶ replicates")
     budget = memory_budget_bytes()
     if n * sample_bytes > budget:
         raise ValueError(f"n_boot = {n:,}: the replicates would take ≈ {n * sample_bytes / 1e9:.3g}"
@@ -223,7 +223,7 @@ def _check_replicates(n_boot, seed, sample_bytes: float) -> tuple[int, int]:
         import secrets
 
         return n, secrets.randbits(63)
-    return n, count("seed", seed, 0)
+    return n, count("seed", seed, minimum=0)
 
 
 @_quiet
