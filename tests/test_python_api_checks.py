@@ -35,6 +35,12 @@ def test_hold_max_current_refuses_a_bad_v_cap(v_cap):
         hold.max_current(_rov(), 0.0, v_cap=v_cap)
 
 
+def test_hold_max_current_refuses_a_v_cap_no_search_ends():
+    """v_cap = 1e9 m/s stepped 0.05 m/s at a time: 2·10¹⁰ station checks on a vehicle that holds."""
+    with pytest.raises(ValueError, match=r"^v_cap = 1e\+09 m/s: expected at most 100 m/s"):
+        hold.max_current(_rov(), 0.0, v_cap=1e9)
+
+
 @pytest.mark.parametrize("depth", [-5.0, math.nan, math.inf])
 def test_hold_max_current_refuses_a_bad_depth(depth):
     """depth = −5 was accepted (a mission refuses it), NaN raised a LinAlgError 8 frames deep."""

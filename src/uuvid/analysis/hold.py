@@ -38,6 +38,9 @@ from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
 
 
+#: The fastest current :func:`max_current` searches to (its ``v_cap``), m/s.
+MAX_V_CAP = 100.0
+
 def current_ned(speed: float, relative_deg: float, heading: float = 0.0) -> np.ndarray:
     """NED current of ``speed`` coming from ``relative_deg`` off the bow of a vehicle heading
     ``heading`` (rad): it flows towards ``heading + relative + 180°``."""
@@ -350,6 +353,9 @@ def _max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth
 
     tol = positive("tol", tol, "m/s, the bisection's resolution")
     v_cap = positive("v_cap", v_cap, "m/s, the fastest current searched")
+    if v_cap > MAX_V_CAP:  # searched in 0.05 m/s steps: 1e9 m/s was 2·10¹⁰ station checks
+        raise ValueError(f"v_cap = {v_cap:g} m/s: expected at most {MAX_V_CAP:g} m/s (the search "
+                         "steps 0.05 m/s at a time; no current runs faster than ≈ 5 m/s)")
     depth = _check_depth(depth)
 
     al = _allocator(vehicle, limits, modes)
