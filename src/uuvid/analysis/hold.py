@@ -37,9 +37,9 @@ from uuvid.core.result import Result
 from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
 
-
 #: The fastest current :func:`max_current` searches to (its ``v_cap``), m/s.
 MAX_V_CAP = 100.0
+
 
 def current_ned(speed: float, relative_deg: float, heading: float = 0.0) -> np.ndarray:
     """NED current of ``speed`` coming from ``relative_deg`` off the bow of a vehicle heading
