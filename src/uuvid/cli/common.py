@@ -74,7 +74,7 @@ def _fail_flagged(err: BaseException | str, flags: dict[str, str], prefix: str =
     _fail(prefix + _flagged(text, flags))
 
 
-def check_outputs(*outputs, new_folders: bool = True) -> None:
+def check_outputs(*outputs) -> None:
     """Every destination a command writes, checked before it computes or writes anything:
     ``(option, path, kind)`` with ``kind`` ``"folder"`` (a report folder,
     :func:`uuvid.core.atomic.check_writable_dir`) or ``"file"``
@@ -82,8 +82,8 @@ def check_outputs(*outputs, new_folders: bool = True) -> None:
     cannot be written ends the command naming the option (a file where a folder goes, no
     permission), so a run either writes all its outputs or none; nothing is created here (the
     writers make the folders), so a run that then fails on its input leaves no empty folder.
-    ``new_folders=False``: a file's folder, or a report folder's parent, must exist (a mistyped
-    path is an error, not a tree of new folders at the filesystem's root)."""
+    Folders that do not exist yet above an output are said (``note: … will be created``): a
+    mistyped path shows before it becomes a tree of new folders."""
     from pathlib import Path
 
     from uuvid.core.atomic import check_writable_dir, check_writable_file
@@ -92,9 +92,12 @@ def check_outputs(*outputs, new_folders: bool = True) -> None:
         if path is None:
             continue
         parent = Path(path).parent  # a report folder itself is made, never its parents
-        if not new_folders and not parent.exists() and not (kind != "file" and Path(path).is_dir()):
-            _fail(f"{opt} {path}: the folder {parent} does not exist; create it first or correct "
-                  "the path; nothing was written")
+        if not parent.exists():
+            top = parent
+            while not top.parent.exists() and top.parent != top:
+                top = top.parent
+            err_console.print(f"note: {escape(f'{opt} {path}')}: the folder {escape(str(top))} does not "
+                              "exist yet; it will be created", highlight=False, soft_wrap=True)
         try:
             (check_writable_dir if kind == "folder" else check_writable_file)(path, create=False)
         except OSError as e:

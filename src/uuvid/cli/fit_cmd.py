@@ -213,7 +213,7 @@ def thruster_fit(
     if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
         _fail(f"--supply-voltage must be positive, got {supply_voltage}")
     # every destination before the fit and before any is written: a failed run leaves the old files
-    check_outputs(("--out-model", out, "file"), ("--report", report, "folder"), new_folders=False)
+    check_outputs(("--out-model", out, "file"), ("--report", report, "folder"))
     try:
         outcome = run_fit(data, kind, opts, degree=degree, criterion=criterion.value,
                           map_input=map_input.value, table_points=table_points,

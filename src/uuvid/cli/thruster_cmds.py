@@ -109,7 +109,7 @@ def thruster_simulate(
         from uuvid.cli.replay_cmd import replay_from_spec
 
         return replay_from_spec(model, signal, out, json_out)
-    check_outputs(("--out", out, "folder"), new_folders=False)  # a mistyped path makes no folders
+    check_outputs(("--out", out, "folder"))  # a mistyped path is said
     chain = _load_model(model)
     from uuvid.simulate.signals import Constant, Step, default_step
     from uuvid.thruster.chain import command_range_warnings, signal_range_warnings
@@ -223,7 +223,7 @@ def thruster_export(
     from uuvid.thruster.resolve import export_supply
 
     out = renamed(out, "--out-file", old_out)
-    check_outputs(("--out-file", out, "file"), new_folders=False)  # before the work, as given
+    check_outputs(("--out-file", out, "file"))  # before the work, as given
     chain = _load_model(model)
     try:
         chain, said = export_supply(model, chain, supply_voltage)
