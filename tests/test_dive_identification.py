@@ -478,7 +478,7 @@ def test_surging_while_turning_is_said_in_the_yaw_estimate():
         est = identify_dive(df, "bluerov2", ["yaw"], t_end=220.0).estimates["yaw"]
         said[surge] = [w for w in est.warnings if w.startswith("the pilot surged in ")]
     assert not said[0.0]
-    assert len(said[0.3]) == 1 and "--dof horizontal" in said[0.3][0]
+    assert len(said[0.3]) == 1 and "dofs=horizontal" in said[0.3][0]  # the API names its argument
 
 
 @pytest.mark.slow
