@@ -196,6 +196,27 @@ def test_bootstrap_linear_refuses_a_bad_n_boot(n_boot, exc, match):
         bootstrap_linear(H, y, ["a", "b"], n_boot=n_boot)
 
 
+@pytest.mark.parametrize("which", ["drag", "steady"])
+def test_the_other_bootstraps_check_n_boot_and_seed_too(which):
+    """bootstrap (behind bootstrap_drag/_physical) and bootstrap_steady took n_boot = 0 (σ = NaN)
+    and 10⁹ (hours of refits) unchecked."""
+    import numpy as np
+
+    from uuvid.uncertainty import bootstrap as bs
+
+    if which == "drag":
+        def call(**kw):
+            return bs.bootstrap(lambda d: None, np.zeros(3), lambda d, rng: d, **kw)
+    else:
+        def call(**kw):
+            return bs.bootstrap_steady(None, **kw)
+    for n_boot, match in ((0, r"^n_boot = 0"), (10**9, r"^n_boot = 1,000,000,000: expected")):
+        with pytest.raises(ValueError, match=match):
+            call(n_boot=n_boot)
+    with pytest.raises(ValueError, match=r"^seed = -1"):
+        call(n_boot=10, seed=-1)
+
+
 def test_bootstrap_linear_refuses_replicates_beyond_memory(monkeypatch):
     from uuvid.core import checks
     from uuvid.uncertainty.bootstrap import bootstrap_linear

@@ -174,9 +174,11 @@ def _values(fit, names: Sequence[str] | None = None) -> tuple[list[str], np.ndar
 def bootstrap(fit_fn: Callable, data, resample: Callable, *, n_boot: int = 200, seed: int = 0,
               kind: str = "custom", procedure: str = "fit", names: Sequence[str] | None = None,
               progress: bool | None = None) -> BootstrapResult:
-    """Generic bootstrap: ``fit_fn(data) → Fit``; ``resample(data, rng) → data*`` per replicate."""
+    """Generic bootstrap: ``fit_fn(data) → Fit``; ``resample(data, rng) → data*`` per replicate
+    (``n_boot``, ``seed``: as :func:`bootstrap_linear` checks them)."""
     from uuvid.core.progress import progress_task
 
+    n_boot, seed = _check_replicates(n_boot, seed, 8.0 * 64)  # a replicate keeps its estimates
     t0 = time.perf_counter()
     full = fit_fn(data)
     nm, est, sd = _values(full, names)
@@ -411,6 +413,7 @@ def bootstrap_steady(data, *, model: str = "quadratic", degree: int | None = Non
     from uuvid.identify.thruster.steady import fit_polynomial, fit_quadratic_speed
 
     flat = _steady_fit_fn(model, degree)
+    n_boot, seed = _check_replicates(n_boot, seed, 8.0 * 64)  # a replicate keeps its estimates
     t0 = time.perf_counter()
     full = flat(data)
     names = list(full)
