@@ -29,14 +29,23 @@ def write(tmp_path: Path, text: str, name: str = "bench.csv") -> Path:
 
 
 @pytest.mark.parametrize("header, scale", [("flow [kn]", 0.514444), ("flow speed", 1.0),
-                                           ("flow_speed []", 1.0), ("Flow-Speed (m/s)", 1.0),
-                                           ("flow", 1.0)])
+                                           ("flow_speed []", 1.0), ("Flow-Speed (m/s)", 1.0)])
 def test_documented_flow_headers_are_detected(tmp_path, header, scale):
     d = read_bench(write(tmp_path, FLOW.format(h=header)), command_col="command",
                    speed_col="speed", thrust_col="thrust")
     assert d.flow_speed is not None, header
     assert d.flow_speed_column == header
     np.testing.assert_allclose(d.flow_speed.max(), scale, rtol=1e-4)
+
+
+@pytest.mark.parametrize("header", ["Flow", "flow [l/min]"])
+def test_a_flow_column_without_a_water_speed_unit_is_not_taken_for_one(tmp_path, header):
+    """A bare ``Flow`` (a coolant's) was read as the water speed in m/s and changed the fit; one in
+    l/min refused the file: neither is read, both are said."""
+    d = read_bench(write(tmp_path, FLOW.format(h=header)), command_col="command",
+                   speed_col="speed", thrust_col="thrust")
+    assert d.flow_speed is None and d.flow_speed_column is None
+    assert any(repr(header) in n and "--flow-speed-col" in n for n in d.notes)
 
 
 def test_flow_like_column_not_read_is_said(tmp_path):

@@ -86,3 +86,52 @@ def test_report_errors_name_the_users_path(tmp_path: Path) -> None:
         with pytest.raises(OSError) as e, ctx:
             pass
         assert ".tmp-" not in str(e.value) and name in str(e.value)
+
+
+@pytest.mark.parametrize("case", ["file_then_folder", "folder_then_file"])
+def test_a_users_file_the_new_report_would_overwrite_is_an_error_naming_it(tmp_path: Path, case) -> None:
+    """The user's file ``userfile`` and a new report writing ``userfile/x.png`` (the file was
+    dropped without a word), or the user's ``figs/mine.txt`` and a report writing a file ``figs``
+    (an error naming the hidden temporary folder): an error naming the user's file, the old
+    folder as it was."""
+    from uuvid.core.atomic import atomic_dir
+
+    out = tmp_path / "rep"
+    with atomic_dir(out) as work:
+        _report(work, {"a.txt": "old"})
+    if case == "file_then_folder":
+        (out / "userfile").write_text("mine")
+        mine, writes = out / "userfile", {"userfile/x.png": "new"}
+    else:
+        (out / "figs").mkdir()
+        (out / "figs" / "mine.txt").write_text("mine")
+        mine, writes = out / "figs" / "mine.txt", {"figs": "new"}
+    with pytest.raises(FileExistsError) as e, atomic_dir(out) as work:
+        for name, text in writes.items():
+            (work / name).parent.mkdir(parents=True, exist_ok=True)
+            (work / name).write_text(text)
+        _report(work, {})
+    assert e.value.filename == str(mine) and ".tmp-" not in str(e.value)
+    assert mine.read_text() == "mine" and (out / "a.txt").read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]
+
+
+def test_a_report_merged_over_an_unlisted_one_lists_nothing(tmp_path: Path) -> None:
+    """Over a report of an earlier version (no list of its outputs) the new one is merged; had it
+    listed only its own files, the old report's leftovers would pass for the user's for ever."""
+    import re
+
+    from uuvid.core.atomic import atomic_dir
+
+    out = tmp_path / "rep"
+    with atomic_dir(out) as work:
+        _report(work, {"old.png": "old"})
+    page = out / "index.html"
+    page.write_text(re.sub(r"<!-- uuvid-outputs: .*? -->", "", page.read_text(), flags=re.S))
+    with atomic_dir(out) as work:
+        _report(work, {"new.png": "new"})
+    assert (out / "old.png").exists()  # merged: nothing removed
+    assert "uuvid-outputs" not in page.read_text()
+    with atomic_dir(out) as work:  # still unlisted: merged again, never the old outputs kept as 'user' files
+        _report(work, {"new.png": "newer"})
+    assert (out / "new.png").read_text() == "newer"

@@ -354,6 +354,14 @@ def _carry_foreign(old: Path, new: Path) -> bool:
         if rel in ours or rel == "index.html":
             continue
         src, dst = old / rel, new / rel
+        up = dst.parent
+        while up != new:  # the new report writes a file where the user's file sits in a folder
+            if up.is_symlink() or (up.exists() and not up.is_dir()):
+                _clash(old / rel, f"the report now writes a file {up.relative_to(new)} where this "
+                                  "file of yours sits in a folder of that name")
+            up = up.parent
+        if dst.is_dir() and not dst.is_symlink() and not (src.is_dir() and not src.is_symlink()):
+            _clash(old / rel, "the report now writes a folder of that name")
         if dst.exists() or dst.is_symlink():  # the new report writes that name: its output
             continue
         dst.parent.mkdir(parents=True, exist_ok=True)
@@ -367,6 +375,18 @@ def _carry_foreign(old: Path, new: Path) -> bool:
             if not (new / rel).exists() and not (Path(root) / x).is_symlink():
                 (new / rel).mkdir(parents=True)
     return True
+
+
+def _clash(path: Path, why: str) -> None:
+    """A file of the user's in a report folder that the new report cannot keep beside its own
+    outputs: ``FileExistsError`` naming it (the old folder is left as it was)."""
+    raise FileExistsError(errno.EEXIST, f"{why}; move it out of the way and write the report again "
+                          "(nothing was changed)", str(path))
+
+
+def _unlisted(d: Path) -> bool:
+    """``d`` holds a report that does not say which files it wrote (an earlier version's)."""
+    return any(d.iterdir()) and _recorded_outputs(d) is None
 
 
 def _merge_into(src: Path, dst: Path) -> None:
@@ -417,9 +437,11 @@ def atomic_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
         raise type(e)(e.errno, e.strerror, str(target)) from None
     try:
         yield tmp
-        _record_outputs(tmp)
-        if (target.exists() and not merge and _is_report_folder(target)
-                and not _carry_foreign(target, tmp)):
+        report_there = target.exists() and _is_report_folder(target)
+        if not (report_there and (merge or _unlisted(target))):
+            # merged over a report, its list would pass the old report's outputs for the user's
+            _record_outputs(tmp)
+        if report_there and not merge and not _carry_foreign(target, tmp):
             merge = True  # a report that does not list its files: merged, nothing removed
         _fsync_dir(tmp)
         if not target.exists():

@@ -802,10 +802,14 @@ def _flow_key(column: str) -> str:
 
 def _auto_flow_column(t: _Table, notes: list[str] | None = None) -> str | None:
     """The column :data:`FLOW_SPEED_COLUMN` or another of :data:`FLOW_SPEED_NAMES`, with any
-    spacing and case and a unit in a trailing bracket (``flow_speed [cm/s]``, ``flow [kn]``,
-    ``flow speed``), else ``None``; two candidates are an error.  A column that mentions a flow
+    spacing and case and a unit in a trailing bracket (``flow_speed [cm/s]``, ``flow speed``;
+    ``flow`` only with a water speed unit, ``flow [kn]``), else ``None``; two candidates are an
+    error.  A column that mentions a flow
     but is none of these is said in ``notes`` (it is not read: still water is assumed)."""
-    have = [c for c in t.columns if _flow_key(c) in FLOW_SPEED_NAMES]  # flow_speed and flow [kn]: ask
+    # flow_speed (any unit: a wrong one is said when read); a bare "flow" only with a water speed
+    # unit in its header (flow [kn]): a Flow or flow [l/min] column is a coolant's, not read
+    have = [c for c in t.columns if _flow_key(c) == FLOW_SPEED_NAMES[0]
+            or (_flow_key(c) in FLOW_SPEED_NAMES and header_unit(c, "flow speed") is not None)]
     if not have and notes is not None:
         like = [c for c in t.columns if "flow" in _flow_key(c) or "water_speed" in _flow_key(c)]
         if like:
