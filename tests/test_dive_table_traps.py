@@ -462,6 +462,11 @@ def test_a_pause_in_the_log_is_named_with_its_row(tmp_path):
     assert len(dc.armed) == len(_read(_table()).armed) + 1
     assert not any(a < 30.0 and b > 3600.0 for a, b in dc.armed)
     assert any(abs(b - 29.95) < 1e-9 for _, b in dc.armed)
+    short = _table()  # a 2 s hiccup is no pause: not said, and no run is cut there
+    short.loc[600:, "t_s"] += 2.0
+    sc = _read(short, tmp_path)
+    assert not any("the log stops" in w for w in sc.warnings)
+    assert len(sc.armed) == len(_read(_table()).armed)
 
 
 def test_a_dead_output_while_armed_is_named_with_its_time_span():

@@ -172,20 +172,19 @@ def _finite(t, v):
 
 def _intervals(t, flag, holes: bool = True) -> list:
     """``[(t0, t1)]`` runs where ``flag`` is true (a run ends at the next false stamp, or, with
-    ``holes``, at the last stamp before a hole in the rows: a step more than 10× the median and
-    over 1 s, where a log has no data — no run, so no fit window, spans it; ``holes=False`` for
-    the stamps of a state topic, which may be sparse)."""
+    ``holes``, at the last stamp before a pause in the rows, :func:`_pause_s` — the pauses the
+    reader names: no run, so no fit window, spans one; ``holes=False`` for the stamps of a state
+    topic, which may be sparse)."""
     out = []
     t = np.asarray(t, float)
     flag = np.asarray(flag, bool)
     if not flag.any():
         return out
     edges = np.flatnonzero(np.diff(np.concatenate(([0], flag.astype(int), [0]))))
-    dt = np.diff(t)
-    hole = np.zeros(t.size, bool)  # hole[i]: rows i and i + 1 straddle a hole
-    if holes and dt.size:
-        med = float(np.median(dt))
-        hole[:-1] = dt > max(1.0, 10.0 * med)
+    hole = np.zeros(t.size, bool)  # hole[i]: rows i and i + 1 straddle a pause
+    gap = _pause_s(t) if holes else None
+    if gap is not None:
+        hole[:-1] = np.diff(t) > gap
     for a, b in zip(edges[::2], edges[1::2]):
         cuts = np.flatnonzero(hole[a:b - 1]) + a  # last row before each hole inside the run
         start = a
@@ -258,6 +257,14 @@ DEAD_OUTPUT_S = 5.0
 GAP_S = 10.0
 
 
+def _pause_s(t) -> float | None:
+    """The step between rows (s) that is a pause in a log: over :data:`GAP_S` and 50 median steps
+    (rows with the same stamp left out of the median); ``None`` under ten steps."""
+    step = np.diff(np.asarray(t, float))
+    step = step[step > 0]
+    return max(GAP_S, 50.0 * float(np.median(step))) if step.size >= 10 else None
+
+
 def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.ndarray:
     """The time column in seconds: every cell a number, never decreasing (rows with the same
     stamp are merged by :func:`_finite`, conflicts refused by :func:`_check_same_stamps`)."""
@@ -296,8 +303,8 @@ def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.nd
         raise DiveDataError(f"{name}: column {tcol}: the median step between rows is "
                             f"{float(np.median(step)):.4g} s; expected seconds at the rate of "
                             "the sensors (is the time in milliseconds? divide it by 1000)")
-    if warnings is not None and step.size >= 10:
-        gap = max(GAP_S, 50.0 * float(np.median(step)))
+    gap = _pause_s(t)
+    if warnings is not None and gap is not None:
         big = np.flatnonzero(np.diff(t) > gap)
         if big.size:
             i = int(big[0]) + 1
