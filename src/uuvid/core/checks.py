@@ -48,6 +48,9 @@ MAX_PLAUSIBLE_VOLTAGE = 1000.0
 #: a water current faster than this (m/s) is a unit slip (cm/s, knots ×2): the strongest tidal
 #: races run at about 5 m/s
 MAX_CURRENT_MPS = 6.0
+#: most RK4 steps per output sample or control step (a thruster chain's, a mission's, the Gym
+#: env's, a dynamic fit's): finer than ``dt / 10⁴`` buys RK4 no accuracy, only time
+MAX_SUBSTEPS = 10_000
 
 
 def current_speed(name: str, speed: float) -> float:

@@ -50,6 +50,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit, prange
 
+from uuvid.core.checks import MAX_SUBSTEPS  # re-exported: most RK4 steps per sample/step
+
 try:
     import gymnasium as gym
     from gymnasium import spaces
@@ -300,8 +302,6 @@ def _check_action(action, shape: tuple[int, ...], what: str = "action") -> np.nd
 
 #: Shortest control step (s): a thruster's command is updated at most every few ms (a 400 Hz ESC)
 MIN_DT = 1e-4
-#: Most RK4 steps per control step (as :data:`uuvid.simulate.vehicle_sim.MAX_SUBSTEPS`)
-MAX_SUBSTEPS = 10_000
 
 
 def env_bytes(n_act: int, n_thrusters: int) -> int:

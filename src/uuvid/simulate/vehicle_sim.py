@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
+from uuvid.core.checks import MAX_SUBSTEPS  # re-exported: most RK4 steps per sample/step
 from uuvid.core.result import DictSummaryResult, jsonable
 from uuvid.simulate.control.blocks import Controller, compiled_form
 from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandwidth, pid, pid_controller
@@ -1550,9 +1551,6 @@ def step_count(duration: float, dt: float, name: str = "t_end", dt_name: str = "
     return max(int(round(n)), 1)
 
 
-#: Most RK4 substeps per control step (as :data:`uuvid.thruster.chain.MAX_SUBSTEPS`: a step of
-#: ``dt / 10⁴`` buys RK4 no accuracy, only time).
-MAX_SUBSTEPS = 10_000
 #: Most RK4 steps (control steps × substeps) one flight may take: ≈ 1 µs each on a BlueROV2, so a
 #: few minutes of a compiled loop no keyboard interrupt stops.
 MAX_INTEGRATION_STEPS = 200_000_000

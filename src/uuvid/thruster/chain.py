@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uuvid.core.checks import MAX_SUBSTEPS  # re-exported: most RK4 steps per sample/step
 from uuvid.core.response import CHANNEL_UNITS, TimeResponse
 from uuvid.core.result import Result, jsonable
 from uuvid.thruster.blocks import (
@@ -34,8 +35,6 @@ MAX_SAMPLES = 2_000_000
 """Most output samples (× runs) one simulation holds in memory (≈ :data:`SAMPLE_BYTES` each)."""
 SAMPLE_BYTES = 200
 """Memory one output sample of a simulation takes, roughly: its time, input, states and channels."""
-MAX_SUBSTEPS = 10_000
-"""Most RK4 steps per output sample: finer than ``dt / 10⁴`` buys RK4 no accuracy, only time."""
 MAX_RUN_STEPS = 50_000_000
 """Most RK4 steps one simulated run may take (≈ 100 s at the ≈ 0.5 M steps/s of a T200 chain)."""
 MAX_SWEEP_STEPS = 20 * MAX_RUN_STEPS

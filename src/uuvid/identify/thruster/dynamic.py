@@ -51,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from uuvid.core.checks import MAX_SUBSTEPS  # re-exported: most RK4 steps per sample/step
 from uuvid.core.response import TimeResponse
 from uuvid.core.result import Result, jsonable
 from uuvid.core.threads import usable_cpus
@@ -375,8 +376,6 @@ def set_parameter(
 # ------------------------------------------------------------------------------------------------
 # simulation of a run with the compiled kernel
 # ------------------------------------------------------------------------------------------------
-MAX_SUBSTEPS = 10_000
-"""Most RK4 steps between two samples (a 10 s sample interval at the default 1 ms step)."""
 MAX_RUN_STEPS = 50_000_000
 """Most RK4 steps one simulation of a run may take (the fit simulates it many times)."""
 
