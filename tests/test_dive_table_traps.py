@@ -744,8 +744,8 @@ def test_a_column_with_a_unit_in_its_name_and_other_columns_are_said_not_read(tm
     assert len(said) == 2
     same = _read(_table().rename(columns={"depth_m": "Depth (m)", "yaw_rad": "heading [rad]"}))
     assert same.unread == ["Depth (m) (depth_m?)", "heading [rad] (yaw_rad?)"]
-    left = ("unit.csv: dofs=all left out heave (no depth_m), surge (no u_mps), sway "
-            "(no v_mps): the log has no such channel; its columns depth [cm] (depth_m? in m, not "
+    left = ("unit.csv: of all the DOFs (dofs=all, the default) heave (no depth_m), surge (no u_mps), "
+            "sway (no v_mps) left out: the log has no such channel; its columns depth [cm] (depth_m? in m, not "
             "cm) are not read")
     res = identify_dive(tmp_path / "unit.csv", "bluerov2", "all")
     assert list(res.estimates) == ["yaw"]

@@ -628,9 +628,10 @@ def all_left_out(dc) -> str | None:
             gone.append(f"{d} (no {' or '.join(miss)})")
     if not gone:
         return None
-    return (f"{dc.name}: {arg_is('dofs', 'all', '--dof')} left out {', '.join(gone)}: the log has no such "
-            "channel" + (f"; its columns {', '.join(dc.unread[:8])} are not read (renamed they "
-                         "would be)" if dc.unread else ""))
+    return (f"{dc.name}: of all the DOFs ({arg_is('dofs', 'all', '--dof')}, the default) "
+            f"{', '.join(gone)} left out: the log has no such channel"
+            + (f"; its columns {', '.join(dc.unread[:8])} are not read (renamed they would be)"
+               if dc.unread else ""))
 
 
 def _is_all(dofs) -> bool:
