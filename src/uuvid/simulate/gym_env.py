@@ -45,7 +45,6 @@ from __future__ import annotations
 import math
 import numbers
 import warnings
-from pathlib import Path
 
 import numpy as np
 from numba import njit, prange
@@ -323,14 +322,11 @@ class _Config:
 
     def __init__(self, vehicle, *, dt, substeps, max_steps, action, offset_range, current,
                  current_range, waypoints, acceptance_radius, max_distance, weights, inflow):
-        from uuvid.vehicle.definition import load_vehicle
+        from uuvid.vehicle.definition import as_vehicle
         from uuvid.vehicle.inflow import loop_arrays
 
-        v = load_vehicle(vehicle) if isinstance(vehicle, (str, Path)) else vehicle
-        if not all(hasattr(v, a) for a in ("layout", "params", "allocator", "B")):
-            raise TypeError(f"vehicle: expected a preset name, a vehicle file or a Vehicle "
-                            f"(uuvid.vehicle.definition.load_vehicle), got {type(v).__name__} "
-                            f"{v!r:.80}")
+        v = as_vehicle(vehicle, "expected a preset name, a vehicle file or a Vehicle "
+                                "(uuvid.vehicle.definition.load_vehicle)")
         self.vehicle = v
         lim = v.layout.limits
         if v.layout.n == 0:

@@ -1560,15 +1560,10 @@ def _mission_inputs(vehicle, mission):
     """The vehicle (a preset name or vehicle file loaded, as the Gym environment takes it) and the
     mission, or ``TypeError`` naming the argument (a string, ``None`` or a list failed later with
     an ``AttributeError`` naming neither)."""
-    from pathlib import Path
+    from uuvid.vehicle.definition import as_vehicle
 
-    if isinstance(vehicle, (str, Path)):
-        from uuvid.vehicle.definition import load_vehicle
-
-        vehicle = load_vehicle(vehicle)
-    if not all(hasattr(vehicle, a) for a in ("layout", "params", "allocator", "B")):
-        raise TypeError(f"vehicle: expected a Vehicle (uuvid.vehicle.definition.load_vehicle), a preset "
-                        f"name or a vehicle file, got {type(vehicle).__name__} {vehicle!r:.80}")
+    vehicle = as_vehicle(vehicle, "expected a Vehicle (uuvid.vehicle.definition.load_vehicle), a "
+                                  "preset name or a vehicle file")
     if not (callable(mission) and hasattr(mission, "duration")):
         raise TypeError(f"mission: expected a WaypointMission (uuvid.simulate.reference, e.g. "
                         f"square_mission()), got {type(mission).__name__} {mission!r:.80}")

@@ -1137,6 +1137,17 @@ def preset_path(name: str) -> Path:
     return p
 
 
+def as_vehicle(vehicle, expected: str) -> Vehicle:
+    """``vehicle`` as a :class:`Vehicle`: a preset name or a vehicle file loaded, a vehicle as
+    given, anything else a ``TypeError`` ``"vehicle: <expected>, got …"`` (a string, ``None`` or a
+    thruster chain failed later with an ``AttributeError`` naming no argument)."""
+    if isinstance(vehicle, (str, Path)):
+        return load_vehicle(vehicle)
+    if not all(hasattr(vehicle, a) for a in ("layout", "params", "allocator", "B")):
+        raise TypeError(f"vehicle: {expected}, got {type(vehicle).__name__} {vehicle!r:.80}")
+    return vehicle
+
+
 def load_vehicle(path_or_name: str | Path, inflow: str | None = None) -> Vehicle:
     """Load a vehicle from a YAML/TOML file or by preset name (``bluerov2``, ``romeo``, …).
 
