@@ -49,7 +49,10 @@ def result_classes() -> set[type]:
     from uuvid.core.result import DictSummaryResult
     from uuvid.papers.reproduction import PaperReproduction
 
-    return {c for c in _all_subclasses(Result) if c not in (PaperReproduction, DictSummaryResult)}
+    # only the library's own classes: a test may define a Result subclass of its own (it lives until the
+    # garbage collector takes it, so whether it is seen here would depend on the order tests ran in)
+    return {c for c in _all_subclasses(Result)
+            if c.__module__.startswith("uuvid.") and c not in (PaperReproduction, DictSummaryResult)}
 
 
 def _name(cls) -> str:
