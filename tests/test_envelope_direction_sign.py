@@ -157,3 +157,11 @@ def test_cli_envelope_and_stability_say_it_cannot_dive(files):
                                                                res.stdout)
     assert "stays level to 0.504 m/s" in text
     assert f"warning: diving: {DIVE_NO_WAY}" in " ".join(res.stderr.split())
+
+
+def test_a_tumble_note_names_only_the_tilts_the_flight_reached():
+    from uuvid.analysis.envelope_check import _tilt_words
+
+    assert _tilt_words((0.2, 35.4)) == "up to 35° pitch"
+    assert _tilt_words((12.0, 40.0)) == "up to 12° roll, 40° pitch"
+    assert _tilt_words((71.0, 0.0)) == "up to 71° roll"

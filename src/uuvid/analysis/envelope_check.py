@@ -50,6 +50,13 @@ ROW_KEYS = ("dof", "direction", "sign", "force", "speed", "allocator_force", "al
 TOLERANCE = 0.05  # relative difference accepted as confirmation
 
 
+def _tilt_words(tilt) -> str:
+    """``up to 35° pitch`` / ``up to 12° roll, 40° pitch``: the tilts a flight reached, a roll or
+    pitch that stayed level (under half a degree) left unsaid."""
+    parts = [f"{a:.0f}° {n}" for a, n in zip(tilt, ("roll", "pitch")) if a >= 0.5]
+    return "up to " + ", ".join(parts) if parts else "level"
+
+
 @njit(cache=True)
 def _rk4_held(x, tau, vp, dt):
     """One RK4 step of the 6-DOF model with ``τ`` held; the quaternion renormalised."""
@@ -474,8 +481,8 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                          f"{case.righting[ang]:.3g} N·m/rad); at {us:.2f} m/s the static trim is "
                          f"{st['tilt_deg'][ang]:+.1f}° {ang}, the simulation flies "
                          f"{fl[f'{ang}_deg']:+.1f}°; at full command it "
-                         f"{'tumbles' if max(tilt) > 60 else 'tilts'} (up to {tilt[0]:.0f}° roll, "
-                         f"{tilt[1]:.0f}° pitch), so no steady speed is simulated")
+                         f"{'tumbles' if max(tilt) > 60 else 'tilts'} ({_tilt_words(tilt)}), "
+                         "so no steady speed is simulated")
         elif d["confirmed"]:
             d["note"] = f"confirmed within {rel:.1%}"
         else:
