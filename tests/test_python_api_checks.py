@@ -246,3 +246,30 @@ def test_bootstrap_linear_seed_none_is_a_fresh_recorded_seed():
     np.testing.assert_array_equal(r.replicates, again.replicates)
     fixed = bootstrap_linear(H, y, ["a", "b"], n_boot=20, seed=3)
     assert fixed.seed == 3 and np.all(np.isfinite(fixed.boot_sigma))
+
+
+@pytest.mark.parametrize("w, match", [(np.zeros(20), r"^weights: all 20 are 0"),
+                                      (np.r_[1.0, np.zeros(19)], r"^weights: 1 of 20 .* > 0")])
+def test_linear_lsq_refuses_weights_that_leave_too_few_rows(w, match):
+    """All-zero weights gave a Fit of zeros with σ = ∞ (every parameter 'not identifiable'),
+    as if the data were at fault; too few weighted rows, a fit of a rank-deficient problem."""
+    from uuvid.identify.fit import linear_lsq
+
+    H, y = _regression()
+    with pytest.raises(ValueError, match=match):
+        linear_lsq(H, y, ["a", "b"], weights=w)
+
+
+@pytest.mark.parametrize("units", [["m"], ["m", "s", "kg"]])
+@pytest.mark.parametrize("which", ["linear", "nonlinear"])
+def test_lsq_refuses_units_not_matching_names(which, units):
+    """A short ``units`` list raised a bare IndexError after the solve; a long one was cut
+    silently (the extra unit belonged to nothing)."""
+    from uuvid.identify.fit import linear_lsq, nonlinear_lsq
+
+    H, y = _regression()
+    with pytest.raises(ValueError, match=rf"^units has {len(units)} entries for 2 names"):
+        if which == "linear":
+            linear_lsq(H, y, ["a", "b"], units=units)
+        else:
+            nonlinear_lsq(lambda th: H @ th - y, [0.0, 0.0], ["a", "b"], units=units)

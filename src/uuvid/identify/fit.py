@@ -374,6 +374,7 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
         raise ValueError(f"{len(names)} names for {p} regressor columns")
     if n < p:
         raise ValueError(f"too few samples: {n} for {p} parameters")
+    units = _check_units(units, names)
     if hac_lags is not None and cov_type != "HAC":
         raise ValueError(f"`hac_lags=` {hac_lags} is the bandwidth of the HAC (Newey–West) "
                          f"covariance; with `cov_type=` {cov_type} it would be ignored: expected "
@@ -382,7 +383,7 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     if bad.size:
         raise ValueError(f"row {bad[0]} of the regression has a non-finite value")
     if weights is not None:
-        w = np.sqrt(_check_weights(weights, n))
+        w = np.sqrt(_check_weights(weights, n, p))
         Hw, yw = H * w[:, None], y * w
     else:
         Hw, yw = H, y
@@ -401,7 +402,6 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     cond, msgs = diagnose(names, theta, cov, Hw, emit=emit_warnings)
     if n == p:
         msgs.append("as many samples as parameters: no residual degrees of freedom, σ undefined")
-    units = list(units) if units is not None else [""] * p
     params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
                    for i, (nm, v) in enumerate(zip(names, theta)))
     ex = {"cov_type": cov_type, "sigma2": sigma2}
@@ -410,10 +410,24 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     return Fit(model, params, cov, y - H @ theta, n, cond, tuple(msgs), ex)
 
 
-def _check_weights(weights, n: int) -> np.ndarray:
+def _check_units(units, names: Sequence[str]) -> list[str]:
+    """``units``: one per name, or None (no units).  A short list raised a bare IndexError after
+    the solve; a long one was cut silently."""
+    if units is None:
+        return [""] * len(names)
+    units = list(units)
+    if len(units) != len(names):
+        raise ValueError(f"units has {len(units)} entries for {len(names)} names "
+                         f"({', '.join(map(str, names))}): expected one unit per name, or none")
+    return units
+
+
+def _check_weights(weights, n: int, p: int) -> np.ndarray:
     """:func:`linear_lsq`'s ``weights``: one per row, finite and >= 0 (a negative or NaN weight
     reached LAPACK, which printed "On entry to DLASCL parameter number 4 had an illegal value"
-    and raised a LinAlgError; a wrong length, a bare broadcasting error)."""
+    and raised a LinAlgError; a wrong length, a bare broadcasting error), and at least ``p`` of
+    them > 0 (all zero gave a Fit of zeros with every parameter "not identifiable", blaming the
+    data for what the weights had removed)."""
     from uuvid.core.checks import finite_values
 
     w = np.asarray(weights, dtype=float)
@@ -424,6 +438,13 @@ def _check_weights(weights, n: int) -> np.ndarray:
     if neg.size:
         raise ValueError(f"weights[{neg[0]}] = {w[neg[0]]:g}: expected a finite weight >= 0 per "
                          "row")
+    k = int(np.count_nonzero(w))
+    if k == 0:
+        raise ValueError(f"weights: all {n} are 0, which leaves no row to fit: expected at least "
+                         f"{p} weights > 0 (one per parameter)")
+    if k < p:
+        raise ValueError(f"weights: {k} of {n} are > 0, too few rows for {p} parameters: "
+                         f"expected at least {p} weights > 0")
     return w
 
 
@@ -493,6 +514,7 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
         # covariance came back
         raise ValueError(f"{len(names)} names for {x0.size} parameters (x0 has shape {x0.shape}): "
                          "expected one name per parameter, x0 a 1-D start")
+    units = _check_units(units, names)
     with small_blas(x0.size):  # a few parameters: threaded SVDs of the Jacobian only cost
         sol = least_squares(residual, x0, bounds=bounds, x_scale=x_scale, jac=jac, **kwargs)
     J = np.asarray(sol.jac, dtype=float)
@@ -525,7 +547,6 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
     if not sol.success:
         msgs.append(f"optimiser did not converge: {sol.message}")
     msgs += bound_msgs
-    units = list(units) if units is not None else [""] * p
     params = tuple(Parameter(nm, float(v), float(math.sqrt(max(cov[i, i], 0.0))), units[i])
                    for i, (nm, v) in enumerate(zip(names, x)))
     ex = {"nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
