@@ -4,6 +4,7 @@ thrust or command, a negative pulse width)."""
 
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 
@@ -143,3 +144,26 @@ def test_two_water_speed_columns_are_an_error_not_a_silent_choice(tmp_path):
     d = read_bench(write(tmp_path, text), command_col="command", thrust_col="thrust",
                    flow_speed_col="flow_speed")
     assert d.flow_speed_column == "flow_speed"
+
+
+DUTY = """duty,thrust
+-1.0,-30
+-0.5,-8
+0.0,0
+0.5,10
+{last},40
+"""
+
+
+@pytest.mark.parametrize("last, hint", [("1e300", "a corrupt cell"), ("75", "in percent"),
+                                        ("1900", "--command-unit pwm_us"), ("-1.5", "a corrupt")])
+def test_duty_beyond_one_is_an_error_naming_the_row(tmp_path, last, hint):
+    """A duty of 1e300 (or 75, a percent) was read and only refused later, for the whole file
+    ('the commands hold -1…1e+300'), naming no row; PWM and volts were refused per row."""
+    with pytest.raises(BenchDataError, match=rf"column 'duty', data row 5 \(CSV line 6\): command "
+                                             rf"{re.escape(format(float(last), 'g'))} is not a duty.*−1…1.*{hint}"):
+        read_bench(write(tmp_path, DUTY.format(last=last)), command_col="duty", thrust_col="thrust",
+                   command_unit="duty")
+    d = read_bench(write(tmp_path, DUTY.format(last="1.0")), command_col="duty", thrust_col="thrust",
+                   command_unit="duty")
+    assert d.command.max() == 1.0

@@ -755,7 +755,8 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
 
 def _check_command(t: _Table, col: str, cmd: np.ndarray, unit: str) -> None:
     """A command that no command of ``unit`` can be, per row: a negative or longer-than-a-frame
-    pulse width (:data:`MAX_PULSE_US`), a voltage beyond any thruster's supply."""
+    pulse width (:data:`MAX_PULSE_US`), a duty beyond ±1, a voltage beyond any thruster's
+    supply."""
     from uuvid.core.checks import MAX_PLAUSIBLE_VOLTAGE
 
     if unit == "pwm_us":
@@ -770,6 +771,17 @@ def _check_command(t: _Table, col: str, cmd: np.ndarray, unit: str) -> None:
                 f"{t.where(col, i)}: command {cmd[i]:g} µs is not a pulse width: command unit "
                 f"pwm_us (the default) expects 0…{MAX_PULSE_US:g} µs (an ESC's 1100–1900 µs "
                 f"about 1500); {hint}")
+    elif unit == "duty":
+        bad = np.flatnonzero(np.abs(cmd) > 1.0 + 1e-9)  # the tolerance check_bench_commands allows
+        if bad.size:
+            i = int(bad[0])
+            c = abs(float(cmd[i]))
+            hint = ("it looks like a pulse width: give --command-unit pwm_us" if 800 <= c <= 2200
+                    else "in percent? give the duty as a fraction (−1…1)" if 2 < c <= 100
+                    else "a corrupt cell? Fix or leave out the row")
+            raise BenchDataError(
+                f"{t.where(col, i)}: command {cmd[i]:g} is not a duty: command unit duty expects "
+                f"−1…1 (full reverse … full forward); {hint}")
     elif unit == "volts":
         bad = np.flatnonzero(np.abs(cmd) > MAX_PLAUSIBLE_VOLTAGE)
         if bad.size:
