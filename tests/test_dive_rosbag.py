@@ -976,3 +976,19 @@ def test_a_gauge_pressure_is_read_from_zero_and_said(dive, tmp_path):
     rows = df["depth_m"].notna().to_numpy()
     np.testing.assert_allclose(dc.channels["depth_m"][1], df.loc[rows, "depth_m"].to_numpy(),
                                atol=1e-9)
+
+
+def test_a_bag_topic_and_a_dive_table_pause_by_one_rule(monkeypatch):
+    """The bag reader kept its own BAG_GAP_S = 10 s beside the tables' pause rule: changing one
+    left the other behind.  Now both ask uuvid.io.logs.pause_s."""
+    from uuvid.io import dive_channels, dive_rosbag, logs
+
+    assert not hasattr(dive_rosbag, "BAG_GAP_S")
+    t = np.r_[np.arange(0.0, 20.0, 0.1), 29.0 + np.arange(0.0, 20.0, 0.1)]  # a 9 s pause
+    seen = []
+    dive_rosbag._check_gaps(t, "/x", "pwm", "b.bag", seen, None)
+    assert not seen and dive_channels.pause_s(t) == logs.pause_s(t) == logs.GAP_S == 10.0
+    monkeypatch.setattr(logs, "GAP_S", 8.0)
+    dive_rosbag._check_gaps(t, "/x", "pwm", "b.bag", seen, None)
+    assert len(seen) == 1 and "stops for 9.1 s" in seen[0], seen
+    assert dive_channels.pause_s(t) == 8.0

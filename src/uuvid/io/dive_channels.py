@@ -33,7 +33,7 @@ import numpy as np
 
 from uuvid.core.checks import arg, arg_is
 from uuvid.io.idle_outputs import _inside, _motor_order  # shared with the idle-output check
-from uuvid.io.logs import LogDataError
+from uuvid.io.logs import LogDataError, pause_s
 from uuvid.io.motor_direction import bag_fix, direction_check, force_sign_check, table_fix
 
 __all__ = ["DiveDataError", "DiveChannels", "read_dive_channels", "DIVE_DOFS", "ThrustRegions",
@@ -172,9 +172,9 @@ def _finite(t, v):
 
 def _intervals(t, flag, holes: bool = True) -> list:
     """``[(t0, t1)]`` runs where ``flag`` is true (a run ends at the next false stamp, or, with
-    ``holes``, at the last stamp before a pause in the rows, :func:`_pause_s` — the pauses the
-    reader names: no run, so no fit window, spans one; ``holes=False`` for the stamps of a state
-    topic, which may be sparse)."""
+    ``holes``, at the last stamp before a pause in the rows, :func:`~uuvid.io.logs.pause_s` — the
+    pauses the reader names: no run, so no fit window, spans one; ``holes=False`` for the stamps
+    of a state topic, which may be sparse)."""
     out = []
     t = np.asarray(t, float)
     flag = np.asarray(flag, bool)
@@ -182,7 +182,7 @@ def _intervals(t, flag, holes: bool = True) -> list:
         return out
     edges = np.flatnonzero(np.diff(np.concatenate(([0], flag.astype(int), [0]))))
     hole = np.zeros(t.size, bool)  # hole[i]: rows i and i + 1 straddle a pause
-    gap = _pause_s(t) if holes else None
+    gap = pause_s(t) if holes else None
     if gap is not None:
         hole[:-1] = np.diff(t) > gap
     for a, b in zip(edges[::2], edges[1::2]):
@@ -253,16 +253,6 @@ MAX_ROW_STEP_S = 5.0  # median step between rows
 PWM_SPIKE_US = 20000.0
 #: an output at 0 µs this long (s) while armed and the others are driven is worth naming
 DEAD_OUTPUT_S = 5.0
-#: a pause in a dive table worth naming (s; or 50 median steps, the larger)
-GAP_S = 10.0
-
-
-def _pause_s(t) -> float | None:
-    """The step between rows (s) that is a pause in a log: over :data:`GAP_S` and 50 median steps
-    (rows with the same stamp left out of the median); ``None`` under ten steps."""
-    step = np.diff(np.asarray(t, float))
-    step = step[step > 0]
-    return max(GAP_S, 50.0 * float(np.median(step))) if step.size >= 10 else None
 
 
 def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.ndarray:
@@ -303,7 +293,7 @@ def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.nd
         raise DiveDataError(f"{name}: column {tcol}: the median step between rows is "
                             f"{float(np.median(step)):.4g} s; expected seconds at the rate of "
                             "the sensors (is the time in milliseconds? divide it by 1000)")
-    gap = _pause_s(t)
+    gap = pause_s(t)
     if warnings is not None and gap is not None:
         big = np.flatnonzero(np.diff(t) > gap)
         if big.size:

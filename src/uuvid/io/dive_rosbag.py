@@ -77,7 +77,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.io.bag_path import is_bag  # noqa: F401  (re-exported)
-from uuvid.io.logs import _RESTART_MIN_S, _RESTART_STEPS, LogDataError
+from uuvid.io.logs import _RESTART_MIN_S, _RESTART_STEPS, LogDataError, pause_s
 
 __all__ = ["DEFAULT_TOPICS", "ROLES", "BagDive", "read_bag_dive", "enu_flu_to_ned_frd",
            "parse_topic_options", "is_bag"]
@@ -602,8 +602,6 @@ class BagDive:
 #: left in place under the former 1 s threshold, gave yaw inertia −60 %); below it the
 #: difference is the recorder's latency, said in the time-stamp note
 CLOCK_SHIFT_NS = 100_000_000
-#: a topic pausing longer than this (s, and 50 × its median step) is said, like a table's gap
-BAG_GAP_S = 10.0
 #: a topic whose stamps span more than this (s) holds a clock jump, not a dive: refused (an
 #: autopilot rebooted mid-bag and stamped time since boot: 10⁹ s of "dive", cut into 10⁸ windows)
 MAX_BAG_SPAN_S = 2 * 86400.0
@@ -672,7 +670,8 @@ def _far_stamps(t, topic: str, role: str, name: str, warnings: list) -> np.ndarr
 
 
 def _check_gaps(t, topic: str, role: str, name: str, warnings: list, fail) -> None:
-    """Say a pause in a topic (no sample spans it: fit each side on its own), refuse a span of
+    """Say a pause in a topic (:func:`~uuvid.io.logs.pause_s`, as a dive table's: no sample spans
+    it, fit each side on its own), refuse a span of
     days (:data:`MAX_BAG_SPAN_S`); state topics (armed, mode) publish on change and are exempt."""
     if t.size < 2 or role in ("armed", "mode"):
         return
@@ -684,11 +683,10 @@ def _check_gaps(t, topic: str, role: str, name: str, warnings: list, fail) -> No
              f"{d[i]:.6g} s after t = {t[i]:.6g} s: a clock jump (an autopilot reboot stamping "
              "time since boot, or a sender's clock set mid-bag), not a dive; record the dive "
              "again or cut the bag at the jump")
-    d = np.diff(t)
-    step = d[d > 0]
-    if step.size < 10:
+    gap = pause_s(t)  # the one pause rule, a dive table's too
+    if gap is None:
         return
-    gap = max(BAG_GAP_S, 50.0 * float(np.median(step)))
+    d = np.diff(t)
     big = np.flatnonzero(d > gap)
     if big.size:
         i = int(big[0])

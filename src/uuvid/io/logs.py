@@ -1151,6 +1151,18 @@ def read_log_csv(path, *, time_col: str, columns: Mapping[str, str] | Sequence[s
 #: ``_RESTART_MIN_S``) restarts — a reboot, or a second recording appended — and is refused
 _RESTART_STEPS = 20
 _RESTART_MIN_S = 1.0
+#: a pause in a dive log worth naming (s; or 50 median steps, the larger): one rule for the dive
+#: tables (:mod:`uuvid.io.dive_channels`) and the bags' topics (:mod:`uuvid.io.dive_rosbag`)
+GAP_S = 10.0
+
+
+def pause_s(t) -> float | None:
+    """The step between samples (s) that is a pause in a dive log: over :data:`GAP_S` and 50
+    median steps (samples with the same stamp left out of the median); ``None`` under ten
+    steps.  No sample spans a pause: a fit window ends at it, and it is said to the user."""
+    step = np.diff(np.asarray(t, float))
+    step = step[step > 0]
+    return max(GAP_S, 50.0 * float(np.median(step))) if step.size >= 10 else None
 
 
 def _fmt_time(t: _Table, col: str, time: np.ndarray, i: int, tu: str) -> str:
