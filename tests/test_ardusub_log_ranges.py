@@ -162,3 +162,25 @@ def test_two_telemetry_sessions_joined_are_parts_not_a_16_day_dive(logs, tmp_pat
     dive = load_dive(p)
     assert "part" in dive.table and set(dive.table["part"]) == {0, 1}
     assert np.diff(dive.table["t_s"]).max() < 5
+
+
+@pytest.mark.parametrize("name", ["small.BIN", "small.tlog"])
+def test_inspect_times_count_from_the_exports_t_s_and_say_so(logs, name):
+    """inspect counted its mode/arming times from the autopilot's first message, export's t_s
+    from the first row where depth, attitude and PWM all start (0.085 s later in small.BIN):
+    inspect said 'armed until 8.8 s' where the table's row 8.7 s is already disarmed, and
+    neither said its origin."""
+    p = logs / name
+    ins, dive = inspect_log(p), load_dive(p)
+    assert ins.t0_boot_s == dive.provenance["t_s"]["t0_boot_s"]
+    t, armed = dive.table["t_s"].to_numpy(), dive.table["armed"].to_numpy()
+    changes = [s["start_s"] for a, s in zip(ins.modes, ins.modes[1:]) if a["armed"] is not None
+               and s["armed"] is not None and a["armed"] != s["armed"]]
+    assert changes
+    for tc in changes:  # the first row at or after the change has the new state, the row before not
+        k = int(np.searchsorted(t, tc - 1e-9))
+        assert armed[k] != armed[k - 1], (tc, t[k - 1:k + 1], armed[k - 1:k + 1])
+    s = ins.summary()
+    assert f"`log export`'s first row, as its t_s; t = 0 at autopilot clock {ins.t0_boot_s:.3f} s" in s
+    r = CliRunner().invoke(app, ["log", "inspect", str(p), "--json"])
+    assert '"time_origin"' in r.output or "`log export`'s first row" in r.output

@@ -481,6 +481,13 @@ def _check_changes(name: str, history: dict, spans, g0: float) -> None:
         "or give --params with the value that held throughout if the log's is wrong")
 
 
+def export_origin(raw, params: dict) -> float:
+    """The autopilot time [s] that ``log export``'s ``t_s`` counts from (its ``t0_boot_s``): the
+    first time depth, attitude and the thruster outputs all cover, with the configuration of
+    ``params``; a :class:`LogDataError` when the log has no such time (nothing to export)."""
+    return _setup(raw, params, None, _attitude(raw)[0])[5]
+
+
 def _setup(raw, params: dict, veh, att):
     """Configuration, depth, PWM channels and the spans (part, first, last time) that depth,
     attitude and PWM all cover, for ``params``; the first time of those spans and the messages

@@ -36,6 +36,10 @@ class LogInspection(Result):
     modes: list  # {start_s, end_s, mode, armed}
     warnings: list
     parts: int = 1
+    #: the autopilot time [s] every time shown counts from (``log export``'s ``t_s`` = 0 when
+    #: the log can be exported), and what it is
+    t0_boot_s: float = 0.0
+    time_origin: str = "the autopilot's first message"
 
     def summary(self) -> str:
         L = [f"{self.path.name}: {self.format}, {self.duration_s:.1f} s"
@@ -55,7 +59,8 @@ class LogInspection(Result):
                          else f"unknown: {self.config_error}"))
         if self.depth_source:
             L.append(f"depth source: {self.depth_source['source']} — {self.depth_source['why']}")
-        L.append("modes and arming:")
+        L.append(f"modes and arming (t [s] from {self.time_origin}; t = 0 at autopilot clock "
+                 f"{self.t0_boot_s:.3f} s):")
         for m in self.modes:
             arm = {True: "armed", False: "disarmed", None: "arming unknown"}[m["armed"]]
             L.append(f"  {m['start_s']:8.1f} – {m['end_s']:8.1f} s  {m['mode']}, {arm}"
@@ -89,7 +94,8 @@ class LogInspection(Result):
                 "parts": self.parts, "senders": self.senders, "messages": self.messages,
                 "config": None if self.config is None else self.config.to_dict(),
                 "config_error": self.config_error, "depth_source": self.depth_source,
-                "modes": self.modes, "warnings": self.warnings}
+                "modes": self.modes, "t0_boot_s": self.t0_boot_s,
+                "time_origin": self.time_origin, "warnings": self.warnings}
 
 
 def inspect_log(path, params=None) -> LogInspection:
@@ -147,6 +153,7 @@ def inspect_log(path, params=None) -> LogInspection:
     except LogDataError as e:
         err = str(e)
         warnings.append(err)
+    t0, origin = _origin(raw, params, t0)
     for n, h in history.items():
         warnings.append(f"parameter {n} changed during the log: {h[0][1]:g} at the start, then "
                         + ", ".join(f"{v:g} from t = {t - t0:.4g} s" for t, v in h[1:])
@@ -169,19 +176,34 @@ def inspect_log(path, params=None) -> LogInspection:
                 tk = sr.t[(sr.part == k) & np.isfinite(sr.t)]
                 if tk.size:
                     starts[int(k)] = min(starts.get(int(k), math.inf), float(tk.min()) - t0)
-    modes = _intervals(mode_ch, arm_ch, t0, (tt.max() - t0) if tt.size else 0.0, starts)
+    modes = _intervals(mode_ch, arm_ch, t0, float(tt.max() - t0) if tt.size else 0.0, starts,
+                       start=(float(tt.min()) - t0) if tt.size else 0.0)
     used |= {c.source for c in (mode_ch, arm_ch) if c is not None}
     dups = {k: v for k, v in raw.duplicates.items() if k in used}
     if dups:
         warnings.append("duplicated time stamps merged: "
                         + ", ".join(f"{k}: {v}" for k, v in dups.items()))
     return LogInspection(raw.path, raw.format, duration, senders, msgs, config, err, dsrc, modes,
-                         warnings, raw.parts)
+                         warnings, raw.parts, t0, origin)
 
 
-def _intervals(mode_ch, arm_ch, t0: float, t_end: float, starts: dict | None = None
-               ) -> list[dict]:
-    """Segments ``{start_s, end_s, mode, armed, part}``; each part after a reboot (``starts``:
+def _origin(raw, params: dict, first: float) -> tuple[float, str]:
+    """(the autopilot time the times shown count from, what it is): ``log export``'s ``t_s`` =
+    0 (:func:`~uuvid.io.ardusub.dive.export_origin`) — inspect counted from the autopilot's
+    first message, up to a stream's start-up off the table's times — else, for a log export
+    cannot read, the autopilot's first message ``first``, said so."""
+    from uuvid.io.ardusub.dive import export_origin
+
+    try:
+        return float(export_origin(raw, params)), "`log export`'s first row, as its t_s"
+    except LogDataError:
+        return first, "the autopilot's first message (`log export` cannot read this log)"
+
+
+def _intervals(mode_ch, arm_ch, t0: float, t_end: float, starts: dict | None = None,
+               start: float = 0.0) -> list[dict]:
+    """Segments ``{start_s, end_s, mode, armed, part}`` on times from ``t0``, the first from
+    ``start``; each part after a reboot (``starts``:
     part → its first time) starts with the mode unknown and the arming before its first event,
     as ``log export`` reads them (the state before the reboot does not carry over)."""
     ev = [(t, "part", k) for k, t in sorted((starts or {}).items()) if k > 0]
@@ -198,7 +220,6 @@ def _intervals(mode_ch, arm_ch, t0: float, t_end: float, starts: dict | None = N
 
     mode, armed, part = "UNKNOWN", first_armed(0), 0
     out: list[dict] = []
-    start = 0.0
     for t, kind, v in ev + [(t_end, "end", None)]:
         new_mode = v if kind == "mode" else "UNKNOWN" if kind == "part" else mode
         new_armed = (v if kind == "armed" else first_armed(v) if kind == "part" else armed)
