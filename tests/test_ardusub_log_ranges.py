@@ -184,3 +184,28 @@ def test_inspect_times_count_from_the_exports_t_s_and_say_so(logs, name):
     assert f"`log export`'s first row, as its t_s; t = 0 at autopilot clock {ins.t0_boot_s:.3f} s" in s
     r = CliRunner().invoke(app, ["log", "inspect", str(p), "--json"])
     assert '"time_origin"' in r.output or "`log export`'s first row" in r.output
+
+
+def test_a_long_log_read_shows_its_progress_on_stderr_only(logs, monkeypatch, capfd):
+    """Reading a large log (log inspect/export, load_dive) was silent however long it took;
+    now its share read shows on stderr (a bar after PROGRESS_AFTER_S on a terminal, lines off
+    one) — never in what is returned, never on stdout, never taken for pymavlink's chatter."""
+    import json
+
+    from uuvid.core import progress
+    from uuvid.io.ardusub import reader
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    monkeypatch.setattr(reader, "PROGRESS_AFTER_S", 0.0)  # as if every read were long
+    monkeypatch.setattr(progress, "LINE_EVERY_S", 0.0)
+    ins = inspect_log(logs / "small.tlog")
+    out, err = capfd.readouterr()
+    assert out == "" and "reading small.tlog: " in err and "%)" in err, err
+    assert "reading small.tlog: done in" in err
+    assert not any("reading small.tlog" in w or "pymavlink reported" in w for w in ins.warnings)
+    r = CliRunner().invoke(app, ["log", "inspect", str(logs / "small.tlog"), "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["format"] == "tlog"
+    assert "reading small.tlog: " in r.stderr
+    monkeypatch.setenv("UUVID_NO_PROGRESS", "1")
+    inspect_log(logs / "small.BIN")
+    assert "reading" not in capfd.readouterr().err

@@ -313,3 +313,38 @@ def test_a_long_counted_task_off_a_terminal_says_how_far_it_is(monkeypatch: pyte
     assert counts and counts[0].startswith("montecarlo: ") and "s left" in counts[0]
     assert len(counts) <= 199 * 3 / P.LINE_EVERY_S + 1  # every 30 s at most, not every advance
     assert lines[-1].startswith("montecarlo: done in ")
+
+
+def test_a_task_with_after_s_draws_only_once_that_long_has_passed(monkeypatch) -> None:
+    """``after_s``: a short task (a small log read) draws no bar; a long one draws it from the
+    count so far (counted once, not twice)."""
+    import io
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    out = io.StringIO()
+    with progress_task("read", total=10, disable=False, after_s=3600.0, stream=out) as task:
+        task.advance(4)
+        assert task._progress is None
+    assert out.getvalue() == ""
+    with progress_task("read", total=10, disable=False, after_s=1e-9, stream=out) as task:
+        task.advance(4)
+        assert task._progress is not None
+        assert task._progress.tasks[0].completed == 4
+        task.advance(2)
+        assert task._progress.tasks[0].completed == 6
+    assert "read" in out.getvalue()
+
+
+def test_a_bar_on_a_pinned_stream_leaves_sys_stdout_alone(monkeypatch) -> None:
+    """A log reader captures sys.stdout/stderr while the bar (on the terminal's stderr) starts:
+    rich's proxies, restored after the reader had restored its own, sent later prints into the
+    reader's dead buffer."""
+    import io
+
+    monkeypatch.delenv("UUVID_NO_PROGRESS", raising=False)
+    before_out, before_err = sys.stdout, sys.stderr
+    with progress_task("read", total=10, disable=False, after_s=1e-9, stream=io.StringIO()) as task:
+        sys.stdout, sys.stderr = io.StringIO(), io.StringIO()  # the reader's capture
+        task.advance(5)
+        sys.stdout, sys.stderr = before_out, before_err  # and its end
+    assert sys.stdout is before_out and sys.stderr is before_err

@@ -64,28 +64,29 @@ LINE_EVERY_S = 30.0
 _TRUTHY = {"1", "true", "yes", "on"}
 
 
-def progress_disabled(disable: bool | None = None) -> bool:
-    """Resolve the *disable* argument: env var, explicit choice, then "is stderr a TTY?"."""
+def progress_disabled(disable: bool | None = None, stream: Any = None) -> bool:
+    """Resolve the *disable* argument: env var, explicit choice, then "is stderr (or
+    ``stream``) a TTY?"."""
     if os.environ.get(_ENV_VAR, "").strip().lower() in _TRUTHY:
         return True
     if disable is not None:
         return bool(disable)
-    stream = sys.stderr
+    stream = sys.stderr if stream is None else stream
     try:
         return stream is None or not stream.isatty()
     except (AttributeError, ValueError):  # no isatty / closed stream
         return True
 
 
-def _stage_lines(disable: bool | None = None) -> bool:
+def _stage_lines(disable: bool | None = None, stream: Any = None) -> bool:
     """One line per stage instead of a bar: stderr is not a terminal and nobody turned progress
     off (neither ``UUVID_NO_PROGRESS`` nor ``disable=True``)."""
     if os.environ.get(_ENV_VAR, "").strip().lower() in _TRUTHY or disable is True:
         return False
-    return progress_disabled(disable) and sys.stderr is not None
+    return progress_disabled(disable, stream) and (sys.stderr if stream is None else stream) is not None
 
 
-def _make_progress(eta: bool = True) -> Any:
+def _make_progress(eta: bool = True, stream: Any = None) -> Any:
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -100,21 +101,29 @@ def _make_progress(eta: bool = True) -> Any:
                MofNCompleteColumn(), TimeElapsedColumn()]
     if eta:  # an ETA from uneven steps lies ("1 s left" for 19 s): callers with uneven steps opt out
         columns.append(TimeRemainingColumn())
-    return Progress(*columns, console=Console(stderr=True))
+    if stream is None:
+        return Progress(*columns, console=Console(stderr=True))
+    # a pinned stream: sys.stdout/stderr left alone (the bar's proxies, started while a reader
+    # captured them, were restored over the reader's own restoring: later prints were lost)
+    return Progress(*columns, console=Console(file=stream), redirect_stdout=False,
+                    redirect_stderr=False)
 
 
 class ProgressTask:
     """Handle returned by :func:`progress_task`; a no-op (that still counts) when disabled."""
 
     def __init__(self, description: str, total: float | None, disable: bool | None,
-                 eta: bool = True, n_stages: int | None = None) -> None:
+                 eta: bool = True, n_stages: int | None = None, after_s: float = 0.0,
+                 stream: Any = None) -> None:
         self.description = description
         self.total = total
         self.completed: float = 0
-        self.disabled = progress_disabled(disable)
-        self.lines = _stage_lines(disable)
+        self.stream = stream  # None: sys.stderr at each write
+        self.disabled = progress_disabled(disable, stream)
+        self.lines = _stage_lines(disable, stream)
         self.eta = eta
         self.n_stages = n_stages
+        self.after_s = float(after_s)
         self.stages: list[str] = []
         self._t0 = time.perf_counter()
         self._last_line = self._t0
@@ -124,11 +133,23 @@ class ProgressTask:
 
     def __enter__(self) -> Self:
         self._t0 = self._last_line = time.perf_counter()
-        if not self.disabled:
-            self._progress = _make_progress(self.eta)
-            self._progress.start()
-            self._task_id = self._progress.add_task(self.description, total=self.total)
+        if not self.disabled and self.after_s <= 0:
+            self._start()
         return self
+
+    def _start(self) -> None:
+        self._progress = _make_progress(self.eta, self.stream)
+        self._progress.start()
+        self._task_id = self._progress.add_task(self.description, total=self.total,
+                                                completed=self.completed)
+
+    def _late_start(self) -> None:
+        """Draw the bar of a task begun with ``after_s`` once that long has passed (a short
+        task draws none)."""
+        if (self._progress is None and not self.disabled and self.after_s > 0
+                and self.elapsed >= self.after_s):
+            self.after_s = 0.0  # once: a stopped bar is not started again
+            self._start()
 
     @property
     def elapsed(self) -> float:
@@ -136,9 +157,10 @@ class ProgressTask:
         return time.perf_counter() - self._t0
 
     def _line(self, text: str) -> None:
+        out = sys.stderr if self.stream is None else self.stream
         try:
-            sys.stderr.write(f"{self.description}: {text}\n")
-            sys.stderr.flush()
+            out.write(f"{self.description}: {text}\n")
+            out.flush()
         except (AttributeError, ValueError, OSError):  # closed or missing stderr: stay quiet
             pass
 
@@ -174,6 +196,7 @@ class ProgressTask:
         """Mark *n* more units of work as done (off a terminal: a line ``done of total (%),
         elapsed, ≈ remaining`` at most every :data:`LINE_EVERY_S`, so a long run in a pipe or a
         CI log says how far it is)."""
+        self._late_start()  # (before counting n: the bar starts at the count so far)
         self.completed += n
         if self._progress is not None:
             self._progress.advance(self._task_id, n)
@@ -202,6 +225,7 @@ class ProgressTask:
             self.total = total
         if completed is not None:
             self.completed = completed
+        self._late_start()
         if self._progress is not None:
             self._progress.update(
                 self._task_id, description=description, total=total, completed=completed
@@ -219,15 +243,19 @@ def _ending(exc_type: type[BaseException] | None) -> str:
 
 def progress_task(
     description: str = "", total: float | None = None, disable: bool | None = None,
-    eta: bool = True, stages: int | None = None,
+    eta: bool = True, stages: int | None = None, after_s: float = 0.0, stream: Any = None,
 ) -> ProgressTask:
     """Context manager for a manually advanced bar: ``with progress_task(...) as t: t.advance()``.
 
     ``total=None`` draws an indeterminate bar; ``eta=False`` drops the time-remaining column
     (for steps of very different lengths); name steps with ``t.stage("...")`` (``stages``: how
-    many there will be, for the ``n/N`` of the lines printed off a terminal).
+    many there will be, for the ``n/N`` of the lines printed off a terminal); ``after_s``: the
+    bar appears only when the task has run this long (a file read that is over in a moment
+    draws nothing; off a terminal the count lines come every :data:`LINE_EVERY_S` anyway);
+    ``stream``: where to draw instead of ``sys.stderr`` (the terminal's stderr while a reader
+    captures what a library prints there).
     """
-    return ProgressTask(description, total, disable, eta, stages)
+    return ProgressTask(description, total, disable, eta, stages, after_s, stream)
 
 
 def progress(

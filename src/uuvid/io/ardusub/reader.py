@@ -14,7 +14,11 @@ BlueOS, component 194) has its own ``time_boot_ms`` and is mapped through its ow
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import os
+import sys
 from collections import Counter
 from dataclasses import dataclass, field
 from datetime import UTC
@@ -22,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.core.progress import progress_task
 from uuvid.io.logs import (
     LogDataError,
     _ardusub_kind,
@@ -179,8 +184,12 @@ def read_raw(path, *, whole_file: bool = True) -> RawLog:
     kind = _ardusub_kind(p)
     chatter: list = []
     try:
-        with _captured_output(chatter):
-            raw = _read_messages(p, kind, mavutil, whole_file)
+        # the bar writes to the terminal's stderr: the capture below takes pymavlink's prints
+        with _terminal_stderr() as err, progress_task(f"reading {p.name}", total=100.0,
+                                                      after_s=PROGRESS_AFTER_S, stream=err) as bar:
+            with _captured_output(chatter):
+                raw = _read_messages(p, kind, mavutil, whole_file, bar)
+            _advance(bar, None)
     except LogDataError as e:
         if chatter and "no messages" in str(e):
             other = ".tlog" if kind == "dataflash" else ".BIN"
@@ -207,7 +216,38 @@ CLOCK_STEP_S = 5.0
 CLOCK_STEP_WINDOW_S = 10.0
 
 
-def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawLog:
+#: a log read taking longer than this (s) shows a progress bar on stderr (a terminal; off one,
+#: a line every :data:`uuvid.core.progress.LINE_EVERY_S`)
+PROGRESS_AFTER_S = 2.0
+
+
+def _advance(bar, conn) -> None:
+    """Move ``bar`` to the share of the file pymavlink has read (``conn.percent``, 0–100; the
+    whole file when ``conn`` is None: the read is over)."""
+    pct = 100.0 if conn is None else getattr(conn, "percent", None)
+    if isinstance(pct, (int, float)) and math.isfinite(pct) and pct > bar.completed:
+        bar.advance(min(float(pct), 100.0) - bar.completed)
+
+
+@contextlib.contextmanager
+def _terminal_stderr():
+    """The stream stderr writes to before the read's capture (:func:`_captured_output`, which
+    sends file descriptor 2 into a temporary file meanwhile): a duplicate of descriptor 2, or
+    ``sys.stderr`` itself where it has none (Jupyter)."""
+    try:
+        fd = os.dup(sys.stderr.fileno())
+    except (AttributeError, OSError, ValueError, io.UnsupportedOperation):
+        yield sys.stderr
+        return
+    f = os.fdopen(fd, "w", buffering=1, encoding=getattr(sys.stderr, "encoding", None) or "utf-8",
+                  errors="replace")
+    try:
+        yield f
+    finally:
+        f.close()
+
+
+def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True, bar=None) -> RawLog:
     """The body of :func:`read_raw` (pymavlink's prints captured by the caller)."""
     try:
         conn = mavutil.mavlink_connection(str(p))
@@ -250,6 +290,8 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True) -> RawL
             if m is None:
                 break
             n += 1
+            if bar is not None and not n & 1023:  # the share of the file read, on stderr
+                _advance(bar, conn)
             mt = m.get_type()
             if mt == "BAD_DATA":
                 bad += 1
