@@ -632,3 +632,20 @@ def test_a_plain_direction_or_a_rounded_unit_axis_loads_in_silence(axis):
         warnings.simplefilter("error", VehicleFileWarning)
         v = vehicle_from_dict(raw, where="bot.yaml")
     assert v.file_axes[1] is None and v.file_axes[2] is None
+
+
+def test_B_and_limits_are_read_only():
+    """``veh.B`` and ``veh.layout.limits`` are computed at every access: a write into one was lost
+    without a word (the next access gave the old numbers); it now raises."""
+    v = load_vehicle("bluerov2")
+    with pytest.raises(ValueError, match="read-only"):
+        v.B[0, 0] = 5.0
+    with pytest.raises(ValueError, match="read-only"):
+        v.layout.limits[0, 1] = 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        v.layout.B[:] = 0.0
+    # what a caller does with them still works: a copy to change, the allocator's own arrays
+    B = np.array(v.B)
+    B[0, 0] = 5.0
+    al = v.allocator()
+    assert al.B.flags.writeable and al.limits.flags.writeable

@@ -218,11 +218,11 @@ def hold_flight(vehicle, dof, sign: int, speed: float | None = None, t_end: floa
     x0 = np.zeros(13)
     x0[3] = 1.0
     nsteps = int(round(t_end / dt))
-    out = _hold_run(x0, vehicle.params.to_array(), np.ascontiguousarray(vehicle.B),
+    out = _hold_run(x0, vehicle.params.to_array(), np.array(vehicle.B, dtype=float, order="C"),
                     np.ascontiguousarray(alloc.T), lim[:, 0] * en, lim[:, 1] * ep, ctl, d,
                     float(sign), 0 if speed is None else 1, 0.0 if speed is None else float(speed),
                     _gains(vehicle), dt, nsteps, int(round(tail / dt)), arrays is not None,
-                    np.ascontiguousarray(lim, dtype=float), np.asarray(en, float),
+                    np.array(lim, dtype=float, order="C"), np.asarray(en, float),
                     np.asarray(ep, float), iprm, igeo)
     return {"speed": float(out[0]), "roll_deg": math.degrees(out[1]),
             "pitch_deg": math.degrees(out[2]), "command_fraction": min(1.0, float(out[3])),

@@ -214,9 +214,9 @@ def synthetic_dive(duration: float = 600.0, seed: int = 0, vehicle="bluerov2", *
     veh = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
     tether = TETHER if tether is None else tether
     p = veh.params.to_array()
-    B = np.ascontiguousarray(veh.B, float)
-    n_thr = B.shape[1]
-    lim = np.ascontiguousarray(veh.layout.limits, float)
+    B = np.array(veh.B, float, order="C")  # writable copies (the vehicle's are read-only), the
+    n_thr = B.shape[1]  # types the compiled kernels were built for
+    lim = np.array(veh.layout.limits, float, order="C")
     ctrl_rows = [0, 1, 2, 5]
     A = np.ascontiguousarray(np.linalg.pinv(B[ctrl_rows]))
     t200 = default_t200()

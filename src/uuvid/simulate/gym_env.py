@@ -344,9 +344,9 @@ class _Config:
             raise ValueError(f"substeps must be at most {MAX_SUBSTEPS:,} (a step of dt/{MAX_SUBSTEPS:,} "
                              f"buys RK4 no accuracy, only time), got {substeps!r}")
         self.max_steps = _count("max_steps", max_steps)
-        self.lo = np.ascontiguousarray(lim[:, 0])
-        self.hi = np.ascontiguousarray(lim[:, 1])
-        self.B = np.ascontiguousarray(v.B, dtype=float)
+        self.lo = np.array(lim[:, 0], dtype=float, order="C")  # writable copies, as the compiled
+        self.hi = np.array(lim[:, 1], dtype=float, order="C")  # step was built for (a vehicle's
+        self.B = np.array(v.B, dtype=float, order="C")  # B and limits are read-only)
         self.vp = v.params.to_array()
         al = v.allocator()
         self.alloc = al.to_array("scale")  # uniform scaling: cheap per step, keeps the direction

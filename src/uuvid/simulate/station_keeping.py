@@ -249,7 +249,7 @@ def fly_station(vehicle, controller: str, *, x_ref, z0, current=(0.0, 0.0, 0.0),
     Kc = _read_only(np.zeros((n, 16)) if K is None else K)
     f0c = _read_only(np.zeros(n) if f0 is None else f0)
     station_loop(np.asarray(z0, float), v.params.to_array(), np.asarray(current, float),
-                 np.ascontiguousarray(v.B), _read_only(lim[:, 0]), _read_only(lim[:, 1]), kind,
+                 np.array(v.B, dtype=float, order="C"), _read_only(lim[:, 0]), _read_only(lim[:, 1]), kind,
                  alloc, gains.to_array(), Kc, np.asarray(x_ref, float), f0c, dt, int(substeps),
                  Z, F)
     if not np.all(np.isfinite(Z)):

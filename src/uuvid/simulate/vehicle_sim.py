@@ -1694,7 +1694,7 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
 
     setup = MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt,
                          int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
-                         np.ascontiguousarray(vehicle.B, dtype=float), vehicle.params.to_array(),
+                         np.array(vehicle.B, dtype=float, order="C"), vehicle.params.to_array(),
                          const, t, ref, cm, series, allocation, battery, bat, controller,
                          disturbance, _inflow_arrays(vehicle, inflow, own_chain, propeller),
                          resolve_inflow(vehicle, inflow), inflow_source or (

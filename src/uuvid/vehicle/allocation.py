@@ -316,7 +316,7 @@ class Allocator:
     controlled: tuple[int, ...] = field(init=False)
 
     def __post_init__(self):
-        B = np.atleast_2d(np.asarray(self.B, dtype=float))
+        B = np.atleast_2d(np.array(self.B, dtype=float))  # its own (a vehicle's B is read-only)
         m, n = B.shape
         object.__setattr__(self, "B", B)
         dofs = tuple(range(m)) if self.dofs is None else tuple(
@@ -333,7 +333,7 @@ class Allocator:
         object.__setattr__(self, "controlled", controlled)
         if self.weights is not None:
             object.__setattr__(self, "weights", _weight_matrix(self.weights, n))
-        lim = np.tile([-np.inf, np.inf], (n, 1)) if self.limits is None else np.asarray(
+        lim = np.tile([-np.inf, np.inf], (n, 1)) if self.limits is None else np.array(
             self.limits, dtype=float).reshape(n, 2)
         if np.any(lim[:, 0] > 0) or np.any(lim[:, 1] < 0):
             raise ValueError("thrust limits must satisfy min <= 0 <= max for every thruster")

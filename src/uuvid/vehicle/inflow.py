@@ -191,7 +191,7 @@ def inflow_limits(vehicle, inflow: str | None = None) -> InflowLimits | None:
             raise ValueError(f"{vehicle.name}: thrusters[{t.name}]: inflow {mode!r} needs a "
                              f"propeller map, and {ref!r} {why} (known: {KNOWN_PROPELLERS}); use "
                              "inflow none") from None
-    lim = np.asarray(lay.limits, float)
+    lim = np.array(lay.limits, float)  # its own (the layout's are read-only)
     for i, t in enumerate(lay):
         if not np.all(np.isfinite(lim[i])):
             raise ValueError(f"{vehicle.name}: thrusters[{t.name}].limits must be finite for inflow "

@@ -150,16 +150,18 @@ class ThrusterLayout:
 
     @property
     def B(self) -> np.ndarray:
-        """Thrust configuration matrix (6 × n)."""
+        """Thrust configuration matrix (6 × n), read-only: it is computed from the thrusters at
+        every access, so a write into it (``veh.B[0, 0] = 5``) would be lost without a word."""
         if not self.thrusters:
-            return np.zeros((6, 0))
-        return thrust_configuration_matrix([t.position for t in self.thrusters],
-                                           [t.axis for t in self.thrusters])
+            return _read_only(np.zeros((6, 0)))
+        return _read_only(thrust_configuration_matrix([t.position for t in self.thrusters],
+                                                      [t.axis for t in self.thrusters]))
 
     @property
     def limits(self) -> np.ndarray:
-        """``(n, 2)`` array of ``[min, max]`` thrust, N."""
-        return np.array([t.limits for t in self.thrusters], dtype=float).reshape(-1, 2)
+        """``(n, 2)`` array of ``[min, max]`` thrust, N; read-only, as :attr:`B` (a new array
+        at every access: change a thruster's ``limits`` instead)."""
+        return _read_only(np.array([t.limits for t in self.thrusters], dtype=float).reshape(-1, 2))
 
     def eta(self, mode: str | None) -> tuple[np.ndarray, np.ndarray]:
         """Per-thruster ``(η₊, η₋)`` arrays in ``mode``."""
@@ -168,6 +170,13 @@ class ThrusterLayout:
 
     def models(self) -> tuple[str, ...]:
         return tuple(t.model for t in self.thrusters)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a``, which cannot be written any more (assignment raises "assignment destination is
+    read-only")."""
+    a.flags.writeable = False
+    return a
 
 
 def layout_from_arrays(positions, axes, limits=None, names: Sequence[str] | None = None,
