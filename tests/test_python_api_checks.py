@@ -273,3 +273,76 @@ def test_lsq_refuses_units_not_matching_names(which, units):
             linear_lsq(H, y, ["a", "b"], units=units)
         else:
             nonlinear_lsq(lambda th: H @ th - y, [0.0, 0.0], ["a", "b"], units=units)
+
+
+# ------------------------------------------------- hold in simulation, on the battery (fix-r1)
+def _no_flight(monkeypatch):
+    """A flight or a discharge that starts is a failure: the bad number is refused before."""
+    from uuvid.simulate import vehicle_sim
+
+    def flew(*a, **k):
+        raise AssertionError("the bad argument was not refused: the work started")
+
+    monkeypatch.setattr(vehicle_sim, "setup_mission", flew)
+    monkeypatch.setattr(hold, "hold_on_battery", flew)
+
+
+@pytest.mark.parametrize("args, kw, match", [
+    ((0.0, -1.0), {}, r"^speed = -1: expected a finite number >= 0"),
+    ((0.0, math.nan), {}, r"^speed = nan"),
+    ((0.0, math.inf), {}, r"^speed = inf"),
+    ((math.nan, 0.3), {}, r"^relative_deg = nan"),
+    ((0.0, 0.3), {"depth": -2.0}, r"^depth = -2: expected a finite number >= 0"),
+    ((0.0, 0.3), {"depth": math.nan}, r"^depth = nan"),
+    ((0.0, 0.3), {"duration": 0.0}, r"^duration = 0: expected a finite number > 0"),
+    ((0.0, 0.3), {"dt": -0.02}, r"^dt = -0.02: expected a finite number > 0"),
+    ((0.0, 0.3), {"dt": math.inf}, r"^dt = inf"),
+    ((0.0, 0.3), {"ramp": math.nan}, r"^ramp = nan"),
+    ((0.0, 0.3), {"gust": -0.1}, r"^gust = -0.1: expected a finite number >= 0"),
+    ((0.0, 0.3), {"attitude_bandwidth": 0.0}, r"^attitude_bandwidth = 0"),
+    ((0.0, 0.3), {"max_tilt_deg": math.nan}, r"^max_tilt_deg = nan"),
+    ((0.0, 0.3), {"max_yaw_error_deg": -5.0}, r"^max_yaw_error_deg = -5"),
+    ((0.0, 0.3), {"duration": 50.0}, r"^duration = 50 s: expected longer than ramp \+ 14 s"),
+])
+def test_holds_in_simulation_refuses_bad_numbers(monkeypatch, args, kw, match):
+    """speed = −1 flew a current from the opposite side scaled by −1 and said 'diverged' (or
+    held); NaN/inf anywhere flew a NaN mission and blamed the step."""
+    _no_flight(monkeypatch)
+    with pytest.raises(ValueError, match=match):
+        hold.holds_in_simulation(_rov(), *args, **kw)
+
+
+@pytest.mark.parametrize("depth", [-5.0, math.nan, math.inf])
+def test_steady_and_battery_holds_refuse_a_bad_depth(monkeypatch, depth):
+    """hold_on_battery, steady_hold and endurance took any depth: −5 m (above the surface) was
+    solved as given, NaN raised a LinAlgError deep in the allocation."""
+    v = load_vehicle("bluerov2-heavy")
+    with pytest.raises(ValueError, match=r"^depth = .*expected a finite number >= 0"):
+        hold.steady_hold(v, [0.1, 0.0, 0.0], hold._allocator(v), depth)
+    with pytest.raises(ValueError, match=r"^depth = .*expected a finite number >= 0"):
+        hold.hold_on_battery(v, [0.1, 0.0, 0.0], 0.9, depth=depth)
+    _no_flight(monkeypatch)
+    with pytest.raises(ValueError, match=r"^depth = .*expected a finite number >= 0"):
+        hold.endurance(v, 0.1, depth=depth, progress=False)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"soc0": math.nan}, r"^soc0 = nan: expected a state of charge within 0..1"),
+    ({"soc0": 1.5}, r"^soc0 = 1.5: expected a state of charge within 0..1"),
+    ({"soc0": "full"}, r"^soc0 = 'full': expected a state of charge within 0..1 \(a number\)"),
+    ({"dsoc": 0.0}, r"^dsoc = 0: expected a finite number > 0"),
+    ({"dsoc": -0.01}, r"^dsoc = -0.01: expected a finite number > 0"),
+    ({"dsoc": math.nan}, r"^dsoc = nan"),
+    ({"dsoc": 2.0}, r"^dsoc = 2: expected a step of state of charge of at most 1"),
+])
+def test_endurance_refuses_a_bad_charge_or_step(monkeypatch, kw, match):
+    """dsoc = 0 never stepped the charge down (an endless discharge), a negative one charged the
+    battery past full; soc0 given as text raised a bare TypeError."""
+    _no_flight(monkeypatch)
+    with pytest.raises(ValueError, match=match):
+        hold.endurance(load_vehicle("bluerov2-heavy"), 0.1, progress=False, **kw)
+
+
+def test_hold_on_battery_names_soc():
+    with pytest.raises(ValueError, match=r"^soc = 'x': expected a state of charge within 0..1 \(a number\)"):
+        hold.hold_on_battery(load_vehicle("bluerov2-heavy"), [0.1, 0.0, 0.0], "x")

@@ -96,6 +96,19 @@ def _check_depth(depth) -> float:
     return non_negative("depth", depth, "m, down positive")
 
 
+def _check_soc(name: str, soc) -> float:
+    """A state of charge as given (``soc``, ``soc0``): a number within 0..1 (text raised a bare
+    ``TypeError`` from ``math.isfinite``)."""
+    try:
+        v = float(soc)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {soc!r}: expected a state of charge within 0..1 "
+                         "(a number)") from None
+    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+        raise ValueError(f"{name} = {v:g}: expected a state of charge within 0..1")
+    return v
+
+
 #: Largest roll or pitch (deg) counted as holding station: the same level limit as steady flight
 #: (:data:`uuvid.vehicle.stability.MAX_TILT_DEG`); a vehicle tilted further by the current is not
 #: doing useful work (camera, tools) even if its position is held.
@@ -109,7 +122,8 @@ def steady_hold(vehicle, current, al: Allocator, depth: float = 2.0, start=(0.0,
     restoring, and the thrusters' side moments) balance — found by Newton iteration (finite
     differences) from ``start``.  Returns ``(achievable, roll, pitch, allocation)``; not
     achievable also when no attitude within ±``max_tilt_deg`` balances or the balance is statically unstable
-    (an eigenvalue of ∂(ṗ, q̇)/∂(φ, θ) ≥ 0)."""
+    (an eigenvalue of ∂(ṗ, q̇)/∂(φ, θ) ≥ 0).  ``depth``: finite, >= 0 m."""
+    depth = _check_depth(depth)
     free = [k for k in (3, 4) if k not in al.controlled]
     ang = np.array(start, dtype=float)
     drift = uncontrolled_push(vehicle, current, al, depth)
@@ -708,11 +722,27 @@ def _holds_in_simulation(vehicle, relative_deg: float, speed: float, *, limits=N
                          max_tilt_deg: float = MAX_TILT_DEG, gust: float = 0.03,
                          max_yaw_error_deg: float = 5.0):
     """:func:`holds_in_simulation` at a ``relative_deg`` already checked (each step of
-    :func:`simulate_boundary`'s bisection): its warnings are not said again."""
+    :func:`simulate_boundary`'s bisection): its warnings are not said again.  The other numbers
+    are checked here (cheap, no warnings): a negative ``speed`` flew the current from the
+    other side and a NaN one a NaN mission, both reported as diverged (blamed on the step)."""
+    from uuvid.core.checks import non_negative, positive
     from uuvid.simulate.currents import TimeSeriesCurrent
     from uuvid.simulate.reference import WaypointMission
     from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
 
+    speed = non_negative("speed", speed, "m/s, the current held against")
+    depth = _check_depth(depth)
+    duration = positive("duration", duration, "s")
+    dt = positive("dt", dt, "s")
+    attitude_bandwidth = positive("attitude_bandwidth", attitude_bandwidth, "rad/s")
+    ramp = positive("ramp", ramp, "s, the current's rise")
+    gust = non_negative("gust", gust, "m/s")
+    max_tilt_deg = positive("max_tilt_deg", max_tilt_deg, "deg")
+    max_yaw_error_deg = positive("max_yaw_error_deg", max_yaw_error_deg, "deg")
+    if duration <= ramp + 14.0:
+        raise ValueError(f"duration = {duration:g} s: expected longer than ramp + 14 s = "
+                         f"{ramp + 14.0:g} s (the current ramps up over ramp = {ramp:g} s, then a "
+                         "gust blows 10 to 14 s after it, and the hold is judged after that)")
     if limits is not None:
         vehicle = _with_limits(vehicle, limits)
     c = current_ned(speed, relative_deg)
@@ -815,9 +845,8 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
-    soc = float(soc)
-    if not (math.isfinite(soc) and 0.0 <= soc <= 1.0):
-        raise ValueError(f"soc = {soc:g}: expected a state of charge within 0..1")
+    soc = _check_soc("soc", soc)
+    depth = _check_depth(depth)
     check_battery_models(vehicle, bat)
     st = SupplyThruster(physical_model(bat.thruster_power_model))
     v = bat.ocv(soc)
@@ -930,12 +959,15 @@ def _endurance(vehicle, speed: float, relative_deg: float, *, soc0: float = 1.0,
                progress: bool | None = None) -> EnduranceResult:
     """:func:`endurance` at a ``relative_deg`` already checked (the command line's ``--current``
     direction): its warnings are not said again."""
-    from uuvid.core.checks import non_negative
+    from uuvid.core.checks import non_negative, positive
     from uuvid.core.progress import progress_task
 
     speed = non_negative("speed", speed, "m/s")
-    if not (math.isfinite(soc0) and 0 <= soc0 <= 1):
-        raise ValueError(f"soc0 = {soc0:g}: expected a state of charge within 0..1")
+    soc0 = _check_soc("soc0", soc0)
+    depth = _check_depth(depth)
+    dsoc = positive("dsoc", dsoc, "the step of state of charge")
+    if dsoc > 1.0:
+        raise ValueError(f"dsoc = {dsoc:g}: expected a step of state of charge of at most 1")
     task = progress_task(f"{vehicle.name} endurance", total=max(1, math.ceil(soc0 / dsoc)),
                          eta=False, stages=max(1, math.ceil(soc0 * 10)),
                          disable=None if progress is None else not progress)
