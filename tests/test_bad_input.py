@@ -793,3 +793,25 @@ def test_the_flight_memory_limit_is_a_quarter_of_a_larger_machine(monkeypatch):
         assert fpm.flight_memory_limit() == want
     monkeypatch.undo()
     assert fpm.flight_memory_limit() >= 2e9
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "short", "text"])
+def test_thruster_simulate_refuses_a_bad_x0_up_front(bad):
+    """x0 = [nan] was flown and reported as 'diverged … use a smaller dt' (the step was not the
+    fault); a wrong length or text was found only after the signal was sampled and the chain
+    compiled.  Refused first, naming x0."""
+    from uuvid.thruster.presets import preset_chain
+
+    c = preset_chain("laidani-a2212")
+    n = c.n_states
+    assert n >= 1
+    x0 = {"nan": [math.nan] + [0.0] * (n - 1), "inf": [0.0] * (n - 1) + [math.inf],
+          "short": [0.0] * (n + 1), "text": ["a"] * n}[bad]
+    match = {"nan": r"^x0\[0\] = nan: expected", "inf": rf"^x0\[{n - 1}\] = inf: expected",
+             "short": rf"^x0 has shape \({n + 1},\): expected {n} component", "text": r"^x0 = "}[bad]
+
+    def signal(t):
+        raise AssertionError("x0 was not checked before the signal was sampled")
+
+    with pytest.raises(ValueError, match=match):
+        c.simulate(signal, t_end=0.1, x0=x0)

@@ -14,7 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuvid.core.checks import MAX_SUBSTEPS  # re-exported: most RK4 steps per sample/step
+from uuvid.core.checks import (
+    MAX_SUBSTEPS,  # re-exported: most RK4 steps per sample/step
+    finite_values,
+)
 from uuvid.core.response import CHANNEL_UNITS, TimeResponse
 from uuvid.core.result import Result, jsonable
 from uuvid.thruster.blocks import (
@@ -446,13 +449,13 @@ class ThrusterChain:
         output interval; ``substeps`` RK4 steps advance the state inside it (fixed step
         ``dt/substeps``; convergence against ``solve_ivp`` is tested).
         """
+        # x0 first: a NaN state was flown and reported as 'diverged … use a smaller dt'
+        x0a = np.zeros(self.n_states) if x0 is None else finite_values(
+            "x0", x0, (self.n_states,), "finite numbers, the chain's initial state")
         n = _n_samples(t_end, dt, substeps)
         t = np.arange(n) * dt
         u = _sample_signal(signal, t)
         c = self.compile()
-        x0a = np.zeros(self.n_states) if x0 is None else np.asarray(x0, dtype=float)
-        if x0a.shape != (self.n_states,):
-            raise ValueError(f"x0 must have {self.n_states} entries, got {x0a.shape}")
         X = np.empty((n, self.n_states))
         C = np.empty((n, len(CHANNELS)))
         _kernels().rk4_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact, x0a, u,
