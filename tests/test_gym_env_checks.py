@@ -76,9 +76,9 @@ def test_step_before_reset_asks_for_reset():
     (dict(acceptance_radius=-1), "acceptance_radius must be a finite number >= 0"),
     (dict(acceptance_radius=math.inf), "acceptance_radius must be a finite number >= 0"),
     (dict(current_range=math.nan), "current_range must be a finite number >= 0"),
-    (dict(max_steps=2.7), "max_steps must be a positive integer"),
-    (dict(max_steps=0), "max_steps must be a positive integer"),
-    (dict(substeps=1.5), "substeps must be a positive integer"),
+    (dict(max_steps=2.7), r"^max_steps = 2.7: expected .*, a whole number"),
+    (dict(max_steps=0), r"^max_steps = 0: expected .* >= 1"),
+    (dict(substeps=1.5), r"^substeps = 1.5: expected .*, a whole number"),
     (dict(dt="0.1"), "dt must be a finite number > 0"),
     (dict(dt=math.nan), "dt must be a finite number > 0"),
     (dict(dt=-0.1), "dt must be a finite number > 0"),
@@ -104,7 +104,7 @@ def test_good_options_still_accepted():
     StationKeepingEnv("bluerov2", max_steps=3.0, max_distance=math.inf, acceptance_radius=0.0)
     StationKeepingEnv("bluerov2", dt=0.2, substeps=4)  # same RK4 step as the default
     StationKeepingEnv("romeo", dt=0.5, substeps=1)  # a big slow vehicle takes long steps
-    with pytest.raises(ValueError, match="num_envs must be a positive integer"):
+    with pytest.raises(ValueError, match=r"^num_envs = 2.5: expected .*, a whole number"):
         StationKeepingVectorEnv("bluerov2", num_envs=2.5)
 
 
@@ -155,3 +155,12 @@ def test_stepping_after_the_episode_ended_warns_once(kw):
         env.step(np.zeros(6))  # once per episode
         env.reset(seed=1)
         env.step(np.zeros(6))
+
+
+@pytest.mark.parametrize("kw", [dict(max_steps="100"), dict(substeps=None), dict(max_steps=True)])
+def test_a_count_that_is_no_number_is_a_type_error_naming_it(kw):
+    """The env's counts are checked by the library's one check (uuvid.core.checks.count), in its
+    words (``max_steps = '100': expected …``), as a mission's are."""
+    name = next(iter(kw))
+    with pytest.raises(TypeError, match=rf"^{name} = .*: expected .*, got "):
+        StationKeepingEnv("bluerov2", **kw)

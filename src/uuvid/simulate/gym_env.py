@@ -27,7 +27,9 @@ to their limits, in a constant NED current (optionally randomised per episode).
 * **Options** are checked when the environment is made (``ValueError`` naming the option):
   ``dt`` > 0 with the RK4 step ``dt / substeps`` within the vehicle's stability bound
   (:func:`rk4_step_limit`, an estimate: past it a warning, past twice it refused),
-  ``substeps``, ``max_steps`` positive integers, ``offset_range``,
+  ``substeps`` (at most :data:`MAX_SUBSTEPS`), ``max_steps`` (and the vector env's ``num_envs``)
+  whole numbers >= 1 (:func:`uuvid.core.checks.count`: a ``TypeError`` for one that is no
+  number at all), ``offset_range``,
   ``current_range``, ``acceptance_radius``, ``weights`` finite and ≥ 0, ``current`` finite,
   ``max_distance`` > 0 (``inf``: never lost).
 
@@ -43,7 +45,6 @@ issue 21); the action still scales the bollard limits.
 from __future__ import annotations
 
 import math
-import numbers
 import warnings
 
 import numpy as np
@@ -60,7 +61,7 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError("uuvid.simulate.gym_env needs gymnasium: pip install 'uuvid[gym]'") from e
 
-from uuvid.core.checks import InputWarning
+from uuvid.core.checks import InputWarning, count
 from uuvid.simulate.station_keeping import rk4_held, thrust_to_tau
 from uuvid.thruster.inflow import inflow_thrust_nb
 from uuvid.vehicle.allocation import allocate_compiled
@@ -238,16 +239,6 @@ def _positive(name: str, value, what: str, **kw) -> float:
     return v
 
 
-def _count(name: str, value) -> int:
-    """A positive integer (an integral float such as ``4.0`` too); ``ValueError`` else."""
-    ok = (isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))) or (
-        isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
-        and math.isfinite(value) and float(value).is_integer())
-    if not ok or int(value) < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
-
-
 def rk4_step_limit(vehicle, current_speed: float = 0.0) -> tuple[float, int, float]:
     """``(h_max, dof, rate)``: the largest RK4 step (s) that keeps the vehicle's fastest damped
     mode stable, estimated per DOF from the diagonal mass and damping: the damping rate
@@ -339,11 +330,11 @@ class _Config:
         if self.dt < MIN_DT:
             raise ValueError(f"dt must be at least {MIN_DT:g} s (a control step shorter than any "
                              f"thruster's command update: is it in ms?), got {dt!r}")
-        self.nsub = _count("substeps", substeps)
-        if self.nsub > MAX_SUBSTEPS:  # every step() would run minutes in an uninterruptible loop
-            raise ValueError(f"substeps must be at most {MAX_SUBSTEPS:,} (a step of dt/{MAX_SUBSTEPS:,} "
-                             f"buys RK4 no accuracy, only time), got {substeps!r}")
-        self.max_steps = _count("max_steps", max_steps)
+        # at most MAX_SUBSTEPS: every step() would run minutes in an uninterruptible loop
+        self.nsub = count("substeps", substeps, "a number of RK4 steps per control step",
+                          maximum=MAX_SUBSTEPS,
+                          hint=f"a step of dt/{MAX_SUBSTEPS:,} buys RK4 no accuracy, only time")
+        self.max_steps = count("max_steps", max_steps, "a number of control steps per episode")
         self.lo = np.array(lim[:, 0], dtype=float, order="C")  # writable copies, as the compiled
         self.hi = np.array(lim[:, 1], dtype=float, order="C")  # step was built for (a vehicle's
         self.B = np.array(v.B, dtype=float, order="C")  # B and limits are read-only)
@@ -508,7 +499,7 @@ class StationKeepingVectorEnv(VectorEnv):
         unknown = set(kw) - set(_DEFAULTS)
         if unknown:
             raise TypeError(f"unknown options {sorted(unknown)}; known: {sorted(_DEFAULTS)}")
-        self.num_envs = _count("num_envs", num_envs)
+        self.num_envs = count("num_envs", num_envs, "a number of environment copies")
         self.cfg = _Config(vehicle, **{**_DEFAULTS, **kw})
         from uuvid.simulate.footprint import flight_memory_limit, size_text
 
