@@ -95,10 +95,23 @@ def test_a_time_given_as_text_from_python_names_the_parameter(fn, kw):
 def test_a_missing_vehicle_from_python_names_the_argument(fn, vehicle):
     """`identify_dive(log, None)` raised a bare "expected str, bytes or os.PathLike object, not
     NoneType" from deep in the vehicle loader."""
-    with pytest.raises(TypeError, match=rf"^{fn.__name__}: vehicle = {vehicle!r}: expected the base "
-                                        r"vehicle, a preset name \(e\.g\. 'bluerov2'\), a vehicle "
-                                        rf"file's path or a Vehicle, got {type(vehicle).__name__}$"):
+    with pytest.raises(TypeError, match=rf"^{fn.__name__}: vehicle: expected the base vehicle, a "
+                                        r"preset name \(e\.g\. 'bluerov2'\), a vehicle file's path "
+                                        rf"or a Vehicle, got {type(vehicle).__name__} {vehicle!r}$"):
         fn(_table(), vehicle, ["heave"])
+
+
+@pytest.mark.parametrize("fn", [identify_dive, replay_dive])
+def test_a_vehicle_part_is_not_taken_for_the_vehicle(fn):
+    """The dives took anything with a ``B`` as the vehicle (their own load-or-check, a copy of
+    vehicle.definition.as_vehicle): a thruster layout went on and failed later, in words that
+    named neither the function nor the argument.  Refused by the one check, naming both."""
+    from uuvid.vehicle.definition import load_vehicle
+
+    layout = load_vehicle("bluerov2").layout
+    with pytest.raises(TypeError, match=rf"^{fn.__name__}: vehicle: expected the base vehicle, .*"
+                                        r"got ThrusterLayout"):
+        fn(_table(), layout, ["heave"])
 
 
 def test_all_dofs_drop_a_stuck_depth_in_replay_as_in_identify():

@@ -641,22 +641,19 @@ def _is_all(dofs) -> bool:
         (isinstance(dofs, (list, tuple)) and list(dofs) == ["all"])
 
 
+#: what :func:`replay_dive` and ``identify_dive`` take as their ``vehicle`` (the message of
+#: :func:`uuvid.vehicle.definition.as_vehicle` for anything else)
+BASE_VEHICLE_EXPECTED = ("expected the base vehicle, a preset name (e.g. 'bluerov2'), a vehicle "
+                         "file's path or a Vehicle")
+
+
 def base_vehicle(vehicle, func: str):
-    """The base vehicle of :func:`replay_dive`/``identify_dive`` (``func``): a
-    :class:`~uuvid.vehicle.definition.Vehicle` as given, a preset name or a vehicle file loaded;
-    anything else (``None``) a ``TypeError`` naming the argument (it was "expected str, bytes or
-    os.PathLike object, not NoneType")."""
-    import os
+    """The base vehicle of :func:`replay_dive`/``identify_dive`` (``func``):
+    :func:`uuvid.vehicle.definition.as_vehicle` (a preset name or a vehicle file loaded, a
+    Vehicle as given, anything else a ``TypeError`` naming ``func`` and the argument)."""
+    from uuvid.vehicle.definition import as_vehicle
 
-    if hasattr(vehicle, "B"):
-        return vehicle
-    if not isinstance(vehicle, (str, os.PathLike)):
-        raise TypeError(f"{func}: vehicle = {vehicle!r}: expected the base vehicle, a preset name "
-                        "(e.g. 'bluerov2'), a vehicle file's path or a Vehicle, got "
-                        f"{type(vehicle).__name__}")
-    from uuvid.vehicle.definition import load_vehicle
-
-    return load_vehicle(vehicle)
+    return as_vehicle(vehicle, BASE_VEHICLE_EXPECTED, func)
 
 
 def _vehicle_label(veh) -> str:

@@ -1137,14 +1137,19 @@ def preset_path(name: str) -> Path:
     return p
 
 
-def as_vehicle(vehicle, expected: str) -> Vehicle:
-    """``vehicle`` as a :class:`Vehicle`: a preset name or a vehicle file loaded, a vehicle as
-    given, anything else a ``TypeError`` ``"vehicle: <expected>, got …"`` (a string, ``None`` or a
-    thruster chain failed later with an ``AttributeError`` naming no argument)."""
-    if isinstance(vehicle, (str, Path)):
+def as_vehicle(vehicle, expected: str, func: str = "") -> Vehicle:
+    """``vehicle`` as a :class:`Vehicle`: a preset name or a vehicle file (a ``str`` or any
+    path-like) loaded, a vehicle as given, anything else a ``TypeError``
+    ``"<func>: vehicle: <expected>, got …"`` (a string, ``None``, a thruster chain or layout
+    failed later with an ``AttributeError`` naming no argument); ``func``: the function the
+    vehicle was given to, named first (none: the message starts at ``vehicle:``)."""
+    import os
+
+    if isinstance(vehicle, (str, os.PathLike)):
         return load_vehicle(vehicle)
     if not all(hasattr(vehicle, a) for a in ("layout", "params", "allocator", "B")):
-        raise TypeError(f"vehicle: {expected}, got {type(vehicle).__name__} {vehicle!r:.80}")
+        raise TypeError(f"{func + ': ' if func else ''}vehicle: {expected}, got "
+                        f"{type(vehicle).__name__} {vehicle!r:.80}")
     return vehicle
 
 
