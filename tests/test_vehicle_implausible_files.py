@@ -131,3 +131,28 @@ def test_without_drag_a_mission_does_not_say_the_vehicle_stays_level():
     speed, note = cruise_speed(build(_no_drag_raw()))
     assert "stays level there" not in note
     assert "no drag in surge" in note and "not known" in note
+
+
+def test_one_rule_says_which_thrusters_are_dead():
+    """A dead thruster (limits [0, 0]) was recognised in three places — the allocation (left out
+    of T), the vehicle file's warnings and the envelope's one-way thrusters — each with its own
+    expression; one function now, and all three agree with it."""
+    import numpy as np
+
+    from uuvid.vehicle.allocation import dead_thrusters
+    from uuvid.vehicle.envelope import one_way_thrusters
+
+    inf = np.inf
+    lim = np.array([[0.0, 0.0], [-inf, inf], [0.0, 5.0], [-3.0, 0.0], [-0.0, 0.0], [-1.0, 2.0]])
+    assert dead_thrusters(lim).tolist() == [0, 4]
+    assert one_way_thrusters(lim) == [2, 3]  # one side zero, not both
+    assert dead_thrusters(np.zeros((0, 2))).tolist() == []
+    raw = bluerov2_raw()
+    for i in (1, 4):
+        raw["thrusters"][i]["limits"] = [0.0, 0.0]
+    v = build(raw)
+    assert dead_thrusters(v.layout.limits).tolist() == [1, 4]
+    al = v.allocator()
+    assert np.allclose(al.T[[1, 4]], 0.0) and not np.allclose(al.T[[0, 2, 3, 5]], 0.0)
+    said = definition._dead_thruster_warnings(v)
+    assert len(said) == 1 and said[0].startswith("thrusters[1] (") and ", thrusters[4] (" in said[0]

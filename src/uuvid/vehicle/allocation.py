@@ -113,6 +113,15 @@ def constrained_allocation_matrix(B, rows: Sequence[int] | None = None, weights=
     return T
 
 
+def dead_thrusters(limits) -> np.ndarray:
+    """Indices of the thrusters whose ``limits`` (n, 2) are ``[0, 0]``: they give no thrust either
+    way (switched off, or a placeholder) and the allocation leaves them out (:class:`Allocator`).
+    The one rule for the allocation, the vehicle file's warnings
+    (:func:`uuvid.vehicle.definition.load_vehicle`) and the envelope's one-way thrusters."""
+    lim = np.asarray(limits, dtype=float).reshape(-1, 2)
+    return np.flatnonzero((lim[:, 0] == 0.0) & (lim[:, 1] == 0.0))
+
+
 def scale_to_limits(tau, lower, upper) -> tuple[np.ndarray, float]:
     """Uniform scaling ``s τ`` into ``[lower, upper]`` (``lower ≤ 0 ≤ upper``); returns (τ, s)."""
     tau = np.asarray(tau, dtype=float)
@@ -339,7 +348,7 @@ class Allocator:
             raise ValueError("thrust limits must satisfy min <= 0 <= max for every thruster")
         object.__setattr__(self, "limits", lim)
         C = self.mode.constraint_rows(B) if self.mode is not None else np.zeros((0, n))
-        dead = np.flatnonzero((lim[:, 0] == 0.0) & (lim[:, 1] == 0.0))
+        dead = dead_thrusters(lim)
         if dead.size:  # a thruster that gives no thrust either way (limits [0, 0]) is left out
             # of T: T φ would ask it for thrust it cannot give, and uniform scaling would then
             # scale every request to 0 (normal vehicles: no such thruster, T as before)

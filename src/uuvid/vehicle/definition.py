@@ -69,7 +69,7 @@ from uuvid.thruster.modelfile import (
     other_kind,
     read_model_text,
 )
-from uuvid.vehicle.allocation import Allocator, ThrustMode
+from uuvid.vehicle.allocation import Allocator, ThrustMode, dead_thrusters
 from uuvid.vehicle.layout import Thruster, ThrusterLayout, axis_from_rpy, dof_index
 from uuvid.vehicle.model import DOF_NAMES, OneDofModel, VehicleParams
 from uuvid.vehicle.rigid_body import skew_ref
@@ -705,8 +705,7 @@ def _dead_thruster_warnings(vehicle: Vehicle) -> list[str]:
     """Thrusters with ``limits: [0, 0]`` (switched off, or a placeholder): they give no thrust,
     the allocation leaves them out (:class:`~uuvid.vehicle.allocation.Allocator`) and the other
     thrusters carry their share — said, with the DOFs that are then left without authority."""
-    lim = np.asarray(vehicle.layout.limits, float)
-    dead = [i for i in range(vehicle.layout.n) if lim[i, 0] == 0.0 and lim[i, 1] == 0.0]
+    dead = [int(i) for i in dead_thrusters(vehicle.layout.limits)]
     if not dead:
         return []
     live = [i for i in range(vehicle.layout.n) if i not in dead]

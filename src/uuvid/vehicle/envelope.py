@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uuvid.core.result import Result
-from uuvid.vehicle.allocation import apply_eta
+from uuvid.vehicle.allocation import apply_eta, dead_thrusters
 from uuvid.vehicle.layout import dof_index
 from uuvid.vehicle.model import DOF_NAMES, steady_speed
 
@@ -234,7 +234,8 @@ def one_way_thrusters(lim) -> list[int]:
     allocator's least-effort direction ``T φ`` may need them the other way, so uniform scaling
     gives nothing there while the bounded allocation (missions' ``priority``) finds another mix."""
     lim = np.asarray(lim, float)
-    return [int(i) for i in np.flatnonzero((lim[:, 0] == 0.0) ^ (lim[:, 1] == 0.0))]
+    side = np.flatnonzero((lim[:, 0] == 0.0) | (lim[:, 1] == 0.0))
+    return [int(i) for i in np.setdiff1d(side, dead_thrusters(lim))]  # (dead: no way at all)
 
 
 def _forces(alloc, B, lim, d, sign, controlled, ep, en, C) -> tuple[float, float]:
