@@ -695,13 +695,16 @@ def _fly_loop(cparams, cstate, dparams, use_dist, out_kind, z0, vp, B, alloc, et
             normalise_state(z)
 
 
-@njit(cache=True, inline="always")
+# not inline="always": numba's inlining would bind its eleven arrays to new names in the RK4 stage
+# loop, eleven reference-count increments and decrements per stage (atomic calls numba cannot
+# prune across the loops in between); a plain call (LLVM inlines it) takes none.
+@njit(cache=True)
 def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
     """:func:`_tau_inflow` in still water with no disturbance force, the advance speed, the map
     and the sum ``B T`` in one pass over the thrusters (the same arithmetic in the same order:
     ``ν_r = ν`` is what :func:`~uuvid.vehicle.inflow.state_advance_speeds_nb` gives with no
     current; ``vt[st]`` the tip speeds of ``th[st]``, :func:`~uuvid.thruster.inflow.tip_speed_nb`);
-    ``thr`` receives the delivered thrusts."""
+    ``thr`` receives the delivered thrusts.  :func:`fly_quad`'s still-water RK4 stage."""
     u, v, w, p, q, r = x[7], x[8], x[9], x[10], x[11], x[12]
     t0 = t1 = t2 = t3 = t4 = t5 = 0.0
     for i in range(IGEO.shape[0]):
@@ -717,26 +720,6 @@ def _tau_inflow_still(th, vt, st, x, B, tau, eta_p, eta_n, IPRM, IGEO, thr):
         t4 += B[4, i] * f
         t5 += B[5, i] * f
     tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = t0, t1, t2, t3, t4, t5
-
-
-@njit(cache=True, inline="always")
-def _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, K, fsc, eta_p, eta_n, IPRM, IGEO, f0, thr):
-    """:func:`_vehicle_rk4_inflow` in still water without a disturbance force, the advance speed,
-    map and ``B T`` of each stage in one pass (:func:`_tau_inflow_still`); the stages run in a
-    loop (``K`` their 4 × 13 slopes) so the right-hand side is compiled in once; ``f0`` receives
-    the delivered thrusts at the step's start."""
-    for st in range(4):
-        zs = z if st == 0 else zt
-        kk = K[st]
-        _tau_inflow_still(th, vt, 0 if st == 0 else (1 if st < 3 else 2), zs, B, tau, eta_p, eta_n,
-                          IPRM, IGEO, f0 if st == 0 else thr)
-        vehicle_rhs_still_into(zs, tau, vp, fsc, kk)
-        if st < 3:
-            c = 1.0 if st == 2 else 0.5
-            for i in range(13):
-                zt[i] = z[i] + c * h * kk[i]
-    for i in range(13):
-        z[i] = z[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
 @njit(cache=True)
@@ -813,11 +796,27 @@ def fly_quad(cparams, cstate, z0, vp, B, alloc, eta_p, eta_n, poff, tparams, inv
                     F[k, i] = th[0, i]  # with inflow: set by the RK4 step below
                     FDES[k, i] = fdes[i]
             if inflow and still:
-                _rk4_still_inflow(z, h, th, vt, B, vp, tau, zt, K4, fsc, eta_p, eta_n, IPRM, IGEO,
-                                  f0, ua)
-                if sub == 0:
-                    for i in range(n):
-                        F[k, i] = f0[i]
+                # :func:`_vehicle_rk4_inflow` in still water without a disturbance force: the
+                # advance speed, map and ``B T`` of each stage in one pass (_tau_inflow_still),
+                # the stages in a loop (K4 their slopes) so the right-hand side is compiled in
+                # once.  Written out here, not an inlined function: numba would count a
+                # reference to each of its arrays every step (atomic calls, ≈ 10 % of the step)
+                for i in range(13):
+                    zt[i] = z[i]
+                for st in range(4):
+                    kk = K4[st]
+                    _tau_inflow_still(th, vt, 0 if st == 0 else (1 if st < 3 else 2), zt, B, tau,
+                                      eta_p, eta_n, IPRM, IGEO, ua)
+                    if st == 0 and sub == 0:
+                        for i in range(n):
+                            F[k, i] = ua[i]
+                    vehicle_rhs_still_into(zt, tau, vp, fsc, kk)
+                    if st < 3:
+                        c = 1.0 if st == 2 else 0.5
+                        for i in range(13):
+                            zt[i] = z[i] + c * h * kk[i]
+                for i in range(13):
+                    z[i] = z[i] + h / 6.0 * (K4[0, i] + 2.0 * K4[1, i] + 2.0 * K4[2, i] + K4[3, i])
             elif inflow:
                 _vehicle_rk4_inflow(z, h, th, B, vp, vc, vc, vc, dvc, tau, zt, k1, k2, k3, k4,
                                     fsc[6:12], eta_p, eta_n, IPRM, IGEO, ua, still, fsc, f0)
