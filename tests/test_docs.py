@@ -31,6 +31,19 @@ def test_every_tutorial_has_code_and_is_in_the_nav():
         assert f"tutorials/{t.name}" in nav, f"{t.name} is not in mkdocs.yml's nav"
 
 
+
+def test_index_links_every_tutorial_and_api_page():
+    """docs/index.md is the front page: every tutorial and every API page is reachable from it
+    (a page only in mkdocs.yml's nav is invisible to a reader of the index or the repository)."""
+    index = (ROOT / "docs" / "index.md").read_text(encoding="utf-8")
+    links = set(re.findall(r"\]\(([^)#\s]+)", index))
+    pages = [p.relative_to(ROOT / "docs").as_posix() for folder in ("tutorials", "api")
+             for p in sorted((ROOT / "docs" / folder).glob("*.md"))]
+    assert pages, "no pages found under docs/tutorials and docs/api"
+    missing = [p for p in pages if p not in links]
+    assert not missing, f"docs/index.md does not link: {', '.join(missing)}"
+
+
 #: every tutorial runs the library end to end (2–30 s each, the controllers' compile their own
 #: mission loops): with --run-slow (CI), not in the default suite
 @pytest.mark.slow
