@@ -42,6 +42,9 @@ from uuvid.simulate.signals import Sine
 
 __all__ = [
     "SineDesign",
+    "check_command_request",
+    "command_column",
+    "command_columns",
     "d_efficiency",
     "d_optimal_frequency",
     "design_sine_experiment",
@@ -324,24 +327,55 @@ class SineDesign:
         """Allocate :meth:`command` to the thrusters of ``vehicle`` in thrust-mapping ``mode``.
 
         Returns ``t``, the 6-component generalized force, the nominal thrust per thruster
-        (n × N, the allocator's ``T φ``; the mode's constraints hold on these commanded thrusts)
-        and, with ``voltage=(c_pos, c_neg)`` of ``T = c_V V|V|``, the voltages.
+        (n × N, the allocator's ``T φ``; the mode's constraints hold on these commanded thrusts),
+        ``mode`` (``"default"`` when none is given), ``saturated``, ``messages`` (a warning naming
+        the thrusters whose commands exceed their limits: the vehicle would clip them and not
+        deliver the designed force) and, with ``voltage=(c_pos, c_neg)`` of ``T = c_V V|V|``, the
+        voltages.  ``ValueError`` naming the DOF and the vehicle when its thrusters cannot produce
+        the designed force along the DOF in that mode (``B · thrust`` must reproduce it: BlueROV2
+        allocates surge, sway, heave and yaw only, so a pitch command came out all zeros).
         """
         from uuvid.vehicle.layout import dof_index
+        from uuvid.vehicle.model import DOF_NAMES
 
+        if voltage is not None:
+            voltage = tuple(_pos("c_V", v) for v in voltage)
         c = self.command(sample_time)
         al = vehicle.allocator(mode)
+        mode_name = al.mode.name if al.mode is not None else (str(mode) if mode else "default")
+        i = dof_index(self.dof)
         phi = np.zeros((6, c["t"].size))
-        phi[dof_index(self.dof)] = c["force"]
+        phi[i] = c["force"]
         thrust = al.T @ phi
         thrust[np.abs(thrust) < 1e-9 * max(1.0, float(np.abs(thrust).max()))] = 0.0
+        got = (al.B @ thrust)[i]
+        scale = float(np.max(np.abs(c["force"])))
+        if scale > 0 and float(np.max(np.abs(got - c["force"]))) > 1e-6 * scale:
+            allocated = ", ".join(DOF_NAMES[d] for d in al.controlled) or "no DOF"
+            raise ValueError(
+                f"{vehicle.name} cannot produce the designed {self.dof} command with its thrusters "
+                f"in mode {mode_name}: its allocation drives {allocated}, and the thrusts it gives "
+                f"for {self.dof} deliver at most {float(np.max(np.abs(got))):.3g} of the designed "
+                f"{scale:.3g} {'N·m' if i >= 3 else 'N'}; pick a DOF the vehicle allocates (or a "
+                "mode that drives this one), or drive it by other means")
         lim = al.limits
         over = (thrust > lim[:, 1:2] + 1e-9) | (thrust < lim[:, 0:1] - 1e-9)
+        names = list(vehicle.layout.names)
+        messages = []
+        if np.any(over):
+            bad = [names[j] for j in np.flatnonzero(over.any(axis=1))]
+            peak = float(np.max(np.abs(thrust)))
+            messages.append(
+                f"the {self.dof} command needs up to {peak:.3g} N from thruster(s) "
+                f"{', '.join(bad)}, beyond their thrust limits on {int(over.any(axis=0).sum())} of "
+                f"{thrust.shape[1]} samples: the vehicle would clip them and not deliver the "
+                "designed force (lower the amplitude or give the force limit)")
         out = {"t": c["t"], "generalized_force": phi, "thrust": thrust,
-               "thrusters": list(vehicle.layout.names), "mode": str(mode),
-               "sample_time": c["sample_time"], "saturated": bool(np.any(over))}
+               "thrusters": names, "mode": mode_name,
+               "sample_time": c["sample_time"], "saturated": bool(np.any(over)),
+               "messages": messages}
         if voltage is not None:
-            cp, cn = (_pos("c_V", v) for v in voltage)
+            cp, cn = voltage
             out["voltage"] = np.where(thrust >= 0, np.sqrt(np.abs(thrust) / cp),
                                       -np.sqrt(np.abs(thrust) / cn))
         return out
@@ -356,6 +390,52 @@ class SineDesign:
         d["levels"] = self.levels
         d["messages"] = list(self.messages)
         return d
+
+
+def command_column(dof: str) -> str:
+    """The command file's force column, named with its unit: ``force_N`` for surge, sway and
+    heave, ``torque_Nm`` for roll, pitch and yaw (a yaw file's ``force`` column held N·m)."""
+    from uuvid.vehicle.layout import dof_index
+
+    return "torque_Nm" if dof_index(dof) >= 3 else "force_N"
+
+
+def check_command_request(*, dof: str | None, vehicle, voltage, out) -> list[str]:
+    """What a request for the designed command's outputs asks that cannot be done: ``ValueError``
+    for ``voltage`` (the ``c_V`` pair) without a ``vehicle`` (the voltages are per thruster),
+    a ``vehicle`` or an ``out`` file without the ``dof`` (the allocation and the column's unit,
+    N or N·m, depend on it).  Returns notes: a ``vehicle`` without an ``out`` file computes the
+    thruster commands but writes them nowhere (only their peak and saturation are reported)."""
+    from uuvid.core.checks import arg
+
+    if voltage is not None and vehicle is None:
+        raise ValueError(f"{arg('voltage_cv')}: the voltages are per thruster; give "
+                         f"{arg('vehicle')} (and {arg('out_file')}) to write them, or leave "
+                         f"{arg('voltage_cv')} out")
+    if vehicle is not None and not dof:
+        raise ValueError(f"{arg('vehicle')} needs {arg('dof')} (the DOF the command drives)")
+    if out is not None and not dof:
+        raise ValueError(f"{arg('out_file')} needs {arg('dof')}: the command column is a force "
+                         "[N] for surge, sway and heave and a torque [N·m] for roll, pitch and yaw")
+    if vehicle is not None and out is None:
+        return [f"{arg('vehicle')}: the per-thruster commands are not written anywhere without "
+                f"{arg('out_file')} (only their peak thrust and saturation are reported)"]
+    return []
+
+
+def command_columns(design: SineDesign, sample_time: float | None = None,
+                    thrusters: dict | None = None) -> dict[str, np.ndarray]:
+    """The command file's columns: ``time``, the force column (:func:`command_column`), then
+    ``thrust_<name>`` and ``voltage_<name>`` per thruster from :meth:`SineDesign.thruster_commands`
+    when given."""
+    cmd = design.command(sample_time)
+    cols = {"time": cmd["t"], command_column(design.dof): cmd["force"]}
+    if thrusters is not None:
+        for key in ("thrust", "voltage"):
+            if key in thrusters:
+                for j, nm in enumerate(thrusters["thrusters"]):
+                    cols[f"{key}_{nm}"] = thrusters[key][j]
+    return cols
 
 
 #: Most samples a designed command may hold (:meth:`SineDesign.command`, the thruster commands
