@@ -514,7 +514,7 @@ def test_design_input_paper_frequency_and_command_file(tmp_path):
                 "--out", out)
     assert doc["omega_opt"] == pytest.approx(0.18, rel=0.02)
     rows = list(csv.reader(out.open()))
-    assert rows[0][:3] == ["time", "force", "thrust_HFL"] and "voltage_HRR" in rows[0]
+    assert rows[0][:3] == ["time", "force_N", "thrust_HFL"] and "voltage_HRR" in rows[0]
     assert len(rows) - 1 == doc["command_samples"]
     f = np.array([float(r[1]) for r in rows[1:]])
     assert f.min() > 0  # no thrust reversal
@@ -578,3 +578,43 @@ def test_clear_errors_exit_2(logs, tmp_path):
              "--angle-unit", "deg", "--write-vehicle", heavy, "--out-vehicle", tmp_path / "h2.yaml")
     assert r.exit_code == 2 and "below the rigid-body inertia" in r.output
     assert not (tmp_path / "h2.yaml").exists()
+
+
+# ------------------------------------------------------------------------------------ design options
+DESIGN_BASE = ("vehicle", "design-input", "--k", "2", "--mass-air", "0.16", "--speed", "0.5")
+
+
+@pytest.mark.parametrize("dof", ["pitch", "roll"])
+def test_design_input_refuses_a_dof_the_vehicle_cannot_drive(tmp_path, dof):
+    """Wrote all-zero thruster columns beside a 1 … 1.6 N·m moment, exit 0, no word; and the
+    error of a failed allocation said '--mode None' when no mode was given."""
+    out = tmp_path / "p.csv"
+    r = _run(*DESIGN_BASE, "--dof", dof, "--vehicle", "bluerov2", "--out-file", str(out))
+    assert r.exit_code == 2, r.output
+    assert dof in r.output and "bluerov2" in r.output and "None" not in r.output
+    assert not out.exists()
+
+
+def test_design_input_voltage_cv_needs_a_vehicle():
+    for value in ("1.02,1.09", "garbage"):
+        r = _run(*DESIGN_BASE, "--dof", "yaw", "--voltage-cv", value)
+        assert r.exit_code == 2, r.output
+        assert "--voltage-cv" in r.output and "--vehicle" in r.output
+
+
+def test_design_input_vehicle_without_out_file_says_nothing_is_written():
+    r = _run(*DESIGN_BASE, "--dof", "yaw", "--vehicle", "bluerov2")
+    assert r.exit_code == 0, r.output
+    assert "--out-file" in r.stderr and "not written" in r.stderr
+
+
+def test_design_input_command_column_names_its_unit(tmp_path):
+    cols = {}
+    for dof in ("yaw", "surge"):
+        out = tmp_path / f"{dof}.csv"
+        doc = _json(*DESIGN_BASE, "--dof", dof, "--vehicle", "bluerov2", "--out-file", str(out))
+        cols[dof] = out.read_text().splitlines()[0].split(",")
+        assert doc["columns"] == cols[dof]
+    assert cols["yaw"][:2] == ["time", "torque_Nm"] and cols["surge"][:2] == ["time", "force_N"]
+    r = _run(*DESIGN_BASE, "--out-file", str(tmp_path / "x.csv"))
+    assert r.exit_code == 2 and "--dof" in r.output and not (tmp_path / "x.csv").exists()

@@ -160,3 +160,30 @@ def test_vectorised_grid_is_the_one_frequency_fisher_information(a):
     assert np.array_equal(np.isfinite(grid), fin)
     assert np.allclose(grid[fin], one[fin], rtol=0, atol=1e-8)
     assert np.argmax(grid) == np.argmax(one)
+
+
+@pytest.mark.parametrize("dof", ["pitch", "roll"])
+def test_thruster_commands_refuse_a_dof_the_vehicle_cannot_produce(dof):
+    """BlueROV2 allocates surge, sway, heave and yaw only: a pitch or roll command came out as
+    all-zero thrusts (B·thrust = 0 while the designed moment runs 1 … 1.6 N·m), written silently."""
+    from uuvid.vehicle.definition import load_vehicle
+
+    v = load_vehicle("bluerov2")
+    d = design_sine_experiment(2.0, 0.0, mass=0.16, mass_air=0.16, speed=0.5, dof=dof)
+    with pytest.raises(ValueError, match=rf"(?s){dof}.*bluerov2|bluerov2.*{dof}"):
+        d.thruster_commands(v, None)
+
+
+def test_thruster_commands_reproduce_the_wrench_and_say_saturation():
+    from uuvid.vehicle.definition import load_vehicle
+
+    v = load_vehicle("bluerov2")
+    d = design_sine_experiment(2.0, 0.0, mass=0.16, mass_air=0.16, speed=0.5, dof="yaw")
+    out = d.thruster_commands(v, None)
+    assert np.allclose((v.B @ out["thrust"])[5], d.command()["force"])
+    assert out["mode"] == "default" and not out["saturated"] and not out["messages"]
+    big = design_sine_experiment(2.0, 0.0, mass=0.16, mass_air=0.16, speed=0.5, dof="surge",
+                                 amplitude=None, w=-300.0)
+    sat = big.thruster_commands(v, None)
+    assert sat["saturated"]
+    assert any("limit" in m and "surge" in m for m in sat["messages"]), sat["messages"]

@@ -119,8 +119,15 @@ def design_input(
     if frac[0] < 0 or frac[1] < frac[0]:
         fail(f"--added-mass-range: expected 0 <= LOW <= HIGH, got {added_mass_range!r}")
     nominal = mass if mass is not None else mass_air
-    if vehicle is not None and dof is None:
-        fail("--vehicle needs --dof (the DOF the command drives)")
+    from uuvid.core.checks import as_options
+    from uuvid.identify.vehicle.design import check_command_request, command_columns
+
+    with as_options():
+        try:  # the combination first: a --voltage-cv without --vehicle is refused, even malformed
+            notes = check_command_request(dof=dof, vehicle=vehicle, voltage=voltage_cv, out=out)
+        except ValueError as e:
+            fail(str(e))
+    cv = _pair(voltage_cv, "--voltage-cv")
     if dof is not None:
         from uuvid.vehicle.layout import dof_index
         from uuvid.vehicle.model import DOF_NAMES
@@ -164,8 +171,7 @@ def design_input(
         doc["omega_opt_range"] = [des.k_L / (SQRT3 * m_hi), des.k_L / (SQRT3 * m_lo)]
     doc["nominal_inertia"] = nominal
     doc["nominal_inertia_from"] = "--mass" if mass is not None else "--mass-air (in-air)"
-    cmd = des.command(sample_time)
-    cols = {"time": cmd["t"], "force": cmd["force"]}
+    tc = None
     if vehicle is not None:
         from uuvid.vehicle.definition import load_vehicle
 
@@ -174,21 +180,18 @@ def design_input(
         except (ValueError, FileNotFoundError, KeyError) as e:
             fail(f"--vehicle: {msg(e)}")
         try:
-            tc = des.thruster_commands(v, mode, sample_time=sample_time,
-                                       voltage=_pair(voltage_cv, "--voltage-cv"))
+            tc = des.thruster_commands(v, mode, sample_time=sample_time, voltage=cv)
         except (ValueError, KeyError) as e:
-            fail(f"--vehicle {vehicle} --mode {mode}: {msg(e)}")
-        for j, nm in enumerate(tc["thrusters"]):
-            cols[f"thrust_{nm}"] = tc["thrust"][j]
-        if "voltage" in tc:
-            for j, nm in enumerate(tc["thrusters"]):
-                cols[f"voltage_{nm}"] = tc["voltage"][j]
+            fail(f"--vehicle {vehicle}" + (f" --mode {mode}" if mode else "") + f": {msg(e)}")
         doc["thrusters"] = {"vehicle": v.name, "mode": tc["mode"], "names": tc["thrusters"],
                             "peak_thrust_N": float(np.max(np.abs(tc["thrust"]))),
-                            "saturated": tc["saturated"]}
-        if tc["saturated"]:
-            err_console.print("[yellow]warning:[/] some thruster commands exceed the thrust limits "
-                              "(lower the amplitude or give --force-limit)", highlight=False)
+                            "saturated": tc["saturated"], "messages": tc["messages"]}
+        for m in tc["messages"]:
+            err_console.print(f"[yellow]warning:[/] {escape(m)}", highlight=False, soft_wrap=True)
+    cols = command_columns(des, sample_time, tc) if dof else {}
+    cmd = des.command(sample_time)
+    for m in notes:
+        err_console.print(f"note: {escape(m)}", highlight=False, soft_wrap=True)
     doc["command_samples"] = int(cmd["t"].size)
     if out is not None:
         buf = io.StringIO()
