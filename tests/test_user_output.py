@@ -4,6 +4,7 @@ that show all they hold."""
 import json
 from html.parser import HTMLParser
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -350,7 +351,8 @@ def test_thruster_loop_answer_names_the_bandwidths_tried_and_brackets_the_limit(
     from uuvid.papers.thruster_loop_study import _answer
 
     def rows(grid):  # the same truth: tunnel clean to 6, first-order and Yoerger cycle above 5
-        return [{"kind": k, "model": m, "bandwidth": b, "limit_cycle": m != "tunnel" and b > 5}
+        return [{"kind": k, "model": m, "bandwidth": b, "limit_cycle": m != "tunnel" and b > 5,
+                 "holds_reference": not (m != "tunnel" and b > 5)}
                 for k in ("heading", "depth") for m in ("tunnel", "first-order", "yoerger")
                 for b in grid]
 
@@ -360,6 +362,80 @@ def test_thruster_loop_answer_names_the_bandwidths_tried_and_brackets_the_limit(
     assert demo[0]["heading"]["first-order"] == 2 and cli[0]["heading"]["first-order"] == 4
     assert "tried (2, 6 rad/s)" in demo[3] and "tried (1, 2, 4, 6 rad/s)" in cli[3]
     assert "first-order 2 (cycles at 6)" in demo[3] and "first-order 4 (cycles at 6)" in cli[3]
+
+
+def _loop_rows(grid, fails, **extra):
+    """Rows of the study: ``fails(kind, model, bandwidth)`` → ``"cycle"``, ``"drift"`` or None."""
+    rows = []
+    for k in ("heading", "depth"):
+        thr = 0.5 if k == "heading" else 0.01
+        for m in ("tunnel", "first-order", "yoerger"):
+            for b in grid:
+                f = fails(k, m, b)
+                rows.append({"kind": k, "model": m, "bandwidth": b, "limit_cycle": f == "cycle",
+                             "residual_p2p": 20 * thr if f else 0.1 * thr,
+                             "final_error": 10 * thr if f == "drift" else 0.0,
+                             "holds_reference": not f, **extra})
+    return rows
+
+
+LOOP_MODELS = ["tunnel", "first-order", "yoerger"]
+
+
+def _loop_answer(*a):
+    from uuvid.papers.thruster_loop_study import _answer
+
+    return _answer(*a)
+
+
+def test_thruster_loop_stable_bandwidth_stops_at_the_first_failure():
+    """``uuvid study thruster-loop --bandwidths 1,…,100``: first-order heading cycled at 6, 10,
+    20 rad/s and swung 9° (not holding 20°) at 50 and 100, yet its 'max stable bandwidth' was 100."""
+    grid = (1.0, 2.0, 4.0, 6.0, 10.0, 20.0, 50.0, 100.0)
+
+    def fails(k, m, b):
+        if m == "tunnel":
+            return None
+        return "cycle" if 6 <= b <= 20 else ("drift" if b > 20 else None)
+
+    stable, holds, _, text = _loop_answer(_loop_rows(grid, fails), LOOP_MODELS, grid)
+    assert stable["heading"]["first-order"] == 4 and stable["depth"]["yoerger"] == 4
+    assert "first-order 4 (cycles at 6)" in text
+    assert holds["heading"] is True and "as McLean conjectured" in text
+
+
+def test_thruster_loop_a_row_off_its_reference_is_not_stable():
+    grid = (2.0, 6.0)
+    stable, _, _, text = _loop_answer(
+        _loop_rows(grid, lambda k, m, b: "drift" if m == "first-order" and b == 6 else None),
+        LOOP_MODELS, grid)
+    assert stable["heading"]["first-order"] == 2 and "first-order 2 (does not hold" in text
+
+
+def test_thruster_loop_no_limit_in_range_is_no_verdict():
+    grid = (1.0, 2.0)
+    stable, holds, _, text = _loop_answer(_loop_rows(grid, lambda k, m, b: None), LOOP_MODELS, grid)
+    assert stable["heading"]["tunnel"] == 2 and holds == {"heading": None, "depth": None}
+    assert "as McLean conjectured" not in text and "no limit" in text
+
+
+def test_thruster_loop_sustained_oscillation_sees_a_slow_large_cycle_and_a_drift():
+    """At 50 rad/s the first-order heading swung 9° with an ~11 s period: under 4 mean crossings
+    in the 20 s tail, so it was called 'no limit cycle'.  A growing error is not a decaying tail."""
+    from uuvid.papers.thruster_loop_study import _sustained_oscillation
+
+    t = np.arange(0, 20, 0.01)
+    assert _sustained_oscillation(20 + 4.5 * np.sin(2 * np.pi * t / 11 + 1.0), 0.5)
+    assert _sustained_oscillation(20 + 0.05 * t * np.sin(2 * np.pi * t / 3), 0.5)  # growing
+    assert not _sustained_oscillation(20 + 2 * np.exp(-t / 2) * np.sin(2 * np.pi * t / 3), 0.5)
+    assert not _sustained_oscillation(20 + 0.1 * np.sin(t), 0.5)
+
+
+def test_thruster_loop_refuses_duplicate_bandwidths():
+    from uuvid.papers.thruster_loop_study import run_study
+
+    with pytest.raises(ValueError, match="bandwidths: 2 rad/s given twice"):
+        run_study(bandwidths=(2.0, 4.0, 2.0))
 
 
 def test_thruster_simulate_default_input_is_in_the_models_unit_and_said():
