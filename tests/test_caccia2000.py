@@ -159,3 +159,22 @@ def test_demo_reports_the_pass_rate_over_seeds_not_one_seed(result, tmp_path, mo
     assert "passes on 5 (31 %)" in line and "97.6 % of 656" in line
     quick = demo._caccia_section(tmp_path, Report("q"), quick=True)
     assert "one seed only" in demo.caccia_headline(quick)
+
+
+@pytest.mark.parametrize("json_out", [False, True])
+def test_cli_exits_non_zero_when_the_acceptance_fails(result, monkeypatch, json_out):
+    """`uuvid reproduce caccia2000` printed FAILED and exited 0: a script or CI could not tell."""
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    for passed in (True, False):
+        doc = caccia2000.Reproduction(dict(result))
+        doc["acceptance"] = {**result["acceptance"], "passed": passed,
+                             "failures": [] if passed else ["heave.k: |estimate − truth| = 9.00 σ"]}
+        monkeypatch.setattr(caccia2000, "reproduce", lambda seed=0, fast=False, out_dir=None: doc)
+        res = CliRunner().invoke(app, ["reproduce", "caccia2000", "--fast"]
+                                 + (["--json"] if json_out else []))
+        assert res.exit_code == (0 if passed else 1), res.output
+        if not passed and not json_out:
+            assert "FAILED" in res.stdout and "heave.k" in res.stdout

@@ -256,7 +256,9 @@ def reproduce_caccia2000(
     out: Path | None = typer.Option(None, "--out", help="Write plots, caccia2000.json and "
                                                         "index.html here."),
 ):
-    """Caccia, Indiveri & Veruggio (2000): ROMEO's identification, simulated and identified back."""
+    """Caccia, Indiveri & Veruggio (2000): ROMEO's identification, simulated and identified back.
+
+    Exit status 1 when the acceptance fails (the results are still printed and written)."""
     from uuvid.cli.common import _print_json, err_console
     from uuvid.core.progress import progress_task
     from uuvid.papers import caccia2000
@@ -269,10 +271,13 @@ def reproduce_caccia2000(
         fail(f"--out {out}: cannot write the outputs ({e.strerror or e})")
     if json_out:
         _print_json(dict(result))
-        return
-    _show_caccia(result)
-    if out:
-        err_console.print(f"report: {Path(out) / 'index.html'}", markup=False)
+    else:
+        _show_caccia(result)
+        if out:
+            err_console.print(f"report: {Path(out) / 'index.html'}", markup=False)
+    if not result["acceptance"]["passed"]:  # exit 1: the run's own check failed (2: bad input)
+        err_console.print(f"acceptance FAILED on seed {seed} (exit status 1)", markup=False)
+        raise typer.Exit(code=1)
 
 
 def _show_caccia(result: dict) -> None:
