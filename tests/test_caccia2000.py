@@ -172,7 +172,7 @@ def test_cli_exits_non_zero_when_the_acceptance_fails(result, monkeypatch, json_
         doc = caccia2000.Reproduction(dict(result))
         doc["acceptance"] = {**result["acceptance"], "passed": passed,
                              "failures": [] if passed else ["heave.k: |estimate − truth| = 9.00 σ"]}
-        monkeypatch.setattr(caccia2000, "reproduce", lambda seed=0, fast=False, out_dir=None: doc)
+        monkeypatch.setattr(caccia2000, "reproduce", lambda seed=0, fast=False, out_dir=None, d=doc: d)
         res = CliRunner().invoke(app, ["reproduce", "caccia2000", "--fast"]
                                  + (["--json"] if json_out else []))
         assert res.exit_code == (0 if passed else 1), res.output
