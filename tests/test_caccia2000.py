@@ -178,3 +178,27 @@ def test_cli_exits_non_zero_when_the_acceptance_fails(result, monkeypatch, json_
         assert res.exit_code == (0 if passed else 1), res.output
         if not passed and not json_out:
             assert "FAILED" in res.stdout and "heave.k" in res.stdout
+
+
+@pytest.mark.slow  # ≈ 23 fast reproductions (≈ 9 s each on a free machine)
+def test_acceptance_fails_a_correct_procedure_at_its_design_rate_and_a_wrong_model_always(monkeypatch):
+    """The acceptance is a joint bound at family-wise level ACCEPTANCE_ALPHA (1 %): a correct
+    implementation fails it on a seed with probability ≤ 1 %, so over 20 consecutive seeds
+    (not chosen) three or more failures would happen with probability ≈ 0.1 % — the old rule
+    (every one of ~38 parameters within 3σ, every σ within a factor 3, the 5 % quadratic test)
+    failed 9 of 20.  A simulation whose drag is 1.5× the truth the estimates are judged against
+    must fail on every seed."""
+    assert caccia2000.ACCEPTANCE_ALPHA <= 0.01
+    study = caccia2000.seed_study(range(20))
+    assert len(study["passed_seeds"]) >= 18, study["failures"]
+
+    real = caccia2000._params_for
+
+    def heavier_drag(base, dof, k, k_q, **kw):
+        return real(base, dof, 1.5 * k, 1.5 * k_q, **kw)
+
+    monkeypatch.setattr(caccia2000, "_params_for", heavier_drag)
+    for seed in range(3):
+        acc = caccia2000.reproduce(seed=seed, fast=True)["acceptance"]
+        assert not acc["passed"], seed
+        assert any("k_q" in f for f in acc["failures"]), acc["failures"]

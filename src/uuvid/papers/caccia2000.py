@@ -59,13 +59,21 @@ errors-in-variables correction for the Savitzky–Golay velocity noise (the plai
 paper's Fig. 14 uses a subset).  Measured phase lags include the half-sample delay of the 10 Hz
 zero-order-hold command (``design.zoh_delay_deg``, ≈ 0.7°).
 
-**Seed dependence** (:func:`seed_study` computes it): seed 0 passes the whole acceptance; of
-seeds 0–15, 9 pass, and 650 of 656 estimates (99.1 %) lie within 3σ of the truth.  The misses are
-single parameters at 3–4σ (expected now and then: ~38 parameters with t-distributed errors on
-13–16 residual degrees of freedom), the low-speed quadratic term coming out significant although
-its truth is 0 (7 % of 40 seeds — the false-positive rate of the 51.02 % rule at 15 degrees of
-freedom), and the inertia σ, whose HAC estimate is itself noisy, landing just outside the factor 3
-(surge 0.31–0.32 of the paper's, yaw 3.03×).
+**Seed dependence** (:func:`seed_study` computes it): the estimates scatter from seed to seed, so
+the **acceptance** (:func:`_acceptance`) is one statement with a known error rate: a joint bound
+at family-wise level :data:`ACCEPTANCE_ALPHA` = 1 % over all its K ≈ 76 checks (Bonferroni, each
+at 1 %/K): every |estimate − truth|/σ within the two-sided Student-t quantile of its σ's degrees
+of freedom (≈ 5σ at the 15–16 residual degrees of freedom of the drag fits), every σ within a
+factor :data:`SIGMA_ORDER_FACTOR` = 3 of the paper's widened by the χ² sampling spread of σ at
+those degrees of freedom, and the low-speed quadratic (truth 0) not significant at the same
+level.  A correct implementation fails it on at most 1 % of seeds (seeds 0–99: one failure, the
+surge mass of seed 73 at 5.6σ against a bound of 5.0σ); a simulated drag 1.5× the
+truth it is judged against fails on every seed (``test_caccia2000``).  The old rule — every one
+of ~38 estimates within 3σ, every σ within a factor 3, the 5 % quadratic test — failed a correct
+procedure on 8 of seeds 0–19 by chance.  The 3σ coverage (≈ 99 % of the estimates: single
+parameters land at 3–4σ now and then with t-distributed errors) and the paper's own 51.02 %
+reduction of the low-speed quadratic (a 5 % test: it keeps the absent term on ~7 % of seeds) are
+reported, not required.
 
 **Choices where the paper is not one consistent truth**: the low-speed yaw estimates (23.8 + 30.8|r|,
 67 % error on the quadratic; linear 28.6) and the full-range ones (20.5 + 49.5|r|) are not one drag
@@ -609,14 +617,24 @@ def _hac_lags(period: float, dt: float) -> int:
     return int(round(0.25 * period / dt))
 
 
+def _hac_dof(n: int, lags: int) -> float:
+    """Effective degrees of freedom of a Newey–West (Bartlett) variance from ``n`` samples with
+    bandwidth ``lags``: its relative variance is ≈ (4/3)·lags/n (Andrews 1991), that of χ²_ν/ν
+    is 2/ν, so ν ≈ 1.5 n / lags (≈ 30 for the yaw sine, ≈ 20 for the surge one)."""
+    return 1.5 * n / max(int(lags), 1)
+
+
 def _measured_velocity(ts, y, window: int, angle: bool):
     cs = clean_series(ts, y, angle=angle, window=window)
     return cs.t, savgol_velocity(cs.t, cs.x, order=4, window=window), cs
 
 
-def _param_rows(table: str, fit, names: dict[str, str] | None = None) -> dict:
-    """``{name: {estimate, sigma, truth, paper, paper_sigma, ...}}`` for one table."""
+def _param_rows(table: str, fit, names: dict[str, str] | None = None,
+                dof: float | None = None) -> dict:
+    """``{name: {estimate, sigma, truth, paper, paper_sigma, dof, ...}}`` for one table; ``dof``:
+    the degrees of freedom of σ (default the fit's residual ones, n − p)."""
     names = names or {}
+    dof = float(fit.dof if dof is None else dof)
     rows = {}
     for p in fit.parameters:
         key = names.get(p.name, p.name)
@@ -627,7 +645,7 @@ def _param_rows(table: str, fit, names: dict[str, str] | None = None) -> dict:
                      "paper": paper[0] if paper else None,
                      "paper_sigma": paper[1] if paper else None,
                      "percentile_error": p.percentile_error, "significant": p.significant,
-                     "z": z, "within_3sigma": bool(z <= 3.0),
+                     "z": z, "within_3sigma": bool(z <= 3.0), "dof": dof,
                      "sigma_ratio": (p.stderr / paper[1]) if paper else None}
     return rows
 
@@ -654,8 +672,7 @@ class Reproduction(PaperReproduction):
     def summary(self) -> str:
         acc = self.get("acceptance", {})
         lines = [f"{self.get('paper', CITATION)}",
-                 "acceptance (truth within 3σ, σ within 3× the paper's, low-speed yaw linear): "
-                 + ("PASSED" if acc.get("passed") else "FAILED")]
+                 f"acceptance ({ACCEPTANCE_RULE}): " + ("PASSED" if acc.get("passed") else "FAILED")]
         lines += [f"  failure: {f}" for f in acc.get("failures", [])]
         for table in TABLE_KEYS:
             if table not in self:
@@ -668,7 +685,8 @@ class Reproduction(PaperReproduction):
         return "\n".join(lines)
 
     def plot(self):
-        """|estimate − truth| / σ per identified parameter (the acceptance bound at 3)."""
+        """|estimate − truth| / σ per identified parameter (3σ marked; the acceptance's joint
+        bound per parameter is in ``acceptance["bounds"]``)."""
         from uuvid.core.plots import new_figure
 
         names, z = [], []
@@ -678,7 +696,7 @@ class Reproduction(PaperReproduction):
                 z.append(r["z"] if r["z"] is not None else np.nan)
         fig, ax = new_figure(1, 1, figsize=(max(7, 0.28 * len(names) + 2), 4.2))
         ax.bar(range(len(z)), z)
-        ax.axhline(3.0, color="r", ls="--", lw=1, label="3σ")
+        ax.axhline(3.0, color="r", ls="--", lw=1, label="3σ (the acceptance's joint bound is ≈ 4.4–5σ)")
         ax.set_xticks(range(len(names)))
         ax.set_xticklabels(names, rotation=90, fontsize=6)
         ax.set_ylabel("|estimate − truth| / σ [-]")
@@ -690,22 +708,86 @@ class Reproduction(PaperReproduction):
         return write_outputs(self, folder) if self.artifacts else None
 
 
+#: Family-wise error rate of the acceptance: a correct implementation fails it on at most this
+#: fraction of seeds (Bonferroni over all its checks; :func:`_acceptance`).
+ACCEPTANCE_ALPHA = 0.01
+#: The simulation's noise is designed so that the σ its estimates truly have lies within this
+#: factor of the paper's σ (a modelling claim, see "What sets the σ's"); the σ a seed gives
+#: scatters around that true σ as its sampling distribution says.
+SIGMA_ORDER_FACTOR = 3.0
+
+
+def acceptance_bounds(dof: float, n_checks: int, alpha: float = ACCEPTANCE_ALPHA) -> dict:
+    """The bounds of one of ``n_checks`` checks on an estimate whose σ has ``dof`` degrees of
+    freedom, each at level ``alpha / n_checks`` (Bonferroni: the family fails with probability
+    ≤ ``alpha``): ``z``, the two-sided Student-t quantile that |estimate − truth|/σ stays below;
+    ``sigma_ratio``, the interval σ/σ_paper stays in when the true σ is within
+    :data:`SIGMA_ORDER_FACTOR` of the paper's (σ̂²/σ² ~ χ²_ν/ν, two-sided)."""
+    from scipy import stats
+
+    a = alpha / n_checks
+    nu = max(float(dof), 1.0)
+    lo, hi = (math.sqrt(stats.chi2.ppf(q, nu) / nu) for q in (a / 2, 1 - a / 2))
+    return {"z": float(stats.t.ppf(1 - a / 2, nu)),
+            "sigma_ratio": (lo / SIGMA_ORDER_FACTOR, hi * SIGMA_ORDER_FACTOR)}
+
+
 def _acceptance(result: dict) -> dict:
-    fails, ratios = [], {}
+    """The acceptance: one statement that holds for a correct implementation with probability
+    ≥ 1 − :data:`ACCEPTANCE_ALPHA` (99 %) over seeds.  Its K checks, each at level α/K
+    (Bonferroni), so that all of them pass jointly with probability ≥ 1 − α:
+
+    * every estimate: |estimate − truth|/σ ≤ the two-sided t quantile of its σ's degrees of
+      freedom (n − p for the drag fits; ≈ 1.5 n/lags for the HAC σ of the inertia);
+    * every σ with a paper σ: σ/σ_paper within the sampling interval of σ (χ²_ν/ν) widened by
+      :data:`SIGMA_ORDER_FACTOR` (the noise model claims the true σ is of the paper's order);
+    * the low-speed quadratic (truth 0) not significant at the same level α/K: |k_q|/σ ≤ the
+      same t quantile.  The paper's own reduction rule (percentile error > 51.02 %, a 5 % test)
+      still decides ``reduced_to``; at 5 % it keeps a truly absent term on ~7 % of seeds, so it
+      is reported, not required.
+
+    The old rule (3σ for each of ~38 estimates, σ within a factor 3, the 5 % test) failed a
+    correct procedure on about half the seeds."""
+    checks = []  # (table, name, row)
     for table in TABLE_KEYS:
         for name, row in result[table]["parameters"].items():
-            if not row["within_3sigma"]:
-                fails.append(f"{table}.{name}: |estimate − truth| = {row['z']:.2f} σ > 3σ")
-            if row["paper_sigma"]:
-                r = row["sigma"] / row["paper_sigma"]
-                ratios[f"{table}.{name}"] = r
-                if not (1 / 3 <= r <= 3):
-                    fails.append(f"{table}.{name}: σ {row['sigma']:.3g} vs paper "
-                                 f"{row['paper_sigma']:.3g} (ratio {r:.2f}) not within a factor 3")
-    low = result["yaw_low_speed"]
-    if low["quadratic_significant"] or low["reduced_to"] != "linear":
-        fails.append("yaw_low_speed: the quadratic term should be insignificant and dropped")
-    return {"passed": not fails, "failures": fails, "sigma_ratio": ratios}
+            checks.append((table, name, row))
+    n_sigma = sum(1 for _, _, row in checks if row["paper_sigma"])
+    n_checks = len(checks) + n_sigma + 1
+    fails, ratios, bounds = [], {}, {}
+    for table, name, row in checks:
+        b = acceptance_bounds(row["dof"], n_checks)
+        key = f"{table}.{name}"
+        bounds[key] = {"z": b["z"], "dof": row["dof"]}
+        if not row["z"] <= b["z"]:
+            fails.append(f"{key}: |estimate − truth| = {row['z']:.2f} σ > {b['z']:.2f} σ "
+                         f"(the joint {1 - ACCEPTANCE_ALPHA:.0%} bound, {row['dof']:.0f} dof)")
+        if row["paper_sigma"]:
+            r = row["sigma"] / row["paper_sigma"]
+            ratios[key] = r
+            lo, hi = b["sigma_ratio"]
+            bounds[key]["sigma_ratio"] = [lo, hi]
+            if not lo <= r <= hi:
+                fails.append(f"{key}: σ {row['sigma']:.3g} vs paper {row['paper_sigma']:.3g} "
+                             f"(ratio {r:.2f}) outside {lo:.2f} … {hi:.2f} (a factor "
+                             f"{SIGMA_ORDER_FACTOR:g} and the sampling spread of σ at "
+                             f"{row['dof']:.0f} dof)")
+    kq = result["yaw_low_speed"]["parameters"]["k_q"]
+    b = acceptance_bounds(kq["dof"], n_checks)
+    t_kq = abs(kq["estimate"]) / kq["sigma"] if kq["sigma"] > 0 else math.inf
+    if not t_kq <= b["z"]:
+        fails.append(f"yaw_low_speed: the quadratic term (truth 0) is significant at the joint "
+                     f"level: |k_q|/σ = {t_kq:.2f} > {b['z']:.2f}")
+    return {"passed": not fails, "failures": fails, "sigma_ratio": ratios,
+            "alpha": ACCEPTANCE_ALPHA, "n_checks": n_checks, "bounds": bounds,
+            "rule": ACCEPTANCE_RULE}
+
+
+#: The acceptance in one line (summary, report, CLI).
+ACCEPTANCE_RULE = (f"joint {1 - ACCEPTANCE_ALPHA:.0%} bound over all checks (Bonferroni): every "
+                   "|estimate − truth|/σ within its t quantile, every σ within a factor "
+                   f"{SIGMA_ORDER_FACTOR:g} of the paper's widened by its sampling spread, the "
+                   "low-speed quadratic not significant at that level")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -786,7 +868,8 @@ def reproduce(seed: int = 0, fast: bool = False, out_dir: str | Path | None = No
     yin_c = fit_inertia(yexp["ts"], yexp["y"], yexp["force"], t_phi=yexp["t"],
                         **{**ykw, "drag_cov": None, "hac_lags": None})
     result["yaw_inertia"] = {
-        "parameters": {"I": _param_rows("yaw_inertia", yin.fit, {"m": "I"})["I"]},
+        "parameters": {"I": _param_rows("yaw_inertia", yin.fit, {"m": "I"},
+                                        dof=_hac_dof(yin.fit.n_samples, ykw["hac_lags"]))["I"]},
         "sigma_classical": yin_c.fit["m"].stderr, "cov_type": INERTIA_COV,
         "sigma_regression": yin.fit.extra["sigma_ls"]["m"],
         "m_uncorrected": yin.fit.extra["m_uncorrected"],
@@ -810,7 +893,8 @@ def reproduce(seed: int = 0, fast: bool = False, out_dir: str | Path | None = No
     sin_c = fit_inertia(sexp["ts"], sexp["y"], sexp["force"], t_phi=sexp["t"],
                         **{**skw, "drag_cov": None, "hac_lags": None})
     result["surge_mass"] = {
-        "parameters": {"m": _param_rows("surge_mass", sin_.fit)["m"]},
+        "parameters": {"m": _param_rows("surge_mass", sin_.fit,
+                                        dof=_hac_dof(sin_.fit.n_samples, skw["hac_lags"]))["m"]},
         "sigma_classical": sin_c.fit["m"].stderr, "cov_type": INERTIA_COV,
         "sigma_regression": sin_.fit.extra["sigma_ls"]["m"],
         "m_uncorrected": sin_.fit.extra["m_uncorrected"],
@@ -1016,8 +1100,7 @@ def write_outputs(result: Reproduction, out_dir: str | Path) -> Path:
                  "simulation")
     rep.add_paragraph(__doc__.split("\n\n")[1])
     acc = result["acceptance"]
-    rep.add_paragraph(f"Acceptance (truth within 3σ, σ within a factor 3 of the paper's, low-speed "
-                      f"yaw reduced to linear): {'PASSED' if acc['passed'] else 'FAILED'}"
+    rep.add_paragraph(f"Acceptance ({ACCEPTANCE_RULE}): {'PASSED' if acc['passed'] else 'FAILED'}"
                       + ("" if acc["passed"] else "\n" + "\n".join(acc["failures"])))
     for table in TABLE_KEYS:
         rows = [{"parameter": k, "estimate": r["estimate"], "σ": r["sigma"], "truth": r["truth"],
@@ -1180,8 +1263,9 @@ def seed_study(seeds=STUDY_SEEDS, fast: bool = True) -> dict:
         "phase_lag_minus_identified_deg": {
             k: {"mean": float(np.mean(v)), "max_abs": float(np.max(np.abs(v)))}
             for k, v in lag_diff.items()},
+        "acceptance_alpha": ACCEPTANCE_ALPHA,
         "note": "coverage of honest σ: ≈ 99.7 % for normal errors, a little less with the t "
-                "distribution of 13–16 residual degrees of freedom; the acceptance needs every one "
-                "of ~38 parameters within 3σ, every σ within a factor 3 of the paper's and the "
-                "low-speed quadratic dropped, so some seeds fail it by chance",
+                "distribution of 13–16 residual degrees of freedom; the acceptance is a joint "
+                f"bound that a correct procedure fails on at most {ACCEPTANCE_ALPHA:.0%} of seeds "
+                f"({ACCEPTANCE_RULE})",
     }
