@@ -267,6 +267,7 @@ class EnvelopeCheck(Result):
     rows: tuple[dict, ...]
     stability: object = None  # uuvid.vehicle.stability.StabilityResult
     inflow: str = "none"
+    notes: tuple[str, ...] = ()  # the envelope's (uuvid.vehicle.envelope.Envelope.notes)
 
     def __iter__(self):
         return iter(self.rows)
@@ -317,13 +318,23 @@ class EnvelopeCheck(Result):
 
     def warnings(self) -> list[str]:
         """One line per direction that full command makes no way in ("diving: cannot dive: rises
-        at 0.40 m/s at full dive command")."""
-        return [f"{r['direction']}: {r['limit']}" for r in self.rows if r["makes_way"] is False]
+        at 0.40 m/s at full dive command"), then the envelope's notes that put its speeds in
+        doubt (:func:`envelope_warnings`: a fitted propeller map read outside its bench's advance
+        angles)."""
+        return [f"{r['direction']}: {r['limit']}" for r in self.rows if r["makes_way"] is False] \
+            + envelope_warnings(self.notes)
+
+    def plain_notes(self) -> list[str]:
+        """The envelope's notes that are not warnings (said once: those are in :meth:`warnings`)."""
+        warned = envelope_warnings(self.notes)
+        return [n for n in self.notes if n not in warned]
 
     def summary(self) -> str:
         lines = [f"Speed envelope confirmed by simulation — {self.vehicle}"]
         for r in self.rows:
             lines.append(f"  {r['direction']:<26} {r['note']}")
+        lines.extend(f"warning: {w}" for w in self.warnings())
+        lines.extend(f"note: {n}" for n in self.plain_notes())
         return "\n".join(lines)
 
     report_title = "Speed envelope confirmed by simulation"
@@ -331,6 +342,7 @@ class EnvelopeCheck(Result):
     def to_dict(self) -> dict:
         return jsonable({"vehicle": self.vehicle, "inflow": self.inflow,
                          "rows": [dict(r) for r in self.rows], "warnings": self.warnings(),
+                         "notes": list(self.notes),
                          "stability": self.stability.to_dict() if self.stability is not None
                          else None})
 
@@ -355,6 +367,18 @@ class EnvelopeCheck(Result):
         ax.set_title(f"{self.vehicle}: speed envelope", fontsize=10)
         ax.legend(fontsize=8)
         return fig
+
+
+WARNING_NOTES = ("extrapolated:",)  # the envelope notes that put its speeds in doubt
+
+
+def envelope_warnings(notes) -> list[str]:
+    """The notes of an envelope (:attr:`uuvid.vehicle.envelope.Envelope.notes`) that are warnings,
+    not explanations: its speeds rest on a fitted propeller map read outside the advance angles
+    its bench covered ("extrapolated: …").  Every command that shows speeds from that envelope
+    (``vehicle envelope``, ``vehicle stability``) says them on stderr and in ``--json``'s
+    ``warnings``."""
+    return [n for n in notes if n.startswith(WARNING_NOTES)]
 
 
 def _row(r) -> dict:
@@ -490,4 +514,4 @@ def confirm_envelope(vehicle, env=None, stability=None, tolerance: float = TOLER
                          f"{d['final_pitch_deg']:.0f}° (coupling the uncoupled analytic speed "
                          "ignores)")
         rows.append(d)
-    return EnvelopeCheck(vehicle.name, tuple(rows), stab, env.inflow)
+    return EnvelopeCheck(vehicle.name, tuple(rows), stab, env.inflow, tuple(env.notes))

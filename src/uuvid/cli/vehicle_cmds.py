@@ -292,6 +292,8 @@ def vehicle_envelope(
     for r in check.rows:
         if r["confirmed"] is False:
             out_console.print(f"{r['direction']}: {r['note']}", highlight=False, soft_wrap=True, markup=False)
+    for n in check.plain_notes():  # the envelope's notes; its warnings went to stderr above
+        out_console.print(f"note: {n}", highlight=False, soft_wrap=True, markup=False)
 
 
 @vehicle_app.command("stability")
@@ -307,20 +309,24 @@ def vehicle_stability(
 
     The limit is the speed where the vehicle can no longer stay level: the righting moment BG·W
     against the thrust moment arms and the Munk moment of the added-mass difference."""
+    from uuvid.analysis.envelope_check import envelope_warnings
     from uuvid.cli.common import check_outputs
+    from uuvid.vehicle.envelope import speed_envelope
     from uuvid.vehicle.stability import static_stability
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
     v = _load_vehicle(vehicle, "nothing holds its attitude", inflow)
     check_outputs(("--out", out, "folder"))  # before the work, not a traceback after it
     try:
-        res = static_stability(v, max_tilt_deg=max_tilt, inflow=inflow)
+        env = speed_envelope(v, inflow=inflow)  # the speeds scanned to, and their caveats
+        res = static_stability(v, max_tilt_deg=max_tilt, envelope=env, inflow=inflow)
     except ValueError as e:
         from uuvid.cli.common import _fail_flagged
 
         _fail_flagged(e, {"max_tilt_deg": "--max-tilt"})
     doc = {**res.to_dict(), "inflow_source": "option" if inflow else "vehicle file"}
-    for w in res.warnings():  # on stderr: --json's stdout stays the document (its "warnings")
+    doc["warnings"] = doc["warnings"] + envelope_warnings(env.notes)  # its speeds' caveats too
+    for w in doc["warnings"]:  # on stderr: --json's stdout stays the document (its "warnings")
         err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if out:
         from uuvid.core.atomic import atomic_dir, atomic_write_json
