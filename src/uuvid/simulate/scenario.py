@@ -169,6 +169,20 @@ class ControllerSpec(BaseModel):
 
     @model_validator(mode="after")
     def _keys_of_kind(self):
+        given = self.model_fields_set
+        gains = [k for k in ("bandwidth", "kp", "ki", "kd") if k in given]
+        if self.kind == "lqr" and gains:  # the LQI flew unchanged: the gains did nothing
+            raise ValueError(f"{', '.join(gains)}: only with kind: pid (or python, whose factory "
+                             "gets them as context.gains); kind lqr flies the hover LQI from its "
+                             "weights (Bryson: weights: {position, yaw, tilt, speed, ...})")
+        if self.kp is None and (self.ki is not None or self.kd is not None):
+            # without kp the gains are the bandwidth's: ki/kd were dropped, not flown
+            raise ValueError(f"{', '.join(k for k in ('ki', 'kd') if k in given)}: given without "
+                             "kp; ki/kd need kp (kp, ki, kd: four gains each, surge, sway, heave, "
+                             "yaw) — without kp the gains come from bandwidth")
+        if self.kp is not None and "bandwidth" in given:
+            raise ValueError("bandwidth and kp are exclusive: bandwidth derives the gains, kp "
+                             "(with ki, kd) gives them; keep one")
         if self.kind != "lqr" and self.weights is not None:
             raise ValueError("weights: only for kind lqr")
         if self.kind == "python" and not self.file:
