@@ -2,7 +2,9 @@
 that did nothing, a current CSV whose typo'd or duplicated columns were dropped, implausible
 vertical currents and depths accepted without a word."""
 
+import warnings
 
+import numpy as np
 import pytest
 
 from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
@@ -32,3 +34,60 @@ def test_controller_gains_that_would_do_nothing_are_refused(controller, said):
 def test_controller_gains_that_fly_are_still_taken(controller):
     scenario_from_dict({"controller": controller}, where="s.yaml")
 
+
+@pytest.mark.parametrize("text, said", [
+    ("time,north,east,dwn\n0,0,0,0.5\n10,0,0,0.5\n",
+     r"c\.csv: unknown column 'dwn'; expected time, north, east and optionally down"),
+    ("time,north,east,east\n0,0,0,0.5\n10,0,0,0.5\n", r"c\.csv: column 'east' given twice"),
+    ("time,North,east,north\n0,0,0,0\n10,0,0,0\n", r"c\.csv: column 'north' given twice"),
+    ("time,north,east\n0,abc,0\n10,0,0\n",
+     r"c\.csv: row 1 \(line 2\), column 'north': 'abc' is not a number"),
+    ("time,north,east\n0,0,0\n10,,0\n", r"c\.csv: row 2 \(line 3\), column 'north': empty"),
+    ("time,north,east\n0,0,0\n10,nan,0\n", r"c\.csv: row 2 \(line 3\), column 'north': NaN"),
+    ("time,north,east,down\n0,0,0,0\n10,0,0,inf\n",
+     r"c\.csv: row 2 \(line 3\), column 'down': inf is not finite"),
+    ("time,north\n0,0\n10,0\n", r"c\.csv: missing column 'east'"),
+])
+def test_a_current_csv_with_a_bad_column_or_cell_is_refused_naming_it(tmp_path, text, said):
+    """`dwn` flew with no vertical current, a second `east` was dropped, and `abc` said only
+    "could not convert string to float: 'abc'" — no file, row or column."""
+    from uuvid.simulate.currents import TimeSeriesCurrent
+
+    p = tmp_path / "c.csv"
+    p.write_text(text)
+    with pytest.raises(ValueError, match=said):
+        TimeSeriesCurrent.from_csv(p)
+
+
+def test_a_good_current_csv_still_loads(tmp_path):
+    from uuvid.simulate.currents import TimeSeriesCurrent
+
+    p = tmp_path / "c.csv"
+    p.write_text(" Time , North,east,DOWN\n0,0.1,0,0\n10,0.2,0.1,0.05\n")
+    c = TimeSeriesCurrent.from_csv(p)
+    np.testing.assert_allclose(c.velocity[1], [0.2, 0.1, 0.05])
+    p.write_text("time,north,east\n0,0.1,0\n10,0.2,0.1\n")  # down optional: zero
+    assert np.all(TimeSeriesCurrent.from_csv(p).velocity[:, 2] == 0)
+
+
+def _scenario(tmp_path, text):
+    from uuvid.simulate.scenario import build, load_scenario
+
+    p = tmp_path / "s.yaml"
+    p.write_text(text)
+    return build(load_scenario(p), tmp_path)
+
+
+def test_a_current_series_shorter_than_the_flight_is_warned_of(tmp_path):
+    from uuvid.core.checks import InputWarning
+
+    (tmp_path / "c.csv").write_text("time,north,east\n0,0,0\n5,0.2,0.1\n")
+    with pytest.warns(InputWarning, match=r"c\.csv covers 0–5 s of a 20 s flight.*held at its "
+                                          r"last values from 5 s"):
+        _scenario(tmp_path, "vehicle: bluerov2\ncurrent: {kind: timeseries, file: c.csv}\n"
+                            "duration: 20\n")
+    (tmp_path / "c.csv").write_text("time,north,east\n0,0,0\n30,0.2,0.1\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InputWarning)
+        _scenario(tmp_path, "vehicle: bluerov2\ncurrent: {kind: timeseries, file: c.csv}\n"
+                            "duration: 20\n")

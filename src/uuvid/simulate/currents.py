@@ -46,6 +46,9 @@ class ConstantCurrent:
         return True
 
 
+CSV_COLUMNS = ("time", "north", "east", "down")  # a current time series file's columns
+
+
 @dataclass(frozen=True)
 class TimeSeriesCurrent:
     """A measured current: times (s) and NED velocities (m/s), linearly interpolated (held at the
@@ -71,19 +74,74 @@ class TimeSeriesCurrent:
 
     @classmethod
     def from_csv(cls, path: str | Path) -> TimeSeriesCurrent:
-        """CSV with columns ``time, north, east, down`` (header required; down optional)."""
-        import pandas as pd
+        """CSV with columns ``time, north, east, down`` (s, m/s; header required, names in any
+        case and order, ``down`` optional: zero).  Refused, naming the file: a column that is
+        none of these (a typo such as ``dwn`` flew with no vertical current) or one given twice,
+        a row with too few or too many cells, and a cell that is empty, not a number, NaN or
+        infinite (naming its row — data rows from 1 — its line and its column)."""
+        import csv
 
-        df = pd.read_csv(path)
-        cols = {c.strip().lower(): c for c in df.columns}
+        where = str(path)
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            reader = csv.reader(f)
+            header = next(reader, None)
+            rows = [(reader.line_num, r) for r in reader if any(c.strip() for c in r)]
+        if not header or not any(c.strip() for c in header):
+            raise ValueError(f"{where}: no header; expected the columns time, north, east and "
+                             "optionally down (s, m/s)")
+        shown = [c.strip() for c in header]
+        names = [c.lower() for c in shown]
+        twice = list(dict.fromkeys(n for n in names if names.count(n) > 1))
+        if twice:
+            raise ValueError(f"{where}: column{'s' if len(twice) > 1 else ''} "
+                             f"{', '.join(repr(n) for n in twice)} given twice (header: "
+                             f"{', '.join(shown)}); expected each of time, north, east and "
+                             "optionally down once")
+        unknown = [c for c, n in zip(shown, names) if n not in CSV_COLUMNS]
+        if unknown:
+            raise ValueError(f"{where}: unknown column{'s' if len(unknown) > 1 else ''} "
+                             f"{', '.join(repr(c) for c in unknown)}; expected time, north, east "
+                             f"and optionally down (s, m/s; header: {', '.join(shown)})")
         for c in ("time", "north", "east"):
-            if c not in cols:
-                raise ValueError(f"{path}: missing column {c!r} (need time, north, east[, down]); "
-                                 f"have {list(df.columns)}")
-        down = df[cols["down"]].to_numpy(float) if "down" in cols else np.zeros(len(df))
-        v = np.column_stack([df[cols["north"]].to_numpy(float), df[cols["east"]].to_numpy(float),
-                             down])
-        return cls(df[cols["time"]].to_numpy(float), v, str(path))
+            if c not in names:
+                raise ValueError(f"{where}: missing column {c!r} (need time, north, east[, down]); "
+                                 f"have {shown}")
+        data = np.zeros((len(rows), len(names)))
+        for k, (line, r) in enumerate(rows, 1):
+            at = f"{where}: row {k} (line {line})"
+            if len(r) != len(names):
+                raise ValueError(f"{at}: {len(r)} cells; expected {len(names)} ({', '.join(shown)})")
+            for j, cell in enumerate(r):
+                text = cell.strip()
+                col = f"{at}, column {shown[j]!r}"
+                unit = "s" if names[j] == "time" else "m/s"
+                if not text:
+                    raise ValueError(f"{col}: empty; expected a number ({unit})")
+                try:
+                    x = float(text)
+                except ValueError:
+                    raise ValueError(f"{col}: {text!r} is not a number; expected one ({unit})") \
+                        from None
+                if math.isnan(x):
+                    raise ValueError(f"{col}: NaN; expected a number ({unit})")
+                if math.isinf(x):
+                    raise ValueError(f"{col}: {text} is not finite; expected a number ({unit})")
+                data[k - 1, j] = x
+        col = {n: data[:, j] for j, n in enumerate(names)}
+        v = np.column_stack([col["north"], col["east"], col.get("down", np.zeros(len(rows)))])
+        return cls(col["time"], v, where)
+
+    def coverage_note(self, t_end: float) -> str | None:
+        """What a flight of ``t_end`` seconds (from 0) flies outside the series' times (held at
+        its first or last values), or ``None`` when the series covers it."""
+        t0, t1 = float(self.time[0]), float(self.time[-1])
+        if t0 <= 0.0 and t1 >= t_end:
+            return None
+        held = ([f"at its first values before {t0:g} s"] if t0 > 0.0 else []) + \
+            ([f"at its last values from {t1:g} s"] if t1 < t_end else [])
+        return (f"{self.source or 'current time series'} covers {t0:g}–{t1:g} s of a {t_end:g} s "
+                f"flight: the current is held {' and '.join(held)}; extend the series to the "
+                "flight's span (or shorten duration)")
 
     def sample(self, t, dt):
         v = np.column_stack([np.interp(t, self.time, self.velocity[:, j]) for j in range(3)])

@@ -519,6 +519,14 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
         hint = ("" if spec.duration is not None else " (duration not given: the mission's "
                 "length, from its waypoints or side and its speed; shorten the mission)")
         raise ScenarioError(f"{spec.name}: {e}{hint}") from None
+    if hasattr(cur, "coverage_note"):  # a measured series shorter than the flight: held, said
+        import warnings
+
+        from uuvid.core.checks import InputWarning
+
+        note = cur.coverage_note(spec.duration if spec.duration is not None else mission.duration)
+        if note:
+            warnings.warn(f"current: {note}", InputWarning, stacklevel=2)
     try:
         setup = setup_mission(vehicle, mission, dt=spec.dt, substeps=spec.substeps, gains=gains,
                               thruster_chain=chain, current=cur, t_end=spec.duration,
