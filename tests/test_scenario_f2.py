@@ -2,6 +2,7 @@
 that did nothing, a current CSV whose typo'd or duplicated columns were dropped, implausible
 vertical currents and depths accepted without a word."""
 
+import math
 import warnings
 
 import numpy as np
@@ -91,3 +92,47 @@ def test_a_current_series_shorter_than_the_flight_is_warned_of(tmp_path):
         warnings.simplefilter("error", InputWarning)
         _scenario(tmp_path, "vehicle: bluerov2\ncurrent: {kind: timeseries, file: c.csv}\n"
                             "duration: 20\n")
+
+
+@pytest.mark.parametrize("current, said", [
+    ([0.0, 0.0, 3.0], r"current: down: 3 m/s: a vertical current beyond 1 m/s"),
+    ([0.0, 0.0, -1.5], r"current: down: -1.5 m/s: a vertical current beyond 1 m/s"),
+    ({"kind": "constant", "speed": 0.2, "down": 3.0},
+     r"current: down: 3 m/s: a vertical current beyond 1 m/s"),
+])
+def test_a_vertical_current_no_ocean_has_is_refused(current, said):
+    """3 m/s down was flown without a word while horizontal currents stop at 6 m/s."""
+    with pytest.raises(ScenarioError, match=said):
+        scenario_from_dict({"current": current}, where="s.yaml")
+    scenario_from_dict({"current": [0.3, 0.0, 0.05]}, where="s.yaml")  # an upwelling: flown
+
+
+def test_a_vertical_current_in_a_series_names_its_row(tmp_path):
+    from uuvid.simulate.currents import TimeSeriesCurrent
+
+    p = tmp_path / "c.csv"
+    p.write_text("time,north,east,down\n0,0,0,0\n10,0,0,2.5\n")
+    with pytest.raises(ValueError, match=r"c\.csv: row 2 \(line 3\), column 'down': 2\.5 m/s: a "
+                                         r"vertical current beyond 1 m/s"):
+        TimeSeriesCurrent.from_csv(p)
+
+
+@pytest.mark.parametrize("mission, said", [
+    ({"depth": 10000.0 * 1.2}, r"mission.depth: 12000 m is deeper than the deepest ocean"),
+    ({"kind": "waypoints", "waypoints": [[0, 0, 0, 0], [0, 0, 12000, 0]]},
+     r"waypoint 1 is at down = 12000 m, deeper than the deepest ocean"),
+])
+def test_a_depth_below_the_ocean_floor_is_refused(mission, said):
+    with pytest.raises(ScenarioError, match=said):
+        scenario_from_dict({"mission": mission}, where="s.yaml")
+    scenario_from_dict({"mission": {"depth": 10000}}, where="s.yaml")  # the Mariana Trench: flown
+
+
+def test_the_step_limit_says_the_exact_step_count():
+    """"duration = 20012 s … is 2e+06 steps, more than the 2,000,000" hid why."""
+    from uuvid.simulate.vehicle_sim import step_count
+
+    with pytest.raises(ValueError, match=r"duration = 20012 s at dt = 0\.01 s is 2,001,200 steps, "
+                                         r"more than the 2,000,000"):
+        step_count(20012.0, 0.01, "duration", "dt")
+    assert math.isfinite(step_count(20000.0, 0.01, "duration", "dt"))

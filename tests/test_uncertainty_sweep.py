@@ -238,7 +238,7 @@ def test_sweep_target_longer_than_a_simulation_may_hold_is_refused_before_alloca
                                        "velocity_response": {"t_end": 1e9, "dt": 1e-3}},
                             "parameters": [{"name": "current_speed", "values": [0, 0.1]}]})
     with pytest.raises(ValueError, match=r"^target.velocity_response.t_end = 1e\+09 s at "
-                       r"target.velocity_response.dt = 0.001 s is 1e\+12 steps, more than the "
+                       r"target.velocity_response.dt = 0.001 s is 1,000,000,000,000 steps, more than the "
                        r"2,000,000 one flight may hold in memory"):
         SweepStudy(spec).check()
 

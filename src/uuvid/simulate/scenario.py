@@ -17,10 +17,13 @@
     current: [0.0, 0.0, 0.0]          # NED, m/s; or one of
     #   {kind: constant, speed: 0.3, direction_deg: 90}          (flowing towards, 0 = north)
     #   {kind: timeseries, file: current.csv}                     (columns time, north, east[, down])
+    #       (no other column, none twice; a series shorter than the flight is held, and warned of)
+    # vertical currents (down) within ±1 m/s; depths (mission.depth, waypoints) to 11,000 m
     #   {kind: gauss_markov, mean: 0.3, mu: 0.05, sigma: 0.02, direction_deg: 0, seed: 1}
     allocation: priority              # priority | maxscale | scale | clip | none
     battery_soc: null                 # e.g. 0.8: fly on the vehicle file's battery from 80 % charge
     controller: {bandwidth: [1.5, 1.5, 1.5, 2.0]}      # PID DP: rad/s per surge, sway, heave, yaw
+    #   {kp: [...], ki: [...], kd: [...]}      PID gains given (ki/kd need kp; not with bandwidth)
     #   {kind: lqr, weights: {position: 0.1, thrust: 10}}    LQI designed at hover (Bryson's rule)
     #   {kind: python, file: my_ctrl.py, factory: make_controller, options: {...}}
     #       (file relative to this one; make_controller(vehicle, context) returns a Controller,
@@ -63,6 +66,13 @@ class ScenarioError(ModelFileError):
 
 
 
+#: no water is deeper (the Challenger Deep, ≈ 10 935 m): a deeper mission depth is a unit slip (mm,
+#: cm) or a typo; vehicle files carry no depth rating to check a mission against
+MAX_DEPTH_M = 11000.0
+_DEEPER = (f"deeper than the deepest ocean (the Challenger Deep, about 10,935 m; at most "
+           f"{MAX_DEPTH_M:,.0f} m): is it in cm or mm? expected metres, positive down")
+
+
 class MissionSpec(BaseModel):
     model_config = _CFG
     kind: Literal["square", "waypoints"] = "square"
@@ -103,6 +113,15 @@ class MissionSpec(BaseModel):
             why = waypoint_problem(k, d, yaw)
             if why:
                 raise ValueError(why)
+            if d > MAX_DEPTH_M:
+                raise ValueError(f"waypoint {k} is at down = {d:g} m, {_DEEPER}")
+        return v
+
+    @field_validator("depth")
+    @classmethod
+    def _above_the_ocean_floor(cls, v):
+        if v > MAX_DEPTH_M:
+            raise ValueError(f"{v:g} m is {_DEEPER}")
         return v
 
     @model_validator(mode="after")
@@ -203,6 +222,13 @@ class ConstantCurrentSpec(BaseModel):
     @classmethod
     def _degrees(cls, v):
         return direction_deg("current.direction_deg", v)
+
+    @field_validator("down")
+    @classmethod
+    def _vertical(cls, v):
+        from uuvid.simulate.currents import vertical_current
+
+        return vertical_current("", v)  # the message's place: current: down:
 
     def build(self, base):
         from uuvid.simulate.currents import ConstantCurrent, ned
@@ -308,6 +334,9 @@ class ScenarioSpec(BaseModel):
                 raise ValueError(f"expected N,E,D (m/s): three numbers, the water velocity "
                                  f"north, east, down (where it flows to), e.g. [0.3, 0, 0]; got "
                                  f"{reprlib.repr(list(v))}")
+            from uuvid.simulate.currents import vertical_current
+
+            vertical_current("down", v[2])  # the horizontal speed is bounded at build
         return v
 
 

@@ -1543,7 +1543,7 @@ def step_count(duration: float, dt: float, name: str = "t_end", dt_name: str = "
         raise ValueError(f"{name} = {T:g} s is shorter than one step ({dt_name} = {h:g} s); give "
                          f"a duration of at least {dt_name}")
     if n > limit:
-        raise ValueError(f"{name} = {T:g} s at {dt_name} = {h:g} s is {n:.3g} steps, more than "
+        raise ValueError(f"{name} = {T:g} s at {dt_name} = {h:g} s is {int(round(n)):,} steps, more than "
                          f"the {limit:,} one flight may hold in memory; shorten {name} or raise "
                          f"{dt_name}")
     # half a step or more is one step: round() alone takes 0.5 to 0 (half to even) and left no step
