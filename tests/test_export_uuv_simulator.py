@@ -226,3 +226,33 @@ def test_the_cli_reads_back_its_own_uuv_simulator_export(tmp_path):
     bad.write_text("<plugin><dyn")
     res = runner.invoke(app, ["thruster", "show", str(bad)])
     assert res.exit_code == 2 and "not a UUV Simulator thruster plugin" in " ".join(res.output.split())
+
+
+@pytest.mark.parametrize("suffix", [".xacro", ".urdf", ".sdf", ".XML"])
+def test_a_plugin_export_saved_as_xacro_urdf_or_sdf_reads_back(tmp_path, suffix):
+    """``thruster export … --to uuv-simulator --out-file a2212.xacro`` then ``thruster predict
+    a2212.xacro`` said "not valid YAML": only ``.xml`` was read as the plugin's XML, yet UUV
+    Simulator's thruster snippets live in .xacro (and .urdf/.sdf) files."""
+    f = tmp_path / f"a2212{suffix}"
+    res = runner.invoke(app, ["thruster", "export", "laidani-a2212", "--to", "uuv-simulator",
+                              "--out-file", str(f)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["thruster", "predict", str(f), "--pwm", "1100:1900:200", "--json"])
+    assert res.exit_code == 0, res.output
+    got = json.loads(res.stdout)["thrust_N"]
+    want = laidani_chain().steady_thrust(np.arange(1100.0, 1901.0, 200.0))
+    np.testing.assert_allclose(got, want, atol=0.1)
+    bad = tmp_path / f"bad{suffix}"
+    bad.write_text("<robot><dyn")
+    res = runner.invoke(app, ["thruster", "show", str(bad)])
+    assert res.exit_code == 2 and "not a UUV Simulator thruster plugin" in " ".join(res.output.split())
+
+
+def test_a_plugin_inside_a_xacro_macro_reads_back():
+    """A plugin snippet pasted into a xacro macro (text after ``</plugin>``) reads as the plugin."""
+    xml = to_uuv_simulator(laidani_chain())
+    wrapped = ('<robot xmlns:xacro="http://www.ros.org/wiki/xacro">\n<xacro:macro name="t">\n'
+               + xml[xml.index("<plugin"):] + "</xacro:macro>\n</robot>\n")
+    back = from_uuv_simulator(wrapped)
+    assert back.steady_thrust(np.array([400.0])) == pytest.approx(
+        from_uuv_simulator(xml[xml.index("<plugin"):]).steady_thrust(np.array([400.0])))

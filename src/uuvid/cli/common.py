@@ -127,11 +127,12 @@ def _load_model(model: str):
     """A preset name, ``t200-physical`` or a model file (:func:`uuvid.thruster.resolve.resolve_chain`)."""
     from pathlib import Path
 
+    from uuvid.io.export import PLUGIN_SUFFIXES
     from uuvid.thruster.modelfile import ModelFileError
     from uuvid.thruster.resolve import resolve_chain
 
     p = Path(model)
-    if p.suffix.lower() == ".xml" and p.is_file():  # a UUV Simulator plugin (uuvid's export)
+    if p.suffix.lower() in PLUGIN_SUFFIXES and p.is_file():  # a UUV Simulator plugin (our export)
         from uuvid.io.export import ExportError, from_uuv_simulator
 
         try:

@@ -38,6 +38,11 @@ from uuvid.thruster.chain import ThrusterChain
 _DYNAMICS = (ZeroOrder, FirstOrder, Yoerger, BessaDynamics, FirstOrderMotor)
 
 
+#: File endings read as a UUV Simulator plugin's XML where a model is expected: the export's own
+#: ``.xml``, and the robot-description files such snippets live in (xacro macros, URDF, SDF).
+PLUGIN_SUFFIXES = (".xml", ".xacro", ".urdf", ".sdf")
+
+
 class ExportError(ValueError):
     """The chain cannot be expressed in the target format."""
 
@@ -225,6 +230,8 @@ def from_uuv_simulator(xml: str, name: str = "uuv-simulator") -> ThrusterChain:
     uuvid's export of a model with a neutral (``plugin command = command − N`` in its header
     comment) comes back with a driver in front taking ``N`` off, so it takes the command again."""
     text = xml[xml.index("<plugin"):] if "<plugin" in xml else xml
+    if "</plugin>" in text:  # a snippet inside a xacro macro, URDF or SDF: the plugin alone
+        text = text[:text.index("</plugin>") + len("</plugin>")]
     root = ET.fromstring(text)
     dyn_el, conv_el = root.find("dynamics"), root.find("conversion")
     if dyn_el is None or conv_el is None:
