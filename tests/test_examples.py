@@ -84,3 +84,40 @@ def test_steady_example_identifies_the_simulated_romeo_and_feeds_inertia(tmp_pat
     res = runner.invoke(app, ["vehicle", "identify", "inertia", str(tmp_path / "yaw_sine.csv"), *cols,
                               "--drag", str(empty)])
     assert res.exit_code == 2 and "yaw.json" in res.output and "empty" in res.output
+
+
+def test_examples_never_overwrite_a_users_file(tmp_path):
+    """``uuvid examples yaw-sine --out all`` replaced ``all/yaw_sine.csv`` holding the user's data
+    silently: a file of another content is refused (nothing written, the file named, --force
+    said); the same example written again (identical content) is no clash; --force overwrites."""
+    mine = tmp_path / "yaw_sine.csv"
+    mine.write_text("time,torque,heading_deg\n0,1,2\n")
+    res = runner.invoke(app, ["examples", "yaw-steady", "yaw-sine", "--out", str(tmp_path)])
+    text = " ".join(res.output.split())
+    assert res.exit_code == 2, res.output
+    assert "yaw_sine.csv" in text and "--force" in text and "nothing was written" in text
+    assert mine.read_text() == "time,torque,heading_deg\n0,1,2\n"
+    assert not (tmp_path / "yaw_steady.csv").exists()  # all or nothing
+    with pytest.raises(FileExistsError, match="yaw_sine.csv"):
+        write_example("yaw-sine", tmp_path)
+    assert mine.read_text() == "time,torque,heading_deg\n0,1,2\n"
+    # the same example again: identical content, no clash
+    res = runner.invoke(app, ["examples", "yaw-steady", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["examples", "yaw-steady", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["examples", "yaw-sine", "--out", str(tmp_path), "--force"])
+    assert res.exit_code == 0, res.output
+    assert mine.read_text().startswith("time,torque,heading_deg\n0,-5,")
+
+
+def test_examples_out_naming_a_file_says_a_folder_is_expected(tmp_path):
+    """``--out afile`` said "cannot write yaw_sine.csv (File exists)"; it is a file where the
+    folder goes, said as ``simulate --out`` says it."""
+    f = tmp_path / "afile"
+    f.write_text("keep")
+    res = runner.invoke(app, ["examples", "yaw-sine", "--out", str(f)])
+    text = " ".join(res.output.split())
+    assert res.exit_code == 2
+    assert f"--out {f}" in text and "a folder was expected" in text, text
+    assert f.read_text() == "keep"

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["EXAMPLES", "Example", "example_names", "generate_example", "write_example",
-           "write_trap_logs"]
+__all__ = ["EXAMPLES", "Example", "ExampleClashError", "example_names", "generate_example",
+           "write_example", "write_examples", "write_trap_logs"]
 
 DT = 0.1  # s: the log's sample time (10 Hz)
 ETA_HULL_PROP = 0.62  # yaw η of the horizontal_all mode, both signs (Caccia et al. 2000, Table III)
@@ -228,15 +228,64 @@ def _csv_text(cols: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_example(name: str, folder: str | Path) -> list[Path]:
-    """Generate example *name* and write it (atomically) as CSV into *folder*; returns the paths
-    written (one, or one per run of a multi-file example)."""
+class ExampleClashError(FileExistsError):
+    """Files an example would replace that hold something else (``.paths``); nothing was written."""
+
+    def __init__(self, paths: list[Path]):
+        self.paths = list(paths)
+        names = ", ".join(str(p) for p in self.paths)
+        super().__init__(f"{names} already exist{'s' if len(self.paths) == 1 else ''} and "
+                         f"hold{'s' if len(self.paths) == 1 else ''} other data than the example; "
+                         "nothing was written (overwrite=True replaces it)")
+
+
+def _example_files(names: list[str] | tuple[str, ...], folder: str | Path) -> dict[Path, str]:
+    files: dict[Path, str] = {}
+    for name in names:
+        e = _get(name)
+        data = generate_example(name)
+        for fn, cols in (data if e.multi else {e.filename: data}).items():
+            files[Path(folder) / fn] = _csv_text(cols)
+    return files
+
+
+def _differs(path: Path, text: str) -> bool:
+    """Whether *path* exists and holds other than *text* (a folder in its place: it differs)."""
+    if not path.exists() and not path.is_symlink():
+        return False
+    try:
+        return path.read_bytes() != text.encode("utf-8")
+    except OSError:
+        return True
+
+
+def write_examples(names: list[str] | tuple[str, ...], folder: str | Path, *,
+                   overwrite: bool = False) -> list[Path]:
+    """Generate the examples *names* and write them (atomically) as CSV into *folder*; returns
+    the paths written.  A file already there with the same content is no clash (the same example
+    written again); one holding anything else raises :class:`ExampleClashError` naming every
+    such file before any is written, unless ``overwrite``.  A file where *folder* should be
+    raises ``NotADirectoryError`` naming it."""
     from uuvid.core.atomic import atomic_write_text
 
-    e = _get(name)
-    data = generate_example(name)
-    files = data if e.multi else {e.filename: data}
-    return [atomic_write_text(Path(folder) / fn, _csv_text(cols)) for fn, cols in files.items()]
+    d = Path(folder)
+    for parent in (d, *d.parents):
+        if parent.exists():
+            if not parent.is_dir():
+                raise NotADirectoryError(f"{parent} is a file; a folder was expected")
+            break
+    files = _example_files(names, d)
+    clashes = [p for p, text in files.items() if _differs(p, text)]
+    if clashes and not overwrite:
+        raise ExampleClashError(clashes)
+    return [atomic_write_text(p, text) for p, text in files.items()]
+
+
+def write_example(name: str, folder: str | Path, *, overwrite: bool = False) -> list[Path]:
+    """Generate example *name* and write it (atomically) as CSV into *folder*; returns the paths
+    written (one, or one per run of a multi-file example).  An existing file of other content is
+    refused (:class:`ExampleClashError`) unless ``overwrite`` (see :func:`write_examples`)."""
+    return write_examples([name], folder, overwrite=overwrite)
 
 
 def write_trap_logs(folder: str | Path, seed: int = 0) -> dict[str, Path]:
