@@ -3,6 +3,7 @@ deterministic per run, model files, the built-in identified models, bands and pr
 
 import json
 import math
+import re
 import warnings
 
 import numpy as np
@@ -86,7 +87,9 @@ def test_ignored_bounds_leave_it_to_the_model_which_marks_runs_invalid():
 
 
 def test_a_run_without_admissible_draw_is_kept_as_rejected():
-    spec = MonteCarloSpec(model=eta_model(estimate=1.3, sigma=0.05), runs=5, seed=0, max_draws=20)
+    # η inside [0, 1] but σ 10⁴: a draw lands inside once in ≈ 25,000 (an estimate outside its
+    # bounds, which this test once used, is refused when the model is read)
+    spec = MonteCarloSpec(model=eta_model(estimate=0.98, sigma=1e4), runs=5, seed=0, max_draws=20)
     res = run_study(MonteCarloStudy(spec), None, backend="inprocess", progress=False)
     t = res.table
     assert len(t) == 5 and t["status"].eq("rejected").all()
@@ -249,3 +252,59 @@ def test_saturating_runs_flown_again_are_not_counted_as_diverged():
 
     out = run_batch_fast(plan.setup, np.tile(plan.setup.vp, (2, 1)))
     assert np.all(np.isnan(out[:, 6]))  # the case in point: flown again, saturation unknown
+
+
+def _one(param: dict, **kw) -> dict:
+    return {"format": "uuvid-uncertain-model/1", "name": "x", "kind": "vehicle",
+            "base": {"vehicle": "bluerov2"}, "parameters": [param], **kw}
+
+
+def test_a_parameter_unit_is_converted_to_si_or_refused():
+    """``unit`` was a label only: ``unit: g`` on a mass gave the result of kilograms.  A unit the
+    parameter converts from (as sweep files do) is converted — estimate, σ, bounds and covariance
+    — and one that is not a unit of the parameter is refused naming the parameter and its unit."""
+    m = model_from_dict(_one({"name": "mass", "estimate": 11500.0, "sigma": 100.0, "unit": "g",
+                              "lower": 1000.0}), "m.yaml")
+    q = m.parameters[0]
+    assert (q.estimate, q.sigma, q.lower, q.unit) == (pytest.approx(11.5), pytest.approx(0.1),
+                                                      pytest.approx(1.0), "kg")
+    m = model_from_dict(_one({"name": "current_speed", "estimate": 50.0, "unit": "cm/s"},
+                             covariance=[[4.0]]), "m.yaml")
+    assert m.mean[0] == pytest.approx(0.5) and m.cov[0, 0] == pytest.approx(4e-4)
+    assert m.parameters[0].unit == "m/s"
+    # the SI unit itself, spelled either way, and a free label where the unit is not known
+    for unit in ("kg", "N·s/m", "N s/m"):
+        name = "mass" if unit == "kg" else "linear_damping[surge]"
+        assert model_from_dict(_one({"name": name, "estimate": 4.0, "sigma": 1.0, "unit": unit}),
+                               "m.yaml").mean[0] == 4.0
+    for name, unit, said in (("mass", "lb", "kg"), ("added_mass[yaw]", "kg", "kg·m²"),
+                             ("current_speed", "rpm", "m/s"), ("mass", "grams", "kg")):
+        with pytest.raises(ModelError, match=rf"m.yaml: parameters\[0\] \({re.escape(name)}\).*"
+                                             rf"{re.escape(repr(unit))}.*{re.escape(said)}"):
+            model_from_dict(_one({"name": name, "estimate": 4.0, "sigma": 1.0, "unit": unit}),
+                            "m.yaml")
+
+
+def test_an_estimate_outside_its_bounds_is_refused_at_load():
+    """``estimate: -5`` with ``lower: 0`` drew 2000 times, printed a table of nan and only then
+    said the estimate was outside its bounds: it is refused when the model is read."""
+    with pytest.raises(ModelError, match=r"m.yaml: parameters\[0\] \(mass\): estimate -5 is "
+                                         r"outside its bounds \[0, inf\]"):
+        model_from_dict(_one({"name": "mass", "estimate": -5.0, "sigma": 1.0, "lower": 0.0}),
+                        "m.yaml")
+    with pytest.raises(ValueError, match=r"estimate 1.3 is outside its bounds \[0, 1\]"):
+        eta_model(estimate=1.3)
+
+
+def test_cli_refuses_an_estimate_outside_its_bounds_before_any_draw(tmp_path):
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    f = tmp_path / "m.yaml"
+    f.write_text("format: uuvid-uncertain-model/1\nname: x\nkind: vehicle\nbase: {vehicle: bluerov2}\n"
+                 "parameters:\n  - {name: mass, estimate: -5, sigma: 1, lower: 0}\n")
+    res = CliRunner().invoke(app, ["montecarlo", str(f), "--runs", "2000"])
+    text = " ".join(res.output.split())
+    assert res.exit_code == 2 and "outside its bounds" in text and "parameters[0]" in text, text
+    assert "nan" not in text

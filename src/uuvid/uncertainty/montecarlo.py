@@ -93,6 +93,37 @@ class ModelError(ValueError):
 MAX_SIGMA = 1e150
 
 
+def _spelling(unit: str) -> str:
+    return "".join(c for c in unit if c not in " ·*⋅.")
+
+
+def parameter_unit(name: str, unit: str, where: str) -> tuple[float, str]:
+    """``(factor, SI unit)`` of a parameter's ``unit``: values × factor are in the unit the model
+    takes.  ``""``, the parameter's SI unit (``N s/m`` = ``N·s/m``) or a unit it converts from
+    (:data:`uuvid.uncertainty.params.UNITS_OF`: ``g`` for kg, ``cm/s`` for m/s) are taken;
+    another unit of a parameter whose SI unit is known is a ``ValueError`` naming ``where``.  A
+    parameter whose unit uuvid does not know (a thruster fit's ``V·s/rad``) keeps its ``unit``
+    as a label, converted when it is one of :data:`~uuvid.uncertainty.params.UNITS`."""
+    from uuvid.uncertainty import params as PR
+
+    si = PR.si_unit(name)
+    if not unit or unit == "si" or (si and _spelling(unit) == _spelling(si)):
+        return 1.0, si if unit == "si" else unit
+    ok = PR.units_for(name)
+    if si and (ok is None or unit not in ok):
+        takes = f"{si}" + (f" (or {', '.join(u for u in ok if u != si)})" if ok and len(ok) > 1 else "")
+        raise ValueError(f"{where}: unit {unit!r} is not a unit of {name}, which is in {si}; give "
+                         f"the values in {takes}")
+    if unit not in PR.UNITS:
+        return 1.0, unit  # a label: its dimension is unknown to uuvid
+    try:
+        f = PR.unit_factor(name, unit)
+    except ValueError as e:  # pragma: no cover - the checks above cover the known dimensions
+        raise ValueError(f"{where}: {e}") from None
+    base = si or next((d for d, us in PR.UNITS_OF.items() if unit in us), unit)
+    return f, base
+
+
 class UncertainParameter(BaseModel):
     model_config = _CFG
     name: str
@@ -133,6 +164,35 @@ class UncertainModel(BaseModel):
     requirement: Requirement | None = None
     residual_sigma: float | None = Field(None, ge=0)
     provenance: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _units_and_bounds(self):
+        """Values in another unit than the parameter's SI unit converted to it (estimate, σ,
+        bounds, covariance; as sweep files, :func:`uuvid.uncertainty.params.unit_factor`); an
+        estimate outside its own bounds refused before anything is drawn."""
+        factors = []
+        for i, q in enumerate(self.parameters):
+            f, si = parameter_unit(q.name, q.unit, f"parameters[{i}] ({q.name})")
+            factors.append(f)
+            if f != 1.0 or si != q.unit:
+                self.parameters[i] = q.model_copy(update={
+                    "estimate": q.estimate * f, "sigma": None if q.sigma is None else q.sigma * f,
+                    "lower": None if q.lower is None else q.lower * f,
+                    "upper": None if q.upper is None else q.upper * f, "unit": si})
+        if self.covariance is not None and any(f != 1.0 for f in factors):
+            f = np.asarray(factors)
+            C = np.asarray(self.covariance, dtype=float)
+            if C.shape == (f.size, f.size):
+                self.covariance = (C * np.outer(f, f)).tolist()
+        for i, q in enumerate(self.parameters):
+            if q.outside_bounds:
+                lo = "-inf" if q.lower is None else f"{q.lower:g}"
+                hi = "inf" if q.upper is None else f"{q.upper:g}"
+                raise ValueError(f"parameters[{i}] ({q.name}): estimate {q.estimate:g} is outside "
+                                 f"its bounds [{lo}, {hi}]{' ' + q.unit if q.unit else ''}: draws "
+                                 "around it would be rejected or piled on the bound; correct the "
+                                 "estimate or the bound (lower, upper)")
+        return self
 
     @model_validator(mode="after")
     def _cov(self):
@@ -244,6 +304,8 @@ def model_from_dict(raw: Any, where: str = "<model>", base_dir: Path | None = No
         for err in e.errors():
             loc = _loc(err["loc"])
             text = {"missing": "missing", "extra_forbidden": "unknown key"}.get(err["type"], err["msg"])
+            if err["type"] == "value_error" and err.get("ctx", {}).get("error") is not None:
+                text = str(err["ctx"]["error"])  # our own message, without "Value error, "
             msgs.append(f"{where}: {loc}: {text}" if loc else f"{where}: {text}")
         raise ModelError("\n".join(msgs)) from None
     if base_dir is not None:

@@ -42,7 +42,7 @@ from uuvid.thruster.blocks import Block, ParameterError
 UNITS = {
     "": 1.0, "si": 1.0, "m": 1.0, "in": U.INCH, "inch": U.INCH, "ft": U.FT, "ft/rad": U.FT,
     "m/rad": 1.0, "deg": U.DEG, "rad": 1.0, "rpm": U.RPM, "lbf": U.LBF, "N": 1.0, "kgf": U.KGF,
-    "V": 1.0, "kg": 1.0, "%": 0.01, "cm": 0.01, "mm": 1e-3, "us": 1.0, "s": 1.0, "ms": 1e-3,
+    "V": 1.0, "kg": 1.0, "g": 1e-3, "%": 0.01, "cm": 0.01, "mm": 1e-3, "us": 1.0, "s": 1.0, "ms": 1e-3,
     "m/s": 1.0, "cm/s": 0.01, "mm/s": 1e-3, "kn": U.KNOT, "knot": U.KNOT, "knots": U.KNOT,
     "km/h": U.KMH, "ft/s": U.FT, "rad/s": 1.0, "rev/s": U.REV_S,
 }
@@ -53,7 +53,7 @@ UNITS_OF = {
     "m": ("m", "in", "inch", "ft", "cm", "mm"), "m/s": ("m/s", "cm/s", "mm/s", "kn", "knot", "knots",
                                                         "km/h", "ft/s"),
     "°": ("deg", "rad"), "rad/s": ("rad/s", "rpm", "rev/s"), "N": ("N", "lbf", "kgf"),
-    "V": ("V",), "kg": ("kg",), "s": ("s", "ms"),
+    "V": ("V",), "kg": ("kg", "g"), "s": ("s", "ms"),
 }
 
 DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
