@@ -256,3 +256,56 @@ def test_a_plugin_inside_a_xacro_macro_reads_back():
     back = from_uuv_simulator(wrapped)
     assert back.steady_thrust(np.array([400.0])) == pytest.approx(
         from_uuv_simulator(xml[xml.index("<plugin"):]).steady_thrust(np.array([400.0])))
+
+
+@pytest.mark.parametrize("name", ["t200", "laidani-a2212"])
+def test_the_table_holds_the_models_corners_exactly(name):
+    """The T200 table spanned [900, 2100] µs at 12 µs spacing: its saturation corners at 1100 and
+    1900 µs fell between points, and the plugin read back −39.95/51.29 N for the model's
+    −40.28/51.74 N.  The ESC's corners (saturation, dead-zone edges, where the voltage reaches the
+    supply) are now points of the table, and the table keeps the points asked for."""
+    from uuvid.thruster.blocks import ESC
+    from uuvid.thruster.presets import preset_chain
+
+    chain = preset_chain(name)
+    esc = chain.blocks[0]
+    assert isinstance(esc, ESC)
+    corners = np.array([esc.saturation_low, esc.deadzone_low, esc.deadzone_high,
+                        esc.saturation_high])
+    for n in (101, 37):
+        xml = to_uuv_simulator(chain, table_points=n)
+        back = from_uuv_simulator(xml)
+        np.testing.assert_allclose(back.steady_thrust(corners), chain.steady_thrust(corners),
+                                   rtol=1e-9, atol=1e-9)
+        table = next(b for b in back.blocks if isinstance(b, TableMap))
+        assert len(table.input_values) == n
+        assert f"tabulated at {n} points" in xml.splitlines()[0]
+    if name == "t200":
+        back = from_uuv_simulator(to_uuv_simulator(chain))
+        assert back.steady_thrust(np.array([1100.0, 1900.0])) == pytest.approx([-40.28, 51.74],
+                                                                                abs=0.01)
+
+
+def test_export_options_with_no_effect_are_refused_or_said(tmp_path):
+    """``--command-range`` and ``--table-points`` were ignored silently with ``--to yaml/toml``
+    and when the conversion is exact (Basic/Bessa): the first is refused naming the options, the
+    second is said in a note."""
+    from uuvid.thruster.modelfile import save_chain
+
+    for to in ("yaml", "toml"):
+        for opt in (["--table-points", "51"], ["--command-range", "1200:1800"],
+                    ["--thruster-id", "2"]):
+            res = runner.invoke(app, ["thruster", "export", "t200", "--to", to, *opt])
+            text = " ".join(res.output.split())
+            assert res.exit_code == 2, (to, opt, res.output)
+            assert opt[0] in text and "uuv-simulator" in text, text
+    q = save_chain(ThrusterChain((FirstOrder(0.05), QuadraticMap.basic(3.6e-4)), "command", "q"),
+                   tmp_path / "q.yaml")
+    res = runner.invoke(app, ["thruster", "export", str(q), "--to", "uuv-simulator",
+                              "--table-points", "51", "--command-range", "-300:300"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.stderr.split())
+    assert "--table-points" in text and "--command-range" in text and "no effect" in text, text
+    assert "<type>Basic</type>" in res.stdout
+    res = runner.invoke(app, ["thruster", "export", str(q), "--to", "uuv-simulator"])
+    assert res.exit_code == 0 and "no effect" not in res.output

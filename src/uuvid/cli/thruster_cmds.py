@@ -15,6 +15,7 @@ from rich.table import Table
 from uuvid.cli.common import (
     _fail,
     _fail_flagged,
+    _flagged,
     _load_model,
     _print_json,
     _table,
@@ -200,9 +201,9 @@ def thruster_export(
     to: str = typer.Option("yaml", "--to", help="yaml | toml | uuv-simulator"),
     out: Path | None = typer.Option(None, "--out-file", help="File to write (default: stdout)."),
     old_out: Path | None = deprecated_out("--out-file"),
-    thruster_id: int = typer.Option(0, "--thruster-id", help="uuv-simulator: <thrusterID>."),
-    table_points: int = typer.Option(
-        101, "--table-points", help="uuv-simulator: points of a LinearInterp table."
+    thruster_id: int | None = typer.Option(None, "--thruster-id", help="uuv-simulator: <thrusterID> (0)."),
+    table_points: int | None = typer.Option(
+        None, "--table-points", help="uuv-simulator: points of a LinearInterp table (101)."
     ),
     command_range: str | None = typer.Option(
         None, "--command-range", help="uuv-simulator: LOW:HIGH input range over which a map "
@@ -215,11 +216,8 @@ def thruster_export(
     ),
 ):
     """Write a model in our own format (YAML/TOML) or as a UUV Simulator thruster plugin snippet."""
-    import yaml
-
     from uuvid.core.atomic import atomic_write_text
-    from uuvid.io.export import ExportError, to_uuv_simulator, uuv_simulator_losses
-    from uuvid.thruster.modelfile import _to_toml, chain_to_dict
+    from uuvid.io.export import ExportError, export_model
     from uuvid.thruster.resolve import export_supply
 
     out = renamed(out, "--out-file", old_out)
@@ -231,28 +229,16 @@ def thruster_export(
         _fail_flagged(e, {"supply_voltage": "--supply-voltage"})
     for line in said:  # notes and warnings (a supply outside the model's data), as written
         err_console.print(line, highlight=False, soft_wrap=True, markup=False)
-    if to == "uuv-simulator":
-        rng = None
-        if command_range is not None:
-            try:
-                lo, hi = (float(v) for v in command_range.split(":"))
-                if not (lo < hi) or not all(map(math.isfinite, (lo, hi))):
-                    raise ValueError
-            except ValueError:
-                _fail(f"--command-range: expected LOW:HIGH with LOW < HIGH, got {command_range!r}")
-            rng = (lo, hi)
-        try:
-            text = to_uuv_simulator(chain, thruster_id=thruster_id, table_points=table_points,
-                                    command_range=rng)
-        except ExportError as e:
-            _fail_flagged(e, {"thruster_id": "--thruster-id", "table_points": "--table-points"})
-        for w in uuv_simulator_losses(chain):
-            err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
-    elif to in ("yaml", "toml"):
-        d = chain_to_dict(chain)
-        text = _to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False)
-    else:
-        _fail(f"--to: expected yaml, toml or uuv-simulator, got {to!r}")
+    try:
+        text, said = export_model(chain, to, thruster_id=thruster_id, table_points=table_points,
+                                  command_range=command_range)
+    except ExportError as e:
+        _fail_flagged(e, {"thruster_id": "--thruster-id", "table_points": "--table-points",
+                          "command_range": "--command-range", "to": "--to"})
+    for line in said:
+        err_console.print(_flagged(line, {"table_points": "--table-points",
+                                          "command_range": "--command-range"}),
+                          highlight=False, soft_wrap=True, markup=False)
     if out:
         atomic_write_text(out, text)
         err_console.print(f"wrote {out}", markup=False)

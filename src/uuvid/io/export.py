@@ -122,6 +122,70 @@ def uuv_simulator_losses(chain: ThrusterChain) -> list[str]:
             "the bollard thrust (u_a = 0) at every speed"]
 
 
+def _exact_conversion(before: list, after: list, gain: float) -> bool:
+    """Whether the map after the dynamics is one of UUV Simulator's conversions (no table)."""
+    # x|x| maps absorb a gain g exactly (g x)|g x| = g² x|x|; a table does not
+    return (not before and len(after) == 1
+            and (isinstance(after[0], (QuadraticMap, DeadZoneMap))
+                 or (isinstance(after[0], TableMap) and gain == 1.0)))
+
+
+def uuv_simulator_is_exact(chain: ThrusterChain) -> bool:
+    """Whether :func:`to_uuv_simulator` writes ``chain`` with an exact conversion (Basic, Bessa or
+    the chain's own table) rather than a ``LinearInterp`` table of its steady map — when
+    ``command_range`` and ``table_points`` have no effect."""
+    blocks = list(chain.blocks)
+    dyn_idx = [i for i, b in enumerate(blocks) if b.n_states > 0 or isinstance(b, ZeroOrder)]
+    k = dyn_idx[0] if dyn_idx else -1
+    gain = blocks[k].gain if k >= 0 and isinstance(blocks[k], FirstOrderMotor) else 1.0
+    return _exact_conversion(blocks[:max(k, 0)], blocks[k + 1:] if k >= 0 else blocks, gain)
+
+
+def model_corners(chain: ThrusterChain) -> list[float]:
+    """The commands where the steady map of ``chain`` bends (an ESC's or a driver's saturation,
+    dead-zone edges, and where its voltage reaches the supply or output limit), sorted; a table
+    holds the map there exactly only when they are points of it.  Empty for a chain whose first
+    block is no ESC/driver or that does not take a command."""
+    from uuvid.thruster.blocks import ESC, Driver
+
+    if chain.input_kind != "command" or not chain.blocks or not isinstance(chain.blocks[0], (ESC, Driver)):
+        return []
+    a_f, b_f, a_r, b_r, dz_lo, dz_hi, sat_lo, sat_hi, limit = chain.blocks[0].params_array()[:9]
+    pts = [dz_lo, dz_hi, sat_lo, sat_hi]
+    if math.isfinite(limit):  # |V| reaches the supply (ESC) or the output limit (driver)
+        if a_f > 0:
+            pts.append((limit - b_f) / a_f)
+        if a_r > 0:
+            pts.append((-limit - b_r) / a_r)
+    lo_ok, hi_ok = (sat_lo if math.isfinite(sat_lo) else -math.inf), sat_hi
+    return sorted({float(c) for c in pts if math.isfinite(c) and lo_ok <= c <= hi_ok})
+
+
+def table_inputs(lo: float, hi: float, n: int, corners=()) -> np.ndarray:
+    """``n`` table inputs over ``[lo, hi]`` with every corner inside it a point: the intervals
+    between corners are shared out in proportion to their length (each at least one), evenly
+    spaced within; ``n`` grows to hold the corners when it is smaller (said by the caller)."""
+    tol = 1e-7 * (hi - lo)  # corners this close are one (a supply limit met at saturation)
+    knots = [lo]
+    for c in sorted(corners):
+        if knots[-1] + tol < c < hi - tol:
+            knots.append(float(c))
+    knots.append(hi)
+    spans = np.diff(knots)
+    m = max(int(n) - 1, len(spans))  # intervals
+    share = spans / spans.sum() * m
+    k = np.maximum(np.floor(share).astype(int), 1)
+    while k.sum() > m:  # the minimum of one pushed it over (m >= len(spans): some k > 1)
+        k[np.argmax(k)] -= 1
+    frac = share - k
+    while k.sum() < m:  # largest remainders first
+        j = int(np.argmax(frac))
+        k[j] += 1
+        frac[j] -= 1.0
+    pieces = [np.linspace(a, b, int(j) + 1)[:-1] for a, b, j in zip(knots[:-1], knots[1:], k)]
+    return np.concatenate([*pieces, [hi]])
+
+
 def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: str | None = None,
                      joint_name: str | None = None, command_range: tuple[float, float] | None = None,
                      table_points: int = 101) -> str:
@@ -145,11 +209,7 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
     dyn_el, gain = _dynamics_element(dyn)
     if isinstance(dyn, FirstOrderMotor):
         notes.append(f"first-order motor gain K_m = {gain:g} moved into the conversion")
-    # x|x| maps absorb a gain g exactly (g x)|g x| = g² x|x|; a table does not
-    simple = (not before and len(after) == 1
-              and (isinstance(after[0], (QuadraticMap, DeadZoneMap))
-                   or (isinstance(after[0], TableMap) and gain == 1.0)))
-    if simple:
+    if _exact_conversion(before, after, gain):
         c = after[0]
         g2 = gain * gain
         if gain != 1.0:
@@ -176,7 +236,8 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
     else:
         # Steady map from the plugin command to thrust, tabulated.
         lo, hi = command_range or _default_range(chain)
-        x = np.linspace(lo, hi, table_points)
+        x = table_inputs(lo, hi, table_points, model_corners(chain))
+        corners = [float(c) for c in x[np.isin(x, model_corners(chain))]]
         if before:
             notes.append(f"static blocks before the dynamics ({', '.join(b.TYPE for b in before)}) "
                          "folded into the conversion table; the dynamics now act on the command")
@@ -192,7 +253,11 @@ def to_uuv_simulator(chain: ThrusterChain, *, thruster_id: int = 0, link_name: s
                          "state starts at rest)")
         conv = _table_element(x, y)
         exact = False
-        notes.append(f"conversion tabulated at {table_points} points over [{lo:g}, {hi:g}]")
+        notes.append(f"conversion tabulated at {x.size} points over [{lo:g}, {hi:g}]"
+                     + (f" with the map's corners ({', '.join(f'{c:g}' for c in corners)}) on it"
+                        if corners else "")
+                     + (f" ({table_points} asked for: too few to hold the corners)"
+                        if x.size != table_points else ""))
     plugin = ET.Element("plugin", name=f"{chain.name}_{thruster_id}_thruster_model",
                         filename="libuuv_thruster_ros_plugin.so")
     ET.SubElement(plugin, "linkName").text = link_name or f"thruster_{thruster_id}"
@@ -277,3 +342,60 @@ def from_uuv_simulator(xml: str, name: str = "uuv-simulator") -> ThrusterChain:
         return ThrusterChain((Driver(offset=float(m.group(1))), dyn, conv), input_kind="command",
                              name=name)
     return ThrusterChain((dyn, conv), input_kind="command", name=name)
+
+
+#: The options that only the UUV Simulator export reads (library name → what they set).
+_PLUGIN_ONLY = {"thruster_id": "the plugin's <thrusterID>",
+                "table_points": "the points of its LinearInterp table",
+                "command_range": "the input range of its LinearInterp table"}
+#: ``table_points`` of :func:`to_uuv_simulator` when none is given.
+DEFAULT_TABLE_POINTS = 101
+
+
+def parse_command_range(spec: str) -> tuple[float, float]:
+    """``"LOW:HIGH"`` → ``(low, high)``; ``ExportError`` naming ``command_range`` otherwise."""
+    try:
+        lo, hi = (float(v) for v in str(spec).split(":"))
+        if not (lo < hi) or not all(map(math.isfinite, (lo, hi))):
+            raise ValueError
+    except ValueError:
+        raise ExportError(f"command_range: expected LOW:HIGH with LOW < HIGH, got {spec!r}") from None
+    return lo, hi
+
+
+def export_model(chain: ThrusterChain, to: str, *, thruster_id: int | None = None,
+                 table_points: int | None = None,
+                 command_range: str | tuple[float, float] | None = None) -> tuple[str, list[str]]:
+    """``(text, lines to say)``: ``chain`` as a uuvid model file (``to`` ``yaml`` or ``toml``) or
+    a UUV Simulator plugin snippet (``uuv-simulator``, :func:`to_uuv_simulator`).  The lines are
+    ``warning: …`` (what the plugin leaves out) and ``note: …`` (``table_points`` and
+    ``command_range`` given for a chain whose conversion is exact: no table, no effect).  Options
+    of the plugin given for a model file are an :class:`ExportError` naming them (in backticks,
+    ```name=```), as is an unknown ``to``."""
+    given = {k: v for k, v in (("thruster_id", thruster_id), ("table_points", table_points),
+                               ("command_range", command_range)) if v is not None}
+    if to in ("yaml", "toml"):
+        if given:
+            one = len(given) == 1
+            raise ExportError(f"{' and '.join(f'`{k}=`' for k in given)} appl{'ies' if one else 'y'} "
+                              f"to the uuv-simulator export only ({'; '.join(_PLUGIN_ONLY[k] for k in given)}"
+                              f"); a {to} model file has no such thing: leave {'it' if one else 'them'} "
+                              "out, or give `to=` uuv-simulator")
+        import yaml
+
+        from uuvid.thruster.modelfile import _to_toml, chain_to_dict
+
+        d = chain_to_dict(chain)
+        return (_to_toml(d) if to == "toml" else yaml.safe_dump(d, sort_keys=False)), []
+    if to != "uuv-simulator":
+        raise ExportError(f"to: expected yaml, toml or uuv-simulator, got {to!r}")
+    rng = parse_command_range(command_range) if isinstance(command_range, str) else command_range
+    check_export_options(thruster_id or 0, DEFAULT_TABLE_POINTS if table_points is None else table_points)
+    said = [f"warning: {w}" for w in uuv_simulator_losses(chain)]
+    idle = [k for k in ("table_points", "command_range") if k in given]
+    if idle and uuv_simulator_is_exact(chain):
+        said.append(f"note: {' and '.join(f'`{k}=`' for k in idle)} have no effect: {chain.name}'s "
+                    "conversion is exact (one of UUV Simulator's own, no table to tabulate)")
+    text = to_uuv_simulator(chain, thruster_id=thruster_id or 0, command_range=rng,
+                            table_points=DEFAULT_TABLE_POINTS if table_points is None else table_points)
+    return text, said
