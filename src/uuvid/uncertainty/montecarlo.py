@@ -16,6 +16,13 @@
     residual_sigma: 0.41           # optional: σ of one observation about the model (series unit)
     provenance: {...}              # how the numbers were obtained
 
+A parameter's ``unit`` is that of its estimate, ``sigma``, bounds and covariance row: values in a
+unit the parameter converts from (``g`` for a mass, ``cm/s`` for a current speed; the units of
+sweep files, :data:`uuvid.uncertainty.params.UNITS_OF`) are converted to its SI unit when the model
+is read, a unit that is not one of the parameter's is refused, and a parameter uuvid knows no unit
+for keeps ``unit`` as a label.  An estimate outside its own ``lower``/``upper`` is refused then
+too, before anything is drawn.
+
 Also read: the ``summary.json`` of ``uuvid thruster fit --model physical`` (σ per parameter, and
 the covariance if the file carries one; without it the parameters are taken as independent — a
 warning says so) and a :meth:`uuvid.identify.fit.Fit.as_dict` document with a ``base``.
