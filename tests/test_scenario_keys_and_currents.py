@@ -136,3 +136,16 @@ def test_the_step_limit_says_the_exact_step_count():
                                          r"more than the 2,000,000"):
         step_count(20012.0, 0.01, "duration", "dt")
     assert math.isfinite(step_count(20000.0, 0.01, "duration", "dt"))
+
+
+@pytest.mark.parametrize("ctrl", [
+    {}, {"bandwidth": GAINS}, {"kp": GAINS, "ki": GAINS}, {"kind": "lqr", "weights": {"position": 0.1}},
+    {"kind": "lqr"}])
+def test_a_controller_spec_rechecks_as_itself_after_a_dump(ctrl):
+    """A sweep or Monte Carlo worker rebuilds the scenario from ``model_dump``: a dump writes every
+    field, so the default bandwidth once read as given and refused kp/lqr specs on every run."""
+    from uuvid.simulate.scenario import ControllerSpec
+
+    s = ControllerSpec.model_validate(ctrl)
+    again = ControllerSpec.model_validate(s.model_dump(mode="json"))
+    assert again == s

@@ -174,10 +174,14 @@ _Pos = Annotated[float, Field(gt=0)]
 _NonNeg = Annotated[float, Field(ge=0)]
 
 
+DEFAULT_BANDWIDTH = (1.5, 1.5, 1.5, 2.0)  # rad/s: surge, sway, heave, yaw of the PID DP
+
+
 class ControllerSpec(BaseModel):
     model_config = _CFG
     kind: Literal["pid", "lqr", "python"] = "pid"
-    bandwidth: tuple[_Pos, _Pos, _Pos, _Pos] = (1.5, 1.5, 1.5, 2.0)  # rad/s
+    # rad/s; None: DEFAULT_BANDWIDTH (not written in, so a dump re-checks as the file it came from)
+    bandwidth: tuple[_Pos, _Pos, _Pos, _Pos] | None = None
     kp: tuple[_NonNeg, _NonNeg, _NonNeg, _NonNeg] | None = None
     ki: tuple[_NonNeg, _NonNeg, _NonNeg, _NonNeg] | None = None
     kd: tuple[_NonNeg, _NonNeg, _NonNeg, _NonNeg] | None = None
@@ -188,7 +192,9 @@ class ControllerSpec(BaseModel):
 
     @model_validator(mode="after")
     def _keys_of_kind(self):
-        given = self.model_fields_set
+        # what the file gives, by value (not model_fields_set: a dump writes every field, so a
+        # sweep's worker re-checking it would see a default bandwidth as given)
+        given = {k for k in ("bandwidth", "kp", "ki", "kd") if getattr(self, k) is not None}
         gains = [k for k in ("bandwidth", "kp", "ki", "kd") if k in given]
         if self.kind == "lqr" and gains:  # the LQI flew unchanged: the gains did nothing
             raise ValueError(f"{', '.join(gains)}: only with kind: pid (or python, whose factory "
@@ -199,7 +205,7 @@ class ControllerSpec(BaseModel):
             raise ValueError(f"{', '.join(k for k in ('ki', 'kd') if k in given)}: given without "
                              "kp; ki/kd need kp (kp, ki, kd: four gains each, surge, sway, heave, "
                              "yaw) — without kp the gains come from bandwidth")
-        if self.kp is not None and "bandwidth" in given:
+        if self.kp is not None and self.bandwidth is not None:
             raise ValueError("bandwidth and kp are exclusive: bandwidth derives the gains, kp "
                              "(with ki, kd) gives them; keep one")
         if self.kind != "lqr" and self.weights is not None:
@@ -519,7 +525,7 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
             g0 = default_gains(vehicle)
             gains = DPGains(c.kp, c.ki or (0.0,) * 4, c.kd or (0.0,) * 4, g0.tau_max, g0.i_limit)
         else:
-            gains = default_gains(vehicle, omega=c.bandwidth)
+            gains = default_gains(vehicle, omega=c.bandwidth or DEFAULT_BANDWIDTH)
     except ValueError as e:
         raise ScenarioError(f"{spec.name}: controller: {e}") from None
     cur = spec.current
