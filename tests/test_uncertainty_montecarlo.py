@@ -308,3 +308,20 @@ def test_cli_refuses_an_estimate_outside_its_bounds_before_any_draw(tmp_path):
     text = " ".join(res.output.split())
     assert res.exit_code == 2 and "outside its bounds" in text and "parameters[0]" in text, text
     assert "nan" not in text
+
+
+@pytest.mark.parametrize("unit, estimate, expected, label", [
+    ("%", 62.0, 0.62, ""), ("deg", 90.0, math.pi / 2, "rad"), ("rad", 1.5, 1.5, "rad"),
+    ("ft/rad", 1.0, 0.3048, "m/rad"), ("V·s/rad", 0.2, 0.2, "V·s/rad")])
+def test_a_model_read_back_after_a_dump_has_the_same_numbers(unit, estimate, expected, label):
+    """Sweep and Monte Carlo workers re-check the model from its dump: a unit of a parameter whose
+    dimension uuvid does not know was converted and relabelled to itself (%), so every re-check
+    scaled again (62 % → 0.62 → 0.0062), or labelled radians as degrees."""
+    from uuvid.uncertainty.montecarlo import UncertainModel
+
+    m = UncertainModel.model_validate({"name": "x", "kind": "vehicle", "base": {}, "parameters": [
+        {"name": "blocks[0].efficiency", "estimate": estimate, "sigma": 1.0, "unit": unit}]})
+    p = m.parameters[0]
+    assert p.estimate == pytest.approx(expected) and p.unit == label
+    again = UncertainModel.model_validate(m.model_dump(mode="json"))
+    assert again.parameters[0] == p

@@ -20,7 +20,8 @@ A parameter's ``unit`` is that of its estimate, ``sigma``, bounds and covariance
 unit the parameter converts from (``g`` for a mass, ``cm/s`` for a current speed; the units of
 sweep files, :data:`uuvid.uncertainty.params.UNITS_OF`) are converted to its SI unit when the model
 is read, a unit that is not one of the parameter's is refused, and a parameter uuvid knows no unit
-for keeps ``unit`` as a label.  An estimate outside its own ``lower``/``upper`` is refused then
+for keeps a ``unit`` it cannot convert as a label (one it can, ``%`` or ``deg``, becomes a fraction
+or radians); reading a model written back reads the same numbers.  An estimate outside its own ``lower``/``upper`` is refused then
 too, before anything is drawn.
 
 Also read: the ``summary.json`` of ``uuvid thruster fit --model physical`` (σ per parameter, and
@@ -109,8 +110,9 @@ def parameter_unit(name: str, unit: str, where: str) -> tuple[float, str]:
     takes.  ``""``, the parameter's SI unit (``N s/m`` = ``N·s/m``) or a unit it converts from
     (:data:`uuvid.uncertainty.params.UNITS_OF`: ``g`` for kg, ``cm/s`` for m/s) are taken;
     another unit of a parameter whose SI unit is known is a ``ValueError`` naming ``where``.  A
-    parameter whose unit uuvid does not know (a thruster fit's ``V·s/rad``) keeps its ``unit``
-    as a label, converted when it is one of :data:`~uuvid.uncertainty.params.UNITS`."""
+    parameter whose dimension uuvid does not know keeps a ``unit`` it cannot convert (a thruster
+    fit's ``V·s/rad``) as a label; one of :data:`~uuvid.uncertainty.params.UNITS` is converted to
+    its dimension's SI unit (``%`` to a fraction, ``deg`` to rad): :func:`_unit_reached`."""
     from uuvid.uncertainty import params as PR
 
     si = PR.si_unit(name)
@@ -127,8 +129,23 @@ def parameter_unit(name: str, unit: str, where: str) -> tuple[float, str]:
         f = PR.unit_factor(name, unit)
     except ValueError as e:  # pragma: no cover - the checks above cover the known dimensions
         raise ValueError(f"{where}: {e}") from None
-    base = si or next((d for d, us in PR.UNITS_OF.items() if unit in us), unit)
-    return f, base
+    return f, si or _unit_reached(unit, f)
+
+
+def _unit_reached(unit: str, factor: float) -> str:
+    """The unit values in ``unit`` are in once multiplied by its factor (:data:`UNITS`): the SI
+    unit of its dimension (``deg`` → ``rad``, ``%`` → a fraction ``""``, ``ft/rad`` →
+    ``m/rad``), so that converting the converted values again changes nothing."""
+    from uuvid.uncertainty import params as PR
+
+    if factor == 1.0:
+        return unit
+    dim = next((d for d, us in PR.UNITS_OF.items() if unit in us), None)
+    if dim == "°":
+        return "rad"
+    if dim is not None:
+        return dim
+    return {"%": "", "ft/rad": "m/rad"}.get(unit, unit)
 
 
 class UncertainParameter(BaseModel):
