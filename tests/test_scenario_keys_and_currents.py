@@ -149,3 +149,17 @@ def test_a_controller_spec_rechecks_as_itself_after_a_dump(ctrl):
     s = ControllerSpec.model_validate(ctrl)
     again = ControllerSpec.model_validate(s.model_dump(mode="json"))
     assert again == s
+
+
+def test_a_spreadsheets_trailing_comma_is_no_column(tmp_path):
+    """Exports that end every line with a comma read as before the CSV checks (pandas ignored the
+    unnamed empty column); a named column's empty cell is still refused."""
+    from uuvid.simulate.currents import TimeSeriesCurrent
+
+    p = tmp_path / "c.csv"
+    p.write_text("time,north,east,\n0,0.1,0,\n10,0.2,0,\n")
+    c = TimeSeriesCurrent.from_csv(p)
+    assert np.array_equal(c.velocity, [[0.1, 0, 0], [0.2, 0, 0]])
+    p.write_text("time,north,east,\n0,0.1,,\n10,0.2,0,\n")
+    with pytest.raises(ValueError, match="row 1"):
+        TimeSeriesCurrent.from_csv(p)

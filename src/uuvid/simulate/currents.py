@@ -106,6 +106,13 @@ class TimeSeriesCurrent:
             reader = csv.reader(f)
             header = next(reader, None)
             rows = [(reader.line_num, r) for r in reader if any(c.strip() for c in r)]
+        # a spreadsheet's trailing comma: an unnamed empty last column, left out with its cells
+        while header and len(header) > 1 and not header[-1].strip():
+            header = header[:-1]
+        if header:
+            w = len(header)
+            rows = [(ln, r[:w] if len(r) > w and not any(c.strip() for c in r[w:]) else r)
+                    for ln, r in rows]
         if not header or not any(c.strip() for c in header):
             raise ValueError(f"{where}: no header; expected the columns time, north, east and "
                              "optionally down (s, m/s)")

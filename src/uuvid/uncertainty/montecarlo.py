@@ -21,8 +21,8 @@ unit the parameter converts from (``g`` for a mass, ``cm/s`` for a current speed
 sweep files, :data:`uuvid.uncertainty.params.UNITS_OF`) are converted to its SI unit when the model
 is read, a unit that is not one of the parameter's is refused, and a parameter uuvid knows no unit
 for keeps a ``unit`` it cannot convert as a label (one it can, ``%`` or ``deg``, becomes a fraction
-or radians); reading a model written back reads the same numbers.  An estimate outside its own ``lower``/``upper`` is refused then
-too, before anything is drawn.
+or radians); reading a model written back reads the same numbers.  An estimate outside its own
+``lower``/``upper`` is refused then too, before anything is drawn.
 
 Also read: the ``summary.json`` of ``uuvid thruster fit --model physical`` (σ per parameter, and
 the covariance if the file carries one; without it the parameters are taken as independent — a
