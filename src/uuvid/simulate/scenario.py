@@ -134,7 +134,10 @@ class MissionSpec(BaseModel):
             raise ValueError(f"waypoints: given, but kind is 'square'{said}, which flies the "
                              "built-in square and would ignore them: add kind: waypoints")
         if self.kind == "waypoints":
-            extra = [k for k in ("depth", "side", "yaw") if k in self.model_fields_set]
+            # by value, not model_fields_set: a sweep's worker re-checks a dump, which writes
+            # every field (a square's default depth then read as given and refused every run)
+            fields = type(self).model_fields
+            extra = [k for k in ("depth", "side", "yaw") if getattr(self, k) != fields[k].default]
             if extra:
                 raise ValueError(f"{', '.join(extra)}: only for kind square; a waypoint mission "
                                  "flies its waypoints (north, east, down [m], yaw [rad]) as given")
