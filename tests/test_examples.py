@@ -121,3 +121,24 @@ def test_examples_out_naming_a_file_says_a_folder_is_expected(tmp_path):
     assert res.exit_code == 2
     assert f"--out {f}" in text and "a folder was expected" in text, text
     assert f.read_text() == "keep"
+
+
+
+def test_a_write_failing_partway_names_the_examples_already_written(tmp_path, monkeypatch):
+    """The clash check comes first, the writes after: a write that fails on a later file (a full
+    disk, a read-only file) says which files of the set were already written."""
+    import uuvid.examples as ex
+    from uuvid.core import atomic
+
+    real, calls = atomic.atomic_write_text, []
+
+    def flaky(path, text, *a, **k):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device", str(path))
+        return real(path, text, *a, **k)
+
+    monkeypatch.setattr(atomic, "atomic_write_text", flaky)
+    with pytest.raises(OSError, match="written before it") as e:
+        ex.write_examples(list(EXAMPLES)[:2], tmp_path)
+    assert str(calls[0]) in str(e.value) and calls[0].exists()

@@ -278,7 +278,20 @@ def write_examples(names: list[str] | tuple[str, ...], folder: str | Path, *,
     clashes = [p for p, text in files.items() if _differs(p, text)]
     if clashes and not overwrite:
         raise ExampleClashError(clashes)
-    return [atomic_write_text(p, text) for p, text in files.items()]
+    written: list[Path] = []
+    for p, text in files.items():
+        if not overwrite and _differs(p, text):  # appeared since the check above
+            raise ExampleClashError([p]) if not written else FileExistsError(
+                f"{p} appeared while the examples were written and holds other data: not replaced; "
+                f"written before it: {', '.join(str(w) for w in written)}")
+        try:
+            written.append(atomic_write_text(p, text))
+        except OSError as e:
+            if not written:
+                raise
+            raise OSError(e.errno, f"{e.strerror or e} (written before it: "
+                                   f"{', '.join(str(w) for w in written)})", str(p)) from None
+    return written
 
 
 def write_example(name: str, folder: str | Path, *, overwrite: bool = False) -> list[Path]:
