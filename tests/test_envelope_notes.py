@@ -77,3 +77,25 @@ def test_a_bench_covering_every_angle_warns_of_nothing(tmp_path):
     check = confirm_envelope(load_vehicle(preset_path("bluerov2")), simulate=False)
     assert not [w for w in check.warnings() if w.startswith("extrapolated")]
     assert check.notes  # the notes are there all the same
+
+
+def test_hold_warns_where_a_held_current_reads_the_map_beyond_its_bench(fitted):
+    """``vehicle hold`` computed its currents through the fitted map outside its advance angles
+    and said nothing (the envelope says it since this stop's fix); the capability now warns, in
+    its summary, its dict and the command's stderr/--json."""
+    from uuvid.analysis.hold import capability
+
+    cap = capability(load_vehicle(fitted), step_deg=90.0)
+    w = cap.warnings()
+    assert w and "extrapolated" in w[0] and "β =" in w[0], w
+    assert cap.to_dict()["warnings"] == w and "warning: extrapolated" in cap.summary()
+    r = runner.invoke(app, ["vehicle", "hold", str(fitted), "--step", "90", "--json"])
+    assert r.exit_code == 0, r.output
+    assert any("extrapolated" in x for x in json.loads(r.stdout)["warnings"])
+
+
+def test_hold_with_a_map_of_the_whole_circle_warns_of_nothing():
+    from uuvid.analysis.hold import capability
+    from uuvid.vehicle.definition import load_vehicle as load
+
+    assert capability(load("bluerov2"), step_deg=90.0, inflow="four-quadrant").warnings() == []

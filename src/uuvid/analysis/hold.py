@@ -478,9 +478,17 @@ def _max_current(vehicle, relative_deg: float, *, limits=None, modes=None, depth
     # just beyond the boundary: thrusters at their limits if thrust is what runs out
     rb = steady_hold(vehicle, current_ned(hi, relative_deg), al_at(hi), depth, ang)[3]
     lim = [names[i] for i in rb.limiting] if not rb.achievable else []
-    return lo, {"limit": why.get(hi, ""), "reason": detail.get(hi, ""), "drifting": sorted(drifting),
-                "limiting_thrusters": lim,
-                "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
+    info = {"limit": why.get(hi, ""), "reason": detail.get(hi, ""), "drifting": sorted(drifting),
+            "limiting_thrusters": lim,
+            "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)}
+    if il is not None and lo > 0.0:  # a bench-fitted map read beyond the advance angles it saw
+        nu = np.zeros(6)
+        nu[:3] = -current_ned(lo, relative_deg)
+        beyond = [(names[i], b) for i, b in il.extrapolated(nu)]
+        if beyond:
+            info["extrapolated"] = beyond
+            info["map_ranges"] = il.maps[0].ranges_text()
+    return lo, info
 
 
 @dataclass(frozen=True)
@@ -500,6 +508,18 @@ class CapabilityResult(Result):
     note: str = ""
     inflow: str = "none"  # thrust against advance speed (issue 21)
     max_current_bollard: np.ndarray = field(default_factory=lambda: np.zeros(0))  # inflow off
+    # with a bench-fitted propeller map: where a held current reads it outside its advance angles
+    extrapolated: tuple = ()
+    map_ranges: str = ""
+
+    def warnings(self) -> list[str]:
+        """What the numbers rest on that no data backs: a fitted propeller map read outside the
+        advance angles of its bench (as :meth:`uuvid.analysis.envelope_check.EnvelopeCheck.warnings`)."""
+        if not self.extrapolated:
+            return []
+        return [f"extrapolated: the fitted propeller map ({self.map_ranges}) is read outside its "
+                f"advance angles — {'; '.join(self.extrapolated)} — those currents rest on the "
+                "series beyond the bench's data"]
 
     def analytic_at(self, deg: float) -> float:
         """The analytic boundary (m/s) at the computed direction nearest to ``deg`` (finite,
@@ -551,6 +571,7 @@ class CapabilityResult(Result):
                          f" ratio {a:.3f})")
         if self.note:
             lines.append("  " + self.note)
+        lines += [f"  warning: {w}" for w in self.warnings()]
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
@@ -566,6 +587,7 @@ class CapabilityResult(Result):
              "inflow": self.inflow}  # in force, on or off (a JSON without it said neither)
         if self.inflow != "none":
             d["max_current_bollard_m_s"] = self.max_current_bollard.tolist()
+        d["warnings"] = self.warnings()
         return d
 
     def plot(self, path=None, mark=None):
@@ -660,7 +682,7 @@ def _capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dep
     degs = np.arange(0.0, 360.0, float(step_deg))
     if simulate_deg and soc is not None:
         raise ValueError("simulated confirmation runs at fixed limits (give supply_voltage)")
-    vals, lim, why, words, drift, bollard = [], [], [], [], set(), []
+    vals, lim, why, words, drift, bollard, beyond, ranges = [], [], [], [], set(), [], [], ""
     n = len(degs) + len(simulate_deg)
     task = progress_task(f"{vehicle.name} capability", total=n, eta=False, stages=n,
                          disable=None if progress is None else not progress)
@@ -680,6 +702,8 @@ def _capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dep
             why.append(info.get("limit", ""))
             words.append(info.get("reason", ""))
             drift.update(info.get("drifting", ()))
+            beyond += [f"from {d:g}°: {t} at β = {b:.0f}°" for t, b in info.get("extrapolated", ())]
+            ranges = info.get("map_ranges", ranges)
         sv = []
         for d in simulate_deg:
             task.stage(f"simulating the boundary at {d:g}°")
@@ -691,7 +715,8 @@ def _capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dep
                            tuple(why), tuple(words), tuple(sorted(drift)),
                            note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
                                  "loaded voltage" if soc is not None else ""),
-                           inflow=inflow, max_current_bollard=np.array(bollard))
+                           inflow=inflow, max_current_bollard=np.array(bollard),
+                           extrapolated=tuple(beyond), map_ranges=ranges)
     if simulate_deg:
         sd = np.asarray(simulate_deg, float)
         res = dataclasses.replace(res, simulated_deg=sd, simulated=np.array(sv), note=(

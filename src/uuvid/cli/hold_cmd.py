@@ -124,13 +124,16 @@ def vehicle_hold(
     if voltage is None and battery is None:
         doc["limits_note"] = ("thrust limits: the vehicle file's own (default; --voltage V or "
                               "--battery SOC for the limits at a supply voltage)")
+    doc["warnings"] = cap.warnings()
     if json_out:
         _print_json(doc)
         return
-    if "limits_note" in doc:
-        from uuvid.cli.common import err_console
+    from uuvid.cli.common import err_console
 
+    if "limits_note" in doc:
         err_console.print(f"note: {doc['limits_note']}", markup=False, highlight=False)
+    for w in doc["warnings"]:
+        err_console.print(f"warning: {w}", markup=False, highlight=False)
     out_console.print(cap.summary(), markup=False, highlight=False)
     if cur is not None:
         a = doc["at_current"]
