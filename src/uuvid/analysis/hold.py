@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.analysis.hold_linear import closed_loop_jacobian
+from uuvid.core.checks import state_of_charge
 from uuvid.core.result import Result
 from uuvid.vehicle.allocation import Allocator
 from uuvid.vehicle.model import vehicle_rhs_into
@@ -94,19 +95,6 @@ def _check_depth(depth) -> float:
     from uuvid.core.checks import non_negative
 
     return non_negative("depth", depth, "m, down positive")
-
-
-def _check_soc(name: str, soc) -> float:
-    """A state of charge as given (``soc``, ``soc0``): a number within 0..1 (text raised a bare
-    ``TypeError`` from ``math.isfinite``)."""
-    try:
-        v = float(soc)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} = {soc!r}: expected a state of charge within 0..1 "
-                         "(a number)") from None
-    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
-        raise ValueError(f"{name} = {v:g}: expected a state of charge within 0..1")
-    return v
 
 
 #: Largest roll or pitch (deg) counted as holding station: the same level limit as steady flight
@@ -870,7 +858,7 @@ def hold_on_battery(vehicle, current, soc: float, *, battery=None, modes=None,
     bat = battery if battery is not None else vehicle.battery
     if bat is None:
         raise ValueError(f"{vehicle.name} has no battery block")
-    soc = _check_soc("soc", soc)
+    soc = state_of_charge("soc", soc)
     depth = _check_depth(depth)
     check_battery_models(vehicle, bat)
     st = SupplyThruster(physical_model(bat.thruster_power_model))
@@ -988,7 +976,7 @@ def _endurance(vehicle, speed: float, relative_deg: float, *, soc0: float = 1.0,
     from uuvid.core.progress import progress_task
 
     speed = non_negative("speed", speed, "m/s")
-    soc0 = _check_soc("soc0", soc0)
+    soc0 = state_of_charge("soc0", soc0)
     depth = _check_depth(depth)
     dsoc = positive("dsoc", dsoc, "the step of state of charge")
     if dsoc > 1.0:

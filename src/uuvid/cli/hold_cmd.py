@@ -70,8 +70,13 @@ def vehicle_hold(
 
     v = _load_vehicle(vehicle, "it cannot hold station", inflow)
     cur = _parse_current(current)
-    if battery is not None and not 0 <= battery <= 1:
-        _fail(f"--battery: state of charge must be within 0..1, got {battery}")
+    if battery is not None:
+        from uuvid.core.checks import state_of_charge
+
+        try:
+            state_of_charge("--battery", battery)
+        except ValueError as e:
+            _fail(str(e))
     if battery is not None and v.battery is None:
         _fail(f"{v.name} has no battery block in its vehicle file; use --voltage")
     if battery is not None:

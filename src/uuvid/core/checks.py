@@ -53,6 +53,19 @@ MAX_CURRENT_MPS = 6.0
 MAX_SUBSTEPS = 10_000
 
 
+def state_of_charge(name: str, value) -> float:
+    """A battery's state of charge as given (``soc``, ``soc0``, ``--battery``): a number within
+    0..1 (text raised a bare ``TypeError`` from ``math.isfinite``; 1.5 ran a battery over full)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: expected a state of charge within 0..1 "
+                         "(a number)") from None
+    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+        raise ValueError(f"{name} = {v:g}: expected a state of charge within 0..1")
+    return v
+
+
 def current_speed(name: str, speed: float) -> float:
     """``speed`` (m/s) of a water current, or ``ValueError`` naming ``name`` when it is faster than
     :data:`MAX_CURRENT_MPS` (a simulation then only 'diverges', blamed on its step)."""

@@ -162,6 +162,7 @@ def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int =
     prefix in front of the dynamics)."""
     import dataclasses
 
+    from uuvid.core.checks import state_of_charge
     from uuvid.thruster.blocks import ESC
     from uuvid.thruster.physical import physical_model
     from uuvid.vehicle.power import SupplyThruster
@@ -173,8 +174,7 @@ def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int =
     if not isinstance(esc, ESC) or len(ch.blocks) < 2 or not np.any(bank.soff[1:] > 0):
         raise ValueError(f"a battery run needs an ESC-driven chain (ESC → dynamics → map); "
                          f"{ch.name} starts with {type(esc).__name__}")
-    if not (0.0 <= soc0 <= 1.0):
-        raise ValueError(f"initial state of charge must be within 0..1, got {soc0}")
+    soc0 = state_of_charge("soc0", soc0)
     st = SupplyThruster(physical_model(battery.thruster_power_model))
     vmin = max(min(battery.ocv_voltage) * 0.8, 1.0)
     vgrid = np.linspace(vmin, max(battery.ocv_voltage), voltages)
