@@ -16,7 +16,9 @@ import numpy as np
 
 from uuvid.core.checks import (
     MAX_SUBSTEPS,  # re-exported: most RK4 steps per sample/step
+    count,
     finite_values,
+    real,
 )
 from uuvid.core.response import CHANNEL_UNITS, TimeResponse
 from uuvid.core.result import Result, jsonable
@@ -57,8 +59,6 @@ def _n_samples(t_end, dt, substeps, runs: int = 1, names: tuple[str, str, str] |
     less of each (a sweep keeps a run's input and metrics, not its channels)."""
     tn, dn, sn = names or ("t_end", "dt", "substeps")
     tf, df, sf = ("", "", "") if names else (" (--t-end)", " (--dt)", " (--substeps)")
-    from uuvid.core.checks import real
-
     # text from a script ("1.3") failed in math.isfinite with "must be real number, not str",
     # naming no argument
     real(tn, t_end, "a finite simulated time > 0 in s")
@@ -260,8 +260,6 @@ class ThrusterChain:
         (:meth:`sweep`); that table is cached on disk (:mod:`uuvid.core.cache`, ``steady_maps``)
         under a hash of the chain's parameters, the levels and the kernel code, unless
         ``cache=False``.  Levels the sweep could not bring to rest are never cached."""
-        from uuvid.core.checks import finite_values
-
         # a NaN level went through the closed-form maps as a thrust of 0 (a T200's dead band)
         u = np.atleast_1d(finite_values("u", u, what="finite input levels"))
         y = u
@@ -316,8 +314,6 @@ class ThrusterChain:
             raise ValueError(f"sweep: dt must be a finite step > 0 s, got {dt!r}")
         if not (math.isfinite(settle) and settle > 0):
             raise ValueError(f"sweep: settle_time must be a finite time > 0 s, got {settle!r}")
-        from uuvid.core.checks import count
-
         max_passes = count("sweep: max_passes", max_passes, minimum=1)
         if not rtol > 0:
             raise ValueError(f"sweep: rtol = {rtol!r}: expected a relative tolerance > 0")
