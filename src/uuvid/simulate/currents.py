@@ -19,6 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+# the vertical current's bound lives with the horizontal one (core.checks); re-exported here
+from uuvid.core.checks import MAX_VERTICAL_CURRENT_MPS, vertical_current  # noqa: F401
+
 
 def _rates(v: np.ndarray, dt: float) -> np.ndarray:
     d = np.zeros_like(v)
@@ -44,26 +47,6 @@ class ConstantCurrent:
     @property
     def is_constant(self) -> bool:
         return True
-
-
-#: a vertical water velocity beyond this (m/s) is no ocean current: up- and downwelling run at
-#: mm/s to cm/s, convective plumes, breaking internal waves and flows over sills at a few tenths of
-#: a m/s; more is a horizontal speed in the down slot, or cm/s
-MAX_VERTICAL_CURRENT_MPS = 1.0
-
-
-def vertical_current(name: str, down: float) -> float:
-    """``down`` (m/s, NED: positive flowing down) of a water current, or ``ValueError`` naming
-    ``name`` (``""``: where the caller's message already names it) when it is beyond
-    :data:`MAX_VERTICAL_CURRENT_MPS` either way."""
-    w = float(down)
-    if abs(w) > MAX_VERTICAL_CURRENT_MPS:
-        raise ValueError(f"{name + ': ' if name else ''}{w:g} m/s: a vertical current beyond "
-                         f"{MAX_VERTICAL_CURRENT_MPS:g} m/s is not an ocean current (up- and "
-                         "downwelling run at mm/s to cm/s, the strongest plumes and flows over "
-                         "sills at a few tenths of a m/s): is it a horizontal speed, or cm/s? "
-                         "expected the vertical velocity in m/s, positive down")
-    return w
 
 
 CSV_COLUMNS = ("time", "north", "east", "down")  # a current time series file's columns
