@@ -87,3 +87,49 @@ def test_a_thruster_chain_is_compiled_once_for_sweeps_and_mission_loops(tmp_path
     names = _compiled(tmp_path, CHAIN_TWICE)
     assert "uuvid.simulate.vehicle_sim._rhs_d" in names and "uuvid.thruster.kernels.rk4_chain" in names
     assert names.count("uuvid.thruster.kernels.eval_chain_at") == 1, names
+
+
+SMALL_SWEEP = LISTEN + textwrap.dedent("""
+    import numpy as np
+    from uuvid.thruster.presets import preset_chain
+
+    preset_chain("laidani-a2212").sweep(np.linspace(1100.0, 1900.0, 9), settle_time=0.2)
+    json.dump(names, sys.stdout)
+""")
+
+
+@pytest.mark.slow
+def test_a_small_sweep_compiles_no_parallel_kernel(tmp_path, monkeypatch):
+    """A sweep of a few levels is a fraction of a second of work: numba's parallel passes would
+    add 1–3 s of compiling to it (the demo's workers run with one thread each)."""
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "2")
+    names = _compiled(tmp_path, SMALL_SWEEP)
+    assert "uuvid.thruster.kernels.sweep_chain_serial" in names, names
+    assert "uuvid.thruster.kernels.sweep_chain" not in names, names
+
+
+def test_parallel_and_serial_kernels_agree_and_parallel_pays_only_for_big_batches(monkeypatch):
+    import numba
+    import numpy as np
+
+    from uuvid.thruster import kernels as K
+    from uuvid.thruster.presets import preset_chain
+
+    c = preset_chain("laidani-a2212").compile()
+    u = np.linspace(1100.0, 1900.0, 7)
+    X0 = np.zeros((u.size, int(c.soff[-1])))
+    out = []
+    for f in (K.sweep_chain, K.sweep_chain_serial):
+        F, XF = np.empty((u.size, K.N_CHANNELS)), np.empty_like(X0)
+        f(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact, X0.copy(), u, 1e-3, 200, F, XF)
+        out.append((F, XF))
+    assert np.array_equal(out[0][0], out[1][0], equal_nan=True)  # (channels a chain lacks: NaN)
+    assert np.array_equal(out[0][1], out[1][1])
+    assert np.ptp(out[0][0][:, 0]) > 0  # the levels did not all give the same channels
+
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
+    assert not K.parallel_pays(1, 10 ** 9)  # one run: nothing to share
+    assert not K.parallel_pays(10, K.PARALLEL_MIN_STEPS // 10 - 1)
+    assert K.parallel_pays(10, K.PARALLEL_MIN_STEPS // 10)
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 1)
+    assert not K.parallel_pays(10, 10 ** 9)  # one thread: the parallel loop only compiles longer

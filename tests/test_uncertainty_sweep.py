@@ -287,13 +287,16 @@ def test_a_chunk_of_long_runs_holds_a_bounded_input(monkeypatch):
     plan = plan_for(ThrusterStepTarget(t_end=0.2, substeps=1), ["voltage"])
     volts = np.linspace(4.0, 24.0, 10)
     whole = plan.evaluate({"voltage": volts}, 10)
-    rows, real = [], _kernels.step_metrics_batch
+    rows = []
 
-    def spy(*a):
-        rows.append(a[8].shape[0])  # U: one row per distinct input
-        return real(*a)
+    def spy(real):
+        def run(*a):
+            rows.append(a[8].shape[0])  # U: one row per distinct input
+            return real(*a)
+        return run
 
-    monkeypatch.setattr(_kernels, "step_metrics_batch", spy)
+    for name in ("step_metrics_batch", "step_metrics_serial"):  # (threads or not, by batch size)
+        monkeypatch.setattr(_kernels, name, spy(getattr(_kernels, name)))
     monkeypatch.setattr(TG, "MAX_INPUT_SAMPLES", 3 * plan.t.size, raising=False)
     plan._signals.clear()
     parts = plan.evaluate({"voltage": volts + 0.0}, 10)

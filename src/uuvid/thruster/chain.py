@@ -348,9 +348,11 @@ class ThrusterChain:
             nsamp = int(math.ceil(settle * max(1, 2 ** (k - 1)) / dt)) + 1
             f = np.empty((todo.size, len(CHANNELS)))
             xf = np.empty((todo.size, nx))
-            _kernels().sweep_chain(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
-                                np.ascontiguousarray(X[todo]), np.ascontiguousarray(u[todo]),
-                                float(dt), nsamp, f, xf)
+            kern = _kernels()
+            sweep = (kern.sweep_chain if kern.parallel_pays(todo.size, nsamp)
+                     else kern.sweep_chain_serial)
+            sweep(c.kinds, c.poff, c.params, c.soff, c.outch, c.in_ch, c.exact,
+                  np.ascontiguousarray(X[todo]), np.ascontiguousarray(u[todo]), float(dt), nsamp, f, xf)
             finals[todo] = f
             X[todo] = xf
             y = f[:, out_ch]

@@ -470,31 +470,65 @@ def rk4_chain_batch(kinds, poff, params_batch, soff, outch, in_ch, exact, x0, u,
             Y[r, n] = C[n, out_channel]
 
 
+@njit(cache=True)
+def _sweep_level(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt, nsamp, finals, XF, r):
+    """Level ``r`` of :func:`sweep_chain`."""
+    nx = X0.shape[1]
+    u = np.full(nsamp, u_levels[r])
+    X = np.empty((nsamp, nx))
+    C = np.empty((nsamp, N_CHANNELS))
+    rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, X0[r], u, dt, np.int64(1), X, C)
+    for i in range(N_CHANNELS):
+        finals[r, i] = C[nsamp - 1, i]
+    for i in range(nx):
+        XF[r, i] = X[nsamp - 1, i]
+
+
 @njit(cache=True, parallel=True)
 def sweep_chain(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt, nsamp, finals, XF):
     """Hold each constant input of ``u_levels`` for ``nsamp`` samples from its initial state
     ``X0[level]``; store the final channels in ``finals[level]`` and the final state in
-    ``XF[level]`` (a steady-state sweep, one parallel run per level)."""
-    nlev = u_levels.size
-    nx = X0.shape[1]
-    for r in prange(nlev):
-        u = np.full(nsamp, u_levels[r])
-        X = np.empty((nsamp, nx))
-        C = np.empty((nsamp, N_CHANNELS))
-        rk4_chain(kinds, poff, params, soff, outch, in_ch, exact, X0[r], u, dt, np.int64(1), X, C)
-        for i in range(N_CHANNELS):
-            finals[r, i] = C[nsamp - 1, i]
-        for i in range(nx):
-            XF[r, i] = X[nsamp - 1, i]
+    ``XF[level]`` (a steady-state sweep, one parallel run per level; :func:`sweep_chain_serial`:
+    the same, one level after another)."""
+    for r in prange(u_levels.size):
+        _sweep_level(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt, nsamp, finals, XF,
+                     r)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
+def sweep_chain_serial(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt, nsamp, finals,
+                       XF):
+    """:func:`sweep_chain` on one thread: compiles in a fraction of the parallel loop's time
+    (numba's parallel passes), for sweeps too short to pay for it (:func:`parallel_pays`)."""
+    for r in range(u_levels.size):
+        _sweep_level(kinds, poff, params, soff, outch, in_ch, exact, X0, u_levels, dt, nsamp, finals, XF,
+                     r)
+
+
+#: A prange kernel takes this many RK4 steps (all its runs together) or more before its threads pay
+#: for what they cost: ≈ 1–3 s more compiling on a first run (numba's parallel passes) and a
+#: thread pool's start; below it (≈ 0.1 s of work) one thread finishes first.
+PARALLEL_MIN_STEPS = 1_000_000
+
+
+def parallel_pays(runs: int, steps_per_run: int) -> bool:
+    """Whether a batch of ``runs`` independent runs of ``steps_per_run`` steps each should use the
+    parallel kernel: more than one run, more than one numba thread (a demo or Monte Carlo worker
+    runs with one) and at least :data:`PARALLEL_MIN_STEPS` steps in all."""
+    if runs < 2 or runs * steps_per_run < PARALLEL_MIN_STEPS:
+        return False
+    import numba
+
+    return numba.get_num_threads() > 1
+
+
+@njit(cache=True)
 def relative_rates(kinds, poff, params, soff, outch, in_ch, X, u, floor, out):
     """``max_i |ẋ_i| / (|x_i| + floor)`` at each row of ``X`` under input ``u[row]`` (how fast a
-    swept level is still moving, relative to where it is)."""
+    swept level is still moving, relative to where it is; one thread: a few microseconds a row)."""
     n = X.shape[0]
     nx = X.shape[1]
-    for r in prange(n):
+    for r in range(n):
         dx = np.zeros(nx)
         ch = np.empty(N_CHANNELS)
         blk = np.empty(max(kinds.size, 1))

@@ -121,36 +121,53 @@ def step_metrics_row(t, true, meas, spd, use_meas, use_speed, k0, t_window, out)
     out[7] = y[y.size - 1]
 
 
+@njit(cache=True)
+def _step_metrics_run(kinds, poff, P, soff, outch, in_ch, exact, x0, U, uidx, dt, nsub, t, k0,
+                      t_window, use_meas, use_speed, OUT, FINITE, r):
+    """Run ``r`` of :func:`step_metrics_batch`."""
+    n = U.shape[1]
+    nx = x0.size
+    X = np.empty((n, nx))
+    C = np.empty((n, N_CH))
+    kernels.rk4_chain(kinds, poff, P[r], soff, outch, in_ch, exact, x0, U[uidx[r]], dt, nsub, X, C)
+    ok = True
+    for i in range(n):
+        for j in range(nx):
+            if not math.isfinite(X[i, j]):
+                ok = False
+                break
+        if not ok:
+            break
+    FINITE[r] = ok
+    if not ok:
+        for j in range(OUT.shape[1]):
+            OUT[r, j] = math.nan
+        return
+    true = np.ascontiguousarray(C[:, _THRUST])
+    meas = np.ascontiguousarray(C[:, _MEASURED]) if use_meas else true
+    spd = np.ascontiguousarray(C[:, _SPEED]) if use_speed else true
+    step_metrics_row(t, true, meas, spd, use_meas, use_speed, k0, t_window, OUT[r])
+
+
 @njit(cache=True, parallel=True)
 def step_metrics_batch(kinds, poff, P, soff, outch, in_ch, exact, x0, U, uidx, dt, nsub, t, k0,
                        t_window, use_meas, use_speed, OUT, FINITE):
     """Simulate run ``r`` (parameters ``P[r]``, input ``U[uidx[r]]``) from ``x0`` and write its
-    step metrics to ``OUT[r]``; ``FINITE[r]`` is False when the state left the finite numbers."""
-    nrun = P.shape[0]
-    n = U.shape[1]
-    nx = x0.size
-    for r in prange(nrun):
-        X = np.empty((n, nx))
-        C = np.empty((n, N_CH))
-        kernels.rk4_chain(kinds, poff, P[r], soff, outch, in_ch, exact, x0, U[uidx[r]], dt, nsub,
-                          X, C)
-        ok = True
-        for i in range(n):
-            for j in range(nx):
-                if not math.isfinite(X[i, j]):
-                    ok = False
-                    break
-            if not ok:
-                break
-        FINITE[r] = ok
-        if not ok:
-            for j in range(OUT.shape[1]):
-                OUT[r, j] = math.nan
-            continue
-        true = np.ascontiguousarray(C[:, _THRUST])
-        meas = np.ascontiguousarray(C[:, _MEASURED]) if use_meas else true
-        spd = np.ascontiguousarray(C[:, _SPEED]) if use_speed else true
-        step_metrics_row(t, true, meas, spd, use_meas, use_speed, k0, t_window, OUT[r])
+    step metrics to ``OUT[r]``; ``FINITE[r]`` is False when the state left the finite numbers.
+    One run per thread; :func:`step_metrics_serial`: the same on one thread."""
+    for r in prange(P.shape[0]):
+        _step_metrics_run(kinds, poff, P, soff, outch, in_ch, exact, x0, U, uidx, dt, nsub, t, k0,
+                          t_window, use_meas, use_speed, OUT, FINITE, r)
+
+
+@njit(cache=True)
+def step_metrics_serial(kinds, poff, P, soff, outch, in_ch, exact, x0, U, uidx, dt, nsub, t, k0,
+                        t_window, use_meas, use_speed, OUT, FINITE):
+    """:func:`step_metrics_batch` one run after another: compiles in a fraction of its time, for
+    batches too small to pay for threads (:func:`uuvid.thruster.kernels.parallel_pays`)."""
+    for r in range(P.shape[0]):
+        _step_metrics_run(kinds, poff, P, soff, outch, in_ch, exact, x0, U, uidx, dt, nsub, t, k0,
+                          t_window, use_meas, use_speed, OUT, FINITE, r)
 
 
 @njit(cache=True, parallel=True)

@@ -354,11 +354,12 @@ class ThrusterStepPlan:
                           np.concatenate([e.message for e in parts]))
 
     def _evaluate(self, values: dict[str, np.ndarray], nrun: int) -> Evaluation:
-        from uuvid.uncertainty._kernels import N_METRICS, step_metrics_batch
+        from uuvid.thruster.kernels import parallel_pays
+        from uuvid.uncertainty import _kernels
 
         status = np.full(nrun, OK, dtype=object)
         message = np.full(nrun, "", dtype=object)
-        OUT = np.full((nrun, N_METRICS), np.nan)
+        OUT = np.full((nrun, _kernels.N_METRICS), np.nan)
         groups: dict = {}
         urows: dict = {}
         U_list: list = []
@@ -390,12 +391,15 @@ class ThrusterStepPlan:
                 c = g["comp"]
                 rows = np.array(g["rows"])
                 P = np.ascontiguousarray(np.stack(g["P"]))
-                out = np.empty((rows.size, N_METRICS))
+                out = np.empty((rows.size, _kernels.N_METRICS))
                 fin = np.empty(rows.size, dtype=np.bool_)
-                step_metrics_batch(c.kinds, c.poff, P, c.soff, c.outch, c.in_ch, c.exact,
-                                   np.zeros(g["n"]), U, np.asarray(g["u"], dtype=np.int64),
-                                   float(tg.dt), int(tg.substeps), self.t, self.k0, self.t_window,
-                                   self.use_meas, self.use_speed, out, fin)
+                steps = U.shape[1] * int(tg.substeps)
+                run = (_kernels.step_metrics_batch if parallel_pays(rows.size, steps)
+                       else _kernels.step_metrics_serial)
+                run(c.kinds, c.poff, P, c.soff, c.outch, c.in_ch, c.exact,
+                    np.zeros(g["n"]), U, np.asarray(g["u"], dtype=np.int64),
+                    float(tg.dt), int(tg.substeps), self.t, self.k0, self.t_window,
+                    self.use_meas, self.use_speed, out, fin)
                 OUT[rows] = out
                 bad = rows[~fin]
                 status[bad] = DIVERGED
@@ -408,7 +412,8 @@ class ThrusterStepPlan:
                 "input": self.base_signal.describe(),
                 "parameters_of_base": self.base.compile().params.size,
                 "output_metric_of": "measured_thrust" if self.use_meas else "thrust",
-                "simulator": "uuvid.uncertainty._kernels.step_metrics_batch (chain RK4)"}
+                "simulator": ("uuvid.uncertainty._kernels.step_metrics_batch (chain RK4; "
+                              "step_metrics_serial for small batches)")}
 
 
 def _current(block, path: str):
