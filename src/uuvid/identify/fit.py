@@ -273,7 +273,8 @@ def diagnose(names: Sequence[str], values: np.ndarray, cov: np.ndarray, jac: np.
     for i in np.flatnonzero(zero):
         msgs.append(f"{names[i]}: not identifiable — the data do not excite it (zero column)")
     Js = J[:, ~zero] / norms[~zero] if np.any(~zero) else J
-    s = np.linalg.svd(Js, compute_uv=False) if Js.size else np.array([0.0])
+    with small_blas(Js.shape[1], entries=Js.size):
+        s = np.linalg.svd(Js, compute_uv=False) if Js.size else np.array([0.0])
     cond = float(s[0] / s[-1]) if s.size and s[-1] > 0 else math.inf
     rank = int(np.sum(s > s[0] * max(J.shape) * np.finfo(float).eps)) if s.size else 0
     if rank < Js.shape[1]:
@@ -462,7 +463,8 @@ def undetermined(Js: np.ndarray, rtol: float) -> np.ndarray:
     if Js.size == 0:
         return np.zeros(Js.shape[1], bool)
     try:
-        _, sv, Vt = np.linalg.svd(Js, full_matrices=False)
+        with small_blas(Js.shape[1], entries=Js.size):
+            _, sv, Vt = np.linalg.svd(Js, full_matrices=False)
     except np.linalg.LinAlgError:
         return np.ones(Js.shape[1], bool)
     null = sv <= max(float(sv[0]), 1e-300) * rtol
@@ -515,19 +517,21 @@ def nonlinear_lsq(residual: Callable[[np.ndarray], np.ndarray], x0, names: Seque
         raise ValueError(f"{len(names)} names for {x0.size} parameters (x0 has shape {x0.shape}): "
                          "expected one name per parameter, x0 a 1-D start")
     units = _check_units(units, names)
-    with small_blas(x0.size):  # a few parameters: threaded SVDs of the Jacobian only cost
+    # a few parameters: threaded SVDs and products of the tall Jacobian only cost (and OpenBLAS's
+    # threads spin on after each call, taking the cores from the residual's own threads)
+    with small_blas(x0.size):
         sol = least_squares(residual, x0, bounds=bounds, x_scale=x_scale, jac=jac, **kwargs)
-    J = np.asarray(sol.jac, dtype=float)
-    r = np.asarray(sol.fun, dtype=float)
-    n, p = J.shape
-    dof = max(n - p, 1)
-    sigma2 = float(r @ r / dof)
-    # scale the columns before inverting so parameters of very different size keep their σ
-    norms = np.linalg.norm(J, axis=0)
-    sc = np.where(norms > 0, norms, 1.0)
-    Js = J / sc
-    cov = _mark_undetermined(sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc),
-                             undetermined(Js, 1.0 / CONDITION_LIMIT))
+        J = np.asarray(sol.jac, dtype=float)
+        r = np.asarray(sol.fun, dtype=float)
+        n, p = J.shape
+        dof = max(n - p, 1)
+        sigma2 = float(r @ r / dof)
+        # scale the columns before inverting so parameters of very different size keep their σ
+        norms = np.linalg.norm(J, axis=0)
+        sc = np.where(norms > 0, norms, 1.0)
+        Js = J / sc
+        cov = _mark_undetermined(sigma2 * np.linalg.pinv(Js.T @ Js) / np.outer(sc, sc),
+                                 undetermined(Js, 1.0 / CONDITION_LIMIT))
     lo, hi = np.broadcast_to(bounds[0], sol.x.shape), np.broadcast_to(bounds[1], sol.x.shape)
     x = np.array(sol.x, dtype=float)
     # a parameter's own scale (x_scale when given, else its start; 1 when both are 0): a value
