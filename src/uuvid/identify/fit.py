@@ -331,6 +331,22 @@ def _sandwich(H: np.ndarray, r: np.ndarray, bread: np.ndarray, cov_type: str, la
     return bread @ meat @ bread * n / max(n - p, 1)
 
 
+def normal_inverse(H: np.ndarray) -> np.ndarray:
+    """``(HᵀH)⁻¹`` (pseudo-inverse) from the SVD of ``H`` with its columns scaled to unit norm,
+    unscaled after: the covariance's shape does not depend on the columns' units.  Inverting
+    ``HᵀH`` itself squares the condition number, and the pseudo-inverse's relative cut-off then
+    dropped the directions of a column in small units — a torque column in µN·m gave σ = 0.0 %
+    and correlations of 1.0019.  Singular values below ``max(n, p)·ε`` × the largest (the rank
+    tolerance of :func:`diagnose`) count as zero."""
+    norms = np.linalg.norm(H, axis=0)
+    sc = np.where(norms > 0, norms, 1.0)
+    with small_blas(H.shape[1], entries=H.size):
+        _, s, Vt = np.linalg.svd(H / sc, full_matrices=False)
+    keep = s > (s[0] if s.size else 0.0) * max(H.shape) * np.finfo(float).eps
+    inv = (Vt[keep].T / s[keep] ** 2) @ Vt[keep]
+    return inv / np.outer(sc, sc)
+
+
 def lsq_solution(H: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``θ`` minimising ``|y − Hθ|`` (columns scaled to unit norm, ``lstsq``): the estimate of
     :func:`linear_lsq` alone, bit for bit, for loops that need no statistics (iterated
@@ -352,7 +368,7 @@ def lsq_classical(H: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     theta = lsq_solution(H, y)
     r = y - H @ theta
     sigma2 = float(r @ r / max(n - p, 1))
-    cov = sigma2 * np.linalg.pinv(H.T @ H)
+    cov = sigma2 * normal_inverse(H)
     return theta, np.sqrt(np.maximum(np.diag(cov), 0.0)), sigma2
 
 
@@ -392,7 +408,7 @@ def linear_lsq(H, y, names: Sequence[str], *, model: str = "linear", units: Sequ
     r = yw - Hw @ theta
     dof = max(n - p, 1)
     sigma2 = float(r @ r / dof)
-    bread = np.linalg.pinv(Hw.T @ Hw)
+    bread = normal_inverse(Hw)
     if cov_type == "classical":
         cov = sigma2 * bread
     else:
