@@ -289,12 +289,44 @@ def _magnitude_warnings(data: LogData, spec: LogSpec, names: dict, servo: bool) 
     out += rate_warnings(data.t_pos, data.position, spec.dof, _position_unit(spec) or "m",
                          defaulted=not (spec.angle_unit or spec.position_unit),
                          angular=spec.dof in ANGULAR)
+    out += heading_unit_warnings(data.t_pos, data.position, _position_unit(spec),
+                                 names.get("position"), spec.dof)
     if spec.dof == "heave" and p.size:
         if np.mean(p < 0) >= 0.8 and np.median(p) < -0.05:
             out.append(f"depth {names.get('position')!r} is mostly negative (median "
                        f"{np.median(p):.3g} m): depth is positive down — if this is an altitude "
                        f"(up positive) negate it (-{names.get('position')})")
     return out
+
+
+#: the angle units a heading in radians can be mistaken for (the numbers as logged ÷ these = rad)
+_DEGREE_UNITS = {"deg": math.pi / 180, "degree": math.pi / 180, "degrees": math.pi / 180}
+
+
+def heading_unit_warnings(t, x, unit: str | None, name: str | None, dof: str) -> list[str]:
+    """An angle read in degrees whose numbers stay within ±2π and jump by ≈ 2π where they wrap is
+    a heading in radians (−π…π or 0…2π) read as degrees: 57× too small a motion, and each wrap a
+    6.28° "jump" (outliers, a nonsense drag) — one sentence.  ``x`` is in rad, as read."""
+    if dof not in ANGULAR or unit not in _DEGREE_UNITS:
+        return []
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    ok = np.isfinite(t) & np.isfinite(x)
+    t, raw = t[ok], x[ok] / _DEGREE_UNITS[unit]  # the numbers as logged
+    if raw.size < 10 or np.max(np.abs(raw)) > 2 * math.pi + 0.05 or np.ptp(raw) < math.pi:
+        return []
+    o = np.argsort(t, kind="stable")
+    t, raw = t[o], raw[o]
+    d = np.diff(raw)
+    wrap = (np.abs(d) > math.pi) & (np.abs(np.abs(d) - 2 * math.pi) < 1.0)
+    small = np.abs(d[~wrap])
+    if not wrap.any() or not small.size or float(np.percentile(small, 90)) > 0.5:
+        return []
+    k = int(np.flatnonzero(wrap)[0])
+    return [f"{dof} angle {name or 'position'!r} (read in {unit}) spans {raw.min():.3g}…"
+            f"{raw.max():.3g} and wraps at 2π ({int(wrap.sum())} jump(s) of ≈ ±6.28, first at t = "
+            f"{t[k + 1]:.6g} s: {raw[k]:.4g} → {raw[k + 1]:.4g}): radians? give --angle-unit rad "
+            "— read as degrees the motion is 57× too small and every wrap is a jump (outliers, "
+            "nonsense drag and η)"]
 
 
 def _finish(data: LogData, spec: LogSpec, names: dict, servo: bool = False) -> LogData:

@@ -403,6 +403,11 @@ def load_drag(source: str, dof: str, key: str | None = None, mode: str | None = 
         except (TypeError, ValueError):
             raise ValueError(f"--drag {p}: k and k_q must be numbers") from None
         cov = m.get("drag_covariance")
+        said = []
+        if m.get("k_q") is None:  # a linear drag file: the quadratic term is not "0 measured"
+            said.append(f"--drag {p.name}: k_q not given: 0 assumed (linear drag k = {k:.4g} "
+                        "only); give \"k_q\" (the JSON of `identify steady --json` has it) — "
+                        "the inertia follows the drag it is given")
         etas = m.get("eta") or {}
         ep = en = 1.0
         if mode is not None:
@@ -412,7 +417,7 @@ def load_drag(source: str, dof: str, key: str | None = None, mode: str | None = 
             ep = etas[mode].get("pos") or 1.0
             en = etas[mode].get("neg") or 1.0
         return {"k": k, "k_q": kq, "cov": cov, "w": float(m.get("disturbance", 0.0) or 0.0),
-                "eta": (float(ep), float(en)), "source": str(p), "key": None}
+                "eta": (float(ep), float(en)), "source": str(p), "key": None, "warnings": said}
     from uuvid.vehicle.definition import load_vehicle
 
     try:
@@ -861,6 +866,26 @@ def _check_steady_options(settle, min_duration, tol, rel_tol, threshold) -> None
             raise ValueError(f"`{name}=` {v:g}: expected {what}")
 
 
+def eta_warnings(parameters: dict, dof: str) -> list[str]:
+    """A negative installation coefficient η (``eta_*`` in ``parameters``: name → {estimate,
+    sigma}) is a thruster pushing backwards: a sign or unit slip (a heading in radians read as
+    degrees, a reversed command), not a coefficient that is merely "not significant"."""
+    out = []
+    for name, p in parameters.items():
+        if not name.startswith("eta_") or not p or p.get("estimate") is None:
+            continue
+        est, sig = float(p["estimate"]), p.get("sigma")
+        if not est < 0:
+            continue
+        sig_txt = f" ± {float(sig):.3g}" if sig is not None and np.isfinite(sig) else ""
+        out.append(f"implausible {dof} installation coefficient {name} = {est:.4g}{sig_txt} < 0: "
+                   "that mode's thrust would push the vehicle backwards (η is the fraction of "
+                   "the nominal thrust that acts, 0 < η ≲ 1) — check the sign of the command and "
+                   "of the position/heading channel, its unit (--angle-unit, --position-unit) "
+                   "and the mode mapping (--eta-map, --open-water-mode)")
+    return out
+
+
 def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
                     min_duration: float = 10.0, tol: float = 0.0, rel_tol: float = 0.02,
                     threshold: float = 3.5, eta_map: str | None = None,
@@ -893,7 +918,8 @@ def identify_steady(log, dof: str | None = None, *, settle: float = 10.0,
         raise ValueError(_msg(e)) from None
     res["notes"] = data.notes + res["notes"]
     doc = steady_document(res, dof, name, data)
-    doc["warnings"] = data.warnings + drag_warnings(doc["parameters"], dof)
+    doc["warnings"] = (data.warnings + drag_warnings(doc["parameters"], dof)
+                       + eta_warnings(doc["parameters"], dof))
     return SteadyIdentification(dof, name, data, res, doc)
 
 
@@ -1029,6 +1055,34 @@ def _drag(drag, dof: str, k, k_q, eta, mode, one_dof) -> dict:
     return dr
 
 
+#: a drag force this many times the largest command over most of a record is not this vehicle's
+DRAG_DOMINANCE = 100.0
+
+
+def drag_dominance_warnings(fit, data: LogData, drag: dict, dof: str) -> list[str]:
+    """The drag given, k·|ξ̇| + k_q·ξ̇², on the record's own velocities, exceeding the largest
+    |η·command| by :data:`DRAG_DOMINANCE` or more (90th percentile): the drag cannot be this
+    vehicle's (another DOF's, another unit, a typo) and the inertia only scales with it — said
+    instead of the "opposite signs" diagnosis a bad fit gets otherwise."""
+    v = np.asarray(fit.velocity, float)
+    v = np.abs(v[np.isfinite(v)])
+    c = np.asarray(data.command, float)
+    c = c[np.isfinite(c)]
+    if not v.size or not c.size:
+        return []
+    u = float(np.max(np.abs(c))) * max(1.0, *drag["eta"])
+    f = float(np.percentile(drag["k"] * v + drag["k_q"] * v * v, 90))
+    if u <= 0 or f < DRAG_DOMINANCE * u:
+        return []
+    unit = "N·m" if dof in ANGULAR else "N"
+    return [f"implausible drag for this record: k = {drag['k']:.4g}, k_q = {drag['k_q']:.4g} "
+            f"(from {drag['source']}) give a drag force of {f:.3g} {unit} or more 10 % of the "
+            f"time at the record's velocities, {f / u:.3g}× the largest command ({u:.3g} {unit}): "
+            "a drag that dominates the command by orders of magnitude is not this vehicle's "
+            "(another DOF's or unit's drag, a typo) — the inertia only scales with it; check "
+            "--drag / --k / --kq"]
+
+
 def identify_inertia(log, dof: str | None = None, *, drag=None, k: float | None = None,
                      k_q: float | None = None, eta=None, mode: str | None = None,
                      one_dof: str | None = None, window: int | None = None, order: int = 4,
@@ -1075,9 +1129,12 @@ def identify_inertia(log, dof: str | None = None, *, drag=None, k: float | None 
         raise ValueError(f"the regression is singular: {e}") from None
     res["notes"] = notes + res["notes"]
     doc = inertia_document(res, dof, name, dr, data)
-    doc["warnings"] = (data.warnings + inertia_warnings(res["fit"].mass, res["fit"].mass_stderr,
-                                                        dof, doc["mass"]["unit"])
-                       + fit_quality_warnings(res.get("fit_nrmse"), dof))
+    dominant = drag_dominance_warnings(res["fit"], data, dr, dof)
+    doc["warnings"] = data.warnings + list(dr.get("warnings") or []) + dominant
+    if not dominant:  # else their "opposite signs" diagnosis is wrong: the drag is
+        doc["warnings"] += (inertia_warnings(res["fit"].mass, res["fit"].mass_stderr, dof,
+                                             doc["mass"]["unit"])
+                            + fit_quality_warnings(res.get("fit_nrmse"), dof))
     validation = None
     if validation_log is not None:
         if res["model"] is None:
