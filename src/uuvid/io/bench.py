@@ -172,6 +172,9 @@ class BenchData:
     notes
         Sentences on how the file was read that the user should see (the unit of a column taken
         from its header when no unit was given).
+    warnings
+        Sentences on what the reader read past that the user must see (exact duplicate rows of a
+        steady sheet, dropped: :func:`duplicate_rows`).
     """
 
     command: np.ndarray
@@ -189,9 +192,12 @@ class BenchData:
     flow_speed_column: str | None = None
     #: how the file was read, said to the user (a unit taken from a column's header, …)
     notes: tuple[str, ...] = ()
+    #: what the reader found wrong but could read past (exact duplicate rows dropped, …)
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "notes", tuple(self.notes))
+        object.__setattr__(self, "warnings", tuple(self.warnings))
         if self.command_unit not in COMMAND_UNITS:
             raise BenchDataError(f"{self._where()}unknown command_unit {self.command_unit!r}; "
                                  f"expected one of {', '.join(COMMAND_UNITS)}")
@@ -747,10 +753,64 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         raise BenchDataError(f"{t.name}: column {ccol!r}: the command never leaves neutral "
                              f"({neutral_v:g} {command_unit}) in {cmd.size} rows — nothing to "
                              "identify (wrong column, or wrong neutral?)")
+    warns: list[str] = []
+    if time is None:  # a time series with a repeated row has a repeated stamp (refused above)
+        keep = duplicate_rows(t, warns)
+        if not keep.all():
+            cmd, censored = cmd[keep], censored[keep]
+            thrust, speed, current, flow = (None if a is None else a[keep]
+                                            for a in (thrust, speed, current, flow))
+            if np.ndim(sv) == 1:
+                sv = sv[keep]
     return BenchData(command=cmd, command_unit=command_unit, thrust=thrust, speed=speed,
                      current=current, supply_voltage=sv, time=time, source=t.name,
                      censored=censored, neutral=neutral_v, censor_speed=censor_speed,
-                     flow_speed=flow, flow_speed_column=fcol, notes=tuple(notes))
+                     flow_speed=flow, flow_speed_column=fcol, notes=tuple(notes),
+                     warnings=tuple(warns))
+
+
+def _row_ranges(rows) -> str:
+    """``[201, 202, 203, 250]`` (0-based) → ``'202–204, 251'`` (data rows, 1-based)."""
+    out, rows = [], [int(r) + 1 for r in rows]
+    i = 0
+    while i < len(rows):
+        j = i
+        while j + 1 < len(rows) and rows[j + 1] == rows[j] + 1:
+            j += 1
+        out.append(f"{rows[i]}" if i == j else f"{rows[i]}–{rows[j]}")
+        i = j + 1
+    return ", ".join(out)
+
+
+def duplicate_rows(t: _Table, warnings: list[str]) -> np.ndarray:
+    """The rows to keep: a steady sheet's row equal to an earlier one in every column is a copy
+    (a file pasted twice, a logger writing a line again), not a repeated measurement — kept, it
+    is counted as an independent repeat and a table's σ per entry is 0 (a fit's σ √2 too small).
+    Such rows are dropped, said in ``warnings`` naming them (a true repeat that matches to the
+    last digit, a zero at neutral, loses nothing but a σ of 0 it could not support)."""
+    n = t.n_rows
+    keep = np.ones(n, dtype=bool)
+    if n < 2:
+        return keep
+    rows = list(zip(*(t.cells[c] for c in t.columns)))
+    seen: dict = {}
+    pairs = []
+    for i, r in enumerate(rows):
+        key = tuple(str(v).strip() for v in r)
+        if key in seen:
+            keep[i] = False
+            pairs.append((i, seen[key]))
+        else:
+            seen[key] = i
+    if pairs:
+        dup, first = [p[0] for p in pairs], [p[1] for p in pairs]
+        warnings.append(
+            f"{t.name}: {len(pairs)} row(s) repeat an earlier row exactly in every column (data "
+            f"rows {_row_ranges(dup)} = rows {_row_ranges(first)}): a copy (the file pasted twice, "
+            "a line written again), not a repeated measurement — counted as one it would give "
+            "a σ of 0 (a table entry) or too small a σ; those rows are dropped, and σ comes from "
+            "the rows left (a real repeat differs in some digit)")
+    return keep
 
 
 def _check_command(t: _Table, col: str, cmd: np.ndarray, unit: str) -> None:
@@ -960,7 +1020,8 @@ def concat(sets: Sequence[BenchData]) -> BenchData:
                      flow_speed=cat("flow_speed"),
                      flow_speed_column=" / ".join(dict.fromkeys(
                          s.flow_speed_column for s in sets if s.flow_speed_column)) or None,
-                     notes=tuple(n for s in sets for n in s.notes))
+                     notes=tuple(n for s in sets for n in s.notes),
+                     warnings=tuple(w for s in sets for w in s.warnings))
 
 
 __all__ = ["BenchData", "BenchDataError", "read_bench", "read_t200", "require_samples", "concat",
