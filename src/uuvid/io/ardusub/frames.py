@@ -20,6 +20,7 @@ pitch, yaw]`` (ArduSub's throttle is positive up; its roll, pitch and yaw follow
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -123,7 +124,7 @@ class VehicleConfig:
     motors: tuple[Motor, ...]
     pwm_min: float
     pwm_max: float
-    baro_primary: int
+    baro_primary: int | None  # None: the log's BARO_PRIMARY is no barometer instance
     notes: tuple[str, ...] = ()
     params_used: Mapping[str, float] = field(default_factory=dict)
     disabled_outputs: tuple[int, ...] = ()  # outputs 1…8 with no function / only 0 µs
@@ -139,7 +140,10 @@ class VehicleConfig:
 
     def summary(self) -> str:
         lines = [f"FRAME_CONFIG = {self.frame} ({self.frame_name}); MOT_PWM_MIN/MAX = "
-                 f"{self.pwm_min:g}/{self.pwm_max:g} µs; BARO_PRIMARY = {self.baro_primary}"]
+                 f"{self.pwm_min:g}/{self.pwm_max:g} µs; BARO_PRIMARY = "
+                 + (f"{self.baro_primary}" if self.baro_primary is not None else
+                    f"{self.params_used.get('BARO_PRIMARY', float('nan')):g} (no barometer "
+                    "instance)")]
         for m in self.motors:
             out = f"SERVO{m.output}" if m.output else "no output"
             sgn = "reversed (-1)" if m.direction < 0 else "normal (+1)"
@@ -206,9 +210,12 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
         notes.append("BARO_PRIMARY not in the log: barometer instance 0 assumed primary")
         baro = 0.0
     elif baro not in (0.0, 1.0, 2.0):
-        notes.append(f"BARO_PRIMARY = {baro:g} is no barometer instance (0, 1 or 2): instance 0 "
-                     "assumed primary — check the parameter")
-        baro = 0.0
+        # as BARO_PRIMARY = 2 on a vehicle without a third barometer: no BARO instance is read as
+        # the depth sensor (ArduPilot then picks a healthy barometer itself — often instance 0,
+        # the enclosure); the depth source (sources._depth) says which stands in, with a warning
+        notes.append(f"BARO_PRIMARY = {baro:g} is no barometer instance (0, 1 or 2): no "
+                     "barometer is taken as the depth sensor — check the parameter")
+        baro = None
     # output → motor from SERVOn_FUNCTION
     motor_out: dict[int, list[int]] = {}
     for key, val in params.items():
@@ -258,8 +265,35 @@ def config_from_params(params: Mapping[str, float], *, name: str = "log",
     off = tuple(k for k in range(1, 9) if k not in assigned and (
         params.get(f"SERVO{k}_FUNCTION", 1) == 0
         or (outputs_seen is not None and not outputs_seen.get(k, False))))
-    return VehicleConfig(frame, frame_name, tuple(motors), pmin, pmax, int(round(baro)),
+    return VehicleConfig(frame, frame_name, tuple(motors), pmin, pmax,
+                         None if baro is None else int(baro),
                          tuple(notes), used, off)
+
+
+_MOT_DIRECTION = re.compile(r"MOT_\d+_DIRECTION")
+
+
+def invalid_param(name: str, value: float, text: str | None = None) -> str:
+    """Why a parameter value the user gave cannot be ArduSub's (``""`` if it can): BARO_PRIMARY
+    names a barometer instance (an integer 0, 1 or 2), MOT_n_DIRECTION is -1 or 1.  A value a
+    log holds is not checked here (the reader falls back and warns instead)."""
+    shown = text if text is not None else f"{value:g}"
+    if name == "BARO_PRIMARY" and value not in (0.0, 1.0, 2.0):
+        return (f"BARO_PRIMARY = {shown} is not a barometer instance; ArduSub allows 0, 1 or 2 "
+                "(the barometer depth is read from)")
+    if _MOT_DIRECTION.fullmatch(name) and value not in (1.0, -1.0):
+        return (f"{name} = {shown} is not a motor direction; ArduSub allows 1 (normal) or -1 "
+                "(reversed)")
+    return ""
+
+
+def check_given_params(params: Mapping[str, float], where: str) -> None:
+    """Raise :class:`LogDataError` for a given (not logged) parameter ArduSub would not accept
+    (see :func:`invalid_param`)."""
+    for k, v in params.items():
+        bad = invalid_param(k, float(v))
+        if bad:
+            raise LogDataError(f"{where}: {bad}")
 
 
 def read_param_file(path) -> dict[str, float]:
@@ -285,6 +319,9 @@ def read_param_file(path) -> dict[str, float]:
         except (IndexError, ValueError):
             raise LogDataError(f"{p.name}: line {i}: expected 'NAME value' (or QGroundControl's "
                                f"'sys comp NAME value type'), got {line!r}") from None
+        bad = invalid_param(f[0], out[f[0]], f[1])
+        if bad:
+            raise LogDataError(f"{p.name}: line {i}: {bad}")
     if not out:
         raise LogDataError(f"{p.name}: no parameters in the file")
     return out

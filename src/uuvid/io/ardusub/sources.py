@@ -93,9 +93,13 @@ def merge_params(from_log: dict, given, warnings: list) -> dict:
     """The log's parameters, overridden by ``given`` (mapping or parameter file)."""
     if given is None:
         return dict(from_log)
-    from uuvid.io.ardusub.frames import read_param_file
+    from uuvid.io.ardusub.frames import check_given_params, read_param_file
 
-    extra = dict(given) if isinstance(given, dict) else read_param_file(given)
+    if isinstance(given, dict):  # a file is checked line by line as it is read
+        extra = dict(given)
+        check_given_params(extra, "the given parameters")
+    else:
+        extra = read_param_file(given)
     diff = [k for k in extra if relevant_param(k) and k in from_log and from_log[k] != extra[k]]
     if diff:
         warnings.append("given parameters override the log's: " + ", ".join(
@@ -109,12 +113,27 @@ def _constant(ch: _Channel) -> bool:
 
 # ------------------------------------------------------------------------------------ sources
 def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_Channel, dict]:
-    """Depth [m, positive down] and why that source (see the module doc of :mod:`.dive`)."""
+    """Depth [m, positive down] and why that source (see the module doc of :mod:`.dive`).  A
+    logged BARO_PRIMARY that is no barometer instance (``config.baro_primary`` None) is treated
+    as instance 2 on a vehicle with two barometers: no BARO instance is read (it would not be
+    the water-pressure sensor the parameter was meant to name), the autopilot's own estimate
+    stands in (CTUN.BAlt; telemetry: GLOBAL_POSITION_INT), with a warning."""
+    bad_primary = config is not None and config.baro_primary is None
+    if bad_primary:
+        value = config.params_used.get("BARO_PRIMARY", float("nan"))
+        warnings.append(f"the log's BARO_PRIMARY = {value:g} is no barometer instance (0, 1 or "
+                        "2): no barometer is read as the water-pressure sensor; depth from the "
+                        "autopilot's own altitude estimate instead, if logged (see the depth "
+                        "source) — check the "
+                        "parameter, or give --params with BARO_PRIMARY")
     if raw.format == "dataflash":
         primary = config.baro_primary if config else 0
         baro = raw.get("BARO")
         tried = []
-        if baro is not None and not ({"I", "Instance"} & set(baro.values)) and primary > 0:
+        if bad_primary:
+            tried.append(f"BARO_PRIMARY = {value:g} is no barometer instance (0, 1 or 2)")
+            baro = None
+        elif baro is not None and not ({"I", "Instance"} & set(baro.values)) and primary > 0:
             # firmware before multi-instance BARO logged the 2nd/3rd barometer as BAR2/BAR3
             alt = raw.get(f"BAR{primary + 1}")
             if alt is not None and "Alt" in alt.values:
@@ -146,7 +165,7 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                              f"BARO[{primary}] has no samples")
             else:
                 tried.append(f"BARO has no instance {primary} (BARO_PRIMARY); instances {insts}")
-        else:
+        elif not bad_primary:
             tried.append("no BARO messages")
         ctun = raw.get("CTUN")
         for fld in ("BAlt", "Alt"):
@@ -198,6 +217,10 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                      "ekf_origin": origin, "vfr_hud_alt_constant": False}
     tried.append("VFR_HUD.alt is absent or constant" if vfr is None or vfr_const else "")
     primary = config.baro_primary if config else 0
+    if primary is None:
+        raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(t for t in tried if t)}; "
+                           f"BARO_PRIMARY = {value:g} names no barometer whose pressure to read "
+                           "(give --params with BARO_PRIMARY)")
     msg = "SCALED_PRESSURE" + ("" if primary == 0 else str(primary + 1))
     sp = raw.get(msg)
     if sp is not None and "press_abs" in sp.values:
@@ -224,7 +247,7 @@ def _tlog_pressure_depth(raw: RawLog, config: VehicleConfig | None,
     water-pressure sensor ArduSub computes depth from), relative to its calibrated ground
     pressure ``BARO{n+1}_GND_PRESS`` (else the lowest pressure in the log, warned); ``None`` when
     the log does not name BARO_PRIMARY or has no varying pressure of that barometer."""
-    if config is None or "BARO_PRIMARY" not in config.params_used:
+    if config is None or "BARO_PRIMARY" not in config.params_used or config.baro_primary is None:
         return None
     primary = config.baro_primary
     msg = "SCALED_PRESSURE" + ("" if primary == 0 else str(primary + 1))

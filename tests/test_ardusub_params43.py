@@ -1,0 +1,113 @@
+"""Issue 43 (a new user's report on ``uuvid log``): parameter values ArduSub does not accept
+(BARO_PRIMARY that names no barometer, MOT_n_DIRECTION other than ±1) taken silently; thrust from
+PWM at a voltage outside the thruster data without a warning; inspect and export disagreeing on
+the mode spans.  Synthetic logs from test_ardusub's writers; the real small.BIN/.tlog checks skip
+when ../shared/data is absent."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pymavlink")
+
+from test_ardusub import params, scenario, write_bin  # noqa: E402
+from typer.testing import CliRunner  # noqa: E402
+
+from uuvid.cli.app import app  # noqa: E402
+from uuvid.io.ardusub import load_dive  # noqa: E402
+from uuvid.io.ardusub.frames import config_from_params, read_param_file  # noqa: E402
+from uuvid.io.logs import LogDataError  # noqa: E402
+
+REAL = "ardusub-bluerov2"
+
+
+# ============================================================ 1, 2: given parameters are checked
+@pytest.mark.parametrize("value", ["3", "-1", "1.5"])
+def test_given_baro_primary_not_an_instance_is_an_error(tmp_path, value):
+    f = tmp_path / "baro.param"
+    f.write_text(f"FRAME_CONFIG 1\nBARO_PRIMARY {value}\n")
+    with pytest.raises(LogDataError, match=rf"baro\.param: line 2: BARO_PRIMARY = {value} .*0, 1 or 2"):
+        read_param_file(f)
+    for ok in ("0", "1", "2"):
+        f.write_text(f"BARO_PRIMARY {ok}\n")
+        assert read_param_file(f) == {"BARO_PRIMARY": float(ok)}
+
+
+@pytest.mark.parametrize("text, line, name, value", [
+    ("MOT_1_DIRECTION 0\nMOT_2_DIRECTION -5\n", 1, "MOT_1_DIRECTION", "0"),
+    ("MOT_1_DIRECTION 1\nMOT_2_DIRECTION,-5\n", 2, "MOT_2_DIRECTION", "-5"),
+    ("1\t1\tMOT_4_DIRECTION\t-1\t9\n1\t1\tMOT_5_DIRECTION\t0.5\t9\n", 2, "MOT_5_DIRECTION", "0.5"),
+])
+def test_given_motor_direction_not_plus_minus_one_is_an_error(tmp_path, text, line, name, value):
+    f = tmp_path / "dir.param"
+    f.write_text(text)
+    with pytest.raises(LogDataError, match=rf"dir\.param: line {line}: {name} = {value} .*1 .*-1"):
+        read_param_file(f)
+
+
+def test_given_dict_parameters_are_checked_too(tmp_path):
+    sc = scenario(n=60)
+    p = write_bin(tmp_path / "d.BIN", sc)
+    with pytest.raises(LogDataError, match=r"BARO_PRIMARY = 3 .*0, 1 or 2"):
+        load_dive(p, params={"BARO_PRIMARY": 3})
+    with pytest.raises(LogDataError, match=r"MOT_2_DIRECTION = -5 .*-1"):
+        load_dive(p, params={"MOT_2_DIRECTION": -5})
+
+
+def test_export_and_identify_dive_refuse_a_bad_params_file(tmp_path):
+    sc = scenario(n=60)
+    p = write_bin(tmp_path / "d.BIN", sc)
+    bad = tmp_path / "dir.param"
+    bad.write_text("MOT_1_DIRECTION 0\n")
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--params", str(bad),
+                                 "--out-file", str(tmp_path / "x.csv")])
+    assert r.exit_code != 0 and "dir.param: line 1: MOT_1_DIRECTION = 0" in r.output
+    assert not (tmp_path / "x.csv").exists()
+    # identify dive reads a table's --params through the same parser
+    from uuvid.io.dive_channels import read_dive_channels
+
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "ok.csv")])
+    assert r.exit_code == 0, r.output
+    with pytest.raises(LogDataError, match=r"dir\.param: line 1: MOT_1_DIRECTION = 0"):
+        read_dive_channels(tmp_path / "ok.csv", params=bad)
+
+
+# ============================================== 1: a logged BARO_PRIMARY that names no barometer
+def test_logged_baro_primary_not_an_instance_is_not_read_as_instance_0(tmp_path):
+    sc = scenario(n=60)
+    cfg = config_from_params(params(baro_primary=3))
+    assert cfg.baro_primary is None
+    assert "BARO_PRIMARY = 3 (no barometer instance)" in cfg.summary()
+    # the synthetic log has no CTUN: as with BARO_PRIMARY = 2, no depth rather than the enclosure's
+    d = load_dive(write_bin(tmp_path / "d.BIN", sc, prm=params(baro_primary=3)))
+    assert d.table["depth_m"].isna().all()
+    assert "BARO_PRIMARY = 3 is no barometer instance" in d.depth_source["why"]
+    assert any(w.startswith("the log's BARO_PRIMARY = 3 is no barometer instance") for w in d.warnings)
+
+
+@pytest.mark.realdata
+def test_real_small_bin_logged_bad_baro_primary_falls_back_to_ctun(shared_data):
+    from uuvid.io.ardusub.reader import read_raw
+    from uuvid.io.ardusub.sources import _depth
+
+    raw = read_raw(shared_data / REAL / "small.BIN")
+    prm = dict(raw.param_values()[0])
+    for bad in (3, -1, 1.5):
+        prm["BARO_PRIMARY"] = bad
+        warnings: list = []
+        ch, src = _depth(raw, config_from_params(prm), warnings)
+        assert src["message"] == "CTUN", src
+        assert "water-pressure sensor" not in src["why"]
+        assert any("BARO_PRIMARY" in w and "no barometer instance" in w for w in warnings)
+        assert abs(float(np.mean(ch.v))) < 0.5  # on deck; instance 0 (the enclosure) reads 9.7 m
+
+
+@pytest.mark.realdata
+def test_real_small_bin_given_bad_baro_primary_is_an_error(shared_data, tmp_path):
+    f = tmp_path / "baro3.param"
+    f.write_text("BARO_PRIMARY 3\n")
+    r = CliRunner().invoke(app, ["log", "export", str(shared_data / REAL / "small.BIN"), "--params",
+                                 str(f), "--out-file", str(tmp_path / "b.csv")])
+    assert r.exit_code != 0
+    assert "baro3.param: line 1: BARO_PRIMARY = 3" in r.output and "0, 1 or 2" in r.output
