@@ -111,3 +111,50 @@ def test_real_small_bin_given_bad_baro_primary_is_an_error(shared_data, tmp_path
                                  str(f), "--out-file", str(tmp_path / "b.csv")])
     assert r.exit_code != 0
     assert "baro3.param: line 1: BARO_PRIMARY = 3" in r.output and "0, 1 or 2" in r.output
+
+
+# ======================================== 3: thrust from PWM outside the thruster data's voltage
+def test_thrust_warnings_voltage_outside_the_t200_sheets():
+    from uuvid.io.ardusub.thrust import default_t200, thrust_warnings
+
+    tm = default_t200()
+    t = np.arange(10.0)
+    assert thrust_warnings(tm, np.full(10, 15.0), t) == []  # inside 12–16 V (and its 5 %)
+    v = np.where(t >= 6, 17.4, 15.0)
+    w = thrust_warnings(tm, v, t)
+    assert len(w) == 1
+    assert "17.40–17.40 V on 4 of 10 rows (t = 6.0–9.0 s)" in w[0]
+    assert "outside the data's 12–16 V (Blue Robotics' T200 sheets)" in w[0]  # predict's sentence
+
+
+def test_thrust_warnings_laidani_above_its_bench_voltage_and_falling():
+    from uuvid.io.ardusub.thrust import load_thrust_model, thrust_warnings
+
+    w = thrust_warnings(load_thrust_model("laidani-a2212"), np.full(5, 16.2))
+    assert any("outside the data's 12 V" in s for s in w)
+    assert any("at 16.20 V" in s and "forward: the steady output falls" in s for s in w)
+    # at its bench's 12 V: no voltage warning (its map past 1780 µs falls there too, as predict says)
+    w12 = thrust_warnings(load_thrust_model("laidani-a2212"), np.full(5, 12.0))
+    assert not any("outside the data" in s for s in w12)
+
+
+def test_load_dive_warns_thrust_at_a_voltage_outside_the_data(tmp_path):
+    sc = scenario(n=60)
+    assert not any("thrust from pwm" in w for w in load_dive(write_bin(tmp_path / "a.BIN", sc)).warnings)
+    sc["volts"] = sc["volts"] + 1.0  # 17.4 V: above the T200 sheets and a 4S pack's 16.8 V
+    d = load_dive(write_bin(tmp_path / "b.BIN", sc))
+    w = [s for s in d.warnings if s.startswith("thrust from pwm (t200-physical): battery_V")]
+    assert len(w) == 1 and "outside the data's 12–16 V" in w[0] and f"of {len(d.table)} rows" in w[0]
+
+
+@pytest.mark.realdata
+def test_real_small_bin_export_warns_the_voltage_in_the_sidecar(shared_data, tmp_path):
+    import json
+
+    out = tmp_path / "a.csv"
+    r = CliRunner().invoke(app, ["log", "export", str(shared_data / REAL / "small.BIN"),
+                                 "--out-file", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "battery_V 17.35–17.40 V on 236 of 236 rows" in r.output
+    side = json.loads((tmp_path / "a.csv.json").read_text())
+    assert any("outside the data's 12–16 V" in w for w in side["warnings"])

@@ -559,7 +559,11 @@ def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
 
 
 def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
-    """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows)."""
+    """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows).  Warned:
+    rows whose voltage the thruster model's data do not cover, a map that falls with a growing
+    command at the logged voltage (:func:`.thrust.thrust_warnings`)."""
+    from uuvid.io.ardusub.thrust import thrust_warnings
+
     volts = cols["battery_V"]
     if not tm.voltage_aware:
         span = (f" (the log's battery spans {np.nanmin(volts):.2f}–{np.nanmax(volts):.2f} V)"
@@ -587,6 +591,8 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
         # 0 µs is "no pulse" (output off), not full reverse
         T[j] = np.where(pwm > 0, tm.thrust(effective_pwm(pwm, m.direction), volts),
                         np.where(np.isfinite(pwm), 0.0, np.nan))  # NaN: a gap in the PWM
+    if config.active:
+        warnings.extend(thrust_warnings(tm, volts, cols["t_s"], config.pwm_min, config.pwm_max))
     for j, m in enumerate(config.active):
         cols[f"thrust_{m.number}_N"] = T[j]
         prov[f"thrust_{m.number}_N"] = {

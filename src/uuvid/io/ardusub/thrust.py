@@ -33,6 +33,8 @@ class ThrustModel:
     _fn: object
     voltage: str = "logged battery voltage (the model takes the supply voltage directly)"
     _speed_fn: object = None
+    # volts → [sentence] when the model's data do not cover that supply voltage (None: unknown)
+    _volt_check: object = None
 
     def thrust(self, pwm, volts) -> np.ndarray:
         return np.asarray(self._fn(np.asarray(pwm, float), np.asarray(volts, float)), float)
@@ -71,7 +73,59 @@ def _physical_from_yaml(path: Path):
         raise LogDataError(f"{path.name}: base.physical_model: {e}") from None
 
 
-def _physical(model, name: str, source: str) -> ThrustModel:
+def _preset_voltage_check(ref: str, chain=None):
+    """``volts → [sentence]``: :func:`uuvid.thruster.resolve.supply_voltage_warnings` of the
+    preset or chain ``ref`` (the check `uuvid thruster predict` says)."""
+    from uuvid.thruster.resolve import resolve_chain, supply_voltage_warnings
+
+    held = {}
+
+    def check(volts: float) -> list[str]:
+        if "chain" not in held:
+            held["chain"] = chain if chain is not None else resolve_chain(ref)
+        return supply_voltage_warnings(ref, held["chain"], float(volts))
+
+    return check
+
+
+def thrust_warnings(tm: ThrustModel, volts, t=None, pwm_min: float = 1100.0,
+                    pwm_max: float = 1900.0, neutral: float = 1500.0, what: str = "battery_V",
+                    ) -> list[str]:
+    """What the thrust ``tm`` gives at the logged voltages ``volts`` (one per row, at times ``t``
+    [s]) rests on: the rows whose voltage lies outside the model's data (its preset's check,
+    :func:`uuvid.thruster.resolve.supply_voltage_warnings`, naming those rows, their time span
+    and the voltages seen) and a map whose thrust falls with a growing command at the lowest or
+    highest logged voltage (:func:`uuvid.thruster.chain.monotonicity_warnings`)."""
+    from uuvid.thruster.chain import monotonicity_warnings
+
+    v = np.asarray(volts, float)
+    ok = np.isfinite(v) & (v > 0)
+    if not tm.voltage_aware or not ok.any():
+        return []
+    out = []
+    t = np.arange(v.size, dtype=float) if t is None else np.asarray(t, float)
+    if tm._volt_check is not None:
+        keys = np.round(v, 2)
+        bad = [x for x in np.unique(keys[ok]).tolist() if tm._volt_check(x)]
+        sel = ok & np.isin(keys, bad)
+        if sel.any():
+            lo, hi = float(v[sel].min()), float(v[sel].max())
+            said = tm._volt_check(round(hi, 2)) or tm._volt_check(round(lo, 2))
+            out.append(f"thrust from pwm ({tm.name}): {what} {lo:.2f}–{hi:.2f} V on "
+                       f"{np.count_nonzero(sel)} of {v.size} rows (t = {t[sel].min():.1f}–"
+                       f"{t[sel].max():.1f} s): " + said[0])
+    x = np.linspace(pwm_min, pwm_max, 81)
+    for volt in sorted({float(v[ok].min()), float(v[ok].max())}, reverse=True):  # falls first
+        falls = monotonicity_warnings(x, tm.thrust(x, np.full(x.size, volt)), neutral=neutral)
+        if falls:
+            out.append(f"thrust from pwm ({tm.name}) at {volt:.2f} V (the log's "
+                       f"{'lowest' if volt == float(v[ok].min()) else 'highest'} {what}): "
+                       + "; ".join(falls))
+            break
+    return out
+
+
+def _physical(model, name: str, source: str, volt_check=None) -> ThrustModel:
     def of(what):
         def fn(pwm, volts):
             pwm, volts = np.broadcast_arrays(pwm, volts)
@@ -83,7 +137,8 @@ def _physical(model, name: str, source: str) -> ThrustModel:
 
         return fn
 
-    return ThrustModel(name, source, True, of("thrust"), _speed_fn=of("speed"))
+    return ThrustModel(name, source, True, of("thrust"), _speed_fn=of("speed"),
+                       _volt_check=volt_check)
 
 
 def default_t200() -> ThrustModel:
@@ -91,7 +146,7 @@ def default_t200() -> ThrustModel:
     m = _physical_from_yaml(T200_MODEL_FILE)
     return _physical(m, "t200-physical", "Blue Robotics T200 sheets (12 V, 16 V, 2019), fitted by "
                      "uuvid.uncertainty.identified.make_t200_physical; uuvid/thruster/data/"
-                     "t200-physical.yaml")
+                     "t200-physical.yaml", _preset_voltage_check("t200-physical"))
 
 
 def load_thrust_model(path) -> ThrustModel:
@@ -166,4 +221,5 @@ def load_thrust_model(path) -> ThrustModel:
                            "none: the chain has no ESC block (its thrust does not depend on the "
                            "supply voltage in the model), so thrust ignores the logged voltage")
     return ThrustModel(chain.name or p.stem, source, True, fn,
-                       f"logged battery voltage (0.05 V steps): {law[1]}")
+                       f"logged battery voltage (0.05 V steps): {law[1]}",
+                       _volt_check=_preset_voltage_check(str(path), chain))
