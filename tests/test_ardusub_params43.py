@@ -158,3 +158,39 @@ def test_real_small_bin_export_warns_the_voltage_in_the_sidecar(shared_data, tmp
     assert "battery_V 17.35–17.40 V on 236 of 236 rows" in r.output
     side = json.loads((tmp_path / "a.csv.json").read_text())
     assert any("outside the data's 12–16 V" in w for w in side["warnings"])
+
+
+# ========================================== 4: inspect and export say the same mode/arming spans
+def _spans(modes):
+    return [(m["mode"], m["armed"], f"{m['start_s']:.1f}", f"{m['end_s']:.1f}") for m in modes]
+
+
+def test_inspect_and_export_mode_spans_agree_synthetic(tmp_path):
+    """Export's spans ended at a run's last row (armed 0.0–1.9 s, disarmed from 2.0 s), inspect's at
+    the event (2.0 s): both now tile the time axis, export's from row to row."""
+    from uuvid.io.ardusub import inspect_log
+
+    p = write_bin(tmp_path / "d.BIN", scenario(n=500))
+    ins, d = inspect_log(p), load_dive(p)
+    assert _spans(ins.modes) == _spans(d.modes)
+    assert [s[:2] for s in _spans(d.modes)] == [("MANUAL", False), ("MANUAL", True),
+                                                 ("ALT_HOLD", True), ("MANUAL", True)]
+    assert d.modes[0]["last_row_s"] == pytest.approx(1.9)  # the run's last row is still said
+    for a, b in zip(d.modes, d.modes[1:]):
+        assert a["end_s"] == b["start_s"]
+
+
+@pytest.mark.realdata
+def test_real_small_bin_inspect_and_export_mode_spans_agree(shared_data, tmp_path):
+    """small.BIN: inspect said "-0.1 – 8.7 s MANUAL, armed" (its first message, 0.085 s before
+    export's first row, and the disarm event at 8.696 s), export "MANUAL armed 0.0–8.6 s" (its
+    last armed row)."""
+    from uuvid.io.ardusub import inspect_log
+
+    p = shared_data / REAL / "small.BIN"
+    ins, d = inspect_log(p), load_dive(p)
+    assert _spans(ins.modes) == _spans(d.modes) == [("MANUAL", True, "0.0", "8.7"),
+                                                     ("MANUAL", False, "8.7", "23.6")]
+    assert "0.085 s before export's first row" in ins.summary()
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "m.csv")])
+    assert "modes: MANUAL armed 0.0–8.7 s; MANUAL disarmed 8.7–23.6 s" in r.output

@@ -603,7 +603,12 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
 
 
 def _segments(df) -> list[dict]:
-    """Runs of equal (mode, armed, part) as ``{start_s, end_s, mode, armed, part}``."""
+    """Runs of equal (mode, armed, part) as ``{start_s, end_s, mode, armed, part, last_row_s}``:
+    a run spans from its first row to the next run's first row (the first time the new state is
+    seen; the change happened in between) and the last one to its last row + the row step — the
+    intervals tile the rows, as :func:`~uuvid.io.ardusub.inspect.inspect_log`'s tile the log's
+    events (``log inspect`` and ``log export`` then say the same spans); ``last_row_s`` is the
+    run's last row."""
     import pandas as pd
 
     t = df["t_s"].to_numpy(float)
@@ -614,9 +619,12 @@ def _segments(df) -> list[dict]:
                                             part.tolist()))))[0]
     starts = np.flatnonzero(np.concatenate(([True], np.diff(codes) != 0)))
     ends = np.concatenate((starts[1:] - 1, [t.size - 1]))
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     out = []
     for a, b in zip(starts, ends):
         arm = df["armed"].iloc[a]
-        out.append({"start_s": float(t[a]), "end_s": float(t[b]), "mode": str(df["mode"].iloc[a]),
-                    "armed": None if arm is pd.NA else bool(arm), "part": int(part[a])})
+        end = float(t[b + 1]) if b + 1 < t.size else float(t[b]) + step
+        out.append({"start_s": float(t[a]), "end_s": end, "mode": str(df["mode"].iloc[a]),
+                    "armed": None if arm is pd.NA else bool(arm), "part": int(part[a]),
+                    "last_row_s": float(t[b])})
     return out

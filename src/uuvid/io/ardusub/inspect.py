@@ -40,6 +40,8 @@ class LogInspection(Result):
     #: the log can be exported), and what it is
     t0_boot_s: float = 0.0
     time_origin: str = "the autopilot's first message"
+    #: how long [s] the log's messages run before export's first row (its modes start at 0 then)
+    before_first_row_s: float = 0.0
 
     def summary(self) -> str:
         L = [f"{self.path.name}: {self.format}, {self.duration_s:.1f} s"
@@ -61,6 +63,9 @@ class LogInspection(Result):
             L.append(f"depth source: {self.depth_source['source']} — {self.depth_source['why']}")
         L.append(f"modes and arming (t [s] from {self.time_origin}; t = 0 at autopilot clock "
                  f"{self.t0_boot_s:.3f} s):")
+        if self.before_first_row_s > 0:
+            L.append(f"  (the log's messages begin {self.before_first_row_s:.3f} s before export's "
+                     "first row; the spans start at its t = 0, as export's)")
         for m in self.modes:
             arm = {True: "armed", False: "disarmed", None: "arming unknown"}[m["armed"]]
             L.append(f"  {m['start_s']:8.1f} – {m['end_s']:8.1f} s  {m['mode']}, {arm}"
@@ -178,13 +183,18 @@ def inspect_log(path, params=None) -> LogInspection:
                     starts[int(k)] = min(starts.get(int(k), math.inf), float(tk.min()) - t0)
     modes = _intervals(mode_ch, arm_ch, t0, float(tt.max() - t0) if tt.size else 0.0, starts,
                        start=(float(tt.min()) - t0) if tt.size else 0.0)
+    before = 0.0
+    if origin.startswith("`log export`") and modes and modes[0]["start_s"] < 0:
+        # export has no rows before its t = 0: its spans (and these) start there
+        before = -modes[0]["start_s"]
+        modes = [{**m, "start_s": max(m["start_s"], 0.0)} for m in modes if m["end_s"] > 0]
     used |= {c.source for c in (mode_ch, arm_ch) if c is not None}
     dups = {k: v for k, v in raw.duplicates.items() if k in used}
     if dups:
         warnings.append("duplicated time stamps merged: "
                         + ", ".join(f"{k}: {v}" for k, v in dups.items()))
     return LogInspection(raw.path, raw.format, duration, senders, msgs, config, err, dsrc, modes,
-                         warnings, raw.parts, t0, origin)
+                         warnings, raw.parts, t0, origin, before)
 
 
 def _origin(raw, params: dict, first: float) -> tuple[float, str]:
