@@ -45,7 +45,8 @@ from uuvid.simulate.dive_horizontal import (
 )
 
 __all__ = ["OneDofParams", "DiveReplay", "replay_dive", "dive_windows", "WindowProblem",
-           "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON", "RK4_LIMIT"]
+           "params_from_vehicle", "CHANNEL_NAMES", "DEFAULT_HORIZON", "RK4_LIMIT",
+           "check_state_span"]
 
 CHANNEL_NAMES = {"heave": "depth", "yaw": "heading", "surge": "u", "sway": "v"}
 UNITS = {"heave": "m", "yaw": "rad", "surge": "m/s", "sway": "m/s"}
@@ -331,6 +332,34 @@ RK4_LIMIT = 2.785  # −z where RK4's amplification 1 + z + z²/2 + z³/6 + z⁴
 _STATE_SPAN = {"heave": 2.0, "yaw": 0.5, "surge": 1.0, "sway": 1.0}  # initial-state fit [s]
 
 
+def check_state_span(dc, dof: str, horizon: float, name: str = "horizon") -> None:
+    """``DiveDataError`` when ``horizon`` s is no longer than the span that fits each window's
+    initial state (:data:`_STATE_SPAN`; the coupled horizontal model's ``H_STATE_SPAN``): no
+    sample after it would be left to score (the replay printed ``rms nan`` over 0 samples, and
+    identify called every model "not finite").  Says the horizon that leaves
+    :data:`WINDOW_SAMPLES` samples of the slowest measured channel to score."""
+    from uuvid.simulate.dive_horizontal import H_STATE_SPAN
+
+    span = H_STATE_SPAN if dof == "horizontal" else _STATE_SPAN.get(dof)
+    if span is None or horizon > span + 1e-9:
+        return
+    meas = list(H_MEAS) if dof == "horizontal" else [DIVE_DOFS[dof][0]]
+    steps = []
+    for c in meas:
+        t = dc.channels[c][0] if c in dc.channels else np.empty(0)
+        d = np.diff(t)
+        d = d[d > 0]
+        if d.size:
+            steps.append(float(np.median(d)))
+    need = span + WINDOW_SAMPLES * max(steps) if steps else None
+    raise DiveDataError(
+        f"{dof}: {arg_is(name, f'{horizon:g}')} s must exceed the {span:g} s used to fit each "
+        "window's initial state: no sample after it is left to score"
+        + (f"; give at least {need:.2g} s ({WINDOW_SAMPLES} samples of "
+           f"{meas[int(np.argmax(steps))]} after the {span:g} s) — the default is "
+           f"{DEFAULT_HORIZON[dof]:g} s" if need is not None else ""))
+
+
 def initial_state(prob, theta, span: float):
     """``(y0, v0, scored)``: each window's initial state fitted (Gauss–Newton, model fixed) to the
     samples of its first ``span`` seconds — the measured state, read through the model as a
@@ -522,6 +551,9 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
     warnings, failed = list(dc.warnings), []
     if every and all_left_out(dc):
         notes.append(all_left_out(dc))
+    if horizon is not None:
+        for dof in dofs:
+            check_state_span(dc, dof, float(horizon))
     for dof in dofs:
         H = float(horizon or DEFAULT_HORIZON[dof])
         hz[dof] = H

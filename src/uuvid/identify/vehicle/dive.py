@@ -98,6 +98,7 @@ from uuvid.simulate.dive_replay import (
     _dof_list,
     _is_all,
     all_left_out,
+    check_state_span,
     dive_windows,
     initial_state,
     params_from_vehicle,
@@ -930,6 +931,11 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
     # is said in the warnings and the others are returned
     every = _is_all(dofs)
     dofs = _dof_list(dofs, dc)
+    for dof in dofs:  # a horizon within the initial-state span scores nothing: an error
+        if horizon is not None:
+            check_state_span(dc, dof, float(horizon))
+        if held_out_horizon is not None and t_end is not None:
+            check_state_span(dc, dof, float(held_out_horizon), "held_out_horizon")
     ests = {}
     flags = _flags(dc, veh, thruster_model)
     warnings = list(dc.warnings) + _pwm_notes(dc, t_start, t_end, flags)
