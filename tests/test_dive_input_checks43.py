@@ -57,3 +57,36 @@ def test_identify_cli_horizon_within_state_span_exits_2(dive_csv, tmp_path):
 def test_identify_api_horizon_within_state_span_is_a_value_error(table):
     with pytest.raises(ValueError, match="initial state"):
         identify_dive(table, "bluerov2", ["heave"], horizon=1.5)
+
+
+# --- 2. force columns in a wrong unit ---------------------------------------------------------
+
+FORCES = ["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"]
+
+
+@pytest.fixture(scope="module")
+def lbf_table(table):
+    t = table.copy()
+    t[FORCES] = t[FORCES] / 4.44822
+    return t
+
+
+def test_force_columns_against_the_pwm_columns(table, lbf_table):
+    from uuvid.io.dive_channels import read_dive_channels
+    from uuvid.vehicle.definition import load_vehicle
+
+    veh = load_vehicle("bluerov2")
+    ok = read_dive_channels(table, veh)
+    assert not [w for w in ok.warnings if "the pwm_ columns give" in w], ok.warnings
+    bad = read_dive_channels(lbf_table, veh)
+    said = [w for w in bad.warnings if "the pwm_ columns give" in w]
+    assert len(said) == 1 and "Z_N is 0.22×" in said[0] and "lbf" in said[0], bad.warnings
+
+
+def test_mass_below_rigid_body_is_a_warning_of_every_run(lbf_table):
+    res = identify_dive(lbf_table, "bluerov2", ["heave"], horizon=8.0)
+    w = res.estimates["heave"].warnings
+    assert any("below the rigid-body mass" in x and "Z_N" in x for x in w), w
+    doc = res.to_dict()
+    import json
+    assert "below the rigid-body mass" in json.dumps(doc)

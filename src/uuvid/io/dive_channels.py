@@ -1023,6 +1023,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         warnings.append(f"{name}: the table has all six force columns (X_N … N_Nm) and pwm_ "
                         "columns: the forces are used and the pwm_ columns are not (remove the "
                         "force columns to have the thrust computed from the PWM)")
+        if veh is not None:
+            _check_force_scale(chans, pwm, veh, armed, name, warnings, directions, label)
     _check_dead_outputs(pwm, armed, name, warnings)
     _check_idle(pwm, armed, veh, name, warnings, idle=thrust is not None)  # (forces from pwm)
     _check_surface_reading(chans, armed, name, warnings)
@@ -1211,6 +1213,62 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
     mirrored = np.stack([np.where(pwm[k][1] > 0, tm.thrust(effective_pwm(pwm[k][1], -d[k]), volts),
                                   0.0) for k in keys])
     return _PwmThrust(keys, t, T, mirrored, computed, d)
+
+
+#: logged force ÷ the pwm_ columns' thrust (RMS over the armed samples) outside 1/this…this:
+#: the force columns' unit or scale is suspect.  Generous: a thrust curve other than the T200
+#: preset's, or another battery voltage, moves the ratio by tens of % at most; the package's
+#: examples agree to 1e-9 and a unit mix-up (lbf 0.22×, kgf 0.10×, ×1000) is far outside
+FORCE_SCALE_FACTOR = 2.0
+#: a column is compared only where the pwm_ columns' thrust has an RMS of at least this (N or
+#: N·m): a DOF the thrusters barely push (roll) gives a ratio of noise
+_FORCE_SCALE_MIN = {"Z_N": 1.0, "N_Nm": 0.2, "X_N": 1.0, "Y_N": 1.0, "K_Nm": 0.2, "M_Nm": 0.2}
+_UNIT_GUESS = ((1 / 4.44822, "lbf (× 4.448 → N)"), (1 / 9.80665, "kgf (× 9.807 → N)"),
+               (1 / 0.278014, "ozf"), (1e3, "mN (÷ 1000 → N)"), (1 / 1e3, "kN"))
+
+
+def _check_force_scale(chans, pwm, veh, armed, name, warnings, directions=None,
+                       label=None) -> None:
+    """With both the force columns and pwm_ columns: the forces the pwm_ columns give (the path
+    used when the force columns are absent) against the logged ones; a warning naming the ratio
+    when they disagree by more than :data:`FORCE_SCALE_FACTOR` (a force column in lbf gave a
+    heave mass below the rigid-body mass, said as a better model)."""
+    trial = {k: v for k, v in chans.items() if k not in _FORCE_SCALE_MIN}
+    try:
+        with np.errstate(all="ignore"):
+            _forces_from_pwm(trial, pwm, veh, name, [], directions=directions, label=label or "")
+    except (DiveDataError, ValueError, KeyError, IndexError):
+        return
+    off = []
+    for c, floor in _FORCE_SCALE_MIN.items():
+        if c not in chans or c not in trial:
+            continue
+        tl, fl = chans[c]
+        tp, fp = trial[c]
+        if tl.size < 2 or tp.size < 2:
+            continue
+        on = _inside(tl, armed) & (tl >= tp[0]) & (tl <= tp[-1]) & np.isfinite(fl)
+        if np.count_nonzero(on) < 10:
+            continue
+        x = np.interp(tl[on], tp, fp)
+        rx = float(np.sqrt(np.mean(x * x)))
+        if not (rx >= floor):
+            continue
+        ratio = float(np.sqrt(np.mean(fl[on] ** 2))) / rx
+        if ratio > 0 and not (1 / FORCE_SCALE_FACTOR <= ratio <= FORCE_SCALE_FACTOR):
+            off.append((c, ratio))
+    if not off:
+        return
+    c, ratio = off[0]
+    unit = next((u for r, u in _UNIT_GUESS if abs(math.log(ratio / r)) < 0.15), None)
+    more = "; ".join(f"{k} {r:.2g}×" for k, r in off[1:])
+    warnings.append(f"{name}: {c} is {ratio:.2g}× the thrust the pwm_ columns give"
+                    + (f" ({more})" if more else "") + ": "
+                    + (f"are the force columns in {unit}? " if unit else
+                       "are the force columns in N and N·m? ")
+                    + "The forces are used as logged (in N, N·m): convert them, or remove them to "
+                    "have the thrust computed from the PWM; a wrong scale scales the identified "
+                    "mass and drag with it")
 
 
 #: what :func:`read_dive_channels` reads from a path, for the errors of one it cannot

@@ -572,6 +572,26 @@ assert set(DIVE_DOFS) <= set(_DOF_CHANNELS)
 _EVERY_DOF = re.compile(r"part \d+: .*left out|do not overlap")
 
 
+def below_rigid_body(veh, dof: str, mass: float, sigma: float) -> str | None:
+    """The warning when an identified ``dof`` mass (inertia in yaw) is below the base vehicle's
+    rigid-body one — an added mass < 0, physically impossible (the write-back refuses it); the
+    usual cause is a force column in another unit (lbf, kgf), which scales mass and drag alike."""
+    i = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}.get(dof)
+    try:
+        rigid = float(np.asarray(veh.params.M_RB)[i, i])
+    except (AttributeError, TypeError, IndexError):
+        return None
+    if i is None or not (rigid > 0) or not (mass < rigid):
+        return None
+    what, unit = ("inertia", "kg·m²") if i >= 3 else ("mass", "kg")
+    force = DIVE_DOFS[dof][1]
+    return (f"the identified {dof} {what} {mass:.4g} ± {sigma:.2g} {unit} is below the rigid-body "
+            f"{what} {rigid:.4g} {unit} of {veh.name}: the added {what} would be "
+            f"{mass - rigid:.3g} < 0, which is physically impossible — is the force column "
+            f"({force}) in another unit (lbf: ×4.448 → N; kgf: ×9.807 → N)? A force scaled by c "
+            f"scales mass and drag by c; else check the rigid-body numbers")
+
+
 def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
     """``e`` (a DOF not identified) with the reader's warnings that name its channels appended
     (the samples of them left out, a source missing): a CLI user sees the error alone, not the
@@ -962,6 +982,12 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                                  inflow_start=ka_starts[0])
             if speeds is not None:
                 est.notes.append(f"inflow: rotor speeds from {speeds[2]}")
+            from uuvid.identify.vehicle.dive_horizontal import _DOF_KEYS
+
+            for d, keys in _DOF_KEYS.items():
+                low = below_rigid_body(veh, d, est.values[keys[0]], est.sigma[keys[0]])
+                if low is not None:
+                    est.warnings.insert(0, low)
             return est
         dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
@@ -998,6 +1024,9 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                                  "(too stiff for the replay's step, or unstable): do not use it")
                 if tr_b[0].size == tr_id[0].size:
                     traces["held_out"] = (tr_id[0], tr_id[1], tr_id[2], tr_b[2], tr_id[3])
+        low = below_rigid_body(veh, dof, values["mass"], sigma["mass"])
+        if low is not None:
+            warns.insert(0, low)
         if dof == "heave" and not any("at the surface" in n for n in notes):
             notes.append(f"heave windows touching the surface (depth < {SURFACE_M:g} m) are not "
                          "used")
