@@ -344,6 +344,7 @@ def check_state_span(dc, dof: str, horizon: float, name: str = "horizon") -> Non
     if span is None or horizon > span + 1e-9:
         return
     meas = list(H_MEAS) if dof == "horizontal" else [DIVE_DOFS[dof][0]]
+    check_horizon(dc, [c for c in meas if c in dc.channels], horizon)  # (its error first)
     steps = []
     for c in meas:
         t = dc.channels[c][0] if c in dc.channels else np.empty(0)
