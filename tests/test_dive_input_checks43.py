@@ -90,3 +90,19 @@ def test_mass_below_rigid_body_is_a_warning_of_every_run(lbf_table):
     doc = res.to_dict()
     import json
     assert "below the rigid-body mass" in json.dumps(doc)
+
+
+# --- 3. a time range past either end of the log ----------------------------------------------
+
+@pytest.mark.parametrize("kw", [{"t_end": 500.0}, {"t_start": -50.0}])
+def test_a_range_past_the_log_is_an_error_naming_its_span(table, kw):
+    for call in (identify_dive, replay_dive):
+        with pytest.raises(ValueError, match=r"outside the log, whose times run from 0\.0368"):
+            call(table, "bluerov2", ["heave"], **kw)
+
+
+def test_a_range_past_the_log_exits_2_in_the_commands(dive_csv):
+    for cmd in (["vehicle", "identify", "dive"], ["vehicle", "replay"]):
+        r = runner.invoke(app, cmd + [str(dive_csv), "--vehicle", "bluerov2", "--dof", "heave",
+                                      "--t-end", "500"])
+        assert r.exit_code == 2 and "outside the log" in r.output, r.output

@@ -53,6 +53,11 @@ _SOURCE_HINT = {"depth_m": "a depth source (ArduSub: BARO/GLOBAL_POSITION_INT; t
                          "velocity=TOPIC)"}
 
 
+#: ``--t-start`` this far (s) before a log's first stamp, ``--t-end`` after its last, is still
+#: taken (``--t-start 0`` on a log whose first sample is at 0.04 s); beyond it, an error
+SPAN_SLACK_S = 1.0
+
+
 class DiveDataError(LogDataError):
     """A dive log cannot be used for identification or replay (the message says what to pass)."""
 
@@ -93,7 +98,8 @@ class DiveChannels:
 
     def check_span(self, t_start=None, t_end=None) -> None:
         """Raise :class:`DiveDataError` when ``--t-start``/``--t-end`` miss the log: an end
-        before its first stamp or a start after its last, or a time before the start of a log
+        before its first stamp or a start after its last, an end after its last stamp or a start
+        before its first (by more than :data:`SPAN_SLACK_S`), or a time before the start of a log
         stamped in epoch seconds (its first stamp beyond a day: ``--t-end 180`` meant from the
         start replayed or fitted nothing, or everything)."""
         try:
@@ -104,7 +110,11 @@ class DiveChannels:
             if v is None:
                 continue
             epoch = a > 86400.0 and v < a
-            if epoch or (opt == "t_end" and v <= a) or (opt == "t_start" and v >= b):
+            # an end after the last stamp or a start before the first is an error too (it was
+            # accepted: the held-out check skipped with a note), beyond SPAN_SLACK_S
+            past = (opt == "t_end" and v > b + SPAN_SLACK_S) or (opt == "t_start"
+                                                                 and v < a - SPAN_SLACK_S)
+            if epoch or past or (opt == "t_end" and v <= a) or (opt == "t_start" and v >= b):
                 raise DiveDataError(
                     f"{self.name}: {arg_is(opt, f'{v:g}')} s is outside the log, whose times run from "
                     f"{a:.10g} to {b:.10g} s" + (" (seconds since 1970?)" if a > 1e8 else "")
