@@ -4,6 +4,7 @@ in a wrong unit, and the messages' readability."""
 
 import warnings
 
+import numpy as np
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -106,3 +107,17 @@ def test_a_range_past_the_log_exits_2_in_the_commands(dive_csv):
         r = runner.invoke(app, cmd + [str(dive_csv), "--vehicle", "bluerov2", "--dof", "heave",
                                       "--t-end", "500"])
         assert r.exit_code == 2 and "outside the log" in r.output, r.output
+
+
+# --- 4. a log of the wrong type -----------------------------------------------------------------
+
+@pytest.mark.parametrize("log", [np.zeros((3, 3)), [1, 2, 3], None])
+def test_a_log_of_the_wrong_type_is_named(log):
+    from uuvid.io.dive_channels import read_dive_channels
+
+    name = type(log).__name__
+    for call in (lambda: identify_dive(log, "bluerov2", ["heave"]),
+                 lambda: replay_dive(log, "bluerov2", ["heave"]),
+                 lambda: read_dive_channels(log, "bluerov2")):
+        with pytest.raises(TypeError, match=rf"^log: expected a path .*DataFrame, got {name}$"):
+            call()

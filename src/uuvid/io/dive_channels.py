@@ -1352,6 +1352,18 @@ def _looks_like(p: Path) -> str:
     return ""
 
 
+def check_log_arg(log) -> None:
+    """``TypeError`` naming what ``log`` may be when it is none of them (an array, a list,
+    ``None`` gave pathlib's "expected str, bytes or os.PathLike object")."""
+    import os
+
+    import pandas as pd
+
+    if not isinstance(log, (str, os.PathLike, pd.DataFrame)):
+        raise TypeError("log: expected a path (a dive table, an ArduSub log or a ROS bag file or "
+                        f"folder) or a pandas DataFrame, got {type(log).__name__}")
+
+
 def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
                        topics=None, t_start: float | None = None,
                        t_end: float | None = None) -> DiveChannels:
@@ -1368,6 +1380,7 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
 
     from uuvid.io.dive_rosbag import is_bag, read_bag_dive
 
+    check_log_arg(log)
     warnings: list = []
     veh = _vehicle(vehicle)
     p = None if isinstance(log, pd.DataFrame) else Path(log)

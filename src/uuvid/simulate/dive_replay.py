@@ -539,6 +539,10 @@ def replay_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=None
 
     seconds_or_none(t_start=t_start, t_end=t_end, horizon=horizon)
     time_window(t_start, t_end, horizon, error=DiveDataError, named=True)
+    if dive is None:
+        from uuvid.io.dive_channels import check_log_arg
+
+        check_log_arg(log)
     veh = base_vehicle(vehicle, "replay_dive")
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
                                     topics=topics, t_start=t_start, t_end=t_end)

@@ -936,6 +936,10 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                     held_out_horizon=held_out_horizon)
     time_window(t_start, t_end, horizon, error=DiveDataError, named=True)
     time_window(horizon=held_out_horizon, error=DiveDataError)
+    if dive is None:
+        from uuvid.io.dive_channels import check_log_arg
+
+        check_log_arg(log)
     veh = base_vehicle(vehicle, "identify_dive")
     dc = dive or read_dive_channels(log, veh, params=params, thruster_model=thruster_model,
                                     topics=topics, t_start=t_start, t_end=t_end)
