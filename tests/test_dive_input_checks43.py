@@ -121,3 +121,18 @@ def test_a_log_of_the_wrong_type_is_named(log):
                  lambda: read_dive_channels(log, "bluerov2")):
         with pytest.raises(TypeError, match=rf"^log: expected a path .*DataFrame, got {name}$"):
             call()
+
+
+# --- 5. a time column in another unit ---------------------------------------------------------
+
+@pytest.mark.parametrize("scale, say", [(1 / 60, r"minutes\? multiply it by 60"),
+                                        (1 / 3600, r"hours\? multiply it by 3600"),
+                                        (1e6, r"microseconds\? divide it by 1e\+06"),
+                                        (1e3, r"milliseconds\? divide it by 1000")])
+def test_a_time_column_in_another_unit_is_said_with_its_factor(table, scale, say):
+    from uuvid.io.dive_channels import read_dive_channels
+
+    t = table.assign(t_s=table["t_s"] * scale)
+    with pytest.raises(ValueError, match=say) as e:
+        read_dive_channels(t, "bluerov2")
+    assert "cm or mm" not in str(e.value)

@@ -265,6 +265,38 @@ PWM_SPIKE_US = 20000.0
 DEAD_OUTPUT_S = 5.0
 
 
+#: the units a time column logged as seconds may really be in, and their factor to seconds
+_TIME_DIVISORS = ((1e3, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
+_TIME_MULTIPLIERS = ((60.0, "minutes"), (3600.0, "hours"))
+#: no dive channel is logged faster than this (s; 1 kHz): a shorter median step is a time column
+#: in another unit (minutes: a 20 Hz heading read at 1.2 kHz)
+MIN_SENSOR_STEP_S = 1e-3
+
+
+def _check_time_rate(chans: dict, pwm: dict, name: str, tcol: str) -> None:
+    """A channel logged every < :data:`MIN_SENSOR_STEP_S` (beyond 1 kHz) is an error naming the
+    multiplier that brings it to a sensor's rate — said before the unit checks, which took a time
+    in minutes for a depth in cm ("changes by 7 m/s")."""
+    steps = {}
+    for c, (t, _) in list(chans.items()) + [(f"pwm_{k}", v) for k, v in pwm.items()]:
+        d = np.diff(t)
+        d = d[d > 0]
+        if d.size >= 10:
+            steps[c] = float(np.median(d))
+    if not steps:
+        return
+    c = min(steps, key=steps.get)
+    fast = steps[c]
+    if fast >= MIN_SENSOR_STEP_S:
+        return
+    mul, unit = next(((m, u) for m, u in _TIME_MULTIPLIERS if fast * m >= MIN_SENSOR_STEP_S),
+                     _TIME_MULTIPLIERS[-1])
+    raise DiveDataError(
+        f"{name}: column {tcol}: {c} is logged every {fast:.3g} s ({1 / fast:,.0f} Hz), faster "
+        f"than a vehicle's sensors ({1 / MIN_SENSOR_STEP_S:,.0f} Hz at most): is the time in {unit}? "
+        f"multiply it by {mul:g} ({c} every {fast * mul:.3g} s); expected seconds")
+
+
 def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.ndarray:
     """The time column in seconds: every cell a number, never decreasing (rows with the same
     stamp are merged by :func:`_finite`, conflicts refused by :func:`_check_same_stamps`)."""
@@ -300,9 +332,14 @@ def _table_time(df, tcol: str, name: str, warnings: list | None = None) -> np.nd
     step = np.diff(t)
     step = step[step > 0]
     if step.size >= 10 and float(np.median(step)) > MAX_ROW_STEP_S:
+        med = float(np.median(step))
+        # the divisor that brings the step to a sensor's rate ("divide by 1000" left a time in
+        # µs at 41.5 s steps)
+        div, unit = next(((d, u) for d, u in _TIME_DIVISORS if med / d <= MAX_ROW_STEP_S),
+                         _TIME_DIVISORS[-1])
         raise DiveDataError(f"{name}: column {tcol}: the median step between rows is "
-                            f"{float(np.median(step)):.4g} s; expected seconds at the rate of "
-                            "the sensors (is the time in milliseconds? divide it by 1000)")
+                            f"{med:.4g} s; expected seconds at the rate of the sensors (is the "
+                            f"time in {unit}? divide it by {div:g}: a step of {med / div:.3g} s)")
     gap = pause_s(t)
     if warnings is not None and gap is not None:
         big = np.flatnonzero(np.diff(t) > gap)
@@ -988,6 +1025,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         armed = _intervals(t, np.ones(t.size, bool))  # all of it, a run each side of a pause
         warnings.append(f"{name}: no 'armed' column: every row is taken as armed (default)")
     left_out: dict = {}
+    _check_time_rate(chans, pwm, name, tcol)  # (a time in minutes: no depth in cm)
     _check_units(chans, pwm, name, warnings, armed)  # (a depth in cm is no run of spikes)
     _drop_depth_spikes(chans, name, warnings, left_out, rows=t)
     forces = ("X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm")
