@@ -2,6 +2,7 @@
 columns in a wrong unit, a time range outside the log, a log of the wrong type, a time column
 in a wrong unit, and the messages' readability."""
 
+import re
 import warnings
 
 import numpy as np
@@ -136,3 +137,37 @@ def test_a_time_column_in_another_unit_is_said_with_its_factor(table, scale, say
     with pytest.raises(ValueError, match=say) as e:
         read_dive_channels(t, "bluerov2")
     assert "cm or mm" not in str(e.value)
+
+
+# --- 6. readable messages ---------------------------------------------------------------------
+
+def test_a_huge_sigma_ratio_is_readable():
+    from uuvid.identify.vehicle.dive import inflow_warnings
+
+    w = inflow_warnings({"inflow": 1.1e-12}, {"inflow": 2.6e5}, np.eye(5))
+    assert len(w) == 1 and "poorly determined" in w[0]
+    assert not re.search(r"\d{7,}", w[0]), w[0]  # no 18-digit percentage
+    assert "2.4e+17" in w[0]
+
+
+def test_the_held_out_start_of_an_epoch_log_keeps_its_digits(table):
+    t = table.assign(t_s=table["t_s"] + 1.7e9)
+    res = identify_dive(t, "bluerov2", ["heave"], t_end=1.7e9 + 250, horizon=8.0)
+    assert "held-out (t > 1700000250 s)" in res.summary()
+
+
+def test_the_refined_starts_note_says_start_and_final_costs(table):
+    res = identify_dive(table, "bluerov2", ["yaw"], t_start=100.0, t_end=200.0)
+    note = next(n for n in res.estimates["yaw"].notes if "refined from" in n)
+    finals = [float(x) for x in re.findall(r"final cost ([0-9.e+-]+)\)", note)]
+    kept = re.search(r"kept the fit from the (\w+) start \(lowest final cost\)", note).group(1)
+    mine = float(re.search(rf"the {kept} start .*?final cost ([0-9.e+-]+)\)", note).group(1))
+    assert len(finals) >= 2 and mine == min(finals) and "start cost" in note
+
+
+def test_a_case_misspelt_column_is_said_as_read():
+    from uuvid.io.dive_channels import read_dive_channels
+
+    t = pd.DataFrame({"t_s": np.arange(0, 30, 0.1), "Depth_m": 1.0, "yaw_rad": 0.0})
+    w = [x for x in read_dive_channels(t, "bluerov2").warnings if "Depth_m" in x]
+    assert w and "read as depth_m" in w[0] and "sensitive" not in w[0], w

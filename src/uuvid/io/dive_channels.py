@@ -918,7 +918,8 @@ def _canonical_names(df, name: str, warnings: list):
     if ren:
         warnings.append(f"{name}: column(s) " + ", ".join(f"{a!r} read as {b}" for a, b in
                                                           ren.items())
-                        + " (names are case- and space-sensitive: rename them)")
+                        + " (matched ignoring case and surrounding spaces, and used; rename "
+                          "the column(s) to that spelling to silence this warning)")
         df = df.rename(columns=ren)
     return df
 

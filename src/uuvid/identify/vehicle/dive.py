@@ -79,6 +79,7 @@ from uuvid.identify.vehicle.output_error import (
     loss_as_drag_text,
     noise_sigma,
     not_identifiable,
+    share_of_value,
     unusable_reasons,
     weighting_summary,
     weighting_text,
@@ -290,7 +291,7 @@ class DofEstimate:
                 verdict = (f"{h['improvement']:.3g}× lower rms than the base's, but not a model "
                            f"to use: "
                            f"{'; '.join(e.unusable)} — see the warnings")
-            lines.append(f"  held-out (t > {t_end:g} s): {ch} rms identified "
+            lines.append(f"  held-out (t > {t_end:.10g} s): {ch} rms identified "
                          f"{h['identified']['rms']:.3g} vs base {h['base']['rms']:.3g} "
                          f"{UNITS[dof]} ({verdict})")
         elif e.unusable:
@@ -453,7 +454,7 @@ def inflow_warnings(values: dict, sigma: dict, corr) -> list:
                    + "; a vehicle file gets 0")
     elif math.isfinite(s) and s > 0.5 * abs(ka):
         out.append(f"inflow coefficient poorly determined: σ {s:.2g} is "
-                   + (f"{100 * s / abs(ka):.0f} % of the value" if ka else
+                   + (share_of_value(s, ka) if ka else
                       "above a zero estimate"))
     return out
 
@@ -720,17 +721,21 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
     sol, sol_cost = None, math.inf
     starts = best_starts(lambda c: _cost(resid, z0, c[1]),
                          _start_candidates(th0, base, inflow_starts if gain is not None else None))
+    finals = []
     for _, (label, th_start) in starts:
         z = z0.copy()
         z[:NP] = th_start
         s_ = levenberg_marquardt(resid, jac, z, free, nonneg=(1, 2))
         c1 = _cost(resid, s_["x"], s_["x"][:NP])
+        finals.append(c1)
         if sol is None or c1 < sol_cost:
             sol, sol_cost, kept = s_, c1, label
-    if len(starts) > 1 or kept != "SVF":
+    if len(starts) > 1 or kept != "SVF":  # (the start's cost and the refined fit's: "lowest"
+        # is the final one — the start costs alone read as the other start kept)
         notes.append("output error refined from " + "; ".join(
-            f"the {label} start {_fmt_theta(th)} (cost {c:.3g})" for c, (label, th) in starts)
-            + f": kept the fit from the {kept} start (lowest cost)")
+            f"the {label} start {_fmt_theta(th)} (start cost {c:.3g} → final cost {f:.3g})"
+            for (c, (label, th)), f in zip(starts, finals))
+            + f": kept the fit from the {kept} start (lowest final cost)")
     th = sol["x"][:NP]
     J = sol["jac"]
     if sol["x"].tobytes() not in blown_at:  # the last Jacobian was another start's
@@ -777,7 +782,7 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
                          "; a vehicle file gets 0")
         elif math.isfinite(sigma[k]) and sigma[k] > 0.5 * abs(values[k]):
             warns.append(f"{k} drag poorly determined: σ {sigma[k]:.2g} is "
-                         f"{100 * sigma[k] / abs(values[k]):.0f} % of the value")
+                         + share_of_value(sigma[k], values[k]))
     tf = dc.channels[DIVE_DOFS[dof][1]][0]
     tf = tf[(tf >= windows[0][0]) & (tf <= windows[-1][1])]
     dt_f = float(np.median(np.diff(tf))) if tf.size > 2 else math.inf

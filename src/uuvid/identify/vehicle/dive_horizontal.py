@@ -50,6 +50,7 @@ from uuvid.identify.vehicle.output_error import (
     loss_as_drag,
     loss_as_drag_text,
     not_identifiable,
+    share_of_value,
     unusable_reasons,
     weighting_summary,
     weighting_text,
@@ -98,7 +99,7 @@ def _inflow_warnings(ka: float, s: float) -> list:
                 + "; a vehicle file gets 0"]
     if math.isfinite(s) and s > 0.5 * abs(ka):
         return [f"inflow coefficient poorly determined: σ {s:.2g} is "
-                + (f"{100 * s / abs(ka):.0f} % of the value" if ka else "above a zero estimate")
+                + (share_of_value(s, ka) if ka else "above a zero estimate")
                 + " (the dive's speeds and rotor speeds vary too little together)"]
     return []
 
@@ -276,7 +277,7 @@ class HorizontalEstimate:
             f"{self.train[c]['nrmse']:.3f})" for c in H_CHANNELS))
         if self.held_out:
             h = self.held_out
-            lines.append(f"  held-out (t > {t_end:g} s): " + "; ".join(
+            lines.append(f"  held-out (t > {t_end:.10g} s): " + "; ".join(
                 f"{c} rms identified {h['identified'][c]['rms']:.3g} vs base "
                 f"{h['base'][c]['rms']:.3g} {h['identified'][c]['unit']}"
                 + (f" ({held_out_verdict(h['improvement'][c])})" if h["improvement"].get(c)
@@ -427,7 +428,7 @@ def fit_horizontal(dc, veh, horizon: float, t_start=None, t_end=None, *, flags=N
                          "; a vehicle file gets 0")
         elif math.isfinite(sigma[k]) and sigma[k] > 0.5 * abs(values[k]):
             warns.append(f"{k} drag poorly determined: σ {sigma[k]:.2g} is "
-                         f"{100 * sigma[k] / abs(values[k]):.0f} % of the value")
+                         + share_of_value(sigma[k], values[k]))
     for k in _MASSES:
         if math.isfinite(sigma[k]) and sigma[k] > 0.5 * values[k]:
             warns.append(f"{k} poorly determined (σ {sigma[k]:.2g}): the dive has little "

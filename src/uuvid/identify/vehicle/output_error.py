@@ -148,6 +148,13 @@ def _gram(J) -> np.ndarray:
     return A.toarray() if hasattr(A, "toarray") else np.asarray(A)
 
 
+def share_of_value(sigma: float, value: float) -> str:
+    """``"53 % of the value"``; a σ beyond 100× the value as ``"2.3e+17× the value"`` (an
+    18-digit percentage was printed)."""
+    r = abs(sigma / value)
+    return f"{100 * r:.0f} % of the value" if r < 100 else f"{r:.2g}× the value"
+
+
 def best_starts(cost, candidates, keep: int = 2) -> list:
     """``[(cost, candidate)]`` to refine, cheapest first: the first candidate — the data's own
     start value — and, when they cost less than it, up to ``keep − 1`` of the others (all of
