@@ -171,3 +171,17 @@ def test_a_case_misspelt_column_is_said_as_read():
     t = pd.DataFrame({"t_s": np.arange(0, 30, 0.1), "Depth_m": 1.0, "yaw_rad": 0.0})
     w = [x for x in read_dive_channels(t, "bluerov2").warnings if "Depth_m" in x]
     assert w and "read as depth_m" in w[0] and "sensitive" not in w[0], w
+
+
+
+def test_thrust_from_pwm_columns_says_a_voltage_outside_the_thruster_data(table):
+    """A table's pwm_ columns go through the same voltage check as log export (a 6S pack on the
+    T200 model, whose data end at 16 V); the example's own voltages stay silent."""
+    from uuvid.io.dive_channels import read_dive_channels
+
+    pwm_only = table.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    said = [w for w in read_dive_channels(pwm_only, vehicle="bluerov2").warnings if "outside the data" in w]
+    assert said == []
+    six_s = pwm_only.assign(battery_V=pwm_only["battery_V"] * 1.45)
+    said = [w for w in read_dive_channels(six_s, vehicle="bluerov2").warnings if "outside the data" in w]
+    assert len(said) == 1 and "battery_V" in said[0] and " rows (t = " in said[0], said

@@ -1217,7 +1217,7 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
     (thruster j = column j).  ``directions`` ``{j: ±1}``: ArduSub's ``MOT_j_DIRECTION`` (thrust
     at ``1500 + d (pwm − 1500)``); ``label`` names where the PWM came from (default the columns)."""
     from uuvid.io.ardusub.frames import DOF_COLUMNS, effective_pwm
-    from uuvid.io.ardusub.thrust import default_t200
+    from uuvid.io.ardusub.thrust import default_t200, thrust_warnings
 
     keys = _motor_order(pwm)
     t = pwm[keys[0]][0]
@@ -1240,6 +1240,8 @@ def _forces_from_pwm(chans: dict, pwm: dict, veh, name: str, warnings: list, *,
         tb, vb = chans["battery_V"]
         volts = np.interp(t, tb, vb)
     tm = default_t200() if thrust_model is None else thrust_model
+    if at_v == "battery_V":  # the thrust model's own voltage range, as log export says it
+        warnings.extend(f"{name}: {w}" for w in thrust_warnings(tm, volts, t))
     d = {k: 1.0 for k in keys} if directions is None else {k: float(directions[k]) for k in keys}
     # 0 µs is "no pulse" (output off), not full reverse
     T = np.stack([np.where(pwm[k][1] > 0, tm.thrust(effective_pwm(pwm[k][1], d[k]), volts), 0.0)
