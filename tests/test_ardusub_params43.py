@@ -194,3 +194,22 @@ def test_real_small_bin_inspect_and_export_mode_spans_agree(shared_data, tmp_pat
     assert "0.085 s before export's first row" in ins.summary()
     r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "m.csv")])
     assert "modes: MANUAL armed 0.0–8.7 s; MANUAL disarmed 8.7–23.6 s" in r.output
+
+
+@pytest.mark.realdata
+def test_real_small_bin_without_baro_primary_says_instance_0_is_assumed(shared_data):
+    """Two barometers and no BARO_PRIMARY in the log: instance 0 is ArduSub's default, not a
+    fact of this vehicle — the depth source says it is assumed, and a warning asks to check."""
+    from uuvid.io.ardusub.reader import read_raw
+    from uuvid.io.ardusub.sources import _depth
+
+    raw = read_raw(shared_data / REAL / "small.BIN")
+    prm = {k: v for k, v in dict(raw.param_values()[0]).items() if k != "BARO_PRIMARY"}
+    warnings: list = []
+    _, src = _depth(raw, config_from_params(prm), warnings)
+    assert src.get("instance") == 0 and "not in the log" in src["why"], src
+    assert "= BARO_PRIMARY" not in src["why"]
+    assert any("BARO_PRIMARY is not in the log" in w for w in warnings), warnings
+    warnings.clear()
+    _, src = _depth(raw, config_from_params(dict(raw.param_values()[0])), warnings)
+    assert "= BARO_PRIMARY" in src["why"] and not any("not in the log" in w for w in warnings)

@@ -154,11 +154,21 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                 mask = baro.array(inst_f) == primary if inst_f else None
                 ch = _channel(raw, baro, "Alt", -1.0, mask, f"-BARO[{primary}].Alt")
                 if ch.v.size and not _constant(ch):
+                    named = config is not None and "BARO_PRIMARY" in config.params_used
                     why = (f"BARO instance {primary} = BARO_PRIMARY, the barometer ArduSub uses "
-                           "for depth (the water-pressure sensor)")
+                           "for depth (the water-pressure sensor)" if named else
+                           f"BARO instance {primary}: BARO_PRIMARY is not in the log, so ArduSub's "
+                           f"default {primary} is assumed — on most vehicles the water-pressure "
+                           "sensor, but check the depth against a known one (give --params)")
                     if len(insts) > 1:
                         others = [i for i in insts if i != primary]
                         why += f"; instance(s) {others} (e.g. the enclosure sensor) not used"
+                        if not named:  # two barometers and no word on which measures the water
+                            warnings.append(
+                                f"depth: BARO_PRIMARY is not in the log and BARO has instances "
+                                f"{insts}: instance {primary} (ArduSub's default) assumed to be "
+                                "the water-pressure sensor — check the depth against a known one, "
+                                "or give --params with BARO_PRIMARY")
                     return ch, {"message": "BARO", "field": "Alt", "instance": primary,
                                 "sign": -1, "why": why, "instances": insts}
                 tried.append(f"BARO[{primary}].Alt is constant" if ch.v.size else
