@@ -124,9 +124,10 @@ def test_examples_out_naming_a_file_says_a_folder_is_expected(tmp_path):
 
 
 
-def test_a_write_failing_partway_names_the_examples_already_written(tmp_path, monkeypatch):
+def test_a_write_failing_partway_rolls_back_the_examples_already_written(tmp_path, monkeypatch):
     """The clash check comes first, the writes after: a write that fails on a later file (a full
-    disk, a read-only file) says which files of the set were already written."""
+    disk, a read-only file) puts the set back as it was — a new file removed, one replaced with
+    --force given its old bytes again — and says so."""
     import uuvid.examples as ex
     from uuvid.core import atomic
 
@@ -134,11 +135,16 @@ def test_a_write_failing_partway_names_the_examples_already_written(tmp_path, mo
 
     def flaky(path, text, *a, **k):
         calls.append(path)
-        if len(calls) == 2:
+        if len(calls) in (2, 4):
             raise OSError(28, "No space left on device", str(path))
         return real(path, text, *a, **k)
 
     monkeypatch.setattr(atomic, "atomic_write_text", flaky)
-    with pytest.raises(OSError, match="written before it") as e:
+    with pytest.raises(OSError, match="rolled back") as e:
         ex.write_examples(list(EXAMPLES)[:2], tmp_path)
-    assert str(calls[0]) in str(e.value) and calls[0].exists()
+    assert str(calls[0]) in str(e.value) and e.value.errno == 28
+    assert not calls[0].exists(), "a new example was left behind by a failed set"
+    calls[0].write_text("the user's own file")
+    with pytest.raises(OSError, match="rolled back"):
+        ex.write_examples(list(EXAMPLES)[:2], tmp_path, overwrite=True)
+    assert calls[2] == calls[0] and calls[0].read_text() == "the user's own file"

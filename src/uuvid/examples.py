@@ -265,7 +265,8 @@ def write_examples(names: list[str] | tuple[str, ...], folder: str | Path, *,
     the paths written.  A file already there with the same content is no clash (the same example
     written again); one holding anything else raises :class:`ExampleClashError` naming every
     such file before any is written, unless ``overwrite``.  A file where *folder* should be
-    raises ``NotADirectoryError`` naming it."""
+    raises ``NotADirectoryError`` naming it.  All or none: a write failing part-way (a full disk)
+    puts the files already written back as they were (removed, or their old bytes) and says so."""
     from uuvid.core.atomic import atomic_write_text
 
     d = Path(folder)
@@ -278,19 +279,39 @@ def write_examples(names: list[str] | tuple[str, ...], folder: str | Path, *,
     clashes = [p for p, text in files.items() if _differs(p, text)]
     if clashes and not overwrite:
         raise ExampleClashError(clashes)
+    before = {p: (p.read_bytes() if p.is_file() else None) for p in files}
     written: list[Path] = []
-    for p, text in files.items():
-        if not overwrite and _differs(p, text):  # appeared since the check above
-            raise ExampleClashError([p]) if not written else FileExistsError(
-                f"{p} appeared while the examples were written and holds other data: not replaced; "
-                f"written before it: {', '.join(str(w) for w in written)}")
-        try:
+    try:
+        for p, text in files.items():
+            if not overwrite and _differs(p, text):  # appeared since the check above
+                raise ExampleClashError([p]) if not written else FileExistsError(
+                    f"{p} appeared while the examples were written and holds other data: not "
+                    "replaced")
             written.append(atomic_write_text(p, text))
-        except OSError as e:
-            if not written:
-                raise
-            raise OSError(e.errno, f"{e.strerror or e} (written before it: "
-                                   f"{', '.join(str(w) for w in written)})", str(p)) from None
+    except BaseException as e:  # a full disk, a clash, Ctrl-C: all the examples or none
+        undone = _roll_back(written, before)
+        if undone and isinstance(e, OSError):
+            raise type(e)(e.errno, f"{e.strerror or e} (the examples written before it were "
+                                   f"rolled back: {', '.join(str(w) for w in undone)})",
+                          str(getattr(e, "filename", None) or "")) from e
+        raise
+    return written
+
+
+def _roll_back(written: list[Path], before: dict) -> list[Path]:
+    """Put the files of ``written`` back as ``before`` had them (removed when they did not
+    exist); returns them.  A file that cannot be put back is left as written (best effort: the
+    error being raised is the one to report)."""
+    from uuvid.core.atomic import atomic_write_bytes
+
+    for p in written:
+        try:
+            if before.get(p) is None:
+                p.unlink(missing_ok=True)
+            else:
+                atomic_write_bytes(p, before[p])
+        except OSError:
+            pass
     return written
 
 
