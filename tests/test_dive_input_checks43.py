@@ -185,3 +185,22 @@ def test_thrust_from_pwm_columns_says_a_voltage_outside_the_thruster_data(table)
     six_s = pwm_only.assign(battery_V=pwm_only["battery_V"] * 1.45)
     said = [w for w in read_dive_channels(six_s, vehicle="bluerov2").warnings if "outside the data" in w]
     assert len(said) == 1 and "battery_V" in said[0] and " rows (t = " in said[0], said
+
+
+def test_mass_below_rigid_body_only_beyond_2_sigma_and_torque_units_for_yaw():
+    from uuvid.identify.vehicle.dive import below_rigid_body
+    from uuvid.io.dive_channels import unit_guess
+    from uuvid.vehicle.definition import load_vehicle
+
+    veh = load_vehicle("bluerov2")
+    rigid = float(veh.params.M_RB[2, 2])
+    assert below_rigid_body(veh, "heave", rigid - 0.05, 1.5) is None  # within noise
+    assert below_rigid_body(veh, "heave", rigid * 0.6, float("nan")) is None  # σ unknown
+    w = below_rigid_body(veh, "heave", rigid * 0.6, 0.5)
+    assert w and "lbf: ×4.448 → N" in w and "Z_N" in w
+    iz = float(veh.params.M_RB[5, 5])
+    w = below_rigid_body(veh, "yaw", iz * 0.3, iz * 0.01)
+    assert w and "lbf·ft" in w and "N_Nm" in w and "lbf: ×4.448" not in w
+    assert unit_guess("N_Nm", 1 / 1.3558).startswith("lbf·ft")
+    assert unit_guess("Z_N", 1 / 4.448).startswith("lbf")
+    assert unit_guess("Z_N", 0.5) is None

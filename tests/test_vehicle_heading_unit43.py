@@ -107,3 +107,21 @@ def test_drag_that_dominates_the_command_is_said(examples, tmp_path):
     assert not any("opposite signs" in w for w in ws), ws
     res = identify_inertia(examples / "yaw_sine.csv", "yaw", k=19.1, k_q=0.0, **READ)
     assert not any("implausible drag" in w for w in res.document["warnings"])
+
+
+def test_small_steps_in_degrees_are_not_called_radians_and_every_degree_alias_is_checked():
+    """A ±3° yaw step at 5 Hz spans ≈ 6° and 'jumps' by ≈ 6 between two samples, but does not
+    move between them as a turning heading in radians does; '°' and 'cdeg' are degree units too."""
+    import math
+
+    import numpy as np
+
+    from uuvid.identify.vehicle.logs import heading_unit_warnings
+
+    t = np.arange(0.0, 20.0, 0.2)
+    step = np.where((t > 5) & (t < 12), 3.05, -3.05) * math.pi / 180
+    assert heading_unit_warnings(t, step, "deg", "heading", "yaw") == []
+    rad = np.linspace(0.0, 20.0, t.size) % (2 * math.pi)  # a turning heading in radians
+    for unit, f in (("°", math.pi / 180), ("cdeg", math.pi / 18000)):
+        w = heading_unit_warnings(t, rad * f, unit, "heading", "yaw")
+        assert len(w) == 1 and "radians?" in w[0], (unit, w)

@@ -1276,6 +1276,17 @@ FORCE_SCALE_FACTOR = 2.0
 _FORCE_SCALE_MIN = {"Z_N": 1.0, "N_Nm": 0.2, "X_N": 1.0, "Y_N": 1.0, "K_Nm": 0.2, "M_Nm": 0.2}
 _UNIT_GUESS = ((1 / 4.44822, "lbf (× 4.448 → N)"), (1 / 9.80665, "kgf (× 9.807 → N)"),
                (1 / 0.278014, "ozf"), (1e3, "mN (÷ 1000 → N)"), (1 / 1e3, "kN"))
+#: the same for a torque column (N·m)
+_TORQUE_UNIT_GUESS = ((1 / 1.355818, "lbf·ft (× 1.356 → N·m)"), (1 / 0.1129848, "lbf·in (× 0.113 → N·m)"),
+                      (1 / 9.80665, "kgf·m (× 9.807 → N·m)"), (1e3, "mN·m (÷ 1000 → N·m)"),
+                      (1 / 0.00706155, "ozf·in"))
+
+
+def unit_guess(column: str, ratio: float) -> str | None:
+    """The unit a force (``*_N``) or torque (``*_Nm``) column logged in it would read ``ratio`` ×
+    its value in SI (within 15 %), or None."""
+    table = _TORQUE_UNIT_GUESS if column.endswith("_Nm") else _UNIT_GUESS
+    return next((u for r, u in table if abs(math.log(ratio / r)) < 0.15), None)
 
 
 def _check_force_scale(chans, pwm, veh, armed, name, warnings, directions=None,
@@ -1311,7 +1322,7 @@ def _check_force_scale(chans, pwm, veh, armed, name, warnings, directions=None,
     if not off:
         return
     c, ratio = off[0]
-    unit = next((u for r, u in _UNIT_GUESS if abs(math.log(ratio / r)) < 0.15), None)
+    unit = unit_guess(c, ratio)
     more = "; ".join(f"{k} {r:.2g}×" for k, r in off[1:])
     warnings.append(f"{name}: {c} is {ratio:.2g}× the thrust the pwm_ columns give"
                     + (f" ({more})" if more else "") + ": "

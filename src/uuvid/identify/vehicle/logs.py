@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from uuvid.io.logs import CHANNEL_UNITS
+
 __all__ = ["LogSpec", "LogData", "read_vehicle_log", "parse_scaled", "load_msg_definitions",
            "quaternion_angles", "ANGULAR", "DUPLICATE_MODES"]
 
@@ -300,7 +302,7 @@ def _magnitude_warnings(data: LogData, spec: LogSpec, names: dict, servo: bool) 
 
 
 #: the angle units a heading in radians can be mistaken for (the numbers as logged ÷ these = rad)
-_DEGREE_UNITS = {"deg": math.pi / 180, "degree": math.pi / 180, "degrees": math.pi / 180}
+_DEGREE_UNITS = {u: f for u, (si, f) in CHANNEL_UNITS.items() if si == "rad" and u != "rad"}
 
 
 def heading_unit_warnings(t, x, unit: str | None, name: str | None, dof: str) -> list[str]:
@@ -320,6 +322,10 @@ def heading_unit_warnings(t, x, unit: str | None, name: str | None, dof: str) ->
     wrap = (np.abs(d) > math.pi) & (np.abs(np.abs(d) - 2 * math.pi) < 1.0)
     small = np.abs(d[~wrap])
     if not wrap.any() or not small.size or float(np.percentile(small, 90)) > 0.5:
+        return []
+    # a heading in radians moves between its wraps (a turning vehicle: more than half a turn in
+    # all); a few degrees of steps that happen to span ≈ 6° (a small yaw step, a roll record) do not
+    if float(np.sum(small)) < math.pi:
         return []
     k = int(np.flatnonzero(wrap)[0])
     return [f"{dof} angle {name or 'position'!r} (read in {unit}) spans {raw.min():.3g}…"
