@@ -60,13 +60,15 @@ def test_thrust_in_kgf_or_lbf_read_as_newtons_is_said(tmp_path, scale, unit):
     w = weak_thrust_warnings(_read(_sheet(tmp_path / "k.csv", 16.0, scale)), "thrust")
     assert len(w) == 1, w
     assert "'thrust'" in w[0] and "N/W" in w[0] and unit in w[0] and "--thrust-unit" in w[0]
+    assert "inefficient thruster" in w[0]  # the other explanation: a note, not a verdict
 
 
 def test_run_fit_says_it(tmp_path):
     f = _sheet(tmp_path / "k.csv", 16.0, KGF)
     out = run_fit([f], "table", ReadOptions(thrust_col="thrust", current_col="current",
                                             voltage_col="voltage"))
-    assert any("implausibly small thrust" in w and "kgf" in w for w in out.warnings), out.warnings
+    assert any("low for its electrical power" in n and "kgf" in n for n in out.notes), out.notes
+    assert not any("low for its electrical power" in w for w in out.warnings)
 
 
 def test_t200_sheets_pass_and_kgf_fails(shared_data, tmp_path):
@@ -101,19 +103,25 @@ def _twice(tmp_path):
     return _write(tmp_path / "twice.csv", cols), pwm.size
 
 
-def test_duplicate_rows_are_dropped_and_named(tmp_path):
+def test_a_file_pasted_twice_is_refused_naming_the_rows(tmp_path):
+    from uuvid.io.bench import BenchDataError
+
     f, n = _twice(tmp_path)
+    with pytest.raises(BenchDataError, match=rf"data rows {n + 1}–{2 * n} repeat rows 1–{n} exactly"):
+        read_bench(f, command_col="command", thrust_col="thrust")
+
+
+def test_a_sweep_measured_again_at_the_instruments_resolution_keeps_every_row(tmp_path):
+    """Three runs of a sweep with thrust written to 0.1 N repeat many single rows (and short runs
+    in the dead band) exactly: real measurements, all kept, no warning."""
+    rng = np.random.default_rng(5)
+    pwm = np.arange(1100.0, 1901.0, 25.0)
+    y = TRUTH.predict(pwm, 16.0).thrust
+    runs = [np.round(y + rng.normal(0, 0.04, pwm.size), 1) for _ in range(3)]
+    cols = {"command": np.concatenate([pwm] * 3), "thrust": np.concatenate(runs)}
+    f = _write(tmp_path / "three.csv", cols)
     b = read_bench(f, command_col="command", thrust_col="thrust")
-    assert b.command.size == n
-    assert len(b.warnings) == 1 and f"data rows {n + 1}–{2 * n} = rows 1–{n}" in b.warnings[0]
-
-
-def test_duplicate_rows_give_no_sigma_of_zero(tmp_path):
-    f, _ = _twice(tmp_path)
-    out = run_fit([f], "table", ReadOptions(thrust_col="thrust"))
-    assert any("repeat an earlier row exactly" in w for w in out.warnings), out.warnings
-    se = np.array([p.stderr for p in out.fits["all"].parameters], float)
-    assert not np.any(se[np.isfinite(se)] == 0.0)  # σ unknown (no repeats), not 0
+    assert b.command.size == 3 * pwm.size and b.warnings == ()
 
 
 def test_real_repeats_are_kept(tmp_path):

@@ -173,8 +173,8 @@ class BenchData:
         Sentences on how the file was read that the user should see (the unit of a column taken
         from its header when no unit was given).
     warnings
-        Sentences on what the reader read past that the user must see (exact duplicate rows of a
-        steady sheet, dropped: :func:`duplicate_rows`).
+        Sentences on what the reader read past that the user must see (none from the reader
+        today; a file pasted twice is refused: :func:`pasted_block`).
     """
 
     command: np.ndarray
@@ -755,13 +755,7 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                              "identify (wrong column, or wrong neutral?)")
     warns: list[str] = []
     if time is None:  # a time series with a repeated row has a repeated stamp (refused above)
-        keep = duplicate_rows(t, warns)
-        if not keep.all():
-            cmd, censored = cmd[keep], censored[keep]
-            thrust, speed, current, flow = (None if a is None else a[keep]
-                                            for a in (thrust, speed, current, flow))
-            if np.ndim(sv) == 1:
-                sv = sv[keep]
+        pasted_block(t)
     return BenchData(command=cmd, command_unit=command_unit, thrust=thrust, speed=speed,
                      current=current, supply_voltage=sv, time=time, source=t.name,
                      censored=censored, neutral=neutral_v, censor_speed=censor_speed,
@@ -769,48 +763,45 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
                      warnings=tuple(warns))
 
 
-def _row_ranges(rows) -> str:
-    """``[201, 202, 203, 250]`` (0-based) → ``'202–204, 251'`` (data rows, 1-based)."""
-    out, rows = [], [int(r) + 1 for r in rows]
-    i = 0
-    while i < len(rows):
-        j = i
-        while j + 1 < len(rows) and rows[j + 1] == rows[j] + 1:
-            j += 1
-        out.append(f"{rows[i]}" if i == j else f"{rows[i]}–{rows[j]}")
-        i = j + 1
-    return ", ".join(out)
+#: a run of at least this many rows (and :data:`PASTED_SHARE` of the file) equal, in order, to an
+#: earlier run is a copy.  A sweep measured again repeats single rows (a zero in the dead band, a
+#: value at the instrument's resolution) and short runs of them — real measurements, kept
+PASTED_MIN_ROWS = 10
+PASTED_SHARE = 0.2
 
 
-def duplicate_rows(t: _Table, warnings: list[str]) -> np.ndarray:
-    """The rows to keep: a steady sheet's row equal to an earlier one in every column is a copy
-    (a file pasted twice, a logger writing a line again), not a repeated measurement — kept, it
-    is counted as an independent repeat and a table's σ per entry is 0 (a fit's σ √2 too small).
-    Such rows are dropped, said in ``warnings`` naming them (a true repeat that matches to the
-    last digit, a zero at neutral, loses nothing but a σ of 0 it could not support)."""
+def pasted_block(t: _Table) -> None:
+    """Refuse a steady sheet holding a block of rows equal, in the same order and in every column,
+    to an earlier block (a file pasted twice, a logger writing its buffer again): counted as
+    repeats it would give a table's entries a σ of 0 and a fit too small a σ.  Single equal rows
+    are kept: a repeated sweep logged at its instruments' resolution repeats rows exactly."""
     n = t.n_rows
-    keep = np.ones(n, dtype=bool)
-    if n < 2:
-        return keep
-    rows = list(zip(*(t.cells[c] for c in t.columns)))
-    seen: dict = {}
-    pairs = []
-    for i, r in enumerate(rows):
+    if n < 2 * PASTED_MIN_ROWS:
+        return
+    first: dict = {}
+    prev = np.full(n, -1)  # the first earlier row equal to row i, or -1
+    for i, r in enumerate(zip(*(t.cells[c] for c in t.columns))):
         key = tuple(str(v).strip() for v in r)
-        if key in seen:
-            keep[i] = False
-            pairs.append((i, seen[key]))
+        prev[i] = first.get(key, -1)
+        first.setdefault(key, i)
+    best, start, run = 0, 0, 0
+    for i in range(n):
+        if prev[i] < 0:
+            run = 0
+        elif run and prev[i] == prev[i - 1] + 1:
+            run += 1
         else:
-            seen[key] = i
-    if pairs:
-        dup, first = [p[0] for p in pairs], [p[1] for p in pairs]
-        warnings.append(
-            f"{t.name}: {len(pairs)} row(s) repeat an earlier row exactly in every column (data "
-            f"rows {_row_ranges(dup)} = rows {_row_ranges(first)}): a copy (the file pasted twice, "
-            "a line written again), not a repeated measurement — counted as one it would give "
-            "a σ of 0 (a table entry) or too small a σ; those rows are dropped, and σ comes from "
-            "the rows left (a real repeat differs in some digit)")
-    return keep
+            run = 1
+        if run > best:
+            best, start = run, i - run + 1
+    if best >= max(PASTED_MIN_ROWS, PASTED_SHARE * n):
+        src = int(prev[start])
+        raise BenchDataError(
+            f"{t.name}: data rows {start + 1}–{start + best} repeat rows {src + 1}–{src + best} "
+            "exactly, in the same order and in every column: a copy (the file pasted twice, a "
+            "buffer written again), not a repeated measurement — counted as repeats they would "
+            "give a σ of 0 per table entry; expected each measurement once (remove the copy; a "
+            "sweep measured again differs in some digit)")
 
 
 def _check_command(t: _Table, col: str, cmd: np.ndarray, unit: str) -> None:

@@ -1050,8 +1050,10 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
                                    name=name, dead_band=dead_band, diameter=diameter)
     _require_residual_dof(outcome, model)
     # readings probably in a wrong unit (where big thrusters make an error wrong): said first
-    unit_warnings = [w for s in sets for w in (*s.warnings, *bench_unit_warnings(s),
-                                               *weak_thrust_warnings(s, opts.thrust_col))]
+    unit_warnings = [w for s in sets for w in (*s.warnings, *bench_unit_warnings(s))]
+    # thrust low for its power: a unit (kgf/lbf read as N) or a small, inefficient thruster (a
+    # tunnel thruster gives as little) — a note to look at, not a warning of a wrong value
+    weak = [w for s in sets for w in weak_thrust_warnings(s, opts.thrust_col)]
     if select or model in DYNAMIC:  # a steady sweep may well be logged every few seconds
         unit_warnings += _time_unit_warnings(sets)
         if any(s.current is not None for s in sets):
@@ -1063,24 +1065,27 @@ def run_fit(paths, model: str, opts: ReadOptions, *, degree: int | None = None,
                 "and current: uuvid.identify.thruster.dynamic.fit_dc_motor")
     outcome.warnings = unit_warnings + list(outcome.warnings)
     # how the files were read (a unit taken from a column's header): said first
-    outcome.notes = [n for s in sets for n in s.notes] + list(outcome.notes)
+    outcome.notes = [n for s in sets for n in s.notes] + weak + list(outcome.notes)
     return outcome
 
 
 #: below this median |thrust| / momentum bound of the electrical power (a 1 m² disk, see
-#: :func:`uuvid.identify.plausibility.momentum_thrust_bound`) a propeller thruster gives far too
-#: little thrust for its power: the Blue Robotics T200 sheets (10–20 V) give 0.06–0.08, the same
-#: numbers in kgf read as N 0.008 (in lbf 0.017).  Relative to the bound, it scales with power.
+#: :func:`uuvid.identify.plausibility.momentum_thrust_bound`) a thrust is low for its power.  The
+#: ratio is about A^(1/3)·η^(2/3) (A the disk area, η electrical → jet efficiency), independent of
+#: power: the Blue Robotics T200 sheets (10–20 V) give 0.06–0.08, their numbers in kgf read as N
+#: 0.008 (lbf 0.017) — but McLean's AUV II tunnel thruster, small and inefficient, gives 0.009–0.012
+#: in N.  No bound separates the two, so this is a note, not a warning.
 MIN_THRUST_BOUND_RATIO = 0.02
-#: the thrust units a too-small thrust may be in, with their N per unit (the likeliest first)
+#: the thrust units a low thrust may be in, with their N per unit (the likeliest first)
 _SMALL_THRUST_UNITS = (("kgf", 9.80665), ("lbf", 4.4482216152605))
 
 
 def weak_thrust_warnings(data, thrust_col: str | None = None) -> list[str]:
     """The lower side of :func:`uuvid.identify.plausibility.check_bench_units`: a still-water
-    thrust far below what any propeller thruster gives for its electrical power |V·I| (median
-    |thrust| / bound under :data:`MIN_THRUST_BOUND_RATIO`, on the same rows) is in kgf or lbf read
-    as N — a warning naming the column, the ratio and the likely unit (kgf passed silently)."""
+    thrust low for its electrical power |V·I| (median |thrust| / bound under
+    :data:`MIN_THRUST_BOUND_RATIO`, on the same rows) — one sentence naming the column, the ratio,
+    and both explanations: a small or inefficient thruster, or kgf/lbf read as N (kgf passed
+    silently).  ``run_fit`` gives it as a note."""
     from uuvid.identify.plausibility import _power_rows, momentum_thrust_bound
 
     pr = _power_rows(data)
@@ -1094,16 +1099,17 @@ def weak_thrust_warnings(data, thrust_col: str | None = None) -> list[str]:
     per_w = float(np.median(t / p[rows]))
     fits = [f"{u} (×{k:.3g}: ratio {ratio * k:.2g}, {per_w * k:.2g} N/W)"
             for u, k in _SMALL_THRUST_UNITS if MIN_THRUST_BOUND_RATIO <= ratio * k <= 1.0]
-    unit = (" or ".join(fits) + "? give --thrust-unit " + fits[0].split()[0] if fits else
-            "check the thrust column's unit (--thrust-unit N | kgf | lbf | ozf | g) and that "
-            "current and voltage are in A and V")
+    unit = (("thrust in " + " or ".join(fits) + " read as N (then give --thrust-unit "
+             + fits[0].split()[0] + ")") if fits else
+            "a thrust column in another unit (--thrust-unit N | kgf | lbf | ozf | g), or current "
+            "and voltage not in A and V")
     src = f"{data.source}: " if data.source else ""
     col = f"column {thrust_col!r}" if thrust_col else "the thrust column"
-    return [f"{src}implausibly small thrust for its electrical power: {col}, read in N, gives a "
-            f"median {per_w:.3g} N/W over the {int(rows.sum())} still-water rows above 25 % of "
-            f"the largest power, {ratio:.2g} of the momentum-theory bound for a 1 m² disk "
-            f"(below {MIN_THRUST_BOUND_RATIO:g}; a T200 at 10–20 V gives 0.06–0.08, about "
-            f"0.1–0.2 N/W): {unit}"]
+    return [f"{src}thrust low for its electrical power: {col}, read in N, gives a median "
+            f"{per_w:.3g} N/W over the {int(rows.sum())} still-water rows above 25 % of the "
+            f"largest power, {ratio:.2g} of the momentum-theory bound for a 1 m² disk (a T200 at "
+            f"10–20 V gives 0.06–0.08, about 0.1–0.2 N/W) — a small or inefficient thruster (a "
+            f"tunnel thruster gives ≈ 0.01), or {unit}?"]
 
 
 #: a bench time series sampled coarser than this (s) cannot show a thruster's dynamics (tenths of
