@@ -213,3 +213,22 @@ def test_real_small_bin_without_baro_primary_says_instance_0_is_assumed(shared_d
     warnings.clear()
     _, src = _depth(raw, config_from_params(dict(raw.param_values()[0])), warnings)
     assert "= BARO_PRIMARY" in src["why"] and not any("not in the log" in w for w in warnings)
+
+
+def test_export_mode_spans_do_not_stretch_across_a_hole_in_the_rows():
+    import pandas as pd
+
+    from uuvid.io.ardusub.dive import _segments
+
+    t = np.concatenate([np.arange(0.0, 10.0, 0.1), np.arange(60.0, 70.0, 0.1)])
+    armed = t < 30.0
+    df = pd.DataFrame({"t_s": t, "mode": "MANUAL", "armed": pd.array(armed, dtype="boolean"),
+                       "part": 0})
+    segs = _segments(df)
+    assert [s["armed"] for s in segs] == [True, False]
+    assert segs[0]["end_s"] == pytest.approx(10.0, abs=1e-9)  # last row 9.9 + a step, not 60
+    assert segs[1]["start_s"] == pytest.approx(60.0)
+    # no hole: the span runs to the next run's first row (the first time the change is seen)
+    df2 = df[df["t_s"] < 10.0].assign(armed=pd.array(t[t < 10.0] < 5.0, dtype="boolean"))
+    s2 = _segments(df2)
+    assert s2[0]["end_s"] == pytest.approx(5.0) and s2[0]["last_row_s"] == pytest.approx(4.9)

@@ -341,7 +341,10 @@ def normal_inverse(H: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(H, axis=0)
     sc = np.where(norms > 0, norms, 1.0)
     with small_blas(H.shape[1], entries=H.size):
-        _, s, Vt = np.linalg.svd(H / sc, full_matrices=False)
+        Hs = H / sc
+        # the SVD of R (Hs = QR, p × p) has Hs's singular values and V without an n × p U
+        R = np.linalg.qr(Hs, mode="r") if Hs.shape[0] > Hs.shape[1] else Hs
+        _, s, Vt = np.linalg.svd(R, full_matrices=False)
     keep = s > (s[0] if s.size else 0.0) * max(H.shape) * np.finfo(float).eps
     inv = (Vt[keep].T / s[keep] ** 2) @ Vt[keep]
     return inv / np.outer(sc, sc)

@@ -605,7 +605,8 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
 def _segments(df) -> list[dict]:
     """Runs of equal (mode, armed, part) as ``{start_s, end_s, mode, armed, part, last_row_s}``:
     a run spans from its first row to the next run's first row (the first time the new state is
-    seen; the change happened in between) and the last one to its last row + the row step — the
+    seen; the change happened in between; across a hole in the rows, to its last row + the row
+    step) and the last one to its last row + the row step — the
     intervals tile the rows, as :func:`~uuvid.io.ardusub.inspect.inspect_log`'s tile the log's
     events (``log inspect`` and ``log export`` then say the same spans); ``last_row_s`` is the
     run's last row."""
@@ -623,7 +624,10 @@ def _segments(df) -> list[dict]:
     out = []
     for a, b in zip(starts, ends):
         arm = df["armed"].iloc[a]
-        end = float(t[b + 1]) if b + 1 < t.size else float(t[b]) + step
+        # across a hole in the rows (a logger paused: more than 3 row steps) the change is not
+        # seen: the span ends a row step after its last row, as the log's last one does
+        end = (float(t[b + 1]) if b + 1 < t.size and t[b + 1] - t[b] <= 3 * step
+               else float(t[b]) + step)
         out.append({"start_s": float(t[a]), "end_s": end, "mode": str(df["mode"].iloc[a]),
                     "armed": None if arm is pd.NA else bool(arm), "part": int(part[a]),
                     "last_row_s": float(t[b])})
