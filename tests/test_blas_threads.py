@@ -46,21 +46,3 @@ def test_nonlinear_fit_statistics_run_on_one_blas_thread(svd_threads):
     assert max(svd_threads) == 1, svd_threads
     assert _blas_threads() >= 2  # and the limit ends with the block
 
-
-def test_demo_workers_share_the_cores_blas_included():
-    """The demo's worker processes (three on two cores) run numba and BLAS on their share."""
-    import json
-    import subprocess
-    import sys
-
-    script = ("import json, os; from uuvid.demo import _quiet_worker; _quiet_worker(1); "
-              "import numpy, scipy.linalg; from threadpoolctl import threadpool_info; "
-              "print(json.dumps([os.environ['NUMBA_NUM_THREADS'], "
-              "[d['num_threads'] for d in threadpool_info() if d['user_api'] == 'blas']]))")
-    env = {k: v for k, v in __import__("os").environ.items()
-           if k not in ("NUMBA_NUM_THREADS", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env,
-                         timeout=120)
-    assert run.returncode == 0, run.stderr[-2000:]
-    numba_threads, blas = json.loads(run.stdout.strip().splitlines()[-1])
-    assert numba_threads == "1" and blas and set(blas) == {1}, (numba_threads, blas)

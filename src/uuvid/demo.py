@@ -916,21 +916,13 @@ def _run_section(i: int, out: Path, quick: bool) -> tuple[dict, Report, float]:
 def _quiet_worker(threads: int) -> None:
     """A worker's own progress bars would interleave with the other's and the main one's; its
     compiled parallel loops share the cores with the other workers (``threads`` each, unless the
-    user set ``NUMBA_NUM_THREADS``), and so do their BLAS pools.  Runs before the worker imports
-    numba."""
+    user set ``NUMBA_NUM_THREADS``).  Runs before the worker imports numba."""
     import os
 
     os.environ["UUVID_NO_PROGRESS"] = "1"
     os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))
-    # the BLAS pools likewise: OpenBLAS's threads spin after each call, taking the cores from the
-    # other workers (the environment for a library loaded later, threadpoolctl for NumPy's)
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, str(threads))
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return
-    threadpool_limits(limits=threads, user_api="blas")
+    # (the BLAS pools keep their threads: their count changes a product's rounding, and the demo's
+    # numbers are the same in one process or several — small fits limit them where they pay)
 
 
 class DemoSectionError(RuntimeError):
