@@ -319,3 +319,21 @@ def test_a_geometry_without_the_advance_speed_row_is_refused_not_read_past_its_e
     VP, TP, VC = perturb_batch(s, np.random.default_rng(0), 8)
     with pytest.raises(ValueError, match=r"expected \(thrusters, 13\)"):
         run_batch_fast(old, VP, TP, VC)
+
+
+def test_advance_speeds_wake_is_one_per_thruster_or_one_for_all():
+    """The compiled kernel reads wake[i] for every thruster: one wake for 40 thrusters read past
+    the array (advance speeds of −3e299); three for two dropped one silently."""
+    import numpy as np
+    import pytest
+
+    from uuvid.thruster.inflow import advance_speeds
+
+    P = np.zeros((40, 3))
+    A = np.tile([1.0, 0.0, 0.0], (40, 1))
+    ua = advance_speeds([1.0, 0, 0, 0, 0, 0], P, A, wake=[0.5])
+    assert np.array_equal(ua, np.full(40, 0.5))
+    with pytest.raises(ValueError, match="2 wake fractions for 40 thrusters"):
+        advance_speeds([1.0, 0, 0, 0, 0, 0], P, A, wake=[0.5, 0.1])
+    with pytest.raises(ValueError, match="3 wake fractions for 2 thrusters"):
+        advance_speeds([1.0, 0, 0, 0, 0, 0], P[:2], A[:2], wake=[0.1, 0.2, 0.3])

@@ -74,7 +74,8 @@ def advance_speeds(nu_r, positions, axes, wake=None) -> np.ndarray:
     """Advance speed at each thruster, m/s: ``u_a = (1 − w) axisᵀ(v_r + ω × r)``.
 
     ``nu_r`` (6,) body velocity relative to the water ``[u, v, w, p, q, r]``; ``positions`` and
-    ``axes`` (n, 3) (axes are normalised here); ``wake`` (n,) wake fractions in [0, 1) (default 0).
+    ``axes`` (n, 3) (axes are normalised here); ``wake`` (n,) wake fractions in [0, 1), or one for
+    every thruster (default 0).
     """
     nu_r = np.asarray(nu_r, dtype=np.float64).reshape(-1)
     if nu_r.shape != (6,):
@@ -89,6 +90,11 @@ def advance_speeds(nu_r, positions, axes, wake=None) -> np.ndarray:
         raise ValueError("advance_speeds: every thruster axis must be a non-zero vector")
     A = np.ascontiguousarray(A / norm[:, None])
     w = np.zeros(len(P)) if wake is None else np.asarray(wake, dtype=np.float64).reshape(-1)
+    if w.size == 1:
+        w = np.full(len(P), w[0])
+    elif w.size != len(P):  # the kernel reads wake[i] for every thruster: a short array read past
+        raise ValueError(f"advance_speeds: {w.size} wake fractions for {len(P)} thrusters: "
+                         "expected one per thruster, or one for all")
     check_wake(w)
     return advance_speeds_nb(nu_r, P, A, np.ascontiguousarray(w), np.empty(len(P)))
 
