@@ -128,6 +128,20 @@ def map_thrust_torque_nb(ct_a, ct_b, cq_a, cq_b, diameter, rho, n, ua):
     return (fourier_nb(ct_a, ct_b, beta) * q, fourier_nb(cq_a, cq_b, beta) * q * diameter)
 
 
+#: :meth:`FourQuadrantMap.covers`' tolerance: this fraction of a fitted interval's width …
+COVER_TOL_FRACTION = 0.1
+#: … at most this (deg; the fixed tolerance it had before, for the usual intervals ≥ 10° wide) …
+COVER_TOL_MAX_DEG = 1.0
+#: … and at least this (deg): rounding of the interval's ends, e.g. in a model file.
+COVER_TOL_MIN_DEG = 1e-6
+
+
+def cover_tolerance(lo: float, hi: float) -> float:
+    """Degrees beyond a fitted advance-angle interval ``[lo, hi]`` still counted as inside it:
+    ``COVER_TOL_FRACTION × (hi − lo)`` clipped to [``COVER_TOL_MIN_DEG``, ``COVER_TOL_MAX_DEG``]."""
+    return min(COVER_TOL_MAX_DEG, max(COVER_TOL_MIN_DEG, COVER_TOL_FRACTION * (hi - lo)))
+
+
 @dataclass(frozen=True)
 class FourQuadrantMap:
     """``C_T*(β)``, ``C_Q*(β)`` as Fourier series (see the module docstring for the equations).
@@ -183,19 +197,32 @@ class FourQuadrantMap:
         return FourQuadrantMap(self.name, diameter, self.ct_a, self.ct_b, self.cq_a, self.cq_b,
                                self.source, self.assumption, self.beta_ranges_deg)
 
-    def covers(self, beta_deg: float, tol: float = 1.0) -> bool:
-        """Does the map hold at advance angle ``beta_deg`` (within ``tol`` degrees of a fitted
-        interval, angles taken modulo 360°)?  Always for a map of the whole circle."""
+    def covers(self, beta_deg: float, tol: float | None = None) -> bool:
+        """Does the map hold at advance angle ``beta_deg`` (within a tolerance of a fitted
+        interval, angles taken modulo 360°)?  Always for a map of the whole circle.
+
+        The tolerance (deg) is ``tol`` if given, else :func:`cover_tolerance` of each interval:
+        a tenth of its width, at most 1°, so that an interval as narrow as a wrong diameter
+        makes it (10 m instead of 0.076 m squeezes the bench's 0–14° into 0–0.11°) is not
+        widened past everything a vehicle reaches."""
         if self.beta_ranges_deg is None:
             return True
-        return any(lo - tol <= b <= hi + tol for lo, hi in self.beta_ranges_deg
-                   for b in (beta_deg - 360.0, beta_deg, beta_deg + 360.0))
+        for lo, hi in self.beta_ranges_deg:
+            t = cover_tolerance(lo, hi) if tol is None else tol
+            if any(lo - t <= b <= hi + t for b in (beta_deg - 360.0, beta_deg, beta_deg + 360.0)):
+                return True
+        return False
 
     def ranges_text(self) -> str:
         """The fitted advance-angle intervals, for messages (``"the whole circle"`` if none)."""
         if self.beta_ranges_deg is None:
             return "the whole circle"
-        return " and ".join(f"[{lo:.0f}°, {hi:.0f}°]" for lo, hi in self.beta_ranges_deg)
+        def text(lo, hi):  # whole degrees, more decimals for an interval under 10° wide
+            w = hi - lo
+            d = min(6, max(0, math.ceil(-math.log10(w)) + 1)) if w > 0 else 0
+            return f"[{lo:.{d}f}°, {hi:.{d}f}°]"
+
+        return " and ".join(text(lo, hi) for lo, hi in self.beta_ranges_deg)
 
     def _arrays(self):
         return (np.asarray(self.ct_a), np.asarray(self.ct_b), np.asarray(self.cq_a),
