@@ -26,8 +26,10 @@ with the water speed.  Two forms, both linear in their coefficients (ordinary le
   diameter ``D`` given, fresh water unless ``rho`` says otherwise).
 
 Identifiability: the inflow term needs water speeds that differ.  All ``flow_speed = 0`` (a
-bollard bench) leaves the coefficient undetermined — the fit then says so as a warning and returns
-the bollard map only, never a silent value; fewer than :data:`MIN_FLOW_LEVELS` distinct water
+bollard bench) leaves the coefficient undetermined — the linear fit's caller (``thruster fit
+--model quadratic``) then says so as a warning and fits the bollard map only, never a silent value;
+:func:`fit_four_quadrant` refuses such data (``C_T*`` along β, and still water pins β to 0°/180°)
+naming ``--model quadratic`` for the bollard map; fewer than :data:`MIN_FLOW_LEVELS` distinct water
 speeds raise (two levels always fit a line in ``u_a``; a third tests the form).
 """
 
@@ -243,6 +245,13 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
                              "propeller turns both ways here: give order ≥ 1 (default 2 for such "
                              "data)")
     what = f"the four-quadrant fit ({FOUR_QUADRANT_FORM})"
+    if is_bollard(data):  # unlike quadratic's K_T, the map has nothing to fit without water
+        raise BenchDataError(
+            f"{data.source or 'the data'}: column {data.flow_column!r}: flow_speed is 0 in every "
+            f"row, so the advance angle β = atan2(u_a, 0.7πnD) is 0° (or 180° astern) throughout: "
+            f"{what} is C_T* along β and needs water speeds to span it (record runs at three or "
+            "more carriage/tunnel speeds). The bollard map alone: --model quadratic (it fits "
+            "K_T Ω|Ω| from such a file, with a warning)")
     m = _rows(data, what)
     w, u, y = data.speed[m], data.flow_speed[m], data.thrust[m]
     names = [f"a_{k}" for k in range(order + 1)] + [f"b_{k}" for k in range(1, order + 1)]
@@ -274,6 +283,7 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
                 f"{diameter:g} m) gives no {way} bollard thrust (K_T = {fq.bollard_kt(sgn):+.3g}) "
                 f"though the propeller turns {way} in the data: not a model of this thruster. "
                 "Check --diameter and the signs of the columns, or give another --degree")
+    fit = _warn_bollard_scale(fit, fq, [s for way, s in (("forward", 1), ("reverse", -1)) if way in dirs])
     kf = max(fq.bollard_kt(1) * c, 0.0) if "forward" in dirs else None
     kr = max(-fq.bollard_kt(-1) * c, 0.0) if "reverse" in dirs else None
     kf = kr if kf is None else kf
@@ -282,6 +292,39 @@ def fit_four_quadrant(data: BenchData, diameter: float, *, order: int | None = N
                      {"form": "four-quadrant", "map": fq, "notes": (),
                       "beta_range_deg": fit.extra["beta_range_deg"],
                       "beta_ranges_deg": fit.extra["beta_ranges_deg"]})
+
+
+#: Bollard ``K_T = T/(ρn²D⁴)`` a propeller can have, generously: real screws give 0.1–0.8 (the
+#: published Wageningen B4-70, P/D = 1.0 map 0.445; ducted and high-pitch ones up to ≈ 0.8, astern
+#: ≈ 0.5–0.8 of ahead).  Outside it the diameter is the likely culprit: ``K_T ∝ D⁻⁴`` for the same
+#: thrust, so a diameter off by 10× moves it by 10⁴ — far outside — and one radius given for the
+#: diameter by 16×.
+BOLLARD_KT_RANGE = (0.02, 2.0)
+#: A typical bollard ``K_T``, for the diameter a message suggests.
+TYPICAL_BOLLARD_KT = 0.4
+
+
+def _warn_bollard_scale(fit: Fit, fq: FourQuadrantMap, signs) -> Fit:
+    """``fit`` with one warning naming each shaft direction (``signs``: +1 ahead, −1 astern) whose
+    fitted bollard ``K_T`` lies outside :data:`BOLLARD_KT_RANGE` — the fit itself cannot tell:
+    any diameter fits the same thrusts equally well, only the coefficients' scale moves (``K_T``
+    and ``C_T*`` as ``D⁻⁴``, the β axis as ``D⁻¹``).  Names the implied ``K_T`` and the
+    diameter that would give a typical one."""
+    import dataclasses
+
+    lo, hi = BOLLARD_KT_RANGE
+    bad = [(sgn, sgn * fq.bollard_kt(sgn)) for sgn in signs]
+    bad = [(sgn, kt) for sgn, kt in bad if kt > 0 and not lo <= kt <= hi]
+    if not bad:
+        return fit
+    said = " and ".join(f"{'ahead' if sgn > 0 else 'astern'} {kt:.3g}" for sgn, kt in bad)
+    d_typ = fq.diameter * (bad[0][1] / TYPICAL_BOLLARD_KT) ** 0.25
+    msg = (f"the fitted map's bollard K_T = T/(ρn²D⁴) at D = {fq.diameter:g} m is {said} (C_T*(0°) "
+           f"= {float(fq.ct(0.0)):.3g}), outside {lo:g}–{hi:g} where propellers lie (about "
+           "0.1–0.8): is the diameter in m? (a diameter off by 10× scales K_T by 10⁴); "
+           f"K_T ≈ {TYPICAL_BOLLARD_KT:g} would mean D ≈ {d_typ:.3g} m. Any diameter fits the "
+           "thrusts equally well, but the map's coefficients and advance angles are then wrong")
+    return dataclasses.replace(fit, warnings=fit.warnings + (msg,))
 
 
 def beta_ranges(speed, beta) -> list[list[float]]:
