@@ -55,8 +55,10 @@ Bench runs in a flow (a ``flow_speed`` column, m/s unless its header or ``flow_s
 another unit; :mod:`uuvid.identify.thruster.inflow`): ``quadratic`` and ``four-quadrant`` identify
 how thrust falls with the water speed, with σ, correlations, residuals and a plot of thrust against
 the water speed per command, and warn when the fit says it rises (the column's sign reversed?).  A
-flow column that is zero throughout leaves the inflow coefficient unidentifiable (a warning; the
-bollard map is fitted) and changes nothing for the other models; they refuse data with water
+flow column that is zero throughout leaves the inflow coefficient unidentifiable: ``quadratic``
+warns and fits the bollard map, ``four-quadrant`` refuses (its ``C_T*(β)`` needs water speeds to
+span the advance angle β) and points to ``quadratic``; it changes nothing for the other models;
+they refuse data with water
 speeds they do not model.  Without a flow column nothing changes.
 
 Errors in the data (unreadable files, missing columns, bad cells, missing channels) exit with
