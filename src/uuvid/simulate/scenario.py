@@ -48,6 +48,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from uuvid.core.checks import direction_deg
+from uuvid.core.yamltypes import Num, Whole, boolean_message
 from uuvid.simulate.reference import (
     WaypointMission,
     cruise_speed,
@@ -76,13 +77,13 @@ _DEEPER = (f"deeper than the deepest ocean (the Challenger Deep, about 10,935 m;
 class MissionSpec(BaseModel):
     model_config = _CFG
     kind: Literal["square", "waypoints"] = "square"
-    depth: float = Field(2.0, ge=0)
-    side: float = Field(10.0, gt=0)
-    speed: float | None = Field(None, gt=0)  # None: :func:`cruise_speed` for the vehicle
-    vertical_speed: float = Field(0.25, gt=0)
+    depth: Num = Field(2.0, ge=0)
+    side: Num = Field(10.0, gt=0)
+    speed: Num | None = Field(None, gt=0)  # None: :func:`cruise_speed` for the vehicle
+    vertical_speed: Num = Field(0.25, gt=0)
     yaw: Literal["path", "fixed"] = "path"
-    hold: float = Field(10.0, ge=0)
-    waypoints: list[tuple[float, float, float, float]] | None = None
+    hold: Num = Field(10.0, ge=0)
+    waypoints: list[tuple[Num, Num, Num, Num]] | None = None
 
     @field_validator("waypoints", mode="before")
     @classmethod
@@ -164,17 +165,17 @@ class LqrWeightsSpec(BaseModel):
     """Bryson's rule of :func:`uuvid.simulate.control.lqr.default_weights`."""
 
     model_config = _CFG
-    position: float = Field(0.1, gt=0)
-    yaw: float = Field(0.1, gt=0)
-    tilt: float = Field(0.5, gt=0)
-    speed: float = Field(0.5, gt=0)
-    rate: float = Field(1.0, gt=0)
-    integral: float = Field(0.5, gt=0)
-    thrust: float = Field(10.0, gt=0)
+    position: Num = Field(0.1, gt=0)
+    yaw: Num = Field(0.1, gt=0)
+    tilt: Num = Field(0.5, gt=0)
+    speed: Num = Field(0.5, gt=0)
+    rate: Num = Field(1.0, gt=0)
+    integral: Num = Field(0.5, gt=0)
+    thrust: Num = Field(10.0, gt=0)
 
 
-_Pos = Annotated[float, Field(gt=0)]
-_NonNeg = Annotated[float, Field(ge=0)]
+_Pos = Annotated[Num, Field(gt=0)]
+_NonNeg = Annotated[Num, Field(ge=0)]
 
 
 DEFAULT_BANDWIDTH = (1.5, 1.5, 1.5, 2.0)  # rad/s: surge, sway, heave, yaw of the PID DP
@@ -223,9 +224,9 @@ class ControllerSpec(BaseModel):
 class ConstantCurrentSpec(BaseModel):
     model_config = _CFG
     kind: Literal["constant"]
-    speed: float = Field(ge=0)
-    direction_deg: float = 0.0
-    down: float = 0.0
+    speed: Num = Field(ge=0)
+    direction_deg: Num = 0.0
+    down: Num = 0.0
 
     @field_validator("direction_deg")
     @classmethod
@@ -263,15 +264,15 @@ class TimeSeriesCurrentSpec(BaseModel):
 class GaussMarkovCurrentSpec(BaseModel):
     model_config = _CFG
     kind: Literal["gauss_markov"]
-    mean: float = Field(0.3, ge=0)
-    mu: float = Field(0.05, gt=0)
-    sigma: float = Field(0.02, ge=0)
-    min: float = Field(0.0, ge=0)
-    max: float = Field(1.0, ge=0)
-    direction_deg: float = 0.0
-    direction_sigma_deg: float = Field(0.0, ge=0)
-    direction_mu: float = Field(0.05, gt=0)
-    seed: int = 0
+    mean: Num = Field(0.3, ge=0)
+    mu: Num = Field(0.05, gt=0)
+    sigma: Num = Field(0.02, ge=0)
+    min: Num = Field(0.0, ge=0)
+    max: Num = Field(1.0, ge=0)
+    direction_deg: Num = 0.0
+    direction_sigma_deg: Num = Field(0.0, ge=0)
+    direction_mu: Num = Field(0.05, gt=0)
+    seed: Whole = 0
 
     @field_validator("direction_deg")
     @classmethod
@@ -295,13 +296,13 @@ class ScenarioSpec(BaseModel):
     mission: MissionSpec = MissionSpec()
     thruster_model: str | None = None
     inflow: Literal["none", "four-quadrant"] | None = None  # None: the vehicle file's key
-    current: tuple[float, float, float] | CurrentSpec = (0.0, 0.0, 0.0)
+    current: tuple[Num, Num, Num] | CurrentSpec = (0.0, 0.0, 0.0)
     allocation: Literal["priority", "maxscale", "scale", "clip", "none"] = "priority"
-    battery_soc: float | None = Field(None, gt=0, le=1)  # 0: an empty battery flies nothing
+    battery_soc: Num | None = Field(None, gt=0, le=1)  # 0: an empty battery flies nothing
     controller: ControllerSpec = ControllerSpec()
-    dt: float = Field(0.01, gt=0, le=0.1)
-    substeps: int = Field(1, ge=1, le=100)
-    duration: float | None = Field(None, gt=0)
+    dt: Num = Field(0.01, gt=0, le=0.1)
+    substeps: Whole = Field(1, ge=1, le=100)
+    duration: Num | None = Field(None, gt=0)
 
     @field_validator("current", mode="before")
     @classmethod
@@ -335,6 +336,10 @@ class ScenarioSpec(BaseModel):
                              f"mapping such as {{kind: constant, speed: 0.3, direction_deg: 90}}; "
                              f"got {reprlib.repr(v)}")
         if isinstance(v, (list, tuple)):
+            for i, x in enumerate(v[:3]):  # else pydantic's union: every member's attempt
+                if isinstance(x, bool):
+                    raise ValueError(f"item {i} ({('north', 'east', 'down')[i]}, m/s): "
+                                     + boolean_message(x))
             try:
                 ok = len(v) == 3 and all(float(x) == float(x) for x in v)
             except (TypeError, ValueError):

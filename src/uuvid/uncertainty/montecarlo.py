@@ -71,6 +71,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from uuvid.core.yamltypes import Num, Whole
 from uuvid.uncertainty.sweep import Requirement, probability_summary, wilson  # noqa: F401
 from uuvid.uncertainty.targets import (
     REJECTED,
@@ -151,11 +152,11 @@ def _unit_reached(unit: str, factor: float) -> str:
 class UncertainParameter(BaseModel):
     model_config = _CFG
     name: str
-    estimate: float
-    sigma: float | None = Field(None, ge=0)
+    estimate: Num
+    sigma: Num | None = Field(None, ge=0)
     unit: str = ""
-    lower: float | None = None
-    upper: float | None = None
+    lower: Num | None = None
+    upper: Num | None = None
 
     @model_validator(mode="after")
     def _bounds(self):
@@ -183,10 +184,10 @@ class UncertainModel(BaseModel):
     description: str = ""
     base: dict[str, Any] = Field(default_factory=dict)
     parameters: list[UncertainParameter] = Field(min_length=1)
-    covariance: list[list[float]] | None = None
+    covariance: list[list[Num]] | None = None
     target: Target | None = None
     requirement: Requirement | None = None
-    residual_sigma: float | None = Field(None, ge=0)
+    residual_sigma: Num | None = Field(None, ge=0)
     provenance: dict[str, Any] = Field(default_factory=dict)
 
     @model_validator(mode="after")
@@ -501,15 +502,15 @@ class MonteCarloSpec(BaseModel):
     model_config = _CFG
     name: str = "montecarlo"
     model: UncertainModel
-    runs: int = Field(1000, ge=1)
-    seed: int = Field(0, ge=0)
+    runs: Whole = Field(1000, ge=1)
+    seed: Whole = Field(0, ge=0)
     bounds: Literal["reject", "truncate", "ignore"] = "reject"
-    max_draws: int = Field(100, ge=1, le=100000)
+    max_draws: Whole = Field(100, ge=1, le=100000)
     target: Target | None = None
     requirement: Requirement | None = None
-    band: float = Field(0.95, gt=0, lt=1)
-    chunk_size: int | None = Field(None, ge=1)
-    retries: int = Field(2, ge=0, le=100)
+    band: Num = Field(0.95, gt=0, lt=1)
+    chunk_size: Whole | None = Field(None, ge=1)
+    retries: Whole = Field(2, ge=0, le=100)
 
 
 class MonteCarloStudy(StudyBase):

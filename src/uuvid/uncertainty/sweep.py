@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from uuvid.core.yamltypes import Num, Whole, boolean_message
 from uuvid.uncertainty import params as PR
 from uuvid.uncertainty.targets import StudyBase, Target, metric_label, metric_unit, resolve_paths
 
@@ -57,11 +58,11 @@ class Axis(BaseModel):
     model_config = _CFG
     name: str
     values: list[Any] | None = None
-    start: float | None = None
-    stop: float | None = None
-    num: int | None = Field(None, ge=1, le=100000)
+    start: Num | None = None
+    stop: Num | None = None
+    num: Whole | None = Field(None, ge=1, le=100000)
     log: bool = False
-    include: list[float] = Field(default_factory=list)
+    include: list[Num] = Field(default_factory=list)
     unit: str | None = None
 
     @model_validator(mode="after")
@@ -111,8 +112,8 @@ class Requirement(BaseModel):
 
     model_config = _CFG
     metric: str
-    below: float | None = None
-    above: float | None = None
+    below: Num | None = None
+    above: Num | None = None
 
     @model_validator(mode="after")
     def _bound(self):
@@ -145,7 +146,7 @@ class PlotSpec(BaseModel):
     y: str | None = None  # heatmap
     hue: str | None = None  # line
     metric: str
-    at: dict[str, float] = Field(default_factory=dict)  # other parameters fixed at (SI)
+    at: dict[str, Num] = Field(default_factory=dict)  # other parameters fixed at (SI)
 
 
 class SweepSpec(BaseModel):
@@ -159,12 +160,12 @@ class SweepSpec(BaseModel):
     mode: Literal["grid", "list", "random"] = "grid"
     parameters: list[Axis] = Field(default_factory=list)
     runs: list[dict[str, Any]] | None = None
-    samples: int | None = Field(None, ge=1)
+    samples: Whole | None = Field(None, ge=1)
     metrics: list[str] | None = None
     requirement: Requirement | None = None
-    seed: int = 0
-    chunk_size: int | None = Field(None, ge=1)
-    retries: int = Field(2, ge=0, le=100)
+    seed: Whole = 0
+    chunk_size: Whole | None = Field(None, ge=1)
+    retries: Whole = Field(2, ge=0, le=100)
     plots: list[PlotSpec] | None = None
 
     @model_validator(mode="after")
@@ -269,7 +270,9 @@ def _expects_number(kind: str, name: str) -> bool:
 
 
 def _is_number(v) -> bool:
-    if isinstance(v, (bool, int, float)):
+    if isinstance(v, bool):  # YAML's yes/on/true: pydantic and float() take it as 1.0
+        return False
+    if isinstance(v, (int, float)):
         return True
     if isinstance(v, str):
         try:
@@ -286,8 +289,9 @@ def _number_error(where: str, loc: str, name: str, vals: list) -> None:
     for v in vals:
         if not _is_number(v):
             u = PR.si_unit(name)
+            what = boolean_message(v) if isinstance(v, bool) else f"value {v!r} is not a number"
             raise SweepError((f"{where}: " if where else "")
-                             + f"{loc}: value {v!r} is not a number; {name} takes numbers"
+                             + f"{loc}: {what}; {name} takes numbers"
                              + (f" (in {u} unless the parameter gives a unit)" if u else ""))
 
 

@@ -35,6 +35,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from uuvid.core.checks import memory_budget_bytes, physical_memory_bytes
+from uuvid.core.yamltypes import Num, Whole
 from uuvid.simulate.scenario import ScenarioSpec
 from uuvid.thruster.blocks import ParameterError
 from uuvid.uncertainty import params as PR
@@ -57,10 +58,10 @@ class ThrusterStepTarget(BaseModel):
     #: default: the chain's own step, as ``thruster simulate`` takes (neutral → full forward µs
     #: for a PWM ESC, 0 → 24 V for a voltage input; :func:`uuvid.simulate.signals.default_step`)
     signal: dict[str, Any] | None = None
-    t_end: float = Field(1.333, gt=0)
-    dt: float = Field(1e-3, gt=0)
-    substeps: int = Field(4, ge=1, le=1000)
-    steady_window: float = Field(0.1, gt=0, le=1)
+    t_end: Num = Field(1.333, gt=0)
+    dt: Num = Field(1e-3, gt=0)
+    substeps: Whole = Field(4, ge=1, le=1000)
+    steady_window: Num = Field(0.1, gt=0, le=1)
 
 
 class ThrusterSteadyTarget(BaseModel):
@@ -69,9 +70,9 @@ class ThrusterSteadyTarget(BaseModel):
     model_config = _CFG
     kind: Literal["thruster_steady"] = "thruster_steady"
     physical_model: dict[str, Any]
-    supply_voltages: list[float] = Field(default_factory=lambda: [16.0], min_length=1)
-    commands: list[float] | None = None  # default: 81 points from full reverse to full forward
-    n_commands: int = Field(81, ge=3, le=5000)
+    supply_voltages: list[Num] = Field(default_factory=lambda: [16.0], min_length=1)
+    commands: list[Num] | None = None  # default: 81 points from full reverse to full forward
+    n_commands: Whole = Field(81, ge=3, le=5000)
 
 
 class VelocityResponse(BaseModel):
@@ -79,9 +80,9 @@ class VelocityResponse(BaseModel):
 
     model_config = _CFG
     dof: Literal["surge", "sway", "heave", "roll", "pitch", "yaw"] = "surge"
-    force: float = 10.0
-    t_end: float = Field(5.0, gt=0)
-    dt: float = Field(0.02, gt=0)
+    force: Num = 10.0
+    t_end: Num = Field(5.0, gt=0)
+    dt: Num = Field(0.02, gt=0)
 
 
 class VehicleMissionTarget(BaseModel):

@@ -10,10 +10,11 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from uuvid.core.units import G0
+from uuvid.core.yamltypes import Num
 from uuvid.vehicle.model import DOF_NAMES
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
-Vec3 = tuple[float, float, float]
+Vec3 = tuple[Num, Num, Num]
 DofName = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
 
 
@@ -37,15 +38,15 @@ class EnvironmentSchema(BaseModel):
 
 class RigidBodySchema(BaseModel):
     model_config = _CFG
-    mass: float = Field(gt=0)
-    weight: float | None = Field(None, ge=0)
-    buoyancy: float | None = Field(None, ge=0)
-    displaced_volume: float | None = Field(None, gt=0)
-    water_density: float | None = Field(None, gt=0)
-    gravity: float = Field(G0, gt=0)
+    mass: Num = Field(gt=0)
+    weight: Num | None = Field(None, ge=0)
+    buoyancy: Num | None = Field(None, ge=0)
+    displaced_volume: Num | None = Field(None, gt=0)
+    water_density: Num | None = Field(None, gt=0)
+    gravity: Num = Field(G0, gt=0)
     center_of_gravity: Vec3
     center_of_buoyancy: Vec3
-    inertia: list[float]
+    inertia: list[Num]
     inertia_about: Literal["cg", "origin"] = "cg"
 
     @field_validator("inertia", mode="before")
@@ -69,9 +70,9 @@ class RigidBodySchema(BaseModel):
 
 class HydrodynamicsSchema(BaseModel):
     model_config = _CFG
-    added_mass: list[float]
-    linear_damping: list[float]
-    quadratic_damping: list[float]
+    added_mass: list[Num]
+    linear_damping: list[Num]
+    quadratic_damping: list[Num]
 
     @field_validator("added_mass", "linear_damping", "quadratic_damping")
     @classmethod
@@ -86,9 +87,9 @@ class ThrusterSchema(BaseModel):
     axis: Vec3 | None = None
     rpy_deg: Vec3 | None = None
     model: str = Field(min_length=1)
-    limits: tuple[float, float]
-    installation: dict[str, float | tuple[float, float]] = {}
-    wake: float = Field(0.0, ge=0, lt=1)  # wake fraction w: u_a = (1 − w) axisᵀ(v_r + ω × r)
+    limits: tuple[Num, Num]
+    installation: dict[str, Num | tuple[Num, Num]] = {}
+    wake: Num = Field(0.0, ge=0, lt=1)  # wake fraction w: u_a = (1 − w) axisᵀ(v_r + ω × r)
     # the propeller's four-quadrant map for inflow (default: the model's): a preset name or a
     # thruster model file with a four-quadrant 'inflow' section (a bench fit in a flow)
     propeller: str | None = Field(None, min_length=1)
@@ -108,30 +109,30 @@ class ThrusterSchema(BaseModel):
 class ModeSchema(BaseModel):
     model_config = _CFG
     description: str = ""
-    constraints: list[dict[str, float]] = []
+    constraints: list[dict[str, Num]] = []
     zero_dofs: list[DofName] = []
     off: list[str] = []
     open_water: str = ""
-    eta_dof: dict[str, float] = {}
+    eta_dof: dict[str, Num] = {}
 
 
 class AllocationSchema(BaseModel):
     model_config = _CFG
     dofs: list[DofName] = list(DOF_NAMES)
-    weights: list[float] | None = None
+    weights: list[Num] | None = None
     default_modes: list[str] = []
 
 
 class OneDofSchema(BaseModel):
     model_config = _CFG
     dof: DofName
-    mass: float = Field(gt=0)
-    linear: float = Field(ge=0)
-    quadratic: float = Field(0.0, ge=0)
-    eta_pos: float = Field(1.0, gt=0)
-    eta_neg: float = Field(1.0, gt=0)
-    disturbance: float = 0.0
-    inflow_coefficient: float = Field(0.0, ge=0)  # k_a [N·s²/(rad·m)], thrust lost to u_a
+    mass: Num = Field(gt=0)
+    linear: Num = Field(ge=0)
+    quadratic: Num = Field(0.0, ge=0)
+    eta_pos: Num = Field(1.0, gt=0)
+    eta_neg: Num = Field(1.0, gt=0)
+    disturbance: Num = 0.0
+    inflow_coefficient: Num = Field(0.0, ge=0)  # k_a [N·s²/(rad·m)], thrust lost to u_a
     mode: str | None = None
     notes: str | None = None
 
@@ -140,13 +141,13 @@ class BatterySchema(BaseModel):
     """Battery block (see :mod:`uuvid.vehicle.power`): OCV vs SOC, internal resistance, capacity."""
     model_config = _CFG
     name: str = "battery"
-    capacity_ah: float = Field(gt=0)
-    ocv_soc: list[float] = Field(min_length=2)
-    ocv_voltage: list[float] = Field(min_length=2)
-    resistance: float = Field(ge=0)
-    hotel_load_w: float = Field(0.0, ge=0)
-    min_voltage: float = Field(0.0, ge=0)
-    max_current: float | None = Field(None, gt=0)
+    capacity_ah: Num = Field(gt=0)
+    ocv_soc: list[Num] = Field(min_length=2)
+    ocv_voltage: list[Num] = Field(min_length=2)
+    resistance: Num = Field(ge=0)
+    hotel_load_w: Num = Field(0.0, ge=0)
+    min_voltage: Num = Field(0.0, ge=0)
+    max_current: Num | None = Field(None, gt=0)
     thruster_power_model: str = "t200-physical"
     source: str = ""
     assumptions: str = ""
@@ -160,7 +161,7 @@ class VehicleSchema(BaseModel):
     assumptions: dict[str, str] = {}
     environment: EnvironmentSchema = EnvironmentSchema()
     inflow: Literal["none", "four-quadrant"] = "none"
-    quaternion_gain: float = Field(1.0, ge=0)
+    quaternion_gain: Num = Field(1.0, ge=0)
     rigid_body: RigidBodySchema
     hydrodynamics: HydrodynamicsSchema
     thrusters: list[ThrusterSchema] = []

@@ -1,0 +1,75 @@
+"""YAML 1.1 reads yes/no/on/off/true/false as booleans, and pydantic's lax mode took a boolean
+where a number was expected as 1.0/0.0: ``speed: yes`` flew 1 m/s, ``mass: on`` a 1 kg vehicle,
+and a sweep value ``true`` ran and was recorded as "True". A boolean where a number is expected
+is an error naming the key and the value; real flags (a sweep axis's ``log``) still take one."""
+
+import copy
+import re
+
+import pytest
+import yaml
+
+from uuvid.simulate.scenario import ScenarioError, scenario_from_dict
+from uuvid.uncertainty.montecarlo import ModelError, model_from_dict
+from uuvid.uncertainty.sweep import SweepError, sweep_from_dict
+from uuvid.vehicle.definition import VehicleFileError, preset_path, vehicle_from_dict
+
+WHY = r"`true` is a boolean \(YAML reads yes/no/on/off/true/false as booleans\), not a number"
+
+
+def test_scenario_booleans_are_not_numbers():
+    raw = yaml.safe_load("vehicle: bluerov2\nbattery_soc: yes\nduration: 5\n"
+                         "mission: {kind: square, side: on, speed: yes}\ncurrent: [yes, 0, 0]\n")
+    with pytest.raises(ScenarioError) as e:
+        scenario_from_dict(raw, "s.yaml")
+    msg = str(e.value)
+    for key in ("battery_soc", "mission.side", "mission.speed"):
+        assert re.search(f"s.yaml: {key}: {WHY}", msg), msg
+    assert "current: item 0 (north, m/s): `true` is a boolean" in msg
+    assert "tuple[" not in msg and "ConstantCurrentSpec" not in msg  # not every union member
+    with pytest.raises(ScenarioError, match=r"substeps: `false` is a boolean"):
+        scenario_from_dict({"substeps": False}, "s.yaml")
+    # numbers, and numbers YAML 1.1 reads as text, still pass
+    sc = scenario_from_dict({"mission": {"side": "1e1"}, "battery_soc": 1, "duration": 5})
+    assert sc.mission.side == 10.0 and sc.battery_soc == 1.0
+
+
+def _sweep(params: list) -> dict:
+    return {"target": {"kind": "vehicle_mission", "scenario": {"vehicle": "bluerov2", "duration": 10}},
+            "parameters": params}
+
+
+def test_sweep_booleans_are_not_numbers():
+    with pytest.raises(SweepError, match=r"b.yaml: parameters\[0\] \(added_mass_scale\): " + WHY):
+        sweep_from_dict(_sweep([{"name": "added_mass_scale", "values": [True, 1.5]}]), "b.yaml")
+    with pytest.raises(SweepError, match=r"parameters\[0\].include\[0\]: `true` is a boolean"):
+        sweep_from_dict(_sweep([{"name": "mass", "values": [12.0], "include": [True]}]), "b.yaml")
+    with pytest.raises(SweepError, match=r"runs\[0\]\.mass: `true` is a boolean"):
+        sweep_from_dict({"target": _sweep([])["target"], "mode": "list", "runs": [{"mass": True}]},
+                        "b.yaml")
+    with pytest.raises(SweepError, match=r"target.vehicle_mission.scenario.duration: `true` is a boolean"):
+        sweep_from_dict({**_sweep([{"name": "mass", "values": [12.0]}]),
+                         "target": {"kind": "vehicle_mission", "scenario": {"duration": True}}})
+    # a real flag still takes a boolean
+    s = sweep_from_dict(_sweep([{"name": "mass", "start": 10, "stop": 20, "num": 3, "log": True}]))
+    assert s.parameters[0].log is True
+
+
+def test_vehicle_file_booleans_are_not_numbers():
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    bad = copy.deepcopy(raw)
+    bad["rigid_body"]["mass"] = True
+    bad["thrusters"][0]["limits"] = [-1.0, True]
+    with pytest.raises(VehicleFileError) as e:
+        vehicle_from_dict(bad, "v.yaml", preset_path("bluerov2").parent)
+    msg = str(e.value)
+    assert re.search(f"v.yaml: rigid_body.mass: {WHY}", msg), msg
+    assert "thrusters[0].limits[1]: `true` is a boolean" in msg, msg
+
+
+def test_montecarlo_model_booleans_are_not_numbers():
+    doc = {"format": "uuvid-uncertain-model/1", "name": "x", "kind": "vehicle",
+           "base": {"vehicle": "bluerov2"},
+           "parameters": [{"name": "mass", "estimate": True, "sigma": 0.1}]}
+    with pytest.raises(ModelError, match=r"m.yaml: parameters\[0\].estimate: `true` is a boolean"):
+        model_from_dict(doc, "m.yaml")
