@@ -73,3 +73,36 @@ def test_montecarlo_model_booleans_are_not_numbers():
            "parameters": [{"name": "mass", "estimate": True, "sigma": 0.1}]}
     with pytest.raises(ModelError, match=r"m.yaml: parameters\[0\].estimate: `true` is a boolean"):
         model_from_dict(doc, "m.yaml")
+
+
+def _wake_file(tmp_path):
+    raw = yaml.safe_load(preset_path("bluerov2").read_text())
+    for t in raw["thrusters"]:
+        t["wake"] = 0.6
+    p = tmp_path / "wake.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    return p
+
+
+def test_wake_warning_reaches_json_warnings(tmp_path):
+    """The wake > 0.5 warning of a vehicle file went to stderr only: ``--json``'s ``warnings``
+    said nothing (envelope, stability, simulate)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    run = CliRunner()
+    p = _wake_file(tmp_path)
+    for args in (["vehicle", "envelope", str(p), "--inflow", "four-quadrant", "--no-confirm"],
+                 ["vehicle", "stability", str(p), "--inflow", "four-quadrant"]):
+        r = run.invoke(app, [*args, "--json"])
+        assert r.exit_code == 0, r.output
+        ws = json.loads(r.stdout)["warnings"]
+        assert any("wake 0.6 is above 0.5" in w for w in ws), (args, ws)
+    sc = tmp_path / "s.yaml"
+    sc.write_text(f"vehicle: {p.name}\ninflow: four-quadrant\nduration: 0.2\n")
+    r = run.invoke(app, ["simulate", str(sc), "--json"])
+    assert r.exit_code == 0, r.output
+    assert any("wake 0.6 is above 0.5" in w for w in json.loads(r.stdout)["warnings"])

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
@@ -23,7 +25,26 @@ def _helpers():
     return _fail, _print_json, _table, err_console, out_console
 
 
-def _load_vehicle(name: str, need: str = "", inflow: str | None = None):
+@contextmanager
+def _file_warnings(said: list[str]):
+    """A vehicle file's warnings (:class:`VehicleFileWarning`: a wake above 0.5, a missing model)
+    still on stderr, and their texts appended to ``said`` for ``--json``'s ``warnings``: they
+    reached stderr only, and the document said none."""
+    from uuvid.vehicle.definition import VehicleFileWarning
+
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            yield said
+    finally:
+        for w in caught:  # said as before (the command line's `warning: …`), outside the catch
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+            if issubclass(w.category, VehicleFileWarning):
+                said.append(str(w.message))
+
+
+def _load_vehicle(name: str, need: str = "", inflow: str | None = None,
+                  said: list[str] | None = None):
     """The vehicle ``name`` (preset or file), with ``--inflow`` over its file's key; ``need``:
     what the command does with its thrusters — a vehicle without any is then refused saying so."""
     from uuvid.thruster.modelfile import ModelFileError
@@ -31,7 +52,8 @@ def _load_vehicle(name: str, need: str = "", inflow: str | None = None):
 
     _fail = _helpers()[0]
     try:
-        v = load_vehicle(name, inflow=inflow)
+        with _file_warnings(said if said is not None else []):
+            v = load_vehicle(name, inflow=inflow)
     except (ModelFileError, FileNotFoundError, KeyError) as e:
         msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
         # the presets help where the name was not a vehicle file, not under a key's error
@@ -55,7 +77,8 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
     check_outputs(("--out", out, "folder"))  # before the flight, not after it
     try:
         # --inflow over the scenario's and file's key; out: its files counted before the flight
-        vehicle, setup = build(spec, base, inflow, out)
+        with _file_warnings(said := []):
+            vehicle, setup = build(spec, base, inflow, out)
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         text = f"{where}: {e}"
         if where == "command line":  # the scenario's keys as `uuvid simulate mission`'s options
@@ -86,6 +109,7 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
         )
         doc = {k: summary[k] for k in keys}
         doc.update({k: v for k, v in summary.items() if k not in keys})
+        doc["warnings"] = said + list(doc.get("warnings", []))
         if out:
             doc["out"] = str(out)
         _print_json(doc)
@@ -246,7 +270,7 @@ def vehicle_envelope(
     from uuvid.analysis.envelope_check import confirm_envelope
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
-    v = _load_vehicle(vehicle, "it has no speed envelope", inflow)
+    v = _load_vehicle(vehicle, "it has no speed envelope", inflow, said := [])
     try:
         check = confirm_envelope(v, simulate=confirm, inflow=inflow)
     except ValueError as e:
@@ -254,7 +278,8 @@ def vehicle_envelope(
     for w in check.warnings():  # on stderr: --json's stdout stays the document (its "warnings")
         err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     if json_out:
-        _print_json(check.to_dict())
+        doc = check.to_dict()
+        _print_json({**doc, "warnings": said + list(doc.get("warnings", []))})
         return
     with_inflow = check.inflow != "none"
     # the same columns, meaning the same, with and without inflow (inflow adds the bollard ones)
@@ -315,7 +340,7 @@ def vehicle_stability(
     from uuvid.vehicle.stability import static_stability
 
     _fail, _print_json, _table, err_console, out_console = _helpers()
-    v = _load_vehicle(vehicle, "nothing holds its attitude", inflow)
+    v = _load_vehicle(vehicle, "nothing holds its attitude", inflow, said := [])
     check_outputs(("--out", out, "folder"))  # before the work, not a traceback after it
     try:
         env = speed_envelope(v, inflow=inflow)  # the speeds scanned to, and their caveats
@@ -328,6 +353,7 @@ def vehicle_stability(
     doc["warnings"] = doc["warnings"] + envelope_warnings(env.notes)  # its speeds' caveats too
     for w in doc["warnings"]:  # on stderr: --json's stdout stays the document (its "warnings")
         err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
+    doc["warnings"] = said + doc["warnings"]  # the file's, said on stderr as it loaded
     if out:
         from uuvid.core.atomic import atomic_dir, atomic_write_json
 
