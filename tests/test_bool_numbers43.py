@@ -106,3 +106,27 @@ def test_wake_warning_reaches_json_warnings(tmp_path):
     r = run.invoke(app, ["simulate", str(sc), "--json"])
     assert r.exit_code == 0, r.output
     assert any("wake 0.6 is above 0.5" in w for w in json.loads(r.stdout)["warnings"])
+
+
+def test_duration_below_one_step_refused_and_a_non_multiple_said():
+    """0.005 s at dt 0.01 flew one step (0.01 s) while 1e-300 s was refused: any duration below
+    one step is refused when read; 0.015 s silently flew 0.02 s: it still flies whole steps, with
+    a note saying the duration flown."""
+    import warnings
+
+    from uuvid.core.checks import InputWarning
+    from uuvid.simulate.scenario import build, duration_note
+
+    for d in (0.005, 1e-300, 0.0099):
+        with pytest.raises(ScenarioError, match=rf"s.yaml: duration: {d:g} s is shorter than one "
+                                                r"step \(dt = 0.01 s\)"):
+            scenario_from_dict({"duration": d}, "s.yaml")
+    assert scenario_from_dict({"duration": 0.01}).duration == 0.01  # one step is a flight
+    assert scenario_from_dict({"duration": 0.03, "dt": 0.03}).duration == 0.03  # 0.03/0.03 = 1
+    assert duration_note(0.3, 0.1, 3) is None  # 0.3 / 0.1 = 2.9999999999999996 is three steps
+    with pytest.warns(InputWarning, match=r"duration = 0.015 s is not a whole number of steps "
+                                          r"\(dt = 0.01 s\): the flight takes 2 steps and flies 0.02 s"):
+        _, setup = build(scenario_from_dict({"duration": 0.015}), None, time_series=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InputWarning)
+        build(scenario_from_dict({"duration": 0.02}), None, time_series=False)

@@ -304,6 +304,19 @@ class ScenarioSpec(BaseModel):
     substeps: Whole = Field(1, ge=1, le=100)
     duration: Num | None = Field(None, gt=0)
 
+    @field_validator("duration")
+    @classmethod
+    def _at_least_one_step(cls, v, info):
+        """A duration below one step is refused when the file is read, whatever its size: the
+        flight's step count took half a step or more as one (0.005 s at dt 0.01 flew 0.01 s)
+        and refused less (1e-300 s); a duration above one step that is not a whole number of
+        steps is rounded to one, said by :func:`build` (:func:`duration_note`)."""
+        dt = info.data.get("dt")  # None: dt itself was refused (said)
+        if v is not None and dt is not None and v / dt < 1 - _STEP_TOL:
+            raise ValueError(f"{v:g} s is shorter than one step (dt = {dt:g} s); give a duration "
+                             "of at least dt")
+        return v
+
     @field_validator("current", mode="before")
     @classmethod
     def _ned_triple(cls, v):
@@ -352,6 +365,20 @@ class ScenarioSpec(BaseModel):
 
             vertical_current("down", v[2])  # the horizontal speed is bounded at build
         return v
+
+
+#: A duration within this fraction of a step of a whole number of steps is that number.
+_STEP_TOL = 1e-9
+
+
+def duration_note(duration: float, dt: float, steps: int) -> str | None:
+    """The note for a ``duration`` that is not a whole number of steps of ``dt``: the flight
+    takes ``steps`` (its step count, rounded) and flies ``steps·dt``; ``None`` when it is one."""
+    n = duration / dt
+    if abs(n - round(n)) <= _STEP_TOL * max(1.0, n):
+        return None
+    return (f"duration = {duration:g} s is not a whole number of steps (dt = {dt:g} s): the "
+            f"flight takes {steps} step{'s' if steps != 1 else ''} and flies {steps * dt:g} s")
 
 
 def _a_value(v) -> str:
@@ -556,12 +583,19 @@ def build(spec: ScenarioSpec, base: Path | None = None, inflow: str | None = Non
     except ControllerFileError as e:
         raise ScenarioError(f"{spec.name}: controller: {e}") from None
     try:
-        step_count(spec.duration if spec.duration is not None else mission.duration, spec.dt,
-                   "duration", "dt")
+        steps = step_count(spec.duration if spec.duration is not None else mission.duration,
+                           spec.dt, "duration", "dt")
     except ValueError as e:
         hint = ("" if spec.duration is not None else " (duration not given: the mission's "
                 "length, from its waypoints or side and its speed; shorten the mission)")
         raise ScenarioError(f"{spec.name}: {e}{hint}") from None
+    rounded = duration_note(spec.duration, spec.dt, steps) if spec.duration is not None else None
+    if rounded:  # a note, as a current series shorter than the flight is (below): it flies
+        import warnings
+
+        from uuvid.core.checks import InputWarning
+
+        warnings.warn(rounded, InputWarning, stacklevel=2)
     if hasattr(cur, "coverage_note"):  # a measured series shorter than the flight: held, said
         import warnings
 
