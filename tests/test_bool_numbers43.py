@@ -130,3 +130,16 @@ def test_duration_below_one_step_refused_and_a_non_multiple_said():
     with warnings.catch_warnings():
         warnings.simplefilter("error", InputWarning)
         build(scenario_from_dict({"duration": 0.02}), None, time_series=False)
+
+
+def test_wake_warning_reaches_hold_json(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    r = CliRunner().invoke(app, ["vehicle", "hold", str(_wake_file(tmp_path)), "--inflow",
+                                 "four-quadrant", "--json"])
+    assert r.exit_code == 0, r.output
+    assert any("wake 0.6 is above 0.5" in w for w in json.loads(r.stdout)["warnings"])

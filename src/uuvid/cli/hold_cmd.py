@@ -68,7 +68,7 @@ def vehicle_hold(
     from uuvid.cli.vehicle_cmds import _load_vehicle
     from uuvid.vehicle.power import limits_at
 
-    v = _load_vehicle(vehicle, "it cannot hold station", inflow)
+    v = _load_vehicle(vehicle, "it cannot hold station", inflow, said := [])  # the file's warnings
     cur = _parse_current(current)
     if battery is not None:
         from uuvid.core.checks import state_of_charge
@@ -130,8 +130,8 @@ def vehicle_hold(
         doc["limits_note"] = ("thrust limits: the vehicle file's own (default; --voltage V or "
                               "--battery SOC for the limits at a supply voltage)")
     doc["warnings"] = cap.warnings()
-    if json_out:
-        _print_json(doc)
+    if json_out:  # the vehicle file's warnings too (on stderr as it loaded)
+        _print_json({**doc, "warnings": said + doc["warnings"]})
         return
     from uuvid.cli.common import err_console
 
