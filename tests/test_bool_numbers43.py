@@ -65,6 +65,12 @@ def test_vehicle_file_booleans_are_not_numbers():
     msg = str(e.value)
     assert re.search(f"v.yaml: rigid_body.mass: {WHY}", msg), msg
     assert "thrusters[0].limits[1]: `true` is a boolean" in msg, msg
+    bad = copy.deepcopy(raw)
+    bad["thrusters"][0]["installation"] = {"surge": [1.0, False]}  # said once, not per union member
+    with pytest.raises(VehicleFileError) as e:
+        vehicle_from_dict(bad, "v.yaml", preset_path("bluerov2").parent)
+    assert str(e.value).endswith("v.yaml: thrusters[0].installation: surge: `false` is a boolean "
+                                 "(YAML reads yes/no/on/off/true/false as booleans), not a number")
 
 
 def test_montecarlo_model_booleans_are_not_numbers():

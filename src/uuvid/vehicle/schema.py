@@ -10,7 +10,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from uuvid.core.units import G0
-from uuvid.core.yamltypes import Num
+from uuvid.core.yamltypes import Num, boolean_message
 from uuvid.vehicle.model import DOF_NAMES
 
 _CFG = ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -94,6 +94,17 @@ class ThrusterSchema(BaseModel):
     # thruster model file with a four-quadrant 'inflow' section (a bench fit in a flow)
     propeller: str | None = Field(None, min_length=1)
     notes: str | None = None
+
+    @field_validator("installation", mode="before")
+    @classmethod
+    def _installation_numbers(cls, v):
+        """A boolean η said once, naming the mode: through the union, pydantic named each member
+        (``installation.x.function-before[…]`` and ``Input should be a valid tuple``)."""
+        for mode, eta in (v.items() if isinstance(v, dict) else ()):
+            for x in (eta if isinstance(eta, (list, tuple)) else (eta,)):
+                if isinstance(x, bool):
+                    raise ValueError(f"{mode}: {boolean_message(x)}")
+        return v
 
     @field_validator("wake", mode="before")
     @classmethod
