@@ -498,6 +498,9 @@ class CapabilityResult(Result):
     max_current_bollard: np.ndarray = field(default_factory=lambda: np.zeros(0))  # inflow off
     # with a bench-fitted propeller map: where a held current reads it outside its advance angles
     extrapolated: tuple = ()
+    #: with inflow: the propeller map and wake behind the numbers, and whether they are assumed
+    #: (:func:`uuvid.vehicle.propeller_note.propeller_map_note`)
+    propeller: str = ""
     map_ranges: str = ""
 
     def warnings(self) -> list[str]:
@@ -533,6 +536,8 @@ class CapabilityResult(Result):
             lines.append(f"  inflow {self.inflow}: thrust at each thruster's advance speed in the "
                          f"current; with bollard thrust {np.min(self.max_current_bollard):.3f}–"
                          f"{np.max(self.max_current_bollard):.3f} m/s")
+            if self.propeller:
+                lines.append(f"  {self.propeller}")
             lines.append("  from [deg]   held with inflow [m/s]   with bollard thrust [m/s]")
             for d, a, b in zip(self.relative_deg, self.max_current, self.max_current_bollard):
                 lines.append(f"  {d:>10.0f}   {a:>22.3f}   {b:>25.3f}")
@@ -575,6 +580,8 @@ class CapabilityResult(Result):
              "inflow": self.inflow}  # in force, on or off (a JSON without it said neither)
         if self.inflow != "none":
             d["max_current_bollard_m_s"] = self.max_current_bollard.tolist()
+            if self.propeller:
+                d["propeller_map"] = self.propeller
         d["warnings"] = self.warnings()
         return d
 
@@ -654,6 +661,7 @@ def _capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dep
     from uuvid.core.progress import progress_task
     from uuvid.vehicle.inflow import resolve_inflow
     from uuvid.vehicle.power import limits_at
+    from uuvid.vehicle.propeller_note import vehicle_propeller_note
 
     step_deg = _check_step(step_deg)
     simulate_deg = tuple(float(d) for d in simulate_deg)
@@ -704,7 +712,8 @@ def _capability(vehicle, *, step_deg: float = 15.0, limits=None, modes=None, dep
                            note=(f"battery {vehicle.battery.name} at SOC {soc:.0%}: limits at the "
                                  "loaded voltage" if soc is not None else ""),
                            inflow=inflow, max_current_bollard=np.array(bollard),
-                           extrapolated=tuple(beyond), map_ranges=ranges)
+                           extrapolated=tuple(beyond), map_ranges=ranges,
+                           propeller=vehicle_propeller_note(vehicle, inflow))
     if simulate_deg:
         sd = np.asarray(simulate_deg, float)
         res = dataclasses.replace(res, simulated_deg=sd, simulated=np.array(sv), note=(

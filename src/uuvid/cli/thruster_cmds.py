@@ -81,6 +81,10 @@ def thruster_show(model: str = typer.Argument(..., help="Model file (YAML/TOML) 
                              "vehicle simulations do not read the linear form: fit "
                              "--model four-quadrant --diameter D for a map they fly)"),
                           highlight=False, markup=False)
+    from uuvid.vehicle.propeller_note import model_propeller_note
+
+    if (line := model_propeller_note(model)):
+        out_console.print(line, highlight=False, markup=False, soft_wrap=True)
 
 
 def thruster_simulate(

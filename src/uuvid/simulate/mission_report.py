@@ -36,6 +36,8 @@ def mission_text(result) -> str:
                 if "inflow" in m else "") + ")"]
     if m.get("mission_note"):
         lines.append(f"  {m['mission_note']}")
+    if m.get("propeller_map"):
+        lines.append(f"  {m['propeller_map']}")
     for k in ("speed_m_s", "max_tracking_error_m", "rms_tracking_error_m", "final_position_error_m",
               "max_roll_deg", "max_pitch_deg", "max_heading_error_deg",
               "max_thrust_N", "thrust_limit_N", "saturated_fraction", "sim_time_s",

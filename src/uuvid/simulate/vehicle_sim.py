@@ -1436,6 +1436,9 @@ class MissionSetup:
     inflow_arrays: tuple | None = None  # (map params, geometry) of the inflow model; None: off
     inflow: str = "none"  # the inflow model in force (the metrics say it)
     inflow_source: str = "vehicle file"  # where it came from: vehicle file, scenario file, option
+    #: with inflow: the propeller map flown and whether it is assumed or measured (the metrics say
+    #: it, :func:`uuvid.vehicle.propeller_note.propeller_map_note`)
+    propeller_map: str = ""
 
     def blocks(self):
         """``(loop, batch, ctrl params, ctrl state0, dist params, use_dist, out_kind)`` of a
@@ -1689,15 +1692,13 @@ def setup_mission(vehicle, mission: WaypointMission, *, dt: float = 0.01, subste
         series = (np.ascontiguousarray(vct), np.ascontiguousarray(dvct))
         const = np.asarray(vct[0], dtype=float)
     bat = battery_tables(bank, battery, soc0) if battery is not None else None
-    from uuvid.vehicle.inflow import resolve_inflow
-
+    arrays, mode, pnote = _inflow_arrays(vehicle, inflow, own_chain, propeller)
     setup = MissionSetup(vehicle, bank, mission, gains or default_gains(vehicle), dt,
                          int(substeps), alloc, dofs, np.asarray(ep, float), np.asarray(en, float),
                          np.array(vehicle.B, dtype=float, order="C"), vehicle.params.to_array(),
                          const, t, ref, cm, series, allocation, battery, bat, controller,
-                         disturbance, _inflow_arrays(vehicle, inflow, own_chain, propeller),
-                         resolve_inflow(vehicle, inflow), inflow_source or (
-                             "vehicle file" if inflow is None else "option"))
+                         disturbance, arrays, mode, inflow_source or (
+                             "vehicle file" if inflow is None else "option"), propeller_map=pnote)
     if controller is not None:
         _check_controller(setup)
     return setup
@@ -1708,10 +1709,11 @@ def _inflow_arrays(vehicle, inflow, thruster_chain, propeller=None):
     the map of ``propeller`` (the preset or model file it came from, relative to the working
     folder); without one it has none of its own (the voltage-aware T200 model
     :func:`setup_mission` picks itself on a battery is the same thruster and keeps the vehicle's
-    map)."""
+    map).  Returns ``(arrays, inflow model, propeller map note)``."""
     import dataclasses
 
     from uuvid.vehicle.inflow import loop_arrays, resolve_inflow
+    from uuvid.vehicle.propeller_note import vehicle_propeller_note
 
     mode = resolve_inflow(vehicle, inflow)
     if mode != "none" and propeller is not None:
@@ -1727,7 +1729,9 @@ def _inflow_arrays(vehicle, inflow, thruster_chain, propeller=None):
                          "propeller= (the preset or model file it came from, with a map: t200, "
                          "t200-physical, or a file with a four-quadrant inflow section) or "
                          "inflow='none'")
-    return loop_arrays(vehicle, inflow)
+    arrays = loop_arrays(vehicle, inflow)
+    note = vehicle_propeller_note(vehicle, inflow) if arrays is not None else ""
+    return arrays, mode, note
 
 
 def _check_controller(setup: MissionSetup) -> None:
@@ -2116,6 +2120,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         "disturbance": s.disturbance.name if s.disturbance is not None else "none",
         "inflow": s.inflow,  # thrust against the advance speed, and who switched it so
         "inflow_source": s.inflow_source,
+        **({"propeller_map": s.propeller_map} if s.propeller_map else {}),
         "current_max_speed_m_s": float(np.max(np.linalg.norm(VCT, axis=1))) if VCT.shape[0]
         else float(np.linalg.norm(s.current)),
     }

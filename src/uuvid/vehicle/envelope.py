@@ -339,6 +339,9 @@ def speed_envelope(vehicle, modes=None, dofs: Sequence | None = None,
                      "state (propeller map " + inf_lim.maps[0].name + ", full-command shaft speed "
                      "held; wake " + ", ".join(f"{w:g}" for w in sorted(set(inf_lim.wake))) +
                      "); bollard-thrust speeds beside (speed_bollard)")
+        from uuvid.vehicle.propeller_note import propeller_map_note
+
+        notes.append(propeller_map_note(inf_lim.maps, inf_lim.wake))
     if beyond:
         notes.append("extrapolated: the fitted propeller map (" + inf_lim.maps[0].ranges_text()
                      + ") is read outside its advance angles — " + "; ".join(beyond)

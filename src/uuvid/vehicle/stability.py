@@ -442,5 +442,8 @@ def static_stability(vehicle, max_tilt_deg: float = MAX_TILT_DEG, n_speeds: int 
     if il is not None:
         notes.append(f"inflow {il.model}: envelope speeds and thrust fractions with each "
                      "thruster's limit at its advance speed (the trim angles do not depend on it)")
+        from uuvid.vehicle.propeller_note import propeller_map_note
+
+        notes.append(propeller_map_note(il.maps, il.wake))
     return StabilityResult(vehicle.name, tuple(cases), float(max_tilt_deg), tuple(notes),
                            "none" if il is None else il.model)
