@@ -221,14 +221,42 @@ def cruise_speed(vehicle, facing_path: bool = True, current_speed: float = 0.0) 
                                    "flight limit — give its damping)")
     if lim is None or LEVEL_MARGIN * lim - cur >= NOMINAL_SPEED:
         return NOMINAL_SPEED, f"speed {NOMINAL_SPEED:g} m/s (nominal; the vehicle stays level there)"
-    v = max(round(LEVEL_MARGIN * lim - cur, 2), MIN_SPEED)
+    name = getattr(vehicle, "name", "vehicle")
+    if cur >= lim:  # no cruising speed keeps it level: say so, with no formula for the floor
+        top = top_speed(vehicle, dirs) if cur > 0 else None
+        over = f" and its top speed {top:.2f} m/s" if top is not None and cur > top else ""
+        return MIN_SPEED, (
+            f"speed {MIN_SPEED:g} m/s, the floor: the current (up to {cur:.2f} m/s) exceeds the "
+            f"{name}'s level-flight limit {lim:.2f} m/s{over}: the mission cannot be flown as "
+            f"planned (expect it to tilt past 20° and be carried off the path; see `uuvid vehicle "
+            f"hold {name}` for the current it holds); flying at the floor speed {MIN_SPEED:g} m/s; "
+            "set a speed to override")
+    v = round(LEVEL_MARGIN * lim - cur, 2)
     in_cur = f" less the {cur:.2f} m/s current" if cur > 0 else ""
-    note = (f"speed {v:g} m/s: {LEVEL_MARGIN:.0%} of the {getattr(vehicle, 'name', 'vehicle')}'s "
-            f"level-flight limit {lim:.2f} m/s{in_cur} (the nominal {NOMINAL_SPEED:g} m/s would "
-            "tilt it past 20°; see `uuvid vehicle stability`); set a speed to override")
-    if LEVEL_MARGIN * lim - cur < MIN_SPEED:
-        note += " — the current alone nearly reaches the limit: expect it to tilt"
-    return v, note
+    if v < MIN_SPEED:  # clamped: the formula gives less than the speed flown, say both
+        return MIN_SPEED, (
+            f"speed {MIN_SPEED:g} m/s, the floor: {LEVEL_MARGIN:.0%} of the {name}'s level-flight "
+            f"limit {lim:.2f} m/s{in_cur} leaves " + (f"only {v:.2f} m/s" if v > 0 else "nothing")
+            + " — the current alone "
+            "nearly reaches the limit: expect it to tilt; set a speed to override")
+    return v, (f"speed {v:g} m/s: {LEVEL_MARGIN:.0%} of the {name}'s "
+               f"level-flight limit {lim:.2f} m/s{in_cur} (the nominal {NOMINAL_SPEED:g} m/s would "
+               "tilt it past 20°; see `uuvid vehicle stability`); set a speed to override")
+
+
+def top_speed(vehicle, directions=("forward", "backward")) -> float | None:
+    """The fastest steady speed (m/s) over the horizontal ``directions`` with bollard thrust (the
+    largest force any thrust combination gives, :func:`uuvid.vehicle.envelope.speed_envelope`):
+    a current faster than it cannot be held whichever of them the vehicle faces.  None when it
+    cannot be computed (≈ 0.02 s: only called once a current is known to be too strong)."""
+    try:
+        from uuvid.vehicle.envelope import speed_envelope
+
+        env = speed_envelope(vehicle, inflow="none")
+    except Exception:  # noqa: BLE001 - a message's bound, not a result: left out if unknown
+        return None
+    sp = [abs(r.speed) for r in env.rows if r.direction in directions and np.isfinite(r.speed)]
+    return max(sp) if sp else None
 
 
 def current_speed_bound(current, horizon: float = 600.0) -> float:
