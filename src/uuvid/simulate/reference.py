@@ -307,3 +307,47 @@ def level_speed_limit(vehicle, directions=("forward", "backward")) -> float | No
             disk.store_array("stability", key, got)
     lims = [float(got[names.index(d)]) for d in directions if got[names.index(d)] >= 0]
     return min(lims) if lims else None
+
+
+#: The horizontal directions a current can come from, relative to the vehicle.
+HORIZONTAL = ("forward", "backward", "starboard", "port")
+
+
+def vehicle_ref(vehicle) -> str:
+    """How to name ``vehicle`` on the command line: its file, else its (preset) name."""
+    from uuvid.vehicle.definition import _is_preset_path
+
+    path = getattr(vehicle, "path", None)
+    if path is None or _is_preset_path(path):
+        return getattr(vehicle, "name", "vehicle")
+    return str(path)
+
+
+def current_limit_warning(vehicle, current_max: float) -> str:
+    """A warning when a current of up to ``current_max`` m/s is more than ``vehicle`` can hold
+    level whichever way it faces: past its top speed in every horizontal direction (bollard
+    thrust, :func:`top_speed`) it cannot hold its path at all; past its level-flight limit in
+    every horizontal direction (:func:`level_speed_limit`) holding against it tilts the vehicle
+    beyond 20°.  ``""`` otherwise.  Cheap: the level-flight limits come from the disk cache the
+    cruising speed fills, and the envelope (≈ 0.02 s) is computed only when a limit is missing or
+    passed — a current the vehicle flies level in costs nothing more."""
+    cur = float(current_max)
+    if vehicle is None or not (cur > 0 and math.isfinite(cur)):
+        return ""
+    try:
+        levels = [level_speed_limit(vehicle, (d,)) for d in HORIZONTAL]
+    except Exception:  # noqa: BLE001 - a message's bound: no warning when it is unknown
+        return ""
+    if all(x is not None for x in levels) and cur <= max(levels):
+        return ""
+    name, hold = getattr(vehicle, "name", "vehicle"), f"`uuvid vehicle hold {vehicle_ref(vehicle)}`"
+    top = top_speed(vehicle, HORIZONTAL)
+    if top is not None and cur > top:
+        return (f"the current reaches {cur:.2f} m/s, faster than the {name} can fly in any "
+                f"horizontal direction (top speed {top:.2f} m/s, bollard thrust): it cannot hold "
+                f"its path against it — {hold} gives the current it holds from each direction")
+    if all(x is not None for x in levels):
+        return (f"the current reaches {cur:.2f} m/s, above the {name}'s level-flight limit in "
+                f"every horizontal direction (at most {max(levels):.2f} m/s): holding against it "
+                f"tilts the vehicle past 20° — {hold} gives the current it holds level")
+    return ""

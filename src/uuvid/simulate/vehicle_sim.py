@@ -28,7 +28,12 @@ from uuvid.core.result import DictSummaryResult, jsonable
 from uuvid.simulate.control.blocks import Controller, compiled_form
 from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandwidth, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
-from uuvid.simulate.reference import WaypointMission, level_speed_limit
+from uuvid.simulate.reference import (
+    WaypointMission,
+    current_limit_warning,
+    level_speed_limit,
+    vehicle_ref,
+)
 from uuvid.thruster import kernels
 from uuvid.thruster.blocks import CHANNELS, K_FIRST_ORDER_MOTOR, ParameterError
 from uuvid.thruster.chain import ThrusterChain
@@ -2128,10 +2133,18 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     unallocated = unallocated_motion_warning(s)
     if unallocated:  # first: it explains the tracking error below
         warnings.append(unallocated)
+    cur_max = summary["current_max_speed_m_s"]
+    said = "cannot be flown as planned" in summary.get("mission_note", "")  # the note says it
+    too_strong = "" if said else current_limit_warning(s.vehicle, cur_max)
+    if too_strong:  # before the tracking error and tilt it explains
+        warnings.append(too_strong)
     if not tracked:
+        hint = "" if said or too_strong or not cur_max > 0 else (
+            f"; the current reaches {cur_max:.2f} m/s — `uuvid vehicle hold "
+            f"{vehicle_ref(s.vehicle)}` gives the current the vehicle holds")
         warnings.append(f"the vehicle did not follow the path (max tracking error "
                         f"{float(np.max(err)):.2f} m, final {float(err[-1]):.2f} m; completed needs "
-                        "< 1 m and < 0.25 m at the end)")
+                        f"< 1 m and < 0.25 m at the end){hint}")
         why_not.append("off the path")
     if not level:
         warnings.append(mission_tilt_warning(s, att))
