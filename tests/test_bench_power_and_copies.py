@@ -1,4 +1,4 @@
-"""Issue 43 (items 2 and 3): a bench thrust far too small for its electrical power (kgf or lbf
+"""A new user's report (items 2 and 3): a bench thrust far too small for its electrical power (kgf or lbf
 under a header without a unit) is a warning naming the column, the ratio and the likely unit;
 exact duplicate rows are dropped with a warning, not counted as repeats (σ 0)."""
 from __future__ import annotations

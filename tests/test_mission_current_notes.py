@@ -1,4 +1,4 @@
-"""Issue 43: what a mission says of a current too strong for the vehicle, and the propeller map's
+"""A new user's report: what a mission says of a current too strong for the vehicle, and the propeller map's
 assumptions beside every number computed with inflow."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 43 (a new user's report on ``uuvid log``): parameter values ArduSub does not accept
+"""A new user's report on ``uuvid log``: parameter values ArduSub does not accept
 (BARO_PRIMARY that names no barometer, MOT_n_DIRECTION other than ±1) taken silently; thrust from
 PWM at a voltage outside the thruster data without a warning; inspect and export disagreeing on
 the mode spans.  Synthetic logs from test_ardusub's writers; the real small.BIN/.tlog checks skip

@@ -1,4 +1,4 @@
-"""Issue 43 (items 1 and 4): a heading in radians read with ``--angle-unit deg`` is said (steady and
+"""A new user's report (items 1 and 4): a heading in radians read with ``--angle-unit deg`` is said (steady and
 inertia), a negative installation coefficient η is a warning, and a drag file without ``k_q`` or
 with a drag that dominates the command by orders of magnitude is said so."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Input checks of the dive commands (issue 43): a horizon within the initial-state span, force
+"""Input checks of the dive commands (a new user's report): a horizon within the initial-state span, force
 columns in a wrong unit, a time range outside the log, a log of the wrong type, a time column
 in a wrong unit, and the messages' readability."""
 
