@@ -1,4 +1,5 @@
-"""One line on the propeller map and wake behind every number computed with inflow (issue 21: the assumptions labelled).
+"""One line on the propeller map and wake behind every number computed with inflow (issue 21:
+the assumptions labelled).
 
 The T200 preset's map is the published Wageningen B4-70 table scaled to a 76 mm propeller at
 P/D 1.0 — both ASSUMED, not measured (:data:`uuvid.thruster.inflow.T200_DIAMETER`); a map fitted
