@@ -696,12 +696,10 @@ def base_vehicle(vehicle, func: str):
 def _vehicle_label(veh) -> str:
     """The vehicle's name, with its file when it is not a preset (a written ``--out-vehicle`` file
     keeps the base vehicle's name: the file says which one was replayed)."""
-    from uuvid.vehicle.definition import _is_preset_path
+    from uuvid.vehicle.definition import command_line_name
 
-    path = getattr(veh, "path", None)
-    if path is None or _is_preset_path(path):
-        return veh.name
-    return f"{veh.name} ({path})"
+    ref = command_line_name(veh)
+    return veh.name if ref == veh.name else f"{veh.name} ({ref})"
 
 
 def _thrust_model(dc, thruster_model):

@@ -222,13 +222,13 @@ def cruise_speed(vehicle, facing_path: bool = True, current_speed: float = 0.0) 
     if lim is None or LEVEL_MARGIN * lim - cur >= NOMINAL_SPEED:
         return NOMINAL_SPEED, f"speed {NOMINAL_SPEED:g} m/s (nominal; the vehicle stays level there)"
     name = getattr(vehicle, "name", "vehicle")
-    if cur >= lim:  # no cruising speed keeps it level: say so, with no formula for the floor
+    if cur >= lim:  # no cruising speed keeps it level: say so (CANNOT_FLY), no formula for the floor
         top = top_speed(vehicle, dirs) if cur > 0 else None
         over = f" and its top speed {top:.2f} m/s" if top is not None and cur > top else ""
         return MIN_SPEED, (
             f"speed {MIN_SPEED:g} m/s, the floor: the current (up to {cur:.2f} m/s) exceeds the "
-            f"{name}'s level-flight limit {lim:.2f} m/s{over}: the mission cannot be flown as "
-            f"planned (expect it to tilt past 20° and be carried off the path; see `uuvid vehicle "
+            f"{name}'s level-flight limit {lim:.2f} m/s{over}: the mission {CANNOT_FLY} "
+            f"(expect it to tilt past 20° and be carried off the path; see `uuvid vehicle "
             f"hold {name}` for the current it holds); flying at the floor speed {MIN_SPEED:g} m/s; "
             "set a speed to override")
     v = round(LEVEL_MARGIN * lim - cur, 2)
@@ -242,6 +242,10 @@ def cruise_speed(vehicle, facing_path: bool = True, current_speed: float = 0.0) 
     return v, (f"speed {v:g} m/s: {LEVEL_MARGIN:.0%} of the {name}'s "
                f"level-flight limit {lim:.2f} m/s{in_cur} (the nominal {NOMINAL_SPEED:g} m/s would "
                "tilt it past 20°; see `uuvid vehicle stability`); set a speed to override")
+
+
+#: What a cruising-speed note says when no speed keeps the vehicle level in the current.
+CANNOT_FLY = "cannot be flown as planned"
 
 
 def top_speed(vehicle, directions=("forward", "backward")) -> float | None:
@@ -314,13 +318,10 @@ HORIZONTAL = ("forward", "backward", "starboard", "port")
 
 
 def vehicle_ref(vehicle) -> str:
-    """How to name ``vehicle`` on the command line: its file, else its (preset) name."""
-    from uuvid.vehicle.definition import _is_preset_path
+    """How to name ``vehicle`` on the command line (its preset name, else its file)."""
+    from uuvid.vehicle.definition import command_line_name
 
-    path = getattr(vehicle, "path", None)
-    if path is None or _is_preset_path(path):
-        return getattr(vehicle, "name", "vehicle")
-    return str(path)
+    return command_line_name(vehicle)
 
 
 def current_limit_warning(vehicle, current_max: float) -> str:

@@ -29,6 +29,7 @@ from uuvid.simulate.control.blocks import Controller, compiled_form
 from uuvid.simulate.control.pid import PID_STATE_SIZE, DPGains, gains_from_bandwidth, pid, pid_controller
 from uuvid.simulate.disturbances import Disturbance, no_disturbance
 from uuvid.simulate.reference import (
+    CANNOT_FLY,
     WaypointMission,
     current_limit_warning,
     level_speed_limit,
@@ -2134,7 +2135,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
     if unallocated:  # first: it explains the tracking error below
         warnings.append(unallocated)
     cur_max = summary["current_max_speed_m_s"]
-    said = "cannot be flown as planned" in summary.get("mission_note", "")  # the note says it
+    said = CANNOT_FLY in summary.get("mission_note", "")  # the cruising-speed note says it
     too_strong = "" if said else current_limit_warning(s.vehicle, cur_max)
     if too_strong:  # before the tracking error and tilt it explains
         warnings.append(too_strong)

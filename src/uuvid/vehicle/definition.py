@@ -93,6 +93,14 @@ def _is_preset_path(path) -> bool:
     return Path(path).resolve().parent == PRESET_DIR
 
 
+def command_line_name(vehicle) -> str:
+    """How to name ``vehicle`` on the command line: its preset name, else its file."""
+    path = getattr(vehicle, "path", None)
+    if path is None or _is_preset_path(path):
+        return getattr(vehicle, "name", "vehicle")
+    return str(path)
+
+
 class VehicleFileError(ModelFileError):
     """A vehicle file is unreadable or invalid; the message names the file and the key path."""
 
