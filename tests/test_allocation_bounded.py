@@ -138,6 +138,7 @@ def _lp_reach(al, phi):
     return _lp_scale(al, phi, most=None)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, modes, comp", CASES[:4])
 @pytest.mark.parametrize("one_way", [False, True])
 def test_reach_is_the_lp_largest_force_along_a_direction(name, modes, comp, one_way):

@@ -832,6 +832,7 @@ def _write_tlog_messages(path, msgs):
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("case", ["step back 100 s", "a day forward", "one corrupt stamp"])
 def test_a_jump_of_the_ground_stations_clock_leaves_the_dive_as_it_was(shared_data, tmp_path, case):
@@ -858,6 +859,7 @@ def test_a_jump_of_the_ground_stations_clock_leaves_the_dive_as_it_was(shared_da
     assert not any("receive clock" in w for w in a.warnings)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_one_heartbeat_with_a_corrupt_receive_time_does_not_stretch_the_modes(shared_data, tmp_path):
     """A HEARTBEAT (no on-board stamp) received '1e6 s later' made the last mode run to
@@ -883,6 +885,7 @@ def _tlog_records(b: bytes):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("where", ["length", "payload"])
 def test_two_corrupt_bytes_in_a_tlog_lose_only_the_damaged_message_and_are_said(shared_data,
@@ -914,6 +917,7 @@ def test_two_corrupt_bytes_in_a_tlog_lose_only_the_damaged_message_and_are_said(
     assert not any(f"byte {off:,}" in w for w in whole.warnings)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("where", ["length", "payload"])
 def test_read_ardusub_says_the_damaged_bytes_of_a_tlog_too(shared_data, tmp_path, where):
@@ -949,6 +953,7 @@ def _bad_copy(src: bytes, mid: int, at: int = 30) -> bytes:
     return bytes(rec)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_a_dive_read_of_a_clean_tlog_says_nothing_of_camera_messages(shared_data):
     """small.tlog's camera (system 1 component 100) sends four messages pymavlink cannot check:
@@ -963,6 +968,7 @@ def test_a_dive_read_of_a_clean_tlog_says_nothing_of_camera_messages(shared_data
     assert any("CAMERA_INFORMATION from system 1 component 100" in w for w in ins.warnings)
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 @pytest.mark.parametrize("extra", [5, 12, -7])
 def test_a_tlog_cut_off_while_written_is_read_fast_and_said_as_such(shared_data, tmp_path, extra):
@@ -984,6 +990,7 @@ def test_a_tlog_cut_off_while_written_is_read_fast_and_said_as_such(shared_data,
     assert said in read_raw(p, whole_file=False).warnings
 
 
+@pytest.mark.slow
 @pytest.mark.realdata
 def test_frames_failing_their_checksum_at_the_end_of_a_tlog_are_said(shared_data, tmp_path):
     """Two ATTITUDE frames with a corrupt byte appended to small.tlog (after a damaged stretch,

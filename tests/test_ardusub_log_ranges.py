@@ -97,6 +97,7 @@ def test_a_text_file_named_tlog_is_not_a_telemetry_log(tmp_path):
         inspect_log(p)
 
 
+@pytest.mark.slow
 def test_inspect_reads_modes_and_arming_per_part_as_export_does(logs, tmp_path):
     """``cat small.BIN small.BIN``: inspect said "8.8–48.3 s MANUAL, disarmed" across the reboot
     while export (right) has the vehicle armed again in part 1."""
@@ -150,6 +151,7 @@ def test_a_hole_in_a_dataflash_log_is_left_nan_or_out(logs, tmp_path):
     assert not tb.loc[inside, ["roll_rad", "depth_m", "battery_V", "pwm_1"]].notna().to_numpy().any()
 
 
+@pytest.mark.slow
 def test_two_telemetry_sessions_joined_are_parts_not_a_16_day_dive(logs, tmp_path):
     """``cat 2023-….tlog small.tlog``: inspect said 1380106.8 s, export interpolated ~160 s
     between the sessions."""
@@ -164,6 +166,7 @@ def test_two_telemetry_sessions_joined_are_parts_not_a_16_day_dive(logs, tmp_pat
     assert np.diff(dive.table["t_s"]).max() < 5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["small.BIN", "small.tlog"])
 def test_inspect_times_count_from_the_exports_t_s_and_say_so(logs, name):
     """inspect counted its mode/arming times from the autopilot's first message, export's t_s
@@ -186,6 +189,7 @@ def test_inspect_times_count_from_the_exports_t_s_and_say_so(logs, name):
     assert '"time_origin"' in r.output or "`log export`'s first row" in r.output
 
 
+@pytest.mark.slow
 def test_a_long_log_read_shows_its_progress_on_stderr_only(logs, monkeypatch, capfd):
     """Reading a large log (log inspect/export, load_dive) was silent however long it took;
     now its share read shows on stderr (a bar after PROGRESS_AFTER_S on a terminal, lines off

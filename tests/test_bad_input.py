@@ -202,6 +202,7 @@ parameters:
     (SWEEP.format(kw="{}").replace("mode: grid", "mode: random\nsamples: 100000000000000"),
      ["samples: 100,000,000,000,000", "GB", "or fewer"]),
 ])
+@pytest.mark.slow
 def test_sweep_too_big_is_refused_naming_its_own_keys(tmp_path, text, needles):
     p = tmp_path / "sw.yaml"
     p.write_text(text)

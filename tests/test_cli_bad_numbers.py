@@ -91,6 +91,7 @@ def examples(tmp_path_factory):
     (["--substeps", "1000000000"], ["--substeps", "10,000"]),
     (["--substeps", "5000", "--t-end", "20"], ["RK4 steps", "--substeps"]),
 ])
+@pytest.mark.slow
 def test_thruster_simulate(args, needles):
     refused(invoke_process(["thruster", "simulate", "t200", *args]), *needles)
 
@@ -232,6 +233,7 @@ STEADY = ["--dof", "yaw", "--command-col", "torque", "--position-col", "heading_
     ("--t-start", "-inf", "finite time"), ("--t-end", "inf", "finite time"),
     ("--t-end", "nan", "finite time"),
 ])
+@pytest.mark.slow
 def test_identify_steady(examples, option, value, needle):
     res = invoke(["vehicle", "identify", "steady", str(examples / "yaw_steady.csv"), *STEADY,
                   option, value])
@@ -282,6 +284,7 @@ def test_identify_inertia_huge_hac_bandwidth_is_quick_and_said(examples):
     ("--horizon", "0", "> 0 s"), ("--horizon", "-1", "> 0 s"), ("--horizon", "nan", "> 0 s"),
     ("--horizon", "-inf", "> 0 s"),
 ])
+@pytest.mark.slow
 def test_dive_windows(tmp_path, command, option, value, needle):
     log = tmp_path / "dive.csv"  # refused before the log is read
     log.write_text("t_s,depth_m\n0,1\n")
@@ -302,6 +305,7 @@ def test_dive_windows(tmp_path, command, option, value, needle):
     (["--runs", "4", "--retries", "1000000000"], ["--retries", "0..100"]),
     (["--runs", "4", "--requirement", "steady_thrust<1e999"], ["--requirement", "finite"]),
 ])
+@pytest.mark.slow
 def test_montecarlo(args, needles):
     # in a process: the study's chunk loop would take an alarm for a failed chunk and go on
     res = invoke_process(["montecarlo", "t200-physical", *args])
@@ -309,6 +313,7 @@ def test_montecarlo(args, needles):
     assert "pydantic" not in res.output  # one line, not a validation dump
 
 
+@pytest.mark.slow
 def test_sweep_workers_past_memory(tmp_path):
     refused(invoke_process(["sweep", "mclean-sensitivity", "--out", str(tmp_path / "s"), "--workers",
                     "1000000000"]), "--workers", "GB")
@@ -318,6 +323,7 @@ def test_caccia_seed():
     refused(invoke(["reproduce", "caccia2000", "--fast", "--seed", "-1"]), "--seed")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "-inf"])
 def test_study_bandwidths(value):
     refused(invoke_process(["study", "thruster-loop", "--bandwidths", f"1,{value}"]),
@@ -343,6 +349,7 @@ def test_log_export_dt(tmp_path, value):
                     value]), "--dt", "> 0 s")
 
 
+@pytest.mark.slow
 def test_log_export_dt_past_the_log_or_memory(shared_data, tmp_path):
     tlog = shared_data / "ardusub-bluerov2" / "small.tlog"
     for value, needle in (("1e12", "longest stretch"), ("1e-9", "GB of table")):

@@ -46,6 +46,7 @@ def _spiked(df: pd.DataFrame, value) -> tuple[pd.DataFrame, int]:
 
 @pytest.mark.parametrize("value, shown", [(lambda d: 1e6, "1e+06 m"),
                                           (lambda d: d + 20.0, " m at t = ")])
+@pytest.mark.slow
 def test_a_depth_spike_is_named_left_out_and_the_fit_kept(pwm6, clean, tmp_path, value, shown):
     """One depth cell of 1e6 m gave mass 29 ± 1.5 with depth rms 3.9e4 m, nrmse 1.00, called
     usable and written; a 20 m spike was taken silently."""
@@ -135,6 +136,7 @@ def test_an_unusable_yaw_fit_names_the_inertia_not_a_mass(clean):
     assert not any("mass" in w for w in wide.unusable)
 
 
+@pytest.mark.slow
 def test_a_depth_that_does_not_follow_the_thrust_is_refused_by_the_command(pwm6, tmp_path):
     """Depth noise around 5 m, unrelated to the thrust: the model explains nothing of it."""
     df = pwm6.copy()

@@ -375,6 +375,7 @@ def test_a_dofs_error_carries_only_the_reader_warnings_naming_its_channels():
     assert "VFR_HUD" not in str(_with_reader_warnings(e, ["surge"], dc))
 
 
+@pytest.mark.slow
 def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path):
     """The example dive with one horizontal motor's PWM mirrored (driven with the others, so the
     direction check names it too): yaw inertia ×11.5 of the base, said with what to check; the
@@ -405,6 +406,7 @@ def test_an_inertia_ten_times_the_base_is_a_warning_with_what_to_check(tmp_path)
     assert not any("beyond the ×8" in w for w in intact.warnings)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("forces", [True, False])
 def test_a_depth_positive_up_is_said_as_such_with_or_without_force_columns(tmp_path, forces):
     """The example dive with depth_m = 15 − depth_m (a height above the bottom): with the force
@@ -441,6 +443,7 @@ def test_the_command_fails_when_a_dof_came_out_not_finite():
     assert _not_finite(SimpleNamespace(estimates={"heave": ok})) == []
 
 
+@pytest.mark.slow
 def test_armed_time_on_deck_does_not_enter_the_yaw_fit(tmp_path):
     """40 s armed on deck before the dive (depth 0, heading still, the horizontal motors pulsed as
     in a motor test) made the yaw inertia tens of times the base's.  Yaw windows wholly shallower

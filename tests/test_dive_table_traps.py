@@ -318,6 +318,7 @@ def test_the_direction_check_is_silent_on_a_dive_whose_motors_are_right(seed):
 @pytest.mark.parametrize("model", [dict(gain=0.6), dict(gain=1.5), dict(astern=0.6),
                                    dict(lag=4), dict(noise=0.05),
                                    dict(gain=0.5, astern=0.7, lag=6, noise=0.03)])
+@pytest.mark.slow
 def test_the_direction_check_is_silent_when_only_the_thrust_model_or_timing_is_off(model):
     """Thrust 40 % weaker or 50 % stronger than the reader's model, astern weaker, 0.2–0.3 s of
     actuator lag, 5 cm depth noise: none of these reverses a force, none is reported as such."""
@@ -559,6 +560,7 @@ def test_forces_and_pwm_in_one_table_say_which_is_used():
     assert any("the forces are used and the pwm_ columns are not" in x for x in _read(df).warnings)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", [1, 2, 3, 4])
 def test_a_mirrored_motor_among_several_driven_together_is_named(tmp_path, k):
     """The example dive: the four horizontal motors share the yaw (their forces correlate beyond
@@ -623,6 +625,7 @@ def test_the_pair_search_is_silent_on_right_motors_with_a_wrong_thrust_model(see
 @pytest.mark.parametrize("seed", range(10, 13))
 @pytest.mark.parametrize("model", [dict(gain=0.6), dict(astern=0.6), dict(lag=4),
                                    dict(gain=0.5, astern=0.7, lag=6, noise=0.03)])
+@pytest.mark.slow
 def test_the_group_search_is_silent_when_only_the_thrust_model_is_off(seed, model):
     """The search for one reversed motor inside a group (mirror each alone) stays silent on
     right motors with a wrong thrust model or lag — checked on seeds the thresholds never saw."""
@@ -724,6 +727,7 @@ def test_columns_under_other_names_are_said_not_dropped_silently():
     assert plain.unread == []
 
 
+@pytest.mark.slow
 def test_a_column_with_a_unit_in_its_name_and_other_columns_are_said_not_read(tmp_path):
     """``depth [cm]`` (values ×100) and ``temp [C]`` were ignored without a word: identify
     `--dof all` gave yaw only, exit 0, and said neither that the depth was not read nor that heave

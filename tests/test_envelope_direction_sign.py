@@ -127,6 +127,7 @@ def _table_cells(text: str) -> dict[str, list[str]]:
     return {" ".join(r[0]): [" ".join(p) for p in r] for r in rows}
 
 
+@pytest.mark.slow
 def test_cli_envelope_and_stability_say_it_cannot_dive(files):
     run = CliRunner()
     res = run.invoke(app, ["vehicle", "envelope", str(files["weak"])])

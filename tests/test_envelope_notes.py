@@ -32,6 +32,7 @@ def _flat(text):
     return " ".join(text.split())
 
 
+@pytest.mark.slow
 def test_the_check_carries_the_envelope_notes_and_warns_of_the_extrapolation(fitted):
     check = confirm_envelope(load_vehicle(fitted), simulate=False)
     assert any(n.startswith("not controlled (left free): roll, pitch") for n in check.notes)
@@ -43,6 +44,7 @@ def test_the_check_carries_the_envelope_notes_and_warns_of_the_extrapolation(fit
     assert "note: not controlled (left free): roll, pitch" in check.summary()
 
 
+@pytest.mark.slow
 def test_vehicle_envelope_prints_the_notes_and_the_extrapolation(fitted):
     res = runner.invoke(app, ["vehicle", "envelope", str(fitted), "--no-confirm"])
     assert res.exit_code == 0, res.output
@@ -54,6 +56,7 @@ def test_vehicle_envelope_prints_the_notes_and_the_extrapolation(fitted):
     assert "note: extrapolated" not in out  # said once, as the warning on stderr
 
 
+@pytest.mark.slow
 def test_vehicle_envelope_json_has_the_notes_and_the_warning(fitted):
     res = runner.invoke(app, ["vehicle", "envelope", str(fitted), "--no-confirm", "--json"])
     assert res.exit_code == 0, res.output
@@ -62,6 +65,7 @@ def test_vehicle_envelope_json_has_the_notes_and_the_warning(fitted):
     assert any(n.startswith("not controlled (left free): roll, pitch") for n in doc["notes"])
 
 
+@pytest.mark.slow
 def test_vehicle_stability_warns_that_its_envelope_speeds_are_extrapolated(fitted):
     """The stability scan runs up to the envelope's speeds: the same caveat applies to them."""
     res = runner.invoke(app, ["vehicle", "stability", str(fitted), "--json"])

@@ -70,6 +70,7 @@ def _with_zero_flow(paths, folder):
 
 
 # ----------------------------------------------------------------- 1. an all-zero flow column
+@pytest.mark.slow
 def test_an_all_zero_flow_column_fits_the_runs_as_without_it(runs, tmp_path):
     """The example runs' first ramp step (0.013 V) gives a thrust of −0.12 N: noise about zero,
     which the still-water check tolerates (5 % of the largest |thrust| or 6× the row-to-row
@@ -128,6 +129,7 @@ def test_a_time_series_reversing_its_command_in_still_water_is_no_reversal(tmp_p
     ("flow_speed [km/h]", "km/h", 3.6),
     ("flow_mm_s", "mm/s", 1000.0),
 ])
+@pytest.mark.slow
 def test_a_flow_columns_header_unit_is_converted_and_said(flow_file, tmp_path, header, unit, scale):
     ref = _doc(_fit(flow_file, *FLOW_ARGS, "--out-model", tmp_path / "ref.yaml"))
     df = pd.read_csv(flow_file)

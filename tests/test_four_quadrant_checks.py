@@ -99,6 +99,7 @@ def test_the_fit_with_the_right_diameter_covers_what_it_did(flow_file):
         assert m.covers(b) == m.covers(b, tol=1.0) is False
 
 
+@pytest.mark.slow
 def test_envelope_says_extrapolated_whatever_the_diameter(flow_file, tmp_path):
     import sys
     from pathlib import Path

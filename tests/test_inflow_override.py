@@ -50,6 +50,7 @@ def _json(res):
 
 
 # ------------------------------------------------------------------ 1: --inflow none overrides
+@pytest.mark.slow
 def test_inflow_none_flies_a_file_whose_models_hold_no_propeller_map(no_map_vehicle):
     v = no_map_vehicle
     for args in (["vehicle", "envelope", v, "--no-confirm", "--json"],
@@ -82,6 +83,7 @@ def test_inflow_four_quadrant_over_a_file_without_it_says_to_leave_the_option_ou
 
 
 # ------------------------------------------------------------------ 2: a run says which inflow
+@pytest.mark.slow
 def test_simulate_says_the_inflow_in_force_and_where_it_came_from(tmp_path):
     path = _write(tmp_path / "v4q.yaml", _raw(inflow="four-quadrant"))
     base = ["simulate", "mission", "square", "--vehicle", path, "--side", "1", "--json"]
@@ -98,6 +100,7 @@ def test_simulate_says_the_inflow_in_force_and_where_it_came_from(tmp_path):
     assert "inflow</td><td>four-quadrant" in page and "inflow_source</td><td>vehicle file" in page
 
 
+@pytest.mark.slow
 def test_hold_and_stability_json_say_the_inflow_in_force(tmp_path):
     path = _write(tmp_path / "v4q.yaml", _raw(inflow="four-quadrant"))
     hold = _json(_run("vehicle", "hold", "bluerov2", "--step", "90", "--json"))

@@ -124,6 +124,7 @@ def test_the_propeller_line_names_assumed_and_measured_maps():
     assert "D = 90 mm" in line and "wake w per thruster 0, 0.1" in line
 
 
+@pytest.mark.slow
 def test_envelope_and_stability_name_the_assumed_map(bluerov2):
     from uuvid.vehicle.envelope import speed_envelope
     from uuvid.vehicle.stability import static_stability

@@ -69,6 +69,7 @@ def test_reproduction_reports_the_detected_regions(result):
     assert r["dead_zone_us"][0] < 1500 < r["dead_zone_us"][1]
 
 
+@pytest.mark.slow
 def test_fig10_plot_written(result):
     r, out = result
     assert (out / "laidani_fig10_sine_response.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -450,6 +450,7 @@ def test_every_result_class_has_a_factory():
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n
                                   for n in FACTORIES])
+@pytest.mark.slow
 def test_the_surface(name, tmp_path):
     obj = FACTORIES[name](tmp_path)
     assert _name(type(obj)) == name

@@ -202,6 +202,7 @@ def _fly_held(monkeypatch):
     monkeypatch.setattr(vehicle_sim, "fly_mission", fly)
 
 
+@pytest.mark.slow
 def test_hold_says_a_direction_in_radians_once_where_it_is_given(monkeypatch):
     """`vehicle hold bluerov2 --current 0.3,1.57` printed the π/2 warning twice (`--current
     direction`, then `relative_deg` from max_current), three times with --battery (endurance);

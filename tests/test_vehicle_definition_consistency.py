@@ -75,6 +75,7 @@ def test_vehicle_info_lists_the_one_dof_models_with_units():
     assert "one_dof" not in silent(preset_raw()).summary()
 
 
+@pytest.mark.slow
 def test_the_command_line_refuses_the_mismatched_file_and_info_shows_one_dof(tmp_path):
     env = {**os.environ, "UUVID_KERNEL_CACHE": str(tmp_path / "cache")}
     raw = preset_raw()

@@ -445,6 +445,7 @@ def test_a_mission_moving_in_an_unallocated_dof_is_named():
     assert unallocated_motion_warning(setup_mission(v, square_mission(), controller=lqr(v))) == ""
 
 
+@pytest.mark.slow
 def test_timeseries_csv_columns_carry_their_units(bluerov2, tmp_path):
     """``timeseries.csv`` said ``time, north, roll, u, thrust_T1…`` with no unit while the summary
     gives degrees: every column now names its unit as uuvid's other tables do (values stay SI)."""
@@ -469,6 +470,7 @@ def test_timeseries_csv_columns_carry_their_units(bluerov2, tmp_path):
                                                             rel=1e-6)
 
 
+@pytest.mark.slow
 def test_the_mission_page_shows_its_warnings(bluerov2, tmp_path):
     """`uuvid simulate --out`'s index.html listed completed and completed_reason in its table but
     not the warnings the command line prints (they are a list, left out of the table)."""

@@ -90,6 +90,7 @@ def _wake_file(tmp_path):
     return p
 
 
+@pytest.mark.slow
 def test_wake_warning_reaches_json_warnings(tmp_path):
     """The wake > 0.5 warning of a vehicle file went to stderr only: ``--json``'s ``warnings``
     said nothing (envelope, stability, simulate)."""
@@ -138,6 +139,7 @@ def test_duration_below_one_step_refused_and_a_non_multiple_said():
         build(scenario_from_dict({"duration": 0.02}), None, time_series=False)
 
 
+@pytest.mark.slow
 def test_wake_warning_reaches_hold_json(tmp_path):
     import json
 
