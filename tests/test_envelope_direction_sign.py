@@ -73,7 +73,7 @@ def test_stability_says_no_stays_level_on_a_speed_of_the_wrong_sign(weak):
     assert dive.max_speed < 0 and not dive.makes_way and not dive.limited
     assert list(dive.speeds) == [0.0]  # only the trim at rest: no speed to scan downwards
     assert st["climbing"].limit_text() == "stays level to 0.504 m/s"
-    assert st["forward"].limit_text().startswith("stability 0.50 m/s")
+    assert st["forward"].limit_text().startswith("stability 0.498 m/s")
     d = st.to_dict()
     assert d["warnings"] == [f"diving: {DIVE_NO_WAY}"]
     assert next(c for c in d["cases"] if c["direction"] == "diving")["makes_way"] is False

@@ -71,3 +71,54 @@ def test_result_serialises_and_plots(stab, tmp_path):
     d = stab.to_dict()
     assert d["cases"][0]["limit"].startswith("stability")
     assert (stab.plot(tmp_path / "s.png")).exists()
+
+
+# --- speeds in the text: distinct speeds read distinct ------------------------------------------
+
+def _speeds_said(text):
+    """Every "<number> m/s" a stability text says, as printed."""
+    import re
+
+    return re.findall(r"([-+]?\d[\d.e+-]*) m/s", text)
+
+
+@pytest.mark.slow
+def test_trim_speeds_with_and_without_inflow_read_differently(bluerov2, stab):
+    """The bollard and four-quadrant trims of the BlueROV2 going forward are shown at 0.384 and
+    0.377 m/s: they were both printed "at 0.38 m/s", as if at the same speed."""
+    inflow = static_stability(bluerov2, inflow="four-quadrant")
+    dry = next(ln for ln in stab.summary().splitlines() if " forward " in ln)
+    wet = next(ln for ln in inflow.summary().splitlines() if " forward " in ln)
+    assert "at 0.384 m/s" in dry and "at 0.377 m/s" in wet
+    assert set(_speeds_said(dry)) != set(_speeds_said(wet))
+
+
+@pytest.mark.slow
+def test_table_and_summary_give_speeds_three_significant_digits(stab):
+    assert stab["forward"].limit_text() == "stability 0.481 m/s (pitch)"  # was "0.48"
+    assert all(r["limit"] == stab[r["direction"]].limit_text(3) for r in stab.rows())
+    json_case = stab.to_dict()["cases"][0]
+    assert json_case["limit_speed"] == stab.cases[0].limit_speed  # JSON keeps the full number
+
+
+def test_speed_digits_grow_until_distinct_speeds_print_distinctly():
+    from uuvid.vehicle.stability import speed_digits
+
+    assert speed_digits([0.3837, 0.3770]) == 3
+    assert speed_digits([0.48085, 0.48097]) == 4  # 0.481 both at 3 digits
+    assert speed_digits([0.377030562918, 0.377030562919 + 1e-16]) == 3  # rounding noise: alike
+    assert speed_digits([1.0, math.inf, math.nan]) == 3
+    assert speed_digits([0.1234567, 0.1234568]) == 6  # capped
+
+
+@pytest.mark.slow
+def test_cli_stability_table_says_the_limit_to_three_digits():
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    res = CliRunner().invoke(app, ["vehicle", "stability", "bluerov2"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.stdout.split())
+    assert "stability 0.481 m/s (pitch)" in text and "at 0.384 m/s" in text
+    assert "0.48 m/s" not in text and "0.38 m/s" not in text

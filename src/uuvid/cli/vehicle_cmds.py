@@ -367,7 +367,7 @@ def vehicle_stability(
     cols = list(dict.fromkeys(k for r in rows for k in r))
     if rows:
         out_console.print(_table(f"{v.name}: static stability (tilt limit {max_tilt:g}°)", rows, cols,
-                                 "{:.3g}"))
+                                 f"{{:.{res.speed_digits()}g}}"))  # distinct speeds read distinct
     else:  # never an empty table: the notes below say why no direction was scanned
         out_console.print(f"{v.name}: no direction to scan for static stability (see the notes)",
                           highlight=False, soft_wrap=True, markup=False)

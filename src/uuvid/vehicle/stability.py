@@ -39,6 +39,20 @@ from uuvid.vehicle.model import DOF_NAMES, MAX_TILT_DEG  # noqa: F401  (the leve
 from uuvid.vehicle.rigid_body import rigid_body_coriolis
 
 ATTITUDE = (3, 4)  # roll, pitch: the DOFs with a righting moment
+SPEED_DIGITS = 3  # significant digits of a speed in the text, more where distinct speeds need them
+
+
+def speed_digits(values, least: int = SPEED_DIGITS, most: int = 6) -> int:
+    """Significant digits that print distinct speeds distinctly: at least ``least`` (0.384 and
+    0.377 m/s were both "0.38"), more while two speeds that differ (beyond rounding noise, 1e-9
+    relative) still print alike, at most ``most``."""
+    vals = sorted({float(v) for v in values if math.isfinite(v)})
+    for n in range(least, most):
+        seen: dict[str, float] = {}
+        if all(math.isclose(seen.setdefault(f"{v:.{n}g}", v), v, rel_tol=1e-9, abs_tol=1e-12)
+               for v in vals):
+            return n
+    return most
 
 
 class _Balance:
@@ -202,14 +216,15 @@ class StabilityCase:
         trim at rest is scanned and :meth:`limit_text` says what it does instead)."""
         return not self.no_way
 
-    def limit_text(self) -> str:
+    def limit_text(self, digits: int = SPEED_DIGITS) -> str:
+        """What limits the flight in this direction, speeds to ``digits`` significant digits."""
         if self.no_way:
             return self.no_way
         if not self.free:
             return "attitude held by thrusters"
         if not self.limited:
-            return f"stays level to {self.max_speed:.3g} m/s"
-        return f"stability {self.limit_speed:.2f} m/s ({self.limit_dof})"
+            return f"stays level to {self.max_speed:.{digits}g} m/s"
+        return f"stability {self.limit_speed:.{digits}g} m/s ({self.limit_dof})"
 
     def to_dict(self) -> dict:
         d = {k: getattr(self, k) for k in ("dof", "direction", "sign", "max_speed", "limit_speed",
@@ -251,11 +266,24 @@ class StabilityResult(Result):
         at 0.40 m/s at full dive command")."""
         return [f"{c.direction}: {c.no_way}" for c in self.cases if c.no_way]
 
+    def _summary_index(self, c: StabilityCase) -> int:
+        """The speed sample the summary shows a case's trim at: 4/5 of its level range."""
+        fin = [i for i in range(len(c.speeds)) if c.free and np.isfinite(c.tilt_deg[c.free[0]][i])]
+        return fin[len(fin) * 4 // 5] if fin else 0
+
+    def speed_digits(self) -> int:
+        """Significant digits for the speeds the table and summary print (:func:`speed_digits`
+        over every limit, top speed and trim speed shown), so that distinct ones read distinct."""
+        vals = [x for c in self.cases for x in (c.max_speed, c.limit_speed)]
+        vals += [c.speeds[self._summary_index(c)] for c in self.cases if c.free]
+        return speed_digits(vals)
+
     def rows(self) -> list[dict]:
         out = []
+        n = self.speed_digits()
         for c in self.cases:
             r = {"direction": c.direction, "free": ", ".join(c.free) or "—",
-                 "max_speed_m_s": c.max_speed, "limit": c.limit_text(), "reason": c.limit_reason}
+                 "max_speed_m_s": c.max_speed, "limit": c.limit_text(n), "reason": c.limit_reason}
             for k in c.free:
                 r[f"righting_{k}_Nm_per_rad"] = c.righting[k]
             out.append(r)
@@ -264,14 +292,14 @@ class StabilityResult(Result):
     def summary(self) -> str:
         lines = [f"Static stability in steady flight — {self.vehicle} (tilt limit "
                  f"{self.max_tilt_deg:g}°)"]
+        n = self.speed_digits()
         for c in self.cases:
-            line = f"  {c.direction:<10} {c.limit_text()}"
+            line = f"  {c.direction:<10} {c.limit_text(n)}"
             if c.limited:
                 line += f": {c.limit_reason}"
-            fin = [i for i in range(len(c.speeds)) if c.free and np.isfinite(c.tilt_deg[c.free[0]][i])]
-            i = fin[len(fin) * 4 // 5] if fin else 0
+            i = self._summary_index(c)
             for k in c.free:
-                line += (f"; {k}: BG·W {c.righting[k]:.3g} N·m/rad, at {c.speeds[i]:.2f} m/s thrust "
+                line += (f"; {k}: BG·W {c.righting[k]:.3g} N·m/rad, at {c.speeds[i]:.{n}g} m/s thrust "
                          f"moment {c.thrust_moment[k][i]:+.3g} N·m, Munk {c.munk_stiffness[k][i]:+.3g} "
                          f"N·m/rad, trim {c.tilt_deg[k][i]:+.1f}°")
             lines.append(line)
@@ -292,7 +320,8 @@ class StabilityResult(Result):
         fig, ax = new_figure(1, 1, figsize=(8, 4.5))
         colors = itertools.cycle(f"C{i}" for i in range(10))
         styles = {"roll": "-", "pitch": "-."}
-        limits: dict[float, list[str]] = {}
+        limits: dict[str, tuple[float, list[str]]] = {}  # the limit as printed → (speed, directions)
+        n = self.speed_digits()
         for c in self.cases:
             for k in c.free:
                 tilt = np.asarray(c.tilt_deg[k], float)
@@ -305,10 +334,11 @@ class StabilityResult(Result):
                 small = np.where(np.asarray(c.speeds) <= upto, c.tilt_small_deg[k], np.nan)
                 ax.plot(c.speeds, small, ":", color=col, lw=0.9)
                 if c.limited:
-                    limits.setdefault(round(float(c.limit_speed), 2), []).append(c.direction)
-        for v, dirs in limits.items():
+                    limits.setdefault(f"{c.limit_speed:.{n}g}", (float(c.limit_speed), []))[1].append(
+                        c.direction)
+        for txt, (v, dirs) in limits.items():
             ax.axvline(v, color="k", ls=":", lw=0.8)
-            ax.annotate(f"{'/'.join(dirs)} limit {v:.2f} m/s", (v, -1.45 * self.max_tilt_deg),
+            ax.annotate(f"{'/'.join(dirs)} limit {txt} m/s", (v, -1.45 * self.max_tilt_deg),
                         rotation=90, fontsize=7, xytext=(3, 0), textcoords="offset points",
                         va="bottom")
         for s in (-1, 1):
