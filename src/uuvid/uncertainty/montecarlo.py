@@ -538,6 +538,7 @@ class MonteCarloStudy(StudyBase):
 
     def check(self) -> None:
         plan = self.plan
+        self.warnings = self.say_build_warnings()  # the vehicle file's, the duration's rounding
         req = self.spec.requirement
         if req is not None and req.metric not in plan.metric_names:
             from uuvid.uncertainty.params import ParameterNameError
@@ -615,6 +616,8 @@ class MonteCarloStudy(StudyBase):
         out: dict = {"target": self.plan.info(), "model": sp.model.name,
                      "model_kind": sp.model.kind, "seed": sp.seed,
                      "bounds_policy": sp.bounds, "parameters": sp.model.names}
+        if getattr(self, "warnings", None):  # said on stderr by check: in the document too
+            out["warnings"] = list(dict.fromkeys(self.warnings))
         if not len(table):
             return out
         ok = table["status"] == "ok"

@@ -361,6 +361,7 @@ class SweepStudy(StudyBase):
         """Build the plan once (raises on unknown parameter or metric names, and on text given
         for a numeric field of a chain block)."""
         plan = self.plan
+        self.warnings = self.say_build_warnings()  # the vehicle file's, the duration's rounding
         kinds = getattr(plan, "kind_of", {})
         for loc, name, vals, _unit in _given_values(self.spec):
             if kinds.get(name, ("",))[0] == "block":
@@ -385,9 +386,9 @@ class SweepStudy(StudyBase):
             given = {}
             for _loc, name, vals, unit in _given_values(self.spec):
                 given.setdefault(name, []).extend(PR.to_si(v, unit, name) for v in vals)
-            self.warnings = plan.input_warnings(given)
-            for w in self.warnings:
+            for w in plan.input_warnings(given):
                 warnings.warn(f"target.signal: {w}", InputWarning, stacklevel=2)
+                self.warnings.append(f"target.signal: {w}")
 
     # the memory and disk refusals (StudyBase.check_memory/check_disk) name the sweep's own keys
     @property
@@ -477,7 +478,7 @@ class SweepStudy(StudyBase):
         if self.spec.requirement and len(table):
             out["requirement"] = probability_summary(table, self.spec.requirement)
         if getattr(self, "warnings", None):
-            out["warnings"] = [f"target.signal: {w}" for w in self.warnings]
+            out["warnings"] = list(dict.fromkeys(self.warnings))
         return out
 
 

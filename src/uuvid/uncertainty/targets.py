@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import json
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -549,8 +550,13 @@ class VehicleMissionPlan:
         if key not in _SETUPS:  # the thrusters' inverse tables take seconds: once per process
             if len(_SETUPS) > 4:
                 _SETUPS.clear()
-            _SETUPS[key] = build(target.scenario, time_series=False)  # batches: summary rows
-        self.vehicle, self.setup = _SETUPS[key]
+            with kept_warnings() as said:  # batches: summary rows
+                built = build(target.scenario, time_series=False)
+            _SETUPS[key] = (*built, said)
+        self.vehicle, self.setup, said = _SETUPS[key]
+        #: uuvid's warnings of the build (the vehicle file's, a duration rounded to whole steps):
+        #: (category, text), said by the study's check and listed in its summary's "warnings"
+        self.build_warnings = list(said)
         self.sim_name, self.sim = vehicle_simulator(target.simulator)
         self.metric_names = list(MISSION_METRICS)
         self.thruster_names = {n: n[len("thruster."):] for n in names if n.startswith("thruster.")}
@@ -645,6 +651,30 @@ class VehicleMissionPlan:
                                       if self.target.velocity_response else None)}
 
 
+@contextmanager
+def kept_warnings():
+    """Keep uuvid's own warnings raised in the block (a :class:`VehicleFileWarning`, an
+    :class:`InputWarning` such as the duration-rounding note) as ``(category, text)`` in the list
+    it yields, once each, instead of saying them: a plan is built once per process (workers too)
+    and cached, so the study says them (:meth:`StudyBase.say_build_warnings`), once, and puts
+    them in its summary.  Other packages' warnings are said as they come."""
+    import warnings
+
+    said: list[tuple[type, str]] = []
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            yield said
+    finally:
+        for w in caught:
+            if w.category.__module__.split(".")[0] == "uuvid":
+                if (w.category, str(w.message)) not in said:
+                    said.append((w.category, str(w.message)))
+            else:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 # ---------------------------------------------------------------------------------------------
 _PLANS: dict[str, object] = {}
 _SETUPS: dict[str, tuple] = {}
@@ -734,6 +764,16 @@ class StudyBase:
         if getattr(self, "_plan", None) is None:
             self._plan = plan_for(self.spec.target, self.parameter_names())
         return self._plan
+
+    def say_build_warnings(self) -> list[str]:
+        """Say (as warnings, on stderr at the command line) what building the plan warned of —
+        the vehicle file's warnings, a duration that is not a whole number of steps — and return
+        their texts, once each, for the summary's ``warnings`` (``--json``, ``summary.json``)."""
+        import warnings
+
+        for cat, text in getattr(self.plan, "build_warnings", ()):
+            warnings.warn(text, cat, stacklevel=3)
+        return [text for _cat, text in getattr(self.plan, "build_warnings", ())]
 
     def default_chunk_size(self, backend: str, workers: int) -> int:
         return default_chunk_size(self.n_runs, self.spec.chunk_size, self.spec.target.kind, backend,
