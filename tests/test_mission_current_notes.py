@@ -101,6 +101,50 @@ def test_flying_the_heavy_into_a_fast_current_warns_first(heavy):
     assert s["warnings"][0].startswith("the current reaches 1.50 m/s, faster than the bluerov2-heavy")
 
 
+def _top_speeds(vehicle):
+    """(bollard, four-quadrant inflow) top speed over the horizontal directions, m/s."""
+    from uuvid.vehicle.envelope import speed_envelope
+
+    dirs = ("forward", "backward", "starboard", "port")
+    return tuple(max(abs(r.speed) for r in speed_envelope(vehicle, inflow=inf).rows
+                     if r.direction in dirs) for inf in ("none", "four-quadrant"))
+
+
+def test_with_inflow_a_current_past_the_inflow_top_speed_is_named(heavy):
+    """With four-quadrant inflow the thrust falls with the water speed: the Heavy holds 0.87 m/s,
+    not its bollard 0.91 m/s.  A current between the two was not warned of with inflow on."""
+    from uuvid.simulate.reference import current_limit_warning
+
+    dry, wet = _top_speeds(heavy)
+    assert wet < dry - 0.02
+    cur = 0.5 * (wet + dry)
+    assert current_limit_warning(heavy, cur) == ""  # inflow off: the bollard top speed holds it
+    assert current_limit_warning(heavy, cur, "none") == ""
+    w = current_limit_warning(heavy, cur, "four-quadrant")
+    assert w.startswith(f"the current reaches {cur:.2f} m/s, faster than the bluerov2-heavy"), w
+    assert (f"top speed {wet:.2f} m/s with four-quadrant inflow, the thrust falling with the water "
+            f"speed; {dry:.2f} m/s at bollard thrust") in w
+    assert current_limit_warning(heavy, 0.5 * wet, "four-quadrant") == ""  # below both: silent
+    w = current_limit_warning(heavy, dry + 0.1)  # past both, inflow off: says bollard
+    assert f"top speed {dry:.2f} m/s, bollard thrust" in w and "inflow" not in w
+
+
+def test_a_mission_flown_with_inflow_warns_of_the_inflow_top_speed(heavy):
+    from uuvid.simulate.reference import WaypointMission
+    from uuvid.simulate.vehicle_sim import fly_mission, setup_mission
+
+    dry, wet = _top_speeds(heavy)
+    cur = 0.5 * (wet + dry)
+    m = WaypointMission(((0, 0, 1, 0), (1, 0, 1, 0)), speed=0.2, name="short")
+    said = {}
+    for inflow in ("none", "four-quadrant"):
+        s = setup_mission(heavy, m, current=np.array([-cur, 0.0, 0.0]), inflow=inflow, t_end=2.0)
+        said[inflow] = fly_mission(s).metrics["warnings"]
+    assert not any("faster than the bluerov2-heavy" in w for w in said["none"]), said["none"]
+    assert said["four-quadrant"][0].startswith(f"the current reaches {cur:.2f} m/s"), said
+    assert "with four-quadrant inflow" in said["four-quadrant"][0]
+
+
 def test_the_square_in_a_light_current_stays_silent():
     res = runner.invoke(app, ["simulate", "mission", "square", "--current", "0.2,0,0", "--json"])
     assert res.exit_code == 0, res.output

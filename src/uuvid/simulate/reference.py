@@ -248,15 +248,17 @@ def cruise_speed(vehicle, facing_path: bool = True, current_speed: float = 0.0) 
 CANNOT_FLY = "cannot be flown as planned"
 
 
-def top_speed(vehicle, directions=("forward", "backward")) -> float | None:
-    """The fastest steady speed (m/s) over the horizontal ``directions`` with bollard thrust (the
-    largest force any thrust combination gives, :func:`uuvid.vehicle.envelope.speed_envelope`):
-    a current faster than it cannot be held whichever of them the vehicle faces.  None when it
-    cannot be computed (≈ 0.02 s: only called once a current is known to be too strong)."""
+def top_speed(vehicle, directions=("forward", "backward"), inflow: str = "none") -> float | None:
+    """The fastest steady speed (m/s) over the horizontal ``directions`` (the largest force any
+    thrust combination gives, :func:`uuvid.vehicle.envelope.speed_envelope`): a current faster
+    than it cannot be held whichever of them the vehicle faces.  ``inflow``: ``"none"`` (default)
+    bollard thrust (≈ 0.02 s); ``"four-quadrant"`` each thruster's limit at the advance speed of
+    the steady state, which falls with the water speed (≈ 0.5 s).  None when it cannot be
+    computed."""
     try:
         from uuvid.vehicle.envelope import speed_envelope
 
-        env = speed_envelope(vehicle, inflow="none")
+        env = speed_envelope(vehicle, inflow=inflow)
     except Exception:  # noqa: BLE001 - a message's bound, not a result: left out if unknown
         return None
     sp = [abs(r.speed) for r in env.rows if r.direction in directions and np.isfinite(r.speed)]
@@ -324,14 +326,18 @@ def vehicle_ref(vehicle) -> str:
     return command_line_name(vehicle)
 
 
-def current_limit_warning(vehicle, current_max: float) -> str:
+def current_limit_warning(vehicle, current_max: float, inflow: str | None = "none") -> str:
     """A warning when a current of up to ``current_max`` m/s is more than ``vehicle`` can hold
-    level whichever way it faces: past its top speed in every horizontal direction (bollard
-    thrust, :func:`top_speed`) it cannot hold its path at all; past its level-flight limit in
-    every horizontal direction (:func:`level_speed_limit`) holding against it tilts the vehicle
-    beyond 20°.  ``""`` otherwise.  Cheap: the level-flight limits come from the disk cache the
-    cruising speed fills, and the envelope (≈ 0.02 s) is computed only when a limit is missing or
-    passed — a current the vehicle flies level in costs nothing more."""
+    level whichever way it faces: past its top speed in every horizontal direction
+    (:func:`top_speed`) it cannot hold its path at all; past its level-flight limit in every
+    horizontal direction (:func:`level_speed_limit`) holding against it tilts the vehicle beyond
+    20°.  ``""`` otherwise.  The top speed is that of the flight's ``inflow``: bollard thrust for
+    ``"none"``; with ``"four-quadrant"`` each thruster's thrust falls with the water speed, so the
+    current held is below the bollard top speed — the warning says which one it used.
+    Cheap: the level-flight limits come from the disk cache the cruising speed fills, and without
+    inflow the envelope (≈ 0.02 s) is computed only when a limit is missing or passed — a current
+    the vehicle flies level in costs nothing more; with inflow its envelope (≈ 0.5 s) whenever
+    there is a current, since its top speed may lie below a level-flight limit."""
     cur = float(current_max)
     if vehicle is None or not (cur > 0 and math.isfinite(cur)):
         return ""
@@ -339,14 +345,23 @@ def current_limit_warning(vehicle, current_max: float) -> str:
         levels = [level_speed_limit(vehicle, (d,)) for d in HORIZONTAL]
     except Exception:  # noqa: BLE001 - a message's bound: no warning when it is unknown
         return ""
-    if all(x is not None for x in levels) and cur <= max(levels):
+    wet = inflow not in (None, "none")
+    level = all(x is not None for x in levels) and cur <= max(levels)
+    if level and not wet:
         return ""
     name, hold = getattr(vehicle, "name", "vehicle"), f"`uuvid vehicle hold {vehicle_ref(vehicle)}`"
-    top = top_speed(vehicle, HORIZONTAL)
+    top = top_speed(vehicle, HORIZONTAL, inflow=inflow if wet else "none")
     if top is not None and cur > top:
+        which = f"top speed {top:.2f} m/s, bollard thrust"
+        if wet:
+            dry = top_speed(vehicle, HORIZONTAL)
+            which = (f"top speed {top:.2f} m/s with {inflow} inflow, the thrust falling with the "
+                     "water speed" + (f"; {dry:.2f} m/s at bollard thrust" if dry is not None else ""))
         return (f"the current reaches {cur:.2f} m/s, faster than the {name} can fly in any "
-                f"horizontal direction (top speed {top:.2f} m/s, bollard thrust): it cannot hold "
+                f"horizontal direction ({which}): it cannot hold "
                 f"its path against it — {hold} gives the current it holds from each direction")
+    if level:
+        return ""
     if all(x is not None for x in levels):
         return (f"the current reaches {cur:.2f} m/s, above the {name}'s level-flight limit in "
                 f"every horizontal direction (at most {max(levels):.2f} m/s): holding against it "

@@ -2136,7 +2136,7 @@ def fly_mission(setup: MissionSetup) -> MissionResult:
         warnings.append(unallocated)
     cur_max = summary["current_max_speed_m_s"]
     said = CANNOT_FLY in summary.get("mission_note", "")  # the cruising-speed note says it
-    too_strong = "" if said else current_limit_warning(s.vehicle, cur_max)
+    too_strong = "" if said else current_limit_warning(s.vehicle, cur_max, s.inflow)
     if too_strong:  # before the tracking error and tilt it explains
         warnings.append(too_strong)
     if not tracked:
