@@ -151,3 +151,20 @@ def test_wake_warning_reaches_hold_json(tmp_path):
                                  "four-quadrant", "--json"])
     assert r.exit_code == 0, r.output
     assert any("wake 0.6 is above 0.5" in w for w in json.loads(r.stdout)["warnings"])
+
+
+def test_simulate_json_lists_the_duration_flown_as_whole_steps(tmp_path):
+    """``uuvid simulate SCENARIO --json`` said the duration-rounding note on stderr only: the
+    document's ``warnings`` carried the vehicle file's warnings but not the scenario's notes."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from uuvid.cli.app import app
+
+    sc = tmp_path / "s.yaml"
+    sc.write_text("vehicle: bluerov2\nduration: 0.205\n")
+    r = CliRunner().invoke(app, ["simulate", str(sc), "--json"])
+    assert r.exit_code == 0, r.output
+    ws = json.loads(r.stdout)["warnings"]
+    assert sum("not a whole number of steps" in w and "flies 0.2 s" in w for w in ws) == 1, ws

@@ -26,11 +26,15 @@ def _helpers():
 
 
 @contextmanager
-def _file_warnings(said: list[str]):
+def _file_warnings(said: list[str], inputs: bool = False):
     """A vehicle file's warnings (:class:`VehicleFileWarning`: a wake above 0.5, a missing model)
     still on stderr, and their texts appended to ``said`` for ``--json``'s ``warnings``: they
-    reached stderr only, and the document said none."""
+    reached stderr only, and the document said none.  ``inputs``: the scenario's notes too
+    (:class:`InputWarning`, e.g. a duration flown as whole steps)."""
+    from uuvid.core.checks import InputWarning
     from uuvid.vehicle.definition import VehicleFileWarning
+
+    kinds = (VehicleFileWarning, InputWarning) if inputs else VehicleFileWarning
 
     caught: list = []
     try:
@@ -39,7 +43,7 @@ def _file_warnings(said: list[str]):
     finally:
         for w in caught:  # said as before (the command line's `warning: …`), outside the catch
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-            if issubclass(w.category, VehicleFileWarning):
+            if issubclass(w.category, kinds) and str(w.message) not in said:
                 said.append(str(w.message))
 
 
@@ -77,7 +81,7 @@ def _fly(spec, base, out, json_out, label, where, inflow=None):
     check_outputs(("--out", out, "folder"))  # before the flight, not after it
     try:
         # --inflow over the scenario's and file's key; out: its files counted before the flight
-        with _file_warnings(said := []):
+        with _file_warnings(said := [], inputs=True):
             vehicle, setup = build(spec, base, inflow, out)
     except (ModelFileError, FileNotFoundError, KeyError, ValueError) as e:
         text = f"{where}: {e}"
