@@ -157,11 +157,13 @@ def write_bin(path: Path, sc, *, prm=None, reboot_at=None, omit=()) -> Path:
 
 # ------------------------------------------------------------------------------ telemetry
 def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reboot_at=None,
-               vfr_alt=0.0, with_params=True, gpi=True, pressure=False, ekf_swing=0.0) -> Path:
+               vfr_alt=0.0, with_params=True, gpi=True, pressure=False, ekf_swing=0.0,
+               servo_every=1, servo_until=math.inf) -> Path:
     """Telemetry log of the scenario as QGroundControl saves it: receive stamps quantised to
     50 ms batches (many exact duplicates) and one message saved twice; VFR_HUD.alt = 0 (no EKF
     origin); a BlueOS companion (component 194) with its own boot clock 1130 s ahead sending a
-    bogus ATTITUDE and DISTANCE_SENSOR; optionally an autopilot reboot."""
+    bogus ATTITUDE and DISTANCE_SENSOR; optionally an autopilot reboot.  SERVO_OUTPUT_RAW on
+    every ``servo_every``-th sample (a BlueROV2 streams it at 2 Hz) up to ``servo_until`` s."""
     from pymavlink import mavutil
     from pymavlink.dialects.v20 import ardupilotmega as mv
 
@@ -215,8 +217,9 @@ def write_tlog(path: Path, sc, *, prm=None, qgc_stamps=True, companion=True, reb
         put(ap, tu + lat + 0.003, ap.sys_status_encode(0, 0, 0, 0, int(round(sc["volts"][k] * 1000)),
                                                        0, -1, 0, 0, 0, 0, 0, 0))
         pw = [int(x) for x in sc["pwm"][k]] + [0, 0]
-        put(ap, tu + lat + 0.004, ap.servo_output_raw_encode(int(round(boot * 1e6)) % 2**32, 0,
-                                                             *pw))
+        if k % servo_every == 0 and t[k] <= servo_until:
+            put(ap, tu + lat + 0.004, ap.servo_output_raw_encode(
+                int(round(boot * 1e6)) % 2**32, 0, *pw))
         if companion:
             put(blueos, tu + 0.03, blueos.attitude_encode(int((t[k] + 1130.0) * 1000), 1.0, 1.0,
                                                           3.0, 0, 0, 0))

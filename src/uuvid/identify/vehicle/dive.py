@@ -797,7 +797,8 @@ def _fit_dof(dc, dof, horizon, t_start, t_end, base: OneDofParams, flags=None,
                                1e-12)
     if dt_f > 0.5 * tau:
         fcol = DIVE_DOFS[dof][1]
-        via = ", from the servo outputs" if "computed from" in str(dc.sources.get(fcol, "")) else ""
+        src_f = str(dc.sources.get(fcol, ""))
+        via = ", from the servo outputs" if "computed from" in src_f or "thrust_" in src_f else ""
         warns.append(f"the force ({fcol}{via}) is logged every {dt_f:.2g} s but {dof} "
                      f"responds in about {tau:.2g} s: what the controllers did between samples is "
                      "unknown, so mass and drag may be biased beyond σ; log the servo outputs "

@@ -34,6 +34,8 @@ from uuvid.io.ardusub.frames import (
 from uuvid.io.ardusub.reader import read_raw
 from uuvid.io.ardusub.sources import (
     _HB_ARMED,
+    GAP_FACTOR,
+    GAP_MIN_S,
     _attitude,
     _battery,
     _constant,
@@ -336,7 +338,7 @@ def load_dive(path, vehicle=None, thruster_model=None, *, dt: float | None = Non
         warnings.append("no battery voltage in the log (BAT/CURR or SYS_STATUS)")
     _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart)
     tm = load_thrust_model(thruster_model) if thruster_model is not None else default_t200()
-    T = _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart)
+    T = _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart, dt, g0)
     Ff = config.F @ T
     factor_df = pd.DataFrame({c: Ff[k] for k, c in enumerate(DOF_COLUMNS)})
     if veh is not None:
@@ -481,17 +483,19 @@ def _check_changes(name: str, history: dict, spans, g0: float) -> None:
         "or give --params with the value that held throughout if the log's is wrong")
 
 
-def export_origin(raw, params: dict) -> float:
+def export_origin(raw, params: dict, ends: list | None = None) -> float:
     """The autopilot time [s] that ``log export``'s ``t_s`` counts from (its ``t0_boot_s``): the
     first time depth, attitude and the thruster outputs all cover, with the configuration of
-    ``params``; a :class:`LogDataError` when the log has no such time (nothing to export)."""
-    return _setup(raw, params, None, _attitude(raw)[0])[5]
+    ``params``; a :class:`LogDataError` when the log has no such time (nothing to export).
+    ``ends``: gets export's warning for servo outputs that stop long before the log's end."""
+    return _setup(raw, params, None, _attitude(raw)[0], ends)[5]
 
 
-def _setup(raw, params: dict, veh, att):
+def _setup(raw, params: dict, veh, att, ends: list | None = None):
     """Configuration, depth, PWM channels and the spans (part, first, last time) that depth,
-    attitude and PWM all cover, for ``params``; the first time of those spans and the messages
-    (warnings) of this choice."""
+    attitude and PWM all cover — or, where the servo outputs stop long before depth and
+    attitude do, up to the end of those (said in a warning, also added to ``ends``), for
+    ``params``; the first time of those spans and the messages (warnings) of this choice."""
     name = raw.name
     config = config_from_params(params, name=name, outputs_seen=_outputs_seen(raw),
                                 custom_B=None if veh is None else np.asarray(veh.B, float))
@@ -511,8 +515,9 @@ def _setup(raw, params: dict, veh, att):
                                f"has no {'RCOU.C' if raw.format == 'dataflash' else 'SERVO_OUTPUT_RAW.servo'}"
                                f"{m.output}{'' if raw.format == 'dataflash' else '_raw'} samples")
         pwms[m.number] = ch
-    spans = []
+    spans, ended = [], []
     essentials = [c for c in (depth, *att, *pwms.values()) if c is not None]
+    motion = [c for c in (depth, *att) if c is not None]
     for k in sorted(set(np.unique(att[0].part).tolist())):
         lo = max((c.t[c.part == k].min() for c in essentials if np.any(c.part == k)),
                  default=np.nan)
@@ -521,10 +526,27 @@ def _setup(raw, params: dict, veh, att):
         if not all(np.any(c.part == k) for c in essentials) or not hi > lo:
             mine.append(f"part {k}: depth, attitude and PWM do not overlap; part left out")
             continue
+        # servo outputs that stop long before depth and attitude do (a stream stopped): the
+        # rows after them are kept, their PWM empty — not the end of the table
+        out_end = min(c.t[c.part == k].max() for c in pwms.values()) if pwms else hi
+        motion_end = min(c.t[c.part == k].max() for c in motion)
+        every = max((_interval(c) for c in pwms.values()), default=0.0)
+        if motion_end - out_end > max(GAP_FACTOR * every, GAP_MIN_S):
+            hi = motion_end
+            ended.append((k, out_end, motion_end))
         spans.append((k, lo, hi))
     if not spans:
         raise LogDataError(f"{name}: depth, attitude and thruster outputs never overlap in time")
-    return config, depth, dsrc, pwms, spans, spans[0][1], mine
+    g0 = spans[0][1]
+    msg = next(iter(pwms.values())).source.split(".")[0] if pwms else ""
+    for k, a, b in ended:
+        mine.append(f"{name}: {msg} (the servo outputs) stops at t = {a - g0:.6g} s"
+                    + (f" (part {k})" if raw.parts > 1 else "") + f", {b - a:.4g} s before depth "
+                    f"and attitude end (t = {b - g0:.6g} s): the rows from there are kept with "
+                    "pwm_<n>, thrust_<n>_N and X_N … N_Nm empty (NaN) — no force is known there")
+        if ends is not None:
+            ends.append(mine[-1])
+    return config, depth, dsrc, pwms, spans, g0, mine
 
 
 _ARMED_TEXT = {True: " armed", False: " disarmed", None: ""}
@@ -558,10 +580,21 @@ def _modes_on_grid(cols, prov, warnings, mode_ch, arm_ch, grid, gpart) -> None:
     cols["armed"] = pd.arrays.BooleanArray(np.nan_to_num(arm) > 0.5, ~np.isfinite(arm))
 
 
-def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
-    """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows).  Warned:
-    rows whose voltage the thruster model's data do not cover, a map that falls with a growing
-    command at the logged voltage (:func:`.thrust.thrust_warnings`)."""
+#: servo outputs logged more than this many row steps apart fill only the rows where a new
+#: sample arrived (:func:`_thrusts`)
+SLOW_OUTPUT_STEPS = 1.5
+
+
+def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart, dt, g0) -> np.ndarray:
+    """``pwm_<i>`` and ``thrust_<i>_N`` columns; returns the thrusts (motors × rows).  Servo
+    outputs logged slower than the rows (a BlueROV2's SERVO_OUTPUT_RAW at 2 Hz beside ATTITUDE
+    at 20 Hz) are filled only on the rows where a new sample arrived and left empty (NaN)
+    between, as in a table written at the logger's own rows: each column's stamps keep the
+    interval of the message it came from, so the identification sees how often the force is
+    logged, and a held value is not taken for a new sample.  Warned: that, rows whose voltage
+    the thruster model's data do not cover, a map that falls with a growing command at the
+    logged voltage (:func:`.thrust.thrust_warnings`)."""
+    from uuvid.io.ardusub.sources import _fresh_rows
     from uuvid.io.ardusub.thrust import thrust_warnings
 
     volts = cols["battery_V"]
@@ -579,11 +612,22 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
                            else "(the T200 sheet's nominal 16 V: no voltage in the log)"))
         volts = np.where(np.isfinite(volts), volts, fill)
     T = np.empty((len(config.active), grid.size))
+    slow: dict = {}  # message → its sample interval, for outputs logged slower than the rows
     for j, m in enumerate(config.active):
-        pwm = _on_grid(pwms[m.number], grid, gpart, gaps=True)
+        ch = pwms[m.number]
+        pwm = _on_grid(ch, grid, gpart, gaps=True)
+        prov[f"pwm_{m.number}"] = {"source": ch.source, "unit": "µs", "output": m.output}
+        every = _interval(ch)
+        for k in np.unique(gpart):  # after the stream's last sample (it stopped): no value
+            tk = ch.t[ch.part == k]
+            pwm[(gpart == k) & (grid > (tk.max() + min(every, GAP_MIN_S) if tk.size
+                                         else -math.inf))] = np.nan
+        if every > SLOW_OUTPUT_STEPS * dt:
+            pwm[~_fresh_rows(ch, grid, gpart, dt)] = np.nan
+            prov[f"pwm_{m.number}"]["sampled"] = (
+                f"every {every:.3g} s: only on the rows where a new sample arrived, empty between")
+            slow[ch.source.split(".")[0]] = every
         cols[f"pwm_{m.number}"] = pwm
-        prov[f"pwm_{m.number}"] = {"source": pwms[m.number].source, "unit": "µs",
-                                   "output": m.output}
         out = np.count_nonzero((pwm < config.pwm_min - 1) | (pwm > config.pwm_max + 1))
         if out:
             warnings.append(f"pwm_{m.number}: {out} rows outside MOT_PWM_MIN/MAX "
@@ -591,6 +635,11 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
         # 0 µs is "no pulse" (output off), not full reverse
         T[j] = np.where(pwm > 0, tm.thrust(effective_pwm(pwm, m.direction), volts),
                         np.where(np.isfinite(pwm), 0.0, np.nan))  # NaN: a gap in the PWM
+    for msg, every in slow.items():
+        warnings.append(f"{msg} (the servo outputs) is logged every {every:.3g} s, slower than "
+                        f"the table's {dt:g} s rows: pwm_<n>, thrust_<n>_N and X_N … N_Nm are "
+                        f"filled only on the rows where a new {msg} sample arrived and left empty "
+                        "(NaN) between — not held, so the force's own sampling stays visible")
     if config.active:
         warnings.extend(thrust_warnings(tm, volts, cols["t_s"], config.pwm_min, config.pwm_max))
     for j, m in enumerate(config.active):
@@ -600,6 +649,13 @@ def _thrusts(cols, prov, warnings, config, pwms, tm, grid, gpart) -> np.ndarray:
             "unit": "N", "direction": m.direction,
             "note": "thrust along ArduSub's mixing direction of the motor: T(1500 + d (pwm − 1500))"}
     return T
+
+
+def _interval(ch) -> float:
+    """Median interval [s] between a channel's samples within a part (inf with fewer than 2)."""
+    d = np.diff(ch.t)[np.diff(ch.part) == 0]
+    d = d[d > 0]
+    return float(np.median(d)) if d.size else math.inf
 
 
 def _segments(df) -> list[dict]:

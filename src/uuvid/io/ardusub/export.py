@@ -121,15 +121,28 @@ def plot_dive(dive, path=None):
         ax[1].plot(t, np.degrees(tb[c]), label=c.split("_")[0])
     ax[1].set_ylabel("attitude [deg]")
     ax[1].legend(loc="upper right", fontsize="small")
+    def finite(c):  # servo outputs logged slower than the rows are empty between samples
+        v = tb[c].to_numpy(float)
+        keep = np.isfinite(v)
+        if keep.all():
+            return t, v
+        # a line between the samples, broken across a gap in them
+        tk, vk = t[keep], v[keep]
+        if tk.size > 2:
+            step = float(np.median(np.diff(tk)))
+            cut = np.flatnonzero(np.diff(tk) > 10 * step) + 1
+            tk, vk = np.insert(tk, cut, np.nan), np.insert(vk, cut, np.nan)
+        return tk, vk
+
     for m in dive.motors:
-        ax[2].plot(t, tb[f"thrust_{m}_N"], lw=0.8, label=f"motor {m}")
+        ax[2].plot(*finite(f"thrust_{m}_N"), lw=0.8, label=f"motor {m}")
     ax[2].set_ylabel("thrust [N]")
     ax[2].legend(loc="upper right", fontsize="x-small", ncol=4)
     for c in ("X_N", "Y_N", "Z_N"):
-        ax[3].plot(t, tb[c], label=c)
+        ax[3].plot(*finite(c), label=c)
     ax3b = ax[3].twinx()
     for c, ls in (("K_Nm", ":"), ("M_Nm", "-."), ("N_Nm", "--")):
-        ax3b.plot(t, tb[c], ls, lw=0.8, label=c)
+        ax3b.plot(*finite(c), ls, lw=0.8, label=c)
     ax[3].set_ylabel("force [N]")
     ax3b.set_ylabel("moment [N·m]" if dive.vehicle else
                     "moment [" + MOMENT_FACTOR_UNIT.replace(" (", "]\n(", 1), fontsize="small")

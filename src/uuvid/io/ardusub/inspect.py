@@ -158,7 +158,7 @@ def inspect_log(path, params=None) -> LogInspection:
     except LogDataError as e:
         err = str(e)
         warnings.append(err)
-    t0, origin = _origin(raw, params, t0)
+    t0, origin = _origin(raw, params, t0, warnings)
     for n, h in history.items():
         warnings.append(f"parameter {n} changed during the log: {h[0][1]:g} at the start, then "
                         + ", ".join(f"{v:g} from t = {t - t0:.4g} s" for t, v in h[1:])
@@ -197,15 +197,16 @@ def inspect_log(path, params=None) -> LogInspection:
                          warnings, raw.parts, t0, origin, before)
 
 
-def _origin(raw, params: dict, first: float) -> tuple[float, str]:
+def _origin(raw, params: dict, first: float, warnings: list) -> tuple[float, str]:
     """(the autopilot time the times shown count from, what it is): ``log export``'s ``t_s`` =
     0 (:func:`~uuvid.io.ardusub.dive.export_origin`) — inspect counted from the autopilot's
     first message, up to a stream's start-up off the table's times — else, for a log export
-    cannot read, the autopilot's first message ``first``, said so."""
+    cannot read, the autopilot's first message ``first``, said so.  Export's warning for servo
+    outputs that stop long before the log's end goes to ``warnings``."""
     from uuvid.io.ardusub.dive import export_origin
 
     try:
-        return float(export_origin(raw, params)), "`log export`'s first row, as its t_s"
+        return float(export_origin(raw, params, warnings)), "`log export`'s first row, as its t_s"
     except LogDataError:
         return first, "the autopilot's first message (`log export` cannot read this log)"
 

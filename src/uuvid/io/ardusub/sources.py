@@ -477,6 +477,22 @@ def _on_grid_all(ch: _Channel, grid: np.ndarray, gpart: np.ndarray, *, hold_ends
     return out
 
 
+def _fresh_rows(ch: _Channel, grid: np.ndarray, gpart: np.ndarray, dt: float) -> np.ndarray:
+    """Rows of the grid with a sample of ``ch`` since the row before (in ``(row − dt, row]``, in
+    the row's part): where a channel logged slower than the rows has a new value.  A channel
+    as fast as the rows or faster has one on (nearly) every row."""
+    out = np.zeros(grid.size, bool)
+    for k in np.unique(gpart):
+        g = np.flatnonzero(gpart == k)
+        t = ch.t[ch.part == k]
+        if t.size == 0:
+            continue
+        n = np.searchsorted(t, grid[g], side="right") - np.searchsorted(t, grid[g] - dt,
+                                                                         side="right")
+        out[g] = n > 0
+    return out
+
+
 def _initial_armed(ch: _Channel | None) -> dict:
     """State before the first arming event of each part: the opposite of that event."""
     if ch is None:
