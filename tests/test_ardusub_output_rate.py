@@ -118,3 +118,29 @@ def test_rows_after_the_servo_outputs_stop_are_kept_with_the_pwm_empty_and_said(
     assert said and "before depth and attitude end (t = 19.9" in said[0], dive.warnings
     assert any("SERVO_OUTPUT_RAW" in w and "stops at t = 8" in w
                for w in inspect_log(path).warnings)
+
+
+@pytest.mark.slow
+def test_a_bin_record_with_a_corrupt_time_stamp_is_left_out_and_said(tmp_path):
+    """One BAT record's TimeUS corrupted to 1.8e13 s in the middle of an 8 s .BIN: inspect said
+    the log was 1.8e13 s long and export warned of a BAT gap of that length.  Now the record is
+    left out, named with its stamp, and the log keeps its length."""
+    import struct
+
+    from test_ardusub import write_bin
+
+    from uuvid.io.ardusub import inspect_log
+
+    path = write_bin(tmp_path / "d.BIN", scenario(n=80))
+    b = bytearray(path.read_bytes())
+    head = bytes([0xA3, 0x95, 23])  # the BAT records (write_bin's type 23)
+    at = [i for i in range(len(b) - 3) if b[i:i + 3] == head]
+    b[at[40] + 3:at[40] + 11] = struct.pack("<Q", 18374686479681 * 10**6)
+    path.write_bytes(bytes(b))
+    ins = inspect_log(path)
+    assert ins.duration_s < 10.0
+    assert any("BAT record(s) carry a TimeUS far outside" in w and "1.83747e+13" in w
+               for w in ins.warnings), ins.warnings
+    dive = load_dive(path, vehicle="bluerov2")
+    assert not any("gap of" in w for w in dive.warnings)
+    assert dive.table["t_s"].iloc[-1] < 10.0

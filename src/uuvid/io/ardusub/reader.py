@@ -504,7 +504,36 @@ def _finish(raw: RawLog) -> None:
         _finish_tlog(raw)
 
 
+def _isolated_stamps(b: np.ndarray) -> np.ndarray:
+    """Stamps more than :data:`RECV_MARGIN_S` from both neighbours of their series (from the one
+    neighbour at its ends) while the neighbours agree: a corrupt time field, not a reboot."""
+    n = b.size
+    if n < 3:
+        return np.zeros(n, bool)
+    far_prev = np.concatenate(([True], np.abs(np.diff(b)) > RECV_MARGIN_S))
+    far_next = np.concatenate((np.abs(np.diff(b)) > RECV_MARGIN_S, [True]))
+    around = np.concatenate(([0.0], np.abs(b[2:] - b[:-2]), [0.0])) <= RECV_MARGIN_S
+    out = far_prev & far_next & around
+    out[0] = far_next[0] and abs(b[2] - b[1]) <= RECV_MARGIN_S
+    out[-1] = far_prev[-1] and abs(b[-2] - b[-3]) <= RECV_MARGIN_S
+    return out
+
+
 def _finish_dataflash(raw: RawLog) -> None:
+    # a TimeUS far from both neighbours of its message type (a corrupt record) would stretch
+    # the log to its time (and split it as a reboot): left out, said
+    for (mt, _), sr in raw.series.items():
+        b = np.asarray(sr.boot, dtype=float)
+        bad = _isolated_stamps(b)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            near = b[i - 1] if i > 0 else b[i + 1]
+            raw.warnings.append(
+                f"{raw.name}: {int(bad.sum())} {mt} record(s) carry a TimeUS far outside the "
+                f"log's (first: {b[i]:.6g} s where its neighbours are near {near:.6g} s; a corrupt "
+                "record): left out")
+            b[bad] = np.nan
+            sr.boot = b
     # one clock for all messages, but log order across types is lost: the parts are found on
     # the ATT series (or the longest one) and each series is split the same way
     ref = raw.get("ATT") or max(raw.series.values(), key=lambda s: len(s.boot), default=None)
