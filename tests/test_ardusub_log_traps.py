@@ -145,7 +145,7 @@ def test_export_whose_table_fails_after_the_figure_leaves_no_figure(tmp_path, mo
     and the option is named, not the temporary file."""
     from uuvid.io.ardusub import dive as dive_mod
 
-    def full(self, out):
+    def full(self, out, plot=None):
         raise OSError(28, "No space left on device", str(Path(out).parent / ".tmp-1-abcdef12-x.csv"))
 
     monkeypatch.setattr(dive_mod.DiveLog, "export", full)
@@ -154,6 +154,40 @@ def test_export_whose_table_fails_after_the_figure_leaves_no_figure(tmp_path, mo
                                  "--plot", str(tmp_path / "x.png")])
     assert r.exit_code == 2 and "--out-file" in r.output and ".tmp-" not in r.output, r.output
     assert not (tmp_path / "x.png").exists()
+
+
+def test_export_interrupted_while_writing_the_table_leaves_no_figure(tmp_path, monkeypatch):
+    """Ctrl-C while the table was written left the figure (saved first) without the table and
+    its provenance; the figure now takes its name only after the table did."""
+    from uuvid.core import progress
+    from uuvid.io.ardusub import export as export_mod
+
+    monkeypatch.setattr(progress, "_INTERRUPT_SAID", [False])
+
+    def interrupted(path, obj, *a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(export_mod, "atomic_write_json", interrupted)
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "x.csv"),
+                                 "--plot", str(tmp_path / "x.png")])
+    assert r.exit_code == 130 and "interrupted" in r.output, r.output
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["d.BIN"]  # no temporary file either
+
+
+def test_export_figure_that_fails_to_save_names_the_plot_option(tmp_path, monkeypatch):
+    from uuvid.io.ardusub import export as export_mod
+
+    def full(dive, path=None):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(export_mod, "plot_dive", full)
+    p = write_bin(tmp_path / "d.BIN", scenario(n=60))
+    r = CliRunner().invoke(app, ["log", "export", str(p), "--out-file", str(tmp_path / "x.csv"),
+                                 "--plot", str(tmp_path / "x.png")])
+    out = " ".join(r.output.split())
+    assert r.exit_code == 2 and "--plot" in out and ".tmp-" not in out, out
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["d.BIN"]
 
 
 def test_thruster_export_to_an_unwritable_place_names_the_option(tmp_path):

@@ -88,9 +88,7 @@ def export_cmd(
     try:
         dive = load_dive(log, vehicle=vehicle, thruster_model=thruster_model, dt=dt,
                          params=params, t_start=t_start, t_end=t_end)
-        if plot is not None:  # the figure first: a figure that fails leaves no table behind
-            _write(dive.plot, plot, "--plot")
-        path = _write(dive.export, out, "--out-file", undo=plot)
+        path = _write(dive.export, out, plot)  # the figure with the table: all or none
     except (ValueError, ImportError, FileNotFoundError, KeyError) as e:
         from uuvid.cli.common import _flagged
 
@@ -106,15 +104,14 @@ def export_cmd(
                       soft_wrap=True, markup=False)
 
 
-def _write(fn, path: Path, option: str, undo: Path | None = None):
-    """``fn(path)``; a write the file system refuses ends the command naming the option and
-    the path given (not the temporary file the write went through), after removing ``undo``
-    (an output this run already wrote)."""
+def _write(export, out: Path, plot: Path | None):
+    """``export(out, plot=plot)``; a write the file system refuses ends the command naming the
+    option and the path given (not the temporary file the write went through)."""
     try:
-        return fn(path)
+        return export(out, plot=plot)
     except OSError as e:
-        if undo is not None:
-            undo.unlink(missing_ok=True)
+        mine = plot is not None and str(e.filename or "").endswith(plot.name)  # or its temp file
+        option, path = ("--plot", plot) if mine else ("--out-file", out)
         _fail(f"{option} {path}: cannot write it ({e.strerror or e}); nothing was written")
 
 

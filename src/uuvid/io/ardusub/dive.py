@@ -130,12 +130,13 @@ class DiveLog(Result):
                 "force_basis": self.force_basis, "vehicle": self.vehicle, "modes": self.modes,
                 "provenance": self.provenance, "warnings": list(self.warnings)}
 
-    def export(self, out) -> Path:
+    def export(self, out, plot=None) -> Path:
         """Write the table atomically: ``.parquet`` (provenance in the file metadata) or
-        ``.csv`` (provenance in the sidecar ``<out>.json``)."""
+        ``.csv`` (provenance in the sidecar ``<out>.json``); with ``plot``, the overview figure
+        too, all or none (an interrupted write leaves neither)."""
         from uuvid.io.ardusub.export import export_dive
 
-        return export_dive(self, out)
+        return export_dive(self, out, plot=plot)
 
     report_title = "ArduSub dive"
 

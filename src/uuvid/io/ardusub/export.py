@@ -3,6 +3,7 @@ Parquet with the provenance in its metadata), atomically; and its overview figur
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
 
@@ -64,9 +65,19 @@ def sidecar_path(out) -> Path | None:
     return out.with_name(out.name + ".json") if out.suffix.lower() == ".csv" else None
 
 
-def export_dive(dive, out) -> Path:
-    """``out`` ending in ``.csv`` (sidecar ``<out>.json``) or ``.parquet``; returns the path."""
+def export_dive(dive, out, plot=None) -> Path:
+    """``out`` ending in ``.csv`` (sidecar ``<out>.json``) or ``.parquet``; returns the path.
+    ``plot``: also the overview figure there, in the same all-or-none write: it is drawn into a
+    temporary file first and takes its name only after the table did, so an interrupted or
+    failed export leaves no figure without its table."""
     out = check_export_path(out)
+    with contextlib.ExitStack() as figure:
+        if plot is not None:
+            plot_dive(dive, figure.enter_context(atomic_path(plot)))
+        return _write_table(dive, out)
+
+
+def _write_table(dive, out: Path) -> Path:
     suf = out.suffix.lower()
     tb = dive.table.copy()
     num = tb.select_dtypes("float").columns
@@ -78,15 +89,14 @@ def export_dive(dive, out) -> Path:
             tb.to_csv(tmp, index=False, float_format="%.9g")
             atomic_write_json(sidecar_path(out), _meta(dive))
         return out
-    if suf == ".parquet":
-        pa, pq = _pyarrow(out)
-        t = pa.Table.from_pandas(tb, preserve_index=False)
-        md = dict(t.schema.metadata or {})
-        md[b"uuvid"] = json.dumps(to_jsonable(_meta(dive)), allow_nan=False).encode()
-        t = t.replace_schema_metadata(md)
-        with atomic_path(out) as tmp:
-            pq.write_table(t, tmp)
-        return out
+    pa, pq = _pyarrow(out)
+    t = pa.Table.from_pandas(tb, preserve_index=False)
+    md = dict(t.schema.metadata or {})
+    md[b"uuvid"] = json.dumps(to_jsonable(_meta(dive)), allow_nan=False).encode()
+    t = t.replace_schema_metadata(md)
+    with atomic_path(out) as tmp:
+        pq.write_table(t, tmp)
+    return out
 
 
 _MODE_COLOURS = {"MANUAL": None, "STABILIZE": "#9ecae1", "ALT_HOLD": "#a1d99b",
