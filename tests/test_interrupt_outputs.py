@@ -137,3 +137,42 @@ def test_mission_outputs_interrupted_while_writing_leave_no_folder(tmp_path, mon
     with pytest.raises(KeyboardInterrupt):
         mission_report.write_mission_outputs(Flight(), None, tmp_path / "flight")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def dive_csv(tmp_path_factory):
+    import pandas as pd
+
+    from uuvid.examples import generate_example
+
+    p = tmp_path_factory.mktemp("dive") / "dive.csv"
+    tb = pd.DataFrame(generate_example("dive"))
+    tb[tb["t_s"] <= 200].to_csv(p, index=False)
+    return p
+
+
+@pytest.mark.slow
+def test_identify_dive_interrupted_in_the_report_leaves_no_folder_and_names_the_vehicle_file(
+        dive_csv, tmp_path, monkeypatch):
+    """Ctrl-C while the replay figure was drawn left a report folder with result.json and
+    summary.txt but no index.html, and a complete --out-vehicle file the console never named."""
+    from uuvid.identify.vehicle.dive import DiveIdentification
+
+    monkeypatch.setattr(DiveIdentification, "plot", lambda self, path=None: _interrupt(path))
+    rep, veh = tmp_path / "rep", tmp_path / "v.yaml"
+    res = CliRunner().invoke(app, ["vehicle", "identify", "dive", str(dive_csv), "--vehicle",
+                                   "bluerov2", "--dof", "heave", "--out-vehicle", str(veh),
+                                   "--report", str(rep)])
+    assert res.exit_code == 130 and "interrupted" in res.output, res.output
+    assert f"wrote {veh} before the interrupt" in " ".join(res.output.split())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.yaml"]  # no (temporary) folder
+
+
+def test_replay_interrupted_in_the_report_leaves_no_folder(dive_csv, tmp_path, monkeypatch):
+    from uuvid.simulate.dive_replay import DiveReplay
+
+    monkeypatch.setattr(DiveReplay, "plot", lambda self, path=None: _interrupt(path))
+    res = CliRunner().invoke(app, ["vehicle", "replay", str(dive_csv), "--vehicle", "bluerov2",
+                                   "--dof", "heave", "--out", str(tmp_path / "rep")])
+    assert res.exit_code == 130 and "interrupted" in res.output, res.output
+    assert list(tmp_path.iterdir()) == []

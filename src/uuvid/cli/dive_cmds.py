@@ -161,6 +161,12 @@ def _run(compute, write, json_out: bool, write_error) -> None:
     try:
         with as_options():
             write(res, doc)
+    except KeyboardInterrupt:  # a file already in place is not one the user thinks was not made
+        for k in ("out_vehicle", "report"):
+            if k in doc:
+                err_console.print(f"wrote {doc[k]} before the interrupt", highlight=False,
+                                  markup=False)
+        raise
     except (*_errors(), OSError) as e:  # the result first, then why nothing (more) was written
         if not json_out:
             out_console.print(res.summary(), highlight=False, markup=False, soft_wrap=True)

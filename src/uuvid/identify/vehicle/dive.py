@@ -401,7 +401,9 @@ class DiveIdentification(Result):
             save_figure(fig, path)
         return fig
 
-    def report(self, folder):
+    def _report_into(self, folder):
+        """The report's files in ``folder``: :meth:`~uuvid.core.result.Result.report` builds
+        it in a temporary sibling and renames it whole, so an interrupted report leaves none."""
         from pathlib import Path
 
         from uuvid.core.html import Report
