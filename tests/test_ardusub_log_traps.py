@@ -114,6 +114,31 @@ def test_unchanged_parameters_repeated_after_the_dump_are_no_change(tmp_path):
     assert not any("MOT_1_DIRECTION" in w for w in d.warnings)
 
 
+@pytest.mark.parametrize("back_s", [None, 2.0])
+def test_a_tlog_joined_to_a_copy_of_itself_is_refused_with_the_byte_to_split_at(tmp_path, back_s):
+    """A .tlog followed by itself (receive clock back by the whole log) or by a copy received
+    only half a log later (back by half) was read as an autopilot reboot and the two copies
+    interleaved or averaged; only a jump of days was refused.  Both clocks going back is two
+    logs, whatever the size; a reboot keeps the receive clock running on."""
+    msgs = _tlog_messages(write_tlog(tmp_path / "a.tlog", scenario(n=80), companion=False))
+    one = _write_tlog_messages(tmp_path / "one.tlog", msgs)
+    span = msgs[-1][0] - msgs[0][0]
+    shift = 0.0 if back_s is None else span / back_s
+    joined = _write_tlog_messages(tmp_path / "joined.tlog",
+                                  msgs + [(t + shift, ty, b) for t, ty, b in msgs])
+    size = one.stat().st_size
+    for read in (inspect_log, load_dive):
+        with pytest.raises(LogDataError, match=f"goes back by .* at byte {size:,} while the "
+                                               f"autopilot's clock restarts.*split it at byte "
+                                               f"{size:,}"):
+            read(joined)
+
+
+def test_a_reboot_with_the_receive_clock_running_on_is_still_a_reboot(tmp_path):
+    d = load_dive(write_tlog(tmp_path / "r.tlog", scenario(n=80), reboot_at=40))
+    assert any("rebooted 1 time(s)" in w for w in d.warnings)
+
+
 # ------------------------------------------------------------------- outputs: all or none
 def test_export_with_a_figure_that_cannot_be_written_writes_nothing(tmp_path, monkeypatch):
     """--plot /proc/x.png: the table and its provenance were written, then the command failed

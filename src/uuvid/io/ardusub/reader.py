@@ -214,6 +214,9 @@ CLOCK_STEP_S = 5.0
 #: ... over an advance of its own clock shorter than this (s; longer silences are link losses,
 #: reboots reset the sender's clock: neither is a step)
 CLOCK_STEP_WINDOW_S = 10.0
+#: a receive (or a sender's own) time this much (s) before the latest one is that clock going
+#: back, not messages reordered in the ground station or interleaved by the sender
+RECV_BACK_S = 1.0
 
 
 #: a log read taking longer than this (s) shows a progress bar on stderr (a terminal; off one,
@@ -264,6 +267,7 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True, bar=Non
     n = 0
     same_recv, last_recv = 0, math.nan
     shift, steps, last_stamp = 0.0, [], {}  # receive-clock steps (tlog), see CLOCK_STEP_S
+    recv_max, back = -math.inf, None  # the receive clock gone back: (byte, before, after)
     # dataflash: pymavlink indexes the file, so reading only the kept types skips the rest
     # (IMU, EKF, ...) and the counts of every type come from its index
     want = sorted(keep | {"PARM"}) if kind == "dataflash" else None
@@ -318,7 +322,19 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True, bar=Non
                             shift += db - dr
                             recv += db - dr
                             steps.append((n, dr - db))
+                        if back is not None and db < -RECV_BACK_S:
+                            # both clocks went back: not a reboot (the receive clock runs on
+                            # through one) but another log appended, however far back it goes
+                            # (a sender's message types interleave by less than the tolerance)
+                            raise LogDataError(_joined_out_of_order(p, *back))
+                        if back is not None:  # the sender's clock ran on: a step, taken out
+                            back, recv_max = None, recv
                     last_stamp[src] = (recv, boot)
+                if back is None and recv < recv_max - RECV_BACK_S:
+                    at = (int(conn.f.tell()) - 8 - len(m.get_msgbuf()) if tlog is None
+                          else (tlog_clock_back(p) or (-1,))[0])
+                    back = (at, recv_max, recv)
+                recv_max = max(recv_max, recv)
             else:
                 if mt in ("FMT", "FMTU", "UNIT", "MULT"):
                     continue
@@ -415,6 +431,15 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True, bar=Non
         keep = {} if whole_file else {"types": TLOG_KEEP | {"PARAM_VALUE"}, "sender": raw.autopilot}
         raw.warnings[at:at] = skipped.notes(p.name, mavutil, good=good, **keep)
     return raw
+
+
+def _joined_out_of_order(p: Path, at: int, before: float, after: float) -> str:
+    """Why a telemetry log whose receive clock and autopilot clock both go back is refused."""
+    where = f"byte {at:,}" if at >= 0 else "the place it does"
+    return (f"{p.name}: its receive clock goes back by {before - after:,.1f} s at {where} while the "
+            "autopilot's clock restarts (a reboot keeps the receive clock running on): several "
+            "telemetry logs joined into one out of order, or a log appended to itself? split it "
+            f"at {where} and read each log apart")
 
 
 def _cannot_read(p: Path, kind: str, what: str) -> str:
