@@ -139,6 +139,19 @@ def test_a_reboot_with_the_receive_clock_running_on_is_still_a_reboot(tmp_path):
     assert any("rebooted 1 time(s)" in w for w in d.warnings)
 
 
+@pytest.mark.slow
+def test_no_usable_depth_names_the_other_barometer_that_varies_like_water_pressure(tmp_path):
+    """BARO_PRIMARY naming the enclosure barometer (constant) while the other one swings by tens
+    of kPa gave "no usable depth" without a word about the sensor that measured the water."""
+    prm = {**params(), "BARO_PRIMARY": 0}
+    d = load_dive(write_tlog(tmp_path / "s.tlog", scenario(n=80), prm=prm, gpi=False))
+    said = [w for w in d.warnings if "no usable depth" in w]
+    assert said and "SCALED_PRESSURE2.press_abs (barometer 1) varies by" in said[0], d.warnings
+    assert "BARO_PRIMARY = 1" in said[0] and "--params" in said[0]
+    ok = load_dive(write_tlog(tmp_path / "ok.tlog", scenario(n=80), gpi=False))
+    assert not any("varies by" in w for w in ok.warnings)
+
+
 # ------------------------------------------------------------------- outputs: all or none
 def test_export_with_a_figure_that_cannot_be_written_writes_nothing(tmp_path, monkeypatch):
     """--plot /proc/x.png: the table and its provenance were written, then the command failed

@@ -186,7 +186,8 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                                 "why": "; ".join(tried) + f"; CTUN.{fld} (the autopilot's own "
                                 "altitude estimate from the primary barometer) used instead"}
                 tried.append(f"CTUN.{fld} is constant or empty")
-        raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(tried)}")
+        raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(tried)}"
+                           + _other_barometer(raw, primary))
     # telemetry: the BARO_PRIMARY sensor's pressure first (as the dataflash branch), when the log
     # says which barometer that is
     pressure = _tlog_pressure_depth(raw, config, warnings)
@@ -248,7 +249,46 @@ def _depth(raw: RawLog, config: VehicleConfig | None, warnings: list) -> tuple[_
                 "(BARO_PRIMARY), relative to the lowest pressure in the log",
                 "ekf_origin": origin, "vfr_hud_alt_constant": vfr_const}
     tried.append(f"no usable {msg}")
-    raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(t for t in tried if t)}")
+    raise LogDataError(f"{raw.name}: no usable depth: {'; '.join(t for t in tried if t)}"
+                       + _other_barometer(raw, primary))
+
+
+#: a barometer whose pressure spans this much (Pa) over the log measures water, not the
+#: enclosure (0.5 m of water; an enclosure's varies by a few hundred Pa)
+WATER_PRESSURE_SPAN_PA = 5000.0
+
+
+def _other_barometer(raw: RawLog, primary: int | None) -> str:
+    """A note naming each barometer other than BARO_PRIMARY whose pressure varies like a
+    water-pressure sensor's (swapped or misconfigured barometers), with the parameter to give;
+    empty when none does."""
+    found = []  # (what, instance, span in Pa)
+    if raw.format == "dataflash":
+        baro = raw.get("BARO")
+        inst_f = next((f for f in ("I", "Instance") if baro is not None and f in baro.values), None)
+        if baro is not None and "Press" in baro.values and inst_f:
+            inst, press = baro.array(inst_f), baro.array("Press")
+            for i in sorted({int(x) for x in inst if np.isfinite(x)} - {primary}):
+                found.append((f"BARO[{i}].Press", i, press[inst == i]))
+        for i in (1, 2):
+            b = raw.get(f"BAR{i + 1}")
+            if b is not None and "Press" in b.values and i != primary:
+                found.append((f"BAR{i + 1}.Press", i, b.array("Press")))
+    else:
+        for i in (0, 1, 2):
+            sp = raw.get("SCALED_PRESSURE" + ("" if i == 0 else str(i + 1)))
+            if sp is not None and "press_abs" in sp.values and i != primary:
+                found.append((f"SCALED_PRESSURE{'' if i == 0 else i + 1}.press_abs", i,
+                              100.0 * sp.array("press_abs")))  # hPa
+    out = []
+    for what, i, v in found:
+        v = v[np.isfinite(v)]
+        span = float(np.ptp(v)) if v.size > 1 else 0.0
+        if span >= WATER_PRESSURE_SPAN_PA:
+            out.append(f"{what} (barometer {i}) varies by {span / 1000.0:.3g} kPa over the log, as "
+                       f"a water-pressure sensor does: if it is the one in the water, give "
+                       f"--params with a file setting BARO_PRIMARY = {i}")
+    return "".join("; " + o for o in out)
 
 
 def _tlog_pressure_depth(raw: RawLog, config: VehicleConfig | None,
