@@ -94,6 +94,24 @@ def test_mass_below_rigid_body_is_a_warning_of_every_run(lbf_table):
     assert "below the rigid-body mass" in json.dumps(doc)
 
 
+def test_inertia_below_rigid_body_within_2_sigma_is_said_as_the_write_back_refuses_it(table, tmp_path):
+    from uuvid.vehicle.definition import load_vehicle
+    from uuvid.vehicle.writeback import WritebackError
+
+    short = table.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+    short = short[(short.t_s > 100) & (short.t_s < 145)]
+    res = identify_dive(short, "bluerov2", ["yaw"])
+    e = res.estimates["yaw"]
+    iz = float(load_vehicle("bluerov2").params.M_RB[5, 5])
+    assert e.values["mass"] < iz and e.values["mass"] + 2 * e.sigma["mass"] >= iz  # the case
+    said = [w for w in e.warnings if "below the rigid-body inertia" in w]
+    assert len(said) == 1 and "within 2σ" in said[0] and "--out-vehicle" in said[0], e.warnings
+    assert "below the rigid-body inertia" in res.summary()
+    with pytest.raises(WritebackError, match="below the rigid-body inertia"):
+        res.write_vehicle(tmp_path / "v.yaml")
+    assert not (tmp_path / "v.yaml").exists()
+
+
 # --- 3. a time range past either end of the log ----------------------------------------------
 
 @pytest.mark.parametrize("kw", [{"t_end": 500.0}, {"t_start": -50.0}])
@@ -187,15 +205,18 @@ def test_thrust_from_pwm_columns_says_a_voltage_outside_the_thruster_data(table)
     assert len(said) == 1 and "battery_V" in said[0] and " rows (t = " in said[0], said
 
 
-def test_mass_below_rigid_body_only_beyond_2_sigma_and_torque_units_for_yaw():
+def test_mass_below_rigid_body_unit_hint_beyond_2_sigma_noise_within_and_torque_units_for_yaw():
     from uuvid.identify.vehicle.dive import below_rigid_body
     from uuvid.io.dive_channels import unit_guess
     from uuvid.vehicle.definition import load_vehicle
 
     veh = load_vehicle("bluerov2")
     rigid = float(veh.params.M_RB[2, 2])
-    assert below_rigid_body(veh, "heave", rigid - 0.05, 1.5) is None  # within noise
-    assert below_rigid_body(veh, "heave", rigid * 0.6, float("nan")) is None  # σ unknown
+    assert below_rigid_body(veh, "heave", rigid + 0.05, 1.5) is None  # above: nothing to say
+    near = below_rigid_body(veh, "heave", rigid - 0.05, 1.5)  # within noise: said as possibly so
+    assert near and "within 2σ" in near and "refused" in near and "lbf" not in near
+    unknown = below_rigid_body(veh, "heave", rigid * 0.6, float("nan"))
+    assert unknown and "σ not determined" in unknown
     w = below_rigid_body(veh, "heave", rigid * 0.6, 0.5)
     assert w and "lbf: ×4.448 → N" in w and "Z_N" in w
     iz = float(veh.params.M_RB[5, 5])

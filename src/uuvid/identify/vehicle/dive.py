@@ -578,17 +578,26 @@ _EVERY_DOF = re.compile(r"part \d+: .*left out|do not overlap")
 def below_rigid_body(veh, dof: str, mass: float, sigma: float) -> str | None:
     """The warning when an identified ``dof`` mass (inertia in yaw) is below the base vehicle's
     rigid-body one — an added mass < 0, physically impossible (the write-back refuses it); the
-    usual cause is a force column in another unit (lbf, kgf), which scales mass and drag alike."""
+    usual cause, when below by more than 2σ, is a force column in another unit (lbf, kgf), which
+    scales mass and drag alike; within 2σ it is said as possibly the record's noise."""
     i = {"surge": 0, "sway": 1, "heave": 2, "yaw": 5}.get(dof)
     try:
         rigid = float(np.asarray(veh.params.M_RB)[i, i])
     except (AttributeError, TypeError, IndexError):
         return None
-    # below by more than 2σ: a small added mass (yaw, a streamlined surge) estimated from a short
-    # record lands under the rigid-body value half the time by noise alone
-    if i is None or not (rigid > 0) or not (mass + 2.0 * (sigma if sigma >= 0 else math.inf) < rigid):
+    if i is None or not (rigid > 0) or not (mass < rigid):
         return None
     what, unit = ("inertia", "kg·m²") if i >= 3 else ("mass", "kg")
+    # below by less than 2σ: a small added mass (yaw, a streamlined surge) estimated from a short
+    # record lands under the rigid-body value half the time by noise alone — said all the same,
+    # as the write-back refuses any added mass < 0
+    if not (mass + 2.0 * (sigma if sigma >= 0 else math.inf) < rigid):
+        within = ("within 2σ, so possibly noise of the record" if math.isfinite(sigma)
+                  else "its σ not determined, so possibly noise of the record")
+        return (f"the identified {dof} {what} {mass:.4g} ± {sigma:.2g} {unit} is below the "
+                f"rigid-body {what} {rigid:.4g} {unit} of {veh.name} ({within}; a longer record or "
+                f"more {dof} manoeuvres narrow it): the added {what} would be {mass - rigid:.3g} "
+                "< 0, so writing it (--out-vehicle, write_vehicle) is refused")
     force = DIVE_DOFS[dof][1]
     units = ("lbf·ft: ×1.356 → N·m; lbf·in: ×0.113 → N·m; kgf·m: ×9.807 → N·m" if i >= 3 else
              "lbf: ×4.448 → N; kgf: ×9.807 → N")
@@ -597,7 +606,8 @@ def below_rigid_body(veh, dof: str, mass: float, sigma: float) -> str | None:
             f"{what} {rigid:.4g} {unit} of {veh.name} by more than 2σ: the added {what} would be "
             f"{mass - rigid:.3g} < 0, which is physically impossible — is the {kind} column "
             f"({force}) in another unit ({units})? A {kind} scaled by c "
-            f"scales {what} and drag by c; else check the rigid-body numbers")
+            f"scales {what} and drag by c; else check the rigid-body numbers. Writing it "
+            "(--out-vehicle, write_vehicle) is refused")
 
 
 def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
