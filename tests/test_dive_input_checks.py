@@ -121,6 +121,20 @@ def test_a_range_past_the_log_is_an_error_naming_its_span(table, kw):
             call(table, "bluerov2", ["heave"], **kw)
 
 
+def test_a_range_inside_a_logging_pause_names_the_pause_and_its_row(table, tmp_path):
+    gap = tmp_path / "gap.csv"
+    table[(table.t_s <= 100) | (table.t_s >= 160)].to_csv(gap, index=False)
+    row = int(np.flatnonzero(table[(table.t_s <= 100) | (table.t_s >= 160)].t_s >= 160)[0]) + 2
+    with pytest.raises(ValueError, match=rf"\[110, 150\] s lies inside the logging pause "
+                                         rf"99\.9\d*–160\.\d+ s \(column t_s, row {row}\): no "
+                                         "samples there") as e:
+        identify_dive(gap, "bluerov2", ["heave", "yaw"], t_start=110.0, t_end=150.0)
+    assert "one side of it" in str(e.value) and str(e.value).count("lies inside") == 1
+    r = runner.invoke(app, ["vehicle", "identify", "dive", str(gap), "--vehicle", "bluerov2",
+                            "--t-start", "110", "--t-end", "150"])
+    assert r.exit_code == 2 and "lies inside the logging pause" in r.output, r.output
+
+
 def test_a_range_past_the_log_exits_2_in_the_commands(dive_csv):
     for cmd in (["vehicle", "identify", "dive"], ["vehicle", "replay"]):
         r = runner.invoke(app, cmd + [str(dive_csv), "--vehicle", "bluerov2", "--dof", "heave",

@@ -80,6 +80,29 @@ class DiveChannels:
     #: DOFs whose measured channel opposes every force in them (the direction check asked about
     #: its sign: a depth logged positive up), :mod:`uuvid.io.motor_direction`
     opposed: list = field(default_factory=list)
+    #: logging pauses ``[(t0, t1, where)]``: the last stamp before, the first after and where the
+    #: reader found it (a table's column and row; empty: from the channels' stamps)
+    pauses: list = field(default_factory=list)
+
+    def pause_around(self, t_start=None, t_end=None) -> str | None:
+        """``"[a, b] s lies inside the logging pause …"`` when the time window asked for has no
+        stamp of the log because a logger pause spans it, else ``None`` (the pauses the reader
+        found, or the gaps of :func:`~uuvid.io.logs.pause_s` in the channels' stamps)."""
+        if t_start is None or t_end is None:
+            return None  # an end of the log itself is a sample
+        pauses = self.pauses
+        if not pauses:
+            ts = [c[0] for c in self.channels.values() if c[0].size]
+            t = np.unique(np.concatenate(ts)) if ts else np.zeros(0)
+            gap = pause_s(t)
+            big = np.flatnonzero(np.diff(t) > gap) if gap is not None else []
+            pauses = [(float(t[i]), float(t[i + 1]), "") for i in big]
+        for p0, p1, where in pauses:
+            if p0 <= t_start and t_end <= p1:
+                return (f"{self.span_text(t_start, t_end)} lies inside the logging pause "
+                        f"{p0:.6g}–{p1:.6g} s" + (f" ({where})" if where else "")
+                        + ": no samples there")
+        return None
 
     @property
     def t_range(self) -> tuple[float, float]:
@@ -995,6 +1018,9 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     if len(df) == 0:
         raise DiveDataError(f"{name}: no data rows under the header")
     t = _table_time(df, tcol, name, warnings)
+    gap = pause_s(t)
+    pauses = [(float(t[i]), float(t[i + 1]), f"column {tcol}, row {i + 3}")
+              for i in (np.flatnonzero(np.diff(t) > gap) if gap is not None else [])]
     chans = {}
     for c in TABLE_CHANNELS:
         if c in cols:
@@ -1101,7 +1127,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         warnings.append(f"{name}: column(s) {', '.join(other[:8])}{more} not read: not a channel "
                         f"uuvid uses ({UNREAD_HINT})")
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out,
-                        opposed)
+                        opposed, pauses)
 
 
 def _param_directions(params: tuple, pwm: dict, export_dirs: dict | None, name: str,

@@ -974,6 +974,12 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
         raise DiveDataError(f"{arg_is('t_end', f'{t_end:g}')} s must be after "
                             f"{arg_is('t_start', f'{t_start:g}')} s")
     dc.check_span(t_start, t_end)
+    inside = dc.pause_around(t_start, t_end)
+    if inside is not None:  # no DOF has a sample there: one message, not one per DOF
+        a, b = dc.t_range
+        raise DiveDataError(f"{dc.name}: nothing to identify from: {inside}; choose "
+                            f"{arg('t_start')}/{arg('t_end')} on one side of it or across it "
+                            f"(the log runs from {a:.6g} to {b:.6g} s)")
     # "all": every DOF the log can inform; one that cannot be identified (too few windows, …)
     # is said in the warnings and the others are returned
     every = _is_all(dofs)
