@@ -856,3 +856,55 @@ def test_time_in_ms_behind_a_fast_stream_is_named_where_the_horizon_fails():
     both = pd.concat([df, fast], ignore_index=True).sort_values("t_s", kind="stable")
     with pytest.raises(DiveDataError, match=r"median step 50 s\).*is the time in milliseconds"):
         identify_dive(both.reset_index(drop=True), "bluerov2", ["heave"])
+
+
+@pytest.fixture(scope="module")
+def pwm_dive(tmp_path_factory):
+    """The example dive with its thrust from the servo outputs (its force columns dropped)."""
+    from uuvid.examples import write_example
+
+    df = pd.read_csv(write_example("dive", tmp_path_factory.mktemp("pwm_dive"))[0])
+    return df.drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
+
+
+def _short_yaw(dc, tmp_path):
+    """A quick yaw fit of a read dive and the refused write-back of it."""
+    from uuvid.identify.vehicle.dive import identify_dive
+    from uuvid.vehicle.writeback import WritebackError
+
+    res = identify_dive(None, "bluerov2", ["yaw"], t_start=100.0, t_end=145.0, dive=dc)
+    with pytest.raises(WritebackError) as e:
+        res.write_vehicle(tmp_path / "v.yaml")
+    assert not (tmp_path / "v.yaml").exists()
+    return res.estimates["yaw"], str(e.value)
+
+
+@pytest.mark.slow
+def test_a_motor_named_reversed_makes_the_dofs_it_drives_no_model_to_write(pwm_dive, tmp_path):
+    dc = _read(_mirror(pwm_dive, "pwm_3"))
+    assert _reversed(dc) and dc.faulty["3"][1] == ["yaw", "surge", "sway"], dc.faulty
+    assert not _read(pwm_dive).faulty
+    e, refused = _short_yaw(dc, tmp_path)
+    said = [w for w in e.unusable if w.startswith("pwm_3 is probably reversed")]
+    assert len(said) == 1 and "N_Nm" in said[0] and "mirror that column (pwm_3)" in said[0], e.unusable
+    assert "yaw is not a model to use (" in refused and "pwm_3 is probably reversed" in refused
+    assert "better)" not in "\n".join(e.summary_lines(145.0))
+
+
+@pytest.mark.slow
+def test_a_thruster_of_the_vehicle_off_throughout_is_said_strongly_and_blocks_its_dofs(
+        pwm_dive, tmp_path):
+    dc = _read(pwm_dive.assign(pwm_4=pwm_dive["pwm_4"] * 0.0))  # (its empty cells kept)
+    said = [w for w in dc.warnings if "pwm_4 is 0 µs throughout" in w]
+    assert len(said) == 1 and "thruster 4 of bluerov2" in said[0], said
+    assert "missing from the computed N_Nm/X_N/Y_N (yaw, surge, sway)" in said[0]
+    assert "SERVO4_FUNCTION" in said[0] and "logger" in said[0]
+    assert dc.faulty["4"][1] == ["yaw", "surge", "sway"]  # not heave: a horizontal thruster
+    e, refused = _short_yaw(dc, tmp_path)
+    assert any(w.startswith("pwm_4 is 0 µs throughout") for w in e.unusable), e.unusable
+    assert "pwm_4" in refused and "SERVO4_FUNCTION" in refused
+    # the table's own force columns are used: the output off takes nothing from them
+    cols = _read(pwm_dive.assign(pwm_4=pwm_dive["pwm_4"] * 0.0, X_N=0.0, Y_N=0.0, Z_N=0.0, K_Nm=0.0, M_Nm=0.0,
+                                 N_Nm=0.0))
+    assert not cols.faulty and any("pwm_4 is 0 µs throughout: that output is off" in w
+                                   for w in cols.warnings)

@@ -83,6 +83,9 @@ class DiveChannels:
     #: logging pauses ``[(t0, t1, where)]``: the last stamp before, the first after and where the
     #: reader found it (a table's column and row; empty: from the channels' stamps)
     pauses: list = field(default_factory=list)
+    #: servo outputs found at fault ``{motor: (why, DOFs it drives)}`` — probably reversed, or off
+    #: throughout while the others are driven: a model of those DOFs is not one to use
+    faulty: dict = field(default_factory=dict)
 
     def pause_around(self, t_start=None, t_end=None) -> str | None:
         """``"[a, b] s lies inside the logging pause …"`` when the time window asked for has no
@@ -429,7 +432,7 @@ def _armed_part(tx: tuple, armed) -> tuple:
 def _check_units(chans: dict, pwm: dict, name: str, warnings: list, armed=None) -> None:
     """A channel that cannot be in its column's unit for an underwater vehicle is an error saying
     which unit it looks like (depth in cm, heading in degrees, speeds in cm/s, battery in mV, PWM
-    normalised); a PWM output at 0 µs throughout is said (off: no thrust).  ``armed``: the rates
+    normalised).  ``armed``: the rates
     are taken over the armed samples (a long quiet stretch let a heading in degrees through)."""
     if "depth_m" in chans and chans["depth_m"][0].size:
         r = _rate90(*_armed_part(chans["depth_m"], armed))
@@ -480,14 +483,74 @@ def _check_units(chans: dict, pwm: dict, name: str, warnings: list, armed=None) 
     from uuvid.thruster.chain import PWM_PLAUSIBLE_US
 
     lo, hi = PWM_PLAUSIBLE_US
-    for k, (_, v) in pwm.items():
+    for k, (_, v) in pwm.items():  # (one off throughout: _off_outputs)
         on = v[v != 0]
-        if v.size and not on.size:
-            warnings.append(f"{name}: pwm_{k} is 0 µs throughout: that output is off (no pulse) "
-                            "and its thruster gives no thrust")
-        elif on.size and np.mean((on >= lo) & (on <= hi)) < 0.5:
+        if on.size and np.mean((on >= lo) & (on <= hi)) < 0.5:
             raise DiveDataError(f"{name}: column pwm_{k} holds {on.min():.4g}…{on.max():.4g}, not "
                                 f"pulse widths: expected µs ({lo:g}–{hi:g}; 0 = output off)")
+
+
+#: a thruster drives a DOF materially when its entry in the vehicle's allocation ``B`` is at least
+#: this share of the DOF's largest (BlueROV2's four horizontal thrusters give yaw a quarter each,
+#: its vertical ones nothing)
+MATERIAL_SHARE = 0.1
+_FORCE_ROW = {"X_N": 0, "Y_N": 1, "Z_N": 2, "K_Nm": 3, "M_Nm": 4, "N_Nm": 5}
+
+
+def thruster_dofs(B, j: int) -> list:
+    """The DOFs of :data:`DIVE_DOFS` that thruster ``j`` (a column of ``B``) drives materially
+    (:data:`MATERIAL_SHARE`)."""
+    A = np.abs(np.asarray(B, float))
+    return [dof for dof, (_, force, _) in DIVE_DOFS.items()
+            if A[_FORCE_ROW[force]].max() > 0
+            and A[_FORCE_ROW[force], j] >= MATERIAL_SHARE * A[_FORCE_ROW[force]].max()]
+
+
+def _fault(pwm: dict, veh, k: str, why: str) -> tuple:
+    """``(why, DOFs)`` of :attr:`DiveChannels.faulty` for output ``k``; ``why`` names the forces
+    of the DOFs it drives where it says ``{forces}``."""
+    dofs = thruster_dofs(veh.B, _motor_order(pwm).index(k))
+    return why.format(forces="/".join(DIVE_DOFS[d][1] for d in dofs) or "no force"), dofs
+
+
+def _off_outputs(pwm: dict, veh, name: str, warnings: list, computed: bool) -> dict:
+    """A ``pwm_`` output at 0 µs throughout is said (off: no pulse, no thrust).  One of the
+    vehicle's own thrusters (the spare outputs are left out before) off while the others are
+    driven, with the forces computed from the outputs (``computed``), is said strongly: its force
+    is missing from the DOFs it drives (:func:`thruster_dofs`), whose models are not to be used —
+    returned as :attr:`DiveChannels.faulty`."""
+    keys = _motor_order(pwm)
+    off = [k for k in keys if pwm[k][1].size and not np.any(pwm[k][1] != 0)]
+    own = (computed and veh is not None and len(keys) == np.shape(veh.B)[1]
+           and len(off) < len(keys))
+    faulty = {}
+    for k in off:
+        if not own:
+            warnings.append(f"{name}: pwm_{k} is 0 µs throughout: that output is off (no pulse) "
+                            "and its thruster gives no thrust")
+            continue
+        why, dofs = _fault(pwm, veh, k, f"pwm_{k} is 0 µs throughout: thruster {k}'s force is "
+                                        "missing from the computed {forces} (check "
+                                        f"SERVO{k}_FUNCTION or the logger)")
+        forces = "/".join(DIVE_DOFS[d][1] for d in dofs)
+        warnings.append(
+            f"{name}: pwm_{k} is 0 µs throughout while the other outputs are driven: thruster {k} "
+            f"of {veh.name} never had a pulse, so its force is missing from the computed "
+            + (f"{forces} ({', '.join(dofs)}): a model of {' or '.join(dofs)} from this log is "
+               "not one to use" if dofs else "forces")
+            + f". If the motor ran in the dive, output {k} is not the one that drives it (check "
+            f"SERVO{k}_FUNCTION: the motor on another output) or the logger did not record it")
+        if dofs:
+            faulty[k] = (why, dofs)
+    return faulty
+
+
+def _reversed_faults(named: list, pwm: dict, veh, fix) -> dict:
+    """:attr:`DiveChannels.faulty` of the outputs the direction check named as probably
+    reversed: their force enters the DOFs they drive with the wrong sign."""
+    return {k: _fault(pwm, veh, k, f"pwm_{k} is probably reversed (the motor-direction check's "
+                                   "warning): its force enters {forces} with the wrong sign — "
+                                   + fix([k])) for k in dict.fromkeys(named)}
 
 
 #: a depth this far above zero (m) cannot be a depth: waves and sensor noise at the surface stay
@@ -1100,14 +1163,16 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         "force columns to have the thrust computed from the PWM)")
         if veh is not None:
             _check_force_scale(chans, pwm, veh, armed, name, warnings, directions, label)
+    faulty = _off_outputs(pwm, veh, name, warnings, computed=thrust is not None)
     _check_dead_outputs(pwm, armed, name, warnings)
     _check_idle(pwm, armed, veh, name, warnings, idle=thrust is not None)  # (forces from pwm)
     _check_surface_reading(chans, armed, name, warnings)
     _drop_stuck(chans, armed, name, warnings, left_out)
     opposed = []
     if thrust is not None:
-        opposed += direction_check(chans, thrust, veh, armed, name, warnings,
-                                   table_fix if directions is None else bag_fix(directions))
+        fix, named = table_fix if directions is None else bag_fix(directions), []
+        opposed += direction_check(chans, thrust, veh, armed, name, warnings, fix, named=named)
+        faulty.update(_reversed_faults(named, pwm, veh, fix))
     own = [c for c in ("Z_N", "N_Nm") if c in chans and c not in (thrust.computed if thrust
                                                                    is not None else ())]
     if own:  # the table's own force columns: the same check of the measured channels' sign
@@ -1127,7 +1192,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
         warnings.append(f"{name}: column(s) {', '.join(other[:8])}{more} not read: not a channel "
                         f"uuvid uses ({UNREAD_HINT})")
     return DiveChannels(name, fmt, chans, armed, modes, warnings, src, pwm, unread, left_out,
-                        opposed, pauses)
+                        opposed, pauses, faulty)
 
 
 def _param_directions(params: tuple, pwm: dict, export_dirs: dict | None, name: str,
@@ -1560,11 +1625,12 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
         _check_idle(pwm, armed, veh, p.name, warnings, thruster_model)
         _check_surface_reading(chans, armed, p.name, warnings)
         _drop_stuck(chans, armed, p.name, warnings, left_out)
+        faulty = _off_outputs(pwm, veh, p.name, warnings, computed=True)
         opposed = _log_direction_check(chans, pwm, dive, veh, armed, p.name, warnings,
-                                       thruster_model)
+                                       thruster_model, faulty)
         return DiveChannels(p.name, dive.format, chans, armed,
                             _mode_runs(t, tb["mode"].astype(str).to_numpy()), warnings, src, pwm,
-                            left_out=left_out, opposed=opposed)
+                            left_out=left_out, opposed=opposed, faulty=faulty)
     what = f"unknown dive log type {p.suffix!r}" if p.suffix else "no file suffix"
     if suf in (".db3", ".mcap"):
         what = f"a ROS 2 bag's {suf} storage file without the bag's metadata.yaml beside it"
@@ -1574,11 +1640,12 @@ def read_dive_channels(log, vehicle=None, *, params=None, thruster_model=None,
 
 
 def _log_direction_check(chans: dict, pwm: dict, dive, veh, armed: list, name: str,
-                         warnings: list, thruster_model) -> list:
+                         warnings: list, thruster_model, faulty: dict | None = None) -> list:
     """The motion-based direction check (:func:`~uuvid.io.motor_direction.direction_check`) on an
     ArduSub log: the log's ``MOT_n_DIRECTION`` applied, the forces of the log's thrust model
     recomputed on a scratch copy (the dive's own columns are kept), so that a parameter that does
-    not match the motor on the vehicle is said, as for tables and bags."""
+    not match the motor on the vehicle is said, as for tables and bags (and the outputs named
+    go into ``faulty``, :attr:`DiveChannels.faulty`)."""
     directions = {str(m.number): float(m.direction) for m in dive.config.active}
     if not pwm or set(directions) != set(pwm):
         return []
@@ -1595,7 +1662,12 @@ def _log_direction_check(chans: dict, pwm: dict, dive, veh, armed: list, name: s
                                   thrust_model=tm)
     except (DiveDataError, LogDataError, ValueError):
         return []
-    return direction_check(scratch, thrust, veh, armed, name, warnings, bag_fix(directions))
+    named: list = []
+    opposed = direction_check(scratch, thrust, veh, armed, name, warnings, bag_fix(directions),
+                              named=named)
+    if faulty is not None:
+        faulty.update(_reversed_faults(named, pwm, veh, bag_fix(directions)))
+    return opposed
 
 
 def _from_bag(bd, veh, thruster_model) -> DiveChannels:
@@ -1627,15 +1699,18 @@ def _from_bag(bd, veh, thruster_model) -> DiveChannels:
     _check_dead_outputs(bd.pwm, armed, bd.name, warnings)
     _check_idle(bd.pwm, armed, veh, bd.name, warnings, tm)
     _check_surface_reading(chans, armed, bd.name, warnings)
+    faulty = _off_outputs(bd.pwm, veh, bd.name, warnings, computed=True)
+    named: list = []
     opposed = direction_check(chans, thrust, veh, armed, bd.name, warnings,
-                              bag_fix(thrust.directions))
+                              bag_fix(thrust.directions), named=named)
+    faulty.update(_reversed_faults(named, bd.pwm, veh, bag_fix(thrust.directions)))
     modes = []
     if bd.modes is not None:
         modes = _mode_runs(*bd.modes)
         if modes:
             modes[-1] = (modes[-1][0], max(modes[-1][1], bd.t_end), modes[-1][2])
     return DiveChannels(bd.name, bd.format, chans, armed, modes, warnings, dict(bd.sources),
-                        dict(bd.pwm), left_out=left_out, opposed=opposed)
+                        dict(bd.pwm), left_out=left_out, opposed=opposed, faulty=faulty)
 
 
 # ---------------------------------------------------------------------------------------------

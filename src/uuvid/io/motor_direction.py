@@ -146,7 +146,8 @@ def force_sign_check(chans: dict, veh, armed: list, name: str, warnings: list,
 
 
 def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list,
-                    fix, *, B=None, col=None, source: str = "", every=None) -> list[str]:
+                    fix, *, B=None, col=None, source: str = "", every=None,
+                    named: list | None = None) -> list[str]:
     """Warn about a servo output whose computed force pushes against the measured motion
     (``pt``: the reader's thrust per servo output, logged and mirrored, ``dive_channels._PwmThrust``;
     ``fix(keys)``: the sentence that says how to mend the named outputs in this kind of log).
@@ -182,7 +183,8 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
     several times better and no other mirror helps (else a pair, alike).  Every thruster of a
     DOF against the motion is reported as the measured channel's sign convention or all of them
     reversed.
-    ``fix(keys)`` says what to do.  One pass of NumPy per DOF; it warns and never raises."""
+    ``fix(keys)`` says what to do; ``named`` (a list) gets the key of each output named as
+    probably reversed.  One pass of NumPy per DOF; it warns and never raises."""
     B = np.asarray(veh.B if B is None else B, float)
     keys = pt.keys
     col = col or (lambda k: f"pwm_{k}")
@@ -229,6 +231,8 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                     f"{r2_log:.0%} as logged (one shared coefficient {k_fix:+.3g} ± {s_fix:.2g} "
                     f"{aunit} per {funit}{exp}); mirroring {other} does not help. "
                     f"{fix([keys[i] for i in bad])}")
+                if named is not None:
+                    named += [keys[i] for i in bad]
             continue
 
         def confirmed(bad, w=w):
@@ -255,6 +259,8 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                     f"mirroring it cannot be confirmed by the fit (it only rescales the group); "
                     f"no mixer drives one of its thrusters against all the others. "
                     f"{fix([keys[i]])}")
+                if named is not None:
+                    named.append(keys[i])
             continue
         k_fix, s_fix, r2_fix, r2_log = conf
         cols = [col(keys[i]) for i in bad]
@@ -284,6 +290,8 @@ def direction_check(chans: dict, pt, veh, armed: list, name: str, warnings: list
                 f"the {dof} acceleration measured from {meas}{together}: coefficient {c:+.3g} ± "
                 f"{s:.2g} {aunit} per {funit} (fitted with the other thrusters' forces, a "
                 f"constant and drag), physically positive{exp}; {share}. {fix([keys[i]])}")
+            if named is not None:
+                named.append(keys[i])
     return opposed
 
 

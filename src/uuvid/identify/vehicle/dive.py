@@ -203,6 +203,9 @@ class DofEstimate:
     traces: dict = field(default_factory=dict, repr=False)
     weighting: dict = field(default_factory=dict)
     inflow: dict | None = None  # the thrust-loss split (see _inflow_split), None when off
+    #: servo outputs the reader found at fault that drive this DOF (a reversed motor, one off
+    #: throughout: :attr:`uuvid.io.dive_channels.DiveChannels.faulty`)
+    faults: list = field(default_factory=list)
 
     @property
     def names(self) -> tuple:
@@ -215,7 +218,7 @@ class DofEstimate:
         :data:`~uuvid.identify.vehicle.output_error.INERTIA_SIGMA_MAX`) or beyond
         :data:`FAR_FROM_BASE` of the base's, an in-sample replay that explains nothing of the
         channel (:func:`~uuvid.identify.vehicle.output_error.unusable_reasons`), a held-out part
-        the base predicts better."""
+        the base predicts better, a servo output at fault that drives the DOF (:attr:`faults`)."""
         rms, nrmse = self.train.get("rms", math.nan), self.train.get("nrmse", math.nan)
         why = unusable_reasons(self.names, self.values, self.sigma, inertias=("mass",),
                                nrmse={CHANNEL_NAMES.get(self.dof, self.dof):
@@ -224,6 +227,7 @@ class DofEstimate:
         if any(f"beyond the ×{FAR_FROM_BASE:g}" in w for w in self.warnings):
             why.append(f"{'inertia' if self.dof in ('roll', 'pitch', 'yaw') else 'mass'} beyond "
                        f"×{FAR_FROM_BASE:g} of the base's")
+        why += self.faults  # (before the held-out verdict: the summary says that one last)
         h = self.held_out or {}
         if h.get("improvement") is not None and h["improvement"] < HELD_OUT_WORSE:
             why.append(f"it predicts the held-out part {1 / h['improvement']:.3g}× worse than the "
@@ -608,6 +612,13 @@ def below_rigid_body(veh, dof: str, mass: float, sigma: float) -> str | None:
             f"({force}) in another unit ({units})? A {kind} scaled by c "
             f"scales {what} and drag by c; else check the rigid-body numbers. Writing it "
             "(--out-vehicle, write_vehicle) is refused")
+
+
+def output_faults(dc, dofs) -> list:
+    """What the reader found at fault in the servo outputs that drive one of ``dofs`` (a motor
+    named as probably reversed, an output off throughout: its force wrong or missing there),
+    :attr:`uuvid.io.dive_channels.DiveChannels.faulty`."""
+    return [why for why, driven in getattr(dc, "faulty", {}).values() if set(driven) & set(dofs)]
 
 
 def _with_reader_warnings(e: DiveDataError, dofs, dc) -> DiveDataError:
@@ -1021,6 +1032,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                 low = below_rigid_body(veh, d, est.values[keys[0]], est.sigma[keys[0]])
                 if low is not None:
                     est.warnings.insert(0, low)
+            est.faults = output_faults(dc, _DOF_KEYS)
             return est
         dc.require(dof)
         H = float(horizon or DEFAULT_HORIZON[dof])
@@ -1069,7 +1081,7 @@ def identify_dive(log, vehicle, dofs=("heave", "yaw"), *, t_start=None, t_end=No
                 warns.append(surged)
         return DofEstimate(dof, values, sigma, corr.tolist(), start, base.to_dict(),
                            base_src, len(windows), H, train, held, warns, notes, traces, wd,
-                           split)
+                           split, output_faults(dc, [dof]))
     failed = []
     for dof in dofs:
         try:

@@ -192,6 +192,9 @@ class HorizontalEstimate:
     #: per DOF (surge, sway, yaw) the thrust-loss split (:func:`_horizontal_inflow_split`),
     #: ``None`` when inflow was off
     inflow_split: dict | None = None
+    #: servo outputs the reader found at fault that drive surge, sway or yaw (a reversed motor,
+    #: one off throughout: :attr:`uuvid.io.dive_channels.DiveChannels.faulty`)
+    faults: list = field(default_factory=list)
 
     @property
     def inflow(self) -> float | None:
@@ -205,7 +208,8 @@ class HorizontalEstimate:
         in-sample replay explains nothing of
         (:func:`~uuvid.identify.vehicle.output_error.unusable_reasons`), a held-out channel the
         base vehicle predicts better than it by more than 11 %
-        (:data:`~uuvid.identify.vehicle.output_error.HELD_OUT_WORSE`)."""
+        (:data:`~uuvid.identify.vehicle.output_error.HELD_OUT_WORSE`), a servo output at fault
+        that drives it (:attr:`faults`)."""
         tr = self.train or {}
         nrmse = {c: (tr[c].get("nrmse") if math.isfinite(tr[c].get("rms", math.nan))
                      else math.inf) for c in H_CHANNELS if isinstance(tr.get(c), dict)}
@@ -219,7 +223,7 @@ class HorizontalEstimate:
             why.append("it predicts the held-out " + ", ".join(
                 f"{c} {1 / h['improvement'][c]:.3g}× worse" for c in worse)
                 + " than the base vehicle")
-        return why
+        return why + list(self.faults)
 
     def params(self) -> HorizontalParams:
         return HorizontalParams(**{k: self.values[k] for k in HORIZONTAL_NAMES})
