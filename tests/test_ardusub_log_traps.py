@@ -114,18 +114,23 @@ def test_unchanged_parameters_repeated_after_the_dump_are_no_change(tmp_path):
     assert not any("MOT_1_DIRECTION" in w for w in d.warnings)
 
 
-@pytest.mark.parametrize("back_s", [None, 2.0])
-def test_a_tlog_joined_to_a_copy_of_itself_is_refused_with_the_byte_to_split_at(tmp_path, back_s):
+@pytest.mark.parametrize("back_s, first", [(None, None), (2.0, None), (None, "ATTITUDE")])
+def test_a_tlog_joined_to_a_copy_of_itself_is_refused_with_the_byte_to_split_at(tmp_path, back_s,
+                                                                                first):
     """A .tlog followed by itself (receive clock back by the whole log) or by a copy received
     only half a log later (back by half) was read as an autopilot reboot and the two copies
     interleaved or averaged; only a jump of days was refused.  Both clocks going back is two
-    logs, whatever the size; a reboot keeps the receive clock running on."""
+    logs, whatever the size; a reboot keeps the receive clock running on.  ``first``: the
+    appended copy starts at a message that carries the autopilot's clock itself (time_boot_ms),
+    as a log cut at a random message does one time in three."""
     msgs = _tlog_messages(write_tlog(tmp_path / "a.tlog", scenario(n=80), companion=False))
     one = _write_tlog_messages(tmp_path / "one.tlog", msgs)
     span = msgs[-1][0] - msgs[0][0]
     shift = 0.0 if back_s is None else span / back_s
-    joined = _write_tlog_messages(tmp_path / "joined.tlog",
-                                  msgs + [(t + shift, ty, b) for t, ty, b in msgs])
+    tail = [(t + shift, ty, b) for t, ty, b in msgs]
+    if first is not None:
+        tail = tail[next(i for i, m in enumerate(tail) if m[1] == first):]
+    joined = _write_tlog_messages(tmp_path / "joined.tlog", msgs + tail)
     size = one.stat().st_size
     for read in (inspect_log, load_dive):
         with pytest.raises(LogDataError, match=f"goes back by .* at byte {size:,} while the "

@@ -139,8 +139,33 @@ def test_a_bin_record_with_a_corrupt_time_stamp_is_left_out_and_said(tmp_path):
     path.write_bytes(bytes(b))
     ins = inspect_log(path)
     assert ins.duration_s < 10.0
-    assert any("BAT record(s) carry a TimeUS far outside" in w and "1.83747e+13" in w
+    assert any("BAT record(s) carry a TimeUS far from the records" in w and "1.83747e+13" in w
                for w in ins.warnings), ins.warnings
     dive = load_dive(path, vehicle="bluerov2")
     assert not any("gap of" in w for w in dive.warnings)
     assert dive.table["t_s"].iloc[-1] < 10.0
+
+
+@pytest.mark.parametrize("changes", [(100.0, 130.0), (50.0, 70.0, 190.0)])
+def test_mode_records_minutes_apart_are_no_corrupt_stamps(tmp_path, changes):
+    """The corrupt-TimeUS filter judged each message type by its own records: MODE records
+    logged minutes apart (a first one at 0 s, the next at 100 s; a last change 120 s after the
+    one before) were called corrupt and left out — ALT_HOLD read as MANUAL, MANUAL as UNKNOWN.
+    A record is judged by the attitude records logged around it."""
+    from test_ardusub import write_bin
+
+    from uuvid.io.ardusub import inspect_log
+
+    sc = scenario(n=2000, dt=0.1)
+    t = sc["t"]
+    mode = np.full(t.size, 19)  # MANUAL, ALT_HOLD (2) between alternate changes
+    for k, t0 in enumerate(changes):
+        mode[t >= t0] = 2 if k % 2 == 0 else 19
+    sc["mode"] = mode
+    ins = inspect_log(write_bin(tmp_path / "m.BIN", sc))
+    assert not any("corrupt" in w for w in ins.warnings), ins.warnings
+    spans = [(s["start_s"], s["mode"]) for s in ins.modes]
+    for k, t0 in enumerate((0.0, *changes)):
+        m = "MANUAL" if k % 2 == 0 else "ALT_HOLD"
+        assert any(abs(a - t0) <= 2.5 and name == m for a, name in spans), (t0, m, spans)
+    assert {name for _, name in spans} == {"MANUAL", "ALT_HOLD"}, spans

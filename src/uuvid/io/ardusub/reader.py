@@ -311,6 +311,12 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True, bar=Non
                 boot = None
                 if mt in keep or "time_boot_ms" in m.get_fieldnames():
                     boot = _tlog_boot(m, wraps)
+                # the receive clock gone back, found before this message's own clock is compared:
+                # the first message of an appended log may itself carry time_boot_ms
+                if back is None and recv < recv_max - RECV_BACK_S:
+                    at = (int(conn.f.tell()) - 8 - len(m.get_msgbuf()) if tlog is None
+                          else (tlog_clock_back(p) or (-1,))[0])
+                    back = (at, recv_max, recv)
                 if boot is not None and "time_boot_ms" in m.get_fieldnames():
                     prev = last_stamp.get(src)
                     if prev is not None:
@@ -330,10 +336,6 @@ def _read_messages(p: Path, kind: str, mavutil, whole_file: bool = True, bar=Non
                         if back is not None:  # the sender's clock ran on: a step, taken out
                             back, recv_max = None, recv
                     last_stamp[src] = (recv, boot)
-                if back is None and recv < recv_max - RECV_BACK_S:
-                    at = (int(conn.f.tell()) - 8 - len(m.get_msgbuf()) if tlog is None
-                          else (tlog_clock_back(p) or (-1,))[0])
-                    back = (at, recv_max, recv)
                 recv_max = max(recv_max, recv)
             else:
                 if mt in ("FMT", "FMTU", "UNIT", "MULT"):
@@ -530,8 +532,9 @@ def _finish(raw: RawLog) -> None:
 
 
 def _isolated_stamps(b: np.ndarray) -> np.ndarray:
-    """Stamps more than :data:`RECV_MARGIN_S` from both neighbours of their series (from the one
-    neighbour at its ends) while the neighbours agree: a corrupt time field, not a reboot."""
+    """Stamps of a densely logged series (the reference, ATT) more than :data:`RECV_MARGIN_S`
+    from both neighbours (from the one neighbour at its ends) while the neighbours agree: a
+    corrupt time field, not a reboot."""
     n = b.size
     if n < 3:
         return np.zeros(n, bool)
@@ -544,21 +547,58 @@ def _isolated_stamps(b: np.ndarray) -> np.ndarray:
     return out
 
 
+#: a record before the reference's first or after its last in the log is judged against one
+#: reference record only: corrupt when this far (s) from it — no dive lasts a day, while an
+#: event record (MODE, ARM) may legitimately come minutes before or after
+EDGE_CORRUPT_S = 86400.0
+
+
+def _stamps_off_reference(b: np.ndarray, seq: np.ndarray, rb: np.ndarray,
+                          rseq: np.ndarray) -> np.ndarray:
+    """Stamps ``b`` (records at log positions ``seq``) more than :data:`RECV_MARGIN_S` from both
+    reference records written just before and just after them (``rb`` at ``rseq``), those two
+    agreeing with each other: a corrupt time field.  Judged against the densely logged reference,
+    not the record's own type: an event type (MODE, ARM, EV) is logged minutes apart, and its
+    records straddle reboots and logging pauses (where the reference records around them
+    disagree, and nothing is judged)."""
+    if b.size == 0 or rb.size == 0:
+        return np.zeros(b.size, bool)
+    j = np.searchsorted(rseq, seq)
+    has_p, has_n = j > 0, j < rb.size
+    pb = np.where(has_p, rb[np.clip(j - 1, 0, rb.size - 1)], np.nan)
+    nb = np.where(has_n, rb[np.clip(j, 0, rb.size - 1)], np.nan)
+    with np.errstate(invalid="ignore"):
+        both = has_p & has_n
+        inner = both & (np.abs(pb - nb) <= RECV_MARGIN_S) & (np.abs(b - pb) > RECV_MARGIN_S) \
+            & (np.abs(b - nb) > RECV_MARGIN_S)
+        edge = ~both & (np.abs(b - np.where(has_p, pb, nb)) > EDGE_CORRUPT_S)
+    return inner | edge
+
+
 def _finish_dataflash(raw: RawLog) -> None:
-    # a TimeUS far from both neighbours of its message type (a corrupt record) would stretch
-    # the log to its time (and split it as a reboot): left out, said
-    for (mt, _), sr in raw.series.items():
-        b = np.asarray(sr.boot, dtype=float)
-        bad = _isolated_stamps(b)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            near = b[i - 1] if i > 0 else b[i + 1]
-            raw.warnings.append(
-                f"{raw.name}: {int(bad.sum())} {mt} record(s) carry a TimeUS far outside the "
-                f"log's (first: {b[i]:.6g} s where its neighbours are near {near:.6g} s; a corrupt "
-                "record): left out")
-            b[bad] = np.nan
-            sr.boot = b
+    # a TimeUS far from the records logged around it (a corrupt record) would stretch the log to
+    # its time (and split it as a reboot): left out, said.  The reference series (ATT, else the
+    # longest) is judged by its own neighbours, every other record by the reference records
+    # written around it
+    ref0 = raw.get("ATT") or max(raw.series.values(), key=lambda s: len(s.boot), default=None)
+    if ref0 is not None:
+        rb0 = np.asarray(ref0.boot, dtype=float)
+        bad0 = _isolated_stamps(rb0)
+        rb_ok, rseq_ok = rb0[~bad0], np.asarray(ref0.seq)[~bad0]
+        for (mt, _), sr in raw.series.items():
+            b = np.asarray(sr.boot, dtype=float)
+            bad = bad0 if sr is ref0 else _stamps_off_reference(b, np.asarray(sr.seq), rb_ok,
+                                                                rseq_ok)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                k = int(np.searchsorted(rseq_ok, np.asarray(sr.seq)[i])) if sr is not ref0 else i
+                near = rb_ok[min(max(k - 1, 0), rb_ok.size - 1)] if rb_ok.size else math.nan
+                raw.warnings.append(
+                    f"{raw.name}: {int(bad.sum())} {mt} record(s) carry a TimeUS far from the "
+                    f"records logged around them (first: {b[i]:.6g} s where the log is near "
+                    f"{near:.6g} s; a corrupt record): left out")
+                b[bad] = np.nan
+                sr.boot = b
     # one clock for all messages, but log order across types is lost: the parts are found on
     # the ATT series (or the longest one) and each series is split the same way
     ref = raw.get("ATT") or max(raw.series.values(), key=lambda s: len(s.boot), default=None)
