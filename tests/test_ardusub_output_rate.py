@@ -169,3 +169,22 @@ def test_mode_records_minutes_apart_are_no_corrupt_stamps(tmp_path, changes):
         m = "MANUAL" if k % 2 == 0 else "ALT_HOLD"
         assert any(abs(a - t0) <= 2.5 and name == m for a, name in spans), (t0, m, spans)
     assert {name for _, name in spans} == {"MANUAL", "ALT_HOLD"}, spans
+
+
+def test_empty_rows_between_slow_servo_samples_are_not_missing_commands(tmp_path):
+    """A steady/inertia fit of a .tlog counted every empty row between the 2 Hz servo samples as
+    a missing command sample (9 of every 10 rows); only rows in a hole of the outputs, or past
+    their last sample, are missing."""
+    from pathlib import Path
+
+    from uuvid.identify.vehicle.logs import LogSpec, _read_ardusub_log
+
+    sc = scenario(n=200, dt=0.05)
+    whole = write_tlog(tmp_path / "d.tlog", sc, companion=False, servo_every=10)
+    d = _read_ardusub_log(LogSpec(path=Path(whole), dof="heave", vehicle="bluerov2"))
+    assert d.t_command_missing.size <= 10, (d.t_cmd.size, d.t_command_missing.size)
+    cut = write_tlog(tmp_path / "c.tlog", scenario(n=400, dt=0.05), companion=False,
+                     servo_every=10, servo_until=5.0)
+    d = _read_ardusub_log(LogSpec(path=Path(cut), dof="heave", vehicle="bluerov2"))
+    assert d.t_command_missing.size >= 250  # the last 15 s of 20 Hz rows have no output
+    assert d.t_command_missing.min() >= 5.0 - 0.5

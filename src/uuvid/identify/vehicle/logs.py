@@ -741,9 +741,28 @@ def _read_ardusub_log(spec: LogSpec) -> LogData:
         raise ValueError(f"{spec.path.name}: too few samples for {spec.dof} "
                          f"({int(keep.sum())} command, {int(okp.sum())} position)")
     data = LogData(t[keep], tau[keep], t[okp], pos[okp], None, None, info,
-                   None if closed is None else closed[keep], t[~okp], t[~keep])
+                   None if closed is None else closed[keep], t[~okp], t[_missing_between(t, keep)])
     names = {"command": _DOF_COLUMN[spec.dof], "position": pos_from}
     return _finish(data, spec, names, True)
+
+
+def _missing_between(t: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """Rows without a sample (``~ok``) that are missing ones: in a hole of the channel (its
+    samples further apart than the reader's gap, :data:`~uuvid.io.ardusub.sources.GAP_FACTOR`
+    × its median interval and at least ``GAP_MIN_S``) or outside its first and last sample — not
+    the empty rows between the samples of a channel logged slower than the table (2 Hz servo
+    outputs on 20 Hz attitude rows)."""
+    from uuvid.io.ardusub.sources import GAP_FACTOR, GAP_MIN_S
+
+    ts = t[ok]
+    if ts.size < 2:
+        return ~ok
+    gap = max(GAP_FACTOR * float(np.median(np.diff(ts))), GAP_MIN_S)
+    j = np.searchsorted(ts, t)  # the first sample at or after each row
+    inside = (j > 0) & (j < ts.size)
+    span = np.where(inside, ts[np.clip(j, 0, ts.size - 1)] - ts[np.clip(j - 1, 0, ts.size - 1)],
+                    np.inf)
+    return ~ok & (span > gap)
 
 
 def _read_ardusub_fields(spec: LogSpec) -> LogData:
