@@ -66,7 +66,7 @@ def test_demo_writes_report_folder(tmp_path):
     assert "dive/identify/index.html" in html
     # a reversed motor, a motor on another output and a depth offset in the dive: each said
     traps = doc["dive"]["traps"]
-    assert len(traps) == 3 and not any(v == "NOT SAID" for v in traps.values()), traps
+    assert len(traps) == 4 and not any(v == "NOT SAID" for v in traps.values()), traps
     # a T200 file exported at 16 V and run at 12 V falls short of the sheet law; at 12 V it holds it
     ex = {r["at 12 V"]: r["full forward [N]"] for r in doc["t200_sheets"]["export_at_12V"]}
     assert ex["file exported at 16 V"] < 0.85 * ex["the preset (its sheet law)"]

@@ -573,8 +573,9 @@ def _dive_section(out: Path, rep: Report) -> dict:
 def _dive_trap_rows(log: Path) -> dict:
     """The example dive read with one trap each (:func:`uuvid.io.dive_channels.read_dive_channels`
     on the table without its force columns, so the servo outputs give the thrust): a reversed
-    motor, a vertical motor wired to another output (its output idle at neutral), a depth 0.5 m
-    too shallow; ``{trap: the warning that names it}``."""
+    motor, a vertical motor wired to another output (its output idle at neutral), a horizontal
+    motor's output off throughout (0 µs: its force missing from surge, sway and yaw), a depth
+    0.5 m too shallow; ``{trap: the warning that names it}``."""
     import pandas as pd
 
     from uuvid.io.dive_channels import read_dive_channels
@@ -582,6 +583,7 @@ def _dive_trap_rows(log: Path) -> dict:
     base = pd.read_csv(log).drop(columns=["X_N", "Y_N", "Z_N", "K_Nm", "M_Nm", "N_Nm"])
     traps = {"motor 1 reversed (its output mirrored about 1500 µs)": ("pwm_1", "reversed"),
              "motor 5 on another output (pwm_5 idle at 1500 µs)": ("pwm_5", "(neutral)"),
+             "motor 4's output off (pwm_4 at 0 µs throughout)": ("pwm_4", "never had a pulse"),
              "depth 0.5 m too shallow (surface pressure taken at depth)": ("depth_m", "above the water")}
     out = {}
     for what, (col, word) in traps.items():
@@ -590,6 +592,8 @@ def _dive_trap_rows(log: Path) -> dict:
             df[col] = 3000.0 - df[col]
         elif what.startswith("motor 5"):
             df.loc[df[col].notna(), col] = 1500.0
+        elif what.startswith("motor 4"):
+            df.loc[df[col].notna(), col] = 0.0
         else:
             df[col] = df[col] - 0.5
         said = [w for w in read_dive_channels(df, "bluerov2").warnings if word in w]
