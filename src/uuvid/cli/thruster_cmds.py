@@ -302,7 +302,13 @@ def thruster_predict(
         monotonicity_warnings,
         zero_output_warnings,
     )
-    from uuvid.thruster.resolve import supply_law, supply_used, supply_voltage_warnings
+    from uuvid.thruster.resolve import (
+        command_map_supply,
+        is_command_map,
+        supply_law,
+        supply_used,
+        supply_voltage_warnings,
+    )
 
     chain = _load_model(model)
     given = [(k, v) for k, v in (("pwm_us", pwm), ("voltage_V", voltage), ("speed_rad_s", speed)) if v]
@@ -320,9 +326,10 @@ def thruster_predict(
             _fail_flagged(e, {"supply_voltage": "--supply-voltage"})
         # a preset's own voltage law (the T200's speed is not ∝ V); its range is warned below
         law = supply_law(model, chain, quiet=True)
-        if law is None:
+        if law is None and not is_command_map(chain):  # a command map is the same at any supply
             _fail(f"{chain.name} has no ESC block: --supply-voltage does not apply")
-        blocks = list(law[0](supply_voltage).blocks)
+        if law is not None:
+            blocks = list(law[0](supply_voltage).blocks)
     want = {"pwm_us": "command", "voltage_V": "voltage", "speed_rad_s": "speed"}[key]
     kinds = chain.signal_kinds
     if want not in kinds[:-1]:
@@ -351,7 +358,11 @@ def thruster_predict(
     doc = {key: x.tolist(), out_key: thrust.tolist(), "model": chain.name}
     volts, source, _ = supply_used(model, chain, supply_voltage)
     supply_warnings = []
-    if volts is not None and start == 0:  # the supply matters only when the ESC is in the path
+    if volts is None and start == 0 and is_command_map(chain):
+        source, supply_warnings = command_map_supply(chain, supply_voltage)
+        doc["supply_voltage_source"] = source
+        err_console.print(f"supply voltage: {source}", highlight=False, soft_wrap=True, markup=False)
+    elif volts is not None and start == 0:  # the supply matters only when the ESC is in the path
         doc["supply_voltage_V"] = volts
         doc["supply_voltage_source"] = source
         err_console.print(f"supply voltage: {source}", highlight=False, soft_wrap=True, markup=False)

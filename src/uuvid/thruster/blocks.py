@@ -158,6 +158,9 @@ class ESC(Block):
     ``V = V_lin (1 + β (s − 1))`` (β = 0: linear; identified on T200 sheets, see
     :mod:`uuvid.identify.thruster.physical`).
     The command unit (``pwm_us``, ``duty`` or ``volts``) is recorded for reports.
+    ``follows_supply`` False marks a command stage that is not a voltage source (the unit-gain
+    ``command − neutral`` offset in front of a map fitted on the command): its output is the
+    command, measured at the bench's supply, so :meth:`with_supply` leaves it as it is.
     """
 
     KIND: ClassVar[int] = K_ESC
@@ -177,6 +180,7 @@ class ESC(Block):
     command_unit: str = "volts"
     curvature_fwd: float = 0.0
     curvature_rev: float = 0.0
+    follows_supply: bool = True
 
     def __post_init__(self):
         _finite(
@@ -239,7 +243,10 @@ class ESC(Block):
         )
 
     def with_supply(self, supply_voltage: float) -> ESC:
-        """Same duty-cycle map at another supply voltage (V = duty × supply)."""
+        """Same duty-cycle map at another supply voltage (V = duty × supply); an ESC that does
+        not follow the supply (``follows_supply`` False) is returned unchanged."""
+        if not self.follows_supply:
+            return self
         k = supply_voltage / self.supply_voltage
         return replace(
             self,

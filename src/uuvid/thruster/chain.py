@@ -155,12 +155,17 @@ class ThrusterChain:
         (``{form, parameters: {name: {estimate, sigma, unit}}, flow_levels_m_s, ...}``, see
         :func:`uuvid.identify.thruster.workflow`'s inflow fits); the blocks stay the bollard map.
         Metadata: it takes no part in the chain's dynamics, equality or hash.
+    fit_supply_voltages
+        The supply voltages [V] of the data the chain was fitted on (sorted), when known; a
+        supply asked of the model is said to be inside or outside them.  Metadata, like ``inflow``.
     """
 
     blocks: tuple[Block, ...]
     input_kind: str | None = None
     name: str = "thruster"
     inflow: dict | None = field(default=None, compare=False, hash=False, repr=False)
+    fit_supply_voltages: tuple[float, ...] | None = field(default=None, compare=False, hash=False,
+                                                           repr=False)
     _kinds: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):

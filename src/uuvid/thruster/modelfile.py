@@ -38,7 +38,7 @@ from uuvid.thruster.chain import ThrusterChain
 #: Parameters that may be left out of a model file (they have a natural "absent" value).
 OPTIONAL = {
     "esc": {"neutral", "deadzone_low", "deadzone_high", "saturation_low", "saturation_high",
-            "command_unit", "curvature_fwd", "curvature_rev"},
+            "command_unit", "curvature_fwd", "curvature_rev", "follows_supply"},
     "dc_motor": {"inductance", "propeller_inertia", "motor_viscous", "propeller_viscous",
                  "coulomb_torque", "gear_ratio", "torque_coefficient", "torque_coefficient_rev"},
     "tunnel_thruster": {"water_density", "profile_factor"},
@@ -67,7 +67,8 @@ KIND_KEYS = {
 }
 #: What the top level of a thruster model file holds (said when a file is not one).
 MODEL_FILE_KEYS = ("blocks (the chain in signal order, e.g. [{type: esc, ...}, {type: quadratic, "
-                   "...}]), optionally name, input, description, source, inflow; or preset: NAME")
+                   "...}]), optionally name, input, description, source, inflow, fit_supply_voltages; "
+                   "or preset: NAME")
 
 
 def other_kind(raw: Any, own: str) -> str | None:
@@ -105,6 +106,8 @@ def _annotation(tp):
         return float
     if tp in (str, "str"):
         return str
+    if tp in (bool, "bool"):
+        return bool
     if tp == (float | None) or tp == "float | None":
         return float | None
     origin = typing.get_origin(tp)
@@ -192,6 +195,7 @@ def _chain_schema():
         source: str | None = None
         blocks: list[block_schema]
         inflow: InflowSchema | None = None
+        fit_supply_voltages: list[typing.Annotated[float, Field(gt=0, allow_inf_nan=False)]] | None = None
 
     return ChainSchema
 
@@ -267,6 +271,8 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
         for k, v in list(data.items()):
             if isinstance(v, list):
                 data[k] = tuple(v)
+        if type_name == "esc" and "follows_supply" not in b.model_fields_set and _is_offset(data):
+            data["follows_supply"] = False  # written before the key existed: not a voltage source
         try:
             blocks.append(cls(**data))
         except ParameterError as e:
@@ -274,9 +280,26 @@ def chain_from_dict(raw: Any, where: str = "<model>") -> ThrusterChain:
             raise ModelFileError(f"{where}: {key}: {e}") from None
     inflow = None if spec.inflow is None else spec.inflow.model_dump(exclude_none=True)
     try:
-        return ThrusterChain(tuple(blocks), input_kind=spec.input, name=spec.name, inflow=inflow)
+        volts = None if not spec.fit_supply_voltages else tuple(sorted(set(spec.fit_supply_voltages)))
+        return ThrusterChain(tuple(blocks), input_kind=spec.input, name=spec.name, inflow=inflow,
+                             fit_supply_voltages=volts)
     except ParameterError as e:
         raise ModelFileError(f"{where}: {e}") from None
+
+
+def _is_offset(esc: dict) -> bool:
+    """An ESC block as :func:`uuvid.identify.thruster.workflow.offset_esc` wrote it (unit gain,
+    ``command − neutral``, no dead band, its 'supply' half the data's command span): a map of the
+    command fitted at the bench's supply, not a voltage source to rescale."""
+    n = esc.get("neutral", 0.0)
+    lo, hi = esc.get("saturation_low"), esc.get("saturation_high")
+    if n == 0 or lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+        return False
+    span = max(hi - n, n - lo)
+    return (esc.get("a_fwd") == 1.0 and esc.get("a_rev") == 1.0 and esc.get("b_fwd") == -n
+            and esc.get("b_rev") == -n and esc.get("deadzone_low") == n == esc.get("deadzone_high")
+            and math.isclose(esc.get("supply_voltage", 12.0), span, rel_tol=1e-9)
+            and not esc.get("curvature_fwd") and not esc.get("curvature_rev"))
 
 
 def _duplicate_key(root):
@@ -423,13 +446,16 @@ def chain_to_dict(chain: ThrusterChain) -> dict:
             d["motor"] = m
         # infinite saturation limits and None ("same as forward") are defaults; leave them out
         d = {k: v for k, v in d.items()
-             if v is not None and not (isinstance(v, float) and math.isinf(v))}
+             if v is not None and not (isinstance(v, float) and math.isinf(v))
+             and not (k == "follows_supply" and v is True)}
         if isinstance(d.get("motor"), dict):
             d["motor"] = {k: v for k, v in d["motor"].items() if v is not None}
         blocks.append(d)
     out = {"name": chain.name, "input": chain.input_kind, "blocks": blocks}
     if chain.inflow is not None:
         out["inflow"] = _clean(chain.inflow)
+    if chain.fit_supply_voltages:
+        out["fit_supply_voltages"] = [float(v) for v in chain.fit_supply_voltages]
     return out
 
 

@@ -64,13 +64,58 @@ def resolve_chain(ref, base: Path | str | None = None, supply_voltage: float | N
 
 
 def supply_voltage_of(chain) -> float | None:
-    """The supply voltage of the chain's first ESC block, or ``None`` (it cannot follow one)."""
+    """The supply voltage of the chain's first ESC block that follows the supply, or ``None``
+    (it cannot follow one: no ESC, or only a command stage, see :func:`is_command_map`)."""
     from uuvid.thruster.blocks import ESC
 
     for b in chain.blocks:
-        if isinstance(b, ESC):
+        if isinstance(b, ESC) and b.follows_supply:
             return float(b.supply_voltage)
     return None
+
+
+def is_command_map(chain) -> bool:
+    """The chain has an ESC block but none that follows the supply: its first block only shifts
+    the command (``command − neutral``, ``follows_supply: false``) in front of a map fitted on
+    the command at the bench's supply.  Nothing in it depends on a supply voltage."""
+    from uuvid.thruster.blocks import ESC
+
+    escs = [b for b in chain.blocks if isinstance(b, ESC)]
+    return bool(escs) and not any(b.follows_supply for b in escs)
+
+
+def _span(lo: float, hi: float) -> str:
+    return f"{lo:g} V" if lo == hi else f"{lo:g}–{hi:g} V"
+
+
+def _fit_range_said(chain, v: float, rel_tol: float = 0.05) -> str:
+    """``; inside the 12–16 V … fitted at`` (or outside) for a chain that records the supply
+    voltages of its data (:attr:`ThrusterChain.fit_supply_voltages`); else empty."""
+    volts = getattr(chain, "fit_supply_voltages", None)
+    if not volts:
+        return ""
+    lo, hi = min(volts), max(volts)
+    where = "inside" if lo * (1 - rel_tol) <= v <= hi * (1 + rel_tol) else "outside"
+    return f"; {where} the {_span(lo, hi)} the model was fitted at"
+
+
+def command_map_supply(chain, supply_voltage: float | None = None) -> tuple[str, list[str]]:
+    """``(source, warnings)`` for a chain that does not depend on the supply
+    (:func:`is_command_map`): what a supply voltage means for it, and a warning when one asked
+    of it is not the bench voltage its map was measured at (it is not rescaled to it)."""
+    volts = getattr(chain, "fit_supply_voltages", None)
+    bench = (f"measured at {_span(min(volts), max(volts))} (fit_supply_voltages)" if volts
+             else "measured at the bench's supply, which its file does not record")
+    source = (f"not used: {chain.name} is a map of the command {bench}; it does not depend on the "
+              "supply voltage (its first block only subtracts the neutral command)")
+    if supply_voltage is None:
+        return source, []
+    v = float(supply_voltage)
+    if volts and min(volts) * 0.95 <= v <= max(volts) * 1.05:
+        return f"{v:g} V (--supply-voltage) matches the bench: " + source, []
+    return source, [f"--supply-voltage {v:g} V: {chain.name} is a map of the command {bench}; its "
+                    f"thrust is that bench's, not rescaled to {v:g} V. Fit the map on data at "
+                    f"{v:g} V, or use --model physical (it models the supply voltage)"]
 
 
 def at_supply(chain, supply_voltage: float):
@@ -81,9 +126,13 @@ def at_supply(chain, supply_voltage: float):
 
     if supply_voltage_of(chain) is None:
         return None
+    import dataclasses
+
     blocks = tuple(b.with_supply(float(supply_voltage)) if isinstance(b, ESC) else b
                    for b in chain.blocks)
-    return ThrusterChain(blocks, chain.input_kind, chain.name)
+    if not isinstance(chain, ThrusterChain):
+        return ThrusterChain(blocks, chain.input_kind, chain.name)
+    return dataclasses.replace(chain, blocks=blocks)  # keeps its metadata (fit voltages, inflow)
 
 
 def _preset_at(ref: str, supply_voltage: float, quiet: bool = False):
@@ -108,6 +157,9 @@ def supply_voltage_range(ref, chain) -> tuple[float, float, str] | None:
         return None
     if str(ref) == "t200" or str(ref) in PHYSICAL_PRESETS:  # both fitted on the 12 and 16 V sheets
         return (*T200_SHEET_VOLTS, "Blue Robotics' T200 sheets")
+    volts = getattr(chain, "fit_supply_voltages", None)
+    if volts:
+        return min(volts), max(volts), f"model {chain.name}'s fit_supply_voltages"
     return v0, v0, f"model {chain.name}'s ESC (its supply_voltage)"
 
 
@@ -122,7 +174,8 @@ def supply_voltage_warnings(ref, chain, supply_voltage: float, rel_tol: float = 
     if lo * (1 - rel_tol) <= v <= hi * (1 + rel_tol):
         return []
     span = f"{lo:g} V" if lo == hi else f"{lo:g}–{hi:g} V"
-    if not is_preset(ref):  # a file records its ESC's voltage, not the voltages of its data
+    if not is_preset(ref) and not getattr(chain, "fit_supply_voltages", None):
+        # a file without fit_supply_voltages records its ESC's voltage, not those of its data
         return [f"supply voltage {v:g} V differs from the {span} this model file's ESC is set "
                 "for (the file does not record the voltages it was fitted at): the thrust follows "
                 "the model's voltage law (V = duty × supply), backed by measurements only if it "
@@ -167,12 +220,15 @@ def supply_used(ref, chain, supply_voltage: float | None = None) -> tuple[float 
     warning when it lies outside the preset's data (its voltage law extrapolates there)."""
     v0 = supply_voltage_of(chain)
     if v0 is None:
+        if is_command_map(chain):
+            return None, command_map_supply(chain)[0], []
         return None, "no ESC block: the model does not depend on a supply voltage", []
     if supply_voltage is None:
         what = "preset" if is_preset(ref) else "model file's ESC block"
-        v, source = v0, f"default {v0:g} V (the {what}'s supply_voltage; set --supply-voltage)"
+        v, source = v0, f"default {v0:g} V (the {what}'s supply_voltage; set --supply-voltage"
     else:
-        v, source = float(supply_voltage), f"{float(supply_voltage):g} V (--supply-voltage)"
+        v, source = float(supply_voltage), f"{float(supply_voltage):g} V (--supply-voltage"
+    source += _fit_range_said(chain, v) + ")"
     warns = []
     rng = supply_data_range(ref)
     if rng is not None and not (rng[0] - 1e-9 <= v <= rng[1] + 1e-9):
@@ -199,6 +255,10 @@ def export_supply(ref, chain, supply_voltage: float | None = None) -> tuple:
     outside = []
     if supply_voltage is not None:
         supply_voltage = check_supply("supply_voltage", supply_voltage)
+    if v0 is None and is_command_map(chain):  # the file is the same at any supply: said so
+        source, warns = command_map_supply(chain, supply_voltage)
+        return chain, [f"supply voltage: {source}"] + [f"warning: {w}" for w in warns]
+    if supply_voltage is not None:
         law = supply_law(ref, chain, quiet=True)
         if law is None:
             raise ValueError(f"{chain.name} has no ESC block: --supply-voltage does not apply")
@@ -208,8 +268,9 @@ def export_supply(ref, chain, supply_voltage: float | None = None) -> tuple:
     if v0 is None:
         return chain, []
     lines = [f"supply voltage: exported at {v0:g} V"
-             + (" (--supply-voltage)" if supply_voltage is not None
-                else f" (the {'preset' if is_preset(ref) else 'model'}'s own; set --supply-voltage)")]
+             + (" (--supply-voltage" if supply_voltage is not None
+                else f" (the {'preset' if is_preset(ref) else 'model'}'s own; set --supply-voltage")
+             + _fit_range_said(chain, v0) + ")"]
     lines += outside
     from uuvid.thruster.presets import PRESETS
 

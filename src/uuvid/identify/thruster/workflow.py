@@ -264,14 +264,16 @@ def _chain(blocks, input_kind, name):
 
 def offset_esc(neutral: float, cmin: float, cmax: float, command_unit: str):
     """A unit-gain ESC whose only job is ``command → command − neutral`` (clipped to the data's
-    command range), so a map or dynamics fitted on ``command − neutral`` takes raw commands."""
+    command range), so a map or dynamics fitted on ``command − neutral`` takes raw commands.  It
+    is no voltage source (``follows_supply`` False): the map was measured at the bench's supply
+    and a supply voltage asked of the model does not rescale it."""
     from uuvid.thruster.blocks import ESC
 
     lo, hi = min(cmin, neutral - 1e-9), max(cmax, neutral + 1e-9)
     return ESC(a_fwd=1.0, b_fwd=-neutral, a_rev=1.0, b_rev=-neutral, neutral=neutral,
                deadzone_low=neutral, deadzone_high=neutral, saturation_low=lo,
                saturation_high=hi, supply_voltage=max(hi - neutral, neutral - lo),
-               command_unit=command_unit)
+               command_unit=command_unit, follows_supply=False)
 
 
 def _rms(e) -> float:
@@ -1195,12 +1197,25 @@ def _run_model(paths, model: str, opts: ReadOptions, *, degree, criterion, map_i
             "bessa": lambda: _fit_bessa(sets, name, resample),
         }
         if model in fitters:
-            return sets, fitters[model]()
+            return sets, _record_fit_voltages(sets, fitters[model]())
         if start is None:
             from uuvid.thruster.presets import auv2_rig_chain
 
             start = auv2_rig_chain()
         return sets, _fit_mclean(sets, name, start, resample)
+
+
+def _record_fit_voltages(sets, outcome: FitOutcome) -> FitOutcome:
+    """The supply voltages of the data (a voltage column, or --supply-voltage) recorded in the
+    chain (``fit_supply_voltages`` of its model file), so predict and export can say whether a
+    supply asked of the model is one it was fitted at; the written ESC's own voltage is one
+    value, the first file's, whatever the sheets were."""
+    import dataclasses
+
+    volts = sorted({round(s.nominal_voltage(), 2) for s in sets if s.supply_voltage is not None})
+    if volts and all(math.isfinite(v) and v > 0 for v in volts):
+        outcome.chain = dataclasses.replace(outcome.chain, fit_supply_voltages=tuple(volts))
+    return outcome
 
 
 def _check_flow_model(sets, model: str) -> None:

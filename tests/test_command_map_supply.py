@@ -1,0 +1,114 @@
+"""A map fitted on the PWM command (deadzone, table, dynamics behind the unit-gain ``command −
+neutral`` stage) carries no voltage law: ``--supply-voltage`` must not rescale it.  Its first
+block was an ESC at a placeholder 'supply' of half the command span (400 V), so predict and
+export at the bench's real 16 V scaled the thrust down 625×.  A fit also records the supply
+voltages of its data (``fit_supply_voltages``), and predict/export say whether a supply asked of
+the model lies inside them."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from uuvid.cli.app import app
+from uuvid.thruster.blocks import ESC, FirstOrderMotor, QuadraticMap
+from uuvid.thruster.chain import ThrusterChain
+from uuvid.thruster.modelfile import load_chain, save_chain
+from uuvid.thruster.resolve import export_supply
+
+runner = CliRunner()
+
+
+def _bench(tmp_path, volts=16.0):
+    pwm = np.arange(1100, 1901, 20.0)
+    x = pwm - 1500
+    thrust = np.where(x > 0, 3.5e-4, 2.8e-4) * x * np.abs(x)
+    f = tmp_path / "bench.csv"
+    f.write_text("pwm,thrust\n" + "".join(f"{p:g},{t:.5f}\n" for p, t in zip(pwm, thrust)))
+    return f
+
+
+def _predict(model, *extra):
+    res = runner.invoke(app, ["thruster", "predict", str(model), "--pwm", "1100,1900", "--json",
+                              *extra])
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout), re.sub(r"\s+", " ", res.output)
+
+
+def test_a_command_map_gives_the_same_thrust_at_any_supply_voltage(tmp_path):
+    model = tmp_path / "dz.yaml"
+    res = runner.invoke(app, ["thruster", "fit", str(_bench(tmp_path)), "--command-col", "pwm",
+                              "--thrust-col", "thrust", "--model", "deadzone", "--map-input",
+                              "command", "--supply-voltage", "16", "--out-model", str(model)])
+    assert res.exit_code == 0, res.output
+    doc = yaml.safe_load(model.read_text())
+    assert doc["blocks"][0]["follows_supply"] is False
+    assert doc["fit_supply_voltages"] == [16.0]  # the bench voltage, recorded
+    own, _ = _predict(model)
+    at16, out16 = _predict(model, "--supply-voltage", "16")
+    at12, out12 = _predict(model, "--supply-voltage", "12")
+    assert own["thrust_N"][1] == pytest.approx(56.0, rel=0.02)
+    assert at16["thrust_N"] == own["thrust_N"] == at12["thrust_N"]
+    assert not at16["warnings"]
+    assert "does not depend on the supply voltage" in at16["supply_voltage_source"]
+    assert any("measured at 16 V" in w and "not rescaled to 12 V" in w for w in at12["warnings"])
+    tables = []
+    for v in ([], ["--supply-voltage", "16"], ["--supply-voltage", "12"]):
+        r = runner.invoke(app, ["thruster", "export", str(model), "--to", "uuv-simulator", *v])
+        assert r.exit_code == 0, r.output
+        tables.append(re.findall(r"<outputValues>(.*?)</outputValues>", r.stdout, re.S))
+    assert tables[0] and tables[0] == tables[1] == tables[2]
+
+
+def test_a_command_map_file_written_before_the_flag_is_not_rescaled(tmp_path):
+    esc = dict(type="esc", a_fwd=1.0, b_fwd=-1500.0, a_rev=1.0, b_rev=-1500.0, neutral=1500.0,
+               deadzone_low=1500.0, deadzone_high=1500.0, saturation_low=1100.0,
+               saturation_high=1900.0, supply_voltage=400.0, command_unit="pwm_us")
+    dz = dict(type="deadzone", rotor_constant_l=2.8e-4, rotor_constant_r=3.6e-4, delta_l=0.0,
+              delta_r=0.0)
+    f = tmp_path / "old.yaml"
+    f.write_text(yaml.safe_dump({"name": "old", "input": "command", "blocks": [esc, dz]}))
+    own, _ = _predict(f)
+    at16, _ = _predict(f, "--supply-voltage", "16")
+    assert at16["thrust_N"] == own["thrust_N"]
+    assert own["thrust_N"][1] == pytest.approx(3.6e-4 * 400**2)
+    assert any("does not record" in w for w in at16["warnings"])
+
+
+def test_a_voltage_esc_still_follows_the_supply(tmp_path):
+    esc = ESC.from_range(1500, 50, 1100, 1900, 16.0)
+    chain = ThrusterChain((esc,), name="v")
+    f = save_chain(chain, tmp_path / "v.yaml")
+    assert "follows_supply" not in f.read_text()
+    same, _ = export_supply(str(f), load_chain(f), 8.0)
+    assert same.blocks[0].a_fwd == pytest.approx(esc.a_fwd / 2)
+
+
+def _physical_like(tmp_path, volts):
+    esc = ESC.from_range(1500, 50, 1100, 1900, 12.0, command_unit="pwm_us")
+    motor = FirstOrderMotor(gain=20.0, time_constant=0.05)
+    chain = ThrusterChain((esc, motor, QuadraticMap(k_pos=1e-5)), name="phys",
+                          fit_supply_voltages=volts)
+    return save_chain(chain, tmp_path / "phys.yaml")
+
+
+def test_fit_voltages_are_kept_and_a_supply_inside_them_is_not_warned_about(tmp_path):
+    f = _physical_like(tmp_path, (12.0, 16.0))
+    assert load_chain(f).fit_supply_voltages == (12.0, 16.0)
+    at16, out = _predict(f, "--supply-voltage", "16")
+    assert not at16["warnings"], at16["warnings"]
+    assert "inside the 12–16 V the model was fitted at" in at16["supply_voltage_source"]
+    at24, _ = _predict(f, "--supply-voltage", "24")
+    assert any("outside the data's 12–16 V" in w for w in at24["warnings"])
+    _, lines = export_supply(str(f), load_chain(f), 16.0)
+    assert "inside the 12–16 V" in lines[0] and not any(s.startswith("warning") for s in lines)
+
+
+def test_a_file_without_fit_voltages_still_loads_and_warns_as_before(tmp_path):
+    f = _physical_like(tmp_path, None)
+    assert "fit_supply_voltages" not in f.read_text()
+    at16, _ = _predict(f, "--supply-voltage", "16")
+    assert any("does not record the voltages it was fitted at" in w for w in at16["warnings"])
