@@ -112,3 +112,43 @@ def test_a_file_without_fit_voltages_still_loads_and_warns_as_before(tmp_path):
     assert "fit_supply_voltages" not in f.read_text()
     at16, _ = _predict(f, "--supply-voltage", "16")
     assert any("does not record the voltages it was fitted at" in w for w in at16["warnings"])
+
+
+def _bessa_csv(tmp_path, thrust_of_x, name):
+    pwm = np.arange(1100, 1901, 8.0)
+    x = pwm - 1500
+    f = tmp_path / name
+    f.write_text("pwm,thrust\n" + "".join(f"{p:g},{t:.6f}\n" for p, t in zip(pwm, thrust_of_x(x))))
+    return f
+
+
+def _fit_deadzone_json(f):
+    res = runner.invoke(app, ["thruster", "fit", str(f), "--command-col", "pwm", "--thrust-col",
+                              "thrust", "--model", "deadzone", "--map-input", "command", "--json",
+                              "--out-model", str(f.with_suffix(".yaml"))])
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout)
+
+
+def test_the_deadzone_fit_recovers_a_known_dead_band_and_says_no_lack_of_fit(tmp_path):
+    def bessa(x):
+        b = x * np.abs(x)
+        return np.where(b > 900, 3.5e-4 * (b - 900), np.where(b < -1600, 2.8e-4 * (b + 1600), 0.0))
+
+    doc = _fit_deadzone_json(_bessa_csv(tmp_path, bessa, "bessa.csv"))
+    p = {k.split(".")[-1]: v["estimate"] for k, v in doc["parameters"].items()}
+    assert p["delta_r"] == pytest.approx(900, rel=0.05)
+    assert p["delta_l"] == pytest.approx(-1600, rel=0.05)
+    assert not any("lack of fit" in w for w in doc["warnings"])
+
+
+def test_the_deadzone_fit_warns_when_the_family_misses_the_ends_and_the_dead_band(tmp_path):
+    # a T200-like curve: thrust nearly linear in the command past a measured ±28 µs dead band
+    def t200_like(x):
+        return np.where(x > 28, 0.14 * (x - 28), np.where(x < -28, 0.11 * (x + 28), 0.0))
+
+    doc = _fit_deadzone_json(_bessa_csv(tmp_path, t200_like, "t200_like.csv"))
+    (w,) = [w for w in doc["warnings"] if w.startswith("lack of fit")]
+    assert "at command 1900 µs" in w and "% in magnitude" in w
+    assert "zero-thrust band (command 1476…1524 µs)" in w
+    assert "--model table" in w

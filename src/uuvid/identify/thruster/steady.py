@@ -702,8 +702,45 @@ def fit_deadzone_curve(data: BenchData, *, input: str = "command") -> SteadyFit:
     if input == "command" and data.neutral != 0:
         notes.append(f"the block's input is the command relative to neutral "
                      f"(command − {data.neutral:g})")
+    miss = _deadzone_misses(x, t, block, data.neutral if input == "command" else 0.0,
+                            "command" if input == "command" else "speed", unit)
+    if miss:
+        notes.append(miss)
     return SteadyFit("UUV Simulator Bessa conversion (dead zone)", {"all": f}, block,
                      {"notes": tuple(notes)})
+
+
+#: Relative error of the fitted thrust at a side's largest input above which the dead-zone family
+#: is said to miss the data (the T200 sheet: +13 % at full forward and reverse).
+DEADZONE_END_TOLERANCE = 0.05
+
+
+def _deadzone_misses(x, t, block, offset: float, what: str, unit: str) -> str | None:
+    """``lack of fit: …`` when ``T = c(x|x| − δ)`` misses the data materially: its thrust at a
+    side's largest input is more than :data:`DEADZONE_END_TOLERANCE` off the measured mean there,
+    or the data have a measured zero-thrust band that the fit does not reproduce (both δ at 0)."""
+    parts = []
+    unit = {"pwm_us": "µs"}.get(unit, unit)
+    for sel, end in ((x > 0, np.max), (x < 0, np.min)):
+        if not np.any(sel):
+            continue
+        xe = float(end(x[sel]))
+        meas = float(np.mean(t[x == xe]))
+        fit = float(block.thrust(np.array([xe]))[0])
+        if abs(meas) > 0 and abs(fit - meas) > DEADZONE_END_TOLERANCE * abs(meas):
+            parts.append(f"at {what} {xe + offset:g} {unit} it gives {fit:.4g} N against "
+                         f"{meas:.4g} N measured ({100 * (abs(fit) - abs(meas)) / abs(meas):+.0f} % in "
+                         "magnitude)")
+    quiet = (np.abs(t) <= 1e-3 * float(np.max(np.abs(t)))) & (x != 0)
+    if np.any(quiet) and block.delta_l == 0 and block.delta_r == 0:
+        lo, hi = float(np.min(x[quiet])) + offset, float(np.max(x[quiet])) + offset
+        parts.append(f"the data's zero-thrust band ({what} {lo:g}…{hi:g} {unit}) is not "
+                     "reproduced (δ_L = δ_R = 0, at their bound: the map gives thrust there)")
+    if not parts:
+        return None
+    return ("lack of fit: T = c(x|x| − δ) does not follow this data — " + "; ".join(parts)
+            + ". The family is wrong for it: use --model table (the measured curve) or --model "
+            "physical (speed, current and voltage columns)")
 
 
 def _isotonic(y: np.ndarray, w: np.ndarray) -> np.ndarray:

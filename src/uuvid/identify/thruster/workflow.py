@@ -423,7 +423,8 @@ def _steady_messages(sf) -> tuple[list[str], list[str]]:
     warn = [f"{k}: {w}" for k, f in sf.fits.items() for w in f.warnings]
     notes = []
     for n in sf.info.get("notes", ()):
-        (warn if "not identified" in n or n.startswith(("zero thrust", "the table's", "wrong-sign"))
+        (warn if "not identified" in n or n.startswith(("zero thrust", "the table's", "wrong-sign",
+                                                                 "lack of fit"))
          else notes).append(n)
     return warn, notes
 
