@@ -416,3 +416,55 @@ def test_a_t200_sheet_says_a_unit_option_contradicts_its_header(shared_data):
         run_fit([f], "quadratic", ReadOptions(fmt="t200", thrust_unit="N"))
     with pytest.raises(FitError, match=r"--speed-unit rpm is the sheet's own unit"):
         run_fit([f], "quadratic", ReadOptions(fmt="t200", speed_unit="rpm"))
+
+
+# ------------------------------------------------------------------ current and voltage units in a header
+def test_a_current_header_in_milliamperes_is_read_in_milliamperes_and_said(tmp_path):
+    """`Current [mA]` of a small thruster (peak < 1000 mA: no guard fires) was read as A: a physical
+    fit wrote R off by 1000×, with only a note."""
+    small = CURRENT / 30.0  # peak ≈ 0.84 A
+    f = tmp_path / "small_ma.csv"
+    with open(f, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["pwm", "thrust", "Current [mA]", "voltage_mv"])
+        for i, c in enumerate(PWM):
+            w.writerow([c, THRUST[i] / 30.0, 1000 * small[i], 16000.0])
+    d = read_bench(f, command_col="pwm", thrust_col="thrust", current_col="Current [mA]",
+                   voltage_col="voltage_mv")
+    np.testing.assert_allclose(d.current, small, rtol=1e-12)
+    np.testing.assert_allclose(d.supply_voltage, 16.0)
+    said = " ".join(d.notes)
+    assert "'Current [mA]'" in said and "read in mA" in said and "converted to A" in said
+    assert "'voltage_mv'" in said and "read in mV" in said
+    out = run_fit([f], "table", ReadOptions(command_col="pwm", thrust_col="thrust",
+                                            current_col="Current [mA]", voltage_col="voltage_mv"))
+    assert d.notes[0] in out.notes
+
+
+def test_a_current_or_voltage_header_in_amperes_or_volts_changes_nothing(tmp_path):
+    f = tmp_path / "a.csv"
+    with open(f, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["pwm", "thrust", "Current (A)", "Voltage (V)"])
+        for i, c in enumerate(PWM):
+            w.writerow([c, THRUST[i], CURRENT[i], VOLTS[i]])
+    d = read_bench(f, command_col="pwm", thrust_col="thrust", current_col="Current (A)",
+                   voltage_col="Voltage (V)")
+    np.testing.assert_allclose(d.current, CURRENT, rtol=1e-12)
+    assert d.notes == ()
+
+
+@pytest.mark.parametrize("header, role", [("Current [kgf]", "current"),
+                                          ("Voltage [rpm]", "supply voltage")])
+def test_a_unit_a_current_or_voltage_column_cannot_carry_is_refused(tmp_path, header, role):
+    f = tmp_path / "bad.csv"
+    with open(f, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["pwm", "thrust", header])
+        for i, c in enumerate(PWM):
+            w.writerow([c, THRUST[i], 16.0])
+    kw = {"current_col": header} if role == "current" else {"voltage_col": header}
+    units = "A, mA" if role == "current" else "V, mV"
+    with pytest.raises(BenchDataError, match=rf"^bad.csv: column '{re.escape(header)}': '\w+' in "
+                                             rf"its header is no {role} unit \({units} are read\)"):
+        read_bench(f, command_col="pwm", thrust_col="thrust", **kw)

@@ -273,7 +273,8 @@ def check_bench_units(data, *, min_rows: int = 3) -> None:
                     f"{med:g} V (e.g. data row {k + 1}: {v[k]:g}), above "
                     f"{MAX_PLAUSIBLE_VOLTAGE:g} V, beyond any bench thruster: it looks like "
                     f"millivolts (mV), {v[k] / 1000:g} V. Fix: divide the voltage column by "
-                    "1000 (there is no voltage-unit option), or give --supply-voltage in V")
+                    "1000 or write the unit in its header ('voltage [mV]'), or give --supply-voltage "
+                "in V")
     if data.current is not None:
         a = np.abs(data.current)
         ok = np.flatnonzero(np.isfinite(a))
@@ -284,7 +285,7 @@ def check_bench_units(data, *, min_rows: int = 3) -> None:
                 f"{a[k]:g} A (data row {k + 1}: {data.current[k]:g}), above "
                 f"{MAX_PLAUSIBLE_CURRENT:g} A, beyond any bench thruster: it looks like "
                 f"milliamperes (mA), {data.current[k] / 1000:g} A. Fix: divide the current "
-                "column by 1000 (there is no current-unit option)")
+                "column by 1000, or write the unit in its header ('current [mA]')")
     pr = _power_rows(data, min_rows)
     if pr is None:
         return

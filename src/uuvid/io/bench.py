@@ -82,6 +82,16 @@ HEADER_SPEED_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "1/min": "
                       "radps": "rad/s", "rad_per_s": "rad/s", "rev/s": "rev/s", "rev/sec": "rev/s",
                       "revs/s": "rev/s", "r/s": "rev/s", "rps": "rev/s", "rev_s": "rev/s",
                       "rev_per_s": "rev/s", "revs^-1": "rev/s", "revs-1": "rev/s", "hz": "rev/s"}
+#: supply current unit → A per unit; supply voltage unit → V per unit
+CURRENT_UNITS = {"A": 1.0, "mA": 1e-3}
+VOLTAGE_UNITS = {"V": 1.0, "mV": 1e-3}
+#: a current or voltage unit written in a column's header (keyed as :data:`HEADER_THRUST_UNITS`;
+#: ``MA`` is read as mA: no bench draws megaamperes)
+HEADER_CURRENT_UNITS = {"a": "A", "amp": "A", "amps": "A", "ampere": "A", "amperes": "A",
+                        "ma": "mA", "milliamp": "mA", "milliamps": "mA", "milliampere": "mA",
+                        "milliamperes": "mA"}
+HEADER_VOLTAGE_UNITS = {"v": "V", "volt": "V", "volts": "V", "mv": "mV", "millivolt": "mV",
+                        "millivolts": "mV"}
 #: water speed unit → m/s per unit
 FLOW_UNITS = {"m/s": 1.0, "cm/s": 0.01, "mm/s": 1e-3, "km/h": U.KMH, "kn": U.KNOT, "ft/s": U.FT}
 #: a water speed unit written in a column's header (keyed as :data:`HEADER_THRUST_UNITS`) → the
@@ -485,6 +495,10 @@ def _lookup_unit(token: str, role: str) -> str | None:
         return HEADER_THRUST_UNITS.get(_unit_key(token))
     if role == "flow speed":
         return HEADER_FLOW_UNITS.get(_unit_key(token))
+    if role == "current":
+        return HEADER_CURRENT_UNITS.get(_unit_key(token))
+    if role == "supply voltage":
+        return HEADER_VOLTAGE_UNITS.get(_unit_key(token))
     return HEADER_SPEED_UNITS.get(_unit_key(token))
 
 
@@ -521,6 +535,11 @@ def header_unit(column: str, role: str) -> str | None:
 #: the option that gives each channel's unit (for messages)
 _UNIT_OPTIONS = {"thrust": "--thrust-unit / thrust_unit=", "speed": "--speed-unit / speed_unit=",
                  "flow speed": "--flow-speed-unit / flow_speed_unit="}
+#: each channel's units (a unit of the header, converted to the first); a bracketed unit in the
+#: header of a current or voltage column that is none of these is an error (read past, a
+#: ``Current [kgf]`` would be read in A whatever it is)
+_ROLE_UNITS = {"thrust": THRUST_UNITS, "speed": SPEED_UNITS, "flow speed": FLOW_UNITS,
+               "current": CURRENT_UNITS, "supply voltage": VOLTAGE_UNITS}
 
 
 def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: str,
@@ -530,7 +549,7 @@ def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: st
     this reader does not know (``flow [furlong/h]``) is an error naming it, unless a unit is
     given: read as m/s it would be scaled silently."""
     found = header_unit(col, role)
-    opt = _UNIT_OPTIONS[role]
+    opt = _UNIT_OPTIONS.get(role)
     token = _UNIT_IN_BRACKETS.search(col.strip())
     if role == "flow speed" and found is None and given is None and token:
         raise BenchDataError(
@@ -538,12 +557,20 @@ def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: st
             f"unit known here ({', '.join(FLOW_UNITS)}): the {role} would be read in "
             f"{default} whatever it is. Fix: give the column's unit ({opt.split(' / ')[0]} "
             f"{'|'.join(FLOW_UNITS)}) or write one of those in its header")
+    if opt is None and found is None and token:  # current, voltage: no unit option
+        units = _ROLE_UNITS[role]
+        raise BenchDataError(
+            f"{t.name}: column {col!r}: {token.group(1).strip()!r} in its header is no {role} "
+            f"unit ({', '.join(units)} are read): the {role} would be read in {default} "
+            f"whatever it is. Fix: name the right column, or write the column's unit in its "
+            f"header as one of {', '.join(units)} (e.g. '{_strip_unit(col)} [{list(units)[-1]}]')")
     if found is None or found == given:
         return default if given is None else given
     if given is None:
         if found != default:
+            how = f"no {opt} given" if opt else f"there is no {role} unit option"
             notes.append(f"{t.name}: column {col!r}: the {role} is read in {found}, the unit in "
-                         f"its header, and converted to {default} (no {opt} given)")
+                         f"its header, and converted to {default} ({how})")
         return found
     flag = opt.split(" / ")[0]
     raise BenchDataError(
@@ -612,6 +639,9 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         ``n (rps)``, ``speed_hz``), else rad/s, as for ``thrust_unit``.
     supply_voltage
         A constant supply voltage [V] when the file has no voltage column.
+        The current column is read in A and the voltage column in V unless its header says mA
+        or mV (``Current [mA]``, ``voltage_mv``; said in :attr:`BenchData.notes`); a bracketed
+        unit in their header that is neither (``Current [kgf]``) is an error naming the column.
     neutral
         Neutral command (default 1500 µs for PWM, 0 for duty/volts).
     speed_sign
@@ -685,8 +715,18 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     speed_unit = speed_unit or "rad/s"
     tcol, thrust = opt(thrust_col, "thrust", thrust_unit)
     scol, speed_raw = opt(speed_col, "speed", speed_unit)
-    _, current = opt(current_col, "current", "A")
-    vcol, volts = opt(voltage_col, "supply voltage", "V")
+    current_unit = voltage_unit = None
+    if current_col is not None:
+        current_unit = _resolve_unit(t, column(current_col, "current"), "current", None, "A", notes)
+    if voltage_col is not None:
+        voltage_unit = _resolve_unit(t, column(voltage_col, "supply voltage"), "supply voltage",
+                                     None, "V", notes)
+    _, current = opt(current_col, "current", current_unit or "A")
+    vcol, volts = opt(voltage_col, "supply voltage", voltage_unit or "V")
+    if current is not None:
+        current = current * CURRENT_UNITS[current_unit or "A"]
+    if volts is not None:
+        volts = volts * VOLTAGE_UNITS[voltage_unit or "V"]
     tmcol, time = opt(time_col, "time", "s")
     given_flow_col = flow_speed_col
     if flow_speed_col == "auto":
