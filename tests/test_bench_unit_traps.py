@@ -468,3 +468,69 @@ def test_a_unit_a_current_or_voltage_column_cannot_carry_is_refused(tmp_path, he
     with pytest.raises(BenchDataError, match=rf"^bad.csv: column '{re.escape(header)}': '\w+' in "
                                              rf"its header is no {role} unit \({units} are read\)"):
         read_bench(f, command_col="pwm", thrust_col="thrust", **kw)
+
+
+# ------------------------------------------------------------------ a unit row under the header
+def _unit_row_file(path, units, header=("pwm", "rpm", "current", "voltage", "thrust")):
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerow(units)
+        for i, c in enumerate(PWM):
+            w.writerow([c, abs(SPEED[i]) * 60 / (2 * np.pi), CURRENT[i], 1000 * VOLTS[i],
+                        THRUST[i] / 9.80665])
+    return path
+
+
+def test_a_unit_row_under_the_header_gives_the_columns_units_and_is_said(tmp_path):
+    """A logger's `us,rpm,A,mV,kgf` row under the header was refused: "'us' is not numeric"."""
+    f = _unit_row_file(tmp_path / "unitrow.csv", ["us", "rpm", "A", "mV", "kgf"])
+    d = read_bench(f, command_col="pwm", speed_col="rpm", current_col="current",
+                   voltage_col="voltage", thrust_col="thrust")
+    assert len(d) == PWM.size
+    np.testing.assert_allclose(d.thrust, THRUST, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(d.speed, SPEED, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(d.supply_voltage, VOLTS, rtol=1e-12)
+    said = " ".join(d.notes)
+    assert "CSV line 2 is a unit row (us, rpm, A, mV, kgf)" in said
+    assert "'thrust': the thrust is read in kgf, the unit in the unit row (CSV line 2)" in said
+    # rows keep their CSV lines in messages: the first data row is line 3
+    bad = tmp_path / "neg.csv"
+    lines = open(f).read().splitlines()
+    lines[2] = lines[2].replace("1100.0", "-1100.0", 1)
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(BenchDataError, match=r"data row 1 \(CSV line 3\)"):
+        read_bench(bad, command_col="pwm", thrust_col="thrust")
+
+
+@pytest.mark.parametrize("units, col, pattern", [
+    (["us", "rpm", "A", "V", "furlong"], "thrust", r"'furlong' under column 'thrust' is no thrust "
+                                                   r"unit known here \(N, kgf"),
+    (["%", "rpm", "A", "V", "kgf"], "pwm", r"'%' under column 'pwm' is no command unit"),
+])
+def test_a_unit_row_with_a_unit_unknown_for_its_column_is_refused_with_the_fix(tmp_path, units, col,
+                                                                              pattern):
+    f = _unit_row_file(tmp_path / "unitrow.csv", units)
+    with pytest.raises(BenchDataError) as exc:
+        read_bench(f, command_col="pwm", speed_col="rpm", thrust_col="thrust")
+    msg = str(exc.value)
+    assert msg.startswith("unitrow.csv: CSV line 2 looks like a unit row"), msg
+    assert re.search(pattern, msg), msg
+    assert f"'{col} [unit]'" in msg and "delete line 2" in msg
+
+
+def test_a_unit_row_against_the_header_or_the_command_unit_is_refused(tmp_path):
+    f = _unit_row_file(tmp_path / "clash.csv", ["us", "rpm", "A", "V", "kgf"],
+                       header=("pwm", "rpm", "current", "voltage", "thrust [lbf]"))
+    with pytest.raises(BenchDataError, match=r"column 'thrust \[lbf\]' is in lbf by its header but "
+                                             r"in kgf by the unit row \(CSV line 2\)"):
+        read_bench(f, command_col="pwm", thrust_col="thrust [lbf]")
+    f = _unit_row_file(tmp_path / "duty.csv", ["duty", "rpm", "A", "V", "kgf"])
+    with pytest.raises(BenchDataError, match=r"by the unit row .*--command-unit duty"):
+        read_bench(f, command_col="pwm", thrust_col="thrust")
+
+
+def test_a_first_row_of_words_that_are_no_units_is_still_refused_as_not_numeric(tmp_path):
+    f = _unit_row_file(tmp_path / "words.csv", ["left", "right", "up", "down", "here"])
+    with pytest.raises(BenchDataError, match=r"'left' is not numeric"):
+        read_bench(f, command_col="pwm", thrust_col="thrust")

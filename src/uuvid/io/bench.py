@@ -349,6 +349,8 @@ class _Table:
     lines: list[int] | None = None  # CSV line of every data row
     kind: str = "CSV"
     dtypes: dict = field(default_factory=dict)  # Parquet column types, when known
+    units: dict = field(default_factory=dict)  # column → its unit in a unit row under the header
+    unit_line: int | None = None  # the CSV line of that unit row
 
     @property
     def n_rows(self) -> int:
@@ -542,15 +544,81 @@ _ROLE_UNITS = {"thrust": THRUST_UNITS, "speed": SPEED_UNITS, "flow speed": FLOW_
                "current": CURRENT_UNITS, "supply voltage": VOLTAGE_UNITS}
 
 
+#: time units a unit row may give a time column (read in s: there is no time unit option)
+_TIME_UNITS = ("s", "sec", "secs", "second", "seconds")
+
+
+def _is_number(v) -> bool:
+    try:
+        float(str(v).strip())
+    except ValueError:
+        return False
+    return True
+
+
+def _known_unit(token: str) -> bool:
+    """``token`` is a unit some column of a bench file can carry (a command's, a reading's, a time's)."""
+    tok = token.strip()
+    return (tok.lower() in COMMAND_UNIT_ALIASES or tok.lower() in COMMAND_UNITS
+            or tok.lower() in ("ms", *_TIME_UNITS)
+            or any(_lookup_unit(tok, r) is not None for r in _ROLE_UNITS))
+
+
+def _take_unit_row(t: _Table, notes: list[str]) -> None:
+    """A first data row of a CSV with no number in it and a unit this reader knows (``us,rpm,A,V,kgf``
+    under the header, as loggers and spreadsheets write) is the columns' units, not data: it is
+    taken out of the rows and into :attr:`_Table.units` (read as a unit in the header would be,
+    :func:`_resolve_unit`), and said in ``notes``."""
+    if t.kind != "CSV" or t.n_rows == 0 or t.lines is None:
+        return
+    row = {c: str(t.cells[c][0]).strip() for c in t.columns}
+    given = {c: v for c, v in row.items() if v}
+    if not given or any(_is_number(v) for v in given.values()):
+        return
+    if not any(_known_unit(v) for v in given.values()):
+        return
+    t.units = given
+    t.unit_line = t.lines[0]
+    for c in t.columns:
+        del t.cells[c][0]
+    t.lines = t.lines[1:]
+    notes.append(f"{t.name}: CSV line {t.unit_line} is a unit row "
+                 f"({', '.join(given.values())}): read as the columns' units, not as data")
+    if t.n_rows == 0:
+        raise BenchDataError(f"{t.name}: no data rows under the header and its unit row (CSV line "
+                             f"{t.unit_line})")
+
+
+def _unit_row_error(t: _Table, col: str, token: str, role: str, units) -> BenchDataError:
+    return BenchDataError(
+        f"{t.name}: CSV line {t.unit_line} looks like a unit row ({', '.join(t.units.values())}), "
+        f"but {token!r} under column {col!r} is no {role} unit known here ({', '.join(units)}): "
+        f"the {role} cannot be read in it. Fix: write the column's unit in the header as "
+        f"'{_strip_unit(col)} [unit]' with one of those units (converted when read) and delete "
+        f"line {t.unit_line}, or convert the column")
+
+
 def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: str,
                   notes: list[str]) -> str:
     """The unit of a column: the one given, checked against its header's; else the header's
     (said in ``notes``); else ``default``.  A water speed column whose header brackets a unit
     this reader does not know (``flow [furlong/h]``) is an error naming it, unless a unit is
-    given: read as m/s it would be scaled silently."""
+    given: read as m/s it would be scaled silently.  A unit in a unit row under the header
+    (:func:`_take_unit_row`) counts as the header's; one not of this channel is an error."""
     found = header_unit(col, role)
     opt = _UNIT_OPTIONS.get(role)
     token = _UNIT_IN_BRACKETS.search(col.strip())
+    src = "its header"
+    if col in t.units:
+        row_found = _lookup_unit(t.units[col], role)
+        if row_found is None:
+            raise _unit_row_error(t, col, t.units[col], role, _ROLE_UNITS[role])
+        if found is not None and found != row_found:
+            raise BenchDataError(
+                f"{t.name}: column {col!r} is in {found} by its header but in {t.units[col]} by "
+                f"the unit row (CSV line {t.unit_line}): expected one unit. Fix: correct the "
+                "header or the unit row")
+        found, token, src = row_found, None, f"the unit row (CSV line {t.unit_line})"
     if role == "flow speed" and found is None and given is None and token:
         raise BenchDataError(
             f"{t.name}: column {col!r}: {token.group(1).strip()!r} in its header is no water speed "
@@ -570,11 +638,11 @@ def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: st
         if found != default:
             how = f"no {opt} given" if opt else f"there is no {role} unit option"
             notes.append(f"{t.name}: column {col!r}: the {role} is read in {found}, the unit in "
-                         f"its header, and converted to {default} ({how})")
+                         f"{src}, and converted to {default} ({how})")
         return found
     flag = opt.split(" / ")[0]
     raise BenchDataError(
-        f"{t.name}: column {col!r} is in {found} by its header, but the {role} unit given is "
+        f"{t.name}: column {col!r} is in {found} by {src}, but the {role} unit given is "
         f"{given} ({opt}): they disagree, and reading it in {given} would scale every {role} by "
         f"the ratio of the two. Fix: leave out {flag} (the header's {found} is read and converted) "
         f"or give {flag} {found}; if the header is wrong, correct it in the file")
@@ -693,7 +761,19 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
     def column(name, role):
         return _find_column(t, name, role, taken)
 
+    notes: list[str] = []
+    _take_unit_row(t, notes)
     ccol = column(command_col, "command")
+    if ccol in t.units:
+        tok = t.units[ccol]
+        row_unit = COMMAND_UNIT_ALIASES.get(tok.lower(), tok.lower())
+        if row_unit not in COMMAND_UNITS:
+            raise _unit_row_error(t, ccol, tok, "command", ("us", "duty", "V"))
+        if row_unit != command_unit:
+            raise BenchDataError(
+                f"{t.name}: column {ccol!r} is in {tok} by the unit row (CSV line {t.unit_line}), "
+                f"but the command unit is {command_unit} (--command-unit / command_unit=): "
+                f"expected one unit. Fix: give --command-unit {row_unit}, or correct the unit row")
     cmd = _numeric(t, ccol, "command", command_unit)
     _check_command(t, ccol, cmd, command_unit)  # first: a bad command makes every later check lie
     neutral_v = DEFAULT_NEUTRAL[command_unit] if neutral is None else float(neutral)
@@ -704,7 +784,6 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         c = column(col, role)
         return c, _numeric(t, c, role, unit)
 
-    notes: list[str] = []
     if thrust_col is not None:
         thrust_unit = _resolve_unit(t, column(thrust_col, "thrust"), "thrust",
                                     thrust_unit, "N", notes)
@@ -727,6 +806,10 @@ def read_bench(path, *, command_col: str, thrust_col: str | None = None,
         current = current * CURRENT_UNITS[current_unit or "A"]
     if volts is not None:
         volts = volts * VOLTAGE_UNITS[voltage_unit or "V"]
+    if time_col is not None:
+        c = column(time_col, "time")
+        if c in t.units and t.units[c].lower() not in _TIME_UNITS:
+            raise _unit_row_error(t, c, t.units[c], "time", ("s",))
     tmcol, time = opt(time_col, "time", "s")
     given_flow_col = flow_speed_col
     if flow_speed_col == "auto":
