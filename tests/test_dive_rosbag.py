@@ -26,7 +26,7 @@ pytest.importorskip("rosbags")
 from uuvid.cli.app import app  # noqa: E402
 from uuvid.identify.vehicle.dive import identify_dive  # noqa: E402
 from uuvid.io.dive_channels import DiveDataError, read_dive_channels  # noqa: E402
-from uuvid.io.dive_rosbag import enu_flu_to_ned_frd  # noqa: E402
+from uuvid.io.dive_rosbag import _check_interleaved, enu_flu_to_ned_frd  # noqa: E402
 from uuvid.simulate.dive_replay import replay_dive  # noqa: E402
 from uuvid.simulate.dive_synth import synthetic_dive  # noqa: E402
 
@@ -721,10 +721,13 @@ def test_a_sender_clock_off_by_a_fraction_of_a_second_is_moved_onto_the_servo_cl
     assert any(re.search(moved, w) for w in off.warnings), off.warnings
 
 
-def _second_imu(frame, yaw_offset=0.3, lag_ns=5_000_000):
-    """A second IMU on /mavros/imu/data (node /imu2, its own frame), its heading ``yaw_offset`` rad
-    off and its stamps ``lag_ns`` later (no stamp shared with the first: not a conflict), every
-    tenth of its messages missing (fewer messages than the first)."""
+def _second_imu(frame, yaw_offset=0.3, lag_ns=5_000_000, node="/imu2"):
+    """A second IMU on /mavros/imu/data (node ``node``, ``None``: the first's own connection, its
+    frame ``frame``), its heading ``yaw_offset`` rad off and its stamps ``lag_ns`` later (no stamp
+    shared with the first: not a conflict), every tenth of its messages missing (fewer messages
+    than the first)."""
+    topic = "/mavros/imu/data" + (f"#{node}" if node else "")
+
     def add(out, ts, hdr):
         Quat = ts.types["geometry_msgs/msg/Quaternion"]
         for i, m in enumerate([m for m in out if m[1] == "/mavros/imu/data"]):
@@ -737,7 +740,7 @@ def _second_imu(frame, yaw_offset=0.3, lag_ns=5_000_000):
             ns = st.sec * 10**9 + st.nanosec + lag_ns
             h = hdr(ns)
             h = dataclasses.replace(h, frame_id=frame)
-            out.append([m[0] + lag_ns, "/mavros/imu/data#/imu2",
+            out.append([m[0] + lag_ns, topic,
                         dataclasses.replace(m[2], header=h, orientation=Quat(x=x, y=y, z=z, w=w))])
     return add
 
@@ -783,11 +786,60 @@ def test_a_second_imu_on_the_topic_is_left_out_and_said(dive, tmp_path, ros):
 @pytest.mark.slow
 def test_a_ros2_topic_with_two_publishers_of_one_frame_is_said(dive, tmp_path):
     """ROS 2 records no node per message: two IMUs of one frame cannot be told apart, and the
-    metadata's two publishers are said instead of read silently as one series."""
-    bag = write_bag(tmp_path / "same", 2, _short(dive), mutate=_second_imu("base_link"))
+    metadata's two publishers are said instead of read silently as one series; when their headings
+    differ, the saw-tooth they make is refused."""
+    bag = write_bag(tmp_path / "same", 2, _short(dive), mutate=_second_imu("base_link", 0.0))
     dc = read_dive_channels(bag, "bluerov2")
     assert any(re.search(r"/mavros/imu/data had 2 publishers .* do not say which sent each", w)
                for w in dc.warnings), dc.warnings
+    bag = write_bag(tmp_path / "apart", 2, _short(dive), mutate=_second_imu("base_link"))
+    with pytest.raises(DiveDataError, match=r"/mavros/imu/data \(attitude\): the heading \[rad\] "
+                                            r"saw-tooths"):
+        read_dive_channels(bag, "bluerov2")
+
+
+def _interleaved(t, x):
+    def fail(msg):
+        raise DiveDataError(msg)
+    _check_interleaved(t, {"the heading [rad]": x}, "/imu", "attitude", "b", fail)
+
+
+def test_a_saw_tooth_of_two_sources_is_refused_and_one_noisy_sensor_is_not():
+    """Two headings 0.2 rad apart, stamps 3 ms apart, merged: refused with the offset and the pairs;
+    one IMU of the same motion with white noise (also noise far above the motion per sample, and a
+    noise as large as that offset), or quantised to 0.01 rad, passes."""
+    rng = np.random.default_rng(3)
+    ts = np.arange(0.0, 60.0, 0.05)
+    yaw = 0.8 * np.sin(0.3 * ts) + 0.2 * np.sin(1.7 * ts)
+    t2 = np.sort(np.r_[ts, ts + 0.003])
+    y2 = np.where(np.isin(t2, ts), np.interp(t2, ts, yaw), np.interp(t2, ts, yaw) + 0.2)
+    with pytest.raises(DiveDataError, match=r"^b: /imu \(attitude\): the heading \[rad\] "
+                                            r"saw-tooths in 24 of 24 stretches .*two levels 0\.2 "
+                                            r"apart.*pairs 3 ms apart"):
+        _interleaved(t2, y2)
+    for sigma in (0.0, 0.002, 0.05, 0.2):
+        _interleaved(ts, yaw + sigma * rng.standard_normal(ts.size))
+        _interleaved(t2, np.interp(t2, ts, yaw) + sigma * rng.standard_normal(t2.size))
+    _interleaved(ts, np.round(yaw / 0.01) * 0.01)
+    _interleaved(ts, np.zeros(ts.size))  # at rest
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ros", [1, 2])
+def test_two_imus_of_one_node_and_frame_interleaved_on_a_topic_are_refused(dive, tmp_path, ros):
+    """A second IMU on the first's own connection (ROS 1: same callerid; same frame), heading
+    +0.2 rad, 3 ms after it: nothing tells the two apart but the saw-tooth of their merged heading,
+    which the yaw fit took for motion (heading rms ×5, model accepted), silently."""
+    ext = ".bag" if ros == 1 else ""
+    bag = write_bag(tmp_path / f"same{ext}", ros, _short(dive),
+                    mutate=_second_imu("base_link", 0.2, 3_000_000, node=None))
+    with pytest.raises(DiveDataError) as exc:
+        read_dive_channels(bag, "bluerov2")
+    msg = str(exc.value)
+    assert re.search(r"/mavros/imu/data \(attitude\): the heading \[rad\] saw-tooths in \d+ of "
+                     r"\d+ stretches", msg), msg
+    assert re.search(r"two levels 0\.2 apart", msg) and "pairs 3 ms apart" in msg, msg
+    assert "two sources interleaved on one topic" in msg
 
 
 def _frame_set_late(out, ts, hdr):

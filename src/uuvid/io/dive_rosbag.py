@@ -636,6 +636,64 @@ def _check_conflicts(t, v, topic: str, role: str, name: str, warnings: list, fai
     warnings.append(what + ": merged (mean; the last for servo outputs and state)")
 
 
+#: two sources interleaved on one topic (same node and frame: not told apart by
+#: :func:`_one_publisher`) are seen in stretches of this many samples in which the middle of every
+#: three samples sits off its neighbours' mean, alternately above and below, in at least
+#: :data:`INTERLEAVED_ALTERNATING` of the steps, by :data:`INTERLEAVED_RATIO` × what a sample moves
+#: from the one two steps before (the same source's change).  One noisy sensor alternates in about
+#: 73 % of the steps (white noise) with a ratio of about 0.9; a smooth motion has a ratio near 0
+INTERLEAVED_BLOCK = 100
+INTERLEAVED_ALTERNATING = 0.8
+INTERLEAVED_RATIO = 4.0
+#: share of a topic's stretches that may look interleaved before the topic is refused
+INTERLEAVED_SHARE = 0.1
+
+
+def _saw_tooth(x: np.ndarray) -> tuple[float, float, float] | None:
+    """(share of alternating steps, the offset between the two levels, the same-parity change) of
+    a stretch whose samples alternate between two levels, or ``None``."""
+    x = x[np.isfinite(x)]
+    if x.size < 20:
+        return None
+    c = x[1:-1] - 0.5 * (x[:-2] + x[2:])  # a sample off its neighbours' mean
+    w = np.median(np.abs(x[2:] - x[:-2]))  # the change two samples apart: one source's
+    off = float(np.median(np.abs(c)))
+    alt = float(np.mean(c[:-1] * c[1:] < 0))
+    if w > 0 and off > INTERLEAVED_RATIO * w and alt >= INTERLEAVED_ALTERNATING:
+        return alt, off, float(w)
+    return None
+
+
+def _check_interleaved(t, cols: dict, topic: str, role: str, name: str, fail) -> None:
+    """Refuse a topic whose samples alternate between two levels (a saw-tooth the fit would take for
+    motion): two sensors publishing on it under one node and frame, which nothing else tells apart.
+    ``cols``: label → the samples (sorted by ``t``)."""
+    n = t.size
+    if n < 20:
+        return
+    starts = range(0, max(n - INTERLEAVED_BLOCK // 2, 1), INTERLEAVED_BLOCK)
+    for label, x in cols.items():
+        hits = [(i, r) for i in starts
+                if (r := _saw_tooth(np.asarray(x[i:i + INTERLEAVED_BLOCK], float))) is not None]
+        if not hits or len(hits) < INTERLEAVED_SHARE * len(starts):
+            continue
+        i, (alt, off, w) = hits[0]
+        d = np.diff(t[i:i + INTERLEAVED_BLOCK])
+        pairs = ""
+        if d.size >= 4:
+            a, b = sorted((float(np.median(d[0::2])), float(np.median(d[1::2]))))
+            if b > 3 * a:
+                pairs = f"; its stamps come in pairs {a * 1e3:.3g} ms apart, every {a + b:.3g} s"
+        fail(f"{name}: {topic} ({role}): {label} saw-tooths in {len(hits)} of {len(starts)} "
+             f"stretches of {INTERLEAVED_BLOCK} samples (first from t = {t[i]:.6g} s): successive "
+             f"samples alternate between two levels {off:.2g} apart ({alt:.0%} of the steps change "
+             f"direction) while every other sample moves only {w:.2g}{pairs} — two sources "
+             "interleaved on one topic (a second sensor published with the same node and frame), "
+             "whose merged series the fit would take for motion; expected one source per topic — "
+             "record each sensor on a topic of its own (or a frame_id of its own), or filter the "
+             "bag to one of them")
+
+
 #: a sample stamped more than this (s) outside the 0.5–99.5 % range of its topic's stamps, with
 #: at most 1 % of them so: a corrupt stamp, left out (not a clock jump, not a day-long "gap")
 FAR_STAMP_S = 3600.0
@@ -879,6 +937,19 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
         if nd:
             dups[f"{tp} ({role})"] = nd
         _check_gaps(tt, tp, role, name, warnings, fail)
+        if role not in ("pwm", "armed", "mode"):
+            tc = tt
+            if role == "attitude":  # as angles; quaternions that are no rotation are left out below
+                q = vv.reshape(tt.size, 4)
+                good = np.abs(np.linalg.norm(q, axis=1) - 1.0) < 0.1
+                tc, q = tt[good], q[good]
+                r_, p_, y_ = enu_flu_to_ned_frd(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
+                cols = {"roll [rad]": r_, "pitch [rad]": p_, "the heading [rad]": np.unwrap(y_)}
+            else:
+                v2 = vv.reshape(tt.size, -1)
+                cols = {"xyz"[k] if 1 < v2.shape[1] <= 3 else "the value": v2[:, k]
+                        for k in range(v2.shape[1])}
+            _check_interleaved(tc, cols, tp, role, name, fail)
         return tt, vv
 
     def src(role, how):
