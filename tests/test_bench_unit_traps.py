@@ -470,6 +470,24 @@ def test_a_unit_a_current_or_voltage_column_cannot_carry_is_refused(tmp_path, he
         read_bench(f, command_col="pwm", thrust_col="thrust", **kw)
 
 
+@pytest.mark.parametrize("cur, volt, scale", [("Current [A] (ESC)", "Voltage [V] (supply)", 1.0),
+                                              ("Current (battery)", "Voltage (VDC)", 1.0),
+                                              ("Current (A DC)", "Voltage [mV] (bus)", 1000.0)])
+def test_a_word_in_brackets_beside_or_instead_of_a_unit_is_no_unit(tmp_path, cur, volt, scale):
+    """A bracket that holds no unit ('(ESC)', '(battery)') or a unit with DC after it was refused
+    as 'no current unit' once current and voltage headers were read for their units: they are
+    read in A and V (or the unit in another bracket), as before."""
+    f = tmp_path / "h.csv"
+    with open(f, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["pwm", "thrust", cur, volt])
+        for i, c in enumerate(PWM):
+            w.writerow([c, THRUST[i], CURRENT[i], scale * VOLTS[i]])
+    d = read_bench(f, command_col="pwm", thrust_col="thrust", current_col=cur, voltage_col=volt)
+    np.testing.assert_allclose(d.current, CURRENT, rtol=1e-12)
+    np.testing.assert_allclose(d.supply_voltage, VOLTS, rtol=1e-12)
+
+
 # ------------------------------------------------------------------ a unit row under the header
 def _unit_row_file(path, units, header=("pwm", "rpm", "current", "voltage", "thrust")):
     with open(path, "w", newline="") as fh:

@@ -598,6 +598,28 @@ def _unit_row_error(t: _Table, col: str, token: str, role: str, units) -> BenchD
         f"line {t.unit_line}, or convert the column")
 
 
+_BRACKETS = re.compile(r"[\[(]([^\[\]()]+)[\])]")
+
+
+def _bracketed_unit(col: str, role: str) -> str | None:
+    """A ``role`` unit in any bracket of a current or voltage header (``Current [A] (ESC)``,
+    ``Voltage (VDC)``, ``Current (A DC)``): a word after the unit is no unit of its own."""
+    for tok in _BRACKETS.findall(col):
+        for cand in (tok, re.sub(r"\s*[ad]c$", "", tok.strip(), flags=re.IGNORECASE)):
+            if cand and (u := _lookup_unit(cand, role)) is not None:
+                return u
+    return None
+
+
+def _foreign_unit(col: str, role: str):
+    """The first bracket of a current or voltage header holding another channel's unit
+    (``Current [kgf]``, ``Voltage [rpm]``), as a match object; words (``(battery)``) are none."""
+    for m in _BRACKETS.finditer(col):
+        if any(_lookup_unit(m.group(1), other) is not None for other in _ROLE_UNITS if other != role):
+            return m
+    return None
+
+
 def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: str,
                   notes: list[str]) -> str:
     """The unit of a column: the one given, checked against its header's; else the header's
@@ -608,6 +630,9 @@ def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: st
     found = header_unit(col, role)
     opt = _UNIT_OPTIONS.get(role)
     token = _UNIT_IN_BRACKETS.search(col.strip())
+    if opt is None:  # current, voltage: a unit in any bracket; only another channel's refused
+        found = found or _bracketed_unit(col, role)
+        token = None if found is not None else _foreign_unit(col, role)
     src = "its header"
     if col in t.units:
         row_found = _lookup_unit(t.units[col], role)
