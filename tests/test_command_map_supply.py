@@ -152,3 +152,15 @@ def test_the_deadzone_fit_warns_when_the_family_misses_the_ends_and_the_dead_ban
     assert "at command 1900 µs" in w and "% in magnitude" in w
     assert "zero-thrust band (command 1476…1524 µs)" in w
     assert "--model table" in w
+
+
+def test_a_voltage_esc_shaped_like_a_command_stage_keeps_its_supply_law_through_a_save(tmp_path):
+    """A linear 1100–1900 µs ESC on a 400 V bus has the shape of the unit-gain command stage
+    (gain 1, −neutral, no dead band, supply half the span): saved without ``follows_supply`` it
+    was read back as a command stage and stopped following the supply."""
+    esc = ESC.from_range(1500, 0, 1100, 1900, 400.0)
+    assert esc.follows_supply
+    f = save_chain(ThrusterChain((esc,), name="hv"), tmp_path / "hv.yaml")
+    back = load_chain(f).blocks[0]
+    assert back.follows_supply
+    assert back.with_supply(300.0).a_fwd == pytest.approx(esc.a_fwd * 0.75)

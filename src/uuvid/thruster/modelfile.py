@@ -445,9 +445,11 @@ def chain_to_dict(chain: ThrusterChain) -> dict:
             m.pop("type")
             d["motor"] = m
         # infinite saturation limits and None ("same as forward") are defaults; leave them out
+        # follows_supply: true is the default, written only where a file without the key would
+        # be read as a command stage (_is_offset): a save and load keeps what the block is
         d = {k: v for k, v in d.items()
              if v is not None and not (isinstance(v, float) and math.isinf(v))
-             and not (k == "follows_supply" and v is True)}
+             and not (k == "follows_supply" and v is True and not _is_offset(b.to_dict()))}
         if isinstance(d.get("motor"), dict):
             d["motor"] = {k: v for k, v in d["motor"].items() if v is not None}
         blocks.append(d)
