@@ -164,3 +164,20 @@ def test_a_voltage_esc_shaped_like_a_command_stage_keeps_its_supply_law_through_
     back = load_chain(f).blocks[0]
     assert back.follows_supply
     assert back.with_supply(300.0).a_fwd == pytest.approx(esc.a_fwd * 0.75)
+
+
+def test_a_battery_run_of_a_command_map_is_refused_not_scaled_by_its_placeholder_supply():
+    """A battery run rescaled the thrusters' first block by V / its supply: a map fitted on the
+    command (unit-gain stage, 'supply' 400) flew at 16/400 of its command — thrust limits of
+    0.009 N instead of 5.6 N.  A map of the command has no voltage law to follow the pack."""
+    from uuvid.identify.thruster.workflow import offset_esc
+    from uuvid.simulate.vehicle_sim import ThrusterBank, battery_tables
+    from uuvid.thruster.blocks import FirstOrderMotor
+    from uuvid.vehicle.definition import load_vehicle
+
+    ch = ThrusterChain((offset_esc(1500, 1100, 1900, "pwm_us"), FirstOrderMotor(0.1, 0.05),
+                        QuadraticMap(0.0035, 0.0027)), "command", "fo-map")
+    v = load_vehicle("bluerov2-heavy")
+    bank = ThrusterBank.from_chains([ch] * len(v.layout))
+    with pytest.raises(ValueError, match="fo-map is a map fitted on the command"):
+        battery_tables(bank, v.battery, 1.0)

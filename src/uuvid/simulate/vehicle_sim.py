@@ -180,6 +180,11 @@ def battery_tables(bank: ThrusterBank, battery, soc0: float = 1.0, points: int =
     if not isinstance(esc, ESC) or len(ch.blocks) < 2 or not np.any(bank.soff[1:] > 0):
         raise ValueError(f"a battery run needs an ESC-driven chain (ESC → dynamics → map); "
                          f"{ch.name} starts with {type(esc).__name__}")
+    if not esc.follows_supply:  # a map of the command: no voltage law to follow a sagging pack
+        raise ValueError(f"a battery run needs thrusters whose thrust follows the supply voltage; "
+                         f"{ch.name} is a map fitted on the command at the bench's supply (its "
+                         "first block is no voltage source, follows_supply: false): fly without "
+                         "the battery, or fit the thrusters with --model physical")
     soc0 = state_of_charge("soc0", soc0)
     st = SupplyThruster(physical_model(battery.thruster_power_model))
     vmin = max(min(battery.ocv_voltage) * 0.8, 1.0)
