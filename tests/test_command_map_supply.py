@@ -181,3 +181,18 @@ def test_a_battery_run_of_a_command_map_is_refused_not_scaled_by_its_placeholder
     bank = ThrusterBank.from_chains([ch] * len(v.layout))
     with pytest.raises(ValueError, match="fo-map is a map fitted on the command"):
         battery_tables(bank, v.battery, 1.0)
+
+
+def test_exact_data_without_a_dead_band_is_no_lack_of_fit():
+    """T = c·x|x| exactly (δ = 0), on a 0.01 N load cell: the few samples next to neutral read 0
+    N and were taken for a zero-thrust band the fit 'misses' — a 'family is wrong' warning on a
+    fit with an RMSE of 0.003 N.  A band is said only where the fitted thrust is well above it."""
+    from uuvid.identify.thruster.steady import _deadzone_misses
+    from uuvid.thruster.blocks import DeadZoneMap
+
+    x = np.arange(-400.0, 401.0, 4.0)
+    t = np.round(np.where(x >= 0, 3.6e-4, 2.8e-4) * x * np.abs(x), 2)
+    fit = DeadZoneMap(rotor_constant_l=2.8e-4, rotor_constant_r=3.6e-4, delta_l=0.0, delta_r=0.0)
+    assert _deadzone_misses(x, t, fit, 1500.0, "command", "pwm_us") is None
+    band = np.where(np.abs(x) <= 28, 0.0, t)  # a measured dead band of ±28 µs the fit lacks
+    assert "zero-thrust band" in _deadzone_misses(x, band, fit, 1500.0, "command", "pwm_us")
