@@ -664,10 +664,13 @@ def _saw_tooth(x: np.ndarray) -> tuple[float, float, float] | None:
     return None
 
 
-def _check_interleaved(t, cols: dict, topic: str, role: str, name: str, fail) -> None:
-    """Refuse a topic whose samples alternate between two levels (a saw-tooth the fit would take for
-    motion): two sensors publishing on it under one node and frame, which nothing else tells apart.
-    ``cols``: label → the samples (sorted by ``t``)."""
+def _check_interleaved(t, cols: dict, topic: str, role: str, name: str, fail,
+                       warnings: list) -> None:
+    """A topic whose samples alternate between two levels (a saw-tooth the fit would take for
+    motion): refused when its stamps also come in pairs — two sensors publishing on it under one
+    node and frame, which nothing else tells apart; else a warning (two sources whose stamps do
+    not pair, or real content at half the sampling rate: vibration, a load toggling every
+    sample).  ``cols``: label → the samples (sorted by ``t``)."""
     n = t.size
     if n < 20:
         return
@@ -684,14 +687,20 @@ def _check_interleaved(t, cols: dict, topic: str, role: str, name: str, fail) ->
             a, b = sorted((float(np.median(d[0::2])), float(np.median(d[1::2]))))
             if b > 3 * a:
                 pairs = f"; its stamps come in pairs {a * 1e3:.3g} ms apart, every {a + b:.3g} s"
-        fail(f"{name}: {topic} ({role}): {label} saw-tooths in {len(hits)} of {len(starts)} "
-             f"stretches of {INTERLEAVED_BLOCK} samples (first from t = {t[i]:.6g} s): successive "
-             f"samples alternate between two levels {off:.2g} apart ({alt:.0%} of the steps change "
-             f"direction) while every other sample moves only {w:.2g}{pairs} — two sources "
-             "interleaved on one topic (a second sensor published with the same node and frame), "
-             "whose merged series the fit would take for motion; expected one source per topic — "
-             "record each sensor on a topic of its own (or a frame_id of its own), or filter the "
-             "bag to one of them")
+        seen = (f"{name}: {topic} ({role}): {label} saw-tooths in {len(hits)} of {len(starts)} "
+                f"stretches of {INTERLEAVED_BLOCK} samples (first from t = {t[i]:.6g} s): "
+                f"successive samples alternate between two levels {off:.2g} apart ({alt:.0%} of "
+                f"the steps change direction) while every other sample moves only {w:.2g}{pairs}")
+        if pairs:
+            fail(seen + " — two sources interleaved on one topic (a second sensor published with "
+                 "the same node and frame), whose merged series the fit would take for motion; "
+                 "expected one source per topic — record each sensor on a topic of its own (or a "
+                 "frame_id of its own), or filter the bag to one of them")
+        else:
+            warnings.append(seen + " — two sources interleaved on one topic (a second sensor "
+                            "with the same node and frame), or real content at half the "
+                            "sampling rate (vibration, a load toggling every sample): a fit "
+                            f"takes either for motion; check {topic} in the bag")
 
 
 #: a sample stamped more than this (s) outside the 0.5–99.5 % range of its topic's stamps, with
@@ -949,7 +958,7 @@ def read_bag_dive(path, veh, *, topics=None, params=None) -> BagDive:
                 v2 = vv.reshape(tt.size, -1)
                 cols = {"xyz"[k] if 1 < v2.shape[1] <= 3 else "the value": v2[:, k]
                         for k in range(v2.shape[1])}
-            _check_interleaved(tc, cols, tp, role, name, fail)
+            _check_interleaved(tc, cols, tp, role, name, fail, warnings)
         return tt, vv
 
     def src(role, how):
