@@ -196,3 +196,16 @@ def test_exact_data_without_a_dead_band_is_no_lack_of_fit():
     assert _deadzone_misses(x, t, fit, 1500.0, "command", "pwm_us") is None
     band = np.where(np.abs(x) <= 28, 0.0, t)  # a measured dead band of ±28 µs the fit lacks
     assert "zero-thrust band" in _deadzone_misses(x, band, fit, 1500.0, "command", "pwm_us")
+
+
+def test_a_dive_thrust_model_of_a_command_map_says_so_not_no_esc(tmp_path):
+    """A command map used as the dive's thrust model was described as 'the chain has no ESC
+    block', against its file: it says it is a map of the command, not rescaled to the log's
+    voltage."""
+    from uuvid.identify.thruster.workflow import offset_esc
+    from uuvid.io.ardusub.thrust import load_thrust_model
+
+    ch = ThrusterChain((offset_esc(1500, 1100, 1900, "pwm_us"), QuadraticMap(3.6e-4, 2.8e-4)),
+                       "command", "cmap")
+    m = load_thrust_model(save_chain(ch, tmp_path / "cmap.yaml"))
+    assert "map of the command" in m.voltage and "no ESC block" not in m.voltage

@@ -191,9 +191,11 @@ def limits_at(vehicle, voltage: float) -> np.ndarray:
         else:
             out[i] = lim
     if fixed:
-        warnings.warn(f"{vehicle.name}: thrusters {', '.join(fixed)}: their models have no ESC, "
-                      f"so their thrust does not follow the supply voltage: the vehicle file's "
-                      f"limits are used at {voltage:g} V", SupplyVoltageWarning, stacklevel=2)
+        warnings.warn(f"{vehicle.name}: thrusters {', '.join(fixed)}: their models have no ESC "
+                      f"that follows the supply (none, or a map fitted on the command at the "
+                      f"bench's supply), so their thrust does not follow the supply voltage: the "
+                      f"vehicle file's limits are used at {voltage:g} V", SupplyVoltageWarning,
+                      stacklevel=2)
     return out
 
 

@@ -217,9 +217,13 @@ def load_thrust_model(path) -> ThrustModel:
         return out.reshape(np.shape(pwm))
 
     if at_v is None:
+        from uuvid.thruster.resolve import command_map_supply, is_command_map
+
+        why = (command_map_supply(chain)[0] if is_command_map(chain) else
+               "the chain has no ESC block (its thrust does not depend on the supply voltage in "
+               "the model)")
         return ThrustModel(chain.name or p.stem, source, False, fn,
-                           "none: the chain has no ESC block (its thrust does not depend on the "
-                           "supply voltage in the model), so thrust ignores the logged voltage")
+                           f"none: {why}, so thrust ignores the logged voltage")
     return ThrustModel(chain.name or p.stem, source, True, fn,
                        f"logged battery voltage (0.05 V steps): {law[1]}",
                        _volt_check=_preset_voltage_check(str(path), chain))
