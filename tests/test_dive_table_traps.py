@@ -908,3 +908,17 @@ def test_a_thruster_of_the_vehicle_off_throughout_is_said_strongly_and_blocks_it
                                  N_Nm=0.0))
     assert not cols.faulty and any("pwm_4 is 0 µs throughout: that output is off" in w
                                    for w in cols.warnings)
+
+
+def test_an_output_off_blocks_only_the_dofs_whose_force_it_computes(pwm_dive):
+    """A table giving Z_N and N_Nm itself, the other forces from the servo outputs: a vertical
+    thruster's output at 0 µs throughout blocked heave ('missing from the computed Z_N') although
+    Z_N is the table's own column and the heave fit was as good as the clean one.  A horizontal
+    one still blocks surge and sway (computed), not yaw (the table's N_Nm)."""
+    zn = pwm_dive.assign(Z_N=1.0, N_Nm=0.5)
+    vert = _read(zn.assign(pwm_5=pwm_dive["pwm_5"] * 0.0))
+    assert not vert.faulty, vert.faulty
+    assert any("pwm_5 is 0 µs throughout: that output is off" in w and "own force columns" in w
+               for w in vert.warnings), vert.warnings
+    horiz = _read(zn.assign(pwm_4=pwm_dive["pwm_4"] * 0.0))
+    assert horiz.faulty["4"][1] == ["surge", "sway"], horiz.faulty

@@ -506,19 +506,23 @@ def thruster_dofs(B, j: int) -> list:
             and A[_FORCE_ROW[force], j] >= MATERIAL_SHARE * A[_FORCE_ROW[force]].max()]
 
 
-def _fault(pwm: dict, veh, k: str, why: str) -> tuple:
+def _fault(pwm: dict, veh, k: str, why: str, forces=None) -> tuple:
     """``(why, DOFs)`` of :attr:`DiveChannels.faulty` for output ``k``; ``why`` names the forces
-    of the DOFs it drives where it says ``{forces}``."""
-    dofs = thruster_dofs(veh.B, _motor_order(pwm).index(k))
+    of the DOFs it drives where it says ``{forces}``.  ``forces``: the force columns computed
+    from the outputs (``None``: all) — a DOF whose force the table gives itself is not touched."""
+    dofs = [d for d in thruster_dofs(veh.B, _motor_order(pwm).index(k))
+            if forces is None or DIVE_DOFS[d][1] in forces]
     return why.format(forces="/".join(DIVE_DOFS[d][1] for d in dofs) or "no force"), dofs
 
 
-def _off_outputs(pwm: dict, veh, name: str, warnings: list, computed: bool) -> dict:
+def _off_outputs(pwm: dict, veh, name: str, warnings: list, computed: bool,
+                 forces=None) -> dict:
     """A ``pwm_`` output at 0 µs throughout is said (off: no pulse, no thrust).  One of the
     vehicle's own thrusters (the spare outputs are left out before) off while the others are
     driven, with the forces computed from the outputs (``computed``), is said strongly: its force
     is missing from the DOFs it drives (:func:`thruster_dofs`), whose models are not to be used —
-    returned as :attr:`DiveChannels.faulty`."""
+    returned as :attr:`DiveChannels.faulty` (``forces``: the force columns computed, ``None``: all;
+    a DOF whose force column the table gives is not touched)."""
     keys = _motor_order(pwm)
     off = [k for k in keys if pwm[k][1].size and not np.any(pwm[k][1] != 0)]
     own = (computed and veh is not None and len(keys) == np.shape(veh.B)[1]
@@ -529,14 +533,19 @@ def _off_outputs(pwm: dict, veh, name: str, warnings: list, computed: bool) -> d
             warnings.append(f"{name}: pwm_{k} is 0 µs throughout: that output is off (no pulse) "
                             "and its thruster gives no thrust")
             continue
-        why, dofs = _fault(pwm, veh, k, f"pwm_{k} is 0 µs throughout: thruster {k}'s force is "
+        j = keys.index(k) + 1  # the vehicle's thruster (a column of B), not the output's number
+        why, dofs = _fault(pwm, veh, k, f"pwm_{k} is 0 µs throughout: thruster {j}'s force is "
                                         "missing from the computed {forces} (check "
-                                        f"SERVO{k}_FUNCTION or the logger)")
-        forces = "/".join(DIVE_DOFS[d][1] for d in dofs)
+                                        f"SERVO{k}_FUNCTION or the logger)", forces)
+        if not dofs:  # the DOFs it drives take the table's own force columns
+            warnings.append(f"{name}: pwm_{k} is 0 µs throughout: that output is off (no pulse); "
+                            "the DOFs its thruster drives take the table's own force columns")
+            continue
+        names = "/".join(DIVE_DOFS[d][1] for d in dofs)
         warnings.append(
-            f"{name}: pwm_{k} is 0 µs throughout while the other outputs are driven: thruster {k} "
+            f"{name}: pwm_{k} is 0 µs throughout while the other outputs are driven: thruster {j} "
             f"of {veh.name} never had a pulse, so its force is missing from the computed "
-            + (f"{forces} ({', '.join(dofs)}): a model of {' or '.join(dofs)} from this log is "
+            + (f"{names} ({', '.join(dofs)}): a model of {' or '.join(dofs)} from this log is "
                "not one to use" if dofs else "forces")
             + f". If the motor ran in the dive, output {k} is not the one that drives it (check "
             f"SERVO{k}_FUNCTION: the motor on another output) or the logger did not record it")
@@ -545,12 +554,14 @@ def _off_outputs(pwm: dict, veh, name: str, warnings: list, computed: bool) -> d
     return faulty
 
 
-def _reversed_faults(named: list, pwm: dict, veh, fix) -> dict:
+def _reversed_faults(named: list, pwm: dict, veh, fix, forces=None) -> dict:
     """:attr:`DiveChannels.faulty` of the outputs the direction check named as probably
-    reversed: their force enters the DOFs they drive with the wrong sign."""
-    return {k: _fault(pwm, veh, k, f"pwm_{k} is probably reversed (the motor-direction check's "
-                                   "warning): its force enters {forces} with the wrong sign — "
-                                   + fix([k])) for k in dict.fromkeys(named)}
+    reversed: their force enters the DOFs they drive with the wrong sign (``forces``: the force
+    columns computed from the outputs, ``None``: all)."""
+    out = {k: _fault(pwm, veh, k, f"pwm_{k} is probably reversed (the motor-direction check's "
+                                  "warning): its force enters {forces} with the wrong sign — "
+                                  + fix([k]), forces) for k in dict.fromkeys(named)}
+    return {k: v for k, v in out.items() if v[1]}
 
 
 #: a depth this far above zero (m) cannot be a depth: waves and sensor noise at the surface stay
@@ -1163,7 +1174,8 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
                         "force columns to have the thrust computed from the PWM)")
         if veh is not None:
             _check_force_scale(chans, pwm, veh, armed, name, warnings, directions, label)
-    faulty = _off_outputs(pwm, veh, name, warnings, computed=thrust is not None)
+    computed = thrust.computed if thrust is not None else ()
+    faulty = _off_outputs(pwm, veh, name, warnings, computed=thrust is not None, forces=computed)
     _check_dead_outputs(pwm, armed, name, warnings)
     _check_idle(pwm, armed, veh, name, warnings, idle=thrust is not None)  # (forces from pwm)
     _check_surface_reading(chans, armed, name, warnings)
@@ -1172,7 +1184,7 @@ def _from_table(df, name: str, fmt: str, veh, warnings: list, *,
     if thrust is not None:
         fix, named = table_fix if directions is None else bag_fix(directions), []
         opposed += direction_check(chans, thrust, veh, armed, name, warnings, fix, named=named)
-        faulty.update(_reversed_faults(named, pwm, veh, fix))
+        faulty.update(_reversed_faults(named, pwm, veh, fix, computed))
     own = [c for c in ("Z_N", "N_Nm") if c in chans and c not in (thrust.computed if thrust
                                                                    is not None else ())]
     if own:  # the table's own force columns: the same check of the measured channels' sign
