@@ -88,15 +88,19 @@ def _span(lo: float, hi: float) -> str:
     return f"{lo:g} V" if lo == hi else f"{lo:g}–{hi:g} V"
 
 
-def _fit_range_said(chain, v: float, rel_tol: float = 0.05) -> str:
+def _inside_fit(volts, v: float, rel_tol: float = 0.05) -> bool:
+    """Is ``v`` within the supply voltages ``volts`` a model was fitted at (± ``rel_tol``)?"""
+    return min(volts) * (1 - rel_tol) <= v <= max(volts) * (1 + rel_tol)
+
+
+def _fit_range_said(chain, v: float) -> str:
     """``; inside the 12–16 V … fitted at`` (or outside) for a chain that records the supply
     voltages of its data (:attr:`ThrusterChain.fit_supply_voltages`); else empty."""
     volts = getattr(chain, "fit_supply_voltages", None)
     if not volts:
         return ""
-    lo, hi = min(volts), max(volts)
-    where = "inside" if lo * (1 - rel_tol) <= v <= hi * (1 + rel_tol) else "outside"
-    return f"; {where} the {_span(lo, hi)} the model was fitted at"
+    where = "inside" if _inside_fit(volts, v) else "outside"
+    return f"; {where} the {_span(min(volts), max(volts))} the model was fitted at"
 
 
 def command_map_supply(chain, supply_voltage: float | None = None) -> tuple[str, list[str]]:
@@ -111,7 +115,7 @@ def command_map_supply(chain, supply_voltage: float | None = None) -> tuple[str,
     if supply_voltage is None:
         return source, []
     v = float(supply_voltage)
-    if volts and min(volts) * 0.95 <= v <= max(volts) * 1.05:
+    if volts and _inside_fit(volts, v):
         return f"{v:g} V (--supply-voltage) matches the bench: " + source, []
     return source, [f"--supply-voltage {v:g} V: {chain.name} is a map of the command {bench}; its "
                     f"thrust is that bench's, not rescaled to {v:g} V. Fit the map on data at "

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from uuvid.core.atomic import atomic_path, atomic_write_json, to_jsonable
+from uuvid.io.ardusub.sources import GAP_FACTOR
 from uuvid.io.logs import LogDataError
 
 
@@ -140,7 +141,7 @@ def plot_dive(dive, path=None):
         tk, vk = t[keep], v[keep]
         if tk.size > 2:
             step = float(np.median(np.diff(tk)))
-            cut = np.flatnonzero(np.diff(tk) > 10 * step) + 1
+            cut = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step) + 1  # the reader's gap
             tk, vk = np.insert(tk, cut, np.nan), np.insert(vk, cut, np.nan)
         return tk, vk
 
