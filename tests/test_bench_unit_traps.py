@@ -552,3 +552,23 @@ def test_a_first_row_of_words_that_are_no_units_is_still_refused_as_not_numeric(
     f = _unit_row_file(tmp_path / "words.csv", ["left", "right", "up", "down", "here"])
     with pytest.raises(BenchDataError, match=r"'left' is not numeric"):
         read_bench(f, command_col="pwm", thrust_col="thrust")
+
+
+def test_a_thrust_header_with_another_channels_unit_is_refused_and_an_earlier_bracket_read(tmp_path):
+    """'Thrust [mA]' was read in N without a word (only current and voltage headers refused
+    another channel's unit), and 'thrust [kgf] (load cell)' lost its kgf to the last bracket."""
+    def write(header, scale):
+        f = tmp_path / "t.csv"
+        with open(f, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["pwm", header])
+            for i, c in enumerate(PWM):
+                w.writerow([c, THRUST[i] * scale])
+        return f
+
+    with pytest.raises(BenchDataError, match=r"column 'Thrust \[mA\]': 'mA' in its header is no "
+                                             r"thrust unit .* Fix: name the right column"):
+        read_bench(write("Thrust [mA]", 1.0), command_col="pwm", thrust_col="Thrust [mA]")
+    d = read_bench(write("thrust [kgf] (load cell)", 1 / 9.80665), command_col="pwm",
+                   thrust_col="thrust [kgf] (load cell)")
+    np.testing.assert_allclose(d.thrust, THRUST, rtol=1e-9)

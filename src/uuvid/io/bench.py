@@ -633,6 +633,17 @@ def _resolve_unit(t: _Table, col: str, role: str, given: str | None, default: st
     if opt is None:  # current, voltage: a unit in any bracket; only another channel's refused
         found = found or _bracketed_unit(col, role)
         token = None if found is not None else _foreign_unit(col, role)
+    else:  # a unit in an earlier bracket: thrust [kgf] (load cell)
+        found = found or _bracketed_unit(col, role)
+    if opt is not None and found is None and given is None and col not in t.units:
+        other = _foreign_unit(col, role)  # Thrust [mA]: another channel's unit, not this one's
+        if other is not None:
+            flag = opt.split(" / ")[0]
+            raise BenchDataError(
+                f"{t.name}: column {col!r}: {other.group(1).strip()!r} in its header is no {role} "
+                f"unit ({', '.join(_ROLE_UNITS[role])} are read): the {role} would be read in "
+                f"{default} whatever it is. Fix: name the right column, or give {flag} if the "
+                "header is wrong")
     src = "its header"
     if col in t.units:
         row_found = _lookup_unit(t.units[col], role)
